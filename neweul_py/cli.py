@@ -1,0 +1,66 @@
+"""The ``neweul`` command: a thin layer over the Python API.
+
+Each sub-command lives in its own module under :mod:`neweul_py.commands` and exposes
+``register(subparsers)``, which adds its parser and sets ``func`` (called with the parsed
+arguments, returning an exit code). The CLI catches :class:`~neweul_py.errors.NeweulError` and
+prints one line; any other exception is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from .errors import NeweulError
+
+#: Modules of :mod:`neweul_py.commands` that provide sub-commands, in help order.
+COMMAND_MODULES: tuple[str, ...] = (
+    "generate",
+    "simulate",
+    "equilibrium",
+    "linearize",
+    "modes",
+    "frf",
+    "reduce",
+    "compare_frf",
+    "fem",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every available sub-command registered."""
+    parser = argparse.ArgumentParser(
+        prog="neweul",
+        description="Equations of motion of elastic multibody systems: generate, simulate, "
+        "analyse, reduce.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(f"neweul_py.commands.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"neweul_py.commands.{name}":
+                continue  # command not built yet
+            raise
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``neweul`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except NeweulError as exc:
+        print(f"neweul {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"neweul {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""description layer (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""equations layer (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""fem layer (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""kinematics layer (see DESIGN.md)."""

@@ -1,0 +1,245 @@
+"""Plain, immutable model objects: what the mechanism *is*, no derivation.
+
+Every object is a frozen dataclass holding sympy expressions (``sympy.ImmutableMatrix`` for
+vectors and tensors). Objects check their own local consistency on construction; the checks
+that need the whole model (known names, frame tree) are done by :class:`~neweul_py.model.System`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import sympy as sp
+
+from ..errors import ModelError
+from .symbols import INERTIAL, symbol, velocity_name
+
+__all__ = [
+    "AXES",
+    "Coordinate",
+    "ExpressionOutput",
+    "ForceElement",
+    "Frame",
+    "GeneralizedForce",
+    "Input",
+    "KinematicOutput",
+    "Output",
+    "Parameter",
+    "PointForce",
+    "RigidBody",
+    "SpringDamper",
+    "Torque",
+    "vector3",
+]
+
+AXES = ("x", "y", "z")
+Axis = Literal["x", "y", "z"]
+
+
+def vector3(value: object, key_path: str) -> sp.ImmutableMatrix:
+    """Return ``value`` as an immutable 3×1 sympy column, or raise :class:`ModelError`."""
+    try:
+        mat = sp.ImmutableMatrix(value)
+    except Exception as exc:  # noqa: BLE001 - sympy raises many kinds of errors
+        raise ModelError(f"expected a vector of 3 expressions ({exc})", key_path) from None
+    if mat.shape == (1, 3):
+        mat = mat.T
+    if mat.shape != (3, 1):
+        raise ModelError(f"expected a vector of 3 expressions, got shape {mat.shape}", key_path)
+    return mat
+
+
+def _zero3() -> sp.ImmutableMatrix:
+    return sp.ImmutableMatrix.zeros(3, 1)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named constant with a default value; generated code takes it in the vector ``p``."""
+
+    name: str
+    default: float
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return symbol(self.name)
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """A generalized coordinate ``y_i`` with its initial value and initial velocity."""
+
+    name: str
+    initial: float = 0.0
+    velocity: float = 0.0
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        """The coordinate itself, ``y_i``."""
+        return symbol(self.name)
+
+    @property
+    def velocity_symbol(self) -> sp.Symbol:
+        """Its time derivative ``ẏ_i``, named ``d_<name>``."""
+        return symbol(velocity_name(self.name))
+
+
+@dataclass(frozen=True)
+class Input:
+    """An input ``u_i`` with its default excitation, an expression of ``t`` and parameters."""
+
+    name: str
+    default: sp.Expr = sp.Integer(0)
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return symbol(self.name)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A coordinate frame placed relative to its parent.
+
+    The origin is ``translation`` (parent components); the rotation matrix (child components →
+    parent components) is ``R_a1(φ1) · R_a2(φ2) · …`` for ``rotation = ((a1, φ1), (a2, φ2), …)``,
+    each elementary rotation about the *current* axis.
+    """
+
+    name: str
+    parent: str = INERTIAL
+    translation: sp.ImmutableMatrix = field(default_factory=_zero3)
+    rotation: tuple[tuple[Axis, sp.Expr], ...] = ()
+
+    def __post_init__(self) -> None:
+        for i, (axis, _angle) in enumerate(self.rotation):
+            if axis not in AXES:
+                raise ModelError(
+                    f"rotation axis must be one of x, y, z, not {axis!r}",
+                    f"frames.{self.name}.rotation[{i}][0]",
+                )
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A rigid body fixed to a frame.
+
+    ``center_of_mass`` is given in the frame's components, ``inertia`` is the inertia tensor
+    about the center of mass in the frame's components.
+    """
+
+    name: str
+    frame: str
+    mass: sp.Expr
+    center_of_mass: sp.ImmutableMatrix = field(default_factory=_zero3)
+    inertia: sp.ImmutableMatrix = field(default_factory=lambda: sp.ImmutableMatrix.zeros(3, 3))
+
+    def __post_init__(self) -> None:
+        if self.inertia.shape != (3, 3):
+            raise ModelError(
+                f"inertia must be 3×3, got shape {self.inertia.shape}",
+                f"bodies.{self.name}.inertia",
+            )
+        asym = (self.inertia - self.inertia.T).applyfunc(sp.expand)
+        for i in range(3):
+            for j in range(i + 1, 3):
+                if asym[i, j] != 0:
+                    raise ModelError(
+                        f"inertia must be symmetric: [{i}][{j}] = {self.inertia[i, j]} but "
+                        f"[{j}][{i}] = {self.inertia[j, i]}",
+                        f"bodies.{self.name}.inertia[{i}][{j}]",
+                    )
+
+
+class ForceElement:
+    """Marker base class of all force elements (each subclass is a frozen dataclass)."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class PointForce(ForceElement):
+    """A force ``vector`` (components of frame ``in_frame``) acting at ``point`` of ``frame``."""
+
+    name: str
+    frame: str
+    vector: sp.ImmutableMatrix
+    point: sp.ImmutableMatrix = field(default_factory=_zero3)
+    in_frame: str = INERTIAL
+
+
+@dataclass(frozen=True)
+class Torque(ForceElement):
+    """A torque ``vector`` (components of frame ``in_frame``) acting on ``frame``."""
+
+    name: str
+    frame: str
+    vector: sp.ImmutableMatrix
+    in_frame: str = INERTIAL
+
+
+@dataclass(frozen=True)
+class GeneralizedForce(ForceElement):
+    """A generalized force ``value`` acting directly on ``coordinate`` (adds to ``q``)."""
+
+    name: str
+    coordinate: str
+    value: sp.Expr
+
+
+@dataclass(frozen=True)
+class SpringDamper(ForceElement):
+    """A linear point-to-point spring–damper between ``point_a`` of ``frame_a`` and
+    ``point_b`` of ``frame_b`` (points in their frames' components).
+
+    Its tensile force is ``stiffness (s − length) + damping ṡ`` with ``s`` the distance of the
+    points; it pulls the points together when positive.
+    """
+
+    name: str
+    frame_a: str
+    frame_b: str
+    stiffness: sp.Expr
+    damping: sp.Expr = sp.Integer(0)
+    length: sp.Expr = sp.Integer(0)
+    point_a: sp.ImmutableMatrix = field(default_factory=_zero3)
+    point_b: sp.ImmutableMatrix = field(default_factory=_zero3)
+
+
+class Output:
+    """Marker base class of outputs."""
+
+    name: str
+
+
+@dataclass(frozen=True)
+class ExpressionOutput(Output):
+    """An output given as an expression of coordinates, velocities, inputs, parameters, t."""
+
+    name: str
+    expr: sp.Expr
+
+
+@dataclass(frozen=True)
+class KinematicOutput(Output):
+    """The position or velocity of ``point`` of ``frame`` (absolute, relative to ISYS),
+    resolved in ``in_frame``, one ``component``."""
+
+    name: str
+    quantity: Literal["position", "velocity"]
+    frame: str
+    component: Axis
+    point: sp.ImmutableMatrix = field(default_factory=_zero3)
+    in_frame: str = INERTIAL
+
+    def __post_init__(self) -> None:
+        if self.quantity not in ("position", "velocity"):
+            raise ModelError(
+                f"quantity must be 'position' or 'velocity', not {self.quantity!r}",
+                f"outputs.{self.name}",
+            )
+        if self.component not in AXES:
+            raise ModelError(
+                f"component must be one of x, y, z, not {self.component!r}",
+                f"outputs.{self.name}.component",
+            )

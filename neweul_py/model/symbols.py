@@ -1,0 +1,86 @@
+"""Symbol conventions shared by every layer.
+
+All symbols are real sympy ``Symbol`` objects created by these helpers, so that two symbols with
+the same name are the same object everywhere (sympy caches symbols by name and assumptions).
+"""
+
+from __future__ import annotations
+
+import keyword
+import re
+
+import sympy as sp
+
+__all__ = [
+    "INERTIAL",
+    "RESERVED_NAMES",
+    "check_name",
+    "symbol",
+    "time",
+    "velocity_name",
+]
+
+#: Name of the inertial frame.
+INERTIAL = "ISYS"
+
+#: The time symbol ``t``.
+time = sp.Symbol("t", real=True)
+
+#: Names of the functions of the expression language and other reserved words.
+RESERVED_NAMES = frozenset(
+    {
+        "t",
+        INERTIAL,
+        "pi",
+        "E",
+        "I",
+        "sin",
+        "cos",
+        "tan",
+        "asin",
+        "acos",
+        "atan",
+        "atan2",
+        "sinh",
+        "cosh",
+        "tanh",
+        "exp",
+        "log",
+        "sqrt",
+        "abs",
+        "sign",
+        "min",
+        "max",
+        "heaviside",
+    }
+)
+
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def symbol(name: str) -> sp.Symbol:
+    """Return the real symbol named ``name`` (the same object for the same name)."""
+    return sp.Symbol(name, real=True)
+
+
+def velocity_name(coordinate: str) -> str:
+    """Name of the time derivative of a coordinate: ``d_<name>``."""
+    return f"d_{coordinate}"
+
+
+def check_name(name: object) -> str | None:
+    """Return why ``name`` cannot name a model item, or ``None`` when it can.
+
+    A name is an ASCII identifier that starts with a letter, is no Python keyword and no
+    reserved word of the expression language, and does not start with ``d_`` (which names
+    velocities).
+    """
+    if not isinstance(name, str):
+        return f"a name must be a string, not {type(name).__name__}"
+    if not _NAME.match(name):
+        return f"{name!r} is not a valid name (letters, digits and _, starting with a letter)"
+    if keyword.iskeyword(name) or name in RESERVED_NAMES:
+        return f"{name!r} is a reserved word"
+    if name.startswith("d_"):
+        return f"{name!r} starts with 'd_', which is reserved for velocities"
+    return None
