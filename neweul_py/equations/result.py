@@ -1,0 +1,119 @@
+"""The result of the derivation: :class:`Equations` (``M ÿ = q − k`` plus outputs).
+
+This is the interface between ``equations/`` and ``codegen/``; see equations.md §1 and
+docs/generated-module-protocol.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..model import System
+
+__all__ = ["Equations"]
+
+
+@dataclass(frozen=True)
+class Equations:
+    """Symbolic equations of motion ``M(y, t) ÿ = q(y, ẏ, u, t) − k(y, ẏ, t)`` (equations.md §1).
+
+    The expressions use only ``coordinates``, ``velocities``, ``parameters``, ``inputs``, the
+    time symbol ``t`` (:data:`neweul_py.model.time`) and the symbols assigned in
+    ``intermediates``.
+
+    Attributes
+    ----------
+    system
+        The model the equations were derived from.
+    coordinates
+        ``y``, in the order of ``system.coordinates``.
+    velocities
+        ``ẏ``, the symbols ``d_<name>``, same order.
+    parameters
+        ``p``, in the order of ``system.parameters`` (the order of the vector ``p``).
+    inputs
+        ``u``, in the order of ``system.inputs``.
+    intermediates
+        Ordered assignments ``(symbol, expression)``; each expression may use the symbols
+        above and the symbols of *earlier* assignments only. Empty in closed form; in
+        recursive form it holds the absolute kinematics and per-body contributions. Code
+        must evaluate them in order before ``mass_matrix``, ``force_vector``, ``outputs``.
+        Intermediates that depend only on ``y``, ``p``, ``t`` can be told apart from those
+        that need ``ẏ`` or ``u`` by :meth:`dependencies`.
+    mass_matrix
+        ``M`` (n×n, symmetric), may reference intermediates.
+    force_vector
+        ``q − k`` (n×1), may reference intermediates.
+    outputs
+        The outputs (ny×1), expression and kinematic outputs of ``system.outputs``, in order.
+    output_names
+        Their names.
+    """
+
+    system: System
+    coordinates: tuple[sp.Symbol, ...]
+    velocities: tuple[sp.Symbol, ...]
+    parameters: tuple[sp.Symbol, ...]
+    inputs: tuple[sp.Symbol, ...]
+    intermediates: tuple[tuple[sp.Symbol, sp.Expr], ...]
+    mass_matrix: sp.ImmutableMatrix
+    force_vector: sp.ImmutableMatrix
+    outputs: sp.ImmutableMatrix
+    output_names: tuple[str, ...]
+
+    @property
+    def n(self) -> int:
+        """Number of generalized coordinates."""
+        return len(self.coordinates)
+
+    @property
+    def is_closed_form(self) -> bool:
+        """True when there are no intermediates (everything fully substituted)."""
+        return not self.intermediates
+
+    def dependencies(self) -> dict[sp.Symbol, frozenset[sp.Symbol]]:
+        """For each intermediate, the set of *base* symbols (y, ẏ, p, u, t) it depends on,
+        transitively through earlier intermediates.
+
+        Codegen can use it to evaluate in ``mass_matrix(t, y, p)`` only the intermediates
+        that do not need ``ẏ`` or ``u``.
+        """
+        deps: dict[sp.Symbol, frozenset[sp.Symbol]] = {}
+        for sym, expr in self.intermediates:
+            base: set[sp.Symbol] = set()
+            for s in expr.free_symbols:
+                if s in deps:
+                    base |= deps[s]
+                else:
+                    base.add(s)
+            deps[sym] = frozenset(base)
+        return deps
+
+    def substituted(self) -> Equations:
+        """The same equations with all intermediates substituted (no simplification).
+
+        Expressions can grow large for long chains; meant for tests and small models.
+        """
+        if not self.intermediates:
+            return self
+        values: dict[sp.Symbol, sp.Expr] = {}
+        for sym, expr in self.intermediates:
+            values[sym] = expr.xreplace(values)
+
+        def sub(m: sp.ImmutableMatrix) -> sp.ImmutableMatrix:
+            return sp.ImmutableMatrix(m.shape[0], m.shape[1], [e.xreplace(values) for e in m])
+
+        return Equations(
+            system=self.system,
+            coordinates=self.coordinates,
+            velocities=self.velocities,
+            parameters=self.parameters,
+            inputs=self.inputs,
+            intermediates=(),
+            mass_matrix=sub(self.mass_matrix),
+            force_vector=sub(self.force_vector),
+            outputs=sub(self.outputs),
+            output_names=self.output_names,
+        )
