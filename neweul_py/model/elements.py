@@ -34,6 +34,7 @@ __all__ = [
 ]
 
 AXES = ("x", "y", "z")
+_ZERO = sp.Integer(0)  # immutable: safe as a dataclass default
 Axis = Literal["x", "y", "z"]
 
 
@@ -41,7 +42,7 @@ def vector3(value: object, key_path: str) -> sp.ImmutableMatrix:
     """Return ``value`` as an immutable 3×1 sympy column, or raise :class:`ModelError`."""
     try:
         mat = sp.ImmutableMatrix(value)
-    except Exception as exc:  # noqa: BLE001 - sympy raises many kinds of errors
+    except Exception as exc:
         raise ModelError(f"expected a vector of 3 expressions ({exc})", key_path) from None
     if mat.shape == (1, 3):
         mat = mat.T
@@ -90,7 +91,7 @@ class Input:
     """An input ``u_i`` with its default excitation, an expression of ``t`` and parameters."""
 
     name: str
-    default: sp.Expr = sp.Integer(0)
+    default: sp.Expr = _ZERO
 
     @property
     def symbol(self) -> sp.Symbol:
@@ -200,8 +201,8 @@ class SpringDamper(ForceElement):
     frame_a: str
     frame_b: str
     stiffness: sp.Expr
-    damping: sp.Expr = sp.Integer(0)
-    length: sp.Expr = sp.Integer(0)
+    damping: sp.Expr = _ZERO
+    length: sp.Expr = _ZERO
     point_a: sp.ImmutableMatrix = field(default_factory=_zero3)
     point_b: sp.ImmutableMatrix = field(default_factory=_zero3)
 

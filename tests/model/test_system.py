@@ -1,0 +1,115 @@
+"""Validation of the model layer (System construction checks, key paths)."""
+
+import pytest
+import sympy as sp
+
+from neweul_py.errors import ModelError
+from neweul_py.model import (
+    Coordinate,
+    ExpressionOutput,
+    Frame,
+    GeneralizedForce,
+    Parameter,
+    RigidBody,
+    System,
+    symbol,
+)
+
+phi, l, m, g = (symbol(n) for n in ("phi", "l", "m", "g"))
+
+
+def pendulum(**overrides):
+    kwargs = dict(
+        coordinates=(Coordinate("phi", 0.1),),
+        parameters=(Parameter("l", 1.0), Parameter("m", 2.0), Parameter("g", 9.81)),
+        frames=(Frame("arm", rotation=(("z", phi),)),),
+        bodies=(RigidBody("bob", "arm", m, sp.ImmutableMatrix([l, 0, 0])),),
+        gravity=sp.ImmutableMatrix([0, -g, 0]),
+    )
+    kwargs.update(overrides)
+    return System("pendulum", **kwargs)
+
+
+def test_valid_system_is_frozen_and_fingerprinted():
+    s = pendulum()
+    assert s.fingerprint() == pendulum().fingerprint()
+    assert s.fingerprint() != pendulum(parameters=(
+        Parameter("l", 2.0), Parameter("m", 2.0), Parameter("g", 9.81))).fingerprint()
+    with pytest.raises(AttributeError):
+        s.name = "other"  # type: ignore[misc]
+
+
+def test_frame_cycle_named():
+    with pytest.raises(ModelError, match=r"frame cycle: a -> b -> a") as err:
+        System("x", frames=(Frame("a", "b"), Frame("b", "a")))
+    assert err.value.key_path == "frames.a.parent"
+
+
+def test_unknown_parent_lists_frames():
+    with pytest.raises(ModelError, match=r"unknown parent frame 'nope'.*ISYS"):
+        System("x", frames=(Frame("a", "nope"),))
+
+
+def test_unknown_symbol_lists_allowed_names():
+    with pytest.raises(ModelError) as err:
+        pendulum(frames=(Frame("arm", rotation=(("z", symbol("psi")),)),))
+    assert err.value.key_path == "frames.arm.rotation[0][1]"
+    assert "'psi'" in str(err.value) and "phi" in str(err.value)
+
+
+def test_mass_may_not_use_coordinates():
+    with pytest.raises(ModelError, match="unknown name 'phi'"):
+        pendulum(bodies=(RigidBody("bob", "arm", m * phi),))
+
+
+def test_negative_mass_rejected():
+    with pytest.raises(ModelError, match="must not be negative") as err:
+        pendulum(bodies=(RigidBody("bob", "arm", -m),))
+    assert err.value.key_path == "bodies.bob.mass"
+
+
+def test_nonsymmetric_inertia_rejected():
+    inertia = sp.ImmutableMatrix([[1, 0.1, 0], [0, 1, 0], [0, 0, 1]])
+    with pytest.raises(ModelError, match="symmetric") as err:
+        RigidBody("b", "arm", m, inertia=inertia)
+    assert err.value.key_path == "bodies.b.inertia[0][1]"
+
+
+@pytest.mark.parametrize(
+    "diag", [(-1.0, 1.0, 1.0), (1.0, 1.0, 3.0)], ids=["negative", "triangle"]
+)
+def test_unphysical_inertia_rejected(diag):
+    with pytest.raises(ModelError, match=r"inertia|principal"):
+        pendulum(bodies=(RigidBody("bob", "arm", m, inertia=sp.ImmutableMatrix(sp.diag(*diag))),))
+
+
+def test_duplicate_and_reserved_names():
+    with pytest.raises(ModelError, match="already used"):
+        pendulum(parameters=(Parameter("l", 1.0), Parameter("m", 1.0), Parameter("g", 1.0),
+                             Parameter("phi", 1.0)))
+    with pytest.raises(ModelError, match="reserved"):
+        pendulum(coordinates=(Coordinate("sin"),))
+    with pytest.raises(ModelError, match="velocities"):
+        pendulum(coordinates=(Coordinate("d_x"),))
+
+
+def test_non_finite_parameter_rejected():
+    with pytest.raises(ModelError, match="finite"):
+        pendulum(parameters=(Parameter("l", float("nan")), Parameter("m", 1.0),
+                             Parameter("g", 1.0)))
+
+
+def test_generalized_force_unknown_coordinate():
+    with pytest.raises(ModelError, match="unknown coordinate 'psi'"):
+        pendulum(forces=(GeneralizedForce("f", "psi", sp.Integer(1)),))
+
+
+def test_output_may_use_velocities():
+    s = pendulum(outputs=(ExpressionOutput("omega", symbol("d_phi") * l),))
+    assert s.outputs[0].name == "omega"
+
+
+def test_frame_chain_and_topological_order():
+    s = System("x", frames=(Frame("c", "b"), Frame("b", "a"), Frame("a")))
+    assert [f.name for f in s.frame_chain("c")] == ["a", "b", "c"]
+    assert [f.name for f in s.frames_topological] == ["a", "b", "c"]
