@@ -1,0 +1,597 @@
+"""A small Python API that builds a validated :class:`~neweul_py.model.System`.
+
+The description loader uses it, and scripts can use it directly::
+
+    b = SystemBuilder("pendulum")
+    b.parameter("m", 1.0)
+    b.parameter("l", 0.5)
+    b.parameter("g", 9.81)
+    b.coordinate("phi", initial=0.1)
+    b.gravity([0, 0, "-g"])
+    b.frame("arm", rotation=[["y", "phi"]])
+    b.body("bob", frame="arm", mass="m", center_of_mass=[0, 0, "-l"])
+    system = b.build()
+
+Every value may be a number, an expression string of the description language or a sympy
+expression. Strings are parsed in :meth:`SystemBuilder.build`, when every name is known, so
+items may be declared in any order. Each value is parsed with the names allowed in its place:
+
+============================================  ==========================================
+place                                         allowed names
+============================================  ==========================================
+masses, centers of mass, inertias, gravity    parameters
+input defaults                                parameters, ``t``
+frame translations/rotations, points          parameters, coordinates, inputs, ``t``
+force vectors, force laws, expression outputs all of the above and velocities ``d_<coord>``
+============================================  ==========================================
+
+Every error is a :class:`~neweul_py.errors.ModelError` carrying the key path of the
+description file layout (``bodies.malleus.inertia[1][2]``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import sympy as sp
+
+from ..errors import ModelError
+from ..model import (
+    AXES,
+    INERTIAL,
+    Coordinate,
+    ExpressionOutput,
+    ForceElement,
+    Frame,
+    GeneralizedForce,
+    Input,
+    KinematicOutput,
+    Output,
+    Parameter,
+    PointForce,
+    RigidBody,
+    SpringDamper,
+    System,
+    Torque,
+    check_name,
+    symbol,
+    time,
+    velocity_name,
+)
+from .expressions import ExpressionError, as_expression, parse_expression
+
+__all__ = ["SCOPES", "SystemBuilder"]
+
+#: The scopes of expressions: which kinds of names each may use.
+SCOPES: Mapping[str, tuple[str, ...]] = {
+    "constant": ("parameter",),
+    "excitation": ("parameter", "time"),
+    "kinematic": ("parameter", "coordinate", "input", "time"),
+    "dynamic": ("parameter", "coordinate", "input", "time", "velocity"),
+}
+
+_KIND_WORDS = {
+    "parameter": "a parameter",
+    "coordinate": "a coordinate",
+    "velocity": "a velocity",
+    "input": "an input",
+    "time": "the time",
+    "frame": "a frame",
+    "body": "a body",
+    "force": "a force element",
+    "output": "an output",
+}
+
+
+# ----------------------------------------------------------------------------- values
+def _is_sequence(value: object) -> bool:
+    return isinstance(value, Sequence) and not isinstance(value, str | bytes)
+
+
+def _type_name(value: object) -> str:
+    return f"{type(value).__name__} {value!r}"
+
+
+def constant_number(value: object, key_path: str, what: str = "value") -> float:
+    """A finite number from an ``int``, ``float`` or a constant expression string (``"2*pi"``).
+
+    YAML reads ``1e-3`` (without a dot) as a string, so numeric strings must be accepted.
+
+    Raises
+    ------
+    ModelError
+        For anything else (``bool``, NaN, inf, names, lists…), naming ``what`` and the value.
+    """
+    if isinstance(value, bool):
+        raise ModelError(f"{what} must be a number, got {_type_name(value)}", key_path)
+    if isinstance(value, int | float):
+        if not math.isfinite(value):
+            raise ModelError(f"{what} must be a finite number, got {value!r}", key_path)
+        return float(value)
+    if isinstance(value, sp.Basic) and value.is_number:
+        try:
+            result = float(value)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what} must be a real number, got {value}", key_path) from None
+    elif isinstance(value, str):
+        try:
+            expr = parse_expression(value, {})
+        except ExpressionError as exc:
+            raise ModelError(
+                f"{what} must be a number (or a constant expression such as 2*pi), got "
+                f"{value!r}: {exc.reason}",
+                key_path,
+            ) from None
+        result = float(expr)
+    else:
+        raise ModelError(f"{what} must be a number, got {_type_name(value)}", key_path)
+    if not math.isfinite(result):
+        raise ModelError(f"{what} must be a finite number, got {value!r}", key_path)
+    return result
+
+
+def _check_vector(value: object, key_path: str, length: int = 3) -> None:
+    """Check the shape of a vector given as a sequence or a sympy matrix."""
+    if isinstance(value, sp.MatrixBase):
+        if value.shape not in ((length, 1), (1, length)):
+            raise ModelError(
+                f"expected a vector of {length} expressions, got a matrix of shape {value.shape}",
+                key_path,
+            )
+        return
+    if not _is_sequence(value):
+        raise ModelError(
+            f"expected a list of {length} expressions, got {_type_name(value)}", key_path
+        )
+    if len(value) != length:
+        raise ModelError(
+            f"expected a list of {length} expressions, got {len(value)}", key_path
+        )
+
+
+def _check_inertia(value: object, key_path: str) -> None:
+    if isinstance(value, Mapping):
+        unknown = sorted(str(k) for k in value if k != "diag")
+        if unknown:
+            raise ModelError(
+                f"unknown key {unknown[0]!r}; inertia is a 3×3 list of lists or "
+                "{diag: [Ixx, Iyy, Izz]}",
+                f"{key_path}.{unknown[0]}",
+            )
+        if "diag" not in value:
+            raise ModelError("missing key 'diag'", key_path)
+        _check_vector(value["diag"], f"{key_path}.diag")
+        return
+    if isinstance(value, sp.MatrixBase):
+        if value.shape != (3, 3):
+            raise ModelError(f"expected a 3×3 matrix, got shape {value.shape}", key_path)
+        return
+    if not _is_sequence(value) or len(value) != 3:
+        raise ModelError(
+            "expected a 3×3 list of lists or {diag: [Ixx, Iyy, Izz]}, got "
+            + (f"{len(value)} rows" if _is_sequence(value) else _type_name(value)),
+            key_path,
+        )
+    for i, row in enumerate(value):
+        _check_vector(row, f"{key_path}[{i}]")
+
+
+def _check_frame_name(value: object, key_path: str) -> str:
+    if not isinstance(value, str):
+        raise ModelError(f"expected a frame name, got {_type_name(value)}", key_path)
+    return value
+
+
+# ----------------------------------------------------------------------------- names
+@dataclass(frozen=True)
+class _Names:
+    """All names of the model, and the parsing of values in a scope."""
+
+    symbols: Mapping[str, sp.Symbol]  # every name that stands for a symbol
+    kinds: Mapping[str, str]  # every name of the model → its kind
+
+    def namespace(self, scope: str) -> dict[str, sp.Symbol]:
+        kinds = SCOPES[scope]
+        return {n: s for n, s in self.symbols.items() if self.kinds[n] in kinds}
+
+    def expr(self, value: object, scope: str, key_path: str) -> sp.Expr:
+        namespace = self.namespace(scope)
+        if isinstance(value, sp.Basic) and not isinstance(value, sp.MatrixBase):
+            # Symbols created by a user with other assumptions stand for the model's symbols.
+            swap = {
+                s: namespace[s.name]
+                for s in value.free_symbols
+                if isinstance(s, sp.Symbol) and s.name in namespace and s != namespace[s.name]
+            }
+            return value.xreplace(swap) if swap else value
+        unavailable = {n: _KIND_WORDS[k] for n, k in self.kinds.items() if n not in namespace}
+        return as_expression(value, namespace, key_path=key_path, unavailable=unavailable)
+
+    def vector(self, value: object, scope: str, key_path: str) -> sp.ImmutableMatrix:
+        if isinstance(value, sp.MatrixBase):
+            value = list(value)
+        return sp.ImmutableMatrix(
+            [self.expr(v, scope, f"{key_path}[{i}]") for i, v in enumerate(value)]
+        )
+
+    def inertia(self, value: object, key_path: str) -> sp.ImmutableMatrix:
+        if isinstance(value, Mapping):
+            diag = self.vector(value["diag"], "constant", f"{key_path}.diag")
+            return sp.ImmutableMatrix(sp.diag(*diag))
+        if isinstance(value, sp.MatrixBase):
+            value = value.tolist()
+        return sp.ImmutableMatrix(
+            [
+                [self.expr(v, "constant", f"{key_path}[{i}][{j}]") for j, v in enumerate(row)]
+                for i, row in enumerate(value)
+            ]
+        )
+
+
+_Make = Callable[[_Names], Any]
+
+
+# ----------------------------------------------------------------------------- builder
+class SystemBuilder:
+    """Collect the items of a multibody system and build a validated :class:`System`.
+
+    Parameters
+    ----------
+    name
+        Model name (a valid identifier; also the name of the generated module).
+    description
+        Free text.
+
+    Notes
+    -----
+    Shapes, types and names are checked when an item is added; expression strings are parsed
+    and the whole model is validated in :meth:`build`. All errors are
+    :class:`~neweul_py.errors.ModelError` with a key path such as ``bodies.arm.inertia[1][2]``.
+    """
+
+    def __init__(self, name: str, description: str = "") -> None:
+        if not isinstance(description, str):
+            raise ModelError(f"expected text, got {_type_name(description)}", "description")
+        self._name = name
+        self._description = description
+        self._kinds: dict[str, str] = {}
+        self._parameters: list[Parameter] = []
+        self._coordinates: list[Coordinate] = []
+        self._inputs: list[_Make] = []
+        self._frames: list[_Make] = []
+        self._bodies: list[_Make] = []
+        self._forces: list[_Make] = []
+        self._outputs: list[_Make] = []
+        self._gravity: _Make | None = None
+
+    # -------------------------------------------------------------- helpers
+    def _declare(self, group: str, kind: str, name: object) -> str:
+        path = f"{group}.{name}"
+        why = check_name(name)
+        if why is not None:
+            raise ModelError(why, path)
+        assert isinstance(name, str)
+        if name in self._kinds:
+            raise ModelError(f"name {name!r} is already used by {_KIND_WORDS[self._kinds[name]]}",
+                             path)
+        self._kinds[name] = kind
+        return path
+
+    # -------------------------------------------------------------- symbols
+    def parameter(self, name: str, default: float | str) -> sp.Symbol:
+        """Add a parameter with a numeric default; return its symbol.
+
+        ``default`` is a number or a constant expression string (``"2*pi"``, ``"1e-3"``).
+        """
+        path = self._declare("parameters", "parameter", name)
+        self._parameters.append(Parameter(name, constant_number(default, path, "default")))
+        return symbol(name)
+
+    def coordinate(
+        self, name: str, initial: float | str = 0.0, velocity: float | str = 0.0
+    ) -> sp.Symbol:
+        """Add a generalized coordinate with initial value and velocity; return its symbol.
+
+        Its velocity is the symbol ``d_<name>`` (see :meth:`velocity`).
+        """
+        path = self._declare("coordinates", "coordinate", name)
+        self._kinds[velocity_name(name)] = "velocity"
+        self._coordinates.append(
+            Coordinate(
+                name,
+                constant_number(initial, f"{path}.initial", "initial value"),
+                constant_number(velocity, f"{path}.velocity", "initial velocity"),
+            )
+        )
+        return symbol(name)
+
+    @staticmethod
+    def velocity(coordinate: str) -> sp.Symbol:
+        """The velocity symbol ``d_<coordinate>``."""
+        return symbol(velocity_name(coordinate))
+
+    def input(self, name: str, default: object = "0") -> sp.Symbol:
+        """Add an input with its default excitation (an expression of ``t`` and parameters)."""
+        path = self._declare("inputs", "input", name)
+        self._inputs.append(lambda n: Input(name, n.expr(default, "excitation", path)))
+        return symbol(name)
+
+    # -------------------------------------------------------------- geometry
+    def gravity(self, vector: object) -> None:
+        """Set the gravitational acceleration (ISYS components, parameters allowed)."""
+        _check_vector(vector, "gravity")
+        self._gravity = lambda n: n.vector(vector, "constant", "gravity")
+
+    def frame(
+        self,
+        name: str,
+        parent: str = INERTIAL,
+        translation: object = None,
+        rotation: object = None,
+    ) -> None:
+        """Add a frame.
+
+        Parameters
+        ----------
+        name
+            Frame name.
+        parent
+            Parent frame (``"ISYS"`` or another frame, declared before or after).
+        translation
+            Origin in parent components, 3 expressions (default zero).
+        rotation
+            List of ``[axis, angle]`` pairs, axis ``x``, ``y`` or ``z``, applied one after
+            another about the current axes: ``[["x", a], ["y", b]]`` is ``R_x(a)·R_y(b)``
+            (child components → parent components).
+        """
+        path = self._declare("frames", "frame", name)
+        _check_frame_name(parent, f"{path}.parent")
+        if translation is not None:
+            _check_vector(translation, f"{path}.translation")
+        rotation = [] if rotation is None else rotation
+        if not _is_sequence(rotation):
+            raise ModelError(
+                f"expected a list of [axis, angle] pairs, got {_type_name(rotation)}",
+                f"{path}.rotation",
+            )
+        for i, pair in enumerate(rotation):
+            item = f"{path}.rotation[{i}]"
+            if not _is_sequence(pair) or len(pair) != 2:
+                hint = (
+                    "; a single rotation is written [[axis, angle]]"
+                    if isinstance(pair, str) and pair in AXES
+                    else ""
+                )
+                raise ModelError(f"expected a pair [axis, angle], got {pair!r}{hint}", item)
+            if pair[0] not in AXES:
+                raise ModelError(f"axis must be one of x, y, z, not {pair[0]!r}", f"{item}[0]")
+
+        def make(n: _Names) -> Frame:
+            return Frame(
+                name,
+                parent,
+                n.vector(translation, "kinematic", f"{path}.translation")
+                if translation is not None
+                else sp.ImmutableMatrix.zeros(3, 1),
+                tuple(
+                    (axis, n.expr(angle, "kinematic", f"{path}.rotation[{i}][1]"))
+                    for i, (axis, angle) in enumerate(rotation)
+                ),
+            )
+
+        self._frames.append(make)
+
+    def body(
+        self,
+        name: str,
+        frame: str,
+        mass: object,
+        center_of_mass: object = None,
+        inertia: object = None,
+    ) -> None:
+        """Add a rigid body fixed to ``frame``.
+
+        ``mass``, ``center_of_mass`` (frame components) and ``inertia`` (about the center of
+        mass, frame components; a 3×3 list of lists or ``{"diag": [Ixx, Iyy, Izz]}``) may use
+        parameters only.
+        """
+        path = self._declare("bodies", "body", name)
+        _check_frame_name(frame, f"{path}.frame")
+        if center_of_mass is not None:
+            _check_vector(center_of_mass, f"{path}.center_of_mass")
+        if inertia is not None:
+            _check_inertia(inertia, f"{path}.inertia")
+
+        def make(n: _Names) -> RigidBody:
+            com = (
+                n.vector(center_of_mass, "constant", f"{path}.center_of_mass")
+                if center_of_mass is not None
+                else sp.ImmutableMatrix.zeros(3, 1)
+            )
+            theta = (
+                n.inertia(inertia, f"{path}.inertia")
+                if inertia is not None
+                else sp.ImmutableMatrix.zeros(3, 3)
+            )
+            return RigidBody(name, frame, n.expr(mass, "constant", f"{path}.mass"), com, theta)
+
+        self._bodies.append(make)
+
+    # -------------------------------------------------------------- forces
+    def force(
+        self,
+        name: str,
+        frame: str,
+        vector: object,
+        point: object = None,
+        in_: str = INERTIAL,
+    ) -> None:
+        """Add a force ``vector`` (components of frame ``in_``) at ``point`` of ``frame``."""
+        path = self._declare("forces", "force", name)
+        _check_frame_name(frame, f"{path}.frame")
+        _check_frame_name(in_, f"{path}.in")
+        _check_vector(vector, f"{path}.vector")
+        if point is not None:
+            _check_vector(point, f"{path}.point")
+
+        def make(n: _Names) -> PointForce:
+            p = (
+                n.vector(point, "kinematic", f"{path}.point")
+                if point is not None
+                else sp.ImmutableMatrix.zeros(3, 1)
+            )
+            return PointForce(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), p, in_)
+
+        self._forces.append(make)
+
+    def torque(self, name: str, frame: str, vector: object, in_: str = INERTIAL) -> None:
+        """Add a torque ``vector`` (components of frame ``in_``) acting on ``frame``."""
+        path = self._declare("forces", "force", name)
+        _check_frame_name(frame, f"{path}.frame")
+        _check_frame_name(in_, f"{path}.in")
+        _check_vector(vector, f"{path}.vector")
+        self._forces.append(
+            lambda n: Torque(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), in_)
+        )
+
+    def generalized_force(self, name: str, coordinate: str, value: object) -> None:
+        """Add a generalized force ``value`` acting directly on ``coordinate``."""
+        path = self._declare("forces", "force", name)
+        if not isinstance(coordinate, str):
+            raise ModelError(
+                f"expected a coordinate name, got {_type_name(coordinate)}", f"{path}.coordinate"
+            )
+        self._forces.append(
+            lambda n: GeneralizedForce(name, coordinate, n.expr(value, "dynamic", f"{path}.value"))
+        )
+
+    def spring_damper(
+        self,
+        name: str,
+        between: Sequence[str],
+        points: Sequence[object] | None = None,
+        *,
+        stiffness: object,
+        damping: object = 0,
+        length: object = 0,
+    ) -> None:
+        """Add a linear point-to-point spring–damper.
+
+        ``between = [frameA, frameB]``, ``points = [pA, pB]`` (each in its frame's components,
+        default origins); tensile force ``stiffness (s − length) + damping ṡ``.
+        """
+        path = self._declare("forces", "force", name)
+        if not _is_sequence(between) or len(between) != 2:
+            raise ModelError(
+                f"expected two frame names [frameA, frameB], got {between!r}", f"{path}.between"
+            )
+        for i, f in enumerate(between):
+            _check_frame_name(f, f"{path}.between[{i}]")
+        if points is not None:
+            if not _is_sequence(points) or len(points) != 2:
+                raise ModelError(
+                    f"expected two points [pointA, pointB], got {points!r}", f"{path}.points"
+                )
+            for i, p in enumerate(points):
+                _check_vector(p, f"{path}.points[{i}]")
+
+        def make(n: _Names) -> SpringDamper:
+            pa, pb = (
+                (n.vector(p, "kinematic", f"{path}.points[{i}]") for i, p in enumerate(points))
+                if points is not None
+                else (sp.ImmutableMatrix.zeros(3, 1), sp.ImmutableMatrix.zeros(3, 1))
+            )
+            return SpringDamper(
+                name,
+                between[0],
+                between[1],
+                stiffness=n.expr(stiffness, "dynamic", f"{path}.stiffness"),
+                damping=n.expr(damping, "dynamic", f"{path}.damping"),
+                length=n.expr(length, "dynamic", f"{path}.length"),
+                point_a=pa,
+                point_b=pb,
+            )
+
+        self._forces.append(make)
+
+    # -------------------------------------------------------------- outputs
+    def output(self, name: str, expr: object) -> None:
+        """Add an output: an expression of coordinates, velocities, inputs, parameters, t."""
+        path = self._declare("outputs", "output", name)
+        self._outputs.append(lambda n: ExpressionOutput(name, n.expr(expr, "dynamic", path)))
+
+    def kinematic_output(
+        self,
+        name: str,
+        quantity: str,
+        frame: str,
+        point: object = None,
+        in_: str = INERTIAL,
+        component: str = "x",
+    ) -> None:
+        """Add an output: one ``component`` (x, y, z in frame ``in_``) of the absolute
+        ``quantity`` (``"position"`` or ``"velocity"``) of ``point`` of ``frame``."""
+        path = self._declare("outputs", "output", name)
+        if quantity not in ("position", "velocity"):
+            raise ModelError(
+                f"quantity must be 'position' or 'velocity', not {quantity!r}", path
+            )
+        _check_frame_name(frame, f"{path}.{quantity}")
+        _check_frame_name(in_, f"{path}.in")
+        if component not in AXES:
+            raise ModelError(
+                f"component must be one of x, y, z, not {component!r}", f"{path}.component"
+            )
+        if point is not None:
+            _check_vector(point, f"{path}.point")
+
+        def make(n: _Names) -> KinematicOutput:
+            p = (
+                n.vector(point, "kinematic", f"{path}.point")
+                if point is not None
+                else sp.ImmutableMatrix.zeros(3, 1)
+            )
+            return KinematicOutput(name, quantity, frame, component, p, in_)  # type: ignore[arg-type]
+
+        self._outputs.append(make)
+
+    # -------------------------------------------------------------- build
+    def _names(self) -> _Names:
+        symbols = {n: symbol(n) for n, k in self._kinds.items() if k in _SYMBOL_KINDS}
+        symbols["t"] = time
+        return _Names(symbols, {**self._kinds, "t": "time"})
+
+    def build(self) -> System:
+        """Parse every expression with the names of its scope and return the validated system.
+
+        Raises
+        ------
+        ModelError
+            The first error found, with its key path.
+        """
+        n = self._names()
+        # Parse in the order of the description file, so the first error is the first one.
+        gravity = self._gravity(n) if self._gravity else sp.ImmutableMatrix.zeros(3, 1)
+        inputs: tuple[Input, ...] = tuple(make(n) for make in self._inputs)
+        frames: tuple[Frame, ...] = tuple(make(n) for make in self._frames)
+        bodies: tuple[RigidBody, ...] = tuple(make(n) for make in self._bodies)
+        forces: tuple[ForceElement, ...] = tuple(make(n) for make in self._forces)
+        outputs: tuple[Output, ...] = tuple(make(n) for make in self._outputs)
+        return System(
+            name=self._name,
+            coordinates=tuple(self._coordinates),
+            parameters=tuple(self._parameters),
+            inputs=inputs,
+            frames=frames,
+            bodies=bodies,
+            forces=forces,
+            outputs=outputs,
+            gravity=gravity,
+            description=self._description,
+        )
+
+
+_SYMBOL_KINDS = frozenset({"parameter", "coordinate", "velocity", "input"})
