@@ -5,6 +5,7 @@ generated module → analysis (see DESIGN.md). ``elastic`` and ``fem`` are numer
 (NumPy/SciPy only) that produce reduced elastic-body data.
 """
 
+from .description import SystemBuilder, load_description
 from .errors import (
     DataError,
     DescriptionError,
@@ -23,5 +24,7 @@ __all__ = [
     "ModelError",
     "NeweulError",
     "SolverError",
+    "SystemBuilder",
     "__version__",
+    "load_description",
 ]

@@ -1,0 +1,306 @@
+"""Load a YAML description file into a validated :class:`~neweul_py.model.System`.
+
+The key schema lives in the tables :data:`SECTIONS`, :data:`FORCE_TYPES` and the ``Schema``
+constants below; a later section (``constraints``, ``elastic_bodies``) or force type is one
+more table row and one small function. Every error is a :class:`DescriptionError` naming the
+file, the key path and the line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import DescriptionError, ModelError
+from ..model import INERTIAL, System
+from .builder import SystemBuilder, constant_number
+from .yaml_tree import YamlTree, read_yaml
+
+__all__ = [
+    "FORCE_TYPES",
+    "SECTIONS",
+    "Schema",
+    "description_hash",
+    "load_description",
+    "load_description_text",
+]
+
+
+def description_hash(text: bytes | str) -> str:
+    """SHA-256 (hex) of a description's bytes; generated modules store it as ``SOURCE_HASH``."""
+    data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+    return hashlib.sha256(data).hexdigest()
+
+
+# ----------------------------------------------------------------------------- schema
+@dataclass(frozen=True)
+class Schema:
+    """The keys a mapping may have."""
+
+    required: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return self.required + self.optional
+
+    def check(self, value: object, path: str, what: str) -> dict[str, Any]:
+        """Return ``value`` as a dict after checking its keys, else raise ModelError."""
+        if value is None:
+            value = {}
+        if not isinstance(value, dict):
+            raise ModelError(
+                f"{what} must be a mapping with keys {', '.join(self.keys)}; got "
+                f"{type(value).__name__} {value!r}",
+                path,
+            )
+        for key in value:
+            if key not in self.keys:
+                raise ModelError(
+                    f"unknown key {key!r} in {what}; valid keys are: {', '.join(self.keys)}",
+                    f"{path}.{key}" if path else key,
+                )
+        missing = [k for k in self.required if k not in value]
+        if missing:
+            raise ModelError(
+                f"{what} is missing the key{'s' if len(missing) > 1 else ''} "
+                f"{', '.join(repr(k) for k in missing)}",
+                path,
+            )
+        return value
+
+
+def _items(value: object, path: str, what: str) -> list[tuple[str, Any]]:
+    """The entries of a section mapping (``None``, an empty section, has none)."""
+    if value is None:
+        return []
+    if not isinstance(value, dict):
+        raise ModelError(
+            f"{path} must be a mapping of {what}, got {type(value).__name__} {value!r}", path
+        )
+    return list(value.items())
+
+
+# ----------------------------------------------------------------------------- sections
+_Loader = Callable[[SystemBuilder, Any, str], None]
+
+
+def _parameters(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, default in _items(section, path, "name: default value"):
+        b.parameter(name, default)
+
+
+COORDINATE = Schema(optional=("initial", "velocity"))
+
+
+def _coordinates(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, spec in _items(section, path, "name: initial value"):
+        item = f"{path}.{name}"
+        if isinstance(spec, dict):
+            spec = COORDINATE.check(spec, item, "a coordinate")
+            b.coordinate(name, spec.get("initial", 0.0), spec.get("velocity", 0.0))
+        else:
+            b.coordinate(name, constant_number(spec, item, "initial value"))
+
+
+def _inputs(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, default in _items(section, path, "name: expression of t and parameters"):
+        if default is None:
+            raise ModelError("an input needs a default excitation (e.g. 0)", f"{path}.{name}")
+        b.input(name, default)
+
+
+def _gravity(b: SystemBuilder, value: Any, path: str) -> None:
+    b.gravity(value)
+
+
+FRAME = Schema(optional=("parent", "translation", "rotation"))
+
+
+def _frames(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, spec in _items(section, path, "frame definitions"):
+        spec = FRAME.check(spec, f"{path}.{name}", "a frame")
+        b.frame(name, spec.get("parent", INERTIAL), spec.get("translation"), spec.get("rotation"))
+
+
+BODY = Schema(required=("frame", "mass"), optional=("center_of_mass", "inertia"))
+
+
+def _bodies(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, spec in _items(section, path, "body definitions"):
+        spec = BODY.check(spec, f"{path}.{name}", "a body")
+        b.body(name, spec["frame"], spec["mass"], spec.get("center_of_mass"), spec.get("inertia"))
+
+
+@dataclass(frozen=True)
+class ForceType:
+    """The keys of one force ``type`` and how to add it to a builder."""
+
+    schema: Schema
+    add: Callable[[SystemBuilder, str, dict[str, Any]], None]
+
+
+FORCE_TYPES: Mapping[str, ForceType] = {
+    "force": ForceType(
+        Schema(required=("type", "frame", "vector"), optional=("point", "in")),
+        lambda b, n, s: b.force(n, s["frame"], s["vector"], s.get("point"), s.get("in", INERTIAL)),
+    ),
+    "torque": ForceType(
+        Schema(required=("type", "frame", "vector"), optional=("in",)),
+        lambda b, n, s: b.torque(n, s["frame"], s["vector"], s.get("in", INERTIAL)),
+    ),
+    "generalized": ForceType(
+        Schema(required=("type", "coordinate", "value")),
+        lambda b, n, s: b.generalized_force(n, s["coordinate"], s["value"]),
+    ),
+    "spring_damper": ForceType(
+        Schema(
+            required=("type", "between", "stiffness"), optional=("points", "damping", "length")
+        ),
+        lambda b, n, s: b.spring_damper(
+            n,
+            s["between"],
+            s.get("points"),
+            stiffness=s["stiffness"],
+            damping=s.get("damping", 0),
+            length=s.get("length", 0),
+        ),
+    ),
+}
+
+
+def _forces(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, spec in _items(section, path, "force definitions"):
+        item = f"{path}.{name}"
+        if not isinstance(spec, dict) or "type" not in spec:
+            raise ModelError(
+                f"a force needs a 'type', one of: {', '.join(FORCE_TYPES)}", item
+            )
+        kind = spec["type"]
+        if kind not in FORCE_TYPES:
+            raise ModelError(
+                f"unknown force type {kind!r}; types are: {', '.join(FORCE_TYPES)}",
+                f"{item}.type",
+            )
+        force_type = FORCE_TYPES[kind]
+        force_type.add(b, name, force_type.schema.check(spec, item, f"a {kind} force"))
+
+
+KINEMATIC_OUTPUT = Schema(optional=("position", "velocity", "point", "in", "component"))
+
+
+def _outputs(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, spec in _items(section, path, "output definitions"):
+        item = f"{path}.{name}"
+        if not isinstance(spec, dict):
+            b.output(name, spec)
+            continue
+        spec = KINEMATIC_OUTPUT.check(spec, item, "a kinematic output")
+        quantities = [q for q in ("position", "velocity") if q in spec]
+        if len(quantities) != 1:
+            raise ModelError(
+                "a kinematic output needs exactly one of 'position: FRAME' or "
+                "'velocity: FRAME'",
+                item,
+            )
+        b.kinematic_output(
+            name,
+            quantities[0],
+            spec[quantities[0]],
+            spec.get("point"),
+            spec.get("in", INERTIAL),
+            spec.get("component", "x"),
+        )
+
+
+@dataclass(frozen=True)
+class Section:
+    """A top-level key: whether it is required and how it is loaded (``None``: by the
+    builder's constructor)."""
+
+    load: _Loader | None
+    required: bool = False
+
+
+#: Top-level keys, in the order they are loaded.
+SECTIONS: Mapping[str, Section] = {
+    "name": Section(None, required=True),
+    "description": Section(None),
+    "gravity": Section(_gravity),
+    "parameters": Section(_parameters),
+    "coordinates": Section(_coordinates),
+    "inputs": Section(_inputs),
+    "frames": Section(_frames),
+    "bodies": Section(_bodies),
+    "forces": Section(_forces),
+    "outputs": Section(_outputs),
+}
+
+_TOP = Schema(
+    required=tuple(k for k, s in SECTIONS.items() if s.required),
+    optional=tuple(k for k, s in SECTIONS.items() if not s.required),
+)
+
+
+# ----------------------------------------------------------------------------- loading
+def _build(data: Any) -> System:
+    top = _TOP.check(data, "", "a description")
+    if not isinstance(top["name"], str):
+        raise ModelError(f"the model name must be a string, got {top['name']!r}", "name")
+    description = top.get("description") or ""
+    b = SystemBuilder(top["name"], description)
+    for key, section in SECTIONS.items():
+        if section.load is not None and key in top:
+            section.load(b, top[key], key)
+    return b.build()
+
+
+def load_description_text(text: str | bytes, filename: str = "<description>") -> System:
+    """Load a description from YAML text.
+
+    Parameters
+    ----------
+    text
+        The YAML text (bytes are decoded as UTF-8).
+    filename
+        Shown in error messages.
+
+    Returns
+    -------
+    System
+        The validated model.
+
+    Raises
+    ------
+    DescriptionError
+        With file, key path and line for every problem: malformed YAML, duplicate or unknown
+        keys, wrong shapes, bad expressions, unknown names or frames, frame cycles,
+        unphysical masses and inertias.
+    """
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise DescriptionError(f"not UTF-8 text ({exc.reason})", "", filename) from None
+    tree: YamlTree = read_yaml(text, filename)
+    try:
+        return _build(tree.data)
+    except DescriptionError:
+        raise
+    except ModelError as exc:
+        line = tree.line(exc.key_path)
+        raise DescriptionError(exc.message, exc.key_path, filename, line) from None
+
+
+def load_description(path: str | os.PathLike[str]) -> System:
+    """Load the description file at ``path`` (see :func:`load_description_text`)."""
+    filename = os.fspath(path)
+    try:
+        with open(filename, "rb") as fh:
+            data = fh.read()
+    except OSError as exc:
+        raise DescriptionError(f"cannot read description: {exc.strerror}", "", filename) from None
+    return load_description_text(data, filename)

@@ -1,0 +1,154 @@
+"""Read YAML into plain Python data plus the line of every key path.
+
+PyYAML's safe loader forgets where things came from and silently keeps the last of duplicate
+keys. Here the node graph is composed with :class:`yaml.SafeLoader` (no arbitrary objects), then
+walked by hand: scalars are constructed by PyYAML's ``SafeConstructor``, mappings and sequences
+by this module, which records ``key path → line`` and rejects duplicate keys.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+from yaml.constructor import SafeConstructor
+
+from ..errors import DescriptionError
+
+__all__ = ["YamlTree", "read_yaml"]
+
+_MAX_NODES = 1_000_000  # guards against alias bombs ("billion laughs")
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+_SEQ_TAG = "tag:yaml.org,2002:seq"
+_MAP_TAG = "tag:yaml.org,2002:map"
+
+
+@dataclass
+class YamlTree:
+    """Plain data (dicts, lists, scalars) and the 1-based line of each key path."""
+
+    data: Any
+    lines: dict[str, int] = field(default_factory=dict)
+    file: str = "<description>"
+
+    def line(self, key_path: str) -> int | None:
+        """Line of ``key_path`` or, if it is not in the file, of its nearest ancestor."""
+        path = key_path
+        while True:
+            if path in self.lines:
+                return self.lines[path]
+            if not path:
+                return None
+            path = _parent(path)
+
+
+def _parent(path: str) -> str:
+    """``a.b[1][2]`` → ``a.b[1]`` → ``a.b`` → ``a`` → ``""``."""
+    if path.endswith("]"):
+        return path[: path.rindex("[")]
+    return path[: path.rindex(".")] if "." in path else ""
+
+
+def _child(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+class _Walker:
+    def __init__(self, file: str) -> None:
+        self.file = file
+        self.lines: dict[str, int] = {}
+        self.constructor = SafeConstructor()
+        self.count = 0
+        self.active: set[int] = set()
+
+    def error(self, message: str, path: str, node: yaml.Node) -> DescriptionError:
+        return DescriptionError(message, path, self.file, node.start_mark.line + 1)
+
+    def walk(self, node: yaml.Node, path: str) -> Any:
+        self.count += 1
+        if self.count > _MAX_NODES:
+            raise self.error("the document is too large (alias expansion?)", path, node)
+        if isinstance(node, yaml.ScalarNode):
+            return self.constructor.construct_object(node)
+        if node.tag not in (_SEQ_TAG, _MAP_TAG):
+            raise self.error(f"YAML tag {node.tag!r} is not allowed", path, node)
+        if id(node) in self.active:
+            raise self.error("recursive YAML alias", path, node)
+        self.active.add(id(node))
+        try:
+            if isinstance(node, yaml.SequenceNode):
+                items = []
+                for i, item in enumerate(node.value):
+                    item_path = f"{path}[{i}]"
+                    self.lines[item_path] = item.start_mark.line + 1
+                    items.append(self.walk(item, item_path))
+                return items
+            if isinstance(node, yaml.MappingNode):
+                return self.mapping(node, path)
+            raise self.error(f"unsupported YAML node {node.tag}", path, node)
+        finally:
+            self.active.discard(id(node))
+
+    def mapping(self, node: yaml.MappingNode, path: str) -> dict[str, Any]:
+        seen: dict[object, int] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == _MERGE_TAG:
+                continue
+            key = self.key(key_node, path)
+            line = key_node.start_mark.line + 1
+            if key in seen:
+                raise self.error(
+                    f"duplicate key {key!r} (first defined on line {seen[key]})",
+                    _child(path, str(key)),
+                    key_node,
+                )
+            seen[key] = line
+        self.constructor.flatten_mapping(node)  # resolve "<<" merge keys; explicit keys win
+        result: dict[str, Any] = {}
+        for key_node, value_node in node.value:
+            key = self.key(key_node, path)
+            key_path = _child(path, key)
+            self.lines[key_path] = key_node.start_mark.line + 1
+            result[key] = self.walk(value_node, key_path)
+        return result
+
+    def key(self, node: yaml.Node, path: str) -> str:
+        if not isinstance(node, yaml.ScalarNode):
+            raise self.error("a key must be a plain name, not a list or mapping", path, node)
+        key = self.constructor.construct_object(node)
+        if not isinstance(key, str):
+            hint = (
+                " (YAML reads yes/no/on/off/true/false as booleans; quote the key)"
+                if isinstance(key, bool)
+                else ""
+            )
+            raise self.error(f"a key must be a name, got {key!r}{hint}", path, node)
+        return key
+
+
+def read_yaml(text: str, file: str = "<description>") -> YamlTree:
+    """Parse YAML ``text`` safely into a :class:`YamlTree`.
+
+    Raises
+    ------
+    DescriptionError
+        For malformed YAML (with PyYAML's line), duplicate keys, non-string keys and
+        recursive aliases.
+    """
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        if node is None:
+            return YamlTree(None, {"": 1}, file)
+        walker = _Walker(file)
+        walker.lines[""] = 1
+        data = walker.walk(node, "")
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        problem = " ".join(str(p) for p in (exc.context, exc.problem) if p)
+        raise DescriptionError(
+            f"malformed YAML: {problem or exc}", "", file, mark.line + 1 if mark else None
+        ) from None
+    except yaml.YAMLError as exc:
+        raise DescriptionError(f"malformed YAML: {exc}", "", file) from None
+    return YamlTree(data, walker.lines, file)
