@@ -1,1 +1,10 @@
-"""codegen layer (see DESIGN.md)."""
+"""Code generation: symbolic equations → standalone NumPy modules (see DESIGN.md).
+
+:func:`generate_module` writes a module implementing the generated-module protocol
+(docs/generated-module-protocol.md) atomically and deterministically; :func:`render_module`
+returns its text. Imports ``equations`` and ``model`` only.
+"""
+
+from .writer import PROTOCOL_VERSION, generate_module, render_module, write_atomic
+
+__all__ = ["PROTOCOL_VERSION", "generate_module", "render_module", "write_atomic"]

@@ -1,0 +1,121 @@
+"""Deterministic common-subexpression elimination over a block of generated code.
+
+A block is what one generated function computes: ordered *intermediate* assignments
+``z_k = e_k`` (from the recursive form of the equations, or from the derivatives of
+:mod:`.derivatives`) followed by final expressions. :func:`eliminate` runs ``sympy.cse`` over
+all of them at once and schedules the resulting assignments so that each comes after what it
+uses — intermediates keep their order, common subexpressions are placed just before their first
+use. Only intermediates that the final expressions need (directly or through other
+intermediates) are kept.
+
+Determinism: ``sympy.cse`` is called with ``order='none'`` and a numbered symbol generator; the
+arguments of sympy's ``Add``/``Mul`` are stored in a hash-independent canonical order, and this
+module never iterates over sets without sorting. The result is the same for every
+``PYTHONHASHSEED`` (tested).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+
+import sympy as sp
+
+__all__ = ["Block", "eliminate", "prune"]
+
+Assignment = tuple[sp.Symbol, sp.Expr]
+
+
+@dataclass(frozen=True)
+class Block:
+    """Straight-line code: ``assignments`` in order, then the values ``finals``."""
+
+    assignments: tuple[Assignment, ...]
+    finals: tuple[sp.Expr, ...]
+
+
+def prune(intermediates: Sequence[Assignment], finals: Sequence[sp.Expr]) -> list[Assignment]:
+    """The intermediates that ``finals`` need, directly or through other intermediates, in order."""
+    defined = {s for s, _ in intermediates}
+    needed: set[sp.Symbol] = set()
+    for e in finals:
+        needed |= _free(e) & defined
+    kept: list[Assignment] = []
+    for sym, expr in reversed(intermediates):
+        if sym in needed:
+            kept.append((sym, expr))
+            needed |= _free(expr) & defined
+    kept.reverse()
+    return kept
+
+
+def _free(expr: sp.Basic) -> set[sp.Symbol]:
+    return expr.free_symbols if isinstance(expr, sp.Basic) else set()
+
+
+def _numbered(prefix: str) -> Iterator[sp.Symbol]:
+    k = 0
+    while True:
+        yield sp.Symbol(f"{prefix}{k}", real=True)
+        k += 1
+
+
+def eliminate(
+    intermediates: Sequence[Assignment],
+    finals: Sequence[sp.Expr],
+    prefix: str = "_ncg_c",
+    cse: bool = True,
+) -> Block:
+    """Prune the intermediates, run CSE over everything, and schedule the assignments.
+
+    Parameters
+    ----------
+    intermediates
+        Ordered assignments; each expression may use earlier intermediate symbols.
+    finals
+        The values the block computes.
+    prefix
+        Name prefix of the symbols CSE introduces (they must not clash with other symbols).
+    cse
+        Run ``sympy.cse`` (True) or just prune (False).
+
+    Returns
+    -------
+    Block
+        Assignments (intermediates and common subexpressions, each after what it uses) and the
+        reduced final expressions.
+    """
+    kept = prune(intermediates, finals)
+    finals = [sp.sympify(e) for e in finals]
+    if not cse:
+        return Block(tuple(kept), tuple(finals))
+    exprs = [e for _, e in kept] + finals
+    replacements, reduced = sp.cse(exprs, symbols=_numbered(prefix), order="none", list=True)
+    reduced_inter = reduced[: len(kept)]
+    reduced_finals = reduced[len(kept):]
+
+    # Common subexpressions are emitted just before the first intermediate needing them.
+    rep_index = {sym: i for i, (sym, _) in enumerate(replacements)}
+    rep_free = [_free(e) for _, e in replacements]
+    emitted = [False] * len(replacements)
+    out: list[Assignment] = []
+
+    def emit_needed(expr_free: set[sp.Symbol]) -> None:
+        stack = [rep_index[s] for s in expr_free if s in rep_index]
+        todo: set[int] = set()
+        while stack:
+            i = stack.pop()
+            if emitted[i] or i in todo:
+                continue
+            todo.add(i)
+            stack.extend(rep_index[s] for s in rep_free[i] if s in rep_index)
+        for i in sorted(todo):  # replacements are already in dependency order
+            out.append(replacements[i])
+            emitted[i] = True
+
+    for (sym, _), expr in zip(kept, reduced_inter, strict=True):
+        emit_needed(_free(expr))
+        out.append((sym, expr))
+    for expr in reduced_finals:
+        emit_needed(_free(expr))
+    return Block(tuple(out), tuple(reduced_finals))

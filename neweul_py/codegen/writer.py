@@ -1,0 +1,501 @@
+"""The module writer: :class:`~neweul_py.equations.Equations` → a standalone NumPy module.
+
+The module implements the generated-module protocol (``docs/generated-module-protocol.md``).
+Every function is straight-line code produced by :func:`.cse.eliminate`; scalars are Python
+floats (``_math`` functions), arrays are assembled once with NumPy. Jacobians come from symbolic
+derivatives (:func:`.derivatives.jacobian`), never from finite differences.
+
+Writing is atomic: the text is rendered completely first (so an invalid model raises before
+anything touches the disk), written to a temporary file in the target directory, flushed,
+``fsync``-ed and moved over the target with :func:`os.replace`. The text depends only on the
+equations and the source hash — no timestamps, no hash-ordered iteration — so regeneration is
+byte-identical.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import sympy as sp
+
+from ..errors import GenerationError
+from ..model import Frame, KinematicOutput, System, time
+from .cse import Assignment, Block, eliminate
+from .derivatives import jacobian
+from .printer import NamePool, ScalarPrinter
+
+__all__ = ["PROTOCOL_VERSION", "generate_module", "render_module", "write_atomic"]
+
+#: Version of the generated-module protocol written here.
+PROTOCOL_VERSION = 1
+
+_INDENT = "    "
+
+
+@dataclass
+class _Ctx:
+    """Names and symbol groups shared by all functions of one module."""
+
+    y: tuple[sp.Symbol, ...]
+    yd: tuple[sp.Symbol, ...]
+    p: tuple[sp.Symbol, ...]
+    u: tuple[sp.Symbol, ...]
+    intermediates: tuple[Assignment, ...]
+    pool: NamePool
+    printer: ScalarPrinter = field(init=False)
+    use_cse: bool = True
+
+    def __post_init__(self) -> None:
+        self.printer = ScalarPrinter(self.pool.names)
+
+    def name(self, s: sp.Symbol) -> str:
+        return self.pool.names[s]
+
+    def pr(self, e: sp.Expr) -> str:
+        return self.printer.doprint_expr(e)
+
+
+def _unpack(names: Sequence[str], source: str) -> str:
+    if len(names) == 1:
+        return f"{names[0]}, = {source}"
+    return f"{', '.join(names)} = {source}"
+
+
+def _block(
+    ctx: _Ctx,
+    finals: Sequence[sp.Expr],
+    allowed: Sequence[sp.Symbol],
+    what: str,
+    intermediates: Sequence[Assignment] | None = None,
+    prefix: str = "_ncg_c",
+) -> Block:
+    """CSE a function body and check it only uses the symbols the function receives."""
+    inter = ctx.intermediates if intermediates is None else intermediates
+    block = eliminate(inter, finals, prefix=prefix, cse=ctx.use_cse)
+    assigned = {s for s, _ in block.assignments}
+    free: set[sp.Symbol] = set()
+    for _, e in block.assignments:
+        free |= e.free_symbols
+    for e in block.finals:
+        free |= e.free_symbols
+    bad = sorted((s for s in free - assigned - set(allowed)), key=lambda s: s.name)
+    if bad:
+        raise GenerationError(
+            f"{what} depends on {', '.join(s.name for s in bad)}, which it cannot use"
+        )
+    for s, _ in block.assignments:
+        if s not in ctx.pool.names:
+            wanted = s.name[len("_ncg"):] if s.name.startswith("_ncg_") else s.name
+            ctx.pool.claim(s, wanted)
+    return block
+
+
+def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
+    gs = set(group)
+    return any(e.free_symbols & gs for _, e in block.assignments) or any(
+        e.free_symbols & gs for e in block.finals
+    )
+
+
+def _prologue(
+    ctx: _Ctx, block: Block, sources: Sequence[tuple[Sequence[sp.Symbol], str]]
+) -> list[str]:
+    """Unpack the argument arrays the block uses into Python floats."""
+    lines = []
+    for group, source in sources:
+        if group and _uses(block, group):
+            lines.append(_unpack([ctx.name(s) for s in group], source))
+    return lines
+
+
+def _inputs_prologue(ctx: _Ctx, block: Block) -> list[str]:
+    if not ctx.u or not _uses(block, ctx.u):
+        return []
+    return [
+        "if u is None:",
+        f"{_INDENT}u = default_inputs(t, p)",
+        _unpack([ctx.name(s) for s in ctx.u], "_np.asarray(u, dtype=_np.float64).tolist()"),
+    ]
+
+
+def _assignments(ctx: _Ctx, block: Block) -> list[str]:
+    return [f"{ctx.name(s)} = {ctx.pr(e)}" for s, e in block.assignments]
+
+
+def _vector(ctx: _Ctx, target: str, values: Sequence[sp.Expr]) -> list[str]:
+    if not values:
+        return [f"{target} = _np.zeros(0)"]
+    items = ", ".join(ctx.pr(v) for v in values)
+    if len(values) == 1:
+        items += ","
+    return [f"{target} = _np.array(({items}), dtype=_np.float64)"]
+
+
+def _matrix_fill(
+    ctx: _Ctx, target: str, shape: tuple[int, int], entries: dict[tuple[int, int], sp.Expr]
+) -> list[str]:
+    """Fill a preallocated array; ``entries`` maps (i, j) → value (absent means zero)."""
+    full = len(entries) == shape[0] * shape[1]
+    alloc = "empty" if full else "zeros"
+    lines = [f"{target} = _np.{alloc}({shape!r})"]
+    for (i, j), v in entries.items():
+        lines.append(f"{target}[{i}, {j}] = {ctx.pr(v)}")
+    return lines
+
+
+def _mass_entries(M: sp.ImmutableMatrix) -> tuple[list[sp.Expr], list[list[tuple[int, int]]]]:
+    """Unique entries of M (symmetric pairs share one) and the positions of each."""
+    n = M.shape[0]
+    values: list[sp.Expr] = []
+    where: list[list[tuple[int, int]]] = []
+    for i in range(n):
+        for j in range(i, n):
+            if i != j and M[i, j] == M[j, i]:
+                values.append(M[i, j])
+                where.append([(i, j), (j, i)])
+            else:
+                values.append(M[i, j])
+                where.append([(i, j)])
+                if i != j:
+                    values.append(M[j, i])
+                    where.append([(j, i)])
+    return values, where
+
+
+def _mass_fill(
+    ctx: _Ctx, n: int, reduced: Sequence[sp.Expr], where: Sequence[Sequence[tuple[int, int]]]
+) -> list[str]:
+    lines = [f"M = _np.empty(({n}, {n}))"]
+    for value, places in zip(reduced, where, strict=True):
+        targets = " = ".join(f"M[{i}, {j}]" for i, j in places)
+        lines.append(f"{targets} = {ctx.pr(value)}")
+    return lines
+
+
+def _function(signature: str, doc: str, body: Sequence[str]) -> list[str]:
+    out = [f"def {signature}:", f'{_INDENT}"""{doc}"""']
+    out += [_INDENT + line for line in body]
+    return [*out, "", ""]
+
+
+def _sparse(J: sp.ImmutableMatrix) -> dict[tuple[int, int], sp.Expr]:
+    return {
+        (i, j): J[i, j] for i in range(J.shape[0]) for j in range(J.shape[1]) if J[i, j] != 0
+    }
+
+
+def _units(system: System) -> tuple[list[str], list[str]]:
+    """Best-effort SI units of coordinates (rad for rotation angles, m for translations) and
+    of kinematic outputs; ``""`` where unknown."""
+    rot: set[sp.Symbol] = set()
+    trans: set[sp.Symbol] = set()
+    frame: Frame
+    for frame in system.frames:
+        for _axis, angle in frame.rotation:
+            rot |= angle.free_symbols
+        trans |= frame.translation.free_symbols
+    cu = []
+    for c in system.coordinates:
+        s = c.symbol
+        cu.append("rad" if s in rot and s not in trans else "m" if s in trans and s not in rot
+                  else "")
+    ou = []
+    for o in system.outputs:
+        if isinstance(o, KinematicOutput):
+            ou.append("m" if o.quantity == "position" else "m/s")
+        else:
+            ou.append("")
+    return cu, ou
+
+
+def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
+    """The complete source text of the generated module.
+
+    Parameters
+    ----------
+    equations
+        An :class:`~neweul_py.equations.Equations` (coordinates, velocities, parameters,
+        inputs, intermediates, mass_matrix, force_vector, outputs, output_names, system).
+    source_hash
+        SHA-256 (hex) of the description the equations came from; stored as ``SOURCE_HASH``.
+    cse
+        Eliminate common subexpressions (default). Off only for debugging.
+
+    Raises
+    ------
+    GenerationError
+        When the equations cannot be turned into code (unknown symbols, a mass matrix that
+        depends on velocities, unprintable functions …).
+    """
+    eq = equations
+    system: System = eq.system
+    y, yd, p, u = (tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.parameters),
+                   tuple(eq.inputs))
+    n, nu = len(y), len(u)
+    if n == 0:
+        raise GenerationError(f"model {system.name!r} has no coordinates")
+    M = sp.ImmutableMatrix(eq.mass_matrix)
+    fvec = sp.ImmutableMatrix(eq.force_vector)
+    outs = sp.ImmutableMatrix(eq.outputs) if len(eq.outputs) else sp.ImmutableMatrix.zeros(0, 1)
+    if M.shape != (n, n) or fvec.shape != (n, 1):
+        raise GenerationError(
+            f"mass matrix {M.shape} and force vector {fvec.shape} do not fit {n} coordinates"
+        )
+    names_out = list(eq.output_names)
+    if outs.shape[0] != len(names_out):
+        raise GenerationError("outputs and output_names differ in length")
+    inter = tuple((s, sp.sympify(e)) for s, e in eq.intermediates)
+
+    pool = NamePool()
+    pool.names[time] = "t"
+    for s in (*y, *yd, *p, *u):
+        pool.claim(s)
+    for s, _ in inter:
+        pool.claim(s)
+    ctx = _Ctx(y, yd, p, u, inter, pool, use_cse=cse)
+
+    a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
+    for i, s in enumerate(a_syms):
+        pool.claim(s, f"_a{i}")
+
+    kin = (*y, *p, *u, time)
+    dyn = (*kin, *yd)
+    y_src = ("y", "_np.asarray(y, dtype=_np.float64).tolist()")
+    p_src = "_np.asarray(p, dtype=_np.float64).tolist()"
+
+    funcs: list[str] = []
+
+    # ---- default_parameters / default_inputs
+    funcs += _function(
+        "default_parameters()",
+        "The parameter vector ``p`` of the defaults (ordered as ``PARAMETERS``).",
+        ["return _np.array(_P0, dtype=_np.float64)"],
+    )
+    u_defaults = [sp.sympify(inp.default) for inp in system.inputs]
+    b = _block(ctx, u_defaults, (*p, time), "the default inputs", intermediates=())
+    body = _prologue(ctx, b, [(p, p_src)]) + _assignments(ctx, b) + _vector(ctx, "u", b.finals)
+    funcs += _function("default_inputs(t, p)",
+                       "The default excitation ``u(t)`` of the description.", [*body, "return u"])
+
+    # ---- mass_matrix
+    m_values, m_where = _mass_entries(M)
+    b = _block(ctx, m_values, kin, "the mass matrix")
+    body = (_prologue(ctx, b, [(y, y_src[1]), (p, p_src)]) + _inputs_prologue(ctx, b)
+            + _assignments(ctx, b) + _mass_fill(ctx, n, b.finals, m_where))
+    funcs += _function("mass_matrix(t, y, p, u=None)",
+                       "Mass matrix ``M(y, t)``, shape (n, n).", [*body, "return M"])
+
+    # ---- force_vector
+    b = _block(ctx, list(fvec), dyn, "the force vector")
+    body = (_prologue(ctx, b, [(y, y_src[1]), (yd, "_np.asarray(yd, dtype=_np.float64)"
+                                               ".tolist()"), (p, p_src)])
+            + _inputs_prologue(ctx, b) + _assignments(ctx, b) + _vector(ctx, "f", b.finals))
+    funcs += _function("force_vector(t, y, yd, p, u=None)",
+                       "Generalized forces ``q − k``, shape (n,).", [*body, "return f"])
+
+    # ---- rhs: M and f in one block, then one linear solve
+    b = _block(ctx, [*m_values, *fvec], dyn, "the right-hand side")
+    nm = len(m_values)
+    body = ["x = _np.asarray(x, dtype=_np.float64)"]
+    x_src = "x.tolist()"
+    if _uses(b, (*y, *yd)):
+        body.append(_unpack([ctx.name(s) for s in (*y, *yd)], x_src))
+    body += _prologue(ctx, b, [(p, p_src)]) + _inputs_prologue(ctx, b) + _assignments(ctx, b)
+    body += _mass_fill(ctx, n, b.finals[:nm], m_where)
+    body += _vector(ctx, "f", b.finals[nm:])
+    body += [
+        f"xd = _np.empty({2 * n})",
+        f"xd[:{n}] = x[{n}:{2 * n}]",
+        f"xd[{n}:] = _np.linalg.solve(M, f)",
+        "return xd",
+    ]
+    funcs += _function("rhs(t, x, p, u=None)",
+                       "First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion.", body)
+
+    # ---- force_jacobians
+    wrt = (*y, *yd, *u)
+    d_inter, J = jacobian(list(fvec), wrt, inter)
+    b = _block(ctx, list(J), dyn, "the force Jacobians", intermediates=d_inter)
+    Jr = sp.ImmutableMatrix(len(fvec), len(wrt), list(b.finals))
+    body = (_prologue(ctx, b, [(y, y_src[1]), (yd, "_np.asarray(yd, dtype=_np.float64)"
+                                               ".tolist()"), (p, p_src)])
+            + _inputs_prologue(ctx, b) + _assignments(ctx, b))
+    body += _matrix_fill(ctx, "fy", (n, n), _sparse(Jr[:, :n]))
+    body += _matrix_fill(ctx, "fyd", (n, n), _sparse(Jr[:, n:2 * n]))
+    body += _matrix_fill(ctx, "fu", (n, nu), _sparse(Jr[:, 2 * n:]))
+    funcs += _function(
+        "force_jacobians(t, y, yd, p, u=None)",
+        "``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic.",
+        [*body, "return fy, fyd, fu"],
+    )
+
+    # ---- mass_matrix_times_derivative: ∂(M a)/∂y
+    Ma = M * sp.Matrix(a_syms)
+    d_inter, J = jacobian(list(Ma), y, inter)
+    b = _block(ctx, list(J), (*kin, *a_syms), "∂(M a)/∂y", intermediates=d_inter)
+    Jr = sp.ImmutableMatrix(n, n, list(b.finals))
+    body = (_prologue(ctx, b, [(y, y_src[1]), (p, p_src),
+                               (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")])
+            + _inputs_prologue(ctx, b) + _assignments(ctx, b)
+            + _matrix_fill(ctx, "dMa", (n, n), _sparse(Jr)))
+    funcs += _function("mass_matrix_times_derivative(t, y, p, a, u=None)",
+                       "``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n).",
+                       [*body, "return dMa"])
+
+    # ---- rhs_jacobian (numeric combination of the analytic pieces)
+    funcs += _function(
+        "rhs_jacobian(t, x, p, u=None)",
+        "``∂ rhs/∂x`` = [[0, I], [M⁻¹(∂f/∂y − ∂(M ÿ)/∂y), M⁻¹ ∂f/∂ẏ]], analytic.",
+        [
+            "x = _np.asarray(x, dtype=_np.float64)",
+            *(["if u is None:", f"{_INDENT}u = default_inputs(t, p)"] if nu else []),
+            f"y = x[:{n}]",
+            f"yd = x[{n}:{2 * n}]",
+            "M = mass_matrix(t, y, p, u)",
+            "ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))",
+            "fy, fyd, _fu = force_jacobians(t, y, yd, p, u)",
+            "dMa = mass_matrix_times_derivative(t, y, p, ydd, u)",
+            f"J = _np.zeros(({2 * n}, {2 * n}))",
+            f"J[:{n}, {n}:] = _np.eye({n})",
+            f"J[{n}:, :] = _np.linalg.solve(M, _np.hstack((fy - dMa, fyd)))",
+            "return J",
+        ],
+    )
+
+    # ---- outputs and output_jacobians
+    x_unpack = [((*y, *yd), "_np.asarray(x, dtype=_np.float64).tolist()"), (p, p_src)]
+    b = _block(ctx, list(outs), dyn, "the outputs")
+    body = (_prologue(ctx, b, x_unpack) + _inputs_prologue(ctx, b) + _assignments(ctx, b)
+            + _vector(ctx, "out", b.finals))
+    funcs += _function("outputs(t, x, p, u=None)", "The outputs, ordered as ``OUTPUTS``.",
+                       [*body, "return out"])
+    ny = outs.shape[0]
+    wrt = (*y, *yd, *u)
+    d_inter, J = jacobian(list(outs), wrt, inter)
+    b = _block(ctx, list(J), dyn, "the output Jacobians", intermediates=d_inter)
+    Jr = sp.ImmutableMatrix(ny, len(wrt), list(b.finals)) if ny else sp.zeros(0, len(wrt))
+    body = (_prologue(ctx, b, x_unpack) + _inputs_prologue(ctx, b) + _assignments(ctx, b)
+            + _matrix_fill(ctx, "C", (ny, 2 * n), _sparse(Jr[:, :2 * n]) if ny else {})
+            + _matrix_fill(ctx, "D", (ny, nu), _sparse(Jr[:, 2 * n:]) if ny else {}))
+    funcs += _function("output_jacobians(t, x, p, u=None)",
+                       "``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic.",
+                       [*body, "return C, D"])
+
+    # ---- constraints (none for tree-structured rigid models)
+    funcs += _function("constraints(t, y, p)", "Holonomic constraints ``g(y, t)`` (none).",
+                       ["return _np.zeros(0)"])
+    funcs += _function("constraint_jacobian(t, y, p)", "``G = ∂g/∂y`` (none).",
+                       [f"return _np.zeros((0, {n}))"])
+    funcs += _function("constraint_gamma(t, y, yd, p)", "``γ`` with ``G ÿ + γ = 0`` (none).",
+                       ["return _np.zeros(0)"])
+
+    # ---- header and constants
+    cu, ou = _units(system)
+    x0 = [float(c.initial) for c in system.coordinates] + [
+        float(c.velocity) for c in system.coordinates
+    ]
+    pdef = {pp.name: float(pp.default) for pp in system.parameters}
+    if [str(s) for s in p] != list(pdef):
+        raise GenerationError("the equations' parameters differ from the model's")
+    consts = [
+        f"PROTOCOL_VERSION = {PROTOCOL_VERSION}",
+        f"MODEL_NAME = {system.name!r}",
+        f"DESCRIPTION = {system.description!r}",
+        f"COORDINATES = {[str(s) for s in y]!r}",
+        f"COORDINATE_UNITS = {cu!r}",
+        f"INITIAL_STATE = {x0!r}",
+        "PARAMETERS = {" + "".join(f"\n    {k!r}: {v!r}," for k, v in pdef.items())
+        + ("\n}" if pdef else "}"),
+        f"INPUTS = {[str(s) for s in u]!r}",
+        f"OUTPUTS = {names_out!r}",
+        f"OUTPUT_UNITS = {ou!r}",
+        "CONSTRAINTS = []",
+        f"STATE_SIZE = {2 * n}",
+        f"SOURCE_HASH = {source_hash!r}",
+        "MASS_MATRIX_SYMMETRIC = " + repr(bool(M == M.T)),
+        "",
+        f"_P0 = {tuple(pdef.values())!r}",
+    ]
+    header = [
+        f'"""Equations of motion of the model {system.name!r}: generated by neweul-py, do not '
+        "edit.",
+        "",
+        "Implements the generated-module protocol (version "
+        f"{PROTOCOL_VERSION}, docs/generated-module-protocol.md).",
+        "State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered",
+        "as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.",
+        '"""',
+        "",
+        "import math as _math",
+        "",
+        "import numpy as _np",
+        "",
+        *consts,
+        "",
+        "",
+    ]
+    text = "\n".join(header + funcs).rstrip("\n") + "\n"
+    try:
+        compile(text, f"<generated {system.name}>", "exec")
+    except SyntaxError as exc:  # a bug in the writer, but never write a broken module
+        raise GenerationError(f"generated code does not compile: {exc}") from None
+    return text
+
+
+def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> Path:
+    """Write ``data`` to ``path`` atomically: temp file in the same directory, fsync, replace.
+
+    Readers see either the old file or the complete new one, never a partial write; on any
+    error the old file is untouched and the temporary file removed.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(raw)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def generate_module(
+    equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True
+) -> Path:
+    """Render the module for ``equations`` and write it atomically to ``path``.
+
+    Parameters
+    ----------
+    equations
+        The symbolic equations (:class:`~neweul_py.equations.Equations`).
+    source_hash
+        SHA-256 of the description; becomes ``SOURCE_HASH``.
+    path
+        Target file (``generated/<name>.py``). Its directory is created if needed.
+
+    Returns
+    -------
+    Path
+        ``path``. If rendering fails nothing is written and an existing file is untouched.
+
+    Examples
+    --------
+    >>> generate_module(newton_euler(load_description("examples/pendulum.yaml")),
+    ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
+    """
+    text = render_module(equations, source_hash, cse=cse)
+    return write_atomic(path, text)

@@ -1,0 +1,131 @@
+"""The module writer against direct lambdify of the same symbolic equations.
+
+Reference: ``sympy.lambdify`` of the (substituted) equations and ``sympy.diff`` for the
+Jacobians, at random states; ``rhs_jacobian`` also against central differences of ``rhs``.
+"""
+
+from __future__ import annotations
+
+import handmade
+import numpy as np
+import pytest
+import sympy as sp
+
+from neweul_py.analysis.module import load_generated
+from neweul_py.codegen import generate_module, render_module
+from neweul_py.model import time
+
+CASES = {
+    "pendulum": lambda: handmade.pendulum(),
+    "double": lambda: handmade.double_pendulum(),
+    "double_inter": lambda: handmade.double_pendulum(with_intermediates=True),
+}
+
+
+def _substituted(eq):
+    values = {}
+    for s, e in eq.intermediates:
+        values[s] = e.xreplace(values)
+    return lambda m: sp.Matrix(m).xreplace(values)
+
+
+@pytest.fixture(params=sorted(CASES))
+def case(request, tmp_path):
+    eq = CASES[request.param]()
+    path = generate_module(eq, "0" * 64, tmp_path / f"{eq.system.name}.py")
+    return eq, load_generated(path)
+
+
+def test_functions_match_lambdify(case):
+    eq, mod = case
+    sub = _substituted(eq)
+    y, yd, p, u = eq.coordinates, eq.velocities, eq.parameters, eq.inputs
+    n, nu = len(y), len(u)
+    args = (time, *y, *yd, *p, *u)
+    M = sub(eq.mass_matrix)
+    f = sub(eq.force_vector)
+    out = sub(eq.outputs)
+    a = sp.symbols(f"a0:{n}", real=True)
+    Ma_y = (M * sp.Matrix(a)).jacobian(y)
+    ref = {
+        "M": sp.lambdify(args, M),
+        "f": sp.lambdify(args, f),
+        "fy": sp.lambdify(args, f.jacobian(y)),
+        "fyd": sp.lambdify(args, f.jacobian(yd)),
+        "fu": sp.lambdify(args, f.jacobian(u)) if nu else None,
+        "Ma_y": sp.lambdify((*args, *a), Ma_y),
+        "out": sp.lambdify(args, out),
+        "C": sp.lambdify(args, out.jacobian([*y, *yd])),
+    }
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        t = rng.uniform(0, 3)
+        yv, ydv = rng.uniform(-2, 2, n), rng.uniform(-2, 2, n)
+        pv = mod.default_parameters() * rng.uniform(0.5, 1.5, len(p))
+        uv = rng.uniform(-1, 1, nu)
+        vals = (t, *yv, *ydv, *pv, *uv)
+        x = np.concatenate([yv, ydv])
+        Mr = np.array(ref["M"](*vals), dtype=float)
+        fr = np.array(ref["f"](*vals), dtype=float).ravel()
+        np.testing.assert_allclose(mod.mass_matrix(t, yv, pv, uv), Mr, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(mod.force_vector(t, yv, ydv, pv, uv), fr, rtol=1e-12,
+                                   atol=1e-12)
+        np.testing.assert_allclose(mod.rhs(t, x, pv, uv),
+                                   np.concatenate([ydv, np.linalg.solve(Mr, fr)]), rtol=1e-11,
+                                   atol=1e-12)
+        fy, fyd, fu = mod.force_jacobians(t, yv, ydv, pv, uv)
+        np.testing.assert_allclose(fy, ref["fy"](*vals), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(fyd, ref["fyd"](*vals), rtol=1e-12, atol=1e-12)
+        assert fu.shape == (n, nu)
+        if nu:
+            np.testing.assert_allclose(fu, ref["fu"](*vals), rtol=1e-12, atol=1e-12)
+        av = rng.normal(size=n)
+        np.testing.assert_allclose(mod.mass_matrix_times_derivative(t, yv, pv, av, uv),
+                                   ref["Ma_y"](*vals, *av), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(mod.outputs(t, x, pv, uv),
+                                   np.array(ref["out"](*vals), dtype=float).ravel(),
+                                   rtol=1e-12, atol=1e-12)
+        C, D = mod.output_jacobians(t, x, pv, uv)
+        np.testing.assert_allclose(C, ref["C"](*vals), rtol=1e-12, atol=1e-12)
+        assert D.shape == (len(eq.output_names), nu)
+        # rhs_jacobian against central differences of rhs
+        J = mod.rhs_jacobian(t, x, pv, uv)
+        h = 1e-6
+        Jfd = np.column_stack([
+            (mod.rhs(t, x + h * e, pv, uv) - mod.rhs(t, x - h * e, pv, uv)) / (2 * h)
+            for e in np.eye(2 * n)
+        ])
+        np.testing.assert_allclose(J, Jfd, rtol=1e-6, atol=1e-6)
+
+
+def test_protocol_constants(case):
+    eq, mod = case
+    n = len(eq.coordinates)
+    assert mod.PROTOCOL_VERSION == 1
+    assert mod.COORDINATES == [str(s) for s in eq.coordinates]
+    assert list(mod.PARAMETERS) == [str(s) for s in eq.parameters]
+    assert mod.STATE_SIZE == 2 * n == len(mod.INITIAL_STATE)
+    assert mod.OUTPUTS == list(eq.output_names)
+    assert mod.SOURCE_HASH == "0" * 64
+    assert mod.constraints(0.0, np.zeros(n), mod.default_parameters()).shape == (0,)
+    assert mod.constraint_jacobian(0.0, np.zeros(n), mod.default_parameters()).shape == (0, n)
+
+
+def test_default_inputs_used_when_u_is_none(tmp_path):
+    eq = handmade.pendulum()
+    mod = load_generated(generate_module(eq, "h", tmp_path / "pendulum.py"))
+    p = mod.default_parameters()
+    x = np.array([0.2, -0.1])
+    t = 0.7
+    u = mod.default_inputs(t, p)
+    np.testing.assert_allclose(u, [0.1 * np.sin(t)])
+    np.testing.assert_array_equal(mod.rhs(t, x, p), mod.rhs(t, x, p, u))
+
+
+def test_names_clashing_with_generated_code_are_renamed():
+    """Model names such as ``a``, ``x``, ``p`` or ``abs`` must not shadow the module's own."""
+    text = render_module(handmade.double_pendulum(), "h")
+    assert "a_, b = " in text
+    ns: dict = {}
+    exec(compile(text, "<gen>", "exec"), ns)
+    assert ns["COORDINATES"] == ["a", "b"]
