@@ -1,0 +1,179 @@
+"""Top-level convenience API: description file → generated module → simulation.
+
+This is the only module (besides the CLI) that sees every layer: it loads a description
+(``description``), derives the equations (``equations``), writes the module (``codegen``) and
+hands the module to ``analysis``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import ModuleType
+from typing import Any, Literal
+
+import numpy as np
+
+from .analysis.module import load_generated
+from .analysis.results import SimulationResult
+from .analysis.simulate import simulate
+from .codegen import PROTOCOL_VERSION, generate_module
+from .errors import DescriptionError, NeweulError
+
+__all__ = [
+    "FORMS",
+    "cache_dir",
+    "derive",
+    "generate",
+    "generated_module",
+    "simulate_description",
+]
+
+Form = Literal["auto", "closed", "recursive"]
+#: Forms of the equations (DESIGN.md: closed form or recursive/semi-symbolic).
+FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
+
+_SYMBOLIC_LAYERS = ("model", "description", "kinematics", "equations", "codegen")
+
+
+def _read(path: str | os.PathLike[str]) -> bytes:
+    try:
+        return Path(path).read_bytes()
+    except OSError as exc:
+        raise DescriptionError(f"cannot read description: {exc.strerror}", "",
+                               os.fspath(path)) from None
+
+
+def _check_form(form: str) -> None:
+    if form not in FORMS:
+        raise NeweulError(f"unknown form {form!r}; forms are: {', '.join(FORMS)}")
+
+
+def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tuple[Any, str]:
+    """Load a description and derive its equations.
+
+    Returns
+    -------
+    equations, source_hash
+        The :class:`~neweul_py.equations.Equations` and the SHA-256 of the file's bytes.
+    """
+    from .description import description_hash, load_description_text
+    from .equations import newton_euler
+
+    _check_form(form)
+    raw = _read(description_path)
+    system = load_description_text(raw, os.fspath(description_path))
+    return newton_euler(system, form=form), description_hash(raw)
+
+
+def generate(
+    description_path: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str] = "generated",
+    form: Form = "auto",
+) -> Path:
+    """Generate the NumPy module of a description: ``out_dir/<name>.py``.
+
+    Parameters
+    ----------
+    description_path
+        A YAML description file.
+    out_dir
+        Directory of the module (created if needed).
+    form
+        ``"closed"``, ``"recursive"`` or ``"auto"`` (closed for small models).
+
+    Returns
+    -------
+    Path
+        The module written. Nothing is written when the description or derivation fails, so a
+        previously generated module stays as it was.
+
+    Examples
+    --------
+    >>> generate("examples/pendulum.yaml", "generated")  # doctest: +SKIP
+    PosixPath('generated/pendulum.py')
+    """
+    equations, source_hash = derive(description_path, form)
+    return generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
+
+
+def cache_dir() -> Path:
+    """Where :func:`generated_module` keeps modules: ``$NEWEUL_CACHE``, else
+    ``$XDG_CACHE_HOME/neweul-py``, else ``~/.cache/neweul-py``."""
+    if os.environ.get("NEWEUL_CACHE"):
+        return Path(os.environ["NEWEUL_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "neweul-py"
+
+
+def _generator_fingerprint() -> str:
+    """SHA-256 of the source of the symbolic layers: a cached module is reused only if the
+    code that would generate it again is unchanged."""
+    root = Path(__file__).parent
+    h = hashlib.sha256(f"protocol {PROTOCOL_VERSION}\n".encode())
+    for layer in _SYMBOLIC_LAYERS:
+        for f in sorted((root / layer).rglob("*.py")):
+            h.update(f.relative_to(root).as_posix().encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def generated_module(
+    description_path: str | os.PathLike[str],
+    form: Form = "auto",
+    cache: str | os.PathLike[str] | None = None,
+) -> Path:
+    """The generated module of a description, from the cache or freshly generated into it.
+
+    The cache key is the SHA-256 of the description's bytes, the form and the generator's own
+    source; a hit is reused without parsing the description again.
+    """
+    from .description import description_hash
+
+    _check_form(form)
+    raw = _read(description_path)
+    key = hashlib.sha256(
+        f"{description_hash(raw)}\n{form}\n{_generator_fingerprint()}".encode()
+    ).hexdigest()
+    directory = Path(cache) if cache is not None else cache_dir()
+    stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
+    path = directory / f"{stem}_{key[:24]}.py"
+    if path.is_file():
+        try:
+            module = load_generated(path)
+            if module.SOURCE_HASH == description_hash(raw):
+                return path
+        except NeweulError:
+            pass  # a damaged cache entry is regenerated
+    from .description import load_description_text
+    from .equations import newton_euler
+
+    system = load_description_text(raw, os.fspath(description_path))
+    equations = newton_euler(system, form=form)
+    try:
+        return generate_module(equations, description_hash(raw), path)
+    except OSError as exc:
+        raise NeweulError(f"cannot write to the cache {directory}: {exc.strerror}") from None
+
+
+def simulate_description(
+    description_path: str | os.PathLike[str],
+    t_end: float,
+    *,
+    form: Form = "auto",
+    cache: str | os.PathLike[str] | None = None,
+    p: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
+    **kwargs: Any,
+) -> SimulationResult:
+    """Generate (cached) and simulate a description; ``kwargs`` go to
+    :func:`neweul_py.analysis.simulate`.
+
+    Examples
+    --------
+    >>> res = simulate_description("examples/double_pendulum.yaml", 10.0)  # doctest: +SKIP
+    >>> res.to_csv("out/double_pendulum.csv")  # doctest: +SKIP
+    """
+    module: ModuleType = load_generated(generated_module(description_path, form, cache))
+    return simulate(module, t_end, p=p, **kwargs)

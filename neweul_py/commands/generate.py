@@ -1,0 +1,30 @@
+"""``neweul generate FILE [-o DIR] [--form auto|closed|recursive]``."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..api import FORMS, generate
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``generate`` sub-command."""
+    parser = subparsers.add_parser(
+        "generate",
+        help="write the NumPy module of a description (DIR/<name>.py)",
+        description="Derive the equations of motion of a description file and write the "
+        "generated NumPy module DIR/<name>.py (atomically; nothing is written on error).",
+    )
+    parser.add_argument("file", metavar="FILE", help="YAML description file")
+    parser.add_argument("-o", "--out-dir", metavar="DIR", default="generated",
+                        help="output directory (default: generated/)")
+    parser.add_argument("--form", choices=FORMS, default="auto",
+                        help="closed-form or recursive equations (default: auto)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Generate and print the path written."""
+    path = generate(args.file, args.out_dir, args.form)
+    print(path)
+    return 0
