@@ -122,8 +122,8 @@ FUNCTIONS: Mapping[str, _Function] = {
 CONSTANTS: Mapping[str, sp.Expr] = {"pi": sp.pi}
 
 _MAX_DEPTH = 100  # nesting depth of parentheses/unary operators/calls
-_MAX_NUMBER_LENGTH = 100
-_MAX_EXPONENT = 10_000  # |n| in number**n, to keep sympy from building astronomic integers
+_MAX_NUMBER_LENGTH = 1000
+_MAX_DIGITS = 1000  # of number**number, to keep sympy from building astronomic integers
 
 # --------------------------------------------------------------------------- tokenizer
 _NUMBER = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -227,6 +227,25 @@ def _number_token(token: _Token, text: str) -> sp.Rational:
     return sp.Rational(frac.numerator, frac.denominator)
 
 
+def _is_real_number(value: sp.Expr) -> bool:
+    """Whether a constant sympy expression is real (numerically, where sympy cannot tell)."""
+    if value.is_real is not None:
+        return bool(value.is_real)
+    imag = sp.im(value).evalf(30)
+    return bool(imag.is_zero) or abs(complex(imag)) < 1e-25
+
+
+def _too_large(base: sp.Expr, exponent: sp.Expr) -> bool:
+    """Whether the exact number ``base**exponent`` would have more than ``_MAX_DIGITS`` digits
+    (or leading zeros)."""
+    if not (base.is_Rational and exponent.is_Rational) or base.is_zero or abs(base) == 1:
+        return False
+    if abs(exponent) > 10**6:
+        return True
+    digits = abs(math.log10(abs(base.p)) - math.log10(base.q))
+    return float(abs(exponent)) * digits > _MAX_DIGITS
+
+
 # --------------------------------------------------------------------------- parser
 class _Parser:
     def __init__(
@@ -312,11 +331,11 @@ class _Parser:
         exponent = self.unary()
         self.depth -= 1
         if base.is_Number and exponent.is_Number:
-            if abs(exponent) > _MAX_EXPONENT:
-                raise self.error(f"exponent {exponent} is too large", op)
             if base.is_zero and exponent.is_negative:
                 raise self.error("division by zero (0 to a negative power)", op)
-        return base**exponent
+            if _too_large(base, exponent):
+                raise self.error(f"the power {base}**{exponent} is too large or too small", op)
+        return self.checked(lambda: base**exponent, op)
 
     def atom(self) -> sp.Expr:
         tok = self.token
@@ -325,6 +344,8 @@ class _Parser:
             return _number_token(tok, self.text)
         if tok.kind == "(":
             self.advance()
+            if self.token.kind == ")":
+                raise self.error("empty parentheses '()' are not allowed (no tuples or calls)")
             self.enter()
             inner = self.expression()
             self.depth -= 1
@@ -336,6 +357,8 @@ class _Parser:
             self.advance()
             return inner
         if tok.kind == "name":
+            if keyword.iskeyword(tok.text):
+                raise self.error(f"Python keyword {tok.text!r} is not allowed")
             self.advance()
             if self.token.kind == "(":
                 return self.call(tok)
@@ -372,7 +395,19 @@ class _Parser:
             raise self.error(
                 f"{name.text}() takes {func.arity()}, got {len(args)}", name
             )
-        return func.build(*args)
+        return self.checked(lambda: func.build(*args), name)
+
+    def checked(self, build: Callable[[], sp.Expr], token: _Token) -> sp.Expr:
+        """Build a power or function value; reject constant values that are not real."""
+        try:
+            result = build()
+        except (ValueError, TypeError, ArithmeticError) as exc:
+            raise self.error(f"invalid value: {exc}", token) from None
+        if result.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+            raise self.error(f"the value {result} is not finite", token)
+        if result.is_number and not _is_real_number(result):
+            raise self.error(f"the value {result} is not real", token)
+        return result
 
     def name(self, tok: _Token) -> sp.Expr:
         name = tok.text
@@ -382,8 +417,6 @@ class _Parser:
             return self.namespace[name]
         if name in FUNCTIONS:
             raise self.error(f"function {name!r} must be called, e.g. {name}(x)", tok)
-        if keyword.iskeyword(name):
-            raise self.error(f"Python keyword {name!r} is not allowed", tok)
         allowed = ", ".join(sorted(self.namespace)) or "(none)"
         if name in self.unavailable:
             raise self.error(

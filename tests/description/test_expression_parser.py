@@ -1,0 +1,324 @@
+"""The safe expression parser: precedence and associativity against hand-built sympy
+expressions (Python's operator rules are the reference), rejection of malicious and malformed
+text without side effects, and round trips of random expression trees."""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+
+import pytest
+import sympy as sp
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from neweul_py.description import ExpressionError, format_expression, parse_expression
+from neweul_py.description.expressions import number
+from neweul_py.errors import ModelError
+from neweul_py.model import symbol, time
+
+a, b, c = (symbol(n) for n in "abc")
+d_x = symbol("d_x")
+NS = {"a": a, "b": b, "c": c, "d_x": d_x, "t": time}
+
+
+def parse(text: str) -> sp.Expr:
+    return parse_expression(text, NS)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("1 + 2*3", sp.Integer(7)),
+        ("a + b*c", a + b * c),
+        ("(a + b)*c", (a + b) * c),
+        ("a - b - c", (a - b) - c),
+        ("a - (b - c)", a - (b - c)),
+        ("a/b/c", (a / b) / c),
+        ("a/b*c", (a / b) * c),
+        ("a**b**c", a ** (b**c)),
+        ("(a**b)**c", (a**b) ** c),
+        ("-a**2", -(a**2)),
+        ("(-a)**2", (-a) ** 2),
+        ("-a*b", -(a * b)),
+        ("2**-1", sp.Rational(1, 2)),
+        ("a**-b", a ** (-b)),
+        ("--a", a),
+        ("+a", a),
+        ("a*-b", -(a * b)),
+        ("-2**2", sp.Integer(-4)),
+        ("1e-3", sp.Rational(1, 1000)),
+        ("1.5E+2", sp.Integer(150)),
+        (".25", sp.Rational(1, 4)),
+        ("2.", sp.Integer(2)),
+        ("0.1", sp.Rational(1, 10)),
+        ("pi/2", sp.pi / 2),
+        ("sin(a)**2 + cos(a)**2", sp.sin(a) ** 2 + sp.cos(a) ** 2),
+        ("atan2(a, b)", sp.atan2(a, b)),
+        ("min(a, b, c) + max(a, 1)", sp.Min(a, b, c) + sp.Max(a, 1)),
+        ("abs(a) * sign(b) * heaviside(c)", sp.Abs(a) * sp.sign(b) * sp.Heaviside(c)),
+        ("sqrt(a) + exp(b) + log(c)", sp.sqrt(a) + sp.exp(b) + sp.log(c)),
+        (
+            "tan(a)+asin(a)+acos(a)+atan(a)+sinh(a)+cosh(a)+tanh(a)",
+            sp.tan(a) + sp.asin(a) + sp.acos(a) + sp.atan(a) + sp.sinh(a) + sp.cosh(a)
+            + sp.tanh(a),
+        ),
+        ("  a\t*\n b ", a * b),
+        ("d_x * t", d_x * time),
+    ],
+)
+def test_precedence_and_associativity(text: str, expected: sp.Expr) -> None:
+    """Reference: Python's operator precedence (``**`` right-associative, binds tighter than
+    unary minus on its left)."""
+    assert parse(text) == expected
+
+
+def test_symbols_are_the_namespace_objects() -> None:
+    assert parse("a").is_real
+    assert parse("a") is a
+
+
+BAD = [
+    ("__import__('os')", "unknown function '__import__'"),
+    ("__import__('os').system('touch SENTINEL')", "unknown function"),
+    ("a.b", "attribute access"),
+    ("a.__class__", "attribute access"),
+    ("().__class__.__bases__", "empty parentheses"),
+    ("lambda: 1", "keyword 'lambda'"),
+    ("lambda x: x", "keyword 'lambda'"),
+    ("'os'", "strings are not allowed"),
+    ('"os"', "strings are not allowed"),
+    ("[1, 2]", "brackets"),
+    ("a[0]", "brackets"),
+    ("{}", "braces"),
+    ("foo(a)", "unknown function 'foo'"),
+    ("exec(a)", "unknown function 'exec'"),
+    ("sin(a, b)", "sin() takes 1 argument, got 2"),
+    ("atan2(a)", "atan2() takes 2 arguments, got 1"),
+    ("min(a)", "at least 2 arguments"),
+    ("sin()", "got 0"),
+    ("(a + b", "expected ')'"),
+    ("a + b)", "unbalanced ')'"),
+    ("((a)", "expected ')'"),
+    ("", "empty expression"),
+    ("   ", "empty expression"),
+    ("a b", "expected an operator"),
+    ("a +", "expected a number, a name or '('"),
+    ("2a", "malformed number"),
+    ("1.2.3", "malformed number"),
+    ("a^2", "use ** for powers"),
+    ("a = 1", "not allowed"),
+    ("a; b", "single expression"),
+    ("x", "unknown name 'x'; allowed names are: a, b, c, d_x, t"),
+    ("sin", "must be called"),
+    ("a(1)", "'a' is not a function"),
+    ("1/0", "division by zero"),
+    ("log(0)", "not finite"),
+    ("sqrt(-1)", "not real"),
+    ("asin(2)", "not real"),
+    ("(-pi)**pi", "not real"),
+    ("log(-1)", "not real"),
+    ("1e999", "out of range"),
+    ("10**10**10", "too large"),
+    ("(" * 500 + "a" + ")" * 500, "nested"),
+    ("E", "unknown name 'E'"),
+    ("a @ b", "unexpected character '@'"),
+]
+
+
+@pytest.mark.parametrize(("text", "message"), BAD)
+def test_bad_expressions_are_rejected_clearly(text: str, message: str) -> None:
+    with pytest.raises(ExpressionError) as info:
+        parse_expression(text, NS, key_path="forces.f.value")
+    err = info.value
+    assert isinstance(err, ModelError)
+    assert message in str(err)
+    assert err.key_path == "forces.f.value"
+    assert str(err).startswith("forces.f.value: ")
+
+
+def test_error_names_the_column() -> None:
+    with pytest.raises(ExpressionError) as info:
+        parse("a + b * $")
+    assert info.value.column == 9
+    assert "column 9" in str(info.value)
+
+
+def test_unavailable_names_say_what_they_are() -> None:
+    with pytest.raises(ExpressionError, match="'phi' is a coordinate, which is not allowed"):
+        parse_expression("m*phi", {"m": symbol("m")}, unavailable={"phi": "a coordinate"})
+
+
+def test_malicious_text_has_no_side_effect(tmp_path: pathlib.Path, monkeypatch) -> None:
+    """Nothing is imported, executed or written while rejecting hostile text."""
+    monkeypatch.chdir(tmp_path)
+    sentinel = tmp_path / "SENTINEL"
+    parse("sin(a) + 1")  # warm up sympy's lazy imports
+    modules_before = set(sys.modules)
+    hostile = [
+        f"__import__('os').system('touch {sentinel}')",
+        f"open('{sentinel}', 'w')",
+        "(lambda: __import__('subprocess'))()",
+        "[c for c in ().__class__.__base__.__subclasses__()]",
+        "exec('import socket')",
+        "__builtins__",
+        "globals()",
+    ]
+    for text in hostile:
+        with pytest.raises(ExpressionError):
+            parse(text)
+    assert not sentinel.exists()
+    assert set(sys.modules) == modules_before
+
+
+def test_parser_source_never_evaluates_text() -> None:
+    """The parser must not contain any of the evaluating entry points (DESIGN.md, Formats)."""
+    import neweul_py.description as pkg
+
+    forbidden = ["ev" + "al(", "ex" + "ec(", "sympi" + "fy(", "parse_" + "expr(", "import ast"]
+    for path in pathlib.Path(pkg.__file__).parent.glob("*.py"):
+        source = path.read_text()
+        for word in forbidden:
+            assert word not in source, f"{path.name} contains {word!r}"
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [(3, sp.Integer(3)), (0.1, sp.Rational(1, 10)), (-2.5e-3, sp.Rational(-1, 400))],
+)
+def test_number_conversion(value: object, expected: sp.Expr) -> None:
+    assert number(value) == expected
+
+
+@pytest.mark.parametrize("value", [True, False, float("nan"), float("inf"), "1", None])
+def test_number_rejects_non_numbers(value: object) -> None:
+    with pytest.raises(ModelError):
+        number(value, "parameters.m")
+
+
+# --------------------------------------------------------------------------- properties
+# A random tree is (text, sympy expression, precedence); it is printed with the fewest
+# parentheses the grammar allows, so the round trip checks precedence and associativity.
+ADD, MUL, UNARY, POW, ATOM = 1, 2, 3, 4, 5
+
+
+class Invalid(Exception):
+    """An intermediate result is not finite/real: the parser rightly rejects such text."""
+
+
+def _check(expr: sp.Expr) -> sp.Expr:
+    if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo, sp.I) or (expr.is_number and not expr.is_real):
+        raise Invalid
+    return expr
+
+
+def _apply(func, *args) -> sp.Expr:
+    try:
+        return _check(func(*args))
+    except (ValueError, TypeError):  # sympy refuses e.g. Min of a non-real number
+        raise Invalid from None
+
+
+def _wrap(node, min_prec: int, strict: bool = False) -> str:
+    text, _expr, prec = node
+    if prec < min_prec or (strict and prec == min_prec):
+        return f"({text})"
+    return text
+
+
+NUMBERS = st.sampled_from(
+    [("0", 0), ("1", 1), ("2", 2), ("7", 7), ("12", 12), ("0.5", sp.Rational(1, 2)),
+     ("2.5e-1", sp.Rational(1, 4)), ("1e2", 100), ("3.", 3)]
+)
+LEAVES = st.one_of(
+    st.sampled_from(sorted(NS)).map(lambda n: (n, NS[n], ATOM)),
+    NUMBERS.map(lambda p: (p[0], sp.Rational(p[1]), ATOM)),
+    st.just(("pi", sp.pi, ATOM)),
+)
+
+
+def _binary(op: str, left, right, space: bool):
+    sep = " " if space else ""
+    prec = ADD if op in "+-" else MUL
+    if op == "**":
+        text = f"{_wrap(left, POW, strict=True)}{sep}**{sep}{_wrap(right, UNARY)}"
+        return text, _apply(lambda x, y: x**y, left[1], right[1]), POW
+    text = f"{_wrap(left, prec)}{sep}{op}{sep}{_wrap(right, prec, strict=True)}"
+    l_expr, r_expr = left[1], right[1]
+    if op == "+":
+        expr = l_expr + r_expr
+    elif op == "-":
+        expr = l_expr - r_expr
+    elif op == "*":
+        expr = l_expr * r_expr
+    else:
+        if r_expr.is_zero:
+            raise Invalid
+        expr = l_expr / r_expr
+    return text, _check(expr), prec
+
+
+FUNCS = {
+    "sin": (1, sp.sin), "cos": (1, sp.cos), "exp": (1, sp.exp), "atan": (1, sp.atan),
+    "abs": (1, sp.Abs), "sign": (1, sp.sign), "sqrt": (1, sp.sqrt), "tanh": (1, sp.tanh),
+    "atan2": (2, sp.atan2), "min": (2, sp.Min), "max": (3, sp.Max), "heaviside": (1, sp.Heaviside),
+}
+
+
+@st.composite
+def trees(draw, depth: int = 4):
+    """A random expression tree as (text, expected sympy expression, precedence)."""
+    if depth == 0 or draw(st.integers(0, 3)) == 0:
+        return draw(LEAVES)
+    kind = draw(st.sampled_from(["+", "-", "*", "/", "**", "neg", "call"]))
+    if kind == "neg":
+        child = draw(trees(depth - 1))
+        return f"-{_wrap(child, UNARY)}", _check(-child[1]), UNARY
+    if kind == "call":
+        name = draw(st.sampled_from(sorted(FUNCS)))
+        nargs, func = FUNCS[name]
+        args = [draw(trees(depth - 1)) for _ in range(nargs)]
+        sep = draw(st.sampled_from([",", ", "]))
+        return f"{name}({sep.join(x[0] for x in args)})", _apply(func, *(x[1] for x in args)), ATOM
+    left = draw(trees(depth - 1))
+    if kind == "**":
+        k = draw(st.integers(-3, 3))
+        right = draw(st.one_of(st.just((str(k), sp.Integer(k), ATOM if k >= 0 else UNARY)),
+                               trees(depth - 2 if depth > 1 else 0)))
+    else:
+        right = draw(trees(depth - 1))
+    return _binary(kind, left, right, draw(st.booleans()))
+
+
+@st.composite
+def valid_trees(draw):
+    try:
+        return draw(trees())
+    except Invalid:
+        assume(False)
+        raise
+
+
+@settings(max_examples=300, deadline=None)
+@given(valid_trees())
+def test_printed_trees_parse_back_to_the_same_expression(tree) -> None:
+    """Property: text printed from a random tree with minimal parentheses parses to exactly
+    the sympy expression built from the same tree with sympy's operators."""
+    text, expected, _ = tree
+    assert parse(text) == expected, text
+
+
+@settings(max_examples=300, deadline=None)
+@given(valid_trees())
+def test_format_expression_round_trips(tree) -> None:
+    """Property: ``parse(format_expression(e))`` is ``e`` — structurally, or where sympy's
+    printer regroups a product (``-(a + pi)/a``), numerically at a sample point."""
+    _, expected, _ = tree
+    text = format_expression(expected)
+    parsed = parse(text)
+    if parsed == expected:
+        return
+    point = {a: 0.7, b: 1.3, c: 2.1, d_x: 0.4, time: 0.9}
+    x = complex(parsed.evalf(30, subs=point))
+    y = complex(expected.evalf(30, subs=point))
+    assert abs(x - y) <= 1e-12 * (1 + abs(y)), text
