@@ -1,1 +1,45 @@
-"""elastic layer (see DESIGN.md)."""
+"""Elastic bodies: FE models in, two-sided second-order model reduction out (DESIGN.md).
+
+NumPy/SciPy only; never imports the symbolic layers.
+
+* :class:`FEModel`, :func:`read_fe_model`, :func:`write_fe_model` – FE data and files;
+* :func:`reduce_modal`, :func:`reduce_krylov` – reductors (functions model → reduced model),
+  sharing :func:`project`;
+* :class:`ReducedBody` – the reduced body and its file format (``docs/reduced-body-format.md``);
+* :mod:`~neweul_py.elastic.quality` – FRFs, errors, eigenvalue comparison, stability.
+"""
+
+from .fe_io import read_fe_model, write_fe_model
+from .fe_model import DOF_KINDS, FE_KINDS, FEModel
+from .krylov import reduce_krylov
+from .modal import reduce_modal
+from .projection import project
+from .quality import (
+    compare_eigenvalues,
+    frf_full,
+    frf_reduced,
+    max_relative_error,
+    relative_error,
+    stability,
+)
+from .reduced_body import ReducedBody, load_reduced_body, save_reduced_body
+
+__all__ = [
+    "DOF_KINDS",
+    "FE_KINDS",
+    "FEModel",
+    "ReducedBody",
+    "compare_eigenvalues",
+    "frf_full",
+    "frf_reduced",
+    "load_reduced_body",
+    "max_relative_error",
+    "project",
+    "read_fe_model",
+    "reduce_krylov",
+    "reduce_modal",
+    "relative_error",
+    "save_reduced_body",
+    "stability",
+    "write_fe_model",
+]

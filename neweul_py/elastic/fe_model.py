@@ -1,27 +1,49 @@
-"""The FE-model container: sparse ``M``, ``D``, ``K`` with nodes, DOF map, inputs and outputs.
+"""The FE-model container: sparse ``M``, ``K``, ``D`` with nodes, DOF map, inputs and outputs.
 
 Structure kinds (``kind``):
 
-* ``"structural"`` – displacement DOFs only, symmetric ``M``, ``K``;
+* ``"structural"`` – displacement/rotation DOFs only;
 * ``"acoustic"`` – pressure DOFs only;
-* ``"up-coupled"`` – pressure-based u–p form of Eq. (2) of the seed paper,
-  ``[Ms 0; ρCᵀ Mf] ü + D u̇ + [Ks −C; 0 Kf] u = f`` with fluid density ``density`` (ρ).
+* ``"up-coupled"`` – pressure-based u–p form of Eq. (2) of the seed paper
+  (``reference/equations.md`` §3),
+  ``[Ms 0; ρCᵀ Mf] ẍ + D ẋ + [Ks −C; 0 Kf] x = f`` with fluid density ``density`` (ρ),
+  ``x = [u; p]`` (the u and p DOFs may be interleaved; the DOF map tells them apart).
+
+The container validates on construction (shapes, finiteness, DOF map, declared symmetry,
+the block structure of Eq. (2)) and never changes afterwards; :meth:`FEModel.with_` makes a
+changed copy. Readers and writers live in :mod:`neweul_py.elastic.fe_io`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sps
 
-__all__ = ["DOF_KINDS", "FE_KINDS", "FEModel"]
+from ..errors import DataError
+
+__all__ = ["DOF_KINDS", "FE_KINDS", "SYMMETRY_RTOL", "FEModel"]
 
 #: DOF kinds of the DOF map.
 DOF_KINDS = ("ux", "uy", "uz", "rx", "ry", "rz", "p")
 #: Structure kinds of an FE model.
 FE_KINDS = ("structural", "acoustic", "up-coupled")
+#: Relative tolerance of symmetry and block-structure checks (max-abs norm).
+SYMMETRY_RTOL = 1e-10
+
+
+def _max_abs(a: sps.spmatrix) -> float:
+    return float(abs(a).max()) if a.nnz else 0.0
+
+
+def _asymmetry(a: sps.spmatrix) -> float:
+    """``max|A − Aᵀ| / max|A|`` (0 for the zero matrix)."""
+    scale = _max_abs(a)
+    return _max_abs(a - a.T) / scale if scale > 0 else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,24 +53,49 @@ class FEModel:
     Parameters
     ----------
     M, K
-        Sparse (CSR) n×n mass and stiffness matrices; may be unsymmetric (u–p coupling).
+        Sparse n×n mass and stiffness matrices (stored as CSR); may be unsymmetric (u–p
+        coupling). Dense arrays are accepted and converted.
     D
         Sparse n×n damping matrix or ``None`` (no damping).
     nodes
-        (nn, 4) array of ``id, x, y, z``.
+        (nn, 4) array of ``id, x, y, z``; ids are integers, unique.
     dof_node
-        (n,) node id of each DOF.
+        (n,) node id of each DOF (each must be in ``nodes``).
     dof_kind
-        (n,) str array, each one of :data:`DOF_KINDS`.
+        (n,) str array, each one of :data:`DOF_KINDS`; a (node, kind) pair occurs once.
     inputs, outputs
-        Name → ((dof_index, weight), …): a load vector ``b`` with ``b[dof] = weight`` (inputs),
-        an output row ``c`` with ``c[dof] = weight`` (outputs).
+        Name → ((dof_index, weight), …): a load vector ``b`` with ``b[dof] += weight``
+        (inputs), an output row ``c`` with ``c[dof] += weight`` (outputs).
     kind
         One of :data:`FE_KINDS`.
     density
-        The fluid density ρ of Eq. (2) (``up-coupled`` only).
+        The fluid density ρ of Eq. (2) (``up-coupled`` only, required there).
     name
         A name for messages.
+    symmetric
+        Declared symmetries, e.g. ``{"M": True, "K": True}``; a declared-symmetric matrix
+        that is not (relative max-abs asymmetry > :data:`SYMMETRY_RTOL`) is an error.
+    source
+        The file the model was read from (named in error messages), or ``None``.
+
+    Raises
+    ------
+    DataError
+        Naming ``source`` and the matrix/table at fault: wrong shapes, NaN/Inf, a DOF map
+        that does not match the matrices, unknown DOF kinds or node ids, duplicate
+        (node, kind) pairs, input/output DOF indices out of range, declared symmetry
+        violated, or (``up-coupled``) matrices without the block structure of Eq. (2):
+        ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ`` and symmetric ``Ms, Ks, Mf, Kf``.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sps
+    >>> fe = FEModel(M=sps.eye(2), K=sps.diags([1.0, 4.0]), D=None,
+    ...              nodes=np.array([[1, 0, 0, 0], [2, 1, 0, 0]]),
+    ...              dof_node=np.array([1, 2]), dof_kind=np.array(["ux", "ux"]),
+    ...              inputs={"f": ((1, 1.0),)}, outputs={"x": ((1, 1.0),)})
+    >>> fe.B(["f"]).ravel().tolist(), fe.n_dofs
+    ([0.0, 1.0], 2)
     """
 
     M: sps.csr_matrix
@@ -62,5 +109,210 @@ class FEModel:
     kind: str = "structural"
     density: float | None = None
     name: str = "fe-model"
-    # validation, symmetry declarations, input/output matrices and file I/O: see the
-    # readers/writers of this package.
+    symmetric: Mapping[str, bool] = field(default_factory=dict)
+    source: str | None = None
+
+    # ------------------------------------------------------------------ validation
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        src = self.source
+        mats = {}
+        for key in ("M", "K", "D"):
+            a = getattr(self, key)
+            if a is None:
+                if key != "D":
+                    raise DataError("matrix is missing", src, key)
+                continue
+            try:
+                a = sps.csr_matrix(a)
+            except (TypeError, ValueError) as exc:
+                raise DataError(f"not a matrix ({exc})", src, key) from None
+            if a.dtype.kind not in "fiu":
+                raise DataError(f"matrix must be real, got dtype {a.dtype}", src, key)
+            a = a.astype(np.float64)
+            a.sum_duplicates()
+            if a.ndim != 2 or a.shape[0] != a.shape[1]:
+                raise DataError(f"matrix must be square, got shape {a.shape}", src, key)
+            if not np.all(np.isfinite(a.data)):
+                bad = int(np.count_nonzero(~np.isfinite(a.data)))
+                raise DataError(f"matrix has {bad} NaN/Inf entries", src, key)
+            mats[key] = a
+        n = mats["M"].shape[0]
+        for key, a in mats.items():
+            if a.shape != (n, n):
+                raise DataError(f"shape {a.shape} does not match M's {(n, n)}", src, key)
+            set_(self, key, a)
+
+        nodes = np.asarray(self.nodes, dtype=np.float64)
+        if nodes.ndim != 2 or nodes.shape[1] != 4:
+            raise DataError(f"node table must be (nn, 4) id,x,y,z, got {nodes.shape}", src,
+                            "nodes")
+        if not np.all(np.isfinite(nodes)):
+            raise DataError("node table has NaN/Inf entries", src, "nodes")
+        if np.any(nodes[:, 0] != np.round(nodes[:, 0])):
+            raise DataError("node ids must be integers", src, "nodes")
+        if np.unique(nodes[:, 0]).size != nodes.shape[0]:
+            raise DataError("node ids are not unique", src, "nodes")
+        set_(self, "nodes", nodes)
+
+        dof_node = np.asarray(self.dof_node)
+        if dof_node.shape != (n,):
+            raise DataError(f"DOF map has {dof_node.size} entries but the matrices have {n} "
+                            "rows", src, "dofs")
+        if dof_node.dtype.kind == "f" and np.any(dof_node != np.round(dof_node)):
+            raise DataError("DOF node ids must be integers", src, "dofs")
+        dof_node = dof_node.astype(np.int64)
+        missing = np.setdiff1d(dof_node, nodes[:, 0].astype(np.int64))
+        if missing.size:
+            raise DataError(f"DOFs refer to node ids not in the node table: "
+                            f"{missing[:5].tolist()}", src, "dofs")
+        dof_kind = np.asarray(self.dof_kind).astype(str)
+        if dof_kind.shape != (n,):
+            raise DataError(f"DOF kinds have {dof_kind.size} entries, expected {n}", src,
+                            "dofs")
+        unknown = np.setdiff1d(dof_kind, DOF_KINDS)
+        if unknown.size:
+            raise DataError(f"unknown DOF kinds {unknown[:5].tolist()} (allowed: "
+                            f"{', '.join(DOF_KINDS)})", src, "dofs")
+        code = dof_node * len(DOF_KINDS) + np.searchsorted(np.array(DOF_KINDS),
+                                                           dof_kind, sorter=_KIND_SORTER)
+        if np.unique(code).size != n:
+            raise DataError("a (node, kind) pair occurs more than once in the DOF map", src,
+                            "dofs")
+        set_(self, "dof_node", dof_node)
+        set_(self, "dof_kind", dof_kind)
+
+        for label in ("inputs", "outputs"):
+            table = {}
+            for name, pairs in dict(getattr(self, label)).items():
+                try:
+                    arr = np.asarray(pairs, dtype=np.float64).reshape(-1, 2)
+                except (TypeError, ValueError):
+                    raise DataError("entries must be [dof_index, weight] pairs", src,
+                                    f"{label}.{name}") from None
+                if arr.shape[0] == 0:
+                    raise DataError("no DOFs", src, f"{label}.{name}")
+                if not np.all(np.isfinite(arr)):
+                    raise DataError("NaN/Inf entries", src, f"{label}.{name}")
+                idx = arr[:, 0]
+                if np.any(idx != np.round(idx)) or np.any(idx < 0) or np.any(idx >= n):
+                    raise DataError(f"DOF indices must be integers in [0, {n})", src,
+                                    f"{label}.{name}")
+                table[str(name)] = tuple((int(i), float(w)) for i, w in arr)
+            set_(self, label, table)
+
+        if self.kind not in FE_KINDS:
+            raise DataError(f"unknown kind {self.kind!r} (allowed: {', '.join(FE_KINDS)})",
+                            src, "kind")
+        is_p = dof_kind == "p"
+        if self.kind == "structural" and is_p.any():
+            raise DataError("a structural model has pressure DOFs", src, "dofs")
+        if self.kind == "acoustic" and not is_p.all():
+            raise DataError("an acoustic model has only pressure DOFs", src, "dofs")
+        if self.kind == "up-coupled":
+            if self.density is None or not np.isfinite(self.density) or self.density <= 0:
+                raise DataError(f"an up-coupled model needs a positive fluid density, got "
+                                f"{self.density!r}", src, "density")
+            if is_p.all() or not is_p.any():
+                raise DataError("an up-coupled model needs both displacement and pressure "
+                                "DOFs", src, "dofs")
+            set_(self, "density", float(self.density))
+            self._check_up_blocks(is_p)
+
+        sym = {str(k): bool(v) for k, v in dict(self.symmetric).items()}
+        for key, declared in sym.items():
+            if key not in ("M", "K", "D"):
+                raise DataError(f"symmetry declared for unknown matrix {key!r}", src,
+                                "symmetric")
+            a = getattr(self, key)
+            if declared and a is not None and _asymmetry(a) > SYMMETRY_RTOL:
+                raise DataError(f"declared symmetric but max|A−Aᵀ|/max|A| = "
+                                f"{_asymmetry(a):.3g}", src, key)
+        set_(self, "symmetric", sym)
+
+    def _check_up_blocks(self, is_p: np.ndarray) -> None:
+        """Block structure of Eq. (2): ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ``."""
+        src, rho = self.source, self.density
+        u, p = np.flatnonzero(~is_p), np.flatnonzero(is_p)
+        M, K = self.M, self.K
+        scale_m, scale_k = _max_abs(M), _max_abs(K)
+        if _max_abs(M[u][:, p]) > SYMMETRY_RTOL * scale_m:
+            raise DataError("up-coupled: the u–p block of M (rows u, columns p) must be zero "
+                            "(Eq. (2))", src, "M")
+        if _max_abs(K[p][:, u]) > SYMMETRY_RTOL * scale_k:
+            raise DataError("up-coupled: the p–u block of K (rows p, columns u) must be zero "
+                            "(Eq. (2))", src, "K")
+        m_pu, k_up = M[p][:, u], K[u][:, p]
+        ref = max(_max_abs(m_pu), rho * _max_abs(k_up))
+        if ref > 0 and _max_abs(m_pu + rho * k_up.T) > 1e-8 * ref:
+            raise DataError("up-coupled: M_pu must equal ρ·Cᵀ = −ρ·K_upᵀ (Eq. (2)) with the "
+                            f"declared density ρ = {rho}", src, "M")
+        for key, a, idx in (("M", M, u), ("K", K, u), ("M", M, p), ("K", K, p)):
+            block = a[idx][:, idx]
+            if _asymmetry(block) > SYMMETRY_RTOL:
+                part = "structure" if idx is u else "fluid"
+                raise DataError(f"up-coupled: the {part} block must be symmetric (Eq. (2)), "
+                                f"asymmetry {_asymmetry(block):.3g}", src, key)
+
+    # ------------------------------------------------------------------ derived data
+    @property
+    def n_dofs(self) -> int:
+        """Number of DOFs ``n``."""
+        return self.M.shape[0]
+
+    @cached_property
+    def pressure_dofs(self) -> np.ndarray:
+        """Boolean mask of the pressure DOFs."""
+        return self.dof_kind == "p"
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        return tuple(self.inputs)
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return tuple(self.outputs)
+
+    def _table(self, label: str, names: Sequence[str] | str | None) -> np.ndarray:
+        table = getattr(self, label)
+        if names is None:
+            names = list(table)
+        elif isinstance(names, str):
+            names = [names]
+        out = np.zeros((self.n_dofs, len(names)))
+        for j, name in enumerate(names):
+            if name not in table:
+                raise DataError(f"unknown {label[:-1]} {name!r} (known: "
+                                f"{', '.join(table) or 'none'})", self.source, label)
+            pairs = np.asarray(table[name]).reshape(-1, 2)
+            np.add.at(out[:, j], pairs[:, 0].astype(np.int64), pairs[:, 1])
+        return out
+
+    def B(self, names: Sequence[str] | str | None = None) -> np.ndarray:
+        """Dense n×k input matrix of the named inputs (all, in order, by default)."""
+        return self._table("inputs", names)
+
+    def C(self, names: Sequence[str] | str | None = None) -> np.ndarray:
+        """Dense k×n output matrix of the named outputs (all, in order, by default)."""
+        return self._table("outputs", names).T
+
+    def dofs_of_nodes(self, node_ids: Sequence[int] | np.ndarray) -> np.ndarray:
+        """Indices of all DOFs of the given nodes, in DOF order."""
+        ids = np.asarray(node_ids, dtype=np.int64)
+        missing = np.setdiff1d(ids, self.nodes[:, 0].astype(np.int64))
+        if missing.size:
+            raise DataError(f"unknown node ids {missing[:5].tolist()}", self.source, "nodes")
+        return np.flatnonzero(np.isin(self.dof_node, ids))
+
+    def io_nodes(self) -> np.ndarray:
+        """Sorted ids of the nodes carrying an input or output DOF."""
+        idx = [i for table in (self.inputs, self.outputs) for pairs in table.values()
+               for i, _ in pairs]
+        return np.unique(self.dof_node[np.asarray(idx, dtype=np.int64)])
+
+    def with_(self, **changes) -> FEModel:
+        """A validated copy with some fields changed (pyMOR's ``with_``)."""
+        return dataclasses.replace(self, **changes)
+
+
+_KIND_SORTER = np.argsort(np.array(DOF_KINDS))

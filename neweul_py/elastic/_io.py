@@ -1,0 +1,100 @@
+"""Small file helpers shared by the FE-model and reduced-body formats.
+
+* atomic writes: data go to a temporary file in the target directory, are flushed and
+  fsync'ed, and then replace the target with :func:`os.replace` (atomic on POSIX and
+  Windows), so an interrupted write never leaves a partial file behind;
+* JSON metadata stored *inside* an ``.npz`` as a ``uint8`` array (UTF-8 bytes), so a single
+  file carries arrays and metadata and ``numpy.load(..., allow_pickle=False)`` reads both.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from ..errors import DataError
+
+__all__ = [
+    "atomic_write",
+    "json_from_uint8",
+    "json_to_uint8",
+    "load_npz",
+    "save_npz_atomic",
+]
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], None]) -> None:
+    """Write ``path`` atomically: ``write(fh)`` into a temp file, then :func:`os.replace`.
+
+    Parameters
+    ----------
+    path
+        Target file.
+    write
+        Callable that writes the whole content to the binary file handle it receives.
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def json_to_uint8(obj: Any) -> np.ndarray:
+    """Encode a JSON-serializable object as a ``uint8`` array of UTF-8 bytes."""
+    text = json.dumps(obj, sort_keys=True, allow_nan=False)
+    return np.frombuffer(text.encode("utf-8"), dtype=np.uint8).copy()
+
+
+def json_from_uint8(arr: np.ndarray, file: str | None = None, item: str = "meta") -> Any:
+    """Decode :func:`json_to_uint8`; a :class:`DataError` naming ``file`` on failure."""
+    if arr.dtype != np.uint8 or arr.ndim != 1:
+        raise DataError("metadata must be a 1-D uint8 array of UTF-8 JSON", file, item)
+    try:
+        return json.loads(arr.tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DataError(f"metadata is not valid UTF-8 JSON ({exc})", file, item) from None
+
+
+def save_npz_atomic(path: str | os.PathLike, arrays: Mapping[str, np.ndarray]) -> None:
+    """Save ``arrays`` as an uncompressed ``.npz`` atomically (no object arrays, no pickles)."""
+    for key, value in arrays.items():
+        if np.asarray(value).dtype == object:
+            raise TypeError(f"array {key!r} has dtype object; it would need pickling")
+    atomic_write(path, lambda fh: np.savez(fh, **arrays))
+
+
+def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Load every array of an ``.npz`` with ``allow_pickle=False`` into a dict.
+
+    Raises
+    ------
+    DataError
+        The file is missing, not an ``.npz`` or holds pickled objects.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {key: data[key] for key in data.files}
+    except FileNotFoundError:
+        raise DataError("file not found", str(path)) from None
+    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        raise DataError(f"not a readable .npz file ({exc})", str(path)) from None
+    except ValueError as exc:  # object arrays refuse to load without pickles
+        raise DataError(f"unreadable array ({exc})", str(path)) from None

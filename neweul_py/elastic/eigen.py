@@ -1,0 +1,236 @@
+"""Sparse shift-invert eigensolvers for the (possibly unsymmetric) undamped pencil ``(K, M)``.
+
+``K x = λ M x`` is solved through the standard problem of the shift-inverted operator
+``(K − σM)⁻¹ M x = θ x``, ``λ = σ + 1/θ`` (ARPACK via :func:`scipy.sparse.linalg.eigs` on a
+:class:`~scipy.sparse.linalg.LinearOperator`; ``eigs(K, M=M, sigma=…)`` is *not* used since it
+assumes a symmetric ``M``). Left eigenvectors ``(K − λM)ᵀ w = 0`` come from the transposed
+operator ``(K − σM)⁻ᵀ Mᵀ`` with the *same* sparse LU, or — for u–p coupled models of Eq. (2) —
+from the right ones for free: ``w = [ρλu; p]`` (``reference/equations.md`` §3). ``λ = 0`` modes
+(closed-cavity constant pressure, rigid-body modes) get their left vectors from the transposed
+problem by subspace iteration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from ..errors import DataError, SolverError
+from .fe_model import FEModel
+
+__all__ = [
+    "EigenBlock",
+    "ShiftInvert",
+    "default_shift",
+    "left_blocks",
+    "right_blocks",
+]
+
+Progress = Callable[[str], None] | None
+#: Relative tolerance (of max |λ|) below which an imaginary part is numerical noise.
+REAL_RTOL = 1e-7
+#: Relative distance (of max |λ|) within which eigenvalues form one (degenerate) cluster.
+CLUSTER_RTOL = 1e-8
+
+
+class ShiftInvert:
+    """Sparse LU of ``K − σM`` and the operators ``(K − σM)⁻¹ M`` and ``(K − σM)⁻ᵀ Mᵀ``.
+
+    Parameters
+    ----------
+    K, M
+        Sparse n×n matrices.
+    sigma
+        The shift (real or complex).
+    source
+        File named in errors.
+
+    Raises
+    ------
+    DataError
+        ``K − σM`` is (numerically) singular at this shift (item ``"K − σM"``).
+    """
+
+    def __init__(self, K: sps.spmatrix, M: sps.spmatrix, sigma: complex,
+                 source: str | None = None, D: sps.spmatrix | None = None) -> None:
+        self.sigma = sigma
+        self.M = M.tocsr()
+        self.MT = M.T.tocsr()
+        A = K - sigma * M if D is None else K + sigma * D + sigma**2 * M
+        what = "K − σM" if D is None else "K + s0·D + s0²·M"
+        try:
+            self.lu = spla.splu(sps.csc_matrix(A))
+        except RuntimeError as exc:
+            raise DataError(f"shift {sigma:g} makes the matrix singular ({exc}); choose "
+                            "another shift", source, what) from None
+        d = np.abs(self.lu.U.diagonal())
+        if d.size and (not np.all(np.isfinite(d)) or d.min() <= 1e-14 * d.max()):
+            raise DataError(f"shift {sigma:g} makes the matrix numerically singular "
+                            f"(pivot ratio {d.min() / d.max():.2g}); choose another shift",
+                            source, what)
+        self.n = A.shape[0]
+        self.dtype = np.result_type(A.dtype, np.float64)
+
+    def solve(self, b: np.ndarray, transpose: bool = False) -> np.ndarray:
+        """``(K − σM)⁻¹ b`` or ``(K − σM)⁻ᵀ b`` (column-wise for 2-D ``b``)."""
+        b = np.asarray(b, dtype=np.result_type(b, self.dtype))
+        return self.lu.solve(b, trans="T" if transpose else "N")
+
+    def operator(self, transpose: bool = False) -> spla.LinearOperator:
+        """The shift-inverted operator ``(K − σM)⁻¹ M`` (or ``(K − σM)⁻ᵀ Mᵀ``)."""
+        m = self.MT if transpose else self.M
+
+        def mv(x: np.ndarray) -> np.ndarray:
+            return self.solve(m @ x, transpose)
+
+        return spla.LinearOperator((self.n, self.n), matvec=mv, matmat=mv, dtype=self.dtype)
+
+
+def default_shift(fe: FEModel) -> float:
+    """A small negative shift ``σ = −10⁻⁸ λ_est`` below the spectrum.
+
+    ``λ_est = max(diag K / diag M)`` estimates the top of the spectrum ``λ = ω² ≥ 0``; the
+    shift keeps ``K − σM`` regular when ``K`` is singular (constant-pressure mode of a closed
+    cavity, rigid-body modes) while leaving the nearest eigenvalues the lowest ones.
+    """
+    dk, dm = np.abs(fe.K.diagonal()), np.abs(fe.M.diagonal())
+    ok = dm > 0
+    est = float(np.max(dk[ok] / dm[ok])) if ok.any() else 1.0
+    return -1e-8 * (est if est > 0 else 1.0)
+
+
+@dataclass(frozen=True)
+class EigenBlock:
+    """Eigenvalue(s) and a real basis of the matching invariant subspace.
+
+    ``values`` has one entry per column of ``basis``: ``m`` copies of a real eigenvalue
+    (cluster of multiplicity m), or ``λ, λ̄`` alternating for a complex pair whose real basis
+    is ``[Re x, Im x]``.
+    """
+
+    values: np.ndarray
+    basis: np.ndarray
+
+    @property
+    def center(self) -> complex:
+        return complex(np.mean(self.values[:: 2 if self.is_complex else 1]))
+
+    @property
+    def is_complex(self) -> bool:
+        return bool(np.iscomplexobj(self.values) and np.any(self.values.imag != 0))
+
+
+def _arpack(op: spla.LinearOperator, k: int, n: int, source: str | None) -> tuple:
+    if k >= n - 1:
+        raise DataError(f"{k} eigenpairs requested but the model has only {n} DOFs (the "
+                        "sparse eigensolver needs fewer than n − 1)", source, "modes")
+    ncv = min(n, max(2 * k + 1, 20))
+    rng = np.random.default_rng(12345)
+    v0 = rng.standard_normal(n)
+    try:
+        return spla.eigs(op, k=k, which="LM", ncv=ncv, v0=v0, maxiter=max(1000, 10 * n))
+    except spla.ArpackNoConvergence as exc:
+        raise SolverError(f"ARPACK did not converge ({len(exc.eigenvalues)} of {k} "
+                          "eigenpairs)", last_iterate=exc.eigenvalues) from None
+
+
+def _blocks(lam: np.ndarray, X: np.ndarray, sigma: complex) -> list[EigenBlock]:
+    """Group eigenpairs into clusters and give each a real basis, nearest to σ first."""
+    scale = max(float(np.max(np.abs(lam))), np.finfo(float).tiny)
+    lam = np.where(np.abs(lam.imag) <= REAL_RTOL * scale, lam.real + 0j, lam)
+    keep = lam.imag >= 0  # a complex pair is represented by its upper member
+    lower = np.flatnonzero(~keep)
+    for i in lower:  # lone lower members (partner not computed) are conjugated
+        if not np.any(np.abs(lam[keep] - np.conj(lam[i])) <= CLUSTER_RTOL * scale * 10):
+            lam[i], X[:, i], keep[i] = np.conj(lam[i]), np.conj(X[:, i]), True
+    lam, X = lam[keep], X[:, keep]
+    order = np.lexsort((lam.imag, lam.real))
+    lam, X = lam[order], X[:, order]
+    cut = np.flatnonzero(np.abs(np.diff(lam)) > CLUSTER_RTOL * scale) + 1
+    blocks = []
+    for idx in np.split(np.arange(lam.size), cut):
+        values, xs = lam[idx], X[:, idx]
+        m = idx.size
+        real = np.all(values.imag == 0)
+        Y = np.concatenate([xs.real, xs.imag], axis=1)
+        U = np.linalg.svd(Y, full_matrices=False)[0]
+        if real:
+            basis, vals = U[:, :m], np.full(m, values.real.mean())
+        else:
+            basis = U[:, : 2 * m]
+            c = values.mean()
+            vals = np.tile(np.array([c, np.conj(c)]), m)
+        blocks.append(EigenBlock(vals, basis))
+    blocks.sort(key=lambda b: abs(b.center - sigma))
+    return blocks
+
+
+def right_blocks(si: ShiftInvert, k: int, source: str | None = None) -> list[EigenBlock]:
+    """The ``k`` eigenpairs of ``K x = λ M x`` nearest ``σ``, as real blocks (nearest first).
+
+    References
+    ----------
+    Ericsson & Ruhe (1980), the spectral transformation Lanczos/Arnoldi method; ARPACK
+    (Lehoucq, Sorensen & Yang 1998) mode 1 on ``(K − σM)⁻¹ M``.
+    """
+    theta, X = _arpack(si.operator(), k, si.n, source)
+    return _blocks(si.sigma + 1.0 / theta, X, si.sigma)
+
+
+def _left_null(si: ShiftInvert, K: sps.spmatrix, m: int) -> np.ndarray:
+    """Left null space of ``K`` (dimension m) by subspace iteration on ``(K − σM)⁻ᵀ Mᵀ``."""
+    rng = np.random.default_rng(2024)
+    Z, _ = np.linalg.qr(rng.standard_normal((si.n, m)))
+    for _ in range(300):
+        Znew, _ = np.linalg.qr(np.real(si.solve(si.MT @ Z, transpose=True)))
+        change = np.linalg.norm(Znew - Z @ (Z.T @ Znew))
+        Z = Znew
+        if change < 1e-13:
+            return Z
+    raise SolverError("left null vectors (λ = 0) did not converge by subspace iteration; "
+                      "use a shift closer to 0", residual=change)
+
+
+def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: int,
+                up_relation: bool = True) -> list[EigenBlock]:
+    """Left eigenvector blocks matching ``right`` block by block.
+
+    For ``up-coupled`` models (and ``up_relation``) each real nonzero block uses the u–p
+    relation ``w = [ρλu; p]`` (§3); blocks with ``λ ≈ 0`` use the transposed problem (left
+    null space). Otherwise the transposed problem ``(K − σM)⁻ᵀ Mᵀ`` is solved with ARPACK
+    (``k_ext`` eigenpairs, same LU) and its clusters are matched by eigenvalue.
+
+    Raises
+    ------
+    SolverError
+        A right cluster has no left cluster of the same eigenvalue and dimension.
+    """
+    scale = max(abs(b.center) for b in right) or 1.0
+    zero_tol = 1e-6 * scale
+    if (fe.kind == "up-coupled" and up_relation
+            and not any(b.is_complex for b in right)):
+        out = []
+        scale_u = fe.density * np.where(fe.pressure_dofs, 0.0, 1.0)
+        for b in right:
+            lam = b.values[0].real
+            if abs(lam) <= zero_tol:
+                out.append(EigenBlock(b.values, _left_null(si, fe.K, b.values.size)))
+            else:
+                w = b.basis * np.where(fe.pressure_dofs, 1.0, scale_u * lam)[:, None]
+                out.append(EigenBlock(b.values, w))
+        return out
+    theta, X = _arpack(si.operator(transpose=True), k_ext, si.n, fe.source)
+    lefts = _blocks(si.sigma + 1.0 / theta, X, si.sigma)
+    out = []
+    for b in right:
+        dist = [abs(lb.center - b.center) for lb in lefts]
+        j = int(np.argmin(dist))
+        if dist[j] > 1e3 * CLUSTER_RTOL * scale or lefts[j].basis.shape[1] != b.basis.shape[1]:
+            raise SolverError(f"no left eigenvector cluster matches λ = {b.center:.6g} "
+                              f"(multiplicity {b.basis.shape[1]})")
+        out.append(lefts[j])
+    return out

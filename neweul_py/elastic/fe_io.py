@@ -1,0 +1,348 @@
+"""Reading and writing FE models: a JSON manifest with Matrix Market / Harwell–Boeing files and
+CSV tables, or a single ``.npz``.
+
+Manifest (``"format": "neweul-fe"``, ``"version": 1``)::
+
+    {
+      "format": "neweul-fe", "version": 1, "name": "duct",
+      "kind": "up-coupled", "density": 1.2,
+      "matrices": {"M": "duct.M.mtx", "K": "duct.K.mtx", "D": "duct.D.mtx"},
+      "symmetric": {"M": false, "K": false},
+      "nodes": "duct.nodes.csv",          # header id,x,y,z
+      "dofs": "duct.dofs.csv",            # header index,node,kind (index 0-based)
+      "inputs": {"force": [[0, 1.0]]},
+      "outputs": {"p_end": [[12, 1.0]]}
+    }
+
+Matrix files: ``.mtx`` (Matrix Market, :func:`scipy.io.mmread`) or Harwell–Boeing
+(``.hb``, ``.rua``, ``.rsa``, :func:`scipy.io.hb_read`); ``"D"`` is optional. Paths are
+relative to the manifest. Every error is a :class:`~neweul_py.errors.DataError` naming the file
+and the matrix or table.
+
+The ``.npz`` form holds the CSR arrays ``<X>_data``, ``<X>_indices``, ``<X>_indptr``,
+``<X>_shape`` for X in M, K (and D), ``nodes``, ``dof_node``, ``dof_kind`` (unicode) and
+``meta`` (UTF-8 JSON as uint8: format, version, name, kind, density, symmetric, inputs,
+outputs). It is read with ``allow_pickle=False``.
+
+Writers are atomic: a single file is written to a temp file and moved with ``os.replace``; a
+manifest's files are written to a temporary directory next to it, moved into place, and the
+manifest itself is moved last.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.io
+import scipy.sparse as sps
+
+from ..errors import DataError
+from ._io import atomic_write, json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
+from .fe_model import FEModel
+
+__all__ = ["FE_FORMAT", "FE_VERSION", "read_fe_model", "write_fe_model"]
+
+FE_FORMAT = "neweul-fe"
+FE_VERSION = 1
+_HB_SUFFIXES = (".hb", ".rua", ".rsa", ".hb.txt")
+
+
+# ---------------------------------------------------------------------- public API
+def read_fe_model(path: str | os.PathLike) -> FEModel:
+    """Read an FE model from a JSON manifest (``.json``) or a single ``.npz``.
+
+    Parameters
+    ----------
+    path
+        The manifest or ``.npz`` file.
+
+    Returns
+    -------
+    FEModel
+        Validated; ``source`` is ``str(path)``.
+
+    Raises
+    ------
+    DataError
+        Naming the file and the matrix/table at fault.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".npz":
+        return _read_npz(path)
+    return _read_manifest(path)
+
+
+def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "mtx") -> None:
+    """Write ``fe`` as a manifest (``.json``, with ``matrix_format`` files) or ``.npz``.
+
+    Parameters
+    ----------
+    fe
+        The model.
+    path
+        Target; the suffix picks the form (``.npz`` or ``.json``). Companion files of a
+        manifest are named ``<stem>.M.mtx``, ``<stem>.nodes.csv``, … next to it.
+    matrix_format
+        ``"mtx"`` (Matrix Market) or ``"hb"`` (Harwell–Boeing, written as ``.rua``).
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".npz":
+        _write_npz(fe, path)
+    else:
+        _write_manifest(fe, path, matrix_format)
+
+
+# ---------------------------------------------------------------------- manifest
+def _meta(fe: FEModel) -> dict[str, Any]:
+    return {
+        "format": FE_FORMAT,
+        "version": FE_VERSION,
+        "name": fe.name,
+        "kind": fe.kind,
+        "density": fe.density,
+        "symmetric": dict(fe.symmetric),
+        "inputs": {k: [list(p) for p in v] for k, v in fe.inputs.items()},
+        "outputs": {k: [list(p) for p in v] for k, v in fe.outputs.items()},
+    }
+
+
+def _check_header(meta: Any, file: str) -> None:
+    if not isinstance(meta, dict):
+        raise DataError("top level must be a JSON object", file, "manifest")
+    if meta.get("format") != FE_FORMAT:
+        raise DataError(f"\"format\" must be {FE_FORMAT!r}, got {meta.get('format')!r}", file,
+                        "format")
+    if meta.get("version") != FE_VERSION:
+        raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
+                        f"{FE_VERSION})", file, "version")
+    for key in ("inputs", "outputs", "symmetric"):
+        if not isinstance(meta.get(key, {}), dict):
+            raise DataError("must be an object", file, key)
+
+
+def _read_manifest(path: Path) -> FEModel:
+    file = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise DataError("file not found", file) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"cannot read ({exc})", file) from None
+    try:
+        meta = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DataError(f"invalid JSON: {exc.msg}", file, "manifest", exc.lineno) from None
+    _check_header(meta, file)
+    mats = meta.get("matrices")
+    if not isinstance(mats, dict) or "M" not in mats or "K" not in mats:
+        raise DataError("needs \"matrices\" with at least \"M\" and \"K\" file names", file,
+                        "matrices")
+    unknown = set(mats) - {"M", "K", "D"}
+    if unknown:
+        raise DataError(f"unknown matrices {sorted(unknown)}", file, "matrices")
+    base = path.parent
+    matrices = {key: _read_matrix(base, mats[key], key, file) for key in mats}
+    for key in ("nodes", "dofs"):
+        if not isinstance(meta.get(key), str):
+            raise DataError("needs a CSV file name", file, key)
+    nodes = _read_nodes(base / meta["nodes"])
+    index, dof_node, dof_kind = _read_dofs(base / meta["dofs"])
+    n = matrices["M"].shape[0]
+    dfile = str(base / meta["dofs"])
+    if np.sort(index).tolist() != list(range(index.size)):
+        raise DataError("the index column must be a permutation of 0 … n−1", dfile, "dofs")
+    if index.size != n:
+        raise DataError(f"{index.size} DOFs listed but the matrices are {n}×{n}", dfile,
+                        "dofs")
+    order = np.argsort(index)
+    return _build(file, meta, matrices, nodes, dof_node[order], dof_kind[order])
+
+
+def _build(file: str, meta: dict, matrices: dict, nodes, dof_node, dof_kind) -> FEModel:
+    kind = meta.get("kind", "structural")
+    return FEModel(
+        M=matrices["M"], K=matrices["K"], D=matrices.get("D"),
+        nodes=nodes, dof_node=dof_node, dof_kind=dof_kind,
+        inputs=meta.get("inputs", {}), outputs=meta.get("outputs", {}),
+        kind=kind, density=meta.get("density"), name=str(meta.get("name", Path(file).stem)),
+        symmetric=meta.get("symmetric", {}), source=file,
+    )
+
+
+def _read_matrix(base: Path, name: Any, key: str, manifest: str) -> sps.csr_matrix:
+    if not isinstance(name, str):
+        raise DataError("matrix entry must be a file name", manifest, key)
+    path = base / name
+    file = str(path)
+    if not path.is_file():
+        raise DataError("matrix file not found", file, key)
+    try:
+        if path.name.lower().endswith(_HB_SUFFIXES):
+            a = scipy.io.hb_read(file)
+        else:
+            a = scipy.io.mmread(file)
+    except Exception as exc:  # the readers raise many kinds of errors on bad files
+        raise DataError(f"cannot read matrix ({type(exc).__name__}: {exc})", file, key) from None
+    if not sps.issparse(a):
+        a = sps.csr_matrix(np.asarray(a))
+    if a.dtype.kind == "c":
+        raise DataError("complex matrices are not supported", file, key)
+    a = sps.csr_matrix(a, dtype=np.float64)
+    if not np.all(np.isfinite(a.data)):
+        raise DataError(f"matrix has {np.count_nonzero(~np.isfinite(a.data))} NaN/Inf "
+                        "entries", file, key)
+    return a
+
+
+def _read_csv(path: Path, header: list[str], item: str) -> np.ndarray:
+    file = str(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            first = fh.readline()
+            cols = [c.strip().lower() for c in first.strip().split(",")]
+            if cols != header:
+                raise DataError(f"header must be {','.join(header)}, got {first.strip()!r}",
+                                file, item, 1)
+            table = np.loadtxt(fh, delimiter=",", dtype=str, ndmin=2)
+    except FileNotFoundError:
+        raise DataError("file not found", file, item) from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise DataError(f"cannot read CSV ({exc})", file, item) from None
+    if table.size == 0:
+        table = table.reshape(0, len(header))
+    if table.shape[1] != len(header):
+        raise DataError(f"expected {len(header)} columns, got {table.shape[1]}", file, item)
+    return np.char.strip(table)
+
+
+def _numbers(col: np.ndarray, file: str, item: str, what: str, start_line: int = 2):
+    try:
+        return col.astype(np.float64)
+    except ValueError:
+        bad = next(i for i, s in enumerate(col) if not _is_float(s))
+        raise DataError(f"{what} {col[bad]!r} is not a number", file, item,
+                        start_line + bad) from None
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_nodes(path: Path) -> np.ndarray:
+    table = _read_csv(path, ["id", "x", "y", "z"], "nodes")
+    return _numbers(table, str(path), "nodes", "entry")
+
+
+def _read_dofs(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    file = str(path)
+    table = _read_csv(path, ["index", "node", "kind"], "dofs")
+    index = _numbers(table[:, 0], file, "dofs", "index")
+    node = _numbers(table[:, 1], file, "dofs", "node id")
+    for col, what in ((index, "index"), (node, "node id")):
+        if np.any(col != np.round(col)):
+            bad = int(np.flatnonzero(col != np.round(col))[0])
+            raise DataError(f"{what} must be an integer", file, "dofs", bad + 2)
+    return index.astype(np.int64), node.astype(np.int64), table[:, 2]
+
+
+def _write_manifest(fe: FEModel, path: Path, matrix_format: str) -> None:
+    if matrix_format not in ("mtx", "hb"):
+        raise ValueError(f"matrix_format must be 'mtx' or 'hb', got {matrix_format!r}")
+    ext = ".mtx" if matrix_format == "mtx" else ".rua"
+    stem = path.stem
+    directory = path.parent if str(path.parent) else Path(".")
+    directory.mkdir(parents=True, exist_ok=True)
+    meta = _meta(fe)
+    keys = ["M", "K"] + (["D"] if fe.D is not None else [])
+    names = {key: f"{stem}.{key}{ext}" for key in keys}
+    meta["matrices"] = names
+    meta["nodes"], meta["dofs"] = f"{stem}.nodes.csv", f"{stem}.dofs.csv"
+    tmpdir = Path(tempfile.mkdtemp(prefix=f".{stem}.", dir=directory))
+    try:
+        for key, name in names.items():
+            a = getattr(fe, key).tocsc()
+            if matrix_format == "mtx":
+                scipy.io.mmwrite(str(tmpdir / name), a, precision=17)
+            else:
+                scipy.io.hb_write(str(tmpdir / name), a)
+        ids = fe.nodes[:, 0].astype(np.int64)
+        with open(tmpdir / meta["nodes"], "w", encoding="utf-8") as fh:
+            fh.write("id,x,y,z\n")
+            xyz = np.char.mod("%.17g", fe.nodes[:, 1:])
+            lines = np.char.add(np.char.add(ids.astype(str), ","), _join(xyz))
+            fh.write("\n".join(lines.tolist()) + ("\n" if lines.size else ""))
+        with open(tmpdir / meta["dofs"], "w", encoding="utf-8") as fh:
+            fh.write("index,node,kind\n")
+            cols = np.stack([np.arange(fe.n_dofs).astype(str), fe.dof_node.astype(str),
+                             fe.dof_kind.astype(str)], axis=1)
+            lines = _join(cols)
+            fh.write("\n".join(lines.tolist()) + ("\n" if lines.size else ""))
+        for name in [*names.values(), meta["nodes"], meta["dofs"]]:
+            os.replace(tmpdir / name, directory / name)
+        text = json.dumps(meta, indent=2, allow_nan=False) + "\n"
+        atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+    finally:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+
+
+def _join(cols: np.ndarray) -> np.ndarray:
+    out = cols[:, 0].astype(object)
+    for j in range(1, cols.shape[1]):  # loop over the few columns, not the rows
+        out = out + "," + cols[:, j].astype(object)
+    return out.astype(str)
+
+
+# ---------------------------------------------------------------------- npz
+def _write_npz(fe: FEModel, path: Path) -> None:
+    arrays: dict[str, np.ndarray] = {"meta": json_to_uint8(_meta(fe))}
+    for key in ("M", "K", "D"):
+        a = getattr(fe, key)
+        if a is None:
+            continue
+        arrays[f"{key}_data"] = a.data
+        arrays[f"{key}_indices"] = a.indices.astype(np.int64)
+        arrays[f"{key}_indptr"] = a.indptr.astype(np.int64)
+        arrays[f"{key}_shape"] = np.asarray(a.shape, dtype=np.int64)
+    arrays["nodes"] = fe.nodes
+    arrays["dof_node"] = fe.dof_node
+    arrays["dof_kind"] = fe.dof_kind.astype("U2")
+    save_npz_atomic(path, arrays)
+
+
+def _read_npz(path: Path) -> FEModel:
+    file = str(path)
+    data = load_npz(path)
+    if "meta" not in data:
+        raise DataError("missing the \"meta\" array", file, "meta")
+    meta = json_from_uint8(data["meta"], file)
+    _check_header(meta, file)
+    matrices = {}
+    for key in ("M", "K", "D"):
+        parts = [f"{key}_{s}" for s in ("data", "indices", "indptr", "shape")]
+        present = [p in data for p in parts]
+        if not any(present) and key == "D":
+            continue
+        if not all(present):
+            raise DataError(f"needs arrays {', '.join(parts)}", file, key)
+        d, ind, ptr, shape = (data[p] for p in parts)
+        try:
+            matrices[key] = sps.csr_matrix((d.astype(np.float64), ind, ptr),
+                                           shape=tuple(int(s) for s in shape))
+            matrices[key].check_format(full_check=True)
+        except (ValueError, TypeError, IndexError) as exc:
+            raise DataError(f"inconsistent CSR arrays ({exc})", file, key) from None
+    for key in ("nodes", "dof_node", "dof_kind"):
+        if key not in data:
+            raise DataError("missing array", file, key)
+    return _build(file, meta, matrices, data["nodes"], data["dof_node"], data["dof_kind"])
+

@@ -1,0 +1,265 @@
+"""Modal truncation of FE models, two-sided (Petrov–Galerkin) or one-sided (Galerkin).
+
+``reference/equations.md`` §3: ``V`` = selected right eigenvectors of the undamped pencil
+``K x = λ M x``, ``W`` = the matching left ones, scaled so that ``Wᵀ M V = I``; then
+``M_r = I``, ``K_r = Λ`` (the retained eigenvalues, exactly), ``D_r = Wᵀ D V``,
+``B_r = Wᵀ B``, ``C_r = C V``. Optional static correction (attachment / residual-flexibility
+vectors) adds ``K⁻¹ B`` on the right and ``K⁻ᵀ Cᵀ`` on the left.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..errors import DataError
+from .eigen import EigenBlock, ShiftInvert, default_shift, left_blocks, right_blocks
+from .fe_model import FEModel
+from .projection import biorthonormalize, build_reduced_body, orthonormal_append
+from .reduced_body import ReducedBody
+
+__all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
+
+Progress = Callable[[str], None] | None
+
+
+def _say(progress: Progress, msg: str) -> None:
+    if progress is not None:
+        progress(msg)
+
+
+def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
+            band: tuple[float, float] | None, progress: Progress) -> tuple[list, int]:
+    """Right blocks by count (nearest σ) or by band; returns (blocks, k used)."""
+    n = fe.n_dofs
+    if modes is not None:
+        if modes < 1:
+            raise DataError(f"modes must be ≥ 1, got {modes}", fe.source, "modes")
+        if modes > n - 2:
+            raise DataError(f"{modes} modes requested but the model has {n} DOFs (at most "
+                            f"{n - 2} with the sparse eigensolver)", fe.source, "modes")
+        k = min(modes + max(4, modes // 10), n - 2)
+        _say(progress, f"eigensolver: {k} eigenpairs of a {n}-DOF pencil near σ={si.sigma:.4g}")
+        blocks = right_blocks(si, k, fe.source)
+        kept, count = [], 0
+        for b in blocks:
+            if count >= modes:
+                break
+            kept.append(b)
+            count += b.basis.shape[1]
+        return kept, k
+    lo, hi = (2 * np.pi * band[0]) ** 2, (2 * np.pi * band[1]) ** 2
+    k = min(20, n - 2)
+    while True:
+        _say(progress, f"eigensolver: {k} eigenpairs of a {n}-DOF pencil near σ={si.sigma:.4g}")
+        blocks = right_blocks(si, k, fe.source)
+        inside = [b for b in blocks if lo <= b.center.real <= hi and b.center.imag == 0]
+        if len(inside) < len(blocks) or k >= n - 2:
+            break
+        k = min(2 * k, n - 2)
+    if not inside:
+        raise DataError(f"no modes in the band {band[0]:g}–{band[1]:g} Hz", fe.source, "band")
+    return inside, k
+
+
+def _pair(right: list[EigenBlock], left: list[EigenBlock], M) -> tuple:
+    """Per-cluster biorthonormalization ``W_cᵀ M V_c = I`` (dual left vectors)."""
+    V = np.concatenate([b.basis for b in right], axis=1)
+    W = np.concatenate([np.real(b.basis) for b in left], axis=1)
+    lam = np.concatenate([b.values for b in right])
+    V = V / np.linalg.norm(V, axis=0)
+    start = 0
+    for b in right:
+        sl = slice(start, start + b.basis.shape[1])
+        G = W[:, sl].T @ (M @ V[:, sl])
+        W[:, sl] = np.linalg.solve(G, W[:, sl].T).T
+        start = sl.stop
+    return V, W, lam
+
+
+def modal_bases(
+    fe: FEModel,
+    modes: int | None = None,
+    band: tuple[float, float] | None = None,
+    two_sided: bool = True,
+    shift: float | None = None,
+    progress: Progress = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, ShiftInvert]:
+    """Right and left modal bases of the undamped pencil ``(K, M)``.
+
+    Parameters
+    ----------
+    fe
+        The FE model.
+    modes, band
+        Exactly one: the number of modes nearest the shift (the lowest ones with the default
+        shift), or a frequency band ``(fmin, fmax)`` in Hz (``λ = (2πf)²``).
+    two_sided
+        Compute left eigenvectors (else ``W = V``, orthonormalized).
+    shift
+        Shift σ of the spectral transformation (in ``λ = ω²`` units). Default: a small
+        negative value (:func:`~neweul_py.elastic.eigen.default_shift`) for ``modes``, the
+        middle of the band for ``band``.
+    progress
+        Called with short messages on long steps.
+
+    Returns
+    -------
+    V, W, lam, si
+        (n, r) bases with ``Wᵀ M V = I`` (two-sided), the eigenvalues ``λ`` per column and
+        the shift-invert factorization (reused by :func:`add_static_correction`).
+    """
+    if (modes is None) == (band is None):
+        raise DataError("give exactly one of modes=N or band=(fmin, fmax)", fe.source,
+                        "modes")
+    if band is not None:
+        fmin, fmax = (float(x) for x in band)
+        if not (np.isfinite(fmin) and np.isfinite(fmax) and 0 <= fmin < fmax):
+            raise DataError(f"band must satisfy 0 ≤ fmin < fmax, got {band}", fe.source,
+                            "band")
+        band = (fmin, fmax)
+        if shift is None:
+            shift = 0.5 * ((2 * np.pi * fmin) ** 2 + (2 * np.pi * fmax) ** 2)
+    if shift is None:
+        shift = default_shift(fe)
+    _say(progress, f"factorizing K − σM (n={fe.n_dofs}, σ={shift:.4g})")
+    si = ShiftInvert(fe.K, fe.M, float(shift), fe.source)
+    right, k = _select(fe, si, modes, band, progress)
+    if two_sided:
+        _say(progress, "left eigenvectors")
+        left = left_blocks(fe, si, right, k)
+        V, W, lam = _pair(right, left, fe.M)
+    else:
+        V = np.concatenate([b.basis for b in right], axis=1)
+        lam = np.concatenate([b.values for b in right])
+    if modes is not None:
+        V, lam = V[:, :modes], lam[:modes]
+        if two_sided:
+            W = W[:, :modes]
+    if two_sided:
+        V, W = biorthonormalize(V, W, fe.M)
+        if not np.iscomplexobj(lam):  # two-sided Rayleigh quotients: more accurate than
+            lam = np.einsum("ij,ij->j", W, fe.K @ V)  # σ + 1/θ (second-order errors)
+    else:
+        V, _ = np.linalg.qr(V)
+        W = V
+    return V, W, lam, si
+
+
+def add_static_correction(
+    fe: FEModel, V: np.ndarray, W: np.ndarray, si: ShiftInvert, two_sided: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Append static (attachment) vectors to bases with ``Wᵀ M V = I``.
+
+    Right: ``(K − σM)⁻¹ B``, left: ``(K − σM)⁻ᵀ Cᵀ`` (``reference/equations.md`` §3; Craig &
+    Kurdila, *Fundamentals of Structural Dynamics*, 2006, §17.3 "residual flexibility").
+    The shift σ is the one of the factorization ``si``: ``σ = 0`` gives the classical
+    ``K⁻¹B``; the default small negative σ makes the correction work with a singular ``K``
+    (closed cavity, free structure) – it is then exact at ``s² = σ`` instead of ``s = 0``.
+    The new vectors are made M-biorthogonal to the existing ones by the oblique projection
+    ``X ← X − V (Wᵀ M X)``, ``Y ← Y − W (Vᵀ Mᵀ Y)`` (for eigenvector bases this removes
+    exactly the retained modes' share ``Σ vᵢ wᵢᵀ B / (λᵢ − σ)``, including the ``1/σ`` part
+    of zero modes: the residual flexibility), then biorthonormalized among themselves, so
+    that ``Wᵀ M V = I`` holds for the extended bases and the reduced ``K`` stays block
+    diagonal (retained eigenvalues unchanged). Both sides get both blocks — right
+    ``(K − σM)⁻¹ [B, Cᵀ]``, left ``(K − σM)⁻ᵀ [Cᵀ, B]`` — which keeps ``V`` and ``W`` equally
+    wide for any numbers of inputs and outputs and, for unsymmetric (u–p) models, avoids the
+    indefinite 1×1 static blocks that the minimal choice ``K⁻¹B`` / ``K⁻ᵀCᵀ`` can produce
+    (negative or complex extra eigenvalues, i.e. an unstable reduced model: observed on
+    random u–p models, see ``tests/elastic``). This is an empirical safeguard, not a
+    guarantee; check :func:`~neweul_py.elastic.quality.stability`.
+
+    Returns
+    -------
+    V, W
+        Extended bases (one-sided: ``W = V``, orthonormal).
+    """
+    B, C = fe.B(), fe.C()
+    if not two_sided:
+        Q = orthonormal_append(V, np.real(si.solve(B)))
+        return Q, Q
+    right_rhs, left_rhs = np.hstack([B, C.T]), np.hstack([C.T, B])
+    X = np.real(si.solve(right_rhs))
+    Y = np.real(si.solve(left_rhs, transpose=True))
+    empty = np.zeros((fe.n_dofs, 0))
+    for _ in range(2):  # oblique projection, repeated once for numerical safety
+        X = X - V @ (W.T @ (fe.M @ X))
+        Y = Y - W @ (V.T @ (fe.M.T @ Y))
+    X, Y = orthonormal_append(empty, X), orthonormal_append(empty, Y)
+    r = min(X.shape[1], Y.shape[1])
+    X, Y = biorthonormalize(X[:, :r], Y[:, :r], fe.M)
+    return np.hstack([V, X]), np.hstack([W, Y])
+
+
+def reduce_modal(
+    fe: FEModel,
+    modes: int | None = None,
+    band: tuple[float, float] | None = None,
+    two_sided: bool = True,
+    static_correction: bool = False,
+    shift: float | None = None,
+    keep_nodes: Sequence[int] | None = None,
+    store_bases: bool = False,
+    progress: Progress = None,
+) -> ReducedBody:
+    """Modal truncation: ``x ≈ V q`` with (left/right) eigenvectors of ``(K, M)``.
+
+    Two-sided (default): ``V`` right, ``W`` left eigenvectors (u–p relation ``[ρλu; p]``
+    for ``up-coupled`` models), ``Wᵀ M V = I``, so ``M_r = I`` and ``K_r = diag(λ)`` — the
+    retained eigenvalues are reproduced exactly and the reduced model of an unsymmetric
+    u–p model stays stable. One-sided: ``W = V`` (orthonormal), the classical choice for
+    symmetric models.
+
+    Parameters
+    ----------
+    fe
+        The FE model (never densified).
+    modes, band
+        Exactly one: number of modes (the lowest, with the default shift), or a band
+        ``(fmin, fmax)`` in Hz.
+    two_sided
+        Petrov–Galerkin (``True``) or Galerkin (``False``) projection.
+    static_correction
+        Add attachment vectors of the inputs/outputs (:func:`add_static_correction`).
+    shift
+        Shift σ (``λ = ω²`` units) of the spectral transformation; must not make
+        ``K − σM`` singular.
+    keep_nodes
+        Node ids whose basis rows are stored (default: input and output nodes).
+    store_bases
+        Also store the full ``V`` and ``W`` in the body.
+    progress
+        Called with messages on long steps (the CLI prints them to stderr).
+
+    Returns
+    -------
+    ReducedBody
+        With ``method="modal"`` and ``eigenvalues`` = the retained ``λ``.
+
+    Raises
+    ------
+    DataError
+        No modes in the band, more modes than DOFs, a singular shift.
+
+    References
+    ----------
+    ``reference/equations.md`` §3; Craig & Kurdila (2006) ch. 11, 17.
+
+    Examples
+    --------
+    >>> body = reduce_modal(fe, modes=20)                       # doctest: +SKIP
+    >>> body = reduce_modal(fe, band=(0, 5000), static_correction=True)  # doctest: +SKIP
+    """
+    V, W, lam, si = modal_bases(fe, modes, band, two_sided, shift, progress)
+    if static_correction:
+        _say(progress, "static correction vectors")
+        V, W = add_static_correction(fe, V, W, si, two_sided)
+    settings = {
+        "modes": modes, "band": list(band) if band is not None else None,
+        "two_sided": two_sided, "static_correction": static_correction,
+        "shift": float(si.sigma),
+    }
+    _say(progress, f"projecting onto {V.shape[1]} vectors")
+    lam = lam.real if np.all(np.imag(lam) == 0) else lam
+    return build_reduced_body(fe, V, W, "modal", settings, keep_nodes, store_bases, lam)

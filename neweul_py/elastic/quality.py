@@ -1,0 +1,213 @@
+"""Error and quality measures of reduced models: FRFs, relative errors, eigenvalues, stability.
+
+Frequency response (``reference/equations.md`` §1, last line, for the second-order form)::
+
+    H(jω) = C (K + jωD − ω²M)⁻¹ B
+
+Full model: one sparse LU per frequency (the pattern of ``K + jωD − ω²M`` is fixed, so only
+the values are recombined), reused for all input columns — or, with fewer outputs than
+inputs, the transposed solve with ``Cᵀ``. Reduced model: all frequencies at once with one
+batched dense solve (``numpy.linalg.solve`` on an (nf, r, r) stack).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from ..errors import DataError
+from .eigen import ShiftInvert, default_shift, right_blocks
+from .fe_model import FEModel
+from .reduced_body import ReducedBody
+
+__all__ = [
+    "Stability",
+    "compare_eigenvalues",
+    "frf_full",
+    "frf_reduced",
+    "max_relative_error",
+    "reduced_eigenvalues",
+    "relative_error",
+    "stability",
+]
+
+Progress = Callable[[str], None] | None
+
+
+def _common_pattern(mats: Sequence[sps.spmatrix]) -> tuple[sps.csc_matrix, list[np.ndarray]]:
+    """A CSC pattern (sorted) holding all ``mats``, and each matrix's values on it."""
+    n = mats[0].shape[0]
+    coos = [sps.coo_matrix(a) for a in mats]
+    keys = [c.col.astype(np.int64) * n + c.row for c in coos]  # CSC order: column, then row
+    union = np.unique(np.concatenate(keys))
+    indptr = np.searchsorted(union // n, np.arange(n + 1))
+    pattern = sps.csc_matrix((np.ones(union.size), union % n, indptr), shape=(n, n))
+    values = []
+    for c, k in zip(coos, keys, strict=True):
+        v = np.zeros(union.size)
+        np.add.at(v, np.searchsorted(union, k), c.data)
+        values.append(v)
+    return pattern, values
+
+
+def frf_full(
+    fe: FEModel,
+    frequencies_hz: np.ndarray,
+    inputs: Sequence[str] | str | None = None,
+    outputs: Sequence[str] | str | None = None,
+    progress: Progress = None,
+) -> np.ndarray:
+    """Frequency response of the full FE model by sparse direct solves.
+
+    Parameters
+    ----------
+    fe
+        The FE model.
+    frequencies_hz
+        (nf,) frequencies in Hz.
+    inputs, outputs
+        Names (default: all).
+    progress
+        Called every ~10 % with a message.
+
+    Returns
+    -------
+    numpy.ndarray
+        (nf, n_out, n_in) complex ``H(j2πf)``.
+    """
+    f = np.atleast_1d(np.asarray(frequencies_hz, dtype=np.float64))
+    B, C = fe.B(inputs), fe.C(outputs)
+    mats = [fe.K, fe.M] + ([fe.D] if fe.D is not None else [])
+    pattern, vals = _common_pattern(mats)
+    H = np.empty((f.size, C.shape[0], B.shape[1]), dtype=np.complex128)
+    step = max(1, f.size // 10)
+    for i, w in enumerate(2 * np.pi * f):  # one sparse factorization per frequency
+        data = vals[0] - w**2 * vals[1]
+        if fe.D is not None:
+            data = data + 1j * w * vals[2]
+        A = sps.csc_matrix((data, pattern.indices, pattern.indptr), shape=pattern.shape)
+        try:
+            lu = spla.splu(A)
+        except RuntimeError:
+            raise DataError(f"K + jωD − ω²M is singular at {f[i]:g} Hz (an undamped "
+                            "resonance?)", fe.source, "K") from None
+        if B.shape[1] <= C.shape[0]:
+            H[i] = C @ lu.solve(B.astype(A.dtype))
+        else:
+            H[i] = lu.solve(C.T.astype(A.dtype), trans="T").T @ B
+        if progress is not None and (i + 1) % step == 0:
+            progress(f"full FRF: {i + 1}/{f.size} frequencies")
+    return H
+
+
+def frf_reduced(
+    body: ReducedBody,
+    frequencies_hz: np.ndarray,
+    inputs: Sequence[str] | str | None = None,
+    outputs: Sequence[str] | str | None = None,
+) -> np.ndarray:
+    """Frequency response of a reduced body, all frequencies in one batched solve.
+
+    Returns
+    -------
+    numpy.ndarray
+        (nf, n_out, n_in) complex ``C_r (K_r + jωD_r − ω²M_r)⁻¹ B_r``.
+    """
+    f = np.atleast_1d(np.asarray(frequencies_hz, dtype=np.float64))
+    bi = _pick(body.input_names, inputs, "inputs")
+    co = _pick(body.output_names, outputs, "outputs")
+    w = 2 * np.pi * f[:, None, None]
+    A = body.K[None] + 1j * w * body.D[None] - w**2 * body.M[None]
+    X = np.linalg.solve(A, np.broadcast_to(body.B[:, bi], (f.size, *body.B[:, bi].shape)))
+    return body.C[co] @ X
+
+
+def _pick(names: tuple[str, ...], want: Sequence[str] | str | None, what: str) -> list[int]:
+    if want is None:
+        return list(range(len(names)))
+    want = [want] if isinstance(want, str) else list(want)
+    missing = [n for n in want if n not in names]
+    if missing:
+        raise DataError(f"unknown {what} {missing} (known: {', '.join(names)})", None, what)
+    return [names.index(n) for n in want]
+
+
+def relative_error(H_full: np.ndarray, H_red: np.ndarray) -> np.ndarray:
+    """Relative error per frequency ``‖H − H_r‖_F / ‖H‖_F`` over the (out, in) block."""
+    num = np.linalg.norm((H_full - H_red).reshape(H_full.shape[0], -1), axis=1)
+    den = np.linalg.norm(H_full.reshape(H_full.shape[0], -1), axis=1)
+    return num / np.where(den > 0, den, 1.0)
+
+
+def max_relative_error(frequencies_hz: np.ndarray, H_full: np.ndarray, H_red: np.ndarray,
+                       band: tuple[float, float] | None = None) -> float:
+    """Maximum of :func:`relative_error` over the frequencies in ``band`` (default: all)."""
+    f = np.asarray(frequencies_hz)
+    err = relative_error(H_full, H_red)
+    if band is not None:
+        err = err[(f >= band[0]) & (f <= band[1])]
+    return float(err.max()) if err.size else 0.0
+
+
+def reduced_eigenvalues(body: ReducedBody) -> np.ndarray:
+    """Eigenvalues ``λ = ω²`` of the reduced undamped pencil ``(K_r, M_r)``, sorted."""
+    lam = sla.eigvals(body.K, body.M)
+    return lam[np.lexsort((lam.imag, lam.real))]
+
+
+def compare_eigenvalues(fe: FEModel, body: ReducedBody, count: int | None = None,
+                        shift: float | None = None) -> dict[str, np.ndarray]:
+    """Lowest eigenvalues of the full pencil vs. the reduced one.
+
+    Returns
+    -------
+    dict
+        ``full``, ``reduced`` (both ``λ``, the lowest ``count``, default the reduced order),
+        ``frequency_full_hz``, ``frequency_reduced_hz`` and ``relative_error``
+        ``|λ_r − λ| / max(|λ|, ·)``.
+    """
+    count = count or body.order
+    si = ShiftInvert(fe.K, fe.M, default_shift(fe) if shift is None else shift, fe.source)
+    blocks = right_blocks(si, min(count + 2, fe.n_dofs - 2), fe.source)
+    full = np.sort(np.concatenate([b.values for b in blocks]).real)[:count]
+    red = reduced_eigenvalues(body)[:count]
+    scale = np.maximum(np.abs(full), 1e-12 * np.abs(full).max())
+    return {
+        "full": full, "reduced": red,
+        "frequency_full_hz": np.sqrt(np.abs(full)) / (2 * np.pi),
+        "frequency_reduced_hz": np.sqrt(np.abs(red)) / (2 * np.pi),
+        "relative_error": np.abs(red[: full.size] - full[: red.size]) / scale[: red.size],
+    }
+
+
+@dataclass(frozen=True)
+class Stability:
+    """Result of :func:`stability`: poles of the first-order form and the verdict."""
+
+    poles: np.ndarray
+    max_real_part: float
+    stable: bool
+
+
+def stability(body: ReducedBody, rtol: float = 1e-8) -> Stability:
+    """Stability of ``M_r q̈ + D_r q̇ + K_r q = 0`` from the poles of its first-order form.
+
+    Poles ``s`` are the eigenvalues of ``[[0, I], [−M⁻¹K, −M⁻¹D]]`` (computed as the
+    generalized problem ``[[I,0],[0,M]] s z = [[0,I],[−K,−D]] z``). The model counts as
+    stable when ``max Re s ≤ rtol · max|s|`` (undamped models have poles on the imaginary
+    axis, which is accepted; any pole clearly in the right half plane is not).
+    """
+    r = body.order
+    eye, zero = np.eye(r), np.zeros((r, r))
+    A = np.block([[zero, eye], [-body.K, -body.D]])
+    E = np.block([[eye, zero], [zero, body.M]])
+    s = sla.eigvals(A, E)
+    s = s[np.isfinite(s)]
+    mx = float(s.real.max()) if s.size else -np.inf
+    scale = float(np.abs(s).max()) if s.size else 1.0
+    return Stability(s, mx, bool(mx <= rtol * scale))

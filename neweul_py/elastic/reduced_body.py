@@ -1,0 +1,265 @@
+"""The reduced elastic body: two-sided (Petrov–Galerkin) reduced data and its file format.
+
+The format is documented in ``docs/reduced-body-format.md``: one uncompressed ``.npz`` (read
+with ``allow_pickle=False``) holding the arrays and, as the ``uint8`` array ``meta``, the
+UTF-8 JSON metadata. One file, written atomically, so a reader never sees a partial body.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import DataError
+from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
+
+__all__ = [
+    "REDUCED_BODY_FORMAT",
+    "REDUCED_BODY_VERSION",
+    "ReducedBody",
+    "load_reduced_body",
+    "save_reduced_body",
+]
+
+REDUCED_BODY_FORMAT = "neweul-reduced-body"
+REDUCED_BODY_VERSION = 1
+_INV_PREFIX = "invariants/"
+_ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind", "V_kept",
+           "W_kept")
+_OPTIONAL = ("V", "W", "eigenvalues")
+
+
+def _json_normal(obj: Any, item: str) -> Any:
+    try:
+        return json.loads(json.dumps(obj, allow_nan=False))
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"must be JSON-serializable ({exc})", None, item) from None
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedBody:
+    """Reduced second-order model ``M q̈ + D q̇ + K q = B u``, ``y = C q`` of an elastic body.
+
+    Obtained by Petrov–Galerkin projection (``reference/equations.md`` §2–3):
+    ``M = Wᵀ M_FE V``, ``D = Wᵀ D_FE V``, ``K = Wᵀ K_FE V``, ``B = Wᵀ B_FE``, ``C = C_FE V``;
+    full displacements are ``x ≈ V q``. One-sided data is ``W = V``.
+
+    Parameters
+    ----------
+    M, D, K
+        (r, r) reduced matrices (``D`` is zero for an undamped model); not symmetric in
+        general.
+    B, C
+        (r, n_in) reduced input and (n_out, r) reduced output matrices.
+    input_names, output_names
+        Names of the columns of ``B`` and the rows of ``C``.
+    nodes
+        (nk, 4) ``id, x, y, z`` of the kept nodes (interface and output nodes).
+    kept_dofs
+        (nkd,) indices, in the full FE model, of all DOFs of the kept nodes.
+    dof_node, dof_kind
+        (nkd,) node id and kind (``ux … rz, p``) of each kept DOF.
+    V_kept, W_kept
+        (nkd, r) rows of the right basis (displacement shapes: Φ, Ψ of the node frames for
+        ``u``/``r`` kinds) and of the left basis (modal loads ``Wᵀ f`` of nodal forces) at the
+        kept DOFs.
+    V, W
+        Optional (n, r) full bases (needed for parametric interpolation, §4).
+    method
+        ``"modal"`` or ``"krylov"`` (or another reductor's name).
+    settings
+        The reductor's settings (JSON-serializable; normalized through JSON on construction
+        so that the value after a file round trip is identical).
+    eigenvalues
+        Optional retained eigenvalues ``λ = ω²`` of the undamped pencil (modal reduction).
+    source
+        JSON metadata of the FE model (name, file, kind, n_dofs, density).
+    invariants
+        Optional slot for the floating-frame invariants (§2) as a flat name → array dict
+        (``"Ct"``, ``"Cr"``, ``"Me"``, ``"Oe1"``, …: naming is up to the invariants module).
+        Stored as ``invariants/<name>`` arrays; any dtype except object; round-trips exactly.
+    parameters
+        Optional parameter values (name → float) at which this body is a sample of a
+        parametric family (§4).
+
+    Raises
+    ------
+    DataError
+        Inconsistent shapes, NaN/Inf in the matrices, names not matching ``B``/``C``.
+    """
+
+    M: np.ndarray
+    D: np.ndarray
+    K: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    input_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    nodes: np.ndarray
+    kept_dofs: np.ndarray
+    dof_node: np.ndarray
+    dof_kind: np.ndarray
+    V_kept: np.ndarray
+    W_kept: np.ndarray
+    V: np.ndarray | None = None
+    W: np.ndarray | None = None
+    method: str = "modal"
+    settings: Mapping[str, Any] = field(default_factory=dict)
+    eigenvalues: np.ndarray | None = None
+    source: Mapping[str, Any] = field(default_factory=dict)
+    invariants: Mapping[str, np.ndarray] | None = None
+    parameters: Mapping[str, float] | None = None
+    format_version: int = REDUCED_BODY_VERSION
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        r = np.asarray(self.M).shape[0] if np.ndim(self.M) == 2 else -1
+        for key in ("M", "D", "K"):
+            a = np.asarray(self[key], dtype=np.float64)
+            if a.shape != (r, r):
+                raise DataError(f"must be {r}×{r}, got {a.shape}", None, key)
+            set_(self, key, a)
+        set_(self, "B", np.asarray(self.B, dtype=np.float64).reshape(r, -1))
+        set_(self, "C", np.asarray(self.C, dtype=np.float64).reshape(-1, r))
+        set_(self, "input_names", tuple(str(s) for s in self.input_names))
+        set_(self, "output_names", tuple(str(s) for s in self.output_names))
+        if len(self.input_names) != self.B.shape[1]:
+            raise DataError(f"{len(self.input_names)} input names for {self.B.shape[1]} "
+                            "columns", None, "B")
+        if len(self.output_names) != self.C.shape[0]:
+            raise DataError(f"{len(self.output_names)} output names for {self.C.shape[0]} "
+                            "rows", None, "C")
+        set_(self, "nodes", np.asarray(self.nodes, dtype=np.float64).reshape(-1, 4))
+        set_(self, "kept_dofs", np.asarray(self.kept_dofs, dtype=np.int64).ravel())
+        nk = self.kept_dofs.size
+        set_(self, "dof_node", np.asarray(self.dof_node, dtype=np.int64).ravel())
+        set_(self, "dof_kind", np.asarray(self.dof_kind).astype(str).ravel())
+        if self.dof_node.size != nk or self.dof_kind.size != nk:
+            raise DataError("dof_node/dof_kind must match kept_dofs", None, "kept_dofs")
+        for key in ("V_kept", "W_kept"):
+            a = np.asarray(self[key], dtype=np.float64)
+            if a.shape != (nk, r):
+                raise DataError(f"must be {nk}×{r}, got {a.shape}", None, key)
+            set_(self, key, a)
+        for key in ("V", "W"):
+            if self[key] is not None:
+                a = np.asarray(self[key], dtype=np.float64)
+                if a.ndim != 2 or a.shape[1] != r:
+                    raise DataError(f"must have {r} columns, got {a.shape}", None, key)
+                set_(self, key, a)
+        if self.eigenvalues is not None:
+            set_(self, "eigenvalues", np.asarray(self.eigenvalues).ravel())
+        for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept"):
+            if not np.all(np.isfinite(self[key])):
+                raise DataError("has NaN/Inf entries", None, key)
+        set_(self, "settings", _json_normal(dict(self.settings), "settings"))
+        set_(self, "source", _json_normal(dict(self.source), "source"))
+        if self.parameters is not None:
+            set_(self, "parameters", {str(k): float(v) for k, v in self.parameters.items()})
+        if self.invariants is not None:
+            inv = {}
+            for k, v in self.invariants.items():
+                a = np.asarray(v)
+                if a.dtype == object:
+                    raise DataError("object arrays cannot be stored", None,
+                                    f"invariants.{k}")
+                inv[str(k)] = a
+            set_(self, "invariants", inv)
+
+    def __getitem__(self, key: str) -> Any:
+        return getattr(self, key)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def order(self) -> int:
+        """Reduced order ``r``."""
+        return self.M.shape[0]
+
+    @property
+    def two_sided(self) -> bool:
+        """``False`` for Galerkin data (``W_kept`` equal to ``V_kept``)."""
+        return bool(self.settings.get("two_sided", True))
+
+    def with_(self, **changes: Any) -> ReducedBody:
+        """A validated copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+    # ------------------------------------------------------------------ file I/O
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the body to ``path`` (``.npz``, atomically; see the format document)."""
+        save_reduced_body(self, path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> ReducedBody:
+        """Read a body written by :meth:`save`."""
+        return load_reduced_body(path)
+
+
+def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
+    """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
+    arrays = {key: body[key] for key in _ARRAYS}
+    arrays["dof_kind"] = body.dof_kind.astype("U2")
+    for key in _OPTIONAL:
+        if body[key] is not None:
+            arrays[key] = body[key]
+    names = list(body.invariants or {})
+    for name in names:
+        arrays[_INV_PREFIX + name] = body.invariants[name]
+    meta = {
+        "format": REDUCED_BODY_FORMAT,
+        "version": body.format_version,
+        "method": body.method,
+        "settings": body.settings,
+        "input_names": list(body.input_names),
+        "output_names": list(body.output_names),
+        "source": body.source,
+        "parameters": body.parameters,
+        "invariants": names if body.invariants is not None else None,
+    }
+    arrays["meta"] = json_to_uint8(meta)
+    save_npz_atomic(path, arrays)
+
+
+def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
+    """Read a reduced body; a :class:`DataError` naming the file and array on any problem."""
+    file = str(path)
+    data = load_npz(path)
+    if "meta" not in data:
+        raise DataError("missing the \"meta\" array (not a reduced-body file?)", file, "meta")
+    meta = json_from_uint8(data["meta"], file)
+    if not isinstance(meta, dict) or meta.get("format") != REDUCED_BODY_FORMAT:
+        raise DataError(f"\"format\" must be {REDUCED_BODY_FORMAT!r}", file, "meta")
+    if meta.get("version") != REDUCED_BODY_VERSION:
+        raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
+                        f"{REDUCED_BODY_VERSION})", file, "meta")
+    missing = [k for k in _ARRAYS if k not in data]
+    if missing:
+        raise DataError(f"missing arrays {missing}", file, missing[0])
+    names = meta.get("invariants")
+    invariants = None
+    if names is not None:
+        absent = [n for n in names if _INV_PREFIX + n not in data]
+        if absent:
+            raise DataError(f"missing invariant arrays {absent}", file, "invariants")
+        invariants = {n: data[_INV_PREFIX + n] for n in names}
+    try:
+        return ReducedBody(
+            **{key: data[key] for key in _ARRAYS},
+            **{key: data.get(key) for key in _OPTIONAL},
+            input_names=tuple(meta.get("input_names", ())),
+            output_names=tuple(meta.get("output_names", ())),
+            method=str(meta.get("method", "")),
+            settings=meta.get("settings") or {},
+            source=meta.get("source") or {},
+            parameters=meta.get("parameters"),
+            invariants=invariants,
+            format_version=int(meta["version"]),
+        )
+    except DataError as exc:
+        raise DataError(exc.message, file, exc.item) from None
