@@ -1,0 +1,342 @@
+"""Small private helpers shared by the analysis tools.
+
+Everything here works on a *generated module* through the protocol of
+``docs/generated-module-protocol.md`` (duck-typed: any object with the protocol's attributes will
+do) and on plain NumPy arrays. Nothing here knows about sympy or the symbolic layers.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import ModelError, NeweulError
+from .module import load_generated
+
+__all__ = [
+    "ParameterLike",
+    "coordinate_names",
+    "load_module",
+    "name_index",
+    "null_space",
+    "participating_names",
+    "redundant_constraints",
+    "resolve_inputs",
+    "resolve_parameters",
+]
+
+ParameterLike = Mapping[str, float] | Sequence[float] | np.ndarray | None
+
+_REQUIRED = ("COORDINATES", "PARAMETERS", "mass_matrix", "force_vector")
+
+
+def load_module(module: Any) -> Any:
+    """Return a generated module, importing it first when given a path.
+
+    Parameters
+    ----------
+    module
+        An imported generated module (or any object implementing the protocol), or the path of a
+        generated ``.py`` file (imported and checked by
+        :func:`neweul_py.analysis.module.load_generated`).
+
+    Returns
+    -------
+    object
+        The module object.
+    """
+    if isinstance(module, str | os.PathLike):
+        return load_generated(module)
+    missing = [a for a in _REQUIRED if not hasattr(module, a)]
+    if missing:
+        what = getattr(module, "__name__", type(module).__name__)
+        raise NeweulError(
+            f"{what} is not a generated module (missing {', '.join(missing)}; "
+            "see docs/generated-module-protocol.md)"
+        )
+    return module
+
+
+def coordinate_names(module: Any) -> list[str]:
+    """The coordinate names of ``module`` as a list."""
+    return list(module.COORDINATES)
+
+
+def _constants(module: Any, attr: str) -> list[str]:
+    return list(getattr(module, attr, []) or [])
+
+
+def name_index(names: Sequence[str], name: str, kind: str) -> int:
+    """Position of ``name`` in ``names``; else a :class:`NeweulError` listing the valid names."""
+    try:
+        return list(names).index(name)
+    except ValueError:
+        valid = ", ".join(names) if len(names) else "(none)"
+        raise NeweulError(f"unknown {kind} {name!r}; valid {kind}s: {valid}") from None
+
+
+def resolve_parameters(module: Any, p: ParameterLike = None) -> np.ndarray:
+    """The parameter vector ``p`` (ordered as ``module.PARAMETERS``).
+
+    ``None`` gives the defaults; a mapping overrides defaults by name (unknown names are an error
+    listing the valid ones); a sequence must have one entry per parameter.
+    """
+    names = list(module.PARAMETERS)
+    if hasattr(module, "default_parameters"):
+        default = np.asarray(module.default_parameters(), dtype=float).copy()
+    else:
+        default = np.array([module.PARAMETERS[k] for k in names], dtype=float)
+    if p is None:
+        return default
+    if isinstance(p, Mapping):
+        for key, value in p.items():
+            default[name_index(names, key, "parameter")] = float(value)
+        return default
+    arr = np.asarray(p, dtype=float).reshape(-1)
+    if arr.size != len(names):
+        raise NeweulError(f"parameter vector has {arr.size} entries, the model has {len(names)}")
+    return arr
+
+
+def resolve_inputs(
+    module: Any, t: float, p: np.ndarray, u: Mapping[str, float] | Sequence[float] | None
+) -> np.ndarray:
+    """The input vector ``u`` at time ``t``.
+
+    ``None`` gives ``default_inputs(t, p)``; a mapping overrides the default excitation by name;
+    a sequence must have one entry per input.
+    """
+    names = _constants(module, "INPUTS")
+    if hasattr(module, "default_inputs"):
+        base = np.asarray(module.default_inputs(t, p), dtype=float).reshape(-1).copy()
+    else:
+        base = np.zeros(len(names))
+    if u is None:
+        return base
+    if isinstance(u, Mapping):
+        for key, value in u.items():
+            base[name_index(names, key, "input")] = float(value)
+        return base
+    arr = np.asarray(u, dtype=float).reshape(-1)
+    if arr.size != len(names):
+        raise NeweulError(f"input vector has {arr.size} entries, the model has {len(names)}")
+    return arr
+
+
+def input_function(
+    module: Any,
+    p: np.ndarray,
+    u: Callable[[float], Any] | Mapping[str, float] | Sequence[float] | None,
+) -> Callable[[float], np.ndarray]:
+    """``u`` as a function of time (callables are called, constants held, None: the default)."""
+    if callable(u):
+        return lambda t: np.asarray(u(t), dtype=float).reshape(-1)
+    if u is None:
+        return lambda t: resolve_inputs(module, t, p, None)
+    fixed = resolve_inputs(module, 0.0, p, u)
+    return lambda t: fixed
+
+
+def null_space(a: np.ndarray, rtol: float = 1e-10) -> tuple[np.ndarray, int]:
+    """Orthonormal basis of the right null space of ``a`` and the numerical rank of ``a``.
+
+    The rank counts singular values above ``rtol`` times the largest one.
+    """
+    a = np.atleast_2d(np.asarray(a))
+    if a.size == 0:
+        return np.eye(a.shape[1]), 0
+    _, s, vh = np.linalg.svd(a)
+    smax = s[0] if s.size else 0.0
+    rank = int(np.sum(s > rtol * smax)) if smax > 0 else 0
+    return vh[rank:].conj().T, rank
+
+
+def participating_names(basis: np.ndarray, names: Sequence[str], share: float = 1e-3) -> list[str]:
+    """Names of the rows of ``basis`` (columns: null-space vectors) that take part in it.
+
+    A row takes part when its norm is at least ``share`` times the largest row norm.
+    """
+    if basis.size == 0:
+        return []
+    rows = np.linalg.norm(basis, axis=1)
+    top = rows.max()
+    return [n for n, r in zip(names, rows, strict=True) if top > 0 and r >= share * top]
+
+
+def redundant_constraints(
+    g_jac: np.ndarray, names: Sequence[str], rtol: float = 1e-10
+) -> list[str]:
+    """Describe the constraints whose Jacobian rows depend on the others (rank analysis of G).
+
+    QR with column pivoting of ``Gᵀ`` picks a maximal independent set of rows of ``G``; every other
+    row is reported with the rows it is a combination of.
+
+    Returns
+    -------
+    list of str
+        One entry per redundant constraint, e.g. ``"c3 (= combination of c1, c2)"``; empty when
+        ``G`` has full row rank.
+    """
+    g_jac = np.atleast_2d(g_jac)
+    nc = g_jac.shape[0]
+    if nc == 0:
+        return []
+    _, r, piv = sla.qr(g_jac.T, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(r))
+    rank = int(np.sum(diag > rtol * diag[0])) if diag.size and diag[0] > 0 else 0
+    if rank == nc:
+        return []
+    indep = piv[:rank]
+    report = []
+    for row in piv[rank:]:
+        if rank == 0:
+            report.append(f"{names[row]} (zero Jacobian row)")
+            continue
+        coef, *_ = np.linalg.lstsq(g_jac[indep].T, g_jac[row], rcond=None)
+        big = np.abs(coef) > 1e-8 * max(np.abs(coef).max(), 1e-300)
+        partners = [names[i] for i, b in zip(indep, big, strict=True) if b]
+        if partners:
+            report.append(f"{names[row]} (= combination of {', '.join(partners)})")
+        else:
+            report.append(f"{names[row]} (zero Jacobian row)")
+    return report
+
+
+def check_mass_matrix(m: np.ndarray, names: Sequence[str], basis: np.ndarray | None = None) -> None:
+    """Raise :class:`ModelError` naming the coordinates without inertia when ``M`` is singular.
+
+    With ``basis`` (columns spanning the admissible motions, e.g. the null space of ``G``), the
+    check is made for ``basisᵀ M basis``: a coordinate may be massless if the constraints fix it.
+    """
+    mr = m if basis is None else basis.T @ m @ basis
+    if mr.size == 0:
+        return
+    ns, _ = null_space(mr, rtol=1e-12)
+    if ns.shape[1]:
+        motions = ns if basis is None else basis @ ns
+        who = participating_names(motions, names)
+        raise ModelError(
+            "singular mass matrix: no inertia in the motion of coordinate(s) " + ", ".join(who)
+        )
+
+
+def constraint_force_jacobian(
+    module: Any, t: float, y: np.ndarray, p: np.ndarray, lam: np.ndarray
+) -> np.ndarray:
+    """``∂(G(y)ᵀ λ)/∂y`` at fixed ``λ`` (equations.md §1), by central differences of the analytic G.
+
+    The protocol offers ``G`` but not its derivative; differencing the analytic ``G`` costs
+    ``2n`` evaluations of ``constraint_jacobian`` and is accurate to about ``1e-10`` relative.
+    """
+    n = y.size
+    out = np.empty((n, n))
+    for j in range(n):
+        h = 1e-6 * max(1.0, abs(y[j]))
+        yp = y.copy()
+        ym = y.copy()
+        yp[j] += h
+        ym[j] -= h
+        gp = np.asarray(module.constraint_jacobian(t, yp, p), dtype=float)
+        gm = np.asarray(module.constraint_jacobian(t, ym, p), dtype=float)
+        out[:, j] = (gp - gm).T @ lam / (2 * h)
+    return out
+
+
+def constraint_time_derivative(module: Any, t: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``∂g/∂t`` at ``(t, y)``.
+
+    Uses ``module.constraint_time_derivative`` when the module provides it; otherwise a central
+    difference of ``constraints`` in ``t`` (exactly zero for scleronomic constraints).
+    """
+    fn = getattr(module, "constraint_time_derivative", None)
+    if fn is not None:
+        return np.asarray(fn(t, y, p), dtype=float)
+    h = 1e-5 * max(1.0, abs(t))
+    gp = np.asarray(module.constraints(t + h, y, p), dtype=float)
+    gm = np.asarray(module.constraints(t - h, y, p), dtype=float)
+    return (gp - gm) / (2 * h)
+
+
+def augmented_solve(
+    m: np.ndarray, g_jac: np.ndarray, force: np.ndarray, c_rhs: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Accelerations and multipliers from ``M ÿ = F + Gᵀ λ``, ``G ÿ = c`` (equations.md §1).
+
+    Returns
+    -------
+    ydd, lam
+        ``ÿ`` (n,) and ``λ`` (nc,).
+    """
+    n = m.shape[0]
+    nc = g_jac.shape[0]
+    if nc == 0:
+        return np.linalg.solve(m, force), np.zeros(0)
+    kkt = np.zeros((n + nc, n + nc))
+    kkt[:n, :n] = m
+    kkt[:n, n:] = -g_jac.T
+    kkt[n:, :n] = g_jac
+    sol = np.linalg.solve(kkt, np.concatenate([force, c_rhs]))
+    return sol[:n], sol[n:]
+
+
+def partition(
+    g_jac: np.ndarray, names: Sequence[str], independent: Sequence[str] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Split the coordinates into independent and dependent ones for the constraints ``G``.
+
+    Parameters
+    ----------
+    g_jac
+        ``G = ∂g/∂y`` (nc, n) with full row rank.
+    names
+        Coordinate names.
+    independent
+        Names to keep independent. ``None`` keeps the *first* coordinates independent where
+        possible: dependent ones are taken from the end of the list whenever they raise the rank
+        of the chosen columns of ``G`` (coordinate partitioning).
+
+    Returns
+    -------
+    indep, dep
+        Index arrays (in coordinate order).
+    """
+    n = g_jac.shape[1]
+    nc = g_jac.shape[0]
+    if independent is not None:
+        ind = sorted({name_index(names, nm, "coordinate") for nm in independent})
+        dep = [j for j in range(n) if j not in ind]
+        if len(dep) != nc or (nc and np.linalg.matrix_rank(g_jac[:, dep]) < nc):
+            raise NeweulError(
+                f"independent coordinates {', '.join(independent)} do not fix the others: "
+                f"{nc} constraint(s) need {nc} dependent coordinate(s) with a regular "
+                "constraint Jacobian block"
+            )
+        return np.array(ind, dtype=int), np.array(dep, dtype=int)
+    scale = max(np.abs(g_jac).max(), 1e-300) if g_jac.size else 1.0
+    dep: list[int] = []
+    for j in range(n - 1, -1, -1):
+        if len(dep) == nc:
+            break
+        trial = [*dep, j]
+        s = np.linalg.svd(g_jac[:, trial], compute_uv=False)
+        if s[-1] > 1e-8 * scale:
+            dep = trial
+    if len(dep) < nc:
+        raise NeweulError("constraint Jacobian has deficient rank; cannot partition coordinates")
+    dep_arr = np.array(sorted(dep), dtype=int)
+    ind_arr = np.array([j for j in range(n) if j not in dep], dtype=int)
+    return ind_arr, dep_arr
+
+
+def partition_basis(g_jac: np.ndarray, indep: np.ndarray, dep: np.ndarray) -> np.ndarray:
+    """Basis ``N`` (n, n − nc) of admissible motions ``δy = N δy_indep`` with ``G N = 0``."""
+    n = g_jac.shape[1]
+    basis = np.zeros((n, indep.size))
+    basis[indep, np.arange(indep.size)] = 1.0
+    if dep.size:
+        basis[dep] = -np.linalg.solve(g_jac[:, dep], g_jac[:, indep])
+    return basis

@@ -1,0 +1,310 @@
+"""Frequency responses of a linear model (equations.md §1).
+
+``H(jω) = (Cy + jω Cyd − ω² Cydd) (−ω² M0 + jω P + Q)⁻¹ B + D`` for the selected outputs
+(module outputs split into their position and velocity parts, coordinates ``y``, velocities
+``d_y`` and accelerations ``dd_y``) and inputs, evaluated for all frequencies at once:
+
+- ``"solve"``: one batched :func:`numpy.linalg.solve` on the stack of dynamic stiffness matrices
+  (nf, n, n) — second-order form, backward stable, the default;
+- ``"hessenberg"``: the first-order ``A`` is reduced once to Hessenberg form ``A = U H Uᵀ``; each
+  frequency then costs ``O(N²)`` (``N = 2n``) by an elimination vectorized over frequencies;
+- ``"eig"``: modal superposition ``H = C V (jω − Λ)⁻¹ V⁻¹ B + D``, ``O(N)`` per frequency, but
+  only as accurate as the eigenvector matrix is well conditioned (not for defective systems).
+
+``benchmarks/bench_frf.py`` compares them with a Python loop of ``numpy.linalg.solve`` calls.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import NeweulError
+from .linearize import LinearModel, linearize
+
+__all__ = ["FrequencyResponse", "frequency_response", "frequency_vector", "frf"]
+
+_CHUNK_BYTES = 64 * 2**20
+
+
+@dataclass(frozen=True)
+class FrequencyResponse:
+    """Frequency response ``H`` (nf, ny, nu) of outputs to inputs.
+
+    Attributes
+    ----------
+    frequency_hz : ndarray (nf,)
+    H : ndarray (nf, ny, nu) complex
+    outputs, inputs : tuple of str
+    """
+
+    frequency_hz: np.ndarray
+    H: np.ndarray
+    outputs: tuple[str, ...]
+    inputs: tuple[str, ...]
+
+    @property
+    def magnitude(self) -> np.ndarray:
+        """``|H|`` (nf, ny, nu)."""
+        return np.abs(self.H)
+
+    @property
+    def phase_deg(self) -> np.ndarray:
+        """Phase in degrees, unwrapped along the frequency axis (nf, ny, nu)."""
+        return np.degrees(np.unwrap(np.angle(self.H), axis=0))
+
+    def _pairs(self) -> list[tuple[int, int, str]]:
+        single = len(self.outputs) == 1 and len(self.inputs) == 1
+        return [
+            (i, j, "" if single else f":{o}/{u}")
+            for i, o in enumerate(self.outputs)
+            for j, u in enumerate(self.inputs)
+        ]
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write ``frequency_hz, magnitude, phase_deg`` (one output and input).
+
+        With several outputs or inputs the columns are ``magnitude:<output>/<input>`` and
+        ``phase_deg:<output>/<input>`` for each pair.
+        """
+        pairs = self._pairs()
+        mag, ph = self.magnitude, self.phase_deg
+        with open(path, "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            header = ["frequency_hz"]
+            for _, _, sfx in pairs:
+                header += [f"magnitude{sfx}", f"phase_deg{sfx}"]
+            w.writerow(header)
+            for k, f in enumerate(self.frequency_hz):
+                row = [repr(float(f))]
+                for i, j, _ in pairs:
+                    row += [repr(float(mag[k, i, j])), repr(float(ph[k, i, j]))]
+                w.writerow(row)
+
+    def plot(self, path: str | Path | None = None, *, log_frequency: bool = True) -> Any:
+        """Bode plot (magnitude and phase) with matplotlib; saved to ``path`` when given.
+
+        Raises
+        ------
+        NeweulError
+            When matplotlib (the ``plot`` extra) is not installed.
+        """
+        try:
+            import matplotlib
+
+            if path is not None:
+                matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+        except ImportError:
+            raise NeweulError(
+                "plotting needs matplotlib: pip install 'neweul-py[plot]'"
+            ) from None
+        fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+        for i, j, sfx in self._pairs():
+            label = sfx[1:] or f"{self.outputs[i]}/{self.inputs[j]}"
+            ax_m.loglog(self.frequency_hz, self.magnitude[:, i, j], label=label)
+            ax_p.plot(self.frequency_hz, self.phase_deg[:, i, j], label=label)
+        if log_frequency:
+            ax_p.set_xscale("log")
+        ax_m.set_ylabel("magnitude")
+        ax_p.set_ylabel("phase [deg]")
+        ax_p.set_xlabel("frequency [Hz]")
+        ax_m.grid(True, which="both", alpha=0.3)
+        ax_p.grid(True, which="both", alpha=0.3)
+        ax_m.legend(loc="best", fontsize="small")
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=120)
+            plt.close(fig)
+        return fig
+
+
+def frequency_vector(spec: str, log: bool = False) -> np.ndarray:
+    """Frequencies in Hz from ``"start:stop:count"`` (linear, or logarithmic with ``log``).
+
+    A comma-separated list of values is also accepted.
+    """
+    try:
+        if ":" in spec:
+            start, stop, count = spec.split(":")
+            a, b, k = float(start), float(stop), int(count)
+            if k < 1 or b < a:
+                raise ValueError
+            if log:
+                if a <= 0:
+                    raise NeweulError(f"--log needs a positive start frequency, got {a:g}")
+                return np.logspace(np.log10(a), np.log10(b), k)
+            return np.linspace(a, b, k)
+        return np.array([float(v) for v in spec.split(",")])
+    except ValueError:
+        raise NeweulError(
+            f"frequency specification {spec!r}: expected start:stop:count (e.g. 10:10000:400) "
+            "or a comma-separated list"
+        ) from None
+
+
+def _as_names(value: str | Sequence[str] | None, default: Sequence[str]) -> list[str]:
+    if value is None:
+        return list(default)
+    if isinstance(value, str):
+        return [value]
+    return list(value)
+
+
+def _solve_second_order(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
+    m = lin.n
+    nf = w.size
+    h = np.empty((nf, cy.shape[0], b.shape[1]), dtype=complex)
+    chunk = max(1, _CHUNK_BYTES // max(1, 16 * m * m))
+    for lo in range(0, nf, chunk):
+        ww = w[lo : lo + chunk, None, None]
+        z = -(ww**2) * lin.M0 + 1j * ww * lin.P + lin.Q
+        x = np.linalg.solve(z, np.broadcast_to(b, (z.shape[0], m, b.shape[1])))
+        c = cy + 1j * ww * cyd - ww**2 * cydd
+        h[lo : lo + chunk] = c @ x + d
+    return h
+
+
+def _first_order(lin, cy, cyd, cydd, b, basis):
+    """First-order ``A``, ``B`` and, for outputs ``C_a x + jω C_b x + D`` in the coordinates
+    ``x = basis · x̃``, the matrices ``C_a = [Cy, Cyd] · basis`` and ``C_b = Cydd · basis[m:]``
+    (accelerations as ``jω`` times velocities, which avoids the cancellation of ``M⁻¹(B − Q x …)``
+    at low frequencies)."""
+    a, _, _, _ = lin.to_first_order()
+    m = lin.n
+    b1 = np.zeros((2 * m, b.shape[1]))
+    b1[m:] = np.linalg.solve(lin.M0, b)
+    ca = np.hstack([cy, cyd]) @ basis
+    cb = cydd @ basis[m:]
+    return a, b1, ca, cb
+
+
+def _solve_eig(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
+    a, _, _, _ = lin.to_first_order()
+    lam, vec = np.linalg.eig(a)
+    _, b1, ca, cb = _first_order(lin, cy, cyd, cydd, b, vec)
+    vb = np.linalg.solve(vec, b1)
+    res = 1.0 / (1j * w[:, None] - lam[None, :])
+    h = np.einsum("ok,fk,ki->foi", ca, res, vb)
+    if np.any(cb):
+        h += 1j * w[:, None, None] * np.einsum("ok,fk,ki->foi", cb, res, vb)
+    return h + d
+
+
+def _solve_hessenberg(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
+    a, _, _, _ = lin.to_first_order()
+    hmat, u = sla.hessenberg(a, calc_q=True)
+    _, b1, ca, cb = _first_order(lin, cy, cyd, cydd, b, u)
+    bt = u.T @ b1
+    big_n = a.shape[0]
+    nf = w.size
+    out = np.empty((nf, ca.shape[0], b1.shape[1]), dtype=complex)
+    chunk = max(1, _CHUNK_BYTES // max(1, 16 * big_n * big_n))
+    for lo in range(0, nf, chunk):
+        ww = w[lo : lo + chunk, None, None]
+        x = _hessenberg_shifted_solve(hmat, 1j * ww[:, 0, 0], bt)
+        out[lo : lo + chunk] = ca @ x + 1j * ww * (cb @ x) + d
+    return out
+
+
+def _hessenberg_shifted_solve(hmat: np.ndarray, s: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``(s_k I − H) X_k = R`` for all shifts ``s_k`` (H upper Hessenberg).
+
+    Gaussian elimination with partial pivoting between neighbouring rows (the only non-zero
+    below the diagonal), vectorized over the shifts: ``O(N²)`` per shift.
+    """
+    big_n = hmat.shape[0]
+    nf = s.size
+    t = np.broadcast_to(-hmat.astype(complex), (nf, big_n, big_n)).copy()
+    idx = np.arange(big_n)
+    t[:, idx, idx] += s[:, None]
+    r = np.broadcast_to(rhs.astype(complex), (nf, *rhs.shape)).copy()
+    for j in range(big_n - 1):
+        swap = np.abs(t[:, j + 1, j]) > np.abs(t[:, j, j])
+        if swap.any():
+            rows_t = t[swap][:, [j, j + 1], j:]
+            t[swap, j, j:] = rows_t[:, 1]
+            t[swap, j + 1, j:] = rows_t[:, 0]
+            rows_r = r[swap][:, [j, j + 1]]
+            r[swap, j] = rows_r[:, 1]
+            r[swap, j + 1] = rows_r[:, 0]
+        piv = t[:, j, j]
+        if np.any(piv == 0):
+            raise NeweulError("frequency response: singular dynamic matrix at a frequency")
+        factor = t[:, j + 1, j] / piv
+        t[:, j + 1, j:] -= factor[:, None] * t[:, j, j:]
+        r[:, j + 1] -= factor[:, None] * r[:, j]
+    x = np.empty_like(r)
+    for j in range(big_n - 1, -1, -1):
+        acc = r[:, j] - np.einsum("fk,fki->fi", t[:, j, j + 1 :], x[:, j + 1 :])
+        x[:, j] = acc / t[:, j, j][:, None]
+    return x
+
+
+_METHODS = {"solve": _solve_second_order, "eig": _solve_eig, "hessenberg": _solve_hessenberg}
+
+
+def frequency_response(
+    model: LinearModel | Any,
+    f: Sequence[float] | np.ndarray,
+    inputs: str | Sequence[str] | None = None,
+    outputs: str | Sequence[str] | None = None,
+    *,
+    method: str = "solve",
+    **linearize_kwargs: Any,
+) -> FrequencyResponse:
+    """Frequency response of outputs to inputs over the frequencies ``f`` (Hz).
+
+    Parameters
+    ----------
+    model
+        A :class:`~neweul_py.analysis.linearize.LinearModel`, or a generated module (linearized
+        first with ``linearize_kwargs``).
+    f
+        Frequencies in Hz.
+    inputs
+        Input name(s) (default: all inputs of the model).
+    outputs
+        Output name(s): module outputs, coordinates, ``d_<coordinate>`` or ``dd_<coordinate>``
+        (default: all module outputs, or all coordinates when the module has none).
+    method
+        ``"solve"`` (default), ``"hessenberg"`` or ``"eig"`` (see the module docstring).
+
+    Returns
+    -------
+    FrequencyResponse
+        ``H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D`` (equations.md §1) for every frequency.
+
+    Examples
+    --------
+    >>> fr = frequency_response(lin, np.logspace(1, 4, 400), "p_ec", "d_stapes")  # doctest: +SKIP
+    >>> fr.to_csv("frf.csv")                                                     # doctest: +SKIP
+    """
+    lin = model if isinstance(model, LinearModel) else linearize(model, **linearize_kwargs)
+    if method not in _METHODS:
+        raise NeweulError(f"unknown frequency-response method {method!r}; valid: solve, "
+                          "hessenberg, eig")
+    in_names = _as_names(inputs, lin.inputs)
+    out_names = _as_names(outputs, lin.outputs or lin.all_coordinates)
+    if not in_names:
+        raise NeweulError("frequency response: the model has no inputs")
+    cols = lin.input_columns(in_names)
+    cy, cyd, cydd, d = lin.output_rows(out_names)
+    b = lin.B[:, cols]
+    d = d[:, cols]
+    freq = np.asarray(f, dtype=float).reshape(-1)
+    w = 2 * np.pi * freq
+    h = _METHODS[method](lin, w, cy, cyd, cydd, d, b)
+    return FrequencyResponse(
+        frequency_hz=freq, H=h, outputs=tuple(out_names), inputs=tuple(in_names)
+    )
+
+
+#: Short alias of :func:`frequency_response`.
+frf = frequency_response

@@ -1,0 +1,408 @@
+"""Linearization of a generated module about an operating point (equations.md §1).
+
+About a reference ``(y0, ẏ0, u0)`` the equations of motion ``M(y) ÿ = F(y, ẏ, u)`` with
+``F = q − k`` become
+
+    M0 δÿ + P δẏ + Q δy = B δu,    δy_out = C δx + D δu,
+
+with ``M0 = M(y0)``, ``P = −∂F/∂ẏ``, ``Q = −∂F/∂y + ∂(M ÿ0)/∂y``, ``B = ∂F/∂u`` and the output
+Jacobians ``C = ∂y_out/∂x``, ``D = ∂y_out/∂u``. All derivatives come from the module's symbolically
+generated Jacobians (``force_jacobians``, ``mass_matrix_times_derivative``, ``output_jacobians``).
+
+Constrained systems (``CONSTRAINTS`` non-empty) are linearized *on the constraint manifold* in
+minimal coordinates: the coordinates are partitioned into independent ``z`` and dependent ones
+(:func:`~neweul_py.analysis._protocol.partition`), the admissible motions are ``δy = N δz`` with
+``G(y0) N = 0`` and ``N[indep] = I``, and the multipliers are eliminated by projecting with ``Nᵀ``:
+
+    Nᵀ M0 N δz̈ + Nᵀ P N δż + Nᵀ (Q − ∂(Gᵀλ0)/∂y) N δz = Nᵀ B δu.
+
+The term ``∂(Gᵀλ0)/∂y`` carries the stiffness that the constraint forces produce through the
+curvature of the manifold (for a pendulum in Cartesian coordinates it is *all* of the stiffness); it
+is obtained by central differences of the analytic ``G``. Constrained linearization is about rest
+points (``ẏ0 = 0``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import NeweulError
+from . import _protocol as proto
+
+__all__ = ["LinearModel", "linearize"]
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    """A linear second-order model ``M0 δÿ + P δẏ + Q δy = B δu``, ``δy_out = C δx + D δu``.
+
+    Attributes
+    ----------
+    M0, P, Q : ndarray (m, m)
+        Mass, damping (incl. gyroscopic) and stiffness (incl. circulatory) matrices.
+    B : ndarray (m, nu)
+        Input matrix.
+    C : ndarray (ny, 2m)
+        Output matrix with respect to the first-order state ``[δz, δż]``.
+    D : ndarray (ny, nu)
+        Feed-through.
+    coordinates : tuple of str
+        Names of the (minimal) coordinates ``z`` of this model.
+    inputs, outputs : tuple of str
+        Names of ``u`` and of the module outputs (rows of ``C``).
+    basis : ndarray (n, m)
+        ``δy = basis · δz`` in the module's full coordinates (identity without constraints).
+    all_coordinates : tuple of str
+        The module's coordinate names (rows of ``basis``).
+    y0, yd0, u0, p : ndarray
+        The operating point and the parameters.
+    t : float
+        Time of the operating point.
+    lambda0 : ndarray
+        Constraint multipliers at the operating point (empty without constraints).
+    constraints : tuple of str
+        Constraint names.
+    """
+
+    M0: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    coordinates: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    basis: np.ndarray
+    all_coordinates: tuple[str, ...]
+    y0: np.ndarray
+    yd0: np.ndarray
+    u0: np.ndarray
+    p: np.ndarray
+    t: float = 0.0
+    lambda0: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    constraints: tuple[str, ...] = ()
+
+    @property
+    def n(self) -> int:
+        """Number of (minimal) coordinates ``m``."""
+        return self.M0.shape[0]
+
+    @property
+    def state_names(self) -> list[str]:
+        """Names of the first-order state ``[z, ż]``."""
+        return [*self.coordinates, *(f"d_{c}" for c in self.coordinates)]
+
+    def first_order_pencil(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(Ã, E)`` with ``E ẋ = Ã x``: ``E = diag(I, M0)``, ``Ã = [[0, I], [−Q, −P]]``."""
+        m = self.n
+        eye = np.eye(m)
+        e = np.zeros((2 * m, 2 * m))
+        e[:m, :m] = eye
+        e[m:, m:] = self.M0
+        a = np.zeros((2 * m, 2 * m))
+        a[:m, m:] = eye
+        a[m:, :m] = -self.Q
+        a[m:, m:] = -self.P
+        return a, e
+
+    def to_first_order(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """State-space matrices ``(A, B, C, D)`` of ``ẋ = A x + B u``, ``y = C x + D u``.
+
+        ``A = [[0, I], [−M0⁻¹Q, −M0⁻¹P]]``, ``B = [[0], [M0⁻¹B]]`` (equations.md §1).
+        """
+        m = self.n
+        rhs = np.linalg.solve(self.M0, np.hstack([self.Q, self.P, self.B]))
+        a = np.zeros((2 * m, 2 * m))
+        a[:m, m:] = np.eye(m)
+        a[m:, :m] = -rhs[:, :m]
+        a[m:, m:] = -rhs[:, m : 2 * m]
+        b = np.zeros((2 * m, self.B.shape[1]))
+        b[m:] = rhs[:, 2 * m :]
+        return a, b, self.C.copy(), self.D.copy()
+
+    def to_statespace(self) -> Any:
+        """The first-order model as a :class:`scipy.signal.StateSpace`."""
+        from scipy import signal
+
+        return signal.StateSpace(*self.to_first_order())
+
+    def to_control(self) -> Any:
+        """The first-order model as a python-control ``StateSpace`` (named signals).
+
+        Raises
+        ------
+        NeweulError
+            When python-control is not installed.
+        """
+        try:
+            import control
+        except ImportError:
+            raise NeweulError(
+                "python-control is not installed (pip install control); "
+                "use to_statespace() for a scipy.signal.StateSpace"
+            ) from None
+        a, b, c, d = self.to_first_order()
+        return control.ss(
+            a,
+            b,
+            c,
+            d,
+            inputs=list(self.inputs),
+            outputs=list(self.outputs),
+            states=self.state_names,
+        )
+
+    def output_rows(
+        self, names: Sequence[str]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows that pick outputs by name, split by derivative order.
+
+        ``δy_sel = Cy δz + Cyd δż + Cydd δz̈ + D δu``. A name is a module output, a coordinate
+        (also a dependent one of a constrained model), ``d_<coordinate>`` (its velocity) or
+        ``dd_<coordinate>`` (its acceleration).
+
+        Returns
+        -------
+        Cy, Cyd, Cydd : ndarray (k, m)
+        D : ndarray (k, nu)
+        """
+        m = self.n
+        k = len(names)
+        cy = np.zeros((k, m))
+        cyd = np.zeros((k, m))
+        cydd = np.zeros((k, m))
+        d = np.zeros((k, self.B.shape[1]))
+        for i, name in enumerate(names):
+            if name in self.outputs:
+                j = self.outputs.index(name)
+                cy[i] = self.C[j, :m]
+                cyd[i] = self.C[j, m:]
+                d[i] = self.D[j]
+                continue
+            order, base = 0, name
+            if base not in self.all_coordinates and base.startswith("dd_"):
+                order, base = 2, base[3:]
+            elif base not in self.all_coordinates and base.startswith("d_"):
+                order, base = 1, base[2:]
+            if base not in self.all_coordinates:
+                valid = [
+                    *self.outputs,
+                    *self.all_coordinates,
+                    *(f"d_{c}" for c in self.all_coordinates),
+                    *(f"dd_{c}" for c in self.all_coordinates),
+                ]
+                proto.name_index(valid, name, "output")
+            (cy, cyd, cydd)[order][i] = self.basis[self.all_coordinates.index(base)]
+        return cy, cyd, cydd, d
+
+    def input_columns(self, names: Sequence[str]) -> np.ndarray:
+        """Column indices of the inputs ``names`` (error listing the valid inputs otherwise)."""
+        return np.array([proto.name_index(self.inputs, nm, "input") for nm in names], dtype=int)
+
+    def save(self, path: str | Path) -> None:
+        """Write the model to a ``.npz`` file (no pickles): matrices, names and operating point."""
+        np.savez(
+            path,
+            M0=self.M0,
+            P=self.P,
+            Q=self.Q,
+            B=self.B,
+            C=self.C,
+            D=self.D,
+            basis=self.basis,
+            y0=self.y0,
+            yd0=self.yd0,
+            u0=self.u0,
+            p=self.p,
+            t=np.array(self.t),
+            lambda0=self.lambda0,
+            coordinates=np.array(self.coordinates, dtype=str),
+            all_coordinates=np.array(self.all_coordinates, dtype=str),
+            inputs=np.array(self.inputs, dtype=str),
+            outputs=np.array(self.outputs, dtype=str),
+            constraints=np.array(self.constraints, dtype=str),
+        )
+
+    @classmethod
+    def load(cls, path: str | Path) -> LinearModel:
+        """Read a model written by :meth:`save`."""
+        with np.load(path, allow_pickle=False) as f:
+            names = ("coordinates", "all_coordinates", "inputs", "outputs", "constraints")
+            kw: dict[str, Any] = {k: tuple(str(s) for s in f[k]) for k in names}
+            for k in ("M0", "P", "Q", "B", "C", "D", "basis", "y0", "yd0", "u0", "p", "lambda0"):
+                kw[k] = f[k]
+            kw["t"] = float(f["t"])
+        return cls(**kw)
+
+
+def _vector(value: Any, size: int, what: str, names: Sequence[str]) -> np.ndarray:
+    if isinstance(value, Mapping):
+        out = np.zeros(size)
+        for key, v in value.items():
+            out[proto.name_index(names, key, "coordinate")] = float(v)
+        return out
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.size != size:
+        raise NeweulError(f"{what} has {arr.size} entries, the model has {size} coordinates")
+    return arr
+
+
+def linearize(
+    module: Any,
+    y0: Any = None,
+    yd0: Any = None,
+    u0: Any = None,
+    p: proto.ParameterLike = None,
+    t: float = 0.0,
+    *,
+    independent: Sequence[str] | None = None,
+) -> LinearModel:
+    """Linearize a generated module about ``(y0, ẏ0, u0)`` (equations.md §1).
+
+    Parameters
+    ----------
+    module
+        A generated module (or its path).
+    y0
+        Coordinates of the operating point: array, mapping name → value, an
+        :class:`~neweul_py.analysis.equilibrium.EquilibriumResult` (its ``y``, ``p`` and ``u`` are
+        used), or ``None`` for the initial state of the module.
+    yd0
+        Velocities (default zero; must be zero for constrained modules).
+    u0
+        Inputs (default: ``default_inputs(t, p)``).
+    p
+        Parameters (``None``: defaults; mapping: overrides by name; array).
+    t
+        Time of the operating point.
+    independent
+        Constrained modules only: coordinates to use as minimal coordinates (default: the first
+        ones in ``COORDINATES`` order that the constraints leave independent).
+
+    Returns
+    -------
+    LinearModel
+        ``M0, P, Q, B, C, D`` with ``Q`` including ``∂(M ÿ0)/∂y`` (and, with constraints, the
+        projection on the constraint manifold described in the module docstring).
+
+    Examples
+    --------
+    >>> lin = linearize(mod, equilibrium(mod))                       # doctest: +SKIP
+    >>> a, b, c, d = lin.to_first_order()                            # doctest: +SKIP
+    """
+    module = proto.load_module(module)
+    names = proto.coordinate_names(module)
+    n = len(names)
+    if int(getattr(module, "STATE_SIZE", 2 * n)) != 2 * n:
+        raise NeweulError(
+            f"linearize: state size {module.STATE_SIZE} != 2 × {n} coordinates; first-order "
+            "states beyond [y, ẏ] are not supported yet"
+        )
+    if y0 is not None and hasattr(y0, "y") and hasattr(y0, "residual"):  # EquilibriumResult
+        eq = y0
+        y0 = eq.y
+        p = eq.p if p is None else p
+        u0 = eq.u if u0 is None else u0
+        t = eq.t
+    pv = proto.resolve_parameters(module, p)
+    if y0 is None:
+        y0 = np.asarray(module.INITIAL_STATE, dtype=float)[:n]
+    y = _vector(y0, n, "y0", names)
+    yd = np.zeros(n) if yd0 is None else _vector(yd0, n, "yd0", names)
+    u = proto.resolve_inputs(module, t, pv, u0)
+    inputs = tuple(getattr(module, "INPUTS", []) or [])
+    outputs = tuple(getattr(module, "OUTPUTS", []) or [])
+    cnames = tuple(getattr(module, "CONSTRAINTS", []) or [])
+
+    m0 = np.asarray(module.mass_matrix(t, y, pv), dtype=float)
+    force = np.asarray(module.force_vector(t, y, yd, pv, u), dtype=float)
+    f_y, f_yd, f_u = (np.asarray(a, dtype=float) for a in module.force_jacobians(t, y, yd, pv, u))
+    f_u = f_u.reshape(n, len(inputs))
+    x0 = np.concatenate([y, yd])
+    if outputs:
+        c_full, d_out = (np.asarray(a, dtype=float) for a in module.output_jacobians(t, x0, pv, u))
+        c_full = c_full.reshape(len(outputs), 2 * n)
+        d_out = d_out.reshape(len(outputs), len(inputs))
+    else:
+        c_full, d_out = np.zeros((0, 2 * n)), np.zeros((0, len(inputs)))
+
+    if not cnames:
+        proto.check_mass_matrix(m0, names)
+        ydd0 = np.linalg.solve(m0, force)
+        q_mat = -f_y
+        if np.any(ydd0):
+            q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
+        return LinearModel(
+            M0=m0,
+            P=-f_yd,
+            Q=q_mat,
+            B=f_u,
+            C=c_full,
+            D=d_out,
+            coordinates=tuple(names),
+            inputs=inputs,
+            outputs=outputs,
+            basis=np.eye(n),
+            all_coordinates=tuple(names),
+            y0=y,
+            yd0=yd,
+            u0=u,
+            p=pv,
+            t=float(t),
+        )
+
+    # --- constrained: minimal coordinates on the constraint manifold ---
+    if np.any(yd):
+        raise NeweulError(
+            "linearize: constrained modules are linearized about rest points (ẏ0 = 0)"
+        )
+    g = np.asarray(module.constraints(t, y, pv), dtype=float)
+    g_jac = np.asarray(module.constraint_jacobian(t, y, pv), dtype=float).reshape(len(cnames), n)
+    tol = 1e-8 * max(1.0, np.abs(g_jac).max() * max(1.0, np.abs(y).max()))
+    if np.abs(g).max() > tol:
+        worst = cnames[int(np.argmax(np.abs(g)))]
+        raise NeweulError(
+            f"linearize: the operating point violates the constraints (|g| = {np.abs(g).max():.3g}"
+            f", worst {worst}); use equilibrium() or a consistent initial state"
+        )
+    redundant = proto.redundant_constraints(g_jac, cnames)
+    if redundant:
+        raise NeweulError("redundant constraints at the operating point: " + "; ".join(redundant))
+    indep, dep = proto.partition(g_jac, names, independent)
+    basis = proto.partition_basis(g_jac, indep, dep)
+    proto.check_mass_matrix(m0, names, basis)
+    gamma = np.asarray(module.constraint_gamma(t, y, yd, pv), dtype=float)
+    ydd0, lam0 = proto.augmented_solve(m0, g_jac, force, -gamma)
+    q_mat = -f_y - proto.constraint_force_jacobian(module, t, y, pv, lam0)
+    if np.any(ydd0):
+        q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
+    nt = basis.T
+    two = np.zeros((2 * n, 2 * indep.size))
+    two[:n, : indep.size] = basis
+    two[n:, indep.size :] = basis
+    return LinearModel(
+        M0=nt @ m0 @ basis,
+        P=nt @ (-f_yd) @ basis,
+        Q=nt @ q_mat @ basis,
+        B=nt @ f_u,
+        C=c_full @ two,
+        D=d_out,
+        coordinates=tuple(names[i] for i in indep),
+        inputs=inputs,
+        outputs=outputs,
+        basis=basis,
+        all_coordinates=tuple(names),
+        y0=y,
+        yd0=yd,
+        u0=u,
+        p=pv,
+        t=float(t),
+        lambda0=lam0,
+        constraints=cnames,
+    )
