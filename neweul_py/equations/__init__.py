@@ -3,6 +3,7 @@
 Imports ``kinematics`` and ``model`` only.
 """
 
+from .newton_euler import AUTO_CLOSED_MAX, clear_cache, newton_euler
 from .result import Equations
 
-__all__ = ["Equations"]
+__all__ = ["AUTO_CLOSED_MAX", "Equations", "clear_cache", "newton_euler"]

@@ -1,0 +1,279 @@
+"""Newton–Euler equations with Jacobian matrices (equations.md §1).
+
+```
+M = Σ_i J_Tiᵀ m_i J_Ti + J_Riᵀ I_i J_Ri
+q − k = Σ_i −J_Tiᵀ m_i (ā_i − g_i) − J_Riᵀ (I_i ᾱ_i + ω̃_i I_i ω_i) + Σ_forces J_Pᵀ f + J_Rᵀ l
+```
+Everything is resolved in body-fixed components (the body's frame), where the inertia
+tensor is constant; ``ā_i``, ``ᾱ_i``, ``ω_i``, ``J`` come from
+:mod:`neweul_py.kinematics` (computed recursively parent → child). No global simplification is
+applied; expressions stay small by construction.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from typing import Literal
+
+import sympy as sp
+
+from ..errors import ModelError
+from ..kinematics import Kinematics, absolute_kinematics
+from ..kinematics.algebra import (
+    ZERO,
+    Vec3,
+    add,
+    cross,
+    dot,
+    is_zero,
+    mat_vec,
+    scale,
+    sub,
+    total,
+    vec_is_zero,
+)
+from ..model import (
+    AXES,
+    INERTIAL,
+    ExpressionOutput,
+    GeneralizedForce,
+    KinematicOutput,
+    PointForce,
+    RigidBody,
+    SpringDamper,
+    System,
+    Torque,
+)
+from .result import Equations
+
+__all__ = ["AUTO_CLOSED_MAX", "clear_cache", "newton_euler"]
+
+Form = Literal["auto", "closed", "recursive"]
+
+#: ``form="auto"`` uses the closed form up to this many coordinates, the recursive one above.
+AUTO_CLOSED_MAX = 6
+
+_CACHE: OrderedDict[tuple[str, str], Equations] = OrderedDict()
+_CACHE_SIZE = 32
+
+
+def clear_cache() -> None:
+    """Forget all cached derivations."""
+    _CACHE.clear()
+
+
+def newton_euler(system: System, form: Form = "auto") -> Equations:
+    """Derive ``M``, ``q − k`` and the outputs of ``system`` (equations.md §1).
+
+    Parameters
+    ----------
+    system
+        The model.
+    form
+        ``"closed"``: fully substituted expressions, no intermediates (small models, insight,
+        symbolic linearization). ``"recursive"``: absolute kinematics and per-body quantities
+        are emitted as ordered intermediate assignments, so that the derivation grows about
+        linearly in the number of bodies per Jacobian column. ``"auto"``: closed for at most
+        :data:`AUTO_CLOSED_MAX` coordinates, else recursive.
+
+    Returns
+    -------
+    Equations
+        Cached by ``(system.fingerprint(), form)``; the same system gives the identical object.
+
+    Raises
+    ------
+    ModelError
+        For model features the derivation does not support (inputs in frame kinematics).
+
+    Notes
+    -----
+    Spring–dampers between coinciding points (distance 0) have no direction; their
+    expressions divide by the distance.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from neweul_py.model import Coordinate, Frame, Parameter, RigidBody, System, symbol
+    >>> m, l, g, a = (symbol(x) for x in ("m", "l", "g", "a"))
+    >>> s = System("pendulum", coordinates=(Coordinate("a"),),
+    ...            parameters=(Parameter("m", 1.0), Parameter("l", 1.0), Parameter("g", 9.81)),
+    ...            frames=(Frame("arm", rotation=(("z", a),)),),
+    ...            bodies=(RigidBody("bob", "arm", m, sp.ImmutableMatrix([l, 0, 0])),),
+    ...            gravity=sp.ImmutableMatrix([0, -g, 0]))
+    >>> eq = newton_euler(s)
+    >>> eq.mass_matrix, eq.force_vector
+    (Matrix([[l**2*m]]), Matrix([[-g*l*m*cos(a)]]))
+    """
+    if form == "auto":
+        form = "closed" if len(system.coordinates) <= AUTO_CLOSED_MAX else "recursive"
+    if form not in ("closed", "recursive"):
+        raise ValueError(f"form must be 'auto', 'closed' or 'recursive', not {form!r}")
+    key = (system.fingerprint(), form)
+    cached = _CACHE.get(key)
+    if cached is not None:
+        _CACHE.move_to_end(key)
+        return cached
+    result = _derive(system, form)
+    _CACHE[key] = result
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return result
+
+
+# ---------------------------------------------------------------------------- derivation
+def _derive(system: System, form: str) -> Equations:
+    kin = absolute_kinematics(system, form)  # type: ignore[arg-type]
+    n = kin.n
+    mass_terms: list[list[list[sp.Expr]]] = [[[] for _ in range(n)] for _ in range(n)]
+    force_terms: list[list[sp.Expr]] = [[] for _ in range(n)]
+
+    for body in system.bodies:
+        _body(kin, body, mass_terms, force_terms)
+    index = {c.name: j for j, c in enumerate(system.coordinates)}
+    for fe in system.forces:
+        path = f"forces.{fe.name}"
+        if isinstance(fe, PointForce):
+            _point_force(kin, fe, force_terms, path)
+        elif isinstance(fe, Torque):
+            l_k = kin.express(tuple(fe.vector), fe.in_frame, fe.frame)
+            jr = kin.frames[fe.frame].JR
+            for j in range(n):
+                force_terms[j].append(dot(jr[j], l_k))
+        elif isinstance(fe, GeneralizedForce):
+            force_terms[index[fe.coordinate]].append(fe.value)
+        elif isinstance(fe, SpringDamper):
+            _spring_damper(kin, fe, force_terms, path)
+        else:  # pragma: no cover - System validation rejects other types
+            raise ModelError(f"unsupported force element {type(fe).__name__}", path)
+
+    outputs = [_output(kin, out) for out in system.outputs]
+
+    mass = [[ZERO] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i, n):
+            mass[i][j] = mass[j][i] = total(mass_terms[i][j])
+    return Equations(
+        system=system,
+        coordinates=system.coordinate_symbols,
+        velocities=system.velocity_symbols,
+        parameters=system.parameter_symbols,
+        inputs=system.input_symbols,
+        intermediates=kin.intermediates,
+        mass_matrix=sp.ImmutableMatrix(n, n, [e for row in mass for e in row]),
+        force_vector=sp.ImmutableMatrix(n, 1, [total(t) for t in force_terms]),
+        outputs=sp.ImmutableMatrix(len(outputs), 1, outputs),
+        output_names=tuple(o.name for o in system.outputs),
+    )
+
+
+def _body(
+    kin: Kinematics,
+    body: RigidBody,
+    mass_terms: list[list[list[sp.Expr]]],
+    force_terms: list[list[sp.Expr]],
+) -> None:
+    """Add one body's ``J_Tᵀ m J_T + J_Rᵀ I J_R`` to M and ``−J_Tᵀ m (ā − g) − J_Rᵀ (I ᾱ +
+    ω̃ I ω)`` to ``q − k`` (equations.md §1), in the body frame's components."""
+    if body.frame == INERTIAL:
+        return  # a body fixed to ISYS neither moves nor contributes
+    ws = kin.workspace
+    fk = kin.frames[body.frame]
+    name = body.name
+    m = body.mass
+    inertia = tuple(tuple(body.inertia[i, j] for j in range(3)) for i in range(3))
+    c: Vec3 = tuple(body.center_of_mass)  # type: ignore[assignment]
+    w = fk.omega
+    if vec_is_zero(c):
+        jt, abar = fk.JT, fk.abar
+    else:
+        jt = tuple(
+            ws.let_vec(add(fk.JT[j], cross(fk.JR[j], c)), f"JTc_{name}_{j}")
+            for j in range(kin.n)
+        )
+        abar = ws.let_vec(
+            add(fk.abar, cross(fk.alphabar, c), cross(w, cross(w, c))), f"abc_{name}"
+        )
+    jr = fk.JR
+    has_inertia = not all(is_zero(x) for row in inertia for x in row)
+    has_mass = not is_zero(m)
+
+    force = ws.let_vec(scale(m, sub(abar, fk.gravity)), f"F_{name}") if has_mass else None
+    torque = None
+    if has_inertia:
+        torque = ws.let_vec(
+            add(mat_vec(inertia, fk.alphabar), cross(w, mat_vec(inertia, w))), f"L_{name}"
+        )
+    cols_t = [j for j in range(kin.n) if has_mass and not vec_is_zero(jt[j])]
+    cols_r = [j for j in range(kin.n) if has_inertia and not vec_is_zero(jr[j])]
+    mjt = {j: ws.let_vec(scale(m, jt[j]), f"mJ_{name}_{j}") for j in cols_t}
+    ijr = {j: ws.let_vec(mat_vec(inertia, jr[j]), f"IJ_{name}_{j}") for j in cols_r}
+    for a, j in enumerate(cols_t):
+        for i in cols_t[: a + 1]:
+            mass_terms[i][j].append(dot(jt[i], mjt[j]))
+    for a, j in enumerate(cols_r):
+        for i in cols_r[: a + 1]:
+            mass_terms[i][j].append(dot(jr[i], ijr[j]))
+    for j in cols_t:
+        force_terms[j].append(-dot(jt[j], force))  # type: ignore[arg-type]
+    for j in cols_r:
+        force_terms[j].append(-dot(jr[j], torque))  # type: ignore[arg-type]
+
+
+def _point_force(
+    kin: Kinematics, fe: PointForce, force_terms: list[list[sp.Expr]], path: str
+) -> None:
+    """``q += J_Pᵀ f`` with ``f`` and ``J_P`` in the components of the frame of action."""
+    f_k = kin.express(tuple(fe.vector), fe.in_frame, fe.frame)
+    pk = kin.point(fe.frame, tuple(fe.point), f"{path}.point")
+    for j in range(kin.n):
+        force_terms[j].append(dot(pk.J[j], f_k))
+
+
+def _spring_damper(
+    kin: Kinematics, fe: SpringDamper, force_terms: list[list[sp.Expr]], path: str
+) -> None:
+    """A linear point-to-point spring–damper.
+
+    With ``d = r_B − r_A``, ``s = |d|``, ``e = d / s``: the tensile force is
+    ``F = stiffness (s − length) + damping ṡ`` and acts as ``+F e`` on A, ``−F e`` on B, so
+    ``q += −F ∂s/∂y`` with ``∂s/∂y_j = e·J_B,j − e·J_A,j`` and ``ṡ = ∂s/∂y ẏ + e·(v̄_B − v̄_A)``.
+    ``d`` is formed in the frames' common ancestor, ``e`` is resolved in each frame.
+    """
+    ws = kin.workspace
+    name = fe.name
+    anc = kin.common_ancestor(fe.frame_a, fe.frame_b)
+    pa = kin.relative_position(fe.frame_a, tuple(fe.point_a), anc)
+    pb = kin.relative_position(fe.frame_b, tuple(fe.point_b), anc)
+    d = ws.let_vec(sub(pb, pa), f"d_{name}")
+    s = ws.let(sp.sqrt(dot(d, d)), f"s_{name}")
+    e = ws.let_vec(scale(1 / s, d), f"e_{name}")
+    e_a = kin.express(e, anc, fe.frame_a)
+    e_b = kin.express(e, anc, fe.frame_b)
+    ka = kin.point(fe.frame_a, tuple(fe.point_a), f"{path}.points[0]")
+    kb = kin.point(fe.frame_b, tuple(fe.point_b), f"{path}.points[1]")
+    ds = [ws.let(dot(kb.J[j], e_b) - dot(ka.J[j], e_a), f"ds_{name}_{j}") for j in range(kin.n)]
+    sdot = total(
+        [
+            *(sp.Mul(dj, v) for dj, v in zip(ds, kin.velocities, strict=True) if not is_zero(dj)),
+            dot(kb.vbar, e_b),
+            -dot(ka.vbar, e_a),
+        ]
+    )
+    force = ws.let(fe.stiffness * (s - fe.length) + fe.damping * sdot, f"f_{name}")
+    for j in range(kin.n):
+        if not is_zero(ds[j]):
+            force_terms[j].append(-force * ds[j])
+
+
+def _output(kin: Kinematics, out: object) -> sp.Expr:
+    if isinstance(out, ExpressionOutput):
+        return out.expr
+    assert isinstance(out, KinematicOutput)
+    axis = AXES.index(out.component)
+    point = tuple(out.point)
+    if out.quantity == "position":
+        return kin.point_position(out.frame, point, out.in_frame)[axis]
+    pk = kin.point(out.frame, point, f"outputs.{out.name}.point")
+    return kin.express(kin.velocity(pk), out.frame, out.in_frame)[axis]
+
