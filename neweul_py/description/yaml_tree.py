@@ -63,7 +63,8 @@ class _Walker:
         self.active: set[int] = set()
 
     def error(self, message: str, path: str, node: yaml.Node) -> DescriptionError:
-        return DescriptionError(message, path, self.file, node.start_mark.line + 1)
+        line = self.lines.get(path, node.start_mark.line + 1)
+        return DescriptionError(message, path, self.file, line)
 
     def walk(self, node: yaml.Node, path: str) -> Any:
         self.count += 1
@@ -115,7 +116,10 @@ class _Walker:
 
     def key(self, node: yaml.Node, path: str) -> str:
         if not isinstance(node, yaml.ScalarNode):
-            raise self.error("a key must be a plain name, not a list or mapping", path, node)
+            raise DescriptionError(
+                "a key must be a plain name, not a list or mapping", path, self.file,
+                node.start_mark.line + 1,
+            )
         key = self.constructor.construct_object(node)
         if not isinstance(key, str):
             hint = (
@@ -123,7 +127,10 @@ class _Walker:
                 if isinstance(key, bool)
                 else ""
             )
-            raise self.error(f"a key must be a name, got {key!r}{hint}", path, node)
+            raise DescriptionError(
+                f"a key must be a name, got {key!r}{hint}", path, self.file,
+                node.start_mark.line + 1,
+            )
         return key
 
 

@@ -13,7 +13,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from neweul_py.description import ExpressionError, format_expression, parse_expression
-from neweul_py.description.expressions import number
+from neweul_py.description.expressions import _too_large, number
 from neweul_py.errors import ModelError
 from neweul_py.model import symbol, time
 
@@ -242,6 +242,8 @@ def _binary(op: str, left, right, space: bool):
     prec = ADD if op in "+-" else MUL
     if op == "**":
         text = f"{_wrap(left, POW, strict=True)}{sep}**{sep}{_wrap(right, UNARY)}"
+        if _too_large(left[1], right[1]):  # the parser rightly refuses such constants
+            raise Invalid
         return text, _apply(lambda x, y: x**y, left[1], right[1]), POW
     text = f"{_wrap(left, prec)}{sep}{op}{sep}{_wrap(right, prec, strict=True)}"
     l_expr, r_expr = left[1], right[1]
