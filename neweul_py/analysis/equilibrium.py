@@ -199,14 +199,20 @@ def equilibrium(
         lam = np.linalg.lstsq(gj[:, free].T, -force[free], rcond=None)[0]
 
     r, _ = residual(y, lam)
-    it = 0
-    for it in range(1, maxiter + 1):  # noqa: B007  (used after the loop)
+    iterations = 0
+    stalled = 0
+    converged = False
+    for _ in range(maxiter + 1):
         jac, k_full, g_free = jacobian(y, lam)
         scale = max(np.abs(jac).max(initial=0.0), 1e-300)
         size = 1.0 + np.abs(np.concatenate([y, lam])).max(initial=0.0)
         roundoff = 1e3 * np.finfo(float).eps * scale * size
         if np.abs(r).max(initial=0.0) <= roundoff:
+            converged = True
             break
+        if iterations == maxiter:
+            break
+        iterations += 1
         sv = np.linalg.svd(jac, compute_uv=False)
         if not sv.size or sv[0] == 0 or sv[-1] <= 1e-12 * sv[0]:
             raise SolverError(
@@ -227,15 +233,25 @@ def equilibrium(
                 break
             alpha *= 0.5
         y, lam, r = y_try, lam_try, r_try
+        stalled = stalled + 1 if 0.5 * r @ r > 0.99 * merit else 0
+        if stalled >= 5:
+            break
         if alpha == 1.0 and np.abs(step[:nf]).max(initial=0.0) <= xtol * (
             1.0 + np.abs(y).max(initial=0.0)
         ):
+            converged = True
             break
-    else:
+    if not converged:
         worst = int(np.argmax(np.abs(r)))
         eq_names = [names[i] for i in free] + [f"constraint {c}" for c in cnames]
+        why = (
+            "the line search stalled at a local minimum of the residual (no equilibrium near "
+            "the start? try another y0)"
+            if stalled >= 5
+            else f"no convergence in {maxiter} iterations"
+        )
         raise SolverError(
-            f"equilibrium: Newton did not converge in {maxiter} iterations; residual "
+            f"equilibrium: Newton failed, {why}; residual "
             f"{np.abs(r).max():.3g} (largest in the equation of {eq_names[worst]}); last iterate "
             + ", ".join(f"{nm}={v:.6g}" for nm, v in zip(names, y, strict=True)),
             last_iterate=y.copy(),
@@ -246,7 +262,7 @@ def equilibrium(
         y=y,
         lambda_=lam,
         residual=float(np.abs(r).max(initial=0.0)),
-        iterations=it,
+        iterations=iterations,
         coordinates=tuple(names),
         constraints=tuple(cnames),
         p=pv,

@@ -1,0 +1,114 @@
+"""Constrained simulation of the slider–crank in redundant coordinates.
+
+Reference: an independent minimal-coordinate model (crank angle only, loop closed by hand,
+Lagrange's equation derived with sympy in ``_slider_crank_reference.py``), integrated with DOP853
+at rtol 1e-12. The constraint forces are checked against Newton's law of the slider computed from
+the reference motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from _analysis_helpers import variant
+from _slider_crank_reference import build, trajectory
+
+from neweul_py.analysis.dae import consistent_initial_state, simulate_constrained
+from neweul_py.analysis.equilibrium import equilibrium
+from neweul_py.analysis.linearize import linearize
+from neweul_py.analysis.modes import modes
+from neweul_py.errors import NeweulError, SolverError
+
+
+@pytest.fixture(scope="module")
+def reference(slider_crank):
+    return build(dict(slider_crank.PARAMETERS))
+
+
+@pytest.fixture(scope="module")
+def run(slider_crank):
+    return simulate_constrained(slider_crank, 10.0, n_out=1001, independent=["phi"])
+
+
+def test_consistent_initial_state_keeps_independent(slider_crank, reference):
+    y, yd = consistent_initial_state(slider_crank, independent=["phi"])
+    np.testing.assert_allclose(y, reference.coordinates(0.5), atol=1e-14)
+    assert yd[0] == 8.0
+    p = slider_crank.default_parameters()
+    assert np.abs(slider_crank.constraints(0.0, y, p)).max() < 1e-14
+    assert np.abs(slider_crank.constraint_jacobian(0.0, y, p) @ yd).max() < 1e-13
+
+
+def test_trajectory_against_minimal_coordinates(run, reference):
+    ref = trajectory(reference, 0.5, 8.0, run.t)
+    full = np.array([reference.coordinates(phi) for phi in ref[:, 0]], dtype=float)
+    assert np.abs(run.y - full).max() < 1e-7
+    np.testing.assert_allclose(run.yd[:, 0], ref[:, 1], atol=1e-6)
+    # the motion is not trivial: several crank swings through large angles
+    assert np.ptp(run.y[:, 0]) > 1.0
+
+
+def test_drift_below_1e_8_over_10_s(run):
+    assert run.max_drift < 1e-8
+    assert run.position_residual.max() < 1e-8
+    assert run.velocity_residual.max() < 1e-8
+
+
+def test_constraint_forces_against_newton_law_of_the_slider(run, reference, slider_crank):
+    """Slider: ms s̈ = −ks (s − s0) − ds ṡ − λ_slide_x (G[slide_x, s] = −1)."""
+    prm = dict(slider_crank.PARAMETERS)
+    ref = trajectory(reference, 0.5, 8.0, run.t)
+    alpha = np.array([reference.acceleration(ph, om, 0.0) for ph, om in ref])
+    s, sd, sdd = (np.array(v, dtype=float) for v in reference.slider(ref[:, 0], ref[:, 1], alpha))
+    lam_ref = -(prm["ms"] * sdd + prm["ks"] * (s - prm["s0"]) + prm["ds"] * sd)
+    i = list(run.constraints).index("slide_x")
+    scale = np.abs(lam_ref).max()
+    assert np.abs(run.lambdas[:, i] - lam_ref).max() < 1e-6 * scale
+    # λ are outputs of the result, saved with it
+    assert "lambda_slide_x" in run.result.output_names
+
+
+def test_results_file_has_lambda_columns(run, tmp_path):
+    path = run.save(tmp_path / "sc.csv")
+    header = path.read_text().splitlines()[1].split(",")
+    assert header[:6] == ["t", "phi", "xr", "zr", "theta", "s"]
+    assert header[-4:] == ["lambda_pin_x", "lambda_pin_z", "lambda_slide_x", "lambda_slide_z"]
+
+
+def test_equilibrium_and_linearization_against_minimal_model(slider_crank, reference):
+    """The stable equilibrium lies near phi = −1 (Q(phi, 0) changes sign from + to − there)."""
+    with pytest.raises(SolverError, match="line search stalled"):
+        equilibrium(slider_crank)  # from phi = 0.5: Q < 0 on (0, π), no equilibrium nearby
+    eq = equilibrium(slider_crank, y0=reference.coordinates(-1.0))
+    phi = eq.y[0]
+    assert -np.pi / 2 < phi < 0
+    assert reference.generalized_force(phi, 0.0, 0.0) == pytest.approx(0.0, abs=1e-10)
+    lin = linearize(slider_crank, eq)
+    assert lin.coordinates == ("phi",)
+    ref = np.roots([reference.mass(phi), reference.damping(phi), reference.stiffness(phi)])
+    lam = modes(lin).eigenvalues
+    np.testing.assert_allclose(lam[0], ref[ref.imag > 0][0], rtol=1e-7)
+
+
+def test_redundant_constraints_named(slider_crank):
+    base_g, base_j = slider_crank.constraints, slider_crank.constraint_jacobian
+    mod = variant(
+        slider_crank,
+        CONSTRAINTS=[*slider_crank.CONSTRAINTS, "rail_copy"],
+        constraints=lambda t, y, p: np.append(base_g(t, y, p), 2 * base_g(t, y, p)[3]),
+        constraint_jacobian=lambda t, y, p: np.vstack([base_j(t, y, p), 2 * base_j(t, y, p)[3]]),
+    )
+    with pytest.raises(NeweulError, match=r"redundant constraints at the initial state: "
+                                          r"(rail_copy|slide_z) \(= combination of"):
+        simulate_constrained(mod, 0.1)
+
+
+def test_inconsistent_constraints_named(slider_crank):
+    """A rail at z = 0.5 m that the rod (reach 0.4 m) cannot touch."""
+    base_g = slider_crank.constraints
+    mod = variant(
+        slider_crank,
+        constraints=lambda t, y, p: base_g(t, y, p) - np.array([0, 0, 0, 0.5]),
+    )
+    with pytest.raises(SolverError, match=r"cannot be satisfied.*slide_z"):
+        consistent_initial_state(mod)
