@@ -221,7 +221,8 @@ def _number_token(token: _Token, text: str) -> sp.Rational:
     digits = token.text
     if all(c.isdigit() for c in digits):
         return sp.Integer(int(digits))
-    if not math.isfinite(float(digits)):
+    exponent = digits.lower().partition("e")[2]
+    if (exponent and abs(int(exponent)) > 400) or not math.isfinite(float(digits)):
         raise ExpressionError(f"number {digits} is out of range", text, token.column)
     frac = Fraction(digits)
     return sp.Rational(frac.numerator, frac.denominator)

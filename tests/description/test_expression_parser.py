@@ -119,6 +119,7 @@ BAD = [
     ("(-pi)**pi", "not real"),
     ("log(-1)", "not real"),
     ("1e999", "out of range"),
+    ("1e-999999999", "out of range"),
     ("10**10**10", "too large"),
     ("(" * 500 + "a" + ")" * 500, "nested"),
     ("E", "unknown name 'E'"),
