@@ -159,7 +159,7 @@ def modes(
     pivot = np.where(np.abs(pivot) > 0, pivot, 1.0)
     shapes = shapes / pivot
     with np.errstate(invalid="ignore", divide="ignore"):
-        zeta = np.where(kind == "rigid", np.nan, -lam.real / np.where(mag > 0, mag, 1.0))
+        zeta = np.where(kind == "rigid", np.nan, -lam.real / np.where(mag > 0, mag, 1.0)) + 0.0
     return ModalResult(
         eigenvalues=lam,
         frequency_hz=mag / (2 * np.pi),
