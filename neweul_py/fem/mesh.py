@@ -129,7 +129,7 @@ def disk_mesh(radius: float, n_rings: int) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def cone_membrane(
-    radius: float, depth: float, n_rings: int, line_length: float = 1.0
+    radius: float, depth: float, n_rings: int, line_length: float = 1.0, bulge: float = 0.0
 ) -> SurfaceMesh:
     """The tympanic membrane: a shallow cone ``z = depth (1 − r / radius)`` over a disc mesh.
 
@@ -145,6 +145,10 @@ def cone_membrane(
     line_length
         Fraction of the radius covered by the radial line of interface nodes (manubrium),
         measured from the centre; rim nodes are never part of it.
+    bulge
+        Lateral (−z) bulge of the radial generators at mid-radius: the profile is
+        ``z = depth (1 − ρ) − 4 bulge ρ (1 − ρ)``, ``ρ = r / radius`` (the curved radial fibres of
+        the pars tensa; 0 gives a straight cone).
 
     Returns
     -------
@@ -156,7 +160,8 @@ def cone_membrane(
         )
     xy, tri, ring = disk_mesh(radius, n_rings)
     r = np.hypot(xy[:, 0], xy[:, 1])
-    z = depth * (1.0 - r / radius)
+    rho = r / radius
+    z = depth * (1.0 - rho) - 4.0 * bulge * rho * (1.0 - rho)
     points = np.column_stack([xy, z])
     boundary = np.flatnonzero(ring == n_rings)
     on_axis = (np.abs(xy[:, 1]) < 1e-12 * radius) & (xy[:, 0] >= -1e-12 * radius)

@@ -1,0 +1,54 @@
+"""``neweul fem middle-ear``: FE models of the TM and the middle-ear air over static pressures."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+__all__ = ["register"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``fem`` command (sub-command ``middle-ear``)."""
+    parser = subparsers.add_parser(
+        "fem", help="build acousto-structural FE models (tympanic membrane and middle-ear air)"
+    )
+    sub = parser.add_subparsers(dest="fem_command", metavar="MODEL", required=True)
+    me = sub.add_parser(
+        "middle-ear",
+        help="TM + ear canal + tympanic cavity, linearized at static pressures",
+        description="Solve the nonlinear static TM problem at each static pressure difference "
+        "dp = p_canal - p_cavity and write one up-coupled FE model (Eq. (2)) per working "
+        "point, the static results (static.csv) and sweep.json into DIR (atomically).",
+    )
+    # let "--pressures -4000:4000:9" through: argparse only takes "-4000"-like words as values
+    me._negative_number_matcher = re.compile(r"^-\d[\d.:,eE+-]*$")
+    me.add_argument(
+        "--pressures",
+        default="-4000:4000:9",
+        help="static pressures [Pa]: start:stop:count or a comma list (default -4000:4000:9)",
+    )
+    me.add_argument("-o", "--output", required=True, metavar="DIR", help="output directory")
+    me.add_argument("--refine", type=int, default=2, help="mesh refinement level (default 2)")
+    me.add_argument("--plots", action="store_true", help="also write PNG pictures")
+    me.add_argument(
+        "--include-support",
+        action="store_true",
+        help="keep the ossicular-chain support springs in the exported stiffness",
+    )
+    me.set_defaults(func=_middle_ear)
+
+
+def _middle_ear(args: argparse.Namespace) -> int:
+    from ..fem.middle_ear import parse_pressures, pressure_sweep
+
+    result = pressure_sweep(
+        parse_pressures(args.pressures),
+        refine=args.refine,
+        out_dir=args.output,
+        plots=args.plots,
+        include_support=args.include_support,
+        verbose=True,
+    )
+    print(f"wrote {len(result.models)} working points to {args.output}")
+    return 0
