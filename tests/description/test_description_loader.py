@@ -326,3 +326,18 @@ def test_missing_file(tmp_path: pathlib.Path) -> None:
 def test_non_utf8_bytes() -> None:
     with pytest.raises(DescriptionError, match="not UTF-8"):
         load_description_text(b"name: \xff\xfe", "bin.yaml")
+
+
+def test_the_documented_example_loads() -> None:
+    """Reference: the example of docs/description-format.md (keeps the doc honest)."""
+    doc = pathlib.Path(__file__).parents[2] / "docs" / "description-format.md"
+    if not doc.exists():
+        pytest.skip("docs not shipped")
+    text = doc.read_text().split("```yaml\n", 1)[1].split("```", 1)[0]
+    s = load_description_text(text, "pendulum.yaml")
+    assert [f.name for f in s.forces] == ["drive", "push", "twist", "spring"]
+    assert [o.name for o in s.outputs] == ["angle_deg", "tip_x", "tip_vz"]
+    bad = text.replace("    mass: m\n", "    mass: m*phi\n")
+    with pytest.raises(DescriptionError) as info:
+        load_description_text(bad, "pendulum.yaml")
+    assert str(info.value).startswith("pendulum.yaml:20: bodies.bob.mass: in expression")
