@@ -61,6 +61,7 @@ class _Walker:
         self.constructor = SafeConstructor()
         self.count = 0
         self.active: set[int] = set()
+        self.flattened: set[int] = set()
 
     def error(self, message: str, path: str, node: yaml.Node) -> DescriptionError:
         line = self.lines.get(path, node.start_mark.line + 1)
@@ -92,6 +93,19 @@ class _Walker:
             self.active.discard(id(node))
 
     def mapping(self, node: yaml.MappingNode, path: str) -> dict[str, Any]:
+        if id(node) not in self.flattened:  # an aliased mapping is checked and merged once
+            self.check_duplicates(node, path)
+            self.constructor.flatten_mapping(node)  # resolve "<<" merge keys; own keys win
+            self.flattened.add(id(node))
+        result: dict[str, Any] = {}
+        for key_node, value_node in node.value:
+            key = self.key(key_node, path)
+            key_path = _child(path, key)
+            self.lines[key_path] = key_node.start_mark.line + 1
+            result[key] = self.walk(value_node, key_path)
+        return result
+
+    def check_duplicates(self, node: yaml.MappingNode, path: str) -> None:
         seen: dict[object, int] = {}
         for key_node, _ in node.value:
             if key_node.tag == _MERGE_TAG:
@@ -105,14 +119,6 @@ class _Walker:
                     key_node,
                 )
             seen[key] = line
-        self.constructor.flatten_mapping(node)  # resolve "<<" merge keys; explicit keys win
-        result: dict[str, Any] = {}
-        for key_node, value_node in node.value:
-            key = self.key(key_node, path)
-            key_path = _child(path, key)
-            self.lines[key_path] = key_node.start_mark.line + 1
-            result[key] = self.walk(value_node, key_path)
-        return result
 
     def key(self, node: yaml.Node, path: str) -> str:
         if not isinstance(node, yaml.ScalarNode):

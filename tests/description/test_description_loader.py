@@ -341,3 +341,27 @@ def test_the_documented_example_loads() -> None:
     with pytest.raises(DescriptionError) as info:
         load_description_text(bad, "pendulum.yaml")
     assert str(info.value).startswith("pendulum.yaml:20: bodies.bob.mass: in expression")
+
+
+def test_aliased_mapping_with_merge_is_used_twice() -> None:
+    text = """\
+name: twice
+frames:
+  base: &placed {translation: [0, 0, 1]}
+  a: &arm {<<: *placed, parent: base}
+  b: *arm
+"""
+    s = load_description_text(text, "t.yaml")
+    assert s.frame_map["b"].parent == "base"
+    assert s.frame_map["b"].translation == sp.ImmutableMatrix([0, 0, 1])
+
+
+def test_description_imports_only_model_and_errors() -> None:
+    """Layering rule of DESIGN.md: description imports model (and errors) only."""
+    import re
+
+    import neweul_py.description as pkg
+
+    for path in pathlib.Path(pkg.__file__).parent.glob("*.py"):
+        for layer in re.findall(r"^\s*from \.\.(\w+)", path.read_text(), re.MULTILINE):
+            assert layer in ("model", "errors"), f"{path.name} imports {layer}"
