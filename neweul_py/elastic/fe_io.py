@@ -148,6 +148,10 @@ def _read_manifest(path: Path) -> FEModel:
         raise DataError(f"unknown matrices {sorted(unknown)}", file, "matrices")
     base = path.parent
     matrices = {key: _read_matrix(base, mats[key], key, file) for key in mats}
+    for key, a in matrices.items():
+        if a.shape[0] != a.shape[1] or a.shape != matrices["M"].shape:
+            raise DataError(f"shape {a.shape} does not match M's {matrices['M'].shape} "
+                            "(must be square n×n)", str(base / mats[key]), key)
     for key in ("nodes", "dofs"):
         if not isinstance(meta.get(key), str):
             raise DataError("needs a CSV file name", file, key)
@@ -225,8 +229,10 @@ def _numbers(col: np.ndarray, file: str, item: str, what: str, start_line: int =
     try:
         return col.astype(np.float64)
     except ValueError:
-        bad = next(i for i, s in enumerate(col) if not _is_float(s))
-        raise DataError(f"{what} {col[bad]!r} is not a number", file, item,
+        flat = col.reshape(col.shape[0], -1)
+        bad = next(i for i, row in enumerate(flat) if not all(_is_float(s) for s in row))
+        text = next(s for s in flat[bad] if not _is_float(s))
+        raise DataError(f"{what} {str(text)!r} is not a number", file, item,
                         start_line + bad) from None
 
 

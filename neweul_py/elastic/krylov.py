@@ -161,9 +161,9 @@ def reduce_krylov(
     Returns
     -------
     ReducedBody
-        ``method="krylov"``. When the left and right subspaces differ in dimension (unequal
-        numbers of inputs and outputs, or deflation) both are truncated to the smaller one,
-        keeping the lowest moments.
+        ``method="krylov"``. When the left and right subspaces of a point differ in
+        dimension (unequal numbers of inputs and outputs, or deflation) both are truncated to
+        the smaller one, keeping the lowest moments.
 
     References
     ----------
@@ -187,8 +187,10 @@ def reduce_krylov(
         si = _factor(fe, s0)
         Dt = (2 * s0) * fe.M if fe.D is None else fe.D + (2 * s0) * fe.M
         right.append(soar(si, Dt, fe.M, B, order))
-        if two_sided:
+        if two_sided:  # equal widths per point, so every point keeps its lowest moments
             left.append(soar(si, Dt, fe.M, C.T, order, transpose=True))
+            k = min(right[-1].shape[1], left[-1].shape[1])
+            right[-1], left[-1] = right[-1][:, :k], left[-1][:, :k]
     V = _real_basis(right)
     if two_sided:
         W = _real_basis(left)

@@ -1,0 +1,143 @@
+"""Small FE models for the elastic tests, built from vectorized 1-D linear elements.
+
+* :func:`duct` – closed–closed 1-D acoustic duct (pressure DOFs), resonances ``n c / 2L``;
+* :func:`piston_duct` – a spring–mass piston closing one end of a duct, u–p coupled after
+  Eq. (2) of ``reference/equations.md`` §3 (unsymmetric);
+* :func:`random_up` – a random sparse u–p model with the block structure of Eq. (2);
+* :func:`spring_chain` – a fixed–free chain of springs and masses (structural, symmetric).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.optimize as so
+import scipy.sparse as sps
+
+from neweul_py.elastic import FEModel
+
+
+def line_matrices(n_el: int, length: float) -> tuple[sps.csr_matrix, sps.csr_matrix]:
+    """Consistent mass ``∫NᵀN`` and stiffness ``∫N'ᵀN'`` of linear elements on [0, L]."""
+    h = length / n_el
+    me = h / 6 * np.array([[2.0, 1.0], [1.0, 2.0]])
+    ke = 1 / h * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    conn = np.stack([np.arange(n_el), np.arange(1, n_el + 1)], axis=1)  # (ne, 2)
+    rows = np.repeat(conn, 2, axis=1).ravel()
+    cols = np.tile(conn, (1, 2)).ravel()
+    n = n_el + 1
+    M = sps.csr_matrix((np.tile(me.ravel(), n_el), (rows, cols)), shape=(n, n))
+    K = sps.csr_matrix((np.tile(ke.ravel(), n_el), (rows, cols)), shape=(n, n))
+    return M, K
+
+
+def duct(n_el: int = 200, length: float = 1.0, c: float = 343.0) -> FEModel:
+    """Closed–closed acoustic duct: ``Mf = ∫NᵀN/c²``, ``Kf = ∫N'ᵀN'`` (unit area)."""
+    Mf, Kf = line_matrices(n_el, length)
+    n = n_el + 1
+    x = np.linspace(0.0, length, n)
+    nodes = np.column_stack([np.arange(1, n + 1), x, np.zeros(n), np.zeros(n)])
+    return FEModel(M=Mf / c**2, K=Kf, D=None, nodes=nodes, dof_node=np.arange(1, n + 1),
+                   dof_kind=np.full(n, "p"), inputs={"q0": ((0, 1.0),)},
+                   outputs={"p_end": ((n - 1, 1.0),)}, kind="acoustic",
+                   symmetric={"M": True, "K": True}, name="duct")
+
+
+def piston_duct(n_el: int = 200, length: float = 1.0, c: float = 343.0, rho: float = 1.2,
+                mass: float = 0.05, stiffness: float = 2.0e5, damping: float = 0.0,
+                area: float = 1.0) -> FEModel:
+    """Spring–mass piston (DOF 0, ``ux``) closing the duct at x = 0, rigid end at x = L.
+
+    Eq. (2): ``[m 0; ρCᵀ Mf] ẍ + [k −C; 0 Kf] x = f`` with ``C = −A e₀`` (the interface
+    normal points out of the fluid, i.e. along −x, into the piston).
+    """
+    Mf, Kf = line_matrices(n_el, length)
+    Mf, Kf = area * Mf / c**2, area * Kf
+    npr = n_el + 1
+    Cc = sps.csr_matrix(([-area], ([0], [0])), shape=(1, npr))
+    M = sps.bmat([[sps.csr_matrix([[mass]]), None], [rho * Cc.T, Mf]], format="csr")
+    K = sps.bmat([[sps.csr_matrix([[stiffness]]), -Cc], [None, Kf]], format="csr")
+    D = None
+    if damping:
+        D = sps.csr_matrix(([damping], ([0], [0])), shape=(npr + 1, npr + 1))
+    x = np.linspace(0.0, length, npr)
+    nodes = np.column_stack([np.arange(1, npr + 1), x, np.zeros(npr), np.zeros(npr)])
+    dof_node = np.concatenate([[1], np.arange(1, npr + 1)])
+    dof_kind = np.array(["ux"] + ["p"] * npr)
+    return FEModel(M=M, K=K, D=D, nodes=nodes, dof_node=dof_node, dof_kind=dof_kind,
+                   inputs={"force": ((0, 1.0),)},
+                   outputs={"p_end": ((npr, 1.0),), "x_piston": ((0, 1.0),)},
+                   kind="up-coupled", density=rho, name="piston-duct")
+
+
+def piston_duct_frequencies(count: int, length: float = 1.0, c: float = 343.0,
+                            rho: float = 1.2, mass: float = 0.05, stiffness: float = 2.0e5,
+                            area: float = 1.0) -> np.ndarray:
+    """Closed-form coupled frequencies (Hz): roots of the transcendental equation
+
+    ``k sin(kL) (k_s − m ω²) + ρ A ω² cos(kL) = 0``, ``k = ω / c``,
+
+    from ``p = P cos k(L − x)`` (rigid end), ``∂p/∂x(0) = ρ ω² U`` (momentum at the piston)
+    and ``(k_s − mω²) U + A p(0) = 0`` (piston). The trivial root ω = 0 is excluded.
+    """
+    def g(w: float) -> float:
+        k = w / c
+        return k * np.sin(k * length) * (stiffness - mass * w**2) + rho * area * w**2 * np.cos(
+            k * length)
+
+    w = np.linspace(1e-3, 2 * np.pi * c / length * (count + 2), 200_000)
+    v = g(w)
+    idx = np.flatnonzero(np.sign(v[:-1]) * np.sign(v[1:]) < 0)
+    roots = [so.brentq(g, w[i], w[i + 1], xtol=1e-14, rtol=1e-15) for i in idx[:count]]
+    return np.asarray(roots) / (2 * np.pi)
+
+
+def _spd(n: int, density: float, rng: np.random.Generator) -> sps.csr_matrix:
+    R = sps.random(n, n, density=density, random_state=rng, format="csr")
+    return sps.csr_matrix(R @ R.T + sps.diags(1.0 + rng.random(n)))
+
+
+def random_up(nu: int = 60, npr: int = 80, rho: float = 2.5, seed: int = 0,
+              damping: float = 0.0) -> FEModel:
+    """A random sparse u–p model with the block structure of Eq. (2).
+
+    ``Ks, Ms, Kf, Mf`` symmetric positive definite (random sparse ``R Rᵀ + diag``), random
+    sparse coupling ``C``; ``M = [Ms 0; ρCᵀ Mf]``, ``K = [Ks −C; 0 Kf]``. The u and p DOFs
+    are interleaved by a random permutation, so the code must use the DOF map.
+    """
+    rng = np.random.default_rng(seed)
+    Ks, Ms = _spd(nu, 0.05, rng), _spd(nu, 0.05, rng)
+    Kf, Mf = _spd(npr, 0.05, rng), _spd(npr, 0.05, rng)
+    Cc = sps.random(nu, npr, density=0.05, random_state=rng, format="csr")
+    M = sps.bmat([[Ms, None], [rho * Cc.T, Mf]], format="csr")
+    K = sps.bmat([[Ks, -Cc], [None, Kf]], format="csr")
+    D = None
+    if damping:
+        D = sps.bmat([[damping * Ks, None], [None, damping * Kf]], format="csr")
+    n = nu + npr
+    perm = rng.permutation(n)
+    M, K = M[perm][:, perm], K[perm][:, perm]
+    D = D[perm][:, perm] if D is not None else None
+    kind = np.array(["uz"] * nu + ["p"] * npr)[perm]
+    node = np.arange(1, n + 1)
+    nodes = np.column_stack([node, rng.random((n, 3))])
+    iu = int(np.flatnonzero(kind == "uz")[0])
+    ip = int(np.flatnonzero(kind == "p")[-1])
+    return FEModel(M=M, K=K, D=D, nodes=nodes, dof_node=node, dof_kind=kind,
+                   inputs={"f": ((iu, 1.0),)}, outputs={"p": ((ip, 1.0),)},
+                   kind="up-coupled", density=rho, name=f"random-up-{seed}")
+
+
+def spring_chain(n: int = 100, k: float = 1.0e4, m: float = 0.1, damping: float = 0.0
+                 ) -> FEModel:
+    """Fixed–free chain of n equal masses and springs (``ux`` DOFs), force and output at the tip."""
+    main = np.full(n, 2 * k)
+    main[-1] = k
+    K = sps.diags([main, -k * np.ones(n - 1), -k * np.ones(n - 1)], [0, 1, -1], format="csr")
+    M = sps.diags(np.full(n, m), format="csr")
+    D = damping * K if damping else None
+    nodes = np.column_stack([np.arange(1, n + 1), np.arange(1, n + 1.0), np.zeros(n),
+                             np.zeros(n)])
+    return FEModel(M=M, K=K, D=D, nodes=nodes, dof_node=np.arange(1, n + 1),
+                   dof_kind=np.full(n, "ux"), inputs={"tip": ((n - 1, 1.0),)},
+                   outputs={"tip": ((n - 1, 1.0),), "mid": ((n // 2, 1.0),)},
+                   symmetric={"M": True, "K": True}, name="chain")
