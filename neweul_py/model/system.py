@@ -158,14 +158,18 @@ def _validate(s: System) -> None:
             seen[item.name] = group
 
     for p in s.parameters:
-        if not isinstance(p.default, int | float) or not math.isfinite(p.default):
+        if (
+            isinstance(p.default, bool)
+            or not isinstance(p.default, int | float)
+            or not math.isfinite(p.default)
+        ):
             raise ModelError(
                 f"default must be a finite number, got {p.default!r}", f"parameters.{p.name}"
             )
     for c in s.coordinates:
         for attr in ("initial", "velocity"):
             v = getattr(c, attr)
-            if not isinstance(v, int | float) or not math.isfinite(v):
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
                 raise ModelError(
                     f"{attr} value must be a finite number, got {v!r}", f"coordinates.{c.name}"
                 )

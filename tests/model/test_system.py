@@ -99,6 +99,11 @@ def test_non_finite_parameter_rejected():
                              Parameter("g", 1.0)))
 
 
+def test_bool_parameter_default_rejected():
+    with pytest.raises(ModelError, match="finite number"):
+        pendulum(parameters=(Parameter("l", True), Parameter("m", 1.0), Parameter("g", 1.0)))
+
+
 def test_generalized_force_unknown_coordinate():
     with pytest.raises(ModelError, match="unknown coordinate 'psi'"):
         pendulum(forces=(GeneralizedForce("f", "psi", sp.Integer(1)),))
