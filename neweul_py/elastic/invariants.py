@@ -1,0 +1,803 @@
+"""Floating-frame-of-reference invariants of an elastic body (``reference/equations.md`` §2).
+
+From an FE model (mass matrix ``M``, node coordinates, DOF map) and a right basis ``V``
+(displacements ``x = V q``) and left basis ``W`` (test functions; ``W = V`` for one-sided
+data), :func:`compute_invariants` computes the invariants of Wallrapp (1994) and Schwertassek &
+Wallrapp (1999, §6.6) that the equations of the body need::
+
+    [ m I    m̃dᵀ   md¹  ] [ a ]   [ ω̃ω̃ md + 2 ω̃ md¹ q̇          ]   [ 0               ]
+    [ m̃d     J     Crvᵀ ] [ α ] + [ ω̃ J ω + Σ_k Gr_k q̇_k ω       ] + [ 0               ] = h
+    [ Ct     Cr    Me   ] [ q̈ ]   [ Oe(q) ω_q + Σ_k Ge_k q̇_k ω    ]   [ Ke q + De q̇ + kσ ]
+
+``a``, ``α``, ``ω``: acceleration, angular acceleration and angular velocity of the reference
+frame, in reference-frame components; ``ω_q = [ωx², ωy², ωz², ωxωy, ωyωz, ωxωz]``.
+:meth:`Invariants.mass_matrix` and :meth:`Invariants.velocity_terms` assemble exactly this.
+
+Conventions (fixed here, identical for data read from SID files)
+------------------------------------------------------------------
+* ``m̃d`` is the skew matrix of ``md = ∫ (x + u) dm`` and appears as ``m̃d`` in the rotational
+  row and ``m̃dᵀ = −m̃d`` in the translational row (from ``α × r = −r̃ α``).
+* ``md¹`` (3×nq) is the first-order part of ``md``; it is the translational-row coupling
+  (one-sided: ``md¹ = Ct⁰ᵀ``).
+* ``J(q) = −∫ ũ ũ dm`` about the frame origin, ``J¹_k = sym(Gr_k)``.
+* ``Cr(q)`` (elastic row): ``Cr⁰ = ∫ Φᵀ x̃ᵀ dm = (∫ x̃ Φ dm)ᵀ``, ``Cr¹_k = ∫ Φᵀ Φ̃_kᵀ dm``
+  (+ geometric stiffening). ``Crv`` is the same with ``V`` in place of ``W`` and without
+  stiffening: the rotational-row coupling (``Crvᵀ`` in the matrix above). One-sided data
+  read from SID has ``Crv = Cr``.
+* ``Gr = [Gr_1 | … | Gr_nq]`` (3×3nq), ``Gr_k = −2 ∫ x̃ Φ̃_k dm``;
+  ``Ge = [Ge_1 | … | Ge_nq]`` (nq×3nq), ``Ge_k = 2 ∫ Φᵀ Φ̃_kᵀ dm`` (3 columns per mode).
+* ``Oe`` columns ``ωx², ωy², ωz², ωxωy, ωyωz, ωxωz``: ``Oe(q) ω_q = ∫ Φᵀ ω̃ω̃ (x + u) dm``
+  (+ stiffening in ``Oe¹``); one-sided, ``Oe⁰ ω_q = −½ ωᵀ J¹ ω`` holds exactly.
+* Node frames: ``origin(q) = x_P + Φ_P q``, ``AP(q) = AP⁰ + Σ_k ψ̃_k AP⁰ q_k``.
+
+Two-sided rule (§2): terms describing displacement use ``V`` (``md¹``, ``J¹``, ``Gr``,
+``Crv``, node ``origin``, ``Φ``, ``Ψ``); elastic-equation rows use ``Wᵀ`` (``Ct``, ``Cr``,
+``Me``, ``Ge``, ``Oe``, ``Ke``, ``De``, ``kσ`` and the modal loads ``W_Pᵀ f`` of node forces,
+:attr:`NodeFrame.phi_w` / :attr:`NodeFrame.psi_w`).
+
+Evaluating volume integrals with the FE mass matrix
+---------------------------------------------------
+Every integral ``∫ f·g dm`` is evaluated as ``Fᵀ M G`` with ``F``, ``G`` the nodal DOF vectors
+of the fields (translations at ``ux, uy, uz``, small rotations at ``rx, ry, rz``). The rigid
+fields are exact: translation ``T_t`` (``e_a`` at the translational DOFs) and rotation
+``T_r`` (``e_a × x`` at the translational DOFs, ``e_a`` at the rotational DOFs), so ``m``,
+``md⁰``, ``J⁰``, ``Ct⁰``, ``Cr⁰``, ``Me``, ``md¹`` are exact for any consistent or lumped
+mass matrix (including rotary inertia of rotational DOFs). Cross products with a field act
+on its nodal translations (``P_b G``: ``e_b × g`` at every node, rotations 0), and they are
+evaluated in the symmetric form::
+
+    ∫ f·(e_b × g) dm       ≈ ½ [ Fᵀ M (P_b G) − (P_b F)ᵀ M G ]
+    ∫ (e_a × f)·(e_b × g) dm ≈ (P_a F)ᵀ M (P_b G)
+
+which is exact for a lumped mass matrix and, for consistent matrices, keeps the structure of
+the continuum (one-sided: ``Ge`` skew, ``Cr¹`` antisymmetric in (row, mode), ``Oe¹``
+symmetric, ``J¹ = sym Gr``, ``Oe⁰ = −½ J¹``); the error vanishes with mesh refinement. The
+rotary inertia of rotational DOFs enters the mass blocks, not the cross-product terms.
+Planar models (missing DOF directions) give the in-plane invariants only.
+
+Geometric stiffening (Wallrapp 1994, §4; Schwertassek & Wallrapp 1999, §6.6.3)
+-------------------------------------------------------------------------------
+The inertia loads of the reference-frame motion prestress the body; to first order the
+elastic rows gain ``Σ_c s_c K_G,c q`` with ``s_c ∈ {a_x, a_y, a_z, α_x, α_y, α_z, ω_q}`` and
+``K_G,c`` the geometric stiffness of the stress state caused by a unit value of ``s_c``. They
+are stored in the first-order parts of ``Ct`` (``a``), ``Cr`` (``α``) and ``Oe`` (``ω_q``)::
+
+    Ct¹[i, k, a] += (Wᵀ K_G,a V)[i, k],   Cr¹[i, k, b] += (Wᵀ K_G,αb V)[i, k],
+    Oe¹[i, k, c] += (Wᵀ K_G,c V)[i, k].
+
+The caller provides ``K_G,c`` (they depend on the element formulation): compute the unit
+d'Alembert loads with :func:`inertia_loads`, the static response with the body supported at
+its reference frame, and the element geometric stiffness of that stress state (see
+``tests/elastic/beam_fe.py`` for Euler–Bernoulli beams).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sps
+
+from ..errors import DataError
+from .taylor import Taylor
+
+__all__ = [
+    "LOAD_CASES",
+    "OMEGA_PRODUCTS",
+    "Invariants",
+    "NodeFrame",
+    "compute_invariants",
+    "inertia_loads",
+    "omega_products",
+]
+
+#: Unit load cases of geometric stiffening: frame acceleration, angular acceleration, ω_q.
+LOAD_CASES = ("ax", "ay", "az", "alphax", "alphay", "alphaz",
+              "wxx", "wyy", "wzz", "wxy", "wyz", "wxz")
+#: Index pairs (a, b) of the ω_q columns ``ωx², ωy², ωz², ωxωy, ωyωz, ωxωz``.
+OMEGA_PRODUCTS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
+FLAT_FORMAT = "neweul-invariants-1"
+_TAYLORS = ("md", "J", "Ct", "Cr", "Crv", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De")
+
+_EPS = np.zeros((3, 3, 3))
+_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
+_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """``ṽ`` with ``ṽ b = v × b``, vectorized: (..., 3) → (..., 3, 3)."""
+    return -np.einsum("ijk,...k->...ij", _EPS, np.asarray(v, dtype=np.float64))
+
+
+def omega_products(omega: np.ndarray) -> np.ndarray:
+    """``ω_q = [ωx², ωy², ωz², ωxωy, ωyωz, ωxωz]`` (vectorized over leading axes)."""
+    w = np.asarray(omega, dtype=np.float64)
+    return np.stack([w[..., a] * w[..., b] for a, b in OMEGA_PRODUCTS], axis=-1)
+
+
+def _omega_q_coefficients(Q: np.ndarray) -> np.ndarray:
+    """A quadratic form ``Σ_ab Q[..., a, b] ω_a ω_b`` as coefficients of ω_q: (..., 6)."""
+    cols = [Q[..., a, a] if a == b else Q[..., a, b] + Q[..., b, a] for a, b in OMEGA_PRODUCTS]
+    return np.stack(cols, axis=-1)
+
+
+def _centrifugal_matrix(c: int) -> np.ndarray:
+    """``B_c``: the coefficient of ω_q[c] in ``ω̃ω̃ = ωωᵀ − ωᵀω I``."""
+    a, b = OMEGA_PRODUCTS[c]
+    B = np.zeros((3, 3))
+    if a == b:
+        B -= np.eye(3)
+        B[a, a] += 1.0
+    else:
+        B[a, b] = B[b, a] = 1.0
+    return B
+
+
+# ------------------------------------------------------------------------ data model
+@dataclass(frozen=True, eq=False)
+class NodeFrame:
+    """A node frame of an elastic body (§2): pose and mode shapes at a node.
+
+    Parameters
+    ----------
+    id
+        Node id.
+    origin
+        Taylor 3×1, ``origin(q) = x_P + Φ_P q`` (uses ``V``).
+    phi, psi
+        Taylor 3×nq: translational / rotational mode shapes at the node (``V``).
+    AP
+        Taylor 3×3: node-frame orientation, ``AP(q) = AP⁰ + Σ_k ψ̃_k AP⁰ q_k``.
+    phi_w, psi_w
+        (3, nq) rows of the left basis ``W`` at the node: the modal load of a node force
+        ``f`` and torque ``l`` is ``phi_wᵀ f + psi_wᵀ l``. ``None`` for one-sided data
+        (then ``phi``/``psi`` are used).
+    """
+
+    id: int
+    origin: Taylor
+    phi: Taylor
+    psi: Taylor
+    AP: Taylor
+    phi_w: np.ndarray | None = None
+    psi_w: np.ndarray | None = None
+
+    @property
+    def load_phi(self) -> np.ndarray:
+        """(3, nq) modal-load matrix of a node force (``W`` rows, or ``Φ`` one-sided)."""
+        return self.phi.m0 if self.phi_w is None else self.phi_w
+
+    @property
+    def load_psi(self) -> np.ndarray:
+        """(3, nq) modal-load matrix of a node torque (``W`` rows, or ``Ψ`` one-sided)."""
+        return self.psi.m0 if self.psi_w is None else self.psi_w
+
+
+@dataclass(frozen=True, eq=False)
+class Invariants:
+    """The invariants of an elastic body in the floating frame of reference (§2).
+
+    All matrices are :class:`~neweul_py.elastic.taylor.Taylor` objects in the conventions of
+    the module docstring (SID conventions; ``J`` 3×3 here, 6×1 in SID files).
+
+    Parameters
+    ----------
+    m
+        Mass.
+    md
+        3×1, order 1: first mass moment about the frame origin, ``md¹ = ∫ Φ dm`` (V).
+    J
+        3×3, order 1: inertia tensor about the frame origin (``J¹`` from V).
+    Ct, Cr
+        nq×3: elastic-row couplings with ``a`` and ``α`` (W; order 1 = geometric stiffening
+        for ``Ct``, kinematic + stiffening for ``Cr``).
+    Crv
+        nq×3: rotational-row coupling (V, kinematic), ``Crvᵀ`` in the mass matrix.
+    Me
+        nq×nq modal mass ``Wᵀ M V``.
+    Gr, Ge
+        3×3nq and nq×3nq gyroscopic blocks (3 columns per mode).
+    Oe
+        nq×6, order 1: centrifugal terms (columns ω_q).
+    ksigma
+        nq×1: modal forces of reference stresses.
+    Ke, De
+        nq×nq modal stiffness ``Wᵀ K V`` and damping ``Wᵀ D V``.
+    nodes
+        Node frames.
+    names
+        Names of the elastic coordinates.
+    two_sided
+        Whether ``W ≠ V`` (the SID writer refuses two-sided data).
+    """
+
+    m: float
+    md: Taylor
+    J: Taylor
+    Ct: Taylor
+    Cr: Taylor
+    Crv: Taylor
+    Me: Taylor
+    Gr: Taylor
+    Ge: Taylor
+    Oe: Taylor
+    ksigma: Taylor
+    Ke: Taylor
+    De: Taylor
+    nodes: tuple[NodeFrame, ...] = ()
+    names: tuple[str, ...] = ()
+    two_sided: bool = False
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        nq = self.Me.nrow
+        want = {"md": (3, 1), "J": (3, 3), "Ct": (nq, 3), "Cr": (nq, 3), "Crv": (nq, 3),
+                "Me": (nq, nq), "Gr": (3, 3 * nq), "Ge": (nq, 3 * nq), "Oe": (nq, 6),
+                "ksigma": (nq, 1), "Ke": (nq, nq), "De": (nq, nq)}
+        for name, shape in want.items():
+            t = getattr(self, name)
+            if not isinstance(t, Taylor):
+                raise DataError(f"must be a Taylor object, got {type(t).__name__}", item=name)
+            if (t.nrow, t.ncol) != shape:
+                raise DataError(f"size {t.nrow}×{t.ncol}, expected {shape[0]}×{shape[1]} "
+                                f"(nq = {nq})", item=name)
+            if t.order == 1 and t.nq != nq:
+                raise DataError(f"first-order terms for {t.nq} modes, the body has {nq}",
+                                item=name)
+        set_(self, "m", float(self.m))
+        set_(self, "nodes", tuple(self.nodes))
+        names = tuple(self.names) or tuple(f"q{i + 1}" for i in range(nq))
+        if len(names) != nq:
+            raise DataError(f"{len(names)} names for {nq} elastic coordinates", item="names")
+        set_(self, "names", names)
+        for n in self.nodes:
+            for key, shape in (("origin", (3, 1)), ("phi", (3, nq)), ("psi", (3, nq)),
+                               ("AP", (3, 3))):
+                t = getattr(n, key)
+                if (t.nrow, t.ncol) != shape:
+                    raise DataError(f"size {t.nrow}×{t.ncol}, expected {shape}",
+                                    item=f"nodes[{n.id}].{key}")
+            for key in ("phi_w", "psi_w"):
+                a = getattr(n, key)
+                if a is not None and np.shape(a) != (3, nq):
+                    raise DataError(f"shape {np.shape(a)}, expected (3, {nq})",
+                                    item=f"nodes[{n.id}].{key}")
+
+    # ---------------------------------------------------------------------- access
+    @property
+    def nq(self) -> int:
+        """Number of elastic coordinates."""
+        return self.Me.nrow
+
+    def node(self, node_id: int) -> NodeFrame:
+        """The node frame with id ``node_id``."""
+        for n in self.nodes:
+            if n.id == node_id:
+                return n
+        raise DataError(f"no node frame {node_id} (have {[n.id for n in self.nodes]})",
+                        item="nodes")
+
+    def blocks(self, name: str) -> np.ndarray:
+        """``Gr`` as (nq, 3, 3) blocks ``Gr_k`` or ``Ge`` as (nq, nq, 3) blocks ``Ge_k``."""
+        t = getattr(self, name).m0
+        if name == "Gr":
+            return t.reshape(3, self.nq, 3).transpose(1, 0, 2).copy()
+        if name == "Ge":
+            return t.reshape(self.nq, self.nq, 3).transpose(1, 0, 2).copy()
+        raise DataError(f"no block form of {name}", item=name)
+
+    # ---------------------------------------------------------------- the equations
+    def mass_matrix(self, q: np.ndarray | None = None) -> np.ndarray:
+        """The (6+nq)² body mass matrix of §2 for ``[a, α, q̈]`` (unsymmetric in general).
+
+        Rigid rows: ``[m I, m̃d(q)ᵀ, md¹]``, ``[m̃d(q), J(q), Crv(q)ᵀ]``; elastic rows
+        ``[Ct(q), Cr(q), Me]``.
+        """
+        q = np.zeros(self.nq) if q is None else np.asarray(q, dtype=np.float64)
+        nq = self.nq
+        md = self.md.evaluate(q)[:, 0]
+        out = np.zeros((6 + nq, 6 + nq))
+        out[:3, :3] = self.m * np.eye(3)
+        out[:3, 3:6] = skew(md).T
+        out[:3, 6:] = self.md.m1[:, :, 0] if self.md.m1 is not None else 0.0
+        out[3:6, :3] = skew(md)
+        out[3:6, 3:6] = self.J.evaluate(q)
+        out[3:6, 6:] = self.Crv.evaluate(q).T
+        out[6:, :3] = self.Ct.evaluate(q)
+        out[6:, 3:6] = self.Cr.evaluate(q)
+        out[6:, 6:] = self.Me.m0
+        return out
+
+    def velocity_terms(self, q: np.ndarray, qd: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        """The (6+nq) vector of velocity-dependent inertia terms of §2 (left-hand side)::
+
+            [ω̃ω̃ md(q) + 2 ω̃ md¹ q̇;  ω̃ J(q) ω + Σ_k Gr_k q̇_k ω;  Oe(q) ω_q + Σ_k Ge_k q̇_k ω]
+        """
+        q, qd, w = (np.asarray(v, dtype=np.float64) for v in (q, qd, omega))
+        wt = skew(w)
+        md = self.md.evaluate(q)[:, 0]
+        md1 = self.md.m1[:, :, 0] if self.md.m1 is not None else np.zeros((3, self.nq))
+        J = self.J.evaluate(q)
+        Gr = np.einsum("kab,k->ab", self.blocks("Gr"), qd)
+        Ge = np.einsum("kib,k->ib", self.blocks("Ge"), qd)
+        return np.concatenate([
+            wt @ wt @ md + 2 * wt @ (md1 @ qd),
+            wt @ J @ w + Gr @ w,
+            self.Oe.evaluate(q) @ omega_products(w) + Ge @ w,
+        ])
+
+    def elastic_forces(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""
+        return self.Ke.m0 @ q + self.De.m0 @ qd + self.ksigma.m0[:, 0]
+
+    # --------------------------------------------------------------------- storage
+    def to_flat(self) -> dict[str, np.ndarray]:
+        """Flat ``name → array`` form for the reduced-body file (no objects, no pickles).
+
+        Keys: ``X.m0`` / ``X.m1`` for every Taylor object ``X``, ``m``, ``names``,
+        ``two_sided``, ``format``, and stacked node data ``nodes.id`` (nk,),
+        ``nodes.origin.m0`` (nk, 3, 1), ``nodes.origin.m1`` (nk, 3, nq, 1), ``nodes.phi``,
+        ``nodes.psi``, ``nodes.phi_w``, ``nodes.psi_w`` (nk, 3, nq), ``nodes.AP.m0``
+        (nk, 3, 3), ``nodes.AP.m1`` (nk, 3, nq, 3).
+        """
+        out: dict[str, np.ndarray] = {
+            "format": np.array(FLAT_FORMAT),
+            "m": np.array(self.m),
+            "names": np.array(self.names, dtype=str),
+            "two_sided": np.array(self.two_sided),
+        }
+        for name in _TAYLORS:
+            t: Taylor = getattr(self, name)
+            out[f"{name}.m0"] = t.m0.copy()
+            if t.m1 is not None:
+                out[f"{name}.m1"] = t.m1.copy()
+        nq, nk = self.nq, len(self.nodes)
+        out["nodes.id"] = np.array([n.id for n in self.nodes], dtype=np.int64)
+        out["nodes.origin.m0"] = np.array([n.origin.m0 for n in self.nodes]).reshape(nk, 3, 1)
+        out["nodes.origin.m1"] = np.array(
+            [n.origin.with_order(1).m1 for n in self.nodes]).reshape(nk, 3, nq, 1)
+        out["nodes.phi"] = np.array([n.phi.m0 for n in self.nodes]).reshape(nk, 3, nq)
+        out["nodes.psi"] = np.array([n.psi.m0 for n in self.nodes]).reshape(nk, 3, nq)
+        out["nodes.phi_w"] = np.array([n.load_phi for n in self.nodes]).reshape(nk, 3, nq)
+        out["nodes.psi_w"] = np.array([n.load_psi for n in self.nodes]).reshape(nk, 3, nq)
+        out["nodes.AP.m0"] = np.array([n.AP.m0 for n in self.nodes]).reshape(nk, 3, 3)
+        out["nodes.AP.m1"] = np.array(
+            [n.AP.with_order(1).m1 for n in self.nodes]).reshape(nk, 3, nq, 3)
+        return out
+
+    @classmethod
+    def from_flat(cls, flat: Mapping[str, np.ndarray]) -> Invariants:
+        """Inverse of :meth:`to_flat`.
+
+        Raises
+        ------
+        DataError
+            Unknown format tag or missing/inconsistent arrays (item: the array name).
+        """
+        def get(key: str) -> np.ndarray:
+            if key not in flat:
+                raise DataError("missing array", item=f"invariants.{key}")
+            return np.asarray(flat[key])
+
+        fmt = str(get("format"))
+        if fmt != FLAT_FORMAT:
+            raise DataError(f"unknown invariants format {fmt!r} (expected {FLAT_FORMAT!r})",
+                            item="invariants.format")
+        taylors = {}
+        for name in _TAYLORS:
+            m0 = get(f"{name}.m0")
+            m1 = flat.get(f"{name}.m1")
+            taylors[name] = Taylor.from_arrays(m0, None if m1 is None else np.asarray(m1))
+        nq = taylors["Me"].nrow
+        two_sided = bool(get("two_sided"))
+        ids = get("nodes.id").astype(np.int64)
+        nodes = []
+        for i, node_id in enumerate(ids):
+            phi = get("nodes.phi")[i]
+            psi = get("nodes.psi")[i]
+            nodes.append(NodeFrame(
+                int(node_id),
+                Taylor.from_arrays(get("nodes.origin.m0")[i], get("nodes.origin.m1")[i]),
+                Taylor.from_arrays(phi, nq=nq), Taylor.from_arrays(psi, nq=nq),
+                Taylor.from_arrays(get("nodes.AP.m0")[i], get("nodes.AP.m1")[i]),
+                get("nodes.phi_w")[i].copy() if two_sided else None,
+                get("nodes.psi_w")[i].copy() if two_sided else None))
+        return cls(m=float(get("m")), nodes=tuple(nodes),
+                   names=tuple(str(s) for s in get("names")), two_sided=two_sided, **taylors)
+
+    # ------------------------------------------------------------------------ SID
+    @classmethod
+    def from_sid(cls, body, *, ge_layout: str = "auto") -> Invariants:
+        """The invariants of a :class:`~neweul_py.elastic.sid.SIDBody` (one-sided).
+
+        Parameters
+        ----------
+        body
+            The SID data.
+        ge_layout
+            Column layout of ``Ge`` in the file: ``"mode"`` (``[Ge_1 | … | Ge_nq]``, the
+            standard), ``"component"`` (``[Ge_x | Ge_y | Ge_z]``, nq columns per ω
+            component, as written by some exporters, e.g. the beam file in ``tests/data``)
+            or ``"auto"``: the layout in which ``Ge`` matches ``2·Cr¹`` (its kinematic
+            definition), falling back to ``"mode"``.
+
+        Notes
+        -----
+        Missing blocks are zero; ``Crv = Cr`` (SID holds one rotational coupling); ``J``
+        is expanded to 3×3.
+        """
+        from .sid import j_as_matrix  # local: sid does not depend on invariants
+
+        nq = body.nq
+
+        def tay(name: str, shape: tuple[int, int], order: int = 0) -> Taylor:
+            t = body.get(name)
+            if t is None:
+                return Taylor.from_arrays(np.zeros(shape),
+                                          np.zeros((shape[0], nq, shape[1])) if order else None,
+                                          nq=nq)
+            return t
+
+        Ge = tay("Ge", (nq, 3 * nq))
+        Cr = tay("Cr", (nq, 3))
+        if ge_layout not in ("auto", "mode", "component"):
+            raise DataError(f"ge_layout must be 'auto', 'mode' or 'component', got "
+                            f"{ge_layout!r}", item="Ge")
+        ge_mode = Ge.m0
+        ge_comp = Ge.m0.reshape(nq, 3, nq).transpose(0, 2, 1).reshape(nq, 3 * nq)
+        if ge_layout == "component":
+            ge_mode = ge_comp
+        elif ge_layout == "auto" and Cr.m1 is not None and np.any(Ge.m0):
+            ref = 2 * Cr.m1.reshape(nq, 3 * nq)
+            if np.abs(ge_comp - ref).max() < np.abs(ge_mode - ref).max():
+                ge_mode = ge_comp
+        nodes = tuple(NodeFrame(n.id, n.origin, n.phi, n.psi, n.AP) for n in body.nodes)
+        return cls(
+            m=body.mass, md=tay("mdCM", (3, 1), 1).with_order(1),
+            J=j_as_matrix(tay("J", (3, 3), 1)).with_order(1),
+            Ct=tay("Ct", (nq, 3)),
+            Cr=Cr, Crv=Cr, Me=tay("Me", (nq, nq)),
+            Gr=tay("Gr", (3, 3 * nq)), Ge=Taylor.from_arrays(ge_mode, nq=nq),
+            Oe=tay("Oe", (nq, 6), 1).with_order(1), ksigma=tay("ksigma", (nq, 1)),
+            Ke=tay("Ke", (nq, nq)), De=tay("De", (nq, nq)), nodes=nodes, names=body.ielastq)
+
+    def to_sid(self, header: str = ""):
+        """A :class:`~neweul_py.elastic.sid.SIDBody` of one-sided invariants.
+
+        ``J`` is written 6×1, ``Ge`` in the standard per-mode layout, ``Crv`` is dropped
+        (SID has one ``Cr``); each block gets its most compact structure flag.
+
+        Raises
+        ------
+        DataError
+            For two-sided data (the SID format holds one basis).
+        """
+        from .sid import SIDBody, SIDNode, j_as_column
+
+        if self.two_sided:
+            raise DataError("two-sided invariants cannot be written as SID (one basis only)",
+                            item="two_sided")
+        nq = self.nq
+
+        def out(t: Taylor) -> Taylor:
+            t = Taylor(t.order, t.nrow, t.ncol, nq, 0, 3, t.m0, t.m1)
+            return t.with_structure(None)
+
+        taylors = {"mdCM": out(self.md), "J": out(j_as_column(self.J)), "Ct": out(self.Ct),
+                   "Cr": out(self.Cr), "Me": out(self.Me), "Gr": out(self.Gr),
+                   "Ge": out(self.Ge), "Oe": out(self.Oe), "ksigma": out(self.ksigma),
+                   "Ke": out(self.Ke), "De": out(self.De)}
+        nodes = tuple(SIDNode(n.id, "body ref", out(n.origin), out(n.phi), out(n.psi),
+                              out(n.AP)) for n in self.nodes)
+        return SIDBody(self.m, self.names, nodes, taylors, header)
+
+
+# ------------------------------------------------------------------------ DOF map
+@dataclass(frozen=True)
+class _Dofs:
+    """Node table and, per node and direction, the DOF index (−1: no such DOF)."""
+
+    n: int
+    ids: np.ndarray            # (nn,)
+    xyz: np.ndarray            # (nn, 3)
+    trans: np.ndarray          # (nn, 3) int
+    rot: np.ndarray            # (nn, 3) int
+    where: dict = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, fe) -> _Dofs:
+        nodes = np.asarray(fe.nodes, dtype=np.float64)
+        ids = nodes[:, 0].astype(np.int64)
+        order = np.argsort(ids)
+        dof_node = np.asarray(fe.dof_node).astype(np.int64)
+        kinds = np.asarray(fe.dof_kind).astype(str)
+        n = dof_node.size
+        pos = np.searchsorted(ids[order], dof_node)
+        pos = np.clip(pos, 0, ids.size - 1)
+        if np.any(ids[order][pos] != dof_node):
+            bad = dof_node[ids[order][pos] != dof_node][0]
+            raise DataError(f"DOF on unknown node {bad}", fe.source, "dof_node")
+        node_of = order[pos]
+        trans = np.full((ids.size, 3), -1, dtype=np.int64)
+        rot = np.full((ids.size, 3), -1, dtype=np.int64)
+        for a, (tk, rk) in enumerate((("ux", "rx"), ("uy", "ry"), ("uz", "rz"))):
+            sel = np.nonzero(kinds == tk)[0]
+            trans[node_of[sel], a] = sel
+            sel = np.nonzero(kinds == rk)[0]
+            rot[node_of[sel], a] = sel
+        return cls(n, ids, nodes[:, 1:4], trans, rot,
+                   {int(i): k for k, i in enumerate(ids)})
+
+    def gather(self, U: np.ndarray, which: str = "trans") -> np.ndarray:
+        """(n, p) DOF vectors → (nn, p, 3) node triplets (0 where a DOF is missing)."""
+        idx = self.trans if which == "trans" else self.rot
+        ok = idx >= 0
+        out = np.zeros((idx.shape[0], U.shape[1], 3))
+        nodes, comps = np.nonzero(ok)
+        out[nodes, :, comps] = U[idx[nodes, comps], :]
+        return out
+
+    def scatter(self, T: np.ndarray, which: str = "trans") -> np.ndarray:
+        """(nn, p, 3) node triplets → (n, p) DOF vectors (missing DOFs dropped)."""
+        idx = self.trans if which == "trans" else self.rot
+        nodes, comps = np.nonzero(idx >= 0)
+        out = np.zeros((self.n, T.shape[1]))
+        out[idx[nodes, comps], :] = T[nodes, :, comps]
+        return out
+
+    def rigid_fields(self) -> tuple[np.ndarray, np.ndarray]:
+        """``T_t`` and ``T_r`` (n, 3): rigid translation and rotation about the origin."""
+        nn = self.ids.size
+        eye = np.broadcast_to(np.eye(3), (nn, 3, 3))
+        Tt = self.scatter(eye)
+        # T_r[:, b] translational = e_b × x: (e_b × x)_a = ε_abk x_k
+        tr = np.einsum("abk,ik->iba", _EPS, self.xyz)
+        Tr = self.scatter(tr) + self.scatter(eye, "rot")
+        return Tt, Tr
+
+
+def _cross_pair(dofs: _Dofs, F: np.ndarray, MtF: np.ndarray, G: np.ndarray,
+                MG: np.ndarray) -> np.ndarray:
+    """``C[p, k, b] = ∫ f_p·(e_b × g_k) dm ≈ ½ [Fᵀ M P_b G − (P_b F)ᵀ M G]`` (p, k, 3)."""
+    f, g = dofs.gather(F), dofs.gather(G)
+    mtf, mg = dofs.gather(MtF), dofs.gather(MG)
+    pair = np.einsum("ipa,ikc->pkac", mtf, g) - np.einsum("ika,ipc->pkac", mg, f)
+    return 0.5 * np.einsum("abc,pkac->pkb", _EPS, pair)
+
+
+def _cross_fields(dofs: _Dofs, G: np.ndarray) -> list[np.ndarray]:
+    """``[P_0 G, P_1 G, P_2 G]``: ``e_b × g`` at the translational DOFs (each (n, k))."""
+    g = dofs.gather(G)
+    return [dofs.scatter(np.cross(np.eye(3)[b], g)) for b in range(3)]
+
+
+def _as_operator(A, n: int, item: str):
+    if A is None:
+        return None
+    if sps.issparse(A):
+        A = sps.csr_matrix(A)
+    else:
+        A = np.asarray(A, dtype=np.float64)
+    if A.shape != (n, n):
+        raise DataError(f"shape {A.shape}, expected ({n}, {n})", item=item)
+    return A
+
+
+# ---------------------------------------------------------------------------- API
+def inertia_loads(fe) -> dict[str, np.ndarray]:
+    """The d'Alembert nodal loads of the 12 unit load cases of :data:`LOAD_CASES`.
+
+    ``f_c = −M g_c`` with ``g_c`` the acceleration field of a unit value of the case: frame
+    acceleration ``e_a`` (``T_t``), angular acceleration ``e_b`` (``T_r``), or the
+    centrifugal field ``B_c x`` of ``ω_q[c] = 1`` (``ω̃ω̃ = Σ_c B_c ω_q[c]``; translations
+    only). Apply them to the body supported at its reference frame, compute the stress
+    state and its geometric stiffness ``K_G,c``, and pass these to
+    :func:`compute_invariants` (``geometric_stiffness``).
+
+    Returns
+    -------
+    dict
+        Case name → (n,) load vector.
+    """
+    dofs = _Dofs.of(fe)
+    M = sps.csr_matrix(fe.M)
+    Tt, Tr = dofs.rigid_fields()
+    out = {}
+    for a, name in enumerate(("ax", "ay", "az")):
+        out[name] = -(M @ Tt[:, a])
+    for b, name in enumerate(("alphax", "alphay", "alphaz")):
+        out[name] = -(M @ Tr[:, b])
+    for c, name in enumerate(LOAD_CASES[6:]):
+        field_ = dofs.scatter((dofs.xyz @ _centrifugal_matrix(c).T)[:, None, :])[:, 0]
+        out[name] = -(M @ field_)
+    return out
+
+
+def compute_invariants(
+    fe,
+    V: np.ndarray,
+    W: np.ndarray | None = None,
+    *,
+    nodes: Sequence[int] = (),
+    node_orientations: Mapping[int, np.ndarray] | None = None,
+    geometric_stiffness: Mapping[str, object] | None = None,
+    ksigma: np.ndarray | None = None,
+    names: Sequence[str] | None = None,
+) -> Invariants:
+    """The floating-frame invariants of §2 from an FE model and bases ``V``, ``W``.
+
+    Parameters
+    ----------
+    fe
+        The :class:`~neweul_py.elastic.fe_model.FEModel` (``M``, ``K``, ``D``, nodes, DOF map);
+        the body reference frame is the FE coordinate system.
+    V
+        (n, nq) right basis: ``x = V q``.
+    W
+        (n, nq) left basis (test functions); ``None`` for one-sided data (``W = V``).
+    nodes
+        Ids of the nodes that get node frames (interfaces, outputs).
+    node_orientations
+        Node id → 3×3 orientation ``AP⁰`` of the node frame (default identity).
+    geometric_stiffness
+        Load case (:data:`LOAD_CASES`) → n×n geometric stiffness ``K_G,c`` of the stress
+        state of a unit value of that case (see :func:`inertia_loads`); missing cases have
+        none. Adds ``Wᵀ K_G,c V`` to the first-order parts of ``Ct``, ``Cr``, ``Oe``.
+    ksigma
+        (nq,) modal forces of reference stresses (default 0).
+    names
+        Names of the elastic coordinates (default ``q1 … qnq``).
+
+    Returns
+    -------
+    Invariants
+
+    Raises
+    ------
+    DataError
+        Bases of the wrong shape or not finite, unknown node ids or load cases.
+
+    References
+    ----------
+    ``reference/equations.md`` §2; Wallrapp 1994; Schwertassek & Wallrapp 1999, §6.6.
+
+    Examples
+    --------
+    >>> inv = compute_invariants(fe, V, nodes=[tip_id])           # doctest: +SKIP
+    >>> inv.Me.m0, inv.node(tip_id).phi.m0                        # doctest: +SKIP
+    """
+    dofs = _Dofs.of(fe)
+    n = dofs.n
+    M = sps.csr_matrix(fe.M)
+    Mt = sps.csr_matrix(M.T)
+    V = np.asarray(V, dtype=np.float64)
+    if V.ndim != 2 or V.shape[0] != n:
+        raise DataError(f"V has shape {V.shape}, expected ({n}, nq)", fe.source, "V")
+    nq = V.shape[1]
+    two_sided = W is not None
+    W = V if W is None else np.asarray(W, dtype=np.float64)
+    if W.shape != V.shape:
+        raise DataError(f"W has shape {W.shape}, V has {V.shape}", fe.source, "W")
+    for key, X in (("V", V), ("W", W)):
+        if not np.all(np.isfinite(X)):
+            raise DataError("not finite", fe.source, key)
+    KG = {}
+    for case, A in (geometric_stiffness or {}).items():
+        if case not in LOAD_CASES:
+            raise DataError(f"unknown load case {case!r} (one of {', '.join(LOAD_CASES)})",
+                            fe.source, "geometric_stiffness")
+        KG[case] = _as_operator(A, n, f"geometric_stiffness.{case}")
+
+    Tt, Tr = dofs.rigid_fields()
+    MTt, MTr = M @ Tt, M @ Tr                 # fields multiplied by M
+    MtTt, MtTr = Mt @ Tt, Mt @ Tr             # test fields: Xᵀ M = (Mᵀ X)ᵀ
+    MV, MtV = M @ V, Mt @ V
+    MtW = MtV if not two_sided else Mt @ W
+
+    # --- mass, first moment, inertia (exact rigid fields)
+    m3 = Tt.T @ MTt
+    present = dofs.trans.max(axis=0) >= 0
+    m = float(np.mean(np.diag(m3)[present])) if present.any() else 0.0
+    S = Tr.T @ MTt                            # S[b, a] = ε_abk md_k
+    md0 = np.zeros(3)
+    for k in range(3):
+        vals = [_EPS[a, b, k] * S[b, a] for a in range(3) for b in range(3)
+                if _EPS[a, b, k] != 0 and present[a]]
+        md0[k] = np.mean(vals) if vals else 0.0
+    J0 = Tr.T @ MTr
+    J0 = 0.5 * (J0 + J0.T)
+    md1 = MtTt.T @ V                          # ∫ Φ dm (3, nq), V
+
+    # --- one-cross-product integrals
+    Gr_c = _cross_pair(dofs, Tr, MtTr, V, MV)          # (3, nq, 3): ∫ t_a·(e_b × Φ_k)
+    Gr = 2.0 * Gr_c                                    # Gr_k[a, b]
+    J1 = 0.5 * (Gr + np.swapaxes(Gr, 0, 2))            # J¹_k = sym Gr_k, as (a, k, b)
+    Cr_kin = _cross_pair(dofs, W, MtW, V, MV)          # (nq, nq, 3), W rows
+    Crv1 = Cr_kin if not two_sided else _cross_pair(dofs, V, MtV, V, MV)
+    Oe0_q = _cross_pair(dofs, W, MtW, Tr, MTr)         # [i, b, a] = ∫ w_i·(e_a × t_b)
+    Oe0 = _omega_q_coefficients(np.swapaxes(Oe0_q, 1, 2))
+
+    # --- two-cross-product integrals: Oe¹ = −(P_a W)ᵀ M (P_b V)
+    PW = _cross_fields(dofs, W)
+    MPV = [M @ P for P in _cross_fields(dofs, V)]
+    Q = np.stack([np.stack([PW[a].T @ MPV[b] for b in range(3)], axis=-1)
+                  for a in range(3)], axis=-2)        # (nq, nq, 3a, 3b)
+    Oe1 = -_omega_q_coefficients(Q)                    # (nq, nq, 6)
+
+    # --- geometric stiffening (elastic rows)
+    Ct1 = np.zeros((nq, nq, 3))
+    Cr1 = Cr_kin.copy()
+    for a in range(3):
+        if (A := KG.get(LOAD_CASES[a])) is not None:
+            Ct1[:, :, a] += W.T @ (A @ V)
+        if (A := KG.get(LOAD_CASES[3 + a])) is not None:
+            Cr1[:, :, a] += W.T @ (A @ V)
+    for c in range(6):
+        if (A := KG.get(LOAD_CASES[6 + c])) is not None:
+            Oe1[:, :, c] += W.T @ (A @ V)
+
+    K = sps.csr_matrix(fe.K)
+    Ke = W.T @ (K @ V)
+    De = np.zeros((nq, nq)) if fe.D is None else W.T @ (sps.csr_matrix(fe.D) @ V)
+    ks = np.zeros((nq, 1)) if ksigma is None else np.asarray(ksigma, float).reshape(nq, 1)
+
+    def T(m0, m1=None) -> Taylor:
+        return Taylor.from_arrays(m0, m1, nq=nq)
+
+    inv_nodes = _node_frames(dofs, V, W if two_sided else None, nodes,
+                             node_orientations or {}, fe.source)
+    return Invariants(
+        m=m,
+        md=T(md0[:, None], md1[:, :, None]),
+        J=T(J0, J1),
+        Ct=T(MtW.T @ Tt, Ct1),
+        Cr=T(MtW.T @ Tr, Cr1),
+        Crv=T(MtV.T @ Tr, Crv1),
+        Me=T(MtW.T @ V),
+        Gr=T(Gr.reshape(3, 3 * nq)),
+        Ge=T(2.0 * Cr_kin.reshape(nq, 3 * nq)),
+        Oe=T(Oe0, Oe1),
+        ksigma=T(ks),
+        Ke=T(Ke),
+        De=T(De),
+        nodes=inv_nodes,
+        names=tuple(names) if names is not None else (),
+        two_sided=two_sided,
+    )
+
+
+def _node_frames(dofs: _Dofs, V: np.ndarray, W: np.ndarray | None, ids: Sequence[int],
+                 orientations: Mapping[int, np.ndarray], source) -> tuple[NodeFrame, ...]:
+    ids = [int(i) for i in ids]
+    missing = [i for i in ids if i not in dofs.where]
+    if missing:
+        raise DataError(f"unknown node ids {missing}", source, "nodes")
+    bad = [i for i in orientations if int(i) not in dofs.where]
+    if bad:
+        raise DataError(f"orientation for unknown node ids {bad}", source, "node_orientations")
+    if not ids:
+        return ()
+    nq = V.shape[1]
+    rows = np.array([dofs.where[i] for i in ids])
+    sub = _Dofs(dofs.n, dofs.ids[rows], dofs.xyz[rows], dofs.trans[rows], dofs.rot[rows])
+    phi = sub.gather(V).transpose(0, 2, 1)             # (nk, 3, nq)
+    psi = sub.gather(V, "rot").transpose(0, 2, 1)
+    phw = psw = None
+    if W is not None:
+        phw = sub.gather(W).transpose(0, 2, 1)
+        psw = sub.gather(W, "rot").transpose(0, 2, 1)
+    out = []
+    for j, node_id in enumerate(ids):
+        AP0 = np.asarray(orientations.get(node_id, np.eye(3)), dtype=np.float64)
+        if AP0.shape != (3, 3):
+            raise DataError(f"orientation of node {node_id} has shape {AP0.shape}",
+                            source, "node_orientations")
+        AP1 = np.einsum("kab,bc->akc", skew(psi[j].T), AP0)   # ψ̃_k AP⁰ as (3, nq, 3)
+        out.append(NodeFrame(
+            node_id,
+            Taylor.from_arrays(sub.xyz[j][:, None], phi[j][:, :, None]),
+            Taylor.from_arrays(phi[j], nq=nq), Taylor.from_arrays(psi[j], nq=nq),
+            Taylor.from_arrays(AP0, AP1),
+            None if phw is None else phw[j], None if psw is None else psw[j]))
+    return tuple(out)
