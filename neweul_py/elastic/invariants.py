@@ -87,6 +87,8 @@ __all__ = [
     "OMEGA_PRODUCTS",
     "Invariants",
     "NodeFrame",
+    "attach_invariants",
+    "body_invariants",
     "compute_invariants",
     "inertia_loads",
     "omega_products",
@@ -562,7 +564,8 @@ def _cross_pair(dofs: _Dofs, F: np.ndarray, MtF: np.ndarray, G: np.ndarray,
     """``C[p, k, b] = ∫ f_p·(e_b × g_k) dm ≈ ½ [Fᵀ M P_b G − (P_b F)ᵀ M G]`` (p, k, 3)."""
     f, g = dofs.gather(F), dofs.gather(G)
     mtf, mg = dofs.gather(MtF), dofs.gather(MG)
-    pair = np.einsum("ipa,ikc->pkac", mtf, g) - np.einsum("ika,ipc->pkac", mg, f)
+    pair = (np.tensordot(mtf, g, axes=([0], [0])).transpose(0, 2, 1, 3)
+            - np.tensordot(mg, f, axes=([0], [0])).transpose(2, 0, 1, 3))
     return 0.5 * np.einsum("abc,pkac->pkb", _EPS, pair)
 
 
@@ -719,10 +722,13 @@ def compute_invariants(
     Oe0 = _omega_q_coefficients(np.swapaxes(Oe0_q, 1, 2))
 
     # --- two-cross-product integrals: Oe¹ = −(P_a W)ᵀ M (P_b V)
-    PW = _cross_fields(dofs, W)
-    MPV = [M @ P for P in _cross_fields(dofs, V)]
-    Q = np.stack([np.stack([PW[a].T @ MPV[b] for b in range(3)], axis=-1)
-                  for a in range(3)], axis=-2)        # (nq, nq, 3a, 3b)
+    w_t = dofs.gather(W)
+    pw = np.stack([np.cross(np.eye(3)[a], w_t) for a in range(3)], axis=2)  # (nn,nq,3a,3c)
+    mpv = np.stack([dofs.gather(M @ P) for P in _cross_fields(dofs, V)], axis=2)
+    nn = w_t.shape[0]
+    Q = (pw.transpose(0, 3, 1, 2).reshape(3 * nn, 3 * nq).T
+         @ mpv.transpose(0, 3, 1, 2).reshape(3 * nn, 3 * nq))
+    Q = Q.reshape(nq, 3, nq, 3).transpose(0, 2, 1, 3)   # (nq, nq, 3a, 3b)
     Oe1 = -_omega_q_coefficients(Q)                    # (nq, nq, 6)
 
     # --- geometric stiffening (elastic rows)
@@ -801,3 +807,43 @@ def _node_frames(dofs: _Dofs, V: np.ndarray, W: np.ndarray | None, ids: Sequence
             Taylor.from_arrays(AP0, AP1),
             None if phw is None else phw[j], None if psw is None else psw[j]))
     return tuple(out)
+
+
+# ------------------------------------------------------------------ reduced bodies
+def attach_invariants(body, fe, *, nodes: Sequence[int] | None = None, **kwargs):
+    """The reduced body with its invariants slot filled from ``fe`` and its full bases.
+
+    Parameters
+    ----------
+    body
+        A :class:`~neweul_py.elastic.reduced_body.ReducedBody` holding the full bases
+        (``store_bases=True`` in the reductor).
+    fe
+        The FE model it was reduced from.
+    nodes
+        Node-frame ids (default: the body's kept nodes).
+    **kwargs
+        Passed to :func:`compute_invariants` (``geometric_stiffness``, ``ksigma``, …).
+
+    Returns
+    -------
+    ReducedBody
+        ``body.with_(invariants=inv.to_flat())``; read back with :func:`body_invariants`.
+
+    Raises
+    ------
+    DataError
+        The body has no full bases, or they do not fit the FE model.
+    """
+    if body.V is None or (body.two_sided and body.W is None):
+        raise DataError("the reduced body holds no full bases (reduce with store_bases=True)",
+                        item="V")
+    ids = [int(i) for i in np.asarray(body.nodes)[:, 0]] if nodes is None else nodes
+    inv = compute_invariants(fe, body.V, body.W if body.two_sided else None, nodes=ids,
+                             **kwargs)
+    return body.with_(invariants=inv.to_flat())
+
+
+def body_invariants(body) -> Invariants | None:
+    """The :class:`Invariants` stored in a reduced body's invariants slot (or ``None``)."""
+    return None if body.invariants is None else Invariants.from_flat(body.invariants)

@@ -288,6 +288,21 @@ def test_stiffening_matches_unreduced_fe():
             np.testing.assert_allclose(_reduced_omega(inv, Om)[:3], full, rtol=1e-6)
 
 
+def test_greenhill_self_weight_buckling():
+    """A column along x standing on a frame that accelerates with a_x (equivalent to gravity
+    g = a_x) buckles when det(Ke + a_x Ct¹_x) = 0, at a_x = 7.837 EI/(ρA L³) (Greenhill 1881;
+    Timoshenko & Gere, Theory of Elastic Stability, §2.13) — flapwise (EIy) and 4× that
+    chordwise (EIz = 4 EIy)."""
+    b = beam(20)
+    _, V = b.clamped_modes(8)
+    inv = compute_invariants(b.fe, V, geometric_stiffness=stiffened(b, ("ax",)))
+    ev = sla.eigvals(inv.Ke.m0, -inv.Ct.m1_matrix(0)).real
+    ev = np.sort(ev[ev > 0])
+    crit = 7.8373 * b.E * b.Iy / (b.rho * b.A * b.length**3)
+    assert ev[0] == pytest.approx(crit, rel=2e-3)
+    assert ev[1] == pytest.approx(4 * crit, rel=2e-3)
+
+
 def test_stiffening_slots():
     """Each load case lands in its slot: a → Ct¹, α → Cr¹, ω_q → Oe¹ (as Wᵀ K_G V)."""
     b = beam(6)
@@ -419,3 +434,27 @@ def test_bad_input():
     two = compute_invariants(b.fe, V, 2 * V)
     with pytest.raises(DataError, match="two-sided"):
         two.to_sid()
+
+
+def test_reduced_body_slot(tmp_path):
+    """attach_invariants fills a ReducedBody's invariants slot from the reductor's full
+    bases; it survives the reduced-body file and matches the body's own M, K (two-sided
+    modal reduction of the beam and of the u–p piston-duct model)."""
+    from fe_builders import piston_duct
+
+    from neweul_py.elastic import load_reduced_body, reduce_modal
+    from neweul_py.elastic.invariants import attach_invariants, body_invariants
+
+    b = beam(10)
+    for fe, kw in ((b.fe, {"keep_nodes": [11]}), (piston_duct(40), {})):
+        rb = reduce_modal(fe, modes=8 if fe is b.fe else 4, store_bases=True, **kw)
+        assert body_invariants(rb) is None
+        rb = attach_invariants(rb, fe)
+        rb.save(tmp_path / "body.npz")
+        inv = body_invariants(load_reduced_body(tmp_path / "body.npz"))
+        np.testing.assert_allclose(inv.Me.m0, rb.M, atol=1e-12 * np.abs(rb.M).max())
+        np.testing.assert_allclose(inv.Ke.m0, rb.K, atol=1e-12 * np.abs(rb.K).max())
+        assert [n.id for n in inv.nodes] == [int(i) for i in rb.nodes[:, 0]]
+        assert inv.two_sided == rb.two_sided
+    with pytest.raises(DataError, match="store_bases"):
+        attach_invariants(reduce_modal(b.fe, modes=8), b.fe)
