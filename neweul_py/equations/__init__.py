@@ -1,9 +1,27 @@
-"""Equations layer: Newton–Euler equations with Jacobian matrices (equations.md §1).
+"""Equations layer: Newton–Euler equations with Jacobian matrices (equations.md §1) and their
+symbolic Jacobians for linearization.
 
 Imports ``kinematics`` and ``model`` only.
 """
 
+from .linearization import (
+    Derivatives,
+    force_jacobians,
+    jacobian,
+    mass_matrix_times_derivative,
+    output_jacobians,
+)
 from .newton_euler import AUTO_CLOSED_MAX, clear_cache, newton_euler
 from .result import Equations
 
-__all__ = ["AUTO_CLOSED_MAX", "Equations", "clear_cache", "newton_euler"]
+__all__ = [
+    "AUTO_CLOSED_MAX",
+    "Derivatives",
+    "Equations",
+    "clear_cache",
+    "force_jacobians",
+    "jacobian",
+    "mass_matrix_times_derivative",
+    "newton_euler",
+    "output_jacobians",
+]

@@ -84,7 +84,7 @@ def _vec(frame: me.ReferenceFrame, comps) -> me.Vector:
 
 
 # ------------------------------------------------------------------ double pendulum
-def double_pendulum() -> Reference:
+def double_pendulum(kane: bool = True) -> Reference:
     """Planar double pendulum of two rods with inertia, rotating about z, gravity −y."""
     m1, m2, l1, c1, c2, i1, i2, g = (
         symbol(s) for s in ("m1", "m2", "l1", "c1", "c2", "i1", "i2", "g")
@@ -124,6 +124,8 @@ def double_pendulum() -> Reference:
         loads = [(g1, -m1 * g * n.y), (g2, -m2 * g * n.y)]
         return [b1, b2], loads
 
+    if not kane:
+        return Reference(system, None, None)  # type: ignore[arg-type]
     mm, fo, q, u = _kane("dp", 2, build)
     names = ["a", "b"]
     return Reference(system, _to_ours(mm, q, u, names), _to_ours(fo, q, u, names))
@@ -205,7 +207,7 @@ def cart_pendulum() -> Reference:
 
 
 # ------------------------------------------------------------------ 3-link spatial chain
-def spatial_chain(links: int = 3) -> Reference:
+def spatial_chain(links: int = 3, kane: bool = True) -> Reference:
     """Spatial chain, each joint two rotations (z then y), links along x, general (non-
     diagonal) inertia and CoM off the link axis, gravity along an oblique direction."""
     names: list[str] = []
@@ -251,6 +253,8 @@ def spatial_chain(links: int = 3) -> Reference:
             joint, parent_frame = nxt, f
         return kb, loads
 
+    if not kane:
+        return Reference(system, None, None)  # type: ignore[arg-type]
     mm, fo, q, u = _kane("sc", 2 * links, build)
     return Reference(system, _to_ours(mm, q, u, names), _to_ours(fo, q, u, names))
 
