@@ -333,6 +333,73 @@ class Invariants:
         """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""
         return self.Ke.m0 @ q + self.De.m0 @ qd + self.ksigma.m0[:, 0]
 
+    # ------------------------------------------------------------ change of basis
+    def transformed(self, right: np.ndarray | None = None,
+                    left: np.ndarray | None = None) -> Invariants:
+        """The invariants after a change of elastic coordinates ``q = R q̃``, ``Wᵀ → L Wᵀ``.
+
+        With the new bases ``Ṽ = V R`` and ``W̃ = W Lᵀ`` every index that counts modes of
+        ``V`` (the columns of ``Me``, ``Ke``, ``De``, all first-order mode indices, the
+        ``Gr``/``Ge`` blocks, the rows of ``Crv``, the node ``Φ``, ``Ψ``) is transformed with
+        ``R`` and every elastic-equation row (``Ct``, ``Cr``, ``Me``, ``Ge``, ``Oe``, ``Ke``,
+        ``De``, ``kσ``, the node load matrices) with ``L``. Used to bring samples to common
+        coordinates before interpolating (``equations.md`` §4, step 6). Changing only
+        ``left`` of one-sided data gives two-sided data.
+
+        Parameters
+        ----------
+        right
+            (nq, nq̃) matrix ``R`` (default identity).
+        left
+            (nq̃, nq) matrix ``L`` (default identity for one-sided data; ``Rᵀ`` keeps a
+            one-sided body one-sided).
+        """
+        nq = self.nq
+        R = np.eye(nq) if right is None else np.asarray(right, dtype=np.float64)
+        two = self.two_sided or left is not None
+        if left is None:
+            L = R.T if not self.two_sided else np.eye(nq)
+        else:
+            L = np.asarray(left, dtype=np.float64)
+        if R.shape[0] != nq or L.shape != (R.shape[1], nq):
+            raise DataError(f"right {R.shape} / left {L.shape} do not fit nq = {nq}",
+                            item="transformed")
+        nr = R.shape[1]
+
+        def modes(t: Taylor) -> np.ndarray | None:      # first-order mode index by R
+            return None if t.m1 is None else np.einsum("ikj,kl->ilj", t.m1, R)
+
+        def rows_l(t: Taylor, cols_r: bool = False) -> Taylor:
+            m0 = L @ t.m0
+            m0 = m0 @ R if cols_r else m0
+            m1 = modes(t)
+            m1 = None if m1 is None else np.einsum("ai,ikj->akj", L, m1)
+            if m1 is not None and cols_r:
+                m1 = np.einsum("akj,jb->akb", m1, R)
+            return Taylor.from_arrays(m0, m1, nq=nr)
+
+        def geo(t: Taylor) -> Taylor:
+            return Taylor.from_arrays(t.m0, modes(t), nq=nr)
+
+        gr = np.einsum("kab,kl->lab", self.blocks("Gr"), R)
+        ge = np.einsum("ai,kib,kl->lab", L, self.blocks("Ge"), R)
+        crv0 = R.T @ self.Crv.m0
+        crv1 = None if self.Crv.m1 is None else np.einsum("ki,kjb,jl->ilb", R, self.Crv.m1, R)
+        nodes = []
+        for n in self.nodes:
+            nodes.append(NodeFrame(
+                n.id, geo(n.origin), Taylor.from_arrays(n.phi.m0 @ R, nq=nr),
+                Taylor.from_arrays(n.psi.m0 @ R, nq=nr), geo(n.AP),
+                (n.load_phi @ L.T) if two else None, (n.load_psi @ L.T) if two else None))
+        names = self.names if nr == nq else ()
+        return Invariants(
+            m=self.m, md=geo(self.md), J=geo(self.J), Ct=rows_l(self.Ct), Cr=rows_l(self.Cr),
+            Crv=Taylor.from_arrays(crv0, crv1, nq=nr), Me=rows_l(self.Me, True),
+            Gr=Taylor.from_arrays(gr.transpose(1, 0, 2).reshape(3, 3 * nr), nq=nr),
+            Ge=Taylor.from_arrays(ge.transpose(1, 0, 2).reshape(nr, 3 * nr), nq=nr),
+            Oe=rows_l(self.Oe), ksigma=rows_l(self.ksigma), Ke=rows_l(self.Ke, True),
+            De=rows_l(self.De, True), nodes=tuple(nodes), names=names, two_sided=two)
+
     # --------------------------------------------------------------------- storage
     def to_flat(self) -> dict[str, np.ndarray]:
         """Flat ``name → array`` form for the reduced-body file (no objects, no pickles).

@@ -138,15 +138,19 @@ def test_lumped_mass_equals_particle_sums():
         np.testing.assert_allclose(np.einsum("ikc,k,c->i", inv.Oe.m1, q, wq), ref1, atol=1e-11)
 
 
-def test_equations_match_particle_dynamics():
+@pytest.mark.parametrize("two_sided", [False, True])
+def test_equations_match_particle_dynamics(two_sided):
     """mass_matrix · [a, α, q̈] + velocity_terms equals the particle sums
     Σ m [ä_p; p × ä_p; Φᵀ ä_p], ä_p = a + α×p + ω×(ω×p) + 2ω×u̇ + ü, p = x + u: exactly at
     q = 0, and in the first derivative with respect to q (central differences, q̇ = 0; the
-    products q·q̇ are second order and not part of §2)."""
+    products q·q̇ are second order and not part of §2). Two-sided: the elastic rows are
+    Σ m w_iᵀ ä_p with the left basis, the rigid rows are unchanged."""
     b = beam(6, offset=OFFSET, lumped=True)
     nq = 3
     V = random_basis(b, nq, 3)
-    inv = compute_invariants(b.fe, V)
+    W = random_basis(b, nq, 13) if two_sided else V
+    inv = compute_invariants(b.fe, V, W if two_sided else None)
+    psi = np.stack([W[a::6] for a in range(3)], axis=-1)
     mn = b.fe.M.diagonal()[0::6]
     x = b.fe.nodes[:, 1:4]
     phi = np.stack([V[a::6] for a in range(3)], axis=-1)          # (node, mode, 3)
@@ -159,7 +163,7 @@ def test_equations_match_particle_dynamics():
         p = x + u
         acc = a + np.cross(al, p) + np.cross(w, np.cross(w, p)) + 2 * np.cross(w, ud) + udd
         return np.concatenate([mn @ acc, np.einsum("n,na->a", mn, np.cross(p, acc)),
-                               np.einsum("n,nka,na->k", mn, phi, acc)])
+                               np.einsum("n,nka,na->k", mn, psi, acc)])
 
     def model(q, qd):
         return inv.mass_matrix(q) @ np.concatenate([a, al, qdd]) + \
@@ -241,6 +245,41 @@ def test_two_sided_same_physics():
         w1 = np.sort(sla.eigvals(one.Ke.m0 + Om**2 * one.Oe.m1_matrix(2), one.Me.m0).real)
         w2 = np.sort(sla.eigvals(two.Ke.m0 + Om**2 * two.Oe.m1_matrix(2), two.Me.m0).real)
         np.testing.assert_allclose(w2, w1, rtol=1e-9)
+
+
+_ALL = ("md", "J", "Ct", "Cr", "Crv", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De")
+
+
+def _assert_same(a: Invariants, b: Invariants, tol: float = 1e-10) -> None:
+    assert a.two_sided == b.two_sided
+    for name in _ALL:
+        t, u = getattr(a, name), getattr(b, name)
+        scale = max(np.abs(t.m0).max(), 0.0 if t.m1 is None else np.abs(t.m1).max(), 1.0)
+        assert t.equals(u, atol=tol * scale), name
+    for n1, n2 in zip(a.nodes, b.nodes, strict=True):
+        for key in ("origin", "phi", "psi", "AP"):
+            assert getattr(n1, key).equals(getattr(n2, key), atol=tol), (n1.id, key)
+        np.testing.assert_allclose(n1.load_phi, n2.load_phi, atol=tol)
+        np.testing.assert_allclose(n1.load_psi, n2.load_psi, atol=tol)
+
+
+@pytest.mark.parametrize("two_sided", [False, True])
+def test_change_of_basis(two_sided):
+    """Invariants of (V R, W S) equal those of (V, W) transformed with right = R,
+    left = Sᵀ — every index convention (mode vs row, V vs W) at once; R also rectangular."""
+    b = beam(8, offset=OFFSET, rotary=True)
+    _, V = b.clamped_modes(5)
+    rng = np.random.default_rng(11)
+    W = V + 0.3 * rng.normal(size=V.shape) if two_sided else None
+    KG = {c: (lambda A: A + A.T)(rng.normal(size=(b.n, b.n))) for c in ("ax", "alphay", "wxz")}
+    base = compute_invariants(b.fe, V, W, nodes=[2, 9], geometric_stiffness=KG)
+    for R in (rng.normal(size=(5, 5)), rng.normal(size=(5, 3))):
+        S = rng.normal(size=R.shape)
+        direct = compute_invariants(b.fe, V @ R, None if W is None else W @ S, nodes=[2, 9],
+                                    geometric_stiffness=KG)
+        _assert_same(direct, base.transformed(R, None if W is None else S.T))
+    as_two = base.transformed(left=np.eye(5)) if not two_sided else base
+    assert as_two.two_sided
 
 
 # -------------------------------------------------------------- geometric stiffening
