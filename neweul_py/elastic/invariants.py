@@ -477,24 +477,28 @@ class Invariants:
 
     # ------------------------------------------------------------------------ SID
     @classmethod
-    def from_sid(cls, body, *, ge_layout: str = "auto") -> Invariants:
+    def from_sid(cls, body, *, gr_layout: str = "auto", ge_layout: str = "auto") -> Invariants:
         """The invariants of a :class:`~neweul_py.elastic.sid.SIDBody` (one-sided).
 
         Parameters
         ----------
         body
             The SID data.
-        ge_layout
-            Column layout of ``Ge`` in the file: ``"mode"`` (``[Ge_1 | … | Ge_nq]``, the
-            standard), ``"component"`` (``[Ge_x | Ge_y | Ge_z]``, nq columns per ω
-            component, as written by some exporters, e.g. the beam file in ``tests/data``)
-            or ``"auto"``: the layout in which ``Ge`` matches ``2·Cr¹`` (its kinematic
-            definition), falling back to ``"mode"``.
+        gr_layout, ge_layout
+            Column layout of ``Gr`` (3×3nq) and ``Ge`` (nq×3nq) in the file: ``"mode"``
+            (``[G_1 | … | G_nq]``, 3 columns per mode, column ``3(k−1)+b``) or
+            ``"component"`` (``[G^x | G^y | G^z]``, nq columns per ω component, column
+            ``(b−1)·nq+k``). Exporters differ (the SIMPACK-style file of EMBS_ModelicaLib
+            uses ``"component"`` for both, the PY_SID beam file ``"mode"`` for ``Gr`` and
+            ``"component"`` for ``Ge``). ``"auto"`` picks the layout in which the block
+            satisfies its kinematic identity with the first-order terms, ``sym Gr_k = J¹_k``
+            and ``Ge_k = 2 Cr¹_k``, falling back to ``"mode"`` when these are zero or
+            equally good (always the case for nq = 1).
 
         Notes
         -----
         Missing blocks are zero; ``Crv = Cr`` (SID holds one rotational coupling); ``J``
-        is expanded to 3×3.
+        is expanded to 3×3; ``Gr``/``Ge`` are stored per mode here.
         """
         from .sid import j_as_matrix  # local: sid does not depend on invariants
 
@@ -508,34 +512,27 @@ class Invariants:
                                           nq=nq)
             return t
 
-        Ge = tay("Ge", (nq, 3 * nq))
+        J = j_as_matrix(tay("J", (3, 3), 1)).with_order(1)
         Cr = tay("Cr", (nq, 3))
-        if ge_layout not in ("auto", "mode", "component"):
-            raise DataError(f"ge_layout must be 'auto', 'mode' or 'component', got "
-                            f"{ge_layout!r}", item="Ge")
-        ge_mode = Ge.m0
-        ge_comp = Ge.m0.reshape(nq, 3, nq).transpose(0, 2, 1).reshape(nq, 3 * nq)
-        if ge_layout == "component":
-            ge_mode = ge_comp
-        elif ge_layout == "auto" and Cr.m1 is not None and np.any(Ge.m0):
-            ref = 2 * Cr.m1.reshape(nq, 3 * nq)
-            if np.abs(ge_comp - ref).max() < np.abs(ge_mode - ref).max():
-                ge_mode = ge_comp
+        Gr = _per_mode(tay("Gr", (3, 3 * nq)), nq, gr_layout, "Gr",
+                       lambda b: np.abs(0.5 * (b + b.transpose(0, 2, 1))
+                                        - J.m1.transpose(1, 0, 2)).max())
+        cr1 = Cr.m1 if Cr.m1 is not None else np.zeros((nq, nq, 3))
+        Ge = _per_mode(tay("Ge", (nq, 3 * nq)), nq, ge_layout, "Ge",
+                       lambda b: np.abs(b - 2 * cr1.transpose(1, 0, 2)).max())
         nodes = tuple(NodeFrame(n.id, n.origin, n.phi, n.psi, n.AP) for n in body.nodes)
         return cls(
-            m=body.mass, md=tay("mdCM", (3, 1), 1).with_order(1),
-            J=j_as_matrix(tay("J", (3, 3), 1)).with_order(1),
-            Ct=tay("Ct", (nq, 3)),
-            Cr=Cr, Crv=Cr, Me=tay("Me", (nq, nq)),
-            Gr=tay("Gr", (3, 3 * nq)), Ge=Taylor.from_arrays(ge_mode, nq=nq),
+            m=body.mass, md=tay("mdCM", (3, 1), 1).with_order(1), J=J,
+            Ct=tay("Ct", (nq, 3)), Cr=Cr, Crv=Cr, Me=tay("Me", (nq, nq)), Gr=Gr, Ge=Ge,
             Oe=tay("Oe", (nq, 6), 1).with_order(1), ksigma=tay("ksigma", (nq, 1)),
             Ke=tay("Ke", (nq, nq)), De=tay("De", (nq, nq)), nodes=nodes, names=body.ielastq)
 
-    def to_sid(self, header: str = ""):
+    def to_sid(self, header: str = "", layout: str = "component"):
         """A :class:`~neweul_py.elastic.sid.SIDBody` of one-sided invariants.
 
-        ``J`` is written 6×1, ``Ge`` in the standard per-mode layout, ``Crv`` is dropped
-        (SID has one ``Cr``); each block gets its most compact structure flag.
+        ``J`` is written 6×1, ``Gr`` and ``Ge`` in ``layout`` (``"component"``, as in
+        SIMPACK-style files, or ``"mode"``; see :meth:`from_sid`), ``Crv`` is dropped (SID
+        has one ``Cr``); each block gets its most compact structure flag.
 
         Raises
         ------
@@ -547,19 +544,42 @@ class Invariants:
         if self.two_sided:
             raise DataError("two-sided invariants cannot be written as SID (one basis only)",
                             item="two_sided")
+        if layout not in ("mode", "component"):
+            raise DataError(f"layout must be 'mode' or 'component', got {layout!r}",
+                            item="layout")
         nq = self.nq
 
         def out(t: Taylor) -> Taylor:
             t = Taylor(t.order, t.nrow, t.ncol, nq, 0, 3, t.m0, t.m1)
             return t.with_structure(None)
 
+        def gyro(name: str) -> Taylor:
+            blocks = self.blocks(name)                       # (k, row, b)
+            order = (1, 0, 2) if layout == "mode" else (1, 2, 0)
+            m0 = blocks.transpose(*order).reshape(blocks.shape[1], 3 * nq)
+            return out(Taylor.from_arrays(m0, nq=nq))
+
         taylors = {"mdCM": out(self.md), "J": out(j_as_column(self.J)), "Ct": out(self.Ct),
-                   "Cr": out(self.Cr), "Me": out(self.Me), "Gr": out(self.Gr),
-                   "Ge": out(self.Ge), "Oe": out(self.Oe), "ksigma": out(self.ksigma),
+                   "Cr": out(self.Cr), "Me": out(self.Me), "Gr": gyro("Gr"),
+                   "Ge": gyro("Ge"), "Oe": out(self.Oe), "ksigma": out(self.ksigma),
                    "Ke": out(self.Ke), "De": out(self.De)}
         nodes = tuple(SIDNode(n.id, "body ref", out(n.origin), out(n.phi), out(n.psi),
                               out(n.AP)) for n in self.nodes)
         return SIDBody(self.m, self.names, nodes, taylors, header)
+
+
+def _per_mode(t: Taylor, nq: int, layout: str, name: str, misfit) -> Taylor:
+    """A SID ``Gr``/``Ge`` block brought to the per-mode layout (see Invariants.from_sid)."""
+    if layout not in ("auto", "mode", "component"):
+        raise DataError(f"layout must be 'auto', 'mode' or 'component', got {layout!r}",
+                        item=name)
+    rows = t.m0.shape[0]
+    by_mode = t.m0.reshape(rows, nq, 3).transpose(1, 0, 2)          # (k, row, b)
+    by_comp = t.m0.reshape(rows, 3, nq).transpose(2, 0, 1)
+    if layout == "auto":
+        layout = "component" if misfit(by_comp) < misfit(by_mode) else "mode"
+    blocks = by_comp if layout == "component" else by_mode
+    return Taylor.from_arrays(blocks.transpose(1, 0, 2).reshape(rows, 3 * nq), nq=nq)
 
 
 # ------------------------------------------------------------------------ DOF map

@@ -28,8 +28,10 @@ exporter and EMBS_ModelicaLib) and checked against the beam file in ``tests/data
 
 * ``J`` is stored either as a 6×1 column ``[Jxx, Jyy, Jzz, Jxy, Jxz, Jyz]`` or as a symmetric
   3×3 matrix; :attr:`SIDBody.J` always returns the 3×3 form.
-* ``Gr`` (3×3nq) and ``Ge`` (nq×3nq) are the blocks ``[G_1 | G_2 | … | G_nq]``, 3 columns per
-  mode, multiplied by ``q̇_k`` and then by ``ω``.
+* ``Gr`` (3×3nq) and ``Ge`` (nq×3nq) hold the blocks ``G_k`` (multiplied by ``q̇_k`` and then
+  by ``ω``) either per mode (``[G_1 | … | G_nq]``) or per ω component (``[G^x | G^y | G^z]``):
+  exporters differ, and :class:`SIDBody` keeps the file's arrays as they are;
+  :meth:`~neweul_py.elastic.invariants.Invariants.from_sid` recognizes the layout.
 * ``Oe`` columns are ``ωx², ωy², ωz², ωxωy, ωyωz, ωxωz``.
 
 The reader is a line tokenizer plus a block parser that keeps line numbers: a syntax error,

@@ -159,7 +159,8 @@ class Taylor:
         """Expand the (1-based) entries of a SID block according to ``structure``.
 
         ``m0_entries`` are ``(i, j, value)``, ``m1_entries`` ``(i, k, j, value)``; entries not
-        listed are zero. Structure 2 (symmetric) mirrors each entry; 4 is the identity
+        listed are zero. Structure 2 (symmetric) mirrors each entry (the mean where both
+        triangles are listed, as some exporters do); 4 is the identity
         (no entries); 0 is zero (no entries). Index and structure checks are the caller's
         (the SID parser reports them with line numbers).
         """
@@ -167,15 +168,23 @@ class Taylor:
         m1 = np.zeros((nrow, nq, ncol)) if order == 1 else None
         if structure == 4:
             m0 = np.eye(nrow, ncol)
+        s0: dict[tuple[int, int], list[float]] = {}
+        s1: dict[tuple[int, int, int], list[float]] = {}
         for i, j, v in m0_entries:
-            m0[i - 1, j - 1] = v
             if structure == 2:
-                m0[j - 1, i - 1] = v
-        if m1 is not None:
-            for i, k, j, v in m1_entries:
+                s0.setdefault((max(i, j), min(i, j)), []).append(v)
+            else:
+                m0[i - 1, j - 1] = v
+        for i, k, j, v in m1_entries if m1 is not None else ():
+            if structure == 2:
+                s1.setdefault((max(i, j), k, min(i, j)), []).append(v)
+            else:
                 m1[i - 1, k - 1, j - 1] = v
-                if structure == 2:
-                    m1[j - 1, k - 1, i - 1] = v
+        # symmetric: one triangle is enough; where both are listed, take the mean
+        for (i, j), vals in s0.items():
+            m0[i - 1, j - 1] = m0[j - 1, i - 1] = float(np.mean(vals))
+        for (i, k, j), vals in s1.items():
+            m1[i - 1, k - 1, j - 1] = m1[j - 1, k - 1, i - 1] = float(np.mean(vals))
         return cls(order, nrow, ncol, nq, nqn, structure, m0, m1)
 
     # ------------------------------------------------------------------- evaluation

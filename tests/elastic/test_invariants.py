@@ -434,11 +434,29 @@ def test_sid_beam_as_invariants(tmp_path):
     assert inv.names == body.ielastq and inv.m == body.mass
     assert len(inv.nodes) == 6 and inv.node(1861).phi.equals(body.node(1861).phi)
     write_sid(inv, tmp_path / "b.SID_FEM")
-    again = Invariants.from_sid(read_sid(tmp_path / "b.SID_FEM"), ge_layout="mode")
+    again = Invariants.from_sid(read_sid(tmp_path / "b.SID_FEM"))
     for name in ("md", "J", "Ct", "Cr", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De"):
         assert getattr(again, name).equals(getattr(inv, name)), name
+    np.testing.assert_array_equal(inv.Gr.m0, body["Gr"].m0)         # Gr: per mode in file
     forced = Invariants.from_sid(body, ge_layout="mode")
     np.testing.assert_array_equal(forced.Ge.m0, body["Ge"].m0)
+
+
+@pytest.mark.parametrize("layout", ["mode", "component"])
+def test_sid_gyroscopic_layouts(layout, tmp_path):
+    """Gr/Ge written in either column layout are recognized on reading ("auto")."""
+    b = beam(8, offset=OFFSET)
+    _, V = b.clamped_modes(4)
+    inv = compute_invariants(b.fe, V)
+    sid = inv.to_sid(layout=layout)
+    blocks = inv.blocks("Gr")
+    col = (lambda k, j: 3 * k + j) if layout == "mode" else (lambda k, j: j * 4 + k)
+    assert sid["Gr"].m0[2, col(3, 1)] == blocks[3, 2, 1]
+    write_sid(sid, tmp_path / "g.SID_FEM")
+    back = Invariants.from_sid(read_sid(tmp_path / "g.SID_FEM"))
+    for name in ("Gr", "Ge"):
+        assert back.__getattribute__(name).equals(inv.__getattribute__(name), rtol=1e-10,
+                                                  atol=1e-12), name
 
 
 def test_computed_invariants_through_sid(tmp_path):

@@ -38,6 +38,12 @@ def test_taylor_evaluate_vectorized():
     assert np.array_equal(Taylor.from_arrays(m0).evaluate(q).shape, (5, 4, 2))
 
 
+def test_symmetric_both_triangles_listed():
+    """Structure 2 with both triangles listed (some exporters do): the mean is taken."""
+    t = Taylor.from_entries(0, 2, 2, 0, 0, 2, [(1, 1, 1.0), (1, 2, 2.0), (2, 1, 2.2)])
+    assert t.m0.tolist() == [[1.0, 2.1], [2.1, 0.0]]
+
+
 def test_taylor_structures():
     """Structure flags expand entries: 1 diagonal, 2 symmetric mirror, 4 identity, 0 zero."""
     sym = Taylor.from_entries(1, 2, 2, 1, 0, 2, [(2, 1, 3.0)], [(2, 1, 1, 5.0)])
