@@ -72,6 +72,20 @@ def test_mass_first_moment_inertia(rotary):
     np.testing.assert_allclose(inv.J.m0, J, rtol=1e-12, atol=1e-14)
 
 
+def test_planar_model():
+    """A planar beam (ux, uy, rz only): m, the in-plane md and J_zz are still exact."""
+    from neweul_py.elastic.fe_model import FEModel
+
+    b = beam(10, offset=(0.3, 0.2, 0.0))
+    keep = np.nonzero(np.isin(b.fe.dof_kind, ["ux", "uy", "rz"]))[0]
+    fe = FEModel(M=b.fe.M[keep][:, keep], K=b.fe.K[keep][:, keep], D=None,
+                 nodes=b.fe.nodes, dof_node=b.fe.dof_node[keep], dof_kind=b.fe.dof_kind[keep])
+    inv = compute_invariants(fe, np.random.default_rng(12).normal(size=(keep.size, 3)))
+    assert inv.m == pytest.approx(1.0, rel=1e-13)
+    np.testing.assert_allclose(inv.md.m0[:, 0], [0.8, 0.2, 0.0], atol=1e-13)
+    assert inv.J.m0[2, 2] == pytest.approx(1 / 12 + 0.8**2 + 0.2**2, rel=1e-12)
+
+
 @pytest.mark.parametrize("lumped", [False, True])
 def test_rigid_body_modes(lumped):
     """With V = W = rigid-body modes, Ct, Cr, Me, md¹ are the analytic rigid mass blocks:
