@@ -214,37 +214,40 @@ def _solve_hessenberg(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
 
 
 def _hessenberg_shifted_solve(hmat: np.ndarray, s: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``(s_k I − H) X_k = R`` for all shifts ``s_k`` (H upper Hessenberg).
+    """Solve ``(s_k I − H) X_k = R`` for all shifts ``s_k`` (H upper Hessenberg); (nf, N, k).
 
     Gaussian elimination with partial pivoting between neighbouring rows (the only non-zero
-    below the diagonal), vectorized over the shifts: ``O(N²)`` per shift.
+    below the diagonal), vectorized over the shifts: ``O(N²)`` per shift. The shifts are the
+    last (contiguous) axis of the work arrays.
     """
     big_n = hmat.shape[0]
     nf = s.size
-    t = np.broadcast_to(-hmat.astype(complex), (nf, big_n, big_n)).copy()
+    t = np.empty((big_n, big_n, nf), dtype=complex)
+    t[...] = -hmat[:, :, None]
     idx = np.arange(big_n)
-    t[:, idx, idx] += s[:, None]
-    r = np.broadcast_to(rhs.astype(complex), (nf, *rhs.shape)).copy()
+    t[idx, idx, :] += s[None, :]
+    r = np.empty((big_n, rhs.shape[1], nf), dtype=complex)
+    r[...] = rhs[:, :, None]
     for j in range(big_n - 1):
-        swap = np.abs(t[:, j + 1, j]) > np.abs(t[:, j, j])
-        if swap.any():
-            rows_t = t[swap][:, [j, j + 1], j:]
-            t[swap, j, j:] = rows_t[:, 1]
-            t[swap, j + 1, j:] = rows_t[:, 0]
-            rows_r = r[swap][:, [j, j + 1]]
-            r[swap, j] = rows_r[:, 1]
-            r[swap, j + 1] = rows_r[:, 0]
-        piv = t[:, j, j]
+        top, bot = t[j, j:], t[j + 1, j:]
+        swap = np.abs(bot[0]) > np.abs(top[0])
+        new_top = np.where(swap, bot, top)
+        new_bot = np.where(swap, top, bot)
+        piv = new_top[0]
         if np.any(piv == 0):
             raise NeweulError("frequency response: singular dynamic matrix at a frequency")
-        factor = t[:, j + 1, j] / piv
-        t[:, j + 1, j:] -= factor[:, None] * t[:, j, j:]
-        r[:, j + 1] -= factor[:, None] * r[:, j]
+        factor = new_bot[0] / piv
+        t[j, j:] = new_top
+        t[j + 1, j:] = new_bot - factor * new_top
+        r_top = np.where(swap, r[j + 1], r[j])
+        r_bot = np.where(swap, r[j], r[j + 1])
+        r[j] = r_top
+        r[j + 1] = r_bot - factor * r_top
     x = np.empty_like(r)
     for j in range(big_n - 1, -1, -1):
-        acc = r[:, j] - np.einsum("fk,fki->fi", t[:, j, j + 1 :], x[:, j + 1 :])
-        x[:, j] = acc / t[:, j, j][:, None]
-    return x
+        acc = r[j] - np.einsum("kf,kif->if", t[j, j + 1 :], x[j + 1 :])
+        x[j] = acc / t[j, j]
+    return np.moveaxis(x, -1, 0)
 
 
 _METHODS = {"solve": _solve_second_order, "eig": _solve_eig, "hessenberg": _solve_hessenberg}
