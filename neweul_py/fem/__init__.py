@@ -1,1 +1,40 @@
-"""fem layer (see DESIGN.md)."""
+"""fem layer: small acousto-structural FE builders (see DESIGN.md) — NumPy/SciPy/scikit-fem only.
+
+Modules, one concern each (scikit-fem style: mesh, element, assembly, form apart):
+
+* :mod:`~neweul_py.fem.mesh` – geometry and meshes generated in code (disc/cone, extrusions, box);
+* :mod:`~neweul_py.fem.acoustic` – linear acoustic pressure elements (``Mf``, ``Kf``);
+* :mod:`~neweul_py.fem.shell` – the TL St. Venant–Kirchhoff facet shell of the TM (CST membrane +
+  rotation-free bending, follower pressure);
+* :mod:`~neweul_py.fem.assembly` – vectorized assembly of element arrays;
+* :mod:`~neweul_py.fem.coupling` – the coupling matrix ``C`` and the u–p matrices of Eq. (2);
+* :mod:`~neweul_py.fem.nonlinear` – Newton's method with adaptive load stepping;
+* :mod:`~neweul_py.fem.middle_ear` – the TM + ear canal + tympanic cavity model, static
+  solution, working-point FE models and the pressure sweep;
+* :mod:`~neweul_py.fem.output`, :mod:`~neweul_py.fem.plots` – atomic sweep output, pictures.
+"""
+
+from .middle_ear import (
+    MiddleEar,
+    MiddleEarParameters,
+    SweepResult,
+    build_middle_ear,
+    pressure_sweep,
+    solve_static,
+    static_summary,
+    working_point_model,
+)
+from .nonlinear import NewtonOptions, StaticState
+
+__all__ = [
+    "MiddleEar",
+    "MiddleEarParameters",
+    "NewtonOptions",
+    "StaticState",
+    "SweepResult",
+    "build_middle_ear",
+    "pressure_sweep",
+    "solve_static",
+    "static_summary",
+    "working_point_model",
+]
