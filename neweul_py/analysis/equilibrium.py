@@ -5,7 +5,7 @@ holonomic constraints to ``F(y) + G(y)ᵀ λ = 0``, ``g(y) = 0`` (``M ÿ + k = q
 ``ÿ = ẏ = 0``).
 Newton's method uses the symbolically generated ``∂F/∂y`` (``force_jacobians``); the curvature term
 ``∂(Gᵀλ)/∂y`` of constrained systems is a central difference of the analytic ``G``. Steps are
-damped by a backtracking line search on ``½‖R‖²``.
+limited to ``max_step`` per coordinate and damped by a backtracking line search on ``½‖R‖²``.
 
 A singular Jacobian is analysed: the null space of the stiffness (restricted to the motions the
 constraints allow) names the coordinates without stiffness; a rank-deficient ``G`` names the
@@ -114,6 +114,7 @@ def equilibrium(
     fixed: Sequence[str] = (),
     xtol: float = 1e-11,
     maxiter: int = 50,
+    max_step: float = 1.0,
 ) -> EquilibriumResult:
     """Static equilibrium of a generated module (equations.md §1).
 
@@ -140,6 +141,10 @@ def equilibrium(
         round-off level.
     maxiter
         Maximum number of Newton iterations.
+    max_step
+        Largest change of any coordinate in one iteration (longer Newton steps are shortened,
+        keeping their direction), so that e.g. a pendulum started near the horizontal does not
+        jump several revolutions.
 
     Returns
     -------
@@ -222,14 +227,15 @@ def equilibrium(
                 names=names,
             )
         step = np.linalg.solve(jac, -r)
+        longest = np.abs(step[:nf]).max(initial=0.0)
+        alpha = 1.0 if longest <= max_step else max_step / longest
         merit = 0.5 * r @ r
-        alpha = 1.0
         while True:
             y_try = y.copy()
             y_try[free] += alpha * step[:nf]
             lam_try = lam + alpha * step[nf:]
             r_try, _ = residual(y_try, lam_try)
-            if 0.5 * r_try @ r_try <= (1 - 1e-4 * alpha) * merit or alpha < 1e-6:
+            if 0.5 * r_try @ r_try <= (1 - 1e-4 * alpha) * merit or alpha < 1e-8:
                 break
             alpha *= 0.5
         y, lam, r = y_try, lam_try, r_try
