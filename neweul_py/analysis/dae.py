@@ -180,12 +180,24 @@ def _project_velocity(
     return yd
 
 
-def _check_rank(con: _Constraints, t: float, y: np.ndarray) -> None:
+def _check_rank(con: _Constraints, t: float, y: np.ndarray, where: str = "initial state") -> None:
     redundant = proto.redundant_constraints(con.jac(t, y), con.names)
     if redundant:
-        raise NeweulError(
-            "redundant constraints at the initial state: " + "; ".join(redundant)
-        )
+        raise NeweulError(f"redundant constraints at the {where}: " + "; ".join(redundant))
+
+
+def _check_regular(module: Any, con: _Constraints, t: float, y: np.ndarray, p: np.ndarray,
+                   where: str) -> None:
+    """Name the cause of a singular augmented matrix: redundant constraints, or coordinates
+    without inertia in the motions the constraints allow."""
+    names = list(module.COORDINATES)
+    m = np.asarray(module.mass_matrix(t, y, p), dtype=float)
+    if not con.nc:
+        proto.check_mass_matrix(m, names)
+        return
+    _check_rank(con, t, y, where)
+    basis, _ = proto.null_space(con.jac(t, y))
+    proto.check_mass_matrix(m, names, basis)
 
 
 def consistent_initial_state(
@@ -324,6 +336,7 @@ def simulate_constrained(
     y, yd = consistent_initial_state(
         module, y0, yd0, pv, float(times[0]), independent=independent, tol=projection_tol
     )
+    _check_regular(module, con, float(times[0]), y, pv, "initial state")
     alpha, beta = baumgarte
     dep = None
     if independent is not None and con.nc:
@@ -345,7 +358,15 @@ def simulate_constrained(
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
         nonlocal nfev
         nfev += 1
-        ydd, _ = accelerations(t, x[:n], x[n:])
+        try:
+            ydd, _ = accelerations(t, x[:n], x[n:])
+        except np.linalg.LinAlgError:
+            _check_regular(module, con, t, x[:n], pv, f"state at t = {t:.6g}")
+            raise SolverError(
+                f"singular augmented system at t = {t:.6g}",
+                last_iterate=x.copy(),
+                names=[*names, *(f"d_{c}" for c in names)],
+            ) from None
         return np.concatenate([x[n:], ydd])
 
     nt = times.size

@@ -15,9 +15,10 @@ from _slider_crank_reference import build, trajectory
 
 from neweul_py.analysis.dae import consistent_initial_state, simulate_constrained
 from neweul_py.analysis.equilibrium import equilibrium
+from neweul_py.analysis.frf import frequency_response
 from neweul_py.analysis.linearize import linearize
 from neweul_py.analysis.modes import modes
-from neweul_py.errors import NeweulError, SolverError
+from neweul_py.errors import ModelError, NeweulError, SolverError
 
 
 @pytest.fixture(scope="module")
@@ -88,6 +89,32 @@ def test_equilibrium_and_linearization_against_minimal_model(slider_crank, refer
     ref = np.roots([reference.mass(phi), reference.damping(phi), reference.stiffness(phi)])
     lam = modes(lin).eigenvalues
     np.testing.assert_allclose(lam[0], ref[ref.imag > 0][0], rtol=1e-7)
+
+
+def test_frf_of_dependent_coordinate_against_minimal_model(slider_crank, reference):
+    """s/T = s'(phi_e) / (m s² + c s + k) with m, c, k of the minimal model at equilibrium."""
+    eq = equilibrium(slider_crank, y0=reference.coordinates(-1.0))
+    phi = eq.y[0]
+    f = np.logspace(-1, 2, 50)
+    fr = frequency_response(slider_crank, f, "T", ["s", "d_s"], y0=eq)
+    s = 2j * np.pi * f
+    ds_dphi = float(reference.slider(phi, 1.0, 0.0)[1])
+    h = ds_dphi / (reference.mass(phi) * s**2 + reference.damping(phi) * s
+                   + reference.stiffness(phi))
+    np.testing.assert_allclose(fr.H[:, 0, 0], h, rtol=1e-7)
+    np.testing.assert_allclose(fr.H[:, 1, 0], s * h, rtol=1e-7)
+
+
+def test_massless_dependent_motion_named(slider_crank):
+    """Without any inertia the one motion the constraints allow has no mass: its coordinates
+    are named (a massless rod alone would be fine, the constraints carry it)."""
+    mod = variant(slider_crank, mass_matrix=lambda t, y, p: np.diag([0.0, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(ModelError, match=r"no inertia in the motion of coordinate\(s\) phi, "):
+        simulate_constrained(mod, 0.1)
+    rod_massless = variant(
+        slider_crank, mass_matrix=lambda t, y, p: np.diag([p[3], 0.0, 0.0, 0.0, p[6]])
+    )
+    assert simulate_constrained(rod_massless, 0.05, n_out=3).max_drift < 1e-8
 
 
 def test_redundant_constraints_named(slider_crank):
