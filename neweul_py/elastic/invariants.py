@@ -22,8 +22,8 @@ Conventions (fixed here, identical for data read from SID files)
 * ``J(q) = −∫ ũ ũ dm`` about the frame origin, ``J¹_k = sym(Gr_k)``.
 * ``Cr(q)`` (elastic row): ``Cr⁰ = ∫ Φᵀ x̃ᵀ dm = (∫ x̃ Φ dm)ᵀ``, ``Cr¹_k = ∫ Φᵀ Φ̃_kᵀ dm``
   (+ geometric stiffening). ``Crv`` is the same with ``V`` in place of ``W`` and without
-  stiffening: the rotational-row coupling (``Crvᵀ`` in the matrix above). One-sided data
-  read from SID has ``Crv = Cr``.
+  stiffening: the rotational-row coupling (``Crvᵀ`` in the matrix above). For one-sided data
+  read from SID, ``Crv = Cr⁰ + antisym(Cr¹)`` (the kinematic part).
 * ``Gr = [Gr_1 | … | Gr_nq]`` (3×3nq), ``Gr_k = −2 ∫ x̃ Φ̃_k dm``;
   ``Ge = [Ge_1 | … | Ge_nq]`` (nq×3nq), ``Ge_k = 2 ∫ Φᵀ Φ̃_kᵀ dm`` (3 columns per mode).
 * ``Oe`` columns ``ωx², ωy², ωz², ωxωy, ωyωz, ωxωz``: ``Oe(q) ω_q = ∫ Φᵀ ω̃ω̃ (x + u) dm``
@@ -497,8 +497,11 @@ class Invariants:
 
         Notes
         -----
-        Missing blocks are zero; ``Crv = Cr`` (SID holds one rotational coupling); ``J``
-        is expanded to 3×3; ``Gr``/``Ge`` are stored per mode here.
+        Missing blocks are zero. SID holds one rotational coupling ``Cr``; the rigid-row
+        coupling is ``Crv = Cr⁰ + antisym(Cr¹)`` (antisymmetric in row and mode: the kinematic
+        part ``∫ Φ_iᵀ Φ̃_kᵀ dm``; the symmetric part of ``Cr¹`` is geometric stiffening and
+        acts in the elastic rows only). ``J`` is expanded to 3×3; ``Gr``/``Ge`` are stored per
+        mode here.
         """
         from .sid import j_as_matrix  # local: sid does not depend on invariants
 
@@ -520,10 +523,14 @@ class Invariants:
         cr1 = Cr.m1 if Cr.m1 is not None else np.zeros((nq, nq, 3))
         Ge = _per_mode(tay("Ge", (nq, 3 * nq)), nq, ge_layout, "Ge",
                        lambda b: np.abs(b - 2 * cr1.transpose(1, 0, 2)).max())
+        # rigid-row coupling: the kinematic part of Cr¹ is antisymmetric in (row, mode), the
+        # geometric stiffening (Wᵀ K_G V, one-sided) symmetric; only the former belongs there
+        Crv = Taylor.from_arrays(Cr.m0, None if Cr.m1 is None else
+                                 0.5 * (Cr.m1 - Cr.m1.transpose(1, 0, 2)), nq=nq)
         nodes = tuple(NodeFrame(n.id, n.origin, n.phi, n.psi, n.AP) for n in body.nodes)
         return cls(
             m=body.mass, md=tay("mdCM", (3, 1), 1).with_order(1), J=J,
-            Ct=tay("Ct", (nq, 3)), Cr=Cr, Crv=Cr, Me=tay("Me", (nq, nq)), Gr=Gr, Ge=Ge,
+            Ct=tay("Ct", (nq, 3)), Cr=Cr, Crv=Crv, Me=tay("Me", (nq, nq)), Gr=Gr, Ge=Ge,
             Oe=tay("Oe", (nq, 6), 1).with_order(1), ksigma=tay("ksigma", (nq, 1)),
             Ke=tay("Ke", (nq, nq)), De=tay("De", (nq, nq)), nodes=nodes, names=body.ielastq)
 

@@ -486,6 +486,20 @@ def test_computed_invariants_through_sid(tmp_path):
         scale = max(np.abs(t.m0).max(), 1.0 if t.m1 is None else np.abs(t.m1).max(), 1e-300)
         assert t.equals(u, rtol=1e-10, atol=1e-11 * scale), name
     assert back.node(6).psi.equals(inv.node(6).psi, rtol=1e-10, atol=1e-12)
+    assert back.Crv.equals(inv.Crv, rtol=1e-10, atol=1e-11)     # stiffening split off
+
+
+def test_one_sided_mass_matrix_symmetric():
+    """Without stiffening a one-sided body's mass matrix is symmetric for any q; with it
+    only the elastic rows change (rigid rows use the kinematic md(q), Crv(q))."""
+    b = beam(8, offset=OFFSET, rotary=True)
+    _, V = b.clamped_modes(4)
+    q = np.array([0.01, -0.02, 0.005, 0.03])
+    plain = compute_invariants(b.fe, V).mass_matrix(q)
+    np.testing.assert_allclose(plain, plain.T, atol=1e-12)
+    stiff = compute_invariants(b.fe, V, geometric_stiffness=stiffened(b, ("ax", "alphaz")))
+    diff = stiff.mass_matrix(q) - plain
+    assert np.abs(diff[:6]).max() < 1e-14 and np.abs(diff[6:, :6]).max() > 1e-6
 
 
 # ------------------------------------------------------------------------- bad input
