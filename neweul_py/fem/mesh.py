@@ -217,13 +217,25 @@ def extrude_tets(
         )
     tets_all = np.vstack(tets)
     vol = tet_volumes(points, tets_all)
-    neg = vol < 0
-    tets_all[neg] = tets_all[neg][:, [0, 2, 1, 3]]
-    vol = np.abs(vol)
-    if not np.all(np.isfinite(points)) or np.any(vol <= 1e-14 * vol.max()):
+    # a proper extrusion keeps the orientation of every split tetrahedron through all layers,
+    # and the orientation of the sorted base triangle relative to the extrusion direction
+    sign = np.sign(vol).reshape(n_layers, 3 * t.shape[0])
+    x0 = points[t]
+    nrm = np.cross(x0[:, 1] - x0[:, 0], x0[:, 2] - x0[:, 0])
+    up = points[nb + t[:, 0]] - points[t[:, 0]]
+    orient = np.tile(np.sign(np.einsum("ij,ij->i", nrm, up)), 3)
+    rel = (sign[0] * orient).reshape(3, -1)  # per split type: one orientation for all prisms
+    bad = np.any(sign != sign[0], axis=0) | np.any(rel != rel[:, :1], axis=1).repeat(t.shape[0])
+    if (
+        not np.all(np.isfinite(points))
+        or np.any(bad)
+        or np.any(np.abs(vol) <= 1e-14 * np.abs(vol).max())
+    ):
         raise ModelError(
             "volume mesh has degenerate or inverted tetrahedra (check the geometry)", "mesh"
         )
+    neg = vol < 0
+    tets_all[neg] = tets_all[neg][:, [0, 2, 1, 3]]
     return TetMesh(points, tets_all), np.arange(nb), np.arange(n_layers * nb, (n_layers + 1) * nb)
 
 

@@ -10,6 +10,7 @@ import scipy.sparse.linalg as spla
 
 from neweul_py.cli import main
 from neweul_py.errors import DataError, ModelError, SolverError
+from neweul_py.fem.mesh import cone_membrane, extrude_tets
 from neweul_py.fem.middle_ear import (
     MiddleEarParameters,
     build_middle_ear,
@@ -154,15 +155,38 @@ def test_bad_refinement():
         build_middle_ear(refine=-1)
 
 
+def test_mesh_failure_is_a_model_error():
+    """An extrusion that inverts its elements is refused with a ModelError."""
+    tm = cone_membrane(1.0, 0.0, 2)
+
+    def fold(p, s):  # the far layer collapses onto the base
+        return p + np.array([0.0, 0.0, 0.1 * np.sin(np.pi * s)])
+
+    with pytest.raises(ModelError, match="degenerate or inverted"):
+        extrude_tets(tm.points, tm.triangles, 2, fold)
+
+
 def test_pressure_beyond_convergence_writes_nothing(tmp_path):
-    """A load Newton cannot reach: SolverError naming the last converged step, no output."""
+    """A straight cone with an (almost) free manubrium snaps through under negative Δp near
+    −2.9 kPa (a limit point): load control cannot pass it, so the sweep raises SolverError
+    naming the last converged load step, carries that state, and writes nothing."""
     out = tmp_path / "never"
-    opts = NewtonOptions(first_step=1000.0, max_step=1000.0, min_step=500.0, max_iter=2)
+    params = MiddleEarParameters(tm_bulge=0.0, k_chain=1.0)
     with pytest.raises(SolverError, match="last converged") as err:
-        pressure_sweep([4000.0], refine=0, out_dir=str(out), options=opts)
-    assert err.value.last_iterate is not None
+        pressure_sweep([0.0, -4000.0], params=params, refine=0, out_dir=str(out))
+    last = err.value.last_iterate
+    assert -3500.0 < last.load < -2000.0
+    assert np.all(np.isfinite(last.u))
     assert not out.exists()
     assert not list(tmp_path.iterdir())
+
+
+def test_newton_step_limit_raises():
+    """Too few iterations allowed: never an unconverged state returned as converged."""
+    me = build_middle_ear(refine=0)
+    opts = NewtonOptions(first_step=1000.0, max_step=1000.0, min_step=500.0, max_iter=1)
+    with pytest.raises(SolverError, match="last converged"):
+        solve_static(me, [4000.0], opts)
 
 
 def test_refuses_to_overwrite_foreign_directory(tmp_path):
