@@ -1,7 +1,7 @@
 """Reader and writer of SID files (standard input data of flexible bodies).
 
 The SID text format (Wallrapp 1994, "Standardization of flexible body modeling in multibody
-system codes, Part I"; Schwertassek & Wallrapp 1999, §6.6 and Table 6.9) is a nest of
+system codes, Part I"; Schwertassek & Wallrapp 1999, ch. 6) is a nest of
 blocks::
 
     <free header line(s)>
@@ -462,7 +462,7 @@ def read_sid(path: str | os.PathLike) -> SIDBody:
 
     References
     ----------
-    Wallrapp 1994; Schwertassek & Wallrapp 1999, §6.6. ``reference/equations.md`` §2.
+    Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6. ``reference/equations.md`` §2.
 
     Examples
     --------

@@ -2,7 +2,7 @@
 
 Every invariant of the floating frame of reference (``reference/equations.md`` §2) is a Taylor
 expansion in the elastic coordinates ``q`` (Wallrapp 1994, "Standardization of flexible body
-modeling in multibody system codes, Part I", §3; Schwertassek & Wallrapp 1999, §6.6)::
+modeling in multibody system codes, Part I"; Schwertassek & Wallrapp 1999, ch. 6)::
 
     X(q) = X⁰ + Σ_k X¹_k q_k,      X⁰: (nrow, ncol),  X¹: (nrow, nq, ncol)
 
@@ -35,7 +35,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Taylor:
-    """A Taylor object ``X(q) = m0 + Σ_k m1[:, k, :] q_k`` (Wallrapp 1994, §3).
+    """A Taylor object ``X(q) = m0 + Σ_k m1[:, k, :] q_k`` (Wallrapp 1994).
 
     Parameters
     ----------
