@@ -693,12 +693,13 @@ def _as_operator(A, n: int, item: str):
 def inertia_loads(fe) -> dict[str, np.ndarray]:
     """The d'Alembert nodal loads of the 12 unit load cases of :data:`LOAD_CASES`.
 
-    ``f_c = −M g_c`` with ``g_c`` the acceleration field of a unit value of the case: frame
-    acceleration ``e_a`` (``T_t``), angular acceleration ``e_b`` (``T_r``), or the
-    centrifugal field ``B_c x`` of ``ω_q[c] = 1`` (``ω̃ω̃ = Σ_c B_c ω_q[c]``; translations
-    only). Apply them to the body supported at its reference frame, compute the stress
-    state and its geometric stiffness ``K_G,c``, and pass these to
-    :func:`compute_invariants` (``geometric_stiffness``).
+    Frame acceleration ``e_a``: ``f = −M T_t e_a``; angular acceleration ``e_b``:
+    ``f = −M T_r e_b``; centrifugal case ``ω_q[c] = 1``: ``f = −Σ_ab B_c,ab g_ab`` with
+    ``g_ab = ½ [M P_a t_b + P_a (M t_b)]`` (``t_b = T_r e_b``; the symmetric cross-product
+    form of the module docstring), so that the modal loads are exactly the order-0 terms of
+    the elastic rows: ``Wᵀ f = −Ct⁰ e_a``, ``−Cr⁰ e_b``, ``−Oe⁰[:, c]``. Apply them to the body
+    supported at its reference frame, compute the stress state and its geometric stiffness
+    ``K_G,c``, and pass these to :func:`compute_invariants` (``geometric_stiffness``).
 
     Returns
     -------
@@ -708,14 +709,18 @@ def inertia_loads(fe) -> dict[str, np.ndarray]:
     dofs = _Dofs.of(fe)
     M = sps.csr_matrix(fe.M)
     Tt, Tr = dofs.rigid_fields()
+    MTr = M @ Tr
     out = {}
     for a, name in enumerate(("ax", "ay", "az")):
         out[name] = -(M @ Tt[:, a])
     for b, name in enumerate(("alphax", "alphay", "alphaz")):
-        out[name] = -(M @ Tr[:, b])
+        out[name] = -MTr[:, b]
+    P_t = _cross_fields(dofs, Tr)            # P_t[a][:, b] = P_a t_b
+    P_mt = _cross_fields(dofs, MTr)          # P_mt[a][:, b] = P_a (M t_b)
+    g = np.stack([0.5 * (M @ P_t[a] + P_mt[a]) for a in range(3)], axis=1)   # (n, 3a, 3b)
+    coeff = _omega_q_coefficients(g)                                          # (n, 6)
     for c, name in enumerate(LOAD_CASES[6:]):
-        field_ = dofs.scatter((dofs.xyz @ _centrifugal_matrix(c).T)[:, None, :])[:, 0]
-        out[name] = -(M @ field_)
+        out[name] = -coeff[:, c]
     return out
 
 

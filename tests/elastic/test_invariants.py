@@ -377,11 +377,20 @@ def test_stiffening_slots():
     assert inv.Crv.equals(bare.Crv) and inv.Ge.equals(bare.Ge)
 
 
-def test_inertia_loads():
+@pytest.mark.parametrize("lumped", [False, True])
+def test_inertia_loads(lumped):
     """Unit load cases: −M T_t sums to −m e_a; the ωz² load of a beam along x is the
-    outward centrifugal force Σ f_x = m c_x."""
-    b = beam(10, offset=OFFSET)
+    outward centrifugal force Σ f_x = m c_x; the modal loads Wᵀ f are exactly minus the
+    order-0 elastic-row terms Ct⁰, Cr⁰, Oe⁰ (the prestress and the reduced model see the
+    same load)."""
+    b = beam(10, offset=OFFSET, lumped=lumped, rotary=True)
     f = inertia_loads(b.fe)
+    W = random_basis(b, 3, 14)
+    inv = compute_invariants(b.fe, random_basis(b, 3, 15), W)
+    for k, name in enumerate(LOAD_CASES):
+        t = (inv.Ct.m0, inv.Cr.m0, inv.Oe.m0)[0 if k < 3 else 1 if k < 6 else 2]
+        np.testing.assert_allclose(W.T @ f[name], -t[:, k if k < 3 else k - 3 if k < 6
+                                                     else k - 6], atol=1e-12)
     m = b.rho * b.A * b.length
     assert set(f) == set(LOAD_CASES)
     assert f["ax"][0::6].sum() == pytest.approx(-m)
