@@ -23,6 +23,7 @@ __all__ = [
     "load_module",
     "name_index",
     "null_space",
+    "override_vector",
     "participating_names",
     "redundant_constraints",
     "resolve_inputs",
@@ -79,6 +80,25 @@ def name_index(names: Sequence[str], name: str, kind: str) -> int:
         raise NeweulError(f"unknown {kind} {name!r}; valid {kind}s: {valid}") from None
 
 
+def override_vector(
+    default: np.ndarray, names: Sequence[str], value: Any, kind: str
+) -> np.ndarray:
+    """``default`` (for None), overridden by name (mapping), or replaced (full-length sequence).
+
+    Unknown names are an error listing the valid ``kind`` names.
+    """
+    if value is None:
+        return default
+    if isinstance(value, Mapping):
+        for key, v in value.items():
+            default[name_index(names, key, kind)] = float(v)
+        return default
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.size != len(names):
+        raise NeweulError(f"{kind} vector has {arr.size} entries, the model has {len(names)}")
+    return arr
+
+
 def resolve_parameters(module: Any, p: ParameterLike = None) -> np.ndarray:
     """The parameter vector ``p`` (ordered as ``module.PARAMETERS``).
 
@@ -90,16 +110,7 @@ def resolve_parameters(module: Any, p: ParameterLike = None) -> np.ndarray:
         default = np.asarray(module.default_parameters(), dtype=float).copy()
     else:
         default = np.array([module.PARAMETERS[k] for k in names], dtype=float)
-    if p is None:
-        return default
-    if isinstance(p, Mapping):
-        for key, value in p.items():
-            default[name_index(names, key, "parameter")] = float(value)
-        return default
-    arr = np.asarray(p, dtype=float).reshape(-1)
-    if arr.size != len(names):
-        raise NeweulError(f"parameter vector has {arr.size} entries, the model has {len(names)}")
-    return arr
+    return override_vector(default, names, p, "parameter")
 
 
 def resolve_inputs(
@@ -115,16 +126,7 @@ def resolve_inputs(
         base = np.asarray(module.default_inputs(t, p), dtype=float).reshape(-1).copy()
     else:
         base = np.zeros(len(names))
-    if u is None:
-        return base
-    if isinstance(u, Mapping):
-        for key, value in u.items():
-            base[name_index(names, key, "input")] = float(value)
-        return base
-    arr = np.asarray(u, dtype=float).reshape(-1)
-    if arr.size != len(names):
-        raise NeweulError(f"input vector has {arr.size} entries, the model has {len(names)}")
-    return arr
+    return override_vector(base, names, u, "input")
 
 
 def input_function(

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import NeweulError, SolverError
+from ..errors import SolverError
 from . import _protocol as proto
 
 __all__ = ["EquilibriumResult", "equilibrium"]
@@ -163,15 +163,8 @@ def equilibrium(
     nc = len(cnames)
     pv = proto.resolve_parameters(module, p)
     uv = proto.resolve_inputs(module, t, pv, u)
-    y = np.asarray(module.INITIAL_STATE, dtype=float)[:n].copy()
-    if y0 is not None:
-        if isinstance(y0, Mapping):
-            for key, value in y0.items():
-                y[proto.name_index(names, key, "coordinate")] = float(value)
-        else:
-            y = np.asarray(y0, dtype=float).reshape(-1).copy()
-            if y.size != n:
-                raise NeweulError(f"y0 has {y.size} entries, the model has {n} coordinates")
+    y_init = np.asarray(module.INITIAL_STATE, dtype=float)[:n].copy()
+    y = proto.override_vector(y_init, names, y0, "coordinate").copy()
     fixed_idx = {proto.name_index(names, nm, "coordinate") for nm in fixed}
     free = np.array([i for i in range(n) if i not in fixed_idx], dtype=int)
     nf = free.size

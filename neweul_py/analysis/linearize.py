@@ -24,7 +24,7 @@ points (``ẏ0 = 0``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -241,18 +241,6 @@ class LinearModel:
         return cls(**kw)
 
 
-def _vector(value: Any, size: int, what: str, names: Sequence[str]) -> np.ndarray:
-    if isinstance(value, Mapping):
-        out = np.zeros(size)
-        for key, v in value.items():
-            out[proto.name_index(names, key, "coordinate")] = float(v)
-        return out
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.size != size:
-        raise NeweulError(f"{what} has {arr.size} entries, the model has {size} coordinates")
-    return arr
-
-
 def linearize(
     module: Any,
     y0: Any = None,
@@ -270,11 +258,12 @@ def linearize(
     module
         A generated module (or its path).
     y0
-        Coordinates of the operating point: array, mapping name → value, an
+        Coordinates of the operating point: array, mapping name → value (over the initial
+        state), an
         :class:`~neweul_py.analysis.equilibrium.EquilibriumResult` (its ``y``, ``p`` and ``u`` are
         used), or ``None`` for the initial state of the module.
     yd0
-        Velocities (default zero; must be zero for constrained modules).
+        Velocities: array or mapping (default zero; must be zero for constrained modules).
     u0
         Inputs (default: ``default_inputs(t, p)``).
     p
@@ -311,10 +300,9 @@ def linearize(
         u0 = eq.u if u0 is None else u0
         t = eq.t
     pv = proto.resolve_parameters(module, p)
-    if y0 is None:
-        y0 = np.asarray(module.INITIAL_STATE, dtype=float)[:n]
-    y = _vector(y0, n, "y0", names)
-    yd = np.zeros(n) if yd0 is None else _vector(yd0, n, "yd0", names)
+    y_init = np.asarray(module.INITIAL_STATE, dtype=float)[:n].copy()
+    y = proto.override_vector(y_init, names, y0, "coordinate")
+    yd = proto.override_vector(np.zeros(n), names, yd0, "coordinate")
     u = proto.resolve_inputs(module, t, pv, u0)
     inputs = tuple(getattr(module, "INPUTS", []) or [])
     outputs = tuple(getattr(module, "OUTPUTS", []) or [])
@@ -332,54 +320,13 @@ def linearize(
     else:
         c_full, d_out = np.zeros((0, 2 * n)), np.zeros((0, len(inputs)))
 
-    if not cnames:
+    if cnames:
+        indep, basis, ydd0, lam0, q_lam = _manifold(module, t, y, yd, pv, m0, force, independent)
+    else:
         proto.check_mass_matrix(m0, names)
-        ydd0 = np.linalg.solve(m0, force)
-        q_mat = -f_y
-        if np.any(ydd0):
-            q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
-        return LinearModel(
-            M0=m0,
-            P=-f_yd,
-            Q=q_mat,
-            B=f_u,
-            C=c_full,
-            D=d_out,
-            coordinates=tuple(names),
-            inputs=inputs,
-            outputs=outputs,
-            basis=np.eye(n),
-            all_coordinates=tuple(names),
-            y0=y,
-            yd0=yd,
-            u0=u,
-            p=pv,
-            t=float(t),
-        )
-
-    # --- constrained: minimal coordinates on the constraint manifold ---
-    if np.any(yd):
-        raise NeweulError(
-            "linearize: constrained modules are linearized about rest points (ẏ0 = 0)"
-        )
-    g = np.asarray(module.constraints(t, y, pv), dtype=float)
-    g_jac = np.asarray(module.constraint_jacobian(t, y, pv), dtype=float).reshape(len(cnames), n)
-    tol = 1e-8 * max(1.0, np.abs(g_jac).max() * max(1.0, np.abs(y).max()))
-    if np.abs(g).max() > tol:
-        worst = cnames[int(np.argmax(np.abs(g)))]
-        raise NeweulError(
-            f"linearize: the operating point violates the constraints (|g| = {np.abs(g).max():.3g}"
-            f", worst {worst}); use equilibrium() or a consistent initial state"
-        )
-    redundant = proto.redundant_constraints(g_jac, cnames)
-    if redundant:
-        raise NeweulError("redundant constraints at the operating point: " + "; ".join(redundant))
-    indep, dep = proto.partition(g_jac, names, independent)
-    basis = proto.partition_basis(g_jac, indep, dep)
-    proto.check_mass_matrix(m0, names, basis)
-    gamma = np.asarray(module.constraint_gamma(t, y, yd, pv), dtype=float)
-    ydd0, lam0 = proto.augmented_solve(m0, g_jac, force, -gamma)
-    q_mat = -f_y - proto.constraint_force_jacobian(module, t, y, pv, lam0)
+        indep, basis = np.arange(n), np.eye(n)
+        ydd0, lam0, q_lam = np.linalg.solve(m0, force), np.zeros(0), 0.0
+    q_mat = -f_y - q_lam
     if np.any(ydd0):
         q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
     nt = basis.T
@@ -406,3 +353,49 @@ def linearize(
         lambda0=lam0,
         constraints=cnames,
     )
+
+
+def _manifold(
+    module: Any,
+    t: float,
+    y: np.ndarray,
+    yd: np.ndarray,
+    pv: np.ndarray,
+    m0: np.ndarray,
+    force: np.ndarray,
+    independent: Sequence[str] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Minimal coordinates of a constrained module at a rest point (see the module docstring).
+
+    Returns
+    -------
+    indep, basis, ydd0, lam0, dgl
+        Independent coordinate indices, ``N``, ``ÿ0`` and ``λ0`` of the augmented system, and
+        ``∂(Gᵀλ0)/∂y``.
+    """
+    names = proto.coordinate_names(module)
+    cnames = list(module.CONSTRAINTS)
+    if np.any(yd):
+        raise NeweulError(
+            "linearize: constrained modules are linearized about rest points (ẏ0 = 0)"
+        )
+    g = np.asarray(module.constraints(t, y, pv), dtype=float)
+    g_jac = np.asarray(module.constraint_jacobian(t, y, pv), dtype=float).reshape(
+        len(cnames), len(names)
+    )
+    tol = 1e-8 * max(1.0, np.abs(g_jac).max() * max(1.0, np.abs(y).max()))
+    if np.abs(g).max() > tol:
+        worst = cnames[int(np.argmax(np.abs(g)))]
+        raise NeweulError(
+            f"linearize: the operating point violates the constraints (|g| = {np.abs(g).max():.3g}"
+            f", worst {worst}); use equilibrium() or a consistent initial state"
+        )
+    redundant = proto.redundant_constraints(g_jac, cnames)
+    if redundant:
+        raise NeweulError("redundant constraints at the operating point: " + "; ".join(redundant))
+    indep, dep = proto.partition(g_jac, names, independent)
+    basis = proto.partition_basis(g_jac, indep, dep)
+    proto.check_mass_matrix(m0, names, basis)
+    gamma = np.asarray(module.constraint_gamma(t, y, yd, pv), dtype=float)
+    ydd0, lam0 = proto.augmented_solve(m0, g_jac, force, -gamma)
+    return indep, basis, ydd0, lam0, proto.constraint_force_jacobian(module, t, y, pv, lam0)
