@@ -41,10 +41,18 @@ import sympy as sp
 from ..errors import ModelError
 from ..model import (
     AXES,
+    ELONGATION,
+    ELONGATION_RATE,
+    FORCE_COMPONENTS,
     INERTIAL,
+    Bushing,
+    CoincidenceConstraint,
+    Constraint,
     Coordinate,
+    ExpressionConstraint,
     ExpressionOutput,
     ForceElement,
+    ForceOutput,
     Frame,
     GeneralizedForce,
     Input,
@@ -53,11 +61,14 @@ from ..model import (
     Parameter,
     PointForce,
     RigidBody,
+    RotationalSpringDamper,
     SpringDamper,
     System,
     Torque,
     check_name,
+    input_rate_name,
     symbol,
+    table_characteristic,
     time,
     velocity_name,
 )
@@ -70,7 +81,7 @@ SCOPES: Mapping[str, tuple[str, ...]] = {
     "constant": ("parameter",),
     "excitation": ("parameter", "time"),
     "kinematic": ("parameter", "coordinate", "input", "time"),
-    "dynamic": ("parameter", "coordinate", "input", "time", "velocity"),
+    "dynamic": ("parameter", "coordinate", "input", "time", "velocity", "input_rate"),
 }
 
 _KIND_WORDS = {
@@ -78,6 +89,7 @@ _KIND_WORDS = {
     "coordinate": "a coordinate",
     "velocity": "a velocity",
     "input": "an input",
+    "input_rate": "a time derivative of an input",
     "time": "the time",
     "frame": "a frame",
     "body": "a body",
@@ -185,6 +197,13 @@ def _check_frame_name(value: object, key_path: str) -> str:
     return value
 
 
+def _check_matrix33(value: object, key_path: str) -> None:
+    """A bushing matrix: one value, ``{diag: [a, b, c]}`` or a 3×3 list of lists."""
+    if isinstance(value, int | float | str | sp.Expr) and not isinstance(value, bool):
+        return
+    _check_inertia(value, key_path)
+
+
 # ----------------------------------------------------------------------------- names
 @dataclass(frozen=True)
 class _Names:
@@ -234,6 +253,77 @@ class _Names:
 _Make = Callable[[_Names], Any]
 
 
+def _enabled(n: _Names, enabled: object, path: str) -> sp.Expr:
+    """The on/off factor of a force element (parameters only; default 1)."""
+    if enabled is None:
+        return sp.Integer(1)
+    return n.expr(enabled, "constant", f"{path}.enabled")
+
+
+def _points(n: _Names, points: object, path: str) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
+    if points is None:
+        return sp.ImmutableMatrix.zeros(3, 1), sp.ImmutableMatrix.zeros(3, 1)
+    pa, pb = (n.vector(p, "kinematic", f"{path}.points[{i}]")
+              for i, p in enumerate(points))  # type: ignore[arg-type]
+    return pa, pb
+
+
+def _matrix33(n: _Names, value: object, key_path: str) -> sp.ImmutableMatrix:
+    if isinstance(value, Mapping):
+        diag = n.vector(value["diag"], "dynamic", f"{key_path}.diag")
+        return sp.ImmutableMatrix(sp.diag(*diag))
+    if isinstance(value, int | float | str | sp.Expr):
+        return sp.ImmutableMatrix(sp.eye(3) * n.expr(value, "dynamic", key_path))
+    if isinstance(value, sp.MatrixBase):
+        value = value.tolist()
+    return sp.ImmutableMatrix(
+        [
+            [n.expr(v, "dynamic", f"{key_path}[{i}][{j}]") for j, v in enumerate(row)]
+            for i, row in enumerate(value)  # type: ignore[arg-type]
+        ]
+    )
+
+
+_TABLE_KEYS = ("table", "interpolation")
+
+
+def _characteristic(
+    n: _Names, value: object, variable: sp.Symbol, key_path: str
+) -> tuple[sp.Expr, sp.Expr | None]:
+    """A stiffness or damping: ``(coefficient, None)`` for an expression (which may use the
+    local names ``s`` and ``sd``), ``(0, curve)`` for a table ``{table:, interpolation:}``."""
+    if isinstance(value, Mapping):
+        unknown = [str(k) for k in value if k not in _TABLE_KEYS]
+        if unknown:
+            raise ModelError(
+                f"unknown key {unknown[0]!r}; a characteristic table has the keys "
+                f"{', '.join(_TABLE_KEYS)}",
+                f"{key_path}.{unknown[0]}",
+            )
+        if "table" not in value:
+            raise ModelError("a characteristic table needs the key 'table'", key_path)
+        rows = value["table"]
+        if not _is_sequence(rows):
+            raise ModelError(f"expected a list of [value, force] pairs, got {_type_name(rows)}",
+                             f"{key_path}.table")
+        numbers = []
+        for i, row in enumerate(rows):
+            if not _is_sequence(row) or len(row) != 2:
+                raise ModelError(f"expected a pair [value, force], got {row!r}",
+                                 f"{key_path}.table[{i}]")
+            numbers.append([constant_number(v, f"{key_path}.table[{i}][{j}]")
+                            for j, v in enumerate(row)])
+        curve = table_characteristic(
+            numbers, value.get("interpolation", "linear"), variable, f"{key_path}.table"
+        )
+        return sp.Integer(0), curve
+    if isinstance(value, sp.Basic) and not isinstance(value, sp.MatrixBase):
+        return value, None
+    namespace = {**n.namespace("dynamic"), "s": ELONGATION, "sd": ELONGATION_RATE}
+    unavailable = {k: _KIND_WORDS[v] for k, v in n.kinds.items() if k not in namespace}
+    return as_expression(value, namespace, key_path=key_path, unavailable=unavailable), None
+
+
 # ----------------------------------------------------------------------------- builder
 class SystemBuilder:
     """Collect the items of a multibody system and build a validated :class:`System`.
@@ -265,6 +355,8 @@ class SystemBuilder:
         self._bodies: list[_Make] = []
         self._forces: list[_Make] = []
         self._outputs: list[_Make] = []
+        self._constraints: list[_Make] = []
+        self._constraint_names: set[str] = set()
         self._gravity: _Make | None = None
 
     # -------------------------------------------------------------- helpers
@@ -316,6 +408,15 @@ class SystemBuilder:
     def input(self, name: str, default: object = "0") -> sp.Symbol:
         """Add an input with its default excitation (an expression of ``t`` and parameters)."""
         path = self._declare("inputs", "input", name)
+        for k in (1, 2):
+            rate = input_rate_name(name, k)
+            if rate in self._kinds:
+                raise ModelError(
+                    f"the input's time derivative {rate!r} is already used by "
+                    f"{_KIND_WORDS[self._kinds[rate]]}",
+                    path,
+                )
+            self._kinds[rate] = "input_rate"
         self._inputs.append(lambda n: Input(name, n.expr(default, "excitation", path)))
         return symbol(name)
 
@@ -428,9 +529,18 @@ class SystemBuilder:
         vector: object,
         point: object = None,
         in_: str = INERTIAL,
+        *,
+        enabled: object = None,
+        report: bool = False,
     ) -> None:
-        """Add a force ``vector`` (components of frame ``in_``) at ``point`` of ``frame``."""
+        """Add a force ``vector`` (components of frame ``in_``) at ``point`` of ``frame``.
+
+        ``enabled`` (all force elements): a parameter (or expression of parameters) that
+        multiplies the element's action, 1 = on, 0 = off. ``report`` (all force elements): add
+        outputs of what the element exerts (:meth:`force_output`), here ``<name>_fx`` … ``_fz``.
+        """
         path = self._declare("forces", "force", name)
+        self._report(name, report, path, "PointForce")
         _check_frame_name(frame, f"{path}.frame")
         _check_frame_name(in_, f"{path}.in")
         _check_vector(vector, f"{path}.vector")
@@ -443,29 +553,54 @@ class SystemBuilder:
                 if point is not None
                 else sp.ImmutableMatrix.zeros(3, 1)
             )
-            return PointForce(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), p, in_)
+            return PointForce(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), p, in_,
+                              enabled=_enabled(n, enabled, path))
 
         self._forces.append(make)
 
-    def torque(self, name: str, frame: str, vector: object, in_: str = INERTIAL) -> None:
-        """Add a torque ``vector`` (components of frame ``in_``) acting on ``frame``."""
+    def torque(
+        self,
+        name: str,
+        frame: str,
+        vector: object,
+        in_: str = INERTIAL,
+        *,
+        enabled: object = None,
+        report: bool = False,
+    ) -> None:
+        """Add a torque ``vector`` (components of frame ``in_``) acting on ``frame``
+        (``enabled``, ``report``: see :meth:`force`; reports ``<name>_mx`` … ``_mz``)."""
         path = self._declare("forces", "force", name)
+        self._report(name, report, path, "Torque")
         _check_frame_name(frame, f"{path}.frame")
         _check_frame_name(in_, f"{path}.in")
         _check_vector(vector, f"{path}.vector")
         self._forces.append(
-            lambda n: Torque(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), in_)
+            lambda n: Torque(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), in_,
+                             enabled=_enabled(n, enabled, path))
         )
 
-    def generalized_force(self, name: str, coordinate: str, value: object) -> None:
-        """Add a generalized force ``value`` acting directly on ``coordinate``."""
+    def generalized_force(
+        self,
+        name: str,
+        coordinate: str,
+        value: object,
+        *,
+        enabled: object = None,
+        report: bool = False,
+    ) -> None:
+        """Add a generalized force ``value`` acting directly on ``coordinate`` (``enabled``,
+        ``report``: see :meth:`force`; reports ``<name>_force``)."""
         path = self._declare("forces", "force", name)
+        self._report(name, report, path, "GeneralizedForce")
         if not isinstance(coordinate, str):
             raise ModelError(
                 f"expected a coordinate name, got {_type_name(coordinate)}", f"{path}.coordinate"
             )
         self._forces.append(
-            lambda n: GeneralizedForce(name, coordinate, n.expr(value, "dynamic", f"{path}.value"))
+            lambda n: GeneralizedForce(name, coordinate,
+                                       n.expr(value, "dynamic", f"{path}.value"),
+                                       enabled=_enabled(n, enabled, path))
         )
 
     def spring_damper(
@@ -477,13 +612,22 @@ class SystemBuilder:
         stiffness: object,
         damping: object = 0,
         length: object = 0,
+        enabled: object = None,
+        report: bool = False,
     ) -> None:
-        """Add a linear point-to-point spring–damper.
+        """Add a point-to-point spring–damper.
 
         ``between = [frameA, frameB]``, ``points = [pA, pB]`` (each in its frame's components,
-        default origins); tensile force ``stiffness (s − length) + damping ṡ``.
+        default origins); tensile force ``stiffness·s + damping·sd`` with the elongation
+        ``s = distance − length`` and its rate ``sd``. ``stiffness`` and ``damping`` may be
+        expressions of ``s`` and ``sd`` (nonlinear coefficients; inside them these two names
+        mean the elongation and its rate), or tables ``{"table": [[s0, F0], …],
+        "interpolation": "linear" | "spline"}`` giving the spring force over ``s`` (the damper
+        force over ``sd``) directly (:func:`~neweul_py.model.table_characteristic`).
+        ``enabled``, ``report``: see :meth:`force` (reports ``<name>_force``, the tensile force).
         """
         path = self._declare("forces", "force", name)
+        self._report(name, report, path, "SpringDamper")
         if not _is_sequence(between) or len(between) != 2:
             raise ModelError(
                 f"expected two frame names [frameA, frameB], got {between!r}", f"{path}.between"
@@ -504,18 +648,220 @@ class SystemBuilder:
                 if points is not None
                 else (sp.ImmutableMatrix.zeros(3, 1), sp.ImmutableMatrix.zeros(3, 1))
             )
+            k, k_curve = _characteristic(n, stiffness, ELONGATION, f"{path}.stiffness")
+            d, d_curve = _characteristic(n, damping, ELONGATION_RATE, f"{path}.damping")
             return SpringDamper(
                 name,
                 between[0],
                 between[1],
-                stiffness=n.expr(stiffness, "dynamic", f"{path}.stiffness"),
-                damping=n.expr(damping, "dynamic", f"{path}.damping"),
+                stiffness=k,
+                damping=d,
                 length=n.expr(length, "dynamic", f"{path}.length"),
                 point_a=pa,
                 point_b=pb,
+                spring_force=k_curve,
+                damper_force=d_curve,
+                enabled=_enabled(n, enabled, path),
             )
 
         self._forces.append(make)
+
+    def rotational_spring_damper(
+        self,
+        name: str,
+        *,
+        coordinate: str | None = None,
+        between: Sequence[str] | None = None,
+        axis: str = "z",
+        stiffness: object = 0,
+        damping: object = 0,
+        angle: object = 0,
+        enabled: object = None,
+        report: bool = False,
+    ) -> None:
+        """Add a rotational spring–damper on a ``coordinate`` or ``between`` two frames about
+        ``axis`` (x, y, z of the first frame).
+
+        The elongation ``s`` is the coordinate (or the relative rotation angle about the axis)
+        minus ``angle``; ``stiffness``/``damping`` as in :meth:`spring_damper`. Reports
+        ``<name>_force`` (the restoring torque ``F(s, sd)``).
+        """
+        path = self._declare("forces", "force", name)
+        self._report(name, report, path, "RotationalSpringDamper")
+        if (coordinate is None) == (between is None):
+            raise ModelError(
+                "a rotational spring–damper needs exactly one of 'coordinate' or 'between'", path
+            )
+        if coordinate is not None and not isinstance(coordinate, str):
+            raise ModelError(
+                f"expected a coordinate name, got {_type_name(coordinate)}", f"{path}.coordinate"
+            )
+        frames = self._two_frames(between, f"{path}.between") if between is not None else None
+        if axis not in AXES:
+            raise ModelError(f"axis must be one of x, y, z, not {axis!r}", f"{path}.axis")
+
+        def make(n: _Names) -> RotationalSpringDamper:
+            k, k_curve = _characteristic(n, stiffness, ELONGATION, f"{path}.stiffness")
+            d, d_curve = _characteristic(n, damping, ELONGATION_RATE, f"{path}.damping")
+            return RotationalSpringDamper(
+                name,
+                stiffness=k,
+                damping=d,
+                angle=n.expr(angle, "dynamic", f"{path}.angle"),
+                coordinate=coordinate,
+                frame_a=frames[0] if frames else None,
+                frame_b=frames[1] if frames else None,
+                axis=axis,  # type: ignore[arg-type]
+                spring_force=k_curve,
+                damper_force=d_curve,
+                enabled=_enabled(n, enabled, path),
+            )
+
+        self._forces.append(make)
+
+    def bushing(
+        self,
+        name: str,
+        between: Sequence[str],
+        points: Sequence[object] | None = None,
+        *,
+        stiffness: object = 0,
+        damping: object = 0,
+        rotational_stiffness: object = 0,
+        rotational_damping: object = 0,
+        enabled: object = None,
+        report: bool = False,
+    ) -> None:
+        """Add a linear 6-DOF bushing between ``points`` (offsets, default origins) of two
+        frames (:class:`~neweul_py.model.Bushing`).
+
+        Each of the four matrices (first frame's components) is a 3×3 list of lists,
+        ``{"diag": [a, b, c]}`` or one value (isotropic, ``value·I``). Reports ``<name>_fx``
+        … ``_fz``, ``_mx`` … ``_mz`` (force and torque on the second frame).
+        """
+        path = self._declare("forces", "force", name)
+        self._report(name, report, path, "Bushing")
+        frames = self._two_frames(between, f"{path}.between")
+        self._check_points(points, path)
+        specs = {
+            "stiffness": stiffness,
+            "damping": damping,
+            "rotational_stiffness": rotational_stiffness,
+            "rotational_damping": rotational_damping,
+        }
+        for key, value in specs.items():
+            _check_matrix33(value, f"{path}.{key}")
+
+        def make(n: _Names) -> Bushing:
+            pa, pb = _points(n, points, path)
+            mats = {k: _matrix33(n, v, f"{path}.{k}") for k, v in specs.items()}
+            return Bushing(
+                name, frames[0], frames[1], **mats, point_a=pa, point_b=pb,
+                enabled=_enabled(n, enabled, path),
+            )
+
+        self._forces.append(make)
+
+    def _two_frames(self, between: object, key_path: str) -> tuple[str, str]:
+        if not _is_sequence(between) or len(between) != 2:  # type: ignore[arg-type]
+            raise ModelError(f"expected two frame names [frameA, frameB], got {between!r}",
+                             key_path)
+        a, b = between  # type: ignore[misc]
+        return _check_frame_name(a, f"{key_path}[0]"), _check_frame_name(b, f"{key_path}[1]")
+
+    @staticmethod
+    def _check_points(points: object, path: str) -> None:
+        if points is not None:
+            if not _is_sequence(points) or len(points) != 2:  # type: ignore[arg-type]
+                raise ModelError(
+                    f"expected two points [pointA, pointB], got {points!r}", f"{path}.points"
+                )
+            for i, p in enumerate(points):  # type: ignore[arg-type]
+                _check_vector(p, f"{path}.points[{i}]")
+
+    def _report(self, force: str, report: object, path: str, kind: str) -> None:
+        """Declare the outputs a force element of type ``kind`` reports when ``report`` is
+        true: ``<force>_force`` for scalar elements, ``<force>_<component>`` otherwise."""
+        if report is None or report is False:
+            return
+        if report is not True:
+            raise ModelError(f"report must be true or false, got {_type_name(report)}",
+                             f"{path}.report")
+        for component in FORCE_COMPONENTS[kind]:
+            out = f"{force}_{component}"
+            if out in self._kinds:
+                raise ModelError(
+                    f"cannot report output {out!r}: the name is already used by "
+                    f"{_KIND_WORDS[self._kinds[out]]}",
+                    f"{path}.report",
+                )
+            self.force_output(out, force, component)
+
+    # -------------------------------------------------------------- outputs
+    def force_output(self, name: str, force: str, component: str = "force") -> None:
+        """Add an output reporting what force element ``force`` exerts: ``component``
+        ``force`` (scalar elements) or ``fx fy fz mx my mz`` (vector elements), see
+        :class:`~neweul_py.model.ForceOutput`."""
+        self._declare("outputs", "output", name)
+        if not isinstance(force, str):
+            raise ModelError(f"expected a force element name, got {_type_name(force)}",
+                             f"outputs.{name}.force")
+        self._outputs.append(lambda n: ForceOutput(name, force, component))
+
+    # -------------------------------------------------------------- constraints
+    def constraint(self, name: str, expr: object) -> None:
+        """Add a holonomic constraint ``expr(y, t, u, p) = 0``. A string ``"a = b"`` means
+        ``a − b = 0``."""
+        path = f"constraints.{name}"
+        self._declare_constraint(name, path)
+
+        def make(n: _Names) -> ExpressionConstraint:
+            if isinstance(expr, str) and expr.count("=") == 1:
+                lhs, rhs = expr.split("=")
+                value = n.expr(lhs, "kinematic", path) - n.expr(rhs, "kinematic", path)
+            else:
+                value = n.expr(expr, "kinematic", path)
+            return ExpressionConstraint(name, value)
+
+        self._constraints.append(make)
+
+    def coincide(
+        self,
+        name: str,
+        frames: Sequence[str],
+        points: Sequence[object] | None = None,
+        components: Sequence[str] = ("x", "y", "z"),
+        in_: str = INERTIAL,
+    ) -> None:
+        """Add the constraints that ``points[1]`` of ``frames[1]`` coincides with
+        ``points[0]`` of ``frames[0]`` in ``components`` of frame ``in_``; they are named
+        ``<name>_<component>``."""
+        path = f"constraints.{name}"
+        self._declare_constraint(name, path)
+        fa, fb = self._two_frames(frames, f"{path}.coincide")
+        self._check_points(points, path)
+        _check_frame_name(in_, f"{path}.in")
+        if not _is_sequence(components):
+            raise ModelError(f"expected a list of components (x, y, z), got "
+                             f"{_type_name(components)}", f"{path}.components")
+        for i, c in enumerate(components):
+            if c not in AXES:
+                raise ModelError(f"component must be one of x, y, z, not {c!r}",
+                                 f"{path}.components[{i}]")
+
+        def make(n: _Names) -> CoincidenceConstraint:
+            pa, pb = _points(n, points, path)
+            return CoincidenceConstraint(name, fa, fb, pa, pb, tuple(components), in_)
+
+        self._constraints.append(make)
+
+    def _declare_constraint(self, name: object, path: str) -> None:
+        why = check_name(name)
+        if why is not None:
+            raise ModelError(why, path)
+        if name in self._constraint_names:
+            raise ModelError(f"constraint {name!r} is defined twice", path)
+        self._constraint_names.add(name)  # type: ignore[arg-type]
 
     # -------------------------------------------------------------- outputs
     def output(self, name: str, expr: object) -> None:
@@ -580,6 +926,7 @@ class SystemBuilder:
         bodies: tuple[RigidBody, ...] = tuple(make(n) for make in self._bodies)
         forces: tuple[ForceElement, ...] = tuple(make(n) for make in self._forces)
         outputs: tuple[Output, ...] = tuple(make(n) for make in self._outputs)
+        constraints: tuple[Constraint, ...] = tuple(make(n) for make in self._constraints)
         return System(
             name=self._name,
             coordinates=tuple(self._coordinates),
@@ -591,7 +938,8 @@ class SystemBuilder:
             outputs=outputs,
             gravity=gravity,
             description=self._description,
+            constraints=constraints,
         )
 
 
-_SYMBOL_KINDS = frozenset({"parameter", "coordinate", "velocity", "input"})
+_SYMBOL_KINDS = frozenset({"parameter", "coordinate", "velocity", "input", "input_rate"})

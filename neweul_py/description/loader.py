@@ -143,22 +143,33 @@ class ForceType:
     add: Callable[[SystemBuilder, str, dict[str, Any]], None]
 
 
+#: Keys every force element may have: an on/off factor and whether it reports its force.
+SWITCHES = ("enabled", "report")
+
+
+def _switches(s: dict[str, Any]) -> dict[str, Any]:
+    return {"enabled": s.get("enabled"), "report": s.get("report", False)}
+
+
 FORCE_TYPES: Mapping[str, ForceType] = {
     "force": ForceType(
-        Schema(required=("type", "frame", "vector"), optional=("point", "in")),
-        lambda b, n, s: b.force(n, s["frame"], s["vector"], s.get("point"), s.get("in", INERTIAL)),
+        Schema(required=("type", "frame", "vector"), optional=("point", "in", *SWITCHES)),
+        lambda b, n, s: b.force(n, s["frame"], s["vector"], s.get("point"), s.get("in", INERTIAL),
+                                **_switches(s)),
     ),
     "torque": ForceType(
-        Schema(required=("type", "frame", "vector"), optional=("in",)),
-        lambda b, n, s: b.torque(n, s["frame"], s["vector"], s.get("in", INERTIAL)),
+        Schema(required=("type", "frame", "vector"), optional=("in", *SWITCHES)),
+        lambda b, n, s: b.torque(n, s["frame"], s["vector"], s.get("in", INERTIAL),
+                                 **_switches(s)),
     ),
     "generalized": ForceType(
-        Schema(required=("type", "coordinate", "value")),
-        lambda b, n, s: b.generalized_force(n, s["coordinate"], s["value"]),
+        Schema(required=("type", "coordinate", "value"), optional=SWITCHES),
+        lambda b, n, s: b.generalized_force(n, s["coordinate"], s["value"], **_switches(s)),
     ),
     "spring_damper": ForceType(
         Schema(
-            required=("type", "between", "stiffness"), optional=("points", "damping", "length")
+            required=("type", "between", "stiffness"),
+            optional=("points", "damping", "length", *SWITCHES),
         ),
         lambda b, n, s: b.spring_damper(
             n,
@@ -167,6 +178,41 @@ FORCE_TYPES: Mapping[str, ForceType] = {
             stiffness=s["stiffness"],
             damping=s.get("damping", 0),
             length=s.get("length", 0),
+            **_switches(s),
+        ),
+    ),
+    "rotational_spring_damper": ForceType(
+        Schema(
+            required=("type",),
+            optional=("coordinate", "between", "axis", "stiffness", "damping", "angle",
+                      *SWITCHES),
+        ),
+        lambda b, n, s: b.rotational_spring_damper(
+            n,
+            coordinate=s.get("coordinate"),
+            between=s.get("between"),
+            axis=s.get("axis", "z"),
+            stiffness=s.get("stiffness", 0),
+            damping=s.get("damping", 0),
+            angle=s.get("angle", 0),
+            **_switches(s),
+        ),
+    ),
+    "bushing": ForceType(
+        Schema(
+            required=("type", "between"),
+            optional=("points", "stiffness", "damping", "rotational_stiffness",
+                      "rotational_damping", *SWITCHES),
+        ),
+        lambda b, n, s: b.bushing(
+            n,
+            s["between"],
+            s.get("points"),
+            stiffness=s.get("stiffness", 0),
+            damping=s.get("damping", 0),
+            rotational_stiffness=s.get("rotational_stiffness", 0),
+            rotational_damping=s.get("rotational_damping", 0),
+            **_switches(s),
         ),
     ),
 }
@@ -190,6 +236,7 @@ def _forces(b: SystemBuilder, section: Any, path: str) -> None:
 
 
 KINEMATIC_OUTPUT = Schema(optional=("position", "velocity", "point", "in", "component"))
+FORCE_OUTPUT = Schema(required=("force",), optional=("component",))
 
 
 def _outputs(b: SystemBuilder, section: Any, path: str) -> None:
@@ -197,6 +244,10 @@ def _outputs(b: SystemBuilder, section: Any, path: str) -> None:
         item = f"{path}.{name}"
         if not isinstance(spec, dict):
             b.output(name, spec)
+            continue
+        if "force" in spec:
+            spec = FORCE_OUTPUT.check(spec, item, "a force output")
+            b.force_output(name, spec["force"], spec.get("component", "force"))
             continue
         spec = KINEMATIC_OUTPUT.check(spec, item, "a kinematic output")
         quantities = [q for q in ("position", "velocity") if q in spec]
@@ -214,6 +265,20 @@ def _outputs(b: SystemBuilder, section: Any, path: str) -> None:
             spec.get("in", INERTIAL),
             spec.get("component", "x"),
         )
+
+
+COINCIDE = Schema(required=("coincide",), optional=("points", "components", "in"))
+
+
+def _constraints(b: SystemBuilder, section: Any, path: str) -> None:
+    for name, spec in _items(section, path, "constraint definitions"):
+        item = f"{path}.{name}"
+        if isinstance(spec, dict):
+            spec = COINCIDE.check(spec, item, "a coincidence constraint")
+            b.coincide(name, spec["coincide"], spec.get("points"),
+                       spec.get("components", ["x", "y", "z"]), spec.get("in", INERTIAL))
+        else:
+            b.constraint(name, spec)
 
 
 @dataclass(frozen=True)
@@ -237,6 +302,7 @@ SECTIONS: Mapping[str, Section] = {
     "bodies": Section(_bodies),
     "forces": Section(_forces),
     "outputs": Section(_outputs),
+    "constraints": Section(_constraints),
 }
 
 _TOP = Schema(

@@ -13,6 +13,7 @@ applied; expressions stay small by construction.
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Sequence
 from typing import Literal
 
 import sympy as sp
@@ -36,14 +37,16 @@ from ..model import (
     AXES,
     INERTIAL,
     ExpressionOutput,
+    ForceOutput,
     GeneralizedForce,
     KinematicOutput,
     PointForce,
     RigidBody,
-    SpringDamper,
     System,
     Torque,
 )
+from .constraints import check_constraints, derive_constraints
+from .force_elements import apply_force_element
 from .result import Equations
 
 __all__ = ["AUTO_CLOSED_MAX", "clear_cache", "newton_euler"]
@@ -128,26 +131,35 @@ def _derive(system: System, form: str) -> Equations:
     mass_terms: list[list[list[sp.Expr]]] = [[[] for _ in range(n)] for _ in range(n)]
     force_terms: list[list[sp.Expr]] = [[] for _ in range(n)]
 
+    recursive = form == "recursive"
     for body in system.bodies:
-        _body(kin, body, mass_terms, force_terms)
+        _body(kin, body, None if recursive else mass_terms, force_terms)
+    if recursive:
+        _mass_matrix_backward(kin, system.bodies, mass_terms)
     index = {c.name: j for j, c in enumerate(system.coordinates)}
-    for fe in system.forces:
-        path = f"forces.{fe.name}"
+
+    def base(kin: Kinematics, fe: object, terms: list[list[sp.Expr]], path: str) -> None:
         if isinstance(fe, PointForce):
-            _point_force(kin, fe, force_terms, path)
+            _point_force(kin, fe, terms, path)
         elif isinstance(fe, Torque):
             l_k = kin.express(tuple(fe.vector), fe.in_frame, fe.frame)
             jr = kin.frames[fe.frame].JR
             for j in range(n):
-                force_terms[j].append(dot(jr[j], l_k))
+                terms[j].append(dot(jr[j], l_k))
         elif isinstance(fe, GeneralizedForce):
-            force_terms[index[fe.coordinate]].append(fe.value)
-        elif isinstance(fe, SpringDamper):
-            _spring_damper(kin, fe, force_terms, path)
+            terms[index[fe.coordinate]].append(fe.value)
         else:  # pragma: no cover - System validation rejects other types
             raise ModelError(f"unsupported force element {type(fe).__name__}", path)
 
-    outputs = [_output(kin, out) for out in system.outputs]
+    # spring–dampers, bushings, rotational elements, the enabled factor and the reported
+    # forces: equations/force_elements.py (issue 4)
+    reported = {
+        fe.name: apply_force_element(kin, fe, force_terms, index, f"forces.{fe.name}", base)
+        for fe in system.forces
+    }
+    outputs = [_output(kin, out, reported) for out in system.outputs]
+    constraints = derive_constraints(system)
+    check_constraints(system, constraints)
 
     mass = [[ZERO] * n for _ in range(n)]
     for i in range(n):
@@ -164,33 +176,48 @@ def _derive(system: System, form: str) -> Equations:
         force_vector=sp.ImmutableMatrix(n, 1, [total(t) for t in force_terms]),
         outputs=sp.ImmutableMatrix(len(outputs), 1, outputs),
         output_names=tuple(o.name for o in system.outputs),
+        constraints=constraints,
     )
+
+
+def _com_jacobian(kin: Kinematics, body: RigidBody) -> tuple[Vec3, ...]:
+    """``J_T`` of the body's center of mass ``c``: ``J_T,K − c̃ J_R,K`` (frame components)."""
+    fk = kin.frames[body.frame]
+    c: Vec3 = tuple(body.center_of_mass)  # type: ignore[assignment]
+    if vec_is_zero(c):
+        return fk.JT
+    return tuple(
+        kin.workspace.let_vec(add(fk.JT[j], cross(fk.JR[j], c)), f"JTc_{body.name}_{j}")
+        for j in range(kin.n)
+    )
+
+
+def _inertia(body: RigidBody) -> tuple[Vec3, Vec3, Vec3]:
+    return tuple(tuple(body.inertia[i, j] for j in range(3)) for i in range(3))  # type: ignore
 
 
 def _body(
     kin: Kinematics,
     body: RigidBody,
-    mass_terms: list[list[list[sp.Expr]]],
+    mass_terms: list[list[list[sp.Expr]]] | None,
     force_terms: list[list[sp.Expr]],
 ) -> None:
-    """Add one body's ``J_Tᵀ m J_T + J_Rᵀ I J_R`` to M and ``−J_Tᵀ m (ā − g) − J_Rᵀ (I ᾱ +
-    ω̃ I ω)`` to ``q − k`` (equations.md §1), in the body frame's components."""
+    """Add one body's ``J_Tᵀ m J_T + J_Rᵀ I J_R`` to M (unless ``mass_terms`` is None) and
+    ``−J_Tᵀ m (ā − g) − J_Rᵀ (I ᾱ + ω̃ I ω)`` to ``q − k`` (equations.md §1), in the body
+    frame's components."""
     if body.frame == INERTIAL:
         return  # a body fixed to ISYS neither moves nor contributes
     ws = kin.workspace
     fk = kin.frames[body.frame]
     name = body.name
     m = body.mass
-    inertia = tuple(tuple(body.inertia[i, j] for j in range(3)) for i in range(3))
+    inertia = _inertia(body)
     c: Vec3 = tuple(body.center_of_mass)  # type: ignore[assignment]
     w = fk.omega
+    jt = _com_jacobian(kin, body)
     if vec_is_zero(c):
-        jt, abar = fk.JT, fk.abar
+        abar = fk.abar
     else:
-        jt = tuple(
-            ws.let_vec(add(fk.JT[j], cross(fk.JR[j], c)), f"JTc_{name}_{j}")
-            for j in range(kin.n)
-        )
         abar = ws.let_vec(
             add(fk.abar, cross(fk.alphabar, c), cross(w, cross(w, c))), f"abc_{name}"
         )
@@ -206,18 +233,71 @@ def _body(
         )
     cols_t = [j for j in range(kin.n) if has_mass and not vec_is_zero(jt[j])]
     cols_r = [j for j in range(kin.n) if has_inertia and not vec_is_zero(jr[j])]
-    mjt = {j: ws.let_vec(scale(m, jt[j]), f"mJ_{name}_{j}") for j in cols_t}
-    ijr = {j: ws.let_vec(mat_vec(inertia, jr[j]), f"IJ_{name}_{j}") for j in cols_r}
-    for a, j in enumerate(cols_t):
-        for i in cols_t[: a + 1]:
-            mass_terms[i][j].append(dot(jt[i], mjt[j]))
-    for a, j in enumerate(cols_r):
-        for i in cols_r[: a + 1]:
-            mass_terms[i][j].append(dot(jr[i], ijr[j]))
+    if mass_terms is not None:
+        mjt = {j: ws.let_vec(scale(m, jt[j]), f"mJ_{name}_{j}") for j in cols_t}
+        ijr = {j: ws.let_vec(mat_vec(inertia, jr[j]), f"IJ_{name}_{j}") for j in cols_r}
+        for a, j in enumerate(cols_t):
+            for i in cols_t[: a + 1]:
+                mass_terms[i][j].append(dot(jt[i], mjt[j]))
+        for a, j in enumerate(cols_r):
+            for i in cols_r[: a + 1]:
+                mass_terms[i][j].append(dot(jr[i], ijr[j]))
     for j in cols_t:
         force_terms[j].append(-dot(jt[j], force))  # type: ignore[arg-type]
     for j in cols_r:
         force_terms[j].append(-dot(jr[j], torque))  # type: ignore[arg-type]
+
+
+def _mass_matrix_backward(
+    kin: Kinematics, bodies: Sequence[RigidBody], mass_terms: list[list[list[sp.Expr]]]
+) -> None:
+    """``M = Σ_K J_Kᵀ Θ_K J_K`` column by column, the products ``J_Kᵀ (·)`` evaluated by a
+    backward recursion over the frame tree (recursive form; equations.md §1).
+
+    Column j: every body seeds its frame with the spatial force ``Θ J[:, j]``, i.e.
+    ``f = m J_T,c[:, j]`` and the moment about the frame origin ``n = I J_R[:, j] + c × f``.
+    Walking children → parents, each frame adds its own Jacobian part to the column,
+    ``M[i, j] += (∂r/∂y_i)·(A f) + (∂ω_rel/∂ẏ_i)·n``, and passes ``(A f, A n + r × A f)`` to
+    its parent. This equals ``Σ J_Tᵀ m J_T + J_Rᵀ I J_R`` exactly (see
+    :class:`~neweul_py.kinematics.FrameKinematics`) at O(N²) instead of O(N³) operations for
+    an N-link chain. Only ``i ≤ j`` is formed; M is mirrored.
+    """
+    ws = kin.workspace
+    n = kin.n
+    order = [f.name for f in kin.system.frames_topological]
+    seeds = []
+    for body in bodies:
+        if body.frame == INERTIAL:
+            continue
+        c: Vec3 = tuple(body.center_of_mass)  # type: ignore[assignment]
+        seeds.append((body, c, _com_jacobian(kin, body), _inertia(body)))
+    for j in range(n):
+        acc: dict[str, list[tuple[Vec3, Vec3]]] = {}
+        for body, c, jt, inertia in seeds:
+            jr = kin.frames[body.frame].JR[j]
+            f = scale(body.mass, jt[j])
+            nc = mat_vec(inertia, jr)
+            if vec_is_zero(f) and vec_is_zero(nc):
+                continue
+            acc.setdefault(body.frame, []).append((f, add(nc, cross(c, f))))
+        for name in reversed(order):
+            parts = acc.pop(name, None)
+            if not parts:
+                continue
+            fk = kin.frames[name]
+            f = ws.let_vec(add(*(p[0] for p in parts)), f"Mf_{name}_{j}")
+            moment = ws.let_vec(add(*(p[1] for p in parts)), f"Mn_{name}_{j}")
+            f_parent = ws.let_vec(mat_vec(fk.relative_rotation, f), f"Mfp_{name}_{j}")
+            for i in range(j + 1):
+                term = total((dot(fk.local_JT[i], f_parent), dot(fk.local_JR[i], moment)))
+                if not is_zero(term):
+                    mass_terms[i][j].append(term)
+            if fk.parent != INERTIAL:
+                n_parent = add(
+                    mat_vec(fk.relative_rotation, moment),
+                    cross(fk.relative_translation, f_parent),
+                )
+                acc.setdefault(fk.parent, []).append((f_parent, n_parent))
 
 
 def _point_force(
@@ -230,45 +310,11 @@ def _point_force(
         force_terms[j].append(dot(pk.J[j], f_k))
 
 
-def _spring_damper(
-    kin: Kinematics, fe: SpringDamper, force_terms: list[list[sp.Expr]], path: str
-) -> None:
-    """A linear point-to-point spring–damper.
-
-    With ``d = r_B − r_A``, ``s = |d|``, ``e = d / s``: the tensile force is
-    ``F = stiffness (s − length) + damping ṡ`` and acts as ``+F e`` on A, ``−F e`` on B, so
-    ``q += −F ∂s/∂y`` with ``∂s/∂y_j = e·J_B,j − e·J_A,j`` and ``ṡ = ∂s/∂y ẏ + e·(v̄_B − v̄_A)``.
-    ``d`` is formed in the frames' common ancestor, ``e`` is resolved in each frame.
-    """
-    ws = kin.workspace
-    name = fe.name
-    anc = kin.common_ancestor(fe.frame_a, fe.frame_b)
-    pa = kin.relative_position(fe.frame_a, tuple(fe.point_a), anc)
-    pb = kin.relative_position(fe.frame_b, tuple(fe.point_b), anc)
-    d = ws.let_vec(sub(pb, pa), f"d_{name}")
-    s = ws.let(sp.sqrt(dot(d, d)), f"s_{name}")
-    e = ws.let_vec(scale(1 / s, d), f"e_{name}")
-    e_a = kin.express(e, anc, fe.frame_a)
-    e_b = kin.express(e, anc, fe.frame_b)
-    ka = kin.point(fe.frame_a, tuple(fe.point_a), f"{path}.points[0]")
-    kb = kin.point(fe.frame_b, tuple(fe.point_b), f"{path}.points[1]")
-    ds = [ws.let(dot(kb.J[j], e_b) - dot(ka.J[j], e_a), f"ds_{name}_{j}") for j in range(kin.n)]
-    sdot = total(
-        [
-            *(sp.Mul(dj, v) for dj, v in zip(ds, kin.velocities, strict=True) if not is_zero(dj)),
-            dot(kb.vbar, e_b),
-            -dot(ka.vbar, e_a),
-        ]
-    )
-    force = ws.let(fe.stiffness * (s - fe.length) + fe.damping * sdot, f"f_{name}")
-    for j in range(kin.n):
-        if not is_zero(ds[j]):
-            force_terms[j].append(-force * ds[j])
-
-
-def _output(kin: Kinematics, out: object) -> sp.Expr:
+def _output(kin: Kinematics, out: object, reported: dict[str, dict[str, sp.Expr]]) -> sp.Expr:
     if isinstance(out, ExpressionOutput):
         return out.expr
+    if isinstance(out, ForceOutput):
+        return reported[out.force][out.component]
     assert isinstance(out, KinematicOutput)
     axis = AXES.index(out.component)
     point = tuple(out.point)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model import System
+from .constraints import ConstraintEquations
 
 __all__ = ["Equations"]
 
@@ -50,6 +51,9 @@ class Equations:
         The outputs (ny×1), expression and kinematic outputs of ``system.outputs``, in order.
     output_names
         Their names.
+    constraints
+        The holonomic constraints ``g``, ``G``, ``∂g/∂t``, ``γ`` (closed form, no
+        intermediates; :mod:`~neweul_py.equations.constraints`); ``None`` means none.
     """
 
     system: System
@@ -62,6 +66,7 @@ class Equations:
     force_vector: sp.ImmutableMatrix
     outputs: sp.ImmutableMatrix
     output_names: tuple[str, ...]
+    constraints: ConstraintEquations | None = None
 
     @property
     def n(self) -> int:
@@ -116,4 +121,5 @@ class Equations:
             force_vector=sub(self.force_vector),
             outputs=sub(self.outputs),
             output_names=self.output_names,
+            constraints=self.constraints,
         )

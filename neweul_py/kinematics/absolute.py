@@ -17,10 +17,12 @@ with ``ω_rel = Σ_i u_i φ̇_i`` (:func:`~neweul_py.kinematics.rotations.rotati
 ``ω̇̄_rel = ∂ω_rel/∂y ẏ + ∂ω_rel/∂t``. Then ``v_K = J_T,K ẏ + v̄_K``,
 ``a_K = J_T,K ÿ + ā_K`` etc., all in K components.
 
-Frame kinematics may depend on coordinates and explicitly on time ``t`` (prescribed motion).
-Inputs must not appear in frame kinematics (nor in force or output points): their time
-derivatives are not part of the model yet (kinematic excitation, issue 4); such a model raises
-:class:`~neweul_py.errors.ModelError` naming the frame. Use an expression of ``t`` instead.
+Frame kinematics may depend on coordinates and explicitly on time ``t`` (prescribed motion),
+directly or through inputs ``u(t)`` (kinematic excitation, issue 4): the explicit time
+derivative is then taken by the chain rule, ``∂/∂t + Σ_u (∂/∂u) u̇ + (∂/∂u̇) ü``, with ``u̇``,
+``ü`` the input-vector entries ``d_<u>``, ``dd_<u>`` (:attr:`~neweul_py.model.System.input_names`).
+A third derivative of an input is never needed by rigid kinematics (positions may use ``u``
+only); a model that would need one raises :class:`~neweul_py.errors.ModelError`.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from typing import Literal
 import sympy as sp
 
 from ..errors import ModelError
-from ..model import INERTIAL, Frame, System, time
+from ..model import INERTIAL, Frame, System, input_rate_name, symbol, time
 from .algebra import (
     ZERO,
     ZERO3,
@@ -78,6 +80,12 @@ class FrameKinematics:
         ``ā``, ``ᾱ``.
     gravity
         The gravitational acceleration in frame components.
+    local_JT, local_JR
+        The frame's own part of the Jacobians, ``∂r/∂y_j`` (*parent* components) and
+        ``∂ω_rel/∂ẏ_j`` (frame components), one 3-vector per coordinate (zero where the
+        relative kinematics does not depend on ``y_j``). With them ``J_K = X_K J_P + H_K``;
+        ``J_Kᵀ (f, n) = J_Pᵀ (A f, A n + r × A f) + (∂r/∂y)ᵀ A f + J_R,relᵀ n`` lets
+        products ``Jᵀ(·)`` be evaluated by a backward recursion over the tree.
     """
 
     name: str
@@ -92,6 +100,8 @@ class FrameKinematics:
     abar: Vec3
     alphabar: Vec3
     gravity: Vec3
+    local_JT: tuple[Vec3, ...] = ()
+    local_JR: tuple[Vec3, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -119,7 +129,12 @@ class Kinematics:
         self.coordinates = system.coordinate_symbols
         self.velocities = system.velocity_symbols
         self.n = len(self.coordinates)
-        self._inputs = frozenset(system.input_symbols)
+        self._inputs = frozenset(u.symbol for u in system.inputs)
+        # explicit time dependence through inputs: u → d_u → dd_u (→ not available)
+        self._input_rates: dict[sp.Symbol, sp.Symbol | None] = {}
+        for u in system.inputs:
+            d1, d2 = (symbol(input_rate_name(u.name, k)) for k in (1, 2))
+            self._input_rates.update({u.symbol: d1, d1: d2, d2: None})
         self.frames: dict[str, FrameKinematics] = {}
         self._own_origin: dict[str, Vec3] = {}
         self._rotation: dict[str, Mat3] = {}
@@ -139,21 +154,36 @@ class Kinematics:
         return tuple(self.workspace.assignments)
 
     def _check_no_inputs(self, exprs: Sequence[sp.Expr], where: str) -> None:
+        """Inputs may appear in kinematics (kinematic excitation); their derivatives, which
+        only force laws and outputs may use, must not."""
         for e in exprs:
-            bad = sorted(str(s) for s in e.free_symbols if s in self._inputs)
+            bad = sorted(
+                str(s) for s in e.free_symbols if s in self._input_rates and s not in self._inputs
+            )
             if bad:
                 raise ModelError(
-                    f"input(s) {', '.join(bad)} appear in kinematics; inputs in frame or point "
-                    "kinematics (kinematic excitation) are not supported yet — write the "
-                    "prescribed motion as an expression of t instead",
+                    f"time derivative(s) {', '.join(bad)} of inputs appear in kinematics; "
+                    "positions and angles may use the inputs themselves only",
                     where,
                 )
 
     def _partials(self, expr: sp.Expr) -> tuple[list[sp.Expr], sp.Expr]:
-        """``∂expr/∂y_j`` for all j and ``∂expr/∂t`` (zeros where expr does not depend)."""
+        """``∂expr/∂y_j`` for all j and the explicit time derivative ``∂expr/∂t``, through
+        inputs by the chain rule (zeros where expr does not depend)."""
         free = expr.free_symbols
         dy = [expr.diff(y) if y in free else ZERO for y in self.coordinates]
         dt = expr.diff(time) if time in free else ZERO
+        for u in sorted(free & self._input_rates.keys(), key=str):
+            rate = self._input_rates[u]
+            du = expr.diff(u)
+            if is_zero(du):
+                continue
+            if rate is None:
+                raise ModelError(
+                    f"the kinematics would need the third time derivative of input "
+                    f"{str(u)[3:]!r}; positions and angles may use inputs, not their derivatives"
+                )
+            dt = dt + du * rate
         return dy, dt
 
     def _rate(self, dy: Sequence[sp.Expr], dt: sp.Expr) -> sp.Expr:
@@ -243,7 +273,8 @@ class Kinematics:
         abar = ws.let_vec(at(abar_parent), f"ab_{name}")
         gravity = ws.let_vec(at(parent.gravity), f"g_{name}")
         return FrameKinematics(
-            name, frame.parent, A, r, JT, JR, vbar, wbar, omega, abar, alphabar, gravity
+            name, frame.parent, A, r, JT, JR, vbar, wbar, omega, abar, alphabar, gravity,
+            tuple(dr_dy), tuple(JR_rel),  # type: ignore[arg-type]
         )
 
     # ------------------------------------------------------------------ frames and vectors
@@ -384,7 +415,7 @@ def absolute_kinematics(system: System, form: Form = "closed") -> Kinematics:
     Raises
     ------
     ModelError
-        If an input appears in a frame's translation or rotation (not supported yet).
+        If a time derivative of an input appears in a frame's translation or rotation.
 
     Examples
     --------

@@ -1,5 +1,6 @@
 """Model layer: plain, validated, immutable model objects. Imports no other layer."""
 
+from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
 from .elements import (
     AXES,
     Coordinate,
@@ -17,16 +18,42 @@ from .elements import (
     Torque,
     vector3,
 )
-from .symbols import INERTIAL, RESERVED_NAMES, check_name, symbol, time, velocity_name
+from .force_elements import (
+    ELONGATION,
+    ELONGATION_RATE,
+    FORCE_COMPONENTS,
+    Bushing,
+    ForceOutput,
+    RotationalSpringDamper,
+    characteristic_force,
+    table_characteristic,
+)
+from .symbols import (
+    INERTIAL,
+    RESERVED_NAMES,
+    check_name,
+    input_rate_name,
+    symbol,
+    time,
+    velocity_name,
+)
 from .system import System
 
 __all__ = [
     "AXES",
+    "ELONGATION",
+    "ELONGATION_RATE",
+    "FORCE_COMPONENTS",
     "INERTIAL",
     "RESERVED_NAMES",
+    "Bushing",
+    "CoincidenceConstraint",
+    "Constraint",
     "Coordinate",
+    "ExpressionConstraint",
     "ExpressionOutput",
     "ForceElement",
+    "ForceOutput",
     "Frame",
     "GeneralizedForce",
     "Input",
@@ -35,11 +62,15 @@ __all__ = [
     "Parameter",
     "PointForce",
     "RigidBody",
+    "RotationalSpringDamper",
     "SpringDamper",
     "System",
     "Torque",
+    "characteristic_force",
     "check_name",
+    "input_rate_name",
     "symbol",
+    "table_characteristic",
     "time",
     "vector3",
     "velocity_name",

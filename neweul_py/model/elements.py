@@ -35,6 +35,7 @@ __all__ = [
 
 AXES = ("x", "y", "z")
 _ZERO = sp.Integer(0)  # immutable: safe as a dataclass default
+_ONE = sp.Integer(1)
 Axis = Literal["x", "y", "z"]
 
 
@@ -153,9 +154,14 @@ class RigidBody:
 
 
 class ForceElement:
-    """Marker base class of all force elements (each subclass is a frozen dataclass)."""
+    """Marker base class of all force elements (each subclass is a frozen dataclass).
+
+    Every element has an ``enabled`` factor (an expression of parameters, default 1) that
+    multiplies everything it exerts: a parameter set to 0 switches the element off.
+    """
 
     name: str
+    enabled: sp.Expr = _ONE
 
 
 @dataclass(frozen=True)
@@ -167,6 +173,7 @@ class PointForce(ForceElement):
     vector: sp.ImmutableMatrix
     point: sp.ImmutableMatrix = field(default_factory=_zero3)
     in_frame: str = INERTIAL
+    enabled: sp.Expr = _ONE
 
 
 @dataclass(frozen=True)
@@ -177,6 +184,7 @@ class Torque(ForceElement):
     frame: str
     vector: sp.ImmutableMatrix
     in_frame: str = INERTIAL
+    enabled: sp.Expr = _ONE
 
 
 @dataclass(frozen=True)
@@ -186,6 +194,7 @@ class GeneralizedForce(ForceElement):
     name: str
     coordinate: str
     value: sp.Expr
+    enabled: sp.Expr = _ONE
 
 
 @dataclass(frozen=True)
@@ -195,6 +204,13 @@ class SpringDamper(ForceElement):
 
     Its tensile force is ``stiffness (s − length) + damping ṡ`` with ``s`` the distance of the
     points; it pulls the points together when positive.
+
+    Nonlinear characteristics (issue 4): ``stiffness`` and ``damping`` may use the elongation
+    :data:`~neweul_py.model.ELONGATION` (``s − length``) and its rate
+    :data:`~neweul_py.model.ELONGATION_RATE`; ``spring_force`` / ``damper_force``, when given,
+    are characteristic curves (tables, :func:`~neweul_py.model.table_characteristic`) that
+    replace ``stiffness·(s − length)`` / ``damping·ṡ``
+    (:func:`~neweul_py.model.characteristic_force`).
     """
 
     name: str
@@ -205,6 +221,9 @@ class SpringDamper(ForceElement):
     length: sp.Expr = _ZERO
     point_a: sp.ImmutableMatrix = field(default_factory=_zero3)
     point_b: sp.ImmutableMatrix = field(default_factory=_zero3)
+    spring_force: sp.Expr | None = None
+    damper_force: sp.Expr | None = None
+    enabled: sp.Expr = _ONE
 
 
 class Output:

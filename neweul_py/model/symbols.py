@@ -15,6 +15,7 @@ __all__ = [
     "INERTIAL",
     "RESERVED_NAMES",
     "check_name",
+    "input_rate_name",
     "symbol",
     "time",
     "velocity_name",
@@ -66,6 +67,17 @@ def symbol(name: str) -> sp.Symbol:
 def velocity_name(coordinate: str) -> str:
     """Name of the time derivative of a coordinate: ``d_<name>``."""
     return f"d_{coordinate}"
+
+
+def input_rate_name(name: str, order: int) -> str:
+    """Name of the ``order``-th time derivative of an input: ``d_<name>`` (1), ``dd_<name>`` (2).
+
+    Inputs used in kinematics (kinematic excitation) need their derivatives; the generated
+    module takes them as further entries of the input vector ``u`` (DESIGN.md, issue 4).
+    """
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2, not {order!r}")
+    return f"{'d' * order}_{name}"
 
 
 def check_name(name: object) -> str | None:

@@ -12,6 +12,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
+from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
 from .elements import (
     Coordinate,
     ExpressionOutput,
@@ -27,7 +28,15 @@ from .elements import (
     SpringDamper,
     Torque,
 )
-from .symbols import INERTIAL, check_name, time, velocity_name
+from .force_elements import (
+    ELONGATION,
+    ELONGATION_RATE,
+    FORCE_COMPONENTS,
+    Bushing,
+    ForceOutput,
+    RotationalSpringDamper,
+)
+from .symbols import INERTIAL, check_name, input_rate_name, symbol, time, velocity_name
 
 __all__ = ["System"]
 
@@ -49,6 +58,8 @@ class System:
         Gravitational acceleration in ISYS components.
     description
         Free text.
+    constraints
+        Holonomic constraints ``g(y, t) = 0`` closing kinematic loops (issue 4).
 
     Raises
     ------
@@ -67,6 +78,7 @@ class System:
     outputs: tuple[Output, ...] = ()
     gravity: sp.ImmutableMatrix = field(default_factory=lambda: sp.ImmutableMatrix.zeros(3, 1))
     description: str = ""
+    constraints: tuple[Constraint, ...] = ()
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -111,9 +123,50 @@ class System:
     def parameter_symbols(self) -> tuple[sp.Symbol, ...]:
         return tuple(p.symbol for p in self.parameters)
 
+    @cached_property
+    def input_rate_orders(self) -> Mapping[str, int]:
+        """For each input, how many of its time derivatives the model needs (0, 1 or 2).
+
+        An input that appears in kinematics (frame motion, points, constraints) needs two
+        (velocities and accelerations of the excited frames); otherwise the highest of
+        ``d_<input>`` (1) and ``dd_<input>`` (2) used in force laws and outputs.
+        """
+        return _input_rate_orders(self)
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """Names of the entries of the input vector ``u``: the inputs in order, then the
+        derivatives the model needs, ``d_<input>``, ``dd_<input>`` (see
+        :attr:`input_rate_orders`)."""
+        rates = [
+            input_rate_name(u.name, k)
+            for u in self.inputs
+            for k in range(1, self.input_rate_orders[u.name] + 1)
+        ]
+        return (*(u.name for u in self.inputs), *rates)
+
     @property
     def input_symbols(self) -> tuple[sp.Symbol, ...]:
-        return tuple(u.symbol for u in self.inputs)
+        """Symbols of the input vector ``u`` (ordered as :attr:`input_names`)."""
+        return tuple(symbol(n) for n in self.input_names)
+
+    @property
+    def input_defaults(self) -> tuple[sp.Expr, ...]:
+        """Default excitation of every entry of ``u``: the inputs' defaults and their time
+        derivatives (ordered as :attr:`input_names`)."""
+        base = {u.name: u.default for u in self.inputs}
+        out = [base[u.name] for u in self.inputs]
+        for u in self.inputs:
+            expr = u.default
+            for _ in range(self.input_rate_orders[u.name]):
+                expr = sp.diff(expr, time)
+                out.append(expr)
+        return tuple(out)
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        """Names of the scalar constraints, in order (``CONSTRAINTS``)."""
+        return tuple(n for c in self.constraints for n in c.names)
 
     @property
     def parameter_defaults(self) -> dict[sp.Symbol, float]:
@@ -146,6 +199,7 @@ def _validate(s: System) -> None:
         ("bodies", s.bodies),
         ("forces", s.forces),
         ("outputs", s.outputs),
+        ("constraints", s.constraints),
     )
     for group, items in groups:
         for item in items:
@@ -179,9 +233,22 @@ def _validate(s: System) -> None:
     vel = {velocity_name(c.name): c.velocity_symbol for c in s.coordinates}
     inp = {u.name: u.symbol for u in s.inputs}
     tt = {"t": time}
+    rates = {
+        input_rate_name(u.name, k): symbol(input_rate_name(u.name, k))
+        for u in s.inputs
+        for k in (1, 2)
+    }
+    for name in rates:
+        if name in seen:
+            raise ModelError(
+                f"name {name!r} is reserved for a time derivative of the input "
+                f"{name.split('_', 1)[1]!r}",
+                f"{seen[name]}.{name}",
+            )
     constant = par
     kinematic = {**par, **crd, **inp, **tt}
-    dynamic = {**kinematic, **vel}
+    dynamic = {**kinematic, **vel, **rates}
+    local = {"s": ELONGATION, "sd": ELONGATION_RATE}
 
     _check_symbols(s.gravity, constant, "gravity")
     for u in s.inputs:
@@ -235,10 +302,35 @@ def _validate(s: System) -> None:
             need_frame(fe.frame_b, f"{path}.between[1]")
             _check_symbols(fe.point_a, kinematic, f"{path}.points[0]")
             _check_symbols(fe.point_b, kinematic, f"{path}.points[1]")
-            for attr in ("stiffness", "damping", "length"):
+            _check_symbols(fe.length, dynamic, f"{path}.length")
+            for attr in ("stiffness", "damping"):
+                _check_symbols(getattr(fe, attr), {**dynamic, **local}, f"{path}.{attr}")
+            _check_curves(fe, path)
+        elif isinstance(fe, RotationalSpringDamper):
+            if fe.coordinate is not None:
+                if fe.coordinate not in coordinates:
+                    raise ModelError(
+                        f"unknown coordinate {fe.coordinate!r}; coordinates are: "
+                        f"{', '.join(sorted(coordinates)) or '(none)'}",
+                        f"{path}.coordinate",
+                    )
+            else:
+                need_frame(fe.frame_a or "", f"{path}.between[0]")
+                need_frame(fe.frame_b or "", f"{path}.between[1]")
+            _check_symbols(fe.angle, dynamic, f"{path}.angle")
+            for attr in ("stiffness", "damping"):
+                _check_symbols(getattr(fe, attr), {**dynamic, **local}, f"{path}.{attr}")
+            _check_curves(fe, path)
+        elif isinstance(fe, Bushing):
+            need_frame(fe.frame_a, f"{path}.between[0]")
+            need_frame(fe.frame_b, f"{path}.between[1]")
+            _check_symbols(fe.point_a, kinematic, f"{path}.points[0]")
+            _check_symbols(fe.point_b, kinematic, f"{path}.points[1]")
+            for attr in ("stiffness", "damping", "rotational_stiffness", "rotational_damping"):
                 _check_symbols(getattr(fe, attr), dynamic, f"{path}.{attr}")
         elif not isinstance(fe, ForceElement):
             raise ModelError(f"not a force element: {fe!r}", path)
+        _check_symbols(getattr(fe, "enabled", sp.Integer(1)), constant, f"{path}.enabled")
 
     for out in s.outputs:
         path = f"outputs.{out.name}"
@@ -248,8 +340,85 @@ def _validate(s: System) -> None:
             need_frame(out.frame, f"{path}.{out.quantity}")
             need_frame(out.in_frame, f"{path}.in")
             _check_symbols(out.point, kinematic, f"{path}.point")
+        elif isinstance(out, ForceOutput):
+            _check_force_output(s, out, path)
         else:
             raise ModelError(f"not an output: {out!r}", path)
+
+    names: dict[str, str] = {}
+    for con in s.constraints:
+        path = f"constraints.{con.name}"
+        if isinstance(con, ExpressionConstraint):
+            _check_symbols(con.expr, kinematic, path)
+        elif isinstance(con, CoincidenceConstraint):
+            need_frame(con.frame_a, f"{path}.coincide[0]")
+            need_frame(con.frame_b, f"{path}.coincide[1]")
+            need_frame(con.in_frame, f"{path}.in")
+            _check_symbols(con.point_a, kinematic, f"{path}.points[0]")
+            _check_symbols(con.point_b, kinematic, f"{path}.points[1]")
+        else:
+            raise ModelError(f"not a constraint: {con!r}", path)
+        for n in con.names:
+            if n in names:
+                raise ModelError(f"constraint name {n!r} is already used by {names[n]}", path)
+            names[n] = path
+
+
+def _check_curves(fe: object, path: str) -> None:
+    """Table curves are functions of their own variable only (``s`` resp. ``sd``)."""
+    for attr, var, key in (
+        ("spring_force", ELONGATION, "stiffness"),
+        ("damper_force", ELONGATION_RATE, "damping"),
+    ):
+        curve = getattr(fe, attr)
+        if curve is not None:
+            _check_symbols(curve, {"s" if var is ELONGATION else "sd": var}, f"{path}.{key}")
+
+
+def _check_force_output(s: System, out: ForceOutput, path: str) -> None:
+    forces = {f.name: f for f in s.forces}
+    if out.force not in forces:
+        raise ModelError(
+            f"unknown force element {out.force!r}; force elements are: "
+            f"{', '.join(sorted(forces)) or '(none)'}",
+            f"{path}.force",
+        )
+    kind = type(forces[out.force]).__name__
+    valid = FORCE_COMPONENTS.get(kind, ())
+    if out.component not in valid:
+        raise ModelError(
+            f"a {kind} element reports the component(s) {', '.join(valid) or '(none)'}, not "
+            f"{out.component!r}",
+            f"{path}.component",
+        )
+
+
+def _input_rate_orders(s: System) -> dict[str, int]:
+    """See :attr:`System.input_rate_orders`."""
+    inputs = {u.symbol: u.name for u in s.inputs}
+    orders = dict.fromkeys(inputs.values(), 0)
+    if not inputs:
+        return orders
+    kinematic: list[sp.Basic] = []
+    for f in s.frames:
+        kinematic.append(f.translation)
+        kinematic.extend(a for _, a in f.rotation)
+    for item in (*s.forces, *s.outputs, *s.constraints):
+        for attr in ("point", "point_a", "point_b", "expr"):
+            value = getattr(item, attr, None)
+            if isinstance(value, sp.Basic) and (attr != "expr" or isinstance(item, Constraint)):
+                kinematic.append(value)
+    for expr in kinematic:
+        for sym in expr.free_symbols & set(inputs):
+            orders[inputs[sym]] = 2
+    rate_symbols = {
+        symbol(input_rate_name(name, k)): (name, k) for name in inputs.values() for k in (1, 2)
+    }
+    for expr in iter_expressions(s):
+        for sym in expr.free_symbols & set(rate_symbols):
+            name, k = rate_symbols[sym]
+            orders[name] = max(orders[name], k)
+    return orders
 
 
 def _validate_frames(s: System, allowed: Mapping[str, sp.Symbol]) -> None:
@@ -325,9 +494,18 @@ def _check_inertia(inertia: np.ndarray, path: str) -> None:
 def iter_expressions(system: System) -> Iterable[sp.Basic]:
     """All sympy expressions of a system (for tests and fingerprints)."""
     yield system.gravity
-    for group in (system.frames, system.bodies, system.forces, system.outputs, system.inputs):
+    for group in (
+        system.frames,
+        system.bodies,
+        system.forces,
+        system.outputs,
+        system.inputs,
+        system.constraints,
+    ):
         for item in group:
             for f in fields(item):
                 v = getattr(item, f.name)
                 if isinstance(v, sp.Basic):
                     yield v
+                elif f.name == "rotation":
+                    yield from (a for _, a in v)

@@ -203,7 +203,7 @@ BAD = [
     ("inertia shape", "inertia: {diag: [0, 0, 0]}", "inertia: [[1, 0], [0, 1]]",
      "bodies.b1.inertia", "inertia: [[1, 0]", "3×3"),
     ("unknown name", "value: u - c*d_phi1", "value: u - k*d_phi1", "forces.drive.value",
-     "drive:", "unknown name 'k'; allowed names are: c, d_phi1, d_phi2, g, l1"),
+     "drive:", "unknown name 'k'; allowed names are: c, d_phi1, d_phi2, d_u, dd_u, g, l1"),
     ("coordinate in mass", "mass: m1", "mass: m1*phi1", "bodies.b1.mass", "mass: m1*phi1",
      "'phi1' is a coordinate, which is not allowed here"),
     ("velocity in frame", "translation: [0, 0, -l1]", "translation: [0, 0, -d_phi1]",

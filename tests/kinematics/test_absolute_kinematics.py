@@ -20,9 +20,7 @@ from neweul_py.model import (
     Coordinate,
     Frame,
     Input,
-    KinematicOutput,
     Parameter,
-    PointForce,
     System,
     symbol,
     time,
@@ -176,29 +174,40 @@ def test_elementary_rotation_convention() -> None:
     assert (prod - _rx(a) * _ry(b)).expand() == sp.zeros(3, 3)
 
 
-def test_inputs_in_frame_kinematics_are_rejected_naming_the_frame() -> None:
-    u = symbol("u")
+def test_inputs_in_frame_kinematics_excite_by_the_chain_rule() -> None:
+    """Kinematic excitation (issue 4): a frame translated by an input ``u(t)`` moves with
+    ``v̄ = u̇`` and ``ā = ü`` (inputs ``d_u``, ``dd_u``), by hand."""
+    u, du, ddu = symbol("u"), symbol("d_u"), symbol("dd_u")
     system = System(
-        "bad",
+        "excited",
         coordinates=(Coordinate("a"),),
         inputs=(Input("u", sp.sin(time)),),
         frames=(Frame("f", translation=sp.ImmutableMatrix([u, 0, 0]), rotation=(("z", a),)),),
     )
-    with pytest.raises(ModelError, match=r"frames\.f: .*input"):
-        absolute_kinematics(system)
+    assert system.input_names == ("u", "d_u", "dd_u")
+    assert system.input_defaults[1:] == (sp.cos(time), -sp.sin(time))
+    fk = absolute_kinematics(system).frames["f"]
+    assert sp.simplify(sp.Matrix(fk.vbar) - sp.Matrix([du * sp.cos(a), -du * sp.sin(a), 0])) \
+        == sp.zeros(3, 1)
+    assert sp.simplify(sp.Matrix(fk.abar) - sp.Matrix([ddu * sp.cos(a), -ddu * sp.sin(a), 0])) \
+        == sp.zeros(3, 1)
 
 
-def test_inputs_in_points_are_rejected_naming_the_key() -> None:
-    u = symbol("u")
+def test_input_derivatives_in_kinematics_are_rejected_naming_the_key() -> None:
+    du = symbol("d_u")
+    with pytest.raises(ModelError, match=r"frames\.f\.translation"):
+        System(
+            "bad",
+            coordinates=(Coordinate("a"),),
+            inputs=(Input("u", sp.sin(time)),),
+            frames=(Frame("f", translation=sp.ImmutableMatrix([du, 0, 0])),),
+        )
     system = System(
         "bad2",
         coordinates=(Coordinate("a"),),
         inputs=(Input("u"),),
         frames=(Frame("f", rotation=(("z", a),)),),
-        forces=(PointForce("push", "f", sp.ImmutableMatrix([1, 0, 0]),
-                           sp.ImmutableMatrix([u, 0, 0])),),
-        outputs=(KinematicOutput("tip", "velocity", "f", "x", sp.ImmutableMatrix([u, 0, 0])),),
     )
     kin = absolute_kinematics(system)
     with pytest.raises(ModelError, match=r"forces\.push\.point"):
-        kin.point("f", (u, 0, 0), "forces.push.point")
+        kin.point("f", (du, 0, 0), "forces.push.point")
