@@ -536,25 +536,25 @@ def read_sid(path: str | os.PathLike) -> SIDBody:
 _EQ_COL = 48
 
 
-def _fmt_float(v: float) -> str:
-    return f"{v: .11E}".replace("E", "D")
+def _fmt_float(v: float, digits: int = 12) -> str:
+    return f"{v: .{digits - 1}E}".replace("E", "D")
 
 
 def _kv(indent: int, key: str, value: str) -> str:
     return f"{' ' * indent}{key}".ljust(_EQ_COL) + "=" + value
 
 
-def _write_taylor(out: list[str], indent: int, name: str, t: Taylor) -> None:
+def _write_taylor(out: list[str], indent: int, name: str, t: Taylor, digits: int) -> None:
     out.append(" " * indent + name)
     for key in _HEADER_KEYS:
         out.append(_kv(26, key, f"{getattr(t, key):5d}"))
     e0, e1 = t.entries()
-    out.extend(_kv(26, f"m0( {i}, {j})", _fmt_float(v)) for i, j, v in e0)
-    out.extend(_kv(26, f"m1( {i}, {k}, {j})", _fmt_float(v)) for i, k, j, v in e1)
+    out.extend(_kv(26, f"m0( {i}, {j})", _fmt_float(v, digits)) for i, j, v in e0)
+    out.extend(_kv(26, f"m1( {i}, {k}, {j})", _fmt_float(v, digits)) for i, k, j, v in e1)
     out.append(" " * indent + f"end {name}")
 
 
-def write_sid(body: SIDBody | object, path: str | os.PathLike) -> None:
+def write_sid(body: SIDBody | object, path: str | os.PathLike, *, digits: int = 12) -> None:
     """Write a one-sided body as a SID file (atomically: temp file + rename).
 
     Parameters
@@ -565,13 +565,18 @@ def write_sid(body: SIDBody | object, path: str | os.PathLike) -> None:
         format holds one basis only).
     path
         Target file.
+    digits
+        Significant digits of the numbers (12, the common layout; 17 is lossless).
 
     Notes
     -----
-    Values are printed with 12 significant digits in Fortran ``D`` notation, only nonzero
-    entries (and, for structure 2, the lower triangle) are listed — the layout of common SID
-    exporters. A file read with :func:`read_sid` and written back reads back identically.
+    Values are printed in Fortran ``D`` notation, only nonzero entries (and, for structure 2,
+    the lower triangle) are listed — the layout of common SID exporters. A file read with
+    :func:`read_sid` and written back reads back identically when its numbers have at most
+    ``digits`` significant digits (as files written with 12 digits do).
     """
+    if not 1 <= digits <= 17:
+        raise DataError(f"digits must be 1…17, got {digits}", os.fspath(path))
     if not isinstance(body, SIDBody):
         to_sid = getattr(body, "to_sid", None)
         if to_sid is None:
@@ -581,7 +586,7 @@ def write_sid(body: SIDBody | object, path: str | os.PathLike) -> None:
     header = body.header or f"{len(body.nodes):5d}{nq:4d}    :No. nodes, No. modes:" \
                             "File created by neweul-py"
     out = [*header.splitlines(), " part ", _kv(6, "new modal", ""), " " * 11 + "refmod "]
-    out.append(_kv(16, "mass", _fmt_float(body.mass)))
+    out.append(_kv(16, "mass", _fmt_float(body.mass, digits)))
     out.append(_kv(16, "nelastq", f"{nq:6d}"))
     out.extend(_kv(16, f"ielastq ({i:4d})", " " + name)
                for i, name in enumerate(body.ielastq, 1))
@@ -592,11 +597,11 @@ def write_sid(body: SIDBody | object, path: str | os.PathLike) -> None:
         out.append(_kv(21, "rframe", f"    {n.rframe}"))
         for name, t in (("origin", n.origin), ("phi", n.phi), ("psi", n.psi),
                         ("AP", n.AP), *n.extra.items()):
-            _write_taylor(out, 21, name, t)
+            _write_taylor(out, 21, name, t, digits)
         out.append(" " * 16 + "end node")
     out.append(" " * 11 + "end frame ")
     for name, t in body.taylors.items():
-        _write_taylor(out, 11, name, t)
+        _write_taylor(out, 11, name, t, digits)
     out += [" " * 6 + "end modal ", " end part ", ""]
     file = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(file))

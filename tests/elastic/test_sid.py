@@ -211,3 +211,101 @@ def test_not_a_file(tmp_path):
     p.write_text("hello\n")
     with pytest.raises(DataError, match="no 'part'"):
         read_sid(p)
+
+
+SMALL = """\
+    1\t\t   2    :No. nodes, No. modes: hand-written variant
+ part
+      new modal =
+           refmod
+                mass = 2.0D+00
+                nelastq = 2
+                ielastq (   1) =first : 1.0 Hz
+                ielastq (   2) =second : 2.0 Hz
+           end refmod
+           new frame
+                new node = 7
+                     rframe = body ref
+                     origin
+                          order = 0
+                          nrow = 3
+                          ncol = 1
+                          nq = 2
+                          nqn = 0
+                          structure = 3
+                          m0( 1, 1) = 5.0D-01
+                     end origin
+                     phi
+                          order = 0
+                          nrow = 3
+                          ncol = 2
+                          nq = 2
+                          nqn = 0
+                          structure = 3
+                          m0( 3, 2) = 1.0E+00
+                     end phi
+                end node
+           end frame
+           J
+                          order = 1
+                          nrow = 3
+                          ncol = 3
+                          nq = 2
+                          nqn = 0
+                          structure = 2
+                          m0( 1, 1) = 1.0D+00
+                          m0( 2, 1) = 0.25D+00
+                          m1( 3, 2, 1) = 3.0D+00
+           end J
+           Me
+                          order = 0
+                          nrow = 2
+                          ncol = 2
+                          nq = 0
+                          nqn = 0
+                          structure = 4
+           end Me
+           Ke
+                          order = 0
+                          nrow = 2
+                          ncol = 2
+                          nq = 2
+                          nqn = 0
+                          structure = 2
+                          m0( 1, 1) = 39.47841760435743
+                          m0( 1, 2) = 1.0D-09
+                          m0( 2, 1) = 3.0D-09
+                          m0( 2, 2) = 157.91367041742973
+           end Ke
+      end modal
+ end part
+"""
+
+
+def test_format_variants(tmp_path):
+    """Tabs in the header, 'new frame', J as symmetric 3×3, E and D exponents, both
+    triangles of a symmetric block, order-0 origin, missing psi/AP (zero / identity),
+    missing body blocks (zero when converted)."""
+    from neweul_py.elastic.invariants import Invariants
+
+    p = tmp_path / "small.SID_FEM"
+    p.write_text(SMALL)
+    body = read_sid(p)
+    assert body.nq == 2 and body.ielastq == ("first : 1.0 Hz", "second : 2.0 Hz")
+    n = body.node(7)
+    assert n.origin.order == 0 and n.phi.m0[2, 1] == 1.0
+    assert not np.any(n.psi.m0) and np.array_equal(n.AP.m0, np.eye(3))
+    assert body.J.m0[0, 1] == body.J.m0[1, 0] == 0.25
+    assert body.J.m1[0, 1, 2] == body.J.m1[2, 1, 0] == 3.0
+    assert body["Ke"].m0[0, 1] == body["Ke"].m0[1, 0] == 2.0e-9
+    np.testing.assert_allclose(np.sqrt(np.diag(body["Ke"].m0)) / (2 * np.pi),
+                               body.frequencies_from_names())
+    inv = Invariants.from_sid(body)
+    assert inv.nq == 2 and not np.any(inv.Oe.m0) and inv.md.order == 1
+    write_sid(body, tmp_path / "again.SID_FEM")                  # 12 digits
+    again = read_sid(tmp_path / "again.SID_FEM")
+    assert again["J"].equals(body["J"]) and again["Ke"].equals(body["Ke"], rtol=1e-11)
+    assert not again["Ke"].equals(body["Ke"])
+    write_sid(body, tmp_path / "exact.SID_FEM", digits=17)         # lossless
+    exact = read_sid(tmp_path / "exact.SID_FEM")
+    assert exact["Ke"].equals(body["Ke"]) and exact.node(7).origin.equals(n.origin)
