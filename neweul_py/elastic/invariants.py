@@ -72,9 +72,9 @@ are stored in the first-order parts of ``Ct`` (``a``), ``Cr`` (``α``) and ``Oe`
     Ct¹[i, k, a] += (Wᵀ K_G,a V)[i, k],   Cr¹[i, k, b] += (Wᵀ K_G,αb V)[i, k],
     Oe¹[i, k, c] += (Wᵀ K_G,c V)[i, k].
 
-The caller provides ``K_G,c`` (they depend on the element formulation): compute the unit
-d'Alembert loads with :func:`inertia_loads`, the static response with the body supported at
-its reference frame, and the element geometric stiffness of that stress state (see
+The ``K_G,c`` depend on the element formulation: :func:`stress_stiffening` applies the unit
+d'Alembert loads (:func:`inertia_loads`) to the body supported at its reference frame and
+hands each static displacement to the formulation's stress-stiffness function (see
 ``tests/elastic/beam_fe.py`` for Euler–Bernoulli beams).
 """
 
@@ -100,6 +100,7 @@ __all__ = [
     "inertia_loads",
     "omega_products",
     "skew",
+    "stress_stiffening",
 ]
 
 #: Unit load cases of geometric stiffening: frame acceleration, angular acceleration, ω_q.
@@ -721,6 +722,65 @@ def inertia_loads(fe) -> dict[str, np.ndarray]:
     coeff = _omega_q_coefficients(g)                                          # (n, 6)
     for c, name in enumerate(LOAD_CASES[6:]):
         out[name] = -coeff[:, c]
+    return out
+
+
+def stress_stiffening(fe, geometric_stiffness_of, support: Sequence[int],
+                      cases: Sequence[str] = LOAD_CASES) -> dict[str, object]:
+    """The geometric stiffness of each unit load case, body supported at ``support``.
+
+    Wallrapp's procedure: the d'Alembert loads of a unit frame acceleration, angular
+    acceleration or ω-product (:func:`inertia_loads`) are applied to the body held at its
+    reference frame (the DOFs ``support`` fixed), the static displacement ``u_c`` solves
+    ``K u_c = f_c`` on the remaining DOFs, and ``geometric_stiffness_of(u_c)`` — the element
+    formulation's stress stiffness of that state — is ``K_G,c``.
+
+    Parameters
+    ----------
+    fe
+        The FE model.
+    geometric_stiffness_of
+        Callable ``u (n,) → K_G`` (n×n, sparse or dense) of the element formulation.
+    support
+        DOF indices fixed in the static solutions (e.g. all DOFs of the node at the frame
+        origin); must make ``K`` nonsingular on the others.
+    cases
+        Load cases to compute (default all of :data:`LOAD_CASES`).
+
+    Returns
+    -------
+    dict
+        Case → ``K_G,c``, ready for ``compute_invariants(…, geometric_stiffness=…)``.
+
+    Raises
+    ------
+    DataError
+        Unknown cases or support DOFs, or a support that leaves ``K`` singular.
+    """
+    import scipy.sparse.linalg as spla
+
+    n = fe.K.shape[0]
+    bad = [c for c in cases if c not in LOAD_CASES]
+    if bad:
+        raise DataError(f"unknown load cases {bad}", fe.source, "cases")
+    fixed = np.asarray(support, dtype=np.int64)
+    if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
+        raise DataError(f"support DOFs outside 0…{n - 1}", fe.source, "support")
+    free = np.setdiff1d(np.arange(n), fixed)
+    Kf = sps.csc_matrix(fe.K)[free][:, free]
+    try:
+        lu = spla.splu(Kf)
+    except RuntimeError as exc:
+        raise DataError(f"K is singular on the unsupported DOFs ({exc})", fe.source,
+                        "support") from None
+    loads = inertia_loads(fe)
+    out = {}
+    for c in cases:
+        u = np.zeros(n)
+        u[free] = lu.solve(loads[c][free])
+        if not np.all(np.isfinite(u)):
+            raise DataError("K is singular on the unsupported DOFs", fe.source, "support")
+        out[c] = geometric_stiffness_of(u)
     return out
 
 

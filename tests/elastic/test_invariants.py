@@ -23,6 +23,7 @@ from neweul_py.elastic.invariants import (
     inertia_loads,
     omega_products,
     skew,
+    stress_stiffening,
 )
 from neweul_py.elastic.sid import read_sid, write_sid
 from neweul_py.errors import DataError
@@ -50,9 +51,26 @@ def random_basis(b: Beam, nq: int, seed: int) -> np.ndarray:
 
 def stiffened(b: Beam, cases=("wzz",)) -> dict:
     """Geometric stiffness of the unit load cases, root clamped (Wallrapp's procedure)."""
+    return stress_stiffening(b.fe, lambda u: b.geometric_stiffness(b.axial_forces(u)),
+                             support=np.arange(6), cases=cases)
+
+
+def test_stress_stiffening_procedure():
+    """stress_stiffening = the hand-made procedure; the ωz² axial force of the root-clamped
+    beam is N(x) = ρAΩ²(L² − x²)/2 at the element midpoints; bad supports are reported."""
+    b = beam(20)
     loads = inertia_loads(b.fe)
-    return {c: b.geometric_stiffness(b.axial_forces(b.clamped_static(loads[c])))
-            for c in cases}
+    u = b.clamped_static(loads["wzz"])
+    N = b.axial_forces(u)
+    xm = (np.arange(20) + 0.5) / 20
+    np.testing.assert_allclose(N, 0.5 * (1 - xm**2), atol=2e-3)
+    KG = stiffened(b, ("wzz", "ax"))
+    np.testing.assert_allclose(KG["wzz"].toarray(), b.geometric_stiffness(N).toarray(),
+                               atol=1e-10)
+    with pytest.raises(DataError, match="singular"):
+        stress_stiffening(b.fe, lambda u: None, support=[0, 1, 2], cases=["ax"])
+    with pytest.raises(DataError, match="unknown load cases"):
+        stress_stiffening(b.fe, lambda u: None, support=np.arange(6), cases=["spin"])
 
 
 # ------------------------------------------------------------------- mass properties
