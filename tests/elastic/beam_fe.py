@@ -2,7 +2,7 @@
 
 The beam lies on the line ``(x0 + s, y0, z0)``, ``0 ≤ s ≤ L``, with 6 DOFs per node
 ``ux, uy, uz, rx, ry, rz``. Element matrices (Przemieniecki, *Theory of Matrix Structural
-Analysis*, 1968, §5 and §11; Cook et al., *Concepts and Applications of FEA*):
+Analysis*, 1968; Cook et al., *Concepts and Applications of FEA*):
 
 * axial and torsion: linear elements, consistent mass ``ρAL/6 [2 1; 1 2]`` (torsion with the
   polar inertia ``ρ(Iy+Iz)``);

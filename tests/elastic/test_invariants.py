@@ -362,7 +362,7 @@ def test_stiffening_matches_unreduced_fe():
 def test_greenhill_self_weight_buckling():
     """A column along x standing on a frame that accelerates with a_x (equivalent to gravity
     g = a_x) buckles when det(Ke + a_x Ct¹_x) = 0, at a_x = 7.837 EI/(ρA L³) (Greenhill 1881;
-    Timoshenko & Gere, Theory of Elastic Stability, §2.13) — flapwise (EIy) and 4× that
+    Timoshenko & Gere, Theory of Elastic Stability, ch. 2) — flapwise (EIy) and 4× that
     chordwise (EIz = 4 EIy)."""
     b = beam(20)
     _, V = b.clamped_modes(8)
