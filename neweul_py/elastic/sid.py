@@ -125,6 +125,11 @@ class SIDBody:
         """Number of elastic coordinates (``refmod.nelastq``)."""
         return len(self.ielastq)
 
+    @property
+    def nelastq(self) -> int:
+        """``refmod.nelastq`` (same as :attr:`nq`)."""
+        return len(self.ielastq)
+
     def __getitem__(self, name: str) -> Taylor:
         return self.taylors[name]
 
