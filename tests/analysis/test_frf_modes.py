@@ -129,3 +129,21 @@ def test_frequency_vector_spec():
     np.testing.assert_allclose(frequency_vector("0:3:4"), [0, 1, 2, 3])
     with pytest.raises(NeweulError, match="start:stop:count"):
         frequency_vector("10:x:3")
+
+
+def test_unsymmetric_mass_matrix(two_mass):
+    """Premultiplying all equations by a non-symmetric regular T (as two-sided elastic data does
+    to M) changes neither the eigenvalues nor the frequency response."""
+    import dataclasses
+
+    lin = linearize(two_mass, [0.0, 0.0])
+    t = np.array([[1.0, 0.7], [-0.3, 2.0]])
+    skew = dataclasses.replace(lin, M0=t @ lin.M0, P=t @ lin.P, Q=t @ lin.Q, B=t @ lin.B)
+    assert not np.allclose(skew.M0, skew.M0.T)
+    np.testing.assert_allclose(modes(skew).eigenvalues, modes(lin).eigenvalues, rtol=1e-12)
+    for method in ("solve", "hessenberg", "eig"):
+        np.testing.assert_allclose(
+            frequency_response(skew, F, method=method).H,
+            frequency_response(lin, F, method=method).H,
+            rtol=1e-8,
+        )

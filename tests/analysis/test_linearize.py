@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from _analysis_helpers import variant
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from neweul_py.analysis.equilibrium import equilibrium
 from neweul_py.analysis.linearize import LinearModel, linearize
@@ -44,6 +46,23 @@ def test_first_order_against_finite_differences(cart_pendulum):
     # and exactly the module's analytic rhs_jacobian
     np.testing.assert_allclose(a, cart_pendulum.rhs_jacobian(0.0, x0, p, u0), rtol=1e-12,
                                atol=1e-12)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.lists(st.floats(-2.0, 2.0), min_size=5, max_size=5),
+)
+def test_random_states_against_finite_differences(cart_pendulum, values):
+    """A = ∂rhs/∂x and B = ∂rhs/∂u at random (y, ẏ, u) against central differences of rhs."""
+    p = cart_pendulum.default_parameters()
+    y0, yd0, u0 = np.array(values[:2]), np.array(values[2:4]), np.array(values[4:])
+    a, b, _, _ = linearize(cart_pendulum, y0, yd0, u0).to_first_order()
+    x0 = np.concatenate([y0, yd0])
+    a_fd = _fd(lambda x: cart_pendulum.rhs(0.0, x, p, u0), x0)
+    b_fd = _fd(lambda u: cart_pendulum.rhs(0.0, x0, p, u), u0)
+    scale = np.abs(a).max()
+    np.testing.assert_allclose(a, a_fd, rtol=1e-6, atol=1e-7 * scale)
+    np.testing.assert_allclose(b, b_fd, rtol=1e-6, atol=1e-9)
 
 
 def test_without_the_mass_derivative_term_fd_disagrees(cart_pendulum):
