@@ -20,9 +20,11 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from ..kinematics import absolute_kinematics
+from ..kinematics import Kinematics, absolute_kinematics
+from ..kinematics.algebra import add, mat_vec
 from ..model import (
     AXES,
+    INERTIAL,
     CoincidenceConstraint,
     ExpressionConstraint,
     System,
@@ -88,6 +90,14 @@ def _dt(expr: sp.Expr, rates: Mapping[sp.Symbol, sp.Symbol | None], path: str) -
     return out
 
 
+def _position(kin: Kinematics, frame: str, point: tuple, in_frame: str) -> tuple:
+    """``r_O + S p`` of a point in ISYS components (no detour through the frame's own
+    components), then resolved in ``in_frame``."""
+    S = kin.rotation_matrix(frame)
+    r = add(kin.origin(frame), mat_vec(S, point))
+    return r if in_frame == INERTIAL else kin.express(r, INERTIAL, in_frame)
+
+
 def derive_constraints(system: System) -> ConstraintEquations:
     """``g``, ``G``, ``∂g/∂t`` and ``γ`` of the system's constraints (equations.md §1).
 
@@ -114,8 +124,8 @@ def derive_constraints(system: System) -> ConstraintEquations:
         elif isinstance(con, CoincidenceConstraint):
             if kin is None:
                 kin = absolute_kinematics(system, "closed")
-            ra = kin.point_position(con.frame_a, tuple(con.point_a), con.in_frame)
-            rb = kin.point_position(con.frame_b, tuple(con.point_b), con.in_frame)
+            ra = _position(kin, con.frame_a, tuple(con.point_a), con.in_frame)
+            rb = _position(kin, con.frame_b, tuple(con.point_b), con.in_frame)
             for c in con.components:
                 i = AXES.index(c)
                 rows.append(rb[i] - ra[i])
