@@ -202,8 +202,8 @@ def _check_regular(module: Any, con: _Constraints, t: float, y: np.ndarray, p: n
 
 def consistent_initial_state(
     module: Any,
-    y0: Sequence[float] | np.ndarray | None = None,
-    yd0: Sequence[float] | np.ndarray | None = None,
+    y0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
+    yd0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     p: proto.ParameterLike = None,
     t: float = 0.0,
     *,
@@ -217,7 +217,7 @@ def consistent_initial_state(
     module
         A generated module with ``CONSTRAINTS``.
     y0, yd0
-        Guesses (default: the module's ``INITIAL_STATE``).
+        Guesses: vectors, or mappings name → value over the module's ``INITIAL_STATE``.
     p
         Parameters.
     t
@@ -246,11 +246,8 @@ def consistent_initial_state(
     n = len(names)
     pv = proto.resolve_parameters(module, p)
     x_init = np.asarray(module.INITIAL_STATE, dtype=float)
-    y = x_init[:n].copy() if y0 is None else np.asarray(y0, dtype=float).reshape(-1).copy()
-    if yd0 is None:
-        yd = x_init[n : 2 * n].copy()
-    else:
-        yd = np.asarray(yd0, dtype=float).reshape(-1).copy()
+    y = proto.override_vector(x_init[:n].copy(), names, y0, "coordinate").copy()
+    yd = proto.override_vector(x_init[n : 2 * n].copy(), names, yd0, "coordinate").copy()
     con = _Constraints(module, pv)
     if con.nc == 0:
         return y, yd
