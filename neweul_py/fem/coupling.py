@@ -52,6 +52,15 @@ def coupling_matrix(
     -------
     C
         (3·n_u, n_p) CSR matrix; per triangle ``C_ij = sign · A n (1 + δ_ij) / 12``.
+
+    Examples
+    --------
+    A unit right triangle in the plane z = 0, fluid below it (normal out of the fluid = +z):
+
+    >>> x = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    >>> c = coupling_matrix(x, np.array([[0, 1, 2]]), np.arange(3), np.arange(3), 3, 3)
+    >>> round(float(c.sum()), 12), round(float(c[2::3].sum()), 12)  # the area, all along z
+    (0.5, 0.5)
     """
     xe = x[triangles]
     an = 0.5 * sign * np.cross(xe[:, 1] - xe[:, 0], xe[:, 2] - xe[:, 0])  # A n, (nt, 3)
@@ -79,6 +88,13 @@ def assemble_up(
     -------
     M, D, K
         ``M = [Ms 0; ρCᵀ Mf]``, ``D = blockdiag(Ds, Df)``, ``K = [Ks −C; 0 Kf]`` (CSR).
+
+    Examples
+    --------
+    >>> one = sps.csr_matrix([[1.0]])
+    >>> m, d, k = assemble_up(one, one, one, one, sps.csr_matrix([[2.0]]), rho=1.2)
+    >>> m.toarray().tolist(), k.toarray().tolist()
+    ([[1.0, 0.0], [2.4, 1.0]], [[1.0, -2.0], [0.0, 1.0]])
     """
     ns, nf = ms.shape[0], mf.shape[0]
     ds = ds if ds is not None else sps.csr_matrix((ns, ns))

@@ -279,6 +279,12 @@ def build_middle_ear(
     ------
     ModelError
         Non-physical parameters or a failed mesh generation.
+
+    Examples
+    --------
+    >>> me = build_middle_ear(refine=0)
+    >>> me.dof_counts()["total"]
+    1331
     """
     p = params or MiddleEarParameters()
     if not isinstance(refine, int) or refine < 0 or refine > 5:
@@ -413,6 +419,12 @@ def solve_static(
     ------
     SolverError
         A pressure could not be reached; the message names the last converged load step.
+
+    Examples
+    --------
+    >>> me = build_middle_ear(refine=0)
+    >>> [s.load for s in solve_static(me, [-1000.0, 0.0, 1000.0])]
+    [-1000.0, 0.0, 1000.0]
     """
     dps = np.asarray(pressures, dtype=float)
     if dps.ndim != 1 or dps.size == 0 or not np.all(np.isfinite(dps)):
@@ -634,6 +646,14 @@ def pressure_sweep(
     ModelError
         Bad parameters or pressures; SolverError: a pressure beyond Newton convergence. In
         either case nothing is written.
+
+    Examples
+    --------
+    >>> res = pressure_sweep([-4000.0, 0.0, 4000.0], refine=0)
+    >>> [m.kind for m in res.models]
+    ['up-coupled', 'up-coupled', 'up-coupled']
+    >>> res.static[2]["volume_displacement_m3"] > 0  # Δp > 0 pushes the TM medially
+    True
     """
     dps = [float(v) for v in pressures]
     if not dps or not all(math.isfinite(v) for v in dps):
@@ -644,6 +664,10 @@ def pressure_sweep(
         from .plots import require_matplotlib
 
         require_matplotlib()
+    if out_dir is not None:
+        from .output import check_output_dir
+
+        check_output_dir(out_dir)  # fail before the work, checked again when writing
     me = build_middle_ear(params, refine, verbose=verbose)
     states = solve_static(me, dps, options)
     table = tuple(static_summary(me, s) for s in states)

@@ -118,6 +118,15 @@ def load_path(
     SolverError
         When a load cannot be reached (the step fell below ``min_step``); ``last_iterate`` is the
         last converged state (a :class:`StaticState`), the message names its load.
+
+    Examples
+    --------
+    A hardening spring ``u + u³ = λ``:
+
+    >>> def res(u, lam):
+    ...     return u + u**3 - lam, sps.csr_matrix([[1 + 3 * u[0] ** 2]]), max(abs(lam), 1.0)
+    >>> [round(float(s.u[0]), 6) for s in load_path(res, 1, [2.0, 10.0])]
+    [1.0, 2.0]
     """
     opts = options or NewtonOptions()
     t = np.asarray(targets, dtype=float)

@@ -20,7 +20,13 @@ import numpy as np
 from ..elastic.fe_model import FEModel
 from ..errors import DataError
 
-__all__ = ["MANIFEST", "write_directory_atomically", "write_model", "write_static_csv"]
+__all__ = [
+    "MANIFEST",
+    "check_output_dir",
+    "write_directory_atomically",
+    "write_model",
+    "write_static_csv",
+]
 
 #: Name of the manifest that marks a directory as a sweep output.
 MANIFEST = "sweep.json"
@@ -69,13 +75,8 @@ def write_static_csv(rows: Sequence[Mapping[str, float]], path: Path) -> None:
             w.writerow([repr(float(r[k])) if isinstance(r[k], float) else r[k] for k in keys])
 
 
-def write_directory_atomically(
-    out_dir: str | os.PathLike, fill: Callable[[Path], Mapping[str, Any]]
-) -> Path:
-    """Create ``out_dir`` with the content ``fill(tmp)`` writes into a temporary directory.
-
-    ``fill`` returns the manifest (written last as :data:`MANIFEST`). An existing ``out_dir``
-    is replaced only if it is empty or a previous sweep output (it holds :data:`MANIFEST`).
+def check_output_dir(out_dir: str | os.PathLike) -> Path:
+    """Refuse an output path that is a file or a non-empty directory of other data.
 
     Raises
     ------
@@ -91,6 +92,23 @@ def write_directory_atomically(
                 f"output directory is not empty and holds no {MANIFEST} (not overwriting)",
                 str(out),
             )
+    return out
+
+
+def write_directory_atomically(
+    out_dir: str | os.PathLike, fill: Callable[[Path], Mapping[str, Any]]
+) -> Path:
+    """Create ``out_dir`` with the content ``fill(tmp)`` writes into a temporary directory.
+
+    ``fill`` returns the manifest (written last as :data:`MANIFEST`). An existing ``out_dir``
+    is replaced only if it is empty or a previous sweep output (it holds :data:`MANIFEST`).
+
+    Raises
+    ------
+    DataError
+        ``out_dir`` exists and holds other data, or is not a directory.
+    """
+    out = check_output_dir(out_dir)
     parent = out.parent if str(out.parent) else Path(".")
     parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
