@@ -1,0 +1,142 @@
+"""Holonomic constraints (equations.md §1): ``g``, ``G``, ``∂g/∂t``, ``γ``.
+
+References: the slider–crank constraints, ``G`` and ``γ`` derived by hand (below, and the same as
+``tests/analysis/fixtures/slider_crank.py``); finite differences of ``g`` (for ``G``) and of
+``G(y) ẏ`` along ``ẏ`` (for ``γ`` at ``ÿ = 0``); a rheonomic constraint driven by an input.
+"""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from neweul_py.description import load_description, load_description_text
+from neweul_py.equations.constraints import derive_constraints
+from neweul_py.errors import ModelError
+from neweul_py.model import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+RNG = np.random.default_rng(7)
+
+
+def _functions(system):
+    ce = derive_constraints(system)
+    args = (system.coordinate_symbols, system.velocity_symbols, system.parameter_symbols,
+            system.input_symbols, time)
+    lam = {k: sp.lambdify(args, list(getattr(ce, k)), "numpy") for k in ("g", "G", "g_t",
+                                                                           "gamma")}
+    nc, n = ce.G.shape
+
+    def call(key, y, yd=None, p=None, u=None, t=0.0):
+        yd = np.zeros(n) if yd is None else yd
+        u = np.zeros(len(system.input_symbols)) if u is None else u
+        p = np.array([q.default for q in system.parameters]) if p is None else p
+        v = np.array(lam[key](y, yd, p, u, t), dtype=float)
+        return v.reshape(nc, n) if key == "G" else v
+
+    return ce, call
+
+
+def _hand_slider_crank(y, yd, r, l):
+    """g, G, γ of the slider–crank, by hand (x horizontal, z up; rod angle θ)."""
+    phi, xr, zr, th, s = y
+    dphi, _, _, dth, _ = yd
+    g = np.array([xr - l / 2 * np.cos(th) - r * np.cos(phi),
+                  zr - l / 2 * np.sin(th) - r * np.sin(phi),
+                  xr + l / 2 * np.cos(th) - s,
+                  zr + l / 2 * np.sin(th)])
+    G = np.array([[r * np.sin(phi), 1, 0, l / 2 * np.sin(th), 0],
+                  [-r * np.cos(phi), 0, 1, -l / 2 * np.cos(th), 0],
+                  [0, 1, 0, -l / 2 * np.sin(th), -1],
+                  [0, 0, 1, l / 2 * np.cos(th), 0]])
+    gamma = np.array([r * np.cos(phi) * dphi**2 + l / 2 * np.cos(th) * dth**2,
+                      r * np.sin(phi) * dphi**2 + l / 2 * np.sin(th) * dth**2,
+                      -l / 2 * np.cos(th) * dth**2,
+                      -l / 2 * np.sin(th) * dth**2])
+    return g, G, gamma
+
+
+def test_slider_crank_constraints_match_the_hand_derivation_and_finite_differences() -> None:
+    system = load_description(ROOT / "examples" / "slider_crank.yaml")
+    ce, call = _functions(system)
+    assert ce.names == ("pin_x", "pin_z", "slide_x", "slide_z")
+    r, l = 0.1, 0.3
+    for _ in range(20):
+        y = RNG.normal(size=5)
+        yd = RNG.normal(size=5)
+        g, G, gamma = _hand_slider_crank(y, yd, r, l)
+        np.testing.assert_allclose(call("g", y), g, atol=1e-14)
+        np.testing.assert_allclose(call("G", y), G, atol=1e-14)
+        np.testing.assert_allclose(call("gamma", y, yd), gamma, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(call("g_t", y), 0.0)
+        h = 1e-6
+        fd = np.column_stack([(call("g", y + h * e) - call("g", y - h * e)) / (2 * h)
+                              for e in np.eye(5)])
+        np.testing.assert_allclose(call("G", y), fd, atol=1e-8)
+        # γ = d/dt (G ẏ) at ÿ = 0 (scleronomic): a central difference along ẏ
+        fd_gamma = (call("G", y + h * yd) @ yd - call("G", y - h * yd) @ yd) / (2 * h)
+        np.testing.assert_allclose(call("gamma", y, yd), fd_gamma, atol=1e-7)
+
+
+def test_rheonomic_constraint_through_an_input_uses_its_derivatives() -> None:
+    """g = x − u sin(φ)… with u an input: ∂g/∂t = −u̇ sin φ, and γ from the chain rule."""
+    system = load_description_text("""
+name: driven
+parameters: {a: 0.5}
+coordinates: {x: 0, phi: 0}
+inputs: {u: a*sin(t)}
+constraints:
+  drive: x = u*sin(phi)
+""")
+    assert system.input_names == ("u", "d_u", "dd_u")
+    _, call = _functions(system)
+    for _ in range(10):
+        (x, phi), (xd, phid) = RNG.normal(size=2), RNG.normal(size=2)
+        u, du, ddu = RNG.normal(size=3)
+        args = dict(y=[x, phi], yd=[xd, phid], u=[u, du, ddu])
+        np.testing.assert_allclose(call("g", **args), [x - u * np.sin(phi)])
+        np.testing.assert_allclose(call("G", **args), [[1, -u * np.cos(phi)]])
+        np.testing.assert_allclose(call("g_t", **args), [-du * np.sin(phi)])
+        # g̈ = ẍ − ü sin φ − 2 u̇ cos φ φ̇ + u sin φ φ̇² − u cos φ φ̈ = G ÿ + γ
+        gamma = -ddu * np.sin(phi) - 2 * du * np.cos(phi) * phid + u * np.sin(phi) * phid**2
+        np.testing.assert_allclose(call("gamma", **args), [gamma], rtol=1e-12, atol=1e-14)
+
+
+BASE = """
+name: redundant
+parameters: {l: 1}
+coordinates: {x: 0.5, z: 0.1}
+frames:
+  b: {translation: [x, 0, z]}
+constraints:
+"""
+
+
+def test_redundant_constraints_are_named() -> None:
+    text = BASE + "  first: x - 0.5\n  again: 2*x - 1\n  other: z - 0.1\n"
+    with pytest.raises(ModelError, match=r"again \(redundant: its Jacobian row is a combination "
+                                         r"of first\)"):
+        from neweul_py.equations import newton_euler
+
+        newton_euler(load_description_text(text))
+
+
+def test_inconsistent_constraints_are_named() -> None:
+    text = BASE + "  first: x - 0.5\n  clash: x - 0.7\n"
+    with pytest.raises(ModelError, match=r"clash \(inconsistent: its Jacobian row is a "
+                                         r"combination of first\)"):
+        from neweul_py.equations import newton_euler
+
+        newton_euler(load_description_text(text))
+
+
+def test_constraint_errors_name_the_key() -> None:
+    with pytest.raises(ModelError, match=r"constraints\.c1\.coincide\[1\]: unknown frame 'nope'"):
+        load_description_text(BASE + "  c1: {coincide: [b, nope], components: [x]}\n")
+    with pytest.raises(ModelError, match=r"constraints\.c1\.components\[0\]: component must be"):
+        load_description_text(BASE + "  c1: {coincide: [b, ISYS], components: [w]}\n")
+    with pytest.raises(ModelError, match=r"constraints\.c1: .*unknown name 'q'"):
+        load_description_text(BASE + "  c1: x - q\n")
