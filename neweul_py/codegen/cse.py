@@ -16,12 +16,23 @@ module never iterates over sets without sorting. The result is the same for ever
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import sympy as sp
 
-__all__ = ["Block", "eliminate", "prune"]
+# ``sympy.simplify`` the attribute is the function; import the module by name.
+_cse_main = importlib.import_module("sympy.simplify.cse_main")
+
+#: ``"full"``: ``sympy.cse`` (tree CSE plus its search for common argument subsets of Add/Mul,
+#: best for large closed-form expressions); ``"tree"``: only repeated identical subtrees
+#: (several times faster, nearly as good when the input already reuses intermediates);
+#: ``"none"``: no elimination.
+CseMethod = Literal["full", "tree", "none"]
+
+__all__ = ["Block", "CseMethod", "eliminate", "prune"]
 
 Assignment = tuple[sp.Symbol, sp.Expr]
 
@@ -64,7 +75,7 @@ def eliminate(
     intermediates: Sequence[Assignment],
     finals: Sequence[sp.Expr],
     prefix: str = "_ncg_c",
-    cse: bool = True,
+    method: CseMethod = "full",
 ) -> Block:
     """Prune the intermediates, run CSE over everything, and schedule the assignments.
 
@@ -76,8 +87,8 @@ def eliminate(
         The values the block computes.
     prefix
         Name prefix of the symbols CSE introduces (they must not clash with other symbols).
-    cse
-        Run ``sympy.cse`` (True) or just prune (False).
+    method
+        ``"full"``, ``"tree"`` or ``"none"`` (see :data:`CseMethod`).
 
     Returns
     -------
@@ -87,10 +98,15 @@ def eliminate(
     """
     kept = prune(intermediates, finals)
     finals = [sp.sympify(e) for e in finals]
-    if not cse:
+    if method == "none":
         return Block(tuple(kept), tuple(finals))
     exprs = [e for _, e in kept] + finals
-    replacements, reduced = sp.cse(exprs, symbols=_numbered(prefix), order="none", list=True)
+    if method == "full":
+        replacements, reduced = sp.cse(exprs, symbols=_numbered(prefix), order="none")
+    elif method == "tree":
+        replacements, reduced = _cse_main.tree_cse(exprs, _numbered(prefix), {}, "none")
+    else:
+        raise ValueError(f"unknown CSE method {method!r}")
     reduced_inter = reduced[: len(kept)]
     reduced_finals = reduced[len(kept):]
 

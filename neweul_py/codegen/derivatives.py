@@ -8,10 +8,13 @@ assignments)::
     dE/dv_j   = ∂E/∂v_j   + Σ_i     ∂E/∂z_i   · dz_i/dv_j
 
 Each non-trivial ``dz_k/dv_j`` becomes a new intermediate, so the derivative code grows like the
-code it differentiates instead of exploding, and nothing is ever substituted back. Without
-intermediates this is plain ``sympy.diff``. Distributional derivatives (``DiracDelta`` from
-``sign``, ``Heaviside``, ``Abs``…) are replaced by zero: the generated Jacobians are the
-derivatives almost everywhere.
+code it differentiates instead of exploding, and nothing is ever substituted back. The module
+writer differentiates the *CSE'd* program (common subexpressions are intermediates too), which
+keeps even closed-form Jacobians small. Partial derivatives are taken structurally (sum,
+product and chain rule over sympy's tree, ``fdiff`` for functions) — much faster than
+``sympy.diff`` on large sums. Distributional derivatives (``DiracDelta`` from ``sign``,
+``Heaviside``, ``Abs``…) are replaced by zero: the generated Jacobians are the derivatives almost
+everywhere.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import sympy as sp
 
 from .cse import Assignment, prune
 
-__all__ = ["jacobian"]
+__all__ = ["gradient", "jacobian"]
 
 
 def _numbered(prefix: str) -> Iterator[sp.Symbol]:
@@ -32,11 +35,81 @@ def _numbered(prefix: str) -> Iterator[sp.Symbol]:
         k += 1
 
 
-def _diff(expr: sp.Expr, var: sp.Symbol) -> sp.Expr:
-    d = sp.diff(expr, var)
+def _no_delta(d: sp.Expr) -> sp.Expr:
     if d.has(sp.DiracDelta):
         d = d.replace(sp.DiracDelta, lambda *args: sp.Integer(0))
     return d
+
+
+def _mul(a: sp.Expr, b: sp.Expr) -> sp.Expr:
+    """``a*b`` without sympy's (costly) flattening; trivial factors dropped."""
+    if a == 1:
+        return b
+    if b == 1:
+        return a
+    return sp.Mul(a, b, evaluate=False)
+
+
+def _add(terms: list[sp.Expr]) -> sp.Expr:
+    """A sum without sympy's (costly) flattening."""
+    return terms[0] if len(terms) == 1 else sp.Add(*terms, evaluate=False)
+
+
+def gradient(expr: sp.Expr, wanted: set[sp.Symbol] | frozenset[sp.Symbol]) -> dict[sp.Symbol,
+                                                                                    sp.Expr]:
+    """Partial derivatives ``∂expr/∂s`` for the symbols ``s`` of ``wanted`` that occur in it.
+
+    Zero partials are left out. Add, Mul, Pow with constant exponent and functions of one
+    argument are differentiated structurally, anything else by ``sympy.diff``.
+    """
+    terms = _gradient_terms(expr, wanted)
+    out: dict[sp.Symbol, sp.Expr] = {}
+    for s in sorted(terms, key=lambda s: s.name):
+        value = _add(terms[s])
+        if value != 0:
+            out[s] = value
+    return out
+
+
+def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol]
+                    ) -> dict[sp.Symbol, list[sp.Expr]]:
+    if expr.is_Symbol:
+        return {expr: [sp.S.One]} if expr in wanted else {}
+    if expr.is_Atom or not (expr.free_symbols & wanted):
+        return {}
+    out: dict[sp.Symbol, list[sp.Expr]] = {}
+    if expr.is_Add:
+        for arg in expr.args:
+            for s, terms in _gradient_terms(arg, wanted).items():
+                out.setdefault(s, []).extend(terms)
+        return out
+    if expr.is_Mul:
+        args = expr.args
+        for i, arg in enumerate(args):
+            g = _gradient_terms(arg, wanted)
+            if not g:
+                continue
+            rest = sp.Mul(*(args[:i] + args[i + 1:]))
+            for s, terms in g.items():
+                out.setdefault(s, []).append(_mul(rest, _add(terms)))
+        return out
+    if expr.is_Pow and not (expr.exp.free_symbols & wanted):
+        g = _gradient_terms(expr.base, wanted)
+        factor = expr.exp * expr.base ** (expr.exp - 1)
+        return {s: [_mul(factor, _add(terms))] for s, terms in g.items()}
+    if isinstance(expr, sp.Function) and len(expr.args) == 1:
+        g = _gradient_terms(expr.args[0], wanted)
+        try:
+            outer = _no_delta(expr.fdiff(1))
+        except (sp.ArgumentIndexError, NotImplementedError, AttributeError):
+            outer = None
+        if outer is not None and not isinstance(outer, sp.Derivative | sp.Subs):
+            return {s: [_mul(outer, _add(terms))] for s, terms in g.items()}
+    for s in sorted(expr.free_symbols & wanted, key=lambda s: s.name):
+        d = _no_delta(sp.diff(expr, s))
+        if d != 0:
+            out[s] = [d]
+    return out
 
 
 def jacobian(
@@ -69,33 +142,31 @@ def jacobian(
     >>> x = sp.Symbol("x"); z = sp.Symbol("z")
     >>> _, J = jacobian([z**2], [x], [(z, sp.sin(x))])
     >>> J[0, 0]
-    2*z*_ncg_d0
+    _ncg_d0*(2*z)
     """
     exprs = [sp.sympify(e) for e in exprs]
     kept = prune(intermediates, exprs)
     index = {v: j for j, v in enumerate(wrt)}
     names = _numbered(prefix)
-    # dz[z] = {j: derivative (a symbol or a simple expression)} for the non-zero ones
+    # dz[z] = {j: dz/dwrt_j (a symbol or an atom)}, non-zero entries only
     dz: dict[sp.Symbol, dict[int, sp.Expr]] = {}
+    wanted: set[sp.Symbol] = set(wrt)
     out: list[Assignment] = []
 
     def total(expr: sp.Expr) -> dict[int, sp.Expr]:
-        free = sorted(expr.free_symbols, key=lambda s: s.name)
-        acc: dict[int, sp.Expr] = {}
-        for s in free:
+        acc: dict[int, list[sp.Expr]] = {}
+        for s, partial in gradient(expr, wanted).items():
             if s in index:
-                contrib = {index[s]: sp.Integer(1)}
-            elif s in dz:
-                contrib = dz[s]
+                acc.setdefault(index[s], []).append(partial)
             else:
-                continue
-            partial = _diff(expr, s)
-            if partial == 0:
-                continue
-            for j, dsj in contrib.items():
-                term = partial * dsj
-                acc[j] = acc[j] + term if j in acc else term
-        return {j: v for j, v in sorted(acc.items()) if v != 0}
+                for j, dsj in dz[s].items():
+                    acc.setdefault(j, []).append(_mul(partial, dsj))
+        result = {}
+        for j in sorted(acc):
+            value = _add(acc[j])
+            if value != 0:
+                result[j] = value
+        return result
 
     for sym, expr in kept:
         out.append((sym, expr))
@@ -111,6 +182,7 @@ def jacobian(
                 out.append((dsym, d))
                 row[j] = dsym
         dz[sym] = row
+        wanted.add(sym)
 
     J = sp.zeros(len(exprs), len(wrt))
     for i, e in enumerate(exprs):

@@ -25,9 +25,9 @@ import sympy as sp
 
 from ..errors import GenerationError
 from ..model import Frame, KinematicOutput, System, time
-from .cse import Assignment, Block, eliminate
+from .cse import Assignment, Block, CseMethod, eliminate, prune
 from .derivatives import jacobian
-from .printer import NamePool, ScalarPrinter
+from .printer import FastPrinter, NamePool
 
 __all__ = ["PROTOCOL_VERSION", "generate_module", "render_module", "write_atomic"]
 
@@ -47,11 +47,10 @@ class _Ctx:
     u: tuple[sp.Symbol, ...]
     intermediates: tuple[Assignment, ...]
     pool: NamePool
-    printer: ScalarPrinter = field(init=False)
-    use_cse: bool = True
+    printer: FastPrinter = field(init=False)
 
     def __post_init__(self) -> None:
-        self.printer = ScalarPrinter(self.pool.names)
+        self.printer = FastPrinter(self.pool.names)
 
     def name(self, s: sp.Symbol) -> str:
         return self.pool.names[s]
@@ -66,17 +65,8 @@ def _unpack(names: Sequence[str], source: str) -> str:
     return f"{', '.join(names)} = {source}"
 
 
-def _block(
-    ctx: _Ctx,
-    finals: Sequence[sp.Expr],
-    allowed: Sequence[sp.Symbol],
-    what: str,
-    intermediates: Sequence[Assignment] | None = None,
-    prefix: str = "_ncg_c",
-) -> Block:
-    """CSE a function body and check it only uses the symbols the function receives."""
-    inter = ctx.intermediates if intermediates is None else intermediates
-    block = eliminate(inter, finals, prefix=prefix, cse=ctx.use_cse)
+def _checked(ctx: _Ctx, block: Block, allowed: Sequence[sp.Symbol], what: str) -> Block:
+    """Check a function body only uses the symbols the function receives; name its locals."""
     assigned = {s for s, _ in block.assignments}
     free: set[sp.Symbol] = set()
     for _, e in block.assignments:
@@ -93,6 +83,23 @@ def _block(
             wanted = s.name[len("_ncg"):] if s.name.startswith("_ncg_") else s.name
             ctx.pool.claim(s, wanted)
     return block
+
+
+def _subblock(program: Block, finals: Sequence[sp.Expr]) -> Block:
+    """The part of a CSE'd program that ``finals`` (expressions in its symbols) need."""
+    return Block(tuple(prune(program.assignments, finals)), tuple(finals))
+
+
+def _derivative_block(
+    program: Sequence[Assignment],
+    exprs: Sequence[sp.Expr],
+    wrt: Sequence[sp.Symbol],
+    method: CseMethod,
+) -> tuple[Block, sp.ImmutableMatrix]:
+    """Forward-mode Jacobian of ``exprs`` through ``program``, then CSE over the result."""
+    d_inter, J = jacobian(exprs, wrt, program, prefix="_ncg_d")
+    block = eliminate(d_inter, list(J), prefix="_ncg_e", method=method)
+    return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
 
 
 def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
@@ -257,7 +264,13 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         pool.claim(s)
     for s, _ in inter:
         pool.claim(s)
-    ctx = _Ctx(y, yd, p, u, inter, pool, use_cse=cse)
+    ctx = _Ctx(y, yd, p, u, inter, pool)
+    # Closed-form expressions profit from sympy's full CSE; recursive-form ones already reuse
+    # intermediates, and tree CSE is several times faster at nearly the same operation count.
+    method: CseMethod = "none" if not cse else ("tree" if inter else "full")
+    # Forward-mode derivatives of a recursive program are already a program without repeated
+    # subtrees worth the (super-linear) search; of closed-form ones tree CSE is cheap and helps.
+    d_method: CseMethod = "none" if not cse or inter else "tree"
 
     a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
     for i, s in enumerate(a_syms):
@@ -265,7 +278,8 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
 
     kin = (*y, *p, *u, time)
     dyn = (*kin, *yd)
-    y_src = ("y", "_np.asarray(y, dtype=_np.float64).tolist()")
+    y_src = "_np.asarray(y, dtype=_np.float64).tolist()"
+    yd_src = "_np.asarray(yd, dtype=_np.float64).tolist()"
     p_src = "_np.asarray(p, dtype=_np.float64).tolist()"
 
     funcs: list[str] = []
@@ -277,34 +291,40 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         ["return _np.array(_P0, dtype=_np.float64)"],
     )
     u_defaults = [sp.sympify(inp.default) for inp in system.inputs]
-    b = _block(ctx, u_defaults, (*p, time), "the default inputs", intermediates=())
+    b = _checked(ctx, eliminate((), u_defaults, method=method), (*p, time), "the default inputs")
     body = _prologue(ctx, b, [(p, p_src)]) + _assignments(ctx, b) + _vector(ctx, "u", b.finals)
     funcs += _function("default_inputs(t, p)",
                        "The default excitation ``u(t)`` of the description.", [*body, "return u"])
 
-    # ---- mass_matrix
+    # ---- one CSE'd program for M and q − k: rhs uses it whole, the other functions prune it
     m_values, m_where = _mass_entries(M)
-    b = _block(ctx, m_values, kin, "the mass matrix")
-    body = (_prologue(ctx, b, [(y, y_src[1]), (p, p_src)]) + _inputs_prologue(ctx, b)
+    nm = len(m_values)
+    program = eliminate(inter, [*m_values, *fvec], prefix="_ncg_c", method=method)
+    m_red, f_red = program.finals[:nm], program.finals[nm:]
+    m_full = sp.zeros(n, n)
+    for value, places in zip(m_red, m_where, strict=True):
+        for i, j in places:
+            m_full[i, j] = value
+
+    # ---- mass_matrix
+    b = _checked(ctx, _subblock(program, m_red), kin, "the mass matrix")
+    body = (_prologue(ctx, b, [(y, y_src), (p, p_src)]) + _inputs_prologue(ctx, b)
             + _assignments(ctx, b) + _mass_fill(ctx, n, b.finals, m_where))
     funcs += _function("mass_matrix(t, y, p, u=None)",
                        "Mass matrix ``M(y, t)``, shape (n, n).", [*body, "return M"])
 
     # ---- force_vector
-    b = _block(ctx, list(fvec), dyn, "the force vector")
-    body = (_prologue(ctx, b, [(y, y_src[1]), (yd, "_np.asarray(yd, dtype=_np.float64)"
-                                               ".tolist()"), (p, p_src)])
+    b = _checked(ctx, _subblock(program, f_red), dyn, "the force vector")
+    body = (_prologue(ctx, b, [(y, y_src), (yd, yd_src), (p, p_src)])
             + _inputs_prologue(ctx, b) + _assignments(ctx, b) + _vector(ctx, "f", b.finals))
     funcs += _function("force_vector(t, y, yd, p, u=None)",
                        "Generalized forces ``q − k``, shape (n,).", [*body, "return f"])
 
     # ---- rhs: M and f in one block, then one linear solve
-    b = _block(ctx, [*m_values, *fvec], dyn, "the right-hand side")
-    nm = len(m_values)
+    b = _checked(ctx, program, dyn, "the right-hand side")
     body = ["x = _np.asarray(x, dtype=_np.float64)"]
-    x_src = "x.tolist()"
     if _uses(b, (*y, *yd)):
-        body.append(_unpack([ctx.name(s) for s in (*y, *yd)], x_src))
+        body.append(_unpack([ctx.name(s) for s in (*y, *yd)], "x.tolist()"))
     body += _prologue(ctx, b, [(p, p_src)]) + _inputs_prologue(ctx, b) + _assignments(ctx, b)
     body += _mass_fill(ctx, n, b.finals[:nm], m_where)
     body += _vector(ctx, "f", b.finals[nm:])
@@ -317,13 +337,10 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
     funcs += _function("rhs(t, x, p, u=None)",
                        "First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion.", body)
 
-    # ---- force_jacobians
-    wrt = (*y, *yd, *u)
-    d_inter, J = jacobian(list(fvec), wrt, inter)
-    b = _block(ctx, list(J), dyn, "the force Jacobians", intermediates=d_inter)
-    Jr = sp.ImmutableMatrix(len(fvec), len(wrt), list(b.finals))
-    body = (_prologue(ctx, b, [(y, y_src[1]), (yd, "_np.asarray(yd, dtype=_np.float64)"
-                                               ".tolist()"), (p, p_src)])
+    # ---- force_jacobians: forward mode through the CSE'd program
+    b, Jr = _derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+    b = _checked(ctx, b, dyn, "the force Jacobians")
+    body = (_prologue(ctx, b, [(y, y_src), (yd, yd_src), (p, p_src)])
             + _inputs_prologue(ctx, b) + _assignments(ctx, b))
     body += _matrix_fill(ctx, "fy", (n, n), _sparse(Jr[:, :n]))
     body += _matrix_fill(ctx, "fyd", (n, n), _sparse(Jr[:, n:2 * n]))
@@ -335,11 +352,10 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
     )
 
     # ---- mass_matrix_times_derivative: ∂(M a)/∂y
-    Ma = M * sp.Matrix(a_syms)
-    d_inter, J = jacobian(list(Ma), y, inter)
-    b = _block(ctx, list(J), (*kin, *a_syms), "∂(M a)/∂y", intermediates=d_inter)
-    Jr = sp.ImmutableMatrix(n, n, list(b.finals))
-    body = (_prologue(ctx, b, [(y, y_src[1]), (p, p_src),
+    ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
+    b, Jr = _derivative_block(program.assignments, ma, y, d_method)
+    b = _checked(ctx, b, (*kin, *a_syms), "∂(M a)/∂y")
+    body = (_prologue(ctx, b, [(y, y_src), (p, p_src),
                                (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")])
             + _inputs_prologue(ctx, b) + _assignments(ctx, b)
             + _matrix_fill(ctx, "dMa", (n, n), _sparse(Jr)))
@@ -369,16 +385,16 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
 
     # ---- outputs and output_jacobians
     x_unpack = [((*y, *yd), "_np.asarray(x, dtype=_np.float64).tolist()"), (p, p_src)]
-    b = _block(ctx, list(outs), dyn, "the outputs")
+    out_prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
+    b = _checked(ctx, out_prog, dyn, "the outputs")
     body = (_prologue(ctx, b, x_unpack) + _inputs_prologue(ctx, b) + _assignments(ctx, b)
             + _vector(ctx, "out", b.finals))
     funcs += _function("outputs(t, x, p, u=None)", "The outputs, ordered as ``OUTPUTS``.",
                        [*body, "return out"])
     ny = outs.shape[0]
-    wrt = (*y, *yd, *u)
-    d_inter, J = jacobian(list(outs), wrt, inter)
-    b = _block(ctx, list(J), dyn, "the output Jacobians", intermediates=d_inter)
-    Jr = sp.ImmutableMatrix(ny, len(wrt), list(b.finals)) if ny else sp.zeros(0, len(wrt))
+    b, Jr = _derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u),
+                              d_method)
+    b = _checked(ctx, b, dyn, "the output Jacobians")
     body = (_prologue(ctx, b, x_unpack) + _inputs_prologue(ctx, b) + _assignments(ctx, b)
             + _matrix_fill(ctx, "C", (ny, 2 * n), _sparse(Jr[:, :2 * n]) if ny else {})
             + _matrix_fill(ctx, "D", (ny, nu), _sparse(Jr[:, 2 * n:]) if ny else {}))
