@@ -626,7 +626,8 @@ def pressure_sweep(
         See :func:`build_middle_ear`.
     out_dir
         If given, write (atomically, see :mod:`neweul_py.fem.output`) ``model_dp±NNNNN.npz``
-        per working point, ``static.csv`` and ``sweep.json`` (and PNGs with ``plots``).
+        per working point, ``static.csv``, ``static_displacements.npz`` (TM node displacements
+        per working point) and ``sweep.json`` (and PNGs with ``plots``).
     plots
         Also draw the mesh, the static deflection at the extreme pressures and the first TM
         modes at ``Δp = 0`` (needs matplotlib).
@@ -696,6 +697,14 @@ def _write_sweep(me, states, table, models, out_dir, plots, include_support) -> 
             write_model(fe, tmp / name)
             files.append({"dp_Pa": s.load, "file": name, "n_dofs": fe.n_dofs})
         write_static_csv(list(table), tmp / "static.csv")
+        disp = np.stack([_full(me, s) for s in states])
+        np.savez(
+            tmp / "static_displacements.npz",
+            dp_Pa=np.array([s.load for s in states]),
+            node_id=np.arange(1, me.tm.points.shape[0] + 1),
+            reference=me.tm.points,
+            u=disp,
+        )
         pictures = []
         if plots:
             from .plots import plot_mesh, plot_static, plot_tm_modes
@@ -721,6 +730,8 @@ def _write_sweep(me, states, table, models, out_dir, plots, include_support) -> 
             },
             "working_points": files,
             "static_results": "static.csv",
+            "static_displacements": "static_displacements.npz (dp_Pa, node_id, reference, "
+            "u[point, node, xyz]) of the TM nodes [m]",
             "pictures": pictures,
         }
 

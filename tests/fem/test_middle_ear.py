@@ -56,6 +56,27 @@ def test_model_structure_and_dofs(coarse):
     assert sum(wt for _, wt in fe.outputs["probe_pressure"]) == pytest.approx(1.0)
 
 
+def test_coupling_matches_static_pressure_convention(coarse):
+    """A uniform canal pressure P acts on the TM as the static Δp = P does (C·1 = ∂V/∂u), a
+    uniform cavity pressure as Δp = −P; and the λ = 0 left null vectors of the transposed
+    problem are [0; 1_canal], [0; 1_cavity] (equations.md §3)."""
+    me, states = coarse
+    fe = working_point_model(me, states[5])
+    nu, nc = me.n_u, me.canal.points.shape[0]
+    k_up = fe.K[:nu][:, nu:]  # = −C
+    grad_v = np.zeros(fe.n_dofs)
+    for i, w in fe.outputs["tm_volume_displacement"]:
+        grad_v[i] = w
+    ones_canal = np.r_[np.ones(nc), np.zeros(me.n_p - nc)]
+    np.testing.assert_allclose(-k_up @ ones_canal, grad_v[:nu], atol=1e-12 * np.abs(grad_v).max())
+    np.testing.assert_allclose(
+        -k_up @ (1.0 - ones_canal), -grad_v[:nu], atol=1e-12 * np.abs(grad_v).max()
+    )
+    for w_p in (ones_canal, 1.0 - ones_canal):
+        w = np.r_[np.zeros(nu), w_p]
+        assert np.abs(fe.K.T @ w).max() < 1e-9 * abs(fe.K).max()
+
+
 def test_default_model_size():
     """Default refinement: tens of thousands of DOFs (mesh only, no solve)."""
     me = build_middle_ear()
@@ -125,6 +146,15 @@ def test_sweep_cli_writes_all_files(tmp_path):
         return
     fe = read_fe_model(out / manifest["working_points"][0]["file"])
     assert fe.kind == "up-coupled"
+
+
+@pytest.mark.slow
+def test_default_sweep(tmp_path):
+    """The default model (refine 2, ≈ 3·10⁴ DOFs) over −4000…4000 Pa, 9 working points."""
+    res = pressure_sweep(np.linspace(-4000, 4000, 9), out_dir=str(tmp_path / "me"))
+    dv = np.array([r["volume_displacement_m3"] for r in res.static])
+    assert np.all(np.diff(dv) > 0)
+    assert len(list((tmp_path / "me").glob("model_dp*.npz"))) == 9
 
 
 def test_parse_pressures():
