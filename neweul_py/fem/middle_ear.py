@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 import scipy.sparse as sps
+import scipy.sparse.linalg as spla
 
 from ..elastic.fe_model import FEModel
 from ..errors import ModelError, SolverError
@@ -47,6 +48,7 @@ __all__ = [
     "MiddleEarParameters",
     "SweepResult",
     "build_middle_ear",
+    "lowest_tangent_eigenvalue",
     "parse_pressures",
     "pressure_sweep",
     "solve_static",
@@ -403,12 +405,18 @@ def _residual(me: MiddleEar):
 
 
 def solve_static(
-    me: MiddleEar, pressures: Sequence[float], options: NewtonOptions | None = None
+    me: MiddleEar,
+    pressures: Sequence[float],
+    options: NewtonOptions | None = None,
+    check_stability: bool = True,
 ) -> list[StaticState]:
     """Static equilibria of the TM at the static pressure differences ``Δp`` [Pa].
 
     The positive and the negative branch are each followed from the unloaded state with Newton's
-    method and adaptive load steps (:func:`~neweul_py.fem.nonlinear.load_path`).
+    method and adaptive load steps (:func:`~neweul_py.fem.nonlinear.load_path`). With
+    ``check_stability`` every returned state is checked to have a positive definite tangent
+    (:func:`lowest_tangent_eigenvalue`), so that a passed bifurcation is not returned as a
+    working point.
 
     Returns
     -------
@@ -418,7 +426,8 @@ def solve_static(
     Raises
     ------
     SolverError
-        A pressure could not be reached; the message names the last converged load step.
+        A pressure could not be reached (the message names the last converged load step), or a
+        reached state is unstable.
 
     Examples
     --------
@@ -441,8 +450,31 @@ def solve_static(
                 f"TM static solution: {exc.message}", exc.last_iterate, exc.residual
             ) from None
         for i, s in zip(branch, states, strict=True):
+            if check_stability:
+                lam = lowest_tangent_eigenvalue(me, s)
+                if lam < 0:
+                    raise SolverError(
+                        f"TM static solution at Δp = {s.load:g} Pa is unstable (the tangent "
+                        f"with support has the eigenvalue ω² = {lam:.4g} 1/s² < 0: the load "
+                        "path passed a bifurcation)",
+                        last_iterate=s,
+                        residual=s.residual,
+                    )
             out[i] = s
     return [s for s in out if s is not None]
+
+
+def lowest_tangent_eigenvalue(me: MiddleEar, state: StaticState) -> float:
+    """The eigenvalue ``ω²`` nearest 0 of the TM tangent (with support) and the TM mass.
+
+    Negative: the static state is unstable. Found by shift-invert Lanczos about 0.
+    """
+    res = _residual(me)
+    _, k, _ = res(state.u, state.load)
+    k = 0.5 * (k + k.T)
+    ms = me.shell.mass()[me.free_dofs][:, me.free_dofs]
+    lam = spla.eigsh(k.tocsc(), M=ms.tocsc(), k=1, sigma=0.0, which="LM")[0]
+    return float(lam[0])
 
 
 def _full(me: MiddleEar, state: StaticState) -> np.ndarray:
@@ -452,9 +484,12 @@ def _full(me: MiddleEar, state: StaticState) -> np.ndarray:
 
 
 def static_summary(me: MiddleEar, state: StaticState) -> dict[str, float]:
-    """Volume displacement [m³] (positive medially), umbo displacement [m], support force [N]."""
+    """Volume displacement [m³] (positive medially), umbo displacement [m], support force [N]
+    and the lowest in-vacuo TM frequency with support at the working point [Hz] (negative if
+    the state were unstable)."""
     u = _full(me, state)
     dv, _, _ = me.shell.pressure(u, 0.0)
+    lam = lowest_tangent_eigenvalue(me, state)
     f_sup = (me.support @ u.ravel()).reshape(-1, 3).sum(axis=0)
     return {
         "dp_Pa": state.load,
@@ -463,6 +498,7 @@ def static_summary(me: MiddleEar, state: StaticState) -> dict[str, float]:
         "umbo_uy_m": u[me.umbo, 1],
         "umbo_uz_m": u[me.umbo, 2],
         "support_force_z_N": f_sup[2],
+        "tm_f1_support_Hz": math.copysign(math.sqrt(abs(lam)), lam) / (2 * math.pi),
         "newton_iterations_last_step": state.iterations,
     }
 
