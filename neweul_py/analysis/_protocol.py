@@ -107,7 +107,13 @@ def resolve_parameters(module: Any, p: ParameterLike = None) -> np.ndarray:
     """
     names = list(module.PARAMETERS)
     if hasattr(module, "default_parameters"):
-        default = np.asarray(module.default_parameters(), dtype=float).copy()
+        default = np.asarray(module.default_parameters(), dtype=float).reshape(-1).copy()
+        if default.size != len(names):
+            raise NeweulError(
+                f"{getattr(module, 'MODEL_NAME', 'module')}: default_parameters returns "
+                f"{default.size} value(s) for {len(names)} PARAMETERS; the generated module is "
+                "inconsistent (regenerate it)"
+            )
     else:
         default = np.array([module.PARAMETERS[k] for k in names], dtype=float)
     return override_vector(default, names, p, "parameter")
@@ -124,6 +130,12 @@ def resolve_inputs(
     names = _constants(module, "INPUTS")
     if hasattr(module, "default_inputs"):
         base = np.asarray(module.default_inputs(t, p), dtype=float).reshape(-1).copy()
+        if base.size != len(names):
+            raise NeweulError(
+                f"{getattr(module, 'MODEL_NAME', 'module')}: default_inputs returns {base.size} "
+                f"value(s) for the {len(names)} INPUTS ({', '.join(names)}); the generated "
+                "module is inconsistent (regenerate it)"
+            )
     else:
         base = np.zeros(len(names))
     return override_vector(base, names, u, "input")
