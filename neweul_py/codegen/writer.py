@@ -25,7 +25,8 @@ import sympy as sp
 
 from ..errors import GenerationError
 from ..model import Frame, KinematicOutput, System, time
-from .cse import Assignment, Block, CseMethod, eliminate, prune
+from .constraints import constraint_constant, constraint_functions
+from .cse import Assignment, Block, CseMethod, eliminate, free_symbols, prune
 from .derivatives import jacobian
 from .printer import FastPrinter, NamePool
 
@@ -70,9 +71,9 @@ def _checked(ctx: _Ctx, block: Block, allowed: Sequence[sp.Symbol], what: str) -
     assigned = {s for s, _ in block.assignments}
     free: set[sp.Symbol] = set()
     for _, e in block.assignments:
-        free |= e.free_symbols
+        free |= free_symbols(e)
     for e in block.finals:
-        free |= e.free_symbols
+        free |= free_symbols(e)
     bad = sorted((s for s in free - assigned - set(allowed)), key=lambda s: s.name)
     if bad:
         raise GenerationError(
@@ -290,7 +291,8 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         "The parameter vector ``p`` of the defaults (ordered as ``PARAMETERS``).",
         ["return _np.array(_P0, dtype=_np.float64)"],
     )
-    u_defaults = [sp.sympify(inp.default) for inp in system.inputs]
+    # the input vector: inputs, then the time derivatives kinematic excitation needs (issue 4)
+    u_defaults = [sp.sympify(e) for e in system.input_defaults]
     b = _checked(ctx, eliminate((), u_defaults, method=method), (*p, time), "the default inputs")
     body = _prologue(ctx, b, [(p, p_src)]) + _assignments(ctx, b) + _vector(ctx, "u", b.finals)
     funcs += _function("default_inputs(t, p)",
@@ -402,13 +404,9 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
                        "``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic.",
                        [*body, "return C, D"])
 
-    # ---- constraints (none for tree-structured rigid models)
-    funcs += _function("constraints(t, y, p)", "Holonomic constraints ``g(y, t)`` (none).",
-                       ["return _np.zeros(0)"])
-    funcs += _function("constraint_jacobian(t, y, p)", "``G = ∂g/∂y`` (none).",
-                       [f"return _np.zeros((0, {n}))"])
-    funcs += _function("constraint_gamma(t, y, yd, p)", "``γ`` with ``G ÿ + γ = 0`` (none).",
-                       ["return _np.zeros(0)"])
+    # ---- constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py, issue 4)
+    ce = getattr(eq, "constraints", None)
+    funcs += constraint_functions(ctx, ce, method)
 
     # ---- header and constants
     cu, ou = _units(system)
@@ -430,7 +428,7 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         f"INPUTS = {[str(s) for s in u]!r}",
         f"OUTPUTS = {names_out!r}",
         f"OUTPUT_UNITS = {ou!r}",
-        "CONSTRAINTS = []",
+        constraint_constant(tuple(ce.names) if ce is not None else ()),
         f"STATE_SIZE = {2 * n}",
         f"SOURCE_HASH = {source_hash!r}",
         "MASS_MATRIX_SYMMETRIC = " + repr(bool(M == M.T)),
@@ -455,12 +453,7 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         "",
         "",
     ]
-    text = "\n".join(header + funcs).rstrip("\n") + "\n"
-    try:
-        compile(text, f"<generated {system.name}>", "exec")
-    except SyntaxError as exc:  # a bug in the writer, but never write a broken module
-        raise GenerationError(f"generated code does not compile: {exc}") from None
-    return text
+    return "\n".join(header + funcs).rstrip("\n") + "\n"
 
 
 def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> Path:

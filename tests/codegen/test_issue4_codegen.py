@@ -1,0 +1,118 @@
+"""Generated code for the issue-4 features: input vectors with the rates kinematic excitation
+needs, ∂/∂u of forces and outputs, constraint functions with inputs, table characteristics.
+
+References: finite differences of the generated functions themselves (``force_vector`` in
+``u``, ``constraints`` in ``y`` and ``t``), the derivative of the default excitation by hand, and
+the constraint ``g = x − u sin φ`` differentiated by hand.
+"""
+
+from __future__ import annotations
+
+import ast
+
+import numpy as np
+
+from neweul_py.analysis.module import load_generated
+from neweul_py.codegen import generate_module
+from neweul_py.description import load_description_text
+from neweul_py.equations import newton_euler
+
+RNG = np.random.default_rng(11)
+
+MODEL = """
+name: excited
+parameters: {m: 2, k: 50, c: 0.4, a: 0.3, w: 3, sw: 1}
+coordinates: {x: 0.1, phi: 0.2}
+inputs: {u: a*sin(w*t), F: 0}
+frames:
+  base: {translation: [u, 0, 0]}
+  cart: {parent: base, translation: [x, 0, 0], rotation: [[z, phi]]}
+bodies:
+  body: {frame: cart, mass: m, center_of_mass: [0.1, 0, 0], inertia: {diag: [0.01, 0.01, 0.02]}}
+forces:
+  spring: {type: spring_damper, between: [base, cart], points: [[-1, 0, 0], [0, 0, 0]],
+           length: 1, stiffness: {table: [[-1, -60], [0, 0], [1, 40]], interpolation: spline},
+           damping: c, enabled: sw, report: true}
+  twist: {type: rotational_spring_damper, coordinate: phi, stiffness: k, damping: c}
+  push: {type: generalized, coordinate: x, value: F}
+constraints:
+  ride: phi = u*x
+outputs:
+  abs_x: {position: cart, component: x}
+  abs_vx: {velocity: cart, component: x}
+"""
+
+
+def _module(tmp_path):
+    system = load_description_text(MODEL)
+    path = generate_module(newton_euler(system), "test", tmp_path / "excited.py")
+    return load_generated(path)
+
+
+def test_input_vector_carries_the_rates_of_kinematic_excitation(tmp_path) -> None:
+    mod = _module(tmp_path)
+    assert mod.INPUTS == ["u", "F", "d_u", "dd_u"]
+    assert mod.CONSTRAINTS == ["ride"]
+    assert "spring_force" in mod.OUTPUTS
+    p = mod.default_parameters()
+    t = 0.7
+    np.testing.assert_allclose(mod.default_inputs(t, p),
+                               [0.3 * np.sin(3 * t), 0, 0.9 * np.cos(3 * t),
+                                -2.7 * np.sin(3 * t)], rtol=1e-14)
+    x = np.array([0.1, 0.2, 0.3, -0.4])
+    np.testing.assert_array_equal(mod.rhs(t, x, p), mod.rhs(t, x, p, mod.default_inputs(t, p)))
+    # the absolute velocity of the cart includes the excitation rate d_u
+    u = np.array([0.05, 0.0, 0.7, 0.0])
+    np.testing.assert_allclose(mod.outputs(t, x, p, u)[mod.OUTPUTS.index("abs_vx")],
+                               0.7 + 0.3, rtol=1e-14)
+    np.testing.assert_allclose(mod.outputs(t, x, p, u)[mod.OUTPUTS.index("abs_x")],
+                               0.05 + 0.1, rtol=1e-14)
+
+
+def test_force_and_output_jacobians_in_u_match_finite_differences(tmp_path) -> None:
+    mod = _module(tmp_path)
+    p = mod.default_parameters()
+    for _ in range(10):
+        y, yd, u = RNG.normal(size=2) * 0.5, RNG.normal(size=2), RNG.normal(size=4) * 0.3
+        fy, fyd, fu = mod.force_jacobians(0.3, y, yd, p, u)
+        x = np.concatenate([y, yd])
+        c, d = mod.output_jacobians(0.3, x, p, u)
+        h = 1e-6
+        for j in range(4):
+            e = np.eye(4)[j] * h
+            fd = (mod.force_vector(0.3, y, yd, p, u + e) - mod.force_vector(0.3, y, yd, p, u - e))
+            np.testing.assert_allclose(fu[:, j], fd / (2 * h), rtol=1e-6, atol=1e-6)
+            fd = mod.outputs(0.3, x, p, u + e) - mod.outputs(0.3, x, p, u - e)
+            np.testing.assert_allclose(d[:, j], fd / (2 * h), rtol=1e-6, atol=1e-6)
+        for j in range(2):
+            e = np.eye(2)[j] * h
+            fd = mod.force_vector(0.3, y + e, yd, p, u) - mod.force_vector(0.3, y - e, yd, p, u)
+            np.testing.assert_allclose(fy[:, j], fd / (2 * h), rtol=1e-6, atol=1e-6)
+
+
+def test_generated_constraint_functions_with_an_input(tmp_path) -> None:
+    """g = φ − u x: G = [−u, 1], ∂g/∂t = −u̇ x, γ = −ü x − 2 u̇ ẋ."""
+    mod = _module(tmp_path)
+    p = mod.default_parameters()
+    for _ in range(10):
+        y, yd, u = RNG.normal(size=2), RNG.normal(size=2), RNG.normal(size=4)
+        np.testing.assert_allclose(mod.constraints(0.0, y, p, u), [y[1] - u[0] * y[0]])
+        np.testing.assert_allclose(mod.constraint_jacobian(0.0, y, p, u), [[-u[0], 1.0]])
+        np.testing.assert_allclose(mod.constraint_time_derivative(0.0, y, p, u),
+                                   [-u[2] * y[0]])
+        np.testing.assert_allclose(mod.constraint_gamma(0.0, y, yd, p, u),
+                                   [-u[3] * y[0] - 2 * u[2] * yd[0]], rtol=1e-13, atol=1e-14)
+    # default excitation when u is omitted (the protocol's (t, y, p) call)
+    t, y = 0.4, np.array([0.3, 0.1])
+    np.testing.assert_allclose(mod.constraints(t, y, p), [0.1 - 0.3 * np.sin(1.2) * 0.3])
+
+
+def test_generated_module_imports_only_numpy_and_math(tmp_path) -> None:
+    """Table characteristics are emitted as plain comparisons: no scipy, no sympy."""
+    system = load_description_text(MODEL)
+    path = generate_module(newton_euler(system), "test", tmp_path / "excited.py")
+    tree = ast.parse(path.read_text())
+    imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import)
+                for alias in node.names}
+    imported |= {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    assert imported <= {"numpy", "math"}
