@@ -16,6 +16,7 @@ module never iterates over sets without sorting. The result is the same for ever
 
 from __future__ import annotations
 
+import functools
 import importlib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ _cse_main = importlib.import_module("sympy.simplify.cse_main")
 #: ``"none"``: no elimination.
 CseMethod = Literal["full", "tree", "none"]
 
-__all__ = ["Block", "CseMethod", "eliminate", "prune"]
+__all__ = ["Block", "CseMethod", "eliminate", "free_symbols", "prune"]
 
 Assignment = tuple[sp.Symbol, sp.Expr]
 
@@ -50,18 +51,24 @@ def prune(intermediates: Sequence[Assignment], finals: Sequence[sp.Expr]) -> lis
     defined = {s for s, _ in intermediates}
     needed: set[sp.Symbol] = set()
     for e in finals:
-        needed |= _free(e) & defined
+        needed |= free_symbols(e) & defined
     kept: list[Assignment] = []
     for sym, expr in reversed(intermediates):
         if sym in needed:
             kept.append((sym, expr))
-            needed |= _free(expr) & defined
+            needed |= free_symbols(expr) & defined
     kept.reverse()
     return kept
 
 
-def _free(expr: sp.Basic) -> set[sp.Symbol]:
-    return expr.free_symbols if isinstance(expr, sp.Basic) else set()
+@functools.lru_cache(maxsize=1 << 16)
+def _free_cached(expr: sp.Basic) -> frozenset[sp.Symbol]:
+    return frozenset(expr.free_symbols)
+
+
+def free_symbols(expr: sp.Basic) -> frozenset[sp.Symbol]:
+    """Free symbols (memoized: the same expressions are scanned by several functions)."""
+    return _free_cached(expr) if isinstance(expr, sp.Basic) else frozenset()
 
 
 def _numbered(prefix: str) -> Iterator[sp.Symbol]:
@@ -112,7 +119,7 @@ def eliminate(
 
     # Common subexpressions are emitted just before the first intermediate needing them.
     rep_index = {sym: i for i, (sym, _) in enumerate(replacements)}
-    rep_free = [_free(e) for _, e in replacements]
+    rep_free = [free_symbols(e) for _, e in replacements]
     emitted = [False] * len(replacements)
     out: list[Assignment] = []
 
@@ -130,8 +137,8 @@ def eliminate(
             emitted[i] = True
 
     for (sym, _), expr in zip(kept, reduced_inter, strict=True):
-        emit_needed(_free(expr))
+        emit_needed(free_symbols(expr))
         out.append((sym, expr))
     for expr in reduced_finals:
-        emit_needed(_free(expr))
+        emit_needed(free_symbols(expr))
     return Block(tuple(out), tuple(reduced_finals))

@@ -28,6 +28,9 @@ from .cse import Assignment, prune
 __all__ = ["gradient", "jacobian"]
 
 
+_ONE, _ZERO = sp.S.One, sp.S.Zero
+
+
 def _numbered(prefix: str) -> Iterator[sp.Symbol]:
     k = 0
     while True:
@@ -43,15 +46,20 @@ def _no_delta(d: sp.Expr) -> sp.Expr:
 
 def _mul(a: sp.Expr, b: sp.Expr) -> sp.Expr:
     """``a*b`` without sympy's (costly) flattening; trivial factors dropped."""
-    if a == 1:
+    if a is _ONE:
         return b
-    if b == 1:
+    if b is _ONE:
         return a
+    if a is _ZERO or b is _ZERO:
+        return _ZERO
     return sp.Mul(a, b, evaluate=False)
 
 
 def _add(terms: list[sp.Expr]) -> sp.Expr:
-    """A sum without sympy's (costly) flattening."""
+    """A sum without sympy's (costly) flattening; zero terms dropped."""
+    terms = [t for t in terms if t is not _ZERO]
+    if not terms:
+        return _ZERO
     return terms[0] if len(terms) == 1 else sp.Add(*terms, evaluate=False)
 
 
@@ -66,7 +74,7 @@ def gradient(expr: sp.Expr, wanted: set[sp.Symbol] | frozenset[sp.Symbol]) -> di
     out: dict[sp.Symbol, sp.Expr] = {}
     for s in sorted(terms, key=lambda s: s.name):
         value = _add(terms[s])
-        if value != 0:
+        if value is not _ZERO:
             out[s] = value
     return out
 
@@ -164,7 +172,7 @@ def jacobian(
         result = {}
         for j in sorted(acc):
             value = _add(acc[j])
-            if value != 0:
+            if value is not _ZERO:
                 result[j] = value
         return result
 
