@@ -1,0 +1,127 @@
+"""Result files: CSV (units line, header ``t, <coords>, d_<coords>, <outputs>``) and NPZ
+(no pickles), written atomically; the protocol loader's checks."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from neweul_py.analysis.module import load_generated
+from neweul_py.analysis.results import load_npz
+from neweul_py.analysis.simulate import simulate
+from neweul_py.errors import NeweulError
+
+GENERATED = Path(__file__).resolve().parents[2] / "generated"
+
+
+@pytest.fixture(scope="module")
+def result():
+    return simulate(load_generated(GENERATED / "pendulum.py"), 1.0, n_out=11)
+
+
+def test_csv_format(result, tmp_path):
+    path = result.to_csv(tmp_path / "out.csv")
+    lines = path.read_text().splitlines()
+    assert lines[0] == "# units: s, rad, rad/s, m, m"
+    assert lines[1] == "t,phi,d_phi,x_bob,z_bob"
+    data = np.loadtxt(path, delimiter=",", skiprows=2)
+    assert data.shape == (11, 5)
+    np.testing.assert_array_equal(data, result.table)  # 17 digits: exact round trip
+
+
+def test_npz_round_trip_without_pickles(result, tmp_path):
+    path = result.to_npz(tmp_path / "out.npz")
+    with np.load(path, allow_pickle=False) as data:
+        assert list(data["names"]) == ["t", "phi", "d_phi", "x_bob", "z_bob"]
+        assert list(data["units"]) == ["s", "rad", "rad/s", "m", "m"]
+    back = load_npz(path)
+    np.testing.assert_array_equal(back.t, result.t)
+    np.testing.assert_array_equal(back.y, result.y)
+    np.testing.assert_array_equal(back.outputs, result.outputs)
+    assert back.names == result.names
+    assert back.parameters == result.parameters
+    assert back.model_name == "pendulum"
+
+
+def test_save_picks_format_and_rejects_others(result, tmp_path):
+    assert result.save(tmp_path / "a.csv").read_text().startswith("# units")
+    assert result.save(tmp_path / "a.npz").read_bytes()[:2] == b"PK"
+    with pytest.raises(NeweulError, match=r"\.csv or \.npz"):
+        result.save(tmp_path / "a.txt")
+
+
+def test_failed_write_keeps_old_file(result, tmp_path, monkeypatch):
+    path = result.to_csv(tmp_path / "out.csv")
+    before = path.read_bytes()
+
+    def boom(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError):
+        result.to_npz(tmp_path / "out.csv")
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+def test_column_lookup(result):
+    np.testing.assert_array_equal(result.column("d_phi"), result.yd[:, 0])
+    with pytest.raises(NeweulError, match="no column 'psi'; columns are: t, phi"):
+        result.column("psi")
+
+
+def test_plot_writes_png(result, tmp_path):
+    pytest.importorskip("matplotlib")
+    from neweul_py.analysis.plot import plot_result
+
+    path = plot_result(result, tmp_path / "fig.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_without_matplotlib_is_a_clear_error(result, tmp_path, monkeypatch):
+    import sys
+
+    from neweul_py.analysis.plot import plot_result
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.backends.backend_agg", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
+    with pytest.raises(NeweulError, match=r"pip install 'neweul-py\[plot\]'"):
+        plot_result(result, tmp_path / "fig.png")
+    assert not (tmp_path / "fig.png").exists()
+
+
+# ---------------------------------------------------------------------------- loader
+def test_loader_rejects_non_modules(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("COORDINATES = ['x']\n")
+    with pytest.raises(NeweulError, match="not a generated module"):
+        load_generated(bad)
+    with pytest.raises(NeweulError, match="cannot read"):
+        load_generated(tmp_path / "missing.py")
+    broken = tmp_path / "broken.py"
+    broken.write_text("raise RuntimeError('boom')\n")
+    with pytest.raises(NeweulError, match="importing the generated module failed"):
+        load_generated(broken)
+
+
+def test_loader_rejects_other_protocol_versions(tmp_path):
+    text = (GENERATED / "pendulum.py").read_text()
+    future = tmp_path / "future.py"
+    future.write_text(text.replace("PROTOCOL_VERSION = 1", "PROTOCOL_VERSION = 99"))
+    with pytest.raises(NeweulError, match="protocol version 99 is not supported"):
+        load_generated(future)
+
+
+def test_loader_returns_fresh_module_after_regeneration(tmp_path):
+    path = tmp_path / "pendulum.py"
+    text = (GENERATED / "pendulum.py").read_text()
+    path.write_text(text)
+    first = load_generated(path)
+    path.write_text(text.replace("'l': 0.5", "'l': 0.25"))
+    second = load_generated(path)
+    assert first.PARAMETERS["l"] == 0.5
+    assert second.PARAMETERS["l"] == 0.25
