@@ -24,7 +24,7 @@ from typing import Any
 import sympy as sp
 
 from ..errors import GenerationError
-from ..model import Frame, KinematicOutput, System, time
+from ..model import Frame, KinematicOutput, System, input_rate_name, time
 from .constraints import constraint_constant, constraint_functions
 from .cse import Assignment, Block, CseMethod, eliminate, free_symbols, prune
 from .derivatives import jacobian
@@ -219,6 +219,17 @@ def _units(system: System) -> tuple[list[str], list[str]]:
         else:
             ou.append("")
     return cu, ou
+
+
+def _input_rates(system: System) -> dict[str, list[str]]:
+    """Input → the entries of ``u`` that are its time derivatives (``d_<u>``, ``dd_<u>``),
+    for the inputs that have them (kinematic excitation; docs/generated-module-protocol.md)."""
+    orders = system.input_rate_orders
+    return {
+        i.name: [input_rate_name(i.name, k) for k in range(1, orders[i.name] + 1)]
+        for i in system.inputs
+        if orders[i.name]
+    }
 
 
 def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
@@ -426,6 +437,7 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         "PARAMETERS = {" + "".join(f"\n    {k!r}: {v!r}," for k, v in pdef.items())
         + ("\n}" if pdef else "}"),
         f"INPUTS = {[str(s) for s in u]!r}",
+        f"INPUT_RATES = {_input_rates(system)!r}",
         f"OUTPUTS = {names_out!r}",
         f"OUTPUT_UNITS = {ou!r}",
         constraint_constant(tuple(ce.names) if ce is not None else ()),

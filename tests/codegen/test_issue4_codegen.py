@@ -52,6 +52,7 @@ def _module(tmp_path):
 def test_input_vector_carries_the_rates_of_kinematic_excitation(tmp_path) -> None:
     mod = _module(tmp_path)
     assert mod.INPUTS == ["u", "F", "d_u", "dd_u"]
+    assert mod.INPUT_RATES == {"u": ["d_u", "dd_u"]}
     assert mod.CONSTRAINTS == ["ride"]
     assert "spring_force" in mod.OUTPUTS
     p = mod.default_parameters()
@@ -88,6 +89,12 @@ def test_force_and_output_jacobians_in_u_match_finite_differences(tmp_path) -> N
             e = np.eye(2)[j] * h
             fd = mod.force_vector(0.3, y + e, yd, p, u) - mod.force_vector(0.3, y - e, yd, p, u)
             np.testing.assert_allclose(fy[:, j], fd / (2 * h), rtol=1e-6, atol=1e-6)
+            fd = mod.force_vector(0.3, y, yd + e, p, u) - mod.force_vector(0.3, y, yd - e, p, u)
+            np.testing.assert_allclose(fyd[:, j], fd / (2 * h), rtol=1e-6, atol=1e-6)
+        for j in range(4):
+            e = np.eye(4)[j] * h
+            fd = mod.outputs(0.3, x + e, p, u) - mod.outputs(0.3, x - e, p, u)
+            np.testing.assert_allclose(c[:, j], fd / (2 * h), rtol=1e-6, atol=1e-6)
 
 
 def test_generated_constraint_functions_with_an_input(tmp_path) -> None:
