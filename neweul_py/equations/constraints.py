@@ -20,8 +20,8 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from ..kinematics import Kinematics, absolute_kinematics
-from ..kinematics.algebra import add, mat_vec
+from ..kinematics.algebra import ZERO3, Mat3, Vec3, add, mat_mul, mat_t_vec, mat_vec
+from ..kinematics.rotations import IDENTITY, rotation_product
 from ..model import (
     AXES,
     INERTIAL,
@@ -90,19 +90,41 @@ def _dt(expr: sp.Expr, rates: Mapping[sp.Symbol, sp.Symbol | None], path: str) -
     return out
 
 
-def _position(kin: Kinematics, frame: str, point: tuple, in_frame: str) -> tuple:
-    """``r_O + S p`` of a point in ISYS components (no detour through the frame's own
-    components), then resolved in ``in_frame``."""
-    S = kin.rotation_matrix(frame)
-    r = add(kin.origin(frame), mat_vec(S, point))
-    return r if in_frame == INERTIAL else kin.express(r, INERTIAL, in_frame)
+class _Poses:
+    """Absolute rotation ``S`` (frame → ISYS) and origin ``r_O`` (ISYS components) of frames,
+    composed from the relative ones along the frame chain (closed form, only the frames
+    needed; no velocities or Jacobians)."""
+
+    def __init__(self, system: System) -> None:
+        self.system = system
+        self._cache: dict[str, tuple[Mat3, Vec3]] = {INERTIAL: (IDENTITY, ZERO3)}
+
+    def pose(self, name: str) -> tuple[Mat3, Vec3]:
+        if name not in self._cache:
+            frame = self.system.frame_map[name]
+            s_parent, r_parent = self.pose(frame.parent)
+            a = rotation_product(tuple((axis, sp.sympify(angle))
+                                       for axis, angle in frame.rotation))
+            self._cache[name] = (
+                mat_mul(s_parent, a),
+                add(r_parent, mat_vec(s_parent, tuple(frame.translation))),
+            )
+        return self._cache[name]
+
+    def position(self, frame: str, point: tuple, in_frame: str) -> Vec3:
+        """``r_O + S p`` of a point in ISYS components, then resolved in ``in_frame``."""
+        s_f, r_f = self.pose(frame)
+        r = add(r_f, mat_vec(s_f, point))
+        if in_frame == INERTIAL:
+            return r
+        return mat_t_vec(self.pose(in_frame)[0], r)
 
 
 def derive_constraints(system: System) -> ConstraintEquations:
     """``g``, ``G``, ``∂g/∂t`` and ``γ`` of the system's constraints (equations.md §1).
 
     Coincidence constraints ``(r_B − r_A)·e_c`` use the absolute positions of the two points
-    resolved in the constraint's frame.
+    (``r_O + S p``, composed along the frame chains) resolved in the constraint's frame.
 
     Examples
     --------
@@ -116,16 +138,16 @@ def derive_constraints(system: System) -> ConstraintEquations:
     if not names:
         z = sp.ImmutableMatrix.zeros(0, 1)
         return ConstraintEquations((), z, sp.ImmutableMatrix.zeros(0, n), z, z)
-    kin = None
+    poses: _Poses | None = None
     rows: list[sp.Expr] = []
     for con in system.constraints:
         if isinstance(con, ExpressionConstraint):
             rows.append(con.expr)
         elif isinstance(con, CoincidenceConstraint):
-            if kin is None:
-                kin = absolute_kinematics(system, "closed")
-            ra = _position(kin, con.frame_a, tuple(con.point_a), con.in_frame)
-            rb = _position(kin, con.frame_b, tuple(con.point_b), con.in_frame)
+            if poses is None:
+                poses = _Poses(system)
+            ra = poses.position(con.frame_a, tuple(con.point_a), con.in_frame)
+            rb = poses.position(con.frame_b, tuple(con.point_b), con.in_frame)
             for c in con.components:
                 i = AXES.index(c)
                 rows.append(rb[i] - ra[i])
