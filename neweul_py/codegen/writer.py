@@ -105,8 +105,8 @@ def _derivative_block(
 
 def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
     gs = set(group)
-    return any(e.free_symbols & gs for _, e in block.assignments) or any(
-        e.free_symbols & gs for e in block.finals
+    return any(free_symbols(e) & gs for _, e in block.assignments) or any(
+        free_symbols(e) & gs for e in block.finals
     )
 
 
