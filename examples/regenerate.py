@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Regenerate the shipped examples' modules in ``generated/`` (and the chain descriptions).
+"""Regenerate the shipped examples' modules in ``generated/`` (and the chain and middle-ear
+chain descriptions).
 
 Run from anywhere after changing the examples, the equations or the code generator::
 
@@ -22,6 +23,7 @@ GENERATED = ROOT / "generated"
 sys.path.insert(0, str(EXAMPLES))
 
 from make_chain import chain_description  # noqa: E402
+from make_middle_ear_chain import description as middle_ear_chain_description  # noqa: E402
 
 #: Description files whose modules are shipped in generated/.
 DESCRIPTIONS: tuple[str, ...] = (
@@ -31,6 +33,11 @@ DESCRIPTIONS: tuple[str, ...] = (
     "heavy_top.yaml",
     "chain3_spatial.yaml",
     "chain10_planar.yaml",
+    # issue 4: force elements, kinematic loops, kinematic excitation
+    "slider_crank.yaml",
+    "four_bar.yaml",
+    "quarter_car.yaml",
+    "middle_ear_chain.yaml",
 )
 #: Chain descriptions written by make_chain.py: file → (N, spatial).
 CHAINS: dict[str, tuple[int, bool]] = {
@@ -45,6 +52,9 @@ def stale(out_dir: Path | None = None) -> list[str]:
 
     bad = [name for name, (n, spatial) in CHAINS.items()
            if (EXAMPLES / name).read_text(encoding="utf-8") != chain_description(n, spatial)]
+    if (EXAMPLES / "middle_ear_chain.yaml").read_text(encoding="utf-8") != \
+            middle_ear_chain_description():
+        bad.append("middle_ear_chain.yaml")
     with tempfile.TemporaryDirectory() as tmp:
         for name in DESCRIPTIONS:
             fresh = generate(EXAMPLES / name, out_dir or tmp)
@@ -61,6 +71,7 @@ def regenerate() -> list[Path]:
 
     for name, (n, spatial) in CHAINS.items():
         write_atomic(EXAMPLES / name, chain_description(n, spatial))
+    write_atomic(EXAMPLES / "middle_ear_chain.yaml", middle_ear_chain_description())
     return [generate(EXAMPLES / name, GENERATED) for name in DESCRIPTIONS]
 
 

@@ -212,3 +212,15 @@ def test_middle_ear_chain_modes_and_stapes_velocity(generated) -> None:
     assert 0.1 <= mag[k] <= 0.3
     phase = np.angle(fr.H.reshape(-1), deg=True)
     assert phase[0] > 45.0 and phase[np.searchsorted(fr.frequency_hz, 2000.0)] < -45.0
+
+
+def test_middle_ear_chain_description_is_what_its_script_writes() -> None:
+    """examples/middle_ear_chain.yaml is written by make_middle_ear_chain.py (refresh with
+    ``python examples/regenerate.py``)."""
+    sys.path.insert(0, str(EXAMPLES))
+    try:
+        script = _load(EXAMPLES / "make_middle_ear_chain.py", "_make_me_chain_text")
+    finally:
+        sys.path.remove(str(EXAMPLES))
+    assert (EXAMPLES / "middle_ear_chain.yaml").read_text(encoding="utf-8") == \
+        script.description()
