@@ -10,6 +10,8 @@ ds_k/dv = ∂f_k/∂v + Σ_m ∂f_k/∂s_m · ds_m/dv
 ```
 emitted in order (only the nonzero ones), never by substituting the intermediates back. The
 result's ``intermediates`` are to be evaluated *after* ``equations.intermediates``.
+Distributional derivatives (``DiracDelta`` from ``sign``, ``Heaviside``, ``Abs′``) are
+replaced by zero: the Jacobians are the derivatives almost everywhere.
 """
 
 from __future__ import annotations
@@ -82,6 +84,8 @@ def _gradient(expr: sp.Expr, wanted: frozenset[sp.Symbol]) -> dict[sp.Symbol, li
     present = sorted(expr.free_symbols & wanted, key=sp.default_sort_key)
     for s in present:
         d = expr.diff(s)
+        if d.has(sp.DiracDelta):  # from sign, Heaviside, Abs′: derivative almost everywhere
+            d = d.replace(sp.DiracDelta, lambda *args: sp.S.Zero)
         if not is_zero(d):
             out[s] = [d]
     return out
