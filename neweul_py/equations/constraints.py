@@ -207,6 +207,8 @@ def check_constraints(
         return  # not evaluable at the initial state (e.g. outside a square root's domain)
     scale = max(float(np.abs(G).max()), 1e-300)
     report: list[str] = []
+    first: list[str] = []
+    item = {nm: c.name for c in system.constraints for nm in c.names}
     independent: list[int] = []
     for i in range(ce.nc):
         trial = [*independent, i]
@@ -217,6 +219,7 @@ def check_constraints(
         if not independent or not np.any(np.abs(G[i]) > rtol * scale):
             kind = "redundant" if abs(g[i]) <= 1e-9 * max(1.0, np.abs(g).max()) else "inconsistent"
             report.append(f"{ce.names[i]} ({kind}: zero Jacobian row)")
+            first.append(item[ce.names[i]])
             continue
         coef, *_ = np.linalg.lstsq(G[independent].T, G[i], rcond=None)
         partners = [ce.names[k] for k, c in zip(independent, coef, strict=True)
@@ -225,10 +228,11 @@ def check_constraints(
         kind = "redundant" if mismatch <= 1e-9 * max(1.0, np.abs(g).max()) else "inconsistent"
         report.append(f"{ce.names[i]} ({kind}: its Jacobian row is a combination of "
                       f"{', '.join(partners)})")
+        first.append(item[ce.names[i]])
     if report:
         raise ModelError(
             "the constraints are not independent at the initial state: " + "; ".join(report)
             + ". Remove the redundant constraints (list only independent ones) or fix the "
             "geometry",
-            "constraints",
+            f"constraints.{first[0]}",
         )
