@@ -277,3 +277,50 @@ def test_kinematic_excitation_is_the_same_in_closed_and_recursive_form() -> None
             ref = [-tire + susp - pv["mw"] * pv["g"], -susp - pv["mb"] * pv["g"]]
             np.testing.assert_allclose(f([zw, zb], [vw, vb], P, [zr, dzr, ddzr]), ref,
                                        rtol=1e-12)
+
+
+def test_enabled_and_report_for_forces_torques_and_generalized_forces() -> None:
+    """The issue-2 elements get the same switch and reports: a point force's vector (its `in`
+    frame), a torque's vector, a generalized force's value, all times `enabled`."""
+    system = load_description_text("""
+name: switches
+parameters: {F: 2, L: 3, Q: 5, sw: 1}
+coordinates: {x: 0, phi: 0}
+frames:
+  b: {translation: [x, 0, 0], rotation: [[z, phi]]}
+forces:
+  push: {type: force, frame: b, point: [1, 0, 0], vector: [F, 0, 0], in: ISYS, enabled: sw,
+         report: true}
+  turn: {type: torque, frame: b, vector: [0, 0, L], in: b, enabled: sw, report: true}
+  gen: {type: generalized, coordinate: x, value: Q, enabled: 2*sw, report: true}
+""")
+    f, out = numeric(system)
+    assert [o.name for o in system.outputs] == ["push_fx", "push_fy", "push_fz", "turn_mx",
+                                                "turn_my", "turn_mz", "gen_force"]
+    y, yd = [0.2, 0.4], [0.0, 0.0]
+    # push at (1, 0, 0) of b: Q_x = F, Q_phi = (R e_x × F e_x)_z = −F sin(phi)
+    np.testing.assert_allclose(f(y, yd, [2, 3, 5, 1]), [2 + 10, -2 * np.sin(0.4) + 3])
+    np.testing.assert_allclose(out(y, yd, [2, 3, 5, 1]), [2, 0, 0, 0, 0, 3, 10])
+    assert np.all(f(y, yd, [2, 3, 5, 0]) == 0) and np.all(out(y, yd, [2, 3, 5, 0]) == 0)
+
+
+def test_rotation_driven_by_an_input_uses_its_rates() -> None:
+    """A base turned by the input angle u about z, an arm with inertia J on it (angle phi
+    relative): M = J, q − k = −J ü − k phi (ω = u̇ + φ̇, α = ü + φ̈)."""
+    system = load_description_text("""
+name: driven_rotation
+parameters: {J: 0.3, k: 4}
+coordinates: {phi: 0}
+inputs: {u: 0}
+frames:
+  base: {rotation: [[z, u]]}
+  arm: {parent: base, rotation: [[z, phi]]}
+bodies:
+  disc: {frame: arm, mass: 1, inertia: {diag: [0.2, 0.2, J]}}
+forces:
+  spring: {type: rotational_spring_damper, coordinate: phi, stiffness: k}
+""")
+    assert system.input_names == ("u", "d_u", "dd_u")
+    f, _ = numeric(system)
+    np.testing.assert_allclose(f([0.2], [0.5], [0.3, 4], [0.1, 0.7, 1.3]),
+                               [-0.3 * 1.3 - 4 * 0.2], rtol=1e-13)
