@@ -22,6 +22,7 @@ from ..errors import ModelError
 from ..kinematics import Kinematics, absolute_kinematics
 from ..kinematics.algebra import (
     ZERO,
+    ZERO3,
     Vec3,
     add,
     cross,
@@ -132,10 +133,17 @@ def _derive(system: System, form: str) -> Equations:
     force_terms: list[list[sp.Expr]] = [[] for _ in range(n)]
 
     recursive = form == "recursive"
-    for body in system.bodies:
-        _body(kin, body, None if recursive else mass_terms, force_terms)
     if recursive:
+        # spatial inertia forces at the frame origins, applied through Jᵀ by one backward pass
+        seeds: dict[str, list[tuple[Vec3, Vec3]]] = {}
+        for body in system.bodies:
+            _body(kin, body, None, force_terms, seeds)
+        for j, terms in enumerate(_transpose_jacobian(kin, seeds, "Q", n)):
+            force_terms[j].extend(terms)
         _mass_matrix_backward(kin, system.bodies, mass_terms)
+    else:
+        for body in system.bodies:
+            _body(kin, body, mass_terms, force_terms)
     index = {c.name: j for j, c in enumerate(system.coordinates)}
 
     def base(kin: Kinematics, fe: object, terms: list[list[sp.Expr]], path: str) -> None:
@@ -201,10 +209,13 @@ def _body(
     body: RigidBody,
     mass_terms: list[list[list[sp.Expr]]] | None,
     force_terms: list[list[sp.Expr]],
+    seeds: dict[str, list[tuple[Vec3, Vec3]]] | None = None,
 ) -> None:
     """Add one body's ``J_Tᵀ m J_T + J_Rᵀ I J_R`` to M (unless ``mass_terms`` is None) and
     ``−J_Tᵀ m (ā − g) − J_Rᵀ (I ᾱ + ω̃ I ω)`` to ``q − k`` (equations.md §1), in the body
-    frame's components."""
+    frame's components. With ``seeds`` the latter is not formed with the Jacobians but
+    recorded as the spatial force ``(f, n) = (−m (ā − g), −(I ᾱ + ω̃ I ω) + c × f)`` at the
+    frame origin, for :func:`_transpose_jacobian`."""
     if body.frame == INERTIAL:
         return  # a body fixed to ISYS neither moves nor contributes
     ws = kin.workspace
@@ -231,6 +242,12 @@ def _body(
         torque = ws.let_vec(
             add(mat_vec(inertia, fk.alphabar), cross(w, mat_vec(inertia, w))), f"L_{name}"
         )
+    if seeds is not None:
+        f = scale(-1, force) if force is not None else ZERO3
+        moment = add(scale(-1, torque) if torque is not None else ZERO3, cross(c, f))
+        if not (vec_is_zero(f) and vec_is_zero(moment)):
+            seeds.setdefault(body.frame, []).append((f, moment))
+        return
     cols_t = [j for j in range(kin.n) if has_mass and not vec_is_zero(jt[j])]
     cols_r = [j for j in range(kin.n) if has_inertia and not vec_is_zero(jr[j])]
     if mass_terms is not None:
@@ -262,9 +279,7 @@ def _mass_matrix_backward(
     :class:`~neweul_py.kinematics.FrameKinematics`) at O(N²) instead of O(N³) operations for
     an N-link chain. Only ``i ≤ j`` is formed; M is mirrored.
     """
-    ws = kin.workspace
     n = kin.n
-    order = [f.name for f in kin.system.frames_topological]
     seeds = []
     for body in bodies:
         if body.frame == INERTIAL:
@@ -280,24 +295,41 @@ def _mass_matrix_backward(
             if vec_is_zero(f) and vec_is_zero(nc):
                 continue
             acc.setdefault(body.frame, []).append((f, add(nc, cross(c, f))))
-        for name in reversed(order):
-            parts = acc.pop(name, None)
-            if not parts:
-                continue
-            fk = kin.frames[name]
-            f = ws.let_vec(add(*(p[0] for p in parts)), f"Mf_{name}_{j}")
-            moment = ws.let_vec(add(*(p[1] for p in parts)), f"Mn_{name}_{j}")
-            f_parent = ws.let_vec(mat_vec(fk.relative_rotation, f), f"Mfp_{name}_{j}")
-            for i in range(j + 1):
-                term = total((dot(fk.local_JT[i], f_parent), dot(fk.local_JR[i], moment)))
-                if not is_zero(term):
-                    mass_terms[i][j].append(term)
-            if fk.parent != INERTIAL:
-                n_parent = add(
-                    mat_vec(fk.relative_rotation, moment),
-                    cross(fk.relative_translation, f_parent),
-                )
-                acc.setdefault(fk.parent, []).append((f_parent, n_parent))
+        for i, terms in enumerate(_transpose_jacobian(kin, acc, f"M{j}", j + 1)):
+            mass_terms[i][j].extend(terms)
+
+
+def _transpose_jacobian(
+    kin: Kinematics, acc: dict[str, list[tuple[Vec3, Vec3]]], tag: str, rows: int
+) -> list[list[sp.Expr]]:
+    """``Σ_K J_Kᵀ (f_K, n_K)`` for spatial forces at frame origins (frame components), by
+    the backward recursion ``J_Kᵀ (f, n) = J_Pᵀ (A f, A n + r × A f) + (∂r/∂y)ᵀ A f +
+    J_R,relᵀ n`` (see :class:`~neweul_py.kinematics.FrameKinematics`), children → parents.
+
+    Returns the terms of the first ``rows`` generalized forces. ``acc`` is consumed.
+    """
+    ws = kin.workspace
+    out: list[list[sp.Expr]] = [[] for _ in range(rows)]
+    for frame in reversed(kin.system.frames_topological):
+        name = frame.name
+        parts = acc.pop(name, None)
+        if not parts:
+            continue
+        fk = kin.frames[name]
+        f = ws.let_vec(add(*(p[0] for p in parts)), f"{tag}f_{name}")
+        moment = ws.let_vec(add(*(p[1] for p in parts)), f"{tag}n_{name}")
+        f_parent = ws.let_vec(mat_vec(fk.relative_rotation, f), f"{tag}fp_{name}")
+        for i in range(rows):
+            term = total((dot(fk.local_JT[i], f_parent), dot(fk.local_JR[i], moment)))
+            if not is_zero(term):
+                out[i].append(term)
+        if fk.parent != INERTIAL:
+            n_parent = add(
+                mat_vec(fk.relative_rotation, moment),
+                cross(fk.relative_translation, f_parent),
+            )
+            acc.setdefault(fk.parent, []).append((f_parent, n_parent))
+    return out
 
 
 def _point_force(
