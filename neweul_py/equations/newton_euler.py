@@ -8,6 +8,14 @@ Everything is resolved in body-fixed components (the body's frame), where the in
 tensor is constant; ``ā_i``, ``ᾱ_i``, ``ω_i``, ``J`` come from
 :mod:`neweul_py.kinematics` (computed recursively parent → child). No global simplification is
 applied; expressions stay small by construction.
+
+The two forms evaluate the same sums differently (and so check each other in the tests):
+
+- *closed*: the sums over bodies of Jacobian products above, fully substituted;
+- *recursive*: all quantities are intermediates, and the products ``Jᵀ(·)`` are evaluated by a
+  backward recursion over the frame tree (:func:`_transpose_jacobian`): the inertia forces
+  ``−m(ā − g)``, ``−(I ᾱ + ω̃ I ω)`` once (O(N) for a chain), and each column ``M[:, j]`` as
+  ``Σ Jᵀ Θ J[:, j]`` (O(N) per column, O(N²) in all instead of O(N³)).
 """
 
 from __future__ import annotations
@@ -75,9 +83,10 @@ def newton_euler(system: System, form: Form = "auto") -> Equations:
         The model.
     form
         ``"closed"``: fully substituted expressions, no intermediates (small models, insight,
-        symbolic linearization). ``"recursive"``: absolute kinematics and per-body quantities
-        are emitted as ordered intermediate assignments, so that the derivation grows about
-        linearly in the number of bodies per Jacobian column. ``"auto"``: closed for at most
+        symbolic linearization). ``"recursive"``: absolute kinematics, Jacobian columns and
+        per-body quantities are emitted as ordered intermediate assignments of bounded size,
+        so that the derivation grows about linearly in the number of bodies per Jacobian
+        column (O(N²) operations for an N-link chain). ``"auto"``: closed for at most
         :data:`AUTO_CLOSED_MAX` coordinates, else recursive.
 
     Returns
@@ -88,7 +97,8 @@ def newton_euler(system: System, form: Form = "auto") -> Equations:
     Raises
     ------
     ModelError
-        For model features the derivation does not support (inputs in frame kinematics).
+        For model features the derivation does not support (e.g. time derivatives of inputs
+        in frame kinematics).
 
     Notes
     -----
