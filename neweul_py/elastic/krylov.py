@@ -27,8 +27,7 @@ import scipy.sparse as sps
 from ..errors import DataError
 from .eigen import ShiftInvert, default_shift
 from .fe_model import FEModel
-from .modal import add_static_correction
-from .projection import biorthonormalize, build_reduced_body, orthonormal_append
+from .projection import build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
 
 __all__ = ["reduce_krylov", "soar"]
@@ -138,8 +137,11 @@ def reduce_krylov(
 
     ``V`` spans the second-order Krylov subspaces of ``(K̃⁻¹D̃, K̃⁻¹M; K̃⁻¹B)`` at every
     expansion point, ``W`` those of the transposed problem started with ``K̃⁻ᵀCᵀ``
-    (two-sided) or ``W = V`` (one-sided); then ``Wᵀ M V = I`` is enforced and the model is
-    projected with :func:`~neweul_py.elastic.projection.project`.
+    (two-sided) or ``W = V`` (one-sided); both are orthonormal (Euclidean, as pyMOR's
+    ``projection='orth'``) and the model is projected with
+    :func:`~neweul_py.elastic.projection.project`, so ``M_r = Wᵀ M V`` is not the identity.
+    (Biorthonormalizing ``Wᵀ M V = I`` would change nothing in the transfer function and is
+    numerically fragile when the u and p blocks of ``M`` differ by many orders of magnitude.)
 
     Parameters
     ----------
@@ -154,7 +156,8 @@ def reduce_krylov(
     two_sided
         Petrov–Galerkin (``True``) or Galerkin (``False``).
     static_correction
-        Also append static (attachment) vectors at the default small shift.
+        Also append static (attachment) vectors ``(K − σM)⁻¹[B, Cᵀ]`` (right) and
+        ``(K − σM)⁻ᵀ[Cᵀ, B]`` (left) at the default small shift σ (exact in the limit σ → 0).
     keep_nodes, store_bases, progress
         As in :func:`~neweul_py.elastic.modal.reduce_modal`.
 
@@ -191,16 +194,18 @@ def reduce_krylov(
             left.append(soar(si, Dt, fe.M, C.T, order, transpose=True))
             k = min(right[-1].shape[1], left[-1].shape[1])
             right[-1], left[-1] = right[-1][:, :k], left[-1][:, :k]
+    if static_correction:  # attachment vectors = moments at s² = σ ≈ 0 (shifted if K singular)
+        si0 = ShiftInvert(fe.K, fe.M, default_shift(fe), fe.source)
+        rhs = np.hstack([B, C.T])
+        right.append(si0.solve(rhs))
+        left.append(si0.solve(np.hstack([C.T, B]), transpose=True))
     V = _real_basis(right)
     if two_sided:
         W = _real_basis(left)
         r = min(V.shape[1], W.shape[1])
-        V, W = biorthonormalize(V[:, :r], W[:, :r], fe.M)
+        V, W = V[:, :r], W[:, :r]
     else:
         W = V
-    if static_correction:
-        si0 = ShiftInvert(fe.K, fe.M, default_shift(fe), fe.source)
-        V, W = add_static_correction(fe, V, W, si0, two_sided)
     settings = {
         "points": [[p.real, p.imag] for p in points], "order": order,
         "two_sided": two_sided, "static_correction": static_correction,

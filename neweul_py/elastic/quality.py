@@ -19,11 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
 from ..errors import DataError
 from ._io import atomic_write
-from .eigen import ShiftInvert, default_shift, right_blocks
+from .eigen import ShiftInvert, SparseLU, default_shift, right_blocks
 from .fe_model import FEModel
 from .reduced_body import ReducedBody
 
@@ -96,14 +95,14 @@ def frf_full(
             data = data + 1j * w * vals[2]
         A = sps.csc_matrix((data, pattern.indices, pattern.indptr), shape=pattern.shape)
         try:
-            lu = spla.splu(A)
+            lu = SparseLU(A)
         except RuntimeError:
             raise DataError(f"K + jωD − ω²M is singular at {f[i]:g} Hz (an undamped "
                             "resonance?)", fe.source, "K") from None
         if B.shape[1] <= C.shape[0]:
-            H[i] = C @ lu.solve(B.astype(A.dtype))
+            H[i] = C @ lu.solve(B)
         else:
-            H[i] = lu.solve(C.T.astype(A.dtype), trans="T").T @ B
+            H[i] = lu.solve(C.T, transpose=True).T @ B
         if progress is not None and (i + 1) % step == 0:
             progress(f"full FRF: {i + 1}/{f.size} frequencies")
     return H

@@ -1,0 +1,135 @@
+"""Reduced-body file (issue 3 item 3): exact round trip, atomic writes, bad files rejected.
+
+Reference: the in-memory body; every array must come back bit for bit (``array_equal``,
+same dtype) and the metadata unchanged (docs/reduced-body-format.md).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from fe_builders import piston_duct
+
+from neweul_py.elastic import ReducedBody, reduce_krylov, reduce_modal
+from neweul_py.elastic._io import json_to_uint8
+from neweul_py.errors import DataError
+
+
+@pytest.fixture(scope="module")
+def body():
+    fe = piston_duct(60, damping=2.0)
+    inv = {"m": np.array(1.5), "Ct": np.arange(12.0).reshape(6, 2) / 7, "Oe1": np.ones((6, 6, 3)),
+           "node_ids": np.array([1, 61], dtype=np.int64)}
+    return reduce_modal(fe, modes=6, static_correction=True, store_bases=True).with_(
+        invariants=inv, parameters={"tension": 60.0, "thickness": 1e-4})
+
+
+def _assert_same(a: ReducedBody, b: ReducedBody) -> None:
+    for key in ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
+                "V_kept", "W_kept", "V", "W", "eigenvalues"):
+        x, y = getattr(a, key), getattr(b, key)
+        assert (x is None) == (y is None), key
+        if x is not None:
+            assert x.dtype == y.dtype and np.array_equal(x, y), key
+    for key in ("input_names", "output_names", "method", "settings", "source", "parameters",
+                "format_version"):
+        assert getattr(a, key) == getattr(b, key), key
+    assert (a.invariants is None) == (b.invariants is None)
+    if a.invariants is not None:
+        assert list(a.invariants) == list(b.invariants)
+        for k in a.invariants:
+            assert a.invariants[k].dtype == b.invariants[k].dtype
+            assert np.array_equal(a.invariants[k], b.invariants[k])
+
+
+def test_round_trip_is_exact(body, tmp_path):
+    path = tmp_path / "b.npz"
+    body.save(path)
+    _assert_same(body, ReducedBody.load(path))
+
+
+def test_round_trip_without_optional_fields(tmp_path):
+    b = reduce_krylov(piston_duct(40), points=[2j * np.pi * 200], order=2)
+    assert b.V is None and b.invariants is None and b.eigenvalues is None
+    b.save(tmp_path / "k.npz")
+    _assert_same(b, ReducedBody.load(tmp_path / "k.npz"))
+
+
+def test_file_has_no_pickles_and_json_metadata(body, tmp_path):
+    path = tmp_path / "b.npz"
+    body.save(path)
+    with np.load(path, allow_pickle=False) as z:
+        meta = json.loads(z["meta"].tobytes().decode())
+        assert all(z[k].dtype != object for k in z.files)
+    assert meta["format"] == "neweul-reduced-body" and meta["version"] == 1
+    assert meta["invariants"] == ["m", "Ct", "Oe1", "node_ids"]
+
+
+def test_interrupted_write_keeps_the_old_file(body, tmp_path, monkeypatch):
+    path = tmp_path / "b.npz"
+    body.save(path)
+    before = path.read_bytes()
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "savez", boom)
+    with pytest.raises(KeyboardInterrupt):
+        body.with_(method="other").save(path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["b.npz"]
+
+
+def _rewrite(path, **changes):
+    data = dict(np.load(path))
+    data.update(changes)
+    np.savez(path, **data)
+
+
+@pytest.mark.parametrize("change,item,text", [
+    (lambda d: {"meta": json_to_uint8({**d, "format": "x"})}, "meta", "format"),
+    (lambda d: {"meta": json_to_uint8({**d, "version": 9})}, "meta", "version"),
+    (lambda d: {"meta": np.frombuffer(b"{oops", np.uint8)}, "meta", "JSON"),
+    (lambda d: {"D": np.zeros((9, 9))}, "D", "must be"),
+    (lambda d: {"K": np.full((9, 9), np.nan)}, "K", "NaN"),
+])
+def test_bad_files_are_rejected(body, tmp_path, change, item, text):
+    path = tmp_path / "b.npz"
+    body.save(path)
+    with np.load(path) as z:
+        meta = json.loads(z["meta"].tobytes().decode())
+    changes = change(meta)
+    if item == "K":  # right shape, bad values
+        changes = {"K": np.full_like(body.K, np.nan)}
+    _rewrite(path, **changes)
+    with pytest.raises(DataError, match=text) as exc:
+        ReducedBody.load(path)
+    assert exc.value.file == str(path) and exc.value.item == item
+
+
+def test_missing_array_and_not_an_npz(body, tmp_path):
+    path = tmp_path / "b.npz"
+    body.save(path)
+    data = dict(np.load(path))
+    del data["C"]
+    np.savez(path, **data)
+    with pytest.raises(DataError, match="missing arrays") as exc:
+        ReducedBody.load(path)
+    assert exc.value.item == "C"
+    path.write_text("hello")
+    with pytest.raises(DataError, match="npz"):
+        ReducedBody.load(path)
+    with pytest.raises(DataError, match="not found"):
+        ReducedBody.load(tmp_path / "none.npz")
+
+
+def test_object_arrays_are_refused(body, tmp_path):
+    path = tmp_path / "b.npz"
+    body.save(path)
+    _rewrite(path, B=np.array([None, 1], dtype=object))
+    with pytest.raises(DataError, match="unreadable array"):
+        ReducedBody.load(path)
+    with pytest.raises(DataError, match="object arrays"):
+        body.with_(invariants={"x": np.array([None], dtype=object)})
