@@ -16,6 +16,7 @@ from .modal import reduce_modal
 from .projection import project
 from .quality import (
     compare_eigenvalues,
+    compare_frf,
     frf_full,
     frf_reduced,
     max_relative_error,
@@ -30,6 +31,7 @@ __all__ = [
     "FEModel",
     "ReducedBody",
     "compare_eigenvalues",
+    "compare_frf",
     "frf_full",
     "frf_reduced",
     "load_reduced_body",

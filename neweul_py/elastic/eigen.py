@@ -12,7 +12,6 @@ problem by subspace iteration.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +31,6 @@ __all__ = [
     "right_blocks",
 ]
 
-Progress = Callable[[str], None] | None
 #: Relative tolerance (of max |λ|) below which an imaginary part is numerical noise.
 REAL_RTOL = 1e-7
 #: Relative distance (of max |λ|) within which eigenvalues form one (degenerate) cluster.

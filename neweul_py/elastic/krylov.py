@@ -19,7 +19,7 @@ both kept (which also matches the moments at ``s0̄``).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import scipy.sparse as sps
@@ -27,12 +27,11 @@ import scipy.sparse as sps
 from ..errors import DataError
 from .eigen import ShiftInvert, default_shift
 from .fe_model import FEModel
-from .projection import build_reduced_body, orthonormal_append
+from .projection import Progress, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
 
 __all__ = ["reduce_krylov", "soar"]
 
-Progress = Callable[[str], None] | None
 
 
 def _factor(fe: FEModel, s0: complex) -> ShiftInvert:

@@ -9,19 +9,18 @@ vectors) adds ``K⁻¹ B`` on the right and ``K⁻ᵀ Cᵀ`` on the left.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..errors import DataError
 from .eigen import EigenBlock, ShiftInvert, default_shift, left_blocks, right_blocks
 from .fe_model import FEModel
-from .projection import biorthonormalize, build_reduced_body, orthonormal_append
+from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
 
 __all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
 
-Progress = Callable[[str], None] | None
 
 
 def _say(progress: Progress, msg: str) -> None:

@@ -20,6 +20,7 @@ from .reduced_body import ReducedBody
 
 __all__ = ["biorthonormalize", "build_reduced_body", "orthonormal_append", "project"]
 
+#: Optional callback receiving short progress messages of long steps (the CLI prints them).
 Progress = Callable[[str], None] | None
 
 

@@ -13,7 +13,7 @@ batched dense solve (``numpy.linalg.solve`` on an (nf, r, r) stack).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +24,7 @@ from ..errors import DataError
 from ._io import atomic_write
 from .eigen import ShiftInvert, SparseLU, default_shift, right_blocks
 from .fe_model import FEModel
+from .projection import Progress
 from .reduced_body import ReducedBody
 
 __all__ = [
@@ -39,7 +40,6 @@ __all__ = [
     "stability",
 ]
 
-Progress = Callable[[str], None] | None
 
 
 def _common_pattern(mats: Sequence[sps.spmatrix]) -> tuple[sps.csc_matrix, list[np.ndarray]]:
