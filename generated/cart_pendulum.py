@@ -128,19 +128,19 @@ def force_jacobians(t, y, yd, p, u=None):
     _d2 = ((0.0 if _c3 == 0 else _math.copysign(1, _c3)))
     _e2 = 1/_c4
     _c5 = _c3*_e2
-    _d3 = _e2 - _c3*_d2/(_c4*_c4)
+    _d3 = _e2 + (_c3*(-1/(_c4*_c4)))*_d2
     _c6 = _c0*g
-    _d4 = _d0*g
+    _d4 = g*_d0
     _c7 = _c1*mp
-    _d5 = _d1*mp
+    _d5 = mp*_d1
     _e3 = -_c7
     fy = _np.zeros((2, 2))
-    fy[0, 0] = _d3*(-k*(_c4 - l0) - 2*_c5*d*d_x) - _c5*_d2*k
-    fy[0, 1] = _d4*(_c7 + _e3) - _c2*_d5*d_phi*d_phi
-    fy[1, 1] = -_c2*_d5*g
+    fy[0, 0] = (_c5*(-k))*_d2 + (-k*(_c4 - l0) - _c5*d*d_x + _c5*(-d*d_x))*_d3
+    fy[0, 1] = (_c7 + _e3)*_d4 + (_c6 - (_c6 + _c2*d_phi*d_phi))*_d5
+    fy[1, 1] = (-_c2*g)*_d5
     fyd = _np.zeros((2, 2))
-    fyd[0, 0] = -d*_c5*_c5
-    fyd[0, 1] = 2*_c2*_e3*d_phi
+    fyd[0, 0] = _c5*(-_c5*d)
+    fyd[0, 1] = _e3*(_c2*(2*d_phi))
     fu = _np.zeros((2, 1))
     fu[0, 0] = 1
     return fy, fyd, fu
@@ -159,8 +159,8 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     _d1 = _e0
     _c2 = (1/2)*l
     dMa = _np.zeros((2, 2))
-    dMa[0, 1] = _d0*(-_a1*_c2*mp + 2*_a0*_c0*mp) + 2*_a0*_c1*_d1*mp
-    dMa[1, 1] = -_a0*_c2*_d0*mp
+    dMa[0, 1] = (_a0*(mp*(2*_c0)) - _c2*_a1*mp)*_d0 + (_a0*(mp*(2*_c1)))*_d1
+    dMa[1, 1] = (-_c2*_a0*mp)*_d0
     return dMa
 
 
@@ -200,8 +200,8 @@ def output_jacobians(t, x, p, u=None):
     _d0 = _e1
     _e2 = _o0*x_
     C = _np.zeros((2, 4))
-    C[0, 0] = _e1*_e1 + _o0*_o0
-    C[0, 1] = _d0*(-l + 2*_e2) - 2*_e0*_e1*x_
+    C[0, 0] = _o0*_o0 + _e1*_e1
+    C[0, 1] = (-l + _e2 + _e2)*_d0 + x_*((2*_e1)*(-_e0))
     C[1, 0] = -k
     C[1, 2] = -d
     D = _np.zeros((2, 1))

@@ -78,7 +78,7 @@ def force_jacobians(t, y, yd, p, u=None):
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
     m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
     fy = _np.empty((1, 1))
-    fy[0, 0] = -g*l*m*_math.cos(phi)
+    fy[0, 0] = (-g*l*m)*_math.cos(phi)
     fyd = _np.zeros((1, 1))
     fu = _np.empty((1, 0))
     return fy, fyd, fu
@@ -120,7 +120,7 @@ def output_jacobians(t, x, p, u=None):
     _e0 = -l
     C = _np.zeros((2, 2))
     C[0, 0] = _e0*_math.cos(phi)
-    C[1, 0] = -_e0*_math.sin(phi)
+    C[1, 0] = _e0*(-_math.sin(phi))
     D = _np.empty((2, 0))
     return C, D
 

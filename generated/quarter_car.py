@@ -52,7 +52,7 @@ def default_inputs(t, p):
     _c0 = 2*(_math.pi)*v/L
     _c1 = _c0*t
     _c2 = A*_math.sin(_c1)
-    u = _np.array((_c2, A*_c0*_math.cos(_c1), -4*_c2*(_math.pi)**2*v*v/(L*L)), dtype=_np.float64)
+    u = _np.array((_c2, _c0*A*_math.cos(_c1), -4*_c2*(_math.pi)**2*v*v/(L*L)), dtype=_np.float64)
     return u
 
 
@@ -127,50 +127,50 @@ def force_jacobians(t, y, yd, p, u=None):
     _c1 = _c0 + zb
     _c2 = abs(_c1)
     _e0 = ((0.0 if _c1 == 0 else _math.copysign(1, _c1)))
-    _d0 = -_e0
+    _d0 = _e0*-1
     _d1 = _e0
     _e1 = 1/_c2
     _c3 = _c1*_e1
-    _e2 = -_c1/(_c2*_c2)
-    _d2 = -_e1 + _d0*_e2
-    _d3 = _e1 + _d1*_e2
-    _e3 = -_c3*ks
+    _e2 = _c1*(-1/(_c2*_c2))
+    _d2 = _e1*-1 + _e2*_d0
+    _d3 = _e1 + _e2*_d1
+    _e3 = _c3*(-ks)
     _e4 = -cs
-    _e5 = -cs*(_c3*d_zb - _c3*d_zw) - ks*(_c2 - ls) + _c3*_e4*(d_zb - d_zw)
-    _d4 = _d0*_e3 + _d2*_e5
-    _d5 = _d1*_e3 + _d3*_e5
-    _d6 = -_e4*_c3*_c3
-    _d7 = _e4*_c3*_c3
+    _e5 = -cs*(_c3*d_zb - _c3*d_zw) - ks*(_c2 - ls) + _c3*(_e4*(d_zb - d_zw))
+    _d4 = _e3*_d0 + _e5*_d2
+    _d5 = _e3*_d1 + _e5*_d3
+    _d6 = _c3*(_e4*(-_c3))
+    _d7 = _c3*(_e4*_c3)
     _c5 = _c0 + zr
     _c6 = abs(_c5)
     _e6 = ((0.0 if _c5 == 0 else _math.copysign(1, _c5)))
-    _d8 = -_e6
+    _d8 = _e6*-1
     _d9 = _e6
     _c7 = 1/_c6
     _e7 = -1/(_c6*_c6)
-    _d10 = _d8*_e7
-    _d11 = _d9*_e7
+    _d10 = _e7*_d8
+    _d11 = _e7*_d9
     _c8 = -_c5
-    _d12 = 1
+    _d12 = --1
     _e8 = _c7*_c8
-    _e9 = -_e8*kt
+    _e9 = _e8*(-kt)
     _e10 = -ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)
     _e11 = -ct
-    _e12 = _c8*_e10 + _e11*_e8*(_c8*d_zw - _c8*d_zr)
-    _e13 = _c7*_e10 + _e11*_e8*(_c7*d_zw - _c7*d_zr)
+    _e12 = _c8*_e10 + _e8*(_e11*(_c8*d_zw - _c8*d_zr))
+    _e13 = _c7*_e10 + _e8*(_e11*(_c7*d_zw - _c7*d_zr))
     fy = _np.empty((2, 2))
-    fy[0, 0] = -_d4 + _d10*_e12 + _d12*_e13 + _d8*_e9
+    fy[0, 0] = -_d4 + _e9*_d8 + _e12*_d10 + _e13*_d12
     fy[0, 1] = -_d5
     fy[1, 0] = _d4
     fy[1, 1] = _d5
     fyd = _np.empty((2, 2))
-    fyd[0, 0] = -_d6 + _e11*_e8*_e8
+    fyd[0, 0] = -_d6 + _e8*(_e11*_e8)
     fyd[0, 1] = -_d7
     fyd[1, 0] = _d6
     fyd[1, 1] = _d7
     fu = _np.zeros((2, 3))
-    fu[0, 0] = -_e13 + _d11*_e12 + _d9*_e9
-    fu[0, 1] = -_c7*_c8*_e11*_e8
+    fu[0, 0] = _e9*_d9 + _e12*_d11 + _e13*-1
+    fu[0, 1] = _e8*(_e11*(-_c7*_c8))
     return fy, fyd, fu
 
 
@@ -227,40 +227,40 @@ def output_jacobians(t, x, p, u=None):
     _o1 = _o0 + zr
     _o2 = abs(_o1)
     _e0 = ((0.0 if _o1 == 0 else _math.copysign(1, _o1)))
-    _d0 = -_e0
+    _d0 = _e0*-1
     _d1 = _e0
     _o3 = 1/_o2
     _e1 = -1/(_o2*_o2)
-    _d2 = _d0*_e1
-    _d3 = _d1*_e1
+    _d2 = _e1*_d0
+    _d3 = _e1*_d1
     _o4 = -_o1
-    _d4 = 1
+    _d4 = --1
     _o5 = _o0 + zb
     _o6 = abs(_o5)
     _e2 = ((0.0 if _o5 == 0 else _math.copysign(1, _o5)))
-    _d5 = -_e2
+    _d5 = _e2*-1
     _d6 = _e2
     _e3 = 1/_o6
-    _o7 = _e3*_o5
-    _e4 = -_o5/(_o6*_o6)
-    _d7 = -_e3 + _d5*_e4
-    _d8 = _e3 + _d6*_e4
+    _o7 = _o5*_e3
+    _e4 = _o5*(-1/(_o6*_o6))
+    _d7 = _e3*-1 + _e4*_d5
+    _d8 = _e3 + _e4*_d6
     _e5 = ct*(_o4*d_zw - _o4*d_zr)
     _e6 = ct*(_o3*d_zw - _o3*d_zr)
     _e7 = cs*(d_zb - d_zw)
     C = _np.zeros((5, 4))
-    C[0, 0] = _d0*kt + _d2*_e5 + _d4*_e6
-    C[0, 2] = _o3*_o4*ct
-    C[1, 0] = _d5*ks + _d7*_e7
-    C[1, 1] = _d6*ks + _d8*_e7
-    C[1, 2] = -_o7*cs
-    C[1, 3] = _o7*cs
+    C[0, 0] = kt*_d0 + _e5*_d2 + _e6*_d4
+    C[0, 2] = ct*(_o3*_o4)
+    C[1, 0] = ks*_d5 + _e7*_d7
+    C[1, 1] = ks*_d6 + _e7*_d8
+    C[1, 2] = cs*(-_o7)
+    C[1, 3] = cs*_o7
     C[2, 1] = 1
     C[3, 3] = 1
     C[4, 0] = _d4
     D = _np.zeros((5, 3))
-    D[0, 0] = -_e6 + _d1*kt + _d3*_e5
-    D[0, 1] = -_o3*_o4*ct
+    D[0, 0] = kt*_d1 + _e5*_d3 + _e6*-1
+    D[0, 1] = ct*(-_o3*_o4)
     D[4, 0] = -1
     return C, D
 

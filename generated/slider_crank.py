@@ -130,12 +130,12 @@ def force_jacobians(t, y, yd, p, u=None):
     r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.cos(theta)
     _e1 = _math.sin(theta)
-    _d0 = -2*_e0*_e1*mr
-    _d1 = 2*_e0*_e1*mr
+    _d0 = mr*((2*_e0)*(-_e1))
+    _d1 = mr*((2*_e1)*_e0)
     _e2 = -g
     fy = _np.zeros((5, 5))
-    fy[0, 0] = (1/2)*g*mc*r*_math.sin(phi)
-    fy[2, 3] = _d0*_e2 + _d1*_e2
+    fy[0, 0] = (-(1/2)*g*mc*r)*(-_math.sin(phi))
+    fy[2, 3] = _e2*_d0 + _e2*_d1
     fy[4, 4] = -ks
     fyd = _np.zeros((5, 5))
     fyd[0, 0] = -cc
@@ -152,8 +152,8 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     _a0, _a1, _a2, _a3, _a4 = _np.asarray(a, dtype=_np.float64).tolist()
     _e0 = _math.cos(theta)
     _e1 = _math.sin(theta)
-    _d0 = -2*_e0*_e1*mr
-    _d1 = 2*_e0*_e1*mr
+    _d0 = mr*((2*_e0)*(-_e1))
+    _d1 = mr*((2*_e1)*_e0)
     _d2 = _d0 + _d1
     dMa = _np.zeros((5, 5))
     dMa[1, 3] = _a1*_d2

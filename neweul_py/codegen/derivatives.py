@@ -34,7 +34,7 @@ _ONE, _ZERO = sp.S.One, sp.S.Zero
 def _numbered(prefix: str) -> Iterator[sp.Symbol]:
     k = 0
     while True:
-        yield sp.Symbol(f"{prefix}{k}", real=True)
+        yield sp.Symbol(f"{prefix}{k}")
         k += 1
 
 
@@ -45,14 +45,15 @@ def _no_delta(d: sp.Expr) -> sp.Expr:
 
 
 def _mul(a: sp.Expr, b: sp.Expr) -> sp.Expr:
-    """``a*b`` without sympy's (costly) flattening; trivial factors dropped."""
+    """``a*b`` without sympy's (costly) flattening and sympification (``_from_args`` builds
+    the node directly: the result is correct but unevaluated); trivial factors dropped."""
     if a is _ONE:
         return b
     if b is _ONE:
         return a
     if a is _ZERO or b is _ZERO:
         return _ZERO
-    return sp.Mul(a, b, evaluate=False)
+    return sp.Mul._from_args((a, b))
 
 
 def _add(terms: list[sp.Expr]) -> sp.Expr:
@@ -60,7 +61,7 @@ def _add(terms: list[sp.Expr]) -> sp.Expr:
     terms = [t for t in terms if t is not _ZERO]
     if not terms:
         return _ZERO
-    return terms[0] if len(terms) == 1 else sp.Add(*terms, evaluate=False)
+    return terms[0] if len(terms) == 1 else sp.Add._from_args(terms)
 
 
 def gradient(expr: sp.Expr, wanted: set[sp.Symbol] | frozenset[sp.Symbol]) -> dict[sp.Symbol,
@@ -97,7 +98,8 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
             g = _gradient_terms(arg, wanted)
             if not g:
                 continue
-            rest = sp.Mul(*(args[:i] + args[i + 1:]))
+            others = args[:i] + args[i + 1:]
+            rest = others[0] if len(others) == 1 else sp.Mul._from_args(others)
             for s, terms in g.items():
                 out.setdefault(s, []).append(_mul(rest, _add(terms)))
         return out
