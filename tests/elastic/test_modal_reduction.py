@@ -172,3 +172,12 @@ def test_bad_requests_are_clear_errors(kwargs, item, text):
     with pytest.raises(DataError, match=text) as exc:
         reduce_modal(fe, **kwargs)
     assert exc.value.item == item and exc.value.file == "pd.json"
+
+
+def test_shift_on_an_eigenvalue_is_a_clear_error():
+    """A shift equal (to round-off) to an eigenvalue makes K − σM numerically singular."""
+    fe = spring_chain(40).with_(source="chain.json")
+    lam = np.sort(sla.eigvalsh(fe.K.toarray(), fe.M.toarray()))[3]
+    with pytest.raises(DataError, match="singular") as exc:
+        reduce_modal(fe, modes=5, shift=lam)
+    assert exc.value.item == "K − σM" and exc.value.file == "chain.json"
