@@ -33,7 +33,6 @@ from .reduced_body import ReducedBody
 __all__ = ["reduce_krylov", "soar"]
 
 
-
 def _factor(fe: FEModel, s0: complex) -> ShiftInvert:
     if fe.D is None:  # K + s0² M = K − σM with σ = −s0²
         return ShiftInvert(fe.K, fe.M, -(s0**2), fe.source)

@@ -22,7 +22,6 @@ from .reduced_body import ReducedBody
 __all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
 
 
-
 def _say(progress: Progress, msg: str) -> None:
     if progress is not None:
         progress(msg)

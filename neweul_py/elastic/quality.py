@@ -41,7 +41,6 @@ __all__ = [
 ]
 
 
-
 def _common_pattern(mats: Sequence[sps.spmatrix]) -> tuple[sps.csc_matrix, list[np.ndarray]]:
     """A CSC pattern (sorted) holding all ``mats``, and each matrix's values on it."""
     n = mats[0].shape[0]
