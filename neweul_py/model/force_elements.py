@@ -31,6 +31,7 @@ __all__ = [
     "Bushing",
     "ForceOutput",
     "RotationalSpringDamper",
+    "TableCurve",
     "characteristic_force",
     "table_characteristic",
 ]
@@ -55,6 +56,75 @@ def _zero33() -> sp.ImmutableMatrix:
 
 
 # ----------------------------------------------------------------------------- tables
+class TableCurve(sp.Expr):
+    """A piecewise-polynomial characteristic curve ``F(v)`` of a table, as one sympy node.
+
+    ``TableCurve(v, knots, shifts, coefficients)``: piece ``i`` is
+    ``Σ_k coefficients[i][k] (v − shifts[i])^k``; piece ``i < m`` holds for ``v < knots[i]``
+    (and not for the earlier ones), the last piece above the last knot. The node has the single
+    argument ``v`` as far as differentiation and common-subexpression elimination see it, so
+    derivatives (``F′(v) v′``, again a ``TableCurve``) and generated code grow linearly with
+    the table. Generated code evaluates it as a chain of comparisons (``_pythoncode``).
+    """
+
+    is_commutative = True
+    is_real = True
+
+    def __new__(cls, v: object, knots: object, shifts: object, coefficients: object) -> TableCurve:
+        return sp.Expr.__new__(cls, sp.sympify(v), sp.Tuple(*knots), sp.Tuple(*shifts),
+                               sp.Tuple(*(sp.Tuple(*c) for c in coefficients)))
+
+    @property
+    def variable(self) -> sp.Expr:
+        return self.args[0]
+
+    def pieces(self) -> list[tuple[float, list[float]]]:
+        """``(shift, coefficients)`` of every piece, in order."""
+        return [(float(x0), [float(c) for c in cs]) for x0, cs in zip(self.args[2], self.args[3],
+                                                                     strict=True)]
+
+    def derivative(self) -> TableCurve:
+        """``F′`` as a table curve of the same variable."""
+        _, knots, shifts, coeffs = self.args
+        d = [[k * c for k, c in enumerate(cs) if k > 0] or [sp.Float(0)] for cs in coeffs]
+        return TableCurve(self.variable, knots, shifts, d)
+
+    def _eval_derivative(self, x: sp.Symbol) -> sp.Expr:
+        dv = self.variable.diff(x)
+        return sp.S.Zero if dv == 0 else self.derivative() * dv
+
+    def evaluate(self, value: float) -> float:
+        """``F(value)`` numerically (tests, checks)."""
+        knots = [float(k) for k in self.args[1]]
+        i = next((j for j, k in enumerate(knots) if value < k), len(knots))
+        shift, cs = self.pieces()[i]
+        w = value - shift
+        return sum(c * w**k for k, c in enumerate(cs))
+
+    def _pythoncode(self, printer: object) -> str:
+        """``(P0 if (_ncg_tab := v) < k1 else P1 if _ncg_tab < k2 else … else Pm)``."""
+        v = printer._print(self.variable)  # type: ignore[attr-defined]
+        name = "_ncg_tab"
+
+        def poly(shift: float, cs: list[float]) -> str:
+            w = f"({name} - {shift!r})" if shift != 0 else name
+            out = repr(cs[-1])
+            for c in cs[-2::-1]:
+                out = f"{c!r} + {w}*({out})"
+            return f"({out})"
+
+        pieces = [poly(x0, cs) for x0, cs in self.pieces()]
+        knots = [float(k) for k in self.args[1]]
+        if not knots:
+            return f"(({name} := {v}), {pieces[0]})[1]"
+        chain = f"{pieces[0]} if ({name} := {v}) < {knots[0]!r}"
+        for piece, knot in zip(pieces[1:], knots[1:], strict=False):
+            chain += f" else {piece} if {name} < {knot!r}"
+        return f"({chain} else {pieces[-1]})"
+
+    _numpycode = _pythoncode
+
+
 def _natural_spline_slopes(x: np.ndarray, f: np.ndarray) -> np.ndarray:
     """First derivatives at the knots of the natural cubic spline through ``(x, f)``
     (zero curvature at both ends); tridiagonal system in the slopes."""
@@ -93,17 +163,18 @@ def table_characteristic(
 
     Returns
     -------
-    sympy.Piecewise
-        Outside the table the curve is continued linearly with the end slopes (of the end
-        segments, or of the spline, which joins C² there), so a spring does not go slack
-        beyond its last point. Generated code evaluates it as a chain of comparisons; its
-        derivative (for the force Jacobians) is the piecewise derivative.
+    TableCurve
+        One node whose pieces are polynomials in ``v − v_i`` (:class:`TableCurve`). Outside the
+        table the curve is continued linearly with the end slopes (of the end segments, or of
+        the spline, which joins C² there), so a spring does not go slack beyond its last point.
+        Generated code evaluates it as a chain of comparisons; its derivative (for the force
+        Jacobians) is the piecewise derivative.
 
     Examples
     --------
-    >>> from neweul_py.model import ELONGATION as s
-    >>> table_characteristic([[0, 0], [1, 2], [2, 3]])
-    Piecewise((2.0*_elongation, _elongation < 1.0), (1.0*_elongation + 1.0, True))
+    >>> curve = table_characteristic([[0, 0], [1, 2], [2, 3]])
+    >>> curve.evaluate(0.5), curve.evaluate(3.0)
+    (1.0, 4.0)
     """
     if interpolation not in ("linear", "spline"):
         raise ModelError(
@@ -130,28 +201,28 @@ def table_characteristic(
             f"{x[bad[0]]:g})",
             f"{key_path}[{bad[0] + 1}]" if key_path else "",
         )
-    v = variable
-    F = sp.Float
-    pieces: list[tuple[sp.Expr, sp.Basic]] = []
     if interpolation == "linear":
         slope = np.diff(f) / np.diff(x)
-        for i in range(x.size - 1):
-            expr = F(f[i]) + F(slope[i]) * (v - F(x[i]))
-            cond = v < F(x[i + 1]) if i < x.size - 2 else sp.true
-            pieces.append((sp.expand(expr), cond))
-        return sp.Piecewise(*pieces)
-    d = _natural_spline_slopes(x, f)
-    h = np.diff(x)
-    delta = np.diff(f) / h
-    pieces.append((sp.expand(F(f[0]) + F(d[0]) * (v - F(x[0]))), v < F(x[0])))
-    for i in range(x.size - 1):
-        c2 = (3 * delta[i] - 2 * d[i] - d[i + 1]) / h[i]
-        c3 = (d[i] + d[i + 1] - 2 * delta[i]) / h[i] ** 2
-        w = v - F(x[i])
-        expr = F(f[i]) + w * (F(d[i]) + w * (F(c2) + w * F(c3)))
-        pieces.append((expr, v < F(x[i + 1])))
-    pieces.append((sp.expand(F(f[-1]) + F(d[-1]) * (v - F(x[-1]))), sp.true))
-    return sp.Piecewise(*pieces)
+        shifts = x[:-1]
+        coeffs = [(f[i], slope[i]) for i in range(x.size - 1)]
+        knots = x[1:-1]
+    else:
+        d = _natural_spline_slopes(x, f)
+        h = np.diff(x)
+        delta = np.diff(f) / h
+        c2 = (3 * delta - 2 * d[:-1] - d[1:]) / h
+        c3 = (d[:-1] + d[1:] - 2 * delta) / h**2
+        shifts = np.concatenate([[x[0]], x[:-1], [x[-1]]])
+        coeffs = [(f[0], d[0])] + [(f[i], d[i], c2[i], c3[i]) for i in range(x.size - 1)] \
+            + [(f[-1], d[-1])]
+        knots = x
+    F = sp.Float
+    return TableCurve(
+        variable,
+        [F(k) for k in knots],
+        [F(s) for s in shifts],
+        [[F(c) for c in cs] for cs in coeffs],
+    )
 
 
 def characteristic_force(
