@@ -123,3 +123,34 @@ def test_generated_module_imports_only_numpy_and_math(tmp_path) -> None:
                 for alias in node.names}
     imported |= {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
     assert imported <= {"numpy", "math"}
+
+
+def test_long_tables_generate_linearly_and_evaluate_like_numpy_interp(tmp_path) -> None:
+    """A 200-point linear characteristic: the generated force is numpy.interp of the table
+    (inside) and its Jacobian the segment slope; the module stays small (one comparison chain
+    per use, not one per derivative symbol)."""
+    xs = np.linspace(-0.2, 0.2, 200)
+    fs = 1e3 * xs + 4e5 * xs**3
+    rows = ", ".join(f"[{float(a)!r}, {float(b)!r}]" for a, b in zip(xs, fs, strict=True))
+    system = load_description_text(f"""
+name: long_table
+coordinates: {{x: 0.5}}
+frames:
+  b: {{translation: [x, 0, 0]}}
+bodies:
+  m: {{frame: b, mass: 1}}
+forces:
+  tab: {{type: spring_damper, between: [ISYS, b], length: 0.4,
+         stiffness: {{table: [{rows}], interpolation: linear}}}}
+""")
+    path = generate_module(newton_euler(system), "test", tmp_path / "long_table.py")
+    assert path.stat().st_size < 150_000
+    mod = load_generated(path)
+    p = mod.default_parameters()
+    for s in RNG.uniform(-0.19, 0.19, 50):
+        np.testing.assert_allclose(mod.force_vector(0.0, [0.4 + s], [0.0], p),
+                                   [-np.interp(s, xs, fs)], rtol=1e-12, atol=1e-9)
+        k = np.searchsorted(xs, s) - 1
+        slope = (fs[k + 1] - fs[k]) / (xs[k + 1] - xs[k])
+        np.testing.assert_allclose(mod.force_jacobians(0.0, [0.4 + s], [0.0], p)[0],
+                                   [[-slope]], rtol=1e-10)
