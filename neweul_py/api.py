@@ -35,7 +35,8 @@ Form = Literal["auto", "closed", "recursive"]
 #: Forms of the equations (DESIGN.md: closed form or recursive/semi-symbolic).
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
 
-_SYMBOLIC_LAYERS = ("model", "description", "kinematics", "equations", "codegen")
+#: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
+_GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic")
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:
@@ -113,11 +114,36 @@ def _generator_fingerprint() -> str:
     code that would generate it again is unchanged."""
     root = Path(__file__).parent
     h = hashlib.sha256(f"protocol {PROTOCOL_VERSION}\n".encode())
-    for layer in _SYMBOLIC_LAYERS:
+    for layer in _GENERATOR_PACKAGES:
         for f in sorted((root / layer).rglob("*.py")):
             h.update(f.relative_to(root).as_posix().encode())
             h.update(f.read_bytes())
     return h.hexdigest()
+
+
+def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
+    """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``, relative
+    to the description), so that a cached module is regenerated when its data change."""
+    import yaml
+
+    try:
+        tree = yaml.safe_load(raw)
+    except yaml.YAMLError:
+        return []  # the loader reports the error when the module is generated
+    bodies = tree.get("elastic_bodies") if isinstance(tree, dict) else None
+    if not isinstance(bodies, dict):
+        return []
+    base = Path(description_path).parent
+    out = []
+    for name in sorted(bodies, key=str):
+        spec = bodies[name]
+        data = spec.get("data") if isinstance(spec, dict) else None
+        if isinstance(data, str):
+            try:
+                out.append(f"{name}:{hashlib.sha256((base / data).read_bytes()).hexdigest()}")
+            except OSError:
+                out.append(f"{name}:unreadable")
+    return out
 
 
 def generated_module(
@@ -127,16 +153,17 @@ def generated_module(
 ) -> Path:
     """The generated module of a description, from the cache or freshly generated into it.
 
-    The cache key is the SHA-256 of the description's bytes, the form and the generator's own
-    source; a hit is reused without parsing the description again.
+    The cache key is the SHA-256 of the description's bytes, of the data files it refers to
+    (elastic bodies), the form and the generator's own source; a hit is reused without deriving
+    anything.
     """
     from .description import description_hash
 
     _check_form(form)
     raw = _read(description_path)
-    key = hashlib.sha256(
-        f"{description_hash(raw)}\n{form}\n{_generator_fingerprint()}".encode()
-    ).hexdigest()
+    material = [description_hash(raw), form, _generator_fingerprint(),
+                *_data_fingerprints(raw, description_path)]
+    key = hashlib.sha256("\n".join(material).encode()).hexdigest()
     directory = Path(cache) if cache is not None else cache_dir()
     stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
     path = directory / f"{stem}_{key[:24]}.py"

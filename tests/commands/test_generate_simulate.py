@@ -163,3 +163,16 @@ def _has_matplotlib() -> bool:
     except ImportError:
         return False
     return True
+
+
+def test_cache_key_follows_referenced_data_files(tmp_path):
+    """A module generated from a description with elastic-body data must be regenerated when
+    the data file changes, even if the description's text does not."""
+    src = tmp_path / "m.yaml"
+    src.write_text("name: m\nelastic_bodies:\n  beam: {frame: f, data: beam.npz}\n")
+    (tmp_path / "beam.npz").write_bytes(b"one")
+    first = api._data_fingerprints(src.read_bytes(), src)
+    (tmp_path / "beam.npz").write_bytes(b"two")
+    second = api._data_fingerprints(src.read_bytes(), src)
+    assert first != second and len(first) == 1
+    assert api._data_fingerprints(b"name: [", src) == []
