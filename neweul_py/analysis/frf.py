@@ -282,7 +282,9 @@ def frequency_response(
     Returns
     -------
     FrequencyResponse
-        ``H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D`` (equations.md §1) for every frequency.
+        ``H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D`` (equations.md §1) for every frequency;
+        for an input that moves frames (``INPUT_RATES``), ``B = B_u + jω B_du − ω² B_ddu``
+        and likewise ``D``.
 
     Examples
     --------
@@ -298,12 +300,29 @@ def frequency_response(
     if not in_names:
         raise NeweulError("frequency response: the model has no inputs")
     cols = lin.input_columns(in_names)
-    cy, cyd, cydd, d = lin.output_rows(out_names)
-    b = lin.B[:, cols]
-    d = d[:, cols]
+    cy, cyd, cydd, d_all = lin.output_rows(out_names)
     freq = np.asarray(f, dtype=float).reshape(-1)
     w = 2 * np.pi * freq
-    h = _METHODS[method](lin, w, cy, cyd, cydd, d, b)
+    solve = _METHODS[method]
+    h = solve(lin, w, cy, cyd, cydd, d_all[:, cols], lin.B[:, cols])
+    # Kinematic excitation: an input u with rate entries d_u, dd_u acts harmonically through
+    # B_u + jω B_du − ω² B_ddu (and likewise D); H is linear in B, so add (jω)^k H_k.
+    rates = dict(getattr(lin, "input_rates", ()) or ())
+    for order in (1, 2):
+        rate_cols = [
+            lin.input_columns([rates[nm][order - 1]])[0] if len(rates.get(nm, ())) >= order
+            else -1
+            for nm in in_names
+        ]
+        if all(c < 0 for c in rate_cols):
+            continue
+        b_k = np.zeros((lin.n, len(in_names)))
+        d_k = np.zeros((d_all.shape[0], len(in_names)))
+        for i, c in enumerate(rate_cols):
+            if c >= 0:
+                b_k[:, i] = lin.B[:, c]
+                d_k[:, i] = d_all[:, c]
+        h = h + (1j * w[:, None, None]) ** order * solve(lin, w, cy, cyd, cydd, d_k, b_k)
     return FrequencyResponse(
         frequency_hz=freq, H=h, outputs=tuple(out_names), inputs=tuple(in_names)
     )

@@ -67,6 +67,10 @@ class LinearModel:
         Constraint multipliers at the operating point (empty without constraints).
     constraints : tuple of str
         Constraint names.
+    input_rates : tuple of (str, tuple of str)
+        For inputs that move frames (kinematic excitation), the names of the entries of
+        ``inputs`` that hold their first and second time derivatives (``INPUT_RATES`` of the
+        module); a harmonic input then acts through ``B_u + jω B_du − ω² B_ddu``.
     """
 
     M0: np.ndarray
@@ -87,6 +91,7 @@ class LinearModel:
     t: float = 0.0
     lambda0: np.ndarray = field(default_factory=lambda: np.zeros(0))
     constraints: tuple[str, ...] = ()
+    input_rates: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
     @property
     def n(self) -> int:
@@ -227,6 +232,9 @@ class LinearModel:
             inputs=np.array(self.inputs, dtype=str),
             outputs=np.array(self.outputs, dtype=str),
             constraints=np.array(self.constraints, dtype=str),
+            input_rates=np.array(
+                [[name, *rates, "", ""][:3] for name, rates in self.input_rates], dtype=str
+            ).reshape(-1, 3),
         )
 
     @classmethod
@@ -238,6 +246,10 @@ class LinearModel:
             for k in ("M0", "P", "Q", "B", "C", "D", "basis", "y0", "yd0", "u0", "p", "lambda0"):
                 kw[k] = f[k]
             kw["t"] = float(f["t"])
+            if "input_rates" in f:
+                kw["input_rates"] = tuple(
+                    (str(row[0]), tuple(str(r) for r in row[1:] if r)) for row in f["input_rates"]
+                )
         return cls(**kw)
 
 
@@ -352,6 +364,10 @@ def linearize(
         t=float(t),
         lambda0=lam0,
         constraints=cnames,
+        input_rates=tuple(
+            (name, tuple(rates))
+            for name, rates in sorted((getattr(module, "INPUT_RATES", None) or {}).items())
+        ),
     )
 
 

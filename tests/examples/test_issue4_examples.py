@@ -175,6 +175,23 @@ def test_quarter_car_frequency_response_is_the_two_mass_transfer_function(genera
     a = cs * s + ks
     ref = a * (ct * s + kt) / ((mb * s**2 + a) * (mw * s**2 + (cs + ct) * s + ks + kt) - a**2)
     np.testing.assert_allclose(h, ref, rtol=1e-10)
+    # the toolbox folds the rates in itself (INPUT_RATES), for every solver and after a
+    # save/load round trip of the linear model
+    frf_mod = pytest.importorskip("neweul_py.analysis.frf")
+    for method in ("solve", "hessenberg", "eig"):
+        fr = frf_mod.frequency_response(lin, f, "zr", "zb", method=method)
+        np.testing.assert_allclose(fr.H[:, 0, 0], ref, rtol=1e-10 if method == "solve" else 1e-7)
+
+
+def test_linear_model_keeps_input_rates_through_save_and_load(generated, tmp_path) -> None:
+    """INPUT_RATES survive LinearModel.save/load, so a saved model still answers the road
+    input through the tire damper."""
+    lin_mod = pytest.importorskip("neweul_py.analysis.linearize")
+    mod = generated("quarter_car")
+    lin = lin_mod.linearize(mod, u0=[0.0, 0.0, 0.0])
+    assert dict(lin.input_rates) == {"zr": ("d_zr", "dd_zr")}
+    lin.save(tmp_path / "lin.npz")
+    assert lin_mod.LinearModel.load(tmp_path / "lin.npz").input_rates == lin.input_rates
 
 
 # ----------------------------------------------------------------------------- middle ear
