@@ -103,7 +103,10 @@ def simulate(
     """Integrate a generated model from ``t_start`` to ``t_end``.
 
     Solves ``ẋ = rhs(t, x, p, u(t))`` with ``x = [y, ẏ]`` by ``scipy.integrate.solve_ivp``;
-    for Radau, BDF and LSODA the analytic ``rhs_jacobian`` of the module is used.
+    for Radau, BDF and LSODA the analytic ``rhs_jacobian`` of the module is used. Modules with
+    ``CONSTRAINTS`` (closed loops) are handed to
+    :func:`neweul_py.analysis.dae.simulate_constrained` (constraint forces, drift control; the
+    initial state is made consistent first, the multipliers become ``lambda_<name>`` outputs).
 
     Parameters
     ----------
@@ -161,6 +164,15 @@ def simulate(
         raise NeweulError("rtol and atol must be positive")
     pv = _parameters(module, p)
     x_init = _initial_state(module, x0)
+    if list(getattr(module, "CONSTRAINTS", []) or []):
+        # closed loops: index-1 DAE with drift control (analysis/dae.py); max_step unused
+        from .dae import simulate_constrained
+
+        n = len(module.COORDINATES)
+        return simulate_constrained(
+            module, t_end, t_start=t_start, n_out=n_out, t_eval=t_eval, y0=x_init[:n],
+            yd0=x_init[n:2 * n], p=pv, u=u, method=method, rtol=rtol, atol=atol,
+        ).result
     uf = _input_function(module, pv, u)
     if t_eval is None:
         if int(n_out) < 2:

@@ -130,3 +130,18 @@ def test_singular_mass_matrix_is_a_solver_error(tmp_path):
     mod = _module("pendulum")
     with pytest.raises(SolverError, match="singular mass matrix"):
         simulate(mod, 1.0, p={"m": 0.0})
+
+
+def test_constrained_modules_go_through_the_dae_solver():
+    """A closed loop (slider-crank) is simulated with its constraint forces: the result equals
+    simulate_constrained's and the loop stays closed."""
+    from neweul_py.analysis.dae import simulate_constrained
+
+    mod = _module("slider_crank")
+    assert mod.CONSTRAINTS
+    res = simulate(mod, 0.5, n_out=11, method="DOP853", rtol=1e-10, atol=1e-12)
+    ref = simulate_constrained(mod, 0.5, n_out=11, method="DOP853", rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(res.y, ref.result.y, rtol=1e-12, atol=1e-14)
+    p = mod.default_parameters()
+    assert max(np.max(np.abs(mod.constraints(t, y, p))) for t, y in zip(res.t, res.y,
+                                                                         strict=True)) < 1e-8
