@@ -20,6 +20,7 @@ from .analysis.module import load_generated
 from .analysis.results import SimulationResult
 from .analysis.simulate import simulate
 from .codegen import PROTOCOL_VERSION, generate_module
+from .elastic.reader import read_elastic_data
 from .errors import DescriptionError, NeweulError
 
 __all__ = [
@@ -65,7 +66,8 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tup
 
     _check_form(form)
     raw = _read(description_path)
-    system = load_description_text(raw, os.fspath(description_path))
+    system = load_description_text(raw, os.fspath(description_path),
+                                   elastic_reader=read_elastic_data)
     return newton_euler(system, form=form), description_hash(raw)
 
 
@@ -177,7 +179,8 @@ def generated_module(
     from .description import load_description_text
     from .equations import newton_euler
 
-    system = load_description_text(raw, os.fspath(description_path))
+    system = load_description_text(raw, os.fspath(description_path),
+                                   elastic_reader=read_elastic_data)
     equations = newton_euler(system, form=form)
     try:
         return generate_module(equations, description_hash(raw), path)

@@ -232,7 +232,9 @@ def _input_rates(system: System) -> dict[str, list[str]]:
     }
 
 
-def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
+def render_module(
+    equations: Any, source_hash: str, *, cse: bool = True, _elastic: bool = True
+) -> str:
     """The complete source text of the generated module.
 
     Parameters
@@ -250,7 +252,16 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
     GenerationError
         When the equations cannot be turned into code (unknown symbols, a mass matrix that
         depends on velocities, unprintable functions …).
+
+    Notes
+    -----
+    Systems with elastic bodies are rendered by :func:`.elastic.render_elastic_module`
+    (equations.md §2), which calls this function for the rigid part (``_elastic=False``).
     """
+    if _elastic and getattr(equations.system, "elastic_bodies", ()):
+        from .elastic import render_elastic_module
+
+        return render_elastic_module(equations, source_hash, cse=cse)
     eq = equations
     system: System = eq.system
     y, yd, p, u = (tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.parameters),

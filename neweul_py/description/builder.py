@@ -49,6 +49,7 @@ from ..model import (
     CoincidenceConstraint,
     Constraint,
     Coordinate,
+    ElasticBody,
     ExpressionConstraint,
     ExpressionOutput,
     ForceElement,
@@ -93,6 +94,7 @@ _KIND_WORDS = {
     "time": "the time",
     "frame": "a frame",
     "body": "a body",
+    "elastic_body": "an elastic body",
     "force": "a force element",
     "output": "an output",
 }
@@ -358,6 +360,7 @@ class SystemBuilder:
         self._constraints: list[_Make] = []
         self._constraint_names: set[str] = set()
         self._gravity: _Make | None = None
+        self._elastic: list[ElasticBody] = []
 
     # -------------------------------------------------------------- helpers
     def _declare(self, group: str, kind: str, name: object) -> str:
@@ -484,6 +487,20 @@ class SystemBuilder:
             )
 
         self._frames.append(make)
+
+    def elastic_body(self, body: ElasticBody) -> None:
+        """Add an elastic body (equations.md §2): its coordinates ``NAME_q1 …`` (initially 0)
+        and its node frames ``NAME.label`` (:meth:`ElasticBody.node_frames`)."""
+        path = self._declare("elastic_bodies", "elastic_body", body.name)
+        for c in body.coordinate_names:
+            self.coordinate(c)
+        for frame in body.node_frames():
+            if frame.name in self._kinds:
+                raise ModelError(f"name {frame.name!r} is already used by "
+                                 f"{_KIND_WORDS[self._kinds[frame.name]]}", path)
+            self._kinds[frame.name] = "frame"
+            self._frames.append(lambda n, frame=frame: frame)
+        self._elastic.append(body)
 
     def body(
         self,
@@ -939,6 +956,7 @@ class SystemBuilder:
             gravity=gravity,
             description=self._description,
             constraints=constraints,
+            elastic_bodies=tuple(self._elastic),
         )
 
 

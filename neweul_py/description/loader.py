@@ -17,6 +17,7 @@ from typing import Any
 from ..errors import DescriptionError, ModelError
 from ..model import INERTIAL, System
 from .builder import SystemBuilder, constant_number
+from .elastic import base_directory, load_elastic_bodies
 from .yaml_tree import YamlTree, read_yaml
 
 __all__ = [
@@ -299,6 +300,7 @@ SECTIONS: Mapping[str, Section] = {
     "coordinates": Section(_coordinates),
     "inputs": Section(_inputs),
     "frames": Section(_frames),
+    "elastic_bodies": Section(load_elastic_bodies),
     "bodies": Section(_bodies),
     "forces": Section(_forces),
     "outputs": Section(_outputs),
@@ -324,7 +326,9 @@ def _build(data: Any) -> System:
     return b.build()
 
 
-def load_description_text(text: str | bytes, filename: str = "<description>") -> System:
+def load_description_text(
+    text: str | bytes, filename: str = "<description>", *, elastic_reader: Any = None
+) -> System:
     """Load a description from YAML text.
 
     Parameters
@@ -332,7 +336,11 @@ def load_description_text(text: str | bytes, filename: str = "<description>") ->
     text
         The YAML text (bytes are decoded as UTF-8).
     filename
-        Shown in error messages.
+        Shown in error messages; ``data`` files of elastic bodies are relative to it.
+    elastic_reader
+        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies`` (issue 6),
+        e.g. :func:`neweul_py.elastic.reader.read_elastic_data`; the description layer does
+        not import the elastic layer itself.
 
     Returns
     -------
@@ -353,7 +361,8 @@ def load_description_text(text: str | bytes, filename: str = "<description>") ->
             raise DescriptionError(f"not UTF-8 text ({exc.reason})", "", filename) from None
     tree: YamlTree = read_yaml(text, filename)
     try:
-        return _build(tree.data)
+        with base_directory(filename, elastic_reader):
+            return _build(tree.data)
     except DescriptionError:
         raise
     except ModelError as exc:
@@ -361,7 +370,7 @@ def load_description_text(text: str | bytes, filename: str = "<description>") ->
         raise DescriptionError(exc.message, exc.key_path, filename, line) from None
 
 
-def load_description(path: str | os.PathLike[str]) -> System:
+def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None) -> System:
     """Load the description file at ``path`` (see :func:`load_description_text`)."""
     filename = os.fspath(path)
     try:
@@ -369,4 +378,4 @@ def load_description(path: str | os.PathLike[str]) -> System:
             data = fh.read()
     except OSError as exc:
         raise DescriptionError(f"cannot read description: {exc.strerror}", "", filename) from None
-    return load_description_text(data, filename)
+    return load_description_text(data, filename, elastic_reader=elastic_reader)

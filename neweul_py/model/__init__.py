@@ -1,6 +1,7 @@
 """Model layer: plain, validated, immutable model objects. Imports no other layer."""
 
 from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
+from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
     AXES,
     Coordinate,
@@ -50,6 +51,7 @@ __all__ = [
     "CoincidenceConstraint",
     "Constraint",
     "Coordinate",
+    "ElasticBody",
     "ExpressionConstraint",
     "ExpressionOutput",
     "ForceElement",
@@ -69,6 +71,7 @@ __all__ = [
     "characteristic_force",
     "check_name",
     "input_rate_name",
+    "is_node_frame_name",
     "symbol",
     "table_characteristic",
     "time",

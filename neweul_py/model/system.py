@@ -13,6 +13,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
+from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
     Coordinate,
     ExpressionOutput,
@@ -60,6 +61,9 @@ class System:
         Free text.
     constraints
         Holonomic constraints ``g(y, t) = 0`` closing kinematic loops (issue 4).
+    elastic_bodies
+        Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`, issue 6); their
+        coordinates and node frames (``NAME.label``) are in ``coordinates`` and ``frames``.
 
     Raises
     ------
@@ -79,6 +83,7 @@ class System:
     gravity: sp.ImmutableMatrix = field(default_factory=lambda: sp.ImmutableMatrix.zeros(3, 1))
     description: str = ""
     constraints: tuple[Constraint, ...] = ()
+    elastic_bodies: tuple[ElasticBody, ...] = ()
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -204,7 +209,8 @@ def _validate(s: System) -> None:
     for group, items in groups:
         for item in items:
             path = f"{group}.{item.name}"
-            why = check_name(item.name)
+            node = group == "frames" and is_node_frame_name(item.name)
+            why = None if node else check_name(item.name)
             if why is not None:
                 raise ModelError(why, path)
             if item.name in seen:
@@ -254,8 +260,9 @@ def _validate(s: System) -> None:
     for u in s.inputs:
         _check_symbols(u.default, {**par, **tt}, f"inputs.{u.name}")
 
-    _validate_frames(s, kinematic)
     frames = {INERTIAL, *s.frame_map}
+    _validate_elastic(s, frames, seen)
+    _validate_frames(s, kinematic)
 
     def need_frame(name: str, path: str) -> None:
         if name not in frames:
@@ -419,6 +426,36 @@ def _input_rate_orders(s: System) -> dict[str, int]:
             name, k = rate_symbols[sym]
             orders[name] = max(orders[name], k)
     return orders
+
+
+def _validate_elastic(s: System, frames: set[str], seen: Mapping[str, str]) -> None:
+    """Elastic bodies: reference frame known, coordinates and node frames present."""
+    coords = {c.name for c in s.coordinates}
+    for e in s.elastic_bodies:
+        path = f"elastic_bodies.{e.name}"
+        if not isinstance(e, ElasticBody):
+            raise ModelError(f"expected an ElasticBody, got {type(e).__name__}", path)
+        if e.name in seen:
+            raise ModelError(f"name {e.name!r} is already used in {seen[e.name]}", path)
+        if e.frame not in frames:
+            raise ModelError(
+                f"unknown frame {e.frame!r}; frames are: {', '.join(sorted(frames))}",
+                f"{path}.frame",
+            )
+        for c in e.coordinate_names:
+            if c not in coords:
+                raise ModelError(f"the elastic coordinate {c!r} is not a coordinate", path)
+        for label, _node in e.nodes:
+            if e.node_frame_name(label) not in frames:
+                raise ModelError(f"the node frame {e.node_frame_name(label)!r} is missing",
+                                 f"{path}.nodes.{label}")
+        parent = {f.name: f.parent for f in s.frames}
+        name, hops = e.frame, 0
+        while name != INERTIAL and name in parent and hops <= len(parent):
+            if name.startswith(f"{e.name}."):
+                raise ModelError("the reference frame cannot hang on the body's own nodes",
+                                 f"{path}.frame")
+            name, hops = parent[name], hops + 1
 
 
 def _validate_frames(s: System, allowed: Mapping[str, sp.Symbol]) -> None:

@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""Elastic bodies in generated modules (issue 6): cost as the number of modes grows.
+
+Model: a rigid double pendulum (two links, planar hinges about z, gravity) carrying on its second
+link an elastic cantilever (``tests/elastic/beam_fe.py``, 3-D Euler–Bernoulli, 40 elements,
+clamped modes, invariants with centrifugal stiffening) with ``nq`` = 10, 50, 200 modes and one
+node frame at the tip, where a spring–damper ties it to the ground. The rigid part alone is the
+same description without the elastic body (the tip spring then acts on the link).
+
+Measured in one run, per ``nq``: generation time (``load → newton_euler → render → write``),
+module size, and the time per call of ``rhs`` (median of repeated ``timeit`` runs); printed
+with the ratio to the rigid part alone. Nothing is asserted.
+
+Usage::
+
+    python benchmarks/bench_elastic.py            # nq = 10, 50, 200
+    python benchmarks/bench_elastic.py 10 20      # other mode counts
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+import timeit
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "elastic"))
+
+from beam_fe import beam  # noqa: E402
+
+from neweul_py.analysis import load_generated  # noqa: E402
+from neweul_py.api import generate  # noqa: E402
+from neweul_py.elastic.invariants import compute_invariants, stress_stiffening  # noqa: E402
+
+RIGID = """
+name: {name}
+parameters: {{m: 1.0, l: 1.0, g: 9.81, k: 50.0, c: 0.5}}
+gravity: [0, -g, 0]
+coordinates: {{a: {{initial: 0.3}}, b: {{initial: -0.2}}}}
+frames:
+  link1: {{rotation: [[z, a]]}}
+  link2: {{parent: link1, translation: [l, 0, 0], rotation: [[z, b]]}}
+bodies:
+  arm1: {{frame: link1, mass: m, center_of_mass: [0.5*l, 0, 0],
+        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
+  arm2: {{frame: link2, mass: m, center_of_mass: [0.5*l, 0, 0],
+        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
+{extra}
+forces:
+  tip: {{type: spring_damper, between: [ISYS, {tip}], points: [[2.5, 0, 0], [0, 0, 0]],
+        stiffness: k, damping: c, length: 0.5}}
+"""
+
+ELASTIC = """
+elastic_bodies:
+  beam: {{frame: link2, data: {data}, nodes: {{tip: {tip_id}}}}}
+"""
+
+
+def _time_rhs(mod) -> float:
+    p = mod.default_parameters()
+    x = np.array(mod.INITIAL_STATE, dtype=float)
+    x[len(mod.COORDINATES):] = 0.1
+    mod.rhs(0.0, x, p)
+    number = 200
+    runs = timeit.repeat(lambda: mod.rhs(0.0, x, p), number=number, repeat=5)
+    return float(np.median(runs)) / number
+
+
+def _generate(text: str, directory: Path, name: str) -> tuple[float, float, int]:
+    desc = directory / f"{name}.yaml"
+    desc.write_text(text)
+    t0 = time.perf_counter()
+    path = generate(desc, directory / "gen")
+    gen = time.perf_counter() - t0
+    mod = load_generated(path)
+    return gen, _time_rhs(mod), path.stat().st_size
+
+
+def main(counts: list[int]) -> None:
+    b = beam(40, length=1.0, E=2.0e5)
+    _lam, V = b.clamped_modes(max(counts))
+    kg = stress_stiffening(b.fe, lambda u: b.geometric_stiffness(b.axial_forces(u)),
+                           support=np.arange(6), cases=("wxx", "wyy", "wzz"))
+    tip_id = int(b.fe.nodes[-1, 0])
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        g0, r0, s0 = _generate(RIGID.format(name="rigid", extra="", tip="link2"), d, "rigid")
+        print(f"rigid part alone: generate {g0:.2f} s, rhs {r0 * 1e6:.1f} µs/call, "
+              f"module {s0 / 1e3:.0f} kB")
+        print("| modes | generate | rhs per call | rhs / rigid | module size |")
+        print("|---|---|---|---|---|")
+        print(f"| rigid only | {g0:.2f} s | {r0 * 1e6:.1f} µs | 1 | {s0 / 1e3:.0f} kB |")
+        for nq in counts:
+            t0 = time.perf_counter()
+            inv = compute_invariants(b.fe, V[:, :nq], nodes=[tip_id], geometric_stiffness=kg)
+            t_inv = time.perf_counter() - t0
+            np.savez(d / f"beam{nq}.npz", **inv.to_flat())
+            extra = ELASTIC.format(data=f"beam{nq}.npz", tip_id=tip_id)
+            g, r, s = _generate(RIGID.format(name=f"flex{nq}", extra=extra, tip="beam.tip"),
+                                d, f"flex{nq}")
+            print(f"| {nq} | {g:.2f} s (+ invariants {t_inv:.2f} s) | {r * 1e6:.1f} µs | "
+                  f"{r / r0:.1f}× | {s / 1e3:.0f} kB |")
+
+
+if __name__ == "__main__":
+    main([int(a) for a in sys.argv[1:]] or [10, 50, 200])

@@ -1,0 +1,381 @@
+"""Generated modules of systems with elastic bodies (equations.md §2, issue 6).
+
+The rigid part of the equations is rendered by :func:`~neweul_py.codegen.writer.render_module`
+as usual, with the reference-frame kinematics of every elastic body (``J_T``, ``J_R``, ``ā``,
+``ᾱ``, ``ω``, ``g``; :func:`neweul_py.equations.elastic.elastic_splices`) appended as hidden
+outputs. Its public functions are then renamed ``_rigid_*`` and wrapped by functions that add
+the elastic bodies' terms with small matrix products on the *numeric* invariants::
+
+    M   += J_bᵀ M_b(q) J_b,   q − k −= J_bᵀ (M_b(q) [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])
+
+so a body with 200 modes costs a few (nq × nq) products per call, not code size. For
+two-sided bodies the node loads are first moved to the left basis
+(:func:`~neweul_py.equations.elastic.two_sided_node_loads`).
+
+Data in the module
+------------------
+Each invariant array is embedded as a base64 string of its zlib-compressed little-endian
+float64 bytes (``_ELASTIC_DATA``, decoded once at import by ``_unpack``); the text depends only
+on the arrays, so regeneration is byte-identical. The module still needs only NumPy (and the
+standard library's ``base64``/``zlib``).
+
+Linearization
+-------------
+``force_jacobians``: the rigid part analytic as before; of the elastic terms ``−Ke`` and
+``−De`` are added analytically, the remaining coupling terms (which depend on ``y``, ``ẏ``
+through the frame kinematics and the first-order invariants) by central differences of the
+elastic force contribution (step ``1e-6·max(1, |x|)``). ``mass_matrix_times_derivative``
+likewise (central differences of ``M_elastic(y) a``). ``∂/∂u`` of the elastic terms (inputs in
+the frame kinematics) is not included. ``rhs_jacobian`` combines these as for rigid models.
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import zlib
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..equations import newton_euler
+from ..equations.elastic import ElasticSplice, elastic_splices, two_sided_node_loads
+from ..errors import GenerationError
+
+__all__ = ["render_elastic_module"]
+
+_RENAMED = ("mass_matrix", "force_vector", "rhs", "force_jacobians",
+            "mass_matrix_times_derivative", "outputs", "output_jacobians")
+
+
+def _pack(a: np.ndarray) -> str:
+    raw = np.ascontiguousarray(np.asarray(a, dtype="<f8")).tobytes()
+    return base64.b64encode(zlib.compress(raw, 6)).decode("ascii")
+
+
+def _body_arrays(sp_: ElasticSplice) -> dict[str, np.ndarray | None]:
+    """The arrays the runtime needs, in the runtime's layouts (see ``_RUNTIME``)."""
+    d = sp_.body.data
+    nq = sp_.body.nq
+
+    def m1(key: str) -> np.ndarray | None:
+        a = d.get(key)
+        if a is None or not np.any(a):
+            return None
+        return np.asarray(a, dtype=np.float64)
+
+    md1 = m1("md.m1")
+    return {
+        "md0": d["md.m0"][:, 0],
+        "md1": np.zeros((3, nq)) if md1 is None else md1[:, :, 0],
+        "J0": d["J.m0"], "J1": m1("J.m1"),                          # (3, nq, 3)
+        "Ct0": d["Ct.m0"], "Ct1": m1("Ct.m1"),                      # (nq, nq, 3)
+        "Cr0": d["Cr.m0"], "Cr1": m1("Cr.m1"),
+        "Crv0": d["Crv.m0"], "Crv1": m1("Crv.m1"),
+        "Me": d["Me.m0"], "Gr": d["Gr.m0"], "Ge": d["Ge.m0"],       # per-mode layout
+        "Oe0": d["Oe.m0"], "Oe1": m1("Oe.m1"),                      # (nq, nq, 6)
+        "ks": d["ksigma.m0"][:, 0], "Ke": d["Ke.m0"], "De": d["De.m0"],
+    }
+
+
+def _data_lines(splices: tuple[ElasticSplice, ...], offsets: list[int]) -> list[str]:
+    lines = ["_ELASTIC_DATA = ("]
+    for s, off in zip(splices, offsets, strict=True):
+        b = s.body
+        lines.append("    {")
+        lines.append(f"        'name': {b.name!r},")
+        lines.append(f"        'mass': {float(b.data['m'])!r},")
+        lines.append(f"        'first': {s.first},")
+        lines.append(f"        'nq': {b.nq},")
+        lines.append(f"        'kin': {off},")
+        for key, arr in _body_arrays(s).items():
+            if arr is None:
+                lines.append(f"        {key!r}: None,")
+            else:
+                shape = tuple(int(x) for x in np.shape(arr))
+                lines.append(f"        {key!r}: ({shape!r}, {_pack(arr)!r}),")
+        lines.append("    },")
+    lines.append(")")
+    return lines
+
+
+_RUNTIME = '''
+# ---- elastic bodies (floating frame of reference, equations.md §2; codegen/elastic.py)
+def _unpack(entry):
+    if entry is None or not isinstance(entry, tuple):
+        return entry
+    shape, text = entry
+    raw = _zlib.decompress(_b64.b64decode(text))
+    return _np.frombuffer(raw, dtype="<f8").reshape(shape).copy()
+
+
+def _prepare(b):
+    """Stack every first-order invariant so that X(q) = X0 + X1 q is one matrix product."""
+    b = {k: _unpack(v) for k, v in b.items()}
+    nq = b["nq"]
+    zeros, firsts, where, start = [], [], {}, 0
+    for key in ("J", "Ct", "Cr", "Crv", "Oe"):
+        m0 = b[key + "0"]
+        m1 = b[key + "1"]                       # (rows, nq, cols) or None
+        size = m0.size
+        zeros.append(m0.ravel())
+        firsts.append(_np.zeros((size, nq)) if m1 is None
+                      else m1.transpose(0, 2, 1).reshape(size, nq))
+        where[key] = (start, start + size, m0.shape)
+        start += size
+    b["T0"] = _np.concatenate(zeros)
+    b["T1"] = _np.ascontiguousarray(_np.vstack(firsts))
+    b["where"] = where
+    return b
+
+
+_ELASTIC = tuple(_prepare(b) for b in _ELASTIC_DATA)
+_N = len(COORDINATES)
+_NHIDDEN = len(OUTPUTS)
+
+
+def _skew(v):
+    return _np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _body_terms(b, kin, y, yd):
+    """Frame kinematics, q, q', md(q) and the mass blocks of one elastic body."""
+    n, i0, nq = _N, b["first"], b["nq"]
+    o = b["kin"]
+    JT = kin[o:o + 3 * n].reshape(3, n)
+    JR = kin[o + 3 * n:o + 6 * n].reshape(3, n)
+    v = kin[o + 6 * n:o + 6 * n + 12]
+    q = y[i0:i0 + nq]
+    qd = yd[i0:i0 + nq]
+    X = b["T0"] + b["T1"] @ q
+    X = {k: X[s:e].reshape(shape) for k, (s, e, shape) in b["where"].items()}
+    md = b["md0"] + b["md1"] @ q
+    Mrr = _np.zeros((6, 6))
+    Mrr[0, 0] = Mrr[1, 1] = Mrr[2, 2] = b["mass"]
+    Mrr[3:, :3] = _skew(md)
+    Mrr[:3, 3:] = -Mrr[3:, :3]
+    Mrr[3:, 3:] = X["J"]
+    Mre = _np.vstack((b["md1"], X["Crv"].T))
+    Mer = _np.hstack((X["Ct"], X["Cr"]))
+    return JT, JR, v, q, qd, md, Mrr, Mre, Mer, X["Oe"]
+
+
+def _terms(kin, y, yd):
+    return [_body_terms(b, kin, y, yd) for b in _ELASTIC]
+
+
+def _elastic_mass(M, terms):
+    """M += J_b^T M_b(q) J_b for every elastic body."""
+    for b, (JT, JR, _v, _q, _qd, _md, Mrr, Mre, Mer, _Oe) in zip(_ELASTIC, terms):
+        e = slice(b["first"], b["first"] + b["nq"])
+        Jr = _np.vstack((JT, JR))
+        M += Jr.T @ (Mrr @ Jr)
+        M[:, e] += Jr.T @ Mre
+        M[e, :] += Mer @ Jr
+        M[e, e] += b["Me"]
+    return M
+
+
+def _elastic_force(f, terms, linear=True):
+    """q - k -= J_b^T (M_b [abar - g; alphabar; 0] + h_w + [0; 0; Ke q + De qd + ks])."""
+    for b, (JT, JR, v, q, qd, md, Mrr, _Mre, Mer, Oe) in zip(_ELASTIC, terms):
+        abar, alphabar, w, g = v[0:3], v[3:6], v[6:9], v[9:12]
+        acc = _np.concatenate((abar - g, alphabar))
+        wt = _skew(w)
+        wq = _np.array([w[0] * w[0], w[1] * w[1], w[2] * w[2],
+                        w[0] * w[1], w[1] * w[2], w[0] * w[2]])
+        qw = _np.outer(qd, w).ravel()
+        hr = Mrr @ acc
+        hr[:3] += wt @ (wt @ md) + 2.0 * (wt @ (b["md1"] @ qd))
+        hr[3:] += wt @ (Mrr[3:, 3:] @ w) + b["Gr"] @ qw
+        he = Mer @ acc + Oe @ wq + b["Ge"] @ qw + b["ks"]
+        if linear:
+            he = he + b["Ke"] @ q + b["De"] @ qd
+        f -= JT.T @ hr[:3] + JR.T @ hr[3:]
+        f[b["first"]:b["first"] + b["nq"]] -= he
+    return f
+
+
+def _kin(t, y, yd, p, u):
+    x = _np.concatenate((_np.asarray(y, dtype=_np.float64), _np.asarray(yd, dtype=_np.float64)))
+    return _rigid_outputs(t, x, p, u)[_NHIDDEN:]
+
+
+def mass_matrix(t, y, p, u=None):
+    """Mass matrix ``M(y, t)``, shape (n, n); unsymmetric with elastic bodies."""
+    y = _np.asarray(y, dtype=_np.float64)
+    M = _rigid_mass_matrix(t, y, p, u)
+    z = _np.zeros(_N)
+    return _elastic_mass(M, _terms(_kin(t, y, z, p, u), y, z))
+
+
+def force_vector(t, y, yd, p, u=None):
+    """Generalized forces ``q - k``, shape (n,), with the elastic bodies' terms."""
+    y = _np.asarray(y, dtype=_np.float64)
+    yd = _np.asarray(yd, dtype=_np.float64)
+    f = _rigid_force_vector(t, y, yd, p, u)
+    return _elastic_force(f, _terms(_kin(t, y, yd, p, u), y, yd))
+
+
+def rhs(t, x, p, u=None):
+    """First-order form ``[yd, M^-1 (q - k)]`` of the equations of motion."""
+    x = _np.asarray(x, dtype=_np.float64)
+    y, yd = x[:_N], x[_N:2 * _N]
+    terms = _terms(_kin(t, y, yd, p, u), y, yd)
+    M = _elastic_mass(_rigid_mass_matrix(t, y, p, u), terms)
+    f = _elastic_force(_rigid_force_vector(t, y, yd, p, u), terms)
+    xd = _np.empty(2 * _N)
+    xd[:_N] = yd
+    xd[_N:] = _np.linalg.solve(M, f)
+    return xd
+
+
+def _nonlinear_elastic_force(t, y, yd, p, u):
+    return _elastic_force(_np.zeros(_N), _terms(_kin(t, y, yd, p, u), y, yd), linear=False)
+
+
+def force_jacobians(t, y, yd, p, u=None):
+    """``d(q-k)/dy``, ``d(q-k)/dyd`` (n, n) and ``d(q-k)/du`` (n, nu): rigid part analytic,
+    elastic ``-Ke``, ``-De`` analytic, elastic coupling terms by central differences."""
+    y = _np.asarray(y, dtype=_np.float64)
+    yd = _np.asarray(yd, dtype=_np.float64)
+    fy, fyd, fu = _rigid_force_jacobians(t, y, yd, p, u)
+    for b in _ELASTIC:
+        e = slice(b["first"], b["first"] + b["nq"])
+        fy[e, e] -= b["Ke"]
+        fyd[e, e] -= b["De"]
+    for j in range(_N):
+        for arr, J, other in ((y, fy, yd), (yd, fyd, y)):
+            h = 1e-6 * max(1.0, abs(arr[j]))
+            ap = arr.copy()
+            am = arr.copy()
+            ap[j] += h
+            am[j] -= h
+            if arr is y:
+                fp = _nonlinear_elastic_force(t, ap, other, p, u)
+                fm = _nonlinear_elastic_force(t, am, other, p, u)
+            else:
+                fp = _nonlinear_elastic_force(t, other, ap, p, u)
+                fm = _nonlinear_elastic_force(t, other, am, p, u)
+            J[:, j] += (fp - fm) / (2.0 * h)
+    return fy, fyd, fu
+
+
+def mass_matrix_times_derivative(t, y, p, a, u=None):
+    """``d(M(y) a)/dy`` for a fixed vector ``a``, shape (n, n); elastic part by central
+    differences."""
+    y = _np.asarray(y, dtype=_np.float64)
+    a = _np.asarray(a, dtype=_np.float64)
+    dMa = _rigid_mass_matrix_times_derivative(t, y, p, a, u)
+    z = _np.zeros(_N)
+    for j in range(_N):
+        h = 1e-6 * max(1.0, abs(y[j]))
+        yp = y.copy()
+        ym = y.copy()
+        yp[j] += h
+        ym[j] -= h
+        Mp = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, yp, z, p, u), yp, z))
+        Mm = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, ym, z, p, u), ym, z))
+        dMa[:, j] += (Mp - Mm) @ a / (2.0 * h)
+    return dMa
+
+
+def outputs(t, x, p, u=None):
+    """The outputs, ordered as ``OUTPUTS``."""
+    return _rigid_outputs(t, x, p, u)[:_NHIDDEN]
+
+
+def output_jacobians(t, x, p, u=None):
+    """``dout/dx`` (ny, STATE_SIZE) and ``dout/du`` (ny, nu), analytic."""
+    C, D = _rigid_output_jacobians(t, x, p, u)
+    return C[:_NHIDDEN].copy(), D[:_NHIDDEN].copy()
+'''
+
+
+def _symmetric(splices: tuple[ElasticSplice, ...]) -> bool:
+    """Whether every elastic body's ``M_b`` is symmetric for all ``q`` (to round-off): one-sided
+    data without geometric stiffening in the mass blocks (``Ct = md¹ᵀ``, ``Cr = Crv``)."""
+
+    def same(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+        a = np.zeros(0) if a is None else np.asarray(a)
+        b = np.zeros(0) if b is None else np.asarray(b)
+        if not a.size and not b.size:
+            return True
+        if a.size and not b.size:
+            return not np.any(a)
+        if b.size and not a.size:
+            return not np.any(b)
+        scale = max(float(np.abs(a).max()), float(np.abs(b).max()), 1e-300)
+        return a.shape == b.shape and float(np.abs(a - b).max()) <= 1e-12 * scale
+
+    for s in splices:
+        d = s.body.data
+        if s.body.two_sided:
+            return False
+        md1 = d["md.m1"][:, :, 0].T if "md.m1" in d else None
+        if not (same(d.get("Ct.m1"), None) and same(d["Cr.m0"], d["Crv.m0"])
+                and same(d.get("Cr.m1"), d.get("Crv.m1")) and same(d["Ct.m0"], md1)
+                and same(d["Me.m0"], d["Me.m0"].T)):
+            return False
+    return True
+
+
+def render_elastic_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
+    """The module text of a system with elastic bodies (see the module docstring).
+
+    Parameters
+    ----------
+    equations
+        The :class:`~neweul_py.equations.Equations` of the system (rigid part; its ``system``
+        holds the elastic bodies).
+    source_hash
+        SHA-256 of the description.
+    cse
+        Passed to :func:`~neweul_py.codegen.writer.render_module`.
+
+    Raises
+    ------
+    GenerationError
+        If the rendered rigid module does not have the expected structure.
+    """
+    from .writer import render_module
+
+    equations = two_sided_node_loads(equations, newton_euler)
+    system = equations.system
+    splices = elastic_splices(system)
+    extra: list[sp.Expr] = []
+    offsets = []
+    for s in splices:
+        offsets.append(len(extra))
+        extra += s.expressions()
+    names = list(equations.output_names)
+    hidden = [f"_elastic_{i}" for i in range(len(extra))]
+    eq2 = dataclasses.replace(
+        equations,
+        outputs=sp.ImmutableMatrix(len(names) + len(extra), 1, [*equations.outputs, *extra]),
+        output_names=(*names, *hidden),
+    )
+    text = render_module(eq2, source_hash, cse=cse, _elastic=False)
+    for fn in _RENAMED:
+        old = f"\ndef {fn}("
+        if text.count(old) != 1:
+            raise GenerationError(f"elastic splice: cannot find the function {fn} to wrap")
+        text = text.replace(old, f"\ndef _rigid_{fn}(")
+    old_outputs = f"OUTPUTS = {[*names, *hidden]!r}"
+    if text.count(old_outputs) != 1:
+        raise GenerationError("elastic splice: cannot find the OUTPUTS constant")
+    text = text.replace(old_outputs, f"OUTPUTS = {names!r}")
+    sym_line = [ln for ln in text.splitlines() if ln.startswith("MASS_MATRIX_SYMMETRIC = ")]
+    if len(sym_line) != 1:
+        raise GenerationError("elastic splice: cannot find MASS_MATRIX_SYMMETRIC")
+    symmetric = sym_line[0].endswith("True") and _symmetric(splices)
+    text = text.replace(sym_line[0], f"MASS_MATRIX_SYMMETRIC = {symmetric!r}")
+    text = text.replace("\nimport math as _math\n",
+                        "\nimport base64 as _b64\nimport math as _math\nimport zlib as _zlib\n", 1)
+    bodies = ", ".join(f"{s.body.name!r} ({s.body.nq} modes"
+                       f"{', two-sided' if s.body.two_sided else ''})" for s in splices)
+    text = text.replace('"""\n\nimport base64',
+                        f'\nElastic bodies: {bodies}.\n"""\n\nimport base64', 1)
+    return text.rstrip("\n") + "\n\n\n" + "\n".join(_data_lines(splices, offsets)) + "\n" \
+        + _RUNTIME.rstrip("\n") + "\n"

@@ -1,0 +1,102 @@
+"""Reading the elastic data of a description's ``elastic_bodies`` (``reference/equations.md`` §2).
+
+The symbolic layers (``description``, ``equations``) read elastic bodies only through this
+function: it returns the flat ``name → array`` form of :class:`~.invariants.Invariants`
+(:meth:`~.invariants.Invariants.to_flat`, NumPy arrays only), whatever the source file was.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError
+from .invariants import FLAT_FORMAT, Invariants, body_invariants
+from .reduced_body import load_reduced_body
+from .sid import read_sid
+
+__all__ = ["read_elastic_data"]
+
+
+def read_elastic_data(
+    path: str | os.PathLike[str], modes: int | Sequence[int] | None = None
+) -> dict[str, np.ndarray]:
+    """The floating-frame invariants of an elastic body file, as flat arrays.
+
+    Parameters
+    ----------
+    path
+        A reduced-body file (``.npz`` with the invariants slot filled, two-sided or
+        one-sided), a bare invariants ``.npz`` (``np.savez(path, **inv.to_flat())``, the
+        content of that slot) or a SID text file (``.SID_FEM``, ``.sid``; one-sided).
+    modes
+        ``None``: all modes; an int ``r``: the first ``r``; a sequence: these mode numbers
+        (1-based, in this order).
+
+    Returns
+    -------
+    dict
+        :meth:`Invariants.to_flat` of the (selected) modes.
+
+    Raises
+    ------
+    DataError
+        Unreadable file, a SID syntax error (with its line), a reduced body without
+        invariants, a mode selection out of range.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise DataError("no such file", file=os.fspath(p))
+    if p.suffix.lower() == ".npz" and _is_flat(p):
+        with np.load(p, allow_pickle=False) as z:
+            inv = Invariants.from_flat({k: z[k] for k in z.files})
+    elif p.suffix.lower() == ".npz":
+        body = load_reduced_body(p)
+        inv = body_invariants(body)
+        if inv is None:
+            raise DataError("the reduced body holds no floating-frame invariants "
+                            "(fill them with elastic.invariants.attach_invariants)",
+                            file=os.fspath(p), item="invariants")
+    else:
+        inv = Invariants.from_sid(read_sid(p))
+    if modes is not None:
+        inv = _select(inv, modes, os.fspath(p))
+    return inv.to_flat()
+
+
+def _is_flat(p: Path) -> bool:
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            return "format" in z.files and str(z["format"]) == FLAT_FORMAT
+    except (OSError, ValueError):
+        return False
+
+
+def _select(inv: Invariants, modes: int | Sequence[int], file: str) -> Invariants:
+    nq = inv.nq
+    if isinstance(modes, bool):
+        raise DataError(f"modes must be a count or a list of mode numbers, got {modes!r}",
+                        file=file, item="modes")
+    if isinstance(modes, int):
+        if not 1 <= modes <= nq:
+            raise DataError(f"{modes} modes requested, the body has {nq}", file=file,
+                            item="modes")
+        idx = list(range(modes))
+    else:
+        idx = []
+        for k in modes:
+            if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= nq:
+                raise DataError(f"mode number {k!r} out of range 1…{nq}", file=file,
+                                item="modes")
+            idx.append(k - 1)
+        if len(set(idx)) != len(idx) or not idx:
+            raise DataError("mode numbers must be distinct and not empty", file=file,
+                            item="modes")
+    R = np.eye(nq)[:, idx]
+    names = tuple(inv.names[i] for i in idx)
+    out = inv.transformed(right=R, left=R.T if inv.two_sided else None)
+    return replace(out, names=names)

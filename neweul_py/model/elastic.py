@@ -1,0 +1,213 @@
+"""The :class:`ElasticBody`: an elastic body in the floating frame of reference (equations.md §2).
+
+An elastic body sits on a reference frame of the system (which moves like a rigid body) and
+brings its elastic coordinates ``NAME_q1 … NAME_q<nq>`` and its node frames ``NAME.label``.
+Its invariants (``m``, ``md``, ``J``, ``Ct``, ``Cr``, ``Me``, ``Gr``, ``Ge``, ``Oe``, ``Ke``,
+``De`` … with their first-order terms, the node ``origin``, ``Φ``, ``Ψ``, ``AP``) are kept as
+*numeric arrays* — the flat form of :class:`neweul_py.elastic.invariants.Invariants`
+(``Invariants.to_flat``) — and never become symbolic expressions: the generated module does
+matrix products with them (DESIGN.md, "Recursive / semi-symbolic").
+
+Only the node frames are symbolic, and only to first order in ``q`` (SID convention)::
+
+    origin(q) = x_P + Φ_P q,      AP(q) ≈ R_x(ψx q) R_y(ψy q) R_z(ψz q) · AP⁰
+
+(the elementary rotations by the small angles ``Ψ_P q`` equal ``(I + (Ψ_P q)~) AP⁰`` to first
+order), so force elements, outputs, constraints and child frames use them like any frame.
+
+This module imports nothing outside ``model`` (the arrays are read by
+:func:`neweul_py.elastic.reader.read_elastic_data`, called by the description layer).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from ..errors import ModelError
+from .elements import Frame
+from .symbols import check_name, symbol
+
+__all__ = ["ElasticBody", "is_node_frame_name"]
+
+#: Arrays an elastic body needs (keys of ``Invariants.to_flat``).
+REQUIRED_ARRAYS = (
+    "m", "md.m0", "J.m0", "Ct.m0", "Cr.m0", "Crv.m0", "Me.m0", "Gr.m0", "Ge.m0", "Oe.m0",
+    "ksigma.m0", "Ke.m0", "De.m0", "nodes.id", "nodes.origin.m0", "nodes.phi", "nodes.psi",
+    "nodes.phi_w", "nodes.psi_w", "nodes.AP.m0", "two_sided",
+)
+
+
+def is_node_frame_name(name: str) -> bool:
+    """``True`` for a node-frame name ``BODY.label`` (two valid names joined by a dot)."""
+    parts = name.split(".")
+    return len(parts) == 2 and all(check_name(p) is None for p in parts)
+
+
+def _frozen(a: object) -> np.ndarray:
+    arr = np.array(a)
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class ElasticBody:
+    """An elastic body on a reference frame (equations.md §2).
+
+    Parameters
+    ----------
+    name
+        Body name; its coordinates are ``{name}_q1 …`` and its node frames ``{name}.{label}``.
+    frame
+        The reference frame (a frame of the system; ``ISYS`` for a body fixed to the ground).
+    data
+        Flat invariants (:meth:`neweul_py.elastic.invariants.Invariants.to_flat`), read-only
+        NumPy arrays.
+    nodes
+        ``(label, node_id)`` pairs: the node frames the model uses.
+    source
+        Where the data came from (shown in messages, not part of the model's identity).
+
+    Raises
+    ------
+    ModelError
+        Missing arrays, inconsistent mode counts, unknown node ids (key path
+        ``elastic_bodies.NAME…``).
+    """
+
+    name: str
+    frame: str
+    data: Mapping[str, np.ndarray]
+    nodes: tuple[tuple[str, int], ...] = ()
+    source: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        path = f"elastic_bodies.{self.name}"
+        why = check_name(self.name)
+        if why is not None:
+            raise ModelError(why, path)
+        data = {k: _frozen(v) for k, v in dict(self.data).items()}
+        missing = [k for k in REQUIRED_ARRAYS if k not in data]
+        if missing:
+            raise ModelError(f"the elastic data lacks {', '.join(missing)}", f"{path}.data")
+        object.__setattr__(self, "data", data)
+        nq = data["Me.m0"].shape[0]
+        for key, arr in sorted(data.items()):
+            if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+                raise ModelError(f"array {key} holds NaN or Inf", f"{path}.data")
+            if key.endswith(".m1") and arr.ndim == 3 and arr.shape[1] != nq:
+                raise ModelError(f"{key} has first-order terms for {arr.shape[1]} modes, "
+                                 f"Me has {nq}", f"{path}.data")
+        for key, shape in (("Ke.m0", (nq, nq)), ("De.m0", (nq, nq)), ("Ct.m0", (nq, 3)),
+                           ("Cr.m0", (nq, 3)), ("Oe.m0", (nq, 6)), ("Ge.m0", (nq, 3 * nq)),
+                           ("Gr.m0", (3, 3 * nq))):
+            if data[key].shape != shape:
+                raise ModelError(f"{key} has shape {data[key].shape}, expected {shape} "
+                                 f"(nq = {nq} from Me)", f"{path}.data")
+        ids = [int(i) for i in data["nodes.id"]]
+        nodes = tuple((str(label), int(node)) for label, node in self.nodes)
+        seen: set[str] = set()
+        for label, node in nodes:
+            why = check_name(label)
+            if why is not None:
+                raise ModelError(f"node label: {why}", f"{path}.nodes.{label}")
+            if label in seen:
+                raise ModelError(f"node label {label!r} used twice", f"{path}.nodes.{label}")
+            seen.add(label)
+            if node not in ids:
+                raise ModelError(f"node {node} is not in the elastic data (nodes: "
+                                 f"{', '.join(map(str, ids))})", f"{path}.nodes.{label}")
+        object.__setattr__(self, "nodes", nodes)
+
+    # ------------------------------------------------------------------ access
+    @property
+    def nq(self) -> int:
+        """Number of elastic coordinates."""
+        return int(self.data["Me.m0"].shape[0])
+
+    @property
+    def two_sided(self) -> bool:
+        """Whether the data come from a two-sided projection (``W ≠ V``)."""
+        return bool(self.data["two_sided"])
+
+    @property
+    def coordinate_names(self) -> tuple[str, ...]:
+        """``NAME_q1 … NAME_q<nq>``."""
+        return tuple(f"{self.name}_q{k + 1}" for k in range(self.nq))
+
+    def node_frame_name(self, label: str) -> str:
+        """``NAME.label``."""
+        return f"{self.name}.{label}"
+
+    def node_index(self, node_id: int) -> int:
+        """Index of ``node_id`` in the node arrays of :attr:`data`."""
+        return [int(i) for i in self.data["nodes.id"]].index(int(node_id))
+
+    def digest(self) -> str:
+        """SHA-256 of the numeric data (sorted keys, dtype, shape, bytes)."""
+        h = hashlib.sha256()
+        for key in sorted(self.data):
+            arr = np.ascontiguousarray(self.data[key])
+            h.update(f"{key}|{arr.dtype.str}|{arr.shape}|".encode())
+            h.update(arr.tobytes() if arr.dtype.kind != "U" else str(arr.tolist()).encode())
+        return h.hexdigest()
+
+    def __repr__(self) -> str:  # canonical: the System fingerprint uses it
+        return (f"ElasticBody(name={self.name!r}, frame={self.frame!r}, nodes={self.nodes!r}, "
+                f"data=sha256:{self.digest()})")
+
+    # ------------------------------------------------------------- node frames
+    def node_frames(
+        self, probes: Mapping[str, tuple[sp.Symbol, ...]] | None = None
+    ) -> tuple[Frame, ...]:
+        """The node frames ``NAME.label`` as symbolic frames, children of :attr:`frame`.
+
+        Translation ``x_P + Φ_P q``, rotation ``R_x(ψx q) R_y(ψy q) R_z(ψz q)`` followed by the
+        Cardan angles of ``AP⁰`` (terms with zero coefficients are left out).
+
+        ``probes`` (label → six symbols ``ε``) adds ``ε[:3]`` to the translation and
+        ``ε[3:]`` to the small angles: the generalized forces of ``ε`` at ``ε = 0`` are the
+        node loads (used for the ``Wᵀ`` modal loads of two-sided data).
+        """
+        q = [symbol(n) for n in self.coordinate_names]
+        out = []
+        for label, node in self.nodes:
+            i = self.node_index(node)
+            x0 = self.data["nodes.origin.m0"][i][:, 0]
+            phi = self.data["nodes.phi"][i]
+            psi = self.data["nodes.psi"][i]
+            eps = probes.get(label) if probes else None
+            trans = sp.ImmutableMatrix([_linear(x0[a], phi[a], q) + (eps[a] if eps else 0)
+                                        for a in range(3)])
+            rot: list[tuple[str, sp.Expr]] = []
+            for a, axis in enumerate("xyz"):
+                angle = _linear(0.0, psi[a], q) + (eps[3 + a] if eps else 0)
+                if angle != 0:
+                    rot.append((axis, angle))
+            for axis, angle in zip("xyz", _cardan_xyz(self.data["nodes.AP.m0"][i]), strict=True):
+                if angle != 0.0:
+                    rot.append((axis, sp.Float(angle)))
+            out.append(Frame(self.node_frame_name(label), self.frame, trans, tuple(rot)))
+        return tuple(out)
+
+
+def _linear(c0: float, coeffs: np.ndarray, q: list[sp.Symbol]) -> sp.Expr:
+    terms = [sp.Float(float(c0))] if c0 != 0.0 else []
+    terms += [sp.Float(float(c)) * s for c, s in zip(coeffs, q, strict=True) if c != 0.0]
+    return sp.Add(*terms) if terms else sp.Integer(0)
+
+
+def _cardan_xyz(R: np.ndarray) -> tuple[float, float, float]:
+    """Angles ``(a, b, c)`` with ``R = R_x(a) R_y(b) R_z(c)`` (0 for the identity)."""
+    R = np.asarray(R, dtype=np.float64)
+    if np.allclose(R, np.eye(3), atol=1e-14, rtol=0):
+        return (0.0, 0.0, 0.0)
+    b = math.asin(max(-1.0, min(1.0, float(R[0, 2]))))
+    a = math.atan2(-float(R[1, 2]), float(R[2, 2]))
+    c = math.atan2(-float(R[0, 1]), float(R[0, 0]))
+    return (a, b, c)

@@ -1,0 +1,312 @@
+"""Elastic bodies in the equations of motion (issue 6, ``reference/equations.md`` §2).
+
+References: the eigenfrequencies printed in the SID file's mode names (the FE code that wrote
+it), closed-form Southwell stiffening, and unreduced FE models assembled directly in the tests.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+
+from neweul_py.analysis import load_generated
+from neweul_py.analysis.linearize import linearize
+from neweul_py.analysis.modes import modes
+from neweul_py.api import generate
+from neweul_py.elastic.sid import read_sid
+from neweul_py.errors import DescriptionError
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def _write(tmp_path: Path, text: str, name: str = "model.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _generate(tmp_path: Path, text: str, form: str = "auto"):
+    desc = _write(tmp_path, text)
+    return load_generated(generate(desc, tmp_path / "gen", form=form))
+
+
+@pytest.fixture
+def beam_dir(tmp_path: Path) -> Path:
+    shutil.copy(DATA / "beam.SID_FEM", tmp_path / "beam.SID_FEM")
+    return tmp_path
+
+
+CLAMPED = """
+name: clamped_beam
+elastic_bodies:
+  beam:
+    frame: ISYS
+    data: beam.SID_FEM
+    nodes: {tip: 1793}
+outputs:
+  tip_x: {position: beam.tip, in: ISYS, component: x}
+"""
+
+
+def test_sid_beam_clamped_reproduces_the_file_frequencies(beam_dir: Path) -> None:
+    """SID beam fixed to the ground: the undamped modes of the generated module (linearized
+    by analysis, modes by analysis.modes) are the eigenfrequencies named in the file
+    (``Eigen Mode 7 : 51.626 Hz`` …); with the file's damping ``De`` (= 0.01 Ke) the
+    eigenvalues are those of ``(Me, De, Ke)``."""
+    mod = _generate(beam_dir, CLAMPED)
+    assert mod.COORDINATES == [f"beam_q{k}" for k in range(1, 12)]
+    lin = linearize(mod)
+    res = modes(dataclasses.replace(lin, P=np.zeros_like(lin.P)))
+    expected = read_sid(DATA / "beam.SID_FEM").frequencies_from_names()
+    np.testing.assert_allclose(np.sort(res.frequency_hz), np.sort(expected), rtol=2e-5)
+    sid = read_sid(DATA / "beam.SID_FEM")
+    Me, De, Ke = (sid[k].m0 for k in ("Me", "De", "Ke"))
+    z = np.zeros_like(Me)
+    ref = sl.eigvals(np.block([[z, np.eye(11)], [-Ke, -De]]), np.block([[np.eye(11), z],
+                                                                      [z, Me]]))
+    got = modes(lin).eigenvalues
+    np.testing.assert_allclose(np.sort_complex(got), np.sort_complex(ref), rtol=1e-6)
+
+
+def test_clamped_beam_modes_subset_and_node_output(beam_dir: Path) -> None:
+    """``modes: 3`` keeps the first three; the node output moves with Φ_P (``origin(q)``)."""
+    mod = _generate(beam_dir, CLAMPED.replace("nodes: {tip: 1793}",
+                                              "nodes: {tip: 1793}\n    modes: 3"))
+    assert len(mod.COORDINATES) == 3
+    body = read_sid(DATA / "beam.SID_FEM")
+    node = body.node(1793)
+    q = np.array([0.1, -0.2, 0.3])
+    x = np.concatenate([q, np.zeros(3)])
+    want = node.origin.m0[0, 0] + node.phi.m0[0, :3] @ q
+    assert mod.outputs(0.0, x, mod.default_parameters())[0] == pytest.approx(want, rel=1e-12)
+
+
+def test_regeneration_is_byte_identical(beam_dir: Path) -> None:
+    """Same description → byte-identical module (numeric data embedded deterministically)."""
+    desc = _write(beam_dir, CLAMPED)
+    a = generate(desc, beam_dir / "a").read_bytes()
+    b = generate(desc, beam_dir / "b").read_bytes()
+    assert a == b
+
+
+@pytest.mark.parametrize(
+    ("edit", "key", "words"),
+    [
+        (("tip: 1793", "tip: 99999"), "elastic_bodies.beam.nodes.tip", "node 99999"),
+        (("frame: ISYS", "frame: nowhere"), "elastic_bodies.beam.frame", "unknown frame"),
+        (("data: beam.SID_FEM", "data: missing.SID_FEM"), "elastic_bodies.beam.data",
+         "no such file"),
+        (("nodes: {tip: 1793}", "nodes: {tip: 1793}\n    modes: 40"),
+         "elastic_bodies.beam.modes", "40 modes"),
+    ],
+)
+def test_bad_elastic_input_names_the_key(beam_dir: Path, edit, key, words) -> None:
+    """Bad input: unknown node id, unknown frame, missing data file, too many modes."""
+    desc = _write(beam_dir, CLAMPED.replace(*edit))
+    with pytest.raises(DescriptionError) as info:
+        generate(desc, beam_dir / "gen")
+    msg = str(info.value)
+    assert key in msg and words in msg
+
+
+def test_sid_syntax_error_reports_the_line(beam_dir: Path) -> None:
+    """A SID file with a syntax error: the message names the data key, the file and line."""
+    lines = (DATA / "beam.SID_FEM").read_text().splitlines()
+    lines[20] = "this is not = = SID"
+    (beam_dir / "beam.SID_FEM").write_text("\n".join(lines) + "\n")
+    desc = _write(beam_dir, CLAMPED)
+    with pytest.raises(DescriptionError) as info:
+        generate(desc, beam_dir / "gen")
+    msg = str(info.value)
+    assert "elastic_bodies.beam.data" in msg and "beam.SID_FEM:" in msg
+
+
+SOUTHWELL_1 = 1.1932  # first flapwise Southwell coefficient of a uniform cantilever
+
+
+def _spinning_module(tmp_path: Path, stiffening: bool, omega_factor: float = 0.3):
+    """Cantilever (tests/elastic/beam_fe.py, 20 elements, 8 clamped modes) on a hub turning
+    at a constant rate Ω about z (frame rotation ``Om*t``)."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
+    from beam_fe import beam
+
+    from neweul_py.elastic.invariants import compute_invariants, stress_stiffening
+
+    b = beam(20)
+    lam, V = b.clamped_modes(8)
+    kw = {}
+    if stiffening:
+        kw["geometric_stiffness"] = stress_stiffening(
+            b.fe, lambda u: b.geometric_stiffness(b.axial_forces(u)), support=np.arange(6),
+            cases=("wzz",))
+    inv = compute_invariants(b.fe, V, nodes=[21], **kw)
+    np.savez(tmp_path / "beam.npz", **inv.to_flat())
+    om = float(omega_factor * np.sqrt(lam[0]))
+    mod = _generate(tmp_path, f"""
+name: spinning_beam
+parameters: {{Om: {om!r}}}
+frames:
+  hub: {{rotation: [[z, "Om*t"]]}}
+elastic_bodies:
+  beam: {{frame: hub, data: beam.npz, nodes: {{tip: 21}}}}
+""")
+    return mod, lam, om
+
+
+@pytest.mark.parametrize("stiffening", [True, False])
+def test_spinning_cantilever_southwell(tmp_path: Path, stiffening: bool) -> None:
+    """Hub spinning at constant Ω: the generated module, linearized by analysis (Coriolis and
+    centrifugal terms included), gives the flapwise ω² = ω₀² + α Ω² with Southwell's
+    α = 1.1932 and chordwise α − 1 (spin softening); without the stiffening terms the
+    flapwise frequency does not rise (α = 0) and chordwise softens by Ω² (α = −1)."""
+    mod, lam, om = _spinning_module(tmp_path, stiffening)
+    ev = modes(linearize(mod)).eigenvalues
+    w = np.sort(np.abs(ev.imag[ev.imag > 1e-9]))
+    alpha = (w[:2] ** 2 - lam[:2]) / om**2
+    if stiffening:
+        assert alpha[0] == pytest.approx(SOUTHWELL_1, rel=2e-3)
+        assert alpha[1] == pytest.approx(SOUTHWELL_1 - 1, abs=2e-3)
+    else:
+        assert alpha[0] == pytest.approx(0.0, abs=1e-5)
+        assert alpha[1] == pytest.approx(-1.0, abs=1e-3)
+
+
+def _up_module(tmp_path: Path, fe, two_sided: bool, m2: float, k2: float, d2: float):
+    from neweul_py.elastic import reduce_modal, save_reduced_body
+    from neweul_py.elastic.invariants import attach_invariants
+
+    body = reduce_modal(fe, modes=12, two_sided=two_sided, keep_nodes=[1], store_bases=True)
+    body = attach_invariants(body, fe, nodes=[1])
+    tag = "two" if two_sided else "one"
+    save_reduced_body(body, tmp_path / f"{tag}.npz")
+    return _generate(tmp_path, f"""
+name: up_{tag}
+parameters: {{m2: {m2!r}, k2: {k2!r}, d2: {d2!r}}}
+coordinates: {{z: {{}}}}
+inputs: {{F: 0}}
+frames:
+  carrier: {{translation: [z, 0, 0]}}
+elastic_bodies:
+  duct: {{frame: ISYS, data: {tag}.npz, nodes: {{piston: 1}}}}
+bodies:
+  mass: {{frame: carrier, mass: m2}}
+forces:
+  link:
+    type: bushing
+    between: [duct.piston, carrier]
+    stiffness: {{diag: [k2, 0, 0]}}
+    damping: {{diag: [d2, 0, 0]}}
+  push: {{type: force, frame: carrier, vector: [F, 0, 0], in: ISYS}}
+""")
+
+
+def test_up_coupled_body_with_spring_and_mass_matches_unreduced_fe(tmp_path: Path) -> None:
+    """u–p coupled piston–duct (Eq. (2), unsymmetric; tests/elastic/fe_builders.py) fixed to
+    the ground, its piston node tied by a spring–damper (bushing) to a rigid mass: the FRF
+    force on the mass → mass displacement of the generated model equals that of the unreduced
+    FE model with the same spring and mass assembled directly, below the cut-off (12 modes,
+    ≈ 2 kHz; compared at 20–900 Hz). Two-sided data (node loads with ``W``) are accurate,
+    one-sided (Galerkin) data of the unsymmetric model are not."""
+    import sys
+
+    import scipy.sparse as sps
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
+    from fe_builders import piston_duct
+
+    fe = piston_duct(n_el=100)
+    m2, k2, d2 = 0.02, 5.0e4, 2.0
+    f = np.linspace(20.0, 900.0, 45)
+    n = fe.M.shape[0]
+    M = sps.block_diag([fe.M, sps.csr_matrix([[m2]])]).toarray()
+    K = sps.block_diag([fe.K, sps.csr_matrix([[0.0]])]).toarray()
+    C = np.zeros_like(K)
+    for A, c in ((K, k2), (C, d2)):
+        A[0, 0] += c
+        A[n, n] += c
+        A[0, n] -= c
+        A[n, 0] -= c
+    b = np.zeros(n + 1)
+    b[n] = 1.0
+    w = 2 * np.pi * f
+    ref = np.array([np.linalg.solve(K - wi**2 * M + 1j * wi * C, b)[n] for wi in w])
+    err = {}
+    for two in (True, False):
+        mod = _up_module(tmp_path, fe, two, m2, k2, d2)
+        assert mod.MASS_MATRIX_SYMMETRIC is False
+        lin = linearize(mod)
+        iz = list(mod.COORDINATES).index("z")
+        H = np.array([np.linalg.solve(lin.Q - wi**2 * lin.M0 + 1j * wi * lin.P,
+                                      lin.B[:, 0])[iz] for wi in w])
+        err[two] = np.abs(H - ref) / np.abs(ref)
+    assert err[True].max() < 0.03
+    assert np.median(err[True]) < 1e-3
+    assert err[False].max() > 10 * err[True].max()
+
+
+def test_free_flexible_pendulum_conserves_energy_and_converges(tmp_path: Path) -> None:
+    """A cantilever hinged at its root (coordinate ``a`` about z) falls from the horizontal
+    under gravity, with 1, 2, 3 and 5 in-plane bending modes (one-sided invariants, no
+    stiffening: symmetric M). Reference: conservation of ``½ẏᵀMẏ + g·(A md(q))_y + ½qᵀKe q``
+    (to the O(q²) consistency of first-order invariants) and convergence of the tip
+    deflection and hinge-angle histories (RMS against 5 modes) as modes are added."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
+    from beam_fe import beam
+
+    from neweul_py.analysis import simulate
+    from neweul_py.elastic.invariants import compute_invariants
+
+    b = beam(20, E=1.0e5)
+    _lam, V = b.clamped_modes(40)
+    inplane = [k for k in range(40)
+               if np.linalg.norm(V[1::6, k]) > 1e-6
+               and max(np.abs(V[0::6, k]).max(), np.abs(V[2::6, k]).max(),
+                       np.abs(V[3::6, k]).max(), np.abs(V[4::6, k]).max()) < 1e-9]
+    tips, drift = {}, {}
+    for nc in (1, 2, 3, 4, 5):
+        inv = compute_invariants(b.fe, V[:, inplane[:nc]], nodes=[21])
+        np.savez(tmp_path / f"b{nc}.npz", **inv.to_flat())
+        mod = _generate(tmp_path, f"""
+name: pendulum{nc}
+parameters: {{g: 9.81}}
+gravity: [0, -g, 0]
+coordinates: {{a: {{}}}}
+frames:
+  arm: {{rotation: [[z, a]]}}
+elastic_bodies:
+  beam: {{frame: arm, data: b{nc}.npz, nodes: {{tip: 21}}}}
+outputs:
+  tip_y: {{position: beam.tip, in: arm, component: y}}
+""")
+        assert mod.MASS_MATRIX_SYMMETRIC is True
+        res = simulate(mod, 0.3, method="DOP853", rtol=1e-10, atol=1e-12, n_out=61)
+        p = mod.default_parameters()
+        md0, md1, Ke = inv.md.m0[:, 0], inv.md.m1[:, :, 0], inv.Ke.m0
+        energy = []
+        for t, y, yd in zip(res.t, res.y, res.yd, strict=True):
+            q = y[1:]
+            c, s = np.cos(y[0]), np.sin(y[0])
+            height = s * (md0 + md1 @ q)[0] + c * (md0 + md1 @ q)[1]
+            energy.append(0.5 * yd @ mod.mass_matrix(t, y, p) @ yd + 9.81 * height
+                          + 0.5 * q @ Ke @ q)
+        energy = np.array(energy)
+        drift[nc] = np.abs(energy - energy[0]).max() / (inv.m * 9.81 * 0.5)
+        assert res.y[-1, 0] < -0.5                          # it did fall
+        tips[nc] = (res.outputs[:, 0], res.y[:, 0])
+    # energy: ≤ 2e-5 of m g L/2 up to 4 modes, 2e-4 with the fifth (1264 rad/s) mode
+    assert max(drift.values()) < 5e-4
+    assert max(drift[nc] for nc in (1, 2, 3, 4)) < 5e-5
+    for k in (0, 1):                           # tip deflection, hinge angle: RMS vs 5 modes
+        ref = tips[5][k]
+        err = [np.sqrt(np.mean((tips[nc][k] - ref) ** 2) / np.mean(ref**2)) for nc in (1, 2, 3, 4)]
+        assert err[0] > err[1] > err[2] > err[3]
+    assert err[3] < 2e-3
