@@ -5,7 +5,8 @@ generated module → analysis (see DESIGN.md). ``elastic`` and ``fem`` are numer
 (NumPy/SciPy only) that produce reduced elastic-body data.
 """
 
-from .description import SystemBuilder, load_description
+from typing import TYPE_CHECKING, Any
+
 from .errors import (
     DataError,
     DescriptionError,
@@ -16,6 +17,23 @@ from .errors import (
 )
 
 __version__ = "0.1.0"
+
+if TYPE_CHECKING:
+    from .description import SystemBuilder, load_description
+
+#: Names re-exported lazily from the symbolic layers, so that ``import neweul_py.analysis``
+#: (NumPy/SciPy only, DESIGN.md) does not import sympy through this package.
+_LAZY = {"SystemBuilder": ".description", "load_description": ".description"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "DataError",

@@ -145,3 +145,26 @@ def test_constrained_modules_go_through_the_dae_solver():
     p = mod.default_parameters()
     assert max(np.max(np.abs(mod.constraints(t, y, p))) for t, y in zip(res.t, res.y,
                                                                          strict=True)) < 1e-8
+
+
+def test_simulation_needs_no_sympy(tmp_path):
+    """analysis/ works on generated modules alone: simulate and write results with sympy made
+    unimportable."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(f"""
+        import sys
+        sys.modules["sympy"] = None
+        from neweul_py.analysis import simulate
+        res = simulate({str(GENERATED / "cart_pendulum.py")!r}, 0.5, method="Radau")
+        res.to_csv({str(tmp_path / "out.csv")!r})
+        assert not any(m.startswith(("neweul_py.equations", "neweul_py.codegen",
+                                     "neweul_py.description", "neweul_py.kinematics"))
+                       for m in sys.modules)
+        print("ok")
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "ok"
