@@ -241,8 +241,8 @@ def right_blocks(si: ShiftInvert, k: int, source: str | None = None) -> list[Eig
     return _blocks(si.sigma + 1.0 / theta, X, si.sigma)
 
 
-def _left_null(si: ShiftInvert, K: sps.spmatrix, m: int) -> np.ndarray:
-    """Left null space of ``K`` (dimension m) by subspace iteration on ``(K − σM)⁻ᵀ Mᵀ``."""
+def _left_null(si: ShiftInvert, m: int) -> np.ndarray:
+    """Left null space of ``K`` (dimension m): subspace iteration on ``(K − σM)⁻ᵀ Mᵀ``."""
     rng = np.random.default_rng(2024)
     Z, _ = np.linalg.qr(rng.standard_normal((si.n, m)))
     for _ in range(300):
@@ -278,7 +278,7 @@ def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: in
         for b in right:
             lam = b.values[0].real
             if abs(lam) <= zero_tol:
-                out.append(EigenBlock(b.values, _left_null(si, fe.K, b.values.size)))
+                out.append(EigenBlock(b.values, _left_null(si, b.values.size)))
             else:
                 w = b.basis * np.where(fe.pressure_dofs, 1.0, scale_u * lam)[:, None]
                 out.append(EigenBlock(b.values, w))
