@@ -23,6 +23,8 @@ from typing import Literal
 
 import sympy as sp
 
+from ..model import as_expr
+
 #: ``"full"``: ``sympy.cse`` (tree CSE plus its search for common argument subsets of Add/Mul,
 #: best for large closed-form expressions); ``"tree"``: only repeated identical subtrees
 #: (:func:`tree_cse`, an order of magnitude faster, nearly as good when the input already reuses
@@ -155,7 +157,7 @@ def eliminate(
         reduced final expressions.
     """
     kept = prune(intermediates, finals)
-    finals = [sp.sympify(e) for e in finals]
+    finals = [as_expr(e) for e in finals]
     if method == "none":
         return Block(tuple(kept), tuple(finals))
     exprs = [e for _, e in kept] + finals

@@ -23,6 +23,7 @@ from collections.abc import Iterator, Sequence
 
 import sympy as sp
 
+from ..model import as_expr
 from .cse import Assignment, prune
 
 __all__ = ["gradient", "jacobian"]
@@ -154,7 +155,7 @@ def jacobian(
     >>> J[0, 0]
     _ncg_d0*(2*z)
     """
-    exprs = [sp.sympify(e) for e in exprs]
+    exprs = [as_expr(e) for e in exprs]
     kept = prune(intermediates, exprs)
     index = {v: j for j, v in enumerate(wrt)}
     names = _numbered(prefix)

@@ -19,6 +19,7 @@ from sympy.printing.codeprinter import PrintMethodNotImplementedError
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import GenerationError
+from ..model import as_expr
 
 __all__ = ["FastPrinter", "NamePool", "ScalarPrinter"]
 
@@ -130,7 +131,7 @@ class FastPrinter:
 
     def doprint_expr(self, expr: sp.Basic) -> str:
         """Print one scalar expression or raise :class:`GenerationError`."""
-        return self._p(sp.sympify(expr))[0]
+        return self._p(as_expr(expr))[0]
 
     def _paren(self, expr: sp.Basic, min_prec: int) -> str:
         s, prec = self._p(expr)

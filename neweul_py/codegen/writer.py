@@ -24,7 +24,7 @@ from typing import Any
 import sympy as sp
 
 from ..errors import GenerationError
-from ..model import Frame, KinematicOutput, System, input_rate_name, time
+from ..model import Frame, KinematicOutput, System, as_expr, input_rate_name, time
 from .constraints import constraint_constant, constraint_functions
 from .cse import Assignment, Block, CseMethod, eliminate, free_symbols, prune
 from .derivatives import jacobian
@@ -279,7 +279,7 @@ def render_module(
     names_out = list(eq.output_names)
     if outs.shape[0] != len(names_out):
         raise GenerationError("outputs and output_names differ in length")
-    inter = tuple((s, sp.sympify(e)) for s, e in eq.intermediates)
+    inter = tuple((s, as_expr(e)) for s, e in eq.intermediates)
 
     pool = NamePool()
     pool.names[time] = "t"
@@ -314,7 +314,7 @@ def render_module(
         ["return _np.array(_P0, dtype=_np.float64)"],
     )
     # the input vector: inputs, then the time derivatives kinematic excitation needs (issue 4)
-    u_defaults = [sp.sympify(e) for e in system.input_defaults]
+    u_defaults = [as_expr(e) for e in system.input_defaults]
     b = _checked(ctx, eliminate((), u_defaults, method=method), (*p, time), "the default inputs")
     body = _prologue(ctx, b, [(p, p_src)]) + _assignments(ctx, b) + _vector(ctx, "u", b.finals)
     funcs += _function("default_inputs(t, p)",

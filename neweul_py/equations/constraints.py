@@ -28,6 +28,7 @@ from ..model import (
     CoincidenceConstraint,
     ExpressionConstraint,
     System,
+    as_expr,
     input_rate_name,
     symbol,
     time,
@@ -103,7 +104,7 @@ class _Poses:
         if name not in self._cache:
             frame = self.system.frame_map[name]
             s_parent, r_parent = self.pose(frame.parent)
-            a = rotation_product(tuple((axis, sp.sympify(angle))
+            a = rotation_product(tuple((axis, as_expr(angle))
                                        for axis, angle in frame.rotation))
             self._cache[name] = (
                 mat_mul(s_parent, a),

@@ -23,6 +23,7 @@ import sympy as sp
 
 from ..kinematics import Workspace
 from ..kinematics.algebra import ZERO, is_zero, total
+from ..model import as_expr
 from .result import Equations
 
 __all__ = [
@@ -153,7 +154,7 @@ def jacobian(
             wanted.add(sym)
     rows = []
     for expr in exprs:
-        d = differentiate(sp.sympify(expr))
+        d = differentiate(as_expr(expr))
         rows.append([d.get(k, ZERO) for k in range(len(variables))])
     matrix = sp.ImmutableMatrix(len(rows), len(variables), [e for r in rows for e in r])
     return tuple(workspace.assignments[start:]), matrix

@@ -34,7 +34,7 @@ from typing import Literal
 import sympy as sp
 
 from ..errors import ModelError
-from ..model import INERTIAL, Frame, System, input_rate_name, symbol, time
+from ..model import INERTIAL, Frame, System, as_expr, input_rate_name, symbol, time
 from .algebra import (
     ZERO,
     ZERO3,
@@ -201,7 +201,7 @@ class Kinematics:
         ws = self.workspace
         name = frame.name
         parent = self.frames[frame.parent]
-        rotation = tuple((axis, sp.sympify(angle)) for axis, angle in frame.rotation)
+        rotation = tuple((axis, as_expr(angle)) for axis, angle in frame.rotation)
         translation: Vec3 = tuple(frame.translation)  # type: ignore[assignment]
         self._check_no_inputs([a for _, a in rotation] + list(translation), f"frames.{name}")
         n = self.n

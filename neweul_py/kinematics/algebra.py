@@ -12,6 +12,8 @@ from collections.abc import Iterable, Sequence
 
 import sympy as sp
 
+from ..model import as_expr
+
 __all__ = [
     "ZERO",
     "ZERO3",
@@ -93,7 +95,7 @@ def scale_one(c: sp.Expr | int, x: sp.Expr) -> sp.Expr:
 
 def scale(c: sp.Expr | int, v: Sequence[sp.Expr]) -> Vec3:
     """``c v``."""
-    c = sp.sympify(c)
+    c = as_expr(c)
     if is_zero(c):
         return ZERO3
     return tuple(scale_one(c, x) for x in v)  # type: ignore[return-value]

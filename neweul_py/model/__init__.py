@@ -32,6 +32,7 @@ from .force_elements import (
 from .symbols import (
     INERTIAL,
     RESERVED_NAMES,
+    as_expr,
     check_name,
     input_rate_name,
     symbol,
@@ -68,6 +69,7 @@ __all__ = [
     "SpringDamper",
     "System",
     "Torque",
+    "as_expr",
     "characteristic_force",
     "check_name",
     "input_rate_name",

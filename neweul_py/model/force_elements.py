@@ -23,6 +23,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from .elements import AXES, ForceElement, Output
+from .symbols import as_expr
 
 __all__ = [
     "ELONGATION",
@@ -71,7 +72,7 @@ class TableCurve(sp.Expr):
     is_real = True
 
     def __new__(cls, v: object, knots: object, shifts: object, coefficients: object) -> TableCurve:
-        return sp.Expr.__new__(cls, sp.sympify(v), sp.Tuple(*knots), sp.Tuple(*shifts),
+        return sp.Expr.__new__(cls, as_expr(v), sp.Tuple(*knots), sp.Tuple(*shifts),
                                sp.Tuple(*(sp.Tuple(*c) for c in coefficients)))
 
     @property

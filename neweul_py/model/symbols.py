@@ -14,6 +14,7 @@ import sympy as sp
 __all__ = [
     "INERTIAL",
     "RESERVED_NAMES",
+    "as_expr",
     "check_name",
     "input_rate_name",
     "symbol",
@@ -96,3 +97,21 @@ def check_name(name: object) -> str | None:
     if name.startswith("d_"):
         return f"{name!r} starts with 'd_', which is reserved for velocities"
     return None
+
+
+def as_expr(value: object) -> sp.Basic:
+    """Return ``value`` as a sympy object: sympy objects unchanged, Python numbers as exact
+    sympy numbers (``int`` → ``Integer``, ``float`` → ``Float``).
+
+    This is the only conversion the symbolic layers use. Unlike ``sympify`` it never parses
+    text: a string raises ``TypeError`` (user text goes through the description parser).
+    """
+    if isinstance(value, sp.Basic):
+        return value
+    if isinstance(value, bool):
+        raise TypeError("a boolean is not an expression")
+    if isinstance(value, int):
+        return sp.Integer(value)
+    if isinstance(value, float):
+        return sp.Float(value)
+    raise TypeError(f"expected a sympy expression or a number, got {type(value).__name__}")
