@@ -1,16 +1,21 @@
 """Generated modules of systems with elastic bodies (equations.md §2, issue 6).
 
-The rigid part of the equations is rendered by :func:`~neweul_py.codegen.writer.render_module`
-as usual, with the reference-frame kinematics of every elastic body (``J_T``, ``J_R``, ``ā``,
-``ᾱ``, ``ω``, ``g``; :func:`neweul_py.equations.elastic.elastic_splices`) appended as hidden
-outputs. Its public functions are then renamed ``_rigid_*`` and wrapped by functions that add
-the elastic bodies' terms with small matrix products on the *numeric* invariants::
+The symbolic part of the equations (rigid bodies, forces, outputs, constraints, node frames)
+is rendered by :func:`~neweul_py.codegen.writer.render_module` as usual, with the
+reference-frame kinematics of every elastic body (``J_T``, ``J_R``, ``ā``, ``ᾱ``, ``ω``,
+``g``; :func:`neweul_py.equations.elastic.elastic_splices`) appended as hidden outputs. Its
+public functions are renamed ``_rigid_*`` and wrapped by functions that
+
+1. map the independent coordinates to the symbolic ones, ``y_s = S_V y`` (the dependent node
+   coordinates ``[u; θ] = [Φ_P; Ψ_P] q`` of the node frames), and back,
+   ``M = S_Wᵀ M_s S_V``, ``q − k = S_Wᵀ (q − k)_s`` (``S_W``: left basis, so node loads enter
+   the elastic rows as ``W_Pᵀ f``; :func:`~neweul_py.equations.elastic.node_coordinate_map`);
+2. add the elastic bodies' own terms with small matrix products on the *numeric* invariants::
 
     M   += J_bᵀ M_b(q) J_b,   q − k −= J_bᵀ (M_b(q) [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])
 
-so a body with 200 modes costs a few (nq × nq) products per call, not code size. For
-two-sided bodies the node loads are first moved to the left basis
-(:func:`~neweul_py.equations.elastic.two_sided_node_loads`).
+So a body with 200 modes costs a few (nq × nq) products per call and six symbolic coordinates
+per node frame, not code size.
 
 Data in the module
 ------------------
@@ -21,7 +26,8 @@ standard library's ``base64``/``zlib``).
 
 Linearization
 -------------
-``force_jacobians``: the rigid part analytic as before; of the elastic terms ``−Ke`` and
+``force_jacobians``: the symbolic part analytic as before (mapped by ``S_Wᵀ``, ``S_V``); of the
+elastic terms ``−Ke`` and
 ``−De`` are added analytically, the remaining coupling terms (which depend on ``y``, ``ẏ``
 through the frame kinematics and the first-order invariants) by central differences of the
 elastic force contribution (step ``1e-6·max(1, |x|)``). ``mass_matrix_times_derivative``
@@ -39,14 +45,15 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from ..equations import newton_euler
-from ..equations.elastic import ElasticSplice, elastic_splices, two_sided_node_loads
+from ..equations.elastic import ElasticSplice, elastic_splices, node_coordinate_map
 from ..errors import GenerationError
 
 __all__ = ["render_elastic_module"]
 
 _RENAMED = ("mass_matrix", "force_vector", "rhs", "force_jacobians",
-            "mass_matrix_times_derivative", "outputs", "output_jacobians")
+            "mass_matrix_times_derivative", "rhs_jacobian", "outputs", "output_jacobians",
+            "constraints", "constraint_jacobian", "constraint_time_derivative",
+            "constraint_gamma")
 
 
 def _pack(a: np.ndarray) -> str:
@@ -79,14 +86,15 @@ def _body_arrays(sp_: ElasticSplice) -> dict[str, np.ndarray | None]:
     }
 
 
-def _data_lines(splices: tuple[ElasticSplice, ...], offsets: list[int]) -> list[str]:
+def _data_lines(splices: tuple[ElasticSplice, ...], offsets: list[int],
+                firsts: list[int]) -> list[str]:
     lines = ["_ELASTIC_DATA = ("]
-    for s, off in zip(splices, offsets, strict=True):
+    for s, off, first in zip(splices, offsets, firsts, strict=True):
         b = s.body
         lines.append("    {")
         lines.append(f"        'name': {b.name!r},")
         lines.append(f"        'mass': {float(b.data['m'])!r},")
-        lines.append(f"        'first': {s.first},")
+        lines.append(f"        'first': {first},")
         lines.append(f"        'nq': {b.nq},")
         lines.append(f"        'kin': {off},")
         for key, arr in _body_arrays(s).items():
@@ -133,6 +141,8 @@ def _prepare(b):
 _ELASTIC = tuple(_prepare(b) for b in _ELASTIC_DATA)
 _N = len(COORDINATES)
 _NHIDDEN = len(OUTPUTS)
+_SVA = _unpack(_SV_ACTIVE)
+_SWA = _unpack(_SW_ACTIVE)
 
 
 def _skew(v):
@@ -143,9 +153,10 @@ def _body_terms(b, kin, y, yd):
     """Frame kinematics, q, q', md(q) and the mass blocks of one elastic body."""
     n, i0, nq = _N, b["first"], b["nq"]
     o = b["kin"]
-    JT = kin[o:o + 3 * n].reshape(3, n)
-    JR = kin[o + 3 * n:o + 6 * n].reshape(3, n)
-    v = kin[o + 6 * n:o + 6 * n + 12]
+    ns = _NS
+    JT = kin[o:o + 3 * ns].reshape(3, ns) @ _SVA
+    JR = kin[o + 3 * ns:o + 6 * ns].reshape(3, ns) @ _SVA
+    v = kin[o + 6 * ns:o + 6 * ns + 12]
     q = y[i0:i0 + nq]
     qd = yd[i0:i0 + nq]
     X = b["T0"] + b["T1"] @ q
@@ -197,99 +208,160 @@ def _elastic_force(f, terms, linear=True):
     return f
 
 
-def _kin(t, y, yd, p, u):
-    x = _np.concatenate((_np.asarray(y, dtype=_np.float64), _np.asarray(yd, dtype=_np.float64)))
-    return _rigid_outputs(t, x, p, u)[_NHIDDEN:]
+def _sym(v):
+    """Coordinates of the symbolic part, y_s = S_V y: the rigid coordinates and the
+    dependent node coordinates [u; theta] = [Phi_P; Psi_P] q."""
+    return _SVA @ v
+
+
+def _kin(t, ys, yds, p, u):
+    return _rigid_outputs(t, _np.concatenate((ys, yds)), p, u)[_NHIDDEN:]
+
+
+def _reduce(Ms):
+    """S_W^T M_s S_V."""
+    return _SWA.T @ Ms @ _SVA
+
+
+def _all(t, y, yd, p, u, mass=True, force=True):
+    y = _np.asarray(y, dtype=_np.float64)
+    yd = _np.asarray(yd, dtype=_np.float64)
+    ys, yds = _sym(y), _sym(yd)
+    terms = _terms(_kin(t, ys, yds, p, u), y, yd)
+    M = f = None
+    if mass:
+        M = _elastic_mass(_reduce(_rigid_mass_matrix(t, ys, p, u)), terms)
+    if force:
+        f = _elastic_force(_SWA.T @ _rigid_force_vector(t, ys, yds, p, u), terms)
+    return M, f
 
 
 def mass_matrix(t, y, p, u=None):
-    """Mass matrix ``M(y, t)``, shape (n, n); unsymmetric with elastic bodies."""
-    y = _np.asarray(y, dtype=_np.float64)
-    M = _rigid_mass_matrix(t, y, p, u)
-    z = _np.zeros(_N)
-    return _elastic_mass(M, _terms(_kin(t, y, z, p, u), y, z))
+    """Mass matrix ``M(y, t)``, shape (n, n); unsymmetric with two-sided elastic data."""
+    return _all(t, y, _np.zeros(_N), p, u, force=False)[0]
 
 
 def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q - k``, shape (n,), with the elastic bodies' terms."""
-    y = _np.asarray(y, dtype=_np.float64)
-    yd = _np.asarray(yd, dtype=_np.float64)
-    f = _rigid_force_vector(t, y, yd, p, u)
-    return _elastic_force(f, _terms(_kin(t, y, yd, p, u), y, yd))
+    return _all(t, y, yd, p, u, mass=False)[1]
 
 
 def rhs(t, x, p, u=None):
     """First-order form ``[yd, M^-1 (q - k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
-    y, yd = x[:_N], x[_N:2 * _N]
-    terms = _terms(_kin(t, y, yd, p, u), y, yd)
-    M = _elastic_mass(_rigid_mass_matrix(t, y, p, u), terms)
-    f = _elastic_force(_rigid_force_vector(t, y, yd, p, u), terms)
+    M, f = _all(t, x[:_N], x[_N:2 * _N], p, u)
     xd = _np.empty(2 * _N)
-    xd[:_N] = yd
+    xd[:_N] = x[_N:2 * _N]
     xd[_N:] = _np.linalg.solve(M, f)
     return xd
 
 
 def _nonlinear_elastic_force(t, y, yd, p, u):
-    return _elastic_force(_np.zeros(_N), _terms(_kin(t, y, yd, p, u), y, yd), linear=False)
+    terms = _terms(_kin(t, _sym(y), _sym(yd), p, u), y, yd)
+    return _elastic_force(_np.zeros(_N), terms, linear=False)
 
 
 def force_jacobians(t, y, yd, p, u=None):
-    """``d(q-k)/dy``, ``d(q-k)/dyd`` (n, n) and ``d(q-k)/du`` (n, nu): rigid part analytic,
-    elastic ``-Ke``, ``-De`` analytic, elastic coupling terms by central differences."""
+    """``d(q-k)/dy``, ``d(q-k)/dyd`` (n, n) and ``d(q-k)/du`` (n, nu): the symbolic part
+    analytic (mapped by S_W^T, S_V), elastic ``-Ke``, ``-De`` analytic, the elastic coupling
+    terms by central differences."""
     y = _np.asarray(y, dtype=_np.float64)
     yd = _np.asarray(yd, dtype=_np.float64)
-    fy, fyd, fu = _rigid_force_jacobians(t, y, yd, p, u)
+    fys, fyds, fus = _rigid_force_jacobians(t, _sym(y), _sym(yd), p, u)
+    fy, fyd, fu = _reduce(fys), _reduce(fyds), _SWA.T @ fus
     for b in _ELASTIC:
         e = slice(b["first"], b["first"] + b["nq"])
         fy[e, e] -= b["Ke"]
         fyd[e, e] -= b["De"]
     for j in range(_N):
-        for arr, J, other in ((y, fy, yd), (yd, fyd, y)):
-            h = 1e-6 * max(1.0, abs(arr[j]))
-            ap = arr.copy()
-            am = arr.copy()
-            ap[j] += h
-            am[j] -= h
-            if arr is y:
-                fp = _nonlinear_elastic_force(t, ap, other, p, u)
-                fm = _nonlinear_elastic_force(t, am, other, p, u)
+        for which, J in ((0, fy), (1, fyd)):
+            base = y if which == 0 else yd
+            h = 1e-6 * max(1.0, abs(base[j]))
+            vp = base.copy()
+            vm = base.copy()
+            vp[j] += h
+            vm[j] -= h
+            if which == 0:
+                fp = _nonlinear_elastic_force(t, vp, yd, p, u)
+                fm = _nonlinear_elastic_force(t, vm, yd, p, u)
             else:
-                fp = _nonlinear_elastic_force(t, other, ap, p, u)
-                fm = _nonlinear_elastic_force(t, other, am, p, u)
+                fp = _nonlinear_elastic_force(t, y, vp, p, u)
+                fm = _nonlinear_elastic_force(t, y, vm, p, u)
             J[:, j] += (fp - fm) / (2.0 * h)
     return fy, fyd, fu
 
 
 def mass_matrix_times_derivative(t, y, p, a, u=None):
-    """``d(M(y) a)/dy`` for a fixed vector ``a``, shape (n, n); elastic part by central
-    differences."""
+    """``d(M(y) a)/dy`` for a fixed vector ``a``, shape (n, n); symbolic part analytic,
+    elastic part by central differences."""
     y = _np.asarray(y, dtype=_np.float64)
     a = _np.asarray(a, dtype=_np.float64)
-    dMa = _rigid_mass_matrix_times_derivative(t, y, p, a, u)
+    dMa = _reduce(_rigid_mass_matrix_times_derivative(t, _sym(y), p, _sym(a), u))
     z = _np.zeros(_N)
+    zs = _np.zeros(_NS)
     for j in range(_N):
         h = 1e-6 * max(1.0, abs(y[j]))
         yp = y.copy()
         ym = y.copy()
         yp[j] += h
         ym[j] -= h
-        Mp = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, yp, z, p, u), yp, z))
-        Mm = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, ym, z, p, u), ym, z))
+        Mp = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, _sym(yp), zs, p, u), yp, z))
+        Mm = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, _sym(ym), zs, p, u), ym, z))
         dMa[:, j] += (Mp - Mm) @ a / (2.0 * h)
     return dMa
 
 
+def rhs_jacobian(t, x, p, u=None):
+    """``d rhs/dx`` = [[0, I], [M^-1(df/dy - d(M ydd)/dy), M^-1 df/dyd]]."""
+    x = _np.asarray(x, dtype=_np.float64)
+    y, yd = x[:_N], x[_N:2 * _N]
+    M, f = _all(t, y, yd, p, u)
+    ydd = _np.linalg.solve(M, f)
+    fy, fyd, _fu = force_jacobians(t, y, yd, p, u)
+    dMa = mass_matrix_times_derivative(t, y, p, ydd, u)
+    J = _np.zeros((2 * _N, 2 * _N))
+    J[:_N, _N:] = _np.eye(_N)
+    J[_N:, :] = _np.linalg.solve(M, _np.hstack((fy - dMa, fyd)))
+    return J
+
+
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
-    return _rigid_outputs(t, x, p, u)[:_NHIDDEN]
+    x = _np.asarray(x, dtype=_np.float64)
+    xs = _np.concatenate((_sym(x[:_N]), _sym(x[_N:2 * _N])))
+    return _rigid_outputs(t, xs, p, u)[:_NHIDDEN]
 
 
 def output_jacobians(t, x, p, u=None):
     """``dout/dx`` (ny, STATE_SIZE) and ``dout/du`` (ny, nu), analytic."""
-    C, D = _rigid_output_jacobians(t, x, p, u)
-    return C[:_NHIDDEN].copy(), D[:_NHIDDEN].copy()
+    x = _np.asarray(x, dtype=_np.float64)
+    xs = _np.concatenate((_sym(x[:_N]), _sym(x[_N:2 * _N])))
+    Cs, Ds = _rigid_output_jacobians(t, xs, p, u)
+    Cs = Cs[:_NHIDDEN]
+    C = _np.hstack((Cs[:, :_NS] @ _SVA, Cs[:, _NS:] @ _SVA))
+    return C, Ds[:_NHIDDEN].copy()
+
+
+def constraints(t, y, p, u=None):
+    """The constraints ``g(y, t)``, ordered as ``CONSTRAINTS``."""
+    return _rigid_constraints(t, _sym(_np.asarray(y, dtype=_np.float64)), p, u)
+
+
+def constraint_jacobian(t, y, p, u=None):
+    """``G = dg/dy``, shape (nc, n)."""
+    G = _rigid_constraint_jacobian(t, _sym(_np.asarray(y, dtype=_np.float64)), p, u)
+    return G @ _SVA
+
+
+def constraint_time_derivative(t, y, p, u=None):
+    """``dg/dt``, shape (nc,)."""
+    return _rigid_constraint_time_derivative(t, _sym(_np.asarray(y, dtype=_np.float64)), p, u)
+
+
+def constraint_gamma(t, y, yd, p, u=None):
+    """``gamma`` with ``G ydd + gamma = 0``, shape (nc,)."""
+    return _rigid_constraint_gamma(t, _sym(_np.asarray(y, dtype=_np.float64)),
+                                   _sym(_np.asarray(yd, dtype=_np.float64)), p, u)
 '''
 
 
@@ -321,14 +393,21 @@ def _symmetric(splices: tuple[ElasticSplice, ...]) -> bool:
     return True
 
 
+def _replace_line(text: str, prefix: str, line: str) -> str:
+    lines = [ln for ln in text.splitlines() if ln.startswith(prefix)]
+    if len(lines) != 1:
+        raise GenerationError(f"elastic splice: cannot find the constant {prefix.strip()}")
+    return text.replace(lines[0] + "\n", line + "\n", 1)
+
+
 def render_elastic_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
     """The module text of a system with elastic bodies (see the module docstring).
 
     Parameters
     ----------
     equations
-        The :class:`~neweul_py.equations.Equations` of the system (rigid part; its ``system``
-        holds the elastic bodies).
+        The :class:`~neweul_py.equations.Equations` of the system (the symbolic part; its
+        ``system`` holds the elastic bodies).
     source_hash
         SHA-256 of the description.
     cse
@@ -337,24 +416,38 @@ def render_elastic_module(equations: Any, source_hash: str, *, cse: bool = True)
     Raises
     ------
     GenerationError
-        If the rendered rigid module does not have the expected structure.
+        If the rendered symbolic part does not have the expected structure.
     """
-    from .writer import render_module
+    from .writer import _units, render_module
 
-    equations = two_sided_node_loads(equations, newton_euler)
     system = equations.system
     splices = elastic_splices(system)
+    keep, SV, SW = node_coordinate_map(system)
+    elastic_q = {n for b in system.elastic_bodies for n in b.coordinate_names}
+    active = [j for j, c in enumerate(system.coordinates) if c.name not in elastic_q]
+    true_index = {j: k for k, j in enumerate(keep)}
     extra: list[sp.Expr] = []
     offsets = []
     for s in splices:
         offsets.append(len(extra))
-        extra += s.expressions()
+        extra += s.expressions(active)
     names = list(equations.output_names)
     hidden = [f"_elastic_{i}" for i in range(len(extra))]
+    # the symbolic part without the elastic coordinates (they appear in no expression: the
+    # node frames move with the dependent node coordinates), so that it stays small
+    a_idx = list(active)
+    ce = equations.constraints
+    if ce is not None:
+        ce = dataclasses.replace(ce, G=ce.G[:, a_idx])
     eq2 = dataclasses.replace(
         equations,
+        coordinates=tuple(equations.coordinates[j] for j in a_idx),
+        velocities=tuple(equations.velocities[j] for j in a_idx),
+        mass_matrix=equations.mass_matrix[a_idx, a_idx],
+        force_vector=equations.force_vector[a_idx, 0],
         outputs=sp.ImmutableMatrix(len(names) + len(extra), 1, [*equations.outputs, *extra]),
         output_names=(*names, *hidden),
+        constraints=ce,
     )
     text = render_module(eq2, source_hash, cse=cse, _elastic=False)
     for fn in _RENAMED:
@@ -362,20 +455,32 @@ def render_elastic_module(equations: Any, source_hash: str, *, cse: bool = True)
         if text.count(old) != 1:
             raise GenerationError(f"elastic splice: cannot find the function {fn} to wrap")
         text = text.replace(old, f"\ndef _rigid_{fn}(")
-    old_outputs = f"OUTPUTS = {[*names, *hidden]!r}"
-    if text.count(old_outputs) != 1:
-        raise GenerationError("elastic splice: cannot find the OUTPUTS constant")
-    text = text.replace(old_outputs, f"OUTPUTS = {names!r}")
+    text = _replace_line(text, "OUTPUTS = ", f"OUTPUTS = {names!r}")
     sym_line = [ln for ln in text.splitlines() if ln.startswith("MASS_MATRIX_SYMMETRIC = ")]
-    if len(sym_line) != 1:
-        raise GenerationError("elastic splice: cannot find MASS_MATRIX_SYMMETRIC")
-    symmetric = sym_line[0].endswith("True") and _symmetric(splices)
-    text = text.replace(sym_line[0], f"MASS_MATRIX_SYMMETRIC = {symmetric!r}")
+    symmetric = (bool(sym_line) and sym_line[0].endswith("True") and _symmetric(splices)
+                 and np.array_equal(SV, SW))
+    text = _replace_line(text, "MASS_MATRIX_SYMMETRIC = ",
+                         f"MASS_MATRIX_SYMMETRIC = {symmetric!r}")
+    coords = [system.coordinates[j] for j in keep]
+    cu, _ou = _units(system)
+    x0 = [float(c.initial) for c in coords] + [float(c.velocity) for c in coords]
+    text = _replace_line(text, "COORDINATES = ", f"COORDINATES = {[c.name for c in coords]!r}")
+    text = _replace_line(text, "COORDINATE_UNITS = ",
+                         f"COORDINATE_UNITS = {[cu[j] for j in keep]!r}")
+    text = _replace_line(text, "INITIAL_STATE = ", f"INITIAL_STATE = {x0!r}")
+    text = _replace_line(text, "STATE_SIZE = ", f"STATE_SIZE = {2 * len(keep)}")
     text = text.replace("\nimport math as _math\n",
                         "\nimport base64 as _b64\nimport math as _math\nimport zlib as _zlib\n", 1)
     bodies = ", ".join(f"{s.body.name!r} ({s.body.nq} modes"
                        f"{', two-sided' if s.body.two_sided else ''})" for s in splices)
     text = text.replace('"""\n\nimport base64',
                         f'\nElastic bodies: {bodies}.\n"""\n\nimport base64', 1)
-    return text.rstrip("\n") + "\n\n\n" + "\n".join(_data_lines(splices, offsets)) + "\n" \
-        + _RUNTIME.rstrip("\n") + "\n"
+    maps = [
+        f"_NS = {len(active)}",
+        f"_SV_ACTIVE = ({SV[active].shape!r}, {_pack(SV[active])!r})",
+        f"_SW_ACTIVE = ({SW[active].shape!r}, {_pack(SW[active])!r})",
+    ]
+    firsts = [true_index[s.first] for s in splices]
+    return (text.rstrip("\n") + "\n\n\n" + "\n".join(maps) + "\n"
+            + "\n".join(_data_lines(splices, offsets, firsts)) + "\n"
+            + _RUNTIME.rstrip("\n") + "\n")

@@ -489,10 +489,11 @@ class SystemBuilder:
         self._frames.append(make)
 
     def elastic_body(self, body: ElasticBody) -> None:
-        """Add an elastic body (equations.md §2): its coordinates ``NAME_q1 …`` (initially 0)
-        and its node frames ``NAME.label`` (:meth:`ElasticBody.node_frames`)."""
+        """Add an elastic body (equations.md §2): its coordinates ``NAME_q1 …`` (initially 0),
+        the dependent coordinates of its node frames (``NAME_label_ux`` …, eliminated in the
+        generated module) and the node frames ``NAME.label`` (:meth:`ElasticBody.node_frames`)."""
         path = self._declare("elastic_bodies", "elastic_body", body.name)
-        for c in body.coordinate_names:
+        for c in (*body.coordinate_names, *body.all_node_coordinate_names):
             self.coordinate(c)
         for frame in body.node_frames():
             if frame.name in self._kinds:

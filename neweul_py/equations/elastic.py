@@ -24,24 +24,22 @@ What stays symbolic here is only the reference frame's kinematics — ``J_T``, `
 ``ᾱ``, ``ω`` and ``g`` in frame components (:class:`ElasticSplice`); the invariants stay
 numeric arrays (the flat form carried by :class:`~neweul_py.model.ElasticBody`) and
 :mod:`neweul_py.codegen.elastic` emits the matrix products with them. The node frames
-(``NAME.label``) are ordinary symbolic frames of the system (first order in ``q``), so forces
-on nodes enter through their Jacobians like any force (see the Notes of
-:func:`elastic_splices` for two-sided data).
+(``NAME.label``) are ordinary symbolic frames moving with six dependent node coordinates
+each, mapped to the modes numerically (:func:`node_coordinate_map`: ``S_V`` for motion,
+``S_W`` — the left basis — for the node loads of two-sided data).
 """
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from ..kinematics import absolute_kinematics
-from ..model import INERTIAL, Coordinate, ElasticBody, System, symbol, velocity_name
+from ..model import INERTIAL, ElasticBody, System
 
-__all__ = ["ElasticSplice", "elastic_splices", "two_sided_node_loads"]
+__all__ = ["ElasticSplice", "elastic_splices", "node_coordinate_map"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,9 +69,12 @@ class ElasticSplice:
     omega: sp.ImmutableMatrix
     gravity: sp.ImmutableMatrix
 
-    def expressions(self) -> list[sp.Expr]:
-        """``[J_T (row-major), J_R, ā, ᾱ, ω, g]``: 6n + 12 expressions, in this order."""
-        out: list[sp.Expr] = list(self.JT) + list(self.JR)
+    def expressions(self, columns: list[int] | None = None) -> list[sp.Expr]:
+        """``[J_T (row-major), J_R, ā, ᾱ, ω, g]``: 6n + 12 expressions, in this order
+        (``columns``: only these Jacobian columns)."""
+        cols = list(range(self.JT.shape[1])) if columns is None else list(columns)
+        out: list[sp.Expr] = [self.JT[a, j] for a in range(3) for j in cols]
+        out += [self.JR[a, j] for a in range(3) for j in cols]
         for v in (self.abar, self.alphabar, self.omega, self.gravity):
             out += list(v)
         return out
@@ -95,9 +96,8 @@ def elastic_splices(system: System) -> tuple[ElasticSplice, ...]:
 
     Notes
     -----
-    Node forces act on the elastic coordinates through the node frames' Jacobians, i.e. with
-    the right basis ``Φ_P`` (``V``); for two-sided data :func:`two_sided_node_loads` turns
-    these modal loads into ``W_Pᵀ f``.
+    The columns of ``J_T``, ``J_R`` refer to all coordinates of the system, including the
+    dependent node coordinates (see :func:`node_coordinate_map`).
     """
     if not system.elastic_bodies:
         return ()
@@ -136,102 +136,41 @@ def elastic_splices(system: System) -> tuple[ElasticSplice, ...]:
     return tuple(out)
 
 
-def two_sided_node_loads(equations: Any, derive: Any) -> Any:
-    """Equations whose elastic rows take node loads with the left basis, ``W_Pᵀ f`` (§2).
+def node_coordinate_map(system: System) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+    """The linear map from the independent coordinates to the symbolic ones (§2, node frames).
 
-    The node frames are symbolic frames with ``origin = x_P + Φ_P q`` (right basis), so the
-    derivation gives the elastic rows ``Φ_Pᵀ F_P + Ψ_Pᵀ L_P`` for the total force ``F_P`` and
-    moment ``L_P`` that the rest of the system exerts on node P (forces, and the inertia of
-    bodies hanging on the node, both in ``M`` and ``q − k``). Two-sided data want
-    ``W_Pᵀ``-rows. ``F_P``, ``L_P`` are obtained exactly as the generalized forces of six probe
-    coordinates ``ε`` added to the node frame (``origin + ε[:3]``, small angles
-    ``Ψ_P q + ε[3:]``) at ``ε = 0``; then, for every row (of ``M`` and of ``q − k``),
+    The node frames move with dependent node coordinates ``[u; θ] = [Φ_P; Ψ_P] q``
+    (:meth:`~neweul_py.model.ElasticBody.node_frames`). With ``y`` the coordinates without
+    them and ``y_s`` all coordinates of the system (those of the symbolic equations):
 
-        row_q += (Φ_W − Φ_V)ᵀ row_ε[:3] + (Ψ_W − Ψ_V)ᵀ row_ε[3:],
+        y_s = S_V y,   ẏ_s = S_V ẏ,   ÿ_s = S_V ÿ            (S_V constant)
 
-    and the probe coordinates are removed. Each elastic row gains six terms per node (the
-    node loads are intermediates ``FP_<body>_<label>_<i>``).
+    and by the principle of virtual work, with the *test* directions of two-sided data,
 
-    Parameters
-    ----------
-    equations
-        The :class:`~neweul_py.equations.Equations` of the system (without this correction).
-    derive
-        ``newton_euler``-like function ``(system, form) -> Equations``.
+        M = S_Wᵀ M_s S_V,   q − k = S_Wᵀ (q − k)_s,
+
+    where ``S_W`` has the rows of the left basis ``[Φ_W; Ψ_W]`` at the node coordinates: node
+    loads reach the elastic equations as ``W_Pᵀ f`` (one-sided data: ``S_W = S_V``).
 
     Returns
     -------
-    Equations
-        ``equations`` itself when no two-sided body has node frames; else the corrected ones.
+    keep, S_V, S_W
+        Indices in ``y_s`` of the independent coordinates, and the two (n_s, n) maps.
     """
-    system: System = equations.system
-    bodies = [b for b in system.elastic_bodies if b.two_sided and b.nodes]
-    if not bodies:
-        return equations
-    probes: dict[tuple[str, str], tuple[sp.Symbol, ...]] = {}
-    extra: list[Coordinate] = []
-    taken = {c.name for c in system.coordinates}
-    for b in bodies:
+    ns = len(system.coordinates)
+    index = {c.name: j for j, c in enumerate(system.coordinates)}
+    dependent = {n for b in system.elastic_bodies for n in b.all_node_coordinate_names}
+    keep = tuple(j for j, c in enumerate(system.coordinates) if c.name not in dependent)
+    col = {j: k for k, j in enumerate(keep)}
+    SV = np.zeros((ns, len(keep)))
+    SW = np.zeros((ns, len(keep)))
+    for j in keep:
+        SV[j, col[j]] = SW[j, col[j]] = 1.0
+    for b in system.elastic_bodies:
+        cols = [col[index[n]] for n in b.coordinate_names]
         for label, _node in b.nodes:
-            names = []
-            for a in range(6):
-                name = f"eps_{b.name}_{label}_{a}"
-                while name in taken:
-                    name = "z" + name
-                taken.add(name)
-                names.append(name)
-            extra += [Coordinate(n) for n in names]
-            probes[(b.name, label)] = tuple(symbol(n) for n in names)
-    frames = {}
-    for b in bodies:
-        own = {label: probes[(b.name, label)] for label, _ in b.nodes}
-        for f in b.node_frames(own):
-            frames[f.name] = f
-    aug = dataclasses.replace(
-        system, coordinates=(*system.coordinates, *extra),
-        frames=tuple(frames.get(f.name, f) for f in system.frames))
-    form = "closed" if equations.is_closed_form else "recursive"
-    eq = derive(aug, form)
-    n = len(system.coordinates)
-    zero = {symbol(c.name): sp.Integer(0) for c in extra}
-    zero.update({symbol(velocity_name(c.name)): sp.Integer(0) for c in extra})
-    inter = [(s, e.xreplace(zero)) for s, e in eq.intermediates]
-    na = len(aug.coordinates)
-    M = [[eq.mass_matrix[i, j].xreplace(zero) for j in range(n)] for i in range(na)]
-    f = [eq.force_vector[i].xreplace(zero) for i in range(na)]
-    index = {c.name: j for j, c in enumerate(aug.coordinates)}
-    for b in bodies:
-        first = index[b.coordinate_names[0]]
-        for label, node in b.nodes:
-            i = b.node_index(node)
-            d = b.data
-            diff = np.vstack((d["nodes.phi_w"][i] - d["nodes.phi"][i],
-                              d["nodes.psi_w"][i] - d["nodes.psi"][i]))       # (6, nq)
-            rows = [index[s.name] for s in probes[(b.name, label)]]
-            loads = []
-            for a, r in enumerate(rows):
-                if f[r] == 0 or not np.any(diff[a]):
-                    loads.append(sp.Integer(0))
-                    continue
-                sym = sp.Symbol(f"FP_{b.name}_{label}_{a}", real=True)
-                inter.append((sym, f[r]))
-                loads.append(sym)
-            for k in range(b.nq):
-                row = first + k
-                terms = [sp.Float(float(diff[a, k])) * loads[a] for a in range(6)
-                         if diff[a, k] != 0.0 and loads[a] != 0]
-                if terms:
-                    f[row] = sp.Add(f[row], *terms)
-                for j in range(n):
-                    mt = [sp.Float(float(diff[a, k])) * M[rows[a]][j] for a in range(6)
-                          if diff[a, k] != 0.0 and M[rows[a]][j] != 0]
-                    if mt:
-                        M[row][j] = sp.Add(M[row][j], *mt)
-    return dataclasses.replace(
-        equations,
-        intermediates=tuple(inter),
-        mass_matrix=sp.ImmutableMatrix(n, n, [M[i][j] for i in range(n) for j in range(n)]),
-        force_vector=sp.ImmutableMatrix(n, 1, f[:n]),
-        outputs=sp.ImmutableMatrix(eq.outputs.shape[0], 1,
-                                   [e.xreplace(zero) for e in eq.outputs]),
-    )
+            tv, tw = b.node_maps(label)
+            rows = [index[n] for n in b.node_coordinate_names(label)]
+            SV[np.ix_(rows, cols)] = tv
+            SW[np.ix_(rows, cols)] = tw
+    return keep, SV, SW

@@ -8,12 +8,13 @@ Its invariants (``m``, ``md``, ``J``, ``Ct``, ``Cr``, ``Me``, ``Gr``, ``Ge``, ``
 (``Invariants.to_flat``) — and never become symbolic expressions: the generated module does
 matrix products with them (DESIGN.md, "Recursive / semi-symbolic").
 
-Only the node frames are symbolic, and only to first order in ``q`` (SID convention)::
+Only the node frames are symbolic, to first order in ``q`` (SID convention), through six
+dependent node coordinates ``[u; θ] = [Φ_P; Ψ_P] q`` each::
 
-    origin(q) = x_P + Φ_P q,      AP(q) ≈ R_x(ψx q) R_y(ψy q) R_z(ψz q) · AP⁰
+    origin = x_P + u,      AP ≈ R_x(θx) R_y(θy) R_z(θz) · AP⁰   (≈ (I + θ̃) AP⁰)
 
-(the elementary rotations by the small angles ``Ψ_P q`` equal ``(I + (Ψ_P q)~) AP⁰`` to first
-order), so force elements, outputs, constraints and child frames use them like any frame.
+so force elements, outputs, constraints and child frames use them like any frame, and the
+generated module maps node coordinates to modes numerically (:meth:`ElasticBody.node_frames`).
 
 This module imports nothing outside ``model`` (the arrays are read by
 :func:`neweul_py.elastic.reader.read_elastic_data`, called by the description layer).
@@ -34,6 +35,9 @@ from .elements import Frame
 from .symbols import check_name, symbol
 
 __all__ = ["ElasticBody", "is_node_frame_name"]
+
+#: Names of the six node components (dependent node coordinates ``NAME_label_<c>``).
+NODE_COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 
 #: Arrays an elastic body needs (keys of ``Invariants.to_flat``).
 REQUIRED_ARRAYS = (
@@ -97,6 +101,8 @@ class ElasticBody:
             raise ModelError(f"the elastic data lacks {', '.join(missing)}", f"{path}.data")
         object.__setattr__(self, "data", data)
         nq = data["Me.m0"].shape[0]
+        if nq == 0:
+            raise ModelError("the elastic data hold no modes", f"{path}.data")
         for key, arr in sorted(data.items()):
             if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
                 raise ModelError(f"array {key} holds NaN or Inf", f"{path}.data")
@@ -162,44 +168,62 @@ class ElasticBody:
                 f"data=sha256:{self.digest()})")
 
     # ------------------------------------------------------------- node frames
-    def node_frames(
-        self, probes: Mapping[str, tuple[sp.Symbol, ...]] | None = None
-    ) -> tuple[Frame, ...]:
+    def node_components(self, label: str) -> tuple[int, ...]:
+        """Components ``0…5`` (``ux uy uz rx ry rz``) in which node ``label`` moves or takes
+        loads: rows of ``[Φ; Ψ]`` (or of the left basis ``[Φ_W; Ψ_W]``) that are not zero."""
+        i = self.node_index(dict(self.nodes)[label])
+        rows = np.vstack((self.data["nodes.phi"][i], self.data["nodes.psi"][i]))
+        rows_w = np.vstack((self.data["nodes.phi_w"][i], self.data["nodes.psi_w"][i]))
+        return tuple(a for a in range(6) if np.any(rows[a]) or np.any(rows_w[a]))
+
+    def node_coordinate_names(self, label: str) -> tuple[str, ...]:
+        """Names of the node's dependent coordinates ``NAME_label_ux … _rz`` (the moving
+        components only, :meth:`node_components`)."""
+        return tuple(f"{self.name}_{label}_{NODE_COMPONENTS[a]}"
+                     for a in self.node_components(label))
+
+    def node_maps(self, label: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(T_V, T_W)``: the node coordinates are ``T_V q`` (rows of ``[Φ; Ψ]``), their
+        generalized forces act on the elastic rows through ``T_Wᵀ`` (left basis)."""
+        i = self.node_index(dict(self.nodes)[label])
+        comps = list(self.node_components(label))
+        tv = np.vstack((self.data["nodes.phi"][i], self.data["nodes.psi"][i]))[comps]
+        tw = np.vstack((self.data["nodes.phi_w"][i], self.data["nodes.psi_w"][i]))[comps]
+        return tv, tw
+
+    @property
+    def all_node_coordinate_names(self) -> tuple[str, ...]:
+        """The dependent node coordinates of all node frames, in node order."""
+        return tuple(n for label, _ in self.nodes for n in self.node_coordinate_names(label))
+
+    def node_frames(self) -> tuple[Frame, ...]:
         """The node frames ``NAME.label`` as symbolic frames, children of :attr:`frame`.
 
-        Translation ``x_P + Φ_P q``, rotation ``R_x(ψx q) R_y(ψy q) R_z(ψz q)`` followed by the
-        Cardan angles of ``AP⁰`` (terms with zero coefficients are left out).
-
-        ``probes`` (label → six symbols ``ε``) adds ``ε[:3]`` to the translation and
-        ``ε[3:]`` to the small angles: the generalized forces of ``ε`` at ``ε = 0`` are the
-        node loads (used for the ``Wᵀ`` modal loads of two-sided data).
+        Each node frame moves with six *dependent node coordinates* ``u`` (translation) and
+        ``θ`` (small rotation angles), ``[u; θ] = [Φ_P; Ψ_P] q`` (only the components that
+        move): translation ``x_P + u``, rotation ``R_x(θx) R_y(θy) R_z(θz)`` followed by the
+        Cardan angles of ``AP⁰`` (``≈ (I + θ̃) AP⁰``, first order as in SID). The symbolic
+        kinematics thus never sees the modes; the generated module maps the node coordinates
+        to ``q`` numerically (``y_s = S_V y`` and ``S_Wᵀ`` for the generalized forces, see
+        :mod:`neweul_py.codegen.elastic`), so a node costs six coordinates whatever ``nq``.
         """
-        q = [symbol(n) for n in self.coordinate_names]
         out = []
         for label, node in self.nodes:
             i = self.node_index(node)
             x0 = self.data["nodes.origin.m0"][i][:, 0]
-            phi = self.data["nodes.phi"][i]
-            psi = self.data["nodes.psi"][i]
-            eps = probes.get(label) if probes else None
-            trans = sp.ImmutableMatrix([_linear(x0[a], phi[a], q) + (eps[a] if eps else 0)
-                                        for a in range(3)])
-            rot: list[tuple[str, sp.Expr]] = []
-            for a, axis in enumerate("xyz"):
-                angle = _linear(0.0, psi[a], q) + (eps[3 + a] if eps else 0)
-                if angle != 0:
-                    rot.append((axis, angle))
+            comps = self.node_components(label)
+            sym = {a: symbol(n) for a, n in zip(comps, self.node_coordinate_names(label),
+                                                  strict=True)}
+            trans = sp.ImmutableMatrix([
+                (sp.Float(float(x0[a])) if x0[a] != 0.0 else sp.Integer(0))
+                + sym.get(a, sp.Integer(0)) for a in range(3)])
+            rot: list[tuple[str, sp.Expr]] = [
+                (axis, sym[3 + a]) for a, axis in enumerate("xyz") if 3 + a in sym]
             for axis, angle in zip("xyz", _cardan_xyz(self.data["nodes.AP.m0"][i]), strict=True):
                 if angle != 0.0:
                     rot.append((axis, sp.Float(angle)))
             out.append(Frame(self.node_frame_name(label), self.frame, trans, tuple(rot)))
         return tuple(out)
-
-
-def _linear(c0: float, coeffs: np.ndarray, q: list[sp.Symbol]) -> sp.Expr:
-    terms = [sp.Float(float(c0))] if c0 != 0.0 else []
-    terms += [sp.Float(float(c)) * s for c, s in zip(coeffs, q, strict=True) if c != 0.0]
-    return sp.Add(*terms) if terms else sp.Integer(0)
 
 
 def _cardan_xyz(R: np.ndarray) -> tuple[float, float, float]:

@@ -63,7 +63,8 @@ class System:
         Holonomic constraints ``g(y, t) = 0`` closing kinematic loops (issue 4).
     elastic_bodies
         Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`, issue 6); their
-        coordinates and node frames (``NAME.label``) are in ``coordinates`` and ``frames``.
+        coordinates, the dependent coordinates of their node frames and the node frames
+        (``NAME.label``) are in ``coordinates`` and ``frames``.
 
     Raises
     ------
@@ -442,7 +443,7 @@ def _validate_elastic(s: System, frames: set[str], seen: Mapping[str, str]) -> N
                 f"unknown frame {e.frame!r}; frames are: {', '.join(sorted(frames))}",
                 f"{path}.frame",
             )
-        for c in e.coordinate_names:
+        for c in (*e.coordinate_names, *e.all_node_coordinate_names):
             if c not in coords:
                 raise ModelError(f"the elastic coordinate {c!r} is not a coordinate", path)
         for label, _node in e.nodes:
