@@ -9,7 +9,11 @@ same description without the elastic body (the tip spring then acts on the link)
 
 Measured in one run, per ``nq``: generation time (``load → newton_euler → render → write``),
 module size, and the time per call of ``rhs`` (median of repeated ``timeit`` runs); printed
-with the ratio to the rigid part alone. Nothing is asserted.
+with the ratio to the rigid part alone (after one warm-up generation). Nothing is asserted.
+
+BLAS runs single-threaded (``OPENBLAS_NUM_THREADS`` etc. default to 1 here, set before NumPy is
+imported): for these small matrices threads only add overhead, and on a loaded machine the
+threaded ``numpy.linalg.solve`` of a 200×200 system was 400× slower (0.14 s instead of 0.3 ms).
 
 Usage::
 
@@ -19,13 +23,17 @@ Usage::
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
 import timeit
 from pathlib import Path
 
-import numpy as np
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -90,6 +98,7 @@ def main(counts: list[int]) -> None:
     tip_id = int(b.fe.nodes[-1, 0])
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
+        _generate(RIGID.format(name="warmup", extra="", tip="link2"), d, "warmup")
         g0, r0, s0 = _generate(RIGID.format(name="rigid", extra="", tip="link2"), d, "rigid")
         print(f"rigid part alone: generate {g0:.2f} s, rhs {r0 * 1e6:.1f} µs/call, "
               f"module {s0 / 1e3:.0f} kB")
