@@ -447,3 +447,19 @@ def test_elastic_closed_and_recursive_forms_agree(tmp_path: Path) -> None:
                                atol=1e-11)
     np.testing.assert_allclose(closed.outputs(0.0, x, p), recursive.outputs(0.0, x, p),
                                rtol=1e-12, atol=1e-12)
+
+
+def test_cached_module_follows_the_data_file(beam_dir: Path) -> None:
+    """``api.generated_module`` keys its cache on the elastic data too: changing the data
+    file (here: fewer modes in a rewritten invariants file) gives a fresh module."""
+    from neweul_py.api import generated_module
+    from neweul_py.elastic.reader import read_elastic_data
+
+    np.savez(beam_dir / "beam.npz", **read_elastic_data(beam_dir / "beam.SID_FEM", 4))
+    desc = _write(beam_dir, CLAMPED.replace("beam.SID_FEM", "beam.npz"))
+    first = generated_module(desc, cache=beam_dir / "cache")
+    assert len(load_generated(first).COORDINATES) == 4
+    np.savez(beam_dir / "beam.npz", **read_elastic_data(beam_dir / "beam.SID_FEM", 2))
+    second = generated_module(desc, cache=beam_dir / "cache")
+    assert second != first
+    assert len(load_generated(second).COORDINATES) == 2
