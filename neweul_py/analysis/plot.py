@@ -6,8 +6,9 @@ import io
 import os
 from pathlib import Path
 
+from ..atomic import atomic_write
 from ..errors import NeweulError
-from .results import SimulationResult, write_atomic
+from .results import SimulationResult
 
 __all__ = ["plot_result"]
 
@@ -55,4 +56,4 @@ def plot_result(result: SimulationResult, path: str | os.PathLike[str], dpi: int
         fig.savefig(buf, format=fmt, dpi=dpi)
     except ValueError as exc:
         raise NeweulError(f"{path}: cannot write a plot in this format ({exc})") from None
-    return write_atomic(path, buf.getvalue())
+    return atomic_write(path, buf.getvalue())

@@ -5,40 +5,16 @@ from __future__ import annotations
 
 import io
 import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
 
-__all__ = ["SimulationResult", "load_npz", "write_atomic"]
-
-
-def write_atomic(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (temp file in the same directory, fsync, replace)."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise NeweulError(f"{path}: cannot write ({exc.strerror})") from None
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
+__all__ = ["SimulationResult", "load_npz"]
 
 
 @dataclass(frozen=True)
@@ -130,7 +106,7 @@ class SimulationResult:
         lines = ["# units: " + ", ".join(self.units), ",".join(self.names)]
         table = self.table
         lines += [",".join(f"{v:.17g}" for v in row) for row in table]
-        return write_atomic(path, ("\n".join(lines) + "\n").encode("utf-8"))
+        return atomic_write(path, ("\n".join(lines) + "\n").encode("utf-8"))
 
     def to_npz(self, path: str | os.PathLike[str]) -> Path:
         """Write an uncompressed ``.npz`` (no pickles): arrays ``t``, ``y``, ``yd``,
@@ -155,7 +131,7 @@ class SimulationResult:
             source_hash=np.array(self.source_hash),
             method=np.array(self.method),
         )
-        return write_atomic(path, buf.getvalue())
+        return atomic_write(path, buf.getvalue())
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write CSV or NPZ according to the suffix of ``path``."""

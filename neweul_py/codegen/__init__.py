@@ -5,6 +5,6 @@
 returns its text. Imports ``equations`` and ``model`` only.
 """
 
-from .writer import PROTOCOL_VERSION, generate_module, render_module, write_atomic
+from .writer import PROTOCOL_VERSION, generate_module, render_module
 
-__all__ = ["PROTOCOL_VERSION", "generate_module", "render_module", "write_atomic"]
+__all__ = ["PROTOCOL_VERSION", "generate_module", "render_module"]

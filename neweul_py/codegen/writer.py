@@ -15,7 +15,6 @@ byte-identical.
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ from typing import Any
 
 import sympy as sp
 
+from ..atomic import atomic_write
 from ..errors import GenerationError
 from ..model import Frame, KinematicOutput, System, as_expr, input_rate_name, time
 from .constraints import constraint_constant, constraint_functions
@@ -30,7 +30,7 @@ from .cse import Assignment, Block, CseMethod, eliminate, free_symbols, prune
 from .derivatives import jacobian
 from .printer import FastPrinter, NamePool
 
-__all__ = ["PROTOCOL_VERSION", "generate_module", "render_module", "write_atomic"]
+__all__ = ["PROTOCOL_VERSION", "generate_module", "render_module"]
 
 #: Version of the generated-module protocol written here.
 PROTOCOL_VERSION = 1
@@ -479,32 +479,6 @@ def render_module(
     return "\n".join(header + funcs).rstrip("\n") + "\n"
 
 
-def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> Path:
-    """Write ``data`` to ``path`` atomically: temp file in the same directory, fsync, replace.
-
-    Readers see either the old file or the complete new one, never a partial write; on any
-    error the old file is untouched and the temporary file removed.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(raw)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
-
-
 def generate_module(
     equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True
 ) -> Path:
@@ -530,4 +504,4 @@ def generate_module(
     ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
     """
     text = render_module(equations, source_hash, cse=cse)
-    return write_atomic(path, text)
+    return atomic_write(path, text)

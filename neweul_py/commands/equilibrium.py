@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.equilibrium import equilibrium
-from ..analysis.results import write_atomic
+from ..atomic import atomic_write
 from . import _analysis_common as common
 
 
@@ -33,6 +33,6 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         rows = [["name", "value"], *([k, repr(v)] for k, v in eq.as_dict().items())]
         text = "".join(",".join(r) + "\n" for r in rows)
-        print(f"equilibrium: {write_atomic(args.output, text.encode())}")
+        print(f"equilibrium: {atomic_write(args.output, text.encode())}")
     return 0
 

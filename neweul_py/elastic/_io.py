@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
-from collections.abc import Callable, Mapping
-from pathlib import Path
-from typing import IO, Any
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
+from ..atomic import atomic_write
 from ..errors import DataError
 
 __all__ = [
@@ -28,33 +27,6 @@ __all__ = [
     "load_npz",
     "save_npz_atomic",
 ]
-
-
-def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], None]) -> None:
-    """Write ``path`` atomically: ``write(fh)`` into a temp file, then :func:`os.replace`.
-
-    Parameters
-    ----------
-    path
-        Target file.
-    write
-        Callable that writes the whole content to the binary file handle it receives.
-    """
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
 
 
 def json_to_uint8(obj: Any) -> np.ndarray:

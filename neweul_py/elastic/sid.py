@@ -43,12 +43,12 @@ from __future__ import annotations
 
 import os
 import re
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..atomic import atomic_write
 from ..errors import DataError
 from .taylor import Taylor
 
@@ -608,14 +608,4 @@ def write_sid(body: SIDBody | object, path: str | os.PathLike, *, digits: int = 
     for name, t in body.taylors.items():
         _write_taylor(out, 11, name, t, digits)
     out += [" " * 6 + "end modal ", " end part ", ""]
-    file = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(file))
-    fd, tmp = tempfile.mkstemp(prefix=".sid-", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write("\n".join(out))
-        os.replace(tmp, file)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(path, "\n".join(out))
