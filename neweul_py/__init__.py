@@ -19,11 +19,13 @@ from .errors import (
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from .description import SystemBuilder, load_description
+    from .api import load_description
+    from .description import SystemBuilder
 
 #: Names re-exported lazily from the symbolic layers, so that ``import neweul_py.analysis``
 #: (NumPy/SciPy only, DESIGN.md) does not import sympy through this package.
-_LAZY = {"SystemBuilder": ".description", "load_description": ".description"}
+#: ``load_description`` comes from ``api``, which reads elastic-body data files by default.
+_LAZY = {"SystemBuilder": ".description", "load_description": ".api"}
 
 
 def __getattr__(name: str) -> Any:

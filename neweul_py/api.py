@@ -29,6 +29,7 @@ __all__ = [
     "derive",
     "generate",
     "generated_module",
+    "load_description",
     "simulate_description",
 ]
 
@@ -51,6 +52,35 @@ def _read(path: str | os.PathLike[str]) -> bytes:
 def _check_form(form: str) -> None:
     if form not in FORMS:
         raise NeweulError(f"unknown form {form!r}; forms are: {', '.join(FORMS)}")
+
+
+def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None) -> Any:
+    """Load the description file at ``path`` into a :class:`~neweul_py.model.System`.
+
+    Unlike :func:`neweul_py.description.load_description` (which, by layering, does not know
+    the elastic layer), ``data`` files of ``elastic_bodies`` are read by default with
+    :func:`neweul_py.elastic.reader.read_elastic_data` (SID text or reduced-body ``.npz``).
+
+    Parameters
+    ----------
+    path
+        The YAML description.
+    elastic_reader
+        Another ``reader(path, modes) -> flat invariant arrays``; ``None``: the default.
+
+    Returns
+    -------
+    System
+        The validated model.
+
+    Raises
+    ------
+    DescriptionError
+        As :func:`neweul_py.description.load_description_text`.
+    """
+    from .description import load_description as _load
+
+    return _load(path, elastic_reader=elastic_reader or read_elastic_data)
 
 
 def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tuple[Any, str]:

@@ -488,12 +488,46 @@ class SystemBuilder:
 
         self._frames.append(make)
 
-    def elastic_body(self, body: ElasticBody) -> None:
-        """Add an elastic body (equations.md §2): its coordinates ``NAME_q1 …`` (initially 0),
-        the dependent coordinates of its node frames (``NAME_label_ux`` …, eliminated in the
-        generated module) and the node frames ``NAME.label`` (:meth:`ElasticBody.node_frames`)."""
+    def elastic_body(
+        self,
+        body: ElasticBody,
+        initial: Sequence[object] | None = None,
+        velocity: Sequence[object] | None = None,
+    ) -> None:
+        """Add an elastic body (equations.md §2): its coordinates ``NAME_q1 …``, the dependent
+        coordinates of its node frames (``NAME_label_ux`` …, eliminated in the generated
+        module) and the node frames ``NAME.label`` (:meth:`ElasticBody.node_frames`).
+
+        Parameters
+        ----------
+        body
+            The elastic body.
+        initial, velocity
+            Initial values and velocities of the elastic coordinates, one number per mode
+            (``None``: zeros).
+
+        Raises
+        ------
+        ModelError
+            A list whose length is not the number of modes, or a value that is not a number
+            (key path ``elastic_bodies.NAME.initial`` / ``.velocity``).
+        """
         path = self._declare("elastic_bodies", "elastic_body", body.name)
-        for c in (*body.coordinate_names, *body.all_node_coordinate_names):
+        values = {}
+        for key, given in (("initial", initial), ("velocity", velocity)):
+            if given is None:
+                given = [0.0] * body.nq
+            if isinstance(given, str | bytes) or not isinstance(given, Sequence):
+                raise ModelError(f"expected a list of {body.nq} numbers (one per mode), got "
+                                 f"{_type_name(given)}", f"{path}.{key}")
+            if len(given) != body.nq:
+                raise ModelError(f"expected {body.nq} values (one per mode), got {len(given)}",
+                                 f"{path}.{key}")
+            values[key] = [constant_number(v, f"{path}.{key}.{k + 1}", f"{key} value")
+                           for k, v in enumerate(given)]
+        for k, c in enumerate(body.coordinate_names):
+            self.coordinate(c, values["initial"][k], values["velocity"][k])
+        for c in body.all_node_coordinate_names:
             self.coordinate(c)
         for frame in body.node_frames():
             if frame.name in self._kinds:

@@ -7,7 +7,11 @@ elastic_bodies:
     data: beam.SID_FEM         # SID text file or reduced-body .npz, relative to this file
     nodes: {tip: 1793, root: 1860}   # node frames beam.tip, beam.root
     modes: 4                   # optional: the first 4 modes, or a list of mode numbers
+    initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
+    velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
 ```
+
+Unlisted modes start at 0. The values go into the generated module's ``INITIAL_STATE``.
 
 The data are read by a reader function that the caller passes in (layering: ``description``
 imports only ``model``): :func:`neweul_py.elastic.reader.read_elastic_data`, which
@@ -52,7 +56,8 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
     """Section loader: every entry becomes an :class:`ElasticBody` on the builder ``b``."""
     from .loader import Schema, _items  # local: loader imports this module
 
-    schema = Schema(required=("frame", "data"), optional=("nodes", "modes"))
+    schema = Schema(required=("frame", "data"),
+                    optional=("nodes", "modes", "initial", "velocity"))
     for name, spec in _items(section, path, "elastic body definitions"):
         item = f"{path}.{name}"
         spec = schema.check(spec, item, "an elastic body")
@@ -90,4 +95,31 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
         except DataError as exc:
             key = f"{item}.modes" if exc.item == "modes" else f"{item}.data"
             raise ModelError(f"elastic data: {exc}", key) from None
-        b.elastic_body(ElasticBody(str(name), frame, data, tuple(pairs), os.fspath(file)))
+        body = ElasticBody(str(name), frame, data, tuple(pairs), os.fspath(file))
+        start = {key: _per_mode(spec.get(key), body, f"{item}.{key}")
+                 for key in ("initial", "velocity")}
+        b.elastic_body(body, start["initial"], start["velocity"])
+
+
+def _per_mode(value: Any, body: ElasticBody, path: str) -> list[Any] | None:
+    """Initial values of the elastic coordinates: ``None``, a list of ``nq`` values or a
+    mapping ``qK`` / ``NAME_qK`` → value (mode K = 1 … nq; the others 0); the numbers
+    themselves are checked by the builder."""
+    nq = body.nq
+    if value is None:
+        return None
+    if isinstance(value, list):
+        return value
+    if isinstance(value, dict):
+        out: list[Any] = [0.0] * nq
+        names = body.coordinate_names
+        for key, v in value.items():
+            short = f"q{names.index(key) + 1}" if key in names else key
+            k = short[1:] if short.startswith("q") else ""
+            if not (k.isdigit() and 1 <= int(k) <= nq):
+                raise ModelError(f"expected q1 … q{nq} or {names[0]} … {names[-1]}, got "
+                                 f"{key!r}", f"{path}.{key}")
+            out[int(k) - 1] = v
+        return out
+    raise ModelError(f"expected a list of {nq} numbers or a mapping qK: value, got {value!r}",
+                     path)

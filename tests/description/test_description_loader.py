@@ -10,6 +10,7 @@ import pytest
 import sympy as sp
 
 import neweul_py
+import neweul_py.api
 from neweul_py.description import description_hash, load_description, load_description_text
 from neweul_py.errors import DescriptionError
 from neweul_py.model import (
@@ -129,8 +130,11 @@ def test_text_and_file_give_equal_systems(tmp_path: pathlib.Path) -> None:
     assert a.fingerprint() == b.fingerprint()
 
 
-def test_top_level_reexports() -> None:
-    assert neweul_py.load_description is load_description
+def test_top_level_reexports(tmp_path: pathlib.Path) -> None:
+    # the top-level function is api.load_description: the same loader, reading elastic data
+    assert neweul_py.load_description is neweul_py.api.load_description
+    path = write(tmp_path, GOOD)
+    assert neweul_py.load_description(path).fingerprint() == load_description(path).fingerprint()
     assert neweul_py.SystemBuilder.__name__ == "SystemBuilder"
 
 
