@@ -1,5 +1,5 @@
 """``neweul reduce MODEL --method modal|krylov [--two-sided|--one-sided] --modes N |
---band FMIN:FMAX [--static-correction] [--points F,…] -o body.npz``."""
+--band FMIN:FMAX [--static-correction] [--points F,…] [--invariants] -o body.npz``."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
+from ..elastic.invariants import attach_invariants
 from ..errors import NeweulError
 
 
@@ -72,6 +73,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "nodes)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the full bases V and W")
+    parser.add_argument("--invariants", action="store_true",
+                        help="attach the floating-frame invariants (node frames: the kept "
+                        "nodes), so that the file can be an elastic body in a description")
     parser.add_argument("-o", "--output", required=True, metavar="BODY.npz",
                         help="reduced-body file to write")
     parser.set_defaults(func=run)
@@ -92,13 +96,18 @@ def run(args: argparse.Namespace) -> int:
     fe = read_fe_model(args.model)
     _progress(f"{fe.name}: {fe.n_dofs} DOFs, kind {fe.kind}")
     common = dict(two_sided=args.two_sided, static_correction=args.static_correction,
-                  keep_nodes=args.keep_nodes, store_bases=args.store_bases,
-                  progress=_progress)
+                  keep_nodes=args.keep_nodes,
+                  store_bases=args.store_bases or args.invariants, progress=_progress)
     if args.method == "modal":
         body = reduce_modal(fe, modes=args.modes, band=args.band, shift=args.shift, **common)
     else:
         points = [2j * np.pi * f for f in args.points]
         body = reduce_krylov(fe, points=points, order=args.order, **common)
+    if args.invariants:
+        _progress("computing the floating-frame invariants")
+        body = attach_invariants(body, fe)
+        if not args.store_bases:
+            body = body.with_(V=None, W=None)
     body.save(args.output)
     st = stability(body)
     side = "two-sided" if args.two_sided else "one-sided"
