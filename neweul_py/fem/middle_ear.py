@@ -68,6 +68,9 @@ class MiddleEarParameters:
         Physical TM area [m²] (Hudde & Engel 1998): 60 mm².
     tm_depth
         Cone depth of the TM [m] (Koike 2002; Gan 2004: 1.5–2 mm).
+    tm_bulge
+        Lateral bulge of the radial generators at mid-radius [m] (curved radial fibres,
+        Funnell & Laszlo 1978): profile ``z = h (1 − ρ) − 4 δ ρ (1 − ρ)``.
     tm_thickness
         TM thickness [m] (Kuypers et al. 2006): 0.08 mm.
     tm_E, tm_nu, tm_rho
@@ -146,6 +149,11 @@ class MiddleEarParameters:
             raise ModelError(
                 f"TM depth must be in [0, radius = {a:.4g} m), got {self.tm_depth}",
                 "middle_ear.tm_depth",
+            )
+        if abs(self.tm_bulge) >= 0.25 * a:
+            raise ModelError(
+                f"TM bulge must be smaller than a quarter of the radius ({0.25 * a:.4g} m)",
+                "middle_ear.tm_bulge",
             )
         if self.cavity_length <= 1.05 * self.tm_depth:
             raise ModelError(
