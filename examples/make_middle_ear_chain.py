@@ -96,7 +96,7 @@ def description() -> str:
     lines.append(f"  A_tm: {TM_AREA!r}   # m^2, TM area")
     for i in range(4):
         for j in range(i, 4):
-            lines.append(f"  c_{i}{j}: {float(d[i, j])!r}   # N s/m, modal damping matrix entry")
+            lines.append(f"  c_{i}{j}: {float(d[i, j]):.12g}   # N s/m, modal damping matrix entry")
     lines.append("coordinates:")
     lines += [f"  x_{n}: 0.0   # m" for n in names]
     lines += ["inputs:", "  p_ec: 0   # Pa, ear-canal sound pressure", "frames:"]

@@ -67,11 +67,11 @@ def stale(out_dir: Path | None = None) -> list[str]:
 def regenerate() -> list[Path]:
     """Rewrite the chain descriptions and every module in generated/."""
     from neweul_py.api import generate
-    from neweul_py.codegen import write_atomic
+    from neweul_py.atomic import atomic_write
 
     for name, (n, spatial) in CHAINS.items():
-        write_atomic(EXAMPLES / name, chain_description(n, spatial))
-    write_atomic(EXAMPLES / "middle_ear_chain.yaml", middle_ear_chain_description())
+        atomic_write(EXAMPLES / name, chain_description(n, spatial))
+    atomic_write(EXAMPLES / "middle_ear_chain.yaml", middle_ear_chain_description())
     return [generate(EXAMPLES / name, GENERATED) for name in DESCRIPTIONS]
 
 
