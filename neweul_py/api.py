@@ -91,14 +91,29 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tup
     equations, source_hash
         The :class:`~neweul_py.equations.Equations` and the SHA-256 of the file's bytes.
     """
-    from .description import description_hash, load_description_text
-    from .equations import newton_euler
+    from .description import description_hash
 
     _check_form(form)
     raw = _read(description_path)
+    return _derive_text(raw, description_path, form), description_hash(raw)
+
+
+def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form) -> Any:
+    """The equations of a description's bytes (errors name ``description_path``)."""
+    from .description import load_description_text
+    from .equations import newton_euler
+    from .errors import DescriptionError
+
     system = load_description_text(raw, os.fspath(description_path),
                                    elastic_reader=read_elastic_data)
-    return newton_euler(system, form=form), description_hash(raw)
+    if not system.coordinates and not system.elastic_bodies:
+        raise DescriptionError(
+            "the model has no coordinates to derive equations for: list its generalized "
+            "coordinates under 'coordinates' (or add an elastic body)",
+            "coordinates",
+            os.fspath(description_path),
+        )
+    return newton_euler(system, form=form)
 
 
 def generate(
@@ -206,12 +221,7 @@ def generated_module(
                 return path
         except NeweulError:
             pass  # a damaged cache entry is regenerated
-    from .description import load_description_text
-    from .equations import newton_euler
-
-    system = load_description_text(raw, os.fspath(description_path),
-                                   elastic_reader=read_elastic_data)
-    equations = newton_euler(system, form=form)
+    equations = _derive_text(raw, description_path, form)
     try:
         return generate_module(equations, description_hash(raw), path)
     except OSError as exc:

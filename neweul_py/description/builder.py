@@ -133,10 +133,10 @@ def constant_number(value: object, key_path: str, what: str = "value") -> float:
     elif isinstance(value, str):
         try:
             expr = parse_expression(value, {})
-        except ExpressionError:
+        except ExpressionError as exc:
             raise ModelError(
                 f"{what} must be a number (or a constant expression such as 2*pi), got "
-                f"{value!r}",
+                f"{value!r} ({exc.reason})",
                 key_path,
             ) from None
         result = float(expr)

@@ -233,7 +233,7 @@ def _forces(b: SystemBuilder, section: Any, path: str) -> None:
                 f"{item}.type",
             )
         force_type = FORCE_TYPES[kind]
-        force_type.add(b, name, force_type.schema.check(spec, item, f"a {kind} force"))
+        force_type.add(b, name, force_type.schema.check(spec, item, f"a {kind!r} force element"))
 
 
 KINEMATIC_OUTPUT = Schema(optional=("position", "velocity", "point", "in", "component"))

@@ -311,6 +311,12 @@ def _validate(s: System) -> None:
             _check_symbols(fe.point_a, kinematic, f"{path}.points[0]")
             _check_symbols(fe.point_b, kinematic, f"{path}.points[1]")
             _check_symbols(fe.length, dynamic, f"{path}.length")
+            length = _numeric(fe.length, defaults)
+            if length is not None and length < 0:
+                raise ModelError(
+                    f"the rest length is a distance and must not be negative (it is {length:g})",
+                    f"{path}.length",
+                )
             for attr in ("stiffness", "damping"):
                 _check_symbols(getattr(fe, attr), {**dynamic, **local}, f"{path}.{attr}")
             _check_curves(fe, path)

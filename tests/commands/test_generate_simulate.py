@@ -118,6 +118,8 @@ def test_changed_description_is_regenerated(tmp_path):
          "bodies.b.frame"),
         ("name: m\nparameters: {a: __import__('os')}\n", "parameters.a"),
         ("name: [unclosed\n", "m.yaml"),
+        ("name: m\nframes: {box: {}}\nbodies: {b: {frame: box, mass: 1}}\n",
+         "m.yaml: coordinates: the model has no coordinates"),
     ],
 )
 def test_bad_description_is_one_line_exit_1(capsys, tmp_path, yaml_text, message):

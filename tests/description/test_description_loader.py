@@ -241,7 +241,16 @@ BAD = [
      "c: !!python", "not allowed"),
     ("python scalar tag", "  c: 1e-3", "  c: !!python/name:os.system ''", "", "c: !!python",
      "malformed YAML"),
+    ("overflowing default", "  m2: 0.5", "  m2: 1e400", "parameters.m2", "m2: 1e400",
+     "1e400 is out of range"),
+    ("negative rest length", "    length: l1", "    length: -l1", "forces.spring.length",
+     "length: -l1", "must not be negative (it is -1)"),
+    ("missing force vector", ", vector: [u, 0, 0], in: ISYS}", ", in: ISYS}", "forces.push",
+     "push:", "a 'force' force element is missing the key 'vector'"),
 ]
+
+
+
 
 
 @pytest.mark.parametrize(
