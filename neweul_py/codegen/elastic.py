@@ -12,7 +12,12 @@ public functions are renamed ``_rigid_*`` and wrapped by functions that
    the elastic rows as ``W_Pᵀ f``; :func:`~neweul_py.equations.elastic.node_coordinate_map`);
 2. add the elastic bodies' own terms with small matrix products on the *numeric* invariants::
 
-    M   += J_bᵀ M_b(q) J_b,   q − k −= J_bᵀ (M_b(q) [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])
+    M   += J_Wᵀ M_b(q) J_V,   q − k −= J_Wᵀ (M_b(q) [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])
+
+   with ``J_V = J_b S_V`` and ``J_W = J_b S_W`` (``J_b = [J_T; J_R; E]`` in the symbolic
+   coordinates): the two differ only when the body hangs on a node frame of a two-sided
+   body, whose elastic rows then get the loads of the child through ``W_Pᵀ`` exactly as
+   those of rigid bodies and force elements on that node.
 
 So a body with 200 modes costs a few (nq × nq) products per call and six symbolic coordinates
 per node frame, not code size.
@@ -26,13 +31,15 @@ standard library's ``base64``/``zlib``).
 
 Linearization
 -------------
-``force_jacobians``: the symbolic part analytic as before (mapped by ``S_Wᵀ``, ``S_V``); of the
-elastic terms ``−Ke`` and
-``−De`` are added analytically, the remaining coupling terms (which depend on ``y``, ``ẏ``
-through the frame kinematics and the first-order invariants) by central differences of the
-elastic force contribution (step ``1e-6·max(1, |x|)``). ``mass_matrix_times_derivative``
-likewise (central differences of ``M_elastic(y) a``). ``∂/∂u`` of the elastic terms (inputs in
-the frame kinematics) is not included. ``rhs_jacobian`` combines these as for rigid models.
+``force_jacobians`` and ``mass_matrix_times_derivative``: the symbolic part analytic as before
+(mapped by ``S_Wᵀ``, ``S_V``). The elastic terms are polynomials in the frame kinematics
+``kin = (J_T, J_R, ā, ᾱ, ω, g)``, ``q`` and ``q̇``; their Jacobians follow by the chain rule
+``∂f_e/∂x = ∂f_e/∂kin · ∂kin/∂x + ∂f_e/∂(q, q̇) · ∂(q, q̇)/∂x`` for ``x = y, ẏ, u`` (the
+inputs with their rates ``d_u``, ``dd_u``), with ``∂kin/∂(y_s, ẏ_s, u)`` the analytic output
+Jacobians of the hidden outputs (through ``y_s = S_V y``) and the directional derivatives of
+the polynomial part by the complex step (``Im f(x + i h d)/h``, ``h = 1e-30``: exact to
+round-off, no truncation error; Squire & Trapp, SIAM Rev. 40 (1998) 110–112).
+``rhs_jacobian`` combines these as for rigid models.
 """
 
 from __future__ import annotations
@@ -143,6 +150,10 @@ _N = len(COORDINATES)
 _NHIDDEN = len(OUTPUTS)
 _SVA = _unpack(_SV_ACTIVE)
 _SWA = _unpack(_SW_ACTIVE)
+_SAME_BASES = bool(_np.array_equal(_SVA, _SWA))
+# complex step of the elastic terms (polynomials in the frame kinematics, q and q'):
+# Im f(x + i h d) / h = f'(x) d to round-off for this h (Squire & Trapp 1998)
+_STEP = 1e-30
 
 
 def _skew(v):
@@ -150,26 +161,33 @@ def _skew(v):
 
 
 def _body_terms(b, kin, y, yd):
-    """Frame kinematics, q, q', md(q) and the mass blocks of one elastic body."""
-    n, i0, nq = _N, b["first"], b["nq"]
+    """Frame kinematics, q, q', md(q) and the mass blocks of one elastic body.
+
+    The frame Jacobians come twice: ``J_T S_V`` for the motion (the node coordinates of a
+    host body's node frame are ``[Phi_P; Psi_P] q``) and ``J_T S_W`` for the rows (the test
+    directions of a two-sided host: loads of a child body on its node reach the host's
+    elastic equations as ``W_P^T f``, like those of rigid bodies and force elements)."""
+    i0, nq = b["first"], b["nq"]
     o = b["kin"]
     ns = _NS
-    JT = kin[o:o + 3 * ns].reshape(3, ns) @ _SVA
-    JR = kin[o + 3 * ns:o + 6 * ns].reshape(3, ns) @ _SVA
+    JTs = kin[o:o + 3 * ns].reshape(3, ns)
+    JRs = kin[o + 3 * ns:o + 6 * ns].reshape(3, ns)
     v = kin[o + 6 * ns:o + 6 * ns + 12]
     q = y[i0:i0 + nq]
     qd = yd[i0:i0 + nq]
     X = b["T0"] + b["T1"] @ q
     X = {k: X[s:e].reshape(shape) for k, (s, e, shape) in b["where"].items()}
     md = b["md0"] + b["md1"] @ q
-    Mrr = _np.zeros((6, 6))
+    Mrr = _np.zeros((6, 6), dtype=X["J"].dtype)
     Mrr[0, 0] = Mrr[1, 1] = Mrr[2, 2] = b["mass"]
     Mrr[3:, :3] = _skew(md)
     Mrr[:3, 3:] = -Mrr[3:, :3]
     Mrr[3:, 3:] = X["J"]
     Mre = _np.vstack((b["md1"], X["Crv"].T))
     Mer = _np.hstack((X["Ct"], X["Cr"]))
-    return JT, JR, v, q, qd, md, Mrr, Mre, Mer, X["Oe"]
+    Jv = _np.vstack((JTs, JRs)) @ _SVA
+    Jw = Jv if _SAME_BASES else _np.vstack((JTs, JRs)) @ _SWA
+    return Jv, Jw, v, q, qd, md, Mrr, Mre, Mer, X["Oe"]
 
 
 def _terms(kin, y, yd):
@@ -177,20 +195,20 @@ def _terms(kin, y, yd):
 
 
 def _elastic_mass(M, terms):
-    """M += J_b^T M_b(q) J_b for every elastic body."""
-    for b, (JT, JR, _v, _q, _qd, _md, Mrr, Mre, Mer, _Oe) in zip(_ELASTIC, terms):
+    """M += J_W^T M_b(q) J_V for every elastic body (J_W = J_V but on a two-sided host's
+    node coordinates)."""
+    for b, (Jv, Jw, _v, _q, _qd, _md, Mrr, Mre, Mer, _Oe) in zip(_ELASTIC, terms):
         e = slice(b["first"], b["first"] + b["nq"])
-        Jr = _np.vstack((JT, JR))
-        M += Jr.T @ (Mrr @ Jr)
-        M[:, e] += Jr.T @ Mre
-        M[e, :] += Mer @ Jr
+        M += Jw.T @ (Mrr @ Jv)
+        M[:, e] += Jw.T @ Mre
+        M[e, :] += Mer @ Jv
         M[e, e] += b["Me"]
     return M
 
 
-def _elastic_force(f, terms, linear=True):
-    """q - k -= J_b^T (M_b [abar - g; alphabar; 0] + h_w + [0; 0; Ke q + De qd + ks])."""
-    for b, (JT, JR, v, q, qd, md, Mrr, _Mre, Mer, Oe) in zip(_ELASTIC, terms):
+def _elastic_force(f, terms):
+    """q - k -= J_W^T (M_b [abar - g; alphabar; 0] + h_w + [0; 0; Ke q + De qd + ks])."""
+    for b, (_Jv, Jw, v, q, qd, md, Mrr, _Mre, Mer, Oe) in zip(_ELASTIC, terms):
         abar, alphabar, w, g = v[0:3], v[3:6], v[6:9], v[9:12]
         acc = _np.concatenate((abar - g, alphabar))
         wt = _skew(w)
@@ -200,10 +218,8 @@ def _elastic_force(f, terms, linear=True):
         hr = Mrr @ acc
         hr[:3] += wt @ (wt @ md) + 2.0 * (wt @ (b["md1"] @ qd))
         hr[3:] += wt @ (Mrr[3:, 3:] @ w) + b["Gr"] @ qw
-        he = Mer @ acc + Oe @ wq + b["Ge"] @ qw + b["ks"]
-        if linear:
-            he = he + b["Ke"] @ q + b["De"] @ qd
-        f -= JT.T @ hr[:3] + JR.T @ hr[3:]
+        he = Mer @ acc + Oe @ wq + b["Ge"] @ qw + b["ks"] + b["Ke"] @ q + b["De"] @ qd
+        f -= Jw.T @ hr
         f[b["first"]:b["first"] + b["nq"]] -= he
     return f
 
@@ -256,58 +272,71 @@ def rhs(t, x, p, u=None):
     return xd
 
 
-def _nonlinear_elastic_force(t, y, yd, p, u):
-    terms = _terms(_kin(t, _sym(y), _sym(yd), p, u), y, yd)
-    return _elastic_force(_np.zeros(_N), terms, linear=False)
+def _kin_jacobians(t, ys, yds, p, u):
+    """d kin/dy, d kin/dyd (through y_s = S_V y) and d kin/du of the frame kinematics of the
+    elastic bodies: the analytic output Jacobians of the symbolic part."""
+    Cs, Ds = _rigid_output_jacobians(t, _np.concatenate((ys, yds)), p, u)
+    Cs = Cs[_NHIDDEN:]
+    return Cs[:, :_NS] @ _SVA, Cs[:, _NS:] @ _SVA, Ds[_NHIDDEN:]
+
+
+def _elastic_force_derivatives(kin, y, yd, directions):
+    """Directional derivatives of the elastic terms of q - k (complex step, exact to
+    round-off): one column per ``(d kin, d y, d yd)`` of ``directions``."""
+    h = _STEP
+    out = _np.empty((_N, len(directions)))
+    for j, (dk, dy, dyd) in enumerate(directions):
+        terms = _terms(kin + 1j * h * dk, y + 1j * h * dy, yd + 1j * h * dyd)
+        out[:, j] = _elastic_force(_np.zeros(_N, dtype=complex), terms).imag / h
+    return out
 
 
 def force_jacobians(t, y, yd, p, u=None):
     """``d(q-k)/dy``, ``d(q-k)/dyd`` (n, n) and ``d(q-k)/du`` (n, nu): the symbolic part
-    analytic (mapped by S_W^T, S_V), elastic ``-Ke``, ``-De`` analytic, the elastic coupling
-    terms by central differences."""
+    analytic (mapped by S_W^T, S_V); the elastic terms by the chain rule through the
+    analytic Jacobians of the frame kinematics (inputs, their rates and the node
+    coordinates included), with the complex-step derivative of the (polynomial) elastic
+    terms, exact to round-off."""
     y = _np.asarray(y, dtype=_np.float64)
     yd = _np.asarray(yd, dtype=_np.float64)
-    fys, fyds, fus = _rigid_force_jacobians(t, _sym(y), _sym(yd), p, u)
+    if u is None:
+        u = default_inputs(t, p)
+    ys, yds = _sym(y), _sym(yd)
+    fys, fyds, fus = _rigid_force_jacobians(t, ys, yds, p, u)
     fy, fyd, fu = _reduce(fys), _reduce(fyds), _SWA.T @ fus
-    for b in _ELASTIC:
-        e = slice(b["first"], b["first"] + b["nq"])
-        fy[e, e] -= b["Ke"]
-        fyd[e, e] -= b["De"]
-    for j in range(_N):
-        for which, J in ((0, fy), (1, fyd)):
-            base = y if which == 0 else yd
-            h = 1e-6 * max(1.0, abs(base[j]))
-            vp = base.copy()
-            vm = base.copy()
-            vp[j] += h
-            vm[j] -= h
-            if which == 0:
-                fp = _nonlinear_elastic_force(t, vp, yd, p, u)
-                fm = _nonlinear_elastic_force(t, vm, yd, p, u)
-            else:
-                fp = _nonlinear_elastic_force(t, y, vp, p, u)
-                fm = _nonlinear_elastic_force(t, y, vm, p, u)
-            J[:, j] += (fp - fm) / (2.0 * h)
+    kin = _kin(t, ys, yds, p, u)
+    Ky, Kyd, Ku = _kin_jacobians(t, ys, yds, p, u)
+    z = _np.zeros(_N)
+    eye = _np.eye(_N)
+    fy += _elastic_force_derivatives(kin, y, yd, [(Ky[:, j], eye[j], z) for j in range(_N)])
+    fyd += _elastic_force_derivatives(kin, y, yd,
+                                      [(Kyd[:, j], z, eye[j]) for j in range(_N)])
+    if fu.shape[1]:
+        fu += _elastic_force_derivatives(kin, y, yd,
+                                         [(Ku[:, k], z, z) for k in range(fu.shape[1])])
     return fy, fyd, fu
 
 
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``d(M(y) a)/dy`` for a fixed vector ``a``, shape (n, n); symbolic part analytic,
-    elastic part by central differences."""
+    elastic part by the chain rule as in ``force_jacobians`` (complex step of the
+    polynomial elastic terms, exact to round-off)."""
     y = _np.asarray(y, dtype=_np.float64)
     a = _np.asarray(a, dtype=_np.float64)
-    dMa = _reduce(_rigid_mass_matrix_times_derivative(t, _sym(y), p, _sym(a), u))
-    z = _np.zeros(_N)
+    if u is None:
+        u = default_inputs(t, p)
+    ys = _sym(y)
+    dMa = _reduce(_rigid_mass_matrix_times_derivative(t, ys, p, _sym(a), u))
     zs = _np.zeros(_NS)
+    kin = _kin(t, ys, zs, p, u)
+    Ky = _kin_jacobians(t, ys, zs, p, u)[0]
+    z = _np.zeros(_N)
+    h = _STEP
     for j in range(_N):
-        h = 1e-6 * max(1.0, abs(y[j]))
-        yp = y.copy()
-        ym = y.copy()
-        yp[j] += h
-        ym[j] -= h
-        Mp = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, _sym(yp), zs, p, u), yp, z))
-        Mm = _elastic_mass(_np.zeros((_N, _N)), _terms(_kin(t, _sym(ym), zs, p, u), ym, z))
-        dMa[:, j] += (Mp - Mm) @ a / (2.0 * h)
+        e = _np.zeros(_N)
+        e[j] = 1.0
+        terms = _terms(kin + 1j * h * Ky[:, j], y + 1j * h * e, z)
+        dMa[:, j] += (_elastic_mass(_np.zeros((_N, _N), dtype=complex), terms) @ a).imag / h
     return dMa
 
 

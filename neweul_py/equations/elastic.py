@@ -26,7 +26,9 @@ numeric arrays (the flat form carried by :class:`~neweul_py.model.ElasticBody`) 
 :mod:`neweul_py.codegen.elastic` emits the matrix products with them. The node frames
 (``NAME.label``) are ordinary symbolic frames moving with six dependent node coordinates
 each, mapped to the modes numerically (:func:`node_coordinate_map`: ``S_V`` for motion,
-``S_W`` — the left basis — for the node loads of two-sided data).
+``S_W`` — the left basis — for the node loads of two-sided data). An elastic body hung on such
+a node frame has ``J_b`` in those coordinates: its rows enter with ``(J_b S_W)ᵀ``, its motion
+with ``J_b S_V``, like a rigid body there.
 """
 
 from __future__ import annotations

@@ -445,8 +445,9 @@ def _validate_elastic(s: System, frames: set[str], seen: Mapping[str, str]) -> N
         if e.name in seen:
             raise ModelError(f"name {e.name!r} is already used in {seen[e.name]}", path)
         if e.frame not in frames:
+            usable = sorted(f for f in frames if not _hangs_on(s, f, f"{e.name}."))
             raise ModelError(
-                f"unknown frame {e.frame!r}; frames are: {', '.join(sorted(frames))}",
+                f"unknown frame {e.frame!r}; frames are: {', '.join(usable)}",
                 f"{path}.frame",
             )
         for c in (*e.coordinate_names, *e.all_node_coordinate_names):
@@ -456,13 +457,21 @@ def _validate_elastic(s: System, frames: set[str], seen: Mapping[str, str]) -> N
             if e.node_frame_name(label) not in frames:
                 raise ModelError(f"the node frame {e.node_frame_name(label)!r} is missing",
                                  f"{path}.nodes.{label}")
-        parent = {f.name: f.parent for f in s.frames}
-        name, hops = e.frame, 0
-        while name != INERTIAL and name in parent and hops <= len(parent):
-            if name.startswith(f"{e.name}."):
-                raise ModelError("the reference frame cannot hang on the body's own nodes",
-                                 f"{path}.frame")
-            name, hops = parent[name], hops + 1
+        if _hangs_on(s, e.frame, f"{e.name}."):
+            raise ModelError("the reference frame cannot hang on the body's own nodes",
+                             f"{path}.frame")
+
+
+def _hangs_on(s: System, frame: str, prefix: str) -> bool:
+    """Whether ``frame`` or one of its ancestors is named ``prefix…`` (a node frame of the
+    elastic body ``prefix[:-1]``): such frames cannot carry that body."""
+    parent = {f.name: f.parent for f in s.frames}
+    name, hops = frame, 0
+    while name != INERTIAL and name in parent and hops <= len(parent):
+        if name.startswith(prefix):
+            return True
+        name, hops = parent[name], hops + 1
+    return False
 
 
 def _validate_frames(s: System, allowed: Mapping[str, sp.Symbol]) -> None:

@@ -114,6 +114,23 @@ def test_bad_elastic_input_names_the_key(beam_dir: Path, edit, key, words) -> No
     assert key in msg and words in msg
 
 
+def test_unknown_frame_lists_only_usable_frames(beam_dir: Path) -> None:
+    """An elastic body on an unknown frame: the message lists the frames it may use — not
+    its own node frames (``beam.tip``) nor frames hung on them, which are refused."""
+    text = CLAMPED.replace("frame: ISYS", "frame: nowhere").replace(
+        "elastic_bodies:", "frames:\n  base: {translation: [0, 1, 0]}\n"
+        "  tipframe: {parent: beam.tip}\nelastic_bodies:")
+    with pytest.raises(DescriptionError) as info:
+        generate(_write(beam_dir, text), beam_dir / "gen")
+    msg = str(info.value)
+    assert "elastic_bodies.beam.frame" in msg
+    assert msg.endswith("unknown frame 'nowhere'; frames are: ISYS, base")
+    for frame in ("tipframe", "beam.tip"):   # really refused
+        with pytest.raises(DescriptionError, match="cannot hang on the body's own nodes"):
+            generate(_write(beam_dir, text.replace("frame: nowhere", f"frame: {frame}")),
+                     beam_dir / "gen")
+
+
 def test_sid_syntax_error_reports_the_line(beam_dir: Path) -> None:
     """A SID file with a syntax error: the message names the data key, the file and line."""
     lines = (DATA / "beam.SID_FEM").read_text().splitlines()
