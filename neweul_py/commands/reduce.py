@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
+from ..elastic.eigen import frequencies_hz
 from ..elastic.invariants import attach_invariants
 from ..errors import NeweulError
 
@@ -66,7 +67,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="eigensolver shift in λ = ω² units (modal; default automatic)")
     parser.add_argument("--points", type=_floats, metavar="F1,F2,…",
                         help="Krylov expansion frequencies [Hz] (s0 = 2πj·f)")
-    parser.add_argument("--order", type=int, default=4, metavar="Q",
+    parser.add_argument("--order", type=int, metavar="Q",
                         help="Krylov moments per point and input (default 4)")
     parser.add_argument("--keep-nodes", type=_ints, metavar="ID,…",
                         help="node ids whose basis rows are stored (default: input/output "
@@ -85,12 +86,34 @@ def _progress(msg: str) -> None:
     print(f"  {msg}", file=sys.stderr, flush=True)
 
 
+def _verb(options: list[str]) -> str:
+    return "applies" if len(options) == 1 else "apply"
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Refuse options that the chosen method would silently ignore."""
+    def given(*options: str) -> list[str]:
+        return [o for o in options if getattr(args, o[2:].replace("-", "_")) is not None]
+
+    if args.method == "modal":
+        if args.modes is None and args.band is None:
+            raise NeweulError("--method modal needs --modes N or --band FMIN:FMAX")
+        wrong = given("--points", "--order")
+        if wrong:
+            raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method krylov only, "
+                              "not --method modal (which takes --modes or --band)")
+    else:
+        wrong = given("--modes", "--band", "--shift")
+        if wrong:
+            raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method modal only; "
+                              "--method krylov takes --points and --order")
+        if not args.points:
+            raise NeweulError("--method krylov needs --points F1,F2,…")
+
+
 def run(args: argparse.Namespace) -> int:
     """Read, reduce, write; print a summary (order, frequencies, stability)."""
-    if args.method == "modal" and args.modes is None and args.band is None:
-        raise NeweulError("--method modal needs --modes N or --band FMIN:FMAX")
-    if args.method == "krylov" and not args.points:
-        raise NeweulError("--method krylov needs --points F1,F2,…")
+    _check_options(args)
     t0 = time.perf_counter()
     _progress(f"reading {args.model}")
     fe = read_fe_model(args.model)
@@ -102,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
         body = reduce_modal(fe, modes=args.modes, band=args.band, shift=args.shift, **common)
     else:
         points = [2j * np.pi * f for f in args.points]
-        body = reduce_krylov(fe, points=points, order=args.order, **common)
+        order = 4 if args.order is None else args.order
+        body = reduce_krylov(fe, points=points, order=order, **common)
     if args.invariants:
         _progress("computing the floating-frame invariants")
         body = attach_invariants(body, fe)
@@ -115,6 +139,6 @@ def run(args: argparse.Namespace) -> int:
           f"{'stable' if st.stable else 'UNSTABLE'} (max Re s = {st.max_real_part:.3g}), "
           f"{time.perf_counter() - t0:.2f} s")
     if body.eigenvalues is not None and body.eigenvalues.size:
-        f = np.sqrt(np.abs(body.eigenvalues.real)) / (2 * np.pi)
+        f = frequencies_hz(body.eigenvalues)
         print(f"retained frequencies [Hz]: {f.min():.6g} … {f.max():.6g}")
     return 0

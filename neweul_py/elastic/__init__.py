@@ -15,6 +15,7 @@ from .krylov import reduce_krylov
 from .modal import reduce_modal
 from .projection import project
 from .quality import (
+    check_source,
     compare_eigenvalues,
     compare_frf,
     frf_full,
@@ -30,6 +31,7 @@ __all__ = [
     "FE_KINDS",
     "FEModel",
     "ReducedBody",
+    "check_source",
     "compare_eigenvalues",
     "compare_frf",
     "frf_full",

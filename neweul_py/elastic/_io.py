@@ -29,6 +29,10 @@ __all__ = [
 ]
 
 
+#: First bytes of a zip archive (local file header; empty archive: end of central directory).
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")
+
+
 def json_to_uint8(obj: Any) -> np.ndarray:
     """Encode a JSON-serializable object as a ``uint8`` array of UTF-8 bytes."""
     text = json.dumps(obj, sort_keys=True, allow_nan=False)
@@ -61,6 +65,15 @@ def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     DataError
         The file is missing, not an ``.npz`` or holds pickled objects.
     """
+    try:
+        with open(path, "rb") as fh:
+            magic = fh.read(4)
+    except FileNotFoundError:
+        raise DataError("file not found", str(path)) from None
+    except OSError as exc:
+        raise DataError(f"cannot read ({exc.strerror or exc})", str(path)) from None
+    if magic not in _ZIP_MAGIC:  # np.load would try .npy / pickle and say "pickled data"
+        raise DataError("not a valid .npz file (not a zip archive)", str(path))
     try:
         with np.load(path, allow_pickle=False) as data:
             return {key: data[key] for key in data.files}

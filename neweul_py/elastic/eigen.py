@@ -27,6 +27,7 @@ __all__ = [
     "ShiftInvert",
     "SparseLU",
     "default_shift",
+    "frequencies_hz",
     "left_blocks",
     "right_blocks",
 ]
@@ -35,6 +36,11 @@ __all__ = [
 REAL_RTOL = 1e-7
 #: Relative distance (of max |λ|) within which eigenvalues form one (degenerate) cluster.
 CLUSTER_RTOL = 1e-8
+#: Relative tolerance (of the spectrum scale, e.g. ``max(|σ|, λ_max)``) within which a real
+#: eigenvalue is indistinguishable from a band edge or from zero: shift-invert eigenvalues
+#: carry absolute errors of about ``eps·σ²/dist`` (a zero mode computed at σ = 7.9e9 came
+#: out as −0.39), so band membership and "λ = 0" are decided with this margin.
+ZERO_RTOL = CLUSTER_RTOL
 #: Fill-reducing ordering of SuperLU: minimum degree on the pattern of ``Aᵀ + A`` suits FE
 #: matrices (structurally symmetric up to the u–p blocks); on a 100 000-DOF 3-D acoustic grid
 #: it needed about half the time and fill of the default COLAMD.
@@ -144,6 +150,37 @@ class ShiftInvert:
         return spla.LinearOperator((self.n, self.n), matvec=mv, matmat=mv, dtype=self.dtype)
 
 
+def frequencies_hz(lam: np.ndarray, scale: float | None = None,
+                   rtol: float = ZERO_RTOL) -> np.ndarray:
+    """Natural frequencies ``f = √λ / 2π`` of undamped eigenvalues ``λ = ω²``.
+
+    The undamped pencils of this package (structural, acoustic, u–p coupled, Eq. (2)) have a
+    real non-negative spectrum; a zero mode (rigid body, closed-cavity constant pressure)
+    often comes out slightly negative by round-off. Values with ``−rtol·scale ≤ λ < 0`` are
+    therefore clamped to ``0 Hz``; larger negative values (a genuinely indefinite ``K``)
+    give ``√|λ| / 2π``, as before.
+
+    Parameters
+    ----------
+    lam
+        Eigenvalues (the real part is used).
+    scale
+        Spectrum scale of the computation (default ``max |λ|``).
+    rtol
+        Relative tolerance (:data:`ZERO_RTOL`).
+
+    Examples
+    --------
+    >>> frequencies_hz(np.array([-3e-7, (2 * np.pi * 50.0) ** 2])).round(6).tolist()
+    [0.0, 50.0]
+    """
+    lam = np.real(np.asarray(lam, dtype=complex if np.iscomplexobj(lam) else float))
+    if scale is None:
+        scale = float(np.max(np.abs(lam))) if lam.size else 0.0
+    lam = np.where((lam < 0) & (lam >= -rtol * scale), 0.0, lam)
+    return np.sqrt(np.abs(lam)) / (2 * np.pi)
+
+
 def default_shift(fe: FEModel) -> float:
     """A small negative shift ``σ = −10⁻⁶ λ_est`` below the spectrum.
 
@@ -241,6 +278,22 @@ def right_blocks(si: ShiftInvert, k: int, source: str | None = None) -> list[Eig
     return _blocks(si.sigma + 1.0 / theta, X, si.sigma)
 
 
+def _null_shift_invert(fe: FEModel, si: ShiftInvert, right: list[EigenBlock],
+                       zero_tol: float) -> ShiftInvert:
+    """A factorization whose eigenvalues nearest the shift are the zero ones.
+
+    Subspace iteration on ``(K − σM)⁻ᵀ Mᵀ`` converges to the left vectors of the eigenvalues
+    *nearest σ*; that is the null space only when σ is much closer to 0 than to every nonzero
+    eigenvalue. A band selection shifts to the middle of the band, so a zero mode in the
+    band needs its own small negative shift (:func:`default_shift`, one more sparse LU).
+    """
+    sigma = complex(si.sigma)
+    nonzero = [abs(b.center - sigma) for b in right if abs(b.center) > zero_tol]
+    if sigma.imag == 0 and sigma.real <= 0 and all(d >= 10 * abs(sigma) for d in nonzero):
+        return si
+    return ShiftInvert(fe.K, fe.M, default_shift(fe), fe.source)
+
+
 def _left_null(si: ShiftInvert, m: int) -> np.ndarray:
     """Left null space of ``K`` (dimension m): subspace iteration on ``(K − σM)⁻ᵀ Mᵀ``."""
     rng = np.random.default_rng(2024)
@@ -275,10 +328,13 @@ def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: in
             and not any(b.is_complex for b in right)):
         out = []
         scale_u = fe.density * np.where(fe.pressure_dofs, 0.0, 1.0)
+        null_si = None
         for b in right:
             lam = b.values[0].real
             if abs(lam) <= zero_tol:
-                out.append(EigenBlock(b.values, _left_null(si, b.values.size)))
+                if null_si is None:
+                    null_si = _null_shift_invert(fe, si, right, zero_tol)
+                out.append(EigenBlock(b.values, _left_null(null_si, b.values.size)))
             else:
                 w = b.basis * np.where(fe.pressure_dofs, 1.0, scale_u * lam)[:, None]
                 out.append(EigenBlock(b.values, w))

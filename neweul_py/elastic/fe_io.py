@@ -24,15 +24,19 @@ The ``.npz`` form holds the CSR arrays ``<X>_data``, ``<X>_indices``, ``<X>_indp
 ``meta`` (UTF-8 JSON as uint8: format, version, name, kind, density, symmetric, inputs,
 outputs). It is read with ``allow_pickle=False``.
 
-Writers are atomic: a single file is written to a temp file and moved with ``os.replace``; a
-manifest's files are written to a temporary directory next to it, moved into place, and the
-manifest itself is moved last.
+Writers are atomic: a single file is written to a temp file and moved with ``os.replace``. A
+manifest's companion files carry a content hash in their names (``<stem>.<hash>.M.mtx``,
+``<stem>.<hash>.nodes.csv``, …); they are written and moved in first, the manifest that names
+them replaces the old one atomically, and the old manifest's companions are removed last, so
+a reader never sees a manifest naming a mix of old and new files.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -87,7 +91,10 @@ def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "m
         The model.
     path
         Target; the suffix picks the form (``.npz`` or ``.json``). Companion files of a
-        manifest are named ``<stem>.M.mtx``, ``<stem>.nodes.csv``, … next to it.
+        manifest are named ``<stem>.<hash>.M.mtx``, ``<stem>.<hash>.nodes.csv``, … next to
+        it (``<hash>``: 16 hex digits of the content's SHA-256); when a manifest written by
+        this function is overwritten, its old companions are removed after the new manifest
+        is in place (files of other names are never touched).
     matrix_format
         ``"mtx"`` (Matrix Market) or ``"hb"`` (Harwell–Boeing, written as ``.rua``).
     """
@@ -124,6 +131,9 @@ def _check_header(meta: Any, file: str) -> None:
     for key in ("inputs", "outputs", "symmetric"):
         if not isinstance(meta.get(key, {}), dict):
             raise DataError("must be an object", file, key)
+    for key in ("name", "kind"):
+        if key in meta and not isinstance(meta[key], str):
+            raise DataError(f"must be a string, got {meta[key]!r}", file, key)
 
 
 def _read_manifest(path: Path) -> FEModel:
@@ -162,21 +172,33 @@ def _read_manifest(path: Path) -> FEModel:
     if np.sort(index).tolist() != list(range(index.size)):
         raise DataError("the index column must be a permutation of 0 … n−1", dfile, "dofs")
     if index.size != n:
-        raise DataError(f"{index.size} DOFs listed but the matrices are {n}×{n}", dfile,
-                        "dofs")
+        what = "the table lists no DOFs" if index.size == 0 else f"{index.size} DOFs listed"
+        raise DataError(f"{what} but the matrices are {n}×{n}", dfile, "dofs")
     order = np.argsort(index)
-    return _build(file, meta, matrices, nodes, dof_node[order], dof_kind[order])
+    files = {key: str(base / mats[key]) for key in matrices}
+    files.update(nodes=str(base / meta["nodes"]), dofs=dfile)
+    return _build(file, meta, matrices, nodes, dof_node[order], dof_kind[order], files)
 
 
-def _build(file: str, meta: dict, matrices: dict, nodes, dof_node, dof_kind) -> FEModel:
+def _build(file: str, meta: dict, matrices: dict, nodes, dof_node, dof_kind,
+           files: dict[str, str] | None = None) -> FEModel:
+    """Construct (and so validate) the model; errors about a matrix or table name the
+    companion file that holds it (``files``: item → file), others the manifest."""
     kind = meta.get("kind", "structural")
-    return FEModel(
-        M=matrices["M"], K=matrices["K"], D=matrices.get("D"),
-        nodes=nodes, dof_node=dof_node, dof_kind=dof_kind,
-        inputs=meta.get("inputs", {}), outputs=meta.get("outputs", {}),
-        kind=kind, density=meta.get("density"), name=str(meta.get("name", Path(file).stem)),
-        symmetric=meta.get("symmetric", {}), source=file,
-    )
+    try:
+        return FEModel(
+            M=matrices["M"], K=matrices["K"], D=matrices.get("D"),
+            nodes=nodes, dof_node=dof_node, dof_kind=dof_kind,
+            inputs=meta.get("inputs", {}), outputs=meta.get("outputs", {}),
+            kind=kind, density=meta.get("density"),
+            name=str(meta.get("name", Path(file).stem)),
+            symmetric=meta.get("symmetric", {}), source=file,
+        )
+    except DataError as exc:
+        where = (files or {}).get(exc.item or "")
+        if where is None or exc.file != file:
+            raise
+        raise DataError(exc.message, where, exc.item, exc.line) from None
 
 
 def _read_matrix(base: Path, name: Any, key: str, manifest: str) -> sps.csr_matrix:
@@ -192,7 +214,9 @@ def _read_matrix(base: Path, name: Any, key: str, manifest: str) -> sps.csr_matr
         else:
             a = scipy.io.mmread(file)
     except Exception as exc:  # the readers raise many kinds of errors on bad files
-        raise DataError(f"cannot read matrix ({type(exc).__name__}: {exc})", file, key) from None
+        text = " ".join(str(exc).split())  # scipy's messages may span lines: one line
+        raise DataError(f"cannot read matrix ({type(exc).__name__}: {text})", file,
+                        key) from None
     if not sps.issparse(a):
         a = sps.csr_matrix(np.asarray(a))
     if a.dtype.kind == "c":
@@ -213,7 +237,11 @@ def _read_csv(path: Path, header: list[str], item: str) -> np.ndarray:
             if cols != header:
                 raise DataError(f"header must be {','.join(header)}, got {first.strip()!r}",
                                 file, item, 1)
-            table = np.loadtxt(fh, delimiter=",", dtype=str, ndmin=2)
+            rows = fh.readlines()
+            if any(line.strip() for line in rows):  # np.loadtxt warns on an empty table
+                table = np.loadtxt(rows, delimiter=",", dtype=str, ndmin=2)
+            else:
+                table = np.zeros((0, len(header)), dtype=str)
     except FileNotFoundError:
         raise DataError("file not found", file, item) from None
     except (OSError, UnicodeDecodeError, ValueError) as exc:
@@ -261,44 +289,114 @@ def _read_dofs(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return index.astype(np.int64), node.astype(np.int64), table[:, 2]
 
 
+#: Companion file of a manifest written by :func:`write_fe_model`:
+#: ``<stem>.<content hash>.<role>.<ext>`` (role M, K, D, nodes or dofs).
+_COMPANION = re.compile(r"^(?P<stem>.+)\.(?P<tag>[0-9a-f]{16})\.(?:M|K|D|nodes|dofs)"
+                        r"\.(?:mtx|rua|csv)$")
+
+
+def _old_companions(path: Path) -> set[str]:
+    """Companion files named by the manifest currently at ``path`` that this writer made.
+
+    Only names of the writer's own pattern (same stem, content-hash tag, same directory) are
+    returned, so rewriting a hand-made manifest never deletes the user's files.
+    """
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return set()
+    if not isinstance(meta, dict):
+        return set()
+    mats = meta.get("matrices")
+    names = list(mats.values()) if isinstance(mats, dict) else []
+    names += [meta.get("nodes"), meta.get("dofs")]
+    out = set()
+    for name in names:
+        if isinstance(name, str) and Path(name).name == name:
+            m = _COMPANION.match(name)
+            if m and m.group("stem") == path.stem:
+                out.add(name)
+    return out
+
+
+def _fsync_and_hash(path: Path, h) -> None:
+    with open(path, "rb") as fh:
+        h.update(fh.read())
+        os.fsync(fh.fileno())
+
+
 def _write_manifest(fe: FEModel, path: Path, matrix_format: str) -> None:
+    """Write the companion files, then the manifest; a reader always sees a consistent set.
+
+    The companions get names with a content hash (``<stem>.<hash>.M.mtx``, …): they are
+    written to a temporary directory, fsync'ed, moved in under names no existing manifest
+    uses (or onto an identical file), then the manifest naming them replaces the old one
+    atomically (``os.replace``), and only then the companions of the old manifest are
+    removed. An interrupt at any point leaves the old manifest with its own files (new
+    companions already moved in are removed again) or the complete new model.
+    """
     if matrix_format not in ("mtx", "hb"):
         raise ValueError(f"matrix_format must be 'mtx' or 'hb', got {matrix_format!r}")
     ext = ".mtx" if matrix_format == "mtx" else ".rua"
     stem = path.stem
     directory = path.parent if str(path.parent) else Path(".")
     directory.mkdir(parents=True, exist_ok=True)
+    old = _old_companions(path)
     meta = _meta(fe)
     keys = ["M", "K"] + (["D"] if fe.D is not None else [])
-    names = {key: f"{stem}.{key}{ext}" for key in keys}
-    meta["matrices"] = names
-    meta["nodes"], meta["dofs"] = f"{stem}.nodes.csv", f"{stem}.dofs.csv"
+    roles = {key: f"{key}{ext}" for key in keys}
+    roles.update(nodes="nodes.csv", dofs="dofs.csv")
     tmpdir = Path(tempfile.mkdtemp(prefix=f".{stem}.", dir=directory))
+    placed: list[Path] = []
     try:
-        for key, name in names.items():
+        for key in keys:
             a = getattr(fe, key).tocsc()
             if matrix_format == "mtx":
-                scipy.io.mmwrite(str(tmpdir / name), a, precision=17)
+                scipy.io.mmwrite(str(tmpdir / roles[key]), a, precision=17)
             else:
-                scipy.io.hb_write(str(tmpdir / name), a)
+                scipy.io.hb_write(str(tmpdir / roles[key]), a)
         ids = fe.nodes[:, 0].astype(np.int64)
-        with open(tmpdir / meta["nodes"], "w", encoding="utf-8") as fh:
+        with open(tmpdir / roles["nodes"], "w", encoding="utf-8") as fh:
             fh.write("id,x,y,z\n")
             xyz = np.char.mod("%.17g", fe.nodes[:, 1:])
             lines = np.char.add(np.char.add(ids.astype(str), ","), _join(xyz))
             fh.write("\n".join(lines.tolist()) + ("\n" if lines.size else ""))
-        with open(tmpdir / meta["dofs"], "w", encoding="utf-8") as fh:
+        with open(tmpdir / roles["dofs"], "w", encoding="utf-8") as fh:
             fh.write("index,node,kind\n")
             cols = np.stack([np.arange(fe.n_dofs).astype(str), fe.dof_node.astype(str),
                              fe.dof_kind.astype(str)], axis=1)
             lines = _join(cols)
             fh.write("\n".join(lines.tolist()) + ("\n" if lines.size else ""))
-        for name in [*names.values(), meta["nodes"], meta["dofs"]]:
-            os.replace(tmpdir / name, directory / name)
+        h = hashlib.sha256()
+        for role in roles.values():
+            h.update(f"\0{role}\0".encode())
+            _fsync_and_hash(tmpdir / role, h)
+        tag = h.hexdigest()[:16]
+        names = {key: f"{stem}.{tag}.{role}" for key, role in roles.items()}
+        for key, role in roles.items():
+            target = directory / names[key]
+            existed = target.exists()  # same name = same content (hash)
+            os.replace(tmpdir / role, target)
+            if not existed:
+                placed.append(target)
+        meta["matrices"] = {key: names[key] for key in keys}
+        meta["nodes"], meta["dofs"] = names["nodes"], names["dofs"]
         text = json.dumps(meta, indent=2, allow_nan=False) + "\n"
         atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+    except BaseException:
+        for p in placed:
+            try:
+                p.unlink()
+            except OSError:
+                pass
+        raise
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
+    for name in old - set(names.values()):
+        try:
+            (directory / name).unlink()
+        except OSError:  # already gone or not removable: a stale file, harmless
+            pass
 
 
 def _join(cols: np.ndarray) -> np.ndarray:

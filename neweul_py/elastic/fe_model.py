@@ -17,6 +17,9 @@ changed copy. Readers and writers live in :mod:`neweul_py.elastic.fe_io`.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -38,6 +41,12 @@ SYMMETRY_RTOL = 1e-10
 
 def _max_abs(a: sps.spmatrix) -> float:
     return float(abs(a).max()) if a.nnz else 0.0
+
+
+def _is_real_number(x: object) -> bool:
+    """A real scalar (Python or NumPy int/float), not a bool, string or sequence."""
+    return (isinstance(x, numbers.Real) and not isinstance(x, bool | np.bool_)
+            and np.ndim(x) == 0)
 
 
 def _asymmetry(a: sps.spmatrix) -> float:
@@ -69,11 +78,13 @@ class FEModel:
     kind
         One of :data:`FE_KINDS`.
     density
-        The fluid density ρ of Eq. (2) (``up-coupled`` only, required there).
+        The fluid density ρ of Eq. (2) (``up-coupled`` only, required there); a real
+        number (not a string, list or bool).
     name
         A name for messages.
     symmetric
-        Declared symmetries, e.g. ``{"M": True, "K": True}``; a declared-symmetric matrix
+        Declared symmetries, e.g. ``{"M": True, "K": True}`` (values must be bools: the
+        string ``"no"`` is an error, not ``True``); a declared-symmetric matrix
         that is not (relative max-abs asymmetry > :data:`SYMMETRY_RTOL`) is an error.
     source
         The file the model was read from (named in error messages), or ``None``.
@@ -209,6 +220,9 @@ class FEModel:
             raise DataError("a structural model has pressure DOFs", src, "dofs")
         if self.kind == "acoustic" and not is_p.all():
             raise DataError("an acoustic model has only pressure DOFs", src, "dofs")
+        if self.density is not None and not _is_real_number(self.density):
+            raise DataError(f"must be a number, got {self.density!r} "
+                            f"({type(self.density).__name__})", src, "density")
         if self.kind == "up-coupled":
             if self.density is None or not np.isfinite(self.density) or self.density <= 0:
                 raise DataError(f"an up-coupled model needs a positive fluid density, got "
@@ -219,11 +233,19 @@ class FEModel:
             set_(self, "density", float(self.density))
             self._check_up_blocks(is_p)
 
-        sym = {str(k): bool(v) for k, v in dict(self.symmetric).items()}
-        for key, declared in sym.items():
+        if not isinstance(self.symmetric, Mapping):
+            raise DataError(f"must map matrix names to true/false, got {self.symmetric!r}",
+                            src, "symmetric")
+        sym = {}
+        for key, declared in dict(self.symmetric).items():
             if key not in ("M", "K", "D"):
                 raise DataError(f"symmetry declared for unknown matrix {key!r}", src,
                                 "symmetric")
+            if not isinstance(declared, bool | np.bool_):  # "no" would be truthy
+                raise DataError(f"must be true or false, got {declared!r}", src,
+                                f"symmetric.{key}")
+            sym[key] = bool(declared)
+        for key, declared in sym.items():
             a = getattr(self, key)
             if declared and a is not None and _asymmetry(a) > SYMMETRY_RTOL:
                 raise DataError(f"declared symmetric but max|A−Aᵀ|/max|A| = "
@@ -264,6 +286,42 @@ class FEModel:
     def pressure_dofs(self) -> np.ndarray:
         """Boolean mask of the pressure DOFs."""
         return self.dof_kind == "p"
+
+    @cached_property
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of what a reduction depends on: ``M``, ``K``, ``D``, nodes, DOF map,
+        inputs, outputs, kind and density — not the name, file or symmetry flags.
+
+        Matrices enter in canonical CSR form (explicit zeros dropped, indices sorted), so the
+        same model read from a manifest or an ``.npz`` has the same fingerprint. A reduced
+        body records it in ``source["fingerprint"]``; :func:`~.quality.check_source` compares.
+        """
+        h = hashlib.sha256(b"neweul-fe-fingerprint-1")
+
+        def add(tag: str, a: np.ndarray) -> None:
+            a = np.ascontiguousarray(a)
+            h.update(f"{tag}:{a.dtype.str}:{a.shape}".encode())
+            h.update(a.tobytes())
+
+        for key in ("M", "K", "D"):
+            a = getattr(self, key)
+            if a is None:
+                h.update(f"{key}:none".encode())
+                continue
+            a = a.copy()
+            a.eliminate_zeros()
+            a.sort_indices()
+            add(f"{key}.indptr", a.indptr.astype(np.int64))
+            add(f"{key}.indices", a.indices.astype(np.int64))
+            add(f"{key}.data", a.data)
+        add("nodes", self.nodes)
+        add("dof_node", self.dof_node)
+        add("dof_kind", self.dof_kind.astype("U2"))
+        io = {"inputs": {k: [list(p) for p in v] for k, v in self.inputs.items()},
+              "outputs": {k: [list(p) for p in v] for k, v in self.outputs.items()},
+              "kind": self.kind, "density": self.density}
+        h.update(json.dumps(io, sort_keys=True).encode())
+        return h.hexdigest()
 
     @property
     def input_names(self) -> tuple[str, ...]:

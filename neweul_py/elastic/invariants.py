@@ -462,6 +462,14 @@ class Invariants:
         if fmt != FLAT_FORMAT:
             raise DataError(f"unknown invariants format {fmt!r} (expected {FLAT_FORMAT!r})",
                             item="invariants.format")
+        try:
+            return cls._from_flat(flat, get)
+        except (IndexError, ValueError, TypeError) as exc:  # arrays of the wrong size/type
+            raise DataError(f"inconsistent arrays ({' '.join(str(exc).split())})",
+                            item="invariants") from None
+
+    @classmethod
+    def _from_flat(cls, flat: Mapping[str, np.ndarray], get) -> Invariants:
         taylors = {}
         for name in _TAYLORS:
             m0 = get(f"{name}.m0")

@@ -14,7 +14,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import DataError
-from .eigen import EigenBlock, ShiftInvert, default_shift, left_blocks, right_blocks
+from .eigen import (
+    ZERO_RTOL,
+    EigenBlock,
+    ShiftInvert,
+    default_shift,
+    left_blocks,
+    right_blocks,
+)
 from .fe_model import FEModel
 from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
@@ -48,11 +55,23 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
             count += b.basis.shape[1]
         return kept, k
     lo, hi = (2 * np.pi * band[0]) ** 2, (2 * np.pi * band[1]) ** 2
+    # Membership must not depend on round-off: a zero mode (closed cavity, rigid body) comes
+    # out as λ ≈ ±eps·σ²/dist (−0.39 at σ = 7.9e9), so λ within ZERO_RTOL of the spectrum
+    # scale below 0 counts as 0 (the real non-negative spectrum of the undamped pencil), and
+    # each band edge gets a margin of ZERO_RTOL relative to itself (a band from 1 Hz still
+    # excludes the 0-Hz mode).
+    tol = ZERO_RTOL * max(abs(si.sigma), hi)
+
+    def in_band(b: EigenBlock) -> bool:
+        lam = b.center.real
+        lam = 0.0 if -tol <= lam < 0 else lam
+        return not b.is_complex and lo * (1 - ZERO_RTOL) <= lam <= hi * (1 + ZERO_RTOL)
+
     k = min(20, n - 2)
     while True:
         _say(progress, f"eigensolver: {k} eigenpairs of a {n}-DOF pencil near σ={si.sigma:.4g}")
         blocks = right_blocks(si, k, fe.source)
-        inside = [b for b in blocks if lo <= b.center.real <= hi and b.center.imag == 0]
+        inside = [b for b in blocks if in_band(b)]
         if len(inside) < len(blocks) or k >= n - 2:
             break
         k = min(2 * k, n - 2)
@@ -92,7 +111,10 @@ def modal_bases(
         The FE model.
     modes, band
         Exactly one: the number of modes nearest the shift (the lowest ones with the default
-        shift), or a frequency band ``(fmin, fmax)`` in Hz (``λ = (2πf)²``).
+        shift), or a frequency band ``(fmin, fmax)`` in Hz (``λ = (2πf)²``). A computed
+        ``λ`` less than :data:`~neweul_py.elastic.eigen.ZERO_RTOL` ``· max(|σ|, λ_max)``
+        below 0 counts as a zero mode (kept in a band from 0 Hz), and the band edges get a
+        relative margin of ``ZERO_RTOL``.
     two_sided
         Compute left eigenvectors (else ``W = V``, orthonormalized).
     shift

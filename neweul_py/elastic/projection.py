@@ -151,6 +151,6 @@ def build_reduced_body(
         method=method, settings=dict(settings),
         eigenvalues=eigenvalues,
         source={"name": fe.name, "file": fe.source, "kind": fe.kind, "n_dofs": fe.n_dofs,
-                "density": fe.density},
+                "density": fe.density, "fingerprint": fe.fingerprint},
     )
 

@@ -22,7 +22,7 @@ import scipy.sparse as sps
 
 from ..errors import DataError
 from ._io import atomic_write
-from .eigen import ShiftInvert, SparseLU, default_shift, right_blocks
+from .eigen import ShiftInvert, SparseLU, default_shift, frequencies_hz, right_blocks
 from .fe_model import FEModel
 from .projection import Progress
 from .reduced_body import ReducedBody
@@ -30,6 +30,7 @@ from .reduced_body import ReducedBody
 __all__ = [
     "FRFComparison",
     "Stability",
+    "check_source",
     "compare_eigenvalues",
     "compare_frf",
     "frf_full",
@@ -181,8 +182,8 @@ def compare_eigenvalues(fe: FEModel, body: ReducedBody, count: int | None = None
     scale = np.maximum(np.abs(full), 1e-12 * np.abs(full).max())
     return {
         "full": full, "reduced": red,
-        "frequency_full_hz": np.sqrt(np.abs(full)) / (2 * np.pi),
-        "frequency_reduced_hz": np.sqrt(np.abs(red)) / (2 * np.pi),
+        "frequency_full_hz": frequencies_hz(full),
+        "frequency_reduced_hz": frequencies_hz(red),
         "relative_error": np.abs(red[: full.size] - full[: red.size]) / scale[: red.size],
     }
 
@@ -246,6 +247,43 @@ class FRFComparison:
         atomic_write(path, write)
 
 
+def check_source(fe: FEModel, body: ReducedBody, file: str | None = None) -> None:
+    """Refuse a body that was not reduced from ``fe``: comparing them would be meaningless.
+
+    Compared with what the body records in ``source`` (absent entries are not checked, e.g.
+    bodies of older files): the number of DOFs, the structure kind, the FE-model
+    fingerprint (:attr:`FEModel.fingerprint`: matrices, nodes, DOF map, inputs, outputs,
+    density); and always the kept DOFs' node ids and kinds against the model's DOF map.
+    The model's name and file may differ (a renamed or moved model is the same model).
+
+    Raises
+    ------
+    DataError
+        Naming ``file`` (the body's file, if given) and the item ``source``.
+    """
+    src, model = body.source, fe.source or "the FE model"
+    n = src.get("n_dofs")
+    if n is not None and n != fe.n_dofs:
+        raise DataError(f"the body was reduced from a model with {n} DOFs, {model} has "
+                        f"{fe.n_dofs}", file, "source")
+    kind = src.get("kind")
+    if kind is not None and kind != fe.kind:
+        raise DataError(f"the body was reduced from a {kind!r} model, {model} is "
+                        f"{fe.kind!r}", file, "source")
+    k = body.kept_dofs
+    if k.size and (k.min() < 0 or k.max() >= fe.n_dofs
+                   or not np.array_equal(fe.dof_node[k], body.dof_node)
+                   or not np.array_equal(fe.dof_kind[k], body.dof_kind)):
+        raise DataError(f"the body's kept DOFs (node, kind) do not match the DOF map of "
+                        f"{model}", file, "source")
+    fp = src.get("fingerprint")
+    if fp is not None and fp != fe.fingerprint:
+        raise DataError(f"the body was reduced from a different FE model (matrices, nodes, "
+                        f"DOF map, inputs/outputs or density differ: fingerprint "
+                        f"{str(fp)[:12]}… vs {fe.fingerprint[:12]}… of {model})", file,
+                        "source")
+
+
 def compare_frf(
     fe: FEModel,
     body: ReducedBody,
@@ -253,14 +291,20 @@ def compare_frf(
     input: str,
     output: str,
     progress: Progress = None,
+    check: bool = True,
 ) -> FRFComparison:
     """FRF of ``fe`` (sparse direct) and of ``body`` (batched dense) for one input/output.
+
+    ``check`` (default): first :func:`check_source` — a body reduced from another model is
+    refused.
 
     Examples
     --------
     >>> cmp = compare_frf(fe, body, np.linspace(10, 2000, 200), "force", "p_end")  # doctest: +SKIP
     >>> cmp.max_relative_error                                                     # doctest: +SKIP
     """
+    if check:
+        check_source(fe, body)
     full = frf_full(fe, frequencies_hz, input, output, progress)[:, 0, 0]
     red = frf_reduced(body, frequencies_hz, input, output)[:, 0, 0]
     return FRFComparison(np.asarray(frequencies_hz, dtype=np.float64), full, red, input,

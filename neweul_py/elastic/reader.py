@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError
+from ._io import load_npz
 from .invariants import FLAT_FORMAT, Invariants, body_invariants
 from .reduced_body import load_reduced_body
 from .sid import read_sid
@@ -49,31 +50,36 @@ def read_elastic_data(
         invariants, a mode selection out of range.
     """
     p = Path(path)
+    file = os.fspath(p)
     if not p.is_file():
-        raise DataError("no such file", file=os.fspath(p))
-    if p.suffix.lower() == ".npz" and _is_flat(p):
-        with np.load(p, allow_pickle=False) as z:
-            inv = Invariants.from_flat({k: z[k] for k in z.files})
-    elif p.suffix.lower() == ".npz":
-        body = load_reduced_body(p)
-        inv = body_invariants(body)
-        if inv is None:
-            raise DataError("the reduced body holds no floating-frame invariants "
-                            "(fill them with elastic.invariants.attach_invariants)",
-                            file=os.fspath(p), item="invariants")
-    else:
-        inv = Invariants.from_sid(read_sid(p))
+        raise DataError("no such file", file=file)
+    try:
+        if p.suffix.lower() == ".npz":
+            arrays = load_npz(p)
+            if _is_flat(arrays):
+                inv = Invariants.from_flat(arrays)
+            else:
+                body = load_reduced_body(p)
+                inv = body_invariants(body)
+                if inv is None:
+                    raise DataError("the reduced body holds no floating-frame invariants "
+                                    "(fill them with elastic.invariants.attach_invariants)",
+                                    file=file, item="invariants")
+        else:
+            inv = Invariants.from_sid(read_sid(p))
+    except DataError as exc:  # errors of the invariants' own checks name no file
+        if exc.file is not None:
+            raise
+        raise DataError(exc.message, file, exc.item, exc.line) from None
     if modes is not None:
-        inv = _select(inv, modes, os.fspath(p))
+        inv = _select(inv, modes, file)
     return inv.to_flat()
 
 
-def _is_flat(p: Path) -> bool:
-    try:
-        with np.load(p, allow_pickle=False) as z:
-            return "format" in z.files and str(z["format"]) == FLAT_FORMAT
-    except (OSError, ValueError):
-        return False
+def _is_flat(arrays: dict[str, np.ndarray]) -> bool:
+    """A bare invariants file (``np.savez(path, **inv.to_flat())``), not a reduced body."""
+    fmt = arrays.get("format")
+    return fmt is not None and fmt.dtype.kind == "U" and str(fmt) == FLAT_FORMAT
 
 
 def _select(inv: Invariants, modes: int | Sequence[int], file: str) -> Invariants:

@@ -339,6 +339,9 @@ def _parse_taylor(blk: _Block, file: str | None, item: str,
                                 head["nrow"][1])
     if order == 1 and nqh != nq:
         raise DataError(f"nq = {nqh} but nelastq = {nq}", file, item, head["nq"][1])
+    if order == 0 and nqh not in (0, nq):  # order 0: nelastq, or 0 (no q-dependence)
+        raise DataError(f"nq = {nqh} but nelastq = {nq} (an order-0 object has nq = "
+                        f"nelastq or 0)", file, item, head["nq"][1])
     seen: set[tuple[int, ...]] = set()
     for c in entries:
         key = c.key.lower()

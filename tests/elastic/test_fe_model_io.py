@@ -8,6 +8,8 @@ the matrix/table.
 from __future__ import annotations
 
 import json
+import os
+import warnings
 
 import numpy as np
 import pytest
@@ -128,6 +130,12 @@ def _edit(path, **changes):
     path.write_text(json.dumps(meta))
 
 
+def _companion(manifest, key):
+    """The companion file the manifest names for ``key`` (M, K, D, nodes, dofs)."""
+    meta = json.loads(manifest.read_text())
+    return manifest.parent / (meta[key] if key in ("nodes", "dofs") else meta["matrices"][key])
+
+
 def test_missing_file_is_named(tmp_path):
     with pytest.raises(DataError, match="not found"):
         read_fe_model(tmp_path / "none.json")
@@ -143,11 +151,15 @@ def test_invalid_json_names_the_line(manifest):
 @pytest.mark.parametrize("changes,item", [
     (dict(format="other"), "format"),
     (dict(version=2), "version"),
-    (dict(matrices={"M": "m.M.mtx"}), "matrices"),
-    (dict(matrices={"M": "m.M.mtx", "K": "missing.mtx"}), "K"),
+    (dict(matrices={"M": "<M>"}), "matrices"),
+    (dict(matrices={"M": "<M>", "K": "missing.mtx"}), "K"),
     (dict(nodes=3), "nodes"),
 ])
 def test_bad_manifest_entries(manifest, changes, item):
+    if "matrices" in changes:
+        m_name = _companion(manifest, "M").name
+        changes = dict(matrices={k: v.replace("<M>", m_name)
+                                 for k, v in changes["matrices"].items()})
     _edit(manifest, **changes)
     with pytest.raises(DataError) as exc:
         read_fe_model(manifest)
@@ -155,39 +167,41 @@ def test_bad_manifest_entries(manifest, changes, item):
 
 
 def test_nan_in_matrix_market_file_names_file_and_matrix(manifest):
-    K = scipy.io.mmread(manifest.parent / "m.K.mtx").tocsr()
+    path = _companion(manifest, "K")
+    K = scipy.io.mmread(path).tocsr()
     K.data[0] = np.nan
-    scipy.io.mmwrite(manifest.parent / "m.K.mtx", K)
+    scipy.io.mmwrite(path, K)
     with pytest.raises(DataError, match="NaN") as exc:
         read_fe_model(manifest)
-    assert exc.value.item == "K" and exc.value.file.endswith("m.K.mtx")
+    assert exc.value.item == "K" and exc.value.file == str(path)
 
 
 def test_garbage_matrix_file(manifest):
-    (manifest.parent / "m.M.mtx").write_text("not a matrix\n")
+    _companion(manifest, "M").write_text("not a matrix\n")
     with pytest.raises(DataError, match="cannot read matrix") as exc:
         read_fe_model(manifest)
     assert exc.value.item == "M"
 
 
 def test_wrong_matrix_shape_is_named(manifest):
-    scipy.io.mmwrite(manifest.parent / "m.D.mtx", sps.eye(7, format="csr"))
+    path = _companion(manifest, "D")
+    scipy.io.mmwrite(path, sps.eye(7, format="csr"))
     with pytest.raises(DataError, match="shape") as exc:
         read_fe_model(manifest)
-    assert exc.value.item == "D" and exc.value.file.endswith("m.D.mtx")
+    assert exc.value.item == "D" and exc.value.file == str(path)
 
 
 def test_dof_table_that_does_not_match_the_matrices(manifest):
-    dofs = manifest.parent / "m.dofs.csv"
+    dofs = _companion(manifest, "dofs")
     lines = dofs.read_text().splitlines()
     dofs.write_text("\n".join(lines[:-1]) + "\n")  # one DOF too few
     with pytest.raises(DataError, match=r"permutation|DOFs listed") as exc:
         read_fe_model(manifest)
-    assert exc.value.item == "dofs" and exc.value.file.endswith("m.dofs.csv")
+    assert exc.value.item == "dofs" and exc.value.file == str(dofs)
 
 
 def test_bad_csv_header_and_number(manifest):
-    nodes = manifest.parent / "m.nodes.csv"
+    nodes = _companion(manifest, "nodes")
     text = nodes.read_text()
     nodes.write_text(text.replace("id,x,y,z", "id,x,y"))
     with pytest.raises(DataError, match="header") as exc:
@@ -228,3 +242,135 @@ def test_interrupted_write_leaves_nothing_partial(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         write_fe_model(duct(30), tmp_path / "new.json")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.npz"]
+
+
+@pytest.mark.parametrize("changes,item", [
+    (dict(density="1.2"), "density"),        # a string, not a number
+    (dict(density=[1.2]), "density"),
+    (dict(density=True), "density"),         # a bool is not a density
+    (dict(symmetric={"M": "no"}), "symmetric.M"),  # bool("no") would be True
+    (dict(symmetric={"K": 1}), "symmetric.K"),
+    (dict(name={"a": 1}), "name"),
+])
+def test_manifest_values_of_the_wrong_type(manifest, changes, item):
+    """One DataError naming the manifest and the key, never a TypeError or a silent cast."""
+    _edit(manifest, **changes)
+    with pytest.raises(DataError) as exc:
+        read_fe_model(manifest)
+    assert exc.value.file == str(manifest) and exc.value.item == item
+    assert "\n" not in str(exc.value)
+
+
+def test_not_a_zip_npz_and_garbage_harwell_boeing_are_one_line_errors(manifest, tmp_path):
+    bad = tmp_path / "bad.npz"
+    bad.write_text("hello, I am not a zip file\n")
+    with pytest.raises(DataError, match=r"not a valid \.npz file") as exc:
+        read_fe_model(bad)
+    assert exc.value.file == str(bad) and "pickle" not in str(exc.value)
+    hb = tmp_path / "x.rua"
+    hb.write_text("garbage\n")
+    with pytest.raises(ValueError, match="\n"):  # scipy's own message spans two lines
+        scipy.io.hb_read(str(hb))
+    meta = json.loads(manifest.read_text())
+    meta["matrices"]["M"] = "x.rua"
+    manifest.write_text(json.dumps(meta))
+    with pytest.raises(DataError, match="cannot read matrix") as exc:
+        read_fe_model(manifest)
+    assert exc.value.file == str(hb) and exc.value.item == "M"
+    assert "\n" not in str(exc.value)
+
+
+def test_empty_dof_table_is_an_error_without_a_warning(manifest):
+    dofs = _companion(manifest, "dofs")
+    dofs.write_text("index,node,kind\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's "loadtxt: input contained no data"
+        with pytest.raises(DataError, match="no DOFs") as exc:
+            read_fe_model(manifest)
+    assert exc.value.file == str(dofs) and exc.value.item == "dofs"
+
+
+def _edit_dof_rows(path, edit):
+    lines = path.read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    edit(rows)
+    path.write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
+
+
+@pytest.mark.parametrize("edit,text", [
+    (lambda rows: rows[3].__setitem__(1, "999"), "node ids not in the node table"),
+    (lambda rows: rows[3].__setitem__(2, "pp"), "unknown DOF kinds"),
+    (lambda rows: rows[4].__setitem__(1, rows[3][1]), "more than once"),
+])
+def test_dof_map_errors_name_the_dof_file(manifest, edit, text):
+    dofs = _companion(manifest, "dofs")
+    _edit_dof_rows(dofs, edit)
+    with pytest.raises(DataError, match=text) as exc:
+        read_fe_model(manifest)
+    assert exc.value.file == str(dofs) and exc.value.item == "dofs"
+
+
+def test_symmetry_error_names_the_matrix_file(manifest):
+    """piston_duct's K is unsymmetric (u–p coupling, Eq. (2)); declaring it symmetric fails
+    in the .mtx that holds it."""
+    _edit(manifest, symmetric={"K": True})
+    with pytest.raises(DataError, match="declared symmetric") as exc:
+        read_fe_model(manifest)
+    assert exc.value.file == str(_companion(manifest, "K")) and exc.value.item == "K"
+
+
+@pytest.mark.parametrize("fail_at", [1, 2, 3, 4, 5, 6])
+def test_rewriting_a_manifest_never_mixes_old_and_new_files(tmp_path, monkeypatch, fail_at):
+    """An exception at the k-th os.replace of a rewrite (companions 1–5, manifest 6) leaves
+    the old model readable and identical, and the directory as it was."""
+    path = tmp_path / "m.json"
+    old = piston_duct(20, damping=1.0)
+    write_fe_model(old, path)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    real, calls = os.replace, []
+
+    def flaky(src, dst):
+        calls.append(dst)
+        if len(calls) == fail_at:
+            raise KeyboardInterrupt
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        write_fe_model(piston_duct(30, damping=2.0), path)
+    monkeypatch.undo()
+    _same(old, read_fe_model(path))
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_rewriting_a_manifest_replaces_its_companions(tmp_path):
+    """A successful rewrite reads back as the new model; the old companions are gone, files
+    the writer did not make are left alone; the same model gives the same file names."""
+    path = tmp_path / "m.json"
+    write_fe_model(piston_duct(20, damping=1.0), path)
+    first = sorted(p.name for p in tmp_path.iterdir())
+    (tmp_path / "m.K.mtx").write_text("a user's file\n")
+    new = piston_duct(30)
+    write_fe_model(new, path)
+    _same(new, read_fe_model(path))
+    meta = json.loads(path.read_text())
+    named = {*meta["matrices"].values(), meta["nodes"], meta["dofs"]}
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted({"m.json", "m.K.mtx", *named})
+    assert not named & set(first)
+    write_fe_model(new, path)  # same content: same names, nothing else changes
+    assert json.loads(path.read_text()) == meta
+
+
+@pytest.mark.parametrize("suffix,fmt", [(".json", "mtx"), (".json", "hb"), (".npz", "mtx")])
+def test_fingerprint_survives_files_and_sees_changes(tmp_path, suffix, fmt):
+    """The fingerprint a reduced body records is the same for the model read back from any
+    file form, and differs when a matrix entry, the DOF map or an input weight changes."""
+    fe = piston_duct(20, damping=1.0)
+    write_fe_model(fe, tmp_path / f"m{suffix}", matrix_format=fmt)
+    assert read_fe_model(tmp_path / f"m{suffix}").fingerprint == fe.fingerprint
+    K = fe.K.tolil()
+    K[1, 1] *= 1 + 1e-15
+    changed = [fe.with_(K=K.tocsr()), fe.with_(inputs={"force": ((0, 2.0),)}),
+               fe.with_(nodes=fe.nodes + np.array([0, 0, 0, 1e-9])), fe.with_(name="other")]
+    prints = [c.fingerprint for c in changed]
+    assert all(p != fe.fingerprint for p in prints[:3]) and prints[3] == fe.fingerprint

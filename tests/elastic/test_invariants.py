@@ -570,3 +570,36 @@ def test_reduced_body_slot(tmp_path):
         assert inv.two_sided == rb.two_sided
     with pytest.raises(DataError, match="store_bases"):
         attach_invariants(reduce_modal(b.fe, modes=8), b.fe)
+
+
+def test_bad_invariants_files_name_the_file(tmp_path):
+    """Errors of the invariants' own checks, read through read_elastic_data from a bare
+    invariants .npz or a reduced body's slot, name the file (and the block)."""
+    from fe_builders import piston_duct
+
+    from neweul_py.elastic import reduce_modal
+    from neweul_py.elastic.invariants import attach_invariants
+    from neweul_py.elastic.reader import read_elastic_data
+
+    b = beam(8)
+    _lam, V = b.clamped_modes(4)
+    flat = compute_invariants(b.fe, V, nodes=[9, 3]).to_flat()
+    cases = [({"Ke.m0": np.eye(3)}, "Ke", "size 3×3, expected 4×4"),
+             ({"nodes.id": np.array([9, 3, 5])}, "invariants", "inconsistent arrays"),
+             ({"m": np.array("heavy")}, "invariants", "inconsistent arrays")]
+    for change, item, text in cases:
+        path = tmp_path / "inv.npz"
+        np.savez(path, **{**flat, **change})
+        with pytest.raises(DataError, match=text) as exc:
+            read_elastic_data(path)
+        assert exc.value.file == str(path) and exc.value.item == item
+    fe = piston_duct(20)
+    rb = attach_invariants(reduce_modal(fe, modes=4, store_bases=True), fe)
+    rb.with_(invariants={**rb.invariants, "Ke.m0": np.eye(3)}).save(tmp_path / "body.npz")
+    with pytest.raises(DataError, match="size 3×3") as exc:
+        read_elastic_data(tmp_path / "body.npz")
+    assert exc.value.file == str(tmp_path / "body.npz") and exc.value.item == "Ke"
+    (tmp_path / "text.npz").write_text("not an archive")
+    with pytest.raises(DataError, match=r"not a valid \.npz") as exc:
+        read_elastic_data(tmp_path / "text.npz")
+    assert exc.value.file == str(tmp_path / "text.npz")

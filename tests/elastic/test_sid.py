@@ -164,6 +164,24 @@ def test_size_mismatch_names_line(tmp_path):
     assert "nrow = 10" in exc.value.message
 
 
+@pytest.mark.parametrize("nq,ok", [("10", False), ("12", False), ("0", True)])
+def test_order0_nq_must_be_nelastq_or_zero(tmp_path, nq, ok):
+    """Ke (order 0) declaring nq = 10 or 12 while nelastq = 11 names the nq line; nq = 0
+    (no q-dependence, as some exporters write order-0 objects) is accepted."""
+    def edit(lines):
+        assert lines[2623 - 1].strip() == "Ke" and "nq " in lines[2627 - 1]
+        lines[2627 - 1] = lines[2627 - 1].replace("11", nq)
+        return lines
+    path = _broken(tmp_path, edit)
+    if ok:
+        assert read_sid(path)["Ke"].m0.shape == (11, 11)
+        return
+    with pytest.raises(DataError) as exc:
+        read_sid(path)
+    assert exc.value.line == 2627 and exc.value.item == "part.modal.Ke"
+    assert f"nq = {nq} but nelastq = 11" in exc.value.message
+
+
 def test_entry_out_of_range_names_line(tmp_path):
     def edit(lines):
         lines[29 - 1] = lines[29 - 1].replace("m0( 3, 1)", "m0( 4, 1)")
