@@ -13,6 +13,7 @@ Output (not committed, ≈ 30 MB per working point at refine 2): ``data/fem/mode
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from neweul_py.fem.middle_ear import MiddleEarParameters, parse_pressures, pressure_sweep
@@ -34,6 +35,7 @@ def main() -> None:
         out_dir=args.output,
         plots=args.plots,
         verbose=True,
+        progress=lambda msg: print(f"  {msg}", file=sys.stderr, flush=True),
     )
     print(f"wrote {len(result.models)} FE models to {args.output}")
 

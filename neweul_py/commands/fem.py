@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 
 __all__ = ["register"]
 
@@ -19,7 +20,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="TM + ear canal + tympanic cavity, linearized at static pressures",
         description="Solve the nonlinear static TM problem at each static pressure difference "
         "dp = p_canal - p_cavity and write one up-coupled FE model (Eq. (2)) per working "
-        "point, the static results (static.csv) and sweep.json into DIR (atomically).",
+        "point, the static results (static.csv) and sweep.json into DIR (atomically). A load step "
+        "whose static state leaves the model's validity (TM reaching an air-space wall, cone "
+        "inversion, |dV| > 5 % of an air volume) stops the sweep with an error; nothing is "
+        "written. Progress goes to stderr.",
     )
     # let "--pressures -4000:4000:9" through: argparse only takes "-4000"-like words as values
     me._negative_number_matcher = re.compile(r"^-\d[\d.:,eE+-]*$")
@@ -39,6 +43,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     me.set_defaults(func=_middle_ear)
 
 
+def _progress(msg: str) -> None:
+    """Progress of the long steps on stderr (as ``neweul reduce`` prints it)."""
+    print(f"  {msg}", file=sys.stderr, flush=True)
+
+
 def _middle_ear(args: argparse.Namespace) -> int:
     from ..fem.middle_ear import parse_pressures, pressure_sweep
 
@@ -49,6 +58,7 @@ def _middle_ear(args: argparse.Namespace) -> int:
         plots=args.plots,
         include_support=args.include_support,
         verbose=True,
+        progress=_progress,
     )
     print(f"wrote {len(result.models)} working points to {args.output}")
     return 0

@@ -10,7 +10,7 @@ Modules, one concern each (scikit-fem style: mesh, element, assembly, form apart
 * :mod:`~neweul_py.fem.coupling` – the coupling matrix ``C`` and the u–p matrices of Eq. (2);
 * :mod:`~neweul_py.fem.nonlinear` – Newton's method with adaptive load stepping;
 * :mod:`~neweul_py.fem.middle_ear` – the TM + ear canal + tympanic cavity model, static
-  solution, working-point FE models and the pressure sweep;
+  solution (with its physical-validity bounds), working-point FE models and the pressure sweep;
 * :mod:`~neweul_py.fem.output`, :mod:`~neweul_py.fem.plots` – atomic sweep output, pictures.
 """
 
@@ -22,6 +22,7 @@ from .middle_ear import (
     pressure_sweep,
     solve_static,
     static_summary,
+    static_validity,
     working_point_model,
 )
 from .nonlinear import NewtonOptions, StaticState
@@ -36,5 +37,6 @@ __all__ = [
     "pressure_sweep",
     "solve_static",
     "static_summary",
+    "static_validity",
     "working_point_model",
 ]

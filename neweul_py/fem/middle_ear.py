@@ -36,6 +36,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from ..elastic.fe_model import FEModel
+from ..elastic.projection import Progress
 from ..errors import ModelError, SolverError
 from .acoustic import acoustic_matrices, surface_load
 from .coupling import assemble_up, coupling_matrix
@@ -44,18 +45,33 @@ from .nonlinear import NewtonOptions, StaticState, load_path
 from .shell import ShellMaterial, ShellStructure
 
 __all__ = [
+    "MAX_DISPLACEMENT_FRACTION",
+    "MAX_VOLUME_FRACTION",
+    "THIN_SHELL_RATIO",
     "MiddleEar",
     "MiddleEarParameters",
     "SweepResult",
+    "ValidityBound",
     "build_middle_ear",
     "lowest_tangent_eigenvalue",
     "parse_pressures",
     "pressure_sweep",
     "solve_static",
     "static_summary",
+    "static_validity",
     "support_stiffness",
     "working_point_model",
 ]
+
+
+#: Thin-shell bound of the TM: ``thickness ≤ radius / THIN_SHELL_RATIO``.
+THIN_SHELL_RATIO = 20.0
+#: Validity of a static state (:func:`static_validity`): ``|ΔV|`` at most this fraction of the
+#: volume of each air space (the air meshes stay in the reference geometry).
+MAX_VOLUME_FRACTION = 0.05
+#: Validity of a static state: the largest TM displacement at most this fraction of the TM's
+#: reference depth (``max z − min z`` of the profile; the cone inverts at about 1).
+MAX_DISPLACEMENT_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -72,7 +88,12 @@ class MiddleEarParameters:
         Lateral bulge of the radial generators at mid-radius [m] (curved radial fibres,
         Funnell & Laszlo 1978): profile ``z = h (1 − ρ) − 4 δ ρ (1 − ρ)``.
     tm_thickness
-        TM thickness [m] (Kuypers et al. 2006): 0.08 mm.
+        TM thickness [m] (Kuypers et al. 2006): 0.08 mm. At most ``radius / 20`` (thin-shell
+        limit :data:`THIN_SHELL_RATIO`: the facet shell has Kirchhoff bending without
+        transverse shear; for a clamped circular plate the Mindlin shear term adds
+        ``8 / (3 κ (1 − ν)) · (t/a)²`` ≈ ``4.6 (t/a)²`` to the centre deflection ``p a⁴/(64 D)``
+        — Wang, Reddy & Lee, *Shear Deformable Beams and Plates*, 2000 — i.e. ≈ 1 % at
+        ``t = a/20``; the TM has ``a/t ≈ 55``).
     tm_E, tm_nu, tm_rho
         Pars tensa Young's modulus, Poisson ratio, density (Wada & Kobayashi; De Greef 2014).
     tm_loss
@@ -89,7 +110,8 @@ class MiddleEarParameters:
     canal_length, canal_diameter
         Ear canal [m] (Rosowski 1993): 25 mm, 7.5 mm.
     cavity_volume
-        Tympanic cavity volume [m³] (Hudde & Engel 1998): 0.5 cm³.
+        Tympanic cavity volume [m³] (Hudde & Engel 1998): 0.5 cm³; more than
+        :attr:`min_cavity_volume`.
     rho_air, c_air
         Air density [kg/m³] and speed of sound [m/s].
     air_loss
@@ -140,9 +162,11 @@ class MiddleEarParameters:
         if not 0 < self.manubrium_reach < 1:
             raise ModelError("must be in (0, 1)", "middle_ear.manubrium_reach")
         a = self.tm_radius
-        if self.tm_thickness >= a:
+        if self.tm_thickness > a / THIN_SHELL_RATIO:
             raise ModelError(
-                f"TM thickness {self.tm_thickness} m must be smaller than its radius {a:.4g} m",
+                f"TM thickness {self.tm_thickness:.4g} m exceeds the thin-shell limit radius/"
+                f"{THIN_SHELL_RATIO:g} = {a / THIN_SHELL_RATIO:.4g} m (the shell element has no "
+                "transverse shear; beyond the limit that error exceeds ≈ 1 %)",
                 "middle_ear.tm_thickness",
             )
         if not 0 <= self.tm_depth < a:
@@ -155,10 +179,12 @@ class MiddleEarParameters:
                 f"TM bulge must be smaller than a quarter of the radius ({0.25 * a:.4g} m)",
                 "middle_ear.tm_bulge",
             )
-        if self.cavity_length <= 1.05 * self.tm_depth:
+        v_min = self.min_cavity_volume
+        if self.cavity_volume <= v_min:
             raise ModelError(
-                f"cavity volume {self.cavity_volume} m³ too small to hold the TM cone "
-                f"(needs > {math.pi * a**2 * self.tm_depth * (1.05 - 1 / 3):.3g} m³)",
+                f"cavity volume {self.cavity_volume:.6g} m³ too small to hold the TM cone "
+                f"(needs > {v_min:.6g} m³: the cavity length must exceed 1.05 × the TM height "
+                f"{self.tm_height:.4g} m)",
                 "middle_ear.cavity_volume",
             )
         if self.probe_distance >= self.canal_length:
@@ -170,12 +196,35 @@ class MiddleEarParameters:
         return math.sqrt(self.tm_area / math.pi)
 
     @property
+    def tm_height(self) -> float:
+        """Highest point ``max z`` of the TM profile ``z = h (1 − ρ) − 4 δ ρ (1 − ρ)``.
+
+        ``h`` (the umbo) unless the generators bulge medially by more than ``h/4``
+        (``δ < −h/4``): then the vertex of the parabola, ``h − (h + 4δ)² / (16 δ)``.
+        """
+        h, d = self.tm_depth, self.tm_bulge
+        if d < -0.25 * h:
+            return h - (h + 4.0 * d) ** 2 / (16.0 * d)
+        return h
+
+    @property
+    def _profile_volume(self) -> float:
+        """Signed volume between the rim plane ``z = 0`` and the TM: ``π a² (h − 2δ) / 3``."""
+        return math.pi * self.tm_radius**2 * (self.tm_depth - 2.0 * self.tm_bulge) / 3.0
+
+    @property
     def cavity_length(self) -> float:
-        """Axial length ``L_c`` of the cavity cylinder so that its air volume is ``V_c``."""
+        """Axial length ``L_c`` of the cavity cylinder so that its air volume is ``V_c``:
+        ``π a² L_c − π a² (h − 2δ)/3 = V_c``."""
+        return (self.cavity_volume + self._profile_volume) / (math.pi * self.tm_radius**2)
+
+    @property
+    def min_cavity_volume(self) -> float:
+        """Smallest admissible cavity volume: the cavity must reach beyond the TM with a gap,
+        ``L_c > 1.05 max z``, i.e. ``V_c > π a² (1.05 max z − (h − 2δ)/3)`` (for the default
+        shape ``max z = h``: ``π a² (1.05 h − (h − 2δ)/3)`` ≈ 1.06·10⁻⁷ m³)."""
         a = self.tm_radius
-        # air between the rim plane z = 0 and the TM: π a² (h − 2 δ) / 3
-        cone = math.pi * a**2 * (self.tm_depth - 2.0 * self.tm_bulge) / 3.0
-        return (self.cavity_volume + cone) / (math.pi * a**2)
+        return math.pi * a**2 * 1.05 * self.tm_height - self._profile_volume
 
 
 @dataclass(frozen=True, eq=False)
@@ -364,7 +413,13 @@ def build_middle_ear(
         weights,
         nodes4,
         umbo,
-        info={"canal_layers": n_canal, "cavity_layers": n_cav, "tm_rings": rings},
+        info={
+            "canal_layers": n_canal,
+            "cavity_layers": n_cav,
+            "tm_rings": rings,
+            "canal_volume_m3": float(tet_volumes(canal.points, canal.tets).sum()),
+            "cavity_volume_m3": float(vol),
+        },
     )
     if verbose:
         counts = me.dof_counts()
@@ -412,19 +467,129 @@ def _residual(me: MiddleEar):
     return residual
 
 
+@dataclass(frozen=True)
+class ValidityBound:
+    """One validity bound of a static state, ``value ≤ limit`` (SI units).
+
+    ``text`` describes a violation; its ``{value}`` and ``{limit}`` are printed multiplied by
+    ``scale`` (to mm, µm, mm³).
+    """
+
+    name: str
+    value: float
+    limit: float
+    text: str
+    scale: float = 1.0
+
+    @property
+    def ok(self) -> bool:
+        """The bound holds."""
+        return self.value <= self.limit
+
+    def describe(self) -> str:
+        """The violation in words, with the value and the limit."""
+        return self.text.format(value=self.value * self.scale, limit=self.limit * self.scale)
+
+
+def static_validity(me: MiddleEar, state: StaticState) -> tuple[ValidityBound, ...]:
+    """The physical-validity bounds of a static TM state (all must hold, ``bound.ok``).
+
+    The working-point models keep the air meshes in the reference geometry and take ``C`` on
+    the deformed TM; that is consistent only while the TM moves little compared with the air
+    spaces. Checked (``x = X + u`` the deformed TM nodes, ``ΔV`` the swept volume):
+
+    * **walls**: every TM node stays inside the tympanic cavity (``z ≤ L_c``, ``r ≤ a``) and the
+      ear canal (``z ≥ −L``, inside the canal's conical wall) — penetration depth ≤ 0;
+    * **no inversion of the cone**: ``max |u| ≤`` :data:`MAX_DISPLACEMENT_FRACTION` ``· H``,
+      ``H = max z − min z`` of the reference TM (the cone inverts when its apex has moved by
+      about ``H``; not checked for a flat TM);
+    * **small volume change**: ``|ΔV| ≤`` :data:`MAX_VOLUME_FRACTION` ``·`` (mesh volume) of
+      the canal and of the cavity (linear acoustics on the reference mesh; the compression of
+      the cavity air by ``ΔV`` is itself a static pressure change of ``ρc²ΔV/V_c``, 7 kPa at
+      5 % — the order of the static pressures modelled).
+
+    At ±4 kPa (default model) ``|ΔV| ≈ 8 mm³`` (1.7 % of the cavity) and ``max |u| ≈ 0.26 mm``
+    (0.13 of ``H = 2 mm``).
+
+    Returns
+    -------
+    tuple of ValidityBound
+        Walls of the cavity and of the canal, cone inversion, volume vs. canal and cavity.
+    """
+    p = me.params
+    a, length, lc = p.tm_radius, p.canal_length, p.cavity_length
+    u = _full(me, state)
+    x = me.shell.points + u
+    r, z = np.hypot(x[:, 0], x[:, 1]), x[:, 2]
+    tol = 1e-9 * a
+    # canal wall: the extruded rim, r = a + (d/2 − a)·(−z/L) for −L ≤ z ≤ 0
+    r_canal = a + (0.5 * p.canal_diameter - a) * np.clip(-z / length, 0.0, 1.0)
+    above, below = z >= 0.0, z < 0.0
+    cav = np.concatenate([[z.max() - lc], (r - a)[above]]).max()
+    can = np.concatenate([[-length - z.min()], (r - r_canal)[below]]).max()
+    depth = float(np.ptp(me.shell.points[:, 2]))
+    umax = float(np.linalg.norm(u, axis=1).max())
+    dv = abs(me.shell.pressure(u.ravel(), 0.0)[0])
+    frac = f"{100 * MAX_VOLUME_FRACTION:g} %"
+    return (
+        ValidityBound(
+            "cavity wall",
+            cav,
+            tol,
+            "the TM penetrates the tympanic cavity wall by {value:.3g} mm",
+            1e3,
+        ),
+        ValidityBound(
+            "canal wall", can, tol, "the TM penetrates the ear-canal wall by {value:.3g} mm", 1e3
+        ),
+        ValidityBound(
+            "cone inversion",
+            umax,
+            MAX_DISPLACEMENT_FRACTION * depth if depth > 0 else math.inf,
+            "cone inversion: the largest TM displacement {value:.1f} µm exceeds "
+            f"{MAX_DISPLACEMENT_FRACTION:g} × the cone depth " + "({limit:.1f} µm)",
+            1e6,
+        ),
+        ValidityBound(
+            "canal volume",
+            dv,
+            MAX_VOLUME_FRACTION * me.info["canal_volume_m3"],
+            f"|ΔV| = {{value:.3f}} mm³ exceeds {frac} of the ear-canal volume ({{limit:.3f}} mm³)",
+            1e9,
+        ),
+        ValidityBound(
+            "cavity volume",
+            dv,
+            MAX_VOLUME_FRACTION * me.info["cavity_volume_m3"],
+            f"|ΔV| = {{value:.3f}} mm³ exceeds {frac} of the tympanic cavity volume "
+            "({limit:.3f} mm³)",
+            1e9,
+        ),
+    )
+
+
 def solve_static(
     me: MiddleEar,
     pressures: Sequence[float],
     options: NewtonOptions | None = None,
     check_stability: bool = True,
+    check_validity: bool = True,
+    progress: Progress = None,
 ) -> list[StaticState]:
     """Static equilibria of the TM at the static pressure differences ``Δp`` [Pa].
 
     The positive and the negative branch are each followed from the unloaded state with Newton's
     method and adaptive load steps (:func:`~neweul_py.fem.nonlinear.load_path`). With
-    ``check_stability`` every returned state is checked to have a positive definite tangent
+    ``check_validity`` every converged load step is checked against the physical-validity
+    bounds of :func:`static_validity` (so that an absurd load stops at the first invalid step).
+    With ``check_stability`` every returned state is checked to have a positive definite tangent
     (:func:`lowest_tangent_eigenvalue`), so that a passed bifurcation is not returned as a
     working point.
+
+    Parameters
+    ----------
+    progress
+        Called with a short message after every converged load step.
 
     Returns
     -------
@@ -434,8 +599,10 @@ def solve_static(
     Raises
     ------
     SolverError
-        A pressure could not be reached (the message names the last converged load step), or a
-        reached state is unstable.
+        A pressure could not be reached (the message names the last converged load step), a
+        load step violates a validity bound (the message names the load step, the bound with its
+        value and the last valid load step; ``last_iterate`` is that state), or a reached state
+        is unstable.
 
     Examples
     --------
@@ -451,8 +618,31 @@ def solve_static(
     for branch in (np.flatnonzero(dps >= 0), np.flatnonzero(dps < 0)):
         if branch.size == 0:
             continue
+        goal = float(dps[branch][np.argmax(np.abs(dps[branch]))])
+        last_valid = [StaticState(0.0, np.zeros(me.n_u), 0, 0.0)]
+
+        def on_step(state: StaticState, goal: float = goal, last_valid=last_valid) -> None:
+            if check_validity:
+                bad = [b for b in static_validity(me, state) if not b.ok]
+                if bad:
+                    raise SolverError(
+                        f"the static state at the load step Δp = {state.load:+g} Pa (of "
+                        f"{goal:+g} Pa) is outside the model's validity ("
+                        + "; ".join(b.describe() for b in bad)
+                        + f"); last valid load step Δp = {last_valid[0].load:+g} Pa",
+                        last_iterate=last_valid[0],
+                        residual=last_valid[0].residual,
+                    )
+            last_valid[0] = state
+            if progress is not None:
+                dv = me.shell.pressure(_full(me, state).ravel(), 0.0)[0]
+                progress(
+                    f"Δp = {state.load:+9.1f} Pa (of {goal:+g}): {state.iterations} Newton "
+                    f"iterations, ΔV = {dv * 1e9:+.4g} mm³"
+                )
+
         try:
-            states = load_path(res, me.n_u, dps[branch], options)
+            states = load_path(res, me.n_u, dps[branch], options, on_step)
         except SolverError as exc:
             raise SolverError(
                 f"TM static solution: {exc.message}", exc.last_iterate, exc.residual
@@ -659,6 +849,7 @@ def pressure_sweep(
     include_support: bool = False,
     options: NewtonOptions | None = None,
     verbose: bool = False,
+    progress: Progress = None,
 ) -> SweepResult:
     """Static solutions and linearized ``up-coupled`` FE models over static pressures ``Δp``.
 
@@ -680,7 +871,10 @@ def pressure_sweep(
     options
         Newton options.
     verbose
-        Print DOF counts and progress.
+        Print the DOF counts and the static results (stdout).
+    progress
+        Called with a short message per converged load step and per working point (the CLI
+        prints them on stderr).
 
     Returns
     -------
@@ -689,8 +883,9 @@ def pressure_sweep(
     Raises
     ------
     ModelError
-        Bad parameters or pressures; SolverError: a pressure beyond Newton convergence. In
-        either case nothing is written.
+        Bad parameters or pressures; SolverError: a pressure beyond Newton convergence or
+        beyond the physical validity of the model (:func:`static_validity`, checked after every
+        load step). In either case nothing is written.
 
     Examples
     --------
@@ -714,7 +909,7 @@ def pressure_sweep(
 
         check_output_dir(out_dir)  # fail before the work, checked again when writing
     me = build_middle_ear(params, refine, verbose=verbose)
-    states = solve_static(me, dps, options)
+    states = solve_static(me, dps, options, progress=progress)
     table = tuple(static_summary(me, s) for s in states)
     if verbose:
         for row in table:
@@ -723,9 +918,16 @@ def pressure_sweep(
                     row["dp_Pa"], row["volume_displacement_m3"] * 1e9, row["umbo_uz_m"] * 1e6
                 )
             )
-    models = tuple(working_point_model(me, s, include_support) for s in states)
+    models = []
+    for i, s in enumerate(states):
+        if progress is not None:
+            progress(f"working point {i + 1}/{len(states)}: FE model at Δp = {s.load:+g} Pa")
+        models.append(working_point_model(me, s, include_support))
     if out_dir is not None:
+        if progress is not None:
+            progress(f"writing {out_dir}")
         _write_sweep(me, states, table, models, out_dir, plots, include_support)
+    models = tuple(models)
     return SweepResult(me, tuple(states), table, models, out_dir)
 
 

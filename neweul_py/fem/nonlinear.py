@@ -93,6 +93,7 @@ def load_path(
     n: int,
     targets: Sequence[float],
     options: NewtonOptions | None = None,
+    on_step: Callable[[StaticState], None] | None = None,
 ) -> list[StaticState]:
     """Equilibria at the requested loads, following the load path from ``u = 0`` at load 0.
 
@@ -107,6 +108,10 @@ def load_path(
         Loads of one sign (zero allowed), reached in increasing ``|load|``.
     options
         Newton and stepping options.
+    on_step
+        Called with every converged load step (intermediate steps included), before the next
+        one: for progress output and for checks of the state along the load path — an
+        exception it raises stops the path there.
 
     Returns
     -------
@@ -155,6 +160,8 @@ def load_path(
                 continue
             u, its, rn = res
             state = StaticState(trial, u, its, rn)
+            if on_step is not None:
+                on_step(state)
             if its <= 4:
                 step = min(step * 1.5, opts.max_step)
         if idx not in out:

@@ -224,3 +224,161 @@ def test_refuses_to_overwrite_foreign_directory(tmp_path):
     with pytest.raises(DataError):
         pressure_sweep([0.0], refine=0, out_dir=str(tmp_path))
     assert (tmp_path / "keep.txt").read_text() == "mine"
+
+
+# ------------------------------------------------------------------ physical-validity guard
+def _cavity_mesh_volume(me):
+    from neweul_py.fem.mesh import tet_volumes
+
+    return tet_volumes(me.cavity.points, me.cavity.tets).sum()
+
+
+def test_validity_bounds_hold_over_default_range(coarse):
+    """At −4000 … +4000 Pa every validity bound holds with a margin: |ΔV| < half of 5 % of the
+    0.5 cm³ cavity, the largest displacement < half of the bound h/2 = 1 mm."""
+    from neweul_py.fem.middle_ear import static_validity
+
+    me, states = coarse
+    for s in states:
+        bounds = static_validity(me, s)
+        assert all(b.ok for b in bounds), [b.describe() for b in bounds if not b.ok]
+        dv = abs(static_summary(me, s)["volume_displacement_m3"])
+        assert dv < 0.5 * 0.05 * 0.5e-6
+        u = np.zeros(me.shell.n_dof)
+        u[me.free_dofs] = s.u
+        assert np.linalg.norm(u.reshape(-1, 3), axis=1).max() < 0.5 * 1e-3
+
+
+@pytest.mark.parametrize("dp", [200000.0, -200000.0])
+def test_extreme_pressure_refused_at_first_invalid_step(tmp_path, dp):
+    """±200 kPa (Newton converges, the state is absurd): the sweep stops at the first load step
+    with |ΔV| > 5 % of the tympanic cavity (0.5 cm³ → 25 mm³), names the bound and the last
+    valid step (whose ΔV is just below the bound), and writes nothing."""
+    out = tmp_path / "never"
+    with pytest.raises(SolverError, match="5 % of the tympanic cavity volume") as err:
+        pressure_sweep([0.0, dp], refine=0, out_dir=str(out))
+    msg = str(err.value)
+    assert "last valid load step" in msg and f"of {dp:+g} Pa" in msg and "\n" not in msg
+    last = err.value.last_iterate
+    me = build_middle_ear(refine=0)
+    v_cav = _cavity_mesh_volume(me)
+    assert v_cav == pytest.approx(0.5e-6, rel=0.02)
+    dv = abs(static_summary(me, last)["volume_displacement_m3"])
+    assert 0.045 * v_cav < dv <= 0.05 * v_cav  # stopped early: within one load step
+    assert 4000.0 < abs(last.load) < 0.5 * abs(dp) and np.sign(last.load) == np.sign(dp)
+    assert f"last valid load step Δp = {last.load:+g} Pa" in msg
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_cli_refuses_extreme_pressure_with_one_line(tmp_path, capsys):
+    """`neweul fem middle-ear --pressures 0:1e7:2`: exit 1, one error line, progress on
+    stderr per load step, nothing written."""
+    out = tmp_path / "D"
+    rc = main(["fem", "middle-ear", "--pressures", "0:1e7:2", "-o", str(out), "--refine", "0"])
+    assert rc == 1
+    err = capsys.readouterr().err.splitlines()
+    errors = [line for line in err if "error" in line]
+    assert len(errors) == 1 and errors[0].startswith("neweul fem: error: ")
+    assert "5 % of the tympanic cavity volume" in errors[0]
+    assert sum("Newton iterations" in line for line in err) >= 10
+    assert not out.exists()
+
+
+def test_cone_inversion_bound():
+    """With a 5 cm³ cavity (antrum and mastoid included) the volume bounds are far; under
+    −100 kPa the cone-inversion bound max |u| ≤ h/2 = 1 mm stops the path, the last valid
+    state just inside it."""
+    params = MiddleEarParameters(cavity_volume=5e-6)
+    me = build_middle_ear(params, refine=0)
+    with pytest.raises(SolverError, match="cone inversion") as err:
+        solve_static(me, [-100000.0])
+    last = err.value.last_iterate
+    u = np.zeros(me.shell.n_dof)
+    u[me.free_dofs] = last.u
+    umax = np.linalg.norm(u.reshape(-1, 3), axis=1).max()
+    assert 0.95e-3 < umax <= 1e-3
+
+
+CAVITY_WALL, CANAL_WALL = "cavity wall", "canal wall"
+
+
+def test_wall_penetration_bounds():
+    """Synthetic displacements against the walls computed by hand: the cavity's medial wall at
+    L_c = (V_c + πa²(h − 2δ)/3)/(πa²) = 8.667 mm, its side wall r = a, and the canal wall
+    r = a − (a − d/2)|z|/L lateral of the rim plane."""
+    from neweul_py.fem.middle_ear import static_validity
+    from neweul_py.fem.nonlinear import StaticState
+
+    me = build_middle_ear(refine=0)
+    a = np.sqrt(60e-6 / np.pi)
+    lc = (0.5e-6 + np.pi * a**2 * (2e-3 - 1e-3) / 3) / (np.pi * a**2)
+    assert lc == pytest.approx(8.6667e-3, rel=1e-4)
+    pos = -np.ones(me.shell.n_dof, dtype=int)
+    pos[me.free_dofs] = np.arange(me.n_u)
+    x0 = me.shell.points
+
+    def bounds(node, du):
+        uf = np.zeros(me.n_u)
+        for k in range(3):
+            uf[pos[3 * node + k]] = du[k]
+        return {b.name: b for b in static_validity(me, StaticState(1.0, uf, 1, 0))}
+
+    umbo = me.umbo
+    b = bounds(umbo, [0, 0, lc - x0[umbo, 2] + 1e-4])
+    wall = b[CAVITY_WALL]
+    assert not wall.ok and wall.value == pytest.approx(1e-4, rel=1e-9)
+    assert wall.describe() == "the TM penetrates the tympanic cavity wall by 0.1 mm"
+    assert bounds(umbo, [0, 0, lc - x0[umbo, 2] - 1e-4])[CAVITY_WALL].ok
+    # a node of the outer free ring pushed radially to r = 1.05 a (still z > 0)
+    node = int(np.flatnonzero(me.tm.ring == me.tm.ring.max() - 1)[0])
+    r0 = np.hypot(*x0[node, :2])
+    e = np.r_[x0[node, :2] / r0, 0.0]
+    b = bounds(node, (1.05 * a - r0) * e)
+    assert b[CAVITY_WALL].value == pytest.approx(0.05 * a)
+    # the same node at z = −1 mm, r = a: outside the canal wall by (a − d/2)·1 mm / 25 mm
+    du = (a - r0) * e + np.r_[0.0, 0.0, -1e-3 - x0[node, 2]]
+    b = bounds(node, du)
+    can = b[CANAL_WALL]
+    assert can.value == pytest.approx((a - 3.75e-3) * 1e-3 / 25e-3, rel=1e-9) and not can.ok
+
+
+# ------------------------------------------------------------------ parameter bounds
+def _printed_limit(volume, **kw):
+    import re
+
+    with pytest.raises(ModelError, match="cavity_volume") as err:
+        MiddleEarParameters(cavity_volume=volume, **kw)
+    return float(re.search(r"needs > ([0-9.e+-]+) m³", str(err.value)).group(1))
+
+
+@pytest.mark.parametrize("bulge", [0.5e-3, 0.0, -0.8e-3])
+def test_cavity_volume_limit_matches_geometry(bulge):
+    """The printed minimum cavity volume is π a² (1.05 max z − (h − 2δ)/3) with max z of the
+    profile found numerically (= h for δ ≥ −h/4; 1.06·10⁻⁷ m³ for the default shape); just
+    above it is accepted (and meshes), just below it is refused."""
+    a2pi, h = 60e-6, 2e-3
+    rho = np.linspace(0.0, 1.0, 200001)
+    zmax = (h * (1 - rho) - 4 * bulge * rho * (1 - rho)).max()
+    ref = a2pi * (1.05 * zmax - (h - 2 * bulge) / 3)
+    if bulge == 0.5e-3:
+        assert ref == pytest.approx(1.06e-7, rel=1e-12)
+    limit = _printed_limit(1e-9, tm_bulge=bulge)
+    assert limit == pytest.approx(ref, rel=1e-6)
+    p = MiddleEarParameters(cavity_volume=limit * (1 + 2e-6), tm_bulge=bulge)
+    assert p.cavity_length > 1.05 * zmax
+    with pytest.raises(ModelError, match="cavity_volume"):
+        MiddleEarParameters(cavity_volume=limit * (1 - 2e-6), tm_bulge=bulge)
+    # the smallest admissible cavity meshes without inverted elements
+    me = build_middle_ear(p, refine=1)
+    assert _cavity_mesh_volume(me) == pytest.approx(p.cavity_volume, rel=0.05)
+
+
+def test_thickness_thin_shell_limit():
+    """Thin-shell bound t ≤ a/20 (a = sqrt(60 mm²/π) = 4.37 mm → 0.2185 mm): 0.2 mm accepted,
+    just above the bound, 1 mm and just below the radius refused."""
+    a = np.sqrt(60e-6 / np.pi)
+    MiddleEarParameters(tm_thickness=0.2e-3)
+    MiddleEarParameters(tm_thickness=a / 20 * (1 - 1e-9))
+    for t in (a / 20 * (1 + 1e-6), 1e-3, 0.999 * a):
+        with pytest.raises(ModelError, match=r"tm_thickness.*thin-shell limit"):
+            MiddleEarParameters(tm_thickness=t)
