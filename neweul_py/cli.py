@@ -3,7 +3,8 @@
 Each sub-command lives in its own module under :mod:`neweul_py.commands` and exposes
 ``register(subparsers)``, which adds its parser and sets ``func`` (called with the parsed
 arguments, returning an exit code). The CLI catches :class:`~neweul_py.errors.NeweulError` and
-prints one line; any other exception is a bug and keeps its traceback.
+:class:`OSError` (a file that cannot be written: disk full, permissions) and prints one line; any
+other exception is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -56,6 +57,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except NeweulError as exc:
         print(f"neweul {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        name = exc.filename2 or exc.filename  # os.replace: the target is filename2
+        where = f"{name}: " if name else ""
+        print(f"neweul {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"neweul {args.command}: interrupted", file=sys.stderr)

@@ -16,7 +16,10 @@ largest correction made is reported (:attr:`ConstrainedSimulation.max_drift`).
 
 Consistent initial conditions (:func:`consistent_initial_state`) are found by Newton's method on
 ``g(y) = 0`` holding the independent coordinates, and by solving ``G ẏ = −∂g/∂t`` for the dependent
-velocities. The constraint forces ``λ`` are returned with the results (columns ``lambda_<name>``).
+velocities. By default the dependent coordinates are the last linearly independent columns of
+``G`` (scanning ``COORDINATES`` from the end), so the coordinates listed first keep the positions
+and velocities the description gives them. The constraint forces ``λ`` are returned with the
+results (columns ``lambda_<name>``).
 """
 
 from __future__ import annotations
@@ -33,7 +36,12 @@ from ..errors import NeweulError, SolverError
 from . import _protocol as proto
 from .results import SimulationResult
 
-__all__ = ["ConstrainedSimulation", "consistent_initial_state", "simulate_constrained"]
+__all__ = [
+    "ConstrainedSimulation",
+    "consistent_initial_state",
+    "default_partition",
+    "simulate_constrained",
+]
 
 
 @dataclass(frozen=True)
@@ -224,8 +232,12 @@ def consistent_initial_state(
         Time.
     independent
         Coordinates whose values (and velocities) are kept exactly; Newton on ``g(y) = 0`` moves
-        the others (coordinate partitioning). ``None``: all coordinates move, by the least change
-        in the kinetic metric ``M``.
+        the others (coordinate partitioning). ``None``: the same, with the dependent coordinates
+        chosen as the *last* columns of ``G`` that are linearly independent (scanning
+        ``COORDINATES`` from the end, :func:`default_partition`), so the first coordinates keep
+        their given positions and velocities; only when no well-conditioned partition exists or
+        Newton fails with it, all coordinates move, by the least change in the kinetic metric
+        ``M``.
     tol
         Tolerance on ``max |g|`` (scaled by ``1 + max |y|``).
 
@@ -252,14 +264,49 @@ def consistent_initial_state(
     if con.nc == 0:
         return y, yd
     _check_rank(con, t, y)
-    dep = None
+    ptol = tol * (1 + np.abs(y).max())
+    winv = _metric(module, t, y, pv)
     if independent is not None:
         _, dep = proto.partition(con.jac(t, y), names, independent)
-    winv = _metric(module, t, y, pv)
-    y = _project_position(con, t, y, dep, winv, tol * (1 + np.abs(y).max()))
+        y_new = _project_position(con, t, y, dep, winv, ptol)
+    else:
+        dep = default_partition(con.jac(t, y))
+        y_new = None
+        if dep is not None:
+            try:
+                y_new = _project_position(con, t, y, dep, winv, ptol)
+                if default_partition(con.jac(t, y_new)) is None:
+                    y_new = None  # the partition degenerates on the way: use the metric
+            except SolverError:
+                y_new = None
+        if y_new is None:  # fall back to the least change in the kinetic metric
+            dep = None
+            y_new = _project_position(con, t, y, None, winv, ptol)
+    y = y_new
     _check_rank(con, t, y)
     yd = _project_velocity(con, t, y, yd, dep, winv)
     return y, yd
+
+
+def default_partition(g_jac: np.ndarray, max_cond: float = 1e8) -> np.ndarray | None:
+    """Dependent coordinates of the default partition, or None without a well-conditioned one.
+
+    The columns of ``G`` are scanned from the *last* coordinate to the first; a column is taken
+    when it raises the rank of the columns taken so far (greedy rank test,
+    :func:`~neweul_py.analysis._protocol.partition`), until there are as many as constraints.
+    The choice is accepted when the block ``G[:, dep]`` is well conditioned
+    (``cond ≤ max_cond``); the coordinates not taken keep their values.
+    """
+    nc, n = g_jac.shape
+    if nc == 0:
+        return np.zeros(0, dtype=int)
+    try:
+        _, dep = proto.partition(g_jac, [str(i) for i in range(n)], None)
+    except NeweulError:
+        return None
+    if np.linalg.cond(g_jac[:, dep]) > max_cond:
+        return None
+    return dep
 
 
 def simulate_constrained(
@@ -299,8 +346,10 @@ def simulate_constrained(
         Inputs: ``None`` (the default excitation), a constant vector or mapping, or ``u(t)``.
     independent
         Coordinates held exactly when making the initial state consistent and moved freely by the
-        projections (the dependent ones absorb the corrections). ``None``: least-change projection
-        in the kinetic metric.
+        projections (the dependent ones absorb the corrections). ``None``: the initial state
+        keeps the coordinates of the default partition (the first ones in ``COORDINATES`` order
+        that the constraints leave free, see :func:`consistent_initial_state`); the projections
+        during the integration are of least change in the kinetic metric.
     method, rtol, atol
         Passed to :func:`scipy.integrate.solve_ivp`.
     baumgarte

@@ -17,6 +17,8 @@
 from __future__ import annotations
 
 import csv
+import io
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,10 +27,17 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import NeweulError
+from ..atomic import atomic_write
+from ..errors import DataError, NeweulError
+from . import _protocol as proto
 from .linearize import LinearModel, linearize
+from .plot import check_plot_path, new_figure, save_figure
+from .results import check_output_path
 
-__all__ = ["FrequencyResponse", "frequency_response", "frequency_vector", "frf"]
+__all__ = ["SUFFIXES", "FrequencyResponse", "frequency_response", "frequency_vector", "frf"]
+
+#: Suffixes of frequency-response files (:meth:`FrequencyResponse.save`).
+SUFFIXES: tuple[str, ...] = (".csv", ".npz")
 
 _CHUNK_BYTES = 64 * 2**20
 
@@ -67,45 +76,92 @@ class FrequencyResponse:
             for j, u in enumerate(self.inputs)
         ]
 
-    def to_csv(self, path: str | Path) -> None:
-        """Write ``frequency_hz, magnitude, phase_deg`` (one output and input).
+    def _csv_text(self) -> str:
+        pairs = self._pairs()
+        mag, ph = self.magnitude, self.phase_deg
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        header = ["frequency_hz"]
+        for _, _, sfx in pairs:
+            header += [f"magnitude{sfx}", f"phase_deg{sfx}"]
+        w.writerow(header)
+        for k, f in enumerate(self.frequency_hz):
+            row = [repr(float(f))]
+            for i, j, _ in pairs:
+                row += [repr(float(mag[k, i, j])), repr(float(ph[k, i, j]))]
+            w.writerow(row)
+        return buf.getvalue()
+
+    def to_csv(self, path: str | os.PathLike[str]) -> Path:
+        """Write ``frequency_hz, magnitude, phase_deg`` (one output and input), atomically.
 
         With several outputs or inputs the columns are ``magnitude:<output>/<input>`` and
         ``phase_deg:<output>/<input>`` for each pair.
         """
-        pairs = self._pairs()
-        mag, ph = self.magnitude, self.phase_deg
-        with open(path, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            header = ["frequency_hz"]
-            for _, _, sfx in pairs:
-                header += [f"magnitude{sfx}", f"phase_deg{sfx}"]
-            w.writerow(header)
-            for k, f in enumerate(self.frequency_hz):
-                row = [repr(float(f))]
-                for i, j, _ in pairs:
-                    row += [repr(float(mag[k, i, j])), repr(float(ph[k, i, j]))]
-                w.writerow(row)
+        return atomic_write(path, self._csv_text())
 
-    def plot(self, path: str | Path | None = None, *, log_frequency: bool = True) -> Any:
-        """Bode plot (magnitude and phase) with matplotlib; saved to ``path`` when given.
+    def to_npz(self, path: str | os.PathLike[str]) -> Path:
+        """Write an uncompressed ``.npz`` (no pickles), atomically: ``frequency_hz`` (nf,),
+        the complex ``H`` (nf, ny, nu), ``magnitude`` and ``phase_deg`` (unwrapped), and the
+        string arrays ``outputs`` and ``inputs``. :meth:`load` reads it back."""
+        buf = io.BytesIO()
+        np.savez(
+            buf,
+            frequency_hz=self.frequency_hz,
+            H=self.H,
+            magnitude=self.magnitude,
+            phase_deg=self.phase_deg,
+            outputs=np.array(self.outputs, dtype=str),
+            inputs=np.array(self.inputs, dtype=str),
+        )
+        return atomic_write(path, buf.getvalue())
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write ``.csv`` (:meth:`to_csv`) or ``.npz`` (:meth:`to_npz`) by the suffix."""
+        path = check_output_path(path, SUFFIXES, "frequency responses")
+        return self.to_npz(path) if path.suffix.lower() == ".npz" else self.to_csv(path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> FrequencyResponse:
+        """Read a ``.npz`` written by :meth:`to_npz`."""
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                return cls(
+                    frequency_hz=f["frequency_hz"],
+                    H=f["H"],
+                    outputs=tuple(str(s) for s in f["outputs"]),
+                    inputs=tuple(str(s) for s in f["inputs"]),
+                )
+        except (OSError, ValueError, KeyError) as exc:
+            raise DataError(f"cannot read a frequency response: {exc}", file=str(path)) from None
+
+    def plot(
+        self, path: str | os.PathLike[str] | None = None, *, log_frequency: bool = True
+    ) -> Any:
+        """Bode plot (magnitude and phase) with matplotlib.
+
+        With ``path`` the figure is built with the object API and written atomically in the
+        format of the suffix (checked first, :func:`~neweul_py.analysis.plot.check_plot_path`);
+        without, a pyplot figure is returned for interactive use.
 
         Raises
         ------
         NeweulError
-            When matplotlib (the ``plot`` extra) is not installed.
+            When matplotlib (the ``plot`` extra) is not installed, or the suffix is not a format
+            it writes.
         """
-        try:
-            import matplotlib
-
-            if path is not None:
-                matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
-        except ImportError:
-            raise NeweulError(
-                "plotting needs matplotlib: pip install 'neweul-py[plot]'"
-            ) from None
-        fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+        if path is not None:
+            path = check_plot_path(path)
+            fig = new_figure(figsize=(7, 6), layout="constrained")
+        else:
+            try:
+                import matplotlib.pyplot as plt
+            except ImportError:
+                raise NeweulError(
+                    "plotting needs matplotlib: pip install 'neweul-py[plot]'"
+                ) from None
+            fig = plt.figure(figsize=(7, 6), layout="constrained")
+        ax_m, ax_p = fig.subplots(2, 1, sharex=True)
         for i, j, sfx in self._pairs():
             label = sfx[1:] or f"{self.outputs[i]}/{self.inputs[j]}"
             ax_m.loglog(self.frequency_hz, self.magnitude[:, i, j], label=label)
@@ -118,10 +174,8 @@ class FrequencyResponse:
         ax_m.grid(True, which="both", alpha=0.3)
         ax_p.grid(True, which="both", alpha=0.3)
         ax_m.legend(loc="best", fontsize="small")
-        fig.tight_layout()
         if path is not None:
-            fig.savefig(path, dpi=120)
-            plt.close(fig)
+            save_figure(fig, path)
         return fig
 
 
@@ -272,7 +326,9 @@ def frequency_response(
     f
         Frequencies in Hz.
     inputs
-        Input name(s) (default: all inputs of the model).
+        Input name(s) (default: all inputs of the model). The entries of ``INPUT_RATES`` (the
+        time derivatives of a kinematic excitation) are not inputs of their own: they enter
+        through their input and are rejected here.
     outputs
         Output name(s): module outputs, coordinates, ``d_<coordinate>`` or ``dd_<coordinate>``
         (default: all module outputs, or all coordinates when the module has none).
@@ -295,10 +351,21 @@ def frequency_response(
     if method not in _METHODS:
         raise NeweulError(f"unknown frequency-response method {method!r}; valid: solve, "
                           "hessenberg, eig")
-    in_names = _as_names(inputs, lin.inputs)
+    rates = dict(getattr(lin, "input_rates", ()) or ())
+    rate_of = {r: nm for nm, rs in rates.items() for r in rs}
+    valid = [nm for nm in lin.inputs if nm not in rate_of]
+    in_names = _as_names(inputs, valid)
     out_names = _as_names(outputs, lin.outputs or lin.all_coordinates)
     if not in_names:
         raise NeweulError("frequency response: the model has no inputs")
+    for nm in in_names:
+        if nm in rate_of:
+            raise NeweulError(
+                f"input {nm!r} is a time derivative of the input {rate_of[nm]!r}: rates are "
+                f"folded in automatically (B_u + jω B_du − ω² B_ddu); valid inputs: "
+                f"{', '.join(valid)}"
+            )
+        proto.name_index(valid, nm, "input")
     cols = lin.input_columns(in_names)
     cy, cyd, cydd, d_all = lin.output_rows(out_names)
     freq = np.asarray(f, dtype=float).reshape(-1)
@@ -307,7 +374,6 @@ def frequency_response(
     h = solve(lin, w, cy, cyd, cydd, d_all[:, cols], lin.B[:, cols])
     # Kinematic excitation: an input u with rate entries d_u, dd_u acts harmonically through
     # B_u + jω B_du − ω² B_ddu (and likewise D); H is linear in B, so add (jω)^k H_k.
-    rates = dict(getattr(lin, "input_rates", ()) or ())
     for order in (1, 2):
         rate_cols = [
             lin.input_columns([rates[nm][order - 1]])[0] if len(rates.get(nm, ())) >= order

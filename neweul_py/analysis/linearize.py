@@ -24,6 +24,8 @@ points (``ẏ0 = 0``).
 
 from __future__ import annotations
 
+import io
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,8 +33,10 @@ from typing import Any
 
 import numpy as np
 
+from ..atomic import atomic_write
 from ..errors import NeweulError
 from . import _protocol as proto
+from .results import check_output_path
 
 __all__ = ["LinearModel", "linearize"]
 
@@ -210,10 +214,13 @@ class LinearModel:
         """Column indices of the inputs ``names`` (error listing the valid inputs otherwise)."""
         return np.array([proto.name_index(self.inputs, nm, "input") for nm in names], dtype=int)
 
-    def save(self, path: str | Path) -> None:
-        """Write the model to a ``.npz`` file (no pickles): matrices, names and operating point."""
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model to a ``.npz`` file (no pickles), atomically: matrices, names and
+        operating point. Other suffixes are an error (the name is not changed silently)."""
+        path = check_output_path(path, (".npz",), "linear models")
+        buf = io.BytesIO()
         np.savez(
-            path,
+            buf,
             M0=self.M0,
             P=self.P,
             Q=self.Q,
@@ -236,6 +243,7 @@ class LinearModel:
                 [[name, *rates, "", ""][:3] for name, rates in self.input_rates], dtype=str
             ).reshape(-1, 3),
         )
+        return atomic_write(path, buf.getvalue())
 
     @classmethod
     def load(cls, path: str | Path) -> LinearModel:

@@ -12,6 +12,8 @@ reported once (``Im λ > 0``); real eigenvalues are aperiodic modes, eigenvalues
 from __future__ import annotations
 
 import csv
+import io
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,10 +21,15 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import NeweulError
+from ..atomic import atomic_write
+from ..errors import DataError, NeweulError
 from .linearize import LinearModel, linearize
+from .results import check_output_path
 
-__all__ = ["ModalResult", "modes"]
+__all__ = ["SUFFIXES", "ModalResult", "modes"]
+
+#: Suffixes of modal-result files (:meth:`ModalResult.save`).
+SUFFIXES: tuple[str, ...] = (".csv", ".npz")
 
 
 @dataclass(frozen=True)
@@ -79,38 +86,115 @@ class ModalResult:
             )
         return "\n".join(rows)
 
-    def to_csv(self, path: str | Path) -> None:
-        """Write one row per oscillating mode.
+    @property
+    def unstable(self) -> np.ndarray:
+        """Boolean mask of the modes that grow: ``Re λ > 0`` (beyond round-off; not rigid)."""
+        scale = np.abs(self.eigenvalues).max(initial=0.0)
+        return np.array(
+            [k != "rigid" and lam.real > 1e-9 * scale
+             for k, lam in zip(self.kind, self.eigenvalues, strict=True)],
+            dtype=bool,
+        )
+
+    def stability_warning(self) -> str | None:
+        """A one-line note when the operating point is unstable (None when it is not).
+
+        Names the eigenvalues with positive real part, their kind and dominant coordinate; an
+        unstable aperiodic mode has no row in the CSV (which lists oscillating modes only).
+        """
+        idx = np.flatnonzero(self.unstable)
+        if not idx.size:
+            return None
+        parts = []
+        for i in idx:
+            lam = self.eigenvalues[i]
+            value = f"{lam.real:+.6g}" if self.kind[i] != "oscillating" else (
+                f"{lam.real:+.6g} ± {abs(lam.imag):.6g}j")
+            parts.append(f"{value} ({self.kind[i]}, dominant {self.dominant_coordinate(i)})")
+        return (
+            "the operating point is unstable: eigenvalue(s) with positive real part "
+            + ", ".join(parts)
+            + "; small motions grow (the CSV lists oscillating modes only; another equilibrium: "
+            "--start / y0)"
+        )
+
+    def _csv_text(self) -> str:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(
+            [
+                "frequency_hz",
+                "damping_ratio",
+                "damped_frequency_hz",
+                "real_part",
+                "imag_part",
+                "dominant_coordinate",
+                *(f"shape_{c}" for c in self.coordinates),
+            ]
+        )
+        for i in np.flatnonzero(self.oscillating):
+            lam = self.eigenvalues[i]
+            w.writerow(
+                [
+                    repr(float(self.frequency_hz[i])),
+                    repr(float(self.damping_ratio[i])),
+                    repr(float(self.damped_frequency_hz[i])),
+                    repr(float(lam.real)),
+                    repr(float(lam.imag)),
+                    self.dominant_coordinate(i),
+                    *(repr(float(v)) for v in self.shapes[:, i].real),
+                ]
+            )
+        return buf.getvalue()
+
+    def to_csv(self, path: str | os.PathLike[str]) -> Path:
+        """Write one row per oscillating mode, atomically.
 
         Columns: ``frequency_hz, damping_ratio, damped_frequency_hz, real_part, imag_part,
         dominant_coordinate``, then ``shape_<coordinate>`` (real part of the normalized shape).
         """
-        with open(path, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            w.writerow(
-                [
-                    "frequency_hz",
-                    "damping_ratio",
-                    "damped_frequency_hz",
-                    "real_part",
-                    "imag_part",
-                    "dominant_coordinate",
-                    *(f"shape_{c}" for c in self.coordinates),
-                ]
-            )
-            for i in np.flatnonzero(self.oscillating):
-                lam = self.eigenvalues[i]
-                w.writerow(
-                    [
-                        repr(float(self.frequency_hz[i])),
-                        repr(float(self.damping_ratio[i])),
-                        repr(float(self.damped_frequency_hz[i])),
-                        repr(float(lam.real)),
-                        repr(float(lam.imag)),
-                        self.dominant_coordinate(i),
-                        *(repr(float(v)) for v in self.shapes[:, i].real),
-                    ]
+        return atomic_write(path, self._csv_text())
+
+    def to_npz(self, path: str | os.PathLike[str]) -> Path:
+        """Write *all* modes (also aperiodic and rigid ones) to an uncompressed ``.npz`` (no
+        pickles), atomically: complex ``eigenvalues`` (k,) and ``shapes`` (n, k),
+        ``frequency_hz``, ``damped_frequency_hz``, ``damping_ratio`` (NaN for rigid modes), and
+        the string arrays ``kind`` and ``coordinates``. :meth:`load` reads it back."""
+        buf = io.BytesIO()
+        np.savez(
+            buf,
+            eigenvalues=self.eigenvalues,
+            frequency_hz=self.frequency_hz,
+            damped_frequency_hz=self.damped_frequency_hz,
+            damping_ratio=self.damping_ratio,
+            kind=np.array(self.kind, dtype=str),
+            shapes=self.shapes,
+            coordinates=np.array(self.coordinates, dtype=str),
+        )
+        return atomic_write(path, buf.getvalue())
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write ``.csv`` (:meth:`to_csv`, oscillating modes) or ``.npz`` (:meth:`to_npz`, all
+        modes) by the suffix."""
+        path = check_output_path(path, SUFFIXES, "modes")
+        return self.to_npz(path) if path.suffix.lower() == ".npz" else self.to_csv(path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> ModalResult:
+        """Read a ``.npz`` written by :meth:`to_npz`."""
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                return cls(
+                    eigenvalues=f["eigenvalues"],
+                    frequency_hz=f["frequency_hz"],
+                    damped_frequency_hz=f["damped_frequency_hz"],
+                    damping_ratio=f["damping_ratio"],
+                    kind=tuple(str(k) for k in f["kind"]),
+                    shapes=f["shapes"],
+                    coordinates=tuple(str(c) for c in f["coordinates"]),
                 )
+        except (OSError, ValueError, KeyError) as exc:
+            raise DataError(f"cannot read modes: {exc}", file=str(path)) from None
 
 
 def modes(

@@ -14,7 +14,29 @@ import numpy as np
 from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
 
-__all__ = ["SimulationResult", "load_npz"]
+__all__ = ["SUFFIXES", "SimulationResult", "check_output_path", "load_npz"]
+
+#: Suffixes of simulation-result files (:meth:`SimulationResult.save`).
+SUFFIXES: tuple[str, ...] = (".csv", ".npz")
+
+
+def check_output_path(
+    path: str | os.PathLike[str], suffixes: Sequence[str], what: str = "results"
+) -> Path:
+    """``path`` if its suffix is one of ``suffixes`` (e.g. ``(".csv", ".npz")``), else an error.
+
+    Raises
+    ------
+    NeweulError
+        Naming the file and the accepted suffixes, e.g.
+        ``"x.txt: results are written as .csv or .npz, not .txt"``.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in suffixes:
+        accepted = " or ".join(suffixes)
+        raise NeweulError(f"{path}: {what} are written as {accepted}, not {suffix or '(none)'}")
+    return path
 
 
 @dataclass(frozen=True)
@@ -135,12 +157,8 @@ class SimulationResult:
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write CSV or NPZ according to the suffix of ``path``."""
-        suffix = Path(path).suffix.lower()
-        if suffix == ".csv":
-            return self.to_csv(path)
-        if suffix == ".npz":
-            return self.to_npz(path)
-        raise NeweulError(f"{path}: results are written as .csv or .npz, not {suffix or '(none)'}")
+        path = check_output_path(path, SUFFIXES, "results")
+        return self.to_npz(path) if path.suffix.lower() == ".npz" else self.to_csv(path)
 
 
 def _strings(arr: np.ndarray) -> tuple[str, ...]:

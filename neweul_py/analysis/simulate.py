@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..errors import NeweulError, SolverError
+from ..errors import ModelError, NeweulError, SolverError
+from . import _protocol as proto
 from .module import check_protocol, load_generated
 from .results import SimulationResult
 
@@ -85,6 +86,21 @@ def _input_function(module: ModuleType, p: np.ndarray, u: InputLike) -> Callable
     return lambda t: fixed
 
 
+def _massless(module: ModuleType, t: float, x: np.ndarray, p: np.ndarray) -> str:
+    """Which coordinates carry no inertia at ``(t, x)`` ("" when the mass matrix is regular):
+    the diagnosis of linearize/modes/frf (null space of ``M``)."""
+    n = len(module.COORDINATES)
+    try:
+        with np.errstate(all="ignore"):
+            m = np.asarray(module.mass_matrix(t, np.asarray(x, dtype=float)[:n], p), dtype=float)
+        if not np.all(np.isfinite(m)):
+            return ""
+        proto.check_mass_matrix(m, list(module.COORDINATES))
+    except ModelError as exc:
+        return str(exc).removeprefix("singular mass matrix: ")
+    return ""
+
+
 def simulate(
     module: ModuleType | str | os.PathLike[str],
     t_end: float,
@@ -99,6 +115,7 @@ def simulate(
     x0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     u: InputLike = None,
     max_step: float = np.inf,
+    independent: Sequence[str] | None = None,
 ) -> SimulationResult:
     """Integrate a generated model from ``t_start`` to ``t_end``.
 
@@ -135,6 +152,11 @@ def simulate(
         constants (mapping name → value over the defaults at t = 0, or a vector).
     max_step
         Largest step of the integrator.
+    independent
+        Models with constraints only: coordinates whose initial positions and velocities are
+        kept exactly when the initial state is made consistent (default: the coordinates the
+        constraints leave free, first in ``COORDINATES`` order; see
+        :func:`~neweul_py.analysis.dae.consistent_initial_state`).
 
     Returns
     -------
@@ -144,7 +166,8 @@ def simulate(
     Raises
     ------
     SolverError
-        When the integrator fails (with the last state reached) or the mass matrix is singular.
+        When the integrator fails (with the last state reached) or the mass matrix is singular
+        (naming the coordinates without inertia).
 
     Examples
     --------
@@ -172,7 +195,13 @@ def simulate(
         return simulate_constrained(
             module, t_end, t_start=t_start, n_out=n_out, t_eval=t_eval, y0=x_init[:n],
             yd0=x_init[n:2 * n], p=pv, u=u, method=method, rtol=rtol, atol=atol,
+            independent=independent,
         ).result
+    if independent is not None:
+        raise NeweulError(
+            f"independent coordinates apply to models with constraints; "
+            f"{getattr(module, 'MODEL_NAME', 'this model')} has none"
+        )
     uf = _input_function(module, pv, u)
     if t_eval is None:
         if int(n_out) < 2:
@@ -202,12 +231,18 @@ def simulate(
             sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
                             rtol=rtol, atol=atol, max_step=max_step, **kwargs)
     except np.linalg.LinAlgError:
+        why = _massless(module, last["t"], last["x"], pv)
         raise SolverError(
-            f"singular mass matrix at t = {last['t']:g}", last_iterate=np.array(last["x"]),
+            f"singular mass matrix at t = {last['t']:g}" + (f": {why}" if why else ""),
+            last_iterate=np.array(last["x"]),
             names=state_names,
         ) from None
     if not sol.success or sol.y.shape[1] != times.size or not np.all(np.isfinite(sol.y)):
         reached = sol.t[-1] if sol.t.size else t_start
+        why = _massless(module, last["t"], last["x"], pv)
+        if why:
+            raise SolverError(f"singular mass matrix at t = {last['t']:g}: {why}",
+                              last_iterate=np.array(last["x"]), names=state_names)
         raise SolverError(
             f"{method} stopped at t = {reached:g} of {t_end:g}: {sol.message}",
             last_iterate=np.array(last["x"]),

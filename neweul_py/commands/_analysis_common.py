@@ -1,7 +1,8 @@
-"""Shared arguments of the analysis sub-commands (equilibrium, linearize, modes, frf).
+"""Shared arguments of the analysis sub-commands (simulate, equilibrium, linearize, modes, frf).
 
 FILE is a YAML description (generated into the cache first, or reused when unchanged) or an
-already generated module ``.py``.
+already generated module ``.py`` (then no symbolic layer, no sympy, is imported). Result and plot
+file names are checked before anything is computed (:func:`check_files`).
 """
 
 from __future__ import annotations
@@ -14,11 +15,14 @@ import numpy as np
 from ..analysis.dae import consistent_initial_state
 from ..analysis.equilibrium import equilibrium
 from ..analysis.module import load_generated
-from ..api import FORMS, generated_module
+from ..analysis.plot import check_plot_path
+from ..analysis.results import check_output_path
 from ..errors import NeweulError
+from . import FORMS
 
 
-def _assignment(text: str) -> tuple[str, float]:
+def assignment(text: str) -> tuple[str, float]:
+    """``NAME=NUMBER`` → ``(name, value)`` (an argparse type)."""
     name, sep, value = text.partition("=")
     try:
         if not sep or not name.strip():
@@ -33,12 +37,12 @@ def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool =
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
-    parser.add_argument("-p", "--param", type=_assignment, action="append", default=[],
+    parser.add_argument("-p", "--param", type=assignment, action="append", default=[],
                         metavar="NAME=VALUE", help="override a parameter (repeatable)")
-    parser.add_argument("-u", "--set-input", type=_assignment, action="append", default=[],
+    parser.add_argument("-u", "--set-input", type=assignment, action="append", default=[],
                         metavar="NAME=VALUE",
                         help="hold an input at a value (repeatable; default: excitation at t=0)")
-    parser.add_argument("--start", type=_assignment, action="append", default=[],
+    parser.add_argument("--start", type=assignment, action="append", default=[],
                         metavar="COORD=VALUE",
                         help="start the equilibrium search here instead of the initial state "
                         "(repeatable)")
@@ -49,15 +53,36 @@ def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool =
         parser.add_argument("--at", choices=("equilibrium", "initial"), default="equilibrium",
                             help="operating point: static equilibrium (default) or the initial "
                             "state of the model")
-        parser.add_argument("--independent", action="append", default=None, metavar="COORD",
-                            help="constrained models: a minimal coordinate (repeatable; default: "
-                            "the first coordinates the constraints leave free)")
+        add_independent_argument(parser, "constrained models: the minimal coordinates "
+                                 "(default: the first coordinates the constraints leave free)")
+
+
+def add_independent_argument(parser: argparse.ArgumentParser, text: str) -> None:
+    """``--independent NAME [NAME ...]`` (also repeatable), collected into one list."""
+    parser.add_argument("--independent", nargs="+", action="extend", default=None,
+                        metavar="NAME", help=text)
+
+
+def check_files(
+    output: str | None = None,
+    suffixes: tuple[str, ...] = (),
+    what: str = "results",
+    plot: str | None = None,
+) -> None:
+    """Check ``-o`` (its suffix one of ``suffixes``) and ``--plot`` (matplotlib installed, a
+    format it writes) before any computation, so that a typo fails at once."""
+    if output:
+        check_output_path(output, suffixes, what)
+    if plot:
+        check_plot_path(plot)
 
 
 def load_model(args: argparse.Namespace) -> Any:
     """The generated module of ``args.file``."""
     if args.file.endswith(".py"):
         return load_generated(args.file)
+    from ..api import generated_module  # the symbolic layers, only for a description
+
     return load_generated(generated_module(args.file, args.form))
 
 

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 
 from ..elastic import ReducedBody, read_fe_model
-from ..elastic.quality import FRFComparison, compare_frf
+from ..elastic.quality import FRFComparison, check_source, compare_frf
 from ..errors import NeweulError
 
 
@@ -87,11 +87,16 @@ def plot(cmp: FRFComparison, path: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Compare and report."""
+    if args.plot:  # before any computation: matplotlib installed, a format it writes
+        from ..analysis.plot import check_plot_path
+
+        check_plot_path(args.plot)
     f = frequency_grid(*args.grid, args.log)
     fe = read_fe_model(args.model)
     body = ReducedBody.load(args.body)
+    check_source(fe, body, args.body)  # a body reduced from another model: refuse
     _progress(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
-    cmp = compare_frf(fe, body, f, args.input, args.output, progress=_progress)
+    cmp = compare_frf(fe, body, f, args.input, args.output, progress=_progress, check=False)
     err = cmp.relative_error
     i = int(np.argmax(err))
     print(f"{args.output} / {args.input}: max relative error {err[i]:.3e} at {f[i]:g} Hz "

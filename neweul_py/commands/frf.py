@@ -1,11 +1,11 @@
 """``neweul frf FILE --input U --output Y --f 10:10000:400 [--log] [--plot bode.png]
-[-o frf.csv]``."""
+[-o frf.csv|.npz]``."""
 
 from __future__ import annotations
 
 import argparse
 
-from ..analysis.frf import frequency_response, frequency_vector
+from ..analysis.frf import SUFFIXES, frequency_response, frequency_vector
 from ..analysis.linearize import linearize
 from . import _analysis_common as common
 
@@ -21,7 +21,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     common.add_model_arguments(parser)
     parser.add_argument("--input", action="append", metavar="U",
-                        help="input name (repeatable; default: all inputs)")
+                        help="input name (repeatable; default: all inputs; the rates of a "
+                        "kinematic excitation are folded into their input)")
     parser.add_argument("--output", action="append", metavar="Y",
                         help="output name (repeatable; default: all outputs)")
     parser.add_argument("--f", required=True, metavar="START:STOP:COUNT",
@@ -31,19 +32,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="evaluation method (default: batched second-order solve)")
     parser.add_argument("--plot", metavar="FIG", help="Bode plot (.png/.pdf/.svg; matplotlib)")
     parser.add_argument("-o", "--out", metavar="FILE",
-                        help="CSV with frequency_hz, magnitude, phase_deg")
+                        help=".csv with frequency_hz, magnitude, phase_deg, or .npz (complex H)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Compute, write and plot the frequency response."""
+    common.check_files(args.out, SUFFIXES, "frequency responses", args.plot)
     f = frequency_vector(args.f, args.log)
     module = common.load_model(args)
     lin = linearize(module, **common.linearize_kwargs(module, args))
     fr = frequency_response(lin, f, args.input, args.output, method=args.method)
     if args.out:
-        fr.to_csv(args.out)
-        print(f"frequency response: {args.out}")
+        print(f"frequency response: {fr.save(args.out)}")
     if args.plot:
         fr.plot(args.plot)
         print(f"Bode plot: {args.plot}")

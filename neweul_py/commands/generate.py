@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..api import FORMS, generate
+from . import FORMS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,6 +25,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Generate and print the path written."""
+    from ..api import generate  # the symbolic layers, only when generating
+
     path = generate(args.file, args.out_dir, args.form)
     print(path)
     return 0

@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
 from ..analysis.linearize import linearize
-from ..errors import NeweulError
 from . import _analysis_common as common
 
 
@@ -28,16 +26,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Linearize; print the matrices or write them to ``-o``."""
-    if args.output and Path(args.output).suffix.lower() != ".npz":
-        raise NeweulError(f"{args.output}: the linear model is written as .npz")
+    common.check_files(args.output, (".npz",), "linear models")
     module = common.load_model(args)
     lin = linearize(module, **common.linearize_kwargs(module, args))
     print(f"{module.MODEL_NAME}: linearized at {args.at}; coordinates "
           f"{', '.join(lin.coordinates)}; inputs {', '.join(lin.inputs) or '-'}; "
           f"outputs {', '.join(lin.outputs) or '-'}")
     if args.output:
-        lin.save(args.output)
-        print(f"linear model: {args.output}")
+        print(f"linear model: {lin.save(args.output)}")
         return 0
     with np.printoptions(precision=6, linewidth=100, suppress=False):
         for name in ("M0", "P", "Q", "B", "C", "D"):

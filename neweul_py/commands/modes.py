@@ -1,11 +1,12 @@
-"""``neweul modes FILE [--at equilibrium|initial] [-o modes.csv]``."""
+"""``neweul modes FILE [--at equilibrium|initial] [-o modes.csv|.npz]``."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..analysis.linearize import linearize
-from ..analysis.modes import modes
+from ..analysis.modes import SUFFIXES, modes
 from . import _analysis_common as common
 
 
@@ -19,16 +20,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     common.add_model_arguments(parser)
     parser.add_argument("-o", "--output", metavar="FILE",
-                        help="CSV, one row per oscillating mode (frequency_hz, damping_ratio, …)")
+                        help=".csv, one row per oscillating mode (frequency_hz, damping_ratio, "
+                        "…), or .npz with all eigenvalues and shapes")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the modal table; write the CSV with ``-o``."""
+    """Print the modal table (and a warning at an unstable operating point); write ``-o``."""
+    common.check_files(args.output, SUFFIXES, "modes")
     module = common.load_model(args)
     res = modes(linearize(module, **common.linearize_kwargs(module, args)))
     print(res.table())
+    warning = res.stability_warning()
+    if warning:
+        print(f"neweul modes: warning: {warning}", file=sys.stderr)
     if args.output:
-        res.to_csv(args.output)
-        print(f"modes: {args.output}")
+        print(f"modes: {res.save(args.output)}")
     return 0

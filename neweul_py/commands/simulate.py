@@ -1,25 +1,14 @@
 """``neweul simulate FILE --t-end T [--method M] [--rtol R] [--atol A] [--n-out N]
-[-o results.csv|.npz] [--plot fig.png]``."""
+[--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]``."""
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from ..analysis.module import load_generated
+from ..analysis.results import SUFFIXES
 from ..analysis.simulate import METHODS, simulate
-from ..api import FORMS, generated_module
-from ..errors import NeweulError
-
-
-def _assignment(text: str) -> tuple[str, float]:
-    name, sep, value = text.partition("=")
-    try:
-        if not sep:
-            raise ValueError
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected NAME=NUMBER, got {text!r}") from None
+from . import FORMS
+from . import _analysis_common as common
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -29,7 +18,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="generate (cached) and integrate a model; write results and a plot",
         description="Integrate a description file (its module is generated into the cache, "
         "or reused when the description is unchanged) or an already generated module (.py) "
-        "with scipy.integrate.solve_ivp.",
+        "with scipy.integrate.solve_ivp. Closed loops start from a consistent state that keeps "
+        "the independent coordinates (default: the first ones the constraints leave free) at "
+        "their given positions and velocities.",
     )
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
     parser.add_argument("--t-end", type=float, required=True, metavar="T", help="final time [s]")
@@ -39,27 +30,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--n-out", type=int, default=501, metavar="N",
                         help="number of equally spaced output times (default 501)")
-    parser.add_argument("-p", "--param", type=_assignment, action="append", default=[],
+    parser.add_argument("-p", "--param", type=common.assignment, action="append", default=[],
                         metavar="NAME=VALUE", help="override a parameter (repeatable)")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
+    common.add_independent_argument(
+        parser, "constrained models: coordinates whose initial positions and velocities are "
+        "kept exactly (default: the first ones in COORDINATES order the constraints leave free)")
     parser.add_argument("-o", "--output", metavar="FILE",
                         help="write results as .csv (with a units line) or .npz")
     parser.add_argument("--plot", metavar="FIG",
-                        help="plot coordinates and outputs (.png/.pdf/.svg)")
+                        help="plot coordinates and outputs (.png/.pdf/.svg; matplotlib)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the requested files and print a one-line summary per file."""
-    if args.output and Path(args.output).suffix.lower() not in (".csv", ".npz"):
-        raise NeweulError(f"{args.output}: results are written as .csv or .npz")
-    if args.file.endswith(".py"):
-        module = load_generated(args.file)
-    else:
-        module = load_generated(generated_module(args.file, args.form))
+    common.check_files(args.output, SUFFIXES, "results", args.plot)
+    module = common.load_model(args)
     result = simulate(module, args.t_end, method=args.method, rtol=args.rtol, atol=args.atol,
-                      n_out=args.n_out, p=dict(args.param) or None)
+                      n_out=args.n_out, p=dict(args.param) or None,
+                      independent=args.independent)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:

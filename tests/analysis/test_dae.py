@@ -40,6 +40,33 @@ def test_consistent_initial_state_keeps_independent(slider_crank, reference):
     assert np.abs(slider_crank.constraint_jacobian(0.0, y, p) @ yd).max() < 1e-13
 
 
+def test_default_initial_state_keeps_the_first_coordinates(slider_crank, reference):
+    """Without ``independent`` the dependent coordinates are the last independent columns of G
+    (xr, zr, theta, s): the crank keeps exactly the given phi = 0.5 and d_phi = 8.0, the others
+    follow from the loop closed by hand (reference: minimal model, s' = ds/dphi)."""
+    y, yd = consistent_initial_state(slider_crank)
+    assert (y[0], yd[0]) == (0.5, 8.0)
+    np.testing.assert_allclose(y, reference.coordinates(0.5), atol=1e-14)
+    _, s_dot, _ = reference.slider(0.5, 8.0, 0.0)
+    assert yd[4] == pytest.approx(float(s_dot), rel=1e-12)
+    sim = simulate_constrained(slider_crank, 0.01, n_out=3)
+    assert (sim.y[0, 0], sim.yd[0, 0]) == (0.5, 8.0)
+    moved = simulate_constrained(slider_crank, 0.01, n_out=3, independent=["s"])
+    assert (moved.y[0, 4], moved.yd[0, 4]) == (0.37, 0.0)  # s held: now the crank moves
+    assert float(reference.slider(moved.y[0, 0], 0.0, 0.0)[0]) == pytest.approx(0.37, abs=1e-13)
+
+
+def test_initial_state_falls_back_to_the_metric_projection(cartesian_pendulum):
+    """x = 1.0 beyond the rod length l = 0.8 cannot be held (z² = l² − x² < 0): the partition
+    fails and all coordinates move by the least change in M = m I, i.e. to the nearest point of
+    the circle, l (x, z) / |(x, z)| (hand computation)."""
+    y0 = np.array([1.0, -0.2])
+    y, yd = consistent_initial_state(cartesian_pendulum, y0=y0, yd0=[0.0, 0.0])
+    l = cartesian_pendulum.PARAMETERS["l"]
+    np.testing.assert_allclose(y, l * y0 / np.linalg.norm(y0), atol=1e-14)
+    np.testing.assert_allclose(yd, 0.0, atol=1e-15)
+
+
 def test_trajectory_against_minimal_coordinates(run, reference):
     ref = trajectory(reference, 0.5, 8.0, run.t)
     full = np.array([reference.coordinates(phi) for phi in ref[:, 0]], dtype=float)
@@ -77,10 +104,10 @@ def test_results_file_has_lambda_columns(run, tmp_path):
 
 
 def test_equilibrium_and_linearization_against_minimal_model(slider_crank, reference):
-    """The stable equilibrium lies near phi = −1 (Q(phi, 0) changes sign from + to − there)."""
-    with pytest.raises(SolverError, match="line search stalled"):
-        equilibrium(slider_crank)  # from phi = 0.5: Q < 0 on (0, π), no equilibrium nearby
+    """The stable equilibrium lies near phi = −1 (Q(phi, 0) changes sign from + to − there);
+    from phi = 0.5 (Q < 0 on (0, π)) the search reaches it too (test_equilibrium.py)."""
     eq = equilibrium(slider_crank, y0=reference.coordinates(-1.0))
+    assert equilibrium(slider_crank).y == pytest.approx(eq.y, abs=1e-10)
     phi = eq.y[0]
     assert -np.pi / 2 < phi < 0
     assert reference.generalized_force(phi, 0.0, 0.0) == pytest.approx(0.0, abs=1e-10)

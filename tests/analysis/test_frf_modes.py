@@ -147,3 +147,68 @@ def test_unsymmetric_mass_matrix(two_mass):
             frequency_response(lin, F, method=method).H,
             rtol=1e-8,
         )
+
+
+def test_modes_and_frf_npz_files_round_trip(two_mass, tmp_path):
+    """``.npz`` holds all modes and the complex H: read back they equal the analytic poles
+    (roots of det Z) and Cramer's transfer function; missing directories are created."""
+    p = two_mass.default_parameters()
+    res = modes(two_mass, y0=[0.0, 0.0])
+    back = type(res).load(res.save(tmp_path / "new" / "dir" / "modes.npz"))
+    ref = sorted(_poles(p)[_poles(p).imag > 0], key=abs)
+    np.testing.assert_allclose(back.eigenvalues, ref, rtol=1e-10)
+    assert back.kind == ("oscillating", "oscillating")
+    assert back.coordinates == ("x1", "x2")
+    f = np.logspace(0, 3, 40)
+    fr = frequency_response(two_mass, f, ["F1", "F2"], ["x1", "x2"], y0=[0.0, 0.0])
+    back = type(fr).load(fr.save(tmp_path / "other" / "frf.npz"))
+    h = _analytic(p, f)
+    np.testing.assert_allclose(back.H[:, 1, 0], h["x2/F1"], rtol=1e-10)
+    np.testing.assert_allclose(back.H[:, 0, 1], h["x1/F2"], rtol=1e-10)
+    assert back.outputs == ("x1", "x2") and back.inputs == ("F1", "F2")
+    with pytest.raises(NeweulError, match=r"frf.txt: frequency responses are written as .csv "
+                                          r"or .npz, not .txt"):
+        fr.save(tmp_path / "frf.txt")
+    with pytest.raises(NeweulError, match=r"m.dat: modes are written as .csv or .npz"):
+        res.save(tmp_path / "m.dat")
+
+
+def test_rates_of_a_kinematic_input_are_not_inputs():
+    """The quarter car's road input zr enters with its rates d_zr, dd_zr (INPUT_RATES); they
+    are folded into zr, so asking for d_zr is an error naming the valid inputs, and the default
+    input set is zr alone."""
+    from pathlib import Path
+
+    from neweul_py.analysis.module import load_generated
+
+    mod = load_generated(Path(__file__).resolve().parents[2] / "generated" / "quarter_car.py")
+    assert mod.INPUT_RATES == {"zr": ["d_zr", "dd_zr"]}
+    lin = linearize(mod)
+    with pytest.raises(NeweulError, match=r"input 'd_zr' is a time derivative of the input "
+                                          r"'zr': rates are folded in automatically .*; valid "
+                                          r"inputs: zr$"):
+        frequency_response(lin, [1.0], "d_zr", "body_height")
+    with pytest.raises(NeweulError, match=r"unknown input 'road'; valid inputs: zr$"):
+        frequency_response(lin, [1.0], "road", "body_height")
+    assert frequency_response(lin, [1.0], outputs="body_height").inputs == ("zr",)
+
+
+def test_unstable_operating_point_is_named(spring_pendulum):
+    """The spring pendulum's second equilibrium, φ_s + π with tan φ_s = k a / (m g − k b), is
+    inverted: m l² λ² + d λ + k_eff = 0 with k_eff = k l (a sin φ − b cos φ) + m g l cos φ < 0
+    has the real root λ+ = (−d + √(d² − 4 m l² k_eff)) / (2 m l²) > 0, which the warning names."""
+    from neweul_py.analysis.equilibrium import equilibrium
+
+    m, l, g, k, a, b, d = spring_pendulum.default_parameters()
+    phi = np.arctan2(k * a, m * g - k * b) + np.pi
+    eq = equilibrium(spring_pendulum, y0=[phi + 0.05])
+    assert eq.y[0] == pytest.approx(phi, abs=1e-12)
+    k_eff = k * l * (a * np.sin(phi) - b * np.cos(phi)) + m * g * l * np.cos(phi)
+    lam = (-d + np.sqrt(d * d - 4 * m * l * l * k_eff)) / (2 * m * l * l)
+    res = modes(linearize(spring_pendulum, eq))
+    assert res.unstable.tolist() == [True, False] or res.unstable.tolist() == [False, True]
+    warning = res.stability_warning()
+    assert warning.startswith("the operating point is unstable: eigenvalue(s) with positive "
+                              f"real part {lam:+.6g} (aperiodic, dominant phi)")
+    assert modes(linearize(spring_pendulum, equilibrium(spring_pendulum))).stability_warning() \
+        is None

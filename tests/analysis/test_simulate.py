@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _analysis_helpers import load_fixture
 
 from neweul_py.analysis.module import load_generated
 from neweul_py.analysis.simulate import simulate
@@ -168,3 +169,19 @@ def test_simulation_needs_no_sympy(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "ok"
+
+
+def test_massless_coordinate_is_named():
+    """M = diag(m1, m2) of the two-mass oscillator (fixtures/two_mass.py): with m2 = 0 the
+    coordinate x2 carries no inertia, and the error says so (as linearize/modes/frf do)."""
+    from neweul_py.errors import SolverError
+
+    with pytest.raises(SolverError, match=r"singular mass matrix at t = 0: no inertia in the "
+                                          r"motion of coordinate\(s\) x2$"):
+        simulate(load_fixture("two_mass"), 1.0, p={"m2": 0.0})
+
+
+def test_independent_needs_constraints():
+    with pytest.raises(NeweulError, match="independent coordinates apply to models with "
+                                          "constraints; pendulum has none"):
+        simulate(_module("pendulum"), 1.0, independent=["phi"])
