@@ -74,6 +74,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "nodes)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the full bases V and W")
+    parser.add_argument("--skip-rigid", action="store_true",
+                        help="leave out the zero-frequency (rigid-body) modes of a free body: "
+                        "the reference frame of a floating-frame body carries that motion "
+                        "(modal)")
     parser.add_argument("--invariants", action="store_true",
                         help="attach the floating-frame invariants (node frames: the kept "
                         "nodes), so that the file can be an elastic body in a description")
@@ -103,12 +107,35 @@ def _check_options(args: argparse.Namespace) -> None:
             raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method krylov only, "
                               "not --method modal (which takes --modes or --band)")
     else:
-        wrong = given("--modes", "--band", "--shift")
+        wrong = given("--modes", "--band", "--shift") + (["--skip-rigid"] if args.skip_rigid
+                                                         else [])
         if wrong:
             raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method modal only; "
                               "--method krylov takes --points and --order")
         if not args.points:
             raise NeweulError("--method krylov needs --points F1,F2,…")
+
+
+def _check_body_mass(body, output: str) -> None:
+    """Refuse a floating-frame body whose elastic coordinates repeat the reference frame's
+    rigid motion (rigid-body modes kept as elastic modes): then the Schur complement
+    ``Me − [Ct Cr] M_rr⁻¹ [Ct Cr]ᵀ`` of the body mass matrix of equations.md §2 is singular and
+    every model with a moving frame would have a singular mass matrix. Bodies without a
+    regular rigid block (no rotational inertia, e.g. a single lumped node) are not judged."""
+    from ..elastic.invariants import body_invariants
+
+    mass = body_invariants(body).mass_matrix()
+    rr, re, er, ee = mass[:6, :6], mass[:6, 6:], mass[6:, :6], mass[6:, 6:]
+    sv_rr = np.linalg.svd(rr, compute_uv=False)
+    if sv_rr[-1] <= 1e-10 * sv_rr[0]:
+        return
+    sv = np.linalg.svd(ee - er @ np.linalg.solve(rr, re), compute_uv=False)
+    if sv.size and sv[-1] <= 1e-8 * max(sv[0], np.abs(ee).max()):
+        raise NeweulError(
+            f"{output}: the elastic coordinates repeat the rigid motion of the floating frame "
+            "(the reduced basis contains rigid-body modes, which the reference frame already "
+            "carries, so the body mass matrix is singular); reduce with --skip-rigid"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -122,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
                   keep_nodes=args.keep_nodes,
                   store_bases=args.store_bases or args.invariants, progress=_progress)
     if args.method == "modal":
-        body = reduce_modal(fe, modes=args.modes, band=args.band, shift=args.shift, **common)
+        body = reduce_modal(fe, modes=args.modes, band=args.band, shift=args.shift,
+                            skip_rigid=args.skip_rigid, **common)
     else:
         points = [2j * np.pi * f for f in args.points]
         order = 4 if args.order is None else args.order
@@ -130,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
     if args.invariants:
         _progress("computing the floating-frame invariants")
         body = attach_invariants(body, fe)
+        _check_body_mass(body, args.output)
         if not args.store_bases:
             body = body.with_(V=None, W=None)
     body.save(args.output)

@@ -7,7 +7,14 @@ assumes a symmetric ``M``). Left eigenvectors ``(K − λM)ᵀ w = 0`` come from
 operator ``(K − σM)⁻ᵀ Mᵀ`` with the *same* sparse LU, or — for u–p coupled models of Eq. (2) —
 from the right ones for free: ``w = [ρλu; p]`` (``reference/equations.md`` §3). ``λ = 0`` modes
 (closed-cavity constant pressure, rigid-body modes) get their left vectors from the transposed
-problem by subspace iteration.
+problem by subspace iteration. Symmetric pencils (``M``, ``K`` symmetric: structural and
+acoustic models) take the left vectors equal to the right ones (:func:`symmetric_pencil`).
+
+Degenerate clusters (the 6-fold ``λ = 0`` of a free body, repeated frequencies of symmetric
+structures, identical sub-structures) are handled as invariant subspaces, never vector by
+vector: a right cluster is paired with the span of all left eigenvectors of (numerically)
+the same eigenvalue, and the pair is bi-orthonormalized as a block
+(:func:`~neweul_py.elastic.modal.modal_bases`).
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from ..errors import DataError, SolverError
-from .fe_model import FEModel
+from .fe_model import SYMMETRY_RTOL, FEModel, _asymmetry
 
 __all__ = [
     "PERMC_SPEC",
@@ -30,6 +37,7 @@ __all__ = [
     "frequencies_hz",
     "left_blocks",
     "right_blocks",
+    "symmetric_pencil",
 ]
 
 #: Relative tolerance (of max |λ|) below which an imaginary part is numerical noise.
@@ -156,9 +164,9 @@ def frequencies_hz(lam: np.ndarray, scale: float | None = None,
 
     The undamped pencils of this package (structural, acoustic, u–p coupled, Eq. (2)) have a
     real non-negative spectrum; a zero mode (rigid body, closed-cavity constant pressure)
-    often comes out slightly negative by round-off. Values with ``−rtol·scale ≤ λ < 0`` are
-    therefore clamped to ``0 Hz``; larger negative values (a genuinely indefinite ``K``)
-    give ``√|λ| / 2π``, as before.
+    comes out as round-off of either sign. Values with ``|λ| ≤ rtol·scale`` are therefore
+    reported at ``0 Hz``; larger negative values (a genuinely indefinite ``K``) give
+    ``√|λ| / 2π``, as before.
 
     Parameters
     ----------
@@ -171,13 +179,13 @@ def frequencies_hz(lam: np.ndarray, scale: float | None = None,
 
     Examples
     --------
-    >>> frequencies_hz(np.array([-3e-7, (2 * np.pi * 50.0) ** 2])).round(6).tolist()
-    [0.0, 50.0]
+    >>> frequencies_hz(np.array([-3e-7, 2e-7, (2 * np.pi * 50.0) ** 2])).tolist()
+    [0.0, 0.0, 50.0]
     """
     lam = np.real(np.asarray(lam, dtype=complex if np.iscomplexobj(lam) else float))
     if scale is None:
         scale = float(np.max(np.abs(lam))) if lam.size else 0.0
-    lam = np.where((lam < 0) & (lam >= -rtol * scale), 0.0, lam)
+    lam = np.where(np.abs(lam) <= rtol * scale, 0.0, lam)
     return np.sqrt(np.abs(lam)) / (2 * np.pi)
 
 
@@ -236,8 +244,13 @@ def _arpack(op: spla.LinearOperator, k: int, n: int, source: str | None) -> tupl
 
 
 def _blocks(lam: np.ndarray, X: np.ndarray, sigma: complex) -> list[EigenBlock]:
-    """Group eigenpairs into clusters and give each a real basis, nearest to σ first."""
-    scale = max(float(np.max(np.abs(lam))), np.finfo(float).tiny)
+    """Group eigenpairs into clusters and give each a real basis, nearest to σ first.
+
+    The cluster tolerance is relative to ``max(|σ|, |λ|)``: when every computed λ is a
+    zero mode (a free body, few modes) ``max |λ|`` alone is round-off and would split the
+    zero cluster into single vectors.
+    """
+    scale = max(float(np.max(np.abs(lam))), abs(sigma), np.finfo(float).tiny)
     lam = np.where(np.abs(lam.imag) <= REAL_RTOL * scale, lam.real + 0j, lam)
     keep = lam.imag >= 0  # a complex pair is represented by its upper member
     lower = np.flatnonzero(~keep)
@@ -308,21 +321,65 @@ def _left_null(si: ShiftInvert, m: int) -> np.ndarray:
                       "use a shift closer to 0", residual=change)
 
 
-def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: int,
-                up_relation: bool = True) -> list[EigenBlock]:
-    """Left eigenvector blocks matching ``right`` block by block.
+def symmetric_pencil(fe: FEModel) -> bool:
+    """Whether ``M`` and ``K`` are symmetric, so that left eigenvectors equal right ones.
 
-    For ``up-coupled`` models (and ``up_relation``) each real nonzero block uses the u–p
-    relation ``w = [ρλu; p]`` (§3); blocks with ``λ ≈ 0`` use the transposed problem (left
-    null space). Otherwise the transposed problem ``(K − σM)⁻ᵀ Mᵀ`` is solved with ARPACK
-    (``k_ext`` eigenpairs, same LU) and its clusters are matched by eigenvalue.
+    True when the model declares both symmetric (``fe.symmetric``, checked on construction)
+    or when both are symmetric to :data:`~neweul_py.elastic.fe_model.SYMMETRY_RTOL` (one
+    sparse ``A − Aᵀ`` each, no densification). ``D`` does not enter the undamped pencil.
+    """
+    if fe.symmetric.get("M") and fe.symmetric.get("K"):
+        return True
+    return _asymmetry(fe.M) <= SYMMETRY_RTOL and _asymmetry(fe.K) <= SYMMETRY_RTOL
+
+
+def _match_subspace(fe: FEModel, b: EigenBlock, cands: list[EigenBlock]) -> EigenBlock:
+    """The left invariant subspace of the right cluster ``b`` from candidate left blocks.
+
+    The candidates (all left clusters of numerically the same eigenvalue — the left and the
+    right clustering may cut a near-degenerate group differently) are stacked and the
+    ``m``-dimensional subspace that pairs best with ``b`` under ``M`` is taken: left singular
+    vectors of the small block ``Qᵀ M V_c`` (``Q`` orthonormal basis of the candidates).
+    Left vectors of other eigenvalues are M-orthogonal to ``V_c`` and drop out.
+    """
+    m = b.basis.shape[1]
+    L = np.concatenate([np.real(c.basis) for c in cands], axis=1)
+    if L.shape[1] == m:
+        return EigenBlock(b.values, L)
+    Q, _ = np.linalg.qr(L)
+    U, s, _ = np.linalg.svd(Q.T @ (fe.M @ b.basis), full_matrices=False)
+    if s[-1] <= 1e-8 * s[0]:
+        raise SolverError(f"the left eigenvectors near λ = {b.center:.6g} do not pair with "
+                          f"the right {m}-dimensional invariant subspace", residual=s[-1] / s[0])
+    return EigenBlock(b.values, Q @ U[:, :m])
+
+
+def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: int,
+                up_relation: bool = True, use_symmetry: bool = True) -> list[EigenBlock]:
+    """Left eigenvector blocks matching ``right`` block by block (invariant subspaces).
+
+    Symmetric pencils (:func:`symmetric_pencil`, and ``use_symmetry``) return ``right``
+    itself: ``W = V``. For ``up-coupled`` models (and ``up_relation``) each real nonzero
+    block uses the u–p relation ``w = [ρλu; p]`` (§3), which maps a cluster basis to a left
+    cluster basis; blocks with ``λ ≈ 0`` (``|λ| ≤ 10⁻⁶ max(|σ|, |λ|)``) use the transposed
+    problem (left null space). Otherwise the transposed problem ``(K − σM)⁻ᵀ Mᵀ`` is solved
+    with ARPACK (``k_ext`` eigenpairs, same LU); every left cluster within
+    ``10³·CLUSTER_RTOL`` of the spectrum scale ``max(|σ|, |λ|)`` of a right cluster joins
+    its left subspace, and the best-pairing subspace of the right dimension is kept
+    (:func:`_match_subspace`) — a degenerate cluster such as the 6-fold ``λ = 0`` of a free
+    body is matched as a whole, not vector by vector.
 
     Raises
     ------
     SolverError
-        A right cluster has no left cluster of the same eigenvalue and dimension.
+        A right cluster has fewer left eigenvectors of its eigenvalue than its dimension, or
+        their span does not pair with it.
     """
-    scale = max(abs(b.center) for b in right) or 1.0
+    if use_symmetry and symmetric_pencil(fe):
+        return list(right)
+    # the scale of the computation, not of the kept blocks: with only the λ = 0 cluster kept
+    # (modes ≤ 6 of a free body), max |λ| of the kept blocks is round-off itself
+    scale = max([abs(si.sigma)] + [abs(b.center) for b in right]) or 1.0
     zero_tol = 1e-6 * scale
     if (fe.kind == "up-coupled" and up_relation
             and not any(b.is_complex for b in right)):
@@ -341,12 +398,16 @@ def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: in
         return out
     theta, X = _arpack(si.operator(transpose=True), k_ext, si.n, fe.source)
     lefts = _blocks(si.sigma + 1.0 / theta, X, si.sigma)
+    scale = max([scale] + [abs(lb.center) for lb in lefts])
+    tol = 1e3 * CLUSTER_RTOL * scale
     out = []
     for b in right:
-        dist = [abs(lb.center - b.center) for lb in lefts]
-        j = int(np.argmin(dist))
-        if dist[j] > 1e3 * CLUSTER_RTOL * scale or lefts[j].basis.shape[1] != b.basis.shape[1]:
+        cands = [lb for lb in lefts if abs(lb.center - b.center) <= tol
+                 and lb.is_complex == b.is_complex]
+        found = sum(c.basis.shape[1] for c in cands)
+        if found < b.basis.shape[1]:
             raise SolverError(f"no left eigenvector cluster matches λ = {b.center:.6g} "
-                              f"(multiplicity {b.basis.shape[1]})")
-        out.append(lefts[j])
+                              f"(multiplicity {b.basis.shape[1]}, {found} left vectors "
+                              "found)")
+        out.append(_match_subspace(fe, b, cands))
     return out

@@ -12,8 +12,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import scipy.linalg as sla
 
-from ..errors import DataError
+from ..errors import DataError, SolverError
 from .eigen import (
     ZERO_RTOL,
     EigenBlock,
@@ -21,6 +22,7 @@ from .eigen import (
     default_shift,
     left_blocks,
     right_blocks,
+    symmetric_pencil,
 )
 from .fe_model import FEModel
 from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
@@ -34,9 +36,23 @@ def _say(progress: Progress, msg: str) -> None:
         progress(msg)
 
 
+def _is_zero(b: EigenBlock, tol: float) -> bool:
+    """A real cluster at ``λ = 0`` (rigid-body modes, constant pressure), within ``tol``."""
+    return not b.is_complex and abs(b.center.real) <= tol
+
+
 def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
-            band: tuple[float, float] | None, progress: Progress) -> tuple[list, int]:
-    """Right blocks by count (nearest σ) or by band; returns (blocks, k used)."""
+            band: tuple[float, float] | None, skip_zero: bool,
+            progress: Progress) -> tuple[list, int, float]:
+    """Right blocks by count (nearest σ) or by band; returns (blocks, k used, tolerance).
+
+    The tolerance ``ZERO_RTOL · max(|σ|, |λ| computed or the band top)`` decides which
+    eigenvalues are zero (rigid-body / constant-pressure modes).
+
+    Every kept cluster is complete: ARPACK's k eigenpairs may cut a degenerate cluster at
+    the far end, so k grows until a computed block lies beyond the kept ones. With
+    ``skip_zero`` the λ ≈ 0 clusters are dropped before counting.
+    """
     n = fe.n_dofs
     if modes is not None:
         if modes < 1:
@@ -44,16 +60,29 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
         if modes > n - 2:
             raise DataError(f"{modes} modes requested but the model has {n} DOFs (at most "
                             f"{n - 2} with the sparse eigensolver)", fe.source, "modes")
-        k = min(modes + max(4, modes // 10), n - 2)
-        _say(progress, f"eigensolver: {k} eigenpairs of a {n}-DOF pencil near σ={si.sigma:.4g}")
-        blocks = right_blocks(si, k, fe.source)
-        kept, count = [], 0
-        for b in blocks:
-            if count >= modes:
+        # a free 3-D body has 6 zero modes; room for them when they are skipped
+        k = min(modes + max(4, modes // 10) + (6 if skip_zero else 0), n - 2)
+        while True:
+            _say(progress, f"eigensolver: {k} eigenpairs of a {n}-DOF pencil near "
+                           f"σ={si.sigma:.4g}")
+            blocks = right_blocks(si, k, fe.source)
+            tol = ZERO_RTOL * max([abs(si.sigma)] + [abs(b.center) for b in blocks])
+            kept, count = [], 0
+            for b in blocks:
+                if count >= modes:
+                    break
+                if skip_zero and _is_zero(b, tol):
+                    continue
+                kept.append(b)
+                count += b.basis.shape[1]
+            complete = count >= modes and kept[-1] is not blocks[-1]
+            if complete or k >= n - 2:
                 break
-            kept.append(b)
-            count += b.basis.shape[1]
-        return kept, k
+            k = min(2 * k, n - 2)
+        if count < modes:
+            raise DataError(f"{modes} modes requested but the model has only {count} with "
+                            "λ ≠ 0 within the sparse eigensolver's reach", fe.source, "modes")
+        return kept, k, tol
     lo, hi = (2 * np.pi * band[0]) ** 2, (2 * np.pi * band[1]) ** 2
     # Membership must not depend on round-off: a zero mode (closed cavity, rigid body) comes
     # out as λ ≈ ±eps·σ²/dist (−0.39 at σ = 7.9e9), so λ within ZERO_RTOL of the spectrum
@@ -75,24 +104,76 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
         if len(inside) < len(blocks) or k >= n - 2:
             break
         k = min(2 * k, n - 2)
+    if skip_zero:
+        inside = [b for b in inside if not _is_zero(b, tol)]
     if not inside:
-        raise DataError(f"no modes in the band {band[0]:g}–{band[1]:g} Hz", fe.source, "band")
-    return inside, k
+        raise DataError(f"no modes in the band {band[0]:g}–{band[1]:g} Hz"
+                        + (" (λ = 0 modes skipped)" if skip_zero else ""), fe.source, "band")
+    return inside, k, tol
 
 
-def _pair(right: list[EigenBlock], left: list[EigenBlock], M) -> tuple:
-    """Per-cluster biorthonormalization ``W_cᵀ M V_c = I`` (dual left vectors)."""
-    V = np.concatenate([b.basis for b in right], axis=1)
-    W = np.concatenate([np.real(b.basis) for b in left], axis=1)
-    lam = np.concatenate([b.values for b in right])
-    V = V / np.linalg.norm(V, axis=0)
-    start = 0
-    for b in right:
-        sl = slice(start, start + b.basis.shape[1])
-        G = W[:, sl].T @ (M @ V[:, sl])
-        W[:, sl] = np.linalg.solve(G, W[:, sl].T).T
-        start = sl.stop
-    return V, W, lam
+def _pair(right: list[EigenBlock], left: list[EigenBlock], fe: FEModel,
+          symmetric: bool, sigma: complex) -> tuple:
+    """Cluster-block biorthonormalization ``W_cᵀ M V_c = I`` and Rayleigh–Ritz per cluster.
+
+    Each right cluster ``V_c`` (unit columns) and its left subspace ``W_c`` (``W_c = V_c``
+    for one-sided or symmetric data) are paired as blocks: ``W_c ← W_c G⁻ᵀ`` with the small
+    ``G = W_cᵀ M V_c`` (an LU solve; a singular ``G`` means the subspaces do not pair), then
+    the small ``K_c = W_cᵀ K V_c`` is diagonalized inside the cluster — by ``eigh(V_cᵀKV_c,
+    V_cᵀMV_c)`` for symmetric pencils (then ``W_c = V_c``, M-orthonormal), else by
+    ``eig(K_c)`` with ``V_c ← V_c S``, ``W_c ← W_c S⁻ᵀ`` when its eigenvalues are real and
+    ``S`` is well conditioned. The columns of a cluster are ordered nearest σ first, so a
+    mode count that cuts a cluster keeps its part nearest σ (for an exactly degenerate
+    cluster any subspace is as good: the choice is then arbitrary).
+
+    Returns
+    -------
+    V, W, lam
+        With ``Wᵀ M V`` block-diagonal per cluster (identity blocks) and ``lam`` the
+        Rayleigh–Ritz values of each cluster.
+    """
+    M, K = fe.M, fe.K
+    sigma = float(np.real(sigma))
+    Vs, Ws, lams = [], [], []
+    for b, lb in zip(right, left, strict=True):
+        V = b.basis / np.linalg.norm(b.basis, axis=0)
+        vals = np.asarray(b.values)
+        if symmetric and lb is b and not b.is_complex:
+            G, Kc = V.T @ (M @ V), V.T @ (K @ V)
+            try:
+                mu, S = sla.eigh(0.5 * (Kc + Kc.T), 0.5 * (G + G.T))
+            except (np.linalg.LinAlgError, ValueError):
+                pass
+            else:
+                order = np.argsort(np.abs(mu - sigma), kind="stable")
+                V = V @ S[:, order]
+                Vs.append(V)
+                Ws.append(V)
+                lams.append(mu[order])
+                continue
+        W = V if lb is b else np.real(lb.basis)
+        G = W.T @ (M @ V)
+        cond = np.linalg.cond(G)
+        if not np.isfinite(cond) or cond > 1e12:
+            raise SolverError(f"the left and right invariant subspaces of the cluster at "
+                              f"λ = {b.center:.6g} (dimension {V.shape[1]}) do not pair: "
+                              f"Wᵀ M V has condition number {cond:.3g}", residual=cond)
+        W = np.linalg.solve(G, W.T).T
+        if not b.is_complex:
+            Kc = W.T @ (K @ V)
+            mu, S = np.linalg.eig(Kc)
+            # a (near-)degenerate cluster may give a complex pair of round-off size: its
+            # eigenvectors are complex, no real rotation diagonalizes it — leave it as is
+            if np.all(mu.imag == 0) and np.linalg.cond(S) < 1e4:
+                mu, S = mu.real, S.real
+                order = np.argsort(np.abs(mu - sigma), kind="stable")
+                mu, S = mu[order], S[:, order]
+                V, W = V @ S, np.linalg.solve(S, W.T).T
+                vals = mu
+        Vs.append(V)
+        Ws.append(W)
+        lams.append(vals)
+    return np.concatenate(Vs, axis=1), np.concatenate(Ws, axis=1), np.concatenate(lams)
 
 
 def modal_bases(
@@ -102,6 +183,7 @@ def modal_bases(
     two_sided: bool = True,
     shift: float | None = None,
     progress: Progress = None,
+    skip_rigid: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, ShiftInvert]:
     """Right and left modal bases of the undamped pencil ``(K, M)``.
 
@@ -114,21 +196,35 @@ def modal_bases(
         shift), or a frequency band ``(fmin, fmax)`` in Hz (``λ = (2πf)²``). A computed
         ``λ`` less than :data:`~neweul_py.elastic.eigen.ZERO_RTOL` ``· max(|σ|, λ_max)``
         below 0 counts as a zero mode (kept in a band from 0 Hz), and the band edges get a
-        relative margin of ``ZERO_RTOL``.
+        relative margin of ``ZERO_RTOL``. Zero modes (rigid-body modes of a free structure,
+        the constant pressure of a closed cavity) are ordinary modes at 0 Hz: they are part
+        of the count and of a band from 0 Hz unless ``skip_rigid``. A count that cuts a
+        degenerate cluster (``modes=4`` of a free body's six zero modes) keeps an arbitrary
+        subspace of it.
     two_sided
-        Compute left eigenvectors (else ``W = V``, orthonormalized).
+        Compute left eigenvectors (else ``W = V``, orthonormalized). Symmetric pencils
+        (:func:`~neweul_py.elastic.eigen.symmetric_pencil`) take the left vectors equal to
+        the right ones; degenerate clusters are paired as invariant subspaces
+        (:func:`_pair`).
     shift
         Shift σ of the spectral transformation (in ``λ = ω²`` units). Default: a small
         negative value (:func:`~neweul_py.elastic.eigen.default_shift`) for ``modes``, the
         middle of the band for ``band``.
     progress
         Called with short messages on long steps.
+    skip_rigid
+        Drop the ``λ ≈ 0`` clusters (within ``ZERO_RTOL · max(|σ|, |λ|)``) before counting
+        or band selection: ``modes=N`` then gives ``N`` modes with ``λ ≠ 0``. Use it for
+        bodies in the floating frame of reference, whose reference frame carries the
+        rigid-body motion (see :func:`reduce_modal`).
 
     Returns
     -------
     V, W, lam, si
-        (n, r) bases with ``Wᵀ M V = I`` (two-sided), the eigenvalues ``λ`` per column and
-        the shift-invert factorization (reused by :func:`add_static_correction`).
+        (n, r) bases with ``Wᵀ M V = I`` (two-sided), the eigenvalues ``λ`` per column
+        (two-sided Rayleigh quotients ``wᵢᵀ K vᵢ``, one-sided Rayleigh–Ritz values; those
+        within ``ZERO_RTOL · max(|σ|, |λ|)`` of 0 are set to exactly 0) and the
+        shift-invert factorization (reused by :func:`add_static_correction`).
     """
     if (modes is None) == (band is None):
         raise DataError("give exactly one of modes=N or band=(fmin, fmax)", fe.source,
@@ -145,14 +241,14 @@ def modal_bases(
         shift = default_shift(fe)
     _say(progress, f"factorizing K − σM (n={fe.n_dofs}, σ={shift:.4g})")
     si = ShiftInvert(fe.K, fe.M, float(shift), fe.source)
-    right, k = _select(fe, si, modes, band, progress)
+    right, k, zero_tol = _select(fe, si, modes, band, skip_rigid, progress)
+    symmetric = symmetric_pencil(fe)
     if two_sided:
         _say(progress, "left eigenvectors")
         left = left_blocks(fe, si, right, k)
-        V, W, lam = _pair(right, left, fe.M)
-    else:
-        V = np.concatenate([b.basis for b in right], axis=1)
-        lam = np.concatenate([b.values for b in right])
+        V, W, lam = _pair(right, left, fe, symmetric, si.sigma)
+    else:  # Galerkin: Rayleigh–Ritz inside each cluster (W_c = V_c)
+        V, _, lam = _pair(right, right, fe, symmetric, si.sigma)
     if modes is not None:
         V, lam = V[:, :modes], lam[:modes]
         if two_sided:
@@ -164,6 +260,8 @@ def modal_bases(
     else:
         V, _ = np.linalg.qr(V)
         W = V
+    if not np.iscomplexobj(lam):  # zero modes are 0 (their computed λ is round-off)
+        lam = np.where(np.abs(lam) <= zero_tol, 0.0, lam)
     return V, W, lam, si
 
 
@@ -222,6 +320,7 @@ def reduce_modal(
     keep_nodes: Sequence[int] | None = None,
     store_bases: bool = False,
     progress: Progress = None,
+    skip_rigid: bool = False,
 ) -> ReducedBody:
     """Modal truncation: ``x ≈ V q`` with (left/right) eigenvectors of ``(K, M)``.
 
@@ -229,7 +328,25 @@ def reduce_modal(
     for ``up-coupled`` models), ``Wᵀ M V = I``, so ``M_r = I`` and ``K_r = diag(λ)`` — the
     retained eigenvalues are reproduced exactly and the reduced model of an unsymmetric
     u–p model stays stable. One-sided: ``W = V`` (orthonormal), the classical choice for
-    symmetric models.
+    symmetric models (for which the two-sided reduction also takes ``W = V`` up to scaling).
+
+    **Free structures, zero modes.** Free (unsupported) bodies have six rigid-body modes at
+    ``λ = 0``, closed cavities a constant-pressure mode; they are computed like any other
+    mode (the default shift lies below 0), reported at 0 Hz, counted by ``modes`` and kept
+    by a band from 0 Hz. Degenerate clusters — the 6-fold zero, repeated frequencies of
+    symmetric structures — are reduced as invariant subspaces, bi-orthonormalized as blocks.
+    By default the zero modes are **kept**: the reduced model then reproduces the rigid-body
+    (or static-pressure) response, as a frequency response of the free model needs.
+    For a body in the **floating frame of reference** (``--invariants``, an elastic body of
+    a description) the reference frame already carries the rigid motion, so the elastic
+    coordinates must be the elastic modes only: pass ``skip_rigid=True``
+    (``modes=N`` then counts the N lowest modes with ``λ ≠ 0``). The free-free elastic modes
+    are M-orthogonal to the rigid-body fields, so ``Ct⁰ = (∫Φ dm)ᵀ = 0`` and ``Cr⁰ = 0``
+    (Tisserand / mean-axis conditions) — the convention of SID files written from a
+    free-free modal analysis (``tests/data/beam.SID_FEM`` holds modes 7–17). Rigid-body
+    modes left in ``V`` duplicate the frame's motion and make the body's mass matrix of §2
+    singular. Clamped (constrained) modes, the other common FFRF choice, come from a
+    supported FE model (remove the support DOFs before reducing).
 
     Parameters
     ----------
@@ -251,6 +368,10 @@ def reduce_modal(
         Also store the full ``V`` and ``W`` in the body.
     progress
         Called with messages on long steps (the CLI prints them to stderr).
+    skip_rigid
+        Drop the ``λ ≈ 0`` modes (rigid-body modes; for u–p models also the constant
+        pressure mode) before counting / band selection; recorded as
+        ``settings["skip_rigid"]`` when set.
 
     Returns
     -------
@@ -271,7 +392,7 @@ def reduce_modal(
     >>> body = reduce_modal(fe, modes=20)                       # doctest: +SKIP
     >>> body = reduce_modal(fe, band=(0, 5000), static_correction=True)  # doctest: +SKIP
     """
-    V, W, lam, si = modal_bases(fe, modes, band, two_sided, shift, progress)
+    V, W, lam, si = modal_bases(fe, modes, band, two_sided, shift, progress, skip_rigid)
     if static_correction:
         _say(progress, "static correction vectors")
         V, W = add_static_correction(fe, V, W, si, two_sided)
@@ -280,6 +401,8 @@ def reduce_modal(
         "two_sided": two_sided, "static_correction": static_correction,
         "shift": float(si.sigma),
     }
+    if skip_rigid:  # only when set: bodies reduced without it keep their metadata unchanged
+        settings["skip_rigid"] = True
     _say(progress, f"projecting onto {V.shape[1]} vectors")
     lam = lam.real if np.all(np.imag(lam) == 0) else lam
     return build_reduced_body(fe, V, W, "modal", settings, keep_nodes, store_bases, lam)

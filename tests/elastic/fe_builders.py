@@ -141,3 +141,34 @@ def spring_chain(n: int = 100, k: float = 1.0e4, m: float = 0.1, damping: float 
                    dof_kind=np.full(n, "ux"), inputs={"tip": ((n - 1, 1.0),)},
                    outputs={"tip": ((n - 1, 1.0),), "mid": ((n // 2, 1.0),)},
                    symmetric={"M": True, "K": True}, name="chain")
+
+
+def twin(fe: FEModel, seed: int = 1) -> FEModel:
+    """Two identical, uncoupled copies of ``fe`` with their DOFs interleaved at random.
+
+    Every eigenvalue of ``fe`` is a double one of the twin (exactly, up to the round-off of
+    the factorization), so the reductors meet degenerate clusters of an unsymmetric pencil:
+    two-fold pairs, and for a closed cavity a two-fold ``λ = 0``. Inputs and outputs are
+    those of the first copy.
+    """
+    n = fe.n_dofs
+    rng = np.random.default_rng(seed)
+    perm = rng.permutation(2 * n)
+    where = np.argsort(perm)                    # old index → new index
+
+    def double(A):
+        return None if A is None else sps.block_diag([A, A], format="csr")[perm][:, perm]
+
+    nid = fe.nodes[:, 0].astype(np.int64)
+    off = int(nid.max())
+    nodes = np.vstack([fe.nodes, np.column_stack([nid + off, fe.nodes[:, 1:] + 10.0])])
+    dof_node = np.concatenate([fe.dof_node, fe.dof_node + off])[perm]
+    dof_kind = np.concatenate([fe.dof_kind, fe.dof_kind])[perm]
+
+    def moved(table):
+        return {k: tuple((int(where[i]), w) for i, w in v) for k, v in table.items()}
+
+    return FEModel(M=double(fe.M), K=double(fe.K), D=double(fe.D), nodes=nodes,
+                   dof_node=dof_node, dof_kind=dof_kind, inputs=moved(fe.inputs),
+                   outputs=moved(fe.outputs), kind=fe.kind, density=fe.density,
+                   name=f"twin-{fe.name}")
