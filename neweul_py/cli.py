@@ -26,6 +26,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "frf",
     "reduce",
     "compare_frf",
+    "interpolate",
     "fem",
 )
 

@@ -6,11 +6,19 @@ NumPy/SciPy only; never imports the symbolic layers.
 * :func:`reduce_modal`, :func:`reduce_krylov` – reductors (functions model → reduced model),
   sharing :func:`project`;
 * :class:`ReducedBody` – the reduced body and its file format (``docs/reduced-body-format.md``);
+* :func:`interpolate`, :class:`ParametricBody` – parametric reduction by matrix interpolation
+  of local reduced bodies (``reference/equations.md`` §4);
 * :mod:`~neweul_py.elastic.quality` – FRFs, errors, eigenvalue comparison, stability.
 """
 
 from .fe_io import read_fe_model, write_fe_model
 from .fe_model import DOF_KINDS, FE_KINDS, FEModel
+from .interpolation import (
+    ParametricBody,
+    interpolate,
+    load_parametric_body,
+    save_parametric_body,
+)
 from .krylov import reduce_krylov
 from .modal import reduce_modal
 from .projection import project
@@ -30,12 +38,15 @@ __all__ = [
     "DOF_KINDS",
     "FE_KINDS",
     "FEModel",
+    "ParametricBody",
     "ReducedBody",
     "check_source",
     "compare_eigenvalues",
     "compare_frf",
     "frf_full",
     "frf_reduced",
+    "interpolate",
+    "load_parametric_body",
     "load_reduced_body",
     "max_relative_error",
     "project",
@@ -43,6 +54,7 @@ __all__ = [
     "reduce_krylov",
     "reduce_modal",
     "relative_error",
+    "save_parametric_body",
     "save_reduced_body",
     "stability",
     "write_fe_model",

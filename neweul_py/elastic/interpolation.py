@@ -1,0 +1,809 @@
+"""Parametric model order reduction by matrix interpolation (``reference/equations.md`` §4).
+
+A parameter-dependent elastic body — in the seed paper the tympanic membrane, whose
+linearization depends on the static pressure difference — is represented by local reduced
+models at samples ``p_1 < … < p_k`` (Panzer, Mohring, Eid & Lohmann 2010). The local
+coordinates differ from sample to sample (eigenvectors reorder, change sign, rotate within
+clusters), so the local matrices cannot be interpolated directly. :func:`interpolate` first
+brings every local model to common coordinates::
+
+    R    = first r left singular vectors of [w_1 Q_1 … w_k Q_k]     (span Q_i = span V_i)
+    T_i  = Rᵀ V_i,        L_i = (W_iᵀ R)⁻¹        (Galerkin data: L_i = T_i⁻ᵀ)
+    X̃_i  = L_i X_r,i T_i⁻¹  (X = M, D, K),   B̃_i = L_i B_r,i,   C̃_i = C_r,i T_i⁻¹
+
+and :meth:`ParametricBody.at` interpolates ``X(p) = Σ_i w_i(p) X̃_i`` with weights summing
+to one (piecewise linear between neighbouring samples, or cubic-spline cardinal functions).
+
+Because ``T_i`` and ``L_i`` are invertible, each transformed local model is a state-space
+equivalent of the original (``K̃ − λM̃ = L_i (K − λM) T_i⁻¹``): eigenvalues and transfer
+function are unchanged, so the interpolated body reproduces every sample exactly.
+
+Every quantity of the body is transformed by the same rule (§2, two-sided data, and §4
+step 6): *displacement-like* quantities — ``C``, the basis rows ``V_kept`` (node ``Φ``,
+``Ψ``), the full ``V`` — by ``T_i⁻¹`` from the right (``q_i = T_i⁻¹ q̃``); *elastic-equation
+rows* — ``M``, ``D``, ``K``, ``B``, the left-basis rows ``W_kept`` (modal loads) and the full
+``W`` as ``W̃ = W Lᵀ`` — by ``L_i`` from the left; the floating-frame invariants with
+:meth:`~neweul_py.elastic.invariants.Invariants.transformed` (``right = T_i⁻¹``,
+``left = L_i``).
+
+Which rows enter the SVD (``basis``)
+------------------------------------
+``"full"`` uses the full bases ``V_i`` (bodies reduced with ``store_bases=True``), as in the
+paper. ``"kept"`` uses only the rows the bodies always store, ``V_kept`` (the DOFs of the
+kept nodes): then ``R`` spans a subspace of the kept DOFs and ``q̃ = Rᵀ x_kept`` — usable when
+the kept nodes carry at least ``r`` independent DOFs (e.g. ``keep_nodes`` = a set of
+observation nodes), exact at the samples in any case, but the common coordinates are only
+as consistent between samples as the kept rows resolve the shapes. ``"auto"`` (default)
+takes ``"full"`` when every body holds its full bases and ``"kept"`` otherwise. Each ``V_i``
+is orthonormalized (``Q_i``) before stacking, so that every sample's subspace counts by its
+SVD weight ``w_i`` only, not by the scaling of its basis columns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import DataError, SolverError
+from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
+from .invariants import FLAT_FORMAT, Invariants
+from .projection import Progress
+from .reduced_body import ReducedBody, _json_normal
+
+__all__ = [
+    "BASES",
+    "INTERPOLATIONS",
+    "PARAMETRIC_BODY_FORMAT",
+    "PARAMETRIC_BODY_VERSION",
+    "ParametricBody",
+    "interpolate",
+    "load_parametric_body",
+    "save_parametric_body",
+]
+
+PARAMETRIC_BODY_FORMAT = "neweul-parametric-body"
+PARAMETRIC_BODY_VERSION = 1
+#: Weight functions of :meth:`ParametricBody.at`.
+INTERPOLATIONS = ("linear", "cubic")
+#: Rows of the bases that determine the common subspace (module docstring).
+BASES = ("auto", "full", "kept")
+_INV_PREFIX = "invariants/"
+_ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
+           "V_kept", "W_kept", "T", "L", "R", "singular_values", "svd_weights")
+_OPTIONAL = ("V", "W")
+#: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
+_STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
+
+
+def _say(progress: Progress, msg: str) -> None:
+    if progress is not None:
+        progress(msg)
+
+
+def _floats(a: Any, key: str, ndim: int) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim != ndim:
+        raise DataError(f"must have {ndim} dimensions, got shape {arr.shape}", None, key)
+    if not np.all(np.isfinite(arr)):
+        raise DataError("has NaN/Inf entries", None, key)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class ParametricBody:
+    """A parametric elastic body: local reduced models at samples, in common coordinates.
+
+    Built by :func:`interpolate` (``reference/equations.md`` §4); :meth:`at` gives the
+    :class:`~neweul_py.elastic.reduced_body.ReducedBody` at a parameter value. ``k`` =
+    number of samples, ``r`` = order, ``nk`` = kept DOFs. All stacked arrays have the
+    sample as their first axis.
+
+    Parameters
+    ----------
+    parameter
+        Name of the parameter (e.g. ``"pressure"``).
+    samples
+        (k,) strictly increasing sample values ``p_1 < … < p_k``.
+    M, D, K
+        (k, r, r) transformed local matrices ``X̃_i = L_i X_r,i T_i⁻¹``.
+    B, C
+        (k, r, n_in) ``B̃_i = L_i B_r,i`` and (k, n_out, r) ``C̃_i = C_r,i T_i⁻¹``.
+    input_names, output_names
+        Names of the columns of ``B`` and rows of ``C`` (common to all samples).
+    nodes, kept_dofs, dof_node, dof_kind
+        The kept nodes and DOFs (common to all samples), as in ``ReducedBody``.
+    V_kept, W_kept
+        (k, nk, r) transformed basis rows ``V_kept T_i⁻¹`` (node ``Φ``, ``Ψ``) and
+        ``W_kept L_iᵀ`` (modal loads).
+    T, L
+        (k, r, r) right and left transformations ``T_i = Rᵀ V_i``, ``L_i``; the local
+        coordinates map to the common ones as ``q̃ = T_i q_i``.
+    R
+        (n or nk, r) orthonormal common right subspace (rows of the FE model for
+        ``basis="full"``, of the kept DOFs for ``"kept"``).
+    singular_values
+        Singular values of the (weighted) stacked sample bases; ``σ_{r+1}/σ_1`` measures
+        how much of the sample subspaces the ``r`` common coordinates leave out.
+    svd_weights
+        (k,) weights ``w_i`` of the samples in the SVD.
+    basis
+        ``"full"`` or ``"kept"`` (module docstring).
+    two_sided
+        Petrov–Galerkin (``True``) or Galerkin data.
+    V, W
+        Optional (k, n, r) transformed full bases ``V_i T_i⁻¹``, ``W_i L_iᵀ``.
+    invariants
+        Optional flat invariants (:meth:`Invariants.to_flat` names) of the transformed
+        samples, each stacked to (k, …); entries that are not floating point (format tag,
+        names, node ids, flags) are equal for all samples.
+    interpolation
+        Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
+    sample_sources, sample_methods, sample_settings
+        Per sample: the ``source``, ``method`` and ``settings`` of the local body.
+    """
+
+    parameter: str
+    samples: np.ndarray
+    M: np.ndarray
+    D: np.ndarray
+    K: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    input_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    nodes: np.ndarray
+    kept_dofs: np.ndarray
+    dof_node: np.ndarray
+    dof_kind: np.ndarray
+    V_kept: np.ndarray
+    W_kept: np.ndarray
+    T: np.ndarray
+    L: np.ndarray
+    R: np.ndarray
+    singular_values: np.ndarray
+    svd_weights: np.ndarray
+    basis: str = "full"
+    two_sided: bool = True
+    V: np.ndarray | None = None
+    W: np.ndarray | None = None
+    invariants: Mapping[str, np.ndarray] | None = None
+    interpolation: str = "linear"
+    sample_sources: tuple[Mapping[str, Any], ...] = ()
+    sample_methods: tuple[str, ...] = ()
+    sample_settings: tuple[Mapping[str, Any], ...] = ()
+    format_version: int = PARAMETRIC_BODY_VERSION
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "parameter", str(self.parameter))
+        if not self.parameter:
+            raise DataError("the parameter needs a name", None, "parameter")
+        s = _floats(self.samples, "samples", 1)
+        if s.size < 2:
+            raise DataError(f"need at least 2 samples, got {s.size}", None, "samples")
+        if np.any(np.diff(s) <= 0):
+            raise DataError(f"samples must be strictly increasing, got {s.tolist()}", None,
+                            "samples")
+        set_(self, "samples", s)
+        k = s.size
+        M = _floats(self.M, "M", 3)
+        r = M.shape[1]
+        want = {"M": (k, r, r), "D": (k, r, r), "K": (k, r, r), "T": (k, r, r),
+                "L": (k, r, r)}
+        for key, shape in want.items():
+            a = _floats(self[key], key, 3)
+            if a.shape != shape:
+                raise DataError(f"must be {shape}, got {a.shape}", None, key)
+            set_(self, key, a)
+        set_(self, "input_names", tuple(str(x) for x in self.input_names))
+        set_(self, "output_names", tuple(str(x) for x in self.output_names))
+        for key, shape in (("B", (k, r, len(self.input_names))),
+                           ("C", (k, len(self.output_names), r))):
+            a = _floats(self[key], key, 3)
+            if a.shape != shape:
+                raise DataError(f"must be {shape} (samples, inputs/outputs by name), got "
+                                f"{a.shape}", None, key)
+            set_(self, key, a)
+        set_(self, "nodes", _floats(np.asarray(self.nodes, dtype=np.float64).reshape(-1, 4),
+                                    "nodes", 2))
+        set_(self, "kept_dofs", np.asarray(self.kept_dofs, dtype=np.int64).ravel())
+        nk = self.kept_dofs.size
+        set_(self, "dof_node", np.asarray(self.dof_node, dtype=np.int64).ravel())
+        set_(self, "dof_kind", np.asarray(self.dof_kind).astype("U2").ravel())
+        if self.dof_node.size != nk or self.dof_kind.size != nk:
+            raise DataError("dof_node/dof_kind must match kept_dofs", None, "kept_dofs")
+        for key in ("V_kept", "W_kept"):
+            a = _floats(self[key], key, 3)
+            if a.shape != (k, nk, r):
+                raise DataError(f"must be {(k, nk, r)}, got {a.shape}", None, key)
+            set_(self, key, a)
+        for key in ("V", "W"):
+            if self[key] is not None:
+                a = _floats(self[key], key, 3)
+                if a.shape[0] != k or a.shape[2] != r:
+                    raise DataError(f"must be (k={k}, n, r={r}), got {a.shape}", None, key)
+                set_(self, key, a)
+        if (self.V is None) != (self.W is None):
+            raise DataError("V and W are stored together or not at all", None, "V")
+        Rm = _floats(self.R, "R", 2)
+        if Rm.shape[1] != r:
+            raise DataError(f"must have {r} columns, got {Rm.shape}", None, "R")
+        set_(self, "R", Rm)
+        set_(self, "singular_values", _floats(self.singular_values, "singular_values", 1))
+        w = _floats(self.svd_weights, "svd_weights", 1)
+        if w.shape != (k,):
+            raise DataError(f"must have {k} entries, got {w.shape}", None, "svd_weights")
+        set_(self, "svd_weights", w)
+        if self.basis not in BASES[1:]:
+            raise DataError(f"must be one of {BASES[1:]}, got {self.basis!r}", None, "basis")
+        if self.interpolation not in INTERPOLATIONS:
+            raise DataError(f"must be one of {INTERPOLATIONS}, got {self.interpolation!r}",
+                            None, "interpolation")
+        set_(self, "two_sided", bool(self.two_sided))
+        for key, default in (("sample_sources", {}), ("sample_settings", {}),
+                             ("sample_methods", "")):
+            vals = tuple(self[key]) or (default,) * k
+            if len(vals) != k:
+                raise DataError(f"{len(vals)} entries for {k} samples", None, key)
+            if key == "sample_methods":
+                vals = tuple(str(v) for v in vals)
+            else:
+                vals = tuple(_json_normal(dict(v), key) for v in vals)
+            set_(self, key, vals)
+        if self.invariants is not None:
+            set_(self, "invariants", _check_stacked(self.invariants, k))
+
+    def __getitem__(self, key: str) -> Any:
+        return getattr(self, key)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def order(self) -> int:
+        """Order ``r`` of the common coordinates."""
+        return self.M.shape[1]
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples ``k``."""
+        return self.samples.size
+
+    @property
+    def range(self) -> tuple[float, float]:
+        """The sampled parameter range ``(p_1, p_k)``; :meth:`at` refuses values outside."""
+        return float(self.samples[0]), float(self.samples[-1])
+
+    def with_(self, **changes: Any) -> ParametricBody:
+        """A validated copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+    # ------------------------------------------------------------------ evaluation
+    def weights(self, p: float, interpolation: str | None = None) -> np.ndarray:
+        """Interpolation weights ``w_i(p)`` of the samples (they sum to one).
+
+        ``"linear"``: the hat functions of the samples, i.e. linear between the two
+        neighbouring samples, zero elsewhere. ``"cubic"``: the cardinal functions of the
+        not-a-knot cubic spline through the samples (``S_i(p_j) = δ_ij``; two samples give
+        the linear weights, three a parabola). At a sample the weight vector is exactly
+        the unit vector, so the sample's matrices are returned bit for bit.
+
+        Raises
+        ------
+        DataError
+            ``p`` not finite or outside ``[p_1, p_k]`` (no extrapolation), or an unknown
+            interpolation.
+        """
+        kind = self.interpolation if interpolation is None else interpolation
+        if kind not in INTERPOLATIONS:
+            raise DataError(f"unknown interpolation {kind!r} (one of "
+                            f"{', '.join(INTERPOLATIONS)})", None, "interpolation")
+        try:
+            p = float(p)
+        except (TypeError, ValueError):
+            raise DataError(f"must be a number, got {p!r}", None, self.parameter) from None
+        s = self.samples
+        lo, hi = self.range
+        if not np.isfinite(p) or p < lo or p > hi:
+            raise DataError(f"{p:g} is outside the sampled range [{lo:g}, {hi:g}]; the "
+                            "parametric body does not extrapolate (add a sample)", None,
+                            self.parameter)
+        w = np.zeros(s.size)
+        hit = np.flatnonzero(s == p)
+        if hit.size:
+            w[hit[0]] = 1.0
+            return w
+        if kind == "linear":
+            j = int(np.searchsorted(s, p)) - 1      # s[j] < p < s[j + 1]
+            t = (p - s[j]) / (s[j + 1] - s[j])
+            w[j], w[j + 1] = 1.0 - t, t
+            return w
+        from scipy.interpolate import CubicSpline
+
+        return np.asarray(CubicSpline(s, np.eye(s.size), bc_type="not-a-knot")(p),
+                          dtype=np.float64)
+
+    def at(self, p: float, interpolation: str | None = None) -> ReducedBody:
+        """The reduced body at parameter value ``p``: ``X(p) = Σ_i w_i(p) X̃_i`` (§4, step 5).
+
+        Every stored quantity — ``M``, ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept``, the
+        full bases and the invariants — is interpolated with the same weights
+        (:meth:`weights`), so the body stays consistent (§4, step 6).
+
+        Parameters
+        ----------
+        p
+            Parameter value in ``[p_1, p_k]``.
+        interpolation
+            ``"linear"`` or ``"cubic"`` (default: :attr:`interpolation`).
+
+        Returns
+        -------
+        ReducedBody
+            ``method="interpolated"``, ``parameters={name: p}``; ``settings`` name the
+            parameter, the samples and the weights. ``source`` holds what all samples share
+            (model name, kind, ``n_dofs``, density) and the samples' fingerprints; at a sample
+            it is that sample's source, fingerprint included (the body there is a
+            state-space equivalent of the local model, so ``compare_frf`` against the FE
+            model of that sample is meaningful).
+
+        Examples
+        --------
+        >>> pb = interpolate(bodies, [0.0, 0.5, 1.0], parameter="pressure")  # doctest: +SKIP
+        >>> body = pb.at(0.3)                                                # doctest: +SKIP
+        """
+        kind = self.interpolation if interpolation is None else interpolation
+        w = self.weights(p, kind)
+        idx = np.flatnonzero(w)
+
+        def mix(stack: np.ndarray) -> np.ndarray:
+            if idx.size == 1:
+                return stack[idx[0]].copy()
+            return np.einsum("i,i...->...", w[idx], stack[idx])
+
+        arrays = {key: mix(self[key]) for key in _STACKED}
+        V = None if self.V is None else mix(self.V)
+        W = None if self.W is None else mix(self.W)
+        inv = None
+        if self.invariants is not None:
+            inv = {}
+            for name, a in self.invariants.items():
+                inv[name] = mix(a) if a.dtype.kind == "f" else a[0].copy()
+        hit = np.flatnonzero(self.samples == float(p))
+        if hit.size:
+            source = dict(self.sample_sources[hit[0]])
+        else:
+            first, rest = self.sample_sources[0], self.sample_sources[1:]
+            source = {key: v for key, v in first.items() if key != "fingerprint"
+                      and all(s.get(key) == v for s in rest)}
+            prints = [s.get("fingerprint") for s in self.sample_sources]
+            if any(f is not None for f in prints):
+                source["sample_fingerprints"] = prints
+        settings = {
+            "two_sided": self.two_sided, "parameter": self.parameter, "value": float(p),
+            "interpolation": kind, "samples": self.samples.tolist(), "weights": w.tolist(),
+            "basis": self.basis, "sample_methods": list(self.sample_methods),
+        }
+        return ReducedBody(
+            **arrays, input_names=self.input_names, output_names=self.output_names,
+            nodes=self.nodes.copy(), kept_dofs=self.kept_dofs.copy(),
+            dof_node=self.dof_node.copy(), dof_kind=self.dof_kind.copy(), V=V, W=W,
+            method="interpolated", settings=settings, source=source, invariants=inv,
+            parameters={self.parameter: float(p)},
+        )
+
+    # ------------------------------------------------------------------ file I/O
+    def save(self, path: str | os.PathLike) -> None:
+        """Write to ``path`` (``.npz``, atomically; ``docs/reduced-body-format.md``)."""
+        save_parametric_body(self, path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> ParametricBody:
+        """Read a file written by :meth:`save`."""
+        return load_parametric_body(path)
+
+
+def _check_stacked(inv: Mapping[str, np.ndarray], k: int) -> dict[str, np.ndarray]:
+    out = {}
+    for name, v in inv.items():
+        a = np.asarray(v)
+        item = f"invariants.{name}"
+        if a.dtype == object:
+            raise DataError("object arrays cannot be stored", None, item)
+        if a.ndim < 1 or a.shape[0] != k:
+            raise DataError(f"must be stacked over the {k} samples, got shape {a.shape}",
+                            None, item)
+        if a.dtype.kind == "f":
+            if not np.all(np.isfinite(a)):
+                raise DataError("has NaN/Inf entries", None, item)
+        elif any(not np.array_equal(a[0], a[i]) for i in range(1, k)):
+            raise DataError("differs between samples (only floating-point invariants are "
+                            "interpolated)", None, item)
+        out[str(name)] = a
+    return out
+
+
+# ---------------------------------------------------------------------- interpolate
+def _same_layout(bodies: Sequence[ReducedBody]) -> None:
+    """Refuse bodies that are not samples of one family (same FE discretization, DOFs, I/O)."""
+    ref = bodies[0]
+
+    def fail(i: int, what: str) -> None:
+        raise DataError(f"body {i + 1} does not match body 1: {what}; the samples of a "
+                        "parametric body must be reductions of one FE discretization with "
+                        "the same order, kept nodes, inputs and outputs", None,
+                        f"bodies[{i}]")
+
+    for i, b in enumerate(bodies[1:], start=1):
+        if b.order != ref.order:
+            fail(i, f"order {b.order} vs {ref.order} (T_i = Rᵀ V_i must be square)")
+        if b.two_sided != ref.two_sided:
+            fail(i, "one-sided vs two-sided data")
+        for key in ("n_dofs", "kind", "density"):
+            a, c = b.source.get(key), ref.source.get(key)
+            if a is not None and c is not None and a != c:
+                fail(i, f"source {key} {a!r} vs {c!r}")
+        if b.input_names != ref.input_names or b.output_names != ref.output_names:
+            fail(i, f"inputs/outputs {list(b.input_names)}/{list(b.output_names)} vs "
+                    f"{list(ref.input_names)}/{list(ref.output_names)}")
+        if not (np.array_equal(b.kept_dofs, ref.kept_dofs)
+                and np.array_equal(b.dof_node, ref.dof_node)
+                and np.array_equal(b.dof_kind, ref.dof_kind)):
+            fail(i, "kept DOFs (index, node, kind) differ")
+        if not np.array_equal(b.nodes, ref.nodes):
+            fail(i, "kept node table (ids, coordinates) differs")
+        if (b.invariants is None) != (ref.invariants is None):
+            fail(i, "invariants present in one and not the other")
+        if b.invariants is not None and list(b.invariants) != list(ref.invariants):
+            fail(i, "different invariant arrays")
+    prints = [b.source.get("fingerprint") for b in bodies]
+    for i, fp in enumerate(prints):
+        if fp is not None and fp in prints[:i]:
+            j = prints.index(fp)
+            raise DataError(f"bodies {j + 1} and {i + 1} were reduced from the same FE model "
+                            f"(fingerprint {str(fp)[:12]}…): two samples of one model (the "
+                            "same file given twice?)", None, f"bodies[{i}]")
+
+
+def _samples(bodies: Sequence[ReducedBody], samples: Sequence[float] | None,
+             parameter: str) -> np.ndarray:
+    if samples is None:
+        missing = [i + 1 for i, b in enumerate(bodies)
+                   if not b.parameters or parameter not in b.parameters]
+        if missing:
+            raise DataError(f"no sample values given and bodies {missing} record no value "
+                            f"of {parameter!r} in their parameters", None, "samples")
+        samples = [b.parameters[parameter] for b in bodies]
+    try:
+        s = np.asarray(samples, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise DataError(f"must be numbers, got {samples!r}", None, "samples") from None
+    if s.size != len(bodies):
+        raise DataError(f"{s.size} sample values for {len(bodies)} bodies", None, "samples")
+    if not np.all(np.isfinite(s)):
+        raise DataError(f"must be finite, got {s.tolist()}", None, "samples")
+    if np.any(np.diff(s) <= 0):
+        raise DataError(f"must be strictly increasing (give the bodies in the order of the "
+                        f"parameter), got {s.tolist()}", None, "samples")
+    for i, b in enumerate(bodies):
+        v = (b.parameters or {}).get(parameter)
+        if v is not None and v != s[i]:
+            raise DataError(f"body {i + 1} records {parameter} = {v:g}, but is given as the "
+                            f"sample {s[i]:g}", None, "samples")
+    return s
+
+
+def _orth(V: np.ndarray) -> np.ndarray:
+    Q, _ = np.linalg.qr(V)
+    return Q
+
+
+def _fix_signs(U: np.ndarray) -> np.ndarray:
+    """Make the largest-magnitude entry of each column positive (deterministic output)."""
+    if U.size == 0:
+        return U
+    rows = np.argmax(np.abs(U), axis=0)
+    sign = np.sign(U[rows, np.arange(U.shape[1])])
+    return U * np.where(sign == 0, 1.0, sign)
+
+
+def _inverse(A: np.ndarray, Q: np.ndarray, R: np.ndarray, what: str, i: int, p: float,
+             cond_max: float, min_cosine: float) -> np.ndarray:
+    """``A⁻¹`` for ``A = Rᵀ V_i`` or ``W_iᵀ R``, refused when ``R`` misses part of ``span Q``.
+
+    ``cond(A)`` alone is scale-free and cannot see a basis (nearly) orthogonal to ``R``
+    (``A`` is then round-off with any condition number), so the cosines of the principal
+    angles between ``span R`` and ``span Q`` (``Q`` orthonormal) are checked as well.
+    """
+    cos = np.linalg.svd(R.T @ Q, compute_uv=False).min() if Q.size else 1.0
+    cond = np.linalg.cond(A) if A.size else 1.0
+    if not np.isfinite(cond) or cond > cond_max or cos < min_cosine:
+        raise SolverError(f"sample {i + 1} (p = {p:g}): {what} is singular or ill-conditioned "
+                          f"(condition number {cond:.3g}, smallest principal-angle cosine "
+                          f"{cos:.3g} between the common subspace and the sample's basis); "
+                          "the common subspace does not represent this sample — sample more "
+                          "densely, weight this sample more, or use the full bases",
+                          residual=cond)
+    return np.linalg.inv(A)
+
+
+def interpolate(
+    bodies: Sequence[ReducedBody],
+    samples: Sequence[float] | None = None,
+    *,
+    parameter: str = "p",
+    basis: str = "auto",
+    weights: Sequence[float] | None = None,
+    interpolation: str = "linear",
+    store_bases: bool = False,
+    cond_max: float = 1e10,
+    min_cosine: float = 1e-8,
+    progress: Progress = None,
+) -> ParametricBody:
+    """Bring local reduced models to common coordinates for matrix interpolation (§4).
+
+    Steps 1–4 and 6 of ``reference/equations.md`` §4 (Panzer et al. 2010)::
+
+        R   = first r left singular vectors of [w_1 Q_1 … w_k Q_k],  span Q_i = span V_i
+        T_i = Rᵀ V_i,   L_i = (W_iᵀ R)⁻¹   (Galerkin data W_i = V_i: L_i = T_i⁻ᵀ)
+        X̃_i = L_i X_r,i T_i⁻¹,  B̃_i = L_i B_r,i,  C̃_i = C_r,i T_i⁻¹,
+        V_kept T_i⁻¹ (Φ, Ψ rows),  W_kept L_iᵀ (modal loads),  invariants transformed;
+
+    step 5 (the weighted sum) is :meth:`ParametricBody.at`.
+
+    Parameters
+    ----------
+    bodies
+        k ≥ 2 local reduced bodies of one FE discretization (same order ``r``, kept DOFs,
+        inputs, outputs; one- or two-sided alike), in the order of the parameter.
+    samples
+        (k,) strictly increasing parameter values; default: each body's
+        ``parameters[parameter]``. A body that records a different value is refused.
+    parameter
+        Name of the parameter.
+    basis
+        ``"full"``, ``"kept"`` or ``"auto"``: which basis rows determine ``R`` (module
+        docstring). ``"full"`` needs bodies reduced with ``store_bases=True``.
+    weights
+        (k,) non-negative SVD weights ``w_i`` (default all 1): how much each sample counts
+        in the common subspace (e.g. more near the operating range).
+    interpolation
+        Default weight function of :meth:`ParametricBody.at` (``"linear"``, ``"cubic"``).
+    store_bases
+        Keep the transformed full bases ``V_i T_i⁻¹``, ``W_i L_iᵀ`` (k·n·r numbers each).
+    cond_max, min_cosine
+        Largest accepted condition number of ``T_i`` and ``W_iᵀ R``, and smallest accepted
+        cosine of the principal angles between ``span R`` and ``span V_i`` (``span W_i``):
+        below it, ``R`` misses part of the sample's subspace.
+    progress
+        Called with short messages (the CLI prints them to stderr).
+
+    Returns
+    -------
+    ParametricBody
+
+    Raises
+    ------
+    DataError
+        Fewer than two bodies, bodies that do not belong together (order, one/two-sided,
+        FE size/kind/density, inputs/outputs, kept DOFs and nodes, invariant sets; two
+        bodies with the same source fingerprint), bad sample values or weights, missing
+        full bases for ``basis="full"``/``store_bases``, too few kept DOFs for ``"kept"``.
+    SolverError
+        ``T_i`` or ``W_iᵀ R`` singular (beyond ``cond_max``).
+
+    References
+    ----------
+    ``reference/equations.md`` §4; H. Panzer, J. Mohring, R. Eid, B. Lohmann, "Parametric
+    model order reduction by matrix interpolation", *at – Automatisierungstechnik* 58 (2010)
+    475–484.
+
+    Examples
+    --------
+    >>> bodies = [reduce_modal(fe_at(p), modes=8, store_bases=True)
+    ...           for p in (0.0, 0.5, 1.0)]                       # doctest: +SKIP
+    >>> pb = interpolate(bodies, [0.0, 0.5, 1.0], parameter="pressure")  # doctest: +SKIP
+    >>> pb.at(0.25).K                                              # doctest: +SKIP
+    """
+    bodies = list(bodies)
+    if len(bodies) < 2:
+        raise DataError(f"need at least 2 sample bodies, got {len(bodies)}", None, "bodies")
+    if not all(isinstance(b, ReducedBody) for b in bodies):
+        raise DataError("bodies must be ReducedBody objects", None, "bodies")
+    if basis not in BASES:
+        raise DataError(f"must be one of {', '.join(BASES)}, got {basis!r}", None, "basis")
+    if interpolation not in INTERPOLATIONS:
+        raise DataError(f"must be one of {', '.join(INTERPOLATIONS)}, got {interpolation!r}",
+                        None, "interpolation")
+    s = _samples(bodies, samples, str(parameter))
+    _same_layout(bodies)
+    k, r, two = len(bodies), bodies[0].order, bodies[0].two_sided
+    w = np.ones(k) if weights is None else np.asarray(weights, dtype=np.float64).ravel()
+    if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.any():
+        raise DataError(f"need {k} finite non-negative weights, not all zero; got "
+                        f"{np.asarray(weights).tolist()}", None, "weights")
+
+    def has_full(b: ReducedBody) -> bool:
+        return b.V is not None and (not two or b.W is not None)
+
+    full = all(has_full(b) for b in bodies)
+    if basis == "auto":
+        basis = "full" if full else "kept"
+    if (basis == "full" or store_bases) and not full:
+        missing = [i + 1 for i, b in enumerate(bodies) if not has_full(b)]
+        raise DataError(f"bodies {missing} hold no full bases V{', W' if two else ''} "
+                        "(reduce with store_bases=True / --store-bases)", None, "V")
+    if basis == "full":
+        shapes = {b.V.shape for b in bodies}
+        if len(shapes) > 1:
+            raise DataError(f"full bases of different shapes {sorted(shapes)}", None, "V")
+        Vs = [b.V for b in bodies]
+        Ws = [b.W if two else b.V for b in bodies]
+    else:
+        nk = bodies[0].kept_dofs.size
+        if nk < r:
+            raise DataError(f"the {nk} kept DOFs cannot determine {r} common coordinates "
+                            "(basis='kept' needs at least r kept DOFs): reduce with "
+                            "store_bases=True or keep more nodes", None, "V_kept")
+        Vs = [b.V_kept for b in bodies]
+        Ws = [b.W_kept for b in bodies]
+
+    # 1. common right subspace
+    Qs = [_orth(V) for V in Vs]
+    stacked = np.hstack([wi * Q for wi, Q in zip(w, Qs, strict=True)])
+    _say(progress, f"common subspace: SVD of the {stacked.shape[0]}×{stacked.shape[1]} "
+                   f"stacked {basis} bases, r = {r}")
+    U, sv, _ = np.linalg.svd(stacked, full_matrices=False)
+    if U.shape[1] < r:
+        raise DataError(f"the stacked bases have only {U.shape[1]} columns for r = {r}",
+                        None, "V")
+    R = _fix_signs(U[:, :r])
+
+    # 2.–4. and 6.: transform every sample
+    out: dict[str, list[np.ndarray]] = {key: [] for key in (*_STACKED, "T", "L", "V", "W")}
+    invs: list[dict[str, np.ndarray]] = []
+    for i, b in enumerate(bodies):
+        T = R.T @ Vs[i]
+        Tinv = _inverse(T, Qs[i], R, "T_i = Rᵀ V_i", i, s[i], cond_max, min_cosine)
+        L = (_inverse(Ws[i].T @ R, _orth(Ws[i]), R, "W_iᵀ R", i, s[i], cond_max, min_cosine)
+             if two else Tinv.T)
+        _say(progress, f"sample {i + 1}/{k} ({parameter} = {s[i]:g}): cond T = "
+                       f"{np.linalg.cond(T):.3g}")
+        out["T"].append(T)
+        out["L"].append(L)
+        for key in ("M", "D", "K"):
+            out[key].append(L @ b[key] @ Tinv)
+        out["B"].append(L @ b.B)
+        out["C"].append(b.C @ Tinv)
+        out["V_kept"].append(b.V_kept @ Tinv)
+        out["W_kept"].append(b.W_kept @ L.T)
+        if store_bases:
+            out["V"].append(b.V @ Tinv)
+            out["W"].append((b.W if two else b.V) @ L.T)
+        if b.invariants is not None:
+            invs.append(_transform_invariants(b, Tinv, L, two, i))
+    inv = None
+    if invs:
+        keys = list(invs[0])
+        if any(list(x) != keys for x in invs[1:]):
+            raise DataError("the transformed invariants of the samples have different "
+                            "arrays (order-1 terms in some samples only?)", None, "invariants")
+        try:
+            inv = {key: np.stack([x[key] for x in invs]) for key in keys}
+        except ValueError as exc:
+            raise DataError(f"invariants of different shapes ({exc})", None,
+                            "invariants") from None
+    return ParametricBody(
+        parameter=str(parameter), samples=s,
+        **{key: np.stack(out[key]) for key in (*_STACKED, "T", "L")},
+        input_names=bodies[0].input_names, output_names=bodies[0].output_names,
+        nodes=bodies[0].nodes, kept_dofs=bodies[0].kept_dofs, dof_node=bodies[0].dof_node,
+        dof_kind=bodies[0].dof_kind, R=R, singular_values=sv, svd_weights=w, basis=basis,
+        two_sided=two, V=np.stack(out["V"]) if store_bases else None,
+        W=np.stack(out["W"]) if store_bases else None, invariants=inv,
+        interpolation=interpolation,
+        sample_sources=tuple(b.source for b in bodies),
+        sample_methods=tuple(b.method for b in bodies),
+        sample_settings=tuple(b.settings for b in bodies),
+    )
+
+
+def _transform_invariants(body: ReducedBody, Tinv: np.ndarray, L: np.ndarray, two: bool,
+                          i: int) -> dict[str, np.ndarray]:
+    """Step 6: the invariants in common coordinates, ``q = T_i⁻¹ q̃``, rows ``L_i``."""
+    flat = body.invariants
+    fmt = str(np.asarray(flat.get("format", ""))) if "format" in flat else None
+    if fmt != FLAT_FORMAT:
+        raise DataError(f"body {i + 1}: the invariants slot does not hold "
+                        f"{FLAT_FORMAT!r} data (format {fmt!r}); only the invariants of "
+                        "neweul_py.elastic.invariants can be transformed", None, "invariants")
+    try:
+        inv = Invariants.from_flat(flat)
+    except DataError as exc:
+        raise DataError(f"body {i + 1}: {exc.message}", None, exc.item) from None
+    if inv.nq != Tinv.shape[0]:
+        raise DataError(f"body {i + 1}: invariants for {inv.nq} elastic coordinates, the "
+                        f"body has {Tinv.shape[0]}", None, "invariants")
+    left = L if (two or inv.two_sided) else None   # None: one-sided stays one-sided (Rᵀ)
+    return inv.transformed(Tinv, left).to_flat()
+
+
+# ---------------------------------------------------------------------- file format
+def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
+    """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
+    arrays = {key: body[key] for key in _ARRAYS}
+    for key in _OPTIONAL:
+        if body[key] is not None:
+            arrays[key] = body[key]
+    names = list(body.invariants or {})
+    for name in names:
+        arrays[_INV_PREFIX + name] = body.invariants[name]
+    meta = {
+        "format": PARAMETRIC_BODY_FORMAT,
+        "version": body.format_version,
+        "parameter": body.parameter,
+        "interpolation": body.interpolation,
+        "basis": body.basis,
+        "two_sided": body.two_sided,
+        "input_names": list(body.input_names),
+        "output_names": list(body.output_names),
+        "sample_sources": list(body.sample_sources),
+        "sample_methods": list(body.sample_methods),
+        "sample_settings": list(body.sample_settings),
+        "invariants": names if body.invariants is not None else None,
+    }
+    arrays["meta"] = json_to_uint8(meta)
+    save_npz_atomic(path, arrays)
+
+
+def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
+    """Read a parametric body; a :class:`DataError` naming the file and array on any problem."""
+    file = str(path)
+    data = load_npz(path)
+    if "meta" not in data:
+        raise DataError("missing the \"meta\" array (not a parametric-body file?)", file,
+                        "meta")
+    meta = json_from_uint8(data["meta"], file)
+    if not isinstance(meta, dict) or meta.get("format") != PARAMETRIC_BODY_FORMAT:
+        got = meta.get("format") if isinstance(meta, dict) else None
+        hint = " (a single reduced body: use ReducedBody.load)" if got == "neweul-reduced-body" \
+            else ""
+        raise DataError(f"\"format\" must be {PARAMETRIC_BODY_FORMAT!r}, got {got!r}{hint}",
+                        file, "meta")
+    if meta.get("version") != PARAMETRIC_BODY_VERSION:
+        raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
+                        f"{PARAMETRIC_BODY_VERSION})", file, "meta")
+    missing = [key for key in _ARRAYS if key not in data]
+    if missing:
+        raise DataError(f"missing arrays {missing}", file, missing[0])
+    names = meta.get("invariants")
+    invariants = None
+    if names is not None:
+        absent = [n for n in names if _INV_PREFIX + n not in data]
+        if absent:
+            raise DataError(f"missing invariant arrays {absent}", file, "invariants")
+        invariants = {n: data[_INV_PREFIX + n] for n in names}
+    try:
+        return ParametricBody(
+            **{key: data[key] for key in _ARRAYS},
+            **{key: data.get(key) for key in _OPTIONAL},
+            parameter=meta.get("parameter", ""),
+            interpolation=meta.get("interpolation", "linear"),
+            basis=meta.get("basis", ""),
+            two_sided=bool(meta.get("two_sided", True)),
+            input_names=tuple(meta.get("input_names", ())),
+            output_names=tuple(meta.get("output_names", ())),
+            sample_sources=tuple(meta.get("sample_sources") or ()),
+            sample_methods=tuple(meta.get("sample_methods") or ()),
+            sample_settings=tuple(meta.get("sample_settings") or ()),
+            invariants=invariants,
+            format_version=int(meta["version"]),
+        )
+    except DataError as exc:
+        raise DataError(exc.message, file, exc.item) from None
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"inconsistent arrays ({' '.join(str(exc).split())})", file,
+                        "meta") from None

@@ -1,0 +1,452 @@
+"""Parametric reduction by matrix interpolation (``reference/equations.md`` §4; Panzer, Mohring,
+Eid & Lohmann 2010): ``neweul_py.elastic.interpolation`` and ``neweul interpolate``.
+
+The parametric FE model is the u–p piston–duct of Eq. (2) (``fe_builders.piston_duct``, 121
+DOFs, damped piston) whose piston stiffness depends on the parameter,
+``k_s(p) = 2·10⁵ (1 + p)`` N/m, ``p ∈ [0, 2]``: the piston resonance moves from 318 to 551 Hz
+through the duct modes at 343 and 515 Hz, so the local modes veer, reorder and change sign
+between samples — the case that needs common coordinates. The references are independent of
+the code under test: the local two-sided modal models themselves (at the samples), models
+reduced directly at parameter values between the samples, invariants computed from the FE
+model with the transformed bases, and closed-form identities of the weights.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from itertools import pairwise
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse as sps
+from fe_builders import piston_duct, spring_chain
+
+from neweul_py.cli import main
+from neweul_py.elastic import (
+    ParametricBody,
+    ReducedBody,
+    check_source,
+    frf_reduced,
+    interpolate,
+    load_parametric_body,
+    reduce_modal,
+    stability,
+)
+from neweul_py.elastic._io import json_to_uint8
+from neweul_py.elastic.invariants import attach_invariants, body_invariants, compute_invariants
+from neweul_py.errors import DataError, SolverError
+
+K0 = 2.0e5
+MODES = 8
+F = np.linspace(5.0, 700.0, 240)               # Hz, the band of the 8 retained modes
+BETWEEN = (0.13, 0.37, 0.5 + 1 / 7, 0.81, 1.29, 1.66)   # not samples of any grid below
+
+
+@cache
+def fe_at(p: float, n_el: int = 120):
+    return piston_duct(n_el, stiffness=K0 * (1 + p), damping=20.0)
+
+
+@cache
+def local(p: float, modes: int = MODES, two_sided: bool = True, n_el: int = 120,
+          store: bool = True, keep_all: bool = False) -> ReducedBody:
+    fe = fe_at(p, n_el)
+    keep = fe.nodes[:, 0].astype(int) if keep_all else None
+    return reduce_modal(fe, modes=modes, two_sided=two_sided, store_bases=store,
+                        keep_nodes=keep)
+
+
+def grid(k: int) -> np.ndarray:
+    return np.linspace(0.0, 2.0, k)
+
+
+def frf_error(a: ReducedBody, b: ReducedBody) -> float:
+    """max over f of |H_a − H_b|, per input–output channel relative to max_f |H_b|."""
+    Ha, Hb = frf_reduced(a, F), frf_reduced(b, F)
+    return float((np.abs(Ha - Hb).max(axis=0) / np.abs(Hb).max(axis=0)).max())
+
+
+def pencil(b: ReducedBody) -> np.ndarray:
+    """Eigenvalues λ = ω² of (K, M), sorted by real part."""
+    lam = sla.eigvals(b.K, b.M)
+    return lam[np.argsort(lam.real)]
+
+
+def eig_error(a: ReducedBody, b: ReducedBody) -> float:
+    """Largest relative error of modes 2…6 (the zero mode has no relative scale)."""
+    la, lb = pencil(a)[1:6], pencil(b)[1:6]
+    return float(np.max(np.abs(la - lb) / np.abs(lb)))
+
+
+# ------------------------------------------------------------------ at the samples
+def test_samples_are_reproduced_exactly():
+    """At p_i the interpolated body is the transformed local model: same transfer function
+    and same eigenvalues (to round-off); T_i = Rᵀ V_i with the stored orthonormal R."""
+    s = grid(5)
+    bodies = [local(p) for p in s]
+    pb = interpolate(bodies, s, parameter="p")
+    assert pb.basis == "full" and pb.order == MODES and pb.n_samples == 5
+    np.testing.assert_allclose(pb.R.T @ pb.R, np.eye(MODES), atol=1e-13)
+    for i, (p, b) in enumerate(zip(s, bodies, strict=True)):
+        at = pb.at(p)
+        assert np.array_equal(at.M, pb.M[i]) and np.array_equal(at.K, pb.K[i])
+        assert not np.allclose(at.K, b.K)           # really other coordinates …
+        assert frf_error(at, b) < 1e-11             # … but the same transfer function
+        np.testing.assert_allclose(pb.T[i], pb.R.T @ b.V, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(pencil(at).real, np.sort(b.eigenvalues), rtol=1e-10,
+                                   atol=1e-9 * b.eigenvalues.max())
+        assert at.source["fingerprint"] == b.source["fingerprint"]
+        assert at.parameters == {"p": p} and at.method == "interpolated"
+        check_source(fe_at(p), at)                  # compare-frf accepts the sample's model
+    with pytest.raises(DataError, match="different FE model"):
+        check_source(fe_at(s[1]), pb.at(s[0]))
+    between = pb.at(0.37)
+    assert "fingerprint" not in between.source and between.source["n_dofs"] == 122
+    assert len(between.source["sample_fingerprints"]) == 5
+    check_source(fe_at(0.37), between)              # no fingerprint, the DOF map is checked
+
+
+def test_transformation_is_a_state_space_equivalence():
+    """Each local model's poles (damped, first-order form) and the eigenvalues of its
+    undamped pencil are invariant under X̃ = L X T⁻¹ (K̃ − λM̃ = L (K − λM) T⁻¹)."""
+    s = grid(3)
+    bodies = [local(p) for p in s]
+    pb = interpolate(bodies, s, parameter="p")
+    for i, b in enumerate(bodies):
+        poles, ours = stability(b).poles, stability(pb.at(s[i])).poles
+        assert ours.size == poles.size == 2 * MODES
+        dist = np.abs(ours[:, None] - poles[None, :])   # each pole has its twin, both ways
+        assert max(dist.min(axis=0).max(), dist.min(axis=1).max()) < 1e-10 * np.abs(
+            poles).max()
+        Tinv = np.linalg.inv(pb.T[i])
+        np.testing.assert_allclose(pb.L[i], np.linalg.inv(b.W.T @ pb.R), rtol=1e-12)
+        np.testing.assert_allclose(pb.D[i], pb.L[i] @ b.D @ Tinv, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(pb.B[i], pb.L[i] @ b.B, rtol=1e-12)
+        np.testing.assert_allclose(pb.C[i], b.C @ Tinv, rtol=1e-12)
+
+
+# --------------------------------------------------------------- between the samples
+def test_between_samples_converges_to_direct_reduction():
+    """At parameter values that are no samples, the FRF and eigenvalues of the interpolated
+    body approach those of a model reduced directly there as the samples are refined
+    (measured, linear: eigenvalues 4.2e-2, 1.2e-2, 4.8e-3, 4.5e-4 and FRF 1.5, 0.55, 0.15,
+    1.8e-2 for 3, 5, 9, 17 samples; cubic: 2.3e-2, 2.5e-3, 3.3e-4, 2.5e-6 and 2.0, 7.9e-2,
+    1.1e-2, 8.0e-5). The FRF error is max_f |H − H_direct| / max_f |H_direct| per channel,
+    so a shifted resonance counts fully (hence > 1 with 3 samples)."""
+    direct = {p: local(p) for p in BETWEEN}
+    errors = {}
+    for kind in ("linear", "cubic"):
+        for k in (3, 5, 9, 17):
+            s = grid(k)
+            pb = interpolate([local(p) for p in s], s, parameter="p", interpolation=kind)
+            at = {p: pb.at(p) for p in BETWEEN}
+            errors[kind, k] = (max(eig_error(at[p], direct[p]) for p in BETWEEN),
+                               max(frf_error(at[p], direct[p]) for p in BETWEEN))
+    for kind in ("linear", "cubic"):
+        ev = [errors[kind, k][0] for k in (3, 5, 9, 17)]
+        assert all(a > b for a, b in pairwise(ev)), (kind, ev)
+        fr = [errors[kind, k][1] for k in (5, 9, 17)]
+        assert all(a > b for a, b in pairwise(fr)), (kind, fr)
+    assert errors["linear", 17][0] < 1e-3 and errors["linear", 17][1] < 5e-2
+    assert errors["cubic", 17][0] < 1e-5 and errors["cubic", 17][1] < 1e-3
+    assert errors["cubic", 9][0] < errors["linear", 9][0] / 5
+
+
+def test_weights():
+    """Linear weights are hat functions (they reproduce linear functions of p), cubic ones
+    the not-a-knot spline's cardinal functions (they reproduce cubics); both sum to one and
+    are unit vectors at the samples."""
+    s = np.array([0.0, 0.5, 1.2, 2.0, 3.5])
+    pb = interpolate([local(p, modes=3, n_el=30) for p in s], s)
+    np.testing.assert_array_equal(pb.weights(0.25), [0.5, 0.5, 0, 0, 0])
+    for p in np.linspace(0, 3.5, 23):
+        wl, wc = pb.weights(p), pb.weights(p, "cubic")
+        assert np.count_nonzero(wl) <= 2 and np.all(wl >= 0)
+        assert abs(wl.sum() - 1) < 1e-14 and abs(wc.sum() - 1) < 1e-13
+        assert abs(wl @ (2 * s - 1) - (2 * p - 1)) < 1e-13
+        assert abs(wc @ (s**3 - s**2) - (p**3 - p**2)) < 1e-11
+    for i, p in enumerate(s):
+        for kind in ("linear", "cubic"):
+            assert np.array_equal(pb.weights(p, kind), np.eye(5)[i])
+
+
+# ------------------------------------------------------------------------ Galerkin
+def test_one_sided_data_gives_the_galerkin_formula():
+    """W = V: L_i = T_i⁻ᵀ and X̃_i = T_i⁻ᵀ X_r,i T_i⁻¹; the general two-sided path
+    L_i = (W_iᵀ R)⁻¹ on the same data gives the same matrices."""
+    s = grid(3)
+    bodies = [local(p, two_sided=False) for p in s]
+    pb = interpolate(bodies, s, parameter="p")
+    assert not pb.two_sided and not pb.at(0.7).two_sided
+    as_two = [b.with_(settings={**b.settings, "two_sided": True}) for b in bodies]
+    pb2 = interpolate(as_two, s, parameter="p")
+    assert pb2.two_sided
+    for i, b in enumerate(bodies):
+        Ti = np.linalg.inv(pb.T[i])
+        assert np.array_equal(pb.L[i], Ti.T)
+        for key in ("M", "D", "K"):
+            ref = Ti.T @ b[key] @ Ti
+            scale = np.abs(ref).max()
+            np.testing.assert_allclose(pb[key][i], ref, rtol=0, atol=1e-12 * scale)
+            np.testing.assert_allclose(pb2[key][i], ref, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose(pb.W_kept[i], pb.V_kept[i], rtol=1e-13, atol=0)
+
+
+def test_galerkin_keeps_symmetric_models_symmetric():
+    """A symmetric structure (spring chain with a grounding spring k_g(p) at its middle
+    node): the one-sided local and interpolated mass and stiffness matrices stay symmetric
+    positive definite in common coordinates."""
+    chain = spring_chain(40, damping=1e-4)
+    mid = np.zeros(40)
+    mid[20] = 1.0
+
+    def body(p: float) -> ReducedBody:
+        fe = chain.with_(K=chain.K + sps.diags(3e4 * p * mid), name=f"chain-{p}")
+        return reduce_modal(fe, modes=6, two_sided=False, store_bases=True)
+
+    s = np.array([0.0, 1.0, 2.0])
+    pb = interpolate([body(p) for p in s], s, parameter="kg")
+    for X in (*pb.M, *pb.K, pb.at(0.4).M, pb.at(1.7, "cubic").K):
+        np.testing.assert_allclose(X, X.T, rtol=0, atol=1e-12 * np.abs(X).max())
+        assert np.linalg.eigvalsh(X).min() > 0
+
+
+# ---------------------------------------------------------------------- invariants
+def test_invariants_are_transformed_consistently():
+    """Step 6: the invariants of the interpolated body at a sample equal those computed from
+    the FE model with the transformed bases V_i T_i⁻¹, W_i L_iᵀ; between samples they stay
+    consistent with the interpolated matrices (Me = M, Ke = K, node Φ = the V_kept rows)."""
+    s = grid(3)
+    bodies = [attach_invariants(local(p, modes=4, n_el=40), fe_at(p, 40)) for p in s]
+    pb = interpolate(bodies, s, parameter="p")
+    ids = [int(i) for i in bodies[0].nodes[:, 0]]
+    for i, p in enumerate(s):
+        Tinv = np.linalg.inv(pb.T[i])
+        ref = compute_invariants(fe_at(p, 40), bodies[i].V @ Tinv, bodies[i].W @ pb.L[i].T,
+                                 nodes=ids).to_flat()
+        got = pb.at(p).invariants
+        assert list(got) == list(ref)
+        for name, a in ref.items():
+            if a.dtype.kind == "f":
+                scale = max(np.abs(a).max(), 1e-300)
+                np.testing.assert_allclose(got[name], a, rtol=0, atol=1e-9 * scale,
+                                           err_msg=name)
+            else:
+                assert np.array_equal(got[name], a), name
+    for p in (0.3, 1.45):
+        at = pb.at(p)
+        inv = body_invariants(at)
+        np.testing.assert_allclose(inv.Me.m0, at.M, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(inv.Ke.m0, at.K, rtol=1e-12, atol=1e-9)
+        row = int(np.flatnonzero((at.dof_node == 1) & (at.dof_kind == "ux"))[0])
+        np.testing.assert_allclose(inv.node(1).phi.m0[0], at.V_kept[row], rtol=1e-12)
+        np.testing.assert_allclose(inv.node(1).load_phi[0], at.W_kept[row], rtol=1e-12)
+
+
+# -------------------------------------------------------------------- kept rows only
+def test_kept_rows_basis():
+    """Bodies without full bases: with every node kept, basis='kept' gives the same common
+    coordinates as the full bases (the rows are only permuted); with the default kept nodes
+    (3 DOFs for 8 coordinates) it is a clear error, as is basis='full'."""
+    s = grid(3)
+    full = interpolate([local(p) for p in s], s, parameter="p")
+    kept_bodies = [local(p, store=False, keep_all=True) for p in s]
+    assert kept_bodies[0].V is None
+    kept = interpolate(kept_bodies, s, parameter="p")
+    assert kept.basis == "kept"
+    for key in ("M", "D", "K", "B", "C", "T"):
+        scale = np.abs(full[key]).max()
+        np.testing.assert_allclose(kept[key], full[key], rtol=0, atol=1e-9 * scale,
+                                   err_msg=key)
+    few = [local(p, store=False) for p in s]
+    with pytest.raises(DataError, match="3 kept DOFs cannot determine 8"):
+        interpolate(few, s)
+    with pytest.raises(DataError, match="store_bases"):
+        interpolate(few, s, basis="full")
+    with pytest.raises(DataError, match="store_bases"):
+        interpolate(kept_bodies, s, store_bases=True)
+
+
+# -------------------------------------------------------------------------- file
+def _assert_same(a: ParametricBody, b: ParametricBody) -> None:
+    for key in ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node",
+                "dof_kind", "V_kept", "W_kept", "T", "L", "R", "singular_values",
+                "svd_weights", "V", "W"):
+        x, y = a[key], b[key]
+        assert (x is None) == (y is None), key
+        if x is not None:
+            assert x.dtype == y.dtype and np.array_equal(x, y), key
+    for key in ("parameter", "input_names", "output_names", "basis", "two_sided",
+                "interpolation", "sample_sources", "sample_methods", "sample_settings",
+                "format_version"):
+        assert a[key] == b[key], key
+    assert list(a.invariants) == list(b.invariants)
+    for k in a.invariants:
+        assert a.invariants[k].dtype == b.invariants[k].dtype
+        assert np.array_equal(a.invariants[k], b.invariants[k]), k
+
+
+@pytest.fixture(scope="module")
+def pbody():
+    s = grid(3)
+    bodies = [attach_invariants(local(p, modes=4, n_el=40), fe_at(p, 40)) for p in s]
+    return interpolate(bodies, s, parameter="p", interpolation="cubic", store_bases=True,
+                       weights=[1.0, 2.0, 1.0])
+
+
+def test_file_round_trip_is_exact(pbody, tmp_path):
+    path = tmp_path / "pb.npz"
+    pbody.save(path)
+    back = load_parametric_body(path)
+    _assert_same(pbody, back)
+    for p in (0.0, 0.77, 2.0):
+        a, b = pbody.at(p), back.at(p)
+        for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept", "V", "W"):
+            assert np.array_equal(a[key], b[key]), key
+        assert a.settings == b.settings and a.source == b.source
+    with np.load(path, allow_pickle=False) as z:
+        meta = json.loads(z["meta"].tobytes().decode())
+        assert all(z[k].dtype != object for k in z.files)
+    assert meta["format"] == "neweul-parametric-body" and meta["version"] == 1
+    assert meta["parameter"] == "p" and meta["interpolation"] == "cubic"
+
+
+def test_interrupted_write_keeps_the_old_file(pbody, tmp_path, monkeypatch):
+    path = tmp_path / "pb.npz"
+    pbody.save(path)
+    before = path.read_bytes()
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "savez", boom)
+    with pytest.raises(KeyboardInterrupt):
+        pbody.with_(interpolation="linear").save(path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["pb.npz"]
+
+
+def test_bad_files_are_rejected(pbody, tmp_path):
+    path = tmp_path / "pb.npz"
+    pbody.save(path)
+    with pytest.raises(DataError, match='"format" must be'):
+        ReducedBody.load(path)
+    local(0.0, modes=4, n_el=40).save(tmp_path / "b.npz")
+    with pytest.raises(DataError, match=r"ReducedBody\.load") as exc:
+        load_parametric_body(tmp_path / "b.npz")
+    assert exc.value.file == str(tmp_path / "b.npz")
+    data = dict(np.load(path))
+    meta = json.loads(data["meta"].tobytes().decode())
+    np.savez(path, **{**data, "meta": json_to_uint8({**meta, "version": 2})})
+    with pytest.raises(DataError, match="unsupported version 2"):
+        load_parametric_body(path)
+    del data["T"]
+    np.savez(path, **data)
+    with pytest.raises(DataError, match="missing arrays") as exc:
+        load_parametric_body(path)
+    assert exc.value.item == "T"
+    np.savez(path, **{**data, "T": np.zeros((3, 4, 4)), "samples": np.array([0.0, 2, 1])})
+    with pytest.raises(DataError, match="strictly increasing") as exc:
+        load_parametric_body(path)
+    assert exc.value.file == str(path)
+
+
+# -------------------------------------------------------------------- bad inputs
+def test_outside_the_sampled_range_is_an_error():
+    s = grid(3)
+    pb = interpolate([local(p) for p in s], s, parameter="pressure")
+    for p in (-1e-9, 2.0 + 1e-9, np.nan, np.inf):
+        with pytest.raises(DataError, match="outside the sampled range") as exc:
+            pb.at(p)
+        assert exc.value.item == "pressure"
+    with pytest.raises(DataError, match="unknown interpolation"):
+        pb.at(1.0, "quadratic")
+    with pytest.raises(DataError, match="must be a number"):
+        pb.at("high")
+
+
+def _renamed(b: ReducedBody) -> ReducedBody:
+    return b.with_(output_names=("p_far", "x_piston"))
+
+
+@pytest.mark.parametrize("make,samples,text", [
+    (lambda: [local(0.0)], [0.0], "at least 2"),
+    (lambda: [local(0.0), local(1.0), local(2.0)], [0.0, 2.0, 1.0], "strictly increasing"),
+    (lambda: [local(0.0), local(1.0), local(2.0)], [0.0, 1.0, 1.0], "strictly increasing"),
+    (lambda: [local(0.0), local(1.0)], [0.0, 1.0, 2.0], "3 sample values for 2 bodies"),
+    (lambda: [local(0.0), local(1.0)], [0.0, np.nan], "finite"),
+    (lambda: [local(0.0), local(1.0)], None, "record no value of 'p'"),
+    (lambda: [local(0.0).with_(parameters={"p": 0.5}), local(1.0)], [0.0, 1.0],
+     "records p = 0.5"),
+    (lambda: [local(0.0), local(1.0, n_el=60)], [0.0, 1.0], "n_dofs 62 vs 122"),
+    (lambda: [local(0.0), local(1.0, modes=6)], [0.0, 1.0], "order 6 vs 8"),
+    (lambda: [local(0.0), local(1.0, two_sided=False)], [0.0, 1.0], "one-sided vs two"),
+    (lambda: [local(0.0), _renamed(local(1.0))], [0.0, 1.0], "inputs/outputs"),
+    (lambda: [local(0.0), local(1.0, keep_all=True)], [0.0, 1.0], "kept DOFs"),
+    (lambda: [local(0.0), local(0.0)], [0.0, 1.0], "same FE model"),
+])
+def test_mismatched_bodies_and_samples_are_refused(make, samples, text):
+    with pytest.raises(DataError, match=text):
+        interpolate(make(), samples, parameter="p")
+
+
+def test_bad_options_and_singular_transformations():
+    s = [0.0, 1.0]
+    bodies = [local(p) for p in s]
+    for kw, text in (({"weights": [1.0, -1.0]}, "non-negative"),
+                     ({"weights": [0.0, 0.0]}, "not all zero"),
+                     ({"weights": [1.0]}, "need 2"),
+                     ({"basis": "half"}, "basis"),
+                     ({"interpolation": "spline"}, "interpolation")):
+        with pytest.raises(DataError, match=text):
+            interpolate(bodies, s, **kw)
+    # a second sample whose basis is orthogonal to the first: with all SVD weight on the
+    # first sample, T_2 = Rᵀ V_2 = 0 cannot be inverted
+    V1 = bodies[0].V
+    Q, _ = np.linalg.qr(np.hstack([V1, np.random.default_rng(1).normal(size=V1.shape)]))
+    b2 = bodies[1].with_(V=Q[:, MODES:], W=Q[:, MODES:])
+    with pytest.raises(SolverError, match=r"sample 2 .*T_i = Rᵀ V_i is singular"):
+        interpolate([bodies[0], b2], s, weights=[1.0, 0.0])
+    with pytest.raises(DataError, match="strictly increasing"):
+        interpolate(bodies, s).with_(samples=np.array([1.0, 0.0]))
+
+
+# --------------------------------------------------------------------------- CLI
+def test_cli_interpolate(tmp_path, capsys):
+    """`neweul interpolate` writes what `interpolate` returns (bit for bit); sample values
+    from --values or from the bodies' parameters; bad values are one-line errors."""
+    s = grid(3)
+    paths = []
+    for i, p in enumerate(s):
+        paths.append(str(tmp_path / f"b{i}.npz"))
+        local(p).with_(parameters={"p": float(p)}).save(paths[-1])
+    out = tmp_path / "pb.npz"
+    assert main(["interpolate", *paths, "--parameter", "p", "--values", "0,1,2", "-o",
+                 str(out)]) == 0
+    cap = capsys.readouterr()
+    assert "3 samples of p in [0, 2], order 8 (two-sided, full bases" in cap.out
+    assert "reading" in cap.err and "common subspace" in cap.err
+    ref = interpolate([ReducedBody.load(p) for p in paths], s, parameter="p")
+    _assert_same_core(ParametricBody.load(out), ref)
+    out2 = tmp_path / "pb2.npz"
+    assert main(["interpolate", *paths, "--parameter", "p", "--interpolation", "cubic",
+                 "-o", str(out2)]) == 0
+    assert ParametricBody.load(out2).interpolation == "cubic"
+    capsys.readouterr()
+    for values, text in (("0,1", "--values has 2 entries for 3 bodies"),
+                         ("0,2,1", "strictly increasing"),
+                         ("0,1.5,2", "records p = 1")):
+        bad = tmp_path / "bad.npz"
+        assert main(["interpolate", *paths, "--parameter", "p", "--values", values, "-o",
+                     str(bad)]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err[-1].startswith("neweul interpolate: error:") and text in err[-1]
+        assert not bad.exists()
+
+
+def _assert_same_core(a: ParametricBody, b: ParametricBody) -> None:
+    for key in ("samples", "M", "D", "K", "B", "C", "T", "L", "R", "V_kept", "W_kept"):
+        assert np.array_equal(a[key], b[key]), key
+    assert a.sample_sources == b.sample_sources
