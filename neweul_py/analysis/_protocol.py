@@ -19,6 +19,7 @@ from .module import load_generated
 
 __all__ = [
     "ParameterLike",
+    "constraint_reaction_jacobian",
     "coordinate_names",
     "load_module",
     "name_index",
@@ -220,15 +221,32 @@ def redundant_constraints(
     return report
 
 
-def check_mass_matrix(m: np.ndarray, names: Sequence[str], basis: np.ndarray | None = None) -> None:
+def check_mass_matrix(m: np.ndarray, names: Sequence[str], basis: np.ndarray | None = None,
+                      left: np.ndarray | None = None) -> None:
     """Raise :class:`ModelError` naming the coordinates without inertia when ``M`` is singular.
 
     With ``basis`` (columns spanning the admissible motions, e.g. the null space of ``G``), the
-    check is made for ``basisᵀ M basis``: a coordinate may be massless if the constraints fix it.
+    check is made for ``leftᵀ M basis`` (``left``: the test directions free of reactions, the
+    null space of the reaction Jacobian ``G_R``; default ``basis``): a coordinate may be
+    massless if the constraints fix it. The augmented matrix ``[M −G_Rᵀ; G 0]`` is regular
+    exactly when ``G``, ``G_R`` have full row rank and this matrix is regular. Unsymmetric
+    matrices (and those with their own test directions) are equilibrated
+    (:func:`equilibrated`) before the rank test.
     """
-    mr = m if basis is None else basis.T @ m @ basis
+    if basis is not None and left is not None and left.shape != basis.shape:
+        raise ModelError(
+            "the constraint reactions are linearly dependent (rank of the reaction Jacobian "
+            f"G_R: {m.shape[0] - left.shape[1]}, of G: {m.shape[0] - basis.shape[1]})"
+        )
+    scaled = left is not None and left is not basis
+    left = basis if left is None else left
+    mr = m if basis is None else left.T @ m @ basis
     if mr.size == 0:
         return
+    if scaled or not np.array_equal(m, m.T):
+        # test directions of their own, or two-sided elastic data (left and right bases
+        # scaled independently): rows and columns may be scaled very differently
+        mr = equilibrated(mr)
     ns, _ = null_space(mr, rtol=1e-12)
     if ns.shape[1]:
         motions = ns if basis is None else basis @ ns
@@ -238,13 +256,49 @@ def check_mass_matrix(m: np.ndarray, names: Sequence[str], basis: np.ndarray | N
         )
 
 
+def equilibrated(a: np.ndarray, sweeps: int = 30) -> np.ndarray:
+    """``D_r a D_c`` with positive diagonal ``D_r``, ``D_c`` such that every nonzero row and
+    column has largest magnitude ≈ 1 (Ruiz's iteration, SIAM J. Matrix Anal. Appl. 2001 /
+    RAL-TR-2001-034), so that a rank test does not mistake the scales of the rows (equations)
+    and columns (coordinates) for a near-singularity. Zero rows and columns stay zero."""
+    a = np.array(a, dtype=float)
+    for _ in range(sweeps):
+        r = np.abs(a).max(axis=1)
+        c = np.abs(a).max(axis=0)
+        r[r == 0] = 1.0
+        c[c == 0] = 1.0
+        if max(np.abs(r - 1).max(initial=0.0), np.abs(c - 1).max(initial=0.0)) < 1e-3:
+            break
+        a = a / np.sqrt(r)[:, None] / np.sqrt(c)[None, :]
+    return a
+
+
+def constraint_reaction_jacobian(module: Any, t: float, y: np.ndarray,
+                                 p: np.ndarray) -> np.ndarray:
+    """``G_R`` (nc, n) of the constraint reactions ``G_Rᵀ λ``: the module's
+    ``constraint_reaction_jacobian`` where it has one, else ``G = constraint_jacobian``.
+
+    The two differ only for constraints on node frames of two-sided elastic bodies: the
+    constraint ``g``, ``G ẏ``, ``γ`` moves with the right basis (``G = G_s S_V``), the reactions
+    enter the elastic equation rows through the left one (``G_R = G_s S_W``; equations.md §2,
+    docs/generated-module-protocol.md). Modules without the function (rigid models, modules
+    written before it existed) have ``G_R = G``.
+    """
+    fn = getattr(module, "constraint_reaction_jacobian", None)
+    if fn is None:
+        fn = module.constraint_jacobian
+    return np.asarray(fn(t, y, p), dtype=float).reshape(-1, y.size)
+
+
 def constraint_force_jacobian(
     module: Any, t: float, y: np.ndarray, p: np.ndarray, lam: np.ndarray
 ) -> np.ndarray:
-    """``∂(G(y)ᵀ λ)/∂y`` at fixed ``λ`` (equations.md §1), by central differences of the analytic G.
+    """``∂(G_R(y)ᵀ λ)/∂y`` at fixed ``λ`` (equations.md §1), by central differences of the
+    analytic reaction Jacobian ``G_R`` (:func:`constraint_reaction_jacobian`; ``G`` for
+    modules without one).
 
-    The protocol offers ``G`` but not its derivative; differencing the analytic ``G`` costs
-    ``2n`` evaluations of ``constraint_jacobian`` and is accurate to about ``1e-10`` relative.
+    The protocol offers ``G_R`` but not its derivative; differencing the analytic ``G_R`` costs
+    ``2n`` evaluations and is accurate to about ``1e-10`` relative.
     """
     n = y.size
     out = np.empty((n, n))
@@ -254,8 +308,8 @@ def constraint_force_jacobian(
         ym = y.copy()
         yp[j] += h
         ym[j] -= h
-        gp = np.asarray(module.constraint_jacobian(t, yp, p), dtype=float)
-        gm = np.asarray(module.constraint_jacobian(t, ym, p), dtype=float)
+        gp = constraint_reaction_jacobian(module, t, yp, p)
+        gm = constraint_reaction_jacobian(module, t, ym, p)
         out[:, j] = (gp - gm).T @ lam / (2 * h)
     return out
 
@@ -276,9 +330,13 @@ def constraint_time_derivative(module: Any, t: float, y: np.ndarray, p: np.ndarr
 
 
 def augmented_solve(
-    m: np.ndarray, g_jac: np.ndarray, force: np.ndarray, c_rhs: np.ndarray
+    m: np.ndarray, g_jac: np.ndarray, force: np.ndarray, c_rhs: np.ndarray,
+    reaction: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Accelerations and multipliers from ``M ÿ = F + Gᵀ λ``, ``G ÿ = c`` (equations.md §1).
+    """Accelerations and multipliers from ``M ÿ = F + G_Rᵀ λ``, ``G ÿ = c`` (equations.md §1).
+
+    ``reaction`` is the reaction Jacobian ``G_R`` (:func:`constraint_reaction_jacobian`;
+    ``None``: ``G_R = G``).
 
     Returns
     -------
@@ -291,7 +349,7 @@ def augmented_solve(
         return np.linalg.solve(m, force), np.zeros(0)
     kkt = np.zeros((n + nc, n + nc))
     kkt[:n, :n] = m
-    kkt[:n, n:] = -g_jac.T
+    kkt[:n, n:] = -(g_jac if reaction is None else reaction).T
     kkt[n:, :n] = g_jac
     sol = np.linalg.solve(kkt, np.concatenate([force, c_rhs]))
     return sol[:n], sol[n:]
@@ -354,3 +412,26 @@ def partition_basis(g_jac: np.ndarray, indep: np.ndarray, dep: np.ndarray) -> np
     if dep.size:
         basis[dep] = -np.linalg.solve(g_jac[:, dep], g_jac[:, indep])
     return basis
+
+
+def reaction_free_basis(g_reaction: np.ndarray, g_jac: np.ndarray, indep: np.ndarray,
+                        dep: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """Test directions ``N_R`` (n, n − nc) free of the reactions, ``G_R N_R = 0``.
+
+    Projecting ``M ÿ = F + G_Rᵀ λ`` with ``N_Rᵀ`` eliminates ``λ``. Where ``G_R = G`` this is
+    ``basis`` itself (:func:`partition_basis` of ``G``); otherwise the same partition
+    (``N_R[indep] = I``) when ``G_R[:, dep]`` is well conditioned, else an orthonormal basis
+    of the null space of ``G_R``. Any choice gives the same motions (a regular combination
+    of the projected equations).
+    """
+    if g_reaction.shape == g_jac.shape and np.array_equal(g_reaction, g_jac):
+        return basis
+    if dep.size and np.linalg.cond(g_reaction[:, dep]) < 1e8:
+        return partition_basis(g_reaction, indep, dep)
+    ns, rank = null_space(g_reaction)
+    if rank < g_reaction.shape[0]:
+        raise ModelError(
+            f"the constraint reactions are linearly dependent (rank of the reaction Jacobian "
+            f"G_R: {rank} < {g_reaction.shape[0]} constraints)"
+        )
+    return ns

@@ -1,13 +1,18 @@
 """Simulation of constrained systems (closed kinematic loops), equations.md §1.
 
-The index-3 DAE ``M ÿ + k = q + Gᵀ λ``, ``g(y, t) = 0`` is integrated in its index-1 form: at every
-right-hand-side call the augmented linear system
+The index-3 DAE ``M ÿ + k = q + G_Rᵀ λ``, ``g(y, t) = 0`` is integrated in its index-1 form: at
+every right-hand-side call the augmented linear system
 
-    [ M  −Gᵀ ] [ ÿ ]   [ q − k                               ]
-    [ G   0  ] [ λ ] = [ −γ − 2α ġ − β² g ],   ġ = G ẏ + ∂g/∂t
+    [ M  −G_Rᵀ ] [ ÿ ]   [ q − k                               ]
+    [ G    0   ] [ λ ] = [ −γ − 2α ġ − β² g ],   ġ = G ẏ + ∂g/∂t
 
 is solved for the accelerations and the multipliers (``α``, ``β``: Baumgarte stabilization,
-off by default). **Drift control**: the integrator is restarted at every output time, and before
+off by default). ``G_R`` is the Jacobian of the reactions (the module's
+``constraint_reaction_jacobian``): it differs from ``G = ∂g/∂y`` only for constraints on node
+frames of two-sided elastic bodies, whose reactions enter the elastic rows through the left
+basis (equations.md §2); modules without it have ``G_R = G``.
+
+**Drift control**: the integrator is restarted at every output time, and before
 each restart the state is projected back onto the position manifold ``g(y) = 0`` and the velocity
 manifold ``ġ = 0`` (Gauss–Newton steps of least change in the kinetic metric ``M``, or, with
 ``independent`` coordinates, by moving only the dependent ones — coordinate partitioning). The
@@ -54,7 +59,9 @@ class ConstrainedSimulation:
         Time, coordinates, velocities and outputs; the multipliers are appended to the outputs
         as ``lambda_<constraint>`` columns, so ``result.save("x.csv")`` writes them too.
     lambdas : ndarray (nt, nc)
-        Constraint multipliers (the generalized constraint forces are ``Gᵀ λ``).
+        Constraint multipliers (the generalized constraint forces are ``G_Rᵀ λ``; for a
+        ``coincide`` constraint the force that frame A exerts on frame B, in the components
+        of the constraint's frame).
     constraints : tuple of str
     position_residual, velocity_residual : ndarray (nt,)
         ``max |g|`` and ``max |ġ|`` at the output times (after projection).
@@ -103,6 +110,7 @@ class _Constraints:
         self.names = list(getattr(module, "CONSTRAINTS", []) or [])
         self.nc = len(self.names)
         self.n = len(module.COORDINATES)
+        self.separate_reactions = callable(getattr(module, "constraint_reaction_jacobian", None))
         self.rheonomic = bool(self.nc) and self._probe_rheonomic()
 
     def _probe_rheonomic(self) -> bool:
@@ -119,6 +127,13 @@ class _Constraints:
         return np.asarray(self.module.constraint_jacobian(t, y, self.p), dtype=float).reshape(
             self.nc, self.n
         )
+
+    def reaction(self, t: float, y: np.ndarray, gj: np.ndarray | None = None) -> np.ndarray:
+        """``G_R`` of the reactions ``G_Rᵀ λ`` (``G`` — ``gj`` when given — for modules
+        without ``constraint_reaction_jacobian``)."""
+        if not self.separate_reactions:
+            return self.jac(t, y) if gj is None else gj
+        return proto.constraint_reaction_jacobian(self.module, t, y, self.p)
 
     def g_t(self, t: float, y: np.ndarray) -> np.ndarray:
         if not self.rheonomic:
@@ -195,17 +210,36 @@ def _check_rank(con: _Constraints, t: float, y: np.ndarray, where: str = "initia
 
 
 def _check_regular(module: Any, con: _Constraints, t: float, y: np.ndarray, p: np.ndarray,
-                   where: str) -> None:
+                   where: str, dep: np.ndarray | None = None) -> None:
     """Name the cause of a singular augmented matrix: redundant constraints, or coordinates
-    without inertia in the motions the constraints allow."""
+    without inertia in the motions the constraints allow.
+
+    With reactions of their own (``G_R ≠ G``: node frames of two-sided elastic bodies, whose
+    left and right bases may be scaled very differently) the motions and the test directions
+    are the partition bases of ``G`` and ``G_R`` (``dep``, else the default partition), which
+    do not mix the scales of the coordinates as orthonormal null spaces would."""
     names = list(module.COORDINATES)
     m = np.asarray(module.mass_matrix(t, y, p), dtype=float)
     if not con.nc:
         proto.check_mass_matrix(m, names)
         return
     _check_rank(con, t, y, where)
-    basis, _ = proto.null_space(con.jac(t, y))
-    proto.check_mass_matrix(m, names, basis)
+    gj = con.jac(t, y)
+    gr = con.reaction(t, y, gj)
+    if gr is not gj and not np.array_equal(gr, gj):
+        if proto.redundant_constraints(gr, con.names):
+            raise NeweulError(f"redundant constraint reactions at the {where}: "
+                              + "; ".join(proto.redundant_constraints(gr, con.names)))
+        dep = default_partition(gj) if dep is None else dep
+        if dep is not None:
+            indep = np.array([j for j in range(con.n) if j not in set(dep.tolist())], dtype=int)
+            basis = proto.partition_basis(gj, indep, dep)
+            left = proto.reaction_free_basis(gr, gj, indep, dep, basis)
+            proto.check_mass_matrix(m, names, basis, left)
+            return
+    basis, _ = proto.null_space(gj)
+    left = basis if gr is gj else proto.null_space(gr)[0]
+    proto.check_mass_matrix(m, names, basis, left)
 
 
 def consistent_initial_state(
@@ -382,11 +416,11 @@ def simulate_constrained(
     y, yd = consistent_initial_state(
         module, y0, yd0, pv, float(times[0]), independent=independent, tol=projection_tol
     )
-    _check_regular(module, con, float(times[0]), y, pv, "initial state")
     alpha, beta = baumgarte
     dep = None
     if independent is not None and con.nc:
         _, dep = proto.partition(con.jac(times[0], y), names, independent)
+    _check_regular(module, con, float(times[0]), y, pv, "initial state", dep)
     nfev = 0
 
     def accelerations(t: float, yv: np.ndarray, ydv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -399,7 +433,7 @@ def simulate_constrained(
         c = -np.asarray(module.constraint_gamma(t, yv, ydv, pv), dtype=float)
         if alpha or beta:
             c = c - 2 * alpha * (gj @ ydv + con.g_t(t, yv)) - beta**2 * con.g(t, yv)
-        return proto.augmented_solve(m, gj, force, c)
+        return proto.augmented_solve(m, gj, force, c, con.reaction(t, yv, gj))
 
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
         nonlocal nfev
@@ -407,7 +441,7 @@ def simulate_constrained(
         try:
             ydd, _ = accelerations(t, x[:n], x[n:])
         except np.linalg.LinAlgError:
-            _check_regular(module, con, t, x[:n], pv, f"state at t = {t:.6g}")
+            _check_regular(module, con, t, x[:n], pv, f"state at t = {t:.6g}", dep)
             raise SolverError(
                 f"singular augmented system at t = {t:.6g}",
                 last_iterate=x.copy(),

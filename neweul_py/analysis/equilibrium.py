@@ -1,16 +1,18 @@
 """Static equilibrium by Newton's method with the analytic stiffness (equations.md §1).
 
 At rest (``ẏ = 0``) the equations of motion reduce to ``F(y) = (q − k)(y, 0, u) = 0``; with
-holonomic constraints to ``F(y) + G(y)ᵀ λ = 0``, ``g(y) = 0`` (``M ÿ + k = q + Gᵀ λ`` at
-``ÿ = ẏ = 0``).
+holonomic constraints to ``F(y) + G_R(y)ᵀ λ = 0``, ``g(y) = 0`` (``M ÿ + k = q + G_Rᵀ λ`` at
+``ÿ = ẏ = 0``; ``G_R`` the reaction Jacobian, ``= G = ∂g/∂y`` but for constraints on node
+frames of two-sided elastic bodies:
+:func:`~neweul_py.analysis._protocol.constraint_reaction_jacobian`).
 Newton's method uses the symbolically generated ``∂F/∂y`` (``force_jacobians``); the curvature term
-``∂(Gᵀλ)/∂y`` of constrained systems is a central difference of the analytic ``G``. Steps are
+``∂(G_Rᵀλ)/∂y`` of constrained systems is a central difference of the analytic ``G_R``. Steps are
 limited to ``max_step`` per coordinate and damped by a backtracking line search on ``½‖R‖²``.
 
 When Newton's method stalls (a local minimum of ``‖R‖`` that is no equilibrium), meets a singular
 Jacobian or runs out of iterations, the search is globalized by pseudo-transient continuation
 (Kelley & Keyes 1998) from the start: backward-Euler steps of the fictitious damped motion
-``M dy/dτ = F + Gᵀλ`` (kinetic metric ``M``, constraints solved at every step), the pseudo-time
+``M dy/dτ = F + G_Rᵀλ`` (kinetic metric ``M``, constraints solved at every step), the pseudo-time
 step growing by switched evolution relaxation until the iteration is plain Newton. The motion
 settles in a stable equilibrium — the one the start falls into.
 
@@ -50,7 +52,7 @@ class EquilibriumResult:
     y : ndarray (n,)
         Coordinates at equilibrium.
     lambda_ : ndarray (nc,)
-        Constraint multipliers (the generalized constraint forces are ``Gᵀ λ``).
+        Constraint multipliers (the generalized constraint forces are ``G_Rᵀ λ``).
     residual : float
         ``max |R|`` of the equilibrium equations at ``y``.
     iterations : int
@@ -128,16 +130,22 @@ def _diagnose(
     free: np.ndarray,
     k_mat: np.ndarray,
     g_free: np.ndarray,
+    r_free: np.ndarray,
 ) -> str:
-    """Why the equilibrium Jacobian is singular: redundant constraints or missing stiffness."""
+    """Why the equilibrium Jacobian is singular: redundant constraints (or reactions) or
+    missing stiffness."""
     if len(cnames):
         redundant = proto.redundant_constraints(g_free, list(cnames))
         if redundant:
             return "redundant constraints: " + "; ".join(redundant)
+        redundant = proto.redundant_constraints(r_free, list(cnames))
+        if redundant:
+            return "redundant constraints (their reactions): " + "; ".join(redundant)
         basis, _ = proto.null_space(g_free)
+        left, _ = proto.null_space(r_free)
     else:
-        basis = np.eye(free.size)
-    kr = basis.T @ k_mat[np.ix_(free, free)] @ basis
+        basis = left = np.eye(free.size)
+    kr = left.T @ k_mat[np.ix_(free, free)] @ basis
     ns, _ = proto.null_space(kr, rtol=1e-10)
     who = proto.participating_names(basis @ ns, [names[i] for i in free])
     return (
@@ -153,7 +161,7 @@ def _singular(jac: np.ndarray) -> bool:
 
 
 class _Problem:
-    """The equilibrium equations ``R(y, λ) = [F(y) + Gᵀλ; g(y)] = 0`` on the free coordinates,
+    """The equilibrium equations ``R(y, λ) = [F(y) + G_Rᵀλ; g(y)] = 0`` on the free coordinates,
     their Jacobian and the kinetic metric, for one module, time, parameter and input vector."""
 
     def __init__(self, module: Any, t: float, pv: np.ndarray, uv: np.ndarray,
@@ -162,6 +170,7 @@ class _Problem:
         self.names, self.cnames, self.free = names, cnames, free
         self.n, self.nc, self.nf = len(names), len(cnames), free.size
         self.zero = np.zeros(self.n)
+        self.separate_reactions = callable(getattr(module, "constraint_reaction_jacobian", None))
 
     def force(self, y: np.ndarray) -> np.ndarray:
         return np.asarray(self.module.force_vector(self.t, y, self.zero, self.pv, self.uv),
@@ -171,45 +180,57 @@ class _Problem:
         return np.asarray(self.module.constraint_jacobian(self.t, y, self.pv),
                           dtype=float).reshape(self.nc, self.n)
 
+    def r_jac(self, y: np.ndarray, g: np.ndarray | None = None) -> np.ndarray:
+        """The reaction Jacobian ``G_R``; ``G`` (``g`` itself when given) for modules without
+        ``constraint_reaction_jacobian``."""
+        if g is not None and not self.separate_reactions:
+            return g
+        return proto.constraint_reaction_jacobian(self.module, self.t, y, self.pv)
+
     def residual(self, y: np.ndarray, lam: np.ndarray) -> np.ndarray:
         force = self.force(y)
         if not self.nc:
             return force[self.free]
         g = np.asarray(self.module.constraints(self.t, y, self.pv), dtype=float)
-        return np.concatenate([(force + self.g_jac(y).T @ lam)[self.free], g])
+        return np.concatenate([(force + self.r_jac(y).T @ lam)[self.free], g])
 
     def start_multipliers(self, y: np.ndarray) -> np.ndarray:
-        """Least-squares ``λ`` of ``F + Gᵀλ = 0`` at ``y``."""
+        """Least-squares ``λ`` of ``F + G_Rᵀλ = 0`` at ``y``."""
         if not self.nc:
             return np.zeros(0)
-        gj = self.g_jac(y)
-        return np.linalg.lstsq(gj[:, self.free].T, -self.force(y)[self.free], rcond=None)[0]
+        rj = self.r_jac(y)
+        return np.linalg.lstsq(rj[:, self.free].T, -self.force(y)[self.free], rcond=None)[0]
 
     def motion_multipliers(self, y: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """``λ`` of the constrained motion in the metric ``w``: ``G w⁻¹ (F + Gᵀλ) = 0``."""
+        """``λ`` of the constrained motion in the metric ``w``: ``G w⁻¹ (F + G_Rᵀλ) = 0``."""
         if not self.nc:
             return np.zeros(0)
         gf = self.g_jac(y)[:, self.free]
+        rf = self.r_jac(y)[:, self.free] if self.separate_reactions else gf
         f = self.force(y)[self.free]
         wg = np.linalg.solve(w, gf.T)
-        return np.linalg.lstsq(gf @ wg, -(wg.T @ f), rcond=None)[0]
+        wr = wg if rf is gf else np.linalg.solve(w, rf.T)
+        return np.linalg.lstsq(gf @ wr, -(wg.T @ f), rcond=None)[0]
 
     def jacobian(self, y: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                 np.ndarray]:
-        """``∂R/∂(y_free, λ)``, the full stiffness ``∂(F + Gᵀλ)/∂y`` and ``G[:, free]``."""
+                                                                 np.ndarray, np.ndarray]:
+        """``∂R/∂(y_free, λ)``, the full stiffness ``∂(F + G_Rᵀλ)/∂y``, ``G[:, free]`` and
+        ``G_R[:, free]``."""
         m = self.module
         f_y = np.asarray(m.force_jacobians(self.t, y, self.zero, self.pv, self.uv)[0],
                          dtype=float)
         free, nf = self.free, self.nf
         if not self.nc:
-            return f_y[np.ix_(free, free)], f_y, np.zeros((0, nf))
+            none = np.zeros((0, nf))
+            return f_y[np.ix_(free, free)], f_y, none, none
         gj = self.g_jac(y)
+        rj = self.r_jac(y, gj)
         k_full = f_y + proto.constraint_force_jacobian(m, self.t, y, self.pv, lam)
         jac = np.zeros((nf + self.nc, nf + self.nc))
         jac[:nf, :nf] = k_full[np.ix_(free, free)]
-        jac[:nf, nf:] = gj[:, free].T
+        jac[:nf, nf:] = rj[:, free].T
         jac[nf:, :nf] = gj[:, free]
-        return jac, k_full, gj[:, free]
+        return jac, k_full, gj[:, free], rj[:, free]
 
     def metric(self, y: np.ndarray) -> np.ndarray:
         """The kinetic metric ``M[free, free]``: its symmetric part with the eigenvalues floored
@@ -276,7 +297,7 @@ def _newton(prob: _Problem, y: np.ndarray, lam: np.ndarray, *, xtol: float, maxi
     out = _Outcome(y, lam, prob.residual(y, lam))
     stalled = 0
     for _ in range(maxiter + 1):
-        jac, k_full, g_free = prob.jacobian(out.y, out.lam)
+        jac, k_full, g_free, r_free = prob.jacobian(out.y, out.lam)
         if np.abs(out.r).max(initial=0.0) <= prob.roundoff(jac, out.y, out.lam):
             out.status = "converged"
             return out
@@ -284,7 +305,8 @@ def _newton(prob: _Problem, y: np.ndarray, lam: np.ndarray, *, xtol: float, maxi
             return out
         out.iterations += 1
         if _singular(jac):
-            out.singular = _diagnose(prob.names, prob.cnames, prob.free, k_full, g_free)
+            out.singular = _diagnose(prob.names, prob.cnames, prob.free, k_full,
+                                     g_free, r_free)
             out.status = "redundant" if out.singular.startswith("redundant") else "singular"
             return out
         step = np.linalg.solve(jac, -out.r)
@@ -314,14 +336,14 @@ def _continuation(prob: _Problem, y: np.ndarray, *, xtol: float, maxiter: int,
                   max_step: float) -> _Outcome:
     """Pseudo-transient continuation (Kelley & Keyes 1998) in the kinetic metric ``M``.
 
-    Each step is one backward-Euler step of the fictitious motion ``M dy/dτ = F + Gᵀλ`` (the
+    Each step is one backward-Euler step of the fictitious motion ``M dy/dτ = F + G_Rᵀλ`` (the
     damped dynamics, which settle in a stable equilibrium), with the constraints solved at every
     step::
 
-        [ K − M/Δτ   Gᵀ ] [ δy ]     [ F + Gᵀλ ]
-        [ G          0  ] [ δλ ] = − [ g       ]
+        [ K − M/Δτ   G_Rᵀ ] [ δy ]     [ F + G_Rᵀλ ]
+        [ G          0    ] [ δλ ] = − [ g         ]
 
-    The multipliers are those of the motion, ``G M⁻¹ (F + Gᵀλ) = 0`` (the residual is then the
+    The multipliers are those of the motion, ``G M⁻¹ (F + G_Rᵀλ) = 0`` (the residual is then the
     force that drives the constrained motion, and ``‖R‖`` is measured in ``M⁻¹``). ``Δτ`` starts
     small against the mass/stiffness scale (``‖M‖/Δτ₀ = 10 ‖K‖``, and the first step no
     longer than ``max_step / 10``) and grows by switched evolution relaxation,
@@ -345,11 +367,12 @@ def _continuation(prob: _Problem, y: np.ndarray, *, xtol: float, maxiter: int,
     out = _Outcome(y, lam, r)
     dtau = dtau_min = 0.0
     for _ in range(maxiter + 1):
-        jac, k_full, g_free = prob.jacobian(out.y, out.lam)
+        jac, k_full, g_free, r_free = prob.jacobian(out.y, out.lam)
         if np.abs(out.r).max(initial=0.0) <= prob.roundoff(jac, out.y, out.lam):
             if _singular(jac):  # not an isolated equilibrium: name the free motion
                 out.status = "singular"
-                out.singular = _diagnose(prob.names, prob.cnames, prob.free, k_full, g_free)
+                out.singular = _diagnose(prob.names, prob.cnames, prob.free, k_full,
+                                         g_free, r_free)
             else:
                 out.status = "converged"
             return out
@@ -415,11 +438,11 @@ def equilibrium(
 ) -> EquilibriumResult:
     """Static equilibrium of a generated module (equations.md §1).
 
-    Solves ``F(y) = (q − k)(y, ẏ = 0, u) = 0`` — and, with constraints, ``F + Gᵀ λ = 0``,
+    Solves ``F(y) = (q − k)(y, ẏ = 0, u) = 0`` — and, with constraints, ``F + G_Rᵀ λ = 0``,
     ``g(y) = 0`` — by damped Newton iterations with the analytic stiffness ``∂F/∂y``. When
     Newton's method stalls, meets a singular Jacobian or does not converge, the search is
     globalized by pseudo-transient continuation from the start (Kelley & Keyes 1998): it
-    follows the damped motion ``M dy/dτ = F + Gᵀλ`` in the kinetic metric ``M`` and ends in plain
+    follows the damped motion ``M dy/dτ = F + G_Rᵀλ`` in the kinetic metric ``M`` and ends in plain
     Newton, so it finds the *stable* equilibrium the start falls into.
 
     Parameters

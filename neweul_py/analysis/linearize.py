@@ -12,14 +12,20 @@ generated Jacobians (``force_jacobians``, ``mass_matrix_times_derivative``, ``ou
 Constrained systems (``CONSTRAINTS`` non-empty) are linearized *on the constraint manifold* in
 minimal coordinates: the coordinates are partitioned into independent ``z`` and dependent ones
 (:func:`~neweul_py.analysis._protocol.partition`), the admissible motions are ``δy = N δz`` with
-``G(y0) N = 0`` and ``N[indep] = I``, and the multipliers are eliminated by projecting with ``Nᵀ``:
+``G(y0) N = 0`` and ``N[indep] = I``, and the multipliers are eliminated by projecting with
+``N_Rᵀ``, ``G_R(y0) N_R = 0``:
 
-    Nᵀ M0 N δz̈ + Nᵀ P N δż + Nᵀ (Q − ∂(Gᵀλ0)/∂y) N δz = Nᵀ B δu.
+    N_Rᵀ M0 N δz̈ + N_Rᵀ P N δż + N_Rᵀ (Q − ∂(G_Rᵀλ0)/∂y) N δz = N_Rᵀ B δu.
 
-The term ``∂(Gᵀλ0)/∂y`` carries the stiffness that the constraint forces produce through the
-curvature of the manifold (for a pendulum in Cartesian coordinates it is *all* of the stiffness); it
-is obtained by central differences of the analytic ``G``. Constrained linearization is about rest
-points (``ẏ0 = 0``).
+``G_R`` is the Jacobian of the reactions ``G_Rᵀ λ`` (the module's ``constraint_reaction_jacobian``;
+it differs from ``G`` only for constraints on node frames of two-sided elastic bodies, whose
+reactions enter the elastic rows through the left basis, equations.md §2). Where ``G_R = G``,
+``N_R = N`` (:func:`~neweul_py.analysis._protocol.reaction_free_basis`); otherwise the model's
+matrices are unsymmetric anyway. The term ``∂(G_Rᵀλ0)/∂y`` carries the stiffness that the
+constraint forces produce through the curvature of the manifold (for a pendulum in Cartesian
+coordinates it is *all* of the stiffness); it is obtained by central differences of the analytic
+``G_R``. Constrained linearization is about rest points (``ẏ0 = 0``); away from an equilibrium
+(``ÿ0 ≠ 0``) the curvature of the manifold acting on ``ÿ0`` is not included.
 """
 
 from __future__ import annotations
@@ -61,6 +67,9 @@ class LinearModel:
         Names of ``u`` and of the module outputs (rows of ``C``).
     basis : ndarray (n, m)
         ``δy = basis · δz`` in the module's full coordinates (identity without constraints).
+        The equations are projected with the same basis, but for constraints whose reactions
+        differ from their Jacobian (node frames of two-sided elastic bodies: ``N_R``, see the
+        module docstring).
     all_coordinates : tuple of str
         The module's coordinate names (rows of ``basis``).
     y0, yd0, u0, p : ndarray
@@ -341,15 +350,17 @@ def linearize(
         c_full, d_out = np.zeros((0, 2 * n)), np.zeros((0, len(inputs)))
 
     if cnames:
-        indep, basis, ydd0, lam0, q_lam = _manifold(module, t, y, yd, pv, m0, force, independent)
+        indep, basis, left, ydd0, lam0, q_lam = _manifold(module, t, y, yd, pv, m0, force,
+                                                          independent)
     else:
         proto.check_mass_matrix(m0, names)
         indep, basis = np.arange(n), np.eye(n)
+        left = basis
         ydd0, lam0, q_lam = np.linalg.solve(m0, force), np.zeros(0), 0.0
     q_mat = -f_y - q_lam
     if np.any(ydd0):
         q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
-    nt = basis.T
+    nt = left.T
     two = np.zeros((2 * n, 2 * indep.size))
     two[:n, : indep.size] = basis
     two[n:, indep.size :] = basis
@@ -393,9 +404,9 @@ def _manifold(
 
     Returns
     -------
-    indep, basis, ydd0, lam0, dgl
-        Independent coordinate indices, ``N``, ``ÿ0`` and ``λ0`` of the augmented system, and
-        ``∂(Gᵀλ0)/∂y``.
+    indep, basis, left, ydd0, lam0, dgl
+        Independent coordinate indices, ``N``, ``N_R``, ``ÿ0`` and ``λ0`` of the augmented
+        system, and ``∂(G_Rᵀλ0)/∂y``.
     """
     names = proto.coordinate_names(module)
     cnames = list(module.CONSTRAINTS)
@@ -419,7 +430,12 @@ def _manifold(
         raise NeweulError("redundant constraints at the operating point: " + "; ".join(redundant))
     indep, dep = proto.partition(g_jac, names, independent)
     basis = proto.partition_basis(g_jac, indep, dep)
-    proto.check_mass_matrix(m0, names, basis)
+    g_r = g_jac
+    if callable(getattr(module, "constraint_reaction_jacobian", None)):
+        g_r = proto.constraint_reaction_jacobian(module, t, y, pv)
+    left = proto.reaction_free_basis(g_r, g_jac, indep, dep, basis)
+    proto.check_mass_matrix(m0, names, basis, left)
     gamma = np.asarray(module.constraint_gamma(t, y, yd, pv), dtype=float)
-    ydd0, lam0 = proto.augmented_solve(m0, g_jac, force, -gamma)
-    return indep, basis, ydd0, lam0, proto.constraint_force_jacobian(module, t, y, pv, lam0)
+    ydd0, lam0 = proto.augmented_solve(m0, g_jac, force, -gamma, g_r)
+    return (indep, basis, left, ydd0, lam0,
+            proto.constraint_force_jacobian(module, t, y, pv, lam0))

@@ -6,6 +6,11 @@ common subexpressions eliminated like the rest of the module.
 
 All four take ``u=None`` as a last argument like the other functions of the protocol (the
 default excitation when omitted); the protocol's ``(t, y, p)`` calls work unchanged.
+
+The reactions of rigid models are ``Gᵀ λ``, so these modules define no
+``constraint_reaction_jacobian`` (readers use ``G``); modules with elastic bodies add it
+(``G_s S_W``, :mod:`neweul_py.codegen.elastic`): a constraint on a node frame of a two-sided
+body loads its elastic rows through the left basis.
 """
 
 from __future__ import annotations

@@ -10,6 +10,9 @@ public functions are renamed ``_rigid_*`` and wrapped by functions that
    coordinates ``[u; θ] = [Φ_P; Ψ_P] q`` of the node frames), and back,
    ``M = S_Wᵀ M_s S_V``, ``q − k = S_Wᵀ (q − k)_s`` (``S_W``: left basis, so node loads enter
    the elastic rows as ``W_Pᵀ f``; :func:`~neweul_py.equations.elastic.node_coordinate_map`);
+   constraints likewise: ``g(S_V y)``, ``G = G_s S_V`` (and ``γ``) for the constraint
+   itself, ``G_R = G_s S_W`` for the reactions ``G_Rᵀ λ`` (``constraint_reaction_jacobian``:
+   a constraint on a node frame of a two-sided body loads its elastic rows through ``W_P``);
 2. add the elastic bodies' own terms with small matrix products on the *numeric* invariants::
 
     M   += J_Wᵀ M_b(q) J_V,   q − k −= J_Wᵀ (M_b(q) [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])
@@ -377,9 +380,18 @@ def constraints(t, y, p, u=None):
 
 
 def constraint_jacobian(t, y, p, u=None):
-    """``G = dg/dy``, shape (nc, n)."""
+    """``G = dg/dy = G_s S_V``, shape (nc, n): the constraints move with the node
+    coordinates ``[Phi_P; Psi_P] q``."""
     G = _rigid_constraint_jacobian(t, _sym(_np.asarray(y, dtype=_np.float64)), p, u)
     return G @ _SVA
+
+
+def constraint_reaction_jacobian(t, y, p, u=None):
+    """``G_R = G_s S_W``, shape (nc, n): the reactions are ``G_R^T lambda`` (on a node frame
+    of a two-sided body they reach its elastic rows as ``W_P^T f``, like every node load);
+    equal to ``constraint_jacobian`` where no two-sided node frame is involved."""
+    G = _rigid_constraint_jacobian(t, _sym(_np.asarray(y, dtype=_np.float64)), p, u)
+    return G @ _SWA
 
 
 def constraint_time_derivative(t, y, p, u=None):
