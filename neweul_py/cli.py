@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 from collections.abc import Sequence
 
@@ -47,7 +48,22 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not built yet
             raise
         module.register(sub)
+    _accept_negative_lists(parser)
     return parser
+
+
+#: Words that are values, not options: ``-4000``, ``-4000:4000:9``, ``-4000,0,4000``, ``-1e-3``.
+_NEGATIVE_VALUE = re.compile(r"^-\d[\d.:,eE+-]*$")
+
+
+def _accept_negative_lists(parser: argparse.ArgumentParser) -> None:
+    """Let every (sub-)parser take negative number lists and ranges as option values
+    (``--values -4000,0,4000``): argparse by itself only accepts plain ``-4000``-like words."""
+    parser._negative_number_matcher = _NEGATIVE_VALUE
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _accept_negative_lists(child)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

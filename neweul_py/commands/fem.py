@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 
 __all__ = ["register"]
@@ -25,8 +24,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "inversion, |dV| > 5 % of an air volume) stops the sweep with an error; nothing is "
         "written. Progress goes to stderr.",
     )
-    # let "--pressures -4000:4000:9" through: argparse only takes "-4000"-like words as values
-    me._negative_number_matcher = re.compile(r"^-\d[\d.:,eE+-]*$")
+    # "--pressures -4000:4000:9" gets through: cli.build_parser accepts negative lists
     me.add_argument(
         "--pressures",
         default="-4000:4000:9",
