@@ -178,3 +178,16 @@ def test_cache_key_follows_referenced_data_files(tmp_path):
     second = api._data_fingerprints(src.read_bytes(), src)
     assert first != second and len(first) == 1
     assert api._data_fingerprints(b"name: [", src) == []
+
+
+def test_negative_number_lists_are_option_values():
+    """`--values -4000,0,4000`, `--pressures -4000:4000:9` and `--f -1:2:3`-like words are
+    values, not unknown options; a real option after them still parses."""
+    from neweul_py.cli import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["interpolate", "a.npz", "b.npz", "c.npz", "--parameter", "dp",
+                              "--values", "-4000,0,4000", "-o", "x.npz"])
+    assert list(args.values) == [-4000.0, 0.0, 4000.0]
+    args = parser.parse_args(["fem", "middle-ear", "--pressures", "-4000:4000:9", "-o", "d"])
+    assert args.pressures == "-4000:4000:9" and args.output == "d"
