@@ -389,14 +389,23 @@ def partition(
             )
         return np.array(ind, dtype=int), np.array(dep, dtype=int)
     scale = max(np.abs(g_jac).max(), 1e-300) if g_jac.size else 1.0
-    dep: list[int] = []
-    for j in range(n - 1, -1, -1):
-        if len(dep) == nc:
-            break
-        trial = [*dep, j]
-        s = np.linalg.svd(g_jac[:, trial], compute_uv=False)
-        if s[-1] > 1e-8 * scale:
-            dep = trial
+
+    def greedy(rtol: float) -> list[int]:
+        chosen: list[int] = []
+        for j in range(n - 1, -1, -1):
+            if len(chosen) == nc:
+                break
+            trial = [*chosen, j]
+            if np.linalg.svd(g_jac[:, trial], compute_uv=False)[-1] > rtol * scale:
+                chosen = trial
+        return chosen
+
+    # Well-conditioned dependent blocks first: a coordinate whose G column is tiny (e.g. an
+    # elastic mode coordinate, Φ_P q with small mode amplitudes) would make δy_dep = −G_dep⁻¹
+    # G_indep δy_indep amplify round-off and difference errors by 1/σ_min.
+    dep = greedy(1e-3)
+    if len(dep) < nc:
+        dep = greedy(1e-8)
     if len(dep) < nc:
         raise NeweulError("constraint Jacobian has deficient rank; cannot partition coordinates")
     dep_arr = np.array(sorted(dep), dtype=int)

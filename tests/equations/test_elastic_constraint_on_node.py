@@ -174,6 +174,11 @@ def test_equilibrium_and_linear_model_equal_the_rigid_attachment(models) -> None
     evC = np.sort_complex(modes(linC).eigenvalues)
     evR = np.sort_complex(modes(linR).eigenvalues)
     np.testing.assert_allclose(evC, evR, rtol=1e-7)  # 6e-9 seen; G instead of G_R: 1.5e-2
+    # The default partition must not make a mode coordinate (tiny G column) dependent:
+    # the eigenvalues are the same for any well-conditioned choice.
+    lin_default = linearize(C, eqC)
+    assert not set(lin_default.coordinates) & {"bx", "by", "bz"}
+    np.testing.assert_allclose(np.sort_complex(modes(lin_default).eigenvalues), evR, rtol=1e-6)
     from neweul_py.analysis.frf import frequency_response
 
     f = np.linspace(5.0, 1500.0, 40)
