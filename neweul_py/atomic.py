@@ -16,7 +16,7 @@ from typing import IO
 
 from .errors import NeweulError
 
-__all__ = ["atomic_write"]
+__all__ = ["atomic_savez", "atomic_write"]
 
 
 def atomic_write(
@@ -60,3 +60,14 @@ def atomic_write(
             pass
         raise
     return path
+
+
+def atomic_savez(path: str | os.PathLike[str], **arrays: object) -> Path:
+    """Write ``arrays`` as an uncompressed ``.npz`` atomically (:func:`atomic_write`), refusing
+    object arrays: every file the project writes loads with ``allow_pickle=False``."""
+    import numpy as np
+
+    for key, value in arrays.items():
+        if np.asarray(value).dtype == object:
+            raise TypeError(f"array {key!r} has dtype object; it would need pickling")
+    return atomic_write(path, lambda fh: np.savez(fh, **arrays))

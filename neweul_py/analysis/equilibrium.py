@@ -23,7 +23,6 @@ redundant constraints. Such coordinates can be held at their start values with `
 
 from __future__ import annotations
 
-import io
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -32,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write
+from ..atomic import atomic_savez, atomic_write
 from ..errors import SolverError
 from . import _protocol as proto
 from .results import check_output_path
@@ -95,9 +94,8 @@ class EquilibriumResult:
         """Write an uncompressed ``.npz`` (no pickles), atomically: ``y``, ``lambda_``, ``p``,
         ``u``, ``t``, ``residual``, ``iterations`` and the names ``coordinates``,
         ``constraints``."""
-        buf = io.BytesIO()
-        np.savez(
-            buf,
+        return atomic_savez(
+            path,
             y=self.y,
             lambda_=self.lambda_,
             p=self.p,
@@ -108,7 +106,6 @@ class EquilibriumResult:
             coordinates=np.array(self.coordinates, dtype=str),
             constraints=np.array(self.constraints, dtype=str),
         )
-        return atomic_write(path, buf.getvalue())
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write ``.csv`` (:meth:`to_csv`) or ``.npz`` (:meth:`to_npz`) by the suffix."""

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from ..atomic import atomic_write
+from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 from . import _protocol as proto
 from .linearize import LinearModel, linearize
@@ -104,9 +104,8 @@ class FrequencyResponse:
         """Write an uncompressed ``.npz`` (no pickles), atomically: ``frequency_hz`` (nf,),
         the complex ``H`` (nf, ny, nu), ``magnitude`` and ``phase_deg`` (unwrapped), and the
         string arrays ``outputs`` and ``inputs``. :meth:`load` reads it back."""
-        buf = io.BytesIO()
-        np.savez(
-            buf,
+        return atomic_savez(
+            path,
             frequency_hz=self.frequency_hz,
             H=self.H,
             magnitude=self.magnitude,
@@ -114,7 +113,6 @@ class FrequencyResponse:
             outputs=np.array(self.outputs, dtype=str),
             inputs=np.array(self.inputs, dtype=str),
         )
-        return atomic_write(path, buf.getvalue())
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write ``.csv`` (:meth:`to_csv`) or ``.npz`` (:meth:`to_npz`) by the suffix."""

@@ -30,7 +30,6 @@ coordinates it is *all* of the stiffness); it is obtained by central differences
 
 from __future__ import annotations
 
-import io
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -39,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write
+from ..atomic import atomic_savez
 from ..errors import NeweulError
 from . import _protocol as proto
 from .results import check_output_path
@@ -227,9 +226,8 @@ class LinearModel:
         """Write the model to a ``.npz`` file (no pickles), atomically: matrices, names and
         operating point. Other suffixes are an error (the name is not changed silently)."""
         path = check_output_path(path, (".npz",), "linear models")
-        buf = io.BytesIO()
-        np.savez(
-            buf,
+        return atomic_savez(
+            path,
             M0=self.M0,
             P=self.P,
             Q=self.Q,
@@ -252,7 +250,6 @@ class LinearModel:
                 [[name, *rates, "", ""][:3] for name, rates in self.input_rates], dtype=str
             ).reshape(-1, 3),
         )
-        return atomic_write(path, buf.getvalue())
 
     @classmethod
     def load(cls, path: str | Path) -> LinearModel:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from ..atomic import atomic_write
+from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 from .linearize import LinearModel, linearize
 from .results import check_output_path
@@ -160,9 +160,8 @@ class ModalResult:
         pickles), atomically: complex ``eigenvalues`` (k,) and ``shapes`` (n, k),
         ``frequency_hz``, ``damped_frequency_hz``, ``damping_ratio`` (NaN for rigid modes), and
         the string arrays ``kind`` and ``coordinates``. :meth:`load` reads it back."""
-        buf = io.BytesIO()
-        np.savez(
-            buf,
+        return atomic_savez(
+            path,
             eigenvalues=self.eigenvalues,
             frequency_hz=self.frequency_hz,
             damped_frequency_hz=self.damped_frequency_hz,
@@ -171,7 +170,6 @@ class ModalResult:
             shapes=self.shapes,
             coordinates=np.array(self.coordinates, dtype=str),
         )
-        return atomic_write(path, buf.getvalue())
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write ``.csv`` (:meth:`to_csv`, oscillating modes) or ``.npz`` (:meth:`to_npz`, all

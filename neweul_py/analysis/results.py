@@ -3,7 +3,6 @@ atomically."""
 
 from __future__ import annotations
 
-import io
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -11,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_write
+from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 
 __all__ = ["SUFFIXES", "SimulationResult", "check_output_path", "load_npz"]
@@ -134,9 +133,8 @@ class SimulationResult:
         """Write an uncompressed ``.npz`` (no pickles): arrays ``t``, ``y``, ``yd``,
         ``outputs``, and string arrays ``coordinates``, ``output_names``, ``names``, ``units``,
         plus ``parameter_names``/``parameter_values``, ``model_name``, ``source_hash``."""
-        buf = io.BytesIO()
-        np.savez(
-            buf,
+        return atomic_savez(
+            path,
             t=self.t,
             y=self.y,
             yd=self.yd,
@@ -153,7 +151,6 @@ class SimulationResult:
             source_hash=np.array(self.source_hash),
             method=np.array(self.method),
         )
-        return atomic_write(path, buf.getvalue())
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write CSV or NPZ according to the suffix of ``path``."""

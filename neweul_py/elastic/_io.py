@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write
+from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError
 
 __all__ = [
@@ -51,10 +51,7 @@ def json_from_uint8(arr: np.ndarray, file: str | None = None, item: str = "meta"
 
 def save_npz_atomic(path: str | os.PathLike, arrays: Mapping[str, np.ndarray]) -> None:
     """Save ``arrays`` as an uncompressed ``.npz`` atomically (no object arrays, no pickles)."""
-    for key, value in arrays.items():
-        if np.asarray(value).dtype == object:
-            raise TypeError(f"array {key!r} has dtype object; it would need pickling")
-    atomic_write(path, lambda fh: np.savez(fh, **arrays))
+    atomic_savez(path, **arrays)
 
 
 def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
