@@ -1,6 +1,7 @@
 """``neweul interpolate BODY1.npz BODY2.npz … --parameter NAME [--values V1,V2,…]
-[--interpolation linear|cubic] [--basis auto|full|kept] [--weights W1,…] [--store-bases]
--o pbody.npz``: local reduced bodies → parametric body (``reference/equations.md`` §4)."""
+[--interpolation linear|cubic] [--basis auto|full|kept] [--row-scaling kind|none]
+[--pressure-weight W] [--weights W1,…] [--store-bases] -o pbody.npz``: local reduced bodies →
+parametric body (``reference/equations.md`` §4)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import argparse
 import sys
 import time
 
-from ..elastic.interpolation import BASES, INTERPOLATIONS, interpolate
+from ..elastic.interpolation import BASES, INTERPOLATIONS, PRESSURE_WEIGHT, interpolate
 from ..elastic.reduced_body import load_reduced_body
 from ..errors import NeweulError
 
@@ -43,6 +44,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--basis", choices=BASES, default="auto",
                         help="basis rows for the common subspace: full bases (needs "
                         "--store-bases at reduction) or the kept rows (default auto)")
+    parser.add_argument("--row-scaling", choices=("kind", "none"), default=None,
+                        help="row metric of the common subspace: kind = one factor per "
+                        "group of DOF kinds (translations, rotations, pressure), balanced, "
+                        "pressure down-weighted (structure first); none = plain rows "
+                        "(default: kind when the bodies record the DOF kinds of their "
+                        "bases, else none)")
+    parser.add_argument("--pressure-weight", type=float, default=PRESSURE_WEIGHT,
+                        metavar="W", help="factor of the pressure rows on top of the "
+                        f"balanced kind scaling (default {PRESSURE_WEIGHT:g}; 1 = balanced)")
     parser.add_argument("--weights", type=_floats, metavar="W1,W2,…",
                         help="SVD weights of the samples (default all 1)")
     parser.add_argument("--store-bases", action="store_true",
@@ -67,13 +77,16 @@ def run(args: argparse.Namespace) -> int:
         _progress(f"reading {path}")
         bodies.append(load_reduced_body(path))
     pb = interpolate(bodies, args.values, parameter=args.parameter, basis=args.basis,
-                     weights=args.weights, interpolation=args.interpolation,
-                     store_bases=args.store_bases, progress=_progress)
+                     row_scaling=args.row_scaling or "auto",
+                     pressure_weight=args.pressure_weight, weights=args.weights,
+                     interpolation=args.interpolation, store_bases=args.store_bases,
+                     progress=_progress)
     pb.save(args.output)
     lo, hi = pb.range
     sv = pb.singular_values
     cut = sv[pb.order] / sv[0] if sv.size > pb.order else 0.0
     print(f"{args.output}: {pb.n_samples} samples of {pb.parameter} in [{lo:g}, {hi:g}], "
           f"order {pb.order} ({'two' if pb.two_sided else 'one'}-sided, {pb.basis} bases, "
+          f"row scaling {pb.row_scaling}, "
           f"σ_r+1/σ_1 = {cut:.3g}), {time.perf_counter() - t0:.2f} s")
     return 0

@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
         body = attach_invariants(body, fe)
         _check_body_mass(body, args.output)
         if not args.store_bases:
-            body = body.with_(V=None, W=None)
+            body = body.with_(V=None, W=None, full_dof_kind=None)
     body.save(args.output)
     st = stability(body)
     side = "two-sided" if args.two_sided else "one-sided"

@@ -16,6 +16,7 @@ from .fe_model import DOF_KINDS, FE_KINDS, FEModel
 from .interpolation import (
     ParametricBody,
     interpolate,
+    kind_row_scale,
     load_parametric_body,
     save_parametric_body,
 )
@@ -46,6 +47,7 @@ __all__ = [
     "frf_full",
     "frf_reduced",
     "interpolate",
+    "kind_row_scale",
     "load_parametric_body",
     "load_reduced_body",
     "max_relative_error",

@@ -148,6 +148,7 @@ def build_reduced_body(
         nodes=node_rows, kept_dofs=dofs, dof_node=fe.dof_node[dofs],
         dof_kind=fe.dof_kind[dofs], V_kept=V[dofs], W_kept=W[dofs],
         V=V if store_bases else None, W=W if store_bases else None,
+        full_dof_kind=fe.dof_kind if store_bases else None,
         method=method, settings=dict(settings),
         eigenvalues=eigenvalues,
         source={"name": fe.name, "file": fe.source, "kind": fe.kind, "n_dofs": fe.n_dofs,

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import DataError
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
+from .fe_model import DOF_KINDS
 
 __all__ = [
     "REDUCED_BODY_FORMAT",
@@ -32,7 +33,7 @@ REDUCED_BODY_VERSION = 1
 _INV_PREFIX = "invariants/"
 _ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind", "V_kept",
            "W_kept")
-_OPTIONAL = ("V", "W", "eigenvalues")
+_OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind")
 
 
 def _json_normal(obj: Any, item: str) -> Any:
@@ -71,6 +72,10 @@ class ReducedBody:
         kept DOFs.
     V, W
         Optional (n, r) full bases (needed for parametric interpolation, §4).
+    full_dof_kind
+        Optional (n,) kind (``ux … rz, p``) of every row of the full bases, i.e. of every
+        FE DOF; the reductors set it whenever they store ``V``/``W``. Parametric
+        interpolation uses it to scale the rows per DOF kind (§4, ``row_scaling``).
     method
         ``"modal"`` or ``"krylov"`` (or another reductor's name).
     settings
@@ -115,6 +120,7 @@ class ReducedBody:
     source: Mapping[str, Any] = field(default_factory=dict)
     invariants: Mapping[str, np.ndarray] | None = None
     parameters: Mapping[str, float] | None = None
+    full_dof_kind: np.ndarray | None = None
     format_version: int = REDUCED_BODY_VERSION
 
     def __post_init__(self) -> None:
@@ -155,6 +161,26 @@ class ReducedBody:
                 set_(self, key, a)
         if self.eigenvalues is not None:
             set_(self, "eigenvalues", np.asarray(self.eigenvalues).ravel())
+        if self.full_dof_kind is not None:
+            kinds = np.asarray(self.full_dof_kind)
+            if kinds.ndim != 1 or kinds.dtype.kind not in "US":
+                raise DataError(f"must be a 1-D array of DOF kinds, got {kinds.dtype} "
+                                f"{kinds.shape}", None, "full_dof_kind")
+            kinds = kinds.astype("U2")
+            unknown = sorted(set(np.unique(kinds).tolist()) - set(DOF_KINDS))
+            if unknown:
+                raise DataError(f"unknown DOF kinds {unknown} (allowed: "
+                                f"{', '.join(DOF_KINDS)})", None, "full_dof_kind")
+            for key in ("V", "W"):
+                if self[key] is not None and self[key].shape[0] != kinds.size:
+                    raise DataError(f"{kinds.size} DOF kinds for the {self[key].shape[0]} "
+                                    f"rows of {key}", None, "full_dof_kind")
+            kept = self.kept_dofs
+            if np.any((kept < 0) | (kept >= kinds.size)) or not np.array_equal(
+                    kinds[kept], self.dof_kind):
+                raise DataError("the kinds of the kept DOFs differ from dof_kind", None,
+                                "full_dof_kind")
+            set_(self, "full_dof_kind", kinds)
         for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept"):
             if not np.all(np.isfinite(self[key])):
                 raise DataError("has NaN/Inf entries", None, key)

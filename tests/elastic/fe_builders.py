@@ -3,6 +3,8 @@
 * :func:`duct` – closed–closed 1-D acoustic duct (pressure DOFs), resonances ``n c / 2L``;
 * :func:`piston_duct` – a spring–mass piston closing one end of a duct, u–p coupled after
   Eq. (2) of ``reference/equations.md`` §3 (unsymmetric);
+* :func:`membrane_cavity` – a light string "membrane" closing a rigid 2-D air cavity, u–p
+  coupled after Eq. (2), SI units (a middle-ear-like mix of magnitudes);
 * :func:`random_up` – a random sparse u–p model with the block structure of Eq. (2);
 * :func:`spring_chain` – a fixed–free chain of springs and masses (structural, symmetric).
 """
@@ -67,6 +69,48 @@ def piston_duct(n_el: int = 200, length: float = 1.0, c: float = 343.0, rho: flo
                    inputs={"force": ((0, 1.0),)},
                    outputs={"p_end": ((npr, 1.0),), "x_piston": ((0, 1.0),)},
                    kind="up-coupled", density=rho, name="piston-duct")
+
+
+def membrane_cavity(tension: float, n_x: int = 24, n_z: int = 16, width: float = 8e-3,
+                    thickness: float = 7.5e-3, depth: float = 0.025, mass: float = 1.5e-5,
+                    c: float = 343.0, rho: float = 1.2, damping: float = 2e-5) -> FEModel:
+    """A pre-tensioned string (``uz`` DOFs, fixed ends) along the edge ``z = 0`` of a
+    rigid-walled 2-D air cavity ``width × depth`` (out-of-plane ``thickness``), SI units.
+
+    Structure: ``T ∫N'ᵀN'`` and ``μ ∫NᵀN`` (tension ``T`` in N, ``μ = mass / width``) on
+    the ``n_x − 1`` interior nodes; fluid: bilinear (tensor-product) ``Mf = t ∫NᵀN / c²``,
+    ``Kf = t ∫∇Nᵀ∇N``; coupling ``C = −t ∫ N_sᵀ N_f`` along the shared edge, Eq. (2)
+    ``[Ms 0; ρCᵀ Mf] ẍ + [Ks −C; 0 Kf] x = f``. Stiffness-proportional structural damping
+    ``damping · Ks``. Every string mode radiates into the cavity, so in unit-norm mode
+    shapes the displacements are ~1e-6 of the pressures (Pa vs m), as in the middle ear.
+    Input ``force`` and output ``umbo`` at the string node at a third of the width, output
+    ``probe`` (pressure) at the far wall.
+    """
+    Mx, Kx = line_matrices(n_x, width)
+    Mz, Kz = line_matrices(n_z, depth)
+    inner = slice(1, n_x)
+    n_s, nxp, nzp = n_x - 1, n_x + 1, n_z + 1
+    Ms = (mass / width * Mx)[inner][:, inner]
+    Ks = (tension * Kx)[inner][:, inner]
+    Mf = thickness * sps.kron(Mx, Mz) / c**2
+    Kf = thickness * (sps.kron(Kx, Mz) + sps.kron(Mx, Kz))
+    npr = nxp * nzp                                  # fluid node (i, j) → i·nzp + j
+    edge = (thickness * Mx)[inner].tocoo()
+    Cc = sps.csr_matrix((-edge.data, (edge.row, edge.col * nzp)), shape=(n_s, npr))
+    M = sps.bmat([[Ms, None], [rho * Cc.T, Mf]], format="csr")
+    K = sps.bmat([[Ks, -Cc], [None, Kf]], format="csr")
+    D = sps.bmat([[damping * Ks, None], [None, sps.csr_matrix((npr, npr))]], format="csr")
+    n = n_s + npr
+    xg, zg = np.linspace(0, width, nxp), np.linspace(0, depth, nzp)
+    X, Z = np.meshgrid(xg, zg, indexing="ij")
+    nodes = np.column_stack([np.arange(1, n + 1), np.concatenate([xg[1:-1], X.ravel()]),
+                             np.zeros(n), np.concatenate([np.zeros(n_s), Z.ravel()])])
+    umbo, probe = n_s // 3, n_s + (nxp // 3) * nzp + n_z
+    return FEModel(M=M, K=K, D=D, nodes=nodes, dof_node=np.arange(1, n + 1),
+                   dof_kind=np.array(["uz"] * n_s + ["p"] * npr),
+                   inputs={"force": ((umbo, 1.0),)},
+                   outputs={"umbo": ((umbo, 1.0),), "probe": ((probe, 1.0),)},
+                   kind="up-coupled", density=rho, name="membrane-cavity")
 
 
 def piston_duct_frequencies(count: int, length: float = 1.0, c: float = 343.0,

@@ -5,7 +5,10 @@ The parametric FE model is the u–p piston–duct of Eq. (2) (``fe_builders.pis
 DOFs, damped piston) whose piston stiffness depends on the parameter,
 ``k_s(p) = 2·10⁵ (1 + p)`` N/m, ``p ∈ [0, 2]``: the piston resonance moves from 318 to 551 Hz
 through the duct modes at 343 and 515 Hz, so the local modes veer, reorder and change sign
-between samples — the case that needs common coordinates. The references are independent of
+between samples — the case that needs common coordinates. The row scaling of u–p rows is
+tested on it (with static correction) and on ``fe_builders.membrane_cavity`` (a light string
+closing an air cavity in SI units, structural rows ~1e-6 of the pressure rows, as in the
+middle ear), purely structural rows on a spring chain and a beam. The references are independent of
 the code under test: the local two-sided modal models themselves (at the samples), models
 reduced directly at parameter values between the samples, invariants computed from the FE
 model with the transformed bases, and closed-form identities of the weights.
@@ -21,7 +24,8 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse as sps
-from fe_builders import piston_duct, spring_chain
+from beam_fe import beam
+from fe_builders import membrane_cavity, piston_duct, spring_chain
 
 from neweul_py.cli import main
 from neweul_py.elastic import (
@@ -30,12 +34,14 @@ from neweul_py.elastic import (
     check_source,
     frf_reduced,
     interpolate,
+    kind_row_scale,
     load_parametric_body,
     reduce_modal,
     stability,
 )
 from neweul_py.elastic._io import json_to_uint8
 from neweul_py.elastic.invariants import attach_invariants, body_invariants, compute_invariants
+from neweul_py.elastic.projection import build_reduced_body
 from neweul_py.errors import DataError, SolverError
 
 K0 = 2.0e5
@@ -80,21 +86,31 @@ def eig_error(a: ReducedBody, b: ReducedBody) -> float:
     return float(np.max(np.abs(la - lb) / np.abs(lb)))
 
 
+def row_scale(pb: ParametricBody) -> np.ndarray:
+    """The diagonal of S (ones for row_scaling 'none')."""
+    return np.ones(pb.R.shape[0]) if pb.row_scale is None else pb.row_scale
+
+
 # ------------------------------------------------------------------ at the samples
-def test_samples_are_reproduced_exactly():
+@pytest.mark.parametrize("scaling", ["none", "kind"])
+def test_samples_are_reproduced_exactly(scaling):
     """At p_i the interpolated body is the transformed local model: same transfer function
-    and same eigenvalues (to round-off); T_i = Rᵀ V_i with the stored orthonormal R."""
+    and same eigenvalues (to round-off); T_i = Rᵀ S V_i with the stored orthonormal R and
+    row scaling S — for the plain and the kind-scaled rows alike."""
     s = grid(5)
     bodies = [local(p) for p in s]
-    pb = interpolate(bodies, s, parameter="p")
+    pb = interpolate(bodies, s, parameter="p", row_scaling=scaling)
     assert pb.basis == "full" and pb.order == MODES and pb.n_samples == 5
+    assert pb.row_scaling == scaling
     np.testing.assert_allclose(pb.R.T @ pb.R, np.eye(MODES), atol=1e-13)
+    S = row_scale(pb)
     for i, (p, b) in enumerate(zip(s, bodies, strict=True)):
         at = pb.at(p)
         assert np.array_equal(at.M, pb.M[i]) and np.array_equal(at.K, pb.K[i])
         assert not np.allclose(at.K, b.K)           # really other coordinates …
-        assert frf_error(at, b) < 1e-11             # … but the same transfer function
-        np.testing.assert_allclose(pb.T[i], pb.R.T @ b.V, rtol=0, atol=1e-14)
+        assert frf_error(at, b) < 1e-10             # … but the same transfer function
+        Tref = pb.R.T @ (S[:, None] * b.V)
+        np.testing.assert_allclose(pb.T[i], Tref, rtol=0, atol=1e-14 * np.abs(Tref).max())
         np.testing.assert_allclose(pencil(at).real, np.sort(b.eigenvalues), rtol=1e-10,
                                    atol=1e-9 * b.eigenvalues.max())
         assert at.source["fingerprint"] == b.source["fingerprint"]
@@ -110,31 +126,49 @@ def test_samples_are_reproduced_exactly():
 
 def test_transformation_is_a_state_space_equivalence():
     """Each local model's poles (damped, first-order form) and the eigenvalues of its
-    undamped pencil are invariant under X̃ = L X T⁻¹ (K̃ − λM̃ = L (K − λM) T⁻¹)."""
+    undamped pencil are invariant under X̃ = L X T⁻¹ (K̃ − λM̃ = L (K − λM) T⁻¹), with
+    T = Rᵀ S V and L = (Wᵀ S_W R)⁻¹ from the stored row scalings. The poles agree to
+    round-off amplified by cond(T_i)·cond(L_i) (measured 3e-13 per unit for the plain and
+    the kind-scaled rows alike; tolerance 1e-11 per unit); the closed duct's double pole at
+    s = 0 (constant pressure, λ = 0) moves by √(round-off), so it is compared on that scale."""
     s = grid(3)
     bodies = [local(p) for p in s]
     pb = interpolate(bodies, s, parameter="p")
+    assert pb.row_scaling == "kind" and pb.left_row_scale is not None
+    S, SW = pb.row_scale[:, None], pb.left_row_scale[:, None]
     for i, b in enumerate(bodies):
         poles, ours = stability(b).poles, stability(pb.at(s[i])).poles
         assert ours.size == poles.size == 2 * MODES
-        dist = np.abs(ours[:, None] - poles[None, :])   # each pole has its twin, both ways
-        assert max(dist.min(axis=0).max(), dist.min(axis=1).max()) < 1e-10 * np.abs(
-            poles).max()
+        top = np.abs(poles).max()
+        zero = np.abs(poles) < 1e-6 * top
+        assert np.count_nonzero(zero) == 2 and np.all(np.abs(ours[np.abs(ours) < 1e-3 * top])
+                                                      < 1e-6 * top)
+        ours = ours[np.abs(ours) >= 1e-3 * top]
+        dist = np.abs(ours[:, None] - poles[~zero][None, :])   # each pole has its twin
+        amplification = np.linalg.cond(pb.T[i]) * np.linalg.cond(pb.L[i])
+        assert max(dist.min(axis=0).max(), dist.min(axis=1).max()) < (
+            1e-11 * amplification * top)
+        np.testing.assert_allclose(pencil(pb.at(s[i]))[1:], pencil(b)[1:], rtol=1e-11)
         Tinv = np.linalg.inv(pb.T[i])
-        np.testing.assert_allclose(pb.L[i], np.linalg.inv(b.W.T @ pb.R), rtol=1e-12)
-        np.testing.assert_allclose(pb.D[i], pb.L[i] @ b.D @ Tinv, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(pb.B[i], pb.L[i] @ b.B, rtol=1e-12)
-        np.testing.assert_allclose(pb.C[i], b.C @ Tinv, rtol=1e-12)
+        np.testing.assert_allclose(pb.T[i], pb.R.T @ (S * b.V), rtol=1e-12)
+        np.testing.assert_allclose(pb.L[i], np.linalg.inv((SW * b.W).T @ pb.R), rtol=1e-12)
+        for key, ref in (("D", pb.L[i] @ b.D @ Tinv), ("B", pb.L[i] @ b.B),
+                         ("C", b.C @ Tinv)):
+            np.testing.assert_allclose(pb[key][i], ref, rtol=0,
+                                       atol=1e-12 * np.abs(ref).max(), err_msg=key)
 
 
 # --------------------------------------------------------------- between the samples
 def test_between_samples_converges_to_direct_reduction():
     """At parameter values that are no samples, the FRF and eigenvalues of the interpolated
     body approach those of a model reduced directly there as the samples are refined
-    (measured, linear: eigenvalues 4.2e-2, 1.2e-2, 4.8e-3, 4.5e-4 and FRF 1.5, 0.55, 0.15,
-    1.8e-2 for 3, 5, 9, 17 samples; cubic: 2.3e-2, 2.5e-3, 3.3e-4, 2.5e-6 and 2.0, 7.9e-2,
-    1.1e-2, 8.0e-5). The FRF error is max_f |H − H_direct| / max_f |H_direct| per channel,
-    so a shifted resonance counts fully (hence > 1 with 3 samples)."""
+    (measured with the default kind row scaling, linear: eigenvalues 7.6e-4, 1.9e-4,
+    5.9e-5, 9.4e-6 and FRF 3.3e-2, 6.7e-3, 2.2e-3, 3.8e-4 for 3, 5, 9, 17 samples; cubic:
+    7.4e-5, 3.3e-7, 2.1e-8, 9.3e-11 and 3.3e-3, 1.1e-5, 6.7e-7, 3.4e-9 — with the plain
+    rows, row_scaling="none", linear 4.2e-2, 1.2e-2, 4.8e-3, 4.5e-4 and 1.5, 0.55, 0.15,
+    1.8e-2, cubic 2.3e-2, 2.5e-3, 3.3e-4, 2.5e-6 and 2.0, 7.9e-2, 1.1e-2, 8.0e-5). The FRF
+    error is max_f |H − H_direct| / max_f |H_direct| per channel, so a shifted resonance
+    counts fully (hence > 1 with 3 plain samples)."""
     direct = {p: local(p) for p in BETWEEN}
     errors = {}
     for kind in ("linear", "cubic"):
@@ -149,8 +183,8 @@ def test_between_samples_converges_to_direct_reduction():
         assert all(a > b for a, b in pairwise(ev)), (kind, ev)
         fr = [errors[kind, k][1] for k in (5, 9, 17)]
         assert all(a > b for a, b in pairwise(fr)), (kind, fr)
-    assert errors["linear", 17][0] < 1e-3 and errors["linear", 17][1] < 5e-2
-    assert errors["cubic", 17][0] < 1e-5 and errors["cubic", 17][1] < 1e-3
+    assert errors["linear", 17][0] < 1e-4 and errors["linear", 17][1] < 4e-3
+    assert errors["cubic", 17][0] < 1e-8 and errors["cubic", 17][1] < 1e-6
     assert errors["cubic", 9][0] < errors["linear", 9][0] / 5
 
 
@@ -245,6 +279,230 @@ def test_invariants_are_transformed_consistently():
         np.testing.assert_allclose(inv.node(1).load_phi[0], at.W_kept[row], rtol=1e-12)
 
 
+# ---------------------------------------------------------------------- row scaling
+def _random_bases(kinds: np.ndarray, k: int = 3, r: int = 6, seed: int = 0) -> list:
+    """Random bases whose rows have magnitudes 1e-7 (u), 1e-4 (r) and 1e2 (p)."""
+    rng = np.random.default_rng(seed)
+    mag = np.select([np.char.startswith(kinds, "u"), np.char.startswith(kinds, "r")],
+                    [1e-7, 1e-4], 1e2)
+    return [mag[:, None] * rng.normal(size=(kinds.size, r)) for _ in range(k)]
+
+
+def test_kind_row_scale_balances_the_groups():
+    """Reference: the RMS of each group's entries in the orthonormalized scaled bases
+    (np.linalg.qr of S V_i, stacked) — equal for translations, rotations and pressure —
+    and the invariances that make the result independent of units and basis vectors."""
+    kinds = np.array((["ux", "uy", "uz", "rx", "ry", "rz"] * 9) + ["p"] * 40)
+    Vs = _random_bases(kinds)
+    S = kind_row_scale(Vs, kinds)
+    Q = np.hstack([np.linalg.qr(S[:, None] * V)[0] for V in Vs])
+    groups = {"t": np.char.startswith(kinds, "u"), "r": np.char.startswith(kinds, "r"),
+              "p": kinds == "p"}
+    rms = {g: np.sqrt(np.mean(Q[m] ** 2)) for g, m in groups.items()}
+    np.testing.assert_allclose([rms["r"], rms["p"]], rms["t"], rtol=1e-8)
+    assert np.all(S[groups["t"]] == 1.0)                   # first group: factor 1
+    for m in groups.values():
+        assert np.all(S[m] == S[m][0])                     # one factor per group
+    # units: rows D⁻¹ (m → mm, rad → mrad, Pa → kPa) give S D; basis vectors V_i A_i
+    d = np.select([groups["t"], groups["r"]], [1e3, 1e3], 1e-3)
+    rng = np.random.default_rng(5)
+    other = [V / d[:, None] @ rng.normal(size=(6, 6)) for V in Vs]
+    S2 = kind_row_scale(other, kinds)
+    np.testing.assert_allclose(S2 / d, S / S[0] * (S2[0] / d[0]), rtol=1e-9)
+    # one group, or a group without entries: nothing to balance
+    assert np.array_equal(kind_row_scale(Vs, np.full(kinds.size, "uz")), np.ones(kinds.size))
+    zero_p = [np.where(groups["p"][:, None], 0.0, V) for V in Vs]
+    assert np.all(kind_row_scale(zero_p, kinds)[groups["p"]] == 1.0)
+
+
+@cache
+def cavity_at(p: float):
+    """Membrane tension 0.3 (1 + p) N: resonances 1.0–5.7 kHz at p = 0, +18 % at p = 0.4."""
+    return membrane_cavity(0.3 * (1 + p))
+
+
+@cache
+def cavity_body(p: float, store: bool = True) -> ReducedBody:
+    return reduce_modal(cavity_at(p), modes=20, static_correction=True, store_bases=store)
+
+
+CAVITY_SAMPLES = (0.0, 0.2, 0.4)
+CAVITY_BETWEEN = (0.1, 0.3)
+FC = np.linspace(50.0, 4000.0, 200)
+
+
+def median_error(a: ReducedBody, b: ReducedBody, output: str) -> float:
+    """Median over FC of |H_a − H_b| / |H_b| for input 'force' and ``output``."""
+    Ha, Hb = frf_reduced(a, FC, outputs=output), frf_reduced(b, FC, outputs=output)
+    return float(np.median(np.abs(Ha - Hb) / np.abs(Hb)))
+
+
+def in_pressure_unit(body: ReducedBody, fe, unit: float) -> ReducedBody:
+    """The same reduction of the same physics with pressure DOFs in units of 1/unit Pa.
+
+    p' = unit·p is the congruence x = D x', D = diag(1 (u), 1/unit (p)): the FE model
+    D M D, D K D, D D D, inputs D B, outputs C D (Eq. (2) is kept, ρ unchanged) with bases
+    D⁻¹ V, D⁻¹ W, projected from scratch (``build_reduced_body``). The eigensolver itself
+    refuses such rescaled models (see the report), hence the projection of the known bases.
+    """
+    d = np.where(fe.dof_kind == "p", 1.0 / unit, 1.0)
+    Dg = sps.diags(d)
+
+    def table(t):
+        return {k: tuple((i, w * d[i]) for i, w in v) for k, v in t.items()}
+
+    fe_u = fe.with_(M=Dg @ fe.M @ Dg, K=Dg @ fe.K @ Dg, D=Dg @ fe.D @ Dg,
+                    inputs=table(fe.inputs), outputs=table(fe.outputs))
+    return build_reduced_body(fe_u, body.V / d[:, None], body.W / d[:, None], body.method,
+                              body.settings, store_bases=True)
+
+
+def test_kind_scaling_aligns_a_light_membrane_in_si_units():
+    """A u–p model in SI units whose structural rows are ~1e-6 of the pressure rows in the
+    unit-norm bases (membrane_cavity: a light string closing an air cavity, as the middle
+    ear's TM): between the samples, against models reduced directly there, the structural
+    output (umbo displacement) is far better with the kind scaling than with the plain
+    rows (measured max over p of the median error: 3.0 % plain, 8e-5 kind, 1.3 % balanced
+    without the pressure weight; probe pressure 2.7 % and 2e-6; the nearest sample alone
+    18 %). The result does not depend on the unit of pressure (p in mPa or kPa: the same
+    errors to 1e-11), the plain one does (3.0 %, 2.9 %, 1.4 % for Pa, mPa, kPa)."""
+    s = np.array(CAVITY_SAMPLES)
+    bodies = [cavity_body(p) for p in s]
+    direct = {p: cavity_body(p, store=False) for p in CAVITY_BETWEEN}
+
+    def errors(bb, scaling, output="umbo"):
+        pb = interpolate(bb, s, parameter="tension", row_scaling=scaling)
+        return max(median_error(pb.at(p), direct[p], output) for p in CAVITY_BETWEEN)
+
+    plain, kind = errors(bodies, "none"), errors(bodies, "kind")
+    nearest = max(median_error(cavity_body(s[np.argmin(abs(s - p))]), direct[p], "umbo")
+                  for p in CAVITY_BETWEEN)
+    assert plain > 0.02 and kind < 1e-3 and kind < plain / 50 and nearest > 0.1
+    assert errors(bodies, "kind", "probe") < errors(bodies, "none", "probe") / 50
+    assert interpolate(bodies, s).row_scaling == "kind"      # the default
+    for unit in (1e3, 1e-3):
+        other = [in_pressure_unit(b, cavity_at(p), unit) for p, b in zip(s, bodies,
+                                                                         strict=True)]
+        assert median_error(other[1], bodies[1], "umbo") < 1e-6   # the same local models
+        assert errors(other, "kind") == pytest.approx(kind, rel=1e-4)
+        if unit < 1:
+            assert abs(errors(other, "none") - plain) > 0.3 * plain
+
+
+def test_kind_scaling_of_the_piston_duct_with_static_correction():
+    """One structural DOF (the piston) among 121 pressures, 8 modes + static correction:
+    the plain common coordinates mix the piston's static vector with the duct modes and
+    shift a resonance (max error ≈ 1 of the max-normalized FRF), the kind scaling aligns
+    it (measured 1.3 plain, 4.9e-3 kind, 1.9 balanced without the pressure weight)."""
+    s = grid(5)
+    bodies = [reduce_modal(fe_at(p), modes=MODES, static_correction=True, store_bases=True)
+              for p in s]
+    direct = {p: reduce_modal(fe_at(p), modes=MODES, static_correction=True)
+              for p in BETWEEN}
+    err = {sc: max(frf_error(interpolate(bodies, s, row_scaling=sc).at(p), direct[p])
+                   for p in BETWEEN) for sc in ("none", "kind")}
+    assert err["none"] > 0.5 and err["kind"] < 1e-2
+
+
+def test_structural_models_are_not_affected():
+    """Translations only (spring chain): the kind scaling is S = I, bit for bit the plain
+    result. A beam (translations and rotations; tension N(p) stiffens the bending modes):
+    the balanced rotation factor keeps the quality of the plain rows (measured max FRF
+    error between samples: plain 3.8e-3, kind 3.7e-3)."""
+    chain = spring_chain(40, damping=1e-4)
+    mid = np.zeros(40)
+    mid[20] = 1.0
+    bodies = [reduce_modal(chain.with_(K=chain.K + sps.diags(3e4 * p * mid), name=f"c{p}"),
+                           modes=6, store_bases=True) for p in (0.0, 1.0, 2.0)]
+    a = interpolate(bodies, [0.0, 1.0, 2.0], row_scaling="kind")
+    b = interpolate(bodies, [0.0, 1.0, 2.0], row_scaling="none")
+    assert a.row_scaling == "kind" and np.all(a.row_scale == 1.0)
+    for key in ("M", "D", "K", "B", "C", "T", "L", "R"):
+        assert np.array_equal(a[key], b[key]), key
+
+    def beam_at(p: float):
+        bm = beam(16)
+        clamp = np.zeros(bm.n)
+        clamp[:6] = 1e8
+        K = bm.fe.K + sps.diags(clamp) + bm.geometric_stiffness(np.full(16, 20.0 * p))
+        tip = bm.dof(16, 2)
+        return bm.fe.with_(K=K, D=1e-4 * K, inputs={"f": ((tip, 1.0),)},
+                           outputs={"w": ((tip, 1.0),), "ry": ((bm.dof(16, 4), 1.0),)},
+                           name=f"beam-{p}")
+
+    s = np.linspace(0.0, 1.0, 5)
+    bodies = [reduce_modal(beam_at(p), modes=8, store_bases=True) for p in s]
+    direct = {p: reduce_modal(beam_at(p), modes=8) for p in (0.1, 0.35, 0.6, 0.9)}
+    pbs = {sc: interpolate(bodies, s, row_scaling=sc) for sc in ("none", "kind")}
+    assert set(pbs["kind"].group_scales) == {"translation", "rotation"}
+    err = {sc: max(frf_error(pb.at(p), direct[p]) for p in direct) for sc, pb in pbs.items()}
+    assert err["kind"] < 1.2 * err["none"] and err["none"] < 0.1
+
+
+def test_given_row_scaling_equals_scaled_bases():
+    """An array S is the plain interpolation of the bodies with bases S V_i, S W_i (the
+    reduced matrices are those of the bodies): the same transformed matrices and T, L."""
+    s = grid(3)
+    bodies = [local(p) for p in s]
+    S = np.random.default_rng(3).uniform(0.1, 10.0, bodies[0].V.shape[0])
+    given = interpolate(bodies, s, row_scaling=S)
+    scaled = interpolate([b.with_(V=S[:, None] * b.V, W=S[:, None] * b.W) for b in bodies],
+                         s, row_scaling="none")
+    assert given.row_scaling == "given" and np.array_equal(given.row_scale, S)
+    assert given.left_row_scale is None and given.pressure_weight is None
+    for key in ("M", "D", "K", "B", "C", "T", "L", "R"):
+        np.testing.assert_allclose(given[key], scaled[key], rtol=1e-12,
+                                   atol=1e-12 * np.abs(scaled[key]).max(), err_msg=key)
+
+
+def test_galerkin_data_uses_one_scaling():
+    """One-sided data: S_W = S (none is stored), L_i = T_i⁻ᵀ; the two-sided path on the
+    same data balances W_i = V_i to the same S_W = S and gives the same matrices."""
+    s = grid(3)
+    bodies = [local(p, two_sided=False) for p in s]
+    pb = interpolate(bodies, s)
+    assert pb.row_scaling == "kind" and pb.left_row_scale is None
+    two = interpolate([b.with_(settings={**b.settings, "two_sided": True}) for b in bodies], s)
+    np.testing.assert_allclose(two.left_row_scale, two.row_scale, rtol=1e-10)
+    for key in ("M", "K"):
+        np.testing.assert_allclose(two[key], pb[key], rtol=0,
+                                   atol=1e-9 * np.abs(pb[key]).max(), err_msg=key)
+
+
+def test_row_scaling_options():
+    """Defaults and refusals: auto is kind with the DOF kinds of the rows (full bases with
+    full_dof_kind, or the kept rows), none for bodies reduced before full_dof_kind existed;
+    kind without kinds, bad arrays and pressure weights are errors."""
+    s = grid(3)
+    bodies = [local(p, modes=4, n_el=40) for p in s]
+    assert interpolate(bodies, s).row_scaling == "kind"
+    old = [b.with_(full_dof_kind=None) for b in bodies]
+    assert interpolate(old, s).row_scaling == "none"
+    with pytest.raises(DataError, match="needs the DOF kinds") as exc:
+        interpolate(old, s, row_scaling="kind")
+    assert exc.value.item == "full_dof_kind"
+    kept = [local(p, modes=4, n_el=40, store=False, keep_all=True) for p in s]
+    pk = interpolate(kept, s)
+    assert pk.basis == "kept" and pk.row_scaling == "kind"
+    assert pk.row_scale.shape == (kept[0].kept_dofs.size,)
+    for bad, text in ((np.ones(5), "needs 42 finite positive"),
+                      (-np.ones(42), "needs 42 finite positive"), ("size", "must be one of")):
+        with pytest.raises(DataError, match=text):
+            interpolate(bodies, s, row_scaling=bad)
+    for pw in (0.0, -1.0, np.nan, "x"):
+        with pytest.raises(DataError, match="positive number"):
+            interpolate(bodies, s, pressure_weight=pw)
+    kinds = bodies[1].full_dof_kind.copy()
+    kinds[5] = "uz"                                 # not a kept DOF
+    mixed = [bodies[0], bodies[1].with_(full_dof_kind=kinds)]
+    with pytest.raises(DataError, match="full_dof_kind"):
+        interpolate(mixed, s[:2])
+    pb = interpolate(bodies, s, store_bases=True)
+    assert np.array_equal(pb.at(0.3).full_dof_kind, bodies[0].full_dof_kind)
+    with pytest.raises(DataError, match="'none' stores no row_scale"):
+        pb.with_(row_scaling="none", pressure_weight=None)
+
+
 # -------------------------------------------------------------------- kept rows only
 def test_kept_rows_basis():
     """Bodies without full bases: with every node kept, basis='kept' gives the same common
@@ -273,15 +531,18 @@ def test_kept_rows_basis():
 def _assert_same(a: ParametricBody, b: ParametricBody) -> None:
     for key in ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node",
                 "dof_kind", "V_kept", "W_kept", "T", "L", "R", "singular_values",
-                "svd_weights", "V", "W"):
+                "svd_weights", "V", "W", "row_scale", "left_row_scale", "full_dof_kind"):
         x, y = a[key], b[key]
         assert (x is None) == (y is None), key
         if x is not None:
             assert x.dtype == y.dtype and np.array_equal(x, y), key
     for key in ("parameter", "input_names", "output_names", "basis", "two_sided",
                 "interpolation", "sample_sources", "sample_methods", "sample_settings",
-                "format_version"):
+                "row_scaling", "pressure_weight", "format_version"):
         assert a[key] == b[key], key
+    assert (a.invariants is None) == (b.invariants is None)
+    if a.invariants is None:
+        return
     assert list(a.invariants) == list(b.invariants)
     for k in a.invariants:
         assert a.invariants[k].dtype == b.invariants[k].dtype
@@ -298,19 +559,51 @@ def pbody():
 
 def test_file_round_trip_is_exact(pbody, tmp_path):
     path = tmp_path / "pb.npz"
+    assert pbody.row_scaling == "kind" and pbody.left_row_scale is not None
+    assert pbody.full_dof_kind is not None and pbody.pressure_weight == 1e-3
     pbody.save(path)
     back = load_parametric_body(path)
     _assert_same(pbody, back)
     for p in (0.0, 0.77, 2.0):
         a, b = pbody.at(p), back.at(p)
-        for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept", "V", "W"):
+        for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept", "V", "W", "full_dof_kind"):
             assert np.array_equal(a[key], b[key]), key
         assert a.settings == b.settings and a.source == b.source
+        assert a.settings["row_scaling"] == "kind"
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(z["meta"].tobytes().decode())
         assert all(z[k].dtype != object for k in z.files)
-    assert meta["format"] == "neweul-parametric-body" and meta["version"] == 1
+    assert meta["format"] == "neweul-parametric-body" and meta["version"] == 2
     assert meta["parameter"] == "p" and meta["interpolation"] == "cubic"
+    assert meta["row_scaling"] == "kind" and meta["pressure_weight"] == 1e-3
+
+
+def test_version_1_files_still_load(tmp_path):
+    """A version-1 file (written before the row scaling existed: no row_scaling in the
+    metadata, no row_scale array) loads as row_scaling 'none' — its T_i = Rᵀ V_i — and is
+    written back as version 1; a version-1 file with version-2 arrays is refused."""
+    s = grid(3)
+    pb = interpolate([local(p, modes=4, n_el=40) for p in s], s, row_scaling="none")
+    path = tmp_path / "v1.npz"
+    pb.save(path)
+    data = dict(np.load(path))
+    meta = json.loads(data["meta"].tobytes().decode())
+    del meta["row_scaling"], meta["pressure_weight"], data["full_dof_kind"]
+    np.savez(path, **{**data, "meta": json_to_uint8({**meta, "version": 1})})
+    old = load_parametric_body(path)
+    assert old.format_version == 1 and old.row_scaling == "none" and old.row_scale is None
+    assert old.full_dof_kind is None
+    for key in ("M", "K", "T", "L", "R"):
+        assert np.array_equal(old[key], pb[key]), key
+    np.testing.assert_allclose(old.T[1], old.R.T @ local(1.0, modes=4, n_el=40).V,
+                               rtol=0, atol=1e-14)
+    old.save(tmp_path / "again.npz")
+    assert load_parametric_body(tmp_path / "again.npz").format_version == 1
+    np.savez(path, **{**data, "row_scale": np.ones(pb.R.shape[0]),
+                      "meta": json_to_uint8({**meta, "version": 1})})
+    with pytest.raises(DataError, match="version-1 file holds no") as exc:
+        load_parametric_body(path)
+    assert exc.value.item == "row_scale"
 
 
 def test_interrupted_write_keeps_the_old_file(pbody, tmp_path, monkeypatch):
@@ -339,8 +632,8 @@ def test_bad_files_are_rejected(pbody, tmp_path):
     assert exc.value.file == str(tmp_path / "b.npz")
     data = dict(np.load(path))
     meta = json.loads(data["meta"].tobytes().decode())
-    np.savez(path, **{**data, "meta": json_to_uint8({**meta, "version": 2})})
-    with pytest.raises(DataError, match="unsupported version 2"):
+    np.savez(path, **{**data, "meta": json_to_uint8({**meta, "version": 3})})
+    with pytest.raises(DataError, match="unsupported version 3"):
         load_parametric_body(path)
     del data["T"]
     np.savez(path, **data)
@@ -407,7 +700,7 @@ def test_bad_options_and_singular_transformations():
     V1 = bodies[0].V
     Q, _ = np.linalg.qr(np.hstack([V1, np.random.default_rng(1).normal(size=V1.shape)]))
     b2 = bodies[1].with_(V=Q[:, MODES:], W=Q[:, MODES:])
-    with pytest.raises(SolverError, match=r"sample 2 .*T_i = Rᵀ V_i is singular"):
+    with pytest.raises(SolverError, match=r"sample 2 .*T_i = Rᵀ S V_i is singular"):
         interpolate([bodies[0], b2], s, weights=[1.0, 0.0])
     with pytest.raises(DataError, match="strictly increasing"):
         interpolate(bodies, s).with_(samples=np.array([1.0, 0.0]))
@@ -426,7 +719,8 @@ def test_cli_interpolate(tmp_path, capsys):
     assert main(["interpolate", *paths, "--parameter", "p", "--values", "0,1,2", "-o",
                  str(out)]) == 0
     cap = capsys.readouterr()
-    assert "3 samples of p in [0, 2], order 8 (two-sided, full bases" in cap.out
+    assert ("3 samples of p in [0, 2], order 8 (two-sided, full bases, row scaling kind"
+            in cap.out)
     assert "reading" in cap.err and "common subspace" in cap.err
     ref = interpolate([ReducedBody.load(p) for p in paths], s, parameter="p")
     _assert_same_core(ParametricBody.load(out), ref)
@@ -434,6 +728,16 @@ def test_cli_interpolate(tmp_path, capsys):
     assert main(["interpolate", *paths, "--parameter", "p", "--interpolation", "cubic",
                  "-o", str(out2)]) == 0
     assert ParametricBody.load(out2).interpolation == "cubic"
+    out3 = tmp_path / "pb3.npz"
+    assert main(["interpolate", *paths, "--parameter", "p", "--row-scaling", "none",
+                 "-o", str(out3)]) == 0
+    _assert_same_core(ParametricBody.load(out3),
+                      interpolate([ReducedBody.load(p) for p in paths], s, parameter="p",
+                                  row_scaling="none"))
+    out4 = tmp_path / "pb4.npz"
+    assert main(["interpolate", *paths, "--parameter", "p", "--pressure-weight", "1",
+                 "-o", str(out4)]) == 0
+    assert ParametricBody.load(out4).pressure_weight == 1.0
     capsys.readouterr()
     for values, text in (("0,1", "--values has 2 entries for 3 bodies"),
                          ("0,2,1", "strictly increasing"),
@@ -449,4 +753,5 @@ def test_cli_interpolate(tmp_path, capsys):
 def _assert_same_core(a: ParametricBody, b: ParametricBody) -> None:
     for key in ("samples", "M", "D", "K", "B", "C", "T", "L", "R", "V_kept", "W_kept"):
         assert np.array_equal(a[key], b[key]), key
+    assert a.row_scaling == b.row_scaling
     assert a.sample_sources == b.sample_sources

@@ -28,7 +28,7 @@ def body():
 
 def _assert_same(a: ReducedBody, b: ReducedBody) -> None:
     for key in ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
-                "V_kept", "W_kept", "V", "W", "eigenvalues"):
+                "V_kept", "W_kept", "V", "W", "eigenvalues", "full_dof_kind"):
         x, y = getattr(a, key), getattr(b, key)
         assert (x is None) == (y is None), key
         if x is not None:
@@ -55,6 +55,39 @@ def test_round_trip_without_optional_fields(tmp_path):
     assert b.V is None and b.invariants is None and b.eigenvalues is None
     b.save(tmp_path / "k.npz")
     _assert_same(b, ReducedBody.load(tmp_path / "k.npz"))
+
+
+def test_full_dof_kind_is_stored_with_the_full_bases(body, tmp_path):
+    """The reductors record the DOF kind of every row of V, W whenever they store them (the
+    FE model's DOF map is the reference); without full bases there is none; a file written
+    before the field existed (no ``full_dof_kind`` array) still loads, with ``None``."""
+    fe = piston_duct(60, damping=2.0)
+    assert body.full_dof_kind.dtype == np.dtype("<U2")
+    assert np.array_equal(body.full_dof_kind, fe.dof_kind) and body.V.shape[0] == fe.n_dofs
+    kr = reduce_krylov(fe, points=[2j * np.pi * 200], order=2, store_bases=True)
+    assert np.array_equal(kr.full_dof_kind, fe.dof_kind)
+    assert reduce_modal(fe, modes=4).full_dof_kind is None
+    assert reduce_krylov(fe, points=[2j * np.pi * 200], order=2).full_dof_kind is None
+    path = tmp_path / "b.npz"
+    body.save(path)
+    data = dict(np.load(path))
+    assert data["full_dof_kind"].dtype == np.dtype("<U2")
+    del data["full_dof_kind"]
+    np.savez(path, **data)
+    old = ReducedBody.load(path)
+    assert old.full_dof_kind is None and np.array_equal(old.V, body.V)
+
+
+@pytest.mark.parametrize("kinds,text", [
+    (np.array(["ux"] + ["p"] * 60), "61 DOF kinds for the 62 rows of V"),
+    (np.array(["ux"] + ["q"] * 61), "unknown DOF kinds"),
+    (np.array(["p"] + ["ux"] * 61), "kinds of the kept DOFs differ"),
+    (np.arange(62.0), "1-D array of DOF kinds"),
+])
+def test_bad_full_dof_kind_is_refused(body, kinds, text):
+    with pytest.raises(DataError, match=text) as exc:
+        body.with_(full_dof_kind=kinds)
+    assert exc.value.item == "full_dof_kind"
 
 
 def test_file_has_no_pickles_and_json_metadata(body, tmp_path):
