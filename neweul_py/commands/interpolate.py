@@ -12,14 +12,7 @@ import time
 from ..elastic.interpolation import BASES, INTERPOLATIONS, PRESSURE_WEIGHT, interpolate
 from ..elastic.reduced_body import load_reduced_body
 from ..errors import NeweulError
-
-
-def _floats(text: str) -> list[float]:
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}"
-                                         ) from None
+from . import comma_floats
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -36,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="reduced-body files (.npz), in increasing parameter order")
     parser.add_argument("--parameter", required=True, metavar="NAME",
                         help="name of the parameter")
-    parser.add_argument("--values", type=_floats, metavar="V1,V2,…",
+    parser.add_argument("--values", type=comma_floats, metavar="V1,V2,…",
                         help="sample values, one per body (default: the values the bodies "
                         "record in their parameters)")
     parser.add_argument("--interpolation", choices=INTERPOLATIONS, default="linear",
@@ -53,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--pressure-weight", type=float, default=PRESSURE_WEIGHT,
                         metavar="W", help="factor of the pressure rows on top of the "
                         f"balanced kind scaling (default {PRESSURE_WEIGHT:g}; 1 = balanced)")
-    parser.add_argument("--weights", type=_floats, metavar="W1,W2,…",
+    parser.add_argument("--weights", type=comma_floats, metavar="W1,W2,…",
                         help="SVD weights of the samples (default all 1)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the transformed full bases")

@@ -13,6 +13,7 @@ from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
 from ..elastic.eigen import frequencies_hz
 from ..elastic.invariants import attach_invariants
 from ..errors import NeweulError
+from . import comma_floats
 
 
 def _band(text: str) -> tuple[float, float]:
@@ -23,14 +24,6 @@ def _band(text: str) -> tuple[float, float]:
         return float(lo), float(hi)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected FMIN:FMAX in Hz, got {text!r}") from None
-
-
-def _floats(text: str) -> list[float]:
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}"
-                                         ) from None
 
 
 def _ints(text: str) -> list[int]:
@@ -65,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="add static (attachment) vectors of the inputs/outputs")
     parser.add_argument("--shift", type=float, metavar="SIGMA",
                         help="eigensolver shift in λ = ω² units (modal; default automatic)")
-    parser.add_argument("--points", type=_floats, metavar="F1,F2,…",
+    parser.add_argument("--points", type=comma_floats, metavar="F1,F2,…",
                         help="Krylov expansion frequencies [Hz] (s0 = 2πj·f)")
     parser.add_argument("--order", type=int, metavar="Q",
                         help="Krylov moments per point and input (default 4)")
