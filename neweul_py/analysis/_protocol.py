@@ -355,6 +355,41 @@ def augmented_solve(
     return sol[:n], sol[n:]
 
 
+def project_onto_constraints(
+    g: Callable[[np.ndarray], np.ndarray],
+    g_jac: Callable[[np.ndarray], np.ndarray],
+    y: np.ndarray,
+    tol: float,
+    *,
+    moved: np.ndarray | None = None,
+    winv: np.ndarray | None = None,
+    maxiter: int = 30,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Move ``y`` onto ``g(y) = 0`` (equations.md §1, drift control): Gauss–Newton steps of
+    least change ``Δ = W⁻¹ Gᵀ (G W⁻¹ Gᵀ)⁻¹ g`` in the metric ``W`` (``winv`` = ``W⁻¹``,
+    identity by default) on the coordinates ``moved`` (all by default); with a square block
+    ``G[:, moved]`` this is Newton's method on the dependent coordinates (coordinate
+    partitioning). Returns the last finite iterate and its ``g``: the caller decides whether
+    a remaining residual above ``tol`` is an error."""
+    y = np.array(y, dtype=float)
+    idx = np.arange(y.size) if moved is None else np.asarray(moved, dtype=int)
+    gv = np.asarray(g(y), dtype=float)
+    for _ in range(maxiter):
+        if np.abs(gv).max(initial=0.0) <= tol:
+            break
+        gj = np.asarray(g_jac(y), dtype=float)[:, idx]
+        w = np.eye(idx.size) if winv is None else winv
+        try:
+            step = w @ gj.T @ np.linalg.solve(gj @ w @ gj.T, gv)
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(step)):
+            break
+        y[idx] -= step
+        gv = np.asarray(g(y), dtype=float)
+    return y, gv
+
+
 def partition(
     g_jac: np.ndarray, names: Sequence[str], independent: Sequence[str] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -158,19 +158,12 @@ def _project_position(
     tol: float,
     maxiter: int = 30,
 ) -> np.ndarray:
-    """Newton / Gauss–Newton on ``g(y) = 0`` moving only ``dep`` (or all, least change in M)."""
-    y = y.copy()
-    for _ in range(maxiter):
-        g = con.g(t, y)
-        if np.abs(g).max(initial=0.0) <= tol:
-            return y
-        gj = con.jac(t, y)
-        if dep is not None:
-            y[dep] -= np.linalg.lstsq(gj[:, dep], g, rcond=None)[0]
-        else:
-            w = winv if winv is not None else np.eye(con.n)
-            y -= w @ gj.T @ np.linalg.solve(gj @ w @ gj.T, g)
-    g = con.g(t, y)
+    """Newton on ``g(y) = 0`` moving only ``dep`` (or all, least change in M); raises when the
+    constraints cannot be met."""
+    y, g = proto.project_onto_constraints(
+        lambda yv: con.g(t, yv), lambda yv: con.jac(t, yv), y, tol,
+        moved=dep, winv=None if dep is not None else winv, maxiter=maxiter,
+    )
     if np.abs(g).max(initial=0.0) <= tol:
         return y
     worst = [con.names[i] for i in np.flatnonzero(np.abs(g) > tol)]

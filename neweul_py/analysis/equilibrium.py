@@ -245,21 +245,11 @@ class _Problem:
         """``y`` moved onto ``g(y) = 0`` by the least change in the metric ``w`` (Gauss–Newton;
         the last finite iterate when the constraints cannot be met — the continuation then
         reports them through its residual)."""
-        winv = np.linalg.inv(w)
-        y = y.copy()
-        for _ in range(maxiter):
-            g = np.asarray(self.module.constraints(self.t, y, self.pv), dtype=float)
-            if np.abs(g).max(initial=0.0) <= 1e-14 * (1.0 + np.abs(y).max(initial=0.0)):
-                break
-            gf = self.g_jac(y)[:, self.free]
-            try:
-                step = winv @ gf.T @ np.linalg.solve(gf @ winv @ gf.T, g)
-            except np.linalg.LinAlgError:
-                break
-            if not np.all(np.isfinite(step)):
-                break
-            y[self.free] -= step
-        return y
+        tol = 1e-14 * (1.0 + np.abs(y).max(initial=0.0))
+        return proto.project_onto_constraints(
+            lambda yv: self.module.constraints(self.t, yv, self.pv), self.g_jac, y, tol,
+            moved=self.free, winv=np.linalg.inv(w), maxiter=maxiter,
+        )[0]
 
     def roundoff(self, jac: np.ndarray, y: np.ndarray, lam: np.ndarray) -> float:
         """Residual level that counts as zero: round-off of ``R`` near ``(y, λ)``."""
