@@ -44,6 +44,7 @@ INPUT_RATES = {}
 OUTPUTS = ['stapes_velocity', 'umbo_velocity']
 OUTPUT_UNITS = ['', '']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 8
 SOURCE_HASH = '8efc8f278c953ac237f5fb7df883a5311bf183c1110aef1a4f6e3244dfe5ae50'
 MASS_MATRIX_SYMMETRIC = True
@@ -205,6 +206,14 @@ def output_jacobians(t, x, p, u=None):
     C[1, 5] = 1
     D = _np.zeros((2, 1))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    x_tm, x_malleus, x_incus, x_stapes, d_x_tm, d_x_malleus, d_x_incus, d_x_stapes = _np.asarray(x, dtype=_np.float64).tolist()
+    m_tm, m_malleus, m_incus, m_stapes, k_tm_annulus, k_tm_manubrium, k_malleus_ligaments, k_incudomalleolar_joint, k_incus_ligament, k_incudostapedial_joint, k_annular_ligament, A_tm, c_00, c_01, c_02, c_03, c_11, c_12, c_13, c_22, c_23, c_33 = _np.asarray(p, dtype=_np.float64).tolist()
+    energy = _np.array(((1/2)*m_incus*d_x_incus*d_x_incus + (1/2)*m_malleus*d_x_malleus*d_x_malleus + (1/2)*m_stapes*d_x_stapes*d_x_stapes + (1/2)*m_tm*d_x_tm*d_x_tm, 0, 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

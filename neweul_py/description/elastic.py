@@ -9,6 +9,7 @@ elastic_bodies:
     modes: 4                   # optional: the first 4 modes, or a list of mode numbers
     initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
     velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
+    inertia: consistent        # optional: consistent (default, needs J.m2) | sid
 ```
 
 Unlisted modes start at 0. The values go into the generated module's ``INITIAL_STATE``.
@@ -23,13 +24,16 @@ from __future__ import annotations
 
 import contextlib
 import os
+import warnings
 from collections.abc import Callable, Iterator
 from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
 from ..errors import DataError, ModelError
+from ..ffrf.schema import INERTIA_FORMS
 from ..model import ElasticBody
+from .schema import Schema, section_items
 
 __all__ = ["base_directory", "load_elastic_bodies"]
 
@@ -54,11 +58,9 @@ def base_directory(filename: str, reader: ElasticReader | None = None) -> Iterat
 
 def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
     """Section loader: every entry becomes an :class:`ElasticBody` on the builder ``b``."""
-    from .loader import Schema, _items  # local: loader imports this module
-
     schema = Schema(required=("frame", "data"),
-                    optional=("nodes", "modes", "initial", "velocity"))
-    for name, spec in _items(section, path, "elastic body definitions"):
+                    optional=("nodes", "modes", "initial", "velocity", "inertia"))
+    for name, spec in section_items(section, path, "elastic body definitions"):
         item = f"{path}.{name}"
         spec = schema.check(spec, item, "an elastic body")
         frame = spec["frame"]
@@ -95,10 +97,30 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
         except DataError as exc:
             key = f"{item}.modes" if exc.item == "modes" else f"{item}.data"
             raise ModelError(f"elastic data: {exc}", key) from None
-        body = ElasticBody(str(name), frame, data, tuple(pairs), os.fspath(file))
+        inertia = _inertia(spec.get("inertia"), data, file, f"{item}.inertia")
+        body = ElasticBody(str(name), frame, data, tuple(pairs), os.fspath(file), inertia)
         start = {key: _per_mode(spec.get(key), body, f"{item}.{key}")
                  for key in ("initial", "velocity")}
         b.elastic_body(body, start["initial"], start["velocity"])
+
+
+def _inertia(value: Any, data: dict, file: Path, path: str) -> str:
+    """The inertia form of a body (``consistent`` by default): a body whose data lack the
+    second-order inertia ``J.m2`` (SID files) falls back to the SID truncation with one
+    warning, or is refused when ``inertia: consistent`` is asked for explicitly."""
+    if value is not None and value not in INERTIA_FORMS:
+        raise ModelError(f"inertia must be one of {', '.join(INERTIA_FORMS)}, got {value!r}",
+                         path)
+    if value == "sid" or "J.m2" in data:
+        return value or "consistent"
+    if value == "consistent":
+        raise ModelError(f"{file} lacks the second-order inertia terms J.m2 that the "
+                         "consistent form needs (SID data hold none): recompute the "
+                         "invariants from the FE model or use 'inertia: sid'", path)
+    warnings.warn(f"{file}: no second-order inertia terms (J.m2); the body uses the SID "
+                  "truncation (J linear in q, Gr constant), which is not energy-consistent "
+                  f"(set {path}: sid to silence this)", stacklevel=2)
+    return "sid"
 
 
 def _per_mode(value: Any, body: ElasticBody, path: str) -> list[Any] | None:

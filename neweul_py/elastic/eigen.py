@@ -26,7 +26,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from ..errors import DataError, SolverError
-from .fe_model import SYMMETRY_RTOL, FEModel, _asymmetry
+from .fe_model import SYMMETRY_RTOL, FEModel, asymmetry
 
 __all__ = [
     "PERMC_SPEC",
@@ -330,7 +330,7 @@ def symmetric_pencil(fe: FEModel) -> bool:
     """
     if fe.symmetric.get("M") and fe.symmetric.get("K"):
         return True
-    return _asymmetry(fe.M) <= SYMMETRY_RTOL and _asymmetry(fe.K) <= SYMMETRY_RTOL
+    return asymmetry(fe.M) <= SYMMETRY_RTOL and asymmetry(fe.K) <= SYMMETRY_RTOL
 
 
 def _match_subspace(fe: FEModel, b: EigenBlock, cands: list[EigenBlock]) -> EigenBlock:

@@ -98,7 +98,7 @@ from ..errors import DataError, SolverError
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
-from .reduced_body import ReducedBody, _json_normal
+from .reduced_body import ReducedBody, json_normal
 
 __all__ = [
     "BASES",
@@ -329,7 +329,7 @@ class ParametricBody:
             if key == "sample_methods":
                 vals = tuple(str(v) for v in vals)
             else:
-                vals = tuple(_json_normal(dict(v), key) for v in vals)
+                vals = tuple(json_normal(dict(v), key) for v in vals)
             set_(self, key, vals)
         if self.invariants is not None:
             set_(self, "invariants", _check_stacked(self.invariants, k))

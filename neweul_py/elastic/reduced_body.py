@@ -36,7 +36,7 @@ _ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind"
 _OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind")
 
 
-def _json_normal(obj: Any, item: str) -> Any:
+def json_normal(obj: Any, item: str) -> Any:
     try:
         return json.loads(json.dumps(obj, allow_nan=False))
     except (TypeError, ValueError) as exc:
@@ -184,8 +184,8 @@ class ReducedBody:
         for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept"):
             if not np.all(np.isfinite(self[key])):
                 raise DataError("has NaN/Inf entries", None, key)
-        set_(self, "settings", _json_normal(dict(self.settings), "settings"))
-        set_(self, "source", _json_normal(dict(self.source), "source"))
+        set_(self, "settings", json_normal(dict(self.settings), "settings"))
+        set_(self, "source", json_normal(dict(self.source), "source"))
         if self.parameters is not None:
             set_(self, "parameters", {str(k): float(v) for k, v in self.parameters.items()})
         if self.invariants is not None:

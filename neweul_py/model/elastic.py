@@ -31,6 +31,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
+from ..ffrf.schema import INERTIA_FORMS, SCHEMA, check_flat
 from .elements import Frame
 from .symbols import check_name, symbol
 
@@ -39,12 +40,8 @@ __all__ = ["ElasticBody", "is_node_frame_name"]
 #: Names of the six node components (dependent node coordinates ``NAME_label_<c>``).
 NODE_COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 
-#: Arrays an elastic body needs (keys of ``Invariants.to_flat``).
-REQUIRED_ARRAYS = (
-    "m", "md.m0", "J.m0", "Ct.m0", "Cr.m0", "Crv.m0", "Me.m0", "Gr.m0", "Ge.m0", "Oe.m0",
-    "ksigma.m0", "Ke.m0", "De.m0", "nodes.id", "nodes.origin.m0", "nodes.phi", "nodes.psi",
-    "nodes.phi_w", "nodes.psi_w", "nodes.AP.m0", "two_sided",
-)
+#: Arrays an elastic body needs (the required keys of :data:`neweul_py.ffrf.schema.SCHEMA`).
+REQUIRED_ARRAYS = tuple(k for k, spec in SCHEMA.items() if spec.required and k != "format")
 
 
 def is_node_frame_name(name: str) -> bool:
@@ -76,6 +73,10 @@ class ElasticBody:
         ``(label, node_id)`` pairs: the node frames the model uses.
     source
         Where the data came from (shown in messages, not part of the model's identity).
+    inertia
+        ``"consistent"`` (default): the second-order inertia terms ``J.m2`` are used where the
+        data hold them (energy-consistent body, equations.md §2.1); ``"sid"``: the SID
+        truncation (``J`` linear in q, ``Gr`` constant).
 
     Raises
     ------
@@ -89,32 +90,22 @@ class ElasticBody:
     data: Mapping[str, np.ndarray]
     nodes: tuple[tuple[str, int], ...] = ()
     source: str = field(default="", compare=False)
+    inertia: str = "consistent"
 
     def __post_init__(self) -> None:
         path = f"elastic_bodies.{self.name}"
         why = check_name(self.name)
         if why is not None:
             raise ModelError(why, path)
+        if self.inertia not in INERTIA_FORMS:
+            raise ModelError(f"inertia must be one of {', '.join(INERTIA_FORMS)}, got "
+                             f"{self.inertia!r}", f"{path}.inertia")
         data = {k: _frozen(v) for k, v in dict(self.data).items()}
-        missing = [k for k in REQUIRED_ARRAYS if k not in data]
-        if missing:
-            raise ModelError(f"the elastic data lacks {', '.join(missing)}", f"{path}.data")
+        data.setdefault("format", _frozen("neweul-invariants-1"))
+        problems = check_flat(data)
+        if problems:
+            raise ModelError(problems[0], f"{path}.data")
         object.__setattr__(self, "data", data)
-        nq = data["Me.m0"].shape[0]
-        if nq == 0:
-            raise ModelError("the elastic data hold no modes", f"{path}.data")
-        for key, arr in sorted(data.items()):
-            if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-                raise ModelError(f"array {key} holds NaN or Inf", f"{path}.data")
-            if key.endswith(".m1") and arr.ndim == 3 and arr.shape[1] != nq:
-                raise ModelError(f"{key} has first-order terms for {arr.shape[1]} modes, "
-                                 f"Me has {nq}", f"{path}.data")
-        for key, shape in (("Ke.m0", (nq, nq)), ("De.m0", (nq, nq)), ("Ct.m0", (nq, 3)),
-                           ("Cr.m0", (nq, 3)), ("Oe.m0", (nq, 6)), ("Ge.m0", (nq, 3 * nq)),
-                           ("Gr.m0", (3, 3 * nq))):
-            if data[key].shape != shape:
-                raise ModelError(f"{key} has shape {data[key].shape}, expected {shape} "
-                                 f"(nq = {nq} from Me)", f"{path}.data")
         ids = [int(i) for i in data["nodes.id"]]
         nodes = tuple((str(label), int(node)) for label, node in self.nodes)
         seen: set[str] = set()
@@ -165,7 +156,7 @@ class ElasticBody:
 
     def __repr__(self) -> str:  # canonical: the System fingerprint uses it
         return (f"ElasticBody(name={self.name!r}, frame={self.frame!r}, nodes={self.nodes!r}, "
-                f"data=sha256:{self.digest()})")
+                f"inertia={self.inertia!r}, data=sha256:{self.digest()})")
 
     # ------------------------------------------------------------- node frames
     def node_components(self, label: str) -> tuple[int, ...]:
