@@ -1,6 +1,6 @@
 """Error and quality measures of reduced models: FRFs, relative errors, eigenvalues, stability.
 
-Frequency response (``reference/equations.md`` §1, last line, for the second-order form)::
+Frequency response (``docs/equations.md`` §1, last line, for the second-order form)::
 
     H(jω) = C (K + jωD − ω²M)⁻¹ B
 

@@ -9,7 +9,7 @@
   its rate ``d_zr``);
 - middle-ear chain (LVATB1): real eigenfrequencies equal to the undamped ones of the script's
   M, K, damping ratios η/2 of the modal damping, stapes velocity per ear-canal pressure in the
-  qualitative range of middle_ear.md.
+  qualitative range of docs/middle-ear-data.md.
 """
 
 from __future__ import annotations
@@ -198,7 +198,7 @@ def test_linear_model_keeps_input_rates_through_save_and_load(generated, tmp_pat
 def test_middle_ear_chain_modes_and_stapes_velocity(generated) -> None:
     """Undamped eigenfrequencies of the generated M, Q equal those of the script's matrices
     (real, positive); damping ratios are η/2 of the modal loss factors; the stapes velocity per
-    ear-canal pressure peaks between 0.6 and 1.2 kHz at 0.1–0.3 mm/s/Pa (middle_ear.md)."""
+    ear-canal pressure peaks between 0.6 and 1.2 kHz at 0.1–0.3 mm/s/Pa (docs/middle-ear-data.md)."""
     lin_mod = pytest.importorskip("neweul_py.analysis.linearize")
     frf_mod = pytest.importorskip("neweul_py.analysis.frf")
     sys.path.insert(0, str(EXAMPLES))
