@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ConstrainedSimulation:
     """Result of :func:`simulate_constrained`.
 
@@ -75,6 +75,14 @@ class ConstrainedSimulation:
     position_residual: np.ndarray
     velocity_residual: np.ndarray
     drift: np.ndarray
+
+    def __repr__(self) -> str:
+        return (f"ConstrainedSimulation({self.result.summary()}; {len(self.constraints)} "
+                f"constraints, max drift {self.max_drift:.3g})")
+
+    def to_dataframe(self) -> Any:
+        """The results table (with the ``lambda_<constraint>`` columns) as a DataFrame."""
+        return self.result.to_dataframe()
 
     @property
     def t(self) -> np.ndarray:
