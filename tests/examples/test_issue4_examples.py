@@ -198,7 +198,8 @@ def test_linear_model_keeps_input_rates_through_save_and_load(generated, tmp_pat
 def test_middle_ear_chain_modes_and_stapes_velocity(generated) -> None:
     """Undamped eigenfrequencies of the generated M, Q equal those of the script's matrices
     (real, positive); damping ratios are η/2 of the modal loss factors; the stapes velocity per
-    ear-canal pressure peaks between 0.6 and 1.2 kHz at 0.1–0.3 mm/s/Pa (docs/middle-ear-data.md)."""
+    ear-canal pressure peaks between 0.6 and 1.2 kHz at 0.1–0.3 mm/s/Pa
+    (docs/middle-ear-data.md)."""
     lin_mod = pytest.importorskip("neweul_py.analysis.linearize")
     frf_mod = pytest.importorskip("neweul_py.analysis.frf")
     sys.path.insert(0, str(EXAMPLES))
