@@ -361,6 +361,7 @@ def simulate_constrained(
     atol: float = 1e-12,
     baumgarte: tuple[float, float] = (0.0, 0.0),
     projection_tol: float = 1e-13,
+    progress: Callable[[float, float], None] | None = None,
 ) -> ConstrainedSimulation:
     """Simulate a module with holonomic constraints (DAE with drift control; see module docstring).
 
@@ -392,6 +393,9 @@ def simulate_constrained(
         projections control the drift.
     projection_tol
         Tolerance on ``max |g|`` of the position projection (scaled by ``1 + max |y|``).
+    progress
+        Called as ``progress(done, total)`` with the simulated time reached and the time span
+        after each output interval (a :class:`neweul_py.progress.Tracker` draws a bar).
 
     Returns
     -------
@@ -492,6 +496,8 @@ def simulate_constrained(
             yd = _project_velocity(con, t1, y, yd, dep, winv)
         x = np.concatenate([y, yd])
         record(k, t1, y, yd)
+        if progress is not None:
+            progress(float(t1 - times[0]), float(times[-1] - times[0]))
 
     result = SimulationResult(
         t=times,

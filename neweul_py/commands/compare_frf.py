@@ -11,6 +11,7 @@ import numpy as np
 from ..elastic import ReducedBody, read_fe_model
 from ..elastic.quality import FRFComparison, check_source, compare_frf
 from ..errors import NeweulError
+from ..progress import Tracker
 
 
 def _grid(text: str) -> tuple[float, float, int]:
@@ -96,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
     body = ReducedBody.load(args.body)
     check_source(fe, body, args.body)  # a body reduced from another model: refuse
     _progress(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
-    cmp = compare_frf(fe, body, f, args.input, args.output, progress=_progress, check=False)
+    with Tracker("full FRF", unit="freq") as track:  # a bar with ETA on a terminal
+        cmp = compare_frf(fe, body, f, args.input, args.output, progress=track, check=False)
     err = cmp.relative_error
     i = int(np.argmax(err))
     print(f"{args.output} / {args.input}: max relative error {err[i]:.3e} at {f[i]:g} Hz "

@@ -95,6 +95,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, SolverError
+from ..progress import report
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
@@ -982,8 +983,8 @@ def interpolate(
         Tinv = _inverse(T, Qs[i], R, "T_i = Rᵀ S V_i", i, s[i], cond_max, min_cosine, 1)
         L = (_inverse(Ws[i].T @ R, _orth(Ws[i]), R, "W_iᵀ S_W R", i, s[i], cond_max,
                       min_cosine, 0) if two else Tinv.T)
-        _say(progress, f"sample {i + 1}/{k} ({parameter} = {s[i]:g}): cond T = "
-                       f"{np.linalg.cond(T):.3g}")
+        report(progress, f"sample {i + 1}/{k} ({parameter} = {s[i]:g}): cond T = "
+               f"{np.linalg.cond(T):.3g}", i + 1, k)
         out["T"].append(T)
         out["L"].append(L)
         for key in ("M", "D", "K"):
