@@ -9,7 +9,8 @@ Everything a script or notebook needs is importable from here::
 ``simulate(module, t_end, ...)`` integrates a generated module (or the path of one) and returns a
 :class:`SimulationResult`; ``equilibrium`` → :class:`EquilibriumResult`; ``linearize`` →
 :class:`LinearModel`; ``modes`` → :class:`ModalResult`; ``frequency_response`` (alias ``frf``)
-→ :class:`FrequencyResponse`. Every result has ``to_dataframe()``, ``save(path)`` and a short
+→ :class:`FrequencyResponse`; ``sweep`` runs any of them over parameter cases on Dask →
+:class:`SweepResult`. Every result has ``to_dataframe()``, ``save(path)`` and a short
 ``repr`` with a notebook display.
 """
 
@@ -22,6 +23,8 @@ from .module import check_protocol, load_generated
 from .plot import plot_result
 from .results import SimulationResult, load_npz, read_units
 from .simulate import METHODS, simulate
+from .sweep import SweepResult, sweep
+from .sweep_cases import grid, read_cases
 
 __all__ = [
     "METHODS",
@@ -31,18 +34,22 @@ __all__ = [
     "LinearModel",
     "ModalResult",
     "SimulationResult",
+    "SweepResult",
     "check_protocol",
     "consistent_initial_state",
     "equilibrium",
     "frequency_response",
     "frequency_vector",
     "frf",
+    "grid",
     "linearize",
     "load_generated",
     "load_npz",
     "modes",
     "plot_result",
+    "read_cases",
     "read_units",
     "simulate",
     "simulate_constrained",
+    "sweep",
 ]
