@@ -10,10 +10,12 @@ Everything a script or notebook needs is importable from here::
 :class:`SimulationResult`; ``equilibrium`` → :class:`EquilibriumResult`; ``linearize`` →
 :class:`LinearModel`; ``modes`` → :class:`ModalResult`; ``frequency_response`` (alias ``frf``)
 → :class:`FrequencyResponse`; ``sweep`` runs any of them over parameter cases on Dask →
-:class:`SweepResult`. Every result has ``to_dataframe()``, ``save(path)`` and a short
+:class:`SweepResult`; ``compare(result, reference)`` judges a result against a reference →
+:class:`Comparison`. Every result has ``to_dataframe()``, ``save(path)`` and a short
 ``repr`` with a notebook display.
 """
 
+from .compare import Comparison, compare
 from .dae import ConstrainedSimulation, consistent_initial_state, simulate_constrained
 from .equilibrium import EquilibriumResult, equilibrium
 from .frf import FrequencyResponse, frequency_response, frequency_vector, frf
@@ -28,6 +30,7 @@ from .sweep_cases import grid, read_cases
 
 __all__ = [
     "METHODS",
+    "Comparison",
     "ConstrainedSimulation",
     "EquilibriumResult",
     "FrequencyResponse",
@@ -36,6 +39,7 @@ __all__ = [
     "SimulationResult",
     "SweepResult",
     "check_protocol",
+    "compare",
     "consistent_initial_state",
     "equilibrium",
     "frequency_response",
