@@ -61,6 +61,7 @@ def main() -> None:
     print(f"  plain loop           {1e3 * t_loop / n:8.2f} ms")
     print(f"  Dask, 1 worker       {1e3 * t1 / n:8.2f} ms   ratio to the loop {t1 / t_loop:.2f}"
           "  (goal ≤ 2)")
+    print(f"  Dask overhead        {1e3 * (t1 - t_loop) / n:8.2f} ms per case (1 worker − loop)")
     print(f"  Dask, 2 workers      {1e3 * t2 / n:8.2f} ms   speed-up over 1 worker "
           f"{t1 / t2:.2f}  (goal ≈ 2)")
     if bad1 or bad2:
