@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..progress import Tracker
+from ..progress import QUIET_HELP, Tracker
 
 __all__ = ["register"]
 
@@ -39,13 +39,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the ossicular-chain support springs in the exported stiffness",
     )
+    me.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     me.set_defaults(func=_middle_ear)
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
     from ..fem.middle_ear import parse_pressures, pressure_sweep
 
-    with Tracker("FE sweep", unit="point") as track:  # messages; a bar on a terminal
+    with Tracker("FE sweep", unit="point", quiet=args.quiet) as track:  # a bar on a terminal
         result = pressure_sweep(
             parse_pressures(args.pressures),
             refine=args.refine,

@@ -171,3 +171,22 @@ def test_loader_returns_fresh_module_after_regeneration(tmp_path):
     second = load_generated(path)
     assert first.PARAMETERS["l"] == 0.5
     assert second.PARAMETERS["l"] == 0.25
+
+
+def test_every_result_csv_has_the_same_names_in_pandas_and_genfromtxt(tmp_path):
+    """Reference: the readers themselves — the names pandas reads equal those genfromtxt keeps
+    (no mangled characters) for modes, frequency responses and equilibria; the display of each
+    result is one short line."""
+    pd = pytest.importorskip("pandas")
+    from neweul_py.analysis import equilibrium, frequency_response, linearize, modes
+
+    mod = load_generated(GENERATED / "middle_ear_chain.py")
+    lin = linearize(mod)
+    results = [modes(lin), frequency_response(lin, [100.0, 1000.0]), equilibrium(mod)]
+    for k, res in enumerate(results):
+        path = res.save(tmp_path / f"r{k}.csv")
+        names = list(pd.read_csv(path).columns)
+        rec = np.genfromtxt(path, names=True, delimiter=",", dtype=None, encoding="utf-8")
+        assert list(rec.dtype.names) == names
+        assert list(res.to_dataframe().columns)[: len(names)][:2] == names[:2]
+        assert len(repr(res)) < 200 and "\n" not in repr(res)
