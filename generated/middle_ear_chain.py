@@ -11,7 +11,7 @@ import numpy as _np
 
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'middle_ear_chain'
-DESCRIPTION = 'Lumped four-mass middle-ear chain (Lobato et al., LVATB1; shared/reference/middle_ear.md): ground-TM-malleus-incus-stapes-ground with malleus and incus ligaments to ground, all springs as bushings along the piston axis x; modal loss factors 0.62, 0.32, 0.32, 0.0032 as viscous modal damping at each resonance (undamped modes at 795, 3961, 12995, 13644 Hz). Input: ear-canal sound pressure p_ec (Pa) times the TM area on the TM mass. Output: stapes velocity (m/s).\n'
+DESCRIPTION = 'Lumped four-mass middle-ear chain (Lobato et al., LVATB1; docs/middle-ear-data.md): ground-TM-malleus-incus-stapes-ground with malleus and incus ligaments to ground, all springs as bushings along the piston axis x; modal loss factors 0.62, 0.32, 0.32, 0.0032 as viscous modal damping at each resonance (undamped modes at 795, 3961, 12995, 13644 Hz). Input: ear-canal sound pressure p_ec (Pa) times the TM area on the TM mass. Output: stapes velocity (m/s).\n'
 COORDINATES = ['x_tm', 'x_malleus', 'x_incus', 'x_stapes']
 COORDINATE_UNITS = ['m', 'm', 'm', 'm']
 INITIAL_STATE = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
@@ -46,7 +46,7 @@ OUTPUT_UNITS = ['', '']
 CONSTRAINTS = []
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 8
-SOURCE_HASH = '8efc8f278c953ac237f5fb7df883a5311bf183c1110aef1a4f6e3244dfe5ae50'
+SOURCE_HASH = '58cf018fd7e6f724ce5dddbd435fa3bb5d8aba46af60e35619cd5fa6e5dd764a'
 MASS_MATRIX_SYMMETRIC = True
 
 _P0 = (5.95e-06, 3.48e-05, 3.37e-05, 2.12e-06, 162.0, 36933.0, 893.0, 11410.0, 129.0, 12581.0, 764.0, 6.07e-05, 0.00699058166509, 0.0270690086123, -0.0186792537624, 0.00326659923282, 0.157854873573, -0.0705036789215, -0.00675644379411, 0.231316013035, -0.040244660738, 0.0527597589085)

@@ -117,7 +117,7 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
 
 
 def generate(
-    description_path: str | os.PathLike[str],
+    source: Any,
     out_dir: str | os.PathLike[str] = "generated",
     form: Form = "auto",
 ) -> Path:
@@ -125,8 +125,10 @@ def generate(
 
     Parameters
     ----------
-    description_path
-        A YAML description file.
+    source
+        A YAML description file (path), YAML text (a ``str`` with a line break), or a
+        :class:`~neweul_py.model.System` (e.g. from :class:`~neweul_py.SystemBuilder`); a
+        module generated from a ``System`` carries ``SOURCE_HASH = system.fingerprint()``.
     out_dir
         Directory of the module (created if needed).
     form
@@ -142,8 +144,30 @@ def generate(
     --------
     >>> generate("examples/pendulum.yaml", "generated")  # doctest: +SKIP
     PosixPath('generated/pendulum.py')
+    >>> generate(Path("examples/pendulum.yaml").read_text(), "out")  # doctest: +SKIP
+    PosixPath('out/pendulum.py')
     """
-    equations, source_hash = derive(description_path, form)
+    from .model import System
+
+    if isinstance(source, System):
+        from .equations import newton_euler
+
+        _check_form(form)
+        equations, source_hash = newton_euler(source, form=form), source.fingerprint()
+    elif isinstance(source, str) and "\n" in source:
+        from .description import description_hash
+
+        _check_form(form)
+        raw = source.encode("utf-8")
+        equations = _derive_text(raw, "<description text>", form)
+        source_hash = description_hash(raw)
+    elif isinstance(source, str | os.PathLike):
+        equations, source_hash = derive(source, form)
+    else:
+        raise NeweulError(
+            f"generate: expected a description path, YAML text or a System, got "
+            f"{type(source).__name__}"
+        )
     return generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
 
 

@@ -29,6 +29,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "compare_frf",
     "interpolate",
     "fem",
+    "sweep", "compare",
 )
 
 

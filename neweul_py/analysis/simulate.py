@@ -116,6 +116,7 @@ def simulate(
     u: InputLike = None,
     max_step: float = np.inf,
     independent: Sequence[str] | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> SimulationResult:
     """Integrate a generated model from ``t_start`` to ``t_end``.
 
@@ -157,6 +158,10 @@ def simulate(
         kept exactly when the initial state is made consistent (default: the coordinates the
         constraints leave free, first in ``COORDINATES`` order; see
         :func:`~neweul_py.analysis.dae.consistent_initial_state`).
+    progress
+        Called as ``progress(done, total)`` with the simulated time reached (``t − t_start``)
+        and the span ``t_end − t_start``, at most about 200 times per run plus once at the end;
+        a :class:`neweul_py.progress.Tracker` draws a bar with the remaining time on stderr.
 
     Returns
     -------
@@ -195,7 +200,7 @@ def simulate(
         return simulate_constrained(
             module, t_end, t_start=t_start, n_out=n_out, t_eval=t_eval, y0=x_init[:n],
             yd0=x_init[n:2 * n], p=pv, u=u, method=method, rtol=rtol, atol=atol,
-            independent=independent,
+            independent=independent, progress=progress,
         ).result
     if independent is not None:
         raise NeweulError(
@@ -214,9 +219,14 @@ def simulate(
 
     rhs = module.rhs
     last = {"t": t_start, "x": x_init}
+    span = t_end - t_start
+    mark = [t_start if progress is not None else np.inf]  # next time to report
 
     def f(t: float, x: np.ndarray) -> np.ndarray:
         last["t"], last["x"] = t, x
+        if t >= mark[0]:  # throttled: ~200 reports per run, none without a hook
+            mark[0] = t + span / 200
+            progress(min(t, t_end) - t_start, span)
         return rhs(t, x, pv, uf(t))
 
     kwargs: dict[str, Any] = {}
@@ -248,6 +258,8 @@ def simulate(
             last_iterate=np.array(last["x"]),
             names=state_names,
         )
+    if progress is not None:
+        progress(span, span)
     x = sol.y.T
     ny = len(module.OUTPUTS)
     outs = np.empty((times.size, ny))

@@ -4,13 +4,13 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 import numpy as np
 
 from ..elastic import ReducedBody, read_fe_model
 from ..elastic.quality import FRFComparison, check_source, compare_frf
 from ..errors import NeweulError
+from ..progress import QUIET_HELP, Tracker
 
 
 def _grid(text: str) -> tuple[float, float, int]:
@@ -47,11 +47,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("-o", "--out", metavar="CSV",
                         help="write frequency_hz,full_magnitude,reduced_magnitude,"
                         "relative_error")
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
-
-
-def _progress(msg: str) -> None:
-    print(f"  {msg}", file=sys.stderr, flush=True)
 
 
 def frequency_grid(lo: float, hi: float, n: int, log: bool) -> np.ndarray:
@@ -95,8 +92,9 @@ def run(args: argparse.Namespace) -> int:
     fe = read_fe_model(args.model)
     body = ReducedBody.load(args.body)
     check_source(fe, body, args.body)  # a body reduced from another model: refuse
-    _progress(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
-    cmp = compare_frf(fe, body, f, args.input, args.output, progress=_progress, check=False)
+    with Tracker("full FRF", unit="freq", quiet=args.quiet) as track:  # a bar on a terminal
+        track.say(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
+        cmp = compare_frf(fe, body, f, args.input, args.output, progress=track, check=False)
     err = cmp.relative_error
     i = int(np.argmax(err))
     print(f"{args.output} / {args.input}: max relative error {err[i]:.3e} at {f[i]:g} Hz "

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import sys
+
+from ..progress import QUIET_HELP, Tracker
 
 __all__ = ["register"]
 
@@ -38,25 +39,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the ossicular-chain support springs in the exported stiffness",
     )
+    me.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     me.set_defaults(func=_middle_ear)
-
-
-def _progress(msg: str) -> None:
-    """Progress of the long steps on stderr (as ``neweul reduce`` prints it)."""
-    print(f"  {msg}", file=sys.stderr, flush=True)
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
     from ..fem.middle_ear import parse_pressures, pressure_sweep
 
-    result = pressure_sweep(
-        parse_pressures(args.pressures),
-        refine=args.refine,
-        out_dir=args.output,
-        plots=args.plots,
-        include_support=args.include_support,
-        verbose=True,
-        progress=_progress,
-    )
+    with Tracker("FE sweep", unit="point", quiet=args.quiet) as track:  # a bar on a terminal
+        result = pressure_sweep(
+            parse_pressures(args.pressures),
+            refine=args.refine,
+            out_dir=args.output,
+            plots=args.plots,
+            include_support=args.include_support,
+            verbose=True,
+            progress=track,
+        )
     print(f"wrote {len(result.models)} working points to {args.output}")
     return 0

@@ -7,6 +7,7 @@ import argparse
 
 from ..analysis.results import SUFFIXES
 from ..analysis.simulate import METHODS, simulate
+from ..progress import QUIET_HELP, Tracker
 from . import FORMS
 from . import _analysis_common as common
 
@@ -41,6 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="write results as .csv (with a units line) or .npz")
     parser.add_argument("--plot", metavar="FIG",
                         help="plot coordinates and outputs (.png/.pdf/.svg; matplotlib)")
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
 
 
@@ -48,9 +50,10 @@ def run(args: argparse.Namespace) -> int:
     """Simulate, write the requested files and print a one-line summary per file."""
     common.check_files(args.output, SUFFIXES, "results", args.plot)
     module = common.load_model(args)
-    result = simulate(module, args.t_end, method=args.method, rtol=args.rtol, atol=args.atol,
-                      n_out=args.n_out, p=dict(args.param) or None,
-                      independent=args.independent)
+    with Tracker("simulate", unit="s", quiet=args.quiet) as track:  # a bar on a terminal
+        result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
+                          atol=args.atol, n_out=args.n_out, p=dict(args.param) or None,
+                          independent=args.independent, progress=track)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:

@@ -7,7 +7,7 @@ NumPy/SciPy only; never imports the symbolic layers.
   sharing :func:`project`;
 * :class:`ReducedBody` – the reduced body and its file format (``docs/reduced-body-format.md``);
 * :func:`interpolate`, :class:`ParametricBody` – parametric reduction by matrix interpolation
-  of local reduced bodies (``reference/equations.md`` §4);
+  of local reduced bodies (``docs/equations.md`` §4);
 * :mod:`~neweul_py.elastic.quality` – FRFs, errors, eigenvalue comparison, stability.
 """
 

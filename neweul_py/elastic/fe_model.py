@@ -5,7 +5,7 @@ Structure kinds (``kind``):
 * ``"structural"`` – displacement/rotation DOFs only;
 * ``"acoustic"`` – pressure DOFs only;
 * ``"up-coupled"`` – pressure-based u–p form of Eq. (2) of the seed paper
-  (``reference/equations.md`` §3),
+  (``docs/equations.md`` §3),
   ``[Ms 0; ρCᵀ Mf] ẍ + D ẋ + [Ks −C; 0 Kf] x = f`` with fluid density ``density`` (ρ),
   ``x = [u; p]`` (the u and p DOFs may be interleaved; the DOF map tells them apart).
 

@@ -1,4 +1,4 @@
-"""Floating-frame-of-reference invariants of an elastic body (``reference/equations.md`` §2).
+"""Floating-frame-of-reference invariants of an elastic body (``docs/equations.md`` §2).
 
 From an FE model (mass matrix ``M``, node coordinates, DOF map) and a right basis ``V``
 (displacements ``x = V q``) and left basis ``W`` (test functions; ``W = V`` for one-sided
@@ -855,7 +855,7 @@ def compute_invariants(
 
     References
     ----------
-    ``reference/equations.md`` §2; Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6.
+    ``docs/equations.md`` §2; Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6.
 
     Examples
     --------

@@ -1,4 +1,4 @@
-"""Reading the elastic data of a description's ``elastic_bodies`` (``reference/equations.md`` §2).
+"""Reading the elastic data of a description's ``elastic_bodies`` (``docs/equations.md`` §2).
 
 The symbolic layers (``description``, ``equations``) read elastic bodies only through this
 function: it returns the flat ``name → array`` form of :class:`~.invariants.Invariants`

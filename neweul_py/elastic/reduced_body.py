@@ -47,7 +47,7 @@ def json_normal(obj: Any, item: str) -> Any:
 class ReducedBody:
     """Reduced second-order model ``M q̈ + D q̇ + K q = B u``, ``y = C q`` of an elastic body.
 
-    Obtained by Petrov–Galerkin projection (``reference/equations.md`` §2–3):
+    Obtained by Petrov–Galerkin projection (``docs/equations.md`` §2–3):
     ``M = Wᵀ M_FE V``, ``D = Wᵀ D_FE V``, ``K = Wᵀ K_FE V``, ``B = Wᵀ B_FE``, ``C = C_FE V``;
     full displacements are ``x ≈ V q``. One-sided data is ``W = V``.
 
