@@ -31,6 +31,7 @@ import numpy as np
 import sympy as sp
 
 from ..ffrf import KERNEL_ARRAYS, KERNEL_FUNCTIONS, PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack
+from ..ffrf.parametric import weight_coefficients
 from .blocks import units
 from .writer import ModuleParts, module_parts
 
@@ -42,18 +43,35 @@ _RIGID_USED = ("mass_matrix", "force_vector", "force_jacobians", "mass_matrix_ti
                "constraint_time_derivative", "constraint_gamma")
 
 
+def _arrays(data: Any, indent: str, keys: tuple[str, ...]) -> list[str]:
+    """``key: packed array`` lines of the kernel arrays of one flat data set."""
+    lines = [f"{indent}'m': {float(data['m'])!r},"]
+    for key in keys:
+        arr = data.get(key)
+        if arr is not None:
+            lines.append(f"{indent}{key!r}: {ffrf_pack(arr)!r},")
+    return lines
+
+
 def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
-    """Source lines of one body's entry of ``_ELASTIC_DATA``."""
+    """Source lines of one body's entry of ``_ELASTIC_DATA`` (per sample for parametric
+    bodies, with the sample values and the weight polynomials)."""
     b = splice.body
     lines = ["    {", f"        'name': {b.name!r},", f"        'first': {first},",
-             f"        'kin': {offset},", f"        'inertia': {b.inertia!r},",
-             f"        'm': {float(b.data['m'])!r},"]
-    for key in KERNEL_ARRAYS:
-        arr = b.data.get(key)
-        if arr is None or (key.endswith((".m1", ".m2")) and not np.any(arr)):
-            continue
-        lines.append(f"        {key!r}: {ffrf_pack(arr)!r},")
-    return [*lines, "    },"]
+             f"        'kin': {offset},", f"        'inertia': {b.inertia!r},"]
+    datasets = b.samples if b.parametric else (b.data,)
+    # order-1/2 parts that are zero in every sample are left out (absent means zero)
+    keys = tuple(k for k in KERNEL_ARRAYS if not k.endswith((".m1", ".m2"))
+                 or any(k in d and np.any(d[k]) for d in datasets))
+    if not b.parametric:
+        return [*lines, *_arrays(b.data, "        ", keys), "    },"]
+    values = np.asarray(b.sample_values, dtype=np.float64)
+    lines += [f"        'values': {ffrf_pack(values)!r},",
+              f"        'coeff': {ffrf_pack(weight_coefficients(values, b.interpolation))!r},",
+              "        'samples': ("]
+    for d in datasets:
+        lines += ["            {", *_arrays(d, "                ", keys), "            },"]
+    return [*lines, "        ),", "    },"]
 
 
 def _symmetric(splices: tuple[Any, ...]) -> bool:
@@ -87,7 +105,7 @@ def _wrapper(name: str, splice_fn: Any) -> tuple[str, ...]:
     call = ", ".join(params)
     doc = (inspect.getdoc(splice_fn) or "").split("\n\n")[0].replace("\n", " ")
     return (f"def {name}({args}):", f'    """{doc}"""',
-            f"    return {splice_fn.__name__}(_FFRF, {call})")
+            f"    return {splice_fn.__name__}(ffrf_at(_FFRF, t, p), {call})")
 
 
 def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) -> ModuleParts:
@@ -121,7 +139,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         output_names=(*names, *hidden),
         constraints=ce,
     )
-    rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True)
+    rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
+                         schedules=el.schedules)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
@@ -143,19 +162,24 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
     for s, off in zip(el.splices, el.offsets, strict=True):
         data += _body_entry(s, true_index[s.first], off)
     data.append(")")
+    parts = ", ".join(f"({ffrf_pack(v[:, a_idx])!r}, {ffrf_pack(w[:, a_idx])!r})"
+                      for v, w in el.parts)
     private = (*rigid.private, f"_NS = {len(a_idx)}",
                f"_SV = {ffrf_pack(el.SV[a_idx])!r}", f"_SW = {ffrf_pack(el.SW[a_idx])!r}",
-               *data)
+               f"_PARTS = ({parts}{',' if len(el.parts) == 1 else ''})", *data)
 
     functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs")}
     functions.update({f"_rigid_{k}": rigid.functions[k] for k in _RIGID_USED})
+    if el.schedules:
+        functions["_rigid_schedule"] = rigid.functions["schedule"]
     for fn in (*KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
         functions[fn.__name__] = tuple(inspect.getsource(fn).rstrip("\n").splitlines())
     rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in _RIGID_USED)
     functions["_FFRF"] = (
         "_FFRF = ffrf_system(_ELASTIC_DATA, _NS, _SV, _SW, len(OUTPUTS),",
         f"                    {{{rigid_map}}},",
-        "                    default_inputs)")
+        "                    default_inputs, _PARTS,",
+        f"                    {'_rigid_schedule' if el.schedules else 'None'})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
 

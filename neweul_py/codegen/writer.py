@@ -277,7 +277,7 @@ def _header(system: System) -> tuple[str, ...]:
 
 
 def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: str = "",
-                 allow_empty: bool = False) -> ModuleParts:
+                 allow_empty: bool = False, schedules: Sequence[sp.Expr] = ()) -> ModuleParts:
     """The parts of the generated module of (the symbolic part of) ``equations``.
 
     Parameters
@@ -295,6 +295,9 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         parts stay keyed by the protocol names).
     allow_empty
         Accept equations without coordinates (the symbolic part of an elastic-only model).
+    schedules
+        Scheduling expressions of parametric elastic bodies (parameters and ``t``): emitted
+        as ``{prefix}schedule(t, p)``.
 
     Raises
     ------
@@ -350,6 +353,14 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     funcs["default_inputs"] = _function("default_inputs", "t, p",
                                         "The default excitation ``u(t)`` of the description.",
                                         [*body, "return u"])
+    if schedules:
+        b = checked(ctx, eliminate((), [as_expr(e) for e in schedules], method=method),
+                    (*p, time), "the schedules of the parametric elastic bodies")
+        body = (prologue(ctx, b, [(p, _P_SRC)]) + assignments(ctx, b)
+                + vector(ctx, "sigma", b.finals))
+        funcs["schedule"] = _function(f"{prefix}schedule", "t, p",
+                                      "Scheduling values of the parametric elastic bodies.",
+                                      [*body, "return sigma"])
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix))
     funcs.update(_state_functions(ctx, outs, energy, method, d_method, prefix))
     # constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py)

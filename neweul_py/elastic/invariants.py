@@ -927,9 +927,19 @@ def compute_invariants(
             Ct1[:, :, a] += W.T @ (A @ V)
         if (A := KG.get(LOAD_CASES[3 + a])) is not None:
             Cr1[:, :, a] += W.T @ (A @ V)
-    for c in range(6):
+    C2g = np.zeros((nq, nq, 3, 3))
+    for c, (a, b) in enumerate(OMEGA_PRODUCTS):
         if (A := KG.get(LOAD_CASES[6 + c])) is not None:
             Oe1[:, :, c] += W.T @ (A @ V)
+            # the same stiffening as a centrifugal potential −½ ωᵀ J_G(q) ω in the inertia
+            # tensor (equations.md §2.1), so that the rotational rows carry its reaction
+            kv = V.T @ (A @ V)
+            kv = 0.5 * (kv + kv.T)
+            if a == b:
+                C2g[:, :, a, a] -= kv
+            else:
+                C2g[:, :, a, b] -= 0.5 * kv
+                C2g[:, :, b, a] -= 0.5 * kv
 
     K = sps.csr_matrix(fe.K)
     Ke = W.T @ (K @ V)
@@ -958,7 +968,7 @@ def compute_invariants(
         nodes=inv_nodes,
         names=tuple(names) if names is not None else (),
         two_sided=two_sided,
-        J2=0.5 * (C2 + C2.transpose(1, 0, 3, 2)),
+        J2=0.5 * (C2 + C2.transpose(1, 0, 3, 2)) + C2g,
     )
 
 

@@ -42,7 +42,7 @@ from ..kinematics import absolute_kinematics
 from ..model import INERTIAL, ElasticBody, System
 
 __all__ = ["ElasticEquations", "ElasticSplice", "elastic_equations", "elastic_splices",
-           "node_coordinate_map"]
+           "node_coordinate_map", "node_coordinate_parts"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,12 +165,32 @@ def node_coordinate_map(system: System) -> tuple[tuple[int, ...], np.ndarray, np
         M = S_Wᵀ M_s S_V,   q − k = S_Wᵀ (q − k)_s,
 
     where ``S_W`` has the rows of the left basis ``[Φ_W; Ψ_W]`` at the node coordinates: node
-    loads reach the elastic equations as ``W_Pᵀ f`` (one-sided data: ``S_W = S_V``).
+    loads reach the elastic equations as ``W_Pᵀ f`` (one-sided data: ``S_W = S_V``). Parametric
+    bodies contribute their first sample's maps here (see :func:`node_coordinate_parts`).
 
     Returns
     -------
     keep, S_V, S_W
         Indices in ``y_s`` of the independent coordinates, and the two (n_s, n) maps.
+    """
+    keep, SV, SW, parts = node_coordinate_parts(system)
+    for SVs, SWs in parts:
+        SV = SV + SVs[0]
+        SW = SW + SWs[0]
+    return keep, SV, SW
+
+
+def node_coordinate_parts(system: System) -> tuple[tuple[int, ...], np.ndarray, np.ndarray,
+                                                   tuple[tuple[np.ndarray, np.ndarray], ...]]:
+    """:func:`node_coordinate_map` split for parametric bodies (equations.md §2.3).
+
+    Returns
+    -------
+    keep, S_V, S_W, parts
+        ``S_V``, ``S_W`` without the node rows of parametric bodies, and per parametric body
+        (in the order of ``system.elastic_bodies``) the stacks ``(k, n_s, n)`` of its node
+        rows at each sample, so that ``S_V(σ) = S_V + Σ_i w_i(σ) S_V,i`` (the weights sum to
+        one, the maps are linear in the node data).
     """
     ns = len(system.coordinates)
     index = {c.name: j for j, c in enumerate(system.coordinates)}
@@ -181,14 +201,24 @@ def node_coordinate_map(system: System) -> tuple[tuple[int, ...], np.ndarray, np
     SW = np.zeros((ns, len(keep)))
     for j in keep:
         SV[j, col[j]] = SW[j, col[j]] = 1.0
+    parts = []
     for b in system.elastic_bodies:
         cols = [col[index[n]] for n in b.coordinate_names]
-        for label, _node in b.nodes:
-            tv, tw = b.node_maps(label)
-            rows = [index[n] for n in b.node_coordinate_names(label)]
-            SV[np.ix_(rows, cols)] = tv
-            SW[np.ix_(rows, cols)] = tw
-    return keep, SV, SW
+        samples = range(len(b.samples)) if b.parametric else (None,)
+        SVs = np.zeros((len(samples), ns, len(keep)))
+        SWs = np.zeros_like(SVs)
+        for i, sample in enumerate(samples):
+            for label, _node in b.nodes:
+                tv, tw = b.node_maps(label, sample)
+                rows = [index[n] for n in b.node_coordinate_names(label)]
+                SVs[i][np.ix_(rows, cols)] = tv
+                SWs[i][np.ix_(rows, cols)] = tw
+        if b.parametric:
+            parts.append((SVs, SWs))
+        else:
+            SV += SVs[0]
+            SW += SWs[0]
+    return keep, SV, SW, tuple(parts)
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,9 +229,12 @@ class ElasticEquations:
     ----------
     splices
         The reference-frame kinematics of every body.
-    keep, SV, SW
-        :func:`node_coordinate_map`: the independent coordinates among the symbolic ones
-        and the maps ``y_s = S_V y`` (motion) and ``S_W`` (loads, left basis).
+    keep, SV, SW, parts
+        :func:`node_coordinate_parts`: the independent coordinates among the symbolic ones,
+        the maps ``y_s = S_V y`` (motion) and ``S_W`` (loads, left basis) without the node
+        rows of parametric bodies, and those rows per parametric body and sample.
+    schedules
+        The scheduling expressions of the parametric bodies (parameters and ``t``), in order.
     active
         Indices of the symbolic coordinates that are not elastic coordinates (the node
         frames move with the dependent node coordinates, so the elastic ones appear in no
@@ -215,6 +248,8 @@ class ElasticEquations:
     keep: tuple[int, ...]
     SV: np.ndarray
     SW: np.ndarray
+    parts: tuple[tuple[np.ndarray, np.ndarray], ...]
+    schedules: tuple[sp.Expr, ...]
     active: tuple[int, ...]
     hidden: tuple[sp.Expr, ...]
     offsets: tuple[int, ...]
@@ -225,7 +260,7 @@ def elastic_equations(system: System) -> ElasticEquations | None:
     if not system.elastic_bodies:
         return None
     splices = elastic_splices(system)
-    keep, SV, SW = node_coordinate_map(system)
+    keep, SV, SW, parts = node_coordinate_parts(system)
     elastic_q = {n for b in system.elastic_bodies for n in b.coordinate_names}
     active = tuple(j for j, c in enumerate(system.coordinates) if c.name not in elastic_q)
     hidden: list[sp.Expr] = []
@@ -233,4 +268,6 @@ def elastic_equations(system: System) -> ElasticEquations | None:
     for s in splices:
         offsets.append(len(hidden))
         hidden += s.expressions(list(active))
-    return ElasticEquations(splices, keep, SV, SW, active, tuple(hidden), tuple(offsets))
+    schedules = tuple(b.schedule for b in system.elastic_bodies if b.parametric)
+    return ElasticEquations(splices, keep, SV, SW, parts, schedules, active, tuple(hidden),
+                            tuple(offsets))

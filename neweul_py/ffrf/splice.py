@@ -40,8 +40,10 @@ from .body import (
     ffrf_strain_energy,
     ffrf_velocity_terms,
 )
+from .parametric import ffrf_mix, ffrf_weights
 
-__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_pack", "ffrf_system", "ffrf_unpack"]
+__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_at", "ffrf_pack", "ffrf_system",
+           "ffrf_unpack"]
 
 #: Entries of ``kin`` per body besides the two Jacobians: ā, ᾱ, ω, g, v (3 each), e (1)
 #: (written as the literal 16 in :func:`ffrf_frame`, whose source is embedded).
@@ -65,7 +67,7 @@ def ffrf_unpack(entry):
     return np.frombuffer(raw, dtype="<f8").reshape(shape).copy()
 
 
-def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs):
+def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None):
     """The splice context of a generated module.
 
     Parameters
@@ -73,28 +75,66 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs):
     data
         One dict per elastic body: ``name``, ``first`` (index of its first coordinate in
         ``y``), ``kin`` (offset of its frame kinematics in the hidden outputs), ``inertia``
-        and its flat arrays (packed or plain).
+        and its flat arrays (packed or plain); a parametric body has ``samples`` (one such
+        dict of arrays per sample), ``values`` and ``coeff`` (:mod:`.parametric`) instead.
     ns
         Number of symbolic coordinates ``y_s`` that appear in the symbolic part.
     sv, sw
-        ``S_V``, ``S_W`` restricted to those rows, (ns, n), packed or plain.
+        ``S_V``, ``S_W`` restricted to those rows, (ns, n), packed or plain (without the
+        node rows of parametric bodies).
     nhidden
         Number of the module's own outputs (the hidden ones follow).
     rigid
         The symbolic part's functions by protocol name.
     default_inputs
         ``default_inputs(t, p)`` of the module.
+    parts
+        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n): its node rows per sample.
+    schedule
+        ``schedule(t, p)``: the scheduling values of the parametric bodies, in order.
     """
     bodies = []
     for entry in data:
-        flat = {k: ffrf_unpack(v) for k, v in entry.items()}
-        b = ffrf_prepare(flat, entry["inertia"])
+        if "samples" in entry:
+            prepared = [ffrf_prepare({k: ffrf_unpack(v) for k, v in sample.items()},
+                                     entry["inertia"]) for sample in entry["samples"]]
+            b = dict(prepared[0])
+            b.update(samples=prepared, values=ffrf_unpack(entry["values"]),
+                     coeff=ffrf_unpack(entry["coeff"]))
+        else:
+            b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"])
         b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
     return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
-            "same": bool(np.array_equal(SV, SW)), "nhidden": nhidden, "rigid": rigid,
-            "default_inputs": default_inputs, "step": 1e-30}
+            "same": bool(np.array_equal(SV, SW)) and not parts, "nhidden": nhidden,
+            "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30,
+            "parts": tuple((ffrf_unpack(a), ffrf_unpack(b)) for a, b in parts),
+            "schedule": schedule}
+
+
+def ffrf_at(S, t, p):
+    """The context at time ``t`` and parameters ``p``: parametric bodies mixed at their
+    scheduling values ``σ(t, p)`` and ``S_V(σ)``, ``S_W(σ)`` (frozen-parameter equations:
+    the weights' time derivatives are not taken, :mod:`.parametric`); ``S`` itself
+    without parametric bodies."""
+    if not S["parts"]:
+        return S
+    sigma = S["schedule"](t, p)
+    bodies, SV, SW, k = [], S["SV"], S["SW"], 0
+    for b in S["bodies"]:
+        if "samples" not in b:
+            bodies.append(b)
+            continue
+        w = ffrf_weights(b["values"], b["coeff"], sigma[k], b["name"])
+        mixed = ffrf_mix(b["samples"], w)
+        mixed.update(name=b["name"], first=b["first"], kin=b["kin"])
+        bodies.append(mixed)
+        SVs, SWs = S["parts"][k]
+        SV = SV + np.tensordot(w, SVs, axes=1)
+        SW = SW + np.tensordot(w, SWs, axes=1)
+        k += 1
+    return dict(S, bodies=tuple(bodies), SV=SV, SW=SW, same=bool(np.array_equal(SV, SW)))
 
 
 def ffrf_frame(S, b, kin):
@@ -349,7 +389,6 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_unpack, ffrf_system, ffrf_frame, ffrf_terms, ffrf_add_mass,
-                    ffrf_add_force,
-                    ffrf_kin, ffrf_kin_jacobians, ffrf_force_directional, ffrf_symbolic_state,
-                    *PROTOCOL.values())
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_at, ffrf_frame,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_kin, ffrf_kin_jacobians,
+                    ffrf_force_directional, ffrf_symbolic_state, *PROTOCOL.values())
