@@ -23,7 +23,7 @@ from neweul_py.elastic.invariants import attach_invariants
 from neweul_py.errors import DescriptionError
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from fe_builders import piston_duct  # noqa: E402
+from fe_builders import piston_duct
 
 SPEEDS = (300.0, 343.0, 390.0)
 
