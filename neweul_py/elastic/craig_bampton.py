@@ -101,6 +101,7 @@ def craig_bampton_bases(
     two_sided: bool = True,
     skip_rigid: bool = False,
     progress: Progress = None,
+    constraint_modes: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Right and left Craig–Bampton bases (module docstring).
 
@@ -116,9 +117,13 @@ def craig_bampton_bases(
         Left constraint modes and left eigenvectors for unsymmetric models (symmetric
         models: ``W = V`` either way); ``False``: ``W = V``.
     skip_rigid
-        Drop the rigid-body content of the constraint modes (floating frame of reference).
+        Drop the rigid-body content of the constraint modes (floating frame of reference);
+        the self-equilibrated motions of the interface stay free.
     progress
         Called with short messages on long steps.
+    constraint_modes
+        ``False``: fixed-interface modes only — the interface is clamped (to the reference
+        frame of a floating-frame body), as in the classical clamped FFRF body.
 
     Returns
     -------
@@ -178,7 +183,10 @@ def craig_bampton_bases(
     unsym = two_sided and not symmetric_pencil(fe)
     psi_l = -lu.solve(kbi.T, trans="T") if unsym else psi_r
     eye = np.eye(bb.size)
-    if skip_rigid:
+    if not constraint_modes:
+        eye = eye[:, :0]
+        psi_r, psi_l = psi_r[:, :0], psi_l[:, :0]
+    elif skip_rigid:
         Tb = rigid_body_fields(fe)[bb]
         U, s, _ = np.linalg.svd(Tb, full_matrices=True)
         rank = int(np.count_nonzero(s > 1e-10 * max(s.max(initial=0.0), 1e-300)))
@@ -206,6 +214,7 @@ def reduce_craig_bampton(
     keep_nodes: Sequence[int] | None = None,
     store_bases: bool = False,
     progress: Progress = None,
+    constraint_modes: bool = True,
 ) -> ReducedBody:
     """Craig–Bampton reduction: interface constraint modes + fixed-interface normal modes.
 
@@ -228,6 +237,8 @@ def reduce_craig_bampton(
         Also store the full ``V`` and ``W``.
     progress
         Called with messages on long steps.
+    constraint_modes
+        ``False``: fixed-interface (clamped) modes only.
 
     Returns
     -------
@@ -244,10 +255,13 @@ def reduce_craig_bampton(
     --------
     >>> body = reduce_craig_bampton(fe, interface=[1], modes=8)   # doctest: +SKIP
     """
-    V, W, lam = craig_bampton_bases(fe, interface, modes, two_sided, skip_rigid, progress)
+    V, W, lam = craig_bampton_bases(fe, interface, modes, two_sided, skip_rigid, progress,
+                                    constraint_modes)
     ids = np.unique(np.asarray(interface, dtype=np.int64))
     settings = {"modes": int(modes), "interface": ids.tolist(), "two_sided": two_sided,
                 "skip_rigid": bool(skip_rigid), "constraint_modes": V.shape[1] - int(modes)}
+    if not constraint_modes:
+        settings["clamped_interface"] = True
     if keep_nodes is None:
         keep_nodes = np.union1d(fe.io_nodes(), ids)
     _say(progress, f"projecting onto {V.shape[1]} vectors")

@@ -185,6 +185,7 @@ def solid_box(
     (822, 13)
     """
     from skfem import Basis, BilinearForm, ElementVector, asm
+    from skfem.helpers import dot
 
     mat = SolidMaterial() if material is None else material
     el, mesh_type = _element(element)
@@ -208,7 +209,7 @@ def solid_box(
 
     @BilinearForm
     def mass(a, b, _):
-        return mat.rho * np.einsum("i...,i...->...", a.value, b.value)
+        return mat.rho * dot(a, b)
 
     K = sps.csr_matrix(asm(elasticity, basis))
     M = sps.csr_matrix(asm(mass, basis))
