@@ -99,6 +99,9 @@ def _register_interface_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--interface", metavar="NODESET",
                         help="interface nodes of --method craig-bampton: ids, ranges A:B and "
                         "node-set names of the FE file, comma-separated (e.g. root or 1:12)")
+    parser.add_argument("--clamped-interface", action="store_true",
+                        help="craig-bampton: fixed-interface modes only, no constraint modes "
+                        "(the interface clamped to the floating frame)")
     parser.add_argument("--interface-frame", action="append", type=_frame_spec, default=[],
                         metavar="ID=NODESET",
                         help="add an averaged (RBE3-like) node frame with the new node id ID "
@@ -112,8 +115,11 @@ def _register_interface_options(parser: argparse.ArgumentParser) -> None:
 def _check_interface_options(args: argparse.Namespace) -> None:
     """Craig–Bampton needs --modes and --interface; --interface needs Craig–Bampton."""
     if args.method != "craig-bampton":
-        if args.interface is not None:
-            raise NeweulError("--interface applies to --method craig-bampton only")
+        wrong = (["--interface"] if args.interface is not None else []) + (
+            ["--clamped-interface"] if args.clamped_interface else [])
+        if wrong:
+            raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method "
+                              "craig-bampton only")
         return
     if args.interface is None or args.modes is None:
         raise NeweulError("--method craig-bampton needs --interface NODESET and --modes N")
@@ -132,7 +138,8 @@ def _reduce_craig_bampton(args: argparse.Namespace, fe, common: dict):
 
     nodes = parse_node_set(args.interface, fe, read_node_sets(args.model), "interface")
     common = {k: v for k, v in common.items() if k != "static_correction"}
-    return reduce_craig_bampton(fe, nodes, args.modes, skip_rigid=args.skip_rigid, **common)
+    return reduce_craig_bampton(fe, nodes, args.modes, skip_rigid=args.skip_rigid,
+                                constraint_modes=not args.clamped_interface, **common)
 
 
 def _interface_invariants(args: argparse.Namespace, body, fe):

@@ -132,3 +132,51 @@ def test_cli_craig_bampton_invariants(tmp_path, capsys):
     nc = body.settings["constraint_modes"]
     assert nc == 3 * s.node_sets["root"].size - 6
     np.testing.assert_allclose(np.diag(body.M)[:nc], 1.0, rtol=1e-8)
+
+
+def test_skip_rigid_is_the_rigidly_held_interface():
+    """skip_rigid on a solid root face: the basis satisfies T_bᵀ x_b = 0 (the face's rigid
+    motion held, its self-equilibrated deformation free), and its eigenvalues are upper bounds
+    converging to those of the unreduced model under exactly these six constraints (null-space
+    method); --clamped-interface gives the fully clamped face (higher frequencies)."""
+    from scipy.linalg import null_space
+
+    from neweul_py.elastic.interface import rigid_body_fields
+
+    s = solid_box((1.0, 0.1, 0.05), (4, 2, 1), element="hex20")
+    fe, root = s.fe, s.node_sets["root"]
+    bb = fe.dofs_of_nodes(root)
+    T = rigid_body_fields(fe)
+    C = np.zeros((6, fe.n_dofs))
+    C[:, bb] = T[bb].T
+    Z = null_space(C)
+    K, M = fe.K.toarray(), fe.M.toarray()
+    full = sla.eigh(Z.T @ K @ Z, Z.T @ M @ Z, eigvals_only=True, subset_by_index=[0, 3])
+    errs = []
+    for modes in (4, 12):
+        V, _, _ = craig_bampton_bases(fe, root, modes, skip_rigid=True)
+        np.testing.assert_allclose(C @ V, 0.0, atol=1e-12)
+        red = np.sort(sla.eigvals(V.T @ K @ V, V.T @ M @ V).real)[:4]
+        assert np.all(red >= full * (1 - 1e-8))          # eigensolver round-off
+        errs.append(red / full - 1)
+    assert np.all(errs[1] < 0.2 * errs[0] + 1e-9) and np.all(errs[1] < 1e-2)
+    Vc, _, lam = craig_bampton_bases(fe, root, 4, constraint_modes=False)
+    assert Vc.shape[1] == 4 and np.all(np.sort(lam) > full)
+
+
+def test_cli_clamped_interface(tmp_path):
+    """`--clamped-interface` = reduce_craig_bampton(constraint_modes=False)."""
+    s = solid_box((1.0, 0.1, 0.05), (4, 2, 1), element="hex8")
+    path = tmp_path / "s.npz"
+    write_fe_model(s.fe, path, node_sets=s.node_sets)
+    out = tmp_path / "b.npz"
+    assert main(["reduce", str(path), "--method", "craig-bampton", "--interface", "root",
+                 "--modes", "3", "--clamped-interface", "-o", str(out)]) == 0
+    from neweul_py.elastic import ReducedBody
+
+    body = ReducedBody.load(out)
+    ref = reduce_craig_bampton(s.fe, s.node_sets["root"], 3, constraint_modes=False)
+    assert body.order == 3 and body.settings["clamped_interface"]
+    np.testing.assert_allclose(body.K, ref.K, rtol=1e-10)
+    assert main(["reduce", str(path), "--modes", "3", "--clamped-interface",
+                 "-o", str(out)]) == 1
