@@ -104,3 +104,44 @@ def test_body_frames_two_sided_and_cli(tmp_path, capsys):
                  "--modes", "4", "--skip-rigid", "--interface-frame", "5=tip",
                  "-o", str(out)]) == 1
     assert "interface_frames.5" in capsys.readouterr().err
+
+
+def test_averaged_frame_in_a_description(tmp_path):
+    """End to end: a point mass on the averaged frame of the beam's tip node alone gives the
+    same generated mass matrix and forces as the mass on the tip node's own frame (the
+    averaged frame of one beam node is that node's frame)."""
+    from neweul_py.analysis import load_generated
+    from neweul_py.api import generate
+    from neweul_py.elastic import save_reduced_body
+
+    b = beam_model(0.5, 6)
+    body = reduce_craig_bampton(b.fe, b.node_sets["root"], 3, skip_rigid=True,
+                                store_bases=True)
+    body = add_interface_frames(attach_invariants(body, b.fe, nodes=[7]), b.fe, {100: [7]})
+    save_reduced_body(body.with_(V=None, W=None, full_dof_kind=None), tmp_path / "b.npz")
+    text = """
+name: {name}
+parameters: {{g: 9.81}}
+gravity: [0, -g, 0]
+coordinates: {{a: {{}}}}
+frames:
+  hub: {{rotation: [[z, a]]}}
+elastic_bodies:
+  beam: {{frame: hub, data: b.npz, nodes: {{tip: {node}}}}}
+bodies:
+  m: {{frame: beam.tip, mass: 0.3}}
+"""
+    mods = []
+    for name, node in (("own", 7), ("avg", 100)):
+        (tmp_path / f"{name}.yaml").write_text(text.format(name=name, node=node))
+        mods.append(load_generated(generate(tmp_path / f"{name}.yaml", tmp_path / "gen")))
+    own, avg = mods
+    assert list(own.COORDINATES) == list(avg.COORDINATES)
+    p = own.default_parameters()
+    rng = np.random.default_rng(2)
+    n = len(own.COORDINATES)
+    y, yd = 0.1 * rng.normal(size=n), rng.normal(size=n)
+    np.testing.assert_allclose(avg.mass_matrix(0.0, y, p), own.mass_matrix(0.0, y, p),
+                               rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(avg.force_vector(0.0, y, yd, p),
+                               own.force_vector(0.0, y, yd, p), rtol=1e-12, atol=1e-13)
