@@ -83,11 +83,10 @@ def _characteristic(fe: FEModel, bb: np.ndarray, ii: np.ndarray, N: np.ndarray,
     if not unsym:
         G = R.T @ MR
         Kc = R.T @ (fe.K @ R)
-        _, S = np.linalg.eigh(np.linalg.solve(np.linalg.cholesky(0.5 * (G + G.T)),
-                                              np.linalg.solve(np.linalg.cholesky(
-                                                  0.5 * (G + G.T)), 0.5 * (Kc + Kc.T)).T))
         Lc = np.linalg.cholesky(0.5 * (G + G.T))
-        S = np.linalg.solve(Lc.T, S)                  # Sᵀ G S = I, Sᵀ Kc S diagonal
+        Kt = np.linalg.solve(Lc, np.linalg.solve(Lc, 0.5 * (Kc + Kc.T)).T)   # L⁻¹ Kc L⁻ᵀ
+        _, Y = np.linalg.eigh(0.5 * (Kt + Kt.T))
+        S = np.linalg.solve(Lc.T, Y)                  # Sᵀ G S = I, Sᵀ Kc S diagonal
         return N @ S, psi_r @ S, psi_l @ S
     d = np.sqrt(np.abs(np.einsum("ij,ij->j", L, MR)))
     d = np.where(d > 0, d, 1.0)
