@@ -186,3 +186,17 @@ def test_solid_stiffening_against_nonlinear_fe():
         lin = spla.eigsh(A, k=1, M=fe.M.tocsc()[free][:, free], sigma=-1e-6)[0][0]
         assert lin == pytest.approx(ref, rel=1e-3)
         assert spin_omega2(inv, Om)[0] == pytest.approx(ref, rel=2e-3)
+
+
+def test_southwell_planar_beam():
+    """2-D beam (ux, uy, rz) spinning about z in its plane: the first in-plane bending mode
+    has ω² = ω₀² + (α₁ − 1) Ω² (centrifugal stiffening minus spin softening)."""
+    b = beam_model(1.0, 20, BeamSection(E=1e4, A=1.0, Iz=1e-4), planar=True)
+    body = reduce_craig_bampton(b.fe, b.node_sets["root"], 4, skip_rigid=True,
+                                store_bases=True)
+    assert body.order == 4
+    inv = body_invariants(attach_stiffening(body, b.fe, b.stiffening()))
+    lam0 = spin_omega2(inv, 0.0)
+    Om = 0.3 * np.sqrt(lam0[0])
+    alpha = (spin_omega2(inv, Om)[0] - lam0[0]) / Om**2
+    assert alpha == pytest.approx(SOUTHWELL_1 - 1, abs=3e-3)
