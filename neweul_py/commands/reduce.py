@@ -98,7 +98,9 @@ def _register_interface_options(parser: argparse.ArgumentParser) -> None:
     """Options of Craig–Bampton reduction, averaged interface frames and stiffening."""
     parser.add_argument("--interface", metavar="NODESET",
                         help="interface nodes of --method craig-bampton: ids, ranges A:B and "
-                        "node-set names of the FE file, comma-separated (e.g. root or 1:12)")
+                        "node-set names of the FE file, comma-separated (e.g. root or 1:12); "
+                        "with --skip-rigid the constraint modes leave out the interface's "
+                        "rigid motions (floating frame)")
     parser.add_argument("--clamped-interface", action="store_true",
                         help="craig-bampton: fixed-interface modes only, no constraint modes "
                         "(the interface clamped to the floating frame)")
