@@ -32,6 +32,7 @@ runs that procedure with the root clamped.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -85,7 +86,8 @@ class BeamSection:
     def __post_init__(self) -> None:
         for name in ("E", "G", "rho", "A", "Iy", "Iz", "shear_factor"):
             v = getattr(self, name)
-            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+            real = isinstance(v, numbers.Real) and not isinstance(v, bool)
+            if not (real and np.isfinite(v) and v > 0):
                 raise ModelError(f"must be a positive number, got {v!r}", f"section.{name}")
         if self.Jt is not None and not (np.isfinite(self.Jt) and self.Jt > 0):
             raise ModelError(f"must be a positive number, got {self.Jt!r}", "section.Jt")

@@ -26,6 +26,7 @@ of the linear stress ``σ(u)`` of a displacement ``u`` (the second variation of
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -53,9 +54,10 @@ class SolidMaterial:
     def __post_init__(self) -> None:
         for name in ("E", "rho"):
             v = getattr(self, name)
-            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+            real = isinstance(v, numbers.Real) and not isinstance(v, bool)
+            if not (real and np.isfinite(v) and v > 0):
                 raise ModelError(f"must be a positive number, got {v!r}", f"material.{name}")
-        if not (isinstance(self.nu, int | float) and -1.0 < self.nu < 0.5):
+        if not (isinstance(self.nu, numbers.Real) and -1.0 < self.nu < 0.5):
             raise ModelError(f"Poisson ratio must be in (-1, 0.5), got {self.nu!r}",
                              "material.nu")
 

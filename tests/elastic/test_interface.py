@@ -145,3 +145,20 @@ bodies:
                                rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(avg.force_vector(0.0, y, yd, p),
                                own.force_vector(0.0, y, yd, p), rtol=1e-12, atol=1e-13)
+
+
+def test_node_sets_in_manifest_and_npz(tmp_path):
+    """Named node sets round-trip through both FE file forms and resolve in NODESET specs
+    (names, ids, ranges mixed); a set naming unknown ids is refused before writing."""
+    from neweul_py.elastic.fe_io import read_node_sets
+
+    b = beam_model(1.0, 6)
+    for name in ("b.json", "b.npz"):
+        path = tmp_path / name
+        write_fe_model(b.fe, path, node_sets={"ends": [1, 7], "mid": [4]})
+        sets = read_node_sets(path)
+        assert sets["ends"].tolist() == [1, 7]
+        assert parse_node_set("ends,mid,2:3", b.fe, sets).tolist() == [1, 2, 3, 4, 7]
+    with pytest.raises(DataError, match=r"node_sets\.bad"):
+        write_fe_model(b.fe, tmp_path / "c.npz", node_sets={"bad": [1, 99]})
+    assert not (tmp_path / "c.npz").exists()
