@@ -5,6 +5,7 @@ models for ``neweul reduce``."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..progress import QUIET_HELP, Tracker
 
@@ -134,7 +135,8 @@ def _write(model, args: argparse.Namespace) -> int:
 
     stiffening = None
     if args.stiffening:
-        _progress("geometric stiffness of the 12 unit inertia load cases (root clamped)")
+        print("geometric stiffness of the 12 unit inertia load cases (root clamped)",
+              file=sys.stderr)
         stiffening = model.stiffening()
     write_fe_model(model.fe, args.output, node_sets=dict(model.node_sets),
                    stiffening=stiffening)

@@ -354,15 +354,15 @@ def test_flexible_pendulum_converges_to_the_unreduced_model(tmp_path: Path) -> N
     the RMS error falls with the mode count."""
     from neweul_py.analysis import simulate
 
-    def run(modes: int):
-        mod, _inv = _pendulum(tmp_path, modes)
+    def run(count: int):
+        mod, _inv = _pendulum(tmp_path, count)
         res = simulate(mod, 0.6, method="DOP853", rtol=1e-9, atol=1e-12, n_out=61)
         return res.outputs[:, 0], res.y[:, 0]
 
     ref = run(30)
     errs = []
-    for modes in (2, 4, 8):
-        tip, angle = run(modes)
+    for count in (2, 4, 8):
+        tip, angle = run(count)
         errs.append(max(np.sqrt(np.mean((tip - ref[0]) ** 2) / np.mean(ref[0] ** 2)),
                         np.sqrt(np.mean((angle - ref[1]) ** 2) / np.mean(ref[1] ** 2))))
     assert errs[0] > errs[1] > errs[2]
