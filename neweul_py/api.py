@@ -38,7 +38,8 @@ Form = Literal["auto", "closed", "recursive"]
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
 
 #: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
-_GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic")
+_GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic",
+                       "ffrf")
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:

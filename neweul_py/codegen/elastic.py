@@ -45,7 +45,8 @@ _RIGID_USED = ("mass_matrix", "force_vector", "force_jacobians", "mass_matrix_ti
 
 def _arrays(data: Any, indent: str, keys: tuple[str, ...]) -> list[str]:
     """``key: packed array`` lines of the kernel arrays of one flat data set."""
-    lines = [f"{indent}'m': {float(data['m'])!r},"]
+    lines = [f"{indent}'m': {float(data['m'])!r},",
+             f"{indent}'two_sided': {bool(data['two_sided'])!r},"]
     for key in keys:
         arr = data.get(key)
         if arr is not None:

@@ -93,6 +93,9 @@ def ffrf_prepare(flat, inertia="consistent"):
         start += size
     md1 = flat.get("md.m1")
     c2 = flat.get("J.m2") if inertia == "consistent" else None
+    ct1 = flat.get("Ct.m1")
+    stiff = (c2 is not None and ct1 is not None and np.any(ct1)
+             and not bool(np.asarray(flat.get("two_sided", False))))
     return {
         "mass": float(np.asarray(flat["m"])),
         "nq": nq,
@@ -102,6 +105,8 @@ def ffrf_prepare(flat, inertia="consistent"):
         "T1": np.ascontiguousarray(np.vstack(firsts)),
         "where": where,
         "C2": None if c2 is None else np.ascontiguousarray(c2, dtype=np.float64),
+        "consistent_stiffening": bool(stiff),
+        "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
         "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
         "Gr": np.asarray(flat["Gr.m0"], dtype=np.float64),
         "Ge": np.asarray(flat["Ge.m0"], dtype=np.float64),
@@ -125,9 +130,19 @@ def ffrf_mass_blocks(b, q):
     Mrr[3:, :3] = ffrf_skew(md)
     Mrr[:3, 3:] = -Mrr[3:, :3]
     Mrr[3:, 3:] = J
+    if b["consistent_stiffening"]:
+        # reaction of the prestress of the frame acceleration (gravity: a − g) on the
+        # rotational rows, ½ s̃(q) with s_a = qᵀ Ct¹_a q (equations.md §2.1)
+        Mrr[3:, :3] += 0.5 * ffrf_skew(ffrf_prestress(b, q, X["Ct"]))
     Mre = np.vstack((b["md1"], X["Crv"].T))
     Mer = np.hstack((X["Ct"], X["Cr"]))
     return md, Mrr, Mre, Mer, X["Oe"]
+
+
+def ffrf_prestress(b, q, Ct):
+    """``s_a = qᵀ Ct¹_a q`` (3,): the quadratic forms of the geometric stiffness of the frame
+    acceleration cases (``Ct`` = ``Ct(q)``, so ``Ct − Ct⁰ = Ct¹ q``)."""
+    return q @ (Ct - b["Ct0"])
 
 
 def ffrf_body_mass(b, q):
@@ -162,15 +177,24 @@ def ffrf_kinetic_energy(b, v, w, q, qd):
     frame components). Exact for one-sided data; for two-sided data the elastic rows use
     ``W``, so this is the energy of the Petrov–Galerkin model, not a conserved quantity."""
     z = np.concatenate((v, w, qd))
-    return 0.5 * float(np.real(z @ (ffrf_body_mass(b, q) @ z)))
+    inertia = dict(b, consistent_stiffening=False)      # the prestress reaction is no inertia
+    return 0.5 * float(np.real(z @ (ffrf_body_mass(inertia, q) @ z)))
 
 
-def ffrf_strain_energy(b, q):
-    """``½ qᵀ Ke q + kσᵀ q`` (the symmetric part of ``Ke`` for two-sided data)."""
-    return float(np.real(0.5 * q @ (b["Ke"] @ q) + b["ks"] @ q))
+def ffrf_strain_energy(b, q, g=None):
+    """``½ qᵀ Ke q + kσᵀ q`` (the symmetric part of ``Ke`` for two-sided data), plus, with the
+    consistent stiffening of the frame-acceleration cases, the prestress potential of gravity
+    ``−½ g·s(q)`` (``g`` in frame components)."""
+    out = 0.5 * q @ (b["Ke"] @ q) + b["ks"] @ q
+    if b["consistent_stiffening"] and g is not None:
+        X = b["T0"] + b["T1"] @ q
+        i, j, shape = b["where"]["Ct"]
+        out = out - 0.5 * g @ ffrf_prestress(b, q, X[i:j].reshape(shape))
+    return float(np.real(out))
 
 
 #: The functions a generated module embeds (in this order), see the module docstring.
-KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_mass_blocks,
+KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_prestress,
+                    ffrf_mass_blocks,
                     ffrf_body_mass, ffrf_velocity_terms, ffrf_elastic_forces,
                     ffrf_kinetic_energy, ffrf_strain_energy)

@@ -334,7 +334,7 @@ def ffrf_energy(S, t, x, p, u=None):
         q, qd = y[sl], yd[sl]
         out[0] += ffrf_kinetic_energy(b, v, w, q, qd)
         out[1] += b["mass"] * e - g @ (b["md0"] + b["md1"] @ q)
-        out[3] += ffrf_strain_energy(b, q)
+        out[3] += ffrf_strain_energy(b, q, g)
     return out
 
 

@@ -269,15 +269,16 @@ def test_up_coupled_body_with_spring_and_mass_matches_unreduced_fe(tmp_path: Pat
 
 
 def _pendulum(tmp_path: Path, modes: int, *, E: float = 3.0e4, lumped: bool = False,
-              inertia: str = "consistent", tag: str = ""):
+              inertia: str = "consistent", tag: str = "", stiffening: bool = False):
     """A cantilever (tests/elastic/beam_fe.py, 20 elements) hinged at its root (coordinate
-    ``a`` about z), in-plane bending modes only, one-sided invariants, gravity along −y."""
+    ``a`` about z), in-plane bending modes only, one-sided invariants, gravity along −y;
+    optionally with the geometric stiffening of all 12 inertia load cases."""
     import sys
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from beam_fe import beam
 
-    from neweul_py.elastic.invariants import compute_invariants
+    from neweul_py.elastic.invariants import LOAD_CASES, compute_invariants, stress_stiffening
 
     b = beam(20, E=E, lumped=lumped, rotary=lumped)
     _lam, V = b.clamped_modes(60)
@@ -285,7 +286,12 @@ def _pendulum(tmp_path: Path, modes: int, *, E: float = 3.0e4, lumped: bool = Fa
                if np.linalg.norm(V[1::6, k]) > 1e-6
                and max(np.abs(V[0::6, k]).max(), np.abs(V[2::6, k]).max(),
                        np.abs(V[3::6, k]).max(), np.abs(V[4::6, k]).max()) < 1e-9]
-    inv = compute_invariants(b.fe, V[:, inplane[:modes]], nodes=[21])
+    kw = {}
+    if stiffening:
+        kw["geometric_stiffness"] = stress_stiffening(
+            b.fe, lambda u: b.geometric_stiffness(b.axial_forces(u)), support=np.arange(6),
+            cases=LOAD_CASES)
+    inv = compute_invariants(b.fe, V[:, inplane[:modes]], nodes=[21], **kw)
     name = f"b{modes}{tag}"
     np.savez(tmp_path / f"{name}.npz", **inv.to_flat())
     mod = _generate(tmp_path, f"""
@@ -315,18 +321,23 @@ def _energy_drift(mod, inv, t_end: float = 2.0, rtol: float = 1e-10):
     return np.abs(energy - energy[0]).max() / (inv.m * 9.81 * 0.5), res
 
 
-@pytest.mark.parametrize(("modes", "lumped"), [(2, False), (4, False), (4, True)])
-def test_flexible_pendulum_conserves_energy(tmp_path: Path, modes: int, lumped: bool) -> None:
+@pytest.mark.parametrize(("modes", "lumped", "stiffening"),
+                         [(2, False, False), (4, False, False), (2, True, False),
+                          (3, False, True)])
+def test_flexible_pendulum_conserves_energy(tmp_path: Path, modes: int, lumped: bool,
+                                            stiffening: bool) -> None:
     """Released horizontally under gravity, undamped: the total energy of the generated
-    module (``energy()``: kinetic ``½ zᵀ M_b z``, gravity, strain ``½ qᵀ Ke q``) stays within
-    1e-7 of m g L/2 over 2 s at rtol 1e-10 (consistent and lumped mass) — the reference is
-    conservation of energy itself. With the SID truncation (``inertia: sid``) the same model
-    drifts by orders of magnitude more."""
-    mod, inv = _pendulum(tmp_path, modes, lumped=lumped)
+    module (``energy()``: kinetic ``½ zᵀ M_b z``, gravity, strain ``½ qᵀ Ke q`` and the
+    prestress potential) stays within 1e-7 of m g L/2 over 2 s at rtol 1e-10 (consistent and
+    lumped mass, with and without geometric stiffening) — the reference is conservation of
+    energy itself. With the SID truncation (``inertia: sid``) the same model drifts by orders
+    of magnitude more or blows up."""
+    mod, inv = _pendulum(tmp_path, modes, lumped=lumped, stiffening=stiffening,
+                         tag="s" if stiffening else "")
     drift, res = _energy_drift(mod, inv)
     assert res.y[-1, 0] < -0.5 or res.y[:, 0].min() < -0.5          # it did fall
     assert drift < 1e-7
-    if modes == 4 and not lumped:
+    if modes == 4:
         from neweul_py.errors import SolverError
 
         mod_sid, _ = _pendulum(tmp_path, modes, inertia="sid", tag="sid")
@@ -574,8 +585,10 @@ def test_pendulum_splice_equals_the_body_equations(tmp_path: Path, two_sided: bo
     """A body on a hinge (frame ``R_z(a)`` at the origin: ``J_T = 0``, ``J_R = e_z``,
     ``ā = ᾱ = 0``, ``ω = ȧ e_z``): the generated ``M`` and ``q − k`` equal the §2 body equations
     assembled by :class:`neweul_py.elastic.invariants.Invariants` (``mass_matrix``,
-    ``velocity_terms``, ``elastic_forces``; an independent implementation) premultiplied by
-    ``J_bᵀ`` — with stiffening, damping, gravity, one- and two-sided data."""
+    ``velocity_terms``, ``elastic_forces``) premultiplied by ``J_bᵀ`` written out here — with
+    stiffening, damping, gravity, one- and two-sided data. This checks the splice (frame
+    kinematics, ``J_b``, gravity); the body equations themselves are checked against Newton's
+    law of the mass points in tests/ffrf/test_body.py."""
     import sys
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))

@@ -1,4 +1,5 @@
-"""The issue-4 examples, generated and analysed end to end, against independent references.
+"""The rigid examples with loops, excitation and tables, generated and analysed end to end,
+against independent references.
 
 - slider–crank: the generated module against the hand-written protocol module
   ``tests/analysis/fixtures/slider_crank.py``; its constrained simulation (analysis'
@@ -109,7 +110,7 @@ def test_slider_crank_simulation_matches_the_minimal_coordinate_model(
     """simulate_constrained (drift control by projection) vs the 1-DOF model: crank angle and
     slider position over 2 s (compared by neweul_py.compare against the reference written as a
     plain CSV), constraint drift below 1e-8."""
-    dae = pytest.importorskip("neweul_py.analysis.dae")
+    dae = importlib.import_module("neweul_py.analysis.dae")
     from scipy.integrate import solve_ivp
 
     mod = generated("slider_crank")
@@ -136,7 +137,7 @@ def test_slider_crank_simulation_matches_the_minimal_coordinate_model(
 def test_four_bar_keeps_its_loop_closed_and_conserves_energy(generated) -> None:
     """No damping, no drive: T + V (gravity of three uniform bars + rocker spring, written by
     hand) is conserved and the loop stays closed."""
-    dae = pytest.importorskip("neweul_py.analysis.dae")
+    dae = importlib.import_module("neweul_py.analysis.dae")
     mod = generated("four_bar")
     p = mod.default_parameters()
     names = list(mod.PARAMETERS)
@@ -164,8 +165,8 @@ def test_quarter_car_frequency_response_is_the_two_mass_transfer_function(genera
     B(jω) = B_zr + jω B_dzr − ω² B_ddzr) against
     Zb/Zr = (cs s + ks)(ct s + kt) / [(mb s² + cs s + ks)(mw s² + (cs + ct) s + ks + kt)
     − (cs s + ks)²]."""
-    lin_mod = pytest.importorskip("neweul_py.analysis.linearize")
-    eq_mod = pytest.importorskip("neweul_py.analysis.equilibrium")
+    lin_mod = importlib.import_module("neweul_py.analysis.linearize")
+    eq_mod = importlib.import_module("neweul_py.analysis.equilibrium")
     mod = generated("quarter_car")
     assert mod.INPUTS == ["zr", "d_zr", "dd_zr"]
     eq = eq_mod.equilibrium(mod, u=[0.0, 0.0, 0.0])
@@ -185,7 +186,7 @@ def test_quarter_car_frequency_response_is_the_two_mass_transfer_function(genera
     np.testing.assert_allclose(h, ref, rtol=1e-10)
     # the toolbox folds the rates in itself (INPUT_RATES), for every solver and after a
     # save/load round trip of the linear model
-    frf_mod = pytest.importorskip("neweul_py.analysis.frf")
+    frf_mod = importlib.import_module("neweul_py.analysis.frf")
     for method in ("solve", "hessenberg", "eig"):
         fr = frf_mod.frequency_response(lin, f, "zr", "zb", method=method)
         cmp = compare(fr, {"frequency_hz": f, "H": ref}, atol=0.0,
@@ -196,7 +197,7 @@ def test_quarter_car_frequency_response_is_the_two_mass_transfer_function(genera
 def test_linear_model_keeps_input_rates_through_save_and_load(generated, tmp_path) -> None:
     """INPUT_RATES survive LinearModel.save/load, so a saved model still answers the road
     input through the tire damper."""
-    lin_mod = pytest.importorskip("neweul_py.analysis.linearize")
+    lin_mod = importlib.import_module("neweul_py.analysis.linearize")
     mod = generated("quarter_car")
     lin = lin_mod.linearize(mod, u0=[0.0, 0.0, 0.0])
     assert dict(lin.input_rates) == {"zr": ("d_zr", "dd_zr")}
@@ -210,8 +211,8 @@ def test_middle_ear_chain_modes_and_stapes_velocity(generated) -> None:
     (real, positive); damping ratios are η/2 of the modal loss factors; the stapes velocity per
     ear-canal pressure peaks between 0.6 and 1.2 kHz at 0.1–0.3 mm/s/Pa
     (docs/middle-ear-data.md)."""
-    lin_mod = pytest.importorskip("neweul_py.analysis.linearize")
-    frf_mod = pytest.importorskip("neweul_py.analysis.frf")
+    lin_mod = importlib.import_module("neweul_py.analysis.linearize")
+    frf_mod = importlib.import_module("neweul_py.analysis.frf")
     sys.path.insert(0, str(EXAMPLES))
     try:
         script = _load(EXAMPLES / "make_middle_ear_chain.py", "_make_me_chain")

@@ -1,4 +1,5 @@
-"""Force elements of issue 4 against hand-derived forces and potentials.
+"""Force elements (bushings, rotational spring–dampers, tables) against hand-derived forces
+and potentials.
 
 References (all written here, independently of ``equations/force_elements.py``):
 - bushing, translation: generalized forces ``−∂V/∂y − (∂Δr/∂y)ᵀ D Δṙ`` with the potential
