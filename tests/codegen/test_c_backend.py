@@ -1,0 +1,239 @@
+"""The compiled backend (codegen/c_module.py, c_printer.py, c_runtime.py) against the NumPy
+module generated from the same equations — every protocol function of every shipped example,
+constraints included — and the safety rules of building and loading its library."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import shutil
+import types
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from neweul_py.analysis.module import load_generated
+from neweul_py.analysis.simulate import simulate
+from neweul_py.codegen import generate_module
+from neweul_py.codegen.c_module import c_module_path, write_c_module
+from neweul_py.codegen.c_printer import CPrinter
+from neweul_py.codegen.c_runtime import BackendUnavailable, compiled_library
+from neweul_py.commands import BACKENDS
+from neweul_py.description import load_description
+from neweul_py.equations import newton_euler
+from neweul_py.errors import GenerationError, NeweulError
+
+ROOT = Path(__file__).resolve().parents[2]
+_COUNTER = itertools.count()
+EXAMPLES = sorted(p.stem for p in (ROOT / "examples").glob("*.yaml"))
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="no C compiler")
+
+
+def _fresh(path: Path):
+    """Import a module file anew (``load_generated`` shares modules of equal content, which
+    would hide what happens in this directory)."""
+    import importlib.util
+
+    name = f"c_backend_test_{path.stem}_{next(_COUNTER)}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _modules(name: str, directory: Path, form: str = "auto"):
+    eq = newton_euler(load_description(ROOT / "examples" / f"{name}.yaml"), form=form)
+    npath = generate_module(eq, "h", directory / f"{name}.py")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a fallback to NumPy would make the test vacuous
+        cmod = _fresh(write_c_module(eq, npath))
+    assert cmod.BACKEND == "c"
+    return load_generated(npath), cmod
+
+
+def _calls(mod, t, x, p, u, a):
+    n = len(mod.COORDINATES)
+    y, yd = x[:n], x[n:]
+    return {
+        "default_inputs": mod.default_inputs(t, p),
+        "mass_matrix": mod.mass_matrix(t, y, p, u),
+        "force_vector": mod.force_vector(t, y, yd, p, u),
+        "rhs": mod.rhs(t, x, p, u),
+        "force_jacobians": mod.force_jacobians(t, y, yd, p, u),
+        "mass_matrix_times_derivative": mod.mass_matrix_times_derivative(t, y, p, a, u),
+        "rhs_jacobian": mod.rhs_jacobian(t, x, p, u),
+        "outputs": mod.outputs(t, x, p, u),
+        "output_jacobians": mod.output_jacobians(t, x, p, u),
+        "constraints": mod.constraints(t, y, p, u),
+        "constraint_jacobian": mod.constraint_jacobian(t, y, p, u),
+        "constraint_time_derivative": mod.constraint_time_derivative(t, y, p, u),
+        "constraint_gamma": mod.constraint_gamma(t, y, yd, p, u),
+    }
+
+
+CASES = [(name, "auto") for name in EXAMPLES] + [("double_pendulum", "recursive"),
+                                                  ("chain3_spatial", "recursive")]
+
+
+@pytest.mark.parametrize(("name", "form"), CASES)
+def test_every_protocol_function_equals_numpy_module(name, form, tmp_path):
+    """Reference: the NumPy module printed from the same CSE'd blocks (independently
+    validated against lambdify and KanesMethod in test_examples_vs_lambdify.py); agreement
+    to round-off at random states, with default and explicit inputs."""
+    mnp, mc = _modules(name, tmp_path, form)
+    for const in ("COORDINATES", "PARAMETERS", "INPUTS", "OUTPUTS", "CONSTRAINTS",
+                  "STATE_SIZE", "SOURCE_HASH", "INITIAL_STATE", "MASS_MATRIX_SYMMETRIC"):
+        assert getattr(mc, const) == getattr(mnp, const)
+    rng = np.random.default_rng(7)
+    n, nu = len(mnp.COORDINATES), len(mnp.INPUTS)
+    p = mnp.default_parameters() * (1 + 0.1 * rng.random(len(mnp.PARAMETERS)))
+    for k in range(3):
+        x = np.asarray(mnp.INITIAL_STATE) + 0.2 * rng.standard_normal(2 * n)
+        a = rng.standard_normal(n)
+        t = 0.31 * k
+        for u in (None, *([rng.standard_normal(nu)] if nu else [])):
+            ref, got = _calls(mnp, t, x, p, u, a), _calls(mc, t, x, p, u, a)
+            for fname, r in ref.items():
+                rs = r if isinstance(r, tuple) else (r,)
+                gs = got[fname] if isinstance(got[fname], tuple) else (got[fname],)
+                for rr, gg in zip(rs, gs, strict=True):
+                    rr, gg = np.asarray(rr), np.asarray(gg)
+                    assert gg.shape == rr.shape, fname
+                    scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
+                    np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
+                                               err_msg=f"{name}: {fname}")
+
+
+def test_c_dopri5_takes_the_steps_of_scipy_rk45(tmp_path):
+    """Reference: scipy.integrate.solve_ivp(method='RK45') on the same right-hand side — the
+    C loop implements its error control, so the evaluation count is equal and the states
+    agree to round-off."""
+    _, mc = _modules("double_pendulum", tmp_path)
+    p = mc.default_parameters()
+    times = np.linspace(0.0, 3.0, 31)
+    ref = solve_ivp(lambda t, x: mc.rhs(t, x, p), (0.0, 3.0), mc.INITIAL_STATE, t_eval=times,
+                    rtol=1e-8, atol=1e-8)
+    res = simulate(mc, 3.0, method="c-dopri5", t_eval=times, rtol=1e-8, atol=1e-8)
+    assert res.nfev == ref.nfev
+    np.testing.assert_allclose(np.hstack((res.y, res.yd)), ref.y.T, rtol=0, atol=1e-11)
+
+
+def test_c_dopri5_refuses_what_it_cannot_do(tmp_path):
+    """Reference: the documented limits (NumPy modules, constrained models, Python u(t))."""
+    mnp, mc = _modules("four_bar", tmp_path)
+    with pytest.raises(NeweulError, match="--backend c"):
+        simulate(mnp, 1.0, method="c-dopri5")
+    with pytest.raises(NeweulError, match="constraints"):
+        simulate(mc, 1.0, method="c-dopri5")
+    _, mq = _modules("quarter_car", tmp_path)
+    with pytest.raises(NeweulError, match="input function"):
+        simulate(mq, 1.0, method="c-dopri5", u=lambda t: np.zeros(len(mq.INPUTS)))
+
+
+def test_library_is_cached_and_a_foreign_one_never_loaded(tmp_path):
+    """Reference: the build record (SHA-256 of the library bytes); a replaced library is
+    rebuilt with a warning, an unchanged one is reused without compiling."""
+    _modules("pendulum", tmp_path)
+    c_path = tmp_path / "pendulum_c.c"
+    sha = __import__("hashlib").sha256(c_path.read_bytes()).hexdigest()
+    cdef = "int nw_rhs(double, const double *, const double *, const double *, double *);"
+    _, _, note = compiled_library(c_path, sha, cdef, tmp_path / "__neweul_c__")
+    assert note == ""  # the library the module built is reused
+    (so,) = (tmp_path / "__neweul_c__").glob("*.so")
+    so.write_bytes(b"\x7fELF not the library")
+    _, lib, note = compiled_library(c_path, sha, cdef, tmp_path / "__neweul_c__")
+    assert lib.nw_rhs is not None  # the rebuilt library loads
+    assert "did not match its build record" in note
+    assert so.read_bytes()[:4] == b"\x7fELF" and b"not the library" not in so.read_bytes()
+    with pytest.raises(BackendUnavailable, match="does not match"):
+        compiled_library(c_path, "0" * 64, cdef, tmp_path / "__neweul_c__")
+
+
+@pytest.mark.parametrize("failure", ["no compiler", "compiler error", "unwritable cache",
+                                     "edited source"])
+def test_fallback_to_numpy_with_one_warning(failure, tmp_path, monkeypatch):
+    """Reference: the NumPy twin — the module falls back to it, warns once, and computes the
+    same values."""
+    eq = newton_euler(load_description(ROOT / "examples" / "double_pendulum.yaml"))
+    npath = generate_module(eq, "h", tmp_path / "double_pendulum.py")
+    wrapper = write_c_module(eq, npath)
+    if failure == "no compiler":
+        monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+    elif failure == "compiler error":
+        monkeypatch.setenv("CC", shutil.which("false") or "/bin/false")
+    elif failure == "unwritable cache":
+        (tmp_path / "__neweul_c__").write_text("a file where the cache directory belongs")
+    else:
+        c = wrapper.with_suffix(".c")
+        c.write_text(c.read_text() + "\n/* edited */\n")
+    with pytest.warns(RuntimeWarning, match="compiled backend unavailable") as record:
+        mc = _fresh(wrapper)
+    assert len(record) == 1
+    assert mc.BACKEND == "numpy"
+    mnp = load_generated(npath)
+    x = np.asarray(mnp.INITIAL_STATE)
+    np.testing.assert_array_equal(mc.rhs(0.0, x, mnp.default_parameters()),
+                                  mnp.rhs(0.0, x, mnp.default_parameters()))
+
+
+def test_wrong_sizes_raise_instead_of_reading_out_of_bounds(tmp_path):
+    """Reference: the sizes the library was built for (a shorter array would be read past
+    its end by C)."""
+    _, mc = _modules("double_pendulum", tmp_path)
+    p = mc.default_parameters()
+    with pytest.raises(ValueError, match="shape"):
+        mc.rhs(0.0, np.zeros(3), p)
+    with pytest.raises(ValueError, match="shape"):
+        mc.mass_matrix(0.0, np.zeros(2), p[:-1])
+
+
+def test_singular_mass_matrix_raises_linalg_error(tmp_path):
+    """Reference: numpy.linalg.solve, which the NumPy module calls, raises LinAlgError."""
+    mnp, mc = _modules("pendulum", tmp_path)
+    p = mnp.default_parameters()
+    p[list(mnp.PARAMETERS).index("m")] = 0.0
+    for mod in (mnp, mc):
+        with pytest.raises(np.linalg.LinAlgError):
+            mod.rhs(0.0, np.array([0.1, 0.0]), p)
+
+
+def test_piecewise_abs_min_max_sign_heaviside_print_as_c(tmp_path):
+    """Reference: sympy's own evaluation (lambdify with math) of the same expressions."""
+    a, b = sp.symbols("a b", real=True)
+    exprs = [
+        sp.Piecewise((a**2, a > b), (sp.sin(b), sp.And(a <= b, b > 0)), (-a, True)),
+        sp.Abs(a - b) + sp.Min(a, b, 0.5) * sp.Max(a, -b),
+        sp.sign(a) * sp.Heaviside(b) + sp.Heaviside(b - a, 0.25) + a**-3 + sp.sqrt(b**2 + 1),
+        sp.Rational(1, 3) * a**5 + sp.pi * b - sp.exp(-a) / (a * (b + 2)) ** 2,
+    ]
+    pr = CPrinter({a: "v[0]", b: "v[1]"})
+    body = "\n".join(f"    out[{i}] = {pr.doprint_expr(e)};" for i, e in enumerate(exprs))
+    src = ("#include <math.h>\n"
+           f"int f(const double *v, double *out)\n{{\n{body}\n    return 0;\n}}\n")
+    c_path = tmp_path / "expr.c"
+    c_path.write_text(src)
+    sha = __import__("hashlib").sha256(src.encode()).hexdigest()
+    ffi, lib, _ = compiled_library(c_path, sha, "int f(const double *v, double *out);",
+                                   tmp_path / "cache")
+    ref = sp.lambdify((a, b), exprs, modules="math")
+    for v in ([1.5, 0.3], [-0.7, 0.9], [0.2, -1.1], [0.4, 0.4], [0.6, 0.0]):
+        vin, out = np.array(v), np.empty(len(exprs))
+        lib.f(ffi.from_buffer("double[]", vin), ffi.from_buffer("double[]", out))
+        np.testing.assert_allclose(out, ref(*v), rtol=1e-14, atol=1e-14)
+
+
+def test_elastic_models_are_refused_and_backends_agree():
+    """Reference: the documented scope (elastic bodies stay on the NumPy module for now) and
+    api.BACKENDS, which the CLI mirrors without importing the symbolic layers."""
+    from neweul_py.api import BACKENDS as API_BACKENDS
+
+    assert BACKENDS == API_BACKENDS
+    eq = types.SimpleNamespace(system=types.SimpleNamespace(name="flex", elastic_bodies=(1,)))
+    with pytest.raises(GenerationError, match="elastic bodies"):
+        write_c_module(eq, "flex.py")
+    assert c_module_path(os.path.join("gen", "flex.py")) == Path("gen", "flex_c.py")
