@@ -124,7 +124,7 @@ def _dlopen(ffi, data, directory):
     raise BackendUnavailable("no writable directory to load the library from")
 
 
-def compiled_library(c_path, source_sha, cdef, cache):
+def compiled_library(c_path, source_sha, cdef, cache, ffi=None):
     """``(ffi, lib, note)`` of the C source at ``c_path``, built once per content.
 
     ``note`` is ``""`` (a verified library from the cache was loaded), ``"built"`` (none was
@@ -141,6 +141,9 @@ def compiled_library(c_path, source_sha, cdef, cache):
         The cffi declarations of the library's functions.
     cache
         Directory of ``<stem>_<sha16>.so`` and its record ``<stem>_<sha16>.sha256``.
+    ffi
+        An ``FFI`` that already holds the declarations (``cdef`` is then not used), so that
+        several libraries of one module share it and its array objects.
 
     Raises
     ------
@@ -168,8 +171,9 @@ def compiled_library(c_path, source_sha, cdef, cache):
             note = (f"the cached library {lib_path} did not match its build record (stale or "
                     "foreign); it was not loaded but rebuilt from the source")
         data = _build(source, lib_path, record, source_sha)
-    ffi = cffi.FFI()
-    ffi.cdef(cdef)
+    if ffi is None:
+        ffi = cffi.FFI()
+        ffi.cdef(cdef)
     try:
         lib = _dlopen(ffi, data, cache)
     except OSError as exc:

@@ -1,6 +1,6 @@
 """Fixed C text of the compiled backend: the dense LU solve and the Dormand–Prince loop.
 
-Both are appended to every generated C source by :mod:`.c_module` (self-contained: one file,
+Both are appended to the generated C sources by :mod:`.c_module` (self-contained: one file,
 one shared library, no linking against anything but ``libm``).
 
 * ``nw_lu`` / ``nw_lu_solve``: LU decomposition with partial (row) pivoting of a dense,
@@ -16,7 +16,7 @@ one shared library, no linking against anything but ``libm``).
 
 from __future__ import annotations
 
-__all__ = ["C_SUPPORT", "C_SUPPORT_DECLARATIONS"]
+__all__ = ["C_DOPRI5", "C_LU", "C_SUPPORT_DECLARATIONS"]
 
 #: Declarations (cffi ``cdef``) of the support functions.
 C_SUPPORT_DECLARATIONS = """
@@ -26,7 +26,7 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
                         long *nfev, double *t_reached);
 """
 
-C_SUPPORT = r"""
+C_LU = r"""
 /* ---- dense LU with partial pivoting (Golub & Van Loan, Alg. 3.4.1), row-major, in place */
 static int nw_lu(int n, double *a, int *piv)
 {
@@ -78,7 +78,9 @@ static void nw_lu_solve(int n, const double *lu, const int *piv, int m, double *
         for (int j = 0; j < m; ++j) b[i * m + j] *= inv;
     }
 }
+"""
 
+C_DOPRI5 = r"""
 /* ---- Dormand-Prince 5(4) with the step control and dense output of scipy's RK45 */
 static const double NW_C[6] = {0.0, 0.2, 0.3, 0.8, 0.8888888888888888, 1.0};
 static const double NW_A[6][5] = {

@@ -2,22 +2,25 @@
 
 The text below the ``template begins`` line is copied verbatim into every ``<name>_c.py``,
 after the run-time code (:mod:`.c_runtime`) and the module settings (``_MODEL_NAME``,
-``_TWIN_FILE``, ``_C_FILE``, ``_C_SHA256``, the sizes ``_N`` ``_NU`` ``_NP`` ``_NY`` ``_NC``,
-``_CDEF``). The placeholders above the line only make this file lintable; it is read as text by
-:func:`.c_module.render_c_wrapper`, never imported.
+``_TWIN_FILE``, ``_C_FILE``, ``_C_SHA256``, ``_C_JAC_FILE``, ``_C_JAC_SHA256``, the sizes
+``_N`` ``_NU`` ``_NP`` ``_NY`` ``_NC``, ``_CDEF``). The placeholders above the line only
+make this file lintable; it is read as text by :func:`.c_module.render_c_wrapper`, never
+imported.
 
 Every protocol function checks the shapes of its arguments (the library reads exactly the sizes
 it was built for: a wrong size is a ``ValueError``, never an out-of-bounds read), passes the
 arrays' buffers to the library (``ffi.from_buffer``, no copies for float64 arrays) and returns
 fresh arrays; ``u=None`` is passed as ``NULL``: the library evaluates the default excitation
 itself. A singular mass matrix raises ``numpy.linalg.LinAlgError`` like ``numpy.linalg.solve``.
+The derivative library is built (or verified) at the first call of a Jacobian function; if it
+cannot be had, those functions fall back to the twin's, with one warning.
 """
 
 from pathlib import Path as _Path
 
 from .c_runtime import BackendUnavailable, compiled_library, load_twin
 
-_MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _CDEF = ""
+_MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _CDEF = ""
 _N = _NU = _NP = _NY = _NC = 0
 
 # ---- template begins
@@ -110,25 +113,50 @@ else:
             raise _np.linalg.LinAlgError("Singular matrix")
         return out
 
+    _jac = []
+
+    def _jac_lib():
+        """The derivative library, built or verified at the first call (``None``: twin)."""
+        if not _jac:
+            try:
+                _, lib, note = compiled_library(_HERE / _C_JAC_FILE, _C_JAC_SHA256, _CDEF,
+                                                _HERE / "__neweul_c__", ffi=_ffi)
+            except BackendUnavailable as exc:
+                lib, note = None, (f"compiled derivatives unavailable ({exc}); using those of "
+                                   f"the NumPy module {_TWIN_FILE}")
+            if note not in ("", "built"):
+                _warnings.warn(f"model {_MODEL_NAME!r}: {note}", RuntimeWarning, stacklevel=3)
+            _jac.append(lib)
+        return _jac[0]
+
     def force_jacobians(t, y, yd, p, u=None):
         """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.force_jacobians(t, y, yd, p, u)
         out = _np.empty((_N, 2 * _N + _NU))
-        _lib.nw_force_jacobians(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+        lib.nw_force_jacobians(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
                                 _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
         return out[:, :_N], out[:, _N:2 * _N], out[:, 2 * _N:]
 
     def mass_matrix_times_derivative(t, y, p, a, u=None):
         """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.mass_matrix_times_derivative(t, y, p, a, u)
         out = _np.empty((_N, _N))
-        _lib.nw_mass_matrix_times_derivative(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"),
+        lib.nw_mass_matrix_times_derivative(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"),
                                              _arr(a, _N, "a"), _inputs(u),
                                              _fb("double[]", out))
         return out
 
     def rhs_jacobian(t, x, p, u=None):
         """``∂ rhs/∂x`` = [[0, I], [M⁻¹(∂f/∂y − ∂(M ÿ)/∂y), M⁻¹ ∂f/∂ẏ]], analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.rhs_jacobian(t, x, p, u)
         out = _np.empty((_S, _S))
-        if _lib.nw_rhs_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+        if lib.nw_rhs_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
                                 _fb("double[]", out)):
             raise _np.linalg.LinAlgError("Singular matrix")
         return out
@@ -142,8 +170,11 @@ else:
 
     def output_jacobians(t, x, p, u=None):
         """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.output_jacobians(t, x, p, u)
         out = _np.empty((_NY, _S + _NU))
-        _lib.nw_output_jacobians(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+        lib.nw_output_jacobians(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
                                  _fb("double[]", out))
         return out[:, :_S], out[:, _S:]
 

@@ -181,6 +181,27 @@ def test_fallback_to_numpy_with_one_warning(failure, tmp_path, monkeypatch):
                                   mnp.rhs(0.0, x, mnp.default_parameters()))
 
 
+def test_derivative_library_falls_back_on_its_own(tmp_path):
+    """Reference: the NumPy twin's Jacobians — an edited derivative source leaves the core
+    compiled and sends only the Jacobian functions to the twin, with one warning."""
+    eq = newton_euler(load_description(ROOT / "examples" / "double_pendulum.yaml"))
+    npath = generate_module(eq, "h", tmp_path / "double_pendulum.py")
+    wrapper = write_c_module(eq, npath)
+    jac = tmp_path / "double_pendulum_c_jac.c"
+    jac.write_text(jac.read_text() + "\n/* edited */\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc = _fresh(wrapper)
+    assert mc.BACKEND == "c"
+    mnp = load_generated(npath)
+    x, p = np.asarray(mnp.INITIAL_STATE) + 0.1, mnp.default_parameters()
+    with pytest.warns(RuntimeWarning, match="compiled derivatives unavailable") as record:
+        J = mc.rhs_jacobian(0.0, x, p)
+        mc.rhs_jacobian(0.0, x, p)
+    assert len(record) == 1
+    np.testing.assert_array_equal(J, mnp.rhs_jacobian(0.0, x, p))
+
+
 def test_wrong_sizes_raise_instead_of_reading_out_of_bounds(tmp_path):
     """Reference: the sizes the library was built for (a shorter array would be read past
     its end by C)."""

@@ -1,0 +1,245 @@
+#!/usr/bin/env python3
+"""Compiled backend (issue 14): neweul-py's C module against PyDy, KanesMethod and NumPy.
+
+All figures of one run come from fresh processes started by this script, ours in this Python
+(the project environment), PyDy's in the peer venv (``--peer-python``, default
+``/work/venvs/peers/bin/python`` with pydy + cython; never a dependency of neweul-py):
+
+(a) planar chain N = 10 (examples/make_chain.py): rhs per call of the compiled module, the
+    NumPy module, ``lambdify([M, F], cse=True)`` + ``numpy.linalg.solve`` of KanesMethod's
+    equations, PyDy's Cython backend with ``numpy.linalg.solve`` and with the symbolic LU
+    (``linear_sys_solver="sympy"``); code generation + compile time; end to end (derive +
+    generate + compile + simulate 10 s, RK45 rtol = atol = 1e-8) and the integrators on the
+    compiled rhs (SciPy RK45 / DOP853 / LSODA vs the C loop ``c-dopri5``);
+(b) ``neweul generate`` of examples/chain10_planar.yaml as a whole process (NumPy and
+    ``--backend c``) against a process running ``KanesMethod.kanes_equations``;
+(c) derivation + generation of the planar N = 30 and spatial N = 8 chains, NumPy and C.
+
+Usage::
+
+    nice -n 10 python benchmarks/bench_compiled.py            # everything (~ 3 min)
+    nice -n 10 python benchmarks/bench_compiled.py --skip-peers
+
+Nothing here asserts a time: the script prints figures and ratios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(ROOT / "examples"))
+sys.path.insert(0, str(HERE))
+
+
+# ----------------------------------------------------------------------------- workers
+def _generate(n: int, spatial: bool, out_dir: str) -> dict:
+    """Derive, write the NumPy module, write and compile the C module (fresh directory)."""
+    from make_chain import chain_description
+
+    from neweul_py.analysis.module import load_generated
+    from neweul_py.codegen import generate_module
+    from neweul_py.codegen.c_module import write_c_module
+    from neweul_py.description import description_hash, load_description_text
+    from neweul_py.equations import newton_euler
+
+    text = chain_description(n, spatial)
+    t0 = time.perf_counter()
+    eq = newton_euler(load_description_text(text, "chain"), form="auto")
+    t1 = time.perf_counter()
+    npath = generate_module(eq, description_hash(text), Path(out_dir) / "chain.py")
+    t2 = time.perf_counter()
+    cpath = write_c_module(eq, npath)
+    t3 = time.perf_counter()
+    mod = load_generated(cpath)
+    t4 = time.perf_counter()
+    assert mod.BACKEND == "c", mod.BACKEND_NOTE
+    return {"derive": t1 - t0, "numpy": t2 - t1, "c_text": t3 - t2, "compile": t4 - t3,
+            "path": str(npath), "cpath": str(cpath), "c_size": cpath.with_suffix(".c")
+            .stat().st_size}
+
+
+def _ours(n: int, out_dir: str) -> dict:
+    """(a), our side: generation, rhs per call, simulations."""
+    import numpy as np
+    from _peer_pydy import best_per_call
+
+    from neweul_py.analysis.module import load_generated
+    from neweul_py.analysis.simulate import simulate
+
+    t0 = time.perf_counter()
+    g = _generate(n, False, out_dir)
+    t_gen = time.perf_counter() - t0
+    mc, mn = load_generated(g["cpath"]), load_generated(g["path"])
+    p = mc.default_parameters()
+    x0 = np.asarray(mc.INITIAL_STATE, dtype=float)
+    out = {"gen": g, "generate_total": t_gen}
+    out["rhs_c"] = best_per_call(lambda: mc.rhs(0.0, x0, p))
+    out["rhs_numpy"] = best_per_call(lambda: mn.rhs(0.0, x0, p))
+    out["jac_c"] = best_per_call(lambda: mc.rhs_jacobian(0.0, x0, p), 0.5)
+    out["jac_numpy"] = best_per_call(lambda: mn.rhs_jacobian(0.0, x0, p), 0.5)
+    out["rhs_x0"] = mc.rhs(0.0, x0, p).tolist()
+    sims = {}
+    for label, mod, method in (("c-dopri5", mc, "c-dopri5"), ("RK45 (C rhs)", mc, "RK45"),
+                               ("DOP853 (C rhs)", mc, "DOP853"), ("LSODA (C rhs)", mc, "LSODA"),
+                               ("RK45 (NumPy rhs)", mn, "RK45")):
+        t0 = time.perf_counter()
+        r = simulate(mod, 10.0, method=method, rtol=1e-8, atol=1e-8, n_out=2)
+        sims[label] = {"time": time.perf_counter() - t0, "nfev": r.nfev,
+                       "final": np.hstack((r.y[-1], r.yd[-1])).tolist()}
+    out["sims"] = sims
+    out["end_to_end"] = out["generate_total"] + sims["c-dopri5"]["time"]
+    return out
+
+
+def _lambdify(n: int) -> dict:
+    """(a), lambdify(cse=True) of KanesMethod's M and forcing + numpy.linalg.solve."""
+    import numpy as np
+    import sympy as sp
+    import sympy.physics.mechanics as me
+    from _peer_pydy import best_per_call, kane
+
+    km, q, u, params = kane(n)
+    qs, us = sp.symbols(f"q1:{n + 1}"), sp.symbols(f"u1:{n + 1}")
+    sub = dict(zip(q, qs, strict=True)) | dict(zip(u, us, strict=True))
+    f = sp.lambdify((*qs, *us, *params), [me.msubs(km.mass_matrix, sub),
+                                          me.msubs(km.forcing, sub)], "numpy", cse=True)
+    p = (1.0, 0.5, 9.81)
+    x0 = np.zeros(2 * n)
+    x0[0] = 0.5
+
+    def rhs(x):
+        m_num, f_num = f(*x, *p)
+        return np.concatenate([x[n:], np.linalg.solve(m_num, np.ravel(f_num))])
+
+    return {"rhs": best_per_call(lambda: rhs(x0)), "rhs_x0": rhs(x0).tolist()}
+
+
+def _worker(argv: list[str]) -> None:
+    kind = argv[0]
+    if kind == "ours":
+        out = _ours(int(argv[1]), argv[2])
+    elif kind == "lambdify":
+        out = _lambdify(int(argv[1]))
+    elif kind == "gen":
+        out = _generate(int(argv[1]), argv[2] == "spatial", argv[3])
+    else:
+        raise SystemExit(f"unknown worker {kind}")
+    print(json.dumps(out))
+
+
+def _run(cmd: list[str], env: dict | None = None) -> dict:
+    proc = subprocess.run(cmd, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONHASHSEED": "0", **(env or {})})
+    if proc.returncode != 0:
+        sys.stderr.write(proc.stderr)
+        raise SystemExit(f"{cmd} failed")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _ours_job(*args: str) -> dict:
+    return _run([sys.executable, __file__, "--worker", *args])
+
+
+def _wall(cmd: list[str]) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True,
+                   env={**os.environ, "PYTHONHASHSEED": "0"})
+    return time.perf_counter() - t0
+
+
+def _rel(a: list[float], b: list[float]) -> float:
+    import numpy as np
+
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+
+
+# ----------------------------------------------------------------------------- main
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--worker", nargs="+", help=argparse.SUPPRESS)
+    parser.add_argument("--peer-python", default="/work/venvs/peers/bin/python")
+    parser.add_argument("--skip-peers", action="store_true")
+    parser.add_argument("-n", type=int, default=10, help="chain length of (a) (default 10)")
+    args = parser.parse_args()
+    if args.worker:
+        _worker(args.worker)
+        return
+    n = args.n
+    peer = not args.skip_peers and Path(args.peer_python).exists()
+    print(f"Python {sys.version.split()[0]}; one fresh process per job; "
+          f"load average {os.getloadavg()[0]:.1f}\n")
+    with tempfile.TemporaryDirectory() as tmp:
+        o = _ours_job("ours", str(n), tmp)
+        lam = _ours_job("lambdify", str(n))
+        pyd = {s: _run([args.peer_python, str(HERE / "_peer_pydy.py"), "pydy", str(n), s])
+               for s in (("numpy", "sympy") if peer else ())}
+    g = o["gen"]
+    print(f"(a) planar chain N = {n}: rhs per call (agreement with ours: relative max diff)")
+    rows = [("ours, compiled C module", o["rhs_c"], 0.0),
+            ("ours, NumPy module", o["rhs_numpy"], 0.0),
+            ("lambdify([M, F], cse=True) + solve", lam["rhs"], _rel(lam["rhs_x0"], o["rhs_x0"]))]
+    for s, label in (("numpy", "PyDy Cython, numpy.linalg.solve"),
+                     ("sympy", "PyDy Cython, symbolic LU")):
+        if s in pyd:
+            rows.append((label, pyd[s]["rhs"], _rel(pyd[s]["rhs_x0"], o["rhs_x0"])))
+    for label, t, err in rows:
+        print(f"    {label:38s} {t * 1e6:9.2f} µs   ×{t / o['rhs_c']:7.1f} of compiled"
+              f"   (diff {err:.1e})")
+    print(f"    rhs_jacobian: compiled {o['jac_c'] * 1e6:.1f} µs, NumPy "
+          f"{o['jac_numpy'] * 1e6:.1f} µs (×{o['jac_numpy'] / o['jac_c']:.0f})")
+    print(f"  code generation + compile: ours {g['c_text'] + g['compile']:.2f} s (C text "
+          f"{g['c_text']:.2f} s, cc {g['compile']:.2f} s; NumPy module {g['numpy']:.2f} s, "
+          f"derivation {g['derive']:.2f} s)")
+    for s in pyd:
+        print(f"    PyDy Cython ({s}): {pyd[s]['codegen_compile']:.2f} s "
+              f"(derivation {pyd[s]['derive']:.2f} s)")
+    print("  10 s simulation, rtol = atol = 1e-8 (wall time, rhs calls):")
+    base = o["sims"]["c-dopri5"]
+    for label, r in o["sims"].items():
+        print(f"    {label:24s} {r['time']:7.3f} s  {r['nfev']:6d} calls  "
+              f"×{r['time'] / base['time']:6.1f}  "
+              f"(final state vs c-dopri5: {_rel(r['final'], base['final']):.1e})")
+    for s in pyd:
+        print(f"    {'PyDy ' + s + ' RK45':24s} {pyd[s]['simulate']:7.3f} s  "
+              f"{pyd[s]['nfev']:6d} calls  ×{pyd[s]['simulate'] / base['time']:6.1f}  "
+              f"(final state vs c-dopri5: {_rel(pyd[s]['final'], base['final']):.1e})")
+    print(f"  end to end (derive + generate + compile + simulate 10 s): ours "
+          f"{o['end_to_end']:.2f} s")
+    for s in pyd:
+        print(f"    PyDy ({s}): {pyd[s]['end_to_end']:.2f} s  ratio "
+              f"{pyd[s]['end_to_end'] / o['end_to_end']:.1f}")
+
+    print("\n(b) whole process, examples/chain10_planar.yaml")
+    with tempfile.TemporaryDirectory() as tmp:
+        cli = [sys.executable, "-m", "neweul_py.cli", "generate",
+               str(ROOT / "examples" / "chain10_planar.yaml"), "-o", tmp]
+        t_np = _wall(cli)
+        t_c = _wall([*cli[:-1], str(Path(tmp) / "c"), "--backend", "c"])
+    t_kane = _wall([sys.executable, str(HERE / "_peer_pydy.py"), "kane", "10"])
+    print(f"    neweul generate (NumPy):      {t_np:6.2f} s   Kane/ours {t_kane / t_np:5.1f}")
+    print(f"    neweul generate --backend c:  {t_c:6.2f} s   Kane/ours {t_kane / t_c:5.1f}")
+    print(f"    KanesMethod process:          {t_kane:6.2f} s")
+
+    print("\n(c) derivation + generation (fresh process each)")
+    print(f"    {'model':14s} {'derive':>7s} {'NumPy':>7s} {'C text':>7s} {'cc':>7s} "
+          f"{'C source':>9s}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for k, kind in ((30, "planar"), (8, "spatial")):
+            d = Path(tmp) / f"{kind}{k}"
+            r = _ours_job("gen", str(k), kind, str(d))
+            print(f"    {kind + ' N=' + str(k):14s} {r['derive']:7.2f} {r['numpy']:7.2f} "
+                  f"{r['c_text']:7.2f} {r['compile']:7.2f} {r['c_size'] / 1e6:7.1f}MB")
+
+
+if __name__ == "__main__":
+    main()
