@@ -57,7 +57,6 @@ def run(nx: int, modes: int) -> dict:
         FEMinterface,
         HCBstaticModeSelection,
         ObjectFFRFreducedOrderInterface,
-        ScipySparseCSRtoCSR,
     )
     from exudyn.itemInterface import (
         GenericJoint,
@@ -71,8 +70,8 @@ def run(nx: int, modes: int) -> dict:
     pts, M, K, L = fe_model(nx)
     fem = FEMinterface()
     fem.nodes = {"Position": pts}
-    fem.massMatrix = ScipySparseCSRtoCSR(M)
-    fem.stiffnessMatrix = ScipySparseCSRtoCSR(K)
+    fem.massMatrix = M  # Exudyn ≥ 1.8 stores scipy CSR matrices (useOldCSRformat = False)
+    fem.stiffnessMatrix = K
     hinge = [int(i) for i in np.flatnonzero(np.isclose(pts[:, 0], 0.0))]
     t1 = time.perf_counter()
     fem.ComputeHurtyCraigBamptonModes(boundaryNodesList=[hinge], nEigenModes=modes,
@@ -101,8 +100,8 @@ def run(nx: int, modes: int) -> dict:
     settings.timeIntegration.numberOfSteps = 1000
     settings.timeIntegration.verboseMode = 0
     settings.timeIntegration.newton.useModifiedNewton = True
-    settings.solutionSettings.writeSolutionToFile = False
-    settings.displayComputationTime = False
+    settings.solution.file.write = False
+    settings.show.computationTime = False
     t3 = time.perf_counter()
     exu.SolveDynamic(mbs, settings)
     t4 = time.perf_counter()

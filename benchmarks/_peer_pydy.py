@@ -9,7 +9,8 @@ or, for ``kane``, in any Python with sympy. One job per process, JSON on the las
 * ``pydy N SOLVER`` — derive, then ``pydy.codegen.ode_function_generators.generate_ode_function``
   with the Cython generator and ``linear_sys_solver`` = SOLVER (``numpy``: ``numpy.linalg.solve``
   at run time; ``sympy``: symbolic LU of the mass matrix, CSE'd), time the rhs per call, and
-  simulate 10 s with ``solve_ivp(RK45, rtol = atol = 1e-8)`` from the chain's initial state.
+  simulate 10 s with ``solve_ivp(RK45, rtol = atol = 1e-8)`` from the chain's initial state;
+* ``e2e N SOLVER`` — only derive, generate + compile, simulate (timed as a whole process).
 
 The model is the one of examples/make_chain.py (uniform rods of mass m and length l, relative
 joint angles about y, gravity −z, ``u = q̇``), as in bench_rigid_chain.py.
@@ -103,6 +104,26 @@ def pydy(n: int, solver: str) -> dict:
             "rhs_x0": rhs(x0, 0.0, p).tolist(), "end_to_end": (t2 - t0) + (t4 - t3)}
 
 
+def e2e(n: int, solver: str) -> dict:
+    """Derive, generate + compile (Cython), simulate 10 s: the whole job, nothing else."""
+    import numpy as np
+    import sympy as sp
+    from pydy.codegen.ode_function_generators import generate_ode_function
+    from scipy.integrate import solve_ivp
+
+    km, q, u, params = kane(n)
+    kw = {"linear_sys_solver": solver, "cse": True} if solver == "sympy" else {}
+    rhs = generate_ode_function(km.forcing, q, u, params, mass_matrix=km.mass_matrix,
+                                coordinate_derivatives=sp.Matrix(u), generator="cython",
+                                constants_arg_type="array", **kw)
+    p = np.array([1.0, 0.5, 9.81])
+    x0 = np.zeros(2 * n)
+    x0[0] = 0.5
+    sol = solve_ivp(lambda t, x: rhs(x, t, p), (0.0, 10.0), x0, method="RK45", rtol=1e-8,
+                    atol=1e-8)
+    return {"nfev": int(sol.nfev)}
+
+
 def main(argv: list[str]) -> None:
     job, n = argv[0], int(argv[1])
     t0 = time.perf_counter()
@@ -111,6 +132,8 @@ def main(argv: list[str]) -> None:
         out = {"derive": time.perf_counter() - t0}
     elif job == "pydy":
         out = pydy(n, argv[2])
+    elif job == "e2e":
+        out = e2e(n, argv[2])
     else:
         raise SystemExit(f"unknown job {job}")
     print(json.dumps(out))

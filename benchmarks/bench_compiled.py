@@ -13,7 +13,9 @@ All figures of one run come from fresh processes started by this script, ours in
     compiled rhs (SciPy RK45 / DOP853 / LSODA vs the C loop ``c-dopri5``);
 (b) ``neweul generate`` of examples/chain10_planar.yaml as a whole process (NumPy and
     ``--backend c``) against a process running ``KanesMethod.kanes_equations``;
-(c) derivation + generation of the planar N = 30 and spatial N = 8 chains, NumPy and C.
+(c) derivation + generation of the planar N = 30 and spatial N = 8 chains, NumPy and C;
+(d) a Hex20 flexible pendulum (10 modes, 1 s) in Exudyn (benchmarks/_peer_exudyn.py); our side
+    waits for the compiled elastic-body kernel and prints "n/a".
 
 Usage::
 
@@ -28,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -59,12 +62,20 @@ def _generate(n: int, spatial: bool, out_dir: str) -> dict:
     t2 = time.perf_counter()
     cpath = write_c_module(eq, npath)
     t3 = time.perf_counter()
-    mod = load_generated(cpath)
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    mod = load_generated(cpath)  # builds the core library
     t4 = time.perf_counter()
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     assert mod.BACKEND == "c", mod.BACKEND_NOTE
+    mod.rhs_jacobian(0.0, mod.INITIAL_STATE, mod.default_parameters())  # the derivatives
+    t5 = time.perf_counter()
+    cpu2 = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {"derive": t1 - t0, "numpy": t2 - t1, "c_text": t3 - t2, "compile": t4 - t3,
-            "path": str(npath), "cpath": str(cpath), "c_size": cpath.with_suffix(".c")
-            .stat().st_size}
+            "compile_cpu": cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime,
+            "compile_jac": t5 - t4,
+            "compile_jac_cpu": cpu2.ru_utime + cpu2.ru_stime - cpu1.ru_utime - cpu1.ru_stime,
+            "path": str(npath), "cpath": str(cpath),
+            "c_size": sum(f.stat().st_size for f in Path(out_dir).glob("*.c"))}
 
 
 def _ours(n: int, out_dir: str) -> dict:
@@ -96,7 +107,6 @@ def _ours(n: int, out_dir: str) -> dict:
         sims[label] = {"time": time.perf_counter() - t0, "nfev": r.nfev,
                        "final": np.hstack((r.y[-1], r.yd[-1])).tolist()}
     out["sims"] = sims
-    out["end_to_end"] = out["generate_total"] + sims["c-dopri5"]["time"]
     return out
 
 
@@ -149,10 +159,10 @@ def _ours_job(*args: str) -> dict:
     return _run([sys.executable, __file__, "--worker", *args])
 
 
-def _wall(cmd: list[str]) -> float:
+def _wall(cmd: list[str], env: dict | None = None) -> float:
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, capture_output=True,
-                   env={**os.environ, "PYTHONHASHSEED": "0"})
+                   env={**os.environ, "PYTHONHASHSEED": "0", **(env or {})})
     return time.perf_counter() - t0
 
 
@@ -198,8 +208,10 @@ def main() -> None:
     print(f"    rhs_jacobian: compiled {o['jac_c'] * 1e6:.1f} µs, NumPy "
           f"{o['jac_numpy'] * 1e6:.1f} µs (×{o['jac_numpy'] / o['jac_c']:.0f})")
     print(f"  code generation + compile: ours {g['c_text'] + g['compile']:.2f} s (C text "
-          f"{g['c_text']:.2f} s, cc {g['compile']:.2f} s; NumPy module {g['numpy']:.2f} s, "
-          f"derivation {g['derive']:.2f} s)")
+          f"{g['c_text']:.2f} s, cc of the core {g['compile']:.2f} s [cc CPU "
+          f"{g['compile_cpu']:.2f} s]; NumPy module {g['numpy']:.2f} s, derivation "
+          f"{g['derive']:.2f} s; derivative library at first use {g['compile_jac']:.2f} s "
+          f"[CPU {g['compile_jac_cpu']:.2f} s])")
     for s in pyd:
         print(f"    PyDy Cython ({s}): {pyd[s]['codegen_compile']:.2f} s "
               f"(derivation {pyd[s]['derive']:.2f} s)")
@@ -213,11 +225,18 @@ def main() -> None:
         print(f"    {'PyDy ' + s + ' RK45':24s} {pyd[s]['simulate']:7.3f} s  "
               f"{pyd[s]['nfev']:6d} calls  ×{pyd[s]['simulate'] / base['time']:6.1f}  "
               f"(final state vs c-dopri5: {_rel(pyd[s]['final'], base['final']):.1e})")
-    print(f"  end to end (derive + generate + compile + simulate 10 s): ours "
-          f"{o['end_to_end']:.2f} s")
+    print("  end to end, whole processes (derive + generate + compile + simulate 10 s, "
+          "rtol = atol = 1e-8):")
+    with tempfile.TemporaryDirectory() as tmp:
+        t_e2e = _wall([sys.executable, "-m", "neweul_py.cli", "simulate",
+                       str(ROOT / "examples" / "chain10_planar.yaml"), "--backend", "c",
+                       "--method", "c-dopri5", "--t-end", "10", "--rtol", "1e-8", "--atol",
+                       "1e-8", "--n-out", "2"], {"NEWEUL_CACHE": tmp})
+    print(f"    ours: neweul simulate --backend c --method c-dopri5 (empty cache): "
+          f"{t_e2e:.2f} s")
     for s in pyd:
-        print(f"    PyDy ({s}): {pyd[s]['end_to_end']:.2f} s  ratio "
-              f"{pyd[s]['end_to_end'] / o['end_to_end']:.1f}")
+        t = _wall([args.peer_python, str(HERE / "_peer_pydy.py"), "e2e", str(n), s])
+        print(f"    PyDy Cython ({s}), RK45:  {t:6.2f} s   PyDy/ours {t / t_e2e:5.1f}")
 
     print("\n(b) whole process, examples/chain10_planar.yaml")
     with tempfile.TemporaryDirectory() as tmp:
@@ -231,14 +250,24 @@ def main() -> None:
     print(f"    KanesMethod process:          {t_kane:6.2f} s")
 
     print("\n(c) derivation + generation (fresh process each)")
-    print(f"    {'model':14s} {'derive':>7s} {'NumPy':>7s} {'C text':>7s} {'cc':>7s} "
-          f"{'C source':>9s}")
+    print(f"    {'model':14s} {'derive':>7s} {'NumPy':>7s} {'C text':>7s} {'cc core':>8s} "
+          f"{'cc deriv.':>9s} {'C source':>9s}   [s; cc CPU in brackets]")
     with tempfile.TemporaryDirectory() as tmp:
         for k, kind in ((30, "planar"), (8, "spatial")):
             d = Path(tmp) / f"{kind}{k}"
             r = _ours_job("gen", str(k), kind, str(d))
             print(f"    {kind + ' N=' + str(k):14s} {r['derive']:7.2f} {r['numpy']:7.2f} "
-                  f"{r['c_text']:7.2f} {r['compile']:7.2f} {r['c_size'] / 1e6:7.1f}MB")
+                  f"{r['c_text']:7.2f} {r['compile']:8.2f} {r['compile_jac']:9.2f} "
+                  f"{r['c_size'] / 1e6:7.1f}MB   [{r['compile_cpu']:.1f}, "
+                  f"{r['compile_jac_cpu']:.1f}]")
+
+    if peer:
+        print("\n(d) Hex20 flexible pendulum, 10 modes, 1 s (generalized-α, h = 1e-3)")
+        e = _run([args.peer_python, str(HERE / "_peer_exudyn.py"), "16", "10"])
+        print(f"    Exudyn ObjectFFRFreducedOrder: {e['solve']:.3f} s ({e['dofs']} FE dofs, "
+              f"modes {e['modes_time']:.2f} s; tip at 1 s: "
+              f"{', '.join(f'{v:.5f}' for v in e['tip'])})")
+        print("    ours: n/a (elastic bodies are not compiled yet; the FFRF kernel comes later)")
 
 
 if __name__ == "__main__":

@@ -216,23 +216,27 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
                  "static void nw_lu_solve(int n, const double *lu, const int *piv, int m, "
                  "double *b);"]
 
-    def shared(static: bool) -> list[str]:
-        return [
-            *_function("nw_default_inputs(double t, const double *p, double *out)",
-                       _body(g, blocks["default_inputs"], "out", "the default inputs"),
-                       static=static),
-            *_function(f"nw_mass_matrix({_Y_ARGS})",
-                       _body(g, blocks["mass_matrix"], "out", "the mass matrix"), static=static),
-            *_function(f"nw_force_vector({_YYD_ARGS})",
-                       _body(g, blocks["force_vector"], "out", "the force vector"),
-                       static=static),
-        ]
+    # M and q − k from the one CSE'd program of rhs (computed once per call of any of the
+    # three; mass_matrix passes ẏ = 0, on which M does not depend)
+    mf = [
+        *_function(f"nw_mf({_YYD_ARGS})", _body(g, blocks["rhs"], "out", "the right-hand side"),
+                   static=True),
+        *_function(f"nw_mass_matrix({_Y_ARGS})", [
+            "double yd[NW_N] = {0}, mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf);",
+            "memcpy(out, mf, NW_N * NW_N * sizeof(double));"]),
+        *_function(f"nw_force_vector({_YYD_ARGS})", [
+            "double mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf);",
+            "memcpy(out, mf + NW_N * NW_N, NW_N * sizeof(double));"]),
+    ]
+    inputs = _body(g, blocks["default_inputs"], "out", "the default inputs")
 
-    core = _head(model_name, "Equations of motion", n, nu, [core_declarations(), *lu_protos])
-    core += shared(False)
-    rhs = _body(g, blocks["rhs"], "mf", "the right-hand side")
+    core = _head(model_name, "Equations of motion", n, nu, [
+        core_declarations(), f"static int nw_mf({_YYD_ARGS});", *lu_protos])
+    core += _function("nw_default_inputs(double t, const double *p, double *out)", inputs)
+    core += mf
     core += _function(f"nw_rhs({_X_ARGS})", [
-        *_X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];", "int piv[NW_N];", *rhs,
+        *_X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];", "int piv[NW_N];",
+        "nw_mf(t, y, yd, p, u, mf);",
         "if (nw_lu(NW_N, mf, piv)) return 1;",
         "nw_lu_solve(NW_N, mf, piv, 1, mf + NW_N * NW_N);",
         "memcpy(out, yd, NW_N * sizeof(double));",
@@ -249,8 +253,14 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
 
     jac = _head(model_name, "Derivatives of the equations of motion", n, nu, [
         jacobian_declarations(),
-        "static int nw_default_inputs(double t, const double *p, double *out);", *lu_protos])
-    jac += shared(True)
+        "static int nw_default_inputs(double t, const double *p, double *out);",
+        f"static int nw_mf({_YYD_ARGS});",
+        f"static int nw_mass_matrix({_Y_ARGS});",
+        f"static int nw_force_vector({_YYD_ARGS});", *lu_protos])
+    jac += _function("nw_default_inputs(double t, const double *p, double *out)", inputs,
+                     static=True)
+    jac += [line.replace("int nw_mass_matrix(", "static int nw_mass_matrix(")
+            .replace("int nw_force_vector(", "static int nw_force_vector(") for line in mf]
     b = blocks["force_jacobians"]
     jac += _function(f"nw_force_jacobians({_YYD_ARGS})",
                      _body(g, b, "out", "the force Jacobians"), _big(b))
