@@ -24,6 +24,7 @@ _MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _
 _N = _NU = _NP = _NY = _NC = 0
 
 # ---- template begins
+import threading as _threading  # noqa: E402
 import warnings as _warnings  # noqa: E402
 
 import numpy as _np  # noqa: E402
@@ -100,6 +101,16 @@ else:
                              _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
         return out
 
+    # rhs is the hot path of every integrator: its arguments are copied into one buffer
+    # whose C pointers are made once (three ``from_buffer`` calls cost more than the copies);
+    # the library releases the GIL during the call, so a lock guards the shared buffer.
+    _rbuf = _np.zeros(2 * _S + _NP)  # x | out | p
+    _rx, _ro, _rp = _rbuf[:_S], _rbuf[_S:2 * _S], _rbuf[2 * _S:]
+    _rxp = _fb("double[]", _rbuf)
+    _rop, _rpp = _rxp + _S, _rxp + 2 * _S
+    _rlock = _threading.Lock()
+    _nw_rhs = _lib.nw_rhs
+
     def rhs(t, x, p, u=None):
         """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
         x = _as(x, dtype=_f8)
@@ -107,11 +118,13 @@ else:
         if x.shape != (_S,) or p.shape != (_NP,):
             raise ValueError(f"x and p must have shapes ({_S},), ({_NP},); "
                              f"got {x.shape}, {p.shape}")
-        out = _np.empty(_S)
-        if _lib.nw_rhs(t, _fb("double[]", x), _fb("double[]", p),
-                       _NULL if u is None else _arr(u, _NU, "u"), _fb("double[]", out)):
-            raise _np.linalg.LinAlgError("Singular matrix")
-        return out
+        up = _NULL if u is None else _arr(u, _NU, "u")
+        with _rlock:
+            _rx[...] = x
+            _rp[...] = p
+            if _nw_rhs(t, _rxp, _rpp, up, _rop):
+                raise _np.linalg.LinAlgError("Singular matrix")
+            return _ro.copy()
 
     _jac = []
 
