@@ -22,7 +22,10 @@ Usage::
     nice -n 10 python benchmarks/bench_compiled.py            # everything (~ 3 min)
     nice -n 10 python benchmarks/bench_compiled.py --skip-peers
 
-Nothing here asserts a time: the script prints figures and ratios.
+Per-call figures are CPU time of the calling process (best of 5 loops); whole processes are
+given as wall and CPU time (user + system of the process and its compiler), since on the
+shared machine wall-clock time mostly measures the other jobs. Nothing here asserts a time:
+the script prints figures and ratios.
 """
 
 from __future__ import annotations
@@ -59,9 +62,10 @@ def _generate(n: int, spatial: bool, out_dir: str) -> dict:
     eq = newton_euler(load_description_text(text, "chain"), form="auto")
     t1 = time.perf_counter()
     npath = generate_module(eq, description_hash(text), Path(out_dir) / "chain.py")
-    t2 = time.perf_counter()
+    t2, c_text0 = time.perf_counter(), time.process_time()
     cpath = write_c_module(eq, npath)
     t3 = time.perf_counter()
+    text_cpu = time.process_time() - c_text0
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     mod = load_generated(cpath)  # builds the core library
     t4 = time.perf_counter()
@@ -71,6 +75,7 @@ def _generate(n: int, spatial: bool, out_dir: str) -> dict:
     t5 = time.perf_counter()
     cpu2 = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {"derive": t1 - t0, "numpy": t2 - t1, "c_text": t3 - t2, "compile": t4 - t3,
+            "c_text_cpu": text_cpu,
             "compile_cpu": cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime,
             "compile_jac": t5 - t4,
             "compile_jac_cpu": cpu2.ru_utime + cpu2.ru_stime - cpu1.ru_utime - cpu1.ru_stime,
@@ -102,9 +107,10 @@ def _ours(n: int, out_dir: str) -> dict:
     for label, mod, method in (("c-dopri5", mc, "c-dopri5"), ("RK45 (C rhs)", mc, "RK45"),
                                ("DOP853 (C rhs)", mc, "DOP853"), ("LSODA (C rhs)", mc, "LSODA"),
                                ("RK45 (NumPy rhs)", mn, "RK45")):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         r = simulate(mod, 10.0, method=method, rtol=1e-8, atol=1e-8, n_out=2)
-        sims[label] = {"time": time.perf_counter() - t0, "nfev": r.nfev,
+        sims[label] = {"time": time.perf_counter() - t0, "cpu": time.process_time() - c0,
+                       "nfev": r.nfev,
                        "final": np.hstack((r.y[-1], r.yd[-1])).tolist()}
     out["sims"] = sims
     return out
@@ -159,11 +165,16 @@ def _ours_job(*args: str) -> dict:
     return _run([sys.executable, __file__, "--worker", *args])
 
 
-def _wall(cmd: list[str], env: dict | None = None) -> float:
+def _wall(cmd: list[str], env: dict | None = None) -> tuple[float, float]:
+    """Wall time and CPU time (user + system, the process and what it waited for: the C or
+    Cython compiler) of a whole process."""
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, capture_output=True,
                    env={**os.environ, "PYTHONHASHSEED": "0", **(env or {})})
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime
 
 
 def _rel(a: list[float], b: list[float]) -> float:
@@ -194,7 +205,8 @@ def main() -> None:
         pyd = {s: _run([args.peer_python, str(HERE / "_peer_pydy.py"), "pydy", str(n), s])
                for s in (("numpy", "sympy") if peer else ())}
     g = o["gen"]
-    print(f"(a) planar chain N = {n}: rhs per call (agreement with ours: relative max diff)")
+    print(f"(a) planar chain N = {n}: rhs per call, CPU time (agreement with ours: relative "
+          "max diff)")
     rows = [("ours, compiled C module", o["rhs_c"], 0.0),
             ("ours, NumPy module", o["rhs_numpy"], 0.0),
             ("lambdify([M, F], cse=True) + solve", lam["rhs"], _rel(lam["rhs_x0"], o["rhs_x0"]))]
@@ -212,18 +224,21 @@ def main() -> None:
           f"{g['compile_cpu']:.2f} s]; NumPy module {g['numpy']:.2f} s, derivation "
           f"{g['derive']:.2f} s; derivative library at first use {g['compile_jac']:.2f} s "
           f"[CPU {g['compile_jac_cpu']:.2f} s])")
+    print(f"    ours in CPU time: {g['c_text_cpu'] + g['compile_cpu']:.2f} s")
     for s in pyd:
-        print(f"    PyDy Cython ({s}): {pyd[s]['codegen_compile']:.2f} s "
-              f"(derivation {pyd[s]['derive']:.2f} s)")
-    print("  10 s simulation, rtol = atol = 1e-8 (wall time, rhs calls):")
+        print(f"    PyDy Cython ({s}): {pyd[s]['codegen_compile']:.2f} s, CPU "
+              f"{pyd[s]['codegen_cpu']:.2f} s (derivation {pyd[s]['derive']:.2f} s); ratio "
+              f"of CPU {pyd[s]['codegen_cpu'] / (g['c_text_cpu'] + g['compile_cpu']):.1f}")
+    print("  10 s simulation, rtol = atol = 1e-8 (CPU time [wall], rhs calls, ratio of CPU):")
     base = o["sims"]["c-dopri5"]
     for label, r in o["sims"].items():
-        print(f"    {label:24s} {r['time']:7.3f} s  {r['nfev']:6d} calls  "
-              f"×{r['time'] / base['time']:6.1f}  "
+        print(f"    {label:24s} {r['cpu']:7.3f} s [{r['time']:7.3f}] {r['nfev']:6d} calls  "
+              f"×{r['cpu'] / base['cpu']:6.1f}  "
               f"(final state vs c-dopri5: {_rel(r['final'], base['final']):.1e})")
     for s in pyd:
-        print(f"    {'PyDy ' + s + ' RK45':24s} {pyd[s]['simulate']:7.3f} s  "
-              f"{pyd[s]['nfev']:6d} calls  ×{pyd[s]['simulate'] / base['time']:6.1f}  "
+        print(f"    {'PyDy ' + s + ' RK45':24s} {pyd[s]['simulate_cpu']:7.3f} s "
+              f"[{pyd[s]['simulate']:7.3f}] {pyd[s]['nfev']:6d} calls  "
+              f"×{pyd[s]['simulate_cpu'] / base['cpu']:6.1f}  "
               f"(final state vs c-dopri5: {_rel(pyd[s]['final'], base['final']):.1e})")
     print("  end to end, whole processes (derive + generate + compile + simulate 10 s, "
           "rtol = atol = 1e-8):")
@@ -233,10 +248,11 @@ def main() -> None:
                        "--method", "c-dopri5", "--t-end", "10", "--rtol", "1e-8", "--atol",
                        "1e-8", "--n-out", "2"], {"NEWEUL_CACHE": tmp})
     print(f"    ours: neweul simulate --backend c --method c-dopri5 (empty cache): "
-          f"{t_e2e:.2f} s")
+          f"{t_e2e[0]:6.2f} s wall, {t_e2e[1]:6.2f} s CPU")
     for s in pyd:
         t = _wall([args.peer_python, str(HERE / "_peer_pydy.py"), "e2e", str(n), s])
-        print(f"    PyDy Cython ({s}), RK45:  {t:6.2f} s   PyDy/ours {t / t_e2e:5.1f}")
+        print(f"    PyDy Cython ({s}), RK45:  {t[0]:6.2f} s wall, {t[1]:6.2f} s CPU   "
+              f"PyDy/ours {t[0] / t_e2e[0]:5.1f} (wall), {t[1] / t_e2e[1]:5.1f} (CPU)")
 
     print("\n(b) whole process, examples/chain10_planar.yaml")
     with tempfile.TemporaryDirectory() as tmp:
@@ -245,9 +261,11 @@ def main() -> None:
         t_np = _wall(cli)
         t_c = _wall([*cli[:-1], str(Path(tmp) / "c"), "--backend", "c"])
     t_kane = _wall([sys.executable, str(HERE / "_peer_pydy.py"), "kane", "10"])
-    print(f"    neweul generate (NumPy):      {t_np:6.2f} s   Kane/ours {t_kane / t_np:5.1f}")
-    print(f"    neweul generate --backend c:  {t_c:6.2f} s   Kane/ours {t_kane / t_c:5.1f}")
-    print(f"    KanesMethod process:          {t_kane:6.2f} s")
+    for label, t in (("neweul generate (NumPy):    ", t_np),
+                     ("neweul generate --backend c:", t_c)):
+        print(f"    {label} {t[0]:6.2f} s wall, {t[1]:6.2f} s CPU   Kane/ours "
+              f"{t_kane[0] / t[0]:5.1f} (wall), {t_kane[1] / t[1]:5.1f} (CPU)")
+    print(f"    KanesMethod process:          {t_kane[0]:6.2f} s wall, {t_kane[1]:6.2f} s CPU")
 
     print("\n(c) derivation + generation (fresh process each)")
     print(f"    {'model':14s} {'derive':>7s} {'NumPy':>7s} {'C text':>7s} {'cc core':>8s} "
