@@ -122,7 +122,7 @@ else:
         with _rlock:
             _rx[...] = x
             _rp[...] = p
-            if _nw_rhs(t, _rxp, _rpp, up, _rop):
+            if _nw_rhs(float(t), _rxp, _rpp, up, _rop):
                 raise _np.linalg.LinAlgError("Singular matrix")
             return _ro.copy()
 
