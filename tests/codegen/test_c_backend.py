@@ -14,10 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from neweul_py.analysis.module import load_generated
-from neweul_py.analysis.simulate import simulate
 from neweul_py.codegen import generate_module
 from neweul_py.codegen.c_module import c_module_path, write_c_module
 from neweul_py.codegen.c_printer import CPrinter
@@ -107,32 +105,6 @@ def test_every_protocol_function_equals_numpy_module(name, form, tmp_path):
                     scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
                     np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
                                                err_msg=f"{name}: {fname}")
-
-
-def test_c_dopri5_takes_the_steps_of_scipy_rk45(tmp_path):
-    """Reference: scipy.integrate.solve_ivp(method='RK45') on the same right-hand side — the
-    C loop implements its error control, so the evaluation count is equal and the states
-    agree to round-off."""
-    _, mc = _modules("double_pendulum", tmp_path)
-    p = mc.default_parameters()
-    times = np.linspace(0.0, 3.0, 31)
-    ref = solve_ivp(lambda t, x: mc.rhs(t, x, p), (0.0, 3.0), mc.INITIAL_STATE, t_eval=times,
-                    rtol=1e-8, atol=1e-8)
-    res = simulate(mc, 3.0, method="c-dopri5", t_eval=times, rtol=1e-8, atol=1e-8)
-    assert res.nfev == ref.nfev
-    np.testing.assert_allclose(np.hstack((res.y, res.yd)), ref.y.T, rtol=0, atol=1e-11)
-
-
-def test_c_dopri5_refuses_what_it_cannot_do(tmp_path):
-    """Reference: the documented limits (NumPy modules, constrained models, Python u(t))."""
-    mnp, mc = _modules("four_bar", tmp_path)
-    with pytest.raises(NeweulError, match="--backend c"):
-        simulate(mnp, 1.0, method="c-dopri5")
-    with pytest.raises(NeweulError, match="constraints"):
-        simulate(mc, 1.0, method="c-dopri5")
-    _, mq = _modules("quarter_car", tmp_path)
-    with pytest.raises(NeweulError, match="input function"):
-        simulate(mq, 1.0, method="c-dopri5", u=lambda t: np.zeros(len(mq.INPUTS)))
 
 
 def test_library_is_cached_and_a_foreign_one_never_loaded(tmp_path):
