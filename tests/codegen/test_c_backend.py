@@ -257,3 +257,35 @@ def test_api_and_cli_thread_the_backend(tmp_path, monkeypatch):
     assert (tmp_path / "cli" / "pendulum_c.py").is_file()
     with pytest.raises(NeweulError, match="unknown backend"):
         api.generate(desc, tmp_path / "x", backend="fortran")
+
+
+def test_lu_solves_unsymmetric_systems_with_pivoting(tmp_path):
+    """Reference: numpy.linalg.solve (LAPACK gesv) on random unsymmetric matrices, one with a
+    zero leading pivot (the unsymmetric mass matrices of two-sided elastic bodies); a singular
+    matrix is reported, not divided by."""
+    import hashlib
+
+    from neweul_py.codegen.c_templates import C_LU
+
+    src = ("#include <math.h>\n#include <string.h>\n" + C_LU +
+           "int solve(int n, double *a, int m, double *b)\n"
+           "{ int piv[64]; if (nw_lu(n, a, piv)) return 1; nw_lu_solve(n, a, piv, m, b);"
+           " return 0; }\n")
+    c_path = tmp_path / "lu.c"
+    c_path.write_text(src)
+    ffi, lib, _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),
+                                   "int solve(int n, double *a, int m, double *b);",
+                                   tmp_path / "cache")
+    rng = np.random.default_rng(3)
+    for n in (1, 3, 12):
+        a = rng.standard_normal((n, n)) + np.diag(rng.random(n))
+        if n > 1:
+            a[0, 0] = 0.0
+        b = rng.standard_normal((n, 4))
+        aa, bb = a.copy(), b.copy()
+        assert lib.solve(n, ffi.from_buffer("double[]", aa), 4,
+                         ffi.from_buffer("double[]", bb)) == 0
+        np.testing.assert_allclose(bb, np.linalg.solve(a, b), rtol=1e-10, atol=1e-12)
+    singular = np.array([[1.0, 2.0], [2.0, 4.0]])
+    assert lib.solve(2, ffi.from_buffer("double[]", singular), 1,
+                     ffi.from_buffer("double[]", np.ones(2))) == 1
