@@ -24,6 +24,7 @@ from .elastic.reader import read_elastic_data
 from .errors import DescriptionError, NeweulError
 
 __all__ = [
+    "BACKENDS",
     "FORMS",
     "cache_dir",
     "derive",
@@ -36,6 +37,10 @@ __all__ = [
 Form = Literal["auto", "closed", "recursive"]
 #: Forms of the equations (DESIGN.md: closed form or recursive/semi-symbolic).
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
+Backend = Literal["numpy", "c"]
+#: Backends of generated modules: the NumPy module, or the compiled one (codegen/c_module.py,
+#: a C library behind the same protocol, falling back to its NumPy twin).
+BACKENDS: tuple[str, ...] = ("numpy", "c")
 
 #: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
 _GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic",
@@ -121,6 +126,7 @@ def generate(
     source: Any,
     out_dir: str | os.PathLike[str] = "generated",
     form: Form = "auto",
+    backend: Backend = "numpy",
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
@@ -134,12 +140,15 @@ def generate(
         Directory of the module (created if needed).
     form
         ``"closed"``, ``"recursive"`` or ``"auto"`` (closed for small models).
+    backend
+        ``"numpy"`` or ``"c"``: also ``<name>_c.c`` and the compiled module ``<name>_c.py``
+        (built at once; see :func:`_with_backend`).
 
     Returns
     -------
     Path
-        The module written. Nothing is written when the description or derivation fails, so a
-        previously generated module stays as it was.
+        The module written (the compiled one for ``backend="c"``). Nothing is written when
+        the description or derivation fails, so a previously generated module stays as it was.
 
     Examples
     --------
@@ -148,6 +157,7 @@ def generate(
     >>> generate(Path("examples/pendulum.yaml").read_text(), "out")  # doctest: +SKIP
     PosixPath('out/pendulum.py')
     """
+    _check_backend(backend)
     from .model import System
 
     if isinstance(source, System):
@@ -169,7 +179,39 @@ def generate(
             f"generate: expected a description path, YAML text or a System, got "
             f"{type(source).__name__}"
         )
-    return generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
+    path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
+    return _with_backend(path, backend, lambda: equations, rebuild=True)
+
+
+def _check_backend(backend: str) -> None:
+    if backend not in BACKENDS:
+        raise NeweulError(f"unknown backend {backend!r}; backends are: {', '.join(BACKENDS)}")
+
+
+def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False) -> Path:
+    """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
+    compiled module next to it (written from ``equations()`` unless present, and loaded once,
+    which builds its library). Models the C backend cannot compile yet (elastic bodies) keep
+    the NumPy module, with one warning."""
+    if backend == "numpy":
+        return path
+    import warnings
+
+    from .codegen.c_module import c_module_path, write_c_module
+    from .errors import GenerationError
+
+    wrapper = c_module_path(path)
+    if rebuild or not (wrapper.is_file() and wrapper.with_suffix(".c").is_file()):
+        try:
+            write_c_module(equations(), path)
+        except GenerationError as exc:
+            warnings.warn(f"{exc}; using the NumPy module {path}", RuntimeWarning, stacklevel=3)
+            return path
+        except OSError as exc:
+            raise NeweulError(f"cannot write the compiled module next to {path}: "
+                              f"{exc.strerror}") from None
+    load_generated(wrapper)  # builds (or verifies) the library now; warns on fallback
+    return wrapper
 
 
 def cache_dir() -> Path:
@@ -222,6 +264,7 @@ def generated_module(
     description_path: str | os.PathLike[str],
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
+    backend: Backend = "numpy",
 ) -> Path:
     """The generated module of a description, from the cache or freshly generated into it.
 
@@ -232,6 +275,7 @@ def generated_module(
     from .description import description_hash
 
     _check_form(form)
+    _check_backend(backend)
     raw = _read(description_path)
     material = [description_hash(raw), form, _generator_fingerprint(),
                 *_data_fingerprints(raw, description_path)]
@@ -243,14 +287,16 @@ def generated_module(
         try:
             module = load_generated(path)
             if module.SOURCE_HASH == description_hash(raw):
-                return path
+                return _with_backend(path, backend,
+                                     lambda: _derive_text(raw, description_path, form))
         except NeweulError:
             pass  # a damaged cache entry is regenerated
     equations = _derive_text(raw, description_path, form)
     try:
-        return generate_module(equations, description_hash(raw), path)
+        path = generate_module(equations, description_hash(raw), path)
     except OSError as exc:
         raise NeweulError(f"cannot write to the cache {directory}: {exc.strerror}") from None
+    return _with_backend(path, backend, lambda: equations, rebuild=True)
 
 
 def simulate_description(
@@ -260,6 +306,7 @@ def simulate_description(
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
     p: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
+    backend: Backend = "numpy",
     **kwargs: Any,
 ) -> SimulationResult:
     """Generate (cached) and simulate a description; ``kwargs`` go to
@@ -270,5 +317,6 @@ def simulate_description(
     >>> res = simulate_description("examples/double_pendulum.yaml", 10.0)  # doctest: +SKIP
     >>> res.to_csv("out/double_pendulum.csv")  # doctest: +SKIP
     """
-    module: ModuleType = load_generated(generated_module(description_path, form, cache))
+    module: ModuleType = load_generated(generated_module(description_path, form, cache,
+                                                         backend))
     return simulate(module, t_end, p=p, **kwargs)

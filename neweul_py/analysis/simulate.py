@@ -16,13 +16,16 @@ from scipy.integrate import solve_ivp
 
 from ..errors import ModelError, NeweulError, SolverError
 from . import _protocol as proto
+from .integrators import COMPILED_METHODS, check_compiled, integrate_compiled
 from .module import check_protocol, load_generated
 from .results import SimulationResult
 
 __all__ = ["METHODS", "simulate"]
 
-#: Integrators offered (``scipy.integrate.solve_ivp`` names); implicit ones use the Jacobian.
-METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA")
+#: Integrators offered (``scipy.integrate.solve_ivp`` names; implicit ones use the Jacobian),
+#: then those running inside compiled modules (analysis/integrators.py).
+METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA",
+                            *COMPILED_METHODS)
 _IMPLICIT = frozenset({"Radau", "BDF", "LSODA"})
 
 InputLike = Callable[[float], Any] | Mapping[str, float] | Sequence[float] | np.ndarray | None
@@ -135,7 +138,8 @@ def simulate(
     t_start
         Initial time [s].
     method
-        One of :data:`METHODS`.
+        One of :data:`METHODS`; ``"c-dopri5"``: RK45's method and step control in the C loop
+        of a compiled module (:mod:`~neweul_py.analysis.integrators`).
     rtol, atol
         Tolerances of the integrator.
     n_out
@@ -190,6 +194,7 @@ def simulate(
         raise NeweulError(f"t_end ({t_end:g}) must be a finite time after t_start ({t_start:g})")
     if not (rtol > 0 and atol > 0):
         raise NeweulError("rtol and atol must be positive")
+    check_compiled(module, method, u)
     pv = _parameters(module, p)
     x_init = _initial_state(module, x0)
     if list(getattr(module, "CONSTRAINTS", []) or []):
@@ -238,8 +243,13 @@ def simulate(
     state_names = [*module.COORDINATES, *(f"d_{c}" for c in module.COORDINATES)]
     try:
         with np.errstate(all="ignore"):
-            sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
-                            rtol=rtol, atol=atol, max_step=max_step, **kwargs)
+            if method in COMPILED_METHODS:
+                sol = integrate_compiled(module, (t_start, t_end), x_init, pv,
+                                         None if u is None else uf(t_start), times, rtol=rtol,
+                                         atol=atol, max_step=max_step, names=state_names)
+            else:
+                sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
+                                rtol=rtol, atol=atol, max_step=max_step, **kwargs)
     except np.linalg.LinAlgError:
         why = _massless(module, last["t"], last["x"], pv)
         raise SolverError(

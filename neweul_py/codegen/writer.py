@@ -44,10 +44,11 @@ from .blocks import (
     vector,
 )
 from .constraints import constraint_constant, constraint_functions
-from .cse import CseMethod, eliminate
+from .cse import Block, CseMethod, eliminate
 from .printer import NamePool
 
-__all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts"]
+__all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts",
+           "program_blocks"]
 
 #: Version of the generated-module protocol written here.
 PROTOCOL_VERSION = 1
@@ -375,3 +376,65 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         private=(f"_P0 = {pdef!r}",),
         functions=funcs,
     )
+
+
+def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
+    """The CSE'd straight-line programs of the protocol functions, for other printers.
+
+    The same calls to :func:`.cse.eliminate` and :func:`.derivatives.jacobian`, in the same
+    order and with the same methods, as :func:`render_module` makes (deterministic, so the
+    blocks are those the NumPy module prints). Matrices are given row-major with every entry
+    (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n of ``M``,
+    then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``, ``∂/∂u``),
+    ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}", real=True)``
+    of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians``
+    (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
+    ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
+    bodies are spliced in numerically by :mod:`.elastic`).
+    """
+    eq = equations
+    y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
+    n = len(y)
+    M = sp.ImmutableMatrix(eq.mass_matrix)
+    fvec = sp.ImmutableMatrix(eq.force_vector)
+    outs = sp.ImmutableMatrix(eq.outputs) if len(eq.outputs) else sp.ImmutableMatrix.zeros(0, 1)
+    inter = tuple((s, as_expr(e)) for s, e in eq.intermediates)
+    method: CseMethod = "none" if not cse else ("tree" if inter else "full")
+    d_method: CseMethod = "none" if not cse or inter else "tree"
+    a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
+    out: dict[str, Block] = {}
+    out["default_inputs"] = eliminate((), [as_expr(e) for e in eq.system.input_defaults],
+                                      method=method)
+    m_values, m_where = mass_entries(M)
+    program = eliminate(inter, [*m_values, *fvec], prefix="_ncg_c", method=method)
+    nm = len(m_values)
+    m_full = sp.zeros(n, n)
+    for value, places in zip(program.finals[:nm], m_where, strict=True):
+        for i, j in places:
+            m_full[i, j] = value
+    f_red = program.finals[nm:]
+    out["mass_matrix"] = subblock(program, list(m_full))
+    out["force_vector"] = subblock(program, f_red)
+    out["rhs"] = Block(program.assignments, (*m_full, *f_red))
+    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+    out["force_jacobians"] = Block(b.assignments, tuple(Jr))
+    ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
+    b, Jr = derivative_block(program.assignments, ma, y, d_method)
+    out["mass_matrix_times_derivative"] = Block(b.assignments, tuple(Jr))
+    out_prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
+    out["outputs"] = out_prog
+    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method)
+    out["output_jacobians"] = Block(b.assignments, tuple(Jr))
+    ce = getattr(eq, "constraints", None)
+    if ce is not None and ce.nc:
+        for name, exprs, prefix in (("constraints", ce.g, "_ncg_g"),
+                                    ("constraint_jacobian", ce.G, "_ncg_G"),
+                                    ("constraint_time_derivative", ce.g_t, "_ncg_gt"),
+                                    ("constraint_gamma", ce.gamma, "_ncg_h")):
+            out[name] = eliminate((), list(exprs), prefix=prefix, method=method)
+    else:
+        for name in ("constraints", "constraint_jacobian", "constraint_time_derivative",
+                     "constraint_gamma"):
+            out[name] = Block((), ())
+    return out
+

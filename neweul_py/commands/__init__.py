@@ -11,6 +11,8 @@ import argparse
 #: Forms of the equations offered by ``--form``; the same as :data:`neweul_py.api.FORMS` (kept
 #: here so that registering the sub-commands needs no symbolic layer; a test checks they agree).
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
+#: Backends offered by ``--backend``; the same as :data:`neweul_py.api.BACKENDS`.
+BACKENDS: tuple[str, ...] = ("numpy", "c")
 
 
 def comma_floats(text: str) -> list[float]:

@@ -18,7 +18,7 @@ from ..analysis.module import load_generated
 from ..analysis.plot import check_plot_path
 from ..analysis.results import check_output_path
 from ..errors import NeweulError
-from . import FORMS
+from . import BACKENDS, FORMS
 
 
 def assignment(text: str) -> tuple[str, float]:
@@ -37,6 +37,8 @@ def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool =
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
+    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
+                        help="module of a description: NumPy or compiled C (cffi)")
     parser.add_argument("-p", "--param", type=assignment, action="append", default=[],
                         metavar="NAME=VALUE", help="override a parameter (repeatable)")
     parser.add_argument("-u", "--set-input", type=assignment, action="append", default=[],
@@ -83,7 +85,8 @@ def load_model(args: argparse.Namespace) -> Any:
         return load_generated(args.file)
     from ..api import generated_module  # the symbolic layers, only for a description
 
-    return load_generated(generated_module(args.file, args.form))
+    return load_generated(generated_module(args.file, args.form,
+                                           backend=getattr(args, "backend", "numpy")))
 
 
 def parameters(args: argparse.Namespace) -> dict[str, float] | None:

@@ -8,7 +8,7 @@ import argparse
 from ..analysis.results import SUFFIXES
 from ..analysis.simulate import METHODS, simulate
 from ..progress import QUIET_HELP, Tracker
-from . import FORMS
+from . import BACKENDS, FORMS
 from . import _analysis_common as common
 
 
@@ -35,6 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         metavar="NAME=VALUE", help="override a parameter (repeatable)")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
+    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
+                        help="module of a description: NumPy or compiled C (cffi)")
     common.add_independent_argument(
         parser, "constrained models: coordinates whose initial positions and velocities are "
         "kept exactly (default: the first ones in COORDINATES order the constraints leave free)")
