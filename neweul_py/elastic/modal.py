@@ -27,6 +27,7 @@ from .eigen import (
 from .fe_model import FEModel
 from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
+from .rigid_check import repeated_rigid_fields
 
 __all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
 
@@ -39,6 +40,19 @@ def _say(progress: Progress, msg: str) -> None:
 def _is_zero(b: EigenBlock, tol: float) -> bool:
     """A real cluster at ``λ = 0`` (rigid-body modes, constant pressure), within ``tol``."""
     return not b.is_complex and abs(b.center.real) <= tol
+
+
+def _is_rigid(fe: FEModel, b: EigenBlock) -> bool:
+    """A λ = 0 cluster of rigid-body motion (structural rigid fields only,
+    :mod:`~neweul_py.elastic.rigid_check`), not of constant pressure in closed air volumes
+    (pressure DOFs with the static structural response ``u = Ks⁻¹ C p``)."""
+    basis = np.real(b.basis)
+    count = repeated_rigid_fields(fe, basis)
+    if 0 < count < basis.shape[1]:
+        raise SolverError(f"the λ = 0 cluster of dimension {basis.shape[1]} mixes {count} "
+                          "rigid-body motions with other zero modes (closed air volumes?); "
+                          "they cannot be told apart: reduce without --skip-rigid")
+    return count > 0
 
 
 def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
@@ -71,7 +85,7 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
             for b in blocks:
                 if count >= modes:
                     break
-                if skip_zero and _is_zero(b, tol):
+                if skip_zero and _is_zero(b, tol) and _is_rigid(fe, b):
                     continue
                 kept.append(b)
                 count += b.basis.shape[1]
@@ -105,7 +119,7 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
             break
         k = min(2 * k, n - 2)
     if skip_zero:
-        inside = [b for b in inside if not _is_zero(b, tol)]
+        inside = [b for b in inside if not (_is_zero(b, tol) and _is_rigid(fe, b))]
     if not inside:
         raise DataError(f"no modes in the band {band[0]:g}–{band[1]:g} Hz"
                         + (" (λ = 0 modes skipped)" if skip_zero else ""), fe.source, "band")
@@ -213,8 +227,11 @@ def modal_bases(
     progress
         Called with short messages on long steps.
     skip_rigid
-        Drop the ``λ ≈ 0`` clusters (within ``ZERO_RTOL · max(|σ|, |λ|)``) before counting
-        or band selection: ``modes=N`` then gives ``N`` modes with ``λ ≠ 0``. Use it for
+        Drop the ``λ ≈ 0`` clusters (within ``ZERO_RTOL · max(|σ|, |λ|)``) of rigid-body
+        motion (structural rigid fields, :mod:`~neweul_py.elastic.rigid_check`) before
+        counting or band selection: ``modes=N`` then gives ``N`` modes besides them. The
+        ``λ = 0`` modes of closed air volumes (constant pressure) are not rigid motion and
+        are kept: they carry the cavity's compliance. Use it for
         bodies in the floating frame of reference, whose reference frame carries the
         rigid-body motion (see :func:`reduce_modal`).
 
