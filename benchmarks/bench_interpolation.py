@@ -51,6 +51,9 @@ def main() -> None:
     ap.add_argument("--dir", default="/tmp/neweul-bench-interp", type=Path)
     ap.add_argument("--modes", type=int, default=30)
     ap.add_argument("--nf", type=int, default=100)
+    ap.add_argument("--order", type=int, default=None,
+                    help="truncate the global basis to this many directions (default: all "
+                    "above the numerical rank)")
     args = ap.parse_args()
     d: Path = args.dir
     samples = np.arange(-4000.0, 4001.0, 1000.0)
@@ -78,7 +81,7 @@ def main() -> None:
     local = interpolate(bodies, samples, parameter="dp")
     t_local = time.perf_counter() - t0
     t0 = time.perf_counter()
-    glob = global_parametric_body(fes, bodies, samples, parameter="dp")
+    glob = global_parametric_body(fes, bodies, samples, parameter="dp", order=args.order)
     t_glob = time.perf_counter() - t0
     print(f"reductions {t_red:.1f} s; local interpolation {t_local:.1f} s (order "
           f"{local.order}); global basis {t_glob:.1f} s (order {glob.order})")

@@ -30,10 +30,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "interpolate",
         help="combine reduced bodies at parameter samples into a parametric body",
-        description="Parametric model order reduction by matrix interpolation (Panzer et al. "
-        "2010): bring the local reduced bodies (one per sample of the parameter, same FE "
-        "discretization and order) to common coordinates and write the parametric body "
-        "(.npz, see docs/reduced-body-format.md) atomically.",
+        description="Parametric model order reduction by matrix interpolation of local "
+        "reduced bodies (one per sample of the parameter, same FE discretization): by "
+        "default one global basis of all samples onto which every sample's FE model is "
+        "projected (--method global), or the local bodies brought to common coordinates "
+        "(--method local, Panzer et al. 2010); writes the parametric body (.npz, see "
+        "docs/reduced-body-format.md) atomically.",
     )
     parser.add_argument("bodies", nargs="+", metavar="BODY",
                         help="reduced-body files (.npz), in increasing parameter order")
@@ -49,8 +51,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--models", nargs="+", metavar="FE",
                         help="FE model of each body (--method global; default: the file "
                         "each body records as its source)")
-    parser.add_argument("--interpolation", choices=INTERPOLATIONS, default="linear",
-                        help="default weights between samples (default linear)")
+    parser.add_argument("--interpolation", choices=INTERPOLATIONS, default=None,
+                        help="default weights between samples (default: cubic spline for "
+                        "--method global — on the middle-ear sweep 0.03–0.08 %% median "
+                        "error between samples against 1.4–3.2 %% linear — linear for "
+                        "--method local)")
     parser.add_argument("--basis", choices=BASES, default="auto",
                         help="(--method local) basis rows for the common subspace: full "
                         "bases (needs --store-bases at reduction) or the kept rows (default "
@@ -120,15 +125,16 @@ def run(args: argparse.Namespace) -> int:
     if args.method == "global":
         fes = _models(args, bodies)
         pb = global_parametric_body(fes, bodies, args.values, parameter=args.parameter,
-                                    interpolation=args.interpolation,
+                                    interpolation=args.interpolation or "cubic",
                                     store_bases=args.store_bases, labels=args.bodies,
                                     progress=_progress)
     else:
         pb = interpolate(bodies, args.values, parameter=args.parameter, basis=args.basis,
                          row_scaling=args.row_scaling or "auto",
                          pressure_weight=args.pressure_weight, weights=args.weights,
-                         interpolation=args.interpolation, store_bases=args.store_bases,
-                         progress=_progress, labels=args.bodies)
+                         interpolation=args.interpolation or "linear",
+                         store_bases=args.store_bases, progress=_progress,
+                         labels=args.bodies)
     pb.save(args.output)
     lo, hi = pb.range
     sv = pb.singular_values

@@ -27,6 +27,7 @@ from neweul_py.elastic import (
     write_fe_model,
 )
 from neweul_py.elastic.global_basis import energy_metric, global_parametric_body
+from neweul_py.elastic.invariants import attach_invariants, compute_invariants
 from neweul_py.elastic.quality import frf_full
 from neweul_py.errors import DataError
 
@@ -144,3 +145,25 @@ def test_cli_interpolate_global_and_frf_body(tmp_path, capsys):
     assert main(["interpolate", *paths, "--parameter", "p", "--weights", "1,1,1", "-o",
                  str(tmp_path / "x.npz")]) == 1
     assert "apply to --method local only" in capsys.readouterr().err
+
+
+def test_invariants_follow_the_global_basis():
+    """Bodies with invariants: every sample's invariants are those that compute_invariants
+    gives for its FE model and the global basis (independent recomputation here), and the
+    interpolated body carries them interpolated with the same weights as M, K."""
+    bodies = [attach_invariants(body_at(p), fe_at(p)) for p in SAMPLES]
+    pb = global_parametric_body([fe_at(p) for p in SAMPLES], bodies, SAMPLES, parameter="p")
+    ids = [int(i) for i in pb.nodes[:, 0]]
+    for i, p in enumerate(SAMPLES):
+        ref = compute_invariants(fe_at(p), pb.R, None, nodes=ids).to_flat()
+        got = pb.at(p).invariants
+        for name, a in ref.items():
+            if np.asarray(a).dtype.kind == "f":
+                np.testing.assert_allclose(got[name], a, rtol=1e-10,
+                                           atol=1e-12 * (np.abs(a).max() or 1.0))
+    w = pb.weights(0.1)
+    mid = pb.at(0.1).invariants
+    for name, a in pb.invariants.items():
+        if a.dtype.kind == "f":
+            np.testing.assert_allclose(mid[name], np.einsum("i,i...->...", w, a), rtol=1e-12,
+                                       atol=1e-14 * (np.abs(a).max() or 1.0))
