@@ -98,7 +98,7 @@ def main() -> None:
         np.save(path, refs[p])
     methods = {
         "local": lambda p: local.at(p),
-        "global": lambda p: glob.at(p),
+        "global": lambda p: glob.at(p, "linear"),
         "global-cubic": lambda p: glob.at(p, "cubic"),
         "nearest-": lambda p: bodies[int(np.searchsorted(samples, p)) - 1],
         "nearest+": lambda p: bodies[int(np.searchsorted(samples, p))],

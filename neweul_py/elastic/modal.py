@@ -27,7 +27,7 @@ from .eigen import (
 from .fe_model import FEModel
 from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
-from .rigid_check import repeated_rigid_fields
+from .rigid_check import free_rigid_fields, repeated_rigid_fields
 
 __all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
 
@@ -283,7 +283,8 @@ def modal_bases(
 
 
 def add_static_correction(
-    fe: FEModel, V: np.ndarray, W: np.ndarray, si: ShiftInvert, two_sided: bool = True
+    fe: FEModel, V: np.ndarray, W: np.ndarray, si: ShiftInvert, two_sided: bool = True,
+    deflate_rigid: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Append static (attachment) vectors to bases with ``Wᵀ M V = I``.
 
@@ -305,14 +306,27 @@ def add_static_correction(
     random u–p models, see ``tests/elastic``). This is an empirical safeguard, not a
     guarantee; check :func:`~neweul_py.elastic.quality.stability`.
 
+    ``deflate_rigid`` (with ``skip_rigid``): the skipped rigid-body modes are not in ``V``,
+    so the shifted solves keep their ``1/σ``-large share; the free rigid fields ``R``
+    (:func:`~neweul_py.elastic.rigid_check.free_rigid_fields`) are projected out as well,
+    ``X ← X − R (RᵀMR)⁻¹ RᵀM X`` and ``Y ← Y − R (RᵀMᵀR)⁻¹ RᵀMᵀ Y`` (inertia-relief
+    attachment vectors, Craig & Kurdila 2006 §17.4). Skipping the λ = 0 *air* modes of a
+    closed cavity instead (what ``skip_rigid`` did before it told them from rigid motion)
+    left that share in and gave an unstable middle-ear body (a real pole at +1.19e4 1/s,
+    refine 1, 30 modes).
+
     Returns
     -------
     V, W
         Extended bases (one-sided: ``W = V``, orthonormal).
     """
     B, C = fe.B(), fe.C()
+    R = free_rigid_fields(fe) if deflate_rigid else np.zeros((fe.n_dofs, 0))
     if not two_sided:
-        Q = orthonormal_append(V, np.real(si.solve(B)))
+        X = np.real(si.solve(B))
+        if R.shape[1]:
+            X = X - R @ np.linalg.solve(R.T @ (fe.M @ R), R.T @ (fe.M @ X))
+        Q = orthonormal_append(V, X)
         return Q, Q
     right_rhs, left_rhs = np.hstack([B, C.T]), np.hstack([C.T, B])
     X = np.real(si.solve(right_rhs))
@@ -321,6 +335,9 @@ def add_static_correction(
     for _ in range(2):  # oblique projection, repeated once for numerical safety
         X = X - V @ (W.T @ (fe.M @ X))
         Y = Y - W @ (V.T @ (fe.M.T @ Y))
+        if R.shape[1]:
+            X = X - R @ np.linalg.solve(R.T @ (fe.M @ R), R.T @ (fe.M @ X))
+            Y = Y - R @ np.linalg.solve(R.T @ (fe.M.T @ R), R.T @ (fe.M.T @ Y))
     X, Y = orthonormal_append(empty, X), orthonormal_append(empty, Y)
     r = min(X.shape[1], Y.shape[1])
     X, Y = biorthonormalize(X[:, :r], Y[:, :r], fe.M)
@@ -412,7 +429,7 @@ def reduce_modal(
     V, W, lam, si = modal_bases(fe, modes, band, two_sided, shift, progress, skip_rigid)
     if static_correction:
         _say(progress, "static correction vectors")
-        V, W = add_static_correction(fe, V, W, si, two_sided)
+        V, W = add_static_correction(fe, V, W, si, two_sided, deflate_rigid=skip_rigid)
     settings = {
         "modes": modes, "band": list(band) if band is not None else None,
         "two_sided": two_sided, "static_correction": static_correction,

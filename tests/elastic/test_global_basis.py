@@ -154,7 +154,7 @@ def test_invariants_follow_the_global_basis():
     bodies = [attach_invariants(body_at(p), fe_at(p)) for p in SAMPLES]
     pb = global_parametric_body([fe_at(p) for p in SAMPLES], bodies, SAMPLES, parameter="p")
     ids = [int(i) for i in pb.nodes[:, 0]]
-    for i, p in enumerate(SAMPLES):
+    for p in SAMPLES:
         ref = compute_invariants(fe_at(p), pb.R, None, nodes=ids).to_flat()
         got = pb.at(p).invariants
         for name, a in ref.items():
