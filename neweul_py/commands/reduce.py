@@ -70,10 +70,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the full bases V and W")
     parser.add_argument("--skip-rigid", action="store_true",
-                        help="leave out the zero-frequency rigid-body modes of a free body "
-                        "(structural rigid motion; λ = 0 air modes of closed cavities are "
-                        "kept): the reference frame of a floating-frame body carries that "
-                        "motion (modal)")
+                        help="leave out the zero-frequency (λ = 0) modes: the rigid-body "
+                        "modes of a free body, whose floating frame carries that motion, but "
+                        "also the constant-pressure modes of closed air volumes (their "
+                        "compliance is then missing); static correction vectors are "
+                        "deflated of them. A supported body needs no skip (modal)")
     parser.add_argument("--fixed-frame", action="store_true",
                         help="the body's reference frame is fixed (e.g. ISYS): no check that "
                         "the elastic coordinates leave out rigid motion (--invariants)")

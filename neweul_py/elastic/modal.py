@@ -27,9 +27,8 @@ from .eigen import (
 from .fe_model import FEModel
 from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
-from .rigid_check import free_rigid_fields, repeated_rigid_fields
 
-__all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
+__all__ = ["add_static_correction", "modal_bases", "reduce_modal", "zero_modes"]
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -40,19 +39,6 @@ def _say(progress: Progress, msg: str) -> None:
 def _is_zero(b: EigenBlock, tol: float) -> bool:
     """A real cluster at ``λ = 0`` (rigid-body modes, constant pressure), within ``tol``."""
     return not b.is_complex and abs(b.center.real) <= tol
-
-
-def _is_rigid(fe: FEModel, b: EigenBlock) -> bool:
-    """A λ = 0 cluster of rigid-body motion (structural rigid fields only,
-    :mod:`~neweul_py.elastic.rigid_check`), not of constant pressure in closed air volumes
-    (pressure DOFs with the static structural response ``u = Ks⁻¹ C p``)."""
-    basis = np.real(b.basis)
-    count = repeated_rigid_fields(fe, basis)
-    if 0 < count < basis.shape[1]:
-        raise SolverError(f"the λ = 0 cluster of dimension {basis.shape[1]} mixes {count} "
-                          "rigid-body motions with other zero modes (closed air volumes?); "
-                          "they cannot be told apart: reduce without --skip-rigid")
-    return count > 0
 
 
 def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
@@ -85,7 +71,7 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
             for b in blocks:
                 if count >= modes:
                     break
-                if skip_zero and _is_zero(b, tol) and _is_rigid(fe, b):
+                if skip_zero and _is_zero(b, tol):
                     continue
                 kept.append(b)
                 count += b.basis.shape[1]
@@ -119,7 +105,7 @@ def _select(fe: FEModel, si: ShiftInvert, modes: int | None,
             break
         k = min(2 * k, n - 2)
     if skip_zero:
-        inside = [b for b in inside if not (_is_zero(b, tol) and _is_rigid(fe, b))]
+        inside = [b for b in inside if not _is_zero(b, tol)]
     if not inside:
         raise DataError(f"no modes in the band {band[0]:g}–{band[1]:g} Hz"
                         + (" (λ = 0 modes skipped)" if skip_zero else ""), fe.source, "band")
@@ -227,11 +213,12 @@ def modal_bases(
     progress
         Called with short messages on long steps.
     skip_rigid
-        Drop the ``λ ≈ 0`` clusters (within ``ZERO_RTOL · max(|σ|, |λ|)``) of rigid-body
-        motion (structural rigid fields, :mod:`~neweul_py.elastic.rigid_check`) before
-        counting or band selection: ``modes=N`` then gives ``N`` modes besides them. The
-        ``λ = 0`` modes of closed air volumes (constant pressure) are not rigid motion and
-        are kept: they carry the cavity's compliance. Use it for
+        Drop the ``λ ≈ 0`` clusters (within ``ZERO_RTOL · max(|σ|, |λ|)``) before counting
+        or band selection: ``modes=N`` then gives ``N`` modes with ``λ ≠ 0``. Meant for free
+        bodies whose floating frame carries the rigid motion; it also drops the
+        constant-pressure modes of closed air volumes, which carry the cavity compliance of a
+        u–p body (a supported body needs no skip: ``neweul reduce --invariants`` checks the
+        structural rigid fields only, :mod:`~neweul_py.elastic.rigid_check`). Use it for
         bodies in the floating frame of reference, whose reference frame carries the
         rigid-body motion (see :func:`reduce_modal`).
 
@@ -282,9 +269,29 @@ def modal_bases(
     return V, W, lam, si
 
 
+def zero_modes(fe: FEModel, si: ShiftInvert, two_sided: bool = True
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Right and left bases ``(V0, W0)`` of the ``λ = 0`` modes (rigid motion, constant
+    pressure of closed volumes), ``(n, 0)`` when there are none: the eigenpairs nearest the
+    (small negative) shift of ``si`` within ``ZERO_RTOL``, left vectors as in
+    :func:`~neweul_py.elastic.eigen.left_blocks` (analytic for supported u–p models)."""
+    k = min(12, fe.n_dofs - 2)
+    blocks = right_blocks(si, k, fe.source)
+    tol = ZERO_RTOL * max([abs(si.sigma)] + [abs(b.center) for b in blocks])
+    zero = [b for b in blocks if _is_zero(b, tol)]
+    if not zero:
+        empty = np.zeros((fe.n_dofs, 0))
+        return empty, empty
+    V0 = np.hstack([np.real(b.basis) for b in zero])
+    if not two_sided or symmetric_pencil(fe):
+        return V0, V0
+    W0 = np.hstack([np.real(b.basis) for b in left_blocks(fe, si, zero, k)])
+    return V0, W0
+
+
 def add_static_correction(
     fe: FEModel, V: np.ndarray, W: np.ndarray, si: ShiftInvert, two_sided: bool = True,
-    deflate_rigid: bool = False,
+    deflate: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Append static (attachment) vectors to bases with ``Wᵀ M V = I``.
 
@@ -306,14 +313,13 @@ def add_static_correction(
     random u–p models, see ``tests/elastic``). This is an empirical safeguard, not a
     guarantee; check :func:`~neweul_py.elastic.quality.stability`.
 
-    ``deflate_rigid`` (with ``skip_rigid``): the skipped rigid-body modes are not in ``V``,
-    so the shifted solves keep their ``1/σ``-large share; the free rigid fields ``R``
-    (:func:`~neweul_py.elastic.rigid_check.free_rigid_fields`) are projected out as well,
-    ``X ← X − R (RᵀMR)⁻¹ RᵀM X`` and ``Y ← Y − R (RᵀMᵀR)⁻¹ RᵀMᵀ Y`` (inertia-relief
-    attachment vectors, Craig & Kurdila 2006 §17.4). Skipping the λ = 0 *air* modes of a
-    closed cavity instead (what ``skip_rigid`` did before it told them from rigid motion)
-    left that share in and gave an unstable middle-ear body (a real pole at +1.19e4 1/s,
-    refine 1, 30 modes).
+    ``deflate = (V0, W0)``: the skipped ``λ = 0`` modes (``skip_rigid``, :func:`zero_modes`)
+    are not in ``V``, so the shifted solves keep their ``1/σ``-large share; it is projected
+    out as well, ``X ← X − V0 (W0ᵀMV0)⁻¹ W0ᵀM X``, ``Y ← Y − W0 (V0ᵀMᵀW0)⁻¹ V0ᵀMᵀ Y``
+    (inertia-relief attachment vectors, Craig & Kurdila 2006 §17.4). Without it the static
+    vectors carry the skipped modes back in: a rigid motion of a free beam, and for the
+    middle ear (λ = 0 air modes skipped, refine 1, 30 modes) an unstable body with a real
+    pole at +1.19e4 1/s (measured).
 
     Returns
     -------
@@ -321,11 +327,12 @@ def add_static_correction(
         Extended bases (one-sided: ``W = V``, orthonormal).
     """
     B, C = fe.B(), fe.C()
-    R = free_rigid_fields(fe) if deflate_rigid else np.zeros((fe.n_dofs, 0))
+    V0, W0 = deflate if deflate is not None else (np.zeros((fe.n_dofs, 0)),) * 2
+    has0 = V0.shape[1] > 0
     if not two_sided:
         X = np.real(si.solve(B))
-        if R.shape[1]:
-            X = X - R @ np.linalg.solve(R.T @ (fe.M @ R), R.T @ (fe.M @ X))
+        if has0:
+            X = X - V0 @ np.linalg.solve(V0.T @ (fe.M @ V0), V0.T @ (fe.M @ X))
         Q = orthonormal_append(V, X)
         return Q, Q
     right_rhs, left_rhs = np.hstack([B, C.T]), np.hstack([C.T, B])
@@ -335,9 +342,9 @@ def add_static_correction(
     for _ in range(2):  # oblique projection, repeated once for numerical safety
         X = X - V @ (W.T @ (fe.M @ X))
         Y = Y - W @ (V.T @ (fe.M.T @ Y))
-        if R.shape[1]:
-            X = X - R @ np.linalg.solve(R.T @ (fe.M @ R), R.T @ (fe.M @ X))
-            Y = Y - R @ np.linalg.solve(R.T @ (fe.M.T @ R), R.T @ (fe.M.T @ Y))
+        if has0:
+            X = X - V0 @ np.linalg.solve(W0.T @ (fe.M @ V0), W0.T @ (fe.M @ X))
+            Y = Y - W0 @ np.linalg.solve(V0.T @ (fe.M.T @ W0), V0.T @ (fe.M.T @ Y))
     X, Y = orthonormal_append(empty, X), orthonormal_append(empty, Y)
     r = min(X.shape[1], Y.shape[1])
     X, Y = biorthonormalize(X[:, :r], Y[:, :r], fe.M)
@@ -429,7 +436,8 @@ def reduce_modal(
     V, W, lam, si = modal_bases(fe, modes, band, two_sided, shift, progress, skip_rigid)
     if static_correction:
         _say(progress, "static correction vectors")
-        V, W = add_static_correction(fe, V, W, si, two_sided, deflate_rigid=skip_rigid)
+        zero = zero_modes(fe, si, two_sided) if skip_rigid else None
+        V, W = add_static_correction(fe, V, W, si, two_sided, deflate=zero)
     settings = {
         "modes": modes, "band": list(band) if band is not None else None,
         "two_sided": two_sided, "static_correction": static_correction,
