@@ -13,7 +13,7 @@ from ..atomic import atomic_write
 from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
 from ..elastic.quality import frf_reduced, retained_band_hz
 from ..elastic.reduced_body import ReducedBody, load_reduced_body
-from ..errors import NeweulError
+from ..errors import DataError, NeweulError
 from .compare_frf import frequency_grid, frf_grid
 
 
@@ -70,7 +70,10 @@ def load_body(path: str, at: tuple[str, float] | None) -> ReducedBody:
         if at[0] != pb.parameter:
             raise NeweulError(f"{path}: --at names {at[0]!r}, the body's parameter is "
                               f"{pb.parameter!r}")
-        return pb.at(at[1])
+        try:
+            return pb.at(at[1])
+        except DataError as exc:
+            raise DataError(exc.message, path, exc.item) from None
     if at is not None:
         raise NeweulError(f"{path}: --at applies to parametric bodies; this is a reduced body")
     return load_reduced_body(path)

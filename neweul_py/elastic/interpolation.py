@@ -428,9 +428,12 @@ class ParametricBody:
 
     @property
     def name(self) -> str:
-        """The FE model name the samples share (``sample_sources``), else ``"?"``."""
-        names = {str(src.get("name")) for src in self.sample_sources if src.get("name")}
-        return names.pop() if len(names) == 1 else "?"
+        """The FE model name the samples share (``sample_sources``), ``"FIRST … LAST"``
+        when they differ, ``"?"`` when none is recorded."""
+        names = [str(src.get("name")) for src in self.sample_sources if src.get("name")]
+        if not names:
+            return "?"
+        return names[0] if len(set(names)) == 1 else f"{names[0]} … {names[-1]}"
 
     @property
     def order(self) -> int:
