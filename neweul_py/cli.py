@@ -27,6 +27,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "frf",
     "reduce",
     "compare_frf",
+    "frf_body",
     "interpolate",
     "fem",
     "sweep", "compare",

@@ -1,7 +1,14 @@
 """``neweul interpolate BODY1.npz BODY2.npz … --parameter NAME [--values V1,V2,…]
-[--interpolation linear|cubic] [--basis auto|full|kept] [--row-scaling kind|none]
-[--pressure-weight W] [--weights W1,…] [--store-bases] -o pbody.npz``: local reduced bodies →
-parametric body (``docs/equations.md`` §4)."""
+[--method global|local] [--models FE1,FE2,…] [--interpolation linear|cubic]
+[--basis auto|full|kept] [--row-scaling kind|none] [--pressure-weight W] [--weights W1,…]
+[--store-bases] -o pbody.npz``: local reduced bodies → parametric body
+(``docs/equations.md`` §4).
+
+``--method global`` (default): one global basis of all samples, every sample's FE model
+projected onto it (:mod:`neweul_py.elastic.global_basis`); the FE models are the files the
+bodies record as their source (``--models`` to give them), checked against the bodies'
+fingerprints. ``--method local``: Panzer et al. (2010) common coordinates of the local
+bodies alone (no FE model needed)."""
 
 from __future__ import annotations
 
@@ -9,9 +16,12 @@ import argparse
 import sys
 import time
 
+from ..elastic import read_fe_model
+from ..elastic.global_basis import global_parametric_body
 from ..elastic.interpolation import BASES, INTERPOLATIONS, PRESSURE_WEIGHT, interpolate
+from ..elastic.quality import check_source
 from ..elastic.reduced_body import load_reduced_body
-from ..errors import NeweulError
+from ..errors import DataError, NeweulError
 from . import comma_floats
 
 
@@ -20,10 +30,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "interpolate",
         help="combine reduced bodies at parameter samples into a parametric body",
-        description="Parametric model order reduction by matrix interpolation (Panzer et al. "
-        "2010): bring the local reduced bodies (one per sample of the parameter, same FE "
-        "discretization and order) to common coordinates and write the parametric body "
-        "(.npz, see docs/reduced-body-format.md) atomically.",
+        description="Parametric model order reduction by matrix interpolation of local "
+        "reduced bodies (one per sample of the parameter, same FE discretization): by "
+        "default one global basis of all samples onto which every sample's FE model is "
+        "projected (--method global), or the local bodies brought to common coordinates "
+        "(--method local, Panzer et al. 2010); writes the parametric body (.npz, see "
+        "docs/reduced-body-format.md) atomically.",
     )
     parser.add_argument("bodies", nargs="+", metavar="BODY",
                         help="reduced-body files (.npz), in increasing parameter order")
@@ -32,22 +44,35 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--values", type=comma_floats, metavar="V1,V2,…",
                         help="sample values, one per body (default: the values the bodies "
                         "record in their parameters)")
-    parser.add_argument("--interpolation", choices=INTERPOLATIONS, default="linear",
-                        help="default weights between samples (default linear)")
+    parser.add_argument("--method", choices=("global", "local"), default="global",
+                        help="global = one basis for all samples, each sample's FE model "
+                        "projected onto it (default; needs the FE models); local = common "
+                        "coordinates of the local bodies (Panzer et al. 2010)")
+    parser.add_argument("--models", nargs="+", metavar="FE",
+                        help="FE model of each body (--method global; default: the file "
+                        "each body records as its source)")
+    parser.add_argument("--interpolation", choices=INTERPOLATIONS, default=None,
+                        help="default weights between samples (default: cubic spline for "
+                        "--method global — on the middle-ear sweep 0.03–0.08 %% median "
+                        "error between samples against 1.4–3.2 %% linear — linear for "
+                        "--method local)")
     parser.add_argument("--basis", choices=BASES, default="auto",
-                        help="basis rows for the common subspace: full bases (needs "
-                        "--store-bases at reduction) or the kept rows (default auto)")
+                        help="(--method local) basis rows for the common subspace: full "
+                        "bases (needs --store-bases at reduction) or the kept rows (default "
+                        "auto)")
     parser.add_argument("--row-scaling", choices=("kind", "none"), default=None,
-                        help="row metric of the common subspace: kind = one factor per "
-                        "group of DOF kinds (translations, rotations, pressure), balanced, "
+                        help="(--method local) row metric of the common subspace: kind = "
+                        "one factor per group of DOF kinds (translations, rotations, "
+                        "pressure), balanced, "
                         "pressure down-weighted (structure first); none = plain rows "
                         "(default: kind when the bodies record the DOF kinds of their "
                         "bases, else none)")
     parser.add_argument("--pressure-weight", type=float, default=PRESSURE_WEIGHT,
-                        metavar="W", help="factor of the pressure rows on top of the "
-                        f"balanced kind scaling (default {PRESSURE_WEIGHT:g}; 1 = balanced)")
+                        metavar="W", help="(--method local) factor of the pressure rows "
+                        f"on top of the balanced kind scaling (default {PRESSURE_WEIGHT:g}; "
+                        "1 = balanced)")
     parser.add_argument("--weights", type=comma_floats, metavar="W1,W2,…",
-                        help="SVD weights of the samples (default all 1)")
+                        help="(--method local) SVD weights of the samples (default all 1)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the transformed full bases")
     parser.add_argument("-o", "--output", required=True, metavar="PBODY.npz",
@@ -59,27 +84,64 @@ def _progress(msg: str) -> None:
     print(f"  {msg}", file=sys.stderr, flush=True)
 
 
+def _models(args: argparse.Namespace, bodies: list) -> list:
+    """The FE model of every body (``--models`` or the recorded source), checked."""
+    if args.models is not None and len(args.models) != len(bodies):
+        raise NeweulError(f"--models has {len(args.models)} files for {len(bodies)} bodies")
+    fes = []
+    for i, (path, body) in enumerate(zip(args.bodies, bodies, strict=True)):
+        model = args.models[i] if args.models else body.source.get("file")
+        if not model:
+            raise DataError("the body records no FE model file: give --models (or use "
+                            "--method local)", path, "source")
+        _progress(f"reading {model}")
+        fe = read_fe_model(model)
+        check_source(fe, body, path)
+        fes.append(fe)
+    return fes
+
+
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
     if args.values is not None and len(args.values) != len(args.bodies):
         raise NeweulError(f"--values has {len(args.values)} entries for {len(args.bodies)} "
                           "bodies")
+    if args.method == "global":
+        local_only = [o for o, given in (("--basis", args.basis != "auto"),
+                                         ("--row-scaling", args.row_scaling is not None),
+                                         ("--pressure-weight",
+                                          args.pressure_weight != PRESSURE_WEIGHT),
+                                         ("--weights", args.weights is not None)) if given]
+        if local_only:
+            raise NeweulError(f"{' and '.join(local_only)} apply to --method local only (the "
+                              "global basis has no common-coordinate SVD)")
+    elif args.models is not None:
+        raise NeweulError("--models applies to --method global only")
     t0 = time.perf_counter()
     bodies = []
     for path in args.bodies:
         _progress(f"reading {path}")
         bodies.append(load_reduced_body(path))
-    pb = interpolate(bodies, args.values, parameter=args.parameter, basis=args.basis,
-                     row_scaling=args.row_scaling or "auto",
-                     pressure_weight=args.pressure_weight, weights=args.weights,
-                     interpolation=args.interpolation, store_bases=args.store_bases,
-                     progress=_progress)
+    if args.method == "global":
+        fes = _models(args, bodies)
+        pb = global_parametric_body(fes, bodies, args.values, parameter=args.parameter,
+                                    interpolation=args.interpolation or "cubic",
+                                    store_bases=args.store_bases, labels=args.bodies,
+                                    progress=_progress)
+    else:
+        pb = interpolate(bodies, args.values, parameter=args.parameter, basis=args.basis,
+                         row_scaling=args.row_scaling or "auto",
+                         pressure_weight=args.pressure_weight, weights=args.weights,
+                         interpolation=args.interpolation or "linear",
+                         store_bases=args.store_bases, progress=_progress,
+                         labels=args.bodies)
     pb.save(args.output)
     lo, hi = pb.range
     sv = pb.singular_values
     cut = sv[pb.order] / sv[0] if sv.size > pb.order else 0.0
+    how = ("global basis" if args.method == "global"
+           else f"local, {pb.basis} bases, row scaling {pb.row_scaling}")
     print(f"{args.output}: {pb.n_samples} samples of {pb.parameter} in [{lo:g}, {hi:g}], "
-          f"order {pb.order} ({'two' if pb.two_sided else 'one'}-sided, {pb.basis} bases, "
-          f"row scaling {pb.row_scaling}, "
+          f"order {pb.order} ({'two' if pb.two_sided else 'one'}-sided, {how}, "
           f"σ_r+1/σ_1 = {cut:.3g}), {time.perf_counter() - t0:.2f} s")
     return 0

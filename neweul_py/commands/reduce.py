@@ -14,6 +14,8 @@ import numpy as np
 from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
 from ..elastic.eigen import frequencies_hz
 from ..elastic.invariants import attach_invariants
+from ..elastic.quality import right_half_plane_poles
+from ..elastic.rigid_check import free_rigid_fields, repeated_rigid_fields
 from ..errors import NeweulError
 from . import comma_floats
 
@@ -71,9 +73,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the full bases V and W")
     parser.add_argument("--skip-rigid", action="store_true",
-                        help="leave out the zero-frequency (rigid-body) modes of a free body: "
-                        "the reference frame of a floating-frame body carries that motion "
-                        "(modal)")
+                        help="leave out the zero-frequency (λ = 0) modes: the rigid-body "
+                        "modes of a free body, whose floating frame carries that motion, but "
+                        "also the constant-pressure modes of closed air volumes (their "
+                        "compliance is then missing); static correction vectors are "
+                        "deflated of them. A supported body needs no skip (modal)")
+    parser.add_argument("--fixed-frame", action="store_true",
+                        help="the body's reference frame is fixed (e.g. ISYS): no check that "
+                        "the elastic coordinates leave out rigid motion (--invariants)")
     parser.add_argument("--invariants", action="store_true",
                         help="attach the floating-frame invariants (node frames: the kept "
                         "nodes), so that the file can be an elastic body in a description")
@@ -195,26 +202,28 @@ def _check_options(args: argparse.Namespace) -> None:
             raise NeweulError("--method krylov needs --points F1,F2,…")
 
 
-def _check_body_mass(body, output: str) -> None:
+def check_rigid_motion(fe, body, output: str, skip_rigid: bool, fixed_frame: bool) -> str:
     """Refuse a floating-frame body whose elastic coordinates repeat the reference frame's
-    rigid motion (rigid-body modes kept as elastic modes): then the Schur complement
-    ``Me − [Ct Cr] M_rr⁻¹ [Ct Cr]ᵀ`` of the body mass matrix of equations.md §2 is singular and
-    every model with a moving frame would have a singular mass matrix. Bodies without a
-    regular rigid block (no rotational inertia, e.g. a single lumped node) are not judged."""
-    from ..elastic.invariants import body_invariants
-
-    mass = body_invariants(body).mass_matrix()
-    rr, re, er, ee = mass[:6, :6], mass[:6, 6:], mass[6:, :6], mass[6:, 6:]
-    sv_rr = np.linalg.svd(rr, compute_uv=False)
-    if sv_rr[-1] <= 1e-10 * sv_rr[0]:
-        return
-    sv = np.linalg.svd(ee - er @ np.linalg.solve(rr, re), compute_uv=False)
-    if sv.size and sv[-1] <= 1e-8 * max(sv[0], np.abs(ee).max()):
+    rigid motion (the body mass matrix of equations.md §2 would be singular); returns a
+    note for the summary. Only the structural rigid fields count
+    (:mod:`neweul_py.elastic.rigid_check`): λ = 0 air modes (constant pressure in a closed
+    cavity) are no rigid motion, a supported FE model (the TM clamped at the annulus) has
+    none, and a body on a fixed frame (``--fixed-frame``) needs no check."""
+    if fixed_frame:
+        return "fixed frame: no rigid-motion check"
+    free = free_rigid_fields(fe)
+    if not free.shape[1]:
+        return "supported FE model (no rigid-body motion): no rigid-motion check needed"
+    count = repeated_rigid_fields(fe, body.V)
+    if count:
+        advice = ("the λ = 0 modes were not recognized as rigid motion: choose --shift "
+                  "closer to 0 or fewer modes" if skip_rigid else "reduce with --skip-rigid")
         raise NeweulError(
             f"{output}: the elastic coordinates repeat the rigid motion of the floating frame "
-            "(the reduced basis contains rigid-body modes, which the reference frame already "
-            "carries, so the body mass matrix is singular); reduce with --skip-rigid"
-        )
+            f"({count} structural rigid fields lie in the reduced basis; the reference frame "
+            f"already carries them, so the body mass matrix is singular); {advice}, or give "
+            "--fixed-frame for a body whose frame does not move")
+    return f"{free.shape[1]} free rigid motion(s) of the FE model, none in the basis"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -241,7 +250,8 @@ def run(args: argparse.Namespace) -> int:
     if args.invariants:
         _progress("computing the floating-frame invariants")
         body = _interface_invariants(args, body, fe)
-        _check_body_mass(body, args.output)
+        note = check_rigid_motion(fe, body, args.output, args.skip_rigid, args.fixed_frame)
+        _progress(note)
         if not args.store_bases:
             body = body.with_(V=None, W=None, full_dof_kind=None)
     body.save(args.output)
@@ -250,6 +260,10 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.output}: {args.method} ({side}), order {body.order} from {fe.n_dofs} DOFs, "
           f"{'stable' if st.stable else 'UNSTABLE'} (max Re s = {st.max_real_part:.3g}), "
           f"{time.perf_counter() - t0:.2f} s")
+    rhp = right_half_plane_poles(body.M, body.D, body.K)
+    if rhp.size:
+        shown = ", ".join(f"{z:.4g}" for z in rhp[:4]) + (" …" if rhp.size > 4 else "")
+        print(f"{rhp.size} right-half-plane pole(s) s [1/s] of the reduced body: {shown}")
     if body.eigenvalues is not None and body.eigenvalues.size:
         f = frequencies_hz(body.eigenvalues)
         print(f"retained frequencies [Hz]: {f.min():.6g} … {f.max():.6g}")

@@ -5,9 +5,10 @@
 :class:`~scipy.sparse.linalg.LinearOperator`; ``eigs(K, M=M, sigma=…)`` is *not* used since it
 assumes a symmetric ``M``). Left eigenvectors ``(K − λM)ᵀ w = 0`` come from the transposed
 operator ``(K − σM)⁻ᵀ Mᵀ`` with the *same* sparse LU, or — for u–p coupled models of Eq. (2) —
-from the right ones for free: ``w = [ρλu; p]`` (``docs/equations.md`` §3). ``λ = 0`` modes
-(closed-cavity constant pressure, rigid-body modes) get their left vectors from the transposed
-problem by subspace iteration. Symmetric pencils (``M``, ``K`` symmetric: structural and
+from the right ones for free: ``w = [ρλu; p]`` (``docs/equations.md`` §3), also at
+``λ = 0`` (closed-cavity constant pressure: ``[0; p]``, :func:`up_left_null`) when the structure
+is supported; other ``λ = 0`` modes (free structures) get their left vectors from the
+transposed problem by subspace iteration. Symmetric pencils (``M``, ``K`` symmetric: structural and
 acoustic models) take the left vectors equal to the right ones (:func:`symmetric_pencil`).
 
 Degenerate clusters (the 6-fold ``λ = 0`` of a free body, repeated frequencies of symmetric
@@ -38,6 +39,7 @@ __all__ = [
     "left_blocks",
     "right_blocks",
     "symmetric_pencil",
+    "up_left_null",
 ]
 
 #: Relative tolerance (of max |λ|) below which an imaginary part is numerical noise.
@@ -307,18 +309,56 @@ def _null_shift_invert(fe: FEModel, si: ShiftInvert, right: list[EigenBlock],
     return ShiftInvert(fe.K, fe.M, default_shift(fe), fe.source)
 
 
-def _left_null(si: ShiftInvert, m: int) -> np.ndarray:
-    """Left null space of ``K`` (dimension m): subspace iteration on ``(K − σM)⁻ᵀ Mᵀ``."""
+def _left_null(si: ShiftInvert, m: int, K: sps.spmatrix | None = None,
+               rtol: float = 1e-10) -> np.ndarray:
+    """Left null space of ``K`` (dimension m): subspace iteration on ``(K − σM)⁻ᵀ Mᵀ``.
+
+    Each step contracts the unwanted components by ``|σ| / |λ_1 − σ|`` (``λ_1`` the lowest
+    nonzero eigenvalue; ~1e-6 for the default shift), so a few steps suffice. It stops when
+    the subspace no longer changes (``< 1e-13``) or, given ``K``, when the residual
+    ``‖Kᵀ Z‖_F ≤ rtol ‖K‖₁ √m`` is reached and the change has stagnated (round-off keeps
+    the change of large models near 1e-12, which the bare change test never accepted:
+    refine-2 middle-ear models failed with it).
+    """
     rng = np.random.default_rng(2024)
     Z, _ = np.linalg.qr(rng.standard_normal((si.n, m)))
-    for _ in range(300):
+    KT = None if K is None else sps.csr_matrix(K).T.tocsr()
+    knorm = None if K is None else float(spla.norm(K, 1))
+    last = np.inf
+    for it in range(300):
         Znew, _ = np.linalg.qr(np.real(si.solve(si.MT @ Z, transpose=True)))
         change = np.linalg.norm(Znew - Z @ (Z.T @ Znew))
         Z = Znew
         if change < 1e-13:
             return Z
+        if KT is not None and it >= 2 and change >= 0.5 * last:
+            res = np.linalg.norm(KT @ Z) / (knorm * np.sqrt(m))
+            if res <= rtol:
+                return Z
+        last = change
     raise SolverError("left null vectors (λ = 0) did not converge by subspace iteration; "
                       "use a shift closer to 0", residual=change)
+
+
+def up_left_null(fe: FEModel, right_null: np.ndarray, rtol: float = 1e-10
+                 ) -> np.ndarray | None:
+    """Left null vectors of a u–p ``K`` from the right ones, analytically (§3).
+
+    ``Kᵀ = [Ksᵀ 0; −Cᵀ Kf]``: with a regular structural stiffness ``Ks`` (a supported
+    structure) the left null vectors are ``[0; p]`` for the right null vectors ``[u; p]``
+    (``Kf p = 0``) — the u–p relation ``[ρλu; p]`` at ``λ = 0``. Returns ``None`` when the
+    residual ``‖Kᵀ w‖ ≤ rtol ‖K‖₁ ‖w‖`` is not met (a free structure: then ``Ks`` is
+    singular and the structural rows of the left vectors do not vanish).
+    """
+    W = np.where(fe.pressure_dofs[:, None], np.real(right_null), 0.0)
+    norms = np.linalg.norm(W, axis=0)
+    if np.any(norms == 0):
+        return None
+    W = np.linalg.qr(W / norms)[0]
+    res = np.linalg.norm(fe.K.T @ W, axis=0)
+    if np.all(res <= rtol * float(spla.norm(fe.K, 1))):
+        return W
+    return None
 
 
 def symmetric_pencil(fe: FEModel) -> bool:
@@ -389,9 +429,12 @@ def left_blocks(fe: FEModel, si: ShiftInvert, right: list[EigenBlock], k_ext: in
         for b in right:
             lam = b.values[0].real
             if abs(lam) <= zero_tol:
-                if null_si is None:
-                    null_si = _null_shift_invert(fe, si, right, zero_tol)
-                out.append(EigenBlock(b.values, _left_null(null_si, b.values.size)))
+                w = up_left_null(fe, b.basis)
+                if w is None:  # free structure: the transposed problem
+                    if null_si is None:
+                        null_si = _null_shift_invert(fe, si, right, zero_tol)
+                    w = _left_null(null_si, b.values.size, fe.K)
+                out.append(EigenBlock(b.values, w))
             else:
                 w = b.basis * np.where(fe.pressure_dofs, 1.0, scale_u * lam)[:, None]
                 out.append(EigenBlock(b.values, w))

@@ -109,9 +109,12 @@ __all__ = [
     "PRESSURE_WEIGHT",
     "ROW_SCALINGS",
     "ParametricBody",
+    "check_samples",
     "interpolate",
+    "is_parametric_body_file",
     "kind_row_scale",
     "load_parametric_body",
+    "sample_values",
     "save_parametric_body",
 ]
 
@@ -425,6 +428,15 @@ class ParametricBody:
         return out
 
     @property
+    def name(self) -> str:
+        """The FE model name the samples share (``sample_sources``), ``"FIRST … LAST"``
+        when they differ, ``"?"`` when none is recorded."""
+        names = [str(src.get("name")) for src in self.sample_sources if src.get("name")]
+        if not names:
+            return "?"
+        return names[0] if len(set(names)) == 1 else f"{names[0]} … {names[-1]}"
+
+    @property
     def order(self) -> int:
         """Order ``r`` of the common coordinates."""
         return self.M.shape[1]
@@ -470,9 +482,9 @@ class ParametricBody:
         s = self.samples
         lo, hi = self.range
         if not np.isfinite(p) or p < lo or p > hi:
-            raise DataError(f"{p:g} is outside the sampled range [{lo:g}, {hi:g}]; the "
-                            "parametric body does not extrapolate (add a sample)", None,
-                            self.parameter)
+            raise DataError(f"parametric body {self.name!r}: {self.parameter} = {p:g} is "
+                            f"outside the sampled range [{lo:g}, {hi:g}]; the parametric "
+                            "body does not extrapolate (add a sample)", None, self.parameter)
         w = np.zeros(s.size)
         hit = np.flatnonzero(s == p)
         if hit.size:
@@ -592,12 +604,18 @@ def _check_stacked(inv: Mapping[str, np.ndarray], k: int) -> dict[str, np.ndarra
 
 
 # ---------------------------------------------------------------------- interpolate
-def _same_layout(bodies: Sequence[ReducedBody]) -> None:
-    """Refuse bodies that are not samples of one family (same FE discretization, DOFs, I/O)."""
+def _label(labels: Sequence[str] | None, i: int) -> str:
+    return f"body {i + 1}" + (f" ({labels[i]})" if labels is not None else "")
+
+
+def check_samples(bodies: Sequence[ReducedBody], labels: Sequence[str] | None = None) -> None:
+    """Refuse bodies that are not samples of one family (same FE discretization, DOFs, I/O);
+    ``labels`` (e.g. the file names) name the bodies in the error."""
     ref = bodies[0]
 
     def fail(i: int, what: str) -> None:
-        raise DataError(f"body {i + 1} does not match body 1: {what}; the samples of a "
+        raise DataError(f"{_label(labels, i)} does not match {_label(labels, 0)}: {what}; "
+                        "the samples of a "
                         "parametric body must be reductions of one FE discretization with "
                         "the same order, kept nodes, inputs and outputs", None,
                         f"bodies[{i}]")
@@ -631,13 +649,15 @@ def _same_layout(bodies: Sequence[ReducedBody]) -> None:
     for i, fp in enumerate(prints):
         if fp is not None and fp in prints[:i]:
             j = prints.index(fp)
-            raise DataError(f"bodies {j + 1} and {i + 1} were reduced from the same FE model "
+            raise DataError(f"{_label(labels, j)} and {_label(labels, i)} were reduced from "
+                            "the same FE model "
                             f"(fingerprint {str(fp)[:12]}…): two samples of one model (the "
                             "same file given twice?)", None, f"bodies[{i}]")
 
 
-def _samples(bodies: Sequence[ReducedBody], samples: Sequence[float] | None,
-             parameter: str) -> np.ndarray:
+def sample_values(bodies: Sequence[ReducedBody], samples: Sequence[float] | None,
+                  parameter: str) -> np.ndarray:
+    """The checked sample values: given, or recorded in the bodies' ``parameters``."""
     if samples is None:
         missing = [i + 1 for i, b in enumerate(bodies)
                    if not b.parameters or parameter not in b.parameters]
@@ -824,6 +844,7 @@ def interpolate(
     cond_max: float = 1e10,
     min_cosine: float = 1e-8,
     progress: Progress = None,
+    labels: Sequence[str] | None = None,
 ) -> ParametricBody:
     """Bring local reduced models to common coordinates for matrix interpolation (§4).
 
@@ -876,6 +897,8 @@ def interpolate(
         below it, ``R`` misses part of the sample's subspace.
     progress
         Called with short messages (the CLI prints them to stderr).
+    labels
+        Names of the bodies in errors (e.g. their files; default "body i").
 
     Returns
     -------
@@ -915,8 +938,8 @@ def interpolate(
     if interpolation not in INTERPOLATIONS:
         raise DataError(f"must be one of {', '.join(INTERPOLATIONS)}, got {interpolation!r}",
                         None, "interpolation")
-    s = _samples(bodies, samples, str(parameter))
-    _same_layout(bodies)
+    s = sample_values(bodies, samples, str(parameter))
+    check_samples(bodies, labels)
     k, r, two = len(bodies), bodies[0].order, bodies[0].two_sided
     w = np.ones(k) if weights is None else np.asarray(weights, dtype=np.float64).ravel()
     if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.any():
@@ -1127,6 +1150,16 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     }
     arrays["meta"] = json_to_uint8(meta)
     save_npz_atomic(path, arrays)
+
+
+def is_parametric_body_file(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a parametric-body file (its ``meta`` names the format); a
+    :class:`DataError` for an unreadable file."""
+    data = load_npz(path)
+    if "meta" not in data:
+        return False
+    meta = json_from_uint8(data["meta"], str(path))
+    return isinstance(meta, dict) and meta.get("format") == PARAMETRIC_BODY_FORMAT
 
 
 def load_parametric_body(path: str | os.PathLike) -> ParametricBody:

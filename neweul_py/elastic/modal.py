@@ -28,7 +28,7 @@ from .fe_model import FEModel
 from .projection import Progress, biorthonormalize, build_reduced_body, orthonormal_append
 from .reduced_body import ReducedBody
 
-__all__ = ["add_static_correction", "modal_bases", "reduce_modal"]
+__all__ = ["add_static_correction", "modal_bases", "reduce_modal", "zero_modes"]
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -214,7 +214,11 @@ def modal_bases(
         Called with short messages on long steps.
     skip_rigid
         Drop the ``λ ≈ 0`` clusters (within ``ZERO_RTOL · max(|σ|, |λ|)``) before counting
-        or band selection: ``modes=N`` then gives ``N`` modes with ``λ ≠ 0``. Use it for
+        or band selection: ``modes=N`` then gives ``N`` modes with ``λ ≠ 0``. Meant for free
+        bodies whose floating frame carries the rigid motion; it also drops the
+        constant-pressure modes of closed air volumes, which carry the cavity compliance of a
+        u–p body (a supported body needs no skip: ``neweul reduce --invariants`` checks the
+        structural rigid fields only, :mod:`~neweul_py.elastic.rigid_check`). Use it for
         bodies in the floating frame of reference, whose reference frame carries the
         rigid-body motion (see :func:`reduce_modal`).
 
@@ -265,8 +269,29 @@ def modal_bases(
     return V, W, lam, si
 
 
+def zero_modes(fe: FEModel, si: ShiftInvert, two_sided: bool = True
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Right and left bases ``(V0, W0)`` of the ``λ = 0`` modes (rigid motion, constant
+    pressure of closed volumes), ``(n, 0)`` when there are none: the eigenpairs nearest the
+    (small negative) shift of ``si`` within ``ZERO_RTOL``, left vectors as in
+    :func:`~neweul_py.elastic.eigen.left_blocks` (analytic for supported u–p models)."""
+    k = min(12, fe.n_dofs - 2)
+    blocks = right_blocks(si, k, fe.source)
+    tol = ZERO_RTOL * max([abs(si.sigma)] + [abs(b.center) for b in blocks])
+    zero = [b for b in blocks if _is_zero(b, tol)]
+    if not zero:
+        empty = np.zeros((fe.n_dofs, 0))
+        return empty, empty
+    V0 = np.hstack([np.real(b.basis) for b in zero])
+    if not two_sided or symmetric_pencil(fe):
+        return V0, V0
+    W0 = np.hstack([np.real(b.basis) for b in left_blocks(fe, si, zero, k)])
+    return V0, W0
+
+
 def add_static_correction(
-    fe: FEModel, V: np.ndarray, W: np.ndarray, si: ShiftInvert, two_sided: bool = True
+    fe: FEModel, V: np.ndarray, W: np.ndarray, si: ShiftInvert, two_sided: bool = True,
+    deflate: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Append static (attachment) vectors to bases with ``Wᵀ M V = I``.
 
@@ -288,14 +313,27 @@ def add_static_correction(
     random u–p models, see ``tests/elastic``). This is an empirical safeguard, not a
     guarantee; check :func:`~neweul_py.elastic.quality.stability`.
 
+    ``deflate = (V0, W0)``: the skipped ``λ = 0`` modes (``skip_rigid``, :func:`zero_modes`)
+    are not in ``V``, so the shifted solves keep their ``1/σ``-large share; it is projected
+    out as well, ``X ← X − V0 (W0ᵀMV0)⁻¹ W0ᵀM X``, ``Y ← Y − W0 (V0ᵀMᵀW0)⁻¹ V0ᵀMᵀ Y``
+    (inertia-relief attachment vectors, Craig & Kurdila 2006 §17.4). Without it the static
+    vectors carry the skipped modes back in: a rigid motion of a free beam, and for the
+    middle ear (λ = 0 air modes skipped, refine 1, 30 modes) an unstable body with a real
+    pole at +1.19e4 1/s (measured).
+
     Returns
     -------
     V, W
         Extended bases (one-sided: ``W = V``, orthonormal).
     """
     B, C = fe.B(), fe.C()
+    V0, W0 = deflate if deflate is not None else (np.zeros((fe.n_dofs, 0)),) * 2
+    has0 = V0.shape[1] > 0
     if not two_sided:
-        Q = orthonormal_append(V, np.real(si.solve(B)))
+        X = np.real(si.solve(B))
+        if has0:
+            X = X - V0 @ np.linalg.solve(V0.T @ (fe.M @ V0), V0.T @ (fe.M @ X))
+        Q = orthonormal_append(V, X)
         return Q, Q
     right_rhs, left_rhs = np.hstack([B, C.T]), np.hstack([C.T, B])
     X = np.real(si.solve(right_rhs))
@@ -304,6 +342,9 @@ def add_static_correction(
     for _ in range(2):  # oblique projection, repeated once for numerical safety
         X = X - V @ (W.T @ (fe.M @ X))
         Y = Y - W @ (V.T @ (fe.M.T @ Y))
+        if has0:
+            X = X - V0 @ np.linalg.solve(W0.T @ (fe.M @ V0), W0.T @ (fe.M @ X))
+            Y = Y - W0 @ np.linalg.solve(V0.T @ (fe.M.T @ W0), V0.T @ (fe.M.T @ Y))
     X, Y = orthonormal_append(empty, X), orthonormal_append(empty, Y)
     r = min(X.shape[1], Y.shape[1])
     X, Y = biorthonormalize(X[:, :r], Y[:, :r], fe.M)
@@ -395,7 +436,8 @@ def reduce_modal(
     V, W, lam, si = modal_bases(fe, modes, band, two_sided, shift, progress, skip_rigid)
     if static_correction:
         _say(progress, "static correction vectors")
-        V, W = add_static_correction(fe, V, W, si, two_sided)
+        zero = zero_modes(fe, si, two_sided) if skip_rigid else None
+        V, W = add_static_correction(fe, V, W, si, two_sided, deflate=zero)
     settings = {
         "modes": modes, "band": list(band) if band is not None else None,
         "two_sided": two_sided, "static_correction": static_correction,

@@ -707,35 +707,39 @@ def test_bad_options_and_singular_transformations():
 
 
 # --------------------------------------------------------------------------- CLI
+LOCAL = ("interpolate", "--method", "local")
+
+
 def test_cli_interpolate(tmp_path, capsys):
-    """`neweul interpolate` writes what `interpolate` returns (bit for bit); sample values
-    from --values or from the bodies' parameters; bad values are one-line errors."""
+    """`neweul interpolate --method local` writes what `interpolate` returns (bit for bit);
+    sample values from --values or from the bodies' parameters; bad values are one-line
+    errors."""
     s = grid(3)
     paths = []
     for i, p in enumerate(s):
         paths.append(str(tmp_path / f"b{i}.npz"))
         local(p).with_(parameters={"p": float(p)}).save(paths[-1])
     out = tmp_path / "pb.npz"
-    assert main(["interpolate", *paths, "--parameter", "p", "--values", "0,1,2", "-o",
+    assert main([*LOCAL, *paths, "--parameter", "p", "--values", "0,1,2", "-o",
                  str(out)]) == 0
     cap = capsys.readouterr()
-    assert ("3 samples of p in [0, 2], order 8 (two-sided, full bases, row scaling kind"
+    assert ("3 samples of p in [0, 2], order 8 (two-sided, local, full bases, row scaling kind"
             in cap.out)
     assert "reading" in cap.err and "common subspace" in cap.err
     ref = interpolate([ReducedBody.load(p) for p in paths], s, parameter="p")
     _assert_same_core(ParametricBody.load(out), ref)
     out2 = tmp_path / "pb2.npz"
-    assert main(["interpolate", *paths, "--parameter", "p", "--interpolation", "cubic",
+    assert main([*LOCAL, *paths, "--parameter", "p", "--interpolation", "cubic",
                  "-o", str(out2)]) == 0
     assert ParametricBody.load(out2).interpolation == "cubic"
     out3 = tmp_path / "pb3.npz"
-    assert main(["interpolate", *paths, "--parameter", "p", "--row-scaling", "none",
+    assert main([*LOCAL, *paths, "--parameter", "p", "--row-scaling", "none",
                  "-o", str(out3)]) == 0
     _assert_same_core(ParametricBody.load(out3),
                       interpolate([ReducedBody.load(p) for p in paths], s, parameter="p",
                                   row_scaling="none"))
     out4 = tmp_path / "pb4.npz"
-    assert main(["interpolate", *paths, "--parameter", "p", "--pressure-weight", "1",
+    assert main([*LOCAL, *paths, "--parameter", "p", "--pressure-weight", "1",
                  "-o", str(out4)]) == 0
     assert ParametricBody.load(out4).pressure_weight == 1.0
     capsys.readouterr()
@@ -743,7 +747,7 @@ def test_cli_interpolate(tmp_path, capsys):
                          ("0,2,1", "strictly increasing"),
                          ("0,1.5,2", "records p = 1")):
         bad = tmp_path / "bad.npz"
-        assert main(["interpolate", *paths, "--parameter", "p", "--values", values, "-o",
+        assert main([*LOCAL, *paths, "--parameter", "p", "--values", values, "-o",
                      str(bad)]) == 1
         err = capsys.readouterr().err.strip().splitlines()
         assert err[-1].startswith("neweul interpolate: error:") and text in err[-1]

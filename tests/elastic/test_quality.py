@@ -81,7 +81,7 @@ def test_compare_frf_csv(tmp_path):
     assert cmp.max_relative_error < 1e-5
     cmp.to_csv(tmp_path / "c.csv")
     lines = (tmp_path / "c.csv").read_text().splitlines()
-    assert lines[0] == "frequency_hz,full_magnitude,reduced_magnitude,relative_error"
+    assert lines[0] == "frequency_hz,full_magnitude,reduced_magnitude,relative_error,in_band"
     table = np.loadtxt(tmp_path / "c.csv", delimiter=",", skiprows=1)
     np.testing.assert_array_equal(table[:, 0], f)
     np.testing.assert_allclose(table[:, 1], np.abs(cmp.full))

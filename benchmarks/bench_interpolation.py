@@ -1,0 +1,134 @@
+"""Benchmark: parametric middle-ear body between working points (issue 13 item 4).
+
+The u–p FE models of ``neweul fem middle-ear --refine 1`` at 17 static pressures
+(−4000:4000:17 Pa) give 9 samples (every 1000 Pa) and the 8 midpoints (±500, ±1500, ±2500,
+±3500 Pa). Each sample is reduced alone (two-sided modal, ``--modes 30 --static-correction
+--store-bases``); at every midpoint the frequency response umbo_uz and probe_pressure per
+canal_volume_acceleration, 100 Hz–5 kHz (log), of
+
+* ``local``: Panzer et al. (2010) matrix interpolation of the local bodies in common
+  coordinates (:func:`neweul_py.elastic.interpolation.interpolate`, its default metric);
+* ``global``/``global-cubic``: one global basis of all samples, every sample's full FE model
+  projected onto it (:mod:`neweul_py.elastic.global_basis`), linear / cubic-spline weights;
+* ``nearest-``/``nearest+``: the local body of the lower / upper neighbouring sample
+  (equidistant: both are "the nearest sample")
+
+is compared with the unreduced FE model linearized at the midpoint (checked sweep,
+:func:`neweul_py.elastic.quality.frf_full`: relative error ≤ 1e-6 at held-out full solves).
+Printed per midpoint and method: median and max over frequency of the relative error
+``|H_r − H| / |H|`` of each output. Acceptance: global median ≤ 1 %, max ≤ 5 % and below both
+neighbours' median and max at every midpoint.
+
+Run: ``python benchmarks/bench_interpolation.py [--dir /tmp/me17] [--modes 30]`` (builds the
+FE sweep into ``--dir`` when it is missing; caches reductions and full FRFs there).
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from neweul_py.elastic import interpolate, read_fe_model, reduce_modal
+from neweul_py.elastic.global_basis import global_parametric_body
+from neweul_py.elastic.quality import frf_full, frf_reduced
+from neweul_py.elastic.reduced_body import ReducedBody
+
+INPUT = "canal_volume_acceleration"
+OUTPUTS = ["umbo_uz", "probe_pressure"]
+
+
+def _model(d: Path, dp: float) -> Path:
+    return d / f"model_dp{int(dp):+06d}.npz"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--dir", default="/tmp/neweul-bench-interp", type=Path)
+    ap.add_argument("--modes", type=int, default=30)
+    ap.add_argument("--nf", type=int, default=100)
+    ap.add_argument("--order", type=int, default=None,
+                    help="truncate the global basis to this many directions (default: all "
+                    "above the numerical rank)")
+    args = ap.parse_args()
+    d: Path = args.dir
+    samples = np.arange(-4000.0, 4001.0, 1000.0)
+    mids = 0.5 * (samples[1:] + samples[:-1])
+    if not _model(d, 0).exists():
+        print(f"building the FE sweep in {d}", file=sys.stderr)
+        subprocess.run([sys.executable, "-m", "neweul_py.cli", "fem", "middle-ear",
+                        "--pressures", "-4000:4000:17", "--refine", "1", "-o", str(d)],
+                       check=True)
+    f = np.geomspace(100.0, 5000.0, args.nf)
+    t0 = time.perf_counter()
+    fes = [read_fe_model(_model(d, p)) for p in samples]
+    bodies = []
+    for p, fe in zip(samples, fes, strict=True):
+        path = d / f"body{args.modes}_dp{int(p):+06d}.npz"
+        if path.exists():
+            bodies.append(ReducedBody.load(path))
+            continue
+        b = reduce_modal(fe, modes=args.modes, static_correction=True, store_bases=True)
+        b = b.with_(parameters={"dp": float(p)})
+        b.save(path)
+        bodies.append(b)
+    t_red = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    local = interpolate(bodies, samples, parameter="dp")
+    t_local = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    glob = global_parametric_body(fes, bodies, samples, parameter="dp", order=args.order)
+    t_glob = time.perf_counter() - t0
+    print(f"reductions {t_red:.1f} s; local interpolation {t_local:.1f} s (order "
+          f"{local.order}); global basis {t_glob:.1f} s (order {glob.order})")
+    refs = {}
+    for p in mids:
+        path = d / f"full_frf_dp{int(p):+06d}_{args.nf}.npy"
+        if path.exists():
+            refs[p] = np.load(path)
+            continue
+        fe = read_fe_model(_model(d, p))
+        t0 = time.perf_counter()
+        refs[p] = frf_full(fe, f, INPUT, OUTPUTS)[:, :, 0]
+        print(f"full FRF at {p:+g} Pa: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        np.save(path, refs[p])
+    methods = {
+        "local": lambda p: local.at(p),
+        "global": lambda p: glob.at(p, "linear"),
+        "global-cubic": lambda p: glob.at(p, "cubic"),
+        "nearest-": lambda p: bodies[int(np.searchsorted(samples, p)) - 1],
+        "nearest+": lambda p: bodies[int(np.searchsorted(samples, p))],
+    }
+    print(f"relative FRF error per {INPUT}, {f[0]:g}–{f[-1]:g} Hz ({f.size} log points): "
+          "median / max [%]")
+    print(f"{'dp [Pa]':>8} {'method':>13} " + " ".join(f"{o:>22}" for o in OUTPUTS))
+    summary = {m: [] for m in methods}
+    for p in mids:
+        H = refs[p]
+        for name, body_at in methods.items():
+            Hr = frf_reduced(body_at(p), f, INPUT, OUTPUTS)[:, :, 0]
+            err = np.abs(Hr - H) / np.abs(H)
+            med, mx = np.median(err, axis=0), err.max(axis=0)
+            summary[name].append((med, mx))
+            cells = " ".join(f"{100 * a:>10.3f} / {100 * b:<9.3f}" for a, b in
+                             zip(med, mx, strict=True))
+            print(f"{p:>+8g} {name:>13} {cells}")
+    print("\nover all midpoints: worst median / worst max [%]; midpoints where the method "
+          "beats both neighbours (median and max, every output)")
+    near = np.array([[np.minimum(a, b) for a, b in zip(summary["nearest-"][i],
+                                                     summary["nearest+"][i], strict=True)]
+                     for i in range(mids.size)])
+    for name, rows in summary.items():
+        arr = np.array(rows)  # (mid, med/max, out)
+        wins = int(np.sum(np.all(arr < near, axis=(1, 2))))
+        print(f"{name:>13}: " + ", ".join(
+            f"{o} {100 * arr[:, 0, j].max():.3f} / {100 * arr[:, 1, j].max():.3f}"
+            for j, o in enumerate(OUTPUTS)) + f"; beats nearest at {wins}/{mids.size}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,146 @@
+"""``neweul frf-body BODY.npz [--at NAME=VALUE] --input I --output O[,O…] --f FMIN:FMAX:N
+[--log] [-o frf.csv] [--plot fig.png]``: frequency response of a reduced or parametric body
+alone, ``H(j2πf) = C_r (K_r + jωD_r − ω²M_r)⁻¹ B_r`` from its own FE inputs and outputs —
+no FE model is read or solved."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..atomic import atomic_write
+from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
+from ..elastic.quality import frf_reduced, retained_band_hz
+from ..elastic.reduced_body import ReducedBody, load_reduced_body
+from ..errors import DataError, NeweulError
+from .compare_frf import frequency_grid, frf_grid
+
+
+def _assignment(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    try:
+        if not sep or not name.strip():
+            raise ValueError
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}") from None
+
+
+def _names(text: str) -> list[str]:
+    names = [x.strip() for x in text.split(",") if x.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected NAME[,NAME…], got {text!r}")
+    return names
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``frf-body`` sub-command."""
+    parser = subparsers.add_parser(
+        "frf-body",
+        help="frequency response of a reduced or parametric elastic body alone",
+        description="Frequency response H(j2πf) = C (K + jωD − ω²M)⁻¹ B of a reduced body, or "
+        "of a parametric body at a parameter value (--at NAME=VALUE), between its own FE "
+        "inputs and outputs (no FE model is solved); magnitude and phase per output.",
+    )
+    parser.add_argument("body", metavar="BODY", help="reduced or parametric body file (.npz)")
+    parser.add_argument("--at", type=_assignment, metavar="NAME=VALUE",
+                        help="parameter value of a parametric body (e.g. dp=-2000)")
+    parser.add_argument("--input", required=True, metavar="I", help="input name")
+    parser.add_argument("--output", required=True, type=_names, metavar="O[,O…]",
+                        help="output name(s)")
+    parser.add_argument("--f", dest="grid", type=frf_grid, default=(10.0, 20000.0, 200),
+                        metavar="FMIN:FMAX:N", help="frequency grid [Hz] (default 10:20000:200)")
+    parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
+    parser.add_argument("--plot", metavar="FIG", help="Bode plot (.png/.pdf)")
+    parser.add_argument("-o", "--out", metavar="CSV",
+                        help="write frequency_hz and per output real, imag, magnitude, "
+                        "phase_deg (and in_band when the body records its retained band)")
+    parser.set_defaults(func=run)
+
+
+def load_body(path: str, at: tuple[str, float] | None) -> ReducedBody:
+    """A reduced body, or a parametric body evaluated at ``at`` (refused without it)."""
+    if is_parametric_body_file(path):
+        pb = load_parametric_body(path)
+        lo, hi = pb.range
+        if at is None:
+            raise NeweulError(f"{path}: a parametric body of {pb.parameter!r}: give --at "
+                              f"{pb.parameter}=VALUE in [{lo:g}, {hi:g}]")
+        if at[0] != pb.parameter:
+            raise NeweulError(f"{path}: --at names {at[0]!r}, the body's parameter is "
+                              f"{pb.parameter!r}")
+        try:
+            return pb.at(at[1])
+        except DataError as exc:
+            raise DataError(exc.message, path, exc.item) from None
+    if at is not None:
+        raise NeweulError(f"{path}: --at applies to parametric bodies; this is a reduced body")
+    return load_reduced_body(path)
+
+
+def _table(f: np.ndarray, H: np.ndarray, outputs: list[str], in_band: np.ndarray | None
+           ) -> tuple[str, np.ndarray]:
+    cols, names = [f], ["frequency_hz"]
+    for j, o in enumerate(outputs):
+        h = H[:, j]
+        cols += [h.real, h.imag, np.abs(h), np.degrees(np.unwrap(np.angle(h)))]
+        names += [f"{o}_real", f"{o}_imag", f"{o}_magnitude", f"{o}_phase_deg"]
+    if in_band is not None:
+        cols.append(in_band.astype(float))
+        names.append("in_band")
+    return ",".join(names), np.column_stack(cols)
+
+
+def _plot(f: np.ndarray, H: np.ndarray, outputs: list[str], inp: str, path: str,
+          log: bool) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 6))
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    for j, o in enumerate(outputs):
+        ax1.loglog(f, np.abs(H[:, j]), label=o) if log else ax1.semilogy(f, np.abs(H[:, j]),
+                                                                          label=o)
+        ax2.plot(f, np.degrees(np.unwrap(np.angle(H[:, j]))), label=o)
+    ax1.set_ylabel(f"|H| (output / {inp})")
+    ax1.legend()
+    ax2.set_ylabel("phase [deg]")
+    ax2.set_xlabel("frequency [Hz]")
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate the body and report."""
+    if args.plot:
+        from ..analysis.plot import check_plot_path
+
+        check_plot_path(args.plot)
+    f = frequency_grid(*args.grid, args.log)
+    body = load_body(args.body, args.at)
+    H = frf_reduced(body, f, args.input, args.output)[:, :, 0]
+    band = retained_band_hz(body)
+    in_band = None if band is None else f <= band
+    where = "" if args.at is None else f" at {args.at[0]} = {args.at[1]:g}"
+    print(f"{args.body}{where}: order {body.order}, {f.size} frequencies "
+          f"{f[0]:g}–{f[-1]:g} Hz, input {args.input}")
+    for j, o in enumerate(args.output):
+        k = int(np.argmax(np.abs(H[:, j])))
+        print(f"  {o}: max |H| {np.abs(H[k, j]):.4g} at {f[k]:g} Hz")
+    if in_band is not None and not in_band.all():
+        print(f"  {(~in_band).sum()} frequencies lie above the retained band ({band:.6g} Hz): "
+              "the reduced model is not meant to be accurate there (in_band = 0)")
+    if args.out:
+        header, table = _table(f, H, args.output, in_band)
+
+        def write(fh) -> None:
+            np.savetxt(fh, table, delimiter=",", header=header, comments="", fmt="%.17g")
+
+        atomic_write(args.out, write)
+        print(f"table: {args.out}")
+    if args.plot:
+        _plot(f, H, args.output, args.input, args.plot, args.log)
+        print(f"plot: {args.plot}")
+    return 0
