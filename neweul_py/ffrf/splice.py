@@ -164,7 +164,8 @@ def ffrf_terms(S, kin, y, yd):
 
 def ffrf_add_mass(S, M, terms):
     """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices)."""
-    for b, (Jv, Jw, *_k, _q, _qd, _md, Mrr, Mre, Mer, _Oe, _c2q) in zip(S["bodies"], terms, strict=True):
+    for b, (Jv, Jw, *_k, _q, _qd, _md, Mrr, Mre, Mer, _Oe, _c2q) in zip(
+            S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
         M = M + Jw.T @ (Mrr @ Jv)
         M[:, e] += Jw.T @ Mre
