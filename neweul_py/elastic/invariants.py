@@ -334,8 +334,8 @@ class Invariants:
         :func:`neweul_py.ffrf.ffrf_velocity_terms`."""
         q, qd, w = (np.asarray(v, dtype=np.float64) for v in (q, qd, omega))
         b = self.kernel_form()
-        md, Mrr, _Mre, _Mer, Oe = ffrf_mass_blocks(b, q)
-        return np.concatenate(ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe))
+        md, Mrr, _Mre, _Mer, Oe, c2q = ffrf_mass_blocks(b, q)
+        return np.concatenate(ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe, c2q))
 
     def elastic_forces(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""

@@ -104,7 +104,8 @@ def ffrf_prepare(flat, inertia="consistent"):
         "T0": np.concatenate(zeros),
         "T1": np.ascontiguousarray(np.vstack(firsts)),
         "where": where,
-        "C2": None if c2 is None else np.ascontiguousarray(c2, dtype=np.float64),
+        "C2": None if c2 is None else np.ascontiguousarray(
+            np.asarray(c2, dtype=np.float64).reshape(nq, 9 * nq)),
         "consistent_stiffening": bool(stiff),
         "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
         "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
@@ -118,12 +119,15 @@ def ffrf_prepare(flat, inertia="consistent"):
 
 def ffrf_mass_blocks(b, q):
     """The q-dependent blocks of ``M_b(q)``: ``md``, ``M_rr`` (6×6), ``M_re`` (6×nq), ``M_er``
-    (nq×6) and ``Oe(q)`` (nq×6); ``M_ee = Me`` is constant (module docstring)."""
+    (nq×6), ``Oe(q)`` (nq×6) and ``C2q[k, ab] = Σ_l q_l C2[l, k, a, b]`` (nq×9, or ``None``);
+    ``M_ee = Me`` is constant (module docstring). Matrix products only (BLAS)."""
     X = b["T0"] + b["T1"] @ q
     X = {k: X[i:j].reshape(shape) for k, (i, j, shape) in b["where"].items()}
     J = X["J"]
+    c2q = None
     if b["C2"] is not None:
-        J = J + np.einsum("k,l,klab->ab", q, q, b["C2"])
+        c2q = (q @ b["C2"]).reshape(b["nq"], 9)
+        J = J + (q @ c2q).reshape(3, 3)
     md = b["md0"] + b["md1"] @ q
     Mrr = np.zeros((6, 6), dtype=J.dtype)
     Mrr[0, 0] = Mrr[1, 1] = Mrr[2, 2] = b["mass"]
@@ -136,7 +140,7 @@ def ffrf_mass_blocks(b, q):
         Mrr[3:, :3] += 0.5 * ffrf_skew(ffrf_prestress(b, q, X["Ct"]))
     Mre = np.vstack((b["md1"], X["Crv"].T))
     Mer = np.hstack((X["Ct"], X["Cr"]))
-    return md, Mrr, Mre, Mer, X["Oe"]
+    return md, Mrr, Mre, Mer, X["Oe"], c2q
 
 
 def ffrf_prestress(b, q, Ct):
@@ -147,22 +151,22 @@ def ffrf_prestress(b, q, Ct):
 
 def ffrf_body_mass(b, q):
     """The full (6+nq)² body mass matrix ``M_b(q)`` for ``[a, α, q̈]``."""
-    _md, Mrr, Mre, Mer, _Oe = ffrf_mass_blocks(b, q)
+    _md, Mrr, Mre, Mer, _Oe, _c2q = ffrf_mass_blocks(b, q)
     return np.block([[Mrr, Mre], [Mer, b["Me"].astype(Mrr.dtype)]])
 
 
-def ffrf_velocity_terms(b, q, qd, w, md, Jq, Oe):
+def ffrf_velocity_terms(b, q, qd, w, md, Jq, Oe, c2q):
     """``h_ω`` split into the rigid rows (6,) and the elastic rows (nq,) (module docstring).
 
-    ``md``, ``Jq`` (= ``M_rr[3:, 3:]``) and ``Oe`` are those of :func:`ffrf_mass_blocks`
-    at the same ``q``.
+    ``md``, ``Jq`` (= ``M_rr[3:, 3:]``), ``Oe`` and ``c2q`` are those of
+    :func:`ffrf_mass_blocks` at the same ``q``.
     """
     wt = ffrf_skew(w)
     qw = np.outer(qd, w).ravel()
     hr = np.concatenate((wt @ (wt @ md) + 2.0 * (wt @ (b["md1"] @ qd)),
                          wt @ (Jq @ w) + b["Gr"] @ qw))
-    if b["C2"] is not None:
-        hr[3:] += 2.0 * np.einsum("l,k,lkab,b->a", q, qd, b["C2"], w)
+    if c2q is not None:
+        hr[3:] += 2.0 * ((qd @ c2q).reshape(3, 3) @ w)
     he = Oe @ ffrf_omega_products(w) + b["Ge"] @ qw
     return hr, he
 

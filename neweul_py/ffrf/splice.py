@@ -150,7 +150,7 @@ def ffrf_frame(S, b, kin):
 
 
 def ffrf_terms(S, kin, y, yd):
-    """Per body: ``(J_V, J_W, ā, ᾱ, ω, g, q, q̇, md, M_rr, M_re, M_er, Oe)`` — the frame
+    """Per body: ``(J_V, J_W, ā, ᾱ, ω, g, q, q̇, md, M_rr, M_re, M_er, Oe, C2q)`` — the frame
     kinematics and the mass blocks of :func:`~neweul_py.ffrf.body.ffrf_mass_blocks`, evaluated
     once for the mass matrix and the force vector."""
     out = []
@@ -164,7 +164,8 @@ def ffrf_terms(S, kin, y, yd):
 
 def ffrf_add_mass(S, M, terms):
     """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices)."""
-    for b, (Jv, Jw, *_k, _q, _qd, _md, Mrr, Mre, Mer, _Oe) in zip(S["bodies"], terms, strict=True):
+    for b, (Jv, Jw, *_k, _q, _qd, _md, Mrr, Mre, Mer, _Oe, _c2q) in zip(
+            S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
         M = M + Jw.T @ (Mrr @ Jv)
         M[:, e] += Jw.T @ Mre
@@ -175,11 +176,11 @@ def ffrf_add_mass(S, M, terms):
 
 def ffrf_add_force(S, f, terms):
     """``q − k −= J_Wᵀ (M_b [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])``."""
-    for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, md, Mrr, _Mre, Mer, Oe) in zip(
+    for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, md, Mrr, _Mre, Mer, Oe, c2q) in zip(
             S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
         acc = np.concatenate((abar - g, alphabar))
-        hr, he = ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe)
+        hr, he = ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe, c2q)
         f = f - Jw.T @ (Mrr @ acc + hr)
         f[e] -= Mer @ acc + he + ffrf_elastic_forces(b, q, qd)
     return f
