@@ -7,21 +7,22 @@ hands the module to ``analysis``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from .analysis.module import load_generated
-from .analysis.results import SimulationResult
-from .analysis.simulate import simulate
-from .codegen import PROTOCOL_VERSION, generate_module
-from .elastic.reader import read_elastic_data
+from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
 from .errors import DescriptionError, NeweulError
+from .files import MAX_DESCRIPTION_BYTES, read_checked
+
+if TYPE_CHECKING:
+    from .analysis.results import SimulationResult
 
 __all__ = [
     "FORMS",
@@ -30,6 +31,7 @@ __all__ = [
     "generate",
     "generated_module",
     "load_description",
+    "load_description_module",
     "simulate_description",
 ]
 
@@ -42,11 +44,18 @@ _GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codeg
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:
+    """The bytes of a description, checked to be a regular file of sane size first."""
     try:
-        return Path(path).read_bytes()
-    except OSError as exc:
-        raise DescriptionError(f"cannot read description: {exc.strerror}", "",
-                               os.fspath(path)) from None
+        return read_checked(path, "description", MAX_DESCRIPTION_BYTES)
+    except NeweulError as exc:
+        message = str(exc).removeprefix(f"{os.fspath(path)}: ")
+        raise DescriptionError(message, "", os.fspath(path)) from None
+
+
+def _sha256(raw: bytes) -> str:
+    """SHA-256 of a description's bytes (= :func:`neweul_py.description.description_hash`,
+    without importing the symbolic layers for a cache hit)."""
+    return hashlib.sha256(raw).hexdigest()
 
 
 def _check_form(form: str) -> None:
@@ -79,6 +88,7 @@ def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None
         As :func:`neweul_py.description.load_description_text`.
     """
     from .description import load_description as _load
+    from .elastic.reader import read_elastic_data
 
     return _load(path, elastic_reader=elastic_reader or read_elastic_data)
 
@@ -91,18 +101,16 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tup
     equations, source_hash
         The :class:`~neweul_py.equations.Equations` and the SHA-256 of the file's bytes.
     """
-    from .description import description_hash
-
     _check_form(form)
     raw = _read(description_path)
-    return _derive_text(raw, description_path, form), description_hash(raw)
+    return _derive_text(raw, description_path, form), _sha256(raw)
 
 
 def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form) -> Any:
     """The equations of a description's bytes (errors name ``description_path``)."""
     from .description import load_description_text
+    from .elastic.reader import read_elastic_data
     from .equations import newton_euler
-    from .errors import DescriptionError
 
     system = load_description_text(raw, os.fspath(description_path),
                                    elastic_reader=read_elastic_data)
@@ -143,24 +151,19 @@ def generate(
     >>> generate("examples/pendulum.yaml", "generated")  # doctest: +SKIP
     PosixPath('generated/pendulum.py')
     """
+    from .codegen import generate_module
+
     equations, source_hash = derive(description_path, form)
     return generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
 
 
-def cache_dir() -> Path:
-    """Where :func:`generated_module` keeps modules: ``$NEWEUL_CACHE``, else
-    ``$XDG_CACHE_HOME/neweul-py``, else ``~/.cache/neweul-py``."""
-    if os.environ.get("NEWEUL_CACHE"):
-        return Path(os.environ["NEWEUL_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "neweul-py"
-
-
+@functools.cache
 def _generator_fingerprint() -> str:
-    """SHA-256 of the source of the symbolic layers: a cached module is reused only if the
-    code that would generate it again is unchanged."""
+    """SHA-256 of the source of the symbolic layers (which include the protocol version in
+    ``codegen``): a cached module is reused only if the code that would generate it again is
+    unchanged."""
     root = Path(__file__).parent
-    h = hashlib.sha256(f"protocol {PROTOCOL_VERSION}\n".encode())
+    h = hashlib.sha256(b"neweul-py generator\n")
     for layer in _GENERATOR_PACKAGES:
         for f in sorted((root / layer).rglob("*.py")):
             h.update(f.relative_to(root).as_posix().encode())
@@ -170,12 +173,17 @@ def _generator_fingerprint() -> str:
 
 def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
     """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``, relative
-    to the description), so that a cached module is regenerated when its data change."""
+    to the description), so that a cached module is regenerated when its data change.
+
+    Each file is checked to be a regular file of sane size before it is read
+    (:func:`neweul_py.files.read_checked`): ``data: /dev/zero`` or a FIFO is one clear error.
+    A missing file is left to the loader, which reports it with its key path and line.
+    """
     import yaml
 
     try:
         tree = yaml.safe_load(raw)
-    except yaml.YAMLError:
+    except (yaml.YAMLError, RecursionError, ValueError, MemoryError):
         return []  # the loader reports the error when the module is generated
     bodies = tree.get("elastic_bodies") if isinstance(tree, dict) else None
     if not isinstance(bodies, dict):
@@ -185,12 +193,54 @@ def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> 
     for name in sorted(bodies, key=str):
         spec = bodies[name]
         data = spec.get("data") if isinstance(spec, dict) else None
-        if isinstance(data, str):
+        if isinstance(data, str) and "\0" not in data:
+            file = base / data
+            if not file.exists():
+                out.append(f"{name}:missing")
+                continue
             try:
-                out.append(f"{name}:{hashlib.sha256((base / data).read_bytes()).hexdigest()}")
-            except OSError:
-                out.append(f"{name}:unreadable")
+                digest = hashlib.sha256(read_checked(file, "elastic-body data file")).hexdigest()
+            except NeweulError as exc:
+                raise DescriptionError(str(exc), f"elastic_bodies.{name}.data",
+                                       os.fspath(description_path)) from None
+            out.append(f"{name}:{digest}")
     return out
+
+
+def _cache_entry(raw: bytes, description_path: str | os.PathLike[str], form: str,
+                 cache: str | os.PathLike[str] | None) -> Path:
+    """Path of the cached module of a description (in a trusted directory)."""
+    material = [_sha256(raw), form, _generator_fingerprint(),
+                *_data_fingerprints(raw, description_path)]
+    key = hashlib.sha256("\n".join(material).encode()).hexdigest()
+    directory = trusted_dir(cache)
+    stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
+    return directory / f"{stem}_{key[:24]}.py"
+
+
+def _cached_source(description_path: str | os.PathLike[str], form: Form,
+                   cache: str | os.PathLike[str] | None) -> tuple[Path, bytes, ModuleType | None]:
+    """The cache entry of a description, its verified source and (on a hit) its module."""
+    from .analysis.module import check_protocol
+
+    _check_form(form)
+    raw = _read(description_path)
+    path = _cache_entry(raw, description_path, form, cache)
+    source = verified_bytes(path)
+    if source is not None:
+        try:
+            module = import_verified(path, source)
+            check_protocol(module, str(path))
+            if module.SOURCE_HASH == _sha256(raw):
+                return path, source, module
+        except NeweulError:
+            pass  # a damaged cache entry is regenerated
+    from .codegen import render_module
+
+    text = render_module(_derive_text(raw, description_path, form), _sha256(raw))
+    source = text.encode("utf-8")
+    write_cached(path, source)
+    return path, source, None
 
 
 def generated_module(
@@ -202,30 +252,39 @@ def generated_module(
 
     The cache key is the SHA-256 of the description's bytes, of the data files it refers to
     (elastic bodies), the form and the generator's own source; a hit is reused without deriving
-    anything.
-    """
-    from .description import description_hash
+    anything. A cached module is trusted only after its bytes match the SHA-256 recorded when
+    it was written (:mod:`neweul_py.cache`); a mismatch regenerates it with one
+    :class:`~neweul_py.cache.CacheWarning`. Prefer :func:`load_description_module`, which
+    imports the verified bytes themselves rather than the path.
 
-    _check_form(form)
-    raw = _read(description_path)
-    material = [description_hash(raw), form, _generator_fingerprint(),
-                *_data_fingerprints(raw, description_path)]
-    key = hashlib.sha256("\n".join(material).encode()).hexdigest()
-    directory = Path(cache) if cache is not None else cache_dir()
-    stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
-    path = directory / f"{stem}_{key[:24]}.py"
-    if path.is_file():
-        try:
-            module = load_generated(path)
-            if module.SOURCE_HASH == description_hash(raw):
-                return path
-        except NeweulError:
-            pass  # a damaged cache entry is regenerated
-    equations = _derive_text(raw, description_path, form)
-    try:
-        return generate_module(equations, description_hash(raw), path)
-    except OSError as exc:
-        raise NeweulError(f"cannot write to the cache {directory}: {exc.strerror}") from None
+    Raises
+    ------
+    CacheError
+        The cache directory is owned by another user or writable by others, or not writable.
+    """
+    return _cached_source(description_path, form, cache)[0]
+
+
+def load_description_module(
+    description_path: str | os.PathLike[str],
+    form: Form = "auto",
+    cache: str | os.PathLike[str] | None = None,
+) -> ModuleType:
+    """The generated module of a description, imported from the verified bytes of its cache
+    entry (:func:`generated_module`), so that the file cannot change between check and import.
+
+    Examples
+    --------
+    >>> mod = load_description_module("examples/pendulum.yaml")  # doctest: +SKIP
+    >>> mod.rhs(0.0, mod.INITIAL_STATE, mod.default_parameters())  # doctest: +SKIP
+    """
+    from .analysis.module import check_protocol
+
+    path, source, module = _cached_source(description_path, form, cache)
+    if module is None:
+        module = import_verified(path, source)
+        check_protocol(module, str(path))
+    return module
 
 
 def simulate_description(
@@ -245,5 +304,7 @@ def simulate_description(
     >>> res = simulate_description("examples/double_pendulum.yaml", 10.0)  # doctest: +SKIP
     >>> res.to_csv("out/double_pendulum.csv")  # doctest: +SKIP
     """
-    module: ModuleType = load_generated(generated_module(description_path, form, cache))
+    from .analysis.simulate import simulate
+
+    module = load_description_module(description_path, form, cache)
     return simulate(module, t_end, p=p, **kwargs)

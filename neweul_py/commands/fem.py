@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from . import CAPS, count, range_type
+from . import _analysis_common as shared
+
 __all__ = ["register"]
 
 
@@ -24,14 +27,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "inversion, |dV| > 5 % of an air volume) stops the sweep with an error; nothing is "
         "written. Progress goes to stderr.",
     )
-    # "--pressures -4000:4000:9" gets through: cli.build_parser accepts negative lists
+    # "--pressures -4000:4000:9" gets through: cli.attach_negative_values
+    pressures = range_type("--pressures", increasing=False)
     me.add_argument(
         "--pressures",
-        default="-4000:4000:9",
-        help="static pressures [Pa]: start:stop:count or a comma list (default -4000:4000:9)",
+        type=pressures,
+        default=pressures("-4000:4000:9"),
+        metavar="START:STOP:N",
+        help="static pressures [Pa]: START:STOP:N or a comma list (default -4000:4000:9, at "
+        f"most {CAPS['--pressures']})",
     )
-    me.add_argument("-o", "--output", required=True, metavar="DIR", help="output directory")
-    me.add_argument("--refine", type=int, default=2, help="mesh refinement level (default 2)")
+    shared.add_output_argument(me, "DIR", "output directory", required=True)
+    me.add_argument("--refine", type=count("--refine", minimum=0), default=2,
+                    help=f"mesh refinement level (default 2, at most {CAPS['--refine']})")
     me.add_argument("--plots", action="store_true", help="also write PNG pictures")
     me.add_argument(
         "--include-support",
@@ -47,10 +55,10 @@ def _progress(msg: str) -> None:
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
-    from ..fem.middle_ear import parse_pressures, pressure_sweep
+    from ..fem.middle_ear import pressure_sweep
 
     result = pressure_sweep(
-        parse_pressures(args.pressures),
+        args.pressures.values(),
         refine=args.refine,
         out_dir=args.output,
         plots=args.plots,

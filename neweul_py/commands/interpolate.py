@@ -6,13 +6,20 @@ parametric body (``reference/equations.md`` §4)."""
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 
-from ..elastic.interpolation import BASES, INTERPOLATIONS, PRESSURE_WEIGHT, interpolate
-from ..elastic.reduced_body import load_reduced_body
 from ..errors import NeweulError
-from . import comma_floats
+from . import _analysis_common as shared
+from . import comma_floats, number
+
+#: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as
+#: :mod:`neweul_py.elastic.interpolation` (kept here so that building the parser imports no
+#: elastic code; a test checks they agree).
+INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic")
+BASES: tuple[str, ...] = ("auto", "full", "kept")
+PRESSURE_WEIGHT = 1e-3
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -43,15 +50,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "pressure down-weighted (structure first); none = plain rows "
                         "(default: kind when the bodies record the DOF kinds of their "
                         "bases, else none)")
-    parser.add_argument("--pressure-weight", type=float, default=PRESSURE_WEIGHT,
+    parser.add_argument("--pressure-weight", default=PRESSURE_WEIGHT,
+                        type=functools.partial(number, option="--pressure-weight",
+                                               positive=True),
                         metavar="W", help="factor of the pressure rows on top of the "
                         f"balanced kind scaling (default {PRESSURE_WEIGHT:g}; 1 = balanced)")
     parser.add_argument("--weights", type=comma_floats, metavar="W1,W2,…",
                         help="SVD weights of the samples (default all 1)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the transformed full bases")
-    parser.add_argument("-o", "--output", required=True, metavar="PBODY.npz",
-                        help="parametric-body file to write")
+    shared.add_output_argument(parser, "PBODY.npz", "parametric-body file to write",
+                               required=True)
     parser.set_defaults(func=run)
 
 
@@ -61,6 +70,10 @@ def _progress(msg: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
+    from ..elastic.interpolation import interpolate
+    from ..elastic.reduced_body import load_reduced_body
+
+    shared.check_files(args.output, (".npz",), "parametric bodies")
     if args.values is not None and len(args.values) != len(args.bodies):
         raise NeweulError(f"--values has {len(args.values)} entries for {len(args.bodies)} "
                           "bodies")

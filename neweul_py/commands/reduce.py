@@ -4,26 +4,18 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 
 import numpy as np
 
-from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
-from ..elastic.eigen import frequencies_hz
-from ..elastic.invariants import attach_invariants
 from ..errors import NeweulError
-from . import comma_floats
+from . import CAPS, count, interval, number, range_type
+from . import _analysis_common as shared
 
-
-def _band(text: str) -> tuple[float, float]:
-    lo, sep, hi = text.partition(":")
-    try:
-        if not sep:
-            raise ValueError
-        return float(lo), float(hi)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected FMIN:FMAX in Hz, got {text!r}") from None
+#: Highest frequency of ``--band`` [Hz]: ω² = (2π f)² stays far from overflow.
+MAX_BAND_HZ = 1e12
 
 
 def _ints(text: str) -> list[int]:
@@ -51,17 +43,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     side.add_argument("--one-sided", dest="two_sided", action="store_false",
                       help="Galerkin projection W = V")
     sel = parser.add_mutually_exclusive_group()
-    sel.add_argument("--modes", type=int, metavar="N", help="number of modes (modal)")
-    sel.add_argument("--band", type=_band, metavar="FMIN:FMAX",
+    sel.add_argument("--modes", type=count("--modes"), metavar="N",
+                     help="number of modes (modal)")
+    sel.add_argument("--band", type=interval("--band", minimum=0.0, maximum=MAX_BAND_HZ),
+                     metavar="FMIN:FMAX",
                      help="keep the modes in this band [Hz] (modal)")
     parser.add_argument("--static-correction", action="store_true",
                         help="add static (attachment) vectors of the inputs/outputs")
-    parser.add_argument("--shift", type=float, metavar="SIGMA",
+    parser.add_argument("--shift", type=functools.partial(number, option="--shift"),
+                        metavar="SIGMA",
                         help="eigensolver shift in λ = ω² units (modal; default automatic)")
-    parser.add_argument("--points", type=comma_floats, metavar="F1,F2,…",
+    parser.add_argument("--points", type=range_type("--points", minimum=0.0,
+                                                    increasing=False), metavar="F1,F2,…",
                         help="Krylov expansion frequencies [Hz] (s0 = 2πj·f)")
-    parser.add_argument("--order", type=int, metavar="Q",
-                        help="Krylov moments per point and input (default 4)")
+    parser.add_argument("--order", type=count("--order"), metavar="Q",
+                        help="Krylov moments per point and input (default 4, at most "
+                        f"{CAPS['--order']})")
     parser.add_argument("--keep-nodes", type=_ints, metavar="ID,…",
                         help="node ids whose basis rows are stored (default: input/output "
                         "nodes)")
@@ -74,8 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--invariants", action="store_true",
                         help="attach the floating-frame invariants (node frames: the kept "
                         "nodes), so that the file can be an elastic body in a description")
-    parser.add_argument("-o", "--output", required=True, metavar="BODY.npz",
-                        help="reduced-body file to write")
+    shared.add_output_argument(parser, "BODY.npz", "reduced-body file to write",
+                               required=True)
     parser.set_defaults(func=run)
 
 
@@ -133,6 +130,13 @@ def _check_body_mass(body, output: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Read, reduce, write; print a summary (order, frequencies, stability)."""
+    from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
+    from ..elastic.eigen import frequencies_hz
+    from ..elastic.invariants import attach_invariants
+
+    if args.points is not None:
+        args.points = args.points.values()
+    shared.check_files(args.output, (".npz",), "reduced bodies")
     _check_options(args)
     t0 = time.perf_counter()
     _progress(f"reading {args.model}")
@@ -147,6 +151,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         points = [2j * np.pi * f for f in args.points]
         order = 4 if args.order is None else args.order
+        wanted = order * len(points) * max(1, len(fe.inputs))
+        if wanted > fe.n_dofs:
+            raise NeweulError(f"--order {order} at {len(points)} point(s) and "
+                              f"{max(1, len(fe.inputs))} input(s) asks for {wanted} Krylov "
+                              f"vectors, more than the {fe.n_dofs} DOFs of {fe.name}")
         body = reduce_krylov(fe, points=points, order=order, **common)
     if args.invariants:
         _progress("computing the floating-frame invariants")

@@ -313,7 +313,7 @@ def _old_companions(path: Path) -> set[str]:
     out = set()
     for name in names:
         if isinstance(name, str) and Path(name).name == name:
-            m = _COMPANION.match(name)
+            m = _COMPANION.fullmatch(name)
             if m and m.group("stem") == path.stem:
                 out.add(name)
     return out

@@ -236,7 +236,7 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
             continue
         if not stack:
             raise DataError(f"text after 'end part': {s!r}", file, "part", no)
-        if m := _RE_END.match(s):
+        if m := _RE_END.fullmatch(s):
             name = m.group(1)
             top = stack[-1]
             if name.lower() != top.name.lower():
@@ -246,12 +246,12 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
             top.end_line = no
             stack.pop()
             continue
-        if m := _RE_NEW.match(s):
+        if m := _RE_NEW.fullmatch(s):
             blk = _Block(no, m.group(1), (m.group(2) or "").strip())
             stack[-1].children.append(blk)
             stack.append(blk)
             continue
-        if m := _RE_ASSIGN.match(s):
+        if m := _RE_ASSIGN.fullmatch(s):
             idx = None
             if m.group(2) is not None:
                 try:
@@ -261,7 +261,7 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
                                     no) from None
             stack[-1].children.append(_Assign(no, m.group(1), idx, m.group(3).strip()))
             continue
-        if m := _RE_OPEN.match(s):
+        if m := _RE_OPEN.fullmatch(s):
             blk = _Block(no, m.group(1))
             stack[-1].children.append(blk)
             stack.append(blk)
