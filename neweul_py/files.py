@@ -105,7 +105,7 @@ def check_regular_file(
     try:
         st = os.stat(file)
     except FileNotFoundError:
-        raise _error(error, f"no such {what}", file) from None
+        raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
     except (OSError, ValueError) as exc:  # ValueError: embedded NUL in the name
         raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
                      file) from None
@@ -130,7 +130,7 @@ def read_checked(
     try:
         fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
     except FileNotFoundError:
-        raise _error(error, f"no such {what}", file) from None
+        raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
     except (OSError, ValueError) as exc:
         raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
                      file) from None
