@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
-from .errors import DescriptionError, NeweulError
+from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 
 if TYPE_CHECKING:
@@ -121,7 +121,12 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
             "coordinates",
             os.fspath(description_path),
         )
-    return newton_euler(system, form=form)
+    try:
+        return newton_euler(system, form=form)
+    except DescriptionError:
+        raise
+    except ModelError as exc:  # found while deriving (e.g. coinciding spring points)
+        raise DescriptionError(exc.message, exc.key_path, os.fspath(description_path)) from None
 
 
 def generate(

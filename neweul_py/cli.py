@@ -129,6 +129,13 @@ def _run(args: argparse.Namespace) -> int:
         where = f"{name}: " if name else ""
         print(f"neweul {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 1
+    except ArithmeticError as exc:  # raised by a generated module: exp(1000), 1/0 …
+        hint = (": a spring_damper whose points coincide has no direction (see "
+                "docs/description-format.md, zero-length springs)"
+                if isinstance(exc, ZeroDivisionError) else "")
+        print(f"neweul {args.command}: error: the model cannot be evaluated "
+              f"({type(exc).__name__}: {exc}){hint}", file=sys.stderr)
+        return 1
     except (MemoryError, RecursionError) as exc:  # never a traceback for too big an input
         what = "memory" if isinstance(exc, MemoryError) else "nesting depth"
         print(f"neweul {args.command}: error: the input needs more {what} than this machine "
