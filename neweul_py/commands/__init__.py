@@ -42,7 +42,7 @@ FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
 
 #: Integrators of ``simulate --method``; the same as
 #: :data:`neweul_py.analysis.simulate.METHODS` (a test checks they agree).
-SIMULATE_METHODS: tuple[str, ...] = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+SIMULATE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA")
 
 #: Largest magnitude of a number given on the command line (parameters, inputs, coordinates,
 #: frequencies …): products of two such numbers stay finite in double precision.
