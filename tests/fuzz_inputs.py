@@ -179,3 +179,19 @@ def outcome(call: Callable[[], Any]) -> str:
         assert text and "\n" not in text.strip(), f"not one line: {text!r}"
         return "error"
     return "ok"
+
+
+def examples(n: int) -> int:
+    """``max_examples`` for a fuzz test: ``n`` in CI, 20 n with ``NEWEUL_FUZZ_LONG=1``."""
+    import os
+
+    return n * 20 if os.environ.get("NEWEUL_FUZZ_LONG") == "1" else n
+
+
+def fuzz_settings(n: int):
+    """Hypothesis settings of a fuzz test: :func:`examples` (n) cases, reproducible
+    (derandomized, no example database), no deadline (no wall-clock limit in tests)."""
+    from hypothesis import HealthCheck, settings
+
+    return settings(max_examples=examples(n), deadline=None, derandomize=True, database=None,
+                    suppress_health_check=list(HealthCheck))
