@@ -39,6 +39,14 @@ VALUES: tuple[Any, ...] = (
 )
 
 
+#: Replacement values that often keep a description valid (so that the mutation reaches
+#: derivation, code generation and evaluation).
+PLAUSIBLE: tuple[Any, ...] = (
+    0, 1, -1, 2.5, 1e-300, 1e300, 1e308, "2*pi", "m*l", "sqrt(2)", "exp(1000)", "-m",
+    "sin(phi)", "t", [0, 0, 0], [1, 0, 0], 0.0, "1/m",
+)
+
+
 def seed_trees() -> dict[str, Any]:
     """The parsed YAML trees of :data:`SEED_DESCRIPTIONS`."""
     return {name: yaml.safe_load((EXAMPLES / f"{name}.yaml").read_text())
@@ -62,11 +70,19 @@ def _get(tree: Any, path: tuple) -> Any:
     return tree
 
 
-def mutate_tree(tree: Any, rng: random.Random, steps: int | None = None) -> Any:
+def mutate_tree(tree: Any, rng: random.Random, steps: int | None = None,
+                plausible: bool = False) -> Any:
     """A copy of a description tree with 1–3 random edits: a value replaced (by one of
     :data:`VALUES` or by another node of the tree), a key deleted, renamed or added, a list
-    entry duplicated or dropped, or a deep nesting inserted."""
+    entry duplicated or dropped, or a deep nesting inserted. With ``plausible``: one leaf
+    replaced by one of :data:`PLAUSIBLE`."""
     tree = copy.deepcopy(tree)
+    if plausible:
+        leaves = [p for p in _paths(tree) if p and not isinstance(_get(tree, p), dict | list)]
+        if leaves:
+            path = rng.choice(leaves)
+            _get(tree, path[:-1])[path[-1]] = copy.deepcopy(rng.choice(PLAUSIBLE))
+        return tree
     for _ in range(steps or rng.randint(1, 3)):
         paths = _paths(tree)
         path = rng.choice(paths)
@@ -159,7 +175,8 @@ def mutate_npz(arrays: dict[str, np.ndarray], rng: random.Random,
         elif op == 2:
             arrays[key] = np.array([])
         elif op == 3 and a.dtype.kind == "f":
-            arrays[key] = np.where(rng.random() < 0.5, np.nan, a * 1e300)
+            with np.errstate(all="ignore"):
+                arrays[key] = np.where(rng.random() < 0.5, np.nan, a * 1e300)
         elif op == 4 and a.dtype.kind in "iu":
             arrays[key] = a + 10**9
         else:

@@ -19,9 +19,9 @@ TREES = seed_trees()
 NAMES = sorted(TREES)
 
 
-def _text(name: str, rng) -> str | None:
+def _text(name: str, rng, plausible: bool = False) -> str | None:
     try:
-        return dump(mutate_tree(TREES[name], rng))
+        return dump(mutate_tree(TREES[name], rng, plausible=plausible))
     except (RecursionError, ValueError):
         return None
 
@@ -60,7 +60,7 @@ def _generate_and_evaluate(text: str, name: str, tmp: str) -> None:
 @fuzz_settings(25)
 @given(st.sampled_from(NAMES), st.randoms(use_true_random=False))
 def test_mutated_descriptions_generate_import_and_evaluate(tmp_path_factory, name, rng):
-    text = _text(name, rng)
+    text = _text(name, rng, plausible=True)
     if text is not None:
         tmp = tmp_path_factory.mktemp("gen")
         outcome(lambda: _generate_and_evaluate(text, name, str(tmp)))
