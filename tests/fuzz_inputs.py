@@ -158,9 +158,9 @@ def mutate_npz(arrays: dict[str, np.ndarray], rng: random.Random,
         if meta and rng.random() < 0.5:
             key = rng.choice(list(meta))
             if isinstance(meta[key], dict) and meta[key] and rng.random() < 0.5:
-                meta[key][rng.choice(list(meta[key]))] = rng.choice(meta_values)
+                meta[key][rng.choice(list(meta[key]))] = copy.deepcopy(rng.choice(meta_values))
             else:
-                meta[key] = rng.choice(meta_values)
+                meta[key] = copy.deepcopy(rng.choice(meta_values))
             continue
         keys = [k for k in arrays if k != meta_key]
         if not keys:
