@@ -34,6 +34,8 @@ __all__ = [
     "interval",
     "number",
     "parse_range",
+    "range_type",
+    "values_type",
 ]
 
 #: Forms of the equations offered by ``--form``; the same as :data:`neweul_py.api.FORMS` (kept
@@ -193,6 +195,17 @@ def range_type(option: str, **kwargs: object) -> Callable[[str], Range]:
         return parse_range(text, option, **kwargs)  # type: ignore[arg-type]
 
     parse.__name__ = "range"
+    return parse
+
+
+def values_type(option: str, **kwargs: object) -> Callable[[str], list[float]]:
+    """An argparse type giving the points of :func:`parse_range` (a comma list, or
+    ``START:STOP:N``) as a list (``interpolate --values``, ``--weights``)."""
+
+    def parse(text: str) -> list[float]:
+        return parse_range(text, option, increasing=False, **kwargs).values()  # type: ignore
+
+    parse.__name__ = "values"
     return parse
 
 

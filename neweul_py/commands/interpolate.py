@@ -12,7 +12,7 @@ import time
 
 from ..errors import NeweulError
 from . import _analysis_common as shared
-from . import comma_floats, number
+from . import number, values_type
 
 #: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as
 #: :mod:`neweul_py.elastic.interpolation` (kept here so that building the parser imports no
@@ -36,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="reduced-body files (.npz), in increasing parameter order")
     parser.add_argument("--parameter", required=True, metavar="NAME",
                         help="name of the parameter")
-    parser.add_argument("--values", type=comma_floats, metavar="V1,V2,…",
+    parser.add_argument("--values", type=values_type("--values"), metavar="V1,V2,…",
                         help="sample values, one per body (default: the values the bodies "
                         "record in their parameters)")
     parser.add_argument("--interpolation", choices=INTERPOLATIONS, default="linear",
@@ -55,7 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                positive=True),
                         metavar="W", help="factor of the pressure rows on top of the "
                         f"balanced kind scaling (default {PRESSURE_WEIGHT:g}; 1 = balanced)")
-    parser.add_argument("--weights", type=comma_floats, metavar="W1,W2,…",
+    parser.add_argument("--weights", type=values_type("--weights", minimum=0.0),
+                        metavar="W1,W2,…",
                         help="SVD weights of the samples (default all 1)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the transformed full bases")
