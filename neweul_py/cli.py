@@ -35,6 +35,8 @@ COMMAND_MODULES: tuple[str, ...] = (
 
 #: Words that are values, not options: ``-4000``, ``-4000:4000:9``, ``-4000,0,4000``, ``-1e-3``.
 NEGATIVE_VALUE = re.compile(r"-\d[\d.:,eE+-]*")
+#: ``argument --f: --f START: …`` → ``argument --f: START: …``.
+_REPEATED_OPTION = re.compile(r"^(argument (\S+?)(?:/\S+)?: )\2 ?:? ?")
 #: An option word without an attached value: ``--values``, ``-p``.
 _OPTION_WORD = re.compile(r"--?[A-Za-z][\w-]*")
 
@@ -65,6 +67,11 @@ def attach_negative_values(args: Sequence[str]) -> list[str]:
 class NeweulArgumentParser(argparse.ArgumentParser):
     """An :class:`argparse.ArgumentParser` that accepts negative numbers, ranges and lists as
     option values (:func:`attach_negative_values`), through the public ``parse_known_args``."""
+
+    def error(self, message: str):  # type: ignore[override]
+        """argparse's usage and error line, without repeating the option the checks of
+        :mod:`neweul_py.commands` name themselves (``argument --f: --f START: …``)."""
+        super().error(_REPEATED_OPTION.sub(r"\1", message))
 
     def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
         if args is None:
