@@ -3,7 +3,7 @@
 Model: a rigid-walled air-filled tube (3-D, trilinear hexahedra on a structured grid, written
 exactly as Kronecker sums of 1-D linear-element matrices) closed at x = 0 by a tensioned
 membrane (bilinear elements, edges clamped) — an ear-canal-like acousto-structural model in
-the pressure-based u–p form of Eq. (2) (``reference/equations.md`` §3), unsymmetric, with
+the pressure-based u–p form of Eq. (2) (``docs/equations.md`` §3), unsymmetric, with
 stiffness-proportional damping in both fields. Default grid 1000 × 10 × 10 pressure nodes
 (100 000 p DOFs) + 64 membrane DOFs.
 

@@ -1,5 +1,5 @@
 """Write ``middle_ear_chain.yaml``: the lumped four-mass middle-ear chain of Lobato et al.
-("LVATB1", values in ``../shared/reference/middle_ear.md``, repeated below).
+("LVATB1", values in ``docs/middle-ear-data.md``, repeated below).
 
 Topology (motion along the piston axis x, medial positive)::
 
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-#: LVATB1 (Lobato et al.; middle_ear.md), SI units.
+#: LVATB1 (Lobato et al.; docs/middle-ear-data.md), SI units.
 MASSES = {"tm": 5.95e-6, "malleus": 34.8e-6, "incus": 33.7e-6, "stapes": 2.12e-6}  # kg
 SPRINGS = {  # name: (frame A, frame B, N/m, source wording)
     "tm_annulus": ("ISYS", "tm", 162.0, "TM + annulus"),
@@ -80,7 +80,7 @@ def description() -> str:
         "name: middle_ear_chain",
         "description: >",
         "  Lumped four-mass middle-ear chain (Lobato et al., LVATB1;",
-        "  shared/reference/middle_ear.md): ground-TM-malleus-incus-stapes-ground with malleus",
+        "  docs/middle-ear-data.md): ground-TM-malleus-incus-stapes-ground with malleus",
         "  and incus ligaments to ground, all springs as bushings along the piston axis x; modal",
         "  loss factors 0.62, 0.32, 0.32, 0.0032 as viscous modal damping at each resonance",
         "  (undamped modes at "

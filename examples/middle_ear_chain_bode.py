@@ -4,7 +4,7 @@ middle-ear chain (``middle_ear_chain.yaml``, LVATB1 values; see ``make_middle_ea
 Generates the module (cached), linearizes it at rest and evaluates the frequency response with
 ``neweul_py.analysis`` — no sympy at run time. Writes a PNG and a CSV (``frequency_hz``,
 ``magnitude`` in m/s/Pa, ``phase_deg``); prints the peak and its frequency beside the measured
-range of middle_ear.md (0.8–1.2 kHz, about 0.1–0.3 mm/s/Pa).
+range of docs/middle-ear-data.md (0.8–1.2 kHz, about 0.1–0.3 mm/s/Pa).
 
     python examples/middle_ear_chain_bode.py [-o middle_ear_chain_bode.png] [--csv bode.csv]
 """
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> None:
     mag, phase = np.abs(h), np.degrees(np.unwrap(np.angle(h)))
     k = int(np.argmax(mag))
     print(f"peak {mag[k] * 1e3:.3f} mm/s/Pa at {f[k]:.0f} Hz "
-          "(measured ears: about 0.1-0.3 mm/s/Pa at 0.8-1.2 kHz, middle_ear.md)")
+          "(measured ears: about 0.1-0.3 mm/s/Pa at 0.8-1.2 kHz, docs/middle-ear-data.md)")
     if args.csv:
         np.savetxt(args.csv, np.column_stack([f, mag, phase]), delimiter=",",
                    header="frequency_hz,magnitude,phase_deg", comments="")

@@ -31,6 +31,7 @@ INPUT_RATES = {}
 OUTPUTS = ['tip_x', 'spring_force']
 OUTPUT_UNITS = ['m', '']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4
 SOURCE_HASH = '98abe6029eac383415e6ff396c38222c2f622297fb3f7c7eae38bbbc5e305109'
 MASS_MATRIX_SYMMETRIC = True
@@ -206,6 +207,18 @@ def output_jacobians(t, x, p, u=None):
     C[1, 2] = -d
     D = _np.zeros((2, 1))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = d_x*d_x
+    _w1 = (1/2)*l
+    _w2 = _math.cos(phi)
+    _w3 = _math.sin(phi)
+    energy = _np.array(((1/2)*_w0*mc + (1/2)*mp*((_w2*d_x - _w1*d_phi)**2 + _w0*_w3*_w3) + (1/24)*mp*d_phi*d_phi*l*l, g*mp*(_w2*(-_w1 + _w3*x_) - _w2*_w3*x_), (1/2)*k*(-l0 + abs(l0 + x_))**2, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

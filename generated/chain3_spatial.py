@@ -26,6 +26,7 @@ INPUT_RATES = {}
 OUTPUTS = ['tip_x', 'tip_y', 'tip_z']
 OUTPUT_UNITS = ['m', 'm', 'm']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 12
 SOURCE_HASH = '5a7f62d145411bf9f9865cd542aec137a6962683e137b04d52a475b1ffb7a648'
 MASS_MATRIX_SYMMETRIC = True
@@ -2430,6 +2431,86 @@ def output_jacobians(t, x, p, u=None):
     C[2, 5] = _o28*_d66 + _e20*_d73 + _o27*_d78
     D = _np.empty((3, 0))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    a1, b1, a2, b2, a3, b3, d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = _np.asarray(x, dtype=_np.float64).tolist()
+    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = d_b1*d_b1
+    _w1 = l*l
+    _w2 = (1/4)*_w1
+    _w3 = d_a1*d_a1
+    _w4 = _math.cos(b1)
+    _w5 = _w3*_w4*_w4
+    _w6 = (1/2)*m
+    _w7 = _math.sin(b2)
+    _w8 = _w7*l
+    _w9 = _math.cos(b2)
+    _w10 = _w4*_w9
+    _w11 = _w10*d_a1
+    _w12 = _math.sin(a2)
+    _w13 = _w12*l
+    _w14 = _math.cos(a2)
+    _w15 = _math.sin(b1)
+    _w16 = _w14*_w15
+    _w17 = _w16*_w7
+    _w18 = -_w17 + _w4*_w9
+    _w19 = _w18*l
+    _w20 = _w14*l
+    _w21 = _w20*_w4
+    _w22 = _w9*l
+    _w23 = _w22*d_a2
+    _w24 = (1/2)*l
+    _w25 = _w12*_w7
+    _w26 = _w25*d_b1
+    _w27 = _w12*_w15
+    _w28 = -_w12*_w4*_w7*l
+    _w29 = _w24*d_b2
+    _w30 = -_w28 - _w27*l
+    _w31 = _math.sin(b3)
+    _w32 = _math.cos(b3)
+    _w33 = _w19 + _w21
+    _w34 = _math.sin(a3)
+    _w35 = _w33*_w34
+    _w36 = _math.cos(a3)
+    _w37 = _w32*l
+    _w38 = _w36*_w37
+    _w39 = _w10*_w12
+    _w40 = -_w20 - _w22
+    _w41 = _w31*l
+    _w42 = _w32*_w34
+    _w43 = _w4*_w7
+    _w44 = _w16*_w9
+    _w45 = _w43 + _w44
+    _w46 = _w31*_w36
+    _w47 = _w31*_w34
+    _w48 = _w12*_w9
+    _w49 = _w12*_w8
+    _w50 = _w43*d_a1 + _w44*d_a1 + _w7*d_a2 - _w48*d_b1
+    _w51 = (1/4)*m*r*r
+    _w52 = _w11 + _w26 + _w9*d_a2 - _w17*d_a1
+    _w53 = _w32*_w36
+    _w54 = d_b2 + _w14*d_b1 + _w27*d_a1
+    _w55 = (1/24)*_w1*m
+    _w56 = _w14*_w22
+    _w57 = -_w56 - l
+    _w58 = _w34*_w57 - _w13*_w36
+    _w59 = _w12*_w34
+    _w60 = -_w41*_w59 - _w46*_w57 + _w14*_w32*_w7*l
+    _w61 = -_w24 + _w37*_w59 + _w53*_w57 + _w20*_w31*_w7
+    _w62 = _w36*_w58 + _w47*_w60 - _w42*_w61
+    _w63 = _w31*_w61 + _w32*_w60
+    _w64 = _w34*_w58 + _w53*_w61 - _w46*_w60
+    _w65 = _math.sin(a1)
+    _w66 = _math.cos(a1)
+    _w67 = _w4*_w66
+    _w68 = _w15*_w66
+    _w69 = g*m
+    _w70 = -_w24 - _w56
+    _w71 = _w7*_w7
+    energy = _np.array((_w0*_w55 + _w5*_w55 + _w51*_w50*_w50 + _w51*(_w31*_w52 + _w31*d_a3 + _w50*_w53 - _w42*_w54)**2 + _w55*_w52*_w52 + _w55*_w54*_w54 + _w55*(d_b3 + _w34*_w50 + _w36*_w54)**2 + _w55*(_w32*_w52 + _w32*d_a3 + _w47*_w54 - _w46*_w50)**2 + _w6*(_w0*_w2 + _w2*_w5) + _w6*((-_w11*_w13 - _w8*d_b1)**2 + ((1/2)*_w23 + _w24*_w26 + d_a1*(_w21 + (1/2)*_w19))**2 + (-_w29 + d_a1*(-_w28 - _w24*_w27) + d_b1*(-_w22 - (1/2)*_w20))**2) + _w6*((d_a1*(_w30*_w31 - _w32*_w35 - _w38*_w39) + d_b1*(_w31*_w40 - _w38*_w7 - _w25*_w34*_w37) - _w23*_w42 - _w41*d_b2)**2 + (_w29*_w47 + d_a1*(_w24*(_w18*_w32 + _w27*_w47 - _w45*_w46) + _w33*_w36 - _w10*_w13*_w34) + d_a2*(_w22*_w36 + _w24*(_w32*_w9 - _w46*_w7)) + d_b1*(_w24*(_w14*_w47 + _w25*_w32 + _w46*_w48) + _w36*_w49 - _w34*_w8) + (1/2)*_w37*d_a3)**2 + (d_a1*(_w30*_w32 + _w31*_w35 - _w24*(_w27*_w36 + _w34*_w45) + _w36*_w39*_w41) + d_a2*(-_w24*_w34*_w7 + _w31*_w34*_w9*l) + d_b1*(_w32*_w40 + _w46*_w8 + _w47*_w49 - _w24*(_w14*_w36 - _w34*_w48)) + d_b2*(-_w37 - _w24*_w36) - _w24*d_b3)**2) + _w3*_w51*_w15*_w15, _w69*(_w65*(_w14*_w62 + _w25*_w63 - _w48*_w64) + _w67*(_w12*_w62 + _w14*_w64*_w9 - _w14*_w63*_w7) - _w68*(_w63*_w9 + _w64*_w7)) + _w69*(_w65*(-_w12*_w20 - _w48*_w70 + _w12*_w14*_w71*l) + _w67*(-l*_w12*_w12 + _w14*_w70*_w9 - _w71*l*_w14*_w14) - _w68*(_w56*_w7 + _w7*_w70)) - _w24*_w67*_w69, 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

@@ -27,6 +27,7 @@ INPUT_RATES = {}
 OUTPUTS = ['tip_x', 'tip_z', 'z_rod1', 'z_rod2']
 OUTPUT_UNITS = ['m', 'm', 'm', 'm']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4
 SOURCE_HASH = 'ee4ccfb7b11c10bc206546450e2f0199c2dac39d63e92b2e3e511eed3633a162'
 MASS_MATRIX_SYMMETRIC = True
@@ -266,6 +267,22 @@ def output_jacobians(t, x, p, u=None):
     C[3, 1] = (_e7*_o10)*_d0 + (_o9*-1)*_d1 + (_o9*_o2 + _e7*_o0)*_d10 + (_o9*_o10)*_d2 + _e7*_d7
     D = _np.empty((4, 0))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = (1/2)*l2
+    _w1 = _math.cos(phi2)
+    _w2 = _w1*l1
+    _w3 = -_w0 - _w2
+    _w4 = _math.sin(phi2)
+    _w5 = _w4*_w4
+    _w6 = d_phi1*d_phi1*l1*l1
+    _w7 = _math.cos(phi1)
+    energy = _np.array(((1/2)*m2*((_w3*d_phi1 - _w0*d_phi2)**2 + _w5*_w6) + (1/6)*_w6*m1 + (1/24)*m2*l2*l2*(d_phi1 + d_phi2)**2, g*m2*(_w7*(_w1*_w3 - _w5*l1) - (_w2*_w4 + _w3*_w4)*_math.sin(phi1)) - (1/2)*_w7*g*l1*m1, 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

@@ -33,6 +33,7 @@ INPUT_RATES = {}
 OUTPUTS = ['rocker_spring_force', 'rocker_angle', 'coupler_tip_z']
 OUTPUT_UNITS = ['', '', 'm']
 CONSTRAINTS = ['joint_x', 'joint_z']
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 6
 SOURCE_HASH = '8d4e075e9b8c72fdf45e09b7f45841bacbc98bc92559e9dab11a0f07e69cc95c'
 MASS_MATRIX_SYMMETRIC = True
@@ -265,6 +266,24 @@ def output_jacobians(t, x, p, u=None):
     C[2, 1] = (_e3*(_o3 - _o2) + _e2*(a_*(2*_o0)))*_d0 + (_e2*_o3)*_d1 + (_e3*(-_o0))*_d2 + (_e3*_o0 + _e2*_o1)*_d2
     D = _np.zeros((3, 1))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = (1/2)*b
+    _w1 = _math.cos(phi2)
+    _w2 = _w1*a_
+    _w3 = _w0 + _w2
+    _w4 = _math.sin(phi2)
+    _w5 = _w4*_w4
+    _w6 = a_*a_*d_phi1*d_phi1
+    _w7 = _math.sin(phi1)
+    _w8 = d*_math.cos(phi3)
+    _w9 = _math.sin(phi3)
+    energy = _np.array(((1/2)*mb*((_w0*d_phi2 + _w3*d_phi1)**2 + _w5*_w6) + (1/6)*_w6*ma + (1/6)*mc*c*c*d_phi3*d_phi3 + (1/24)*mb*b*b*(-d_phi1 - d_phi2)**2, g*mb*(_w7*(_w1*_w3 + _w5*a_) + (_w3*_w4 - _w2*_w4)*_math.cos(phi1)) + g*mc*(_w9*(_w8 + (1/2)*c) - _w8*_w9) + (1/2)*_w7*a_*g*ma, (1/2)*kr*(phi3 - phi30)**2, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

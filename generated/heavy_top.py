@@ -27,6 +27,7 @@ INPUT_RATES = {}
 OUTPUTS = ['x_cm', 'y_cm', 'z_cm']
 OUTPUT_UNITS = ['m', 'm', 'm']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 6
 SOURCE_HASH = 'de05ec76dbf566b761e557ac06eae049767c5acac25a7ccedb4af0e1f723c7e5'
 MASS_MATRIX_SYMMETRIC = True
@@ -379,6 +380,22 @@ def output_jacobians(t, x, p, u=None):
     C[2, 1] = _e1*_d0
     D = _np.empty((3, 0))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    alpha, beta, gamma, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = _math.cos(gamma)
+    _w1 = _math.sin(gamma)
+    _w2 = _math.cos(beta)
+    _w3 = _w2*d_alpha
+    _w4 = _w1*_w3
+    _w5 = (1/2)*A
+    _w6 = _w1*d_beta
+    _w7 = _w0*_w3
+    energy = _np.array((_w5*(_w6 + _w7)**2 + _w5*(-_w4 + _w0*d_beta)**2 + (1/2)*C*(d_gamma + d_alpha*_math.sin(beta))**2 + (1/2)*m*((-_w4*s + _w0*d_beta*s)**2 + (-_w6*s - _w7*s)**2), _w2*g*m*s*_math.cos(alpha), 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

@@ -11,7 +11,7 @@ import numpy as _np
 
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'middle_ear_chain'
-DESCRIPTION = 'Lumped four-mass middle-ear chain (Lobato et al., LVATB1; shared/reference/middle_ear.md): ground-TM-malleus-incus-stapes-ground with malleus and incus ligaments to ground, all springs as bushings along the piston axis x; modal loss factors 0.62, 0.32, 0.32, 0.0032 as viscous modal damping at each resonance (undamped modes at 795, 3961, 12995, 13644 Hz). Input: ear-canal sound pressure p_ec (Pa) times the TM area on the TM mass. Output: stapes velocity (m/s).\n'
+DESCRIPTION = 'Lumped four-mass middle-ear chain (Lobato et al., LVATB1; docs/middle-ear-data.md): ground-TM-malleus-incus-stapes-ground with malleus and incus ligaments to ground, all springs as bushings along the piston axis x; modal loss factors 0.62, 0.32, 0.32, 0.0032 as viscous modal damping at each resonance (undamped modes at 795, 3961, 12995, 13644 Hz). Input: ear-canal sound pressure p_ec (Pa) times the TM area on the TM mass. Output: stapes velocity (m/s).\n'
 COORDINATES = ['x_tm', 'x_malleus', 'x_incus', 'x_stapes']
 COORDINATE_UNITS = ['m', 'm', 'm', 'm']
 INITIAL_STATE = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
@@ -44,8 +44,9 @@ INPUT_RATES = {}
 OUTPUTS = ['stapes_velocity', 'umbo_velocity']
 OUTPUT_UNITS = ['', '']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 8
-SOURCE_HASH = '8efc8f278c953ac237f5fb7df883a5311bf183c1110aef1a4f6e3244dfe5ae50'
+SOURCE_HASH = '58cf018fd7e6f724ce5dddbd435fa3bb5d8aba46af60e35619cd5fa6e5dd764a'
 MASS_MATRIX_SYMMETRIC = True
 
 _P0 = (5.95e-06, 3.48e-05, 3.37e-05, 2.12e-06, 162.0, 36933.0, 893.0, 11410.0, 129.0, 12581.0, 764.0, 6.07e-05, 0.00699058166509, 0.0270690086123, -0.0186792537624, 0.00326659923282, 0.157854873573, -0.0705036789215, -0.00675644379411, 0.231316013035, -0.040244660738, 0.0527597589085)
@@ -205,6 +206,14 @@ def output_jacobians(t, x, p, u=None):
     C[1, 5] = 1
     D = _np.zeros((2, 1))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    x_tm, x_malleus, x_incus, x_stapes, d_x_tm, d_x_malleus, d_x_incus, d_x_stapes = _np.asarray(x, dtype=_np.float64).tolist()
+    m_tm, m_malleus, m_incus, m_stapes, k_tm_annulus, k_tm_manubrium, k_malleus_ligaments, k_incudomalleolar_joint, k_incus_ligament, k_incudostapedial_joint, k_annular_ligament, A_tm, c_00, c_01, c_02, c_03, c_11, c_12, c_13, c_22, c_23, c_33 = _np.asarray(p, dtype=_np.float64).tolist()
+    energy = _np.array(((1/2)*m_incus*d_x_incus*d_x_incus + (1/2)*m_malleus*d_x_malleus*d_x_malleus + (1/2)*m_stapes*d_x_stapes*d_x_stapes + (1/2)*m_tm*d_x_tm*d_x_tm, 0, 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

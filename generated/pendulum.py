@@ -25,6 +25,7 @@ INPUT_RATES = {}
 OUTPUTS = ['x_bob', 'z_bob']
 OUTPUT_UNITS = ['m', 'm']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 2
 SOURCE_HASH = 'e5fac1de1fdf196e05db99e22023f30483d9cae27571e66b1389d2f2f4fc2d00'
 MASS_MATRIX_SYMMETRIC = True
@@ -123,6 +124,14 @@ def output_jacobians(t, x, p, u=None):
     C[1, 0] = _e0*(-_math.sin(phi))
     D = _np.empty((2, 0))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    energy = _np.array(((1/2)*m*d_phi*d_phi*l*l, -g*l*m*_math.cos(phi), 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

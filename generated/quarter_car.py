@@ -34,6 +34,7 @@ INPUT_RATES = {'zr': ['d_zr', 'dd_zr']}
 OUTPUTS = ['tire_force', 'suspension_force', 'body_height', 'body_velocity', 'tire_deflection']
 OUTPUT_UNITS = ['', '', '', '', '']
 CONSTRAINTS = []
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4
 SOURCE_HASH = '821a3ba08419378923533f3efafe628dad51adcf507b0d2d3f7e0caa2ffd648e'
 MASS_MATRIX_SYMMETRIC = True
@@ -263,6 +264,18 @@ def output_jacobians(t, x, p, u=None):
     D[0, 1] = ct*(-_o3*_o4)
     D[4, 0] = -1
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _w0 = -zw
+    energy = _np.array(((1/2)*mb*d_zb*d_zb + (1/2)*mw*d_zw*d_zw, g*mb*zb + g*mw*zw, (1/2)*ks*(-ls + abs(_w0 + zb))**2 + (1/2)*kt*(-lt + abs(_w0 + zr))**2, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

@@ -32,6 +32,7 @@ INPUT_RATES = {}
 OUTPUTS = ['slider_spring_force', 'slider_pos', 'crank_speed']
 OUTPUT_UNITS = ['', '', '']
 CONSTRAINTS = ['pin_x', 'pin_z', 'slide_x', 'slide_z']
+ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 10
 SOURCE_HASH = 'e315eb87166465b4582e8093aed3eb7f712d6cd435c4dabd1639a1df25bb30c4'
 MASS_MATRIX_SYMMETRIC = True
@@ -196,6 +197,16 @@ def output_jacobians(t, x, p, u=None):
     C[2, 5] = 1
     D = _np.zeros((3, 1))
     return C, D
+
+
+def energy(t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
+    phi, xr, zr, theta, s, d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(x, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = _math.cos(theta)
+    _w1 = _math.sin(theta)
+    energy = _np.array(((1/2)*mr*((_w0*d_xr + _w1*d_zr)**2 + (_w0*d_zr - _w1*d_xr)**2) + (1/2)*ms*d_s*d_s + (1/6)*mc*d_phi*d_phi*r*r + (1/24)*mr*d_theta*d_theta*l*l, g*mr*(_w0*(_w0*zr - _w1*xr) + _w1*(_w0*xr + _w1*zr)) + (1/2)*g*mc*r*_math.sin(phi), 0, 0), dtype=_np.float64)
+    return energy
 
 
 def constraints(t, y, p, u=None):

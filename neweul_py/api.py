@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from .analysis.results import SimulationResult
 
 __all__ = [
+    "BACKENDS",
     "FORMS",
     "cache_dir",
     "derive",
@@ -38,9 +39,14 @@ __all__ = [
 Form = Literal["auto", "closed", "recursive"]
 #: Forms of the equations (DESIGN.md: closed form or recursive/semi-symbolic).
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
+Backend = Literal["numpy", "c"]
+#: Backends of generated modules: the NumPy module, or the compiled one (codegen/c_module.py,
+#: a C library behind the same protocol, falling back to its NumPy twin).
+BACKENDS: tuple[str, ...] = ("numpy", "c")
 
 #: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
-_GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic")
+_GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic",
+                       "ffrf")
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:
@@ -130,36 +136,99 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
 
 
 def generate(
-    description_path: str | os.PathLike[str],
+    source: Any,
     out_dir: str | os.PathLike[str] = "generated",
     form: Form = "auto",
+    backend: Backend = "numpy",
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
     Parameters
     ----------
-    description_path
-        A YAML description file.
+    source
+        A YAML description file (path), YAML text (a ``str`` with a line break), or a
+        :class:`~neweul_py.model.System` (e.g. from :class:`~neweul_py.SystemBuilder`); a
+        module generated from a ``System`` carries ``SOURCE_HASH = system.fingerprint()``.
     out_dir
         Directory of the module (created if needed).
     form
         ``"closed"``, ``"recursive"`` or ``"auto"`` (closed for small models).
+    backend
+        ``"numpy"`` or ``"c"``: also ``<name>_c.c`` and the compiled module ``<name>_c.py``
+        (built at once; see :func:`_with_backend`).
 
     Returns
     -------
     Path
-        The module written. Nothing is written when the description or derivation fails, so a
-        previously generated module stays as it was.
+        The module written (the compiled one for ``backend="c"``). Nothing is written when
+        the description or derivation fails, so a previously generated module stays as it was.
 
     Examples
     --------
     >>> generate("examples/pendulum.yaml", "generated")  # doctest: +SKIP
     PosixPath('generated/pendulum.py')
+    >>> generate(Path("examples/pendulum.yaml").read_text(), "out")  # doctest: +SKIP
+    PosixPath('out/pendulum.py')
     """
     from .codegen import generate_module
 
-    equations, source_hash = derive(description_path, form)
-    return generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
+    _check_backend(backend)
+    from .model import System
+
+    if isinstance(source, System):
+        from .equations import newton_euler
+
+        _check_form(form)
+        equations, source_hash = newton_euler(source, form=form), source.fingerprint()
+    elif isinstance(source, str) and "\n" in source:
+        from .description import description_hash
+
+        _check_form(form)
+        raw = source.encode("utf-8")
+        equations = _derive_text(raw, "<description text>", form)
+        source_hash = description_hash(raw)
+    elif isinstance(source, str | os.PathLike):
+        equations, source_hash = derive(source, form)
+    else:
+        raise NeweulError(
+            f"generate: expected a description path, YAML text or a System, got "
+            f"{type(source).__name__}"
+        )
+    path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
+    return _with_backend(path, backend, lambda: equations, rebuild=True)
+
+
+def _check_backend(backend: str) -> None:
+    if backend not in BACKENDS:
+        raise NeweulError(f"unknown backend {backend!r}; backends are: {', '.join(BACKENDS)}")
+
+
+def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False) -> Path:
+    """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
+    compiled module next to it (written from ``equations()`` unless present, and loaded once,
+    which builds its library). Models the C backend cannot compile yet (elastic bodies) keep
+    the NumPy module, with one warning."""
+    if backend == "numpy":
+        return path
+    import warnings
+
+    from .codegen.c_module import c_module_path, write_c_module
+    from .errors import GenerationError
+
+    wrapper = c_module_path(path)
+    if rebuild or not (wrapper.is_file() and wrapper.with_suffix(".c").is_file()):
+        try:
+            write_c_module(equations(), path)
+        except GenerationError as exc:
+            warnings.warn(f"{exc}; using the NumPy module {path}", RuntimeWarning, stacklevel=3)
+            return path
+        except OSError as exc:
+            raise NeweulError(f"cannot write the compiled module next to {path}: "
+                              f"{exc.strerror}") from None
+    from .analysis.module import load_generated
+
+    load_generated(wrapper)  # builds (or verifies) the library now; warns on fallback
+    return wrapper
 
 
 @functools.cache
@@ -223,35 +292,56 @@ def _cache_entry(raw: bytes, description_path: str | os.PathLike[str], form: str
     return directory / f"{stem}_{key[:24]}.py"
 
 
+class _Entry:
+    """A cache entry: its path, verified source, module (on a hit), and its equations
+    (derived on first use; ``fresh``: derived now, the entry was (re)written)."""
+
+    def __init__(self, path: Path, source: bytes, module: ModuleType | None,
+                 derive: Any, equations: Any = None) -> None:
+        self.path, self.source, self.module = path, source, module
+        self._derive, self._equations = derive, equations
+        self.fresh = equations is not None
+
+    def equations(self) -> Any:
+        if self._equations is None:
+            self._equations = self._derive()
+        return self._equations
+
+
 def _cached_source(description_path: str | os.PathLike[str], form: Form,
-                   cache: str | os.PathLike[str] | None) -> tuple[Path, bytes, ModuleType | None]:
-    """The cache entry of a description, its verified source and (on a hit) its module."""
+                   cache: str | os.PathLike[str] | None) -> _Entry:
+    """The cache entry of a description, with its verified source and (on a hit) module."""
     from .analysis.module import check_protocol
 
     _check_form(form)
     raw = _read(description_path)
     path = _cache_entry(raw, description_path, form, cache)
+
+    def derive_now() -> Any:
+        return _derive_text(raw, description_path, form)
+
     source = verified_bytes(path)
     if source is not None:
         try:
             module = import_verified(path, source)
             check_protocol(module, str(path))
             if module.SOURCE_HASH == _sha256(raw):
-                return path, source, module
+                return _Entry(path, source, module, derive_now)
         except NeweulError:
             pass  # a damaged cache entry is regenerated
     from .codegen import render_module
 
-    text = render_module(_derive_text(raw, description_path, form), _sha256(raw))
-    source = text.encode("utf-8")
+    equations = derive_now()
+    source = render_module(equations, _sha256(raw)).encode("utf-8")
     write_cached(path, source)
-    return path, source, None
+    return _Entry(path, source, None, derive_now, equations)
 
 
 def generated_module(
     description_path: str | os.PathLike[str],
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
+    backend: Backend = "numpy",
 ) -> Path:
     """The generated module of a description, from the cache or freshly generated into it.
 
@@ -267,28 +357,38 @@ def generated_module(
     CacheError
         The cache directory is owned by another user or writable by others, or not writable.
     """
-    return _cached_source(description_path, form, cache)[0]
+    _check_backend(backend)
+    entry = _cached_source(description_path, form, cache)
+    return _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh)
 
 
 def load_description_module(
     description_path: str | os.PathLike[str],
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
+    backend: Backend = "numpy",
 ) -> ModuleType:
-    """The generated module of a description, imported from the verified bytes of its cache
-    entry (:func:`generated_module`), so that the file cannot change between check and import.
+    """The generated module of a description. The NumPy module is imported from the verified
+    bytes of its cache entry (:func:`generated_module`), so that the file cannot change
+    between check and import; the compiled one (``backend="c"``) is loaded through its
+    wrapper, whose library :mod:`neweul_py.codegen.c_module` verifies by its hash.
 
     Examples
     --------
     >>> mod = load_description_module("examples/pendulum.yaml")  # doctest: +SKIP
     >>> mod.rhs(0.0, mod.INITIAL_STATE, mod.default_parameters())  # doctest: +SKIP
     """
-    from .analysis.module import check_protocol
+    from .analysis.module import check_protocol, load_generated
 
-    path, source, module = _cached_source(description_path, form, cache)
+    _check_backend(backend)
+    entry = _cached_source(description_path, form, cache)
+    if backend != "numpy":
+        return load_generated(_with_backend(entry.path, backend, entry.equations,
+                                            rebuild=entry.fresh))
+    module = entry.module
     if module is None:
-        module = import_verified(path, source)
-        check_protocol(module, str(path))
+        module = import_verified(entry.path, entry.source)
+        check_protocol(module, str(entry.path))
     return module
 
 
@@ -299,6 +399,7 @@ def simulate_description(
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
     p: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
+    backend: Backend = "numpy",
     **kwargs: Any,
 ) -> SimulationResult:
     """Generate (cached) and simulate a description; ``kwargs`` go to
@@ -311,5 +412,5 @@ def simulate_description(
     """
     from .analysis.simulate import simulate
 
-    module = load_description_module(description_path, form, cache)
+    module = load_description_module(description_path, form, cache, backend)
     return simulate(module, t_end, p=p, **kwargs)

@@ -30,6 +30,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "compare_frf",
     "interpolate",
     "fem",
+    "sweep", "compare",
 )
 
 

@@ -2,7 +2,7 @@
 
 A spring–mass piston (DOF 0, ``ux`` of node 1) closes one end of a 1-D air duct (length
 1 m, unit area, pressure DOFs on 101 nodes, rigid far end), coupled after Eq. (2) of
-``reference/equations.md`` §3: ``[m 0; ρCᵀ Mf] ẍ + [k −C; 0 Kf] x = f`` with
+``docs/equations.md`` §3: ``[m 0; ρCᵀ Mf] ẍ + [k −C; 0 Kf] x = f`` with
 ``C = −A e₀`` — unsymmetric, so a two-sided (Petrov–Galerkin) reduction is needed.
 ``reference_frf`` gives the FRF of the unreduced model with the rigid mass and spring of
 ``model.yaml`` assembled directly (used by the test).

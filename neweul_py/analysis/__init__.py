@@ -1,12 +1,59 @@
 """Analysis layer (see DESIGN.md): works on generated modules through the protocol of
 docs/generated-module-protocol.md; never imports sympy or the symbolic layers.
 
+Everything a script or notebook needs is importable from here::
+
+    from neweul_py.analysis import (load_generated, simulate, equilibrium, linearize, modes,
+                                    frequency_response)
+
 ``simulate(module, t_end, ...)`` integrates a generated module (or the path of one) and returns a
-:class:`SimulationResult`; ``load_generated(path)`` imports and checks a generated module.
+:class:`SimulationResult`; ``equilibrium`` → :class:`EquilibriumResult`; ``linearize`` →
+:class:`LinearModel`; ``modes`` → :class:`ModalResult`; ``frequency_response`` (alias ``frf``)
+→ :class:`FrequencyResponse`; ``sweep`` runs any of them over parameter cases on Dask →
+:class:`SweepResult`; ``compare(result, reference)`` judges a result against a reference →
+:class:`Comparison`. Every result has ``to_dataframe()``, ``save(path)`` and a short
+``repr`` with a notebook display.
 """
 
-from .module import load_generated
-from .results import SimulationResult, load_npz
-from .simulate import simulate
+from .compare import Comparison, compare
+from .dae import ConstrainedSimulation, consistent_initial_state, simulate_constrained
+from .equilibrium import EquilibriumResult, equilibrium
+from .frf import FrequencyResponse, frequency_response, frequency_vector, frf
+from .linearize import LinearModel, linearize
+from .modes import ModalResult, modes
+from .module import check_protocol, load_generated
+from .plot import plot_result
+from .results import SimulationResult, load_npz, read_units
+from .simulate import METHODS, simulate
+from .sweep import SweepResult, sweep
+from .sweep_cases import grid, read_cases
 
-__all__ = ["SimulationResult", "load_generated", "load_npz", "simulate"]
+__all__ = [
+    "METHODS",
+    "Comparison",
+    "ConstrainedSimulation",
+    "EquilibriumResult",
+    "FrequencyResponse",
+    "LinearModel",
+    "ModalResult",
+    "SimulationResult",
+    "SweepResult",
+    "check_protocol",
+    "compare",
+    "consistent_initial_state",
+    "equilibrium",
+    "frequency_response",
+    "frequency_vector",
+    "frf",
+    "grid",
+    "linearize",
+    "load_generated",
+    "load_npz",
+    "modes",
+    "plot_result",
+    "read_cases",
+    "read_units",
+    "simulate",
+    "simulate_constrained",
+    "sweep",
+]

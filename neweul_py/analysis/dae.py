@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ConstrainedSimulation:
     """Result of :func:`simulate_constrained`.
 
@@ -75,6 +75,14 @@ class ConstrainedSimulation:
     position_residual: np.ndarray
     velocity_residual: np.ndarray
     drift: np.ndarray
+
+    def __repr__(self) -> str:
+        return (f"ConstrainedSimulation({self.result.summary()}; {len(self.constraints)} "
+                f"constraints, max drift {self.max_drift:.3g})")
+
+    def to_dataframe(self) -> Any:
+        """The results table (with the ``lambda_<constraint>`` columns) as a DataFrame."""
+        return self.result.to_dataframe()
 
     @property
     def t(self) -> np.ndarray:
@@ -353,6 +361,7 @@ def simulate_constrained(
     atol: float = 1e-12,
     baumgarte: tuple[float, float] = (0.0, 0.0),
     projection_tol: float = 1e-13,
+    progress: Callable[[float, float], None] | None = None,
 ) -> ConstrainedSimulation:
     """Simulate a module with holonomic constraints (DAE with drift control; see module docstring).
 
@@ -384,6 +393,9 @@ def simulate_constrained(
         projections control the drift.
     projection_tol
         Tolerance on ``max |g|`` of the position projection (scaled by ``1 + max |y|``).
+    progress
+        Called as ``progress(done, total)`` with the simulated time reached and the time span
+        after each output interval (a :class:`neweul_py.progress.Tracker` draws a bar).
 
     Returns
     -------
@@ -484,6 +496,8 @@ def simulate_constrained(
             yd = _project_velocity(con, t1, y, yd, dep, winv)
         x = np.concatenate([y, yd])
         record(k, t1, y, yd)
+        if progress is not None:
+            progress(float(t1 - times[0]), float(times[-1] - times[0]))
 
     result = SimulationResult(
         t=times,

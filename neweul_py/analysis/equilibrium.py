@@ -34,7 +34,7 @@ import numpy as np
 from ..atomic import atomic_savez, atomic_write
 from ..errors import SolverError
 from . import _protocol as proto
-from .results import check_output_path
+from .results import ResultDisplay, check_output_path
 
 __all__ = ["SUFFIXES", "EquilibriumResult", "equilibrium"]
 
@@ -42,8 +42,8 @@ __all__ = ["SUFFIXES", "EquilibriumResult", "equilibrium"]
 SUFFIXES: tuple[str, ...] = (".csv", ".npz")
 
 
-@dataclass(frozen=True)
-class EquilibriumResult:
+@dataclass(frozen=True, repr=False)
+class EquilibriumResult(ResultDisplay):
     """A static equilibrium.
 
     Attributes
@@ -84,6 +84,20 @@ class EquilibriumResult:
             {f"lambda_{c}": float(v) for c, v in zip(self.constraints, self.lambda_, strict=True)}
         )
         return out
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """``name`` and ``value`` columns of :meth:`as_dict` (the CSV columns)."""
+        items = self.as_dict()
+        return {"name": np.array(list(items), dtype=str),
+                "value": np.array(list(items.values()), dtype=float)}
+
+    def summary(self) -> str:
+        """One line: the coordinates at equilibrium and the residual."""
+        vals = ", ".join(f"{c} = {v:.6g}" for c, v in zip(self.coordinates[:6], self.y,
+                                                          strict=False))
+        more = ", …" if len(self.coordinates) > 6 else ""
+        return (f"EquilibriumResult({vals}{more}; residual {self.residual:.3g}, "
+                f"{self.iterations} iterations)")
 
     def to_csv(self, path: str | os.PathLike[str]) -> Path:
         """Write ``name,value`` rows (coordinates, then ``lambda_<constraint>``), atomically."""

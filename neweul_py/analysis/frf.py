@@ -32,7 +32,7 @@ from ..errors import DataError, NeweulError
 from . import _protocol as proto
 from .linearize import LinearModel, linearize
 from .plot import check_plot_path, new_figure, save_figure
-from .results import check_output_path
+from .results import ResultDisplay, check_output_path
 
 __all__ = ["SUFFIXES", "FrequencyResponse", "frequency_response", "frequency_vector", "frf"]
 
@@ -42,8 +42,8 @@ SUFFIXES: tuple[str, ...] = (".csv", ".npz")
 _CHUNK_BYTES = 64 * 2**20
 
 
-@dataclass(frozen=True)
-class FrequencyResponse:
+@dataclass(frozen=True, repr=False)
+class FrequencyResponse(ResultDisplay):
     """Frequency response ``H`` (nf, ny, nu) of outputs to inputs.
 
     Attributes
@@ -71,10 +71,26 @@ class FrequencyResponse:
     def _pairs(self) -> list[tuple[int, int, str]]:
         single = len(self.outputs) == 1 and len(self.inputs) == 1
         return [
-            (i, j, "" if single else f":{o}/{u}")
+            (i, j, "" if single else f"__{o}__{u}")
             for i, o in enumerate(self.outputs)
             for j, u in enumerate(self.inputs)
         ]
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """``frequency_hz``, then ``magnitude``/``phase_deg`` per pair (the CSV columns)."""
+        mag, ph = self.magnitude, self.phase_deg
+        cols = {"frequency_hz": np.asarray(self.frequency_hz, dtype=float)}
+        for i, j, sfx in self._pairs():
+            cols[f"magnitude{sfx}"] = mag[:, i, j]
+            cols[f"phase_deg{sfx}"] = ph[:, i, j]
+        return cols
+
+    def summary(self) -> str:
+        """One line: sizes and frequency range."""
+        f = np.asarray(self.frequency_hz)
+        span = f"{f.min():g} … {f.max():g} Hz" if f.size else "no frequencies"
+        return (f"FrequencyResponse({f.size} frequencies, {span}; outputs "
+                f"{', '.join(self.outputs)}; inputs {', '.join(self.inputs)})")
 
     def _csv_text(self) -> str:
         pairs = self._pairs()
@@ -95,8 +111,9 @@ class FrequencyResponse:
     def to_csv(self, path: str | os.PathLike[str]) -> Path:
         """Write ``frequency_hz, magnitude, phase_deg`` (one output and input), atomically.
 
-        With several outputs or inputs the columns are ``magnitude:<output>/<input>`` and
-        ``phase_deg:<output>/<input>`` for each pair.
+        With several outputs or inputs the columns are ``magnitude__<output>__<input>`` and
+        ``phase_deg__<output>__<input>`` for each pair (names that ``numpy.genfromtxt`` keeps
+        as they are).
         """
         return atomic_write(path, self._csv_text())
 

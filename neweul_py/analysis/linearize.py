@@ -46,7 +46,7 @@ from .results import check_output_path
 __all__ = ["LinearModel", "linearize"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class LinearModel:
     """A linear second-order model ``M0 δÿ + P δẏ + Q δy = B δu``, ``δy_out = C δx + D δu``.
 
@@ -104,6 +104,11 @@ class LinearModel:
     lambda0: np.ndarray = field(default_factory=lambda: np.zeros(0))
     constraints: tuple[str, ...] = ()
     input_rates: tuple[tuple[str, tuple[str, ...]], ...] = ()
+
+    def __repr__(self) -> str:
+        return (f"LinearModel({self.n} coordinates ({', '.join(self.coordinates[:6])}"
+                f"{', …' if self.n > 6 else ''}), {len(self.inputs)} inputs, "
+                f"{len(self.outputs)} outputs, t = {self.t:g})")
 
     @property
     def n(self) -> int:

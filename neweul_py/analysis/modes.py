@@ -7,6 +7,11 @@ eigenproblem (QZ; ``M0`` need not be symmetric). For an oscillating mode
 ``ζ = −Re λ / |λ|`` and the damped frequency ``f_d = Im λ / 2π``. Each complex-conjugate pair is
 reported once (``Im λ > 0``); real eigenvalues are aperiodic modes, eigenvalues with
 ``|λ| ≤ zero_tol · max|λ|`` rigid-body modes.
+
+``undamped=True`` drops the velocity terms ``P`` (damping and gyroscopic): the eigenvalues of
+the undamped pencil ``det(Q − ω² M0) = 0`` give the undamped natural frequencies ``ω0 = |λ|``,
+also when the damped modes all come out overdamped (e.g. SID data with ``De = 0.01 Ke``, whose
+higher modes are damped far beyond critical).
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from __future__ import annotations
 import csv
 import io
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +29,7 @@ import scipy.linalg as sla
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 from .linearize import LinearModel, linearize
-from .results import check_output_path
+from .results import ResultDisplay, check_output_path
 
 __all__ = ["SUFFIXES", "ModalResult", "modes"]
 
@@ -32,8 +37,8 @@ __all__ = ["SUFFIXES", "ModalResult", "modes"]
 SUFFIXES: tuple[str, ...] = (".csv", ".npz")
 
 
-@dataclass(frozen=True)
-class ModalResult:
+@dataclass(frozen=True, repr=False)
+class ModalResult(ResultDisplay):
     """Modes of a linear model, sorted by natural frequency.
 
     Attributes
@@ -52,6 +57,8 @@ class ModalResult:
         Mode shapes in the module's full coordinates, scaled so that the largest entry is 1.
     coordinates : tuple of str
         Row names of ``shapes``.
+    undamped : bool
+        Whether these are the modes of the undamped pencil (``P`` dropped).
     """
 
     eigenvalues: np.ndarray
@@ -61,6 +68,44 @@ class ModalResult:
     kind: tuple[str, ...]
     shapes: np.ndarray
     coordinates: tuple[str, ...]
+    undamped: bool = False
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """One row per mode (all kinds): frequencies, damping, eigenvalue, kind, dominant
+        coordinate and the real part of each shape entry."""
+        cols: dict[str, np.ndarray] = {
+            "frequency_hz": np.asarray(self.frequency_hz, dtype=float),
+            "damping_ratio": np.asarray(self.damping_ratio, dtype=float),
+            "damped_frequency_hz": np.asarray(self.damped_frequency_hz, dtype=float),
+            "real_part": self.eigenvalues.real,
+            "imag_part": self.eigenvalues.imag,
+            "kind": np.array(self.kind, dtype=str),
+            "dominant_coordinate": np.array(
+                [self.dominant_coordinate(i) for i in range(len(self.kind))], dtype=str),
+        }
+        for r, c in enumerate(self.coordinates):
+            cols[f"shape_{c}"] = self.shapes[r].real
+        return cols
+
+    def summary(self) -> str:
+        """One line: counts of each kind and the lowest frequencies."""
+        counts = ", ".join(f"{self.kind.count(k)} {k}" for k in ("oscillating", "aperiodic",
+                                                                  "rigid") if k in self.kind)
+        f = self.frequency_hz[self.oscillating][:4]
+        more = " …" if self.oscillating.sum() > 4 else ""
+        low = f"; f = {', '.join(f'{v:.4g}' for v in f)}{more} Hz" if f.size else ""
+        what = "undamped modes" if self.undamped else "modes"
+        return f"ModalResult({len(self.kind)} {what}: {counts or 'none'}{low})"
+
+    def overdamped_note(self) -> str | None:
+        """A one-line note when no mode oscillates and the aperiodic ones decay (all overdamped),
+        so that the CSV (oscillating modes only) would be empty; None otherwise."""
+        if self.oscillating.any() or "aperiodic" not in self.kind or self.unstable.any():
+            return None  # an unstable point has its own warning (stability_warning)
+        n = self.kind.count("aperiodic")
+        return (f"all {n} non-rigid eigenvalues are real: every mode is overdamped (damping "
+                "above critical), so there are no oscillating modes and the CSV has no rows; "
+                "the undamped natural frequencies: --undamped (modes(..., undamped=True))")
 
     @property
     def oscillating(self) -> np.ndarray:
@@ -72,12 +117,13 @@ class ModalResult:
         return self.coordinates[int(np.argmax(np.abs(self.shapes[:, i])))]
 
     def table(self) -> str:
-        """A text table of all modes."""
+        """A text table of all modes (a note line first for the undamped pencil)."""
         head = (
             f"{'mode':>4}  {'f [Hz]':>13}  {'f_d [Hz]':>13}  {'zeta':>10}  "
             f"{'Re(lambda)':>13}  {'Im(lambda)':>13}  {'kind':<11}  dominant"
         )
-        rows = [head]
+        rows = [head] if not self.undamped else [
+            "# undamped pencil det(Q - w^2 M0) = 0 (damping and gyroscopic terms dropped)", head]
         for i, lam in enumerate(self.eigenvalues):
             rows.append(
                 f"{i + 1:>4}  {self.frequency_hz[i]:>13.6g}  {self.damped_frequency_hz[i]:>13.6g}"
@@ -169,6 +215,7 @@ class ModalResult:
             kind=np.array(self.kind, dtype=str),
             shapes=self.shapes,
             coordinates=np.array(self.coordinates, dtype=str),
+            undamped=np.array(self.undamped),
         )
 
     def save(self, path: str | os.PathLike[str]) -> Path:
@@ -190,13 +237,18 @@ class ModalResult:
                     kind=tuple(str(k) for k in f["kind"]),
                     shapes=f["shapes"],
                     coordinates=tuple(str(c) for c in f["coordinates"]),
+                    undamped=bool(f["undamped"]) if "undamped" in f.files else False,
                 )
         except (OSError, ValueError, KeyError) as exc:
             raise DataError(f"cannot read modes: {exc}", file=str(path)) from None
 
 
 def modes(
-    model: LinearModel | Any, *, zero_tol: float = 1e-7, **linearize_kwargs: Any
+    model: LinearModel | Any,
+    *,
+    zero_tol: float = 1e-7,
+    undamped: bool = False,
+    **linearize_kwargs: Any,
 ) -> ModalResult:
     """Modes of a linear model, or of a generated module linearized first.
 
@@ -207,6 +259,9 @@ def modes(
         :func:`~neweul_py.analysis.linearize.linearize` is called with ``linearize_kwargs``).
     zero_tol
         Eigenvalues with ``|λ| ≤ zero_tol · max|λ|`` are rigid-body modes.
+    undamped
+        Eigenvalues of the undamped pencil (``P = 0``: damping and gyroscopic terms dropped),
+        ``λ = ±j ω0`` with ``Q φ = ω0² M0 φ``; damping ratios are then 0.
 
     Returns
     -------
@@ -218,6 +273,8 @@ def modes(
     >>> print(modes(linearize(mod, equilibrium(mod))).table())      # doctest: +SKIP
     """
     lin = model if isinstance(model, LinearModel) else linearize(model, **linearize_kwargs)
+    if undamped:
+        lin = replace(lin, P=np.zeros_like(lin.P))
     m = lin.n
     if m == 0:
         raise NeweulError("modes: the model has no degrees of freedom")
@@ -242,6 +299,8 @@ def modes(
     shapes = shapes / pivot
     with np.errstate(invalid="ignore", divide="ignore"):
         zeta = np.where(kind == "rigid", np.nan, -lam.real / np.where(mag > 0, mag, 1.0)) + 0.0
+    if undamped:  # exactly 0 (QZ leaves round-off real parts on the imaginary axis)
+        zeta = np.where(kind == "oscillating", 0.0, zeta)
     return ModalResult(
         eigenvalues=lam,
         frequency_hz=mag / (2 * np.pi),
@@ -250,4 +309,5 @@ def modes(
         kind=tuple(str(k) for k in kind),
         shapes=shapes,
         coordinates=lin.all_coordinates,
+        undamped=undamped,
     )

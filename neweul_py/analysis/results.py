@@ -1,19 +1,148 @@
-"""Simulation results and their files (CSV with a units line, NumPy ``.npz``), written
-atomically."""
+"""Simulation results and their files (CSV with a units sidecar, NumPy ``.npz``), written
+atomically; the notebook display and ``to_dataframe`` shared by every analysis result.
+
+CSV files open anywhere: the first line names the columns (plain names, no units, no comment
+line), so ``pandas.read_csv(path)``, ``numpy.genfromtxt(path, names=True, delimiter=",")`` and
+``numpy.loadtxt(path, delimiter=",", skiprows=1)`` read them without options. The units go to a
+sidecar ``<stem>.units.json`` (``{"t": "s", "phi": "rad", ...}``): units in the header itself
+would be mangled differently by each reader (``genfromtxt`` turns ``phi [rad]`` into
+``phi_rad``).
+"""
 
 from __future__ import annotations
 
+import html
+import json
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 
-__all__ = ["SUFFIXES", "SimulationResult", "check_output_path", "load_npz"]
+__all__ = [
+    "SUFFIXES",
+    "ResultDisplay",
+    "SimulationResult",
+    "check_output_path",
+    "load_npz",
+    "read_units",
+    "require_pandas",
+    "units_path",
+]
+
+#: Rows shown by the notebook display (first and last half).
+_PREVIEW_ROWS = 10
+#: Columns shown by the notebook display.
+_PREVIEW_COLUMNS = 8
+
+
+def require_pandas() -> Any:
+    """The :mod:`pandas` module, or a clear error naming the extra that installs it."""
+    try:
+        import pandas
+    except ImportError:
+        raise NeweulError(
+            "to_dataframe needs pandas: pip install pandas (or 'neweul-py[dataframe]')"
+        ) from None
+    return pandas
+
+
+def units_path(path: str | os.PathLike[str]) -> Path:
+    """The units sidecar of a CSV file: ``out/run.csv`` → ``out/run.units.json``."""
+    path = Path(path)
+    return path.with_name(path.stem + ".units.json")
+
+
+def read_units(path: str | os.PathLike[str]) -> dict[str, str]:
+    """Column → unit from the sidecar of the CSV file ``path`` (``{}`` when there is none)."""
+    side = units_path(path)
+    if not side.is_file():
+        return {}
+    try:
+        data = json.loads(side.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot read the units sidecar: {exc}", file=str(side)) from None
+    if not isinstance(data, dict) or not all(isinstance(v, str) for v in data.values()):
+        raise DataError("the units sidecar must map column names to unit strings",
+                        file=str(side))
+    return {str(k): v for k, v in data.items()}
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, float | np.floating):
+        return f"{float(value):.6g}"
+    if isinstance(value, complex | np.complexfloating):
+        return f"{complex(value):.4g}"
+    return str(value)
+
+
+class ResultDisplay:
+    """Mixin of the analysis results: a short ``repr``, rich notebook display and
+    :meth:`to_dataframe`, all built from :meth:`columns` (named 1-D columns of equal length)
+    and :meth:`summary` (one line). Subclasses are dataclasses declared with ``repr=False``."""
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Named columns of the result's table (what the CSV file holds)."""
+        raise NotImplementedError
+
+    def summary(self) -> str:
+        """One line describing the result (its ``repr``)."""
+        raise NotImplementedError
+
+    def to_dataframe(self) -> Any:
+        """The table as a :class:`pandas.DataFrame` (pandas is optional: a clear error when it
+        is missing)."""
+        pd = require_pandas()
+        return pd.DataFrame({k: np.asarray(v) for k, v in self.columns().items()})
+
+    def __repr__(self) -> str:
+        return self.summary()
+
+    def _preview(self) -> tuple[list[str], list[list[str]], bool, bool]:
+        cols = self.columns()
+        names = list(cols)
+        more_cols = len(names) > _PREVIEW_COLUMNS
+        names = names[:_PREVIEW_COLUMNS]
+        nrows = len(next(iter(cols.values()))) if cols else 0
+        half = _PREVIEW_ROWS // 2
+        idx = list(range(nrows)) if nrows <= _PREVIEW_ROWS else [
+            *range(half), *range(nrows - half, nrows)]
+        rows = [[_cell(np.asarray(cols[n])[i]) for n in names] for i in idx]
+        return names, rows, nrows > _PREVIEW_ROWS, more_cols
+
+    def _repr_markdown_(self) -> str:
+        names, rows, cut_rows, cut_cols = self._preview()
+        lines = [f"**{self.summary()}**", ""]
+        if names:
+            lines += ["| " + " | ".join(names) + (" | …" if cut_cols else "") + " |",
+                      "|" + "---|" * (len(names) + cut_cols)]
+            half = _PREVIEW_ROWS // 2
+            for k, row in enumerate(rows):
+                if cut_rows and k == half:
+                    lines.append("| " + " | ".join("⋮" for _ in names) + (" |" if not cut_cols
+                                                                          else " | |"))
+                lines.append("| " + " | ".join(row) + (" | …" if cut_cols else "") + " |")
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        names, rows, cut_rows, cut_cols = self._preview()
+        esc = html.escape
+        head = "".join(f"<th>{esc(n)}</th>" for n in names) + ("<th>…</th>" if cut_cols else "")
+        body = []
+        half = _PREVIEW_ROWS // 2
+        for k, row in enumerate(rows):
+            if cut_rows and k == half:
+                body.append("<tr>" + "<td>⋮</td>" * (len(names) + cut_cols) + "</tr>")
+            body.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in row)
+                        + ("<td>…</td>" if cut_cols else "") + "</tr>")
+        table = (f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+                 if names else "")
+        return f"<div><p><b>{esc(self.summary())}</b></p>{table}</div>"
 
 #: Suffixes of simulation-result files (:meth:`SimulationResult.save`).
 SUFFIXES: tuple[str, ...] = (".csv", ".npz")
@@ -38,8 +167,8 @@ def check_output_path(
     return path
 
 
-@dataclass(frozen=True)
-class SimulationResult:
+@dataclass(frozen=True, repr=False)
+class SimulationResult(ResultDisplay):
     """A time history of a generated model.
 
     Attributes
@@ -112,21 +241,35 @@ class SimulationResult:
             raise NeweulError(f"no column {name!r}; columns are: {', '.join(names)}")
         return self.table[:, names.index(name)]
 
+    def columns(self) -> dict[str, np.ndarray]:
+        """Column name → values (the CSV columns)."""
+        return dict(zip(self.names, self.table.T, strict=True))
+
+    def summary(self) -> str:
+        """One line: model, times, sizes, integrator."""
+        span = f"t = {self.t[0]:g} … {self.t[-1]:g} s" if self.t.size else "no times"
+        how = f"; {self.method}, {self.nfev} rhs evaluations" if self.method else ""
+        return (f"SimulationResult({self.model_name or 'model'}: {self.t.size} times, {span}, "
+                f"{len(self.coordinates)} coordinates, {len(self.output_names)} outputs{how})")
+
     # ------------------------------------------------------------------ files
     def to_csv(self, path: str | os.PathLike[str]) -> Path:
-        """Write a CSV file: a comment line of units, the header, one row per time.
+        """Write a CSV file (header of names, one row per time) and its units sidecar.
 
         Format::
 
-            # units: s, rad, rad/s, m
             t,phi,d_phi,height
             0,0.3,0,-0.477...
 
-        Numbers are printed with 17 significant digits (round-trip exact).
+        and ``<stem>.units.json``: ``{"t": "s", "phi": "rad", "d_phi": "rad/s", ...}``
+        (:func:`units_path`; ``-`` where unknown). Numbers are printed with 17 significant
+        digits (round-trip exact). Both files are written atomically, the sidecar first.
         """
-        lines = ["# units: " + ", ".join(self.units), ",".join(self.names)]
+        lines = [",".join(self.names)]
         table = self.table
         lines += [",".join(f"{v:.17g}" for v in row) for row in table]
+        units = dict(zip(self.names, self.units, strict=True))
+        atomic_write(units_path(path), json.dumps(units, indent=1, ensure_ascii=False) + "\n")
         return atomic_write(path, ("\n".join(lines) + "\n").encode("utf-8"))
 
     def to_npz(self, path: str | os.PathLike[str]) -> Path:
@@ -159,6 +302,7 @@ class SimulationResult:
 
 
 def _strings(arr: np.ndarray) -> tuple[str, ...]:
+    """Names from a string array of an ``.npz`` file."""
     return tuple(str(s) for s in np.atleast_1d(arr)) if arr.size else ()
 
 

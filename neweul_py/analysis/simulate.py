@@ -16,13 +16,16 @@ from scipy.integrate import solve_ivp
 
 from ..errors import ModelError, NeweulError, SolverError
 from . import _protocol as proto
+from .integrators import COMPILED_METHODS, check_compiled, integrate_compiled
 from .module import check_protocol, load_generated
 from .results import SimulationResult
 
 __all__ = ["METHODS", "simulate"]
 
-#: Integrators offered (``scipy.integrate.solve_ivp`` names); implicit ones use the Jacobian.
-METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA")
+#: Integrators offered (``scipy.integrate.solve_ivp`` names; implicit ones use the Jacobian),
+#: then those running inside compiled modules (analysis/integrators.py).
+METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA",
+                            *COMPILED_METHODS)
 _IMPLICIT = frozenset({"Radau", "BDF", "LSODA"})
 
 InputLike = Callable[[float], Any] | Mapping[str, float] | Sequence[float] | np.ndarray | None
@@ -116,6 +119,7 @@ def simulate(
     u: InputLike = None,
     max_step: float = np.inf,
     independent: Sequence[str] | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> SimulationResult:
     """Integrate a generated model from ``t_start`` to ``t_end``.
 
@@ -134,7 +138,8 @@ def simulate(
     t_start
         Initial time [s].
     method
-        One of :data:`METHODS`.
+        One of :data:`METHODS`; ``"c-dopri5"``: RK45's method and step control in the C loop
+        of a compiled module (:mod:`~neweul_py.analysis.integrators`).
     rtol, atol
         Tolerances of the integrator.
     n_out
@@ -157,6 +162,10 @@ def simulate(
         kept exactly when the initial state is made consistent (default: the coordinates the
         constraints leave free, first in ``COORDINATES`` order; see
         :func:`~neweul_py.analysis.dae.consistent_initial_state`).
+    progress
+        Called as ``progress(done, total)`` with the simulated time reached (``t − t_start``)
+        and the span ``t_end − t_start``, at most about 200 times per run plus once at the end;
+        a :class:`neweul_py.progress.Tracker` draws a bar with the remaining time on stderr.
 
     Returns
     -------
@@ -185,6 +194,7 @@ def simulate(
         raise NeweulError(f"t_end ({t_end:g}) must be a finite time after t_start ({t_start:g})")
     if not (rtol > 0 and atol > 0):
         raise NeweulError("rtol and atol must be positive")
+    check_compiled(module, method, u)
     pv = _parameters(module, p)
     x_init = _initial_state(module, x0)
     if list(getattr(module, "CONSTRAINTS", []) or []):
@@ -195,7 +205,7 @@ def simulate(
         return simulate_constrained(
             module, t_end, t_start=t_start, n_out=n_out, t_eval=t_eval, y0=x_init[:n],
             yd0=x_init[n:2 * n], p=pv, u=u, method=method, rtol=rtol, atol=atol,
-            independent=independent,
+            independent=independent, progress=progress,
         ).result
     if independent is not None:
         raise NeweulError(
@@ -214,9 +224,14 @@ def simulate(
 
     rhs = module.rhs
     last = {"t": t_start, "x": x_init}
+    span = t_end - t_start
+    mark = [t_start if progress is not None else np.inf]  # next time to report
 
     def f(t: float, x: np.ndarray) -> np.ndarray:
         last["t"], last["x"] = t, x
+        if t >= mark[0]:  # throttled: ~200 reports per run, none without a hook
+            mark[0] = t + span / 200
+            progress(min(t, t_end) - t_start, span)
         return rhs(t, x, pv, uf(t))
 
     kwargs: dict[str, Any] = {}
@@ -228,8 +243,13 @@ def simulate(
     state_names = [*module.COORDINATES, *(f"d_{c}" for c in module.COORDINATES)]
     try:
         with np.errstate(all="ignore"):
-            sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
-                            rtol=rtol, atol=atol, max_step=max_step, **kwargs)
+            if method in COMPILED_METHODS:
+                sol = integrate_compiled(module, (t_start, t_end), x_init, pv,
+                                         None if u is None else uf(t_start), times, rtol=rtol,
+                                         atol=atol, max_step=max_step, names=state_names)
+            else:
+                sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
+                                rtol=rtol, atol=atol, max_step=max_step, **kwargs)
     except ArithmeticError as exc:  # the generated module: math.exp(1000), 1/0 of a spring …
         raise SolverError(
             f"the model cannot be evaluated at t = {last['t']:g} ({type(exc).__name__}: {exc})",
@@ -253,6 +273,8 @@ def simulate(
             last_iterate=np.array(last["x"]),
             names=state_names,
         )
+    if progress is not None:
+        progress(span, span)
     x = sol.y.T
     ny = len(module.OUTPUTS)
     outs = np.empty((times.size, ny))

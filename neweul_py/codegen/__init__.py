@@ -5,6 +5,7 @@
 returns its text. Imports ``equations`` and ``model`` only.
 """
 
-from .writer import PROTOCOL_VERSION, generate_module, render_module
+from .module import generate_module, render_module
+from .writer import PROTOCOL_VERSION
 
 __all__ = ["PROTOCOL_VERSION", "generate_module", "render_module"]

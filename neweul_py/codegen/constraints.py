@@ -20,6 +20,16 @@ from typing import Any
 import sympy as sp
 
 from ..model import time
+from .blocks import (
+    assignments,
+    checked,
+    function,
+    inputs_prologue,
+    matrix_fill,
+    prologue,
+    sparse,
+    vector,
+)
 from .cse import eliminate
 
 __all__ = ["constraint_constant", "constraint_functions"]
@@ -30,8 +40,9 @@ def constraint_constant(names: tuple[str, ...]) -> str:
     return f"CONSTRAINTS = {list(names)!r}"
 
 
-def constraint_functions(ctx: Any, ce: Any, method: str) -> list[str]:
-    """Source lines of the four constraint functions.
+def constraint_functions(ctx: Any, ce: Any, method: str, prefix: str = ""
+                         ) -> dict[str, list[str]]:
+    """Source lines of the four constraint functions, by protocol name.
 
     Parameters
     ----------
@@ -42,68 +53,64 @@ def constraint_functions(ctx: Any, ce: Any, method: str) -> list[str]:
         constraints: empty arrays).
     method
         The CSE method of the module (``"full"``, ``"tree"``, ``"none"``).
+    prefix
+        Prefix of the function names (see :func:`.writer.module_parts`).
     """
-    from .writer import (  # the writer imports this module; its helpers are shared
-        _assignments,
-        _checked,
-        _function,
-        _inputs_prologue,
-        _matrix_fill,
-        _prologue,
-        _sparse,
-        _vector,
-    )
-
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n = len(y)
     nc = 0 if ce is None else ce.nc
     if nc == 0:
-        return [
-            *_function("constraints(t, y, p, u=None)",
-                       "Holonomic constraints ``g(y, t)`` (none).", ["return _np.zeros(0)"]),
-            *_function("constraint_jacobian(t, y, p, u=None)", "``G = ∂g/∂y`` (none).",
-                       [f"return _np.zeros((0, {n}))"]),
-            *_function("constraint_time_derivative(t, y, p, u=None)", "``∂g/∂t`` (none).",
-                       ["return _np.zeros(0)"]),
-            *_function("constraint_gamma(t, y, yd, p, u=None)",
-                       "``γ`` with ``G ÿ + γ = 0`` (none).", ["return _np.zeros(0)"]),
-        ]
+        return {
+            "constraints": function(f"{prefix}constraints(t, y, p, u=None)",
+                                    "Holonomic constraints ``g(y, t)`` (none).",
+                                    ["return _np.zeros(0)"])[:-2],
+            "constraint_jacobian": function(f"{prefix}constraint_jacobian(t, y, p, u=None)",
+                                            "``G = ∂g/∂y`` (none).",
+                                            [f"return _np.zeros((0, {n}))"])[:-2],
+            "constraint_time_derivative": function(
+                f"{prefix}constraint_time_derivative(t, y, p, u=None)", "``∂g/∂t`` (none).",
+                ["return _np.zeros(0)"])[:-2],
+            "constraint_gamma": function(f"{prefix}constraint_gamma(t, y, yd, p, u=None)",
+                                         "``γ`` with ``G ÿ + γ = 0`` (none).",
+                                         ["return _np.zeros(0)"])[:-2],
+        }
 
     kin = (*y, *p, *u, time)
     dyn = (*kin, *yd)
     y_src = "_np.asarray(y, dtype=_np.float64).tolist()"
     yd_src = "_np.asarray(yd, dtype=_np.float64).tolist()"
     p_src = "_np.asarray(p, dtype=_np.float64).tolist()"
-    lines: list[str] = []
+    out: dict[str, list[str]] = {}
 
-    def positional(finals: list[sp.Expr], what: str, prefix: str):
-        b = _checked(ctx, eliminate((), finals, prefix=prefix, method=method), kin, what)
-        head = _prologue(ctx, b, [(y, y_src), (p, p_src)]) + _inputs_prologue(ctx, b)
-        return b, head + _assignments(ctx, b)
+    def positional(finals: list[sp.Expr], what: str, cse_prefix: str):
+        b = checked(ctx, eliminate((), finals, prefix=cse_prefix, method=method), kin, what)
+        head = prologue(ctx, b, [(y, y_src), (p, p_src)]) + inputs_prologue(ctx, b)
+        return b, head + assignments(ctx, b)
 
     b, body = positional(list(ce.g), "the constraints", "_ncg_g")
-    lines += _function("constraints(t, y, p, u=None)",
+    out["constraints"] = function(f"{prefix}constraints(t, y, p, u=None)",
                        "Holonomic constraints ``g(y, t)``, ordered as ``CONSTRAINTS``.",
-                       [*body, *_vector(ctx, "g", b.finals), "return g"])
+                       [*body, *vector(ctx, "g", b.finals), "return g"])[:-2]
 
     b, body = positional(list(ce.G), "the constraint Jacobian", "_ncg_G")
     J = sp.ImmutableMatrix(nc, n, list(b.finals))
-    lines += _function("constraint_jacobian(t, y, p, u=None)",
+    out["constraint_jacobian"] = function(f"{prefix}constraint_jacobian(t, y, p, u=None)",
                        "``G = ∂g/∂y``, shape (nc, n), analytic.",
-                       [*body, *_matrix_fill(ctx, "G", (nc, n), _sparse(J)), "return G"])
+                       [*body, *matrix_fill(ctx, "G", (nc, n), sparse(J)), "return G"])[:-2]
 
     b, body = positional(list(ce.g_t), "∂g/∂t", "_ncg_gt")
-    lines += _function("constraint_time_derivative(t, y, p, u=None)",
+    out["constraint_time_derivative"] = function(
+        f"{prefix}constraint_time_derivative(t, y, p, u=None)",
                        "``∂g/∂t`` (explicit time dependence, through inputs), shape (nc,).",
-                       [*body, *_vector(ctx, "gt", b.finals), "return gt"])
+                       [*body, *vector(ctx, "gt", b.finals), "return gt"])[:-2]
 
-    b = _checked(ctx, eliminate((), list(ce.gamma), prefix="_ncg_h", method=method), dyn,
+    b = checked(ctx, eliminate((), list(ce.gamma), prefix="_ncg_h", method=method), dyn,
                  "the constraint γ")
-    body = (_prologue(ctx, b, [(y, y_src), (yd, yd_src), (p, p_src)])
-            + _inputs_prologue(ctx, b) + _assignments(ctx, b))
-    lines += _function(
-        "constraint_gamma(t, y, yd, p, u=None)",
+    body = (prologue(ctx, b, [(y, y_src), (yd, yd_src), (p, p_src)])
+            + inputs_prologue(ctx, b) + assignments(ctx, b))
+    out["constraint_gamma"] = function(
+        f"{prefix}constraint_gamma(t, y, yd, p, u=None)",
         "``γ = ∂(G ẏ + ∂g/∂t)/∂y · ẏ + ∂(G ẏ + ∂g/∂t)/∂t`` with ``G ÿ + γ = 0``, shape (nc,).",
-        [*body, *_vector(ctx, "gamma", b.finals), "return gamma"],
-    )
-    return lines
+        [*body, *vector(ctx, "gamma", b.finals), "return gamma"],
+    )[:-2]
+    return out

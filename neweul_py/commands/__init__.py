@@ -27,6 +27,8 @@ __all__ = [
     "FORMS",
     "MAX_MAGNITUDE",
     "SIMULATE_METHODS",
+    "SWEEP_STATS",
+    "SWEEP_TASKS",
     "Range",
     "assignment",
     "comma_floats",
@@ -41,10 +43,18 @@ __all__ = [
 #: Forms of the equations offered by ``--form``; the same as :data:`neweul_py.api.FORMS` (kept
 #: here so that registering the sub-commands needs no symbolic layer; a test checks they agree).
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
+#: Backends offered by ``--backend``; the same as :data:`neweul_py.api.BACKENDS`.
+BACKENDS: tuple[str, ...] = ("numpy", "c")
 
 #: Integrators of ``simulate --method``; the same as
 #: :data:`neweul_py.analysis.simulate.METHODS` (a test checks they agree).
-SIMULATE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA")
+SIMULATE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA",
+                                     "c-dopri5")
+
+#: ``sweep --task`` choices and ``--stats`` names; the same as
+#: :data:`neweul_py.analysis.sweep_tasks.TASKS` and ``STATS`` (a test checks they agree).
+SWEEP_TASKS: tuple[str, ...] = ("simulate", "equilibrium", "modes", "frf")
+SWEEP_STATS: tuple[str, ...] = ("final", "max", "min", "rms")
 
 #: Largest magnitude of a number given on the command line (parameters, inputs, coordinates,
 #: frequencies …): products of two such numbers stay finite in double precision.

@@ -11,7 +11,7 @@ import argparse
 from typing import Any
 
 from ..errors import NeweulError
-from . import FORMS
+from . import BACKENDS, FORMS
 from . import assignment as _assignment
 
 #: Parsing ``NAME=NUMBER`` (finite, in range): :func:`neweul_py.commands.assignment`.
@@ -57,6 +57,8 @@ def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool =
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
+    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
+                        help="module of a description: NumPy or compiled C (cffi)")
     add_parameter_argument(parser)
     parser.add_argument("-u", "--set-input", type=assignment, action="append", default=[],
                         metavar="NAME=VALUE",
@@ -118,7 +120,8 @@ def load_model(args: argparse.Namespace) -> Any:
     else:
         from ..api import load_description_module  # symbolic layers only on a cache miss
 
-        module = load_description_module(args.file, args.form)
+        module = load_description_module(args.file, args.form,
+                                         backend=getattr(args, "backend", "numpy"))
     check_overrides(module, args)
     return module
 

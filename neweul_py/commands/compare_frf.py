@@ -4,12 +4,12 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import NeweulError
+from ..progress import QUIET_HELP, Tracker
 from . import Range, range_type
 from . import _analysis_common as common
 
@@ -35,11 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "10:20000:200)")
     parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
     parser.add_argument("--plot", metavar="FIG", help="magnitude and error plot (.png/.pdf)")
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
-
-
-def _progress(msg: str) -> None:
-    print(f"  {msg}", file=sys.stderr, flush=True)
 
 
 def frequency_grid(grid: Range, log: bool) -> np.ndarray:
@@ -84,8 +81,9 @@ def run(args: argparse.Namespace) -> int:
     fe = read_fe_model(args.model)
     body = ReducedBody.load(args.body)
     check_source(fe, body, args.body)  # a body reduced from another model: refuse
-    _progress(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
-    cmp = compare_frf(fe, body, f, args.input, args.response, progress=_progress, check=False)
+    with Tracker("full FRF", unit="freq", quiet=args.quiet) as track:  # a bar on a terminal
+        track.say(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
+        cmp = compare_frf(fe, body, f, args.input, args.response, progress=track, check=False)
     err = cmp.relative_error
     i = int(np.argmax(err))
     print(f"{args.response} / {args.input}: max relative error {err[i]:.3e} at {f[i]:g} Hz "

@@ -1,10 +1,13 @@
-"""``neweul fem middle-ear``: FE models of the TM and the middle-ear air over static pressures."""
+"""``neweul fem middle-ear``: FE models of the TM and the middle-ear air over static pressures;
+``neweul fem beam`` / ``neweul fem solid-beam``: beam and solid (Hex8/Hex20/Tet10) cantilever FE
+models for ``neweul reduce``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
+from ..progress import QUIET_HELP, Tracker
 from . import CAPS, count, range_type
 from . import _analysis_common as shared
 
@@ -46,25 +49,132 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the ossicular-chain support springs in the exported stiffness",
     )
+    me.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     me.set_defaults(func=_middle_ear)
-
-
-def _progress(msg: str) -> None:
-    """Progress of the long steps on stderr (as ``neweul reduce`` prints it)."""
-    print(f"  {msg}", file=sys.stderr, flush=True)
+    _register_beams(sub)
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
     from ..fem.middle_ear import pressure_sweep
 
-    result = pressure_sweep(
-        args.pressures.values(),
-        refine=args.refine,
-        out_dir=args.output,
-        plots=args.plots,
-        include_support=args.include_support,
-        verbose=True,
-        progress=_progress,
-    )
+    with Tracker("FE sweep", unit="point", quiet=args.quiet) as track:  # a bar on a terminal
+        result = pressure_sweep(
+            args.pressures.values(),
+            refine=args.refine,
+            out_dir=args.output,
+            plots=args.plots,
+            include_support=args.include_support,
+            verbose=True,
+            progress=track,
+        )
     print(f"wrote {len(result.models)} working points to {args.output}")
     return 0
+
+
+# ------------------------------------------------------------------ beam and solid-beam
+def _comma(kind, count: int, what: str):
+    def parse(text: str):
+        try:
+            vals = [kind(x) for x in text.split(",")]
+        except ValueError:
+            vals = []
+        if len(vals) != count:
+            raise argparse.ArgumentTypeError(f"expected {count} comma-separated {what}, got "
+                                             f"{text!r}")
+        return vals
+    return parse
+
+
+def _register_beams(sub: argparse._SubParsersAction) -> None:
+    """Add ``fem beam`` and ``fem solid-beam``."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--stiffening", action="store_true",
+                        help="also store the geometric stiffness K_G of the 12 unit inertia "
+                        "load cases, root clamped (for `neweul reduce --stiffening`; .npz only)")
+    common.add_argument("-o", "--output", required=True, metavar="MODEL.npz",
+                        help="FE model file to write (.npz, or a .json manifest)")
+    beam = sub.add_parser(
+        "beam", parents=[common],
+        help="a straight Euler-Bernoulli or Timoshenko beam along x (2-D or 3-D)",
+        description="Write the FE model of a uniform straight beam along x (free-free; node "
+        "sets root, tip and all in the file). Section from --A/--Iy/--Iz/--Jt or "
+        "--rectangle B,H with --nu.")
+    beam.add_argument("--length", type=float, default=1.0, help="length (default 1)")
+    beam.add_argument("--elements", type=int, default=20, help="elements (default 20)")
+    beam.add_argument("--theory", choices=("euler-bernoulli", "timoshenko"),
+                      default="euler-bernoulli")
+    beam.add_argument("--planar", action="store_true", help="2-D beam (ux, uy, rz)")
+    beam.add_argument("--E", type=float, default=1.0, help="Young's modulus")
+    beam.add_argument("--G", type=float, help="shear modulus (default E/(2(1+nu)))")
+    beam.add_argument("--nu", type=float, default=0.3, help="Poisson ratio (default 0.3)")
+    beam.add_argument("--rho", type=float, default=1.0, help="density")
+    beam.add_argument("--A", type=float, default=1.0, help="area")
+    beam.add_argument("--Iy", type=float, default=1e-4, help="second moment about y")
+    beam.add_argument("--Iz", type=float, default=1e-4, help="second moment about z")
+    beam.add_argument("--Jt", type=float, help="torsion constant (default Iy + Iz)")
+    beam.add_argument("--shear-factor", type=float, default=5 / 6,
+                      help="Timoshenko shear factor (default 5/6)")
+    beam.add_argument("--rectangle", type=_comma(float, 2, "numbers"), metavar="B,H",
+                      help="solid rectangle width (y) x height (z): sets A, Iy, Iz, Jt, G, "
+                      "shear factor")
+    beam.add_argument("--rotary", action="store_true", default=None,
+                      help="rotary inertia (default: Timoshenko yes, Euler-Bernoulli no)")
+    beam.add_argument("--lumped", action="store_true", help="lumped mass matrix")
+    beam.set_defaults(func=_beam)
+    solid = sub.add_parser(
+        "solid-beam", parents=[common],
+        help="a box of solid elements (Hex8, Hex20, Tet10) along x",
+        description="Write the FE model of a linear-elastic box [0,Lx]x[0,Ly]x[0,Lz] meshed "
+        "with solid elements (free; node sets root (x=0 face), tip (x=Lx face), all).")
+    solid.add_argument("--size", type=_comma(float, 3, "lengths"), default=[1.0, 0.1, 0.1],
+                       metavar="LX,LY,LZ", help="edge lengths (default 1,0.1,0.1)")
+    solid.add_argument("--divisions", type=_comma(int, 3, "integers"), default=[10, 1, 1],
+                       metavar="NX,NY,NZ", help="cells per direction (default 10,1,1)")
+    solid.add_argument("--element", choices=("hex8", "hex20", "tet10"), default="hex20")
+    solid.add_argument("--E", type=float, default=1.0, help="Young's modulus")
+    solid.add_argument("--nu", type=float, default=0.3, help="Poisson ratio")
+    solid.add_argument("--rho", type=float, default=1.0, help="density")
+    solid.set_defaults(func=_solid_beam)
+
+
+def _write(model, args: argparse.Namespace) -> int:
+    from ..elastic.fe_io import write_fe_model
+
+    stiffening = None
+    if args.stiffening:
+        print("geometric stiffness of the 12 unit inertia load cases (root clamped)",
+              file=sys.stderr)
+        stiffening = model.stiffening()
+    write_fe_model(model.fe, args.output, node_sets=dict(model.node_sets),
+                   stiffening=stiffening)
+    print(f"wrote {args.output}: {model.fe.n_dofs} DOFs, {model.fe.nodes.shape[0]} nodes"
+          + (", with stiffening" if stiffening else ""))
+    return 0
+
+
+def _beam(args: argparse.Namespace) -> int:
+    from ..errors import NeweulError
+    from ..fem.beam import BeamSection, beam_model
+
+    if args.stiffening and not str(args.output).lower().endswith(".npz"):
+        raise NeweulError(f"{args.output}: --stiffening writes .npz files only")
+    if args.rectangle is not None:
+        sec = BeamSection.rectangle(*args.rectangle, E=args.E, nu=args.nu, rho=args.rho)
+    else:
+        G = args.E / (2 * (1 + args.nu)) if args.G is None else args.G
+        sec = BeamSection(E=args.E, G=G, rho=args.rho, A=args.A, Iy=args.Iy, Iz=args.Iz,
+                          Jt=args.Jt, shear_factor=args.shear_factor)
+    model = beam_model(args.length, args.elements, sec, theory=args.theory,
+                       planar=args.planar, rotary=args.rotary, lumped=args.lumped)
+    return _write(model, args)
+
+
+def _solid_beam(args: argparse.Namespace) -> int:
+    from ..errors import NeweulError
+    from ..fem.solid import SolidMaterial, solid_box
+
+    if args.stiffening and not str(args.output).lower().endswith(".npz"):
+        raise NeweulError(f"{args.output}: --stiffening writes .npz files only")
+    model = solid_box(args.size, args.divisions,
+                      SolidMaterial(E=args.E, nu=args.nu, rho=args.rho), element=args.element)
+    return _write(model, args)

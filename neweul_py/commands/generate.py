@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import FORMS
+from . import BACKENDS, FORMS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -21,6 +21,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="output directory (default: generated/)")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
+    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
+                        help="c: also compile the module (DIR/<name>_c.py, a C library via cffi)")
     parser.set_defaults(func=run)
 
 
@@ -28,6 +30,6 @@ def run(args: argparse.Namespace) -> int:
     """Generate and print the path written."""
     from ..api import generate  # the symbolic layers, only when generating
 
-    path = generate(args.file, args.out_dir, args.form)
+    path = generate(args.file, args.out_dir, args.form, args.backend)
     print(path)
     return 0

@@ -1,7 +1,7 @@
 """``neweul interpolate BODY1.npz BODY2.npz … --parameter NAME [--values V1,V2,…]
 [--interpolation linear|cubic] [--basis auto|full|kept] [--row-scaling kind|none]
 [--pressure-weight W] [--weights W1,…] [--store-bases] -o pbody.npz``: local reduced bodies →
-parametric body (``reference/equations.md`` §4)."""
+parametric body (``docs/equations.md`` §4)."""
 
 from __future__ import annotations
 

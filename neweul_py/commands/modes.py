@@ -1,4 +1,4 @@
-"""``neweul modes FILE [--at equilibrium|initial] [-o modes.csv|.npz]``."""
+"""``neweul modes FILE [--at equilibrium|initial] [--undamped] [-o modes.csv|.npz]``."""
 
 from __future__ import annotations
 
@@ -20,6 +20,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common.add_output_argument(parser, "FILE", ".csv, one row per oscillating mode "
                                "(frequency_hz, damping_ratio, …), or .npz with all eigenvalues "
                                "and shapes")
+    parser.add_argument("--undamped", action="store_true",
+                        help="eigenvalues of the undamped pencil det(Q - w^2 M0) = 0 (damping "
+                        "and gyroscopic terms dropped): the undamped natural frequencies")
     parser.set_defaults(func=run)
 
 
@@ -30,11 +33,15 @@ def run(args: argparse.Namespace) -> int:
 
     common.check_files(args.output, SUFFIXES, "modes")
     module = common.load_model(args)
-    res = modes(linearize(module, **common.linearize_kwargs(module, args)))
+    res = modes(linearize(module, **common.linearize_kwargs(module, args)),
+                undamped=args.undamped)
     print(res.table())
     warning = res.stability_warning()
     if warning:
         print(f"neweul modes: warning: {warning}", file=sys.stderr)
+    note = res.overdamped_note()
+    if note:
+        print(f"neweul modes: note: {note}", file=sys.stderr)
     if args.output:
         print(f"modes: {res.save(args.output)}")
     return 0

@@ -1,5 +1,7 @@
 """``neweul reduce MODEL --method modal|krylov [--two-sided|--one-sided] --modes N |
---band FMIN:FMAX [--static-correction] [--points F,…] [--invariants] -o body.npz``."""
+--band FMIN:FMAX [--static-correction] [--points F,…] [--invariants] -o body.npz``;
+``--method craig-bampton --interface NODESET --modes N``, ``--interface-frame ID=NODESET``,
+``--stiffening``."""
 
 from __future__ import annotations
 
@@ -36,7 +38,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "reduced body (.npz, see docs/reduced-body-format.md) atomically.",
     )
     parser.add_argument("model", metavar="MODEL", help="FE model: manifest .json or .npz")
-    parser.add_argument("--method", choices=("modal", "krylov"), default="modal")
+    parser.add_argument("--method", choices=("modal", "krylov", "craig-bampton"),
+                        default="modal")
     side = parser.add_mutually_exclusive_group()
     side.add_argument("--two-sided", dest="two_sided", action="store_true", default=True,
                       help="Petrov–Galerkin projection with left eigen/Krylov vectors (default)")
@@ -71,9 +74,90 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--invariants", action="store_true",
                         help="attach the floating-frame invariants (node frames: the kept "
                         "nodes), so that the file can be an elastic body in a description")
+    _register_interface_options(parser)
     shared.add_output_argument(parser, "BODY.npz", "reduced-body file to write",
                                required=True)
     parser.set_defaults(func=run)
+
+
+def _frame_spec(text: str) -> tuple[int, str]:
+    name, sep, nodes = text.partition("=")
+    try:
+        if not sep or not nodes.strip():
+            raise ValueError
+        return int(name), nodes
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected ID=NODESET (a new integer node id), got "
+                                         f"{text!r}") from None
+
+
+def _register_interface_options(parser: argparse.ArgumentParser) -> None:
+    """Options of Craig–Bampton reduction, averaged interface frames and stiffening."""
+    parser.add_argument("--interface", metavar="NODESET",
+                        help="interface nodes of --method craig-bampton: ids, ranges A:B and "
+                        "node-set names of the FE file, comma-separated (e.g. root or 1:12); "
+                        "with --skip-rigid the constraint modes leave out the interface's "
+                        "rigid motions (floating frame)")
+    parser.add_argument("--clamped-interface", action="store_true",
+                        help="craig-bampton: fixed-interface modes only, no constraint modes "
+                        "(the interface clamped to the floating frame)")
+    parser.add_argument("--interface-frame", action="append", type=_frame_spec, default=[],
+                        metavar="ID=NODESET",
+                        help="add an averaged (RBE3-like) node frame with the new node id ID "
+                        "following the mean motion of NODESET (repeatable; implies "
+                        "--invariants)")
+    parser.add_argument("--stiffening", action="store_true",
+                        help="attach the geometric stiffness K_G,c stored in the FE file "
+                        "(KG.<case> group) to the invariants (implies --invariants)")
+
+
+def _check_interface_options(args: argparse.Namespace) -> None:
+    """Craig–Bampton needs --modes and --interface; --interface needs Craig–Bampton."""
+    if args.method != "craig-bampton":
+        wrong = (["--interface"] if args.interface is not None else []) + (
+            ["--clamped-interface"] if args.clamped_interface else [])
+        if wrong:
+            raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method "
+                              "craig-bampton only")
+        return
+    if args.interface is None or args.modes is None:
+        raise NeweulError("--method craig-bampton needs --interface NODESET and --modes N")
+    wrong = [o for o in ("--band", "--points", "--order", "--shift")
+             if getattr(args, o[2:]) is not None] + (["--static-correction"]
+                                                     if args.static_correction else [])
+    if wrong:
+        raise NeweulError(f"{' and '.join(wrong)} {_verb(wrong)} to --method modal or krylov, "
+                          "not --method craig-bampton (which takes --interface and --modes)")
+
+
+def _reduce_craig_bampton(args: argparse.Namespace, fe, common: dict):
+    from ..elastic.craig_bampton import reduce_craig_bampton
+    from ..elastic.fe_io import read_node_sets
+    from ..elastic.interface import parse_node_set
+
+    nodes = parse_node_set(args.interface, fe, read_node_sets(args.model), "interface")
+    common = {k: v for k, v in common.items() if k != "static_correction"}
+    return reduce_craig_bampton(fe, nodes, args.modes, skip_rigid=args.skip_rigid,
+                                constraint_modes=not args.clamped_interface, **common)
+
+
+def _interface_invariants(args: argparse.Namespace, body, fe):
+    """Invariants with stiffening (``--stiffening``) and averaged frames (``--interface-frame``)."""
+    from ..elastic.fe_io import read_node_sets
+    from ..elastic.interface import add_interface_frames, parse_node_set
+    from ..elastic.invariants import attach_invariants
+    from ..elastic.stiffening import attach_stiffening, load_stiffening
+
+    if args.stiffening:
+        body = attach_stiffening(body, fe, load_stiffening(args.model, fe), args.model)
+    else:
+        body = attach_invariants(body, fe)
+    if args.interface_frame:
+        named = read_node_sets(args.model)
+        frames = {fid: parse_node_set(spec, fe, named, f"interface_frames.{fid}")
+                  for fid, spec in args.interface_frame}
+        body = add_interface_frames(body, fe, frames)
+    return body
 
 
 def _progress(msg: str) -> None:
@@ -89,6 +173,9 @@ def _check_options(args: argparse.Namespace) -> None:
     def given(*options: str) -> list[str]:
         return [o for o in options if getattr(args, o[2:].replace("-", "_")) is not None]
 
+    _check_interface_options(args)
+    if args.method == "craig-bampton":
+        return
     if args.method == "modal":
         if args.modes is None and args.band is None:
             raise NeweulError("--method modal needs --modes N or --band FMIN:FMAX")
@@ -132,12 +219,13 @@ def run(args: argparse.Namespace) -> int:
     """Read, reduce, write; print a summary (order, frequencies, stability)."""
     from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
     from ..elastic.eigen import frequencies_hz
-    from ..elastic.invariants import attach_invariants
 
     if args.points is not None:
         args.points = args.points.values()
     shared.check_files(args.output, (".npz",), "reduced bodies")
     _check_options(args)
+    if args.stiffening or args.interface_frame:
+        args.invariants = True
     t0 = time.perf_counter()
     _progress(f"reading {args.model}")
     fe = read_fe_model(args.model)
@@ -145,7 +233,9 @@ def run(args: argparse.Namespace) -> int:
     common = dict(two_sided=args.two_sided, static_correction=args.static_correction,
                   keep_nodes=args.keep_nodes,
                   store_bases=args.store_bases or args.invariants, progress=_progress)
-    if args.method == "modal":
+    if args.method == "craig-bampton":
+        body = _reduce_craig_bampton(args, fe, common)
+    elif args.method == "modal":
         body = reduce_modal(fe, modes=args.modes, band=args.band, shift=args.shift,
                             skip_rigid=args.skip_rigid, **common)
     else:
@@ -159,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
         body = reduce_krylov(fe, points=points, order=order, **common)
     if args.invariants:
         _progress("computing the floating-frame invariants")
-        body = attach_invariants(body, fe)
+        body = _interface_invariants(args, body, fe)
         _check_body_mass(body, args.output)
         if not args.store_bases:
             body = body.with_(V=None, W=None, full_dof_kind=None)

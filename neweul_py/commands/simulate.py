@@ -7,7 +7,8 @@ import argparse
 import functools
 from typing import Any
 
-from . import CAPS, FORMS, SIMULATE_METHODS, count, number
+from ..progress import QUIET_HELP, Tracker
+from . import BACKENDS, CAPS, FORMS, SIMULATE_METHODS, count, number
 from . import _analysis_common as common
 
 #: Largest number of integrator steps a run may need (``--max-steps``, docs/limits.md).
@@ -46,6 +47,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common.add_parameter_argument(parser)
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
+    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
+                        help="module of a description: NumPy or compiled C (cffi)")
     common.add_independent_argument(
         parser, "constrained models: coordinates whose initial positions and velocities are "
         "kept exactly (default: the first ones in COORDINATES order the constraints leave free)")
@@ -53,6 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                ".npz")
     parser.add_argument("--plot", metavar="FIG",
                         help="plot coordinates and outputs (.png/.pdf/.svg; matplotlib)")
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
 
 
@@ -64,9 +68,10 @@ def run(args: argparse.Namespace) -> int:
     common.check_files(args.output, SUFFIXES, "results", args.plot)
     module = common.load_model(args)
     check_step_count(module, args)
-    result = simulate(module, args.t_end, method=args.method, rtol=args.rtol, atol=args.atol,
-                      n_out=args.n_out, p=dict(args.param) or None,
-                      independent=args.independent)
+    with Tracker("simulate", unit="s", quiet=args.quiet) as track:  # a bar on a terminal
+        result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
+                          atol=args.atol, n_out=args.n_out, p=dict(args.param) or None,
+                          independent=args.independent, progress=track)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:

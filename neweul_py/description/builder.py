@@ -31,6 +31,7 @@ description file layout (``bodies.malleus.inertia[1][2]``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -360,7 +361,7 @@ class SystemBuilder:
         self._constraints: list[_Make] = []
         self._constraint_names: set[str] = set()
         self._gravity: _Make | None = None
-        self._elastic: list[ElasticBody] = []
+        self._elastic: list[Callable[[_Names], ElasticBody]] = []
 
     # -------------------------------------------------------------- helpers
     def _declare(self, group: str, kind: str, name: object) -> str:
@@ -493,6 +494,7 @@ class SystemBuilder:
         body: ElasticBody,
         initial: Sequence[object] | None = None,
         velocity: Sequence[object] | None = None,
+        schedule: object = None,
     ) -> None:
         """Add an elastic body (equations.md §2): its coordinates ``NAME_q1 …``, the dependent
         coordinates of its node frames (``NAME_label_ux`` …, eliminated in the generated
@@ -505,6 +507,9 @@ class SystemBuilder:
         initial, velocity
             Initial values and velocities of the elastic coordinates, one number per mode
             (``None``: zeros).
+        schedule
+            The scheduling variable of a parametric body: an expression of parameters and
+            ``t`` (key path ``elastic_bodies.NAME.schedule``).
 
         Raises
         ------
@@ -535,7 +540,11 @@ class SystemBuilder:
                                  f"{_KIND_WORDS[self._kinds[frame.name]]}", path)
             self._kinds[frame.name] = "frame"
             self._frames.append(lambda n, frame=frame: frame)
-        self._elastic.append(body)
+        if schedule is None:
+            self._elastic.append(lambda n, body=body: body)
+        else:
+            self._elastic.append(lambda n, body=body: dataclasses.replace(
+                body, schedule=n.expr(schedule, "excitation", f"{path}.schedule")))
 
     def body(
         self,
@@ -991,7 +1000,7 @@ class SystemBuilder:
             gravity=gravity,
             description=self._description,
             constraints=constraints,
-            elastic_bodies=tuple(self._elastic),
+            elastic_bodies=tuple(make(n) for make in self._elastic),
         )
 
 

@@ -9,6 +9,9 @@ elastic_bodies:
     modes: 4                   # optional: the first 4 modes, or a list of mode numbers
     initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
     velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
+    inertia: consistent        # optional: consistent (default, needs J.m2) | sid
+    schedule: dp               # parametric bodies (neweul interpolate): the scheduling
+                               # variable, an expression of parameters and t
 ```
 
 Unlisted modes start at 0. The values go into the generated module's ``INITIAL_STATE``.
@@ -23,13 +26,18 @@ from __future__ import annotations
 
 import contextlib
 import os
+import warnings
 from collections.abc import Callable, Iterator
 from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
+import sympy as sp
+
 from ..errors import DataError, ModelError
+from ..ffrf.schema import INERTIA_FORMS
 from ..model import ElasticBody
+from .schema import Schema, section_items
 
 __all__ = ["base_directory", "load_elastic_bodies"]
 
@@ -54,11 +62,9 @@ def base_directory(filename: str, reader: ElasticReader | None = None) -> Iterat
 
 def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
     """Section loader: every entry becomes an :class:`ElasticBody` on the builder ``b``."""
-    from .loader import Schema, _items  # local: loader imports this module
-
     schema = Schema(required=("frame", "data"),
-                    optional=("nodes", "modes", "initial", "velocity"))
-    for name, spec in _items(section, path, "elastic body definitions"):
+                    optional=("nodes", "modes", "initial", "velocity", "inertia", "schedule"))
+    for name, spec in section_items(section, path, "elastic body definitions"):
         item = f"{path}.{name}"
         spec = schema.check(spec, item, "an elastic body")
         frame = spec["frame"]
@@ -95,10 +101,55 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
         except DataError as exc:
             key = f"{item}.modes" if exc.item == "modes" else f"{item}.data"
             raise ModelError(f"elastic data: {exc}", key) from None
-        body = ElasticBody(str(name), frame, data, tuple(pairs), os.fspath(file))
+        samples, extra = _samples(data, spec.get("schedule"), file, item)
+        first = samples[0] if samples else data
+        inertia = _inertia(spec.get("inertia"), first, file, f"{item}.inertia")
+        body = ElasticBody(str(name), frame, first, tuple(pairs), os.fspath(file), inertia,
+                           **extra)
+        schedule = spec.get("schedule")
         start = {key: _per_mode(spec.get(key), body, f"{item}.{key}")
                  for key in ("initial", "velocity")}
-        b.elastic_body(body, start["initial"], start["velocity"])
+        b.elastic_body(body, start["initial"], start["velocity"], schedule)
+
+
+def _samples(data: dict, schedule: Any, file: Path, item: str) -> tuple[list[dict], dict]:
+    """The per-sample flat invariants of a parametric body file (equations.md §2.3) and the
+    ElasticBody keywords; a schedule without parametric data, or parametric data without
+    a schedule, is an error naming the key."""
+    if "parametric.values" not in data:
+        if schedule is not None:
+            raise ModelError(f"{file} is not a parametric body (neweul interpolate makes one); "
+                             "a schedule needs one", f"{item}.schedule")
+        return [], {}
+    if schedule is None:
+        raise ModelError(f"{file} is a parametric body: give its scheduling variable as "
+                         "'schedule: EXPR' (parameters and t)", f"{item}.schedule")
+    values = [float(v) for v in data["parametric.values"]]
+    samples = [{k.split("/", 1)[1]: v for k, v in data.items() if k.startswith(f"sample{i}/")}
+               for i in range(len(values))]
+    extra = {"samples": tuple(samples), "sample_values": tuple(values),
+             "interpolation": str(data["parametric.interpolation"]),
+             "schedule": sp.Integer(0)}          # the builder parses the expression
+    return samples, extra
+
+
+def _inertia(value: Any, data: dict, file: Path, path: str) -> str:
+    """The inertia form of a body (``consistent`` by default): a body whose data lack the
+    second-order inertia ``J.m2`` (SID files) falls back to the SID truncation with one
+    warning, or is refused when ``inertia: consistent`` is asked for explicitly."""
+    if value is not None and value not in INERTIA_FORMS:
+        raise ModelError(f"inertia must be one of {', '.join(INERTIA_FORMS)}, got {value!r}",
+                         path)
+    if value == "sid" or "J.m2" in data:
+        return value or "consistent"
+    if value == "consistent":
+        raise ModelError(f"{file} lacks the second-order inertia terms J.m2 that the "
+                         "consistent form needs (SID data hold none): recompute the "
+                         "invariants from the FE model or use 'inertia: sid'", path)
+    warnings.warn(f"{file}: no second-order inertia terms (J.m2); the body uses the SID "
+                  "truncation (J linear in q, Gr constant), which is not energy-consistent "
+                  f"(set {path}: sid to silence this)", stacklevel=2)
+    return "sid"
 
 
 def _per_mode(value: Any, body: ElasticBody, path: str) -> list[Any] | None:

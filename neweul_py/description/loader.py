@@ -18,6 +18,7 @@ from ..errors import DescriptionError, ModelError
 from ..model import INERTIAL, System
 from .builder import SystemBuilder, constant_number
 from .elastic import base_directory, load_elastic_bodies
+from .schema import Schema, section_items
 from .yaml_tree import YamlTree, read_yaml
 
 __all__ = [
@@ -36,61 +37,12 @@ def description_hash(text: bytes | str) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-# ----------------------------------------------------------------------------- schema
-@dataclass(frozen=True)
-class Schema:
-    """The keys a mapping may have."""
-
-    required: tuple[str, ...] = ()
-    optional: tuple[str, ...] = ()
-
-    @property
-    def keys(self) -> tuple[str, ...]:
-        return self.required + self.optional
-
-    def check(self, value: object, path: str, what: str) -> dict[str, Any]:
-        """Return ``value`` as a dict after checking its keys, else raise ModelError."""
-        if value is None:
-            value = {}
-        if not isinstance(value, dict):
-            raise ModelError(
-                f"{what} must be a mapping with keys {', '.join(self.keys)}; got "
-                f"{type(value).__name__} {value!r}",
-                path,
-            )
-        for key in value:
-            if key not in self.keys:
-                raise ModelError(
-                    f"unknown key {key!r} in {what}; valid keys are: {', '.join(self.keys)}",
-                    f"{path}.{key}" if path else key,
-                )
-        missing = [k for k in self.required if k not in value]
-        if missing:
-            raise ModelError(
-                f"{what} is missing the key{'s' if len(missing) > 1 else ''} "
-                f"{', '.join(repr(k) for k in missing)}",
-                path,
-            )
-        return value
-
-
-def _items(value: object, path: str, what: str) -> list[tuple[str, Any]]:
-    """The entries of a section mapping (``None``, an empty section, has none)."""
-    if value is None:
-        return []
-    if not isinstance(value, dict):
-        raise ModelError(
-            f"{path} must be a mapping of {what}, got {type(value).__name__} {value!r}", path
-        )
-    return list(value.items())
-
-
 # ----------------------------------------------------------------------------- sections
 _Loader = Callable[[SystemBuilder, Any, str], None]
 
 
 def _parameters(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, default in _items(section, path, "name: default value"):
+    for name, default in section_items(section, path, "name: default value"):
         b.parameter(name, default)
 
 
@@ -98,7 +50,7 @@ COORDINATE = Schema(optional=("initial", "velocity"))
 
 
 def _coordinates(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, spec in _items(section, path, "name: initial value"):
+    for name, spec in section_items(section, path, "name: initial value"):
         item = f"{path}.{name}"
         if isinstance(spec, dict):
             spec = COORDINATE.check(spec, item, "a coordinate")
@@ -108,7 +60,7 @@ def _coordinates(b: SystemBuilder, section: Any, path: str) -> None:
 
 
 def _inputs(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, default in _items(section, path, "name: expression of t and parameters"):
+    for name, default in section_items(section, path, "name: expression of t and parameters"):
         if default is None:
             raise ModelError("an input needs a default excitation (e.g. 0)", f"{path}.{name}")
         b.input(name, default)
@@ -122,7 +74,7 @@ FRAME = Schema(optional=("parent", "translation", "rotation"))
 
 
 def _frames(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, spec in _items(section, path, "frame definitions"):
+    for name, spec in section_items(section, path, "frame definitions"):
         spec = FRAME.check(spec, f"{path}.{name}", "a frame")
         b.frame(name, spec.get("parent", INERTIAL), spec.get("translation"), spec.get("rotation"))
 
@@ -131,7 +83,7 @@ BODY = Schema(required=("frame", "mass"), optional=("center_of_mass", "inertia")
 
 
 def _bodies(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, spec in _items(section, path, "body definitions"):
+    for name, spec in section_items(section, path, "body definitions"):
         spec = BODY.check(spec, f"{path}.{name}", "a body")
         b.body(name, spec["frame"], spec["mass"], spec.get("center_of_mass"), spec.get("inertia"))
 
@@ -220,7 +172,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
 
 
 def _forces(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, spec in _items(section, path, "force definitions"):
+    for name, spec in section_items(section, path, "force definitions"):
         item = f"{path}.{name}"
         if not isinstance(spec, dict) or "type" not in spec:
             raise ModelError(
@@ -241,7 +193,7 @@ FORCE_OUTPUT = Schema(required=("force",), optional=("component",))
 
 
 def _outputs(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, spec in _items(section, path, "output definitions"):
+    for name, spec in section_items(section, path, "output definitions"):
         item = f"{path}.{name}"
         if not isinstance(spec, dict):
             b.output(name, spec)
@@ -272,7 +224,7 @@ COINCIDE = Schema(required=("coincide",), optional=("points", "components", "in"
 
 
 def _constraints(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, spec in _items(section, path, "constraint definitions"):
+    for name, spec in section_items(section, path, "constraint definitions"):
         item = f"{path}.{name}"
         if isinstance(spec, dict):
             spec = COINCIDE.check(spec, item, "a coincidence constraint")

@@ -3,15 +3,18 @@
 NumPy/SciPy only; never imports the symbolic layers.
 
 * :class:`FEModel`, :func:`read_fe_model`, :func:`write_fe_model` – FE data and files;
-* :func:`reduce_modal`, :func:`reduce_krylov` – reductors (functions model → reduced model),
-  sharing :func:`project`;
+* :func:`reduce_modal`, :func:`reduce_krylov`, :func:`reduce_craig_bampton` – reductors
+  (functions model → reduced model), sharing :func:`project`;
+* :mod:`~neweul_py.elastic.interface` – node sets and averaged (RBE3-like) interface frames;
+  :mod:`~neweul_py.elastic.stiffening` – geometric stiffness from FE files, spin stiffness;
 * :class:`ReducedBody` – the reduced body and its file format (``docs/reduced-body-format.md``);
 * :func:`interpolate`, :class:`ParametricBody` – parametric reduction by matrix interpolation
-  of local reduced bodies (``reference/equations.md`` §4);
+  of local reduced bodies (``docs/equations.md`` §4);
 * :mod:`~neweul_py.elastic.quality` – FRFs, errors, eigenvalue comparison, stability.
 """
 
-from .fe_io import read_fe_model, write_fe_model
+from .craig_bampton import reduce_craig_bampton
+from .fe_io import read_fe_model, read_node_sets, read_stiffening, write_fe_model
 from .fe_model import DOF_KINDS, FE_KINDS, FEModel
 from .interpolation import (
     ParametricBody,
@@ -53,6 +56,9 @@ __all__ = [
     "max_relative_error",
     "project",
     "read_fe_model",
+    "read_node_sets",
+    "read_stiffening",
+    "reduce_craig_bampton",
     "reduce_krylov",
     "reduce_modal",
     "relative_error",

@@ -5,7 +5,7 @@
 :class:`~scipy.sparse.linalg.LinearOperator`; ``eigs(K, M=M, sigma=…)`` is *not* used since it
 assumes a symmetric ``M``). Left eigenvectors ``(K − λM)ᵀ w = 0`` come from the transposed
 operator ``(K − σM)⁻ᵀ Mᵀ`` with the *same* sparse LU, or — for u–p coupled models of Eq. (2) —
-from the right ones for free: ``w = [ρλu; p]`` (``reference/equations.md`` §3). ``λ = 0`` modes
+from the right ones for free: ``w = [ρλu; p]`` (``docs/equations.md`` §3). ``λ = 0`` modes
 (closed-cavity constant pressure, rigid-body modes) get their left vectors from the transposed
 problem by subspace iteration. Symmetric pencils (``M``, ``K`` symmetric: structural and
 acoustic models) take the left vectors equal to the right ones (:func:`symmetric_pencil`).
@@ -26,7 +26,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from ..errors import DataError, SolverError
-from .fe_model import SYMMETRY_RTOL, FEModel, _asymmetry
+from .fe_model import SYMMETRY_RTOL, FEModel, asymmetry
 
 __all__ = [
     "PERMC_SPEC",
@@ -330,7 +330,7 @@ def symmetric_pencil(fe: FEModel) -> bool:
     """
     if fe.symmetric.get("M") and fe.symmetric.get("K"):
         return True
-    return _asymmetry(fe.M) <= SYMMETRY_RTOL and _asymmetry(fe.K) <= SYMMETRY_RTOL
+    return asymmetry(fe.M) <= SYMMETRY_RTOL and asymmetry(fe.K) <= SYMMETRY_RTOL
 
 
 def _match_subspace(fe: FEModel, b: EigenBlock, cands: list[EigenBlock]) -> EigenBlock:

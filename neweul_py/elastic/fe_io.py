@@ -24,6 +24,19 @@ The ``.npz`` form holds the CSR arrays ``<X>_data``, ``<X>_indices``, ``<X>_indp
 ``meta`` (UTF-8 JSON as uint8: format, version, name, kind, density, symmetric, inputs,
 outputs). It is read with ``allow_pickle=False``.
 
+Optional groups (read by :func:`read_node_sets` and :func:`read_stiffening`; the FE model
+itself ignores them):
+
+* **node sets** – ``"node_sets": {"root": [1, 2, 3], …}`` in the manifest or in the ``.npz``
+  ``meta`` JSON: named lists of node ids (interfaces, averaged frames);
+* **stiffening** – the geometric stiffness ``K_G,c`` (n×n) of the unit inertia load cases
+  ``c`` of :data:`~neweul_py.elastic.invariants.LOAD_CASES` (``ax … alphaz, wxx … wxz``),
+  for models whose element formulation is not known here: in the manifest
+  ``"stiffening": {"wzz": "beam.KG.wzz.mtx", …}`` (Matrix Market / Harwell–Boeing files,
+  relative to the manifest), in the ``.npz`` the CSR arrays ``KG.<c>_data``,
+  ``KG.<c>_indices``, ``KG.<c>_indptr``, ``KG.<c>_shape``. Missing cases have no stiffening.
+  ``write_fe_model(…, stiffening=…)`` writes them to ``.npz`` files.
+
 Writers are atomic: a single file is written to a temp file and moved with ``os.replace``. A
 manifest's companion files carry a content hash in their names (``<stem>.<hash>.M.mtx``,
 ``<stem>.<hash>.nodes.csv``, …); they are written and moved in first, the manifest that names
@@ -50,8 +63,10 @@ from ..errors import DataError
 from ..files import check_regular_file, read_checked
 from ._io import atomic_write, json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .fe_model import FEModel
+from .invariants import LOAD_CASES
 
-__all__ = ["FE_FORMAT", "FE_VERSION", "read_fe_model", "write_fe_model"]
+__all__ = ["FE_FORMAT", "FE_VERSION", "read_fe_model", "read_node_sets", "read_stiffening",
+           "write_fe_model"]
 
 FE_FORMAT = "neweul-fe"
 FE_VERSION = 1
@@ -83,7 +98,9 @@ def read_fe_model(path: str | os.PathLike) -> FEModel:
     return _read_manifest(path)
 
 
-def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "mtx") -> None:
+def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "mtx", *,
+                   node_sets: dict[str, Any] | None = None,
+                   stiffening: dict[str, Any] | None = None) -> None:
     """Write ``fe`` as a manifest (``.json``, with ``matrix_format`` files) or ``.npz``.
 
     Parameters
@@ -98,12 +115,16 @@ def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "m
         is in place (files of other names are never touched).
     matrix_format
         ``"mtx"`` (Matrix Market) or ``"hb"`` (Harwell–Boeing, written as ``.rua``).
+    node_sets, stiffening
+        Optional groups (module docstring): name → node ids, load case → n×n ``K_G,c``
+        (stiffening: ``.npz`` only).
     """
     path = Path(path)
+    extra = _optional_groups(fe, node_sets, stiffening, path)
     if path.suffix.lower() == ".npz":
-        _write_npz(fe, path)
+        _write_npz(fe, path, extra)
     else:
-        _write_manifest(fe, path, matrix_format)
+        _write_manifest(fe, path, matrix_format, extra)
 
 
 # ---------------------------------------------------------------------- manifest
@@ -372,7 +393,8 @@ def _fsync_and_hash(path: Path, h) -> None:
         os.fsync(fh.fileno())
 
 
-def _write_manifest(fe: FEModel, path: Path, matrix_format: str) -> None:
+def _write_manifest(fe: FEModel, path: Path, matrix_format: str,
+                    extra: dict[str, Any] | None = None) -> None:
     """Write the companion files, then the manifest; a reader always sees a consistent set.
 
     The companions get names with a content hash (``<stem>.<hash>.M.mtx``, …): they are
@@ -390,6 +412,7 @@ def _write_manifest(fe: FEModel, path: Path, matrix_format: str) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     old = _old_companions(path)
     meta = _meta(fe)
+    meta.update((extra or {}).get("meta", {}))
     keys = ["M", "K"] + (["D"] if fe.D is not None else [])
     roles = {key: f"{key}{ext}" for key in keys}
     roles.update(nodes="nodes.csv", dofs="dofs.csv")
@@ -454,8 +477,11 @@ def _join(cols: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------- npz
-def _write_npz(fe: FEModel, path: Path) -> None:
-    arrays: dict[str, np.ndarray] = {"meta": json_to_uint8(_meta(fe))}
+def _write_npz(fe: FEModel, path: Path, extra: dict[str, Any] | None = None) -> None:
+    extra = extra or {}
+    arrays: dict[str, np.ndarray] = {"meta": json_to_uint8({**_meta(fe),
+                                                            **extra.get("meta", {})})}
+    arrays.update(extra.get("arrays", {}))
     for key in ("M", "K", "D"):
         a = getattr(fe, key)
         if a is None:
@@ -497,3 +523,126 @@ def _read_npz(path: Path) -> FEModel:
             raise DataError("missing array", file, key)
     return _build(file, meta, matrices, data["nodes"], data["dof_node"], data["dof_kind"])
 
+
+
+# ------------------------------------------------ optional groups: node sets, stiffening
+def _optional_groups(fe: FEModel, node_sets, stiffening, path: Path) -> dict[str, Any]:
+    """Meta entries and arrays of the optional groups (validated before anything is written)."""
+    out: dict[str, Any] = {"meta": {}, "arrays": {}}
+    if node_sets:
+        ids = set(fe.nodes[:, 0].astype(np.int64).tolist())
+        sets = {}
+        for name, members in node_sets.items():
+            members = [int(i) for i in np.asarray(members).reshape(-1)]
+            if not members or not set(members) <= ids:
+                raise DataError("node set is empty or names unknown node ids", str(path),
+                                f"node_sets.{name}")
+            sets[str(name)] = members
+        out["meta"]["node_sets"] = sets
+    if stiffening:
+        if path.suffix.lower() != ".npz":
+            raise DataError("stiffening matrices are written to .npz files only", str(path),
+                            "stiffening")
+        for case, a in stiffening.items():
+            if case not in LOAD_CASES:
+                raise DataError(f"unknown load case {case!r}", str(path), f"stiffening.{case}")
+            a = sps.csr_matrix(a, dtype=np.float64)
+            if a.shape != (fe.n_dofs, fe.n_dofs):
+                raise DataError(f"shape {a.shape}, the model has {fe.n_dofs} DOFs", str(path),
+                                f"KG.{case}")
+            out["arrays"].update({f"KG.{case}_data": a.data,
+                                  f"KG.{case}_indices": a.indices.astype(np.int64),
+                                  f"KG.{case}_indptr": a.indptr.astype(np.int64),
+                                  f"KG.{case}_shape": np.asarray(a.shape, dtype=np.int64)})
+    return out
+
+
+def _meta_of(path: Path) -> tuple[dict, dict[str, np.ndarray] | None]:
+    """The manifest JSON, or the ``.npz`` meta JSON and its arrays."""
+    file = str(path)
+    if path.suffix.lower() == ".npz":
+        data = load_npz(path)
+        if "meta" not in data:
+            raise DataError("missing the \"meta\" array", file, "meta")
+        meta = json_from_uint8(data["meta"], file)
+    else:
+        data = None
+        try:
+            meta = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise DataError("file not found", file) from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise DataError(f"cannot read ({exc})", file, "manifest") from None
+    if not isinstance(meta, dict):
+        raise DataError("top level must be a JSON object", file, "manifest")
+    return meta, data
+
+
+def read_node_sets(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The named node sets of an FE file (``{}`` when it has none).
+
+    Raises
+    ------
+    DataError
+        ``node_sets`` is not an object of integer lists (item ``node_sets.<name>``).
+    """
+    path = Path(path)
+    meta, _ = _meta_of(path)
+    sets = meta.get("node_sets", {})
+    if not isinstance(sets, dict):
+        raise DataError("must be an object of node-id lists", str(path), "node_sets")
+    out = {}
+    for name, members in sets.items():
+        if not (isinstance(members, list)
+                and all(isinstance(i, int) and not isinstance(i, bool) for i in members)):
+            raise DataError("must be a list of integer node ids", str(path),
+                            f"node_sets.{name}")
+        out[str(name)] = np.asarray(members, dtype=np.int64)
+    return out
+
+
+def read_stiffening(path: str | os.PathLike) -> dict[str, sps.csr_matrix]:
+    """The geometric-stiffness group ``K_G,c`` of an FE file (``{}`` when it has none).
+
+    Raises
+    ------
+    DataError
+        Unknown load cases, unreadable or non-square matrices (item ``KG.<case>``).
+    """
+    path = Path(path)
+    file = str(path)
+    meta, data = _meta_of(path)
+    out: dict[str, sps.csr_matrix] = {}
+    if data is not None:
+        cases = sorted({k[3:].rsplit("_", 1)[0] for k in data if k.startswith("KG.")})
+        for case in cases:
+            item = f"KG.{case}"
+            if case not in LOAD_CASES:
+                raise DataError(f"unknown load case {case!r} (one of "
+                                f"{', '.join(LOAD_CASES)})", file, item)
+            parts = [f"{item}_{s}" for s in ("data", "indices", "indptr", "shape")]
+            if not all(p in data for p in parts):
+                raise DataError(f"needs arrays {', '.join(parts)}", file, item)
+            d, ind, ptr, shape = (data[p] for p in parts)
+            try:
+                a = sps.csr_matrix((d.astype(np.float64), ind, ptr),
+                                   shape=tuple(int(s) for s in shape))
+                a.check_format(full_check=True)
+            except (ValueError, TypeError, IndexError) as exc:
+                raise DataError(f"inconsistent CSR arrays ({exc})", file, item) from None
+            out[case] = a
+    else:
+        group = meta.get("stiffening", {})
+        if not isinstance(group, dict):
+            raise DataError("must be an object: load case -> matrix file", file, "stiffening")
+        for case, name in group.items():
+            if case not in LOAD_CASES:
+                raise DataError(f"unknown load case {case!r} (one of "
+                                f"{', '.join(LOAD_CASES)})", file, f"KG.{case}")
+            out[case] = _read_matrix(path.parent, name, f"KG.{case}", file)
+    for case, a in out.items():
+        if a.shape[0] != a.shape[1]:
+            raise DataError(f"matrix must be square, got shape {a.shape}", file, f"KG.{case}")
+        if not np.all(np.isfinite(a.data)):
+            raise DataError("matrix has NaN/Inf entries", file, f"KG.{case}")
+    return out

@@ -5,7 +5,7 @@ Structure kinds (``kind``):
 * ``"structural"`` – displacement/rotation DOFs only;
 * ``"acoustic"`` – pressure DOFs only;
 * ``"up-coupled"`` – pressure-based u–p form of Eq. (2) of the seed paper
-  (``reference/equations.md`` §3),
+  (``docs/equations.md`` §3),
   ``[Ms 0; ρCᵀ Mf] ẍ + D ẋ + [Ks −C; 0 Kf] x = f`` with fluid density ``density`` (ρ),
   ``x = [u; p]`` (the u and p DOFs may be interleaved; the DOF map tells them apart).
 
@@ -49,7 +49,7 @@ def _is_real_number(x: object) -> bool:
             and np.ndim(x) == 0)
 
 
-def _asymmetry(a: sps.spmatrix) -> float:
+def asymmetry(a: sps.spmatrix) -> float:
     """``max|A − Aᵀ| / max|A|`` (0 for the zero matrix)."""
     scale = _max_abs(a)
     return _max_abs(a - a.T) / scale if scale > 0 else 0.0
@@ -247,9 +247,9 @@ class FEModel:
             sym[key] = bool(declared)
         for key, declared in sym.items():
             a = getattr(self, key)
-            if declared and a is not None and _asymmetry(a) > SYMMETRY_RTOL:
+            if declared and a is not None and asymmetry(a) > SYMMETRY_RTOL:
                 raise DataError(f"declared symmetric but max|A−Aᵀ|/max|A| = "
-                                f"{_asymmetry(a):.3g}", src, key)
+                                f"{asymmetry(a):.3g}", src, key)
         set_(self, "symmetric", sym)
 
     def _check_up_blocks(self, is_p: np.ndarray) -> None:
@@ -271,10 +271,10 @@ class FEModel:
                             f"declared density ρ = {rho}", src, "M")
         for key, a, idx in (("M", M, u), ("K", K, u), ("M", M, p), ("K", K, p)):
             block = a[idx][:, idx]
-            if _asymmetry(block) > SYMMETRY_RTOL:
+            if asymmetry(block) > SYMMETRY_RTOL:
                 part = "structure" if idx is u else "fluid"
                 raise DataError(f"up-coupled: the {part} block must be symmetric (Eq. (2)), "
-                                f"asymmetry {_asymmetry(block):.3g}", src, key)
+                                f"asymmetry {asymmetry(block):.3g}", src, key)
 
     # ------------------------------------------------------------------ derived data
     @property

@@ -1,4 +1,4 @@
-"""Parametric model order reduction by matrix interpolation (``reference/equations.md`` §4).
+"""Parametric model order reduction by matrix interpolation (``docs/equations.md`` §4).
 
 A parameter-dependent elastic body — in the seed paper the tympanic membrane, whose
 linearization depends on the static pressure difference — is represented by local reduced
@@ -95,10 +95,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, SolverError
+from ..progress import report
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
-from .reduced_body import ReducedBody, _json_normal
+from .reduced_body import ReducedBody, json_normal
 
 __all__ = [
     "BASES",
@@ -157,7 +158,7 @@ def _floats(a: Any, key: str, ndim: int) -> np.ndarray:
 class ParametricBody:
     """A parametric elastic body: local reduced models at samples, in common coordinates.
 
-    Built by :func:`interpolate` (``reference/equations.md`` §4); :meth:`at` gives the
+    Built by :func:`interpolate` (``docs/equations.md`` §4); :meth:`at` gives the
     :class:`~neweul_py.elastic.reduced_body.ReducedBody` at a parameter value. ``k`` =
     number of samples, ``r`` = order, ``nk`` = kept DOFs. All stacked arrays have the
     sample as their first axis.
@@ -329,7 +330,7 @@ class ParametricBody:
             if key == "sample_methods":
                 vals = tuple(str(v) for v in vals)
             else:
-                vals = tuple(_json_normal(dict(v), key) for v in vals)
+                vals = tuple(json_normal(dict(v), key) for v in vals)
             set_(self, key, vals)
         if self.invariants is not None:
             set_(self, "invariants", _check_stacked(self.invariants, k))
@@ -826,7 +827,7 @@ def interpolate(
 ) -> ParametricBody:
     """Bring local reduced models to common coordinates for matrix interpolation (§4).
 
-    Steps 1–4 and 6 of ``reference/equations.md`` §4 (Panzer et al. 2010)::
+    Steps 1–4 and 6 of ``docs/equations.md`` §4 (Panzer et al. 2010)::
 
         R   = first r left singular vectors of [w_1 Q_1 … w_k Q_k],  span Q_i = span S V_i
         T_i = Rᵀ S V_i,   L_i = (W_iᵀ S_W R)⁻¹   (Galerkin data W_i = V_i: L_i = T_i⁻ᵀ)
@@ -893,7 +894,7 @@ def interpolate(
 
     References
     ----------
-    ``reference/equations.md`` §4; H. Panzer, J. Mohring, R. Eid, B. Lohmann, "Parametric
+    ``docs/equations.md`` §4; H. Panzer, J. Mohring, R. Eid, B. Lohmann, "Parametric
     model order reduction by matrix interpolation", *at – Automatisierungstechnik* 58 (2010)
     475–484.
 
@@ -982,8 +983,8 @@ def interpolate(
         Tinv = _inverse(T, Qs[i], R, "T_i = Rᵀ S V_i", i, s[i], cond_max, min_cosine, 1)
         L = (_inverse(Ws[i].T @ R, _orth(Ws[i]), R, "W_iᵀ S_W R", i, s[i], cond_max,
                       min_cosine, 0) if two else Tinv.T)
-        _say(progress, f"sample {i + 1}/{k} ({parameter} = {s[i]:g}): cond T = "
-                       f"{np.linalg.cond(T):.3g}")
+        report(progress, f"sample {i + 1}/{k} ({parameter} = {s[i]:g}): cond T = "
+               f"{np.linalg.cond(T):.3g}", i + 1, k)
         out["T"].append(T)
         out["L"].append(L)
         for key in ("M", "D", "K"):

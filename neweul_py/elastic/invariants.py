@@ -1,4 +1,4 @@
-"""Floating-frame-of-reference invariants of an elastic body (``reference/equations.md`` §2).
+"""Floating-frame-of-reference invariants of an elastic body (``docs/equations.md`` §2).
 
 From an FE model (mass matrix ``M``, node coordinates, DOF map) and a right basis ``V``
 (displacements ``x = V q``) and left basis ``W`` (test functions; ``W = V`` for one-sided
@@ -87,6 +87,15 @@ import numpy as np
 import scipy.sparse as sps
 
 from ..errors import DataError
+from ..ffrf import (
+    FLAT_FORMAT,
+    TAYLOR_NAMES,
+    ffrf_body_mass,
+    ffrf_elastic_forces,
+    ffrf_mass_blocks,
+    ffrf_prepare,
+    ffrf_velocity_terms,
+)
 from .taylor import Taylor
 
 __all__ = [
@@ -108,8 +117,7 @@ LOAD_CASES = ("ax", "ay", "az", "alphax", "alphay", "alphaz",
               "wxx", "wyy", "wzz", "wxy", "wyz", "wxz")
 #: Index pairs (a, b) of the ω_q columns ``ωx², ωy², ωz², ωxωy, ωyωz, ωxωz``.
 OMEGA_PRODUCTS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
-FLAT_FORMAT = "neweul-invariants-1"
-_TAYLORS = ("md", "J", "Ct", "Cr", "Crv", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De")
+_TAYLORS = TAYLOR_NAMES
 
 _EPS = np.zeros((3, 3, 3))
 _EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
@@ -221,6 +229,10 @@ class Invariants:
         Names of the elastic coordinates.
     two_sided
         Whether ``W ≠ V`` (the SID writer refuses two-sided data).
+    J2
+        (nq, nq, 3, 3) second-order inertia ``C2[k, l, a, b] = ∫ (e_a × Φ_k)·(e_b × Φ_l) dm``
+        (V): ``J(q) += Σ q_k q_l C2[k, l]``, ``Gr_k(q) += 2 Σ_l q_l C2[l, k]``
+        (equations.md §2.1); ``None`` for data without it (SID files).
     """
 
     m: float
@@ -239,6 +251,7 @@ class Invariants:
     nodes: tuple[NodeFrame, ...] = ()
     names: tuple[str, ...] = ()
     two_sided: bool = False
+    J2: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -258,6 +271,12 @@ class Invariants:
                                 item=name)
         set_(self, "m", float(self.m))
         set_(self, "nodes", tuple(self.nodes))
+        if self.J2 is not None:
+            j2 = np.array(self.J2, dtype=np.float64)
+            if j2.shape != (nq, nq, 3, 3):
+                raise DataError(f"shape {j2.shape}, expected ({nq}, {nq}, 3, 3)", item="J.m2")
+            j2.setflags(write=False)
+            set_(self, "J2", j2)
         names = tuple(self.names) or tuple(f"q{i + 1}" for i in range(nq))
         if len(names) != nq:
             raise DataError(f"{len(names)} names for {nq} elastic coordinates", item="names")
@@ -299,48 +318,29 @@ class Invariants:
         raise DataError(f"no block form of {name}", item=name)
 
     # ---------------------------------------------------------------- the equations
-    def mass_matrix(self, q: np.ndarray | None = None) -> np.ndarray:
-        """The (6+nq)² body mass matrix of §2 for ``[a, α, q̈]`` (unsymmetric in general).
+    def kernel_form(self) -> dict:
+        """The working form of :func:`neweul_py.ffrf.ffrf_prepare` (the one implementation
+        of the body equations)."""
+        return ffrf_prepare(self.to_flat())
 
-        Rigid rows: ``[m I, m̃d(q)ᵀ, md¹]``, ``[m̃d(q), J(q), Crv(q)ᵀ]``; elastic rows
-        ``[Ct(q), Cr(q), Me]``.
-        """
+    def mass_matrix(self, q: np.ndarray | None = None) -> np.ndarray:
+        """The (6+nq)² body mass matrix of §2 for ``[a, α, q̈]`` (unsymmetric in general):
+        :func:`neweul_py.ffrf.ffrf_body_mass`."""
         q = np.zeros(self.nq) if q is None else np.asarray(q, dtype=np.float64)
-        nq = self.nq
-        md = self.md.evaluate(q)[:, 0]
-        out = np.zeros((6 + nq, 6 + nq))
-        out[:3, :3] = self.m * np.eye(3)
-        out[:3, 3:6] = skew(md).T
-        out[:3, 6:] = self.md.m1[:, :, 0] if self.md.m1 is not None else 0.0
-        out[3:6, :3] = skew(md)
-        out[3:6, 3:6] = self.J.evaluate(q)
-        out[3:6, 6:] = self.Crv.evaluate(q).T
-        out[6:, :3] = self.Ct.evaluate(q)
-        out[6:, 3:6] = self.Cr.evaluate(q)
-        out[6:, 6:] = self.Me.m0
-        return out
+        return ffrf_body_mass(self.kernel_form(), q)
 
     def velocity_terms(self, q: np.ndarray, qd: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        """The (6+nq) vector of velocity-dependent inertia terms of §2 (left-hand side)::
-
-            [ω̃ω̃ md(q) + 2 ω̃ md¹ q̇;  ω̃ J(q) ω + Σ_k Gr_k q̇_k ω;  Oe(q) ω_q + Σ_k Ge_k q̇_k ω]
-        """
+        """The (6+nq) vector ``h_ω`` of velocity-dependent inertia terms of §2:
+        :func:`neweul_py.ffrf.ffrf_velocity_terms`."""
         q, qd, w = (np.asarray(v, dtype=np.float64) for v in (q, qd, omega))
-        wt = skew(w)
-        md = self.md.evaluate(q)[:, 0]
-        md1 = self.md.m1[:, :, 0] if self.md.m1 is not None else np.zeros((3, self.nq))
-        J = self.J.evaluate(q)
-        Gr = np.einsum("kab,k->ab", self.blocks("Gr"), qd)
-        Ge = np.einsum("kib,k->ib", self.blocks("Ge"), qd)
-        return np.concatenate([
-            wt @ wt @ md + 2 * wt @ (md1 @ qd),
-            wt @ J @ w + Gr @ w,
-            self.Oe.evaluate(q) @ omega_products(w) + Ge @ w,
-        ])
+        b = self.kernel_form()
+        md, Mrr, _Mre, _Mer, Oe = ffrf_mass_blocks(b, q)
+        return np.concatenate(ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe))
 
     def elastic_forces(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""
-        return self.Ke.m0 @ q + self.De.m0 @ qd + self.ksigma.m0[:, 0]
+        return ffrf_elastic_forces(self.kernel_form(), np.asarray(q, float),
+                                   np.asarray(qd, float))
 
     # ------------------------------------------------------------ change of basis
     def transformed(self, right: np.ndarray | None = None,
@@ -401,13 +401,14 @@ class Invariants:
                 Taylor.from_arrays(n.psi.m0 @ R, nq=nr), geo(n.AP),
                 (n.load_phi @ L.T) if two else None, (n.load_psi @ L.T) if two else None))
         names = self.names if nr == nq else ()
+        j2 = None if self.J2 is None else np.einsum("klab,kK,lL->KLab", self.J2, R, R)
         return Invariants(
             m=self.m, md=geo(self.md), J=geo(self.J), Ct=rows_l(self.Ct), Cr=rows_l(self.Cr),
             Crv=Taylor.from_arrays(crv0, crv1, nq=nr), Me=rows_l(self.Me, True),
             Gr=Taylor.from_arrays(gr.transpose(1, 0, 2).reshape(3, 3 * nr), nq=nr),
             Ge=Taylor.from_arrays(ge.transpose(1, 0, 2).reshape(nr, 3 * nr), nq=nr),
             Oe=rows_l(self.Oe), ksigma=rows_l(self.ksigma), Ke=rows_l(self.Ke, True),
-            De=rows_l(self.De, True), nodes=tuple(nodes), names=names, two_sided=two)
+            De=rows_l(self.De, True), nodes=tuple(nodes), names=names, two_sided=two, J2=j2)
 
     # --------------------------------------------------------------------- storage
     def to_flat(self) -> dict[str, np.ndarray]:
@@ -430,6 +431,8 @@ class Invariants:
             out[f"{name}.m0"] = t.m0.copy()
             if t.m1 is not None:
                 out[f"{name}.m1"] = t.m1.copy()
+        if self.J2 is not None:
+            out["J.m2"] = self.J2.copy()
         nq, nk = self.nq, len(self.nodes)
         out["nodes.id"] = np.array([n.id for n in self.nodes], dtype=np.int64)
         out["nodes.origin.m0"] = np.array([n.origin.m0 for n in self.nodes]).reshape(nk, 3, 1)
@@ -489,8 +492,10 @@ class Invariants:
                 Taylor.from_arrays(get("nodes.AP.m0")[i], get("nodes.AP.m1")[i]),
                 get("nodes.phi_w")[i].copy() if two_sided else None,
                 get("nodes.psi_w")[i].copy() if two_sided else None))
+        j2 = flat.get("J.m2")
         return cls(m=float(get("m")), nodes=tuple(nodes),
-                   names=tuple(str(s) for s in get("names")), two_sided=two_sided, **taylors)
+                   names=tuple(str(s) for s in get("names")), two_sided=two_sided,
+                   J2=None if j2 is None else np.asarray(j2), **taylors)
 
     # ------------------------------------------------------------------------ SID
     @classmethod
@@ -686,6 +691,18 @@ def _cross_fields(dofs: _Dofs, G: np.ndarray) -> list[np.ndarray]:
     return [dofs.scatter(np.cross(np.eye(3)[b], g)) for b in range(3)]
 
 
+def _cross_cross(dofs: _Dofs, F: np.ndarray, mpg: np.ndarray) -> np.ndarray:
+    """``Q[i, k, a, b] = (P_a F_i)ᵀ M (P_b G_k)`` (nq, nq, 3, 3) from ``mpg`` = the node
+    triplets of ``M P_b G`` (nn, nq, 3b, 3c): ``∫ (e_a × f_i)·(e_b × g_k) dm``."""
+    f_t = dofs.gather(F)
+    pf = np.stack([np.cross(np.eye(3)[a], f_t) for a in range(3)], axis=2)  # (nn,nq,3a,3c)
+    nn, nf = f_t.shape[0], F.shape[1]
+    ng = mpg.shape[1]
+    Q = (pf.transpose(0, 3, 1, 2).reshape(3 * nn, 3 * nf).T
+         @ mpg.transpose(0, 3, 1, 2).reshape(3 * nn, 3 * ng))
+    return Q.reshape(nf, 3, ng, 3).transpose(0, 2, 1, 3)
+
+
 def _as_operator(A, n: int, item: str):
     if A is None:
         return None
@@ -838,7 +855,7 @@ def compute_invariants(
 
     References
     ----------
-    ``reference/equations.md`` §2; Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6.
+    ``docs/equations.md`` §2; Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6.
 
     Examples
     --------
@@ -896,15 +913,11 @@ def compute_invariants(
     Oe0_q = _cross_pair(dofs, W, MtW, Tr, MTr)         # [i, b, a] = ∫ w_i·(e_a × t_b)
     Oe0 = _omega_q_coefficients(np.swapaxes(Oe0_q, 1, 2))
 
-    # --- two-cross-product integrals: Oe¹ = −(P_a W)ᵀ M (P_b V)
-    w_t = dofs.gather(W)
-    pw = np.stack([np.cross(np.eye(3)[a], w_t) for a in range(3)], axis=2)  # (nn,nq,3a,3c)
+    # --- two-cross-product integrals: Oe¹ = −(P_a W)ᵀ M (P_b V), C2 = (P_a V)ᵀ M (P_b V)
     mpv = np.stack([dofs.gather(M @ P) for P in _cross_fields(dofs, V)], axis=2)
-    nn = w_t.shape[0]
-    Q = (pw.transpose(0, 3, 1, 2).reshape(3 * nn, 3 * nq).T
-         @ mpv.transpose(0, 3, 1, 2).reshape(3 * nn, 3 * nq))
-    Q = Q.reshape(nq, 3, nq, 3).transpose(0, 2, 1, 3)   # (nq, nq, 3a, 3b)
+    Q = _cross_cross(dofs, W, mpv)
     Oe1 = -_omega_q_coefficients(Q)                    # (nq, nq, 6)
+    C2 = Q if not two_sided else _cross_cross(dofs, V, mpv)
 
     # --- geometric stiffening (elastic rows)
     Ct1 = np.zeros((nq, nq, 3))
@@ -914,9 +927,19 @@ def compute_invariants(
             Ct1[:, :, a] += W.T @ (A @ V)
         if (A := KG.get(LOAD_CASES[3 + a])) is not None:
             Cr1[:, :, a] += W.T @ (A @ V)
-    for c in range(6):
+    C2g = np.zeros((nq, nq, 3, 3))
+    for c, (a, b) in enumerate(OMEGA_PRODUCTS):
         if (A := KG.get(LOAD_CASES[6 + c])) is not None:
             Oe1[:, :, c] += W.T @ (A @ V)
+            # the same stiffening as a centrifugal potential −½ ωᵀ J_G(q) ω in the inertia
+            # tensor (equations.md §2.1), so that the rotational rows carry its reaction
+            kv = V.T @ (A @ V)
+            kv = 0.5 * (kv + kv.T)
+            if a == b:
+                C2g[:, :, a, a] -= kv
+            else:
+                C2g[:, :, a, b] -= 0.5 * kv
+                C2g[:, :, b, a] -= 0.5 * kv
 
     K = sps.csr_matrix(fe.K)
     Ke = W.T @ (K @ V)
@@ -945,6 +968,7 @@ def compute_invariants(
         nodes=inv_nodes,
         names=tuple(names) if names is not None else (),
         two_sided=two_sided,
+        J2=0.5 * (C2 + C2.transpose(1, 0, 3, 2)) + C2g,
     )
 
 

@@ -25,6 +25,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from ..errors import DataError
+from ..progress import report
 from .eigen import ShiftInvert, default_shift
 from .fe_model import FEModel
 from .projection import Progress, build_reduced_body, orthonormal_append
@@ -181,10 +182,10 @@ def reduce_krylov(
         raise DataError("Krylov reduction needs at least one input and one output",
                         fe.source, "inputs")
     right, left = [], []
-    for s0 in points:
+    for i, s0 in enumerate(points):
         s0 = s0.real if s0.imag == 0 else s0
-        if progress:
-            progress(f"factorizing K + s0·D + s0²·M at s0={s0:.4g} (n={fe.n_dofs})")
+        report(progress, f"factorizing K + s0·D + s0²·M at s0={s0:.4g} (n={fe.n_dofs})", i,
+               len(points))
         si = _factor(fe, s0)
         Dt = (2 * s0) * fe.M if fe.D is None else fe.D + (2 * s0) * fe.M
         right.append(soar(si, Dt, fe.M, B, order))

@@ -1,6 +1,6 @@
 """Modal truncation of FE models, two-sided (Petrov–Galerkin) or one-sided (Galerkin).
 
-``reference/equations.md`` §3: ``V`` = selected right eigenvectors of the undamped pencil
+``docs/equations.md`` §3: ``V`` = selected right eigenvectors of the undamped pencil
 ``K x = λ M x``, ``W`` = the matching left ones, scaled so that ``Wᵀ M V = I``; then
 ``M_r = I``, ``K_r = Λ`` (the retained eigenvalues, exactly), ``D_r = Wᵀ D V``,
 ``B_r = Wᵀ B``, ``C_r = C V``. Optional static correction (attachment / residual-flexibility
@@ -270,7 +270,7 @@ def add_static_correction(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Append static (attachment) vectors to bases with ``Wᵀ M V = I``.
 
-    Right: ``(K − σM)⁻¹ B``, left: ``(K − σM)⁻ᵀ Cᵀ`` (``reference/equations.md`` §3; Craig &
+    Right: ``(K − σM)⁻¹ B``, left: ``(K − σM)⁻ᵀ Cᵀ`` (``docs/equations.md`` §3; Craig &
     Kurdila, *Fundamentals of Structural Dynamics*, 2006, §17.3 "residual flexibility").
     The shift σ is the one of the factorization ``si``: ``σ = 0`` gives the classical
     ``K⁻¹B``; the default small negative σ makes the correction work with a singular ``K``
@@ -385,7 +385,7 @@ def reduce_modal(
 
     References
     ----------
-    ``reference/equations.md`` §3; Craig & Kurdila (2006) ch. 11, 17.
+    ``docs/equations.md`` §3; Craig & Kurdila (2006) ch. 11, 17.
 
     Examples
     --------

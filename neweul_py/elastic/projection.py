@@ -2,7 +2,7 @@
 
 With right basis ``V`` (``x ≈ V q``) and left basis ``W`` (test functions), a second-order
 model ``M ẍ + D ẋ + K x = B u``, ``y = C x`` becomes
-``Wᵀ M V q̈ + Wᵀ D V q̇ + Wᵀ K V q = Wᵀ B u``, ``y = C V q`` (``reference/equations.md`` §2–3,
+``Wᵀ M V q̈ + Wᵀ D V q̇ + Wᵀ K V q = Wᵀ B u``, ``y = C V q`` (``docs/equations.md`` §2–3,
 "two-sided data"); one-sided (Galerkin) data is ``W = V``. The projection acts on each matrix
 separately, so the second-order structure is kept.
 """
@@ -50,7 +50,7 @@ def project(
 
     References
     ----------
-    ``reference/equations.md`` §3 (two-sided modal truncation); pyMOR's
+    ``docs/equations.md`` §3 (two-sided modal truncation); pyMOR's
     ``project(op, range_basis, source_basis)``.
 
     Examples

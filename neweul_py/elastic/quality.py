@@ -1,6 +1,6 @@
 """Error and quality measures of reduced models: FRFs, relative errors, eigenvalues, stability.
 
-Frequency response (``reference/equations.md`` §1, last line, for the second-order form)::
+Frequency response (``docs/equations.md`` §1, last line, for the second-order form)::
 
     H(jω) = C (K + jωD − ω²M)⁻¹ B
 
@@ -21,6 +21,7 @@ import scipy.linalg as sla
 import scipy.sparse as sps
 
 from ..errors import DataError
+from ..progress import report
 from ._io import atomic_write
 from .eigen import ShiftInvert, SparseLU, default_shift, frequencies_hz, right_blocks
 from .fe_model import FEModel
@@ -103,8 +104,8 @@ def frf_full(
             H[i] = C @ lu.solve(B)
         else:
             H[i] = lu.solve(C.T, transpose=True).T @ B
-        if progress is not None and (i + 1) % step == 0:
-            progress(f"full FRF: {i + 1}/{f.size} frequencies")
+        if (i + 1) % step == 0:
+            report(progress, f"full FRF: {i + 1}/{f.size} frequencies", i + 1, f.size)
     return H
 
 

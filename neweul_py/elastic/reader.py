@@ -1,4 +1,4 @@
-"""Reading the elastic data of a description's ``elastic_bodies`` (``reference/equations.md`` §2).
+"""Reading the elastic data of a description's ``elastic_bodies`` (``docs/equations.md`` §2).
 
 The symbolic layers (``description``, ``equations``) read elastic bodies only through this
 function: it returns the flat ``name → array`` form of :class:`~.invariants.Invariants`
@@ -16,12 +16,18 @@ import numpy as np
 
 from ..errors import DataError
 from ..files import check_regular_file
-from ._io import load_npz
+from ._io import json_from_uint8, load_npz
+from .interpolation import PARAMETRIC_BODY_FORMAT, load_parametric_body
 from .invariants import FLAT_FORMAT, Invariants, body_invariants
 from .reduced_body import load_reduced_body
 from .sid import read_sid
 
-__all__ = ["read_elastic_data"]
+__all__ = ["PARAMETRIC_KEYS", "read_elastic_data"]
+
+#: Keys of the result for a parametric body: ``parametric.values`` (k,) sample values,
+#: ``parametric.interpolation``, ``parametric.parameter``, and per sample ``i`` its flat
+#: invariants under ``sample{i}/<key>``.
+PARAMETRIC_KEYS = ("parametric.values", "parametric.interpolation", "parametric.parameter")
 
 
 def read_elastic_data(
@@ -56,6 +62,8 @@ def read_elastic_data(
     try:
         if p.suffix.lower() == ".npz":
             arrays = load_npz(p)
+            if _is_parametric(arrays, file):
+                return _parametric(p, modes, file)
             if _is_flat(arrays):
                 inv = Invariants.from_flat(arrays)
             else:
@@ -74,6 +82,34 @@ def read_elastic_data(
     if modes is not None:
         inv = _select(inv, modes, file)
     return inv.to_flat()
+
+
+def _is_parametric(arrays: dict[str, np.ndarray], file: str) -> bool:
+    if "meta" not in arrays or arrays["meta"].dtype != np.uint8:
+        return False
+    meta = json_from_uint8(arrays["meta"], file)
+    return isinstance(meta, dict) and meta.get("format") == PARAMETRIC_BODY_FORMAT
+
+
+def _parametric(p: Path, modes: int | Sequence[int] | None, file: str) -> dict[str, np.ndarray]:
+    """The samples of a parametric body (equations.md §4), each as flat invariants."""
+    body = load_parametric_body(p)
+    if body.invariants is None:
+        raise DataError("the parametric body holds no floating-frame invariants (interpolate "
+                        "reduced bodies that have them: neweul reduce --invariants)",
+                        file=file, item="invariants")
+    out: dict[str, np.ndarray] = {
+        "parametric.values": np.asarray(body.samples, dtype=np.float64),
+        "parametric.interpolation": np.array(body.interpolation),
+        "parametric.parameter": np.array(body.parameter),
+    }
+    for i in range(body.n_samples):
+        flat = {k: (a[i] if a.dtype.kind == "f" else a[0]) for k, a in body.invariants.items()}
+        inv = Invariants.from_flat(flat)
+        if modes is not None:
+            inv = _select(inv, modes, file)
+        out.update({f"sample{i}/{k}": v for k, v in inv.to_flat().items()})
+    return out
 
 
 def _is_flat(arrays: dict[str, np.ndarray]) -> bool:

@@ -36,7 +36,7 @@ _ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind"
 _OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind")
 
 
-def _json_normal(obj: Any, item: str) -> Any:
+def json_normal(obj: Any, item: str) -> Any:
     try:
         return json.loads(json.dumps(obj, allow_nan=False))
     except (TypeError, ValueError) as exc:
@@ -47,7 +47,7 @@ def _json_normal(obj: Any, item: str) -> Any:
 class ReducedBody:
     """Reduced second-order model ``M q̈ + D q̇ + K q = B u``, ``y = C q`` of an elastic body.
 
-    Obtained by Petrov–Galerkin projection (``reference/equations.md`` §2–3):
+    Obtained by Petrov–Galerkin projection (``docs/equations.md`` §2–3):
     ``M = Wᵀ M_FE V``, ``D = Wᵀ D_FE V``, ``K = Wᵀ K_FE V``, ``B = Wᵀ B_FE``, ``C = C_FE V``;
     full displacements are ``x ≈ V q``. One-sided data is ``W = V``.
 
@@ -192,8 +192,8 @@ class ReducedBody:
         for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept"):
             if not np.all(np.isfinite(self[key])):
                 raise DataError("has NaN/Inf entries", None, key)
-        set_(self, "settings", _json_normal(dict(self.settings), "settings"))
-        set_(self, "source", _json_normal(dict(self.source), "source"))
+        set_(self, "settings", json_normal(dict(self.settings), "settings"))
+        set_(self, "source", json_normal(dict(self.source), "source"))
         if self.parameters is not None:
             params = {str(k): float(v) for k, v in dict(self.parameters).items()}
             if not all(np.isfinite(v) for v in params.values()):

@@ -477,7 +477,7 @@ def read_sid(path: str | os.PathLike) -> SIDBody:
 
     References
     ----------
-    Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6. ``reference/equations.md`` §2.
+    Wallrapp 1994; Schwertassek & Wallrapp 1999, ch. 6. ``docs/equations.md`` §2.
 
     Examples
     --------

@@ -1,6 +1,6 @@
 """Taylor objects: matrices that depend linearly on the elastic coordinates.
 
-Every invariant of the floating frame of reference (``reference/equations.md`` §2) is a Taylor
+Every invariant of the floating frame of reference (``docs/equations.md`` §2) is a Taylor
 expansion in the elastic coordinates ``q`` (Wallrapp 1994, "Standardization of flexible body
 modeling in multibody system codes, Part I"; Schwertassek & Wallrapp 1999, ch. 6)::
 

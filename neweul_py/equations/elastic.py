@@ -41,7 +41,8 @@ import sympy as sp
 from ..kinematics import absolute_kinematics
 from ..model import INERTIAL, ElasticBody, System
 
-__all__ = ["ElasticSplice", "elastic_splices", "node_coordinate_map"]
+__all__ = ["ElasticEquations", "ElasticSplice", "elastic_equations", "elastic_splices",
+           "node_coordinate_map", "node_coordinate_parts"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +61,10 @@ class ElasticSplice:
     abar, alphabar, omega, gravity
         (3, 1) ``ā``, ``ᾱ``, ``ω`` of the frame and the gravitational acceleration, frame
         components.
+    velocity
+        (3, 1) ``v = J_T ẏ + v̄`` of the frame origin, frame components (for the energy).
+    potential
+        ``e = −g·r_O``: potential of gravity per unit mass at the frame origin.
     """
 
     body: ElasticBody
@@ -70,16 +75,19 @@ class ElasticSplice:
     alphabar: sp.ImmutableMatrix
     omega: sp.ImmutableMatrix
     gravity: sp.ImmutableMatrix
+    velocity: sp.ImmutableMatrix
+    potential: sp.Expr
 
     def expressions(self, columns: list[int] | None = None) -> list[sp.Expr]:
-        """``[J_T (row-major), J_R, ā, ᾱ, ω, g]``: 6n + 12 expressions, in this order
-        (``columns``: only these Jacobian columns)."""
+        """``[J_T (row-major), J_R, ā, ᾱ, ω, g, v, e]``: 6n + 16 expressions, in this order
+        (``columns``: only these Jacobian columns), the layout of
+        :func:`neweul_py.ffrf.splice.ffrf_frame`."""
         cols = list(range(self.JT.shape[1])) if columns is None else list(columns)
         out: list[sp.Expr] = [self.JT[a, j] for a in range(3) for j in cols]
         out += [self.JR[a, j] for a in range(3) for j in cols]
-        for v in (self.abar, self.alphabar, self.omega, self.gravity):
+        for v in (self.abar, self.alphabar, self.omega, self.gravity, self.velocity):
             out += list(v)
-        return out
+        return [*out, self.potential]
 
 
 def elastic_splices(system: System) -> tuple[ElasticSplice, ...]:
@@ -117,24 +125,29 @@ def elastic_splices(system: System) -> tuple[ElasticSplice, ...]:
     kin = absolute_kinematics(sub, "closed")
     n = kin.n
     index = {c.name: j for j, c in enumerate(system.coordinates)}
+    g_inertial = sp.ImmutableMatrix(system.gravity)
     out = []
     for body in system.elastic_bodies:
         first = index[body.coordinate_names[0]]
         if body.frame == INERTIAL:
             zero = sp.ImmutableMatrix.zeros(3, n)
             z3 = sp.ImmutableMatrix.zeros(3, 1)
-            out.append(ElasticSplice(body, first, zero, zero, z3, z3, z3,
-                                     sp.ImmutableMatrix(system.gravity)))
+            out.append(ElasticSplice(body, first, zero, zero, z3, z3, z3, g_inertial, z3,
+                                     sp.Integer(0)))
             continue
         fk = kin.frames[body.frame]
 
         def cols(J: tuple) -> sp.ImmutableMatrix:
             return sp.ImmutableMatrix(3, n, [J[j][a] for a in range(3) for j in range(n)])
 
+        zero = (sp.Integer(0),) * 3
+        origin = kin.point_position(body.frame, zero, INERTIAL)
+        velocity = kin.velocity(kin.point(body.frame, zero, f"elastic_bodies.{body.name}"))
+        potential = -sum((g_inertial[a] * origin[a] for a in range(3)), sp.Integer(0))
         out.append(ElasticSplice(
             body, first, cols(fk.JT), cols(fk.JR), sp.ImmutableMatrix(fk.abar),
             sp.ImmutableMatrix(fk.alphabar), sp.ImmutableMatrix(fk.omega),
-            sp.ImmutableMatrix(fk.gravity)))
+            sp.ImmutableMatrix(fk.gravity), sp.ImmutableMatrix(velocity), potential))
     return tuple(out)
 
 
@@ -152,12 +165,32 @@ def node_coordinate_map(system: System) -> tuple[tuple[int, ...], np.ndarray, np
         M = S_Wᵀ M_s S_V,   q − k = S_Wᵀ (q − k)_s,
 
     where ``S_W`` has the rows of the left basis ``[Φ_W; Ψ_W]`` at the node coordinates: node
-    loads reach the elastic equations as ``W_Pᵀ f`` (one-sided data: ``S_W = S_V``).
+    loads reach the elastic equations as ``W_Pᵀ f`` (one-sided data: ``S_W = S_V``). Parametric
+    bodies contribute their first sample's maps here (see :func:`node_coordinate_parts`).
 
     Returns
     -------
     keep, S_V, S_W
         Indices in ``y_s`` of the independent coordinates, and the two (n_s, n) maps.
+    """
+    keep, SV, SW, parts = node_coordinate_parts(system)
+    for SVs, SWs in parts:
+        SV = SV + SVs[0]
+        SW = SW + SWs[0]
+    return keep, SV, SW
+
+
+def node_coordinate_parts(system: System) -> tuple[tuple[int, ...], np.ndarray, np.ndarray,
+                                                   tuple[tuple[np.ndarray, np.ndarray], ...]]:
+    """:func:`node_coordinate_map` split for parametric bodies (equations.md §2.3).
+
+    Returns
+    -------
+    keep, S_V, S_W, parts
+        ``S_V``, ``S_W`` without the node rows of parametric bodies, and per parametric body
+        (in the order of ``system.elastic_bodies``) the stacks ``(k, n_s, n)`` of its node
+        rows at each sample, so that ``S_V(σ) = S_V + Σ_i w_i(σ) S_V,i`` (the weights sum to
+        one, the maps are linear in the node data).
     """
     ns = len(system.coordinates)
     index = {c.name: j for j, c in enumerate(system.coordinates)}
@@ -168,11 +201,73 @@ def node_coordinate_map(system: System) -> tuple[tuple[int, ...], np.ndarray, np
     SW = np.zeros((ns, len(keep)))
     for j in keep:
         SV[j, col[j]] = SW[j, col[j]] = 1.0
+    parts = []
     for b in system.elastic_bodies:
         cols = [col[index[n]] for n in b.coordinate_names]
-        for label, _node in b.nodes:
-            tv, tw = b.node_maps(label)
-            rows = [index[n] for n in b.node_coordinate_names(label)]
-            SV[np.ix_(rows, cols)] = tv
-            SW[np.ix_(rows, cols)] = tw
-    return keep, SV, SW
+        samples = range(len(b.samples)) if b.parametric else (None,)
+        SVs = np.zeros((len(samples), ns, len(keep)))
+        SWs = np.zeros_like(SVs)
+        for i, sample in enumerate(samples):
+            for label, _node in b.nodes:
+                tv, tw = b.node_maps(label, sample)
+                rows = [index[n] for n in b.node_coordinate_names(label)]
+                SVs[i][np.ix_(rows, cols)] = tv
+                SWs[i][np.ix_(rows, cols)] = tw
+        if b.parametric:
+            parts.append((SVs, SWs))
+        else:
+            SV += SVs[0]
+            SW += SWs[0]
+    return keep, SV, SW, tuple(parts)
+
+
+@dataclass(frozen=True, eq=False)
+class ElasticEquations:
+    """Everything code generation needs to splice the elastic bodies (equations.md §2).
+
+    Attributes
+    ----------
+    splices
+        The reference-frame kinematics of every body.
+    keep, SV, SW, parts
+        :func:`node_coordinate_parts`: the independent coordinates among the symbolic ones,
+        the maps ``y_s = S_V y`` (motion) and ``S_W`` (loads, left basis) without the node
+        rows of parametric bodies, and those rows per parametric body and sample.
+    schedules
+        The scheduling expressions of the parametric bodies (parameters and ``t``), in order.
+    active
+        Indices of the symbolic coordinates that are not elastic coordinates (the node
+        frames move with the dependent node coordinates, so the elastic ones appear in no
+        symbolic expression): the coordinates of the symbolic part.
+    hidden
+        The hidden outputs ``[kin of body 1, kin of body 2, …]`` in the active columns
+        (:meth:`ElasticSplice.expressions`), and ``offsets`` where each body's starts.
+    """
+
+    splices: tuple[ElasticSplice, ...]
+    keep: tuple[int, ...]
+    SV: np.ndarray
+    SW: np.ndarray
+    parts: tuple[tuple[np.ndarray, np.ndarray], ...]
+    schedules: tuple[sp.Expr, ...]
+    active: tuple[int, ...]
+    hidden: tuple[sp.Expr, ...]
+    offsets: tuple[int, ...]
+
+
+def elastic_equations(system: System) -> ElasticEquations | None:
+    """The complete elastic splice of ``system`` (``None`` without elastic bodies)."""
+    if not system.elastic_bodies:
+        return None
+    splices = elastic_splices(system)
+    keep, SV, SW, parts = node_coordinate_parts(system)
+    elastic_q = {n for b in system.elastic_bodies for n in b.coordinate_names}
+    active = tuple(j for j, c in enumerate(system.coordinates) if c.name not in elastic_q)
+    hidden: list[sp.Expr] = []
+    offsets = []
+    for s in splices:
+        offsets.append(len(hidden))
+        hidden += s.expressions(list(active))
+    schedules = tuple(b.schedule for b in system.elastic_bodies if b.parametric)
+    return ElasticEquations(splices, keep, SV, SW, parts, schedules, active, tuple(hidden),
+                            tuple(offsets))

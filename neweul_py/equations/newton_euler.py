@@ -55,6 +55,8 @@ from ..model import (
     Torque,
 )
 from .constraints import check_constraints, derive_constraints
+from .elastic import elastic_equations
+from .energy import energies
 from .force_elements import apply_force_element
 from .result import Equations
 
@@ -176,6 +178,7 @@ def _derive(system: System, form: str) -> Equations:
         for fe in system.forces
     }
     outputs = [_output(kin, out, reported) for out in system.outputs]
+    energy = energies(kin, system)
     constraints = derive_constraints(system)
     check_constraints(system, constraints)
 
@@ -195,6 +198,8 @@ def _derive(system: System, form: str) -> Equations:
         outputs=sp.ImmutableMatrix(len(outputs), 1, outputs),
         output_names=tuple(o.name for o in system.outputs),
         constraints=constraints,
+        energy=energy,
+        elastic=elastic_equations(system),
     )
 
 

@@ -6,7 +6,8 @@ docs/generated-module-protocol.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import sympy as sp
 
@@ -54,6 +55,12 @@ class Equations:
     constraints
         The holonomic constraints ``g``, ``G``, ``∂g/∂t``, ``γ`` (closed form, no
         intermediates; :mod:`~neweul_py.equations.constraints`); ``None`` means none.
+    energy
+        ``[kinetic, gravity, springs]`` energy of the rigid bodies and force elements (3×1;
+        :mod:`~neweul_py.equations.energy`); ``None``: not derived.
+    elastic
+        The splice of the elastic bodies (:class:`~neweul_py.equations.elastic.ElasticEquations`),
+        ``None`` without elastic bodies.
     """
 
     system: System
@@ -67,6 +74,8 @@ class Equations:
     outputs: sp.ImmutableMatrix
     output_names: tuple[str, ...]
     constraints: ConstraintEquations | None = None
+    energy: sp.ImmutableMatrix | None = None
+    elastic: Any = None
 
     @property
     def n(self) -> int:
@@ -110,16 +119,11 @@ class Equations:
         def sub(m: sp.ImmutableMatrix) -> sp.ImmutableMatrix:
             return sp.ImmutableMatrix(m.shape[0], m.shape[1], [e.xreplace(values) for e in m])
 
-        return Equations(
-            system=self.system,
-            coordinates=self.coordinates,
-            velocities=self.velocities,
-            parameters=self.parameters,
-            inputs=self.inputs,
+        return replace(
+            self,
             intermediates=(),
             mass_matrix=sub(self.mass_matrix),
             force_vector=sub(self.force_vector),
             outputs=sub(self.outputs),
-            output_names=self.output_names,
-            constraints=self.constraints,
+            energy=None if self.energy is None else sub(self.energy),
         )

@@ -38,6 +38,7 @@ import scipy.sparse.linalg as spla
 from ..elastic.fe_model import FEModel
 from ..elastic.projection import Progress
 from ..errors import ModelError, SolverError
+from ..progress import report
 from .acoustic import acoustic_matrices, surface_load
 from .coupling import assemble_up, coupling_matrix
 from .mesh import SurfaceMesh, TetMesh, cone_membrane, extrude_tets, tet_volumes
@@ -920,8 +921,8 @@ def pressure_sweep(
             )
     models = []
     for i, s in enumerate(states):
-        if progress is not None:
-            progress(f"working point {i + 1}/{len(states)}: FE model at Δp = {s.load:+g} Pa")
+        report(progress, f"working point {i + 1}/{len(states)}: FE model at Δp = {s.load:+g} Pa",
+               i + 1, len(states))
         models.append(working_point_model(me, s, include_support))
     if out_dir is not None:
         if progress is not None:

@@ -31,6 +31,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
+from ..ffrf.schema import INERTIA_FORMS, SCHEMA, check_flat
 from .elements import Frame
 from .symbols import check_name, symbol
 
@@ -39,12 +40,8 @@ __all__ = ["ElasticBody", "is_node_frame_name"]
 #: Names of the six node components (dependent node coordinates ``NAME_label_<c>``).
 NODE_COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 
-#: Arrays an elastic body needs (keys of ``Invariants.to_flat``).
-REQUIRED_ARRAYS = (
-    "m", "md.m0", "J.m0", "Ct.m0", "Cr.m0", "Crv.m0", "Me.m0", "Gr.m0", "Ge.m0", "Oe.m0",
-    "ksigma.m0", "Ke.m0", "De.m0", "nodes.id", "nodes.origin.m0", "nodes.phi", "nodes.psi",
-    "nodes.phi_w", "nodes.psi_w", "nodes.AP.m0", "two_sided",
-)
+#: Arrays an elastic body needs (the required keys of :data:`neweul_py.ffrf.schema.SCHEMA`).
+REQUIRED_ARRAYS = tuple(k for k, spec in SCHEMA.items() if spec.required and k != "format")
 
 
 def is_node_frame_name(name: str) -> bool:
@@ -76,6 +73,19 @@ class ElasticBody:
         ``(label, node_id)`` pairs: the node frames the model uses.
     source
         Where the data came from (shown in messages, not part of the model's identity).
+    inertia
+        ``"consistent"`` (default): the second-order inertia terms ``J.m2`` are used where the
+        data hold them (energy-consistent body, equations.md §2.1); ``"sid"``: the SID
+        truncation (``J`` linear in q, ``Gr`` constant).
+    samples
+        Parametric bodies (equations.md §2.3): the flat invariants at each sample of the
+        scheduling variable, in common coordinates (``data`` is the first); empty otherwise.
+    sample_values
+        The sample values ``s_1 < … < s_k``.
+    interpolation
+        ``"linear"`` or ``"cubic"`` weights between the samples.
+    schedule
+        The scheduling variable ``σ`` (an expression of parameters and time).
 
     Raises
     ------
@@ -89,32 +99,27 @@ class ElasticBody:
     data: Mapping[str, np.ndarray]
     nodes: tuple[tuple[str, int], ...] = ()
     source: str = field(default="", compare=False)
+    inertia: str = "consistent"
+    samples: tuple[Mapping[str, np.ndarray], ...] = ()
+    sample_values: tuple[float, ...] = ()
+    interpolation: str = "linear"
+    schedule: sp.Expr | None = None
 
     def __post_init__(self) -> None:
         path = f"elastic_bodies.{self.name}"
         why = check_name(self.name)
         if why is not None:
             raise ModelError(why, path)
+        if self.inertia not in INERTIA_FORMS:
+            raise ModelError(f"inertia must be one of {', '.join(INERTIA_FORMS)}, got "
+                             f"{self.inertia!r}", f"{path}.inertia")
         data = {k: _frozen(v) for k, v in dict(self.data).items()}
-        missing = [k for k in REQUIRED_ARRAYS if k not in data]
-        if missing:
-            raise ModelError(f"the elastic data lacks {', '.join(missing)}", f"{path}.data")
+        data.setdefault("format", _frozen("neweul-invariants-1"))
+        problems = check_flat(data)
+        if problems:
+            raise ModelError(problems[0], f"{path}.data")
         object.__setattr__(self, "data", data)
-        nq = data["Me.m0"].shape[0]
-        if nq == 0:
-            raise ModelError("the elastic data hold no modes", f"{path}.data")
-        for key, arr in sorted(data.items()):
-            if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-                raise ModelError(f"array {key} holds NaN or Inf", f"{path}.data")
-            if key.endswith(".m1") and arr.ndim == 3 and arr.shape[1] != nq:
-                raise ModelError(f"{key} has first-order terms for {arr.shape[1]} modes, "
-                                 f"Me has {nq}", f"{path}.data")
-        for key, shape in (("Ke.m0", (nq, nq)), ("De.m0", (nq, nq)), ("Ct.m0", (nq, 3)),
-                           ("Cr.m0", (nq, 3)), ("Oe.m0", (nq, 6)), ("Ge.m0", (nq, 3 * nq)),
-                           ("Gr.m0", (3, 3 * nq))):
-            if data[key].shape != shape:
-                raise ModelError(f"{key} has shape {data[key].shape}, expected {shape} "
-                                 f"(nq = {nq} from Me)", f"{path}.data")
+        self._check_samples(path, data)
         ids = [int(i) for i in data["nodes.id"]]
         nodes = tuple((str(label), int(node)) for label, node in self.nodes)
         seen: set[str] = set()
@@ -129,6 +134,41 @@ class ElasticBody:
                 raise ModelError(f"node {node} is not in the elastic data (nodes: "
                                  f"{', '.join(map(str, ids))})", f"{path}.nodes.{label}")
         object.__setattr__(self, "nodes", nodes)
+
+    def _check_samples(self, path: str, data: Mapping[str, np.ndarray]) -> None:
+        """Parametric bodies: every sample valid and of the first sample's layout."""
+        if not self.samples:
+            if self.schedule is not None:
+                raise ModelError("a schedule needs parametric data (samples)", f"{path}.schedule")
+            return
+        if self.schedule is None:
+            raise ModelError("parametric data need a schedule expression", f"{path}.schedule")
+        values = tuple(float(v) for v in self.sample_values)
+        if len(values) != len(self.samples) or len(values) < 2 or not all(
+                np.isfinite(values)) or np.any(np.diff(values) <= 0):
+            raise ModelError("the sample values must be at least two increasing numbers, one "
+                             "per sample", f"{path}.data")
+        if self.interpolation not in ("linear", "cubic"):
+            raise ModelError(f"unknown interpolation {self.interpolation!r}", f"{path}.data")
+        samples = []
+        for i, sample in enumerate(self.samples):
+            flat = {k: _frozen(v) for k, v in dict(sample).items()}
+            flat.setdefault("format", data["format"])
+            problems = check_flat(flat)
+            if problems:
+                raise ModelError(f"sample {i + 1}: {problems[0]}", f"{path}.data")
+            if sorted(flat) != sorted(data) or any(
+                    flat[k].shape != data[k].shape for k in data):
+                raise ModelError(f"sample {i + 1} has other arrays or shapes than sample 1 "
+                                 "(samples must share nodes, modes and DOFs)", f"{path}.data")
+            samples.append(flat)
+        object.__setattr__(self, "samples", tuple(samples))
+        object.__setattr__(self, "sample_values", values)
+
+    @property
+    def parametric(self) -> bool:
+        """Whether the body depends on a scheduling variable."""
+        return bool(self.samples)
 
     # ------------------------------------------------------------------ access
     @property
@@ -155,16 +195,20 @@ class ElasticBody:
         return [int(i) for i in self.data["nodes.id"]].index(int(node_id))
 
     def digest(self) -> str:
-        """SHA-256 of the numeric data (sorted keys, dtype, shape, bytes)."""
+        """SHA-256 of the numeric data (sorted keys, dtype, shape, bytes; every sample of a
+        parametric body, its sample values and interpolation)."""
         h = hashlib.sha256()
-        for key in sorted(self.data):
-            arr = np.ascontiguousarray(self.data[key])
-            h.update(f"{key}|{arr.dtype.str}|{arr.shape}|".encode())
-            h.update(arr.tobytes() if arr.dtype.kind != "U" else str(arr.tolist()).encode())
+        for data in (self.data, *self.samples):
+            for key in sorted(data):
+                arr = np.ascontiguousarray(data[key])
+                h.update(f"{key}|{arr.dtype.str}|{arr.shape}|".encode())
+                h.update(arr.tobytes() if arr.dtype.kind != "U" else str(arr.tolist()).encode())
+        h.update(f"{self.sample_values!r}|{self.interpolation}".encode())
         return h.hexdigest()
 
     def __repr__(self) -> str:  # canonical: the System fingerprint uses it
         return (f"ElasticBody(name={self.name!r}, frame={self.frame!r}, nodes={self.nodes!r}, "
+                f"inertia={self.inertia!r}, schedule={self.schedule!r}, "
                 f"data=sha256:{self.digest()})")
 
     # ------------------------------------------------------------- node frames
@@ -172,9 +216,12 @@ class ElasticBody:
         """Components ``0…5`` (``ux uy uz rx ry rz``) in which node ``label`` moves or takes
         loads: rows of ``[Φ; Ψ]`` (or of the left basis ``[Φ_W; Ψ_W]``) that are not zero."""
         i = self.node_index(dict(self.nodes)[label])
-        rows = np.vstack((self.data["nodes.phi"][i], self.data["nodes.psi"][i]))
-        rows_w = np.vstack((self.data["nodes.phi_w"][i], self.data["nodes.psi_w"][i]))
-        return tuple(a for a in range(6) if np.any(rows[a]) or np.any(rows_w[a]))
+        moving = np.zeros(6, dtype=bool)
+        for d in (self.data, *self.samples):
+            rows = np.vstack((d["nodes.phi"][i], d["nodes.psi"][i]))
+            rows_w = np.vstack((d["nodes.phi_w"][i], d["nodes.psi_w"][i]))
+            moving |= np.any(rows != 0, axis=1) | np.any(rows_w != 0, axis=1)
+        return tuple(int(a) for a in np.flatnonzero(moving))
 
     def node_coordinate_names(self, label: str) -> tuple[str, ...]:
         """Names of the node's dependent coordinates ``NAME_label_ux … _rz`` (the moving
@@ -182,13 +229,15 @@ class ElasticBody:
         return tuple(f"{self.name}_{label}_{NODE_COMPONENTS[a]}"
                      for a in self.node_components(label))
 
-    def node_maps(self, label: str) -> tuple[np.ndarray, np.ndarray]:
+    def node_maps(self, label: str, sample: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(T_V, T_W)``: the node coordinates are ``T_V q`` (rows of ``[Φ; Ψ]``), their
-        generalized forces act on the elastic rows through ``T_Wᵀ`` (left basis)."""
+        generalized forces act on the elastic rows through ``T_Wᵀ`` (left basis); of sample
+        ``sample`` for parametric bodies (default: the first)."""
+        d = self.data if sample is None else self.samples[sample]
         i = self.node_index(dict(self.nodes)[label])
         comps = list(self.node_components(label))
-        tv = np.vstack((self.data["nodes.phi"][i], self.data["nodes.psi"][i]))[comps]
-        tw = np.vstack((self.data["nodes.phi_w"][i], self.data["nodes.psi_w"][i]))[comps]
+        tv = np.vstack((d["nodes.phi"][i], d["nodes.psi"][i]))[comps]
+        tw = np.vstack((d["nodes.phi_w"][i], d["nodes.psi_w"][i]))[comps]
         return tv, tw
 
     @property

@@ -98,7 +98,7 @@ def test_constraint_forces_against_newton_law_of_the_slider(run, reference, slid
 
 def test_results_file_has_lambda_columns(run, tmp_path):
     path = run.save(tmp_path / "sc.csv")
-    header = path.read_text().splitlines()[1].split(",")
+    header = path.read_text().splitlines()[0].split(",")
     assert header[:6] == ["t", "phi", "xr", "zr", "theta", "s"]
     assert header[-4:] == ["lambda_pin_x", "lambda_pin_z", "lambda_slide_x", "lambda_slide_z"]
 

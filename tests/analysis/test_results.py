@@ -1,8 +1,10 @@
-"""Result files: CSV (units line, header ``t, <coords>, d_<coords>, <outputs>``) and NPZ
-(no pickles), written atomically; the protocol loader's checks."""
+"""Result files: CSV (header ``t, <coords>, d_<coords>, <outputs>``, units in a sidecar) and
+NPZ (no pickles), written atomically; the protocol loader's checks; reading them with pandas and
+NumPy without options; the notebook display."""
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -10,7 +12,7 @@ import numpy as np
 import pytest
 
 from neweul_py.analysis.module import load_generated
-from neweul_py.analysis.results import load_npz
+from neweul_py.analysis.results import load_npz, read_units
 from neweul_py.analysis.simulate import simulate
 from neweul_py.errors import NeweulError
 
@@ -23,13 +25,57 @@ def result():
 
 
 def test_csv_format(result, tmp_path):
+    """Reference: the documented format (header line of names, 17-digit numbers) and the
+    units the pendulum's description declares."""
     path = result.to_csv(tmp_path / "out.csv")
     lines = path.read_text().splitlines()
-    assert lines[0] == "# units: s, rad, rad/s, m, m"
-    assert lines[1] == "t,phi,d_phi,x_bob,z_bob"
-    data = np.loadtxt(path, delimiter=",", skiprows=2)
+    assert lines[0] == "t,phi,d_phi,x_bob,z_bob"
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
     assert data.shape == (11, 5)
     np.testing.assert_array_equal(data, result.table)  # 17 digits: exact round trip
+    assert read_units(path) == {"t": "s", "phi": "rad", "d_phi": "rad/s", "x_bob": "m",
+                                "z_bob": "m"}
+    assert json.loads((tmp_path / "out.units.json").read_text())["d_phi"] == "rad/s"
+
+
+def test_csv_opens_in_pandas_and_numpy_without_options(result, tmp_path):
+    """Reference: the readers themselves (pandas.read_csv, numpy.genfromtxt(names=True)) give
+    the column names and the exact values of the result."""
+    pd = pytest.importorskip("pandas")
+    path = result.to_csv(tmp_path / "out.csv")
+    frame = pd.read_csv(path)
+    assert list(frame.columns) == result.names
+    np.testing.assert_array_equal(frame.to_numpy(), result.table)
+    rec = np.genfromtxt(path, names=True, delimiter=",")
+    assert rec.dtype.names == tuple(result.names)
+    np.testing.assert_array_equal(rec["phi"], result.y[:, 0])
+
+
+def test_to_dataframe_and_display(result):
+    """Reference: the result's own arrays; the display stays short (head and tail only)."""
+    pytest.importorskip("pandas")
+    frame = result.to_dataframe()
+    np.testing.assert_array_equal(frame["d_phi"].to_numpy(), result.yd[:, 0])
+    assert len(repr(result)) < 200 and "pendulum" in repr(result)
+    long = simulate(load_generated(GENERATED / "pendulum.py"), 1.0, n_out=5000)
+    assert len(long._repr_html_()) < 4000 and "<table>" in long._repr_html_()
+    assert long._repr_markdown_().count("\n") < 20
+
+
+def test_to_dataframe_without_pandas_is_one_clear_error(result, monkeypatch):
+    """Reference: the documented error text naming the extra."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_pandas(name, *args, **kwargs):
+        if name == "pandas":
+            raise ImportError("no pandas")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pandas)
+    with pytest.raises(NeweulError, match="pip install pandas"):
+        result.to_dataframe()
 
 
 def test_npz_round_trip_without_pickles(result, tmp_path):
@@ -47,7 +93,7 @@ def test_npz_round_trip_without_pickles(result, tmp_path):
 
 
 def test_save_picks_format_and_rejects_others(result, tmp_path):
-    assert result.save(tmp_path / "a.csv").read_text().startswith("# units")
+    assert result.save(tmp_path / "a.csv").read_text().startswith("t,phi")
     assert result.save(tmp_path / "a.npz").read_bytes()[:2] == b"PK"
     with pytest.raises(NeweulError, match=r"\.csv or \.npz"):
         result.save(tmp_path / "a.txt")
@@ -64,7 +110,7 @@ def test_failed_write_keeps_old_file(result, tmp_path, monkeypatch):
     with pytest.raises(OSError):
         result.to_npz(tmp_path / "out.csv")
     assert path.read_bytes() == before
-    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv", "out.units.json"]
 
 
 def test_column_lookup(result):
@@ -125,3 +171,22 @@ def test_loader_returns_fresh_module_after_regeneration(tmp_path):
     second = load_generated(path)
     assert first.PARAMETERS["l"] == 0.5
     assert second.PARAMETERS["l"] == 0.25
+
+
+def test_every_result_csv_has_the_same_names_in_pandas_and_genfromtxt(tmp_path):
+    """Reference: the readers themselves — the names pandas reads equal those genfromtxt keeps
+    (no mangled characters) for modes, frequency responses and equilibria; the display of each
+    result is one short line."""
+    pd = pytest.importorskip("pandas")
+    from neweul_py.analysis import equilibrium, frequency_response, linearize, modes
+
+    mod = load_generated(GENERATED / "middle_ear_chain.py")
+    lin = linearize(mod)
+    results = [modes(lin), frequency_response(lin, [100.0, 1000.0]), equilibrium(mod)]
+    for k, res in enumerate(results):
+        path = res.save(tmp_path / f"r{k}.csv")
+        names = list(pd.read_csv(path).columns)
+        rec = np.genfromtxt(path, names=True, delimiter=",", dtype=None, encoding="utf-8")
+        assert list(rec.dtype.names) == names
+        assert list(res.to_dataframe().columns)[: len(names)][:2] == names[:2]
+        assert len(repr(res)) < 200 and "\n" not in repr(res)

@@ -176,10 +176,13 @@ def test_version(capsys):
 def test_cli_choices_agree_with_the_api():
     """The constants the parser keeps (so that it imports no analysis code) are the API's."""
     from neweul_py.analysis.simulate import METHODS
+    from neweul_py.analysis.sweep_tasks import STATS, TASKS
+    from neweul_py.commands import SWEEP_STATS, SWEEP_TASKS
     from neweul_py.commands import interpolate as cmd
     from neweul_py.elastic import interpolation
 
     assert SIMULATE_METHODS == METHODS
+    assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
     assert cmd.INTERPOLATIONS == interpolation.INTERPOLATIONS
     assert cmd.BASES == interpolation.BASES
     assert cmd.PRESSURE_WEIGHT == interpolation.PRESSURE_WEIGHT

@@ -2,7 +2,7 @@
 
 * :func:`duct` – closed–closed 1-D acoustic duct (pressure DOFs), resonances ``n c / 2L``;
 * :func:`piston_duct` – a spring–mass piston closing one end of a duct, u–p coupled after
-  Eq. (2) of ``reference/equations.md`` §3 (unsymmetric);
+  Eq. (2) of ``docs/equations.md`` §3 (unsymmetric);
 * :func:`membrane_cavity` – a light string "membrane" closing a rigid 2-D air cavity, u–p
   coupled after Eq. (2), SI units (a middle-ear-like mix of magnitudes);
 * :func:`random_up` – a random sparse u–p model with the block structure of Eq. (2);

@@ -1,4 +1,4 @@
-"""Parametric reduction by matrix interpolation (``reference/equations.md`` §4; Panzer, Mohring,
+"""Parametric reduction by matrix interpolation (``docs/equations.md`` §4; Panzer, Mohring,
 Eid & Lohmann 2010): ``neweul_py.elastic.interpolation`` and ``neweul interpolate``.
 
 The parametric FE model is the u–p piston–duct of Eq. (2) (``fe_builders.piston_duct``, 121

@@ -1,5 +1,6 @@
-"""The issue-4 keys of the description format: the documented example loads and builds the
-model objects it describes (reference: docs/description-format.md, second example)."""
+"""The force, input and constraint keys of the description format: the documented example
+loads and builds the model objects it describes (reference: docs/description-format.md, second
+example)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Generated code for the issue-4 features: input vectors with the rates kinematic excitation
+"""Generated code for inputs, loops and tables: input vectors with the rates kinematic excitation
 needs, ∂/∂u of forces and outputs, constraint functions with inputs, table characteristics.
 
 References: finite differences of the generated functions themselves (``force_vector`` in

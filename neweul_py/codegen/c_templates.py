@@ -1,0 +1,224 @@
+"""Fixed C text of the compiled backend: the dense LU solve and the Dormand–Prince loop.
+
+Both are appended to the generated C sources by :mod:`.c_module` (self-contained: one file,
+one shared library, no linking against anything but ``libm``).
+
+* ``nw_lu`` / ``nw_lu_solve``: LU decomposition with partial (row) pivoting of a dense,
+  row-major ``n × n`` matrix, in place (Golub & Van Loan, *Matrix Computations*, Alg. 3.4.1);
+  no symmetry assumed, so the unsymmetric mass matrices of two-sided elastic bodies are
+  solved as well. A zero pivot returns 1 (singular matrix).
+* ``nw_integrate_dopri5``: the explicit Runge–Kutta pair of Dormand & Prince, 5(4), with
+  exactly the step-size control, initial step (Hairer, Nørsett & Wanner, *Solving ODEs I*,
+  §II.4) and 4th-order dense output of ``scipy.integrate.RK45`` (SciPy 1.x, ``rk.py``), so that
+  it takes the same steps as ``solve_ivp(method="RK45")`` on the same right-hand side; the
+  states at the requested output times are interpolated with the dense output.
+"""
+
+from __future__ import annotations
+
+__all__ = ["C_DOPRI5", "C_LU", "C_SUPPORT_DECLARATIONS"]
+
+#: Declarations (cffi ``cdef``) of the support functions.
+C_SUPPORT_DECLARATIONS = """
+int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double *p,
+                        const double *u, double rtol, double atol, double max_step,
+                        int n_eval, const double *t_eval, double *x_eval,
+                        long *nfev, double *t_reached);
+"""
+
+C_LU = r"""
+/* ---- dense LU with partial pivoting (Golub & Van Loan, Alg. 3.4.1), row-major, in place */
+static int nw_lu(int n, double *a, int *piv)
+{
+    for (int k = 0; k < n; ++k) {
+        int r = k;
+        double big = fabs(a[k * n + k]);
+        for (int i = k + 1; i < n; ++i) {
+            double v = fabs(a[i * n + k]);
+            if (v > big) { big = v; r = i; }
+        }
+        piv[k] = r;
+        if (big == 0.0 || big != big) return 1;
+        if (r != k)
+            for (int j = 0; j < n; ++j) {
+                double s = a[k * n + j]; a[k * n + j] = a[r * n + j]; a[r * n + j] = s;
+            }
+        double inv = 1.0 / a[k * n + k];
+        for (int i = k + 1; i < n; ++i) {
+            double l = a[i * n + k] * inv;
+            a[i * n + k] = l;
+            if (l != 0.0)
+                for (int j = k + 1; j < n; ++j) a[i * n + j] -= l * a[k * n + j];
+        }
+    }
+    return 0;
+}
+
+/* solve A X = B for m right-hand sides; b is row-major n x m, overwritten by X */
+static void nw_lu_solve(int n, const double *lu, const int *piv, int m, double *b)
+{
+    for (int k = 0; k < n; ++k)
+        if (piv[k] != k)
+            for (int j = 0; j < m; ++j) {
+                double s = b[k * m + j]; b[k * m + j] = b[piv[k] * m + j]; b[piv[k] * m + j] = s;
+            }
+    for (int i = 1; i < n; ++i)
+        for (int k = 0; k < i; ++k) {
+            double l = lu[i * n + k];
+            if (l != 0.0)
+                for (int j = 0; j < m; ++j) b[i * m + j] -= l * b[k * m + j];
+        }
+    for (int i = n - 1; i >= 0; --i) {
+        for (int k = i + 1; k < n; ++k) {
+            double l = lu[i * n + k];
+            if (l != 0.0)
+                for (int j = 0; j < m; ++j) b[i * m + j] -= l * b[k * m + j];
+        }
+        double inv = 1.0 / lu[i * n + i];
+        for (int j = 0; j < m; ++j) b[i * m + j] *= inv;
+    }
+}
+"""
+
+C_DOPRI5 = r"""
+/* ---- Dormand-Prince 5(4) with the step control and dense output of scipy's RK45 */
+static const double NW_C[6] = {0.0, 0.2, 0.3, 0.8, 0.8888888888888888, 1.0};
+static const double NW_A[6][5] = {
+    {0.0, 0.0, 0.0, 0.0, 0.0},
+    {0.2, 0.0, 0.0, 0.0, 0.0},
+    {0.075, 0.225, 0.0, 0.0, 0.0},
+    {0.9777777777777777, -3.7333333333333334, 3.5555555555555554, 0.0, 0.0},
+    {2.9525986892242035, -11.595793324188385, 9.822892851699436, -0.2908093278463649, 0.0},
+    {2.8462752525252526, -10.757575757575758, 8.906422717743473, 0.2784090909090909,
+     -0.2735313036020583}};
+static const double NW_B[6] = {0.09114583333333333, 0.0, 0.44923629829290207,
+                               0.6510416666666666, -0.322376179245283, 0.13095238095238096};
+static const double NW_E[7] = {-0.0012326388888888888, 0.0, 0.0042527702905061394,
+                               -0.03697916666666667, 0.05086379716981132, -0.0419047619047619,
+                               0.025};
+static const double NW_P[7][4] = {
+    {1.0, -2.8535800653862835, 3.0717434641059005, -1.1270175653862835},
+    {0.0, 0.0, 0.0, 0.0},
+    {0.0, 4.023133379230305, -6.249321565289, 2.675424484351598},
+    {0.0, -3.7324019615885042, 10.068970589843675, -5.685526961588504},
+    {0.0, 2.5548038301849423, -6.399112377351017, 3.5219323679207912},
+    {0.0, -1.3744241142186024, 3.272657752246729, -1.7672812570757455},
+    {0.0, 1.3824689317781436, -3.764937863556287, 2.382468931778144}};
+
+static double nw_rms(int n, const double *v, const double *scale)
+{
+    double s = 0.0;
+    for (int i = 0; i < n; ++i) { double r = v[i] / scale[i]; s += r * r; }
+    return sqrt(s / n);
+}
+
+/* returns 0: reached t_end; 1: step size too small; 2: singular mass matrix;
+   3: non-finite state */
+int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double *p,
+                        const double *u, double rtol, double atol, double max_step,
+                        int n_eval, const double *t_eval, double *x_eval,
+                        long *nfev, double *t_reached)
+{
+    enum { S = NW_STATE_SIZE };
+    double x[S], xn[S], f[S], fn[S], K[7][S], tmp[S], scale[S];
+    int ie = 0;
+    long ev = 0;
+    double t = t0;
+    *t_reached = t0;
+    memcpy(x, x0, sizeof x);
+    if (nw_rhs(t, x, p, u, f)) { *nfev = 1; return 2; }
+    ev = 1;
+    /* initial step: scipy.integrate._ivp.common.select_initial_step, error order 4 */
+    double interval = fabs(t_end - t0), h_abs;
+    {
+        for (int i = 0; i < S; ++i) scale[i] = atol + fabs(x[i]) * rtol;
+        double d0 = nw_rms(S, x, scale), d1 = nw_rms(S, f, scale), h0;
+        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+        if (h0 > interval) h0 = interval;
+        for (int i = 0; i < S; ++i) tmp[i] = x[i] + h0 * f[i];
+        if (nw_rhs(t0 + h0, tmp, p, u, fn)) { *nfev = 2; return 2; }
+        ev++;
+        for (int i = 0; i < S; ++i) tmp[i] = fn[i] - f[i];
+        double d2 = nw_rms(S, tmp, scale) / h0, h1;
+        if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
+        else h1 = pow(0.01 / fmax(d1, d2), 1.0 / 5.0);
+        h_abs = fmin(fmin(100 * h0, h1), fmin(interval, max_step));
+    }
+    while (ie < n_eval && t_eval[ie] <= t) {   /* output times at t0 */
+        memcpy(x_eval + (long)ie * S, x, sizeof x);
+        ie++;
+    }
+    while (t < t_end) {
+        double min_step = 10 * fabs(nextafter(t, INFINITY) - t), h, t_new;
+        if (h_abs > max_step) h_abs = max_step;
+        else if (h_abs < min_step) h_abs = min_step;
+        int rejected = 0;
+        for (;;) {
+            if (h_abs < min_step) { *nfev = ev; *t_reached = t; return 1; }
+            h = h_abs;
+            t_new = t + h;
+            if (t_new - t_end > 0) t_new = t_end;
+            h = t_new - t;
+            h_abs = fabs(h);
+            memcpy(K[0], f, sizeof f);
+            for (int s = 1; s < 6; ++s) {
+                for (int i = 0; i < S; ++i) {
+                    double d = 0.0;
+                    for (int j = 0; j < s; ++j) d += K[j][i] * NW_A[s][j];
+                    tmp[i] = x[i] + d * h;
+                }
+                if (nw_rhs(t + NW_C[s] * h, tmp, p, u, K[s])) {
+                    *nfev = ev + s; *t_reached = t; return 2;
+                }
+            }
+            for (int i = 0; i < S; ++i) {
+                double d = 0.0;
+                for (int j = 0; j < 6; ++j) d += K[j][i] * NW_B[j];
+                xn[i] = x[i] + h * d;
+            }
+            if (nw_rhs(t + h, xn, p, u, fn)) { *nfev = ev + 6; *t_reached = t; return 2; }
+            ev += 6;
+            memcpy(K[6], fn, sizeof fn);
+            for (int i = 0; i < S; ++i) {
+                double e = 0.0;
+                for (int j = 0; j < 7; ++j) e += K[j][i] * NW_E[j];
+                tmp[i] = e * h;
+                scale[i] = atol + fmax(fabs(x[i]), fabs(xn[i])) * rtol;
+            }
+            double err = nw_rms(S, tmp, scale);
+            if (err != err) { *nfev = ev; *t_reached = t; return 3; }
+            if (err < 1) {
+                double factor = err == 0 ? 10.0 : fmin(10.0, 0.9 * pow(err, -0.2));
+                if (rejected) factor = fmin(1.0, factor);
+                h_abs *= factor;
+                break;
+            }
+            h_abs *= fmax(0.2, 0.9 * pow(err, -0.2));
+            rejected = 1;
+        }
+        /* dense output on (t, t_new]: y_old + h Q [s, s^2, s^3, s^4], Q = K^T P */
+        while (ie < n_eval && t_eval[ie] <= t_new) {
+            double s = (t_eval[ie] - t) / h, pw[4] = {s, s * s, s * s * s, s * s * s * s};
+            double *out = x_eval + (long)ie * S;
+            for (int i = 0; i < S; ++i) {
+                double acc = 0.0;
+                for (int k = 0; k < 4; ++k) {
+                    double q = 0.0;
+                    for (int j = 0; j < 7; ++j) q += K[j][i] * NW_P[j][k];
+                    acc += q * pw[k];
+                }
+                out[i] = x[i] + h * acc;
+            }
+            ie++;
+        }
+        t = t_new;
+        memcpy(x, xn, sizeof x);
+        memcpy(f, fn, sizeof f);
+        *t_reached = t;
+        for (int i = 0; i < S; ++i)
+            if (!isfinite(x[i])) { *nfev = ev; return 3; }
+    }
+    *nfev = ev;
+    return 0;
+}
+"""

@@ -1,0 +1,237 @@
+"""Template of the Python side of compiled modules (see :mod:`.c_module`).
+
+The text below the ``template begins`` line is copied verbatim into every ``<name>_c.py``,
+after the run-time code (:mod:`.c_runtime`) and the module settings (``_MODEL_NAME``,
+``_TWIN_FILE``, ``_C_FILE``, ``_C_SHA256``, ``_C_JAC_FILE``, ``_C_JAC_SHA256``, the sizes
+``_N`` ``_NU`` ``_NP`` ``_NY`` ``_NC``, ``_CDEF``). The placeholders above the line only
+make this file lintable; it is read as text by :func:`.c_module.render_c_wrapper`, never
+imported.
+
+Every protocol function checks the shapes of its arguments (the library reads exactly the sizes
+it was built for: a wrong size is a ``ValueError``, never an out-of-bounds read), passes the
+arrays' buffers to the library (``ffi.from_buffer``, no copies for float64 arrays) and returns
+fresh arrays; ``u=None`` is passed as ``NULL``: the library evaluates the default excitation
+itself. A singular mass matrix raises ``numpy.linalg.LinAlgError`` like ``numpy.linalg.solve``.
+The derivative library is built (or verified) at the first call of a Jacobian function; if it
+cannot be had, those functions fall back to the twin's, with one warning.
+"""
+
+from pathlib import Path as _Path
+
+from .c_runtime import BackendUnavailable, compiled_library, load_twin
+
+_MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _CDEF = ""
+_N = _NU = _NP = _NY = _NC = 0
+
+# ---- template begins
+import threading as _threading  # noqa: E402
+import warnings as _warnings  # noqa: E402
+
+import numpy as _np  # noqa: E402
+
+_HERE = _Path(__file__).resolve().parent
+_twin = load_twin(_HERE / _TWIN_FILE, f"{__name__}__numpy")
+for _name, _value in vars(_twin).items():
+    if _name.isupper() or _name == "_P0":
+        globals()[_name] = _value
+_S = 2 * _N
+default_parameters = _twin.default_parameters
+
+try:
+    _ffi, _lib, _note = compiled_library(_HERE / _C_FILE, _C_SHA256, _CDEF,
+                                         _HERE / "__neweul_c__")
+except BackendUnavailable as _exc:
+    _ffi = _lib = None
+    BACKEND = "numpy"
+    BACKEND_NOTE = (f"model {_MODEL_NAME!r}: compiled backend unavailable ({_exc}); using the "
+                    f"NumPy module {_TWIN_FILE}")
+    _warnings.warn(BACKEND_NOTE, RuntimeWarning, stacklevel=2)
+else:
+    BACKEND = "c"
+    BACKEND_NOTE = _note
+    if _note not in ("", "built"):
+        _warnings.warn(f"model {_MODEL_NAME!r}: {_note}", RuntimeWarning, stacklevel=2)
+
+if _lib is None:
+    default_inputs = _twin.default_inputs
+    mass_matrix = _twin.mass_matrix
+    force_vector = _twin.force_vector
+    rhs = _twin.rhs
+    force_jacobians = _twin.force_jacobians
+    mass_matrix_times_derivative = _twin.mass_matrix_times_derivative
+    rhs_jacobian = _twin.rhs_jacobian
+    outputs = _twin.outputs
+    output_jacobians = _twin.output_jacobians
+    constraints = _twin.constraints
+    constraint_jacobian = _twin.constraint_jacobian
+    constraint_time_derivative = _twin.constraint_time_derivative
+    constraint_gamma = _twin.constraint_gamma
+else:
+    _fb = _ffi.from_buffer
+    _NULL = _ffi.NULL
+    _as = _np.ascontiguousarray
+    _f8 = _np.float64
+
+    def _arr(v, size, what):
+        a = _as(v, dtype=_f8)
+        if a.shape != (size,):
+            raise ValueError(f"{what} must have shape ({size},), got {a.shape}")
+        return _fb("double[]", a)
+
+    def _inputs(u):
+        return _NULL if u is None else _arr(u, _NU, "u")
+
+    def default_inputs(t, p):
+        """The default excitation ``u(t)`` of the description."""
+        out = _np.empty(_NU)
+        _lib.nw_default_inputs(float(t), _arr(p, _NP, "p"), _fb("double[]", out))
+        return out
+
+    def mass_matrix(t, y, p, u=None):
+        """Mass matrix ``M(y, t)``, shape (n, n)."""
+        out = _np.empty((_N, _N))
+        _lib.nw_mass_matrix(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"), _inputs(u),
+                            _fb("double[]", out))
+        return out
+
+    def force_vector(t, y, yd, p, u=None):
+        """Generalized forces ``q − k``, shape (n,)."""
+        out = _np.empty(_N)
+        _lib.nw_force_vector(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+                             _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        return out
+
+    # rhs is the hot path of every integrator: its arguments are copied into one buffer
+    # whose C pointers are made once (three ``from_buffer`` calls cost more than the copies);
+    # the library releases the GIL during the call, so a lock guards the shared buffer.
+    _rbuf = _np.zeros(2 * _S + _NP)  # x | out | p
+    _rx, _ro, _rp = _rbuf[:_S], _rbuf[_S:2 * _S], _rbuf[2 * _S:]
+    _rxp = _fb("double[]", _rbuf)
+    _rop, _rpp = _rxp + _S, _rxp + 2 * _S
+    _rlock = _threading.Lock()
+    _nw_rhs = _lib.nw_rhs
+
+    def rhs(t, x, p, u=None):
+        """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
+        x = _as(x, dtype=_f8)
+        p = _as(p, dtype=_f8)
+        if x.shape != (_S,) or p.shape != (_NP,):
+            raise ValueError(f"x and p must have shapes ({_S},), ({_NP},); "
+                             f"got {x.shape}, {p.shape}")
+        up = _NULL if u is None else _arr(u, _NU, "u")
+        with _rlock:
+            _rx[...] = x
+            _rp[...] = p
+            if _nw_rhs(float(t), _rxp, _rpp, up, _rop):
+                raise _np.linalg.LinAlgError("Singular matrix")
+            return _ro.copy()
+
+    _jac = []
+
+    def _jac_lib():
+        """The derivative library, built or verified at the first call (``None``: twin)."""
+        if not _jac:
+            try:
+                _, lib, note = compiled_library(_HERE / _C_JAC_FILE, _C_JAC_SHA256, _CDEF,
+                                                _HERE / "__neweul_c__", ffi=_ffi)
+            except BackendUnavailable as exc:
+                lib, note = None, (f"compiled derivatives unavailable ({exc}); using those of "
+                                   f"the NumPy module {_TWIN_FILE}")
+            if note not in ("", "built"):
+                _warnings.warn(f"model {_MODEL_NAME!r}: {note}", RuntimeWarning, stacklevel=3)
+            _jac.append(lib)
+        return _jac[0]
+
+    def force_jacobians(t, y, yd, p, u=None):
+        """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.force_jacobians(t, y, yd, p, u)
+        out = _np.empty((_N, 2 * _N + _NU))
+        lib.nw_force_jacobians(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+                                _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        return out[:, :_N], out[:, _N:2 * _N], out[:, 2 * _N:]
+
+    def mass_matrix_times_derivative(t, y, p, a, u=None):
+        """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.mass_matrix_times_derivative(t, y, p, a, u)
+        out = _np.empty((_N, _N))
+        lib.nw_mass_matrix_times_derivative(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"),
+                                             _arr(a, _N, "a"), _inputs(u),
+                                             _fb("double[]", out))
+        return out
+
+    def rhs_jacobian(t, x, p, u=None):
+        """``∂ rhs/∂x`` = [[0, I], [M⁻¹(∂f/∂y − ∂(M ÿ)/∂y), M⁻¹ ∂f/∂ẏ]], analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.rhs_jacobian(t, x, p, u)
+        out = _np.empty((_S, _S))
+        if lib.nw_rhs_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+                                _fb("double[]", out)):
+            raise _np.linalg.LinAlgError("Singular matrix")
+        return out
+
+    def outputs(t, x, p, u=None):
+        """The outputs, ordered as ``OUTPUTS``."""
+        out = _np.empty(_NY)
+        _lib.nw_outputs(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+                        _fb("double[]", out))
+        return out
+
+    def output_jacobians(t, x, p, u=None):
+        """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.output_jacobians(t, x, p, u)
+        out = _np.empty((_NY, _S + _NU))
+        lib.nw_output_jacobians(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+                                 _fb("double[]", out))
+        return out[:, :_S], out[:, _S:]
+
+    def _positional(fn, size, t, y, p, u):
+        out = _np.empty(size)
+        fn(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        return out
+
+    def constraints(t, y, p, u=None):
+        """Holonomic constraints ``g(y, t)``, ordered as ``CONSTRAINTS``."""
+        return _positional(_lib.nw_constraints, _NC, t, y, p, u)
+
+    def constraint_jacobian(t, y, p, u=None):
+        """``G = ∂g/∂y``, shape (nc, n), analytic."""
+        return _positional(_lib.nw_constraint_jacobian, (_NC, _N), t, y, p, u)
+
+    def constraint_time_derivative(t, y, p, u=None):
+        """``∂g/∂t`` (explicit time dependence, through inputs), shape (nc,)."""
+        return _positional(_lib.nw_constraint_time_derivative, _NC, t, y, p, u)
+
+    def constraint_gamma(t, y, yd, p, u=None):
+        """``γ`` with ``G ÿ + γ = 0``, shape (nc,)."""
+        out = _np.empty(_NC)
+        _lib.nw_constraint_gamma(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+                                 _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        return out
+
+    def integrate_dopri5(t_start, t_end, x0, p, t_eval, u=None, rtol=1e-6, atol=1e-9,
+                         max_step=float("inf")):
+        """Dormand–Prince 5(4) in C with the step control of SciPy's RK45 (no Python call
+        per step); ``u``: ``None`` (default excitation) or a constant input vector.
+
+        Returns
+        -------
+        x_eval, nfev, status, t_reached
+            States at ``t_eval`` (rows), right-hand-side evaluations, 0 (done), 1 (step too
+            small), 2 (singular mass matrix) or 3 (non-finite state), and the time reached.
+        """
+        te = _as(t_eval, dtype=_f8).reshape(-1)
+        x_eval = _np.full((te.size, _S), _np.nan)
+        nfev = _ffi.new("long *")
+        reached = _ffi.new("double *")
+        status = _lib.nw_integrate_dopri5(
+            float(t_start), float(t_end), _arr(x0, _S, "x0"), _arr(p, _NP, "p"), _inputs(u),
+            float(rtol), float(atol), float(max_step), te.size, _fb("double[]", te),
+            _fb("double[]", x_eval), nfev, reached)
+        return x_eval, int(nfev[0]), int(status), float(reached[0])

@@ -1,0 +1,61 @@
+"""Rendering and writing a generated module (docs/generated-module-protocol.md).
+
+:func:`render_module` picks the composition — the plain module of :mod:`.writer`, or with
+elastic bodies the composed module of :mod:`.elastic` — and :func:`generate_module` writes the
+text atomically: rendered completely first (so an invalid model raises before anything
+touches the disk), written to a temporary file beside the target, flushed, ``fsync``-ed and
+moved over the target with :func:`os.replace`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from ..atomic import atomic_write
+from .elastic import elastic_module_parts
+from .writer import compose, module_parts
+
+__all__ = ["generate_module", "render_module"]
+
+
+def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
+    """The complete source text of the generated module.
+
+    Parameters
+    ----------
+    equations
+        An :class:`~neweul_py.equations.Equations`.
+    source_hash
+        SHA-256 (hex) of the description the equations came from; stored as ``SOURCE_HASH``.
+    cse
+        Eliminate common subexpressions (default). Off only for debugging.
+
+    Raises
+    ------
+    GenerationError
+        When the equations cannot be turned into code.
+    """
+    if getattr(equations, "elastic", None) is not None:
+        return compose(elastic_module_parts(equations, source_hash, cse=cse))
+    return compose(module_parts(equations, source_hash, cse=cse))
+
+
+def generate_module(
+    equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True
+) -> Path:
+    """Render the module for ``equations`` and write it atomically to ``path``.
+
+    Returns
+    -------
+    Path
+        ``path``. If rendering fails nothing is written and an existing file is untouched.
+
+    Examples
+    --------
+    >>> generate_module(newton_euler(load_description("examples/pendulum.yaml")),
+    ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
+    """
+    text = render_module(equations, source_hash, cse=cse)
+    return atomic_write(path, text)

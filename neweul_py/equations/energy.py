@@ -1,0 +1,66 @@
+"""Energies of the rigid part of a model: kinetic, gravity, springs (equations.md §1).
+
+```
+T   = Σ_i ½ m_i v_ci·v_ci + ½ ω_iᵀ I_i ω_i          (v_c = J_T,c ẏ + v̄_c, body components)
+V_g = −Σ_i m_i g·r_ci                              (r_c: center of mass, ISYS)
+V_s = Σ_springs ∫₀^s F(σ, 0) dσ                    (conservative part of the characteristic)
+```
+``V_s`` covers point-to-point and rotational spring–dampers whose spring law is linear
+(``stiffness·s``): ``½ k s²`` with ``s = ℓ − length`` or ``s = coordinate − angle``. Tabulated
+characteristics, bushings and applied forces are left out (their potential is not formed),
+so the sum of the energies is conserved only when such elements do no work. Elastic bodies
+add their own terms in the generated module (:func:`neweul_py.ffrf.splice.ffrf_energy`).
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from ..kinematics import Kinematics
+from ..kinematics.algebra import dot, mat_vec, sub
+from ..model import INERTIAL, RotationalSpringDamper, SpringDamper, System, symbol
+
+__all__ = ["energies"]
+
+
+def _kinetic_and_gravity(kin: Kinematics, system: System) -> tuple[sp.Expr, sp.Expr]:
+    g = tuple(system.gravity)
+    kinetic: list[sp.Expr] = []
+    gravity: list[sp.Expr] = []
+    for body in system.bodies:
+        if body.frame == INERTIAL:
+            continue
+        c = tuple(body.center_of_mass)
+        fk = kin.frames[body.frame]
+        v = kin.velocity(kin.point(body.frame, c, f"bodies.{body.name}.center_of_mass"))
+        w = fk.omega
+        inertia = tuple(tuple(body.inertia[i, j] for j in range(3)) for i in range(3))
+        kinetic.append(sp.Rational(1, 2) * (body.mass * dot(v, v) + dot(w, mat_vec(inertia, w))))
+        r = kin.point_position(body.frame, c, INERTIAL)
+        gravity.append(-body.mass * dot(g, r))
+    return sp.Add(*kinetic), sp.Add(*gravity)
+
+
+def _springs(kin: Kinematics, system: System) -> sp.Expr:
+    terms: list[sp.Expr] = []
+    for fe in system.forces:
+        if isinstance(fe, SpringDamper) and fe.spring_force is None:
+            ra = kin.point_position(fe.frame_a, tuple(fe.point_a), INERTIAL)
+            rb = kin.point_position(fe.frame_b, tuple(fe.point_b), INERTIAL)
+            d = sub(rb, ra)
+            s = sp.sqrt(dot(d, d)) - fe.length
+        elif (isinstance(fe, RotationalSpringDamper) and fe.spring_force is None
+              and fe.coordinate is not None):
+            s = symbol(fe.coordinate) - fe.angle
+        else:
+            continue
+        terms.append(fe.enabled * fe.stiffness * s**2 / 2)
+    return sp.Add(*terms)
+
+
+def energies(kin: Kinematics, system: System) -> sp.ImmutableMatrix:
+    """``[T, V_g, V_s]`` of the rigid bodies and linear springs (module docstring), as
+    expressions of ``y``, ``ẏ``, ``p``, ``u``, ``t`` and the intermediates of ``kin``."""
+    kinetic, gravity = _kinetic_and_gravity(kin, system)
+    return sp.ImmutableMatrix([kinetic, gravity, _springs(kin, system)])
+

@@ -1,0 +1,55 @@
+"""The floating-frame kernel: one NumPy-only home of the elastic-body equations.
+
+Like :mod:`neweul_py.errors`, every layer may import it: ``elastic/`` writes data against
+:mod:`.schema`, ``model/`` validates with it, :mod:`.body` holds the body equations
+(``M_b(q)``, ``h_ω``, elastic forces, energies; equations.md §2) and :mod:`.splice` the
+splice of bodies into the system equations, whose source the generated modules embed
+(``codegen/elastic.py``). Nothing here imports sympy or another layer of the package.
+"""
+
+from __future__ import annotations
+
+from .body import (
+    KERNEL_FUNCTIONS,
+    ffrf_body_mass,
+    ffrf_elastic_forces,
+    ffrf_kinetic_energy,
+    ffrf_mass_blocks,
+    ffrf_prepare,
+    ffrf_strain_energy,
+    ffrf_velocity_terms,
+)
+from .schema import (
+    FLAT_FORMAT,
+    INERTIA_FORMS,
+    KERNEL_ARRAYS,
+    SCHEMA,
+    SCHEMA_VERSION,
+    TAYLOR_NAMES,
+    check_flat,
+    mode_count,
+)
+from .splice import PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack, ffrf_unpack
+
+__all__ = [
+    "FLAT_FORMAT",
+    "INERTIA_FORMS",
+    "KERNEL_ARRAYS",
+    "KERNEL_FUNCTIONS",
+    "PROTOCOL",
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "SPLICE_FUNCTIONS",
+    "TAYLOR_NAMES",
+    "check_flat",
+    "ffrf_body_mass",
+    "ffrf_elastic_forces",
+    "ffrf_kinetic_energy",
+    "ffrf_mass_blocks",
+    "ffrf_pack",
+    "ffrf_prepare",
+    "ffrf_strain_energy",
+    "ffrf_unpack",
+    "ffrf_velocity_terms",
+    "mode_count",
+]

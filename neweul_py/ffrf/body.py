@@ -1,0 +1,200 @@
+"""The equations of one elastic body in the floating frame of reference (equations.md §2).
+
+In the components of the reference frame K, with ``a``, ``α``, ``ω`` its acceleration,
+angular acceleration and angular velocity and ``q`` the elastic coordinates::
+
+    M_b(q) [a; α; q̈] + h_ω(q, q̇, ω) + [0; 0; Ke q + De q̇ + kσ] = h_applied
+
+    M_b(q) = [ m I    m̃dᵀ   md¹  ]      h_ω = [ ω̃ω̃ md + 2 ω̃ md¹ q̇                 ]
+             [ m̃d     J(q)  Crvᵀ ]            [ ω̃ J(q) ω + Σ_k Gr_k(q) q̇_k ω       ]
+             [ Ct     Cr    Me   ]            [ Oe(q) ω_q + Σ_k Ge_k q̇_k ω          ]
+
+with ``md(q) = md⁰ + md¹ q``, ``X(q) = X⁰ + X¹ q`` for ``Ct``, ``Cr``, ``Crv``, ``Oe`` and the
+**second-order inertia** of §2.1 (``C2 = J.m2``)::
+
+    J(q)    = J⁰ + J¹ q + Σ_kl q_k q_l C2[k, l]
+    Gr_k(q) = Gr⁰_k + 2 Σ_l q_l C2[l, k]
+
+With ``C2`` every term is the exact Newton–Euler sum over the FE mass points (for a mass
+matrix whose translational node blocks are isotropic — solids, membranes, lumped masses),
+so an undamped, undriven body conserves the energy ``½ zᵀ M_b z + ½ qᵀ Ke q`` exactly
+(``z = [v; ω; q̇]``). Without it (``C2 = None``: SID data, or ``inertia: sid``) this is the SID
+truncation (``J`` linear, ``Gr`` constant), whose missing terms make a flexible pendulum gain
+energy and blow up with enough modes.
+
+These functions are plain NumPy on arrays and are the **only** implementation of the body
+equations: :mod:`neweul_py.elastic.invariants` evaluates bodies with them and the generated
+modules embed their source verbatim (:mod:`neweul_py.codegen.elastic`). They accept complex
+arrays (the generated Jacobians use the complex step). Names start with ``ffrf_`` because the
+embedded copies share the generated module's namespace.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "KERNEL_FUNCTIONS",
+    "ffrf_body_mass",
+    "ffrf_elastic_forces",
+    "ffrf_kinetic_energy",
+    "ffrf_mass_blocks",
+    "ffrf_omega_products",
+    "ffrf_prepare",
+    "ffrf_skew",
+    "ffrf_strain_energy",
+    "ffrf_velocity_terms",
+]
+
+
+def ffrf_skew(v):
+    """``ṽ`` with ``ṽ b = v × b`` for one 3-vector (real or complex)."""
+    return np.array([[0.0 * v[0], -v[2], v[1]], [v[2], 0.0 * v[0], -v[0]],
+                     [-v[1], v[0], 0.0 * v[0]]])
+
+
+def ffrf_omega_products(w):
+    """``ω_q = [ωx², ωy², ωz², ωxωy, ωyωz, ωxωz]`` (the column order of ``Oe``)."""
+    return np.array([w[0] * w[0], w[1] * w[1], w[2] * w[2], w[0] * w[1], w[1] * w[2],
+                     w[0] * w[2]])
+
+
+def ffrf_prepare(flat, inertia="consistent"):
+    """The kernel's working form of one body from its flat invariants (schema.py keys).
+
+    The first-order parts of ``J``, ``Ct``, ``Cr``, ``Crv``, ``Oe`` are stacked into one
+    matrix ``T1`` so that all of them follow from one product ``T0 + T1 q``.
+
+    Parameters
+    ----------
+    flat
+        ``key → array`` (at least the required keys of :data:`neweul_py.ffrf.schema.SCHEMA`;
+        missing order-1 parts are zero).
+    inertia
+        ``"consistent"`` (use ``J.m2`` when present) or ``"sid"`` (ignore it).
+
+    Returns
+    -------
+    dict
+        ``mass``, ``nq``, ``md0`` (3,), ``md1`` (3, nq), ``T0``, ``T1``, ``where`` (key →
+        slice and shape in the stack), ``C2`` ((nq, nq, 3, 3) or ``None``), ``Me``, ``Gr``,
+        ``Ge``, ``ks`` (nq,), ``Ke``, ``De``.
+    """
+    nq = int(np.shape(flat["Me.m0"])[0])
+    zeros, firsts, where, start = [], [], {}, 0
+    for key in ("J", "Ct", "Cr", "Crv", "Oe"):
+        m0 = np.asarray(flat[key + ".m0"], dtype=np.float64)
+        m1 = flat.get(key + ".m1")
+        size = m0.size
+        zeros.append(m0.ravel())
+        firsts.append(np.zeros((size, nq)) if m1 is None else
+                      np.asarray(m1, dtype=np.float64).transpose(0, 2, 1).reshape(size, nq))
+        where[key] = (start, start + size, m0.shape)
+        start += size
+    md1 = flat.get("md.m1")
+    c2 = flat.get("J.m2") if inertia == "consistent" else None
+    ct1 = flat.get("Ct.m1")
+    stiff = (c2 is not None and ct1 is not None and np.any(ct1)
+             and not bool(np.asarray(flat.get("two_sided", False))))
+    return {
+        "mass": float(np.asarray(flat["m"])),
+        "nq": nq,
+        "md0": np.asarray(flat["md.m0"], dtype=np.float64)[:, 0],
+        "md1": np.zeros((3, nq)) if md1 is None else np.asarray(md1, dtype=np.float64)[:, :, 0],
+        "T0": np.concatenate(zeros),
+        "T1": np.ascontiguousarray(np.vstack(firsts)),
+        "where": where,
+        "C2": None if c2 is None else np.ascontiguousarray(c2, dtype=np.float64),
+        "consistent_stiffening": bool(stiff),
+        "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
+        "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
+        "Gr": np.asarray(flat["Gr.m0"], dtype=np.float64),
+        "Ge": np.asarray(flat["Ge.m0"], dtype=np.float64),
+        "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0],
+        "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
+        "De": np.asarray(flat["De.m0"], dtype=np.float64),
+    }
+
+
+def ffrf_mass_blocks(b, q):
+    """The q-dependent blocks of ``M_b(q)``: ``md``, ``M_rr`` (6×6), ``M_re`` (6×nq), ``M_er``
+    (nq×6) and ``Oe(q)`` (nq×6); ``M_ee = Me`` is constant (module docstring)."""
+    X = b["T0"] + b["T1"] @ q
+    X = {k: X[i:j].reshape(shape) for k, (i, j, shape) in b["where"].items()}
+    J = X["J"]
+    if b["C2"] is not None:
+        J = J + np.einsum("k,l,klab->ab", q, q, b["C2"])
+    md = b["md0"] + b["md1"] @ q
+    Mrr = np.zeros((6, 6), dtype=J.dtype)
+    Mrr[0, 0] = Mrr[1, 1] = Mrr[2, 2] = b["mass"]
+    Mrr[3:, :3] = ffrf_skew(md)
+    Mrr[:3, 3:] = -Mrr[3:, :3]
+    Mrr[3:, 3:] = J
+    if b["consistent_stiffening"]:
+        # reaction of the prestress of the frame acceleration (gravity: a − g) on the
+        # rotational rows, ½ s̃(q) with s_a = qᵀ Ct¹_a q (equations.md §2.1)
+        Mrr[3:, :3] += 0.5 * ffrf_skew(ffrf_prestress(b, q, X["Ct"]))
+    Mre = np.vstack((b["md1"], X["Crv"].T))
+    Mer = np.hstack((X["Ct"], X["Cr"]))
+    return md, Mrr, Mre, Mer, X["Oe"]
+
+
+def ffrf_prestress(b, q, Ct):
+    """``s_a = qᵀ Ct¹_a q`` (3,): the quadratic forms of the geometric stiffness of the frame
+    acceleration cases (``Ct`` = ``Ct(q)``, so ``Ct − Ct⁰ = Ct¹ q``)."""
+    return q @ (Ct - b["Ct0"])
+
+
+def ffrf_body_mass(b, q):
+    """The full (6+nq)² body mass matrix ``M_b(q)`` for ``[a, α, q̈]``."""
+    _md, Mrr, Mre, Mer, _Oe = ffrf_mass_blocks(b, q)
+    return np.block([[Mrr, Mre], [Mer, b["Me"].astype(Mrr.dtype)]])
+
+
+def ffrf_velocity_terms(b, q, qd, w, md, Jq, Oe):
+    """``h_ω`` split into the rigid rows (6,) and the elastic rows (nq,) (module docstring).
+
+    ``md``, ``Jq`` (= ``M_rr[3:, 3:]``) and ``Oe`` are those of :func:`ffrf_mass_blocks`
+    at the same ``q``.
+    """
+    wt = ffrf_skew(w)
+    qw = np.outer(qd, w).ravel()
+    hr = np.concatenate((wt @ (wt @ md) + 2.0 * (wt @ (b["md1"] @ qd)),
+                         wt @ (Jq @ w) + b["Gr"] @ qw))
+    if b["C2"] is not None:
+        hr[3:] += 2.0 * np.einsum("l,k,lkab,b->a", q, qd, b["C2"], w)
+    he = Oe @ ffrf_omega_products(w) + b["Ge"] @ qw
+    return hr, he
+
+
+def ffrf_elastic_forces(b, q, qd):
+    """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""
+    return b["Ke"] @ q + b["De"] @ qd + b["ks"]
+
+
+def ffrf_kinetic_energy(b, v, w, q, qd):
+    """``T = ½ zᵀ M_b(q) z`` with ``z = [v; ω; q̇]`` (frame velocity and angular velocity in
+    frame components). Exact for one-sided data; for two-sided data the elastic rows use
+    ``W``, so this is the energy of the Petrov–Galerkin model, not a conserved quantity."""
+    z = np.concatenate((v, w, qd))
+    inertia = dict(b, consistent_stiffening=False)      # the prestress reaction is no inertia
+    return 0.5 * float(np.real(z @ (ffrf_body_mass(inertia, q) @ z)))
+
+
+def ffrf_strain_energy(b, q, g=None):
+    """``½ qᵀ Ke q + kσᵀ q`` (the symmetric part of ``Ke`` for two-sided data), plus, with the
+    consistent stiffening of the frame-acceleration cases, the prestress potential of gravity
+    ``−½ g·s(q)`` (``g`` in frame components)."""
+    out = 0.5 * q @ (b["Ke"] @ q) + b["ks"] @ q
+    if b["consistent_stiffening"] and g is not None:
+        X = b["T0"] + b["T1"] @ q
+        i, j, shape = b["where"]["Ct"]
+        out = out - 0.5 * g @ ffrf_prestress(b, q, X[i:j].reshape(shape))
+    return float(np.real(out))
+
+
+#: The functions a generated module embeds (in this order), see the module docstring.
+KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_prestress,
+                    ffrf_mass_blocks,
+                    ffrf_body_mass, ffrf_velocity_terms, ffrf_elastic_forces,
+                    ffrf_kinetic_energy, ffrf_strain_energy)

@@ -1,0 +1,394 @@
+"""Elastic bodies spliced into the system equations (equations.md §2, "splice").
+
+The symbolic part of a model (rigid bodies, force elements, outputs, constraints, node
+frames) is a generated function set in the *symbolic coordinates* ``y_s``; for every elastic
+body it also returns, as hidden outputs, its reference frame's kinematics
+``kin = [J_T, J_R, ā, ᾱ, ω, g, v, e]`` (frame components; ``e = −g·r_O`` the potential per
+unit mass of the frame origin). These functions turn that into the protocol functions of a
+model with elastic bodies:
+
+1. ``y_s = S_V y``: the dependent node coordinates ``[u; θ] = [Φ_P; Ψ_P] q`` of the node frames;
+   the symbolic part's ``M_s``, ``(q − k)_s`` enter as ``S_Wᵀ M_s S_V``, ``S_Wᵀ (q − k)_s``
+   (``S_W``: the left basis; node loads reach the elastic rows as ``W_Pᵀ f``);
+2. the body equations of :mod:`neweul_py.ffrf.body` with ``J_b = [J_T; J_R; E]``::
+
+       M   += J_Wᵀ M_b(q) J_V
+       q−k −= J_Wᵀ (M_b(q) [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])
+
+   with ``J_V = J_b S_V`` and ``J_W = J_b S_W``;
+3. Jacobians by the chain rule through the analytic Jacobians of ``kin`` with the
+   complex-step derivative of the (polynomial) body terms, ``Im f(x + i h d)/h`` with
+   ``h = 1e-30``: exact to round-off (Squire & Trapp, SIAM Rev. 40 (1998) 110–112).
+
+All functions take the splice context ``S`` made by :func:`ffrf_system` (no module state),
+are plain NumPy and are embedded verbatim in generated modules
+(:mod:`neweul_py.codegen.elastic`), after :data:`neweul_py.ffrf.body.KERNEL_FUNCTIONS`.
+"""
+
+from __future__ import annotations
+
+import base64
+import zlib
+
+import numpy as np
+
+from .body import (
+    ffrf_elastic_forces,
+    ffrf_kinetic_energy,
+    ffrf_mass_blocks,
+    ffrf_prepare,
+    ffrf_strain_energy,
+    ffrf_velocity_terms,
+)
+from .parametric import ffrf_mix, ffrf_weights
+
+__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_at", "ffrf_pack", "ffrf_system",
+           "ffrf_unpack"]
+
+#: Entries of ``kin`` per body besides the two Jacobians: ā, ᾱ, ω, g, v (3 each), e (1)
+#: (written as the literal 16 in :func:`ffrf_frame`, whose source is embedded).
+KIN_TAIL = 16
+
+
+def ffrf_pack(a):
+    """``(shape, text)``: the little-endian float64 bytes of ``a``, zlib-compressed, base64
+    (deterministic: the text depends only on the array)."""
+    arr = np.ascontiguousarray(np.asarray(a, dtype="<f8"))
+    text = base64.b64encode(zlib.compress(arr.tobytes(), 6)).decode("ascii")
+    return tuple(int(s) for s in arr.shape), text
+
+
+def ffrf_unpack(entry):
+    """Inverse of :func:`ffrf_pack` (other values pass through)."""
+    if not isinstance(entry, tuple):
+        return entry
+    shape, text = entry
+    raw = zlib.decompress(base64.b64decode(text))
+    return np.frombuffer(raw, dtype="<f8").reshape(shape).copy()
+
+
+def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None):
+    """The splice context of a generated module.
+
+    Parameters
+    ----------
+    data
+        One dict per elastic body: ``name``, ``first`` (index of its first coordinate in
+        ``y``), ``kin`` (offset of its frame kinematics in the hidden outputs), ``inertia``
+        and its flat arrays (packed or plain); a parametric body has ``samples`` (one such
+        dict of arrays per sample), ``values`` and ``coeff`` (:mod:`.parametric`) instead.
+    ns
+        Number of symbolic coordinates ``y_s`` that appear in the symbolic part.
+    sv, sw
+        ``S_V``, ``S_W`` restricted to those rows, (ns, n), packed or plain (without the
+        node rows of parametric bodies).
+    nhidden
+        Number of the module's own outputs (the hidden ones follow).
+    rigid
+        The symbolic part's functions by protocol name.
+    default_inputs
+        ``default_inputs(t, p)`` of the module.
+    parts
+        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n): its node rows per sample.
+    schedule
+        ``schedule(t, p)``: the scheduling values of the parametric bodies, in order.
+    """
+    bodies = []
+    for entry in data:
+        if "samples" in entry:
+            prepared = [ffrf_prepare({k: ffrf_unpack(v) for k, v in sample.items()},
+                                     entry["inertia"]) for sample in entry["samples"]]
+            b = dict(prepared[0])
+            b.update(samples=prepared, values=ffrf_unpack(entry["values"]),
+                     coeff=ffrf_unpack(entry["coeff"]))
+        else:
+            b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"])
+        b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
+        bodies.append(b)
+    SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
+    return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
+            "same": bool(np.array_equal(SV, SW)) and not parts, "nhidden": nhidden,
+            "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30,
+            "parts": tuple((ffrf_unpack(a), ffrf_unpack(b)) for a, b in parts),
+            "schedule": schedule}
+
+
+def ffrf_at(S, t, p):
+    """The context at time ``t`` and parameters ``p``: parametric bodies mixed at their
+    scheduling values ``σ(t, p)`` and ``S_V(σ)``, ``S_W(σ)`` (frozen-parameter equations:
+    the weights' time derivatives are not taken, :mod:`.parametric`); ``S`` itself
+    without parametric bodies."""
+    if not S["parts"]:
+        return S
+    sigma = S["schedule"](t, p)
+    bodies, SV, SW, k = [], S["SV"], S["SW"], 0
+    for b in S["bodies"]:
+        if "samples" not in b:
+            bodies.append(b)
+            continue
+        w = ffrf_weights(b["values"], b["coeff"], sigma[k], b["name"])
+        mixed = ffrf_mix(b["samples"], w)
+        mixed.update(name=b["name"], first=b["first"], kin=b["kin"])
+        bodies.append(mixed)
+        SVs, SWs = S["parts"][k]
+        SV = SV + np.tensordot(w, SVs, axes=1)
+        SW = SW + np.tensordot(w, SWs, axes=1)
+        k += 1
+    return dict(S, bodies=tuple(bodies), SV=SV, SW=SW, same=bool(np.array_equal(SV, SW)))
+
+
+def ffrf_frame(S, b, kin):
+    """``(J_V, J_W, ā, ᾱ, ω, g, v, e)`` of body ``b`` from the hidden outputs ``kin``."""
+    ns, o = S["ns"], b["kin"]
+    JT = kin[o:o + 3 * ns].reshape(3, ns)
+    JR = kin[o + 3 * ns:o + 6 * ns].reshape(3, ns)
+    tail = kin[o + 6 * ns:o + 6 * ns + 16]
+    Js = np.vstack((JT, JR))
+    Jv = Js @ S["SV"]
+    Jw = Jv if S["same"] else Js @ S["SW"]
+    return Jv, Jw, tail[0:3], tail[3:6], tail[6:9], tail[9:12], tail[12:15], tail[15]
+
+
+def ffrf_terms(S, kin, y, yd):
+    """Per body: ``(J_V, J_W, ā, ᾱ, ω, g, q, q̇, md, M_rr, M_re, M_er, Oe)`` — the frame
+    kinematics and the mass blocks of :func:`~neweul_py.ffrf.body.ffrf_mass_blocks`, evaluated
+    once for the mass matrix and the force vector."""
+    out = []
+    for b in S["bodies"]:
+        Jv, Jw, abar, alphabar, w, g = ffrf_frame(S, b, kin)[:6]
+        e = slice(b["first"], b["first"] + b["nq"])
+        q, qd = y[e], yd[e]
+        out.append((Jv, Jw, abar, alphabar, w, g, q, qd, *ffrf_mass_blocks(b, q)))
+    return out
+
+
+def ffrf_add_mass(S, M, terms):
+    """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices)."""
+    for b, (Jv, Jw, *_k, _q, _qd, _md, Mrr, Mre, Mer, _Oe) in zip(S["bodies"], terms, strict=True):
+        e = slice(b["first"], b["first"] + b["nq"])
+        M = M + Jw.T @ (Mrr @ Jv)
+        M[:, e] += Jw.T @ Mre
+        M[e, :] += Mer @ Jv
+        M[e, e] += b["Me"]
+    return M
+
+
+def ffrf_add_force(S, f, terms):
+    """``q − k −= J_Wᵀ (M_b [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])``."""
+    for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, md, Mrr, _Mre, Mer, Oe) in zip(
+            S["bodies"], terms, strict=True):
+        e = slice(b["first"], b["first"] + b["nq"])
+        acc = np.concatenate((abar - g, alphabar))
+        hr, he = ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe)
+        f = f - Jw.T @ (Mrr @ acc + hr)
+        f[e] -= Mer @ acc + he + ffrf_elastic_forces(b, q, qd)
+    return f
+
+
+def ffrf_kin(S, t, y, yd, p, u):
+    """The hidden outputs (frame kinematics of the bodies) at ``y_s = S_V y``."""
+    xs = np.concatenate((S["SV"] @ y, S["SV"] @ yd))
+    return S["rigid"]["outputs"](t, xs, p, u)[S["nhidden"]:]
+
+
+def ffrf_mass_matrix(S, t, y, p, u=None):
+    """``M = S_Wᵀ M_s S_V + Σ J_Wᵀ M_b J_V`` (unsymmetric with two-sided data)."""
+    y = np.asarray(y, dtype=np.float64)
+    z = np.zeros_like(y)
+    terms = ffrf_terms(S, ffrf_kin(S, t, y, z, p, u), y, z)
+    Ms = S["rigid"]["mass_matrix"](t, S["SV"] @ y, p, u)
+    return ffrf_add_mass(S, S["SW"].T @ Ms @ S["SV"], terms)
+
+
+def ffrf_force_vector(S, t, y, yd, p, u=None):
+    """``q − k`` with the elastic bodies' terms."""
+    y = np.asarray(y, dtype=np.float64)
+    yd = np.asarray(yd, dtype=np.float64)
+    terms = ffrf_terms(S, ffrf_kin(S, t, y, yd, p, u), y, yd)
+    fs = S["rigid"]["force_vector"](t, S["SV"] @ y, S["SV"] @ yd, p, u)
+    return ffrf_add_force(S, S["SW"].T @ fs, terms)
+
+
+def ffrf_rhs(S, t, x, p, u=None):
+    """``[ẏ, M⁻¹ (q − k)]``: one evaluation of the frame kinematics for both."""
+    x = np.asarray(x, dtype=np.float64)
+    n = S["n"]
+    y, yd = x[:n], x[n:2 * n]
+    terms = ffrf_terms(S, ffrf_kin(S, t, y, yd, p, u), y, yd)
+    ys, yds = S["SV"] @ y, S["SV"] @ yd
+    M = ffrf_add_mass(S, S["SW"].T @ S["rigid"]["mass_matrix"](t, ys, p, u) @ S["SV"], terms)
+    f = ffrf_add_force(S, S["SW"].T @ S["rigid"]["force_vector"](t, ys, yds, p, u), terms)
+    xd = np.empty(2 * n)
+    xd[:n] = yd
+    xd[n:] = np.linalg.solve(M, f)
+    return xd
+
+
+def ffrf_kin_jacobians(S, t, y, yd, p, u):
+    """``∂kin/∂y``, ``∂kin/∂ẏ`` (through ``y_s = S_V y``) and ``∂kin/∂u``: the analytic
+    output Jacobians of the symbolic part."""
+    xs = np.concatenate((S["SV"] @ y, S["SV"] @ yd))
+    Cs, Ds = S["rigid"]["output_jacobians"](t, xs, p, u)
+    Cs, ns = Cs[S["nhidden"]:], S["ns"]
+    return Cs[:, :ns] @ S["SV"], Cs[:, ns:] @ S["SV"], Ds[S["nhidden"]:]
+
+
+def ffrf_force_directional(S, kin, y, yd, directions):
+    """Directional derivatives of the elastic terms of ``q − k`` (complex step), one
+    column per ``(d kin, d y, d ẏ)``."""
+    h = S["step"]
+    out = np.empty((S["n"], len(directions)))
+    zero = np.zeros(S["n"], dtype=complex)
+    for j, (dk, dy, dyd) in enumerate(directions):
+        f = ffrf_add_force(S, zero, ffrf_terms(S, kin + 1j * h * dk, y + 1j * h * dy,
+                                               yd + 1j * h * dyd))
+        out[:, j] = f.imag / h
+    return out
+
+
+def ffrf_force_jacobians(S, t, y, yd, p, u=None):
+    """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu)."""
+    y = np.asarray(y, dtype=np.float64)
+    yd = np.asarray(yd, dtype=np.float64)
+    if u is None:
+        u = S["default_inputs"](t, p)
+    SV, SW, n = S["SV"], S["SW"], S["n"]
+    fys, fyds, fus = S["rigid"]["force_jacobians"](t, SV @ y, SV @ yd, p, u)
+    fy, fyd, fu = SW.T @ fys @ SV, SW.T @ fyds @ SV, SW.T @ fus
+    kin = ffrf_kin(S, t, y, yd, p, u)
+    Ky, Kyd, Ku = ffrf_kin_jacobians(S, t, y, yd, p, u)
+    z, eye = np.zeros(n), np.eye(n)
+    fy += ffrf_force_directional(S, kin, y, yd, [(Ky[:, j], eye[j], z) for j in range(n)])
+    fyd += ffrf_force_directional(S, kin, y, yd, [(Kyd[:, j], z, eye[j]) for j in range(n)])
+    if fu.shape[1]:
+        fu += ffrf_force_directional(S, kin, y, yd,
+                                     [(Ku[:, k], z, z) for k in range(fu.shape[1])])
+    return fy, fyd, fu
+
+
+def ffrf_mass_matrix_times_derivative(S, t, y, p, a, u=None):
+    """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
+    y = np.asarray(y, dtype=np.float64)
+    a = np.asarray(a, dtype=np.float64)
+    if u is None:
+        u = S["default_inputs"](t, p)
+    SV, SW, n, h = S["SV"], S["SW"], S["n"], S["step"]
+    dMa = SW.T @ S["rigid"]["mass_matrix_times_derivative"](t, SV @ y, p, SV @ a, u) @ SV
+    z = np.zeros(n)
+    kin = ffrf_kin(S, t, y, z, p, u)
+    Ky = ffrf_kin_jacobians(S, t, y, z, p, u)[0]
+    zero = np.zeros((n, n), dtype=complex)
+    for j in range(n):
+        dy = np.zeros(n)
+        dy[j] = 1.0
+        Mc = ffrf_add_mass(S, zero, ffrf_terms(S, kin + 1j * h * Ky[:, j], y + 1j * h * dy, z))
+        dMa[:, j] += (Mc @ a).imag / h
+    return dMa
+
+
+def ffrf_rhs_jacobian(S, t, x, p, u=None):
+    """``∂rhs/∂x = [[0, I], [M⁻¹(∂f/∂y − ∂(M ÿ)/∂y), M⁻¹ ∂f/∂ẏ]]``."""
+    x = np.asarray(x, dtype=np.float64)
+    n = S["n"]
+    y, yd = x[:n], x[n:2 * n]
+    M = ffrf_mass_matrix(S, t, y, p, u)
+    ydd = np.linalg.solve(M, ffrf_force_vector(S, t, y, yd, p, u))
+    fy, fyd, _fu = ffrf_force_jacobians(S, t, y, yd, p, u)
+    dMa = ffrf_mass_matrix_times_derivative(S, t, y, p, ydd, u)
+    J = np.zeros((2 * n, 2 * n))
+    J[:n, n:] = np.eye(n)
+    J[n:, :] = np.linalg.solve(M, np.hstack((fy - dMa, fyd)))
+    return J
+
+
+def ffrf_symbolic_state(S, x):
+    """``[S_V y, S_V ẏ]``: the state of the symbolic part."""
+    x = np.asarray(x, dtype=np.float64)
+    n = S["n"]
+    return np.concatenate((S["SV"] @ x[:n], S["SV"] @ x[n:2 * n]))
+
+
+def ffrf_outputs(S, t, x, p, u=None):
+    """The module's own outputs."""
+    return S["rigid"]["outputs"](t, ffrf_symbolic_state(S, x), p, u)[:S["nhidden"]]
+
+
+def ffrf_output_jacobians(S, t, x, p, u=None):
+    """``∂out/∂x`` (ny, 2n) and ``∂out/∂u`` (ny, nu)."""
+    Cs, Ds = S["rigid"]["output_jacobians"](t, ffrf_symbolic_state(S, x), p, u)
+    Cs, ns, SV = Cs[:S["nhidden"]], S["ns"], S["SV"]
+    return np.hstack((Cs[:, :ns] @ SV, Cs[:, ns:] @ SV)), Ds[:S["nhidden"]].copy()
+
+
+def ffrf_energy(S, t, x, p, u=None):
+    """``[kinetic, gravity, springs, strain]``: the symbolic part's energies plus, per body,
+    ``½ zᵀ M_b z`` (``z = [v; ω; q̇]``), ``m e − g·md(q)`` and ``½ qᵀ Ke q + kσᵀ q``."""
+    x = np.asarray(x, dtype=np.float64)
+    n = S["n"]
+    y, yd = x[:n], x[n:2 * n]
+    out = np.array(S["rigid"]["energy"](t, ffrf_symbolic_state(S, x), p, u), dtype=np.float64)
+    kin = ffrf_kin(S, t, y, yd, p, u)
+    for b in S["bodies"]:
+        _Jv, _Jw, _a, _al, w, g, v, e = ffrf_frame(S, b, kin)
+        sl = slice(b["first"], b["first"] + b["nq"])
+        q, qd = y[sl], yd[sl]
+        out[0] += ffrf_kinetic_energy(b, v, w, q, qd)
+        out[1] += b["mass"] * e - g @ (b["md0"] + b["md1"] @ q)
+        out[3] += ffrf_strain_energy(b, q, g)
+    return out
+
+
+def ffrf_constraints(S, t, y, p, u=None):
+    """``g(S_V y, t)``."""
+    return S["rigid"]["constraints"](t, S["SV"] @ np.asarray(y, dtype=np.float64), p, u)
+
+
+def ffrf_constraint_jacobian(S, t, y, p, u=None):
+    """``G = G_s S_V``: the constraints move with the node coordinates."""
+    y = np.asarray(y, dtype=np.float64)
+    return S["rigid"]["constraint_jacobian"](t, S["SV"] @ y, p, u) @ S["SV"]
+
+
+def ffrf_constraint_reaction_jacobian(S, t, y, p, u=None):
+    """``G_R = G_s S_W``: the reactions ``G_Rᵀ λ`` reach the elastic rows of a two-sided
+    host through ``W_P`` like every node load."""
+    y = np.asarray(y, dtype=np.float64)
+    return S["rigid"]["constraint_jacobian"](t, S["SV"] @ y, p, u) @ S["SW"]
+
+
+def ffrf_constraint_time_derivative(S, t, y, p, u=None):
+    """``∂g/∂t``."""
+    y = np.asarray(y, dtype=np.float64)
+    return S["rigid"]["constraint_time_derivative"](t, S["SV"] @ y, p, u)
+
+
+def ffrf_constraint_gamma(S, t, y, yd, p, u=None):
+    """``γ`` with ``G ÿ + γ = 0``."""
+    SV = S["SV"]
+    return S["rigid"]["constraint_gamma"](t, SV @ np.asarray(y, dtype=np.float64),
+                                          SV @ np.asarray(yd, dtype=np.float64), p, u)
+
+
+#: The protocol functions a module with elastic bodies delegates to (protocol name → splice
+#: function); each takes the context first.
+PROTOCOL = {
+    "mass_matrix": ffrf_mass_matrix,
+    "force_vector": ffrf_force_vector,
+    "rhs": ffrf_rhs,
+    "force_jacobians": ffrf_force_jacobians,
+    "mass_matrix_times_derivative": ffrf_mass_matrix_times_derivative,
+    "rhs_jacobian": ffrf_rhs_jacobian,
+    "outputs": ffrf_outputs,
+    "output_jacobians": ffrf_output_jacobians,
+    "energy": ffrf_energy,
+    "constraints": ffrf_constraints,
+    "constraint_jacobian": ffrf_constraint_jacobian,
+    "constraint_reaction_jacobian": ffrf_constraint_reaction_jacobian,
+    "constraint_time_derivative": ffrf_constraint_time_derivative,
+    "constraint_gamma": ffrf_constraint_gamma,
+}
+
+#: The functions a generated module embeds after the kernel's (in this order).
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_at, ffrf_frame,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_kin, ffrf_kin_jacobians,
+                    ffrf_force_directional, ffrf_symbolic_state, *PROTOCOL.values())

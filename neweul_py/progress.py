@@ -1,0 +1,163 @@
+"""Progress of long work on stderr, one helper for every layer (tqdm bars with a remaining-time
+estimate).
+
+Two kinds of hooks reach this module, and a :class:`Tracker` serves as both:
+
+- a *message* hook ``progress(message: str)`` — the ``Progress`` type of ``elastic/`` and
+  ``fem/`` (``"factorizing K − σM …"``);
+- a *counted* hook ``progress(done: float, total: float)`` — ``simulate(progress=...)`` passes
+  the simulated time reached and the time span, sweeps the number of finished cases.
+
+Call sites in counted loops use :func:`report`, which advances a tracker's bar (with an
+estimate of the remaining time) and hands plain message hooks their message, so a user's
+``print`` still works as a hook. Bars are drawn only when stderr is a terminal; messages are
+printed (one line each) unless the tracker is ``quiet``. Library code never creates a tracker
+itself: the CLI (or the user) passes one in, so the Python API stays silent by default.
+
+Examples
+--------
+>>> from neweul_py.progress import Tracker
+>>> with Tracker("simulate", unit="s") as track:            # doctest: +SKIP
+...     simulate(mod, 100.0, progress=track)
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from typing import IO, Any
+
+__all__ = ["QUIET_HELP", "CountedProgress", "MessageProgress", "Tracker", "interactive", "report"]
+
+#: A hook receiving short messages of long steps (``elastic.projection.Progress``).
+MessageProgress = Callable[[str], None] | None
+#: A hook receiving ``(done, total)`` of a counted loop.
+CountedProgress = Callable[[float, float], None] | None
+
+#: Help text of the ``--quiet`` option of the commands that report progress.
+QUIET_HELP = "no progress bars or progress messages on stderr"
+
+
+def interactive(stream: IO[str] | None = None) -> bool:
+    """Whether ``stream`` (default: stderr) is a terminal, where progress bars are drawn."""
+    stream = sys.stderr if stream is None else stream
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # closed or not a real stream
+        return False
+
+
+class Tracker:
+    """A tqdm progress bar on stderr with messages above it.
+
+    Parameters
+    ----------
+    desc
+        Label of the bar (``"simulate"``, ``"sweep"``).
+    unit
+        Unit of the counted quantity (``"s"`` simulated time, ``"case"``).
+    quiet
+        Neither bars nor messages.
+    stream
+        Where to write (default: ``sys.stderr``); bars only when it is a terminal.
+    bar
+        Draw a bar (``None``: when ``stream`` is a terminal and not ``quiet``).
+
+    Notes
+    -----
+    Called with a string it prints the message (``tqdm.write`` while a bar is shown, so the bar
+    stays intact); called with two numbers it advances the bar to ``done`` of ``total``. tqdm
+    throttles redraws itself (``mininterval``), so a hook called often costs little.
+    """
+
+    def __init__(
+        self,
+        desc: str = "",
+        *,
+        unit: str = "it",
+        quiet: bool = False,
+        stream: IO[str] | None = None,
+        bar: bool | None = None,
+    ) -> None:
+        self.desc = desc
+        self.unit = unit
+        self.quiet = quiet
+        self._stream = stream
+        self._bar_enabled = (not quiet and interactive(stream)) if bar is None else bool(bar)
+        self._bar: Any = None
+
+    @property
+    def stream(self) -> IO[str]:
+        """The stream written to (stderr unless given)."""
+        return sys.stderr if self._stream is None else self._stream
+
+    # ------------------------------------------------------------------ hooks
+    def __call__(self, what: str | float, total: float | None = None) -> None:
+        """A message hook (``what`` a string) or a counted hook (``what`` done of ``total``)."""
+        if isinstance(what, str):
+            self.say(what)
+        else:
+            self.advance(float(what), float(total if total is not None else what))
+
+    def say(self, message: str) -> None:
+        """Print one message line (unless quiet)."""
+        if self.quiet or not message:
+            return
+        if self._bar is not None:
+            from tqdm import tqdm
+
+            tqdm.write(f"  {message}", file=self.stream)
+        else:
+            print(f"  {message}", file=self.stream, flush=True)
+
+    def advance(self, done: float, total: float, message: str = "") -> None:
+        """Move the bar to ``done`` of ``total`` (with ``message`` beside it); without a bar
+        (not a terminal) only the message is printed."""
+        if not self._bar_enabled:
+            self.say(message)
+            return
+        if self._bar is None:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=total, desc=self.desc, unit=self.unit, file=self.stream,
+                             dynamic_ncols=True, leave=False, unit_scale=self.unit != "case")
+        bar = self._bar
+        if bar.total != total:
+            bar.total = total
+        if message:
+            bar.set_postfix_str(message, refresh=False)
+        step = min(done, total) - bar.n
+        if step > 0:
+            bar.update(step)
+
+    def close(self) -> None:
+        """Remove the bar (if one was drawn)."""
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def __enter__(self) -> Tracker:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def report(
+    progress: Callable[..., Any] | None,
+    message: str = "",
+    done: float | None = None,
+    total: float | None = None,
+) -> None:
+    """Report one step of a counted loop to a hook of either kind.
+
+    A :class:`Tracker` advances its bar to ``done`` of ``total`` (with the message beside it;
+    printed as a line where no bar is drawn); any other hook is a message hook and gets
+    ``message``; ``None`` does nothing.
+    """
+    if progress is None:
+        return
+    if isinstance(progress, Tracker) and done is not None and total is not None:
+        progress.advance(done, total, message)
+    elif message:
+        progress(message)

@@ -1,0 +1,136 @@
+"""Parameter sweeps on a real Dask LocalCluster (neweul_py/analysis/sweep.py, sweep_cases.py,
+sweep_tasks.py; neweul_py/sweep.py; ``neweul sweep``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from neweul_py.analysis import load_generated, simulate
+from neweul_py.analysis.sweep import SweepResult, sweep
+from neweul_py.analysis.sweep_cases import grid, parse_parameter, product, read_cases
+from neweul_py.cli import main
+from neweul_py.errors import DataError, NeweulError
+
+distributed = pytest.importorskip("distributed")
+GENERATED = Path(__file__).resolve().parents[2] / "generated"
+PENDULUM = GENERATED / "pendulum.py"
+
+
+@pytest.fixture(scope="module")
+def client():
+    """Two in-process workers: a real scheduler and real workers, started in about a second."""
+    import logging
+
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                       dashboard_address=None, silence_logs=logging.ERROR)
+    cl = distributed.Client(cluster)
+    yield cl
+    cl.close()
+    cluster.close()
+
+
+def test_case_specifications(tmp_path):
+    """Reference: numpy.linspace and the Cartesian product written out by hand."""
+    name, values = parse_parameter("m=0.5:2:4")
+    assert name == "m" and np.allclose(values, [0.5, 1.0, 1.5, 2.0])
+    assert grid({"a": [1, 2], "b": [3, 4]}) == [
+        {"a": 1, "b": 3}, {"a": 1, "b": 4}, {"a": 2, "b": 3}, {"a": 2, "b": 4}]
+    (tmp_path / "c.csv").write_text("l,g\n0.5,9.81\n1,1.62\n")
+    assert product(read_cases(tmp_path / "c.csv"), [{"m": 2.0}]) == [
+        {"l": 0.5, "g": 9.81, "m": 2.0}, {"l": 1.0, "g": 1.62, "m": 2.0}]
+    (tmp_path / "bad.csv").write_text("l,g\n0.5,nan\n")
+    with pytest.raises(DataError, match="row 2, column 'g'"):
+        read_cases(tmp_path / "bad.csv")
+    with pytest.raises(NeweulError, match="START:STOP:COUNT"):
+        parse_parameter("m=1:2")
+
+
+def test_modes_sweep_matches_closed_form_and_records_singular_cases(client, tmp_path):
+    """Reference: the pendulum's natural frequency sqrt(g/l)/(2π), independent of m; m = 0
+    makes the mass matrix singular — that case is recorded, the others still run."""
+    cases = grid({"m": [0.0, 1.0], "l": [0.5, 1.0, 2.0]})
+    res = sweep(PENDULUM, cases, "modes", client=client)
+    ok = res.ok
+    assert list(ok) == [False] * 3 + [True] * 3
+    assert all("singular mass matrix" in msg for _, msg in res.failures)
+    g = load_generated(PENDULUM).PARAMETERS["g"]
+    f_ref = np.sqrt(g / res.data["l"][3:]) / (2 * np.pi)
+    np.testing.assert_allclose(res.data["f1_hz"][3:], f_ref,
+                               rtol=1e-10)
+    pd = pytest.importorskip("pandas")
+    path = res.save(tmp_path / "modes.csv")
+    frame = pd.read_csv(path)
+    assert list(frame["ok"]) == [0, 0, 0, 1, 1, 1] and len(frame) == 6
+    rec = np.genfromtxt(path, names=True, delimiter=",")
+    np.testing.assert_allclose(rec["f1_hz"][3:], res.data["f1_hz"][3:])
+    back = SweepResult.load(res.save(tmp_path / "modes.npz"))
+    assert list(back.data["error"]) == list(res.data["error"])
+
+
+def test_simulate_sweep_equals_a_plain_loop(client, monkeypatch):
+    """Reference: the same simulations run one by one in this process (bit-identical), with
+    the module's source shipped to the workers once (one broadcast scatter for 3 chunks)."""
+    scattered: list[tuple[object, bool]] = []
+    real_scatter = client.scatter
+
+    def spy(data, **kw):
+        scattered.append((data, kw.get("broadcast", False)))
+        return real_scatter(data, **kw)
+
+    monkeypatch.setattr(client, "scatter", spy)
+    cases = grid({"l": [0.5, 1.0, 1.5, 2.0, 2.5]})
+    res = sweep(PENDULUM, cases, "simulate", client=client, t_end=1.0, n_out=11,
+                stats=("final", "max"), chunk_size=2)
+    assert len(scattered) == 1 and scattered[0][1] is True
+    assert scattered[0][0] == PENDULUM.read_text()
+    mod = load_generated(PENDULUM)
+    for k, case in enumerate(cases):
+        ref = simulate(mod, 1.0, n_out=11, p=case)
+        assert res.data["final_phi"][k] == ref.y[-1, 0]
+        assert res.data["max_d_phi"][k] == ref.yd[:, 0].max()
+    assert res.ok.all() and res.workers == 2
+
+
+def _failing_task(module, p):
+    """A user task whose integration fails for l < 0 (a negative pendulum length)."""
+    if p["l"] < 0:
+        raise FloatingPointError("integration diverged")
+    return {"twice_l": 2 * p["l"]}
+
+
+def test_failing_user_task_is_recorded_and_progress_counts_cases(client):
+    """Reference: the task's own arithmetic and the case count."""
+    seen: list[tuple[float, float]] = []
+    res = sweep(PENDULUM, grid({"l": [-1.0, 1.0, 2.0]}), _failing_task, client=client,
+                chunk_size=1, progress=lambda d, t: seen.append((d, t)))
+    assert list(res.ok) == [False, True, True]
+    assert res.failures == [(0, "FloatingPointError: integration diverged")]
+    np.testing.assert_array_equal(res.data["twice_l"][1:], [2.0, 4.0])
+    assert seen[-1] == (3, 3) and len(seen) == 3
+
+
+def test_bad_sweeps_are_one_clear_error(tmp_path):
+    """Reference: the documented error messages (no cluster is started for them)."""
+    with pytest.raises(NeweulError, match="unknown parameter"):
+        sweep(PENDULUM, [{"mass": 1.0}], "modes")
+    with pytest.raises(NeweulError, match="needs t_end"):
+        sweep(PENDULUM, [{"m": 1.0}], "simulate")
+    with pytest.raises(NeweulError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
+        sweep(PENDULUM, [{"m": 1.0}], "modes", scheduler="tcp://127.0.0.1:9", timeout=0.5)
+
+
+def test_cli_sweep_on_a_running_scheduler(client, capsys, tmp_path):
+    """Reference: the Python sweep of the same cases."""
+    out = tmp_path / "eq.csv"
+    code = main(["sweep", str(GENERATED / "double_pendulum.py"), "--param", "m1=1,2",
+                 "--task", "equilibrium", "--scheduler", client.scheduler.address,
+                 "-o", str(out)])
+    text = capsys.readouterr().out
+    assert code == 0 and "2 ok, 0 failed" in text
+    ref = sweep(GENERATED / "double_pendulum.py", [{"m1": 1.0}, {"m1": 2.0}], "equilibrium",
+                client=client)
+    data = np.genfromtxt(out, names=True, delimiter=",")
+    np.testing.assert_allclose(data["phi1"], ref.data["phi1"], atol=1e-12)

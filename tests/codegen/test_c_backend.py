@@ -1,0 +1,291 @@
+"""The compiled backend (codegen/c_module.py, c_printer.py, c_runtime.py) against the NumPy
+module generated from the same equations — every protocol function of every shipped example,
+constraints included — and the safety rules of building and loading its library."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import shutil
+import types
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from neweul_py.analysis.module import load_generated
+from neweul_py.codegen import generate_module
+from neweul_py.codegen.c_module import c_module_path, write_c_module
+from neweul_py.codegen.c_printer import CPrinter
+from neweul_py.codegen.c_runtime import BackendUnavailable, compiled_library
+from neweul_py.commands import BACKENDS
+from neweul_py.description import load_description
+from neweul_py.equations import newton_euler
+from neweul_py.errors import GenerationError, NeweulError
+
+ROOT = Path(__file__).resolve().parents[2]
+_COUNTER = itertools.count()
+EXAMPLES = sorted(p.stem for p in (ROOT / "examples").glob("*.yaml"))
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="no C compiler")
+
+
+def _fresh(path: Path):
+    """Import a module file anew (``load_generated`` shares modules of equal content, which
+    would hide what happens in this directory)."""
+    import importlib.util
+
+    name = f"c_backend_test_{path.stem}_{next(_COUNTER)}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _modules(name: str, directory: Path, form: str = "auto"):
+    eq = newton_euler(load_description(ROOT / "examples" / f"{name}.yaml"), form=form)
+    npath = generate_module(eq, "h", directory / f"{name}.py")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a fallback to NumPy would make the test vacuous
+        cmod = _fresh(write_c_module(eq, npath))
+    assert cmod.BACKEND == "c"
+    return load_generated(npath), cmod
+
+
+def _calls(mod, t, x, p, u, a):
+    n = len(mod.COORDINATES)
+    y, yd = x[:n], x[n:]
+    return {
+        "default_inputs": mod.default_inputs(t, p),
+        "mass_matrix": mod.mass_matrix(t, y, p, u),
+        "force_vector": mod.force_vector(t, y, yd, p, u),
+        "rhs": mod.rhs(t, x, p, u),
+        "force_jacobians": mod.force_jacobians(t, y, yd, p, u),
+        "mass_matrix_times_derivative": mod.mass_matrix_times_derivative(t, y, p, a, u),
+        "rhs_jacobian": mod.rhs_jacobian(t, x, p, u),
+        "outputs": mod.outputs(t, x, p, u),
+        "output_jacobians": mod.output_jacobians(t, x, p, u),
+        "constraints": mod.constraints(t, y, p, u),
+        "constraint_jacobian": mod.constraint_jacobian(t, y, p, u),
+        "constraint_time_derivative": mod.constraint_time_derivative(t, y, p, u),
+        "constraint_gamma": mod.constraint_gamma(t, y, yd, p, u),
+    }
+
+
+CASES = [(name, "auto") for name in EXAMPLES] + [("double_pendulum", "recursive"),
+                                                  ("chain3_spatial", "recursive")]
+
+
+@pytest.mark.parametrize(("name", "form"), CASES)
+def test_every_protocol_function_equals_numpy_module(name, form, tmp_path):
+    """Reference: the NumPy module printed from the same CSE'd blocks (independently
+    validated against lambdify and KanesMethod in test_examples_vs_lambdify.py); agreement
+    to round-off at random states, with default and explicit inputs."""
+    mnp, mc = _modules(name, tmp_path, form)
+    for const in ("COORDINATES", "PARAMETERS", "INPUTS", "OUTPUTS", "CONSTRAINTS",
+                  "STATE_SIZE", "SOURCE_HASH", "INITIAL_STATE", "MASS_MATRIX_SYMMETRIC"):
+        assert getattr(mc, const) == getattr(mnp, const)
+    rng = np.random.default_rng(7)
+    n, nu = len(mnp.COORDINATES), len(mnp.INPUTS)
+    p = mnp.default_parameters() * (1 + 0.1 * rng.random(len(mnp.PARAMETERS)))
+    for k in range(3):
+        x = np.asarray(mnp.INITIAL_STATE) + 0.2 * rng.standard_normal(2 * n)
+        a = rng.standard_normal(n)
+        t = 0.31 * k
+        for u in (None, *([rng.standard_normal(nu)] if nu else [])):
+            ref, got = _calls(mnp, t, x, p, u, a), _calls(mc, t, x, p, u, a)
+            for fname, r in ref.items():
+                rs = r if isinstance(r, tuple) else (r,)
+                gs = got[fname] if isinstance(got[fname], tuple) else (got[fname],)
+                for rr, gg in zip(rs, gs, strict=True):
+                    rr, gg = np.asarray(rr), np.asarray(gg)
+                    assert gg.shape == rr.shape, fname
+                    scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
+                    np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
+                                               err_msg=f"{name}: {fname}")
+
+
+def test_library_is_cached_and_a_foreign_one_never_loaded(tmp_path):
+    """Reference: the build record (SHA-256 of the library bytes); a replaced library is
+    rebuilt with a warning, an unchanged one is reused without compiling."""
+    _modules("pendulum", tmp_path)
+    c_path = tmp_path / "pendulum_c.c"
+    sha = __import__("hashlib").sha256(c_path.read_bytes()).hexdigest()
+    cdef = "int nw_rhs(double, const double *, const double *, const double *, double *);"
+    _, _, note = compiled_library(c_path, sha, cdef, tmp_path / "__neweul_c__")
+    assert note == ""  # the library the module built is reused
+    (so,) = (tmp_path / "__neweul_c__").glob("*.so")
+    so.write_bytes(b"\x7fELF not the library")
+    _, lib, note = compiled_library(c_path, sha, cdef, tmp_path / "__neweul_c__")
+    assert lib.nw_rhs is not None  # the rebuilt library loads
+    assert "did not match its build record" in note
+    assert so.read_bytes()[:4] == b"\x7fELF" and b"not the library" not in so.read_bytes()
+    with pytest.raises(BackendUnavailable, match="does not match"):
+        compiled_library(c_path, "0" * 64, cdef, tmp_path / "__neweul_c__")
+
+
+@pytest.mark.parametrize("failure", ["no compiler", "compiler error", "unwritable cache",
+                                     "edited source"])
+def test_fallback_to_numpy_with_one_warning(failure, tmp_path, monkeypatch):
+    """Reference: the NumPy twin — the module falls back to it, warns once, and computes the
+    same values."""
+    eq = newton_euler(load_description(ROOT / "examples" / "double_pendulum.yaml"))
+    npath = generate_module(eq, "h", tmp_path / "double_pendulum.py")
+    wrapper = write_c_module(eq, npath)
+    if failure == "no compiler":
+        monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+    elif failure == "compiler error":
+        monkeypatch.setenv("CC", shutil.which("false") or "/bin/false")
+    elif failure == "unwritable cache":
+        (tmp_path / "__neweul_c__").write_text("a file where the cache directory belongs")
+    else:
+        c = wrapper.with_suffix(".c")
+        c.write_text(c.read_text() + "\n/* edited */\n")
+    with pytest.warns(RuntimeWarning, match="compiled backend unavailable") as record:
+        mc = _fresh(wrapper)
+    assert len(record) == 1
+    assert mc.BACKEND == "numpy"
+    mnp = load_generated(npath)
+    x = np.asarray(mnp.INITIAL_STATE)
+    np.testing.assert_array_equal(mc.rhs(0.0, x, mnp.default_parameters()),
+                                  mnp.rhs(0.0, x, mnp.default_parameters()))
+
+
+def test_derivative_library_falls_back_on_its_own(tmp_path):
+    """Reference: the NumPy twin's Jacobians — an edited derivative source leaves the core
+    compiled and sends only the Jacobian functions to the twin, with one warning."""
+    eq = newton_euler(load_description(ROOT / "examples" / "double_pendulum.yaml"))
+    npath = generate_module(eq, "h", tmp_path / "double_pendulum.py")
+    wrapper = write_c_module(eq, npath)
+    jac = tmp_path / "double_pendulum_c_jac.c"
+    jac.write_text(jac.read_text() + "\n/* edited */\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc = _fresh(wrapper)
+    assert mc.BACKEND == "c"
+    mnp = load_generated(npath)
+    x, p = np.asarray(mnp.INITIAL_STATE) + 0.1, mnp.default_parameters()
+    with pytest.warns(RuntimeWarning, match="compiled derivatives unavailable") as record:
+        J = mc.rhs_jacobian(0.0, x, p)
+        mc.rhs_jacobian(0.0, x, p)
+    assert len(record) == 1
+    np.testing.assert_array_equal(J, mnp.rhs_jacobian(0.0, x, p))
+
+
+def test_wrong_sizes_raise_instead_of_reading_out_of_bounds(tmp_path):
+    """Reference: the sizes the library was built for (a shorter array would be read past
+    its end by C)."""
+    _, mc = _modules("double_pendulum", tmp_path)
+    p = mc.default_parameters()
+    with pytest.raises(ValueError, match="shape"):
+        mc.rhs(0.0, np.zeros(3), p)
+    with pytest.raises(ValueError, match="shape"):
+        mc.mass_matrix(0.0, np.zeros(2), p[:-1])
+
+
+def test_singular_mass_matrix_raises_linalg_error(tmp_path):
+    """Reference: numpy.linalg.solve, which the NumPy module calls, raises LinAlgError."""
+    mnp, mc = _modules("pendulum", tmp_path)
+    p = mnp.default_parameters()
+    p[list(mnp.PARAMETERS).index("m")] = 0.0
+    for mod in (mnp, mc):
+        with pytest.raises(np.linalg.LinAlgError):
+            mod.rhs(0.0, np.array([0.1, 0.0]), p)
+
+
+def test_piecewise_abs_min_max_sign_heaviside_print_as_c(tmp_path):
+    """Reference: sympy's own evaluation (lambdify with math) of the same expressions."""
+    a, b = sp.symbols("a b", real=True)
+    exprs = [
+        sp.Piecewise((a**2, a > b), (sp.sin(b), sp.And(a <= b, b > 0)), (-a, True)),
+        sp.Abs(a - b) + sp.Min(a, b, 0.5) * sp.Max(a, -b),
+        sp.sign(a) * sp.Heaviside(b) + sp.Heaviside(b - a, 0.25) + a**-3 + sp.sqrt(b**2 + 1),
+        sp.Rational(1, 3) * a**5 + sp.pi * b - sp.exp(-a) / (a * (b + 2)) ** 2,
+    ]
+    pr = CPrinter({a: "v[0]", b: "v[1]"})
+    body = "\n".join(f"    out[{i}] = {pr.doprint_expr(e)};" for i, e in enumerate(exprs))
+    src = ("#include <math.h>\n"
+           f"int f(const double *v, double *out)\n{{\n{body}\n    return 0;\n}}\n")
+    c_path = tmp_path / "expr.c"
+    c_path.write_text(src)
+    sha = __import__("hashlib").sha256(src.encode()).hexdigest()
+    ffi, lib, _ = compiled_library(c_path, sha, "int f(const double *v, double *out);",
+                                   tmp_path / "cache")
+    ref = sp.lambdify((a, b), exprs, modules="math")
+    for v in ([1.5, 0.3], [-0.7, 0.9], [0.2, -1.1], [0.4, 0.4], [0.6, 0.0]):
+        vin, out = np.array(v), np.empty(len(exprs))
+        lib.f(ffi.from_buffer("double[]", vin), ffi.from_buffer("double[]", out))
+        np.testing.assert_allclose(out, ref(*v), rtol=1e-14, atol=1e-14)
+
+
+def test_elastic_models_are_refused_and_backends_agree():
+    """Reference: the documented scope (elastic bodies stay on the NumPy module for now) and
+    api.BACKENDS, which the CLI mirrors without importing the symbolic layers."""
+    from neweul_py.api import BACKENDS as API_BACKENDS
+
+    assert BACKENDS == API_BACKENDS
+    eq = types.SimpleNamespace(system=types.SimpleNamespace(name="flex", elastic_bodies=(1,)))
+    with pytest.raises(GenerationError, match="elastic bodies"):
+        write_c_module(eq, "flex.py")
+    assert c_module_path(os.path.join("gen", "flex.py")) == Path("gen", "flex_c.py")
+
+
+def test_api_and_cli_thread_the_backend(tmp_path, monkeypatch):
+    """Reference: the NumPy module the same calls write with the default backend — the
+    compiled module is its drop-in (same constants, same rhs), reused from the cache."""
+    from neweul_py import api
+    from neweul_py.cli import main
+
+    desc = ROOT / "examples" / "pendulum.yaml"
+    wrapper = api.generate(desc, tmp_path / "gen", backend="c")
+    assert wrapper == tmp_path / "gen" / "pendulum_c.py"
+    assert (tmp_path / "gen" / "pendulum.py").is_file()
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
+    cached = api.generated_module(desc, backend="c")
+    assert cached.name.endswith("_c.py") and cached.parent == tmp_path / "cache"
+    assert api.generated_module(desc, backend="c") == cached  # a cache hit
+    mc, mnp = _fresh(cached), load_generated(api.generated_module(desc))
+    assert mc.BACKEND == "c" and mc.SOURCE_HASH == mnp.SOURCE_HASH
+    x, p = np.array([0.3, 0.1]), mnp.default_parameters()
+    np.testing.assert_allclose(mc.rhs(0.0, x, p), mnp.rhs(0.0, x, p), rtol=1e-14)
+    res = api.simulate_description(desc, 1.0, backend="c", method="c-dopri5")
+    ref = api.simulate_description(desc, 1.0, method="RK45")
+    np.testing.assert_allclose(res.y, ref.y, rtol=0, atol=1e-12)
+    assert main(["generate", str(desc), "-o", str(tmp_path / "cli"), "--backend", "c"]) == 0
+    assert (tmp_path / "cli" / "pendulum_c.py").is_file()
+    with pytest.raises(NeweulError, match="unknown backend"):
+        api.generate(desc, tmp_path / "x", backend="fortran")
+
+
+def test_lu_solves_unsymmetric_systems_with_pivoting(tmp_path):
+    """Reference: numpy.linalg.solve (LAPACK gesv) on random unsymmetric matrices, one with a
+    zero leading pivot (the unsymmetric mass matrices of two-sided elastic bodies); a singular
+    matrix is reported, not divided by."""
+    import hashlib
+
+    from neweul_py.codegen.c_templates import C_LU
+
+    src = ("#include <math.h>\n#include <string.h>\n" + C_LU +
+           "int solve(int n, double *a, int m, double *b)\n"
+           "{ int piv[64]; if (nw_lu(n, a, piv)) return 1; nw_lu_solve(n, a, piv, m, b);"
+           " return 0; }\n")
+    c_path = tmp_path / "lu.c"
+    c_path.write_text(src)
+    ffi, lib, _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),
+                                   "int solve(int n, double *a, int m, double *b);",
+                                   tmp_path / "cache")
+    rng = np.random.default_rng(3)
+    for n in (1, 3, 12):
+        a = rng.standard_normal((n, n)) + np.diag(rng.random(n))
+        if n > 1:
+            a[0, 0] = 0.0
+        b = rng.standard_normal((n, 4))
+        aa, bb = a.copy(), b.copy()
+        assert lib.solve(n, ffi.from_buffer("double[]", aa), 4,
+                         ffi.from_buffer("double[]", bb)) == 0
+        np.testing.assert_allclose(bb, np.linalg.solve(a, b), rtol=1e-10, atol=1e-12)
+    singular = np.array([[1.0, 2.0], [2.0, 4.0]])
+    assert lib.solve(2, ffi.from_buffer("double[]", singular), 1,
+                     ffi.from_buffer("double[]", np.ones(2))) == 1

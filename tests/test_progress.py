@@ -1,0 +1,69 @@
+"""Progress reporting (neweul_py/progress.py) and the hooks of simulate and the FE FRF."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from neweul_py.analysis import simulate
+from neweul_py.cli import main
+from neweul_py.progress import Tracker, report
+
+GENERATED = Path(__file__).resolve().parents[1] / "generated"
+
+
+def test_simulate_hook_reports_monotone_time_up_to_the_span():
+    """Reference: the integration span itself (done runs from 0 to t_end − t_start, the last
+    report is the full span) and the unchanged result without a hook."""
+    calls: list[tuple[float, float]] = []
+    res = simulate(GENERATED / "double_pendulum.py", 2.0, t_start=1.0,
+                   progress=lambda d, t: calls.append((d, t)))
+    done = np.array([c[0] for c in calls])
+    assert all(t == 1.0 for _, t in calls) and calls[-1] == (1.0, 1.0)
+    assert np.all(np.diff(done) >= 0) and 2 < len(calls) <= 202
+    plain = simulate(GENERATED / "double_pendulum.py", 2.0, t_start=1.0)
+    np.testing.assert_array_equal(res.table, plain.table)
+
+
+def test_constrained_simulate_hook():
+    """Reference: one report per output interval of the DAE integrator (n_out − 1)."""
+    calls: list[tuple[float, float]] = []
+    simulate(GENERATED / "slider_crank.py", 0.1, n_out=11,
+             progress=lambda d, t: calls.append((d, t)))
+    assert len(calls) == 10 and calls[-1] == (0.1, 0.1)
+
+
+def test_tracker_bar_has_remaining_time_and_keeps_messages_on_their_own_lines():
+    """Reference: tqdm's own bar format ('elapsed<remaining')."""
+    buf = io.StringIO()
+    with Tracker("run", unit="s", stream=buf, bar=True) as track:
+        track(0.5, 2.0)
+        track.say("a message")
+        track(2.0, 2.0)
+    text = buf.getvalue()
+    assert "run:" in text and "<" in text and "  a message\n" in text
+
+
+def test_tracker_off_a_terminal_prints_messages_only_and_quiet_nothing():
+    """Reference: the documented behaviour (bars only on a terminal, --quiet silences)."""
+    buf = io.StringIO()
+    track = Tracker("run", stream=buf)
+    report(track, "step 1/2", 1, 2)
+    track(3.0, 4.0)
+    assert buf.getvalue() == "  step 1/2\n"
+    quiet = io.StringIO()
+    report(Tracker("run", stream=quiet, quiet=True), "step", 1, 2)
+    assert quiet.getvalue() == ""
+    got: list[str] = []
+    report(got.append, "plain hook", 1, 2)
+    report(None, "nobody listens", 1, 2)
+    assert got == ["plain hook"]
+
+
+def test_cli_simulate_quiet_and_not_a_terminal_stay_silent(capsys):
+    """Reference: an empty stderr (capsys is not a terminal; --quiet as well)."""
+    for extra in ([], ["--quiet"]):
+        assert main(["simulate", str(GENERATED / "pendulum.py"), "--t-end", "1", *extra]) == 0
+        assert capsys.readouterr().err == ""
