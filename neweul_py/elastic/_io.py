@@ -46,6 +46,8 @@ def json_from_uint8(arr: np.ndarray, file: str | None = None, item: str = "meta"
         raise DataError("metadata must be a 1-D uint8 array of UTF-8 JSON", file, item)
     try:
         return json.loads(arr.tobytes().decode("utf-8"))
+    except RecursionError:
+        raise DataError("metadata is nested too deeply", file, item) from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise DataError(f"metadata is not valid UTF-8 JSON ({exc})", file, item) from None
 

@@ -169,6 +169,8 @@ def _read_manifest(path: Path) -> FEModel:
         raise DataError(f"cannot read ({exc})", file) from None
     try:
         meta = json.loads(text)
+    except RecursionError:
+        raise DataError("the manifest is nested too deeply", file, "manifest") from None
     except json.JSONDecodeError as exc:
         raise DataError(f"invalid JSON: {exc.msg}", file, "manifest", exc.lineno) from None
     _check_header(meta, file)
@@ -568,10 +570,11 @@ def _meta_of(path: Path) -> tuple[dict, dict[str, np.ndarray] | None]:
     else:
         data = None
         try:
-            meta = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise DataError("file not found", file) from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            meta = json.loads(read_checked(path, "FE manifest", 64 * 2**20).decode("utf-8"))
+        except DataError as exc:
+            raise DataError("file not found" if "not found" in exc.message else exc.message,
+                            file) from None
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
             raise DataError(f"cannot read ({exc})", file, "manifest") from None
     if not isinstance(meta, dict):
         raise DataError("top level must be a JSON object", file, "manifest")
