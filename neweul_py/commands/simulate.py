@@ -12,7 +12,7 @@ from . import BACKENDS, CAPS, FORMS, SIMULATE_METHODS, count, number
 from . import _analysis_common as common
 
 #: Largest number of integrator steps a run may need (``--max-steps``, docs/limits.md).
-DEFAULT_MAX_STEPS = 10_000_000
+DEFAULT_MAX_STEPS = 1_000_000
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
