@@ -7,21 +7,22 @@ hands the module to ``analysis``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from .analysis.module import load_generated
-from .analysis.results import SimulationResult
-from .analysis.simulate import simulate
-from .codegen import PROTOCOL_VERSION, generate_module
-from .elastic.reader import read_elastic_data
-from .errors import DescriptionError, NeweulError
+from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
+from .errors import DescriptionError, ModelError, NeweulError
+from .files import MAX_DESCRIPTION_BYTES, read_checked
+
+if TYPE_CHECKING:
+    from .analysis.results import SimulationResult
 
 __all__ = [
     "BACKENDS",
@@ -31,6 +32,7 @@ __all__ = [
     "generate",
     "generated_module",
     "load_description",
+    "load_description_module",
     "simulate_description",
 ]
 
@@ -48,11 +50,18 @@ _GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codeg
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:
+    """The bytes of a description, checked to be a regular file of sane size first."""
     try:
-        return Path(path).read_bytes()
-    except OSError as exc:
-        raise DescriptionError(f"cannot read description: {exc.strerror}", "",
-                               os.fspath(path)) from None
+        return read_checked(path, "description", MAX_DESCRIPTION_BYTES)
+    except NeweulError as exc:
+        message = str(exc).removeprefix(f"{os.fspath(path)}: ")
+        raise DescriptionError(message, "", os.fspath(path)) from None
+
+
+def _sha256(raw: bytes) -> str:
+    """SHA-256 of a description's bytes (= :func:`neweul_py.description.description_hash`,
+    without importing the symbolic layers for a cache hit)."""
+    return hashlib.sha256(raw).hexdigest()
 
 
 def _check_form(form: str) -> None:
@@ -85,6 +94,7 @@ def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None
         As :func:`neweul_py.description.load_description_text`.
     """
     from .description import load_description as _load
+    from .elastic.reader import read_elastic_data
 
     return _load(path, elastic_reader=elastic_reader or read_elastic_data)
 
@@ -97,18 +107,16 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tup
     equations, source_hash
         The :class:`~neweul_py.equations.Equations` and the SHA-256 of the file's bytes.
     """
-    from .description import description_hash
-
     _check_form(form)
     raw = _read(description_path)
-    return _derive_text(raw, description_path, form), description_hash(raw)
+    return _derive_text(raw, description_path, form), _sha256(raw)
 
 
 def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form) -> Any:
     """The equations of a description's bytes (errors name ``description_path``)."""
     from .description import load_description_text
+    from .elastic.reader import read_elastic_data
     from .equations import newton_euler
-    from .errors import DescriptionError
 
     system = load_description_text(raw, os.fspath(description_path),
                                    elastic_reader=read_elastic_data)
@@ -119,7 +127,12 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
             "coordinates",
             os.fspath(description_path),
         )
-    return newton_euler(system, form=form)
+    try:
+        return newton_euler(system, form=form)
+    except DescriptionError:
+        raise
+    except ModelError as exc:  # found while deriving (e.g. coinciding spring points)
+        raise DescriptionError(exc.message, exc.key_path, os.fspath(description_path)) from None
 
 
 def generate(
@@ -157,6 +170,8 @@ def generate(
     >>> generate(Path("examples/pendulum.yaml").read_text(), "out")  # doctest: +SKIP
     PosixPath('out/pendulum.py')
     """
+    from .codegen import generate_module
+
     _check_backend(backend)
     from .model import System
 
@@ -210,24 +225,19 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
         except OSError as exc:
             raise NeweulError(f"cannot write the compiled module next to {path}: "
                               f"{exc.strerror}") from None
+    from .analysis.module import load_generated
+
     load_generated(wrapper)  # builds (or verifies) the library now; warns on fallback
     return wrapper
 
 
-def cache_dir() -> Path:
-    """Where :func:`generated_module` keeps modules: ``$NEWEUL_CACHE``, else
-    ``$XDG_CACHE_HOME/neweul-py``, else ``~/.cache/neweul-py``."""
-    if os.environ.get("NEWEUL_CACHE"):
-        return Path(os.environ["NEWEUL_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "neweul-py"
-
-
+@functools.cache
 def _generator_fingerprint() -> str:
-    """SHA-256 of the source of the symbolic layers: a cached module is reused only if the
-    code that would generate it again is unchanged."""
+    """SHA-256 of the source of the symbolic layers (which include the protocol version in
+    ``codegen``): a cached module is reused only if the code that would generate it again is
+    unchanged."""
     root = Path(__file__).parent
-    h = hashlib.sha256(f"protocol {PROTOCOL_VERSION}\n".encode())
+    h = hashlib.sha256(b"neweul-py generator\n")
     for layer in _GENERATOR_PACKAGES:
         for f in sorted((root / layer).rglob("*.py")):
             h.update(f.relative_to(root).as_posix().encode())
@@ -237,12 +247,17 @@ def _generator_fingerprint() -> str:
 
 def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
     """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``, relative
-    to the description), so that a cached module is regenerated when its data change."""
+    to the description), so that a cached module is regenerated when its data change.
+
+    Each file is checked to be a regular file of sane size before it is read
+    (:func:`neweul_py.files.read_checked`): ``data: /dev/zero`` or a FIFO is one clear error.
+    A missing file is left to the loader, which reports it with its key path and line.
+    """
     import yaml
 
     try:
         tree = yaml.safe_load(raw)
-    except yaml.YAMLError:
+    except (yaml.YAMLError, RecursionError, ValueError, MemoryError):
         return []  # the loader reports the error when the module is generated
     bodies = tree.get("elastic_bodies") if isinstance(tree, dict) else None
     if not isinstance(bodies, dict):
@@ -252,12 +267,74 @@ def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> 
     for name in sorted(bodies, key=str):
         spec = bodies[name]
         data = spec.get("data") if isinstance(spec, dict) else None
-        if isinstance(data, str):
+        if isinstance(data, str) and "\0" not in data:
+            file = base / data
+            if not file.exists():
+                out.append(f"{name}:missing")
+                continue
             try:
-                out.append(f"{name}:{hashlib.sha256((base / data).read_bytes()).hexdigest()}")
-            except OSError:
-                out.append(f"{name}:unreadable")
+                digest = hashlib.sha256(read_checked(file, "elastic-body data file")).hexdigest()
+            except NeweulError as exc:
+                raise DescriptionError(str(exc), f"elastic_bodies.{name}.data",
+                                       os.fspath(description_path)) from None
+            out.append(f"{name}:{digest}")
     return out
+
+
+def _cache_entry(raw: bytes, description_path: str | os.PathLike[str], form: str,
+                 cache: str | os.PathLike[str] | None) -> Path:
+    """Path of the cached module of a description (in a trusted directory)."""
+    material = [_sha256(raw), form, _generator_fingerprint(),
+                *_data_fingerprints(raw, description_path)]
+    key = hashlib.sha256("\n".join(material).encode()).hexdigest()
+    directory = trusted_dir(cache)
+    stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
+    return directory / f"{stem}_{key[:24]}.py"
+
+
+class _Entry:
+    """A cache entry: its path, verified source, module (on a hit), and its equations
+    (derived on first use; ``fresh``: derived now, the entry was (re)written)."""
+
+    def __init__(self, path: Path, source: bytes, module: ModuleType | None,
+                 derive: Any, equations: Any = None) -> None:
+        self.path, self.source, self.module = path, source, module
+        self._derive, self._equations = derive, equations
+        self.fresh = equations is not None
+
+    def equations(self) -> Any:
+        if self._equations is None:
+            self._equations = self._derive()
+        return self._equations
+
+
+def _cached_source(description_path: str | os.PathLike[str], form: Form,
+                   cache: str | os.PathLike[str] | None) -> _Entry:
+    """The cache entry of a description, with its verified source and (on a hit) module."""
+    from .analysis.module import check_protocol
+
+    _check_form(form)
+    raw = _read(description_path)
+    path = _cache_entry(raw, description_path, form, cache)
+
+    def derive_now() -> Any:
+        return _derive_text(raw, description_path, form)
+
+    source = verified_bytes(path)
+    if source is not None:
+        try:
+            module = import_verified(path, source)
+            check_protocol(module, str(path))
+            if module.SOURCE_HASH == _sha256(raw):
+                return _Entry(path, source, module, derive_now)
+        except NeweulError:
+            pass  # a damaged cache entry is regenerated
+    from .codegen import render_module
+
+    equations = derive_now()
+    source = render_module(equations, _sha256(raw)).encode("utf-8")
+    write_cached(path, source)
+    return _Entry(path, source, None, derive_now, equations)
 
 
 def generated_module(
@@ -270,33 +347,49 @@ def generated_module(
 
     The cache key is the SHA-256 of the description's bytes, of the data files it refers to
     (elastic bodies), the form and the generator's own source; a hit is reused without deriving
-    anything.
-    """
-    from .description import description_hash
+    anything. A cached module is trusted only after its bytes match the SHA-256 recorded when
+    it was written (:mod:`neweul_py.cache`); a mismatch regenerates it with one
+    :class:`~neweul_py.cache.CacheWarning`. Prefer :func:`load_description_module`, which
+    imports the verified bytes themselves rather than the path.
 
-    _check_form(form)
+    Raises
+    ------
+    CacheError
+        The cache directory is owned by another user or writable by others, or not writable.
+    """
     _check_backend(backend)
-    raw = _read(description_path)
-    material = [description_hash(raw), form, _generator_fingerprint(),
-                *_data_fingerprints(raw, description_path)]
-    key = hashlib.sha256("\n".join(material).encode()).hexdigest()
-    directory = Path(cache) if cache is not None else cache_dir()
-    stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
-    path = directory / f"{stem}_{key[:24]}.py"
-    if path.is_file():
-        try:
-            module = load_generated(path)
-            if module.SOURCE_HASH == description_hash(raw):
-                return _with_backend(path, backend,
-                                     lambda: _derive_text(raw, description_path, form))
-        except NeweulError:
-            pass  # a damaged cache entry is regenerated
-    equations = _derive_text(raw, description_path, form)
-    try:
-        path = generate_module(equations, description_hash(raw), path)
-    except OSError as exc:
-        raise NeweulError(f"cannot write to the cache {directory}: {exc.strerror}") from None
-    return _with_backend(path, backend, lambda: equations, rebuild=True)
+    entry = _cached_source(description_path, form, cache)
+    return _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh)
+
+
+def load_description_module(
+    description_path: str | os.PathLike[str],
+    form: Form = "auto",
+    cache: str | os.PathLike[str] | None = None,
+    backend: Backend = "numpy",
+) -> ModuleType:
+    """The generated module of a description. The NumPy module is imported from the verified
+    bytes of its cache entry (:func:`generated_module`), so that the file cannot change
+    between check and import; the compiled one (``backend="c"``) is loaded through its
+    wrapper, whose library :mod:`neweul_py.codegen.c_module` verifies by its hash.
+
+    Examples
+    --------
+    >>> mod = load_description_module("examples/pendulum.yaml")  # doctest: +SKIP
+    >>> mod.rhs(0.0, mod.INITIAL_STATE, mod.default_parameters())  # doctest: +SKIP
+    """
+    from .analysis.module import check_protocol, load_generated
+
+    _check_backend(backend)
+    entry = _cached_source(description_path, form, cache)
+    if backend != "numpy":
+        return load_generated(_with_backend(entry.path, backend, entry.equations,
+                                            rebuild=entry.fresh))
+    module = entry.module
+    if module is None:
+        module = import_verified(entry.path, entry.source)
+        check_protocol(module, str(entry.path))
+    return module
 
 
 def simulate_description(
@@ -317,6 +410,7 @@ def simulate_description(
     >>> res = simulate_description("examples/double_pendulum.yaml", 10.0)  # doctest: +SKIP
     >>> res.to_csv("out/double_pendulum.csv")  # doctest: +SKIP
     """
-    module: ModuleType = load_generated(generated_module(description_path, form, cache,
-                                                         backend))
+    from .analysis.simulate import simulate
+
+    module = load_description_module(description_path, form, cache, backend)
     return simulate(module, t_end, p=p, **kwargs)

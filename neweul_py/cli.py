@@ -13,6 +13,7 @@ import argparse
 import importlib
 import re
 import sys
+import warnings
 from collections.abc import Sequence
 
 from .errors import NeweulError
@@ -34,13 +35,70 @@ COMMAND_MODULES: tuple[str, ...] = (
 )
 
 
+#: Words that are values, not options: ``-4000``, ``-4000:4000:9``, ``-4000,0,4000``, ``-1e-3``.
+NEGATIVE_VALUE = re.compile(r"-\d[\d.:,eE+-]*")
+#: ``argument --f: --f START: …`` → ``argument --f: START: …``.
+_REPEATED_OPTION = re.compile(r"^(argument (\S+?)(?:/\S+)?: )\2 ?:? ?")
+#: An option word without an attached value: ``--values``, ``-p``.
+_OPTION_WORD = re.compile(r"--?[A-Za-z][\w-]*")
+
+
+def attach_negative_values(args: Sequence[str]) -> list[str]:
+    """``["--values", "-4000,0"]`` → ``["--values=-4000,0"]`` (``-p -1`` → ``-p-1``): an option
+    followed by a negative number, range or list gets it attached, so that argparse reads it as
+    the option's value rather than as an unknown option (argparse alone only accepts plain
+    ``-4000``-like words)."""
+    out: list[str] = []
+    i = 0
+    args = list(args)
+    while i < len(args):
+        word = args[i]
+        if (word != "--" and i + 1 < len(args) and _OPTION_WORD.fullmatch(word)
+                and NEGATIVE_VALUE.fullmatch(args[i + 1])):
+            out.append(f"{word}={args[i + 1]}" if word.startswith("--") else word + args[i + 1])
+            i += 2
+            continue
+        if word == "--":
+            out.extend(args[i:])
+            break
+        out.append(word)
+        i += 1
+    return out
+
+
+class NeweulArgumentParser(argparse.ArgumentParser):
+    """An :class:`argparse.ArgumentParser` that accepts negative numbers, ranges and lists as
+    option values (:func:`attach_negative_values`), through the public ``parse_known_args``."""
+
+    def error(self, message: str):  # type: ignore[override]
+        """argparse's usage and error line, without repeating the option the checks of
+        :mod:`neweul_py.commands` name themselves (``argument --f: --f START: …``)."""
+        super().error(_REPEATED_OPTION.sub(r"\1", message))
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        if args is None:
+            args = sys.argv[1:]
+        return super().parse_known_args(attach_negative_values(args), namespace)
+
+
+def _version() -> str:
+    from . import __version__
+
+    return f"neweul {__version__}"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every available sub-command registered."""
-    parser = argparse.ArgumentParser(
+    """The argument parser with every available sub-command registered.
+
+    Registering imports no analysis, elastic or symbolic code (see :mod:`neweul_py.commands`),
+    so that ``neweul --help`` starts fast.
+    """
+    parser = NeweulArgumentParser(
         prog="neweul",
         description="Equations of motion of elastic multibody systems: generate, simulate, "
         "analyse, reduce.",
     )
+    parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES:
         try:
@@ -50,28 +108,26 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not built yet
             raise
         module.register(sub)
-    _accept_negative_lists(parser)
     return parser
-
-
-#: Words that are values, not options: ``-4000``, ``-4000:4000:9``, ``-4000,0,4000``, ``-1e-3``.
-_NEGATIVE_VALUE = re.compile(r"^-\d[\d.:,eE+-]*$")
-
-
-def _accept_negative_lists(parser: argparse.ArgumentParser) -> None:
-    """Let every (sub-)parser take negative number lists and ranges as option values
-    (``--values -4000,0,4000``): argparse by itself only accepts plain ``-4000``-like words."""
-    parser._negative_number_matcher = _NEGATIVE_VALUE
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for child in action.choices.values():
-                _accept_negative_lists(child)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``neweul`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+
+    def one_line(message, category, filename, lineno, file=None, line=None):
+        print(f"neweul {args.command}: warning: {message}", file=sys.stderr)
+
+    previous, warnings.showwarning = warnings.showwarning, one_line
+    try:
+        return _run(args)
+    finally:
+        warnings.showwarning = previous
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the chosen sub-command; every :class:`NeweulError` becomes one line on stderr."""
     try:
         return int(args.func(args) or 0)
     except NeweulError as exc:
@@ -81,6 +137,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         name = exc.filename2 or exc.filename  # os.replace: the target is filename2
         where = f"{name}: " if name else ""
         print(f"neweul {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
+    except ArithmeticError as exc:  # raised by a generated module: exp(1000), 1/0 …
+        hint = (": a spring_damper whose points coincide has no direction (see "
+                "docs/description-format.md, zero-length springs)"
+                if isinstance(exc, ZeroDivisionError) else "")
+        print(f"neweul {args.command}: error: the model cannot be evaluated "
+              f"({type(exc).__name__}: {exc}){hint}", file=sys.stderr)
+        return 1
+    except (MemoryError, RecursionError) as exc:  # never a traceback for too big an input
+        what = "memory" if isinstance(exc, MemoryError) else "nesting depth"
+        print(f"neweul {args.command}: error: the input needs more {what} than this machine "
+              "allows (see docs/limits.md)", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"neweul {args.command}: interrupted", file=sys.stderr)

@@ -93,10 +93,14 @@ def override_vector(
     if isinstance(value, Mapping):
         for key, v in value.items():
             default[name_index(names, key, kind)] = float(v)
+            if not np.isfinite(default[name_index(names, key, kind)]):
+                raise NeweulError(f"{kind} {key} must be a finite number, got {v!r}")
         return default
     arr = np.asarray(value, dtype=float).reshape(-1)
     if arr.size != len(names):
         raise NeweulError(f"{kind} vector has {arr.size} entries, the model has {len(names)}")
+    if not np.all(np.isfinite(arr)):
+        raise NeweulError(f"{kind} vector must hold finite numbers")
     return arr
 
 

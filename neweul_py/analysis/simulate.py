@@ -250,6 +250,11 @@ def simulate(
             else:
                 sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
                                 rtol=rtol, atol=atol, max_step=max_step, **kwargs)
+    except ArithmeticError as exc:  # the generated module: math.exp(1000), 1/0 of a spring …
+        raise SolverError(
+            f"the model cannot be evaluated at t = {last['t']:g} ({type(exc).__name__}: {exc})",
+            last_iterate=np.array(last["x"]), names=state_names,
+        ) from None
     except np.linalg.LinAlgError:
         why = _massless(module, last["t"], last["x"], pv)
         raise SolverError(
@@ -275,7 +280,12 @@ def simulate(
     outs = np.empty((times.size, ny))
     if ny:
         for k, (tk, xk) in enumerate(zip(times, x, strict=True)):
-            outs[k] = module.outputs(tk, xk, pv, uf(tk))
+            try:
+                outs[k] = module.outputs(tk, xk, pv, uf(tk))
+            except ArithmeticError as exc:  # e.g. exp(1000) in an output
+                raise SolverError(f"the outputs cannot be evaluated at t = {tk:g} "
+                                  f"({type(exc).__name__}: {exc})", last_iterate=xk,
+                                  names=state_names) from None
     return SimulationResult(
         t=times,
         y=x[:, :n].copy(),

@@ -10,26 +10,46 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-import numpy as np
-
-from ..analysis.dae import consistent_initial_state
-from ..analysis.equilibrium import equilibrium
-from ..analysis.module import load_generated
-from ..analysis.plot import check_plot_path
-from ..analysis.results import check_output_path
 from ..errors import NeweulError
 from . import BACKENDS, FORMS
+from . import assignment as _assignment
+
+#: Parsing ``NAME=NUMBER`` (finite, in range): :func:`neweul_py.commands.assignment`.
+assignment = _assignment
 
 
-def assignment(text: str) -> tuple[str, float]:
-    """``NAME=NUMBER`` → ``(name, value)`` (an argparse type)."""
-    name, sep, value = text.partition("=")
-    try:
-        if not sep or not name.strip():
-            raise ValueError
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected NAME=NUMBER, got {text!r}") from None
+def add_output_argument(parser: argparse.ArgumentParser, metavar: str, text: str,
+                        **kwargs: Any) -> None:
+    """``-o/--output FILE``, the results file of every command (``--out`` is kept as the old
+    spelling)."""
+    parser.add_argument("-o", "--output", "--out", dest="output", metavar=metavar, help=text,
+                        **kwargs)
+
+
+def add_signal_arguments(parser: argparse.ArgumentParser, required: bool) -> None:
+    """``--input U`` and ``--response Y`` (repeatable) of frf and compare-frf; the old
+    spelling ``--output Y`` of the response still works (a name has no dot, a file has a
+    suffix: :func:`split_output`)."""
+    parser.add_argument("--input", action="append", required=required, metavar="U",
+                        help="input name (repeatable)")
+    parser.add_argument("--response", action="append", metavar="Y",
+                        help="response (output) name (repeatable)")
+    parser.add_argument("-o", "--output", "--out", dest="output", action="append", default=[],
+                        metavar="FILE", help="results file (.csv or .npz); '--output NAME' "
+                        "without a suffix is the old spelling of --response NAME")
+
+
+def split_output(args: argparse.Namespace) -> None:
+    """Sort ``-o/--output`` values of frf/compare-frf into the results file (``args.output``,
+    one at most) and response names (appended to ``args.response``): names are identifiers
+    (no dot), files need a suffix."""
+    files = [v for v in args.output if "." in v or "/" in v]
+    names = [v for v in args.output if v not in files]
+    if len(files) > 1:
+        raise NeweulError(f"-o/--output: one results file, got {', '.join(files)}")
+    if names:
+        args.response = [*(args.response or []), *names]
+    args.output = files[0] if files else None
 
 
 def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool = True) -> None:
@@ -39,8 +59,7 @@ def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool =
                         help="closed-form or recursive equations (default: auto)")
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
                         help="module of a description: NumPy or compiled C (cffi)")
-    parser.add_argument("-p", "--param", type=assignment, action="append", default=[],
-                        metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    add_parameter_argument(parser)
     parser.add_argument("-u", "--set-input", type=assignment, action="append", default=[],
                         metavar="NAME=VALUE",
                         help="hold an input at a value (repeatable; default: excitation at t=0)")
@@ -59,6 +78,12 @@ def add_model_arguments(parser: argparse.ArgumentParser, operating_point: bool =
                                  "(default: the first coordinates the constraints leave free)")
 
 
+def add_parameter_argument(parser: argparse.ArgumentParser) -> None:
+    """``-p/--param NAME=VALUE`` (repeatable; a finite number in range)."""
+    parser.add_argument("-p", "--param", type=assignment, action="append", default=[],
+                        metavar="NAME=VALUE", help="override a parameter (repeatable)")
+
+
 def add_independent_argument(parser: argparse.ArgumentParser, text: str) -> None:
     """``--independent NAME [NAME ...]`` (also repeatable), collected into one list."""
     parser.add_argument("--independent", nargs="+", action="extend", default=None,
@@ -74,19 +99,69 @@ def check_files(
     """Check ``-o`` (its suffix one of ``suffixes``) and ``--plot`` (matplotlib installed, a
     format it writes) before any computation, so that a typo fails at once."""
     if output:
+        from ..analysis.results import check_output_path
+
         check_output_path(output, suffixes, what)
     if plot:
+        from ..analysis.plot import check_plot_path
+
         check_plot_path(plot)
 
 
 def load_model(args: argparse.Namespace) -> Any:
-    """The generated module of ``args.file``."""
+    """The generated module of ``args.file``, with the ``-p``/``-u`` overrides checked against
+    it (:func:`check_overrides`)."""
     if args.file.endswith(".py"):
-        return load_generated(args.file)
-    from ..api import generated_module  # the symbolic layers, only for a description
+        from ..analysis.module import load_generated
+        from ..files import check_regular_file
 
-    return load_generated(generated_module(args.file, args.form,
-                                           backend=getattr(args, "backend", "numpy")))
+        module = load_generated(check_regular_file(args.file, "generated module", 512 * 2**20,
+                                                   NeweulError))
+    else:
+        from ..api import load_description_module  # symbolic layers only on a cache miss
+
+        module = load_description_module(args.file, args.form,
+                                         backend=getattr(args, "backend", "numpy"))
+    check_overrides(module, args)
+    return module
+
+
+def check_overrides(module: Any, args: argparse.Namespace) -> None:
+    """Refuse ``-p``/``-u`` values that make the model meaningless at its initial state, as a
+    description refuses them: a mass matrix that is not finite, or (symmetric models) not
+    positive semidefinite — a negative mass or inertia.
+
+    The numbers themselves were checked by :func:`neweul_py.commands.number` (finite, in
+    range); this check needs the model.
+    """
+    import numpy as np
+
+    from ..analysis._protocol import resolve_inputs, resolve_parameters
+
+    given = [*getattr(args, "param", []), *getattr(args, "set_input", [])]
+    if not given:
+        return
+    p = resolve_parameters(module, dict(getattr(args, "param", [])) or None)
+    resolve_inputs(module, 0.0, p, dict(getattr(args, "set_input", [])) or None)  # names
+    x0 = np.asarray(module.INITIAL_STATE, dtype=float)
+    n = len(module.COORDINATES)
+    what = ", ".join(f"{k} = {v:g}" for k, v in given)
+    with np.errstate(all="ignore"):
+        try:
+            m = np.asarray(module.mass_matrix(0.0, x0[:n], p), dtype=float)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            m = np.full((1, 1), np.nan)
+    if not np.all(np.isfinite(m)):
+        raise NeweulError(f"with {what} the mass matrix at the initial state is not finite")
+    if getattr(module, "MASS_MATRIX_SYMMETRIC", False) and m.size:
+        lo = float(np.linalg.eigvalsh(0.5 * (m + m.T))[0])
+        scale = float(np.abs(m).max()) or 1.0
+        if lo < -1e-12 * scale:
+            raise NeweulError(
+                f"with {what} the mass matrix at the initial state is not positive "
+                f"semidefinite (smallest eigenvalue {lo:.3g}): a negative mass or inertia, "
+                "which a description refuses"
+            )
 
 
 def parameters(args: argparse.Namespace) -> dict[str, float] | None:
@@ -106,6 +181,11 @@ def start(args: argparse.Namespace) -> dict[str, float] | None:
 
 def linearize_kwargs(module: Any, args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments of :func:`~neweul_py.analysis.linearize.linearize` for ``--at``."""
+    import numpy as np
+
+    from ..analysis.dae import consistent_initial_state
+    from ..analysis.equilibrium import equilibrium
+
     p, u = parameters(args), inputs(args)
     kw: dict[str, Any] = {"independent": args.independent}
     if args.at == "equilibrium":

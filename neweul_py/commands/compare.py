@@ -5,17 +5,19 @@ within its tolerance, 1 otherwise (for test suites and CI)."""
 from __future__ import annotations
 
 import argparse
+import functools
 
-from ..analysis.plot import check_plot_path
-from ..analysis.results import check_output_path
+from . import _analysis_common as common
+from . import number
 
 
 def tolerance(text: str) -> tuple[str, float]:
     """``1e-3`` (every signal) or ``NAME=1e-2`` (one signal) — an argparse type."""
     name, sep, value = text.rpartition("=")
     try:
-        return (name.strip() if sep else "*"), float(value)
-    except ValueError:
+        return (name.strip() if sep else "*"), number(value, name.strip() or "tolerance",
+                                                      minimum=0.0)
+    except (ValueError, argparse.ArgumentTypeError):
         raise argparse.ArgumentTypeError(f"expected a number or NAME=NUMBER, got {text!r}"
                                          ) from None
 
@@ -41,10 +43,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "(repeatable; default 1e-3)")
     parser.add_argument("--atol", type=tolerance, action="append", default=[],
                         metavar="X|NAME=X", help="absolute tolerance (repeatable; default 1e-12)")
-    parser.add_argument("--mac", type=float, default=0.9, metavar="MIN",
+    parser.add_argument("--mac", type=functools.partial(number, option="--mac", minimum=0.0,
+                                                        maximum=1.0),
+                        default=0.9, metavar="MIN",
                         help="smallest MAC of matched modes (default 0.9)")
     parser.add_argument("--plot", metavar="FIG", help="overlay plot (.png/.pdf/.svg)")
-    parser.add_argument("-o", "--out", metavar="ERRORS.csv", help="write the error table")
+    parser.add_argument("-o", "--output", "--out", dest="out", metavar="ERRORS.csv",
+                        help="write the error table")
     parser.set_defaults(func=run)
 
 
@@ -52,10 +57,7 @@ def run(args: argparse.Namespace) -> int:
     """Compare, print the table, write the files; 0 when all pass."""
     from ..analysis.compare import compare
 
-    if args.plot:
-        check_plot_path(args.plot)
-    if args.out:
-        check_output_path(args.out, (".csv",), "error tables")
+    common.check_files(args.out, (".csv",), "error tables", args.plot)
     rtol = {"*": 1e-3, **dict(args.rtol)}
     atol = {"*": 1e-12, **dict(args.atol)}
     cmp = compare(args.result, args.reference, signals=args.signals, rtol=rtol, atol=atol,

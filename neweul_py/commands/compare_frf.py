@@ -1,31 +1,24 @@
-"""``neweul compare-frf MODEL BODY --input I --output O --f FMIN:FMAX:N [--log]
+"""``neweul compare-frf MODEL BODY --input I --response O --f FMIN:FMAX:N [--log]
 [--plot fig.png] [-o cmp.csv]``."""
 
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..elastic import ReducedBody, read_fe_model
-from ..elastic.quality import FRF_METHODS, FRFComparison, check_source, compare_frf
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
+from . import Range, range_type
+from . import _analysis_common as common
 
+#: ``--full-method`` choices; the same as :data:`neweul_py.elastic.quality.FRF_METHODS` (kept
+#: here so that building the parser imports no elastic code; a test checks they agree).
+FRF_METHODS: tuple[str, ...] = ("auto", "sweep", "direct")
 
-def frf_grid(text: str) -> tuple[float, float, int]:
-    """Argument type ``FMIN:FMAX:N`` of a frequency grid [Hz]."""
-    parts = text.split(":")
-    try:
-        if len(parts) != 3:
-            raise ValueError
-        lo, hi, n = float(parts[0]), float(parts[1]), int(parts[2])
-        if not (0 <= lo <= hi and n >= 1):
-            raise ValueError
-        return lo, hi, n
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected FMIN:FMAX:N with 0 ≤ FMIN ≤ FMAX, N ≥ 1, got {text!r}") from None
+if TYPE_CHECKING:
+    from ..elastic.quality import FRFComparison
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -39,15 +32,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("model", metavar="MODEL", help="FE model: manifest .json or .npz")
     parser.add_argument("body", metavar="BODY", help="reduced-body file (.npz)")
-    parser.add_argument("--input", required=True, metavar="I", help="input name")
-    parser.add_argument("--output", required=True, metavar="O", help="output name")
-    parser.add_argument("--f", dest="grid", type=frf_grid, default=(10.0, 20000.0, 200),
-                        metavar="FMIN:FMAX:N", help="frequency grid [Hz] (default 10:20000:200)")
+    common.add_signal_arguments(parser, required=True)
+    parser.add_argument("--f", dest="grid", type=range_type("--f", minimum=0.0),
+                        default=Range(10.0, 20000.0, 200, None, "--f"), metavar="START:STOP:N",
+                        help="frequencies [Hz]: START:STOP:N or a comma list (default "
+                        "10:20000:200)")
     parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
     parser.add_argument("--plot", metavar="FIG", help="magnitude and error plot (.png/.pdf)")
-    parser.add_argument("-o", "--out", metavar="CSV",
-                        help="write frequency_hz,full_magnitude,reduced_magnitude,"
-                        "relative_error,in_band")
     parser.add_argument("--full-method", choices=FRF_METHODS, default="auto",
                         help="full FE model: sweep = adaptive interpolation checked by full "
                         "solves (fast), direct = one sparse LU per frequency (default auto: "
@@ -56,13 +47,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def frequency_grid(lo: float, hi: float, n: int, log: bool) -> np.ndarray:
-    """Linear or logarithmic grid (a log grid needs FMIN > 0)."""
-    if log:
-        if lo <= 0:
-            raise NeweulError("--log needs FMIN > 0")
-        return np.geomspace(lo, hi, n)
-    return np.linspace(lo, hi, n)
+def frequency_grid(grid: Range, log: bool) -> np.ndarray:
+    """Linear or logarithmic grid (a log grid needs a positive start)."""
+    return np.asarray(grid.values(log))
 
 
 def plot(cmp: FRFComparison, path: str) -> None:
@@ -111,23 +98,28 @@ def summary(cmp: FRFComparison, what: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Compare and report."""
-    if args.plot:  # before any computation: matplotlib installed, a format it writes
-        from ..analysis.plot import check_plot_path
+    from ..elastic import ReducedBody, read_fe_model
+    from ..elastic.quality import check_source, compare_frf
 
-        check_plot_path(args.plot)
-    f = frequency_grid(*args.grid, args.log)
+    common.split_output(args)
+    if not args.response or len(args.response) != 1 or len(args.input) != 1:
+        raise NeweulError("compare-frf takes one --input and one --response")
+    args.response, args.input = args.response[0], args.input[0]
+    # before any computation: the suffix, matplotlib installed, a format it writes
+    common.check_files(args.output, (".csv",), "comparisons", args.plot)
+    f = frequency_grid(args.grid, args.log)
     fe = read_fe_model(args.model)
     body = ReducedBody.load(args.body)
     check_source(fe, body, args.body)  # a body reduced from another model: refuse
     with Tracker("full FRF", unit="freq", quiet=args.quiet) as track:  # a bar on a terminal
         track.say(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
-        cmp = compare_frf(fe, body, f, args.input, args.output, progress=track, check=False,
-                          method=args.full_method)
+        cmp = compare_frf(fe, body, f, args.input, args.response, progress=track,
+                          check=False, method=args.full_method)
     for line in summary(cmp, f"order {body.order} vs {fe.n_dofs} DOFs"):
         print(line)
-    if args.out:
-        cmp.to_csv(args.out)
-        print(f"table: {args.out}")
+    if args.output:
+        cmp.to_csv(args.output)
+        print(f"table: {args.output}")
     if args.plot:
         plot(cmp, args.plot)
         print(f"plot: {args.plot}")

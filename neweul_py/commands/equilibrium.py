@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..analysis.equilibrium import SUFFIXES, equilibrium
 from . import _analysis_common as common
 
 
@@ -20,14 +19,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "start to the stable equilibrium it settles in.",
     )
     common.add_model_arguments(parser, operating_point=False)
-    parser.add_argument("-o", "--output", metavar="FILE",
-                        help="write name,value rows (coordinates, lambda_<constraint>) as .csv, "
-                        "or .npz")
+    common.add_output_argument(parser, "FILE", "write name,value rows (coordinates, "
+                               "lambda_<constraint>) as .csv, or .npz")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Solve and print the equilibrium table."""
+    from ..analysis.equilibrium import SUFFIXES, equilibrium
+
     common.check_files(args.output, SUFFIXES, "equilibria")
     module = common.load_model(args)
     eq = equilibrium(module, p=common.parameters(args), u=common.inputs(args),

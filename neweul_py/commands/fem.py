@@ -5,9 +5,12 @@ models for ``neweul reduce``."""
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 
 from ..progress import QUIET_HELP, Tracker
+from . import CAPS, count, number, range_type
+from . import _analysis_common as shared
 
 __all__ = ["register"]
 
@@ -28,14 +31,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "inversion, |dV| > 5 % of an air volume) stops the sweep with an error; nothing is "
         "written. Progress goes to stderr.",
     )
-    # "--pressures -4000:4000:9" gets through: cli.build_parser accepts negative lists
+    # "--pressures -4000:4000:9" gets through: cli.attach_negative_values
+    pressures = range_type("--pressures", increasing=False)
     me.add_argument(
         "--pressures",
-        default="-4000:4000:9",
-        help="static pressures [Pa]: start:stop:count or a comma list (default -4000:4000:9)",
+        type=pressures,
+        default=pressures("-4000:4000:9"),
+        metavar="START:STOP:N",
+        help="static pressures [Pa]: START:STOP:N or a comma list (default -4000:4000:9, at "
+        f"most {CAPS['--pressures']})",
     )
-    me.add_argument("-o", "--output", required=True, metavar="DIR", help="output directory")
-    me.add_argument("--refine", type=int, default=2, help="mesh refinement level (default 2)")
+    shared.add_output_argument(me, "DIR", "output directory", required=True)
+    me.add_argument("--refine", type=count("--refine", minimum=0), default=2,
+                    help=f"mesh refinement level (default 2, at most {CAPS['--refine']})")
     me.add_argument("--plots", action="store_true", help="also write PNG pictures")
     me.add_argument(
         "--include-support",
@@ -48,11 +56,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
-    from ..fem.middle_ear import parse_pressures, pressure_sweep
+    from ..fem.middle_ear import pressure_sweep
 
     with Tracker("FE sweep", unit="point", quiet=args.quiet) as track:  # a bar on a terminal
         result = pressure_sweep(
-            parse_pressures(args.pressures),
+            args.pressures.values(),
             refine=args.refine,
             out_dir=args.output,
             plots=args.plots,
@@ -78,6 +86,15 @@ def _comma(kind, count: int, what: str):
     return parse
 
 
+def _positive(option: str):
+    """A positive finite number (:func:`neweul_py.commands.number`)."""
+    return functools.partial(number, option=option, positive=True)
+
+
+#: Poisson's ratio of an isotropic material: −1 < ν ≤ 0.5.
+_POISSON = functools.partial(number, option="--nu", minimum=-1.0, maximum=0.5)
+
+
 def _register_beams(sub: argparse._SubParsersAction) -> None:
     """Add ``fem beam`` and ``fem solid-beam``."""
     common = argparse.ArgumentParser(add_help=False)
@@ -92,20 +109,22 @@ def _register_beams(sub: argparse._SubParsersAction) -> None:
         description="Write the FE model of a uniform straight beam along x (free-free; node "
         "sets root, tip and all in the file). Section from --A/--Iy/--Iz/--Jt or "
         "--rectangle B,H with --nu.")
-    beam.add_argument("--length", type=float, default=1.0, help="length (default 1)")
-    beam.add_argument("--elements", type=int, default=20, help="elements (default 20)")
+    beam.add_argument("--length", type=_positive("--length"), default=1.0,
+                      help="length (default 1)")
+    beam.add_argument("--elements", type=count("--elements", cap=1_000_000), default=20,
+                      help="elements (default 20)")
     beam.add_argument("--theory", choices=("euler-bernoulli", "timoshenko"),
                       default="euler-bernoulli")
     beam.add_argument("--planar", action="store_true", help="2-D beam (ux, uy, rz)")
-    beam.add_argument("--E", type=float, default=1.0, help="Young's modulus")
-    beam.add_argument("--G", type=float, help="shear modulus (default E/(2(1+nu)))")
-    beam.add_argument("--nu", type=float, default=0.3, help="Poisson ratio (default 0.3)")
-    beam.add_argument("--rho", type=float, default=1.0, help="density")
-    beam.add_argument("--A", type=float, default=1.0, help="area")
-    beam.add_argument("--Iy", type=float, default=1e-4, help="second moment about y")
-    beam.add_argument("--Iz", type=float, default=1e-4, help="second moment about z")
-    beam.add_argument("--Jt", type=float, help="torsion constant (default Iy + Iz)")
-    beam.add_argument("--shear-factor", type=float, default=5 / 6,
+    beam.add_argument("--E", type=_positive("--E"), default=1.0, help="Young's modulus")
+    beam.add_argument("--G", type=_positive("--G"), help="shear modulus (default E/(2(1+nu)))")
+    beam.add_argument("--nu", type=_POISSON, default=0.3, help="Poisson ratio (default 0.3)")
+    beam.add_argument("--rho", type=_positive("--rho"), default=1.0, help="density")
+    beam.add_argument("--A", type=_positive("--A"), default=1.0, help="area")
+    beam.add_argument("--Iy", type=_positive("--Iy"), default=1e-4, help="second moment about y")
+    beam.add_argument("--Iz", type=_positive("--Iz"), default=1e-4, help="second moment about z")
+    beam.add_argument("--Jt", type=_positive("--Jt"), help="torsion constant (default Iy + Iz)")
+    beam.add_argument("--shear-factor", type=_positive("--shear-factor"), default=5 / 6,
                       help="Timoshenko shear factor (default 5/6)")
     beam.add_argument("--rectangle", type=_comma(float, 2, "numbers"), metavar="B,H",
                       help="solid rectangle width (y) x height (z): sets A, Iy, Iz, Jt, G, "
@@ -124,9 +143,9 @@ def _register_beams(sub: argparse._SubParsersAction) -> None:
     solid.add_argument("--divisions", type=_comma(int, 3, "integers"), default=[10, 1, 1],
                        metavar="NX,NY,NZ", help="cells per direction (default 10,1,1)")
     solid.add_argument("--element", choices=("hex8", "hex20", "tet10"), default="hex20")
-    solid.add_argument("--E", type=float, default=1.0, help="Young's modulus")
-    solid.add_argument("--nu", type=float, default=0.3, help="Poisson ratio")
-    solid.add_argument("--rho", type=float, default=1.0, help="density")
+    solid.add_argument("--E", type=_positive("--E"), default=1.0, help="Young's modulus")
+    solid.add_argument("--nu", type=_POISSON, default=0.3, help="Poisson ratio")
+    solid.add_argument("--rho", type=_positive("--rho"), default=1.0, help="density")
     solid.set_defaults(func=_solid_beam)
 
 

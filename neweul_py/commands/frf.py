@@ -1,12 +1,11 @@
-"""``neweul frf FILE --input U --output Y --f 10:10000:400 [--log] [--plot bode.png]
+"""``neweul frf FILE --input U --response Y --f 10:10000:400 [--log] [--plot bode.png]
 [-o frf.csv|.npz]``."""
 
 from __future__ import annotations
 
 import argparse
 
-from ..analysis.frf import SUFFIXES, frequency_response, frequency_vector
-from ..analysis.linearize import linearize
+from . import CAPS, range_type
 from . import _analysis_common as common
 
 
@@ -20,35 +19,41 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "dd_<coordinate>.",
     )
     common.add_model_arguments(parser)
-    parser.add_argument("--input", action="append", metavar="U",
-                        help="input name (repeatable; default: all inputs; the rates of a "
-                        "kinematic excitation are folded into their input)")
-    parser.add_argument("--output", action="append", metavar="Y",
-                        help="output name (repeatable; default: all outputs)")
-    parser.add_argument("--f", required=True, metavar="START:STOP:COUNT",
-                        help="frequencies in Hz, e.g. 10:10000:400 (or a comma list)")
+    common.add_signal_arguments(parser, required=False)
+    parser.add_argument("--f", required=True, type=range_type("--f", minimum=0.0),
+                        metavar="START:STOP:N", help="frequencies in Hz, e.g. 10:10000:400 (or "
+                        f"a comma list; at most {CAPS['--f']})")
     parser.add_argument("--log", action="store_true", help="logarithmically spaced frequencies")
     parser.add_argument("--method", choices=("solve", "hessenberg", "eig"), default="solve",
                         help="evaluation method (default: batched second-order solve)")
     parser.add_argument("--plot", metavar="FIG", help="Bode plot (.png/.pdf/.svg; matplotlib)")
-    parser.add_argument("-o", "--out", metavar="FILE",
-                        help=".csv with frequency_hz, magnitude, phase_deg, or .npz (complex H)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Compute, write and plot the frequency response."""
-    common.check_files(args.out, SUFFIXES, "frequency responses", args.plot)
-    f = frequency_vector(args.f, args.log)
+    import numpy as np
+
+    from ..analysis.frf import SUFFIXES, frequency_response
+    from ..analysis.linearize import linearize
+
+    common.split_output(args)
+    common.check_files(args.output, SUFFIXES, "frequency responses", args.plot)
+    f = np.asarray(args.f.values(args.log))
     module = common.load_model(args)
     lin = linearize(module, **common.linearize_kwargs(module, args))
-    fr = frequency_response(lin, f, args.input, args.output, method=args.method)
-    if args.out:
-        print(f"frequency response: {fr.save(args.out)}")
+    fr = frequency_response(lin, f, args.input, args.response, method=args.method)
+    if not np.all(np.isfinite(fr.magnitude)):
+        from ..errors import SolverError
+
+        raise SolverError("the frequency response is not finite (the linearized model is "
+                          "singular at some frequency, or its matrices are not finite)")
+    if args.output:
+        print(f"frequency response: {fr.save(args.output)}")
     if args.plot:
         fr.plot(args.plot)
         print(f"Bode plot: {args.plot}")
-    if not args.out and not args.plot:
+    if not args.output and not args.plot:
         print(f"{'frequency_hz':>14}  {'magnitude':>14}  {'phase_deg':>10}  output/input")
         for k, freq in enumerate(fr.frequency_hz):
             for i, o in enumerate(fr.outputs):

@@ -1,37 +1,23 @@
-"""``neweul frf-body BODY.npz [--at NAME=VALUE] --input I --output O[,O…] --f FMIN:FMAX:N
-[--log] [-o frf.csv] [--plot fig.png]``: frequency response of a reduced or parametric body
-alone, ``H(j2πf) = C_r (K_r + jωD_r − ω²M_r)⁻¹ B_r`` from its own FE inputs and outputs —
-no FE model is read or solved."""
+"""``neweul frf-body BODY.npz [--at NAME=VALUE] --input I --response O [--response O2 …]
+--f START:STOP:N [--log] [-o frf.csv] [--plot fig.png]``: frequency response of a reduced or
+parametric body alone, ``H(j2πf) = C_r (K_r + jωD_r − ω²M_r)⁻¹ B_r`` from its own FE inputs
+and outputs — no FE model is read or solved."""
 
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..atomic import atomic_write
-from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
-from ..elastic.quality import frf_reduced, retained_band_hz
-from ..elastic.reduced_body import ReducedBody, load_reduced_body
 from ..errors import DataError, NeweulError
-from .compare_frf import frequency_grid, frf_grid
+from . import Range, assignment, range_type
+from . import _analysis_common as common
+from .compare_frf import frequency_grid
 
-
-def _assignment(text: str) -> tuple[str, float]:
-    name, sep, value = text.partition("=")
-    try:
-        if not sep or not name.strip():
-            raise ValueError
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}") from None
-
-
-def _names(text: str) -> list[str]:
-    names = [x.strip() for x in text.split(",") if x.strip()]
-    if not names:
-        raise argparse.ArgumentTypeError(f"expected NAME[,NAME…], got {text!r}")
-    return names
+if TYPE_CHECKING:
+    from ..elastic.reduced_body import ReducedBody
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,23 +30,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "inputs and outputs (no FE model is solved); magnitude and phase per output.",
     )
     parser.add_argument("body", metavar="BODY", help="reduced or parametric body file (.npz)")
-    parser.add_argument("--at", type=_assignment, metavar="NAME=VALUE",
+    parser.add_argument("--at", type=lambda t: assignment(t, "--at"), metavar="NAME=VALUE",
                         help="parameter value of a parametric body (e.g. dp=-2000)")
-    parser.add_argument("--input", required=True, metavar="I", help="input name")
-    parser.add_argument("--output", required=True, type=_names, metavar="O[,O…]",
-                        help="output name(s)")
-    parser.add_argument("--f", dest="grid", type=frf_grid, default=(10.0, 20000.0, 200),
-                        metavar="FMIN:FMAX:N", help="frequency grid [Hz] (default 10:20000:200)")
+    common.add_signal_arguments(parser, required=True)
+    parser.add_argument("--f", dest="grid", type=range_type("--f", minimum=0.0),
+                        default=Range(10.0, 20000.0, 200, None, "--f"), metavar="START:STOP:N",
+                        help="frequencies [Hz]: START:STOP:N or a comma list (default "
+                        "10:20000:200)")
     parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
     parser.add_argument("--plot", metavar="FIG", help="Bode plot (.png/.pdf)")
-    parser.add_argument("-o", "--out", metavar="CSV",
-                        help="write frequency_hz and per output real, imag, magnitude, "
-                        "phase_deg (and in_band when the body records its retained band)")
     parser.set_defaults(func=run)
 
 
 def load_body(path: str, at: tuple[str, float] | None) -> ReducedBody:
     """A reduced body, or a parametric body evaluated at ``at`` (refused without it)."""
+    from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
+    from ..elastic.reduced_body import load_reduced_body
+
     if is_parametric_body_file(path):
         pb = load_parametric_body(path)
         lo, hi = pb.range
@@ -113,34 +99,38 @@ def _plot(f: np.ndarray, H: np.ndarray, outputs: list[str], inp: str, path: str,
 
 
 def run(args: argparse.Namespace) -> int:
-    """Evaluate the body and report."""
-    if args.plot:
-        from ..analysis.plot import check_plot_path
+    """Evaluate the body and report (the CSV: frequency_hz and per response real, imag,
+    magnitude, phase_deg, and in_band when the body records its retained band)."""
+    from ..elastic.quality import frf_reduced, retained_band_hz
 
-        check_plot_path(args.plot)
-    f = frequency_grid(*args.grid, args.log)
+    common.split_output(args)
+    if not args.response or len(args.input) != 1:
+        raise NeweulError("frf-body takes one --input and at least one --response")
+    args.input = args.input[0]
+    common.check_files(args.output, (".csv",), "frequency responses", args.plot)
+    f = frequency_grid(args.grid, args.log)
     body = load_body(args.body, args.at)
-    H = frf_reduced(body, f, args.input, args.output)[:, :, 0]
+    H = frf_reduced(body, f, args.input, args.response)[:, :, 0]
     band = retained_band_hz(body)
     in_band = None if band is None else f <= band
     where = "" if args.at is None else f" at {args.at[0]} = {args.at[1]:g}"
     print(f"{args.body}{where}: order {body.order}, {f.size} frequencies "
           f"{f[0]:g}–{f[-1]:g} Hz, input {args.input}")
-    for j, o in enumerate(args.output):
+    for j, o in enumerate(args.response):
         k = int(np.argmax(np.abs(H[:, j])))
         print(f"  {o}: max |H| {np.abs(H[k, j]):.4g} at {f[k]:g} Hz")
     if in_band is not None and not in_band.all():
         print(f"  {(~in_band).sum()} frequencies lie above the retained band ({band:.6g} Hz): "
               "the reduced model is not meant to be accurate there (in_band = 0)")
-    if args.out:
-        header, table = _table(f, H, args.output, in_band)
+    if args.output:
+        header, table = _table(f, H, args.response, in_band)
 
         def write(fh) -> None:
             np.savetxt(fh, table, delimiter=",", header=header, comments="", fmt="%.17g")
 
-        atomic_write(args.out, write)
-        print(f"table: {args.out}")
+        atomic_write(args.output, write)
+        print(f"table: {args.output}")
     if args.plot:
-        _plot(f, H, args.output, args.input, args.plot, args.log)
+        _plot(f, H, args.response, args.input, args.plot, args.log)
         print(f"plot: {args.plot}")
     return 0

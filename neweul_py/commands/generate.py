@@ -16,7 +16,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "generated NumPy module DIR/<name>.py (atomically; nothing is written on error).",
     )
     parser.add_argument("file", metavar="FILE", help="YAML description file")
-    parser.add_argument("-o", "--out-dir", metavar="DIR", default="generated",
+    parser.add_argument("-o", "--output", "--out-dir", dest="out_dir", metavar="DIR",
+                        default="generated",
                         help="output directory (default: generated/)")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")

@@ -13,16 +13,20 @@ bodies alone (no FE model needed)."""
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 
-from ..elastic import read_fe_model
-from ..elastic.global_basis import global_parametric_body
-from ..elastic.interpolation import BASES, INTERPOLATIONS, PRESSURE_WEIGHT, interpolate
-from ..elastic.quality import check_source
-from ..elastic.reduced_body import load_reduced_body
-from ..errors import DataError, NeweulError
-from . import comma_floats
+from ..errors import NeweulError
+from . import _analysis_common as shared
+from . import number, values_type
+
+#: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as
+#: :mod:`neweul_py.elastic.interpolation` (kept here so that building the parser imports no
+#: elastic code; a test checks they agree).
+INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic")
+BASES: tuple[str, ...] = ("auto", "full", "kept")
+PRESSURE_WEIGHT = 1e-3
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -41,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="reduced-body files (.npz), in increasing parameter order")
     parser.add_argument("--parameter", required=True, metavar="NAME",
                         help="name of the parameter")
-    parser.add_argument("--values", type=comma_floats, metavar="V1,V2,…",
+    parser.add_argument("--values", type=values_type("--values"), metavar="V1,V2,…",
                         help="sample values, one per body (default: the values the bodies "
                         "record in their parameters)")
     parser.add_argument("--method", choices=("global", "local"), default="global",
@@ -67,16 +71,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "pressure down-weighted (structure first); none = plain rows "
                         "(default: kind when the bodies record the DOF kinds of their "
                         "bases, else none)")
-    parser.add_argument("--pressure-weight", type=float, default=PRESSURE_WEIGHT,
-                        metavar="W", help="(--method local) factor of the pressure rows "
-                        f"on top of the balanced kind scaling (default {PRESSURE_WEIGHT:g}; "
+    parser.add_argument("--pressure-weight", default=PRESSURE_WEIGHT,
+                        type=functools.partial(number, option="--pressure-weight",
+                                               positive=True),
+                        metavar="W", help="(--method local) factor of the pressure rows on "
+                        f"top of the balanced kind scaling (default {PRESSURE_WEIGHT:g}; "
                         "1 = balanced)")
-    parser.add_argument("--weights", type=comma_floats, metavar="W1,W2,…",
+    parser.add_argument("--weights", type=values_type("--weights", minimum=0.0),
+                        metavar="W1,W2,…",
                         help="(--method local) SVD weights of the samples (default all 1)")
     parser.add_argument("--store-bases", action="store_true",
                         help="also store the transformed full bases")
-    parser.add_argument("-o", "--output", required=True, metavar="PBODY.npz",
-                        help="parametric-body file to write")
+    shared.add_output_argument(parser, "PBODY.npz", "parametric-body file to write",
+                               required=True)
     parser.set_defaults(func=run)
 
 
@@ -86,6 +93,10 @@ def _progress(msg: str) -> None:
 
 def _models(args: argparse.Namespace, bodies: list) -> list:
     """The FE model of every body (``--models`` or the recorded source), checked."""
+    from ..elastic import read_fe_model
+    from ..elastic.quality import check_source
+    from ..errors import DataError
+
     if args.models is not None and len(args.models) != len(bodies):
         raise NeweulError(f"--models has {len(args.models)} files for {len(bodies)} bodies")
     fes = []
@@ -103,6 +114,11 @@ def _models(args: argparse.Namespace, bodies: list) -> list:
 
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
+    from ..elastic.global_basis import global_parametric_body
+    from ..elastic.interpolation import interpolate
+    from ..elastic.reduced_body import load_reduced_body
+
+    shared.check_files(args.output, (".npz",), "parametric bodies")
     if args.values is not None and len(args.values) != len(args.bodies):
         raise NeweulError(f"--values has {len(args.values)} entries for {len(args.bodies)} "
                           "bodies")

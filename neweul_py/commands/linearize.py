@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from ..analysis.linearize import linearize
 from . import _analysis_common as common
 
 
@@ -19,13 +16,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "symbolically generated Jacobians (constrained models: in minimal coordinates).",
     )
     common.add_model_arguments(parser)
-    parser.add_argument("-o", "--output", metavar="FILE",
-                        help="write the matrices, names and operating point to .npz")
+    common.add_output_argument(parser, "FILE", "write the matrices, names and operating point "
+                               "to .npz")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Linearize; print the matrices or write them to ``-o``."""
+    import numpy as np
+
+    from ..analysis.linearize import linearize
+
     common.check_files(args.output, (".npz",), "linear models")
     module = common.load_model(args)
     lin = linearize(module, **common.linearize_kwargs(module, args))

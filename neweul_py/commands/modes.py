@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..analysis.linearize import linearize
-from ..analysis.modes import SUFFIXES, modes
 from . import _analysis_common as common
 
 
@@ -19,9 +17,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "eigenproblem), sorted by natural frequency.",
     )
     common.add_model_arguments(parser)
-    parser.add_argument("-o", "--output", metavar="FILE",
-                        help=".csv, one row per oscillating mode (frequency_hz, damping_ratio, "
-                        "…), or .npz with all eigenvalues and shapes")
+    common.add_output_argument(parser, "FILE", ".csv, one row per oscillating mode "
+                               "(frequency_hz, damping_ratio, …), or .npz with all eigenvalues "
+                               "and shapes")
     parser.add_argument("--undamped", action="store_true",
                         help="eigenvalues of the undamped pencil det(Q - w^2 M0) = 0 (damping "
                         "and gyroscopic terms dropped): the undamped natural frequencies")
@@ -30,6 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the modal table (and a warning at an unstable operating point); write ``-o``."""
+    from ..analysis.linearize import linearize
+    from ..analysis.modes import SUFFIXES, modes
+
     common.check_files(args.output, SUFFIXES, "modes")
     module = common.load_model(args)
     res = modes(linearize(module, **common.linearize_kwargs(module, args)),

@@ -6,28 +6,18 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 
 import numpy as np
 
-from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
-from ..elastic.eigen import frequencies_hz
-from ..elastic.invariants import attach_invariants
-from ..elastic.quality import right_half_plane_poles
-from ..elastic.rigid_check import free_rigid_fields, repeated_rigid_fields
 from ..errors import NeweulError
-from . import comma_floats
+from . import CAPS, count, interval, number, range_type
+from . import _analysis_common as shared
 
-
-def _band(text: str) -> tuple[float, float]:
-    lo, sep, hi = text.partition(":")
-    try:
-        if not sep:
-            raise ValueError
-        return float(lo), float(hi)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected FMIN:FMAX in Hz, got {text!r}") from None
+#: Highest frequency of ``--band`` [Hz]: ω² = (2π f)² stays far from overflow.
+MAX_BAND_HZ = 1e12
 
 
 def _ints(text: str) -> list[int]:
@@ -56,17 +46,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     side.add_argument("--one-sided", dest="two_sided", action="store_false",
                       help="Galerkin projection W = V")
     sel = parser.add_mutually_exclusive_group()
-    sel.add_argument("--modes", type=int, metavar="N", help="number of modes (modal)")
-    sel.add_argument("--band", type=_band, metavar="FMIN:FMAX",
+    sel.add_argument("--modes", type=count("--modes"), metavar="N",
+                     help="number of modes (modal)")
+    sel.add_argument("--band", type=interval("--band", minimum=0.0, maximum=MAX_BAND_HZ),
+                     metavar="FMIN:FMAX",
                      help="keep the modes in this band [Hz] (modal)")
     parser.add_argument("--static-correction", action="store_true",
                         help="add static (attachment) vectors of the inputs/outputs")
-    parser.add_argument("--shift", type=float, metavar="SIGMA",
+    parser.add_argument("--shift", type=functools.partial(number, option="--shift"),
+                        metavar="SIGMA",
                         help="eigensolver shift in λ = ω² units (modal; default automatic)")
-    parser.add_argument("--points", type=comma_floats, metavar="F1,F2,…",
+    parser.add_argument("--points", type=range_type("--points", minimum=0.0,
+                                                    increasing=False), metavar="F1,F2,…",
                         help="Krylov expansion frequencies [Hz] (s0 = 2πj·f)")
-    parser.add_argument("--order", type=int, metavar="Q",
-                        help="Krylov moments per point and input (default 4)")
+    parser.add_argument("--order", type=count("--order"), metavar="Q",
+                        help="Krylov moments per point and input (default 4, at most "
+                        f"{CAPS['--order']})")
     parser.add_argument("--keep-nodes", type=_ints, metavar="ID,…",
                         help="node ids whose basis rows are stored (default: input/output "
                         "nodes)")
@@ -85,8 +80,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="attach the floating-frame invariants (node frames: the kept "
                         "nodes), so that the file can be an elastic body in a description")
     _register_interface_options(parser)
-    parser.add_argument("-o", "--output", required=True, metavar="BODY.npz",
-                        help="reduced-body file to write")
+    shared.add_output_argument(parser, "BODY.npz", "reduced-body file to write",
+                               required=True)
     parser.set_defaults(func=run)
 
 
@@ -155,6 +150,7 @@ def _interface_invariants(args: argparse.Namespace, body, fe):
     """Invariants with stiffening (``--stiffening``) and averaged frames (``--interface-frame``)."""
     from ..elastic.fe_io import read_node_sets
     from ..elastic.interface import add_interface_frames, parse_node_set
+    from ..elastic.invariants import attach_invariants
     from ..elastic.stiffening import attach_stiffening, load_stiffening
 
     if args.stiffening:
@@ -209,6 +205,8 @@ def check_rigid_motion(fe, body, output: str, skip_rigid: bool, fixed_frame: boo
     (:mod:`neweul_py.elastic.rigid_check`): λ = 0 air modes (constant pressure in a closed
     cavity) are no rigid motion, a supported FE model (the TM clamped at the annulus) has
     none, and a body on a fixed frame (``--fixed-frame``) needs no check."""
+    from ..elastic.rigid_check import free_rigid_fields, repeated_rigid_fields
+
     if fixed_frame:
         return "fixed frame: no rigid-motion check"
     free = free_rigid_fields(fe)
@@ -228,6 +226,13 @@ def check_rigid_motion(fe, body, output: str, skip_rigid: bool, fixed_frame: boo
 
 def run(args: argparse.Namespace) -> int:
     """Read, reduce, write; print a summary (order, frequencies, stability)."""
+    from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
+    from ..elastic.eigen import frequencies_hz
+    from ..elastic.quality import right_half_plane_poles
+
+    if args.points is not None:
+        args.points = args.points.values()
+    shared.check_files(args.output, (".npz",), "reduced bodies")
     _check_options(args)
     if args.stiffening or args.interface_frame:
         args.invariants = True
@@ -246,6 +251,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         points = [2j * np.pi * f for f in args.points]
         order = 4 if args.order is None else args.order
+        wanted = order * len(points) * max(1, len(fe.inputs))
+        if wanted > fe.n_dofs:
+            raise NeweulError(f"--order {order} at {len(points)} point(s) and "
+                              f"{max(1, len(fe.inputs))} input(s) asks for {wanted} Krylov "
+                              f"vectors, more than the {fe.n_dofs} DOFs of {fe.name}")
         body = reduce_krylov(fe, points=points, order=order, **common)
     if args.invariants:
         _progress("computing the floating-frame invariants")

@@ -4,12 +4,15 @@
 from __future__ import annotations
 
 import argparse
+import functools
+from typing import Any
 
-from ..analysis.results import SUFFIXES
-from ..analysis.simulate import METHODS, simulate
 from ..progress import QUIET_HELP, Tracker
-from . import BACKENDS, FORMS
+from . import BACKENDS, CAPS, FORMS, SIMULATE_METHODS, count, number
 from . import _analysis_common as common
+
+#: Largest number of integrator steps a run may need (``--max-steps``, docs/limits.md).
+DEFAULT_MAX_STEPS = 1_000_000
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -24,15 +27,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "their given positions and velocities.",
     )
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
-    parser.add_argument("--t-end", type=float, required=True, metavar="T", help="final time [s]")
-    parser.add_argument("--method", choices=METHODS, default="RK45",
+    parser.add_argument("--t-end", type=functools.partial(number, option="--t-end",
+                                                          positive=True),
+                        required=True, metavar="T", help="final time [s]")
+    parser.add_argument("--method", choices=SIMULATE_METHODS, default="RK45",
                         help="integrator (Radau, BDF, LSODA use the analytic Jacobian)")
-    parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
-    parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
-    parser.add_argument("--n-out", type=int, default=501, metavar="N",
-                        help="number of equally spaced output times (default 501)")
-    parser.add_argument("-p", "--param", type=common.assignment, action="append", default=[],
-                        metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    parser.add_argument("--rtol", type=functools.partial(number, option="--rtol", positive=True,
+                                                         maximum=1.0),
+                        default=1e-6, help="relative tolerance")
+    parser.add_argument("--atol", type=functools.partial(number, option="--atol", positive=True),
+                        default=1e-9, help="absolute tolerance")
+    parser.add_argument("--n-out", type=count("--n-out", minimum=2), default=501, metavar="N",
+                        help=f"number of equally spaced output times (default 501, at most "
+                        f"{CAPS['--n-out']})")
+    parser.add_argument("--max-steps", type=count("--max-steps"), default=DEFAULT_MAX_STEPS,
+                        metavar="N", help="refuse a run whose fastest time scale needs more "
+                        "explicit integrator steps than N (default "
+                        f"{DEFAULT_MAX_STEPS:.0e}; stiff models: --method Radau or BDF)")
+    common.add_parameter_argument(parser)
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
@@ -40,8 +52,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common.add_independent_argument(
         parser, "constrained models: coordinates whose initial positions and velocities are "
         "kept exactly (default: the first ones in COORDINATES order the constraints leave free)")
-    parser.add_argument("-o", "--output", metavar="FILE",
-                        help="write results as .csv (with a units line) or .npz")
+    common.add_output_argument(parser, "FILE", "write results as .csv (with a units line) or "
+                               ".npz")
     parser.add_argument("--plot", metavar="FIG",
                         help="plot coordinates and outputs (.png/.pdf/.svg; matplotlib)")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
@@ -50,8 +62,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the requested files and print a one-line summary per file."""
+    from ..analysis.results import SUFFIXES
+    from ..analysis.simulate import simulate
+
     common.check_files(args.output, SUFFIXES, "results", args.plot)
     module = common.load_model(args)
+    check_step_count(module, args)
     with Tracker("simulate", unit="s", quiet=args.quiet) as track:  # a bar on a terminal
         result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
                           atol=args.atol, n_out=args.n_out, p=dict(args.param) or None,
@@ -69,3 +85,41 @@ def run(args: argparse.Namespace) -> int:
                                                            result.table[-1, 1:], strict=True))
         print(f"final state: {final}")
     return 0
+
+
+def check_step_count(module: Any, args: argparse.Namespace) -> None:
+    """Refuse an explicit integration that would need more than ``--max-steps`` steps.
+
+    An explicit Runge–Kutta method is stable only for ``h |λ| ≲ 3`` (Hairer & Wanner, *Solving
+    ODEs II*, §IV.2), so a run over ``T`` seconds needs at least ``T |λ_max| / 3`` steps, where
+    ``λ_max`` is the eigenvalue of largest magnitude of ``∂f/∂x`` at the initial state (a spring
+    of ``-p k=1e12`` makes it huge). Such a run would not end in any useful time; the error
+    says so at once and names the stiff integrators.
+    """
+    import numpy as np
+
+    from ..analysis._protocol import resolve_inputs, resolve_parameters
+    from ..errors import NeweulError
+
+    if args.method in ("Radau", "BDF", "LSODA") or getattr(module, "CONSTRAINTS", None):
+        return
+    p = resolve_parameters(module, dict(args.param) or None)
+    x0 = np.asarray(module.INITIAL_STATE, dtype=float)
+    if x0.size == 0 or x0.size > 2000:
+        return
+    with np.errstate(all="ignore"):
+        try:
+            jac = np.asarray(module.rhs_jacobian(0.0, x0, p, resolve_inputs(module, 0.0, p, None)),
+                             dtype=float)
+            rate = float(np.max(np.abs(np.linalg.eigvals(jac)))) if np.all(
+                np.isfinite(jac)) else np.inf
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            return  # the integrator reports what is wrong
+    steps = rate * args.t_end / 3.0
+    if not steps <= args.max_steps:
+        raise NeweulError(
+            f"{args.method} would need about {steps:.2g} steps for {args.t_end:g} s (fastest "
+            f"time scale 1/{rate:.3g} s at the initial state), more than --max-steps "
+            f"{args.max_steps}: the model is stiff at these parameters; use --method Radau or "
+            "BDF, or a shorter --t-end"
+        )

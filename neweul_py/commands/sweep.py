@@ -4,14 +4,12 @@ modes|frf [task options] [--scheduler ADDRESS | --workers N] [-o table.csv|.parq
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 
-from ..analysis.frf import frequency_vector
-from ..analysis.simulate import METHODS
-from ..analysis.sweep_tasks import STATS, TASKS
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
-from . import FORMS
+from . import FORMS, SIMULATE_METHODS, SWEEP_STATS, SWEEP_TASKS, count, number, range_type
 
 #: Failures listed on stderr (the table holds all of them).
 _SHOWN_FAILURES = 5
@@ -36,24 +34,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "(repeatable; the cases are all combinations)")
     parser.add_argument("--cases", metavar="CASES.csv",
                         help="CSV file with a header of parameter names and one case per row")
-    parser.add_argument("--task", choices=tuple(TASKS), default="simulate",
+    parser.add_argument("--task", choices=SWEEP_TASKS, default="simulate",
                         help="what to run per case (default: simulate)")
     sim = parser.add_argument_group("simulate")
-    sim.add_argument("--t-end", type=float, metavar="T", help="final time [s]")
-    sim.add_argument("--method", choices=METHODS, default="RK45", help="integrator")
-    sim.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
-    sim.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
-    sim.add_argument("--n-out", type=int, default=101, metavar="N",
+    sim.add_argument("--t-end", type=functools.partial(number, option="--t-end", positive=True),
+                     metavar="T", help="final time [s]")
+    sim.add_argument("--method", choices=SIMULATE_METHODS, default="RK45", help="integrator")
+    sim.add_argument("--rtol", type=functools.partial(number, option="--rtol", positive=True),
+                     default=1e-6, help="relative tolerance")
+    sim.add_argument("--atol", type=functools.partial(number, option="--atol", positive=True),
+                     default=1e-9, help="absolute tolerance")
+    sim.add_argument("--n-out", type=count("--n-out", minimum=2), default=101, metavar="N",
                      help="output times per case (default 101)")
     sim.add_argument("--stats", default="final", metavar="LIST",
-                     help=f"statistics of every column, comma list of {', '.join(STATS)} "
+                     help=f"statistics of every column, comma list of {', '.join(SWEEP_STATS)} "
                      "(default: final)")
     lin = parser.add_argument_group("modes and frf")
     lin.add_argument("--at", choices=("equilibrium", "initial"), default="equilibrium",
                      help="operating point (default: static equilibrium)")
     lin.add_argument("--undamped", action="store_true", help="modes of the undamped pencil")
     lin.add_argument("--n-modes", type=int, metavar="K", help="modes per row (default ≤ 6)")
-    lin.add_argument("--f", metavar="SPEC", help="frf frequencies [Hz]: start:stop:count or list")
+    lin.add_argument("--f", type=range_type("--f", minimum=0.0), metavar="START:STOP:N",
+                     help="frf frequencies [Hz]: START:STOP:N or a comma list")
     lin.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
     lin.add_argument("--input", action="append", metavar="NAME", help="frf input (repeatable)")
     lin.add_argument("--output", action="append", metavar="NAME",
@@ -88,7 +90,9 @@ def _options(args: argparse.Namespace) -> dict:
         return opt | {"undamped": args.undamped, "n_modes": args.n_modes}
     if not args.f:
         raise NeweulError("--task frf needs --f (e.g. --f 10:1000:200 --log)")
-    return opt | {"f": frequency_vector(args.f, args.log), "inputs": args.input,
+    import numpy as np
+
+    return opt | {"f": np.asarray(args.f.values(args.log)), "inputs": args.input,
                   "outputs": args.output}
 
 

@@ -179,7 +179,7 @@ def _forces(b: SystemBuilder, section: Any, path: str) -> None:
                 f"a force needs a 'type', one of: {', '.join(FORCE_TYPES)}", item
             )
         kind = spec["type"]
-        if kind not in FORCE_TYPES:
+        if not isinstance(kind, str) or kind not in FORCE_TYPES:
             raise ModelError(
                 f"unknown force type {kind!r}; types are: {', '.join(FORCE_TYPES)}",
                 f"{item}.type",
@@ -324,10 +324,11 @@ def load_description_text(
 
 def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None) -> System:
     """Load the description file at ``path`` (see :func:`load_description_text`)."""
+    from ..files import MAX_DESCRIPTION_BYTES, read_checked
+
     filename = os.fspath(path)
-    try:
-        with open(filename, "rb") as fh:
-            data = fh.read()
-    except OSError as exc:
-        raise DescriptionError(f"cannot read description: {exc.strerror}", "", filename) from None
+    try:  # a regular file of sane size: /dev/zero or a FIFO is refused at once
+        data = read_checked(filename, "description", MAX_DESCRIPTION_BYTES, DescriptionError)
+    except DescriptionError as exc:
+        raise DescriptionError(str(exc).removeprefix(f"{filename}: "), "", filename) from None
     return load_description_text(data, filename, elastic_reader=elastic_reader)

@@ -72,7 +72,11 @@ class _Walker:
         if self.count > _MAX_NODES:
             raise self.error("the document is too large (alias expansion?)", path, node)
         if isinstance(node, yaml.ScalarNode):
-            return self.constructor.construct_object(node)
+            value = self.constructor.construct_object(node)
+            if isinstance(value, int) and not isinstance(value, bool) and abs(value) > _MAX_INT:
+                raise self.error(f"the integer {node.value[:20]}… is beyond the range of a "
+                                 "double-precision number", path, node)
+            return value
         if node.tag not in (_SEQ_TAG, _MAP_TAG):
             raise self.error(f"YAML tag {node.tag!r} is not allowed", path, node)
         if id(node) in self.active:
@@ -140,6 +144,26 @@ class _Walker:
         return key
 
 
+#: Deepest nesting of mappings and sequences in a description (docs/limits.md).
+MAX_DEPTH = 64
+#: Largest integer accepted (beyond it ``float(value)`` overflows).
+_MAX_INT = 2**1023
+
+
+def _check_depth(text: str, file: str) -> None:
+    """Refuse nesting deeper than :data:`MAX_DEPTH` from the event stream (PyYAML's parser is
+    iterative; its composer recurses once per level, and so does the walker)."""
+    depth = 0
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, yaml.CollectionStartEvent):
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise DescriptionError(f"the document is nested more than {MAX_DEPTH} levels "
+                                       "deep", "", file, event.start_mark.line + 1)
+        elif isinstance(event, yaml.CollectionEndEvent):
+            depth -= 1
+
+
 def read_yaml(text: str, file: str = "<description>") -> YamlTree:
     """Parse YAML ``text`` safely into a :class:`YamlTree`.
 
@@ -150,6 +174,7 @@ def read_yaml(text: str, file: str = "<description>") -> YamlTree:
         recursive aliases.
     """
     try:
+        _check_depth(text, file)
         node = yaml.compose(text, Loader=yaml.SafeLoader)
         if node is None:
             return YamlTree(None, {"": 1}, file)
@@ -164,4 +189,7 @@ def read_yaml(text: str, file: str = "<description>") -> YamlTree:
         ) from None
     except yaml.YAMLError as exc:
         raise DescriptionError(f"malformed YAML: {exc}", "", file) from None
+    except RecursionError:
+        raise DescriptionError(f"the document is nested more than {MAX_DEPTH} levels deep",
+                               "", file) from None
     return YamlTree(data, walker.lines, file)

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError
+from ..files import check_npz, check_regular_file
 
 __all__ = [
     "atomic_write",
@@ -45,6 +46,8 @@ def json_from_uint8(arr: np.ndarray, file: str | None = None, item: str = "meta"
         raise DataError("metadata must be a 1-D uint8 array of UTF-8 JSON", file, item)
     try:
         return json.loads(arr.tobytes().decode("utf-8"))
+    except RecursionError:
+        raise DataError("metadata is nested too deeply", file, item) from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise DataError(f"metadata is not valid UTF-8 JSON ({exc})", file, item) from None
 
@@ -62,6 +65,7 @@ def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     DataError
         The file is missing, not an ``.npz`` or holds pickled objects.
     """
+    check_regular_file(path, "file")  # a FIFO or /dev/zero is refused before it is opened
     try:
         with open(path, "rb") as fh:
             magic = fh.read(4)
@@ -71,12 +75,13 @@ def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
         raise DataError(f"cannot read ({exc.strerror or exc})", str(path)) from None
     if magic not in _ZIP_MAGIC:  # np.load would try .npy / pickle and say "pickled data"
         raise DataError("not a valid .npz file (not a zip archive)", str(path))
+    check_npz(path)  # a zip bomb or a forged array header is refused before loading
     try:
         with np.load(path, allow_pickle=False) as data:
             return {key: data[key] for key in data.files}
     except FileNotFoundError:
         raise DataError("file not found", str(path)) from None
-    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+    except (zipfile.BadZipFile, OSError, EOFError, MemoryError) as exc:
         raise DataError(f"not a readable .npz file ({exc})", str(path)) from None
     except ValueError as exc:  # object arrays refuse to load without pickles
         raise DataError(f"unreadable array ({exc})", str(path)) from None

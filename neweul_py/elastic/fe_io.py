@@ -60,6 +60,7 @@ import scipy.io
 import scipy.sparse as sps
 
 from ..errors import DataError
+from ..files import check_regular_file, read_checked
 from ._io import atomic_write, json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .fe_model import FEModel
 from .invariants import LOAD_CASES
@@ -160,13 +161,16 @@ def _check_header(meta: Any, file: str) -> None:
 def _read_manifest(path: Path) -> FEModel:
     file = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise DataError("file not found", file) from None
-    except (OSError, UnicodeDecodeError) as exc:
+        text = read_checked(path, "FE manifest", 64 * 2**20).decode("utf-8")
+    except DataError as exc:
+        raise DataError("file not found" if "not found" in exc.message else exc.message,
+                        file) from None
+    except UnicodeDecodeError as exc:
         raise DataError(f"cannot read ({exc})", file) from None
     try:
         meta = json.loads(text)
+    except RecursionError:
+        raise DataError("the manifest is nested too deeply", file, "manifest") from None
     except json.JSONDecodeError as exc:
         raise DataError(f"invalid JSON: {exc.msg}", file, "manifest", exc.lineno) from None
     _check_header(meta, file)
@@ -227,8 +231,11 @@ def _read_matrix(base: Path, name: Any, key: str, manifest: str) -> sps.csr_matr
         raise DataError("matrix entry must be a file name", manifest, key)
     path = base / name
     file = str(path)
-    if not path.is_file():
+    if not path.exists():
         raise DataError("matrix file not found", file, key)
+    size = check_regular_file(path, "matrix file").stat().st_size
+    if not path.name.lower().endswith(_HB_SUFFIXES):
+        check_mtx_header(path, size, key)
     try:
         if path.name.lower().endswith(_HB_SUFFIXES):
             a = scipy.io.hb_read(file)
@@ -249,8 +256,50 @@ def _read_matrix(base: Path, name: Any, key: str, manifest: str) -> sps.csr_matr
     return a
 
 
+#: Largest matrix dimension accepted from a file header (``NEWEUL_MAX_DOFS``; docs/limits.md).
+MAX_DOFS = int(os.environ["NEWEUL_MAX_DOFS"]) if os.environ.get(
+    "NEWEUL_MAX_DOFS", "").isdigit() else 20_000_000
+
+
+def check_mtx_header(path: Path, size: int, key: str) -> None:
+    """Refuse a Matrix Market header whose dimensions the file cannot hold: more than
+    :data:`MAX_DOFS` rows or columns, more entries than the file has room for (an entry needs at
+    least 4 bytes, ``"i j\\n"``), or a dense array larger than the file — before
+    :func:`scipy.io.mmread` allocates anything."""
+    file = str(path)
+    try:
+        with open(path, "rb") as fh:
+            banner = fh.readline(1024).decode("ascii", "replace").lower().split()
+            line = b"%"
+            while line.startswith(b"%"):
+                line = fh.readline(1024)
+                if not line:
+                    break
+                line = line.strip() or b"%"
+    except OSError as exc:
+        raise DataError(f"cannot read ({exc.strerror})", file, key) from None
+    words = line.split()
+    try:
+        dims = [int(w) for w in words]
+    except ValueError:
+        return  # mmread reports the syntax error
+    dense = len(banner) > 2 and banner[2] == "array"
+    if len(dims) < 2 or any(d < 0 for d in dims):
+        return
+    rows, cols = dims[0], dims[1]
+    if max(rows, cols) > MAX_DOFS:
+        raise DataError(f"the header declares a {rows}×{cols} matrix; more than the cap of "
+                        f"{MAX_DOFS} rows or columns (NEWEUL_MAX_DOFS, docs/limits.md)", file, key)
+    entries = rows * cols if dense else (dims[2] if len(dims) > 2 else 0)
+    if entries * (2 if dense else 4) > size:
+        raise DataError(f"the header declares {entries} entries, more than a file of {size} "
+                        "bytes can hold", file, key)
+
+
 def _read_csv(path: Path, header: list[str], item: str) -> np.ndarray:
     file = str(path)
+    if path.exists():
+        check_regular_file(path, f"{item} table")
     try:
         with open(path, encoding="utf-8") as fh:
             first = fh.readline()
@@ -334,7 +383,7 @@ def _old_companions(path: Path) -> set[str]:
     out = set()
     for name in names:
         if isinstance(name, str) and Path(name).name == name:
-            m = _COMPANION.match(name)
+            m = _COMPANION.fullmatch(name)
             if m and m.group("stem") == path.stem:
                 out.add(name)
     return out
@@ -521,10 +570,11 @@ def _meta_of(path: Path) -> tuple[dict, dict[str, np.ndarray] | None]:
     else:
         data = None
         try:
-            meta = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise DataError("file not found", file) from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            meta = json.loads(read_checked(path, "FE manifest", 64 * 2**20).decode("utf-8"))
+        except DataError as exc:
+            raise DataError("file not found" if "not found" in exc.message else exc.message,
+                            file) from None
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
             raise DataError(f"cannot read ({exc})", file, "manifest") from None
     if not isinstance(meta, dict):
         raise DataError("top level must be a JSON object", file, "manifest")

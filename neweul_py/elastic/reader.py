@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError
+from ..files import check_regular_file
 from ._io import json_from_uint8, load_npz
 from .interpolation import PARAMETRIC_BODY_FORMAT, load_parametric_body
 from .invariants import FLAT_FORMAT, Invariants, body_invariants
@@ -57,8 +58,7 @@ def read_elastic_data(
     """
     p = Path(path)
     file = os.fspath(p)
-    if not p.is_file():
-        raise DataError("no such file", file=file)
+    check_regular_file(p, "elastic-body data file")  # /dev/zero, a FIFO: refused at once
     try:
         if p.suffix.lower() == ".npz":
             arrays = load_npz(p)

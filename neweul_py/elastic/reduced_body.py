@@ -124,6 +124,14 @@ class ReducedBody:
     format_version: int = REDUCED_BODY_VERSION
 
     def __post_init__(self) -> None:
+        try:
+            self._validate()
+        except (TypeError, ValueError, OverflowError, AttributeError) as exc:
+            # arrays of the wrong dtype or shape (strings for numbers, ragged lists …)
+            raise DataError(f"malformed reduced-body data ({type(exc).__name__}: {exc})"
+                            ) from None
+
+    def _validate(self) -> None:
         set_ = object.__setattr__
         r = np.asarray(self.M).shape[0] if np.ndim(self.M) == 2 else -1
         for key in ("M", "D", "K"):
@@ -187,7 +195,10 @@ class ReducedBody:
         set_(self, "settings", json_normal(dict(self.settings), "settings"))
         set_(self, "source", json_normal(dict(self.source), "source"))
         if self.parameters is not None:
-            set_(self, "parameters", {str(k): float(v) for k, v in self.parameters.items()})
+            params = {str(k): float(v) for k, v in dict(self.parameters).items()}
+            if not all(np.isfinite(v) for v in params.values()):
+                raise DataError("parameter values must be finite numbers", None, "parameters")
+            set_(self, "parameters", params)
         if self.invariants is not None:
             inv = {}
             for k, v in self.invariants.items():
@@ -252,6 +263,37 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
     save_npz_atomic(path, arrays)
 
 
+#: Documented types of the metadata fields (docs/reduced-body-format.md): key → (check, what).
+_META_FIELDS: dict[str, tuple[Any, str]] = {
+    "method": (lambda v: isinstance(v, str), "a string"),
+    "settings": (lambda v: v is None or isinstance(v, dict), "an object"),
+    "source": (lambda v: v is None or isinstance(v, dict), "an object"),
+    "input_names": (lambda v: isinstance(v, list) and all(isinstance(s, str) for s in v),
+                    "a list of strings"),
+    "output_names": (lambda v: isinstance(v, list) and all(isinstance(s, str) for s in v),
+                     "a list of strings"),
+    "invariants": (lambda v: v is None or (isinstance(v, list)
+                                           and all(isinstance(s, str) for s in v)),
+                   "null or a list of strings"),
+    "parameters": (lambda v: v is None or (isinstance(v, dict) and all(
+        isinstance(x, int | float) and not isinstance(x, bool) for x in v.values())),
+                   "null or an object of numbers"),
+}
+
+
+def check_metadata(meta: Mapping[str, Any], file: str | None = None) -> None:
+    """Check the metadata of a reduced-body file field by field against the documented
+    types (:data:`_META_FIELDS`), so that a wrong type is one :class:`DataError` naming the
+    field, never a ``TypeError`` deep inside the reader."""
+    for key, (ok, what) in _META_FIELDS.items():
+        if key in meta and not ok(meta[key]):
+            raise DataError(f"must be {what}, got {type(meta[key]).__name__} "
+                            f"{str(meta[key])[:60]!r}", file, f"meta.{key}")
+    settings = meta.get("settings") or {}
+    if "two_sided" in settings and not isinstance(settings["two_sided"], bool):
+        raise DataError("must be true or false", file, "meta.settings.two_sided")
+
+
 def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
     """Read a reduced body; a :class:`DataError` naming the file and array on any problem."""
     file = str(path)
@@ -267,6 +309,7 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
     missing = [k for k in _ARRAYS if k not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
+    check_metadata(meta, file)
     names = meta.get("invariants")
     invariants = None
     if names is not None:

@@ -41,6 +41,7 @@ the file, the block path (``part.modal.frame.node[1861].origin``) and the line.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Mapping
@@ -50,6 +51,7 @@ import numpy as np
 
 from ..atomic import atomic_write
 from ..errors import DataError
+from ..files import read_checked
 from .taylor import Taylor
 
 __all__ = ["INVARIANT_NAMES", "SIDBody", "SIDNode", "read_sid", "write_sid"]
@@ -236,7 +238,7 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
             continue
         if not stack:
             raise DataError(f"text after 'end part': {s!r}", file, "part", no)
-        if m := _RE_END.match(s):
+        if m := _RE_END.fullmatch(s):
             name = m.group(1)
             top = stack[-1]
             if name.lower() != top.name.lower():
@@ -246,12 +248,12 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
             top.end_line = no
             stack.pop()
             continue
-        if m := _RE_NEW.match(s):
+        if m := _RE_NEW.fullmatch(s):
             blk = _Block(no, m.group(1), (m.group(2) or "").strip())
             stack[-1].children.append(blk)
             stack.append(blk)
             continue
-        if m := _RE_ASSIGN.match(s):
+        if m := _RE_ASSIGN.fullmatch(s):
             idx = None
             if m.group(2) is not None:
                 try:
@@ -261,7 +263,7 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
                                     no) from None
             stack[-1].children.append(_Assign(no, m.group(1), idx, m.group(3).strip()))
             continue
-        if m := _RE_OPEN.match(s):
+        if m := _RE_OPEN.fullmatch(s):
             blk = _Block(no, m.group(1))
             stack[-1].children.append(blk)
             stack.append(blk)
@@ -276,9 +278,12 @@ def _tokenize(text: str, file: str | None) -> tuple[str, _Block]:
 
 def _float(a: _Assign, file: str | None, item: str) -> float:
     try:
-        return float(a.value.replace("D", "E").replace("d", "e"))
+        value = float(a.value.replace("D", "E").replace("d", "e"))
     except ValueError:
         raise DataError(f"{a.key} = {a.value!r} is not a number", file, item, a.line) from None
+    if not math.isfinite(value):
+        raise DataError(f"{a.key} = {a.value!r} is not a finite number", file, item, a.line)
+    return value
 
 
 def _int(a: _Assign, file: str | None, item: str) -> int:
@@ -409,6 +414,8 @@ def _parse_refmod(blk: _Block, file: str | None) -> tuple[float, tuple[str, ...]
             raise DataError(f"unknown refmod entry '{c.key}'", file, item, c.line)
     if mass is None:
         raise DataError("refmod without 'mass'", file, item, blk.line)
+    if mass <= 0:  # as a description refuses a negative mass (model/system.py)
+        raise DataError(f"mass must be positive, got {mass:g}", file, f"{item}.mass", blk.line)
     if nel is None:
         raise DataError("refmod without 'nelastq'", file, item, blk.line)
     nq, line = nel
@@ -479,11 +486,7 @@ def read_sid(path: str | os.PathLike) -> SIDBody:
     (11, 6)
     """
     file = os.fspath(path)
-    try:
-        with open(file, encoding="utf-8", errors="replace") as fh:
-            text = fh.read()
-    except OSError as exc:
-        raise DataError(f"cannot read: {exc.strerror}", file) from None
+    text = read_checked(file, "SID file").decode("utf-8", errors="replace")
     header, root = _tokenize(text, file)
     modal = [c for c in root.children if isinstance(c, _Block)]
     stray = [c for c in root.children if isinstance(c, _Assign)]

@@ -50,20 +50,40 @@ def _law(fe: SpringDamper | RotationalSpringDamper, s: sp.Expr, sd: sp.Expr) -> 
     return law.xreplace({ELONGATION: s, ELONGATION_RATE: sd})
 
 
+def _needs_no_direction(fe: SpringDamper) -> bool:
+    """A linear spring of rest length 0 without damping: ``F e = k d`` is defined at ``d = 0``."""
+    return (is_zero(fe.length) and is_zero(fe.damping) and fe.spring_force is None
+            and fe.damper_force is None
+            and not ({ELONGATION, ELONGATION_RATE} & fe.stiffness.free_symbols))
+
+
 def spring_damper(kin: Kinematics, fe: SpringDamper, terms: Terms, path: str) -> dict[str, sp.Expr]:
     """A point-to-point spring–damper with a (possibly nonlinear) characteristic.
 
     With ``d = r_B − r_A``, distance ``ℓ = |d|``, ``e = d/ℓ``, elongation ``s = ℓ − length``
     and ``sd = ∂ℓ/∂y ẏ + e·(v̄_B − v̄_A)``, the tensile force ``F(s, sd)`` pulls the points
-    together: ``q += −F ∂ℓ/∂y`` with ``∂ℓ/∂y_j = e·J_B,j − e·J_A,j``. Two coinciding points
-    have no direction (the expressions divide by ``ℓ``).
+    together: ``q += −F ∂ℓ/∂y`` with ``∂ℓ/∂y_j = e·J_B,j − e·J_A,j``.
+
+    Two coinciding points have no direction ``e`` (docs/description-format.md, "Zero-length
+    springs"): a linear spring of rest length 0 without damping needs none (``F e = k d``,
+    sympy cancels ``ℓ/ℓ``), anything else divides by ``ℓ = 0``. Points that coincide in every
+    configuration are refused here (:class:`ModelError`); points that meet at some state make the
+    generated module raise ``ZeroDivisionError`` there, which the analysis reports as an error.
     """
     ws = kin.workspace
     name = fe.name
     anc = kin.common_ancestor(fe.frame_a, fe.frame_b)
     pa = kin.relative_position(fe.frame_a, tuple(fe.point_a), anc)
     pb = kin.relative_position(fe.frame_b, tuple(fe.point_b), anc)
-    d = ws.let_vec(sub(pb, pa), f"d_{name}")
+    raw = sub(pb, pa)
+    if all(is_zero(sp.expand(c)) for c in raw) and not _needs_no_direction(fe):
+        raise ModelError(
+            "the two points of the spring_damper coincide in every configuration, so its "
+            "force has no direction; with a rest length, damping or a characteristic curve "
+            "it needs distinct points (see docs/description-format.md, zero-length springs)",
+            f"{path}.points",
+        )
+    d = ws.let_vec(raw, f"d_{name}")
     dist = ws.let(sp.sqrt(dot(d, d)), f"s_{name}")
     e = ws.let_vec(scale(1 / dist, d), f"e_{name}")
     e_a = kin.express(e, anc, fe.frame_a)

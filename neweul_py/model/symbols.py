@@ -90,7 +90,7 @@ def check_name(name: object) -> str | None:
     """
     if not isinstance(name, str):
         return f"a name must be a string, not {type(name).__name__}"
-    if not _NAME.match(name):
+    if not _NAME.fullmatch(name):
         return f"{name!r} is not a valid name (letters, digits and _, starting with a letter)"
     if keyword.iskeyword(name) or name in RESERVED_NAMES:
         return f"{name!r} is a reserved word"

@@ -528,15 +528,16 @@ def _check_inertia(inertia: np.ndarray, path: str) -> None:
     moments satisfy the triangle inequality (I1 ≤ I2 + I3)."""
     if not np.all(np.isfinite(inertia)):
         raise ModelError("inertia is not finite", path)
-    moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
-    scale = max(float(np.max(np.abs(moments))), 1e-300)
-    if moments[0] < -1e-12 * scale:
+    size = float(np.max(np.abs(inertia))) or 1.0  # scaled: 1e308 entries must not overflow
+    scaled = np.linalg.eigvalsh(0.5 * (inertia / size + inertia.T / size))
+    moments = size * scaled
+    if scaled[0] < -1e-12 * max(float(np.max(np.abs(scaled))), 1e-300):
         raise ModelError(
             f"inertia must be positive semidefinite; principal moments are "
             f"{', '.join(f'{m:g}' for m in moments)}",
             path,
         )
-    if moments[2] > moments[0] + moments[1] + 1e-9 * scale:
+    if scaled[2] > scaled[0] + scaled[1] + 1e-9 * float(np.max(np.abs(scaled))):
         raise ModelError(
             f"principal moments {', '.join(f'{m:g}' for m in moments)} violate the triangle "
             "inequality I3 ≤ I1 + I2 (no real body has them)",

@@ -79,7 +79,6 @@ def test_frf_command_csv_and_plot(capsys, tmp_path):
          "unknown input 'F9'; valid inputs: F1, F2"),
         (["frf", "two_mass.py", "--input", "F1", "--output", "nope", "--f", "1:2:3"],
          "unknown output 'nope'"),
-        (["frf", "two_mass.py", "--f", "1:x:3"], "expected start:stop:count"),
         (["equilibrium", "cart_pendulum.py", "-p", "c=0", "-u", "F=0"],
          "no stiffness in the motion of coordinate(s) x"),
         (["equilibrium", "cart_pendulum.py", "-p", "c=0", "-u", "F=1"],

@@ -96,7 +96,7 @@ def test_simulate_reuses_the_cache(tmp_path, monkeypatch):
     def fail(*args, **kwargs):
         raise AssertionError("regenerated although the description is unchanged")
 
-    monkeypatch.setattr(api, "generate_module", fail)
+    monkeypatch.setattr(api, "_derive_text", fail)
     assert api.generated_module(EXAMPLES / "pendulum.yaml") == first
 
 
@@ -190,4 +190,5 @@ def test_negative_number_lists_are_option_values():
                               "--values", "-4000,0,4000", "-o", "x.npz"])
     assert list(args.values) == [-4000.0, 0.0, 4000.0]
     args = parser.parse_args(["fem", "middle-ear", "--pressures", "-4000:4000:9", "-o", "d"])
-    assert args.pressures == "-4000:4000:9" and args.output == "d"
+    assert args.pressures.values() == [float(v) for v in range(-4000, 4001, 1000)]
+    assert args.output == "d"

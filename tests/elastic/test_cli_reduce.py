@@ -124,3 +124,16 @@ def test_band_from_zero_hz_reports_the_zero_mode(tmp_path, capsys):
     lo, hi = (float(x) for x in out.split("[Hz]: ")[1].split(" … "))
     lam = np.sort(sla.eigvals(fe.K.toarray(), fe.M.toarray()).real)
     assert lo < 1e-3 and abs(hi - np.sqrt(lam[2]) / (2 * np.pi)) < 1e-3
+
+
+def test_krylov_order_beyond_the_dofs_is_refused(tmp_path, capsys):
+    """``krylov --order 1e6`` looped past an exhausted basis (issue 12 item 7): the CLI caps
+    --order (docs/limits.md) and refuses more Krylov vectors than the model has DOFs.
+    Reference: dim span{P_0 … P_{q−1}} ≤ n for an n-DOF model."""
+    model = tmp_path / "pd.npz"
+    write_fe_model(piston_duct(20), model)
+    assert main(["reduce", str(model), "--method", "krylov", "--points", "100,200",
+                 "--order", "30", "-o", str(tmp_path / "k.npz")]) == 1
+    err = capsys.readouterr().err
+    assert "asks for 60 Krylov vectors" in err.splitlines()[-1]  # after the progress lines
+    assert not (tmp_path / "k.npz").exists()

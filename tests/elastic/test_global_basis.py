@@ -128,18 +128,18 @@ def test_cli_interpolate_global_and_frf_body(tmp_path, capsys):
     assert "global basis" in capsys.readouterr().out
     pb = ParametricBody.load(out)
     csv = tmp_path / "frf.csv"
-    assert main(["frf-body", str(out), "--at", "p=0.1", "--input", "force", "--output",
-                 "umbo,probe", "--f", "50:4000:120", "-o", str(csv)]) == 0
+    assert main(["frf-body", str(out), "--at", "p=0.1", "--input", "force", "--response",
+                 "umbo", "--response", "probe", "--f", "50:4000:120", "-o", str(csv)]) == 0
     table = np.genfromtxt(csv, delimiter=",", names=True)
     H = frf_reduced(pb.at(0.1), F, *IO)[:, :, 0]
     np.testing.assert_allclose(table["umbo_magnitude"], np.abs(H[:, 0]), rtol=1e-12)
     np.testing.assert_allclose(table["probe_real"], H[:, 1].real, rtol=1e-12)
-    assert main(["frf-body", paths[0], "--input", "force", "--output", "umbo"]) == 0
+    assert main(["frf-body", paths[0], "--input", "force", "--response", "umbo"]) == 0
     capsys.readouterr()
     for args, text in (([str(out), "--at", "p=1"], "p = 1 is outside the sampled range"),
                        ([paths[0], "--at", "p=0"], "--at applies to parametric bodies"),
                        ([str(out)], "give --at p=VALUE")):
-        assert main(["frf-body", *args, "--input", "force", "--output", "umbo"]) == 1
+        assert main(["frf-body", *args, "--input", "force", "--response", "umbo"]) == 1
         err = capsys.readouterr().err.strip().splitlines()[-1]
         assert err.startswith("neweul frf-body: error:") and text in err
     assert main(["interpolate", *paths, "--parameter", "p", "--weights", "1,1,1", "-o",

@@ -327,3 +327,16 @@ def test_format_variants(tmp_path):
     write_sid(body, tmp_path / "exact.SID_FEM", digits=17)         # lossless
     exact = read_sid(tmp_path / "exact.SID_FEM")
     assert exact["Ke"].equals(body["Ke"]) and exact.node(7).origin.equals(n.origin)
+
+
+def test_negative_or_non_finite_mass_is_refused(tmp_path):
+    """A description refuses a negative mass (model/system.py); so does a SID file
+    (issue 12 item 5). Reference: the shipped beam.SID_FEM with its mass edited."""
+    text = (Path(__file__).resolve().parents[1] / "data" / "beam.SID_FEM").read_text()
+    import re
+
+    for bad, message in (("-1.0", "mass must be positive"), ("nan", "not a finite number")):
+        p = tmp_path / "neg.SID_FEM"
+        p.write_text(re.sub(r"(?m)^(\s*mass\s*=\s*)\S+", rf"\g<1>{bad}", text, count=1))
+        with pytest.raises(DataError, match=message):
+            read_sid(p)

@@ -1,0 +1,218 @@
+"""A cache that is trusted by construction: nothing is loaded from it before its bytes are
+verified against the SHA-256 recorded when it was written.
+
+Every cached file ``X`` (a generated module ``<stem>_<key>.py``, a compiled shared library next
+to it …) has a sidecar ``X.sha256`` holding the SHA-256 of its bytes. A reader gets the bytes
+with :func:`verified_bytes` — read once, from one open file descriptor, hashed, compared — and
+imports or loads *those bytes* (never the path again, so the file cannot change between check and
+use). A missing sidecar, a mismatch, a file owned by another user or writable by group or others
+yields ``None`` (and one :class:`CacheWarning`), and the caller regenerates the entry.
+
+The cache directory (:func:`cache_dir`) is created with mode 0700; a directory owned by another
+user or writable by group or others is refused (:func:`trusted_dir` raises), because whoever can
+write there could replace both a file and its sidecar.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.abc
+import importlib.util
+import os
+import stat
+import sys
+import warnings
+from pathlib import Path
+from types import ModuleType
+
+from .atomic import atomic_write
+from .errors import NeweulError
+from .files import read_checked
+
+__all__ = [
+    "SIDECAR_SUFFIX",
+    "CacheError",
+    "CacheWarning",
+    "cache_dir",
+    "import_verified",
+    "sha256_hex",
+    "trusted_dir",
+    "verified_bytes",
+    "write_cached",
+]
+
+#: Suffix of the file holding the SHA-256 (hex) of a cached file's bytes.
+SIDECAR_SUFFIX = ".sha256"
+#: Largest cached file read (a generated module of a big model, a shared library).
+_MAX_CACHED_BYTES = 512 * 2**20
+
+
+class CacheError(NeweulError):
+    """The cache directory cannot be trusted or written."""
+
+
+class CacheWarning(UserWarning):
+    """A cache entry did not verify and is regenerated."""
+
+
+def sha256_hex(data: bytes) -> str:
+    """SHA-256 of ``data`` as 64 hex digits."""
+    return hashlib.sha256(data).hexdigest()
+
+
+def cache_dir() -> Path:
+    """The default cache directory: ``$NEWEUL_CACHE``, else ``$XDG_CACHE_HOME/neweul-py``, else
+    ``~/.cache/neweul-py`` (not created here; see :func:`trusted_dir`)."""
+    if os.environ.get("NEWEUL_CACHE"):
+        return Path(os.environ["NEWEUL_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "neweul-py"
+
+
+def _unsafe(st: os.stat_result) -> str | None:
+    """Why a file or directory with this status cannot be trusted (None: it can)."""
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return f"owned by another user (uid {st.st_uid})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
+    return None
+
+
+def trusted_dir(directory: str | os.PathLike[str] | None = None) -> Path:
+    """The cache directory, created with mode 0700 if missing, after checking that only the
+    current user can write to it.
+
+    Raises
+    ------
+    CacheError
+        The directory cannot be created, is not a directory, is owned by another user or is
+        writable by group or others (say which, and how to fix it).
+    """
+    path = Path(directory) if directory is not None else cache_dir()
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        st = os.stat(path)  # follows a symbolic link: the target is what gets written
+    except OSError as exc:
+        raise CacheError(f"cannot create the cache directory {path}: {exc.strerror}") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise CacheError(f"the cache {path} is not a directory")
+    why = _unsafe(st)
+    if why is not None:
+        raise CacheError(
+            f"refusing the cache directory {path}: it is {why}; anyone who can write there "
+            "could replace a cached module. Use a private directory (chmod 700, or set "
+            "NEWEUL_CACHE to another path)"
+        )
+    return path
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, CacheWarning, stacklevel=3)
+
+
+def verified_bytes(path: str | os.PathLike[str], expected_sha256: str | None = None
+                   ) -> bytes | None:
+    """The bytes of the cached file ``path`` if they hash to ``expected_sha256`` (default: the
+    digest recorded in its sidecar ``path.sha256``), else ``None``.
+
+    ``None`` without a warning when the entry does not exist; with one :class:`CacheWarning`
+    when it exists but cannot be trusted (digest mismatch, no sidecar, owned by someone else,
+    writable by others, not a regular file). Load or import the returned bytes, never the path.
+    """
+    path = Path(path)
+    if not path.exists():
+        return None
+    if expected_sha256 is None:
+        side = path.with_name(path.name + SIDECAR_SUFFIX)
+        try:
+            expected_sha256 = read_checked(side, "cache sidecar", 200).decode("ascii").strip()
+        except (NeweulError, UnicodeDecodeError):
+            _warn(f"cache entry {path} has no readable digest; regenerating it")
+            return None
+    try:
+        st = os.lstat(path)
+        raw = read_checked(path, "cached file", _MAX_CACHED_BYTES)
+    except (OSError, NeweulError) as exc:
+        _warn(f"cache entry {path} is unreadable ({exc}); regenerating it")
+        return None
+    why = "a symbolic link" if stat.S_ISLNK(st.st_mode) else _unsafe(st)
+    if why is not None:
+        _warn(f"cache entry {path} is {why}; regenerating it")
+        return None
+    if sha256_hex(raw) != expected_sha256:
+        _warn(f"cache entry {path} does not match its recorded SHA-256 (modified or damaged); "
+              "regenerating it")
+        return None
+    return raw
+
+
+def write_cached(path: str | os.PathLike[str], data: bytes | str) -> str:
+    """Write ``data`` to the cached file ``path`` and its digest to the sidecar, both
+    atomically (sidecar first: a reader that sees the new file also sees its digest, and a
+    reader that sees an old file with the new digest regenerates it). Returns the SHA-256.
+
+    Raises
+    ------
+    CacheError
+        The cache cannot be written.
+    """
+    path = Path(path)
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    digest = sha256_hex(raw)
+    try:
+        atomic_write(path.with_name(path.name + SIDECAR_SUFFIX), digest + "\n")
+        atomic_write(path, raw)
+        for p in (path, path.with_name(path.name + SIDECAR_SUFFIX)):
+            os.chmod(p, 0o600)
+    except (NeweulError, OSError) as exc:
+        raise CacheError(f"cannot write to the cache {path.parent}: "
+                         f"{getattr(exc, 'strerror', None) or exc}") from None
+    return digest
+
+
+class _BytesLoader(importlib.abc.SourceLoader):
+    """Import a module from source bytes already verified (no second read of the file, no
+    bytecode cache next to it)."""
+
+    def __init__(self, path: str, source: bytes) -> None:
+        self.path = path
+        self.source = source
+
+    def get_filename(self, fullname: str) -> str:
+        return self.path
+
+    def get_data(self, path: str) -> bytes:
+        if path != self.path:
+            raise OSError(f"no data for {path}")
+        return self.source
+
+
+def import_verified(path: str | os.PathLike[str], source: bytes, name: str | None = None
+                    ) -> ModuleType:
+    """Import the module whose verified source is ``source`` (the bytes of ``path``), under
+    ``name`` (default ``neweul_generated_<stem>_<sha256[:16]>``, the naming of
+    :func:`neweul_py.analysis.load_generated`, so both share :data:`sys.modules`).
+
+    Raises
+    ------
+    NeweulError
+        The module fails to import.
+    """
+    file = os.fspath(path)
+    if name is None:
+        stem = "".join(c if c.isalnum() else "_" for c in Path(file).stem)
+        name = f"neweul_generated_{stem}_{sha256_hex(source)[:16]}"
+    if name in sys.modules:
+        return sys.modules[name]
+    loader = _BytesLoader(file, source)
+    spec = importlib.util.spec_from_loader(name, loader, origin=file)
+    assert spec is not None
+    module = importlib.util.module_from_spec(spec)
+    module.__file__ = file
+    try:
+        loader.exec_module(module)
+    except Exception as exc:
+        raise NeweulError(f"{file}: importing the generated module failed: "
+                          f"{type(exc).__name__}: {exc}") from None
+    sys.modules[name] = module
+    return module

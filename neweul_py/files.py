@@ -1,0 +1,202 @@
+"""Files validated before use, shared by every layer (like :mod:`neweul_py.errors`).
+
+Every file a command reads — a description, an elastic ``data:`` file, an FE model, a SID file,
+a reduced body, an ``.npz`` — goes through :func:`check_regular_file` (or :func:`read_checked`,
+which checks and reads from the *same* open file descriptor) first: it must be a regular file
+(``/dev/zero``, a FIFO, a directory or a socket is refused at once instead of filling memory or
+blocking for ever) of at most a documented size, and a zip archive (``.npz``) must declare no
+more than :data:`MAX_NPZ_BYTES` of decompressed data with array headers that fit their members
+(:func:`check_npz`, the zip-bomb guard).
+
+Caps (docs/limits.md); each can be raised with an environment variable for big models:
+
+* :data:`MAX_DESCRIPTION_BYTES` — 16 MiB (``NEWEUL_MAX_DESCRIPTION_BYTES``);
+* :data:`MAX_DATA_BYTES` — 4 GiB per data file (``NEWEUL_MAX_DATA_BYTES``);
+* :data:`MAX_NPZ_BYTES` — 8 GiB decompressed per ``.npz`` (``NEWEUL_MAX_NPZ_BYTES``).
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import zipfile
+from pathlib import Path
+
+from .errors import DataError, NeweulError
+
+__all__ = [
+    "MAX_DATA_BYTES",
+    "MAX_DESCRIPTION_BYTES",
+    "MAX_NPZ_BYTES",
+    "check_npz",
+    "check_regular_file",
+    "read_checked",
+]
+
+
+def _cap(env: str, default: int) -> int:
+    try:
+        value = int(os.environ.get(env, default))
+    except ValueError:
+        return default
+    return value if value > 0 else default
+
+
+#: Largest description file read (bytes).
+MAX_DESCRIPTION_BYTES = _cap("NEWEUL_MAX_DESCRIPTION_BYTES", 16 * 2**20)
+#: Largest data file read (FE model matrices, SID, reduced bodies; bytes).
+MAX_DATA_BYTES = _cap("NEWEUL_MAX_DATA_BYTES", 4 * 2**30)
+#: Largest total decompressed size of the members of one ``.npz`` (bytes).
+MAX_NPZ_BYTES = _cap("NEWEUL_MAX_NPZ_BYTES", 8 * 2**30)
+
+_KINDS = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _error(cls: type[NeweulError], message: str, file: str) -> NeweulError:
+    if issubclass(cls, DataError):
+        return cls(message, file)
+    return cls(f"{file}: {message}")
+
+
+def _check_stat(st: os.stat_result, file: str, what: str, max_bytes: int,
+                cls: type[NeweulError]) -> None:
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((name for test, name in _KINDS if test(st.st_mode)), "not a regular file")
+        raise _error(cls, f"the {what} is {kind}, not a regular file", file)
+    if st.st_size > max_bytes:
+        raise _error(cls, f"the {what} has {st.st_size} bytes, more than the cap of "
+                     f"{max_bytes} (docs/limits.md)", file)
+
+
+def check_regular_file(
+    path: str | os.PathLike[str],
+    what: str = "data file",
+    max_bytes: int | None = None,
+    error: type[NeweulError] = DataError,
+) -> Path:
+    """``path`` if it is an existing regular file of at most ``max_bytes`` bytes.
+
+    Follows symbolic links (a link to a regular file is fine) and never opens the file, so a
+    FIFO cannot block.
+
+    Parameters
+    ----------
+    path
+        The file.
+    what
+        What it is, for the message (``"description"``, ``"FE model"`` …).
+    max_bytes
+        Size cap; default :data:`MAX_DATA_BYTES`.
+    error
+        The :class:`NeweulError` subclass raised (``DataError`` by default).
+
+    Raises
+    ------
+    NeweulError
+        Missing, unreadable, not a regular file, or larger than the cap.
+    """
+    file = os.fspath(path)
+    try:
+        st = os.stat(file)
+    except FileNotFoundError:
+        raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
+    except (OSError, ValueError) as exc:  # ValueError: embedded NUL in the name
+        raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
+                     file) from None
+    _check_stat(st, file, what, MAX_DATA_BYTES if max_bytes is None else max_bytes, error)
+    return Path(file)
+
+
+def read_checked(
+    path: str | os.PathLike[str],
+    what: str = "data file",
+    max_bytes: int | None = None,
+    error: type[NeweulError] = DataError,
+) -> bytes:
+    """The bytes of a regular file, checked (as :func:`check_regular_file`) on the open file
+    descriptor they are read from, so that the file cannot be swapped between check and read.
+
+    The file is opened non-blocking (a FIFO does not wait for a writer) and read up to the
+    cap only.
+    """
+    file = os.fspath(path)
+    cap = MAX_DATA_BYTES if max_bytes is None else max_bytes
+    try:
+        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except FileNotFoundError:
+        raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
+    except (OSError, ValueError) as exc:
+        raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
+                     file) from None
+    try:
+        _check_stat(os.fstat(fd), file, what, cap, error)
+        chunks, total = [], 0
+        while True:
+            chunk = os.read(fd, min(1 << 24, cap + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > cap:
+                raise _error(error, f"the {what} grew past the cap of {cap} bytes while being "
+                             "read", file)
+        return b"".join(chunks)
+    except OSError as exc:
+        raise _error(error, f"cannot read the {what} ({exc.strerror or exc})", file) from None
+    finally:
+        os.close(fd)
+
+
+def check_npz(path: str | os.PathLike[str], max_bytes: int | None = None) -> None:
+    """Refuse an ``.npz`` whose members would decompress to more than ``max_bytes`` in total
+    (default :data:`MAX_NPZ_BYTES`) or whose ``.npy`` headers claim more data than their member
+    holds — a zip bomb or a forged header is refused before any array is allocated.
+
+    The zip reader never returns more than a member's declared size, so bounding the declared
+    sizes bounds the work.
+
+    Raises
+    ------
+    DataError
+        Naming the file and the member.
+    """
+    import numpy as np
+
+    file = os.fspath(path)
+    cap = MAX_NPZ_BYTES if max_bytes is None else max_bytes
+    try:
+        with zipfile.ZipFile(file) as zf:
+            infos = zf.infolist()
+            total = sum(i.file_size for i in infos)
+            if total > cap:
+                raise DataError(f"the archive declares {total} bytes of decompressed data, "
+                                f"more than the cap of {cap} (docs/limits.md)", file)
+            for info in infos:
+                if not info.filename.endswith(".npy"):
+                    continue
+                with zf.open(info) as fh:
+                    version = np.lib.format.read_magic(fh)
+                    if version == (1, 0):
+                        shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+                    elif version in ((2, 0), (3, 0)):
+                        shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+                    else:
+                        raise ValueError(f"unsupported .npy version {version}")
+                count = 1
+                for n in shape:
+                    count *= int(n)
+                if count * dtype.itemsize > info.file_size:
+                    raise DataError(f"the header of {info.filename} claims {shape} {dtype} "
+                                    f"({count * dtype.itemsize} bytes) in a member of "
+                                    f"{info.file_size} bytes", file)
+    except DataError:
+        raise
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError,
+            NotImplementedError, RuntimeError, OverflowError) as exc:
+        raise DataError(f"not a readable .npz file ({exc})", file) from None

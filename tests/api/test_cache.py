@@ -1,0 +1,166 @@
+"""The trusted cache (neweul_py/cache.py, api.generated_module): nothing is imported from it
+before its bytes match the SHA-256 recorded when it was written (issue 12 item 1).
+
+References: the shipped ``generated/pendulum.py`` (the module a cache hit must equal byte for
+byte), POSIX file modes and owners, and a marker file that tampered code would create.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import warnings
+from pathlib import Path
+
+import pytest
+
+from neweul_py import api
+from neweul_py.cache import (
+    CacheError,
+    CacheWarning,
+    import_verified,
+    sha256_hex,
+    trusted_dir,
+    verified_bytes,
+    write_cached,
+)
+from neweul_py.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+PENDULUM = ROOT / "examples" / "pendulum.yaml"
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
+
+
+def test_cache_directory_is_created_private():
+    """The directory is created 0700 whatever the umask (here 000, which made it 0777)."""
+    old = os.umask(0)
+    try:
+        path = api.generated_module(PENDULUM)
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.parent.stat().st_mode) == 0o700
+    assert path.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()
+    side = path.with_name(path.name + ".sha256")
+    assert side.read_text().strip() == sha256_hex(path.read_bytes())
+
+
+def test_appended_line_never_runs_and_is_regenerated(tmp_path, capsys):
+    """The reproducer of issue 12: a line appended to a cached module ran on the next
+    simulate. Now the digest mismatch is seen before the import: the marker file is never
+    created, the module is regenerated (equal to the shipped one) with one warning."""
+    path = api.generated_module(PENDULUM)
+    marker = tmp_path / "ran"
+    with open(path, "a") as fh:
+        fh.write(f"\nopen({str(marker)!r}, 'w').close()\n")
+    assert main(["simulate", str(PENDULUM), "--t-end", "0.1"]) == 0
+    err = capsys.readouterr().err
+    assert not marker.exists()
+    assert err.count("warning:") == 1 and "does not match its recorded SHA-256" in err
+    assert path.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()
+    assert main(["simulate", str(PENDULUM), "--t-end", "0.1"]) == 0
+    assert "warning" not in capsys.readouterr().err  # the regenerated entry verifies
+
+
+def test_missing_sidecar_regenerates(tmp_path):
+    """An entry without its digest is not trusted (written by someone else, or half)."""
+    path = api.generated_module(PENDULUM)
+    path.with_name(path.name + ".sha256").unlink()
+    with pytest.warns(CacheWarning, match="no readable digest"):
+        assert api.generated_module(PENDULUM) == path
+    assert verified_bytes(path) == path.read_bytes()
+
+
+@pytest.mark.parametrize("mode", [0o777, 0o770, 0o722])
+def test_directory_writable_by_others_is_refused(tmp_path, mode):
+    """Whoever can write into the cache could replace a module and its digest together."""
+    directory = tmp_path / "shared"
+    directory.mkdir()
+    os.chmod(directory, mode)
+    with pytest.raises(CacheError, match="writable by group or others"):
+        api.generated_module(PENDULUM, cache=directory)
+    assert list(directory.iterdir()) == []
+
+
+@pytest.mark.skipif(not hasattr(os, "getuid") or os.getuid() != 0,
+                    reason="changing the owner needs root")
+def test_directory_of_another_user_is_refused(tmp_path):
+    directory = tmp_path / "theirs"
+    directory.mkdir(mode=0o700)
+    os.chown(directory, 4242, -1)
+    with pytest.raises(CacheError, match="owned by another user"):
+        trusted_dir(directory)
+
+
+def test_cli_names_the_refused_directory(tmp_path, monkeypatch, capsys):
+    directory = tmp_path / "open"
+    directory.mkdir()
+    os.chmod(directory, 0o777)
+    monkeypatch.setenv("NEWEUL_CACHE", str(directory))
+    assert main(["simulate", str(PENDULUM), "--t-end", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(directory) in err and "chmod 700" in err
+
+
+def test_entry_writable_by_others_is_regenerated():
+    path = api.generated_module(PENDULUM)
+    os.chmod(path, 0o666)
+    with pytest.warns(CacheWarning, match="writable by group or others"):
+        api.generated_module(PENDULUM)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+
+
+def test_verified_bytes_for_any_cached_file(tmp_path):
+    """The helper a compiled library next to the module uses: the bytes come back only when
+    they hash to the recorded (or the given) digest."""
+    lib = trusted_dir(tmp_path / "c") / "model_abc.so"
+    digest = write_cached(lib, b"\x7fELF binary")
+    assert verified_bytes(lib) == b"\x7fELF binary"
+    assert verified_bytes(lib, digest) == b"\x7fELF binary"
+    with pytest.warns(CacheWarning):
+        assert verified_bytes(lib, "0" * 64) is None
+    lib.write_bytes(b"\x7fELF other")
+    with pytest.warns(CacheWarning):
+        assert verified_bytes(lib) is None
+    assert verified_bytes(tmp_path / "c" / "absent.so") is None  # no entry: no warning
+
+
+def test_import_uses_the_verified_bytes_not_the_path(tmp_path):
+    """The module is executed from the bytes that were checked: changing the file after the
+    check changes nothing."""
+    path = tmp_path / "m.py"
+    path.write_text("VALUE = 2\n")
+    source = path.read_bytes()
+    path.write_text("VALUE = 3\n")
+    assert import_verified(path, source).VALUE == 2
+
+
+def test_cache_hit_imports_no_symbolic_layer(tmp_path):
+    """A cache hit needs no sympy: the module is loaded without deriving anything."""
+    import subprocess
+    import sys
+
+    api.generated_module(PENDULUM)
+    code = (
+        "import sys; sys.modules['sympy'] = None\n"
+        "from neweul_py.api import load_description_module\n"
+        f"m = load_description_module({str(PENDULUM)!r})\n"
+        "assert m.MODEL_NAME == 'pendulum'\n"
+        "assert not any(k.startswith(('neweul_py.codegen', 'neweul_py.equations')) "
+        "for k in sys.modules)\n"
+        "print('ok')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, check=True)
+    assert out.stdout.strip() == "ok"
+
+
+def test_no_warning_on_a_clean_hit():
+    api.generated_module(PENDULUM)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        api.generated_module(PENDULUM)

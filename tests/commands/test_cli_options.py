@@ -1,0 +1,232 @@
+"""One consistent command line (issue 11 item 7) whose numbers are checked like a
+description's (issue 12 items 5 and 7), and which starts fast (issue 14 item 4).
+
+References: the reproducers of issue 12 (each must end in one clear error line, never a hang
+or a traceback), the option table of docs/cli.md, the caps of docs/limits.md, and
+``sys.modules`` of a fresh interpreter for the imports of ``--help``.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from neweul_py.cli import attach_negative_values, build_parser, main
+from neweul_py.commands import CAPS, SIMULATE_METHODS, parse_range
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "examples"
+FIXTURES = ROOT / "tests" / "analysis" / "fixtures"
+TWO = str(FIXTURES / "two_mass.py")
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+
+
+def _run(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse: a bad option value
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["simulate", "pendulum", "--t-end", "1", "-p", "m=nan"], "m: must be a finite number"),
+        (["simulate", "pendulum", "--t-end", "1", "-p", "l=inf"], "l: must be a finite number"),
+        (["simulate", "pendulum", "--t-end", "1", "-p", "m=1e308"], "out of range"),
+        (["linearize", TWO, "-u", "F1=nan"], "F1: must be a finite number"),
+        (["frf", TWO, "--f", "nan:10:5"], "argument --f: START: must be a finite number"),
+        (["frf", TWO, "--f", "1:10:1e9"], f"exceeds the cap of {CAPS['--f']}"),
+        (["frf", TWO, "--f", "10:1:5"], "STOP (1) is below START (10)"),
+        (["simulate", TWO, "--t-end", "1", "--n-out", "1e9"], "exceeds the cap"),
+        (["simulate", TWO, "--t-end", "nan"], "--t-end: must be a finite number"),
+        (["simulate", TWO, "--t-end", "1", "--rtol", "-1"], "--rtol: must be positive"),
+        (["fem", "middle-ear", "--pressures", "0:1:1e9", "-o", "d"], "exceeds the cap"),
+        (["fem", "middle-ear", "--refine", "5", "-o", "d"], "--refine: 5 exceeds the cap of 3"),
+        (["reduce", "m.npz", "--method", "krylov", "--points", "100", "--order", "1e6", "-o",
+          "b.npz"], "--order: 1e6 exceeds the cap"),
+        (["reduce", "m.npz", "--band", "0:1e300", "-o", "b.npz"],
+         "argument --band: HIGH: 1e+300 is out of range"),
+        (["interpolate", "a.npz", "b.npz", "--parameter", "p", "--values", "1,nan", "-o",
+          "p.npz"], "--values"),
+    ],
+)
+def test_bad_numbers_are_refused_by_the_parser(capsys, argv, message):
+    """Each of the reproducers of issue 12 item 5/7 (they hung or wrote NaN rows) is refused
+    before anything is read or computed: argparse's usage line and one error line, exit 2."""
+    argv = [str(EXAMPLES / "pendulum.yaml") if a == "pendulum" else a for a in argv]
+    code, _, err = _run(capsys, *argv)
+    assert code == 2
+    assert message in err and "Traceback" not in err
+    assert not list(Path.cwd().iterdir())  # nothing written
+
+
+def test_negative_mass_is_refused_like_in_a_description(capsys):
+    """``-p m=-1`` was accepted although a description refuses a negative mass; the check
+    is the physical one (the mass matrix at the initial state is not positive semidefinite),
+    so it needs neither the description nor sympy."""
+    code, _, err = _run(capsys, "simulate", str(EXAMPLES / "pendulum.yaml"), "--t-end", "1",
+                        "-p", "m=-1")
+    assert code == 1 and err.count("\n") == 1
+    assert "m = -1" in err and "negative mass" in err
+    code, _, err = _run(capsys, "modes", TWO, "-p", "m2=-0.5", "--at", "initial")
+    assert code == 1 and "not positive semidefinite" in err
+
+
+def test_stiff_parameters_give_an_error_not_a_hang(capsys):
+    """``-p ks=1e12`` (or 1e308) made RK45 take ~10⁸ steps: the fastest eigenvalue of the
+    Jacobian at the start bounds the explicit steps needed (T |λ| / 3) against --max-steps."""
+    desc = str(EXAMPLES / "quarter_car.yaml")
+    code, _, err = _run(capsys, "simulate", desc, "--t-end", "1", "-p", "ks=1e100")
+    assert code == 1 and "stiff" in err and "--method Radau" in err
+    code, _, err = _run(capsys, "simulate", desc, "--t-end", "1", "-p", "ks=2e4",
+                        "--max-steps", "10")
+    assert code == 1 and "--max-steps 10" in err
+    code, _, _ = _run(capsys, "simulate", desc, "--t-end", "0.05", "-p", "ks=2e4")
+    assert code == 0
+
+
+def test_nan_parameters_in_the_python_api_are_an_error():
+    """The analysis functions refuse NaN parameters with a NeweulError (was LinAlgError)."""
+    from neweul_py.analysis.equilibrium import equilibrium
+    from neweul_py.analysis.module import load_generated
+    from neweul_py.errors import NeweulError
+
+    module = load_generated(TWO)
+    with pytest.raises(NeweulError, match="finite"):
+        equilibrium(module, p={"k1": float("nan")})
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["reduce", "m.npz", "--modes", "3", "-o", "x.csv"], "reduced bodies are written as .npz"),
+        (["interpolate", "a.npz", "b.npz", "--parameter", "p", "-o", "p.csv"],
+         "parametric bodies are written as .npz"),
+        (["compare-frf", "m.npz", "b.npz", "--input", "f", "--response", "y", "-o", "c.npz"],
+         "comparisons are written as .csv"),
+        (["frf", TWO, "--f", "1:2:2", "-o", "frf.txt"], "frequency responses are written as"),
+    ],
+)
+def test_output_suffixes_are_checked_everywhere(capsys, argv, message):
+    """``reduce -o x.csv`` silently wrote an npz; now every -o is checked first."""
+    code, _, err = _run(capsys, *argv)
+    assert code == 1 and message in err and err.count("\n") == 1
+
+
+def test_output_means_the_results_file_in_every_command(capsys, tmp_path):
+    """``-o/--output FILE`` everywhere; frf's response is ``--response`` (the old
+    ``--output NAME``, without a suffix, still names the response; ``--out`` is an alias)."""
+    assert _run(capsys, "frf", TWO, "--input", "F1", "--response", "pos2", "--f", "1:10:3",
+                "--output", "a.csv")[0] == 0
+    assert _run(capsys, "frf", TWO, "--input", "F1", "--output", "pos2", "--f", "1:10:3",
+                "--out", "b.csv")[0] == 0
+    assert Path("a.csv").read_text() == Path("b.csv").read_text()
+    assert _run(capsys, "simulate", TWO, "--t-end", "0.01", "--out", "s.csv")[0] == 0
+    assert Path("s.csv").is_file()
+    for command in ("simulate", "equilibrium", "linearize", "modes", "frf", "reduce",
+                    "interpolate", "compare-frf", "generate"):
+        code, out, _ = _run(capsys, command, "--help")
+        assert code == 0 and "--output" in out, command
+
+
+def test_one_range_syntax():
+    """START:STOP:N (both ends, N points) or a comma list, for --f, --pressures, --points."""
+    assert parse_range("-4000:4000:3", "--pressures").values() == [-4000.0, 0.0, 4000.0]
+    assert parse_range("10,20,40", "--f").values() == [10.0, 20.0, 40.0]
+    assert parse_range("1:100:3", "--f").values(log=True) == pytest.approx([1.0, 10.0, 100.0])
+    args = build_parser().parse_args(["compare-frf", "a", "b", "--input", "i", "--response",
+                                      "o", "--f", "5,6"])
+    assert args.grid.values() == [5.0, 6.0]
+    args = build_parser().parse_args(["reduce", "m", "--method", "krylov", "--points",
+                                      "0:300:4", "-o", "b.npz"])
+    assert args.points.values() == [0.0, 100.0, 200.0, 300.0]
+
+
+def test_negative_values_without_private_argparse_api():
+    """Negative numbers, ranges and lists are attached to their option before argparse
+    sees them (a public override of parse_known_args)."""
+    assert attach_negative_values(["--f", "-1:2:3", "-p", "-1", "x"]) == ["--f=-1:2:3", "-p-1",
+                                                                       "x"]
+    assert attach_negative_values(["--", "--f", "-1"]) == ["--", "--f", "-1"]
+    source = (ROOT / "neweul_py" / "cli.py").read_text()
+    assert "_negative_number_matcher" not in source and "._actions" not in source
+
+
+def test_version(capsys):
+    from neweul_py import __version__
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"neweul {__version__}"
+
+
+def test_cli_choices_agree_with_the_api():
+    """The constants the parser keeps (so that it imports no analysis code) are the API's."""
+    from neweul_py.analysis.simulate import METHODS
+    from neweul_py.analysis.sweep_tasks import STATS, TASKS
+    from neweul_py.commands import SWEEP_STATS, SWEEP_TASKS
+    from neweul_py.commands import interpolate as cmd
+    from neweul_py.elastic import interpolation
+
+    assert SIMULATE_METHODS == METHODS
+    assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
+    assert cmd.INTERPOLATIONS == interpolation.INTERPOLATIONS
+    assert cmd.BASES == interpolation.BASES
+    assert cmd.PRESSURE_WEIGHT == interpolation.PRESSURE_WEIGHT
+    from neweul_py.commands import compare_frf
+    from neweul_py.elastic import quality
+
+    assert compare_frf.FRF_METHODS == quality.FRF_METHODS
+
+
+def _modules_after(code: str) -> set[str]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, check=True)
+    return set(out.stdout.split())
+
+
+HEAVY = ("sympy", "matplotlib", "scipy.integrate", "neweul_py.codegen", "neweul_py.equations",
+         "neweul_py.elastic")
+
+
+def test_help_imports_no_heavy_module():
+    """``neweul --help`` (building the whole parser) imports no sympy, matplotlib,
+    scipy.integrate, analysis or elastic code (issue 14 item 4)."""
+    loaded = _modules_after(
+        "import sys\nfrom neweul_py.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+        "print(' '.join(sys.modules))\n")
+    assert "neweul_py.commands.simulate" in loaded
+    heavy = sorted(m for m in loaded if m.startswith((*HEAVY, "neweul_py.analysis")))
+    assert heavy == []
+
+
+def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
+    """``neweul simulate FILE.yaml`` on a cache hit loads the verified module and integrates:
+    scipy.integrate yes (the command needs it), sympy and matplotlib no."""
+    desc = str(EXAMPLES / "pendulum.yaml")
+    code = (f"import os, sys\nos.environ['NEWEUL_CACHE'] = {str(tmp_path / 'c')!r}\n"
+            "from neweul_py.cli import main\n"
+            f"assert main(['simulate', {desc!r}, '--t-end', '0.1']) == 0\n"
+            "print(' '.join(sys.modules))\n")
+    _modules_after(code)  # fills the cache
+    loaded = _modules_after(code)
+    assert "scipy.integrate" in loaded
+    assert sorted(m for m in loaded if m.startswith(("sympy", "matplotlib",
+                                                     "neweul_py.codegen",
+                                                     "neweul_py.equations",
+                                                     "neweul_py.description"))) == []
