@@ -169,22 +169,32 @@ def _generator_fingerprint() -> str:
 
 
 def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
-    """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``, relative
-    to the description), so that a cached module is regenerated when its data change."""
+    """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``,
+    ``inputs.*.table``, relative to the description), so that a cached module is regenerated
+    when its data change."""
     import yaml
 
     try:
         tree = yaml.safe_load(raw)
     except yaml.YAMLError:
         return []  # the loader reports the error when the module is generated
-    bodies = tree.get("elastic_bodies") if isinstance(tree, dict) else None
-    if not isinstance(bodies, dict):
+    if not isinstance(tree, dict):
         return []
     base = Path(description_path).parent
     out = []
-    for name in sorted(bodies, key=str):
-        spec = bodies[name]
-        data = spec.get("data") if isinstance(spec, dict) else None
+    for section, key in (("elastic_bodies", "data"), ("inputs", "table")):
+        entries = tree.get(section)
+        if isinstance(entries, dict):
+            out += _file_fingerprints(entries, key, base)
+    return out
+
+
+def _file_fingerprints(entries: dict, key: str, base: Path) -> list[str]:
+    """``name:sha256`` of the file ``entries[name][key]`` of each entry that names one."""
+    out = []
+    for name in sorted(entries, key=str):
+        spec = entries[name]
+        data = spec.get(key) if isinstance(spec, dict) else None
         if isinstance(data, str):
             try:
                 out.append(f"{name}:{hashlib.sha256((base / data).read_bytes()).hexdigest()}")

@@ -9,6 +9,7 @@ from ..analysis.results import SUFFIXES
 from ..analysis.simulate import METHODS, simulate
 from . import FORMS
 from . import _analysis_common as common
+from ._signals import input_assignment, input_function
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,6 +33,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="number of equally spaced output times (default 501)")
     parser.add_argument("-p", "--param", type=common.assignment, action="append", default=[],
                         metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    parser.add_argument("-u", "--set-input", type=input_assignment, action="append", default=[],
+                        metavar="NAME=EXPR", help="drive an input by an expression of t and the "
+                        "parameters, e.g. -u 'F=2*sin(3*t)' (repeatable)")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
     common.add_independent_argument(
@@ -48,9 +52,10 @@ def run(args: argparse.Namespace) -> int:
     """Simulate, write the requested files and print a one-line summary per file."""
     common.check_files(args.output, SUFFIXES, "results", args.plot)
     module = common.load_model(args)
+    p = dict(args.param) or None
+    u = input_function(module, args.set_input, p)
     result = simulate(module, args.t_end, method=args.method, rtol=args.rtol, atol=args.atol,
-                      n_out=args.n_out, p=dict(args.param) or None,
-                      independent=args.independent)
+                      n_out=args.n_out, p=p, u=u, independent=args.independent)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:

@@ -31,7 +31,7 @@ from typing import Any
 from ..errors import DataError, ModelError
 from ..model import ElasticBody
 
-__all__ = ["base_directory", "load_elastic_bodies"]
+__all__ = ["base_directory", "description_directory", "load_elastic_bodies"]
 
 #: ``reader(path, modes) -> dict of arrays`` (the flat invariants), may raise DataError.
 ElasticReader = Callable[[Path, Any], dict]
@@ -50,6 +50,13 @@ def base_directory(filename: str, reader: ElasticReader | None = None) -> Iterat
         yield
     finally:
         _CONTEXT.reset(token)
+
+
+def description_directory() -> Path:
+    """The directory data files of the description being loaded are relative to (also the
+    signal tables of inputs); the working directory outside :func:`base_directory`."""
+    context = _CONTEXT.get()
+    return context[0] if context is not None else Path.cwd()
 
 
 def load_elastic_bodies(b: Any, section: Any, path: str) -> None:

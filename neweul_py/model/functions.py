@@ -34,7 +34,9 @@ import sympy as sp
 from mpmath.libmp import prec_to_dps
 from sympy.core.logic import fuzzy_and
 
-__all__ = ["Abs", "Heaviside", "Max", "Min", "Sign", "Step", "piecewise", "sign"]
+from .force_elements import TableCurve
+
+__all__ = ["Abs", "Heaviside", "Max", "Min", "Sign", "SignalTable", "Step", "piecewise", "sign"]
 
 
 # The subclasses keep the names of their sympy bases: sympy's printers skip the print method
@@ -155,3 +157,42 @@ def piecewise(*args: sp.Basic) -> sp.Expr:
     return sp.Piecewise(*pairs, (args[-1], sp.true))
 
 
+
+
+class SignalTable(TableCurve):
+    """A tabulated signal ``u(t)`` (``inputs: {u: {table: file.csv}}``) as a :class:`TableCurve`.
+
+    The same pieces as a characteristic curve (piece ``i`` holds below ``knots[i]``), but
+    printed as a balanced tree of comparisons — depth ``log₂ n`` instead of a chain of ``n``
+    conditional expressions, which Python could not even compile for a measured signal of a few
+    thousand samples — and its derivatives are again signal tables.
+    """
+
+    def derivative(self) -> SignalTable:
+        """``u′`` as a signal table of the same variable."""
+        _, knots, shifts, coeffs = self.args
+        d = [[k * c for k, c in enumerate(cs) if k > 0] or [sp.Float(0)] for cs in coeffs]
+        return SignalTable(self.variable, knots, shifts, d)
+
+    def _pythoncode(self, printer: object) -> str:
+        """``(P_hi if _ncg_tab >= k_mid else P_lo)`` nested by bisection of the knots."""
+        v = printer._print(self.variable)  # type: ignore[attr-defined]
+        name = "_ncg_tab"
+        knots = [float(k) for k in self.args[1]]
+        pieces = []
+        for shift, cs in self.pieces():
+            w = f"({name} - {shift!r})" if shift != 0 else name
+            out = repr(cs[-1])
+            for c in cs[-2::-1]:
+                out = f"{c!r} + {w}*({out})"
+            pieces.append(f"({out})")
+
+        def tree(lo: int, hi: int) -> str:  # pieces lo..hi; piece i holds for v >= knots[i-1]
+            if lo == hi:
+                return pieces[lo]
+            mid = (lo + hi + 1) // 2
+            return f"({tree(mid, hi)} if {name} >= {knots[mid - 1]!r} else {tree(lo, mid - 1)})"
+
+        return f"(({name} := {v}), {tree(0, len(pieces) - 1)})[1]"
+
+    _numpycode = _pythoncode
