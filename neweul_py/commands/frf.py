@@ -7,6 +7,7 @@ import argparse
 
 from ..analysis.frf import SUFFIXES, frequency_response, frequency_vector
 from ..analysis.linearize import linearize
+from ..analysis.plot import signal_units
 from . import _analysis_common as common
 
 
@@ -46,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         print(f"frequency response: {fr.save(args.out)}")
     if args.plot:
-        fr.plot(args.plot)
+        fr.plot(args.plot, log_frequency=args.log, output_units=signal_units(module))
         print(f"Bode plot: {args.plot}")
     if not args.out and not args.plot:
         print(f"{'frequency_hz':>14}  {'magnitude':>14}  {'phase_deg':>10}  output/input")
