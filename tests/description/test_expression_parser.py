@@ -421,3 +421,26 @@ def test_piecewise_grammar() -> None:
     assert parse("piecewise(2 < 1, a, b)") == b
     text = format_expression(expected)
     assert parse(text) == expected
+
+
+@pytest.mark.parametrize(
+    ("value", "line", "key", "message"),
+    [
+        ("'10**400'", 3, "parameters.m", "too large or too small"),
+        ("'exp(1000)'", 3, "parameters.m", "exceeds the largest floating-point number"),
+    ],
+)
+def test_description_reproducers_name_file_key_and_line(value, line, key, message) -> None:
+    """Issue 12 reproducers inside a description: one DescriptionError line with the file, the
+    line and the key path (and ``351**-1e-10``, which hung generation, is just a number)."""
+    from neweul_py.description import load_description_text
+    from neweul_py.errors import DescriptionError
+
+    text = f"name: p\nparameters:\n  m: {value}\noutputs:\n  y: 'acos(sin(10**300))*m'\n"
+    with pytest.raises(DescriptionError) as info:
+        load_description_text(text, "model.yaml")
+    shown = str(info.value)
+    assert shown.startswith(f"model.yaml:{line}: {key}: ") and message in shown
+    assert "\n" not in shown
+    system = load_description_text(text.replace(value, "'351**-1e-10'"), "model.yaml")
+    assert system.parameters[0].default == pytest.approx(351.0**-1e-10)
