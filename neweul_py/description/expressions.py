@@ -103,6 +103,8 @@ CONSTANTS: Mapping[str, sp.Expr] = {"pi": sp.pi}
 
 _MAX_DEPTH = 100  # nesting depth of parentheses/unary operators/calls
 _MAX_NUMBER_LENGTH = 1000
+_MAX_EXPONENT = 1000  # of a numeric power of a non-constant base
+_MAX_ROOT, _MAX_ROOT_POWER = 12, 64  # exact rational exponents p/q: q <= 12, |p| <= 64
 
 # --------------------------------------------------------------------------- tokenizer
 _NUMBER = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -236,6 +238,25 @@ def _too_large(base: sp.Expr, exponent: sp.Expr) -> bool:
     return False
 
 
+def _tame(expr: sp.Expr, exponent: bool = False) -> sp.Expr:
+    """``expr`` with the rationals sympy cannot take roots of quickly as floats.
+
+    Under a non-integer power sympy takes exact roots of numeric factors of the base and of
+    numeric terms of the exponent — a perfect-power and factor search that does not end for
+    30-digit integers (``(999…9*b)**0.5``, ``c**(a - 1/2)``) or root degrees such as 10**10
+    (``351**-1e-10``, ``c**(1e-10 - b)``). So in a base, rationals with more than 64-bit
+    numerator or denominator become floats, in an exponent non-integers of a denominator above
+    12 or a numerator above 64 (the generated code computes in doubles anyway).
+    """
+    if exponent:
+        big = {r for r in expr.atoms(sp.Rational) if not r.is_Integer
+               and (r.q > _MAX_ROOT or abs(r.p) > _MAX_ROOT_POWER)}
+    else:
+        big = {r for r in expr.atoms(sp.Rational)
+               if r.p.bit_length() > 64 or r.q.bit_length() > 64}
+    return expr.xreplace({r: sp.Float(r, 17) for r in big}) if big else expr
+
+
 def _is_expr(value: sp.Basic) -> bool:
     return isinstance(value, sp.Expr)
 
@@ -281,8 +302,10 @@ class _Parser:
         return result
 
     def constant(self, result: sp.Expr, token: _Token) -> sp.Expr:
-        """Refuse a rational constant outside the range of doubles."""
-        if result.is_Rational and not in_float_range(result):
+        """Refuse a rational constant — or the numeric coefficient or term of a product or
+        sum (sympy keeps it first) — outside the range of doubles."""
+        number = result.args[0] if (result.is_Mul or result.is_Add) else result
+        if number.is_Rational and not in_float_range(number):
             raise self.error("the constant is outside the range of floating-point numbers",
                              token)
         return result
@@ -407,6 +430,15 @@ class _Parser:
         self.depth -= 1
         if base.is_number and exponent.is_number:
             return self.checked(lambda: constant_power(base, exponent), op)
+        shift = exponent.as_coeff_Add()[0] if base.is_number else exponent
+        if shift.is_Rational and abs(shift) > _MAX_EXPONENT:
+            # sympy distributes integer powers over products, (1e-300*b)**10**30, and splits
+            # off integer terms of exponents, c**(x + 10**30): it would compute them exactly
+            raise self.error(f"the exponent {shift} is too large (at most {_MAX_EXPONENT} in "
+                             "magnitude for a power of a variable, or as a term of a variable "
+                             "exponent)", op)
+        if not exponent.is_Integer:
+            base, exponent = _tame(base), _tame(exponent, exponent=True)
         return self.checked(lambda: base**exponent, op)
 
     def atom(self) -> sp.Basic:
@@ -481,6 +513,8 @@ class _Parser:
                 values.append(self.value(arg, tok))
         if func.numeric is not None and all(v.is_number for v in values):
             return self.checked(lambda: constant_value(func.numeric, tuple(values)), name)
+        if func.build is sp.sqrt:
+            values = [_tame(v) for v in values]
         return self.checked(lambda: func.build(*values), name)
 
     def checked(self, build: Callable[[], sp.Expr], token: _Token) -> sp.Expr:

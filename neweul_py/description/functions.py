@@ -16,7 +16,6 @@ time instead of overflowing in the generated code.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
@@ -44,6 +43,7 @@ FLOAT_TINY = 2.2250738585072014e-308
 _DIGITS = 30  # working precision of constant evaluation
 _MAX_ROOT = 12  # largest root degree of an exact constant power (8**(1/3) stays exact)
 _MAX_EXACT_BITS = 64  # largest numerator/denominator of a base raised exactly to a root
+_MAX_POWER_BITS = 2**20  # bits of an exact integer power of a rational
 
 
 class ConstantError(ValueError):
@@ -70,18 +70,19 @@ def _as_rational(value: mpmath.mpf) -> sp.Rational:
     if not mpmath.isfinite(value):
         raise ConstantError(f"the value {value} is not finite")
     if abs(value) > FLOAT_MAX:
-        raise ConstantError("the value exceeds the largest floating-point number (1.8e308)")
+        raise ConstantError("the value is too large: it exceeds the largest floating-point "
+                            "number (1.8e308)")
     if value != 0 and abs(value) < FLOAT_TINY:
-        raise ConstantError("the value is closer to 0 than the smallest normal floating-point "
-                            "number (2.2e-308)")
+        raise ConstantError("the value is too small: closer to 0 than the smallest normal "
+                            "floating-point number (2.2e-308)")
     frac = Fraction(repr(float(value)))
     return sp.Rational(frac.numerator, frac.denominator)
 
 
-def _mp(expr: sp.Expr) -> mpmath.mpf:
-    """A constant sympy expression as an mpmath number at the working precision."""
+def _mp(expr: sp.Expr, digits: int = _DIGITS) -> mpmath.mpf:
+    """A constant sympy expression as an mpmath number with ``digits`` digits."""
     try:
-        value = expr.evalf(_DIGITS, maxn=4 * _DIGITS)
+        value = expr.evalf(digits, maxn=4 * digits)
     except (ValueError, TypeError, ArithmeticError, AttributeError) as exc:
         raise ConstantError(f"cannot evaluate {expr}: {exc}") from None
     re, im = value.as_real_imag()
@@ -100,8 +101,25 @@ def constant_value(func: Callable[..., object], args: tuple[sp.Expr, ...]) -> sp
     ConstantError
         If the value is not real, not finite or outside the range of doubles.
     """
+    coarse = _evaluate(func, args, _DIGITS)
+    if coarse != 0 and abs(coarse) < 1e-20 * max([1, *(abs(v) for v in _values(args))]):
+        # an exact zero computed inexactly (sin(pi)) shrinks with the working precision
+        fine = _evaluate(func, args, 2 * _DIGITS)
+        if abs(fine) < 1e-20 * abs(coarse):
+            return sp.S.Zero
+    return _as_rational(coarse)
+
+
+def _values(args: tuple[sp.Expr, ...]) -> list[mpmath.mpf]:
     with mpmath.workdps(_DIGITS):
-        values = [_mp(a) for a in args]
+        return [_mp(a) for a in args]
+
+
+def _evaluate(func: Callable[..., object], args: tuple[sp.Expr, ...], digits: int
+              ) -> mpmath.mpf:
+    """``func(*args)`` in ``digits``-digit arithmetic, real or :class:`ConstantError`."""
+    with mpmath.workdps(digits):
+        values = [_mp(a, digits) for a in args]
         try:
             result = func(*values)
         except (ValueError, ZeroDivisionError, OverflowError) as exc:
@@ -110,7 +128,7 @@ def constant_value(func: Callable[..., object], args: tuple[sp.Expr, ...]) -> sp
             if abs(result.imag) > 1e-25 * max(1, abs(result.real)):
                 raise ConstantError("the value is not real")
             result = result.real
-        return _as_rational(result)
+        return result
 
 
 def constant_power(base: sp.Expr, exponent: sp.Expr) -> sp.Expr:
@@ -131,19 +149,16 @@ def constant_power(base: sp.Expr, exponent: sp.Expr) -> sp.Expr:
             raise ConstantError("division by zero (0 to a negative power)")
         return sp.S.One if exponent.is_zero else sp.S.Zero
     if exponent.is_Integer:
-        if base.is_Rational:
-            if abs(base) != 1:
-                bits = abs(math.log2(abs(base.p)) - math.log2(base.q))
-                if abs(int(exponent)) * bits > 1030:
-                    raise ConstantError(
-                        f"the power {base}**{exponent} is too large or too small for a "
-                        "floating-point number"
-                    )
-            result = base**exponent
+        n = abs(int(exponent))
+        if base.is_Rational and n <= 1000 and n * (base.p.bit_length() + base.q.bit_length()) \
+                <= _MAX_POWER_BITS:
+            result = base**exponent  # exact, at most _MAX_POWER_BITS bits of work
             if not in_float_range(result):
-                raise ConstantError(f"the power {base}**{exponent} is outside the range of "
-                                    "floating-point numbers")
+                raise ConstantError(f"the power {base}**{exponent} is too large or too small "
+                                    "for a floating-point number")
             return result
+        if base.is_Rational:
+            return constant_value(mpmath.power, (base, exponent))
         if abs(int(exponent)) <= 16:
             return _checked_range(base**exponent)
     elif (exponent.is_Rational and exponent.q <= _MAX_ROOT and abs(exponent.p) <= 64

@@ -64,6 +64,27 @@ def nested(draw) -> str:
     return "piecewise(" * (depth % 30) + f"{cond}, {inner}, 0" + ")" * (depth % 30)
 
 
+LEAVES = st.sampled_from(["0", "1", "2", "0.5", "1e-10", "351", "1e308", "1e-300", "9" * 30,
+                          "a", "b", "t", "pi"])
+
+
+def _extend(children):
+    binary = st.tuples(children, st.sampled_from(["+", "-", "*", "/", "**"]), children).map(
+        lambda x: f"({x[0]}){x[1]}({x[2]})")
+    call = st.tuples(st.sampled_from(["sin", "exp", "log", "sqrt", "acos", "abs", "sign", "step"]),
+                     children).map(lambda x: f"{x[0]}({x[1]})")
+    pair = st.tuples(st.sampled_from(["atan2", "min", "max"]), children, children).map(
+        lambda x: f"{x[0]}({x[1]}, {x[2]})")
+    case = st.tuples(children, st.sampled_from(["<", "<=", ">", ">="]), LEAVES, children,
+                     children).map(lambda x: f"piecewise({x[0]} {x[1]} {x[2]}, {x[3]}, {x[4]})")
+    return st.one_of(binary, call, pair, case, children.map(lambda c: f"-{c}"))
+
+
+#: Random expressions of the grammar with extreme constants (found the distributed powers
+#: ``(1e-300*b)**10**30`` that bench_parser's fuzz run caught).
+GRAMMAR = st.recursive(LEAVES, _extend, max_leaves=12)
+
+
 def _check(text: str) -> None:
     try:
         result = parse_expression(text, NS, key_path="outputs.y")
@@ -91,4 +112,13 @@ def test_token_soup_gives_an_expression_or_one_error_line(text: str) -> None:
 def test_deep_and_extreme_expressions_give_an_expression_or_one_error_line(text: str) -> None:
     """Property: nesting beyond the depth limit, towers of powers and out-of-range constants
     are refused with one line (never RecursionError/OverflowError)."""
+    _check(text)
+
+
+@settings(max_examples=max(EXAMPLES // 3, 300), deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(GRAMMAR)
+def test_grammar_trees_give_an_expression_or_one_error_line(text: str) -> None:
+    """Property: well-formed expressions with extreme constants and powers give an expression
+    or one error line quickly."""
     _check(text)
