@@ -254,7 +254,10 @@ def _tame(expr: sp.Expr, exponent: bool = False) -> sp.Expr:
     else:
         big = {r for r in expr.atoms(sp.Rational)
                if r.p.bit_length() > 64 or r.q.bit_length() > 64}
-    return expr.xreplace({r: sp.Float(r, 17) for r in big}) if big else expr
+    if not big:
+        return expr
+    # through Fraction: sympy's Float(Rational) prints the integers (at most 4300 digits)
+    return expr.xreplace({r: sp.Float(float(Fraction(int(r.p), int(r.q))), 17) for r in big})
 
 
 def _is_expr(value: sp.Basic) -> bool:
@@ -598,6 +601,11 @@ def parse_expression(
         raise
     except RecursionError:
         raise ExpressionError("expression is nested too deeply", text, key_path=key_path) from None
+    except (ValueError, ArithmeticError, MemoryError) as exc:
+        # a safety net under the bounds above: sympy refusing its own numbers (an integer of
+        # more than 4300 digits, an overflow) is a property of the text, not a bug
+        raise ExpressionError(f"cannot evaluate the numbers of this expression "
+                              f"({type(exc).__name__})", text, key_path=key_path) from None
     if result.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
         raise ExpressionError("expression is not finite", text, key_path=key_path)
     if result.has(sp.I):
