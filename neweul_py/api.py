@@ -246,8 +246,9 @@ def _generator_fingerprint() -> str:
 
 
 def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
-    """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``, relative
-    to the description), so that a cached module is regenerated when its data change.
+    """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``,
+    ``inputs.*.table``, relative to the description), so that a cached module is regenerated
+    when its data change.
 
     Each file is checked to be a regular file of sane size before it is read
     (:func:`neweul_py.files.read_checked`): ``data: /dev/zero`` or a FIFO is one clear error.
@@ -259,23 +260,33 @@ def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> 
         tree = yaml.safe_load(raw)
     except (yaml.YAMLError, RecursionError, ValueError, MemoryError):
         return []  # the loader reports the error when the module is generated
-    bodies = tree.get("elastic_bodies") if isinstance(tree, dict) else None
-    if not isinstance(bodies, dict):
+    if not isinstance(tree, dict):
         return []
     base = Path(description_path).parent
     out = []
-    for name in sorted(bodies, key=str):
-        spec = bodies[name]
-        data = spec.get("data") if isinstance(spec, dict) else None
+    for section, key in (("elastic_bodies", "data"), ("inputs", "table")):
+        entries = tree.get(section)
+        if isinstance(entries, dict):
+            out += _file_fingerprints(entries, section, key, base, description_path)
+    return out
+
+
+def _file_fingerprints(entries: dict, section: str, key: str, base: Path,
+                       description_path: str | os.PathLike[str]) -> list[str]:
+    """``name:sha256`` of the file ``entries[name][key]`` of each entry that names one."""
+    out = []
+    for name in sorted(entries, key=str):
+        spec = entries[name]
+        data = spec.get(key) if isinstance(spec, dict) else None
         if isinstance(data, str) and "\0" not in data:
             file = base / data
             if not file.exists():
                 out.append(f"{name}:missing")
                 continue
             try:
-                digest = hashlib.sha256(read_checked(file, "elastic-body data file")).hexdigest()
+                digest = hashlib.sha256(read_checked(file, f"{section} data file")).hexdigest()
             except NeweulError as exc:
-                raise DescriptionError(str(exc), f"elastic_bodies.{name}.data",
+                raise DescriptionError(str(exc), f"{section}.{name}.{key}",
                                        os.fspath(description_path)) from None
             out.append(f"{name}:{digest}")
     return out

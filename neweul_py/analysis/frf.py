@@ -31,7 +31,7 @@ from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 from . import _protocol as proto
 from .linearize import LinearModel, linearize
-from .plot import check_plot_path, new_figure, save_figure
+from .plot import check_plot_path, new_figure, plot_bode, save_figure
 from .results import ResultDisplay, check_output_path
 
 __all__ = ["SUFFIXES", "FrequencyResponse", "frequency_response", "frequency_vector", "frf"]
@@ -151,9 +151,11 @@ class FrequencyResponse(ResultDisplay):
             raise DataError(f"cannot read a frequency response: {exc}", file=str(path)) from None
 
     def plot(
-        self, path: str | os.PathLike[str] | None = None, *, log_frequency: bool = True
+        self, path: str | os.PathLike[str] | None = None, *, log_frequency: bool = True,
+        output_units: dict[str, str] | None = None, input_units: dict[str, str] | None = None,
     ) -> Any:
-        """Bode plot (magnitude and phase) with matplotlib.
+        """Bode plot (magnitude with the unit output/input where the units are given, phase)
+        with matplotlib (:func:`~neweul_py.analysis.plot.plot_bode`).
 
         With ``path`` the figure is built with the object API and written atomically in the
         format of the suffix (checked first, :func:`~neweul_py.analysis.plot.check_plot_path`);
@@ -167,7 +169,7 @@ class FrequencyResponse(ResultDisplay):
         """
         if path is not None:
             path = check_plot_path(path)
-            fig = new_figure(figsize=(7, 6), layout="constrained")
+            fig = new_figure(figsize=(8, 6), layout="constrained")
         else:
             try:
                 import matplotlib.pyplot as plt
@@ -175,20 +177,10 @@ class FrequencyResponse(ResultDisplay):
                 raise NeweulError(
                     "plotting needs matplotlib: pip install 'neweul-py[plot]'"
                 ) from None
-            fig = plt.figure(figsize=(7, 6), layout="constrained")
-        ax_m, ax_p = fig.subplots(2, 1, sharex=True)
-        for i, j, sfx in self._pairs():
-            label = sfx[1:] or f"{self.outputs[i]}/{self.inputs[j]}"
-            ax_m.loglog(self.frequency_hz, self.magnitude[:, i, j], label=label)
-            ax_p.plot(self.frequency_hz, self.phase_deg[:, i, j], label=label)
-        if log_frequency:
-            ax_p.set_xscale("log")
-        ax_m.set_ylabel("magnitude")
-        ax_p.set_ylabel("phase [deg]")
-        ax_p.set_xlabel("frequency [Hz]")
-        ax_m.grid(True, which="both", alpha=0.3)
-        ax_p.grid(True, which="both", alpha=0.3)
-        ax_m.legend(loc="best", fontsize="small")
+            fig = plt.figure(figsize=(8, 6), layout="constrained")
+        plot_bode(self.frequency_hz, self.H, self.outputs, self.inputs, fig,
+                  output_units=output_units, input_units=input_units,
+                  log_frequency=log_frequency)
         if path is not None:
             save_figure(fig, path)
         return fig

@@ -12,8 +12,11 @@ code it differentiates instead of exploding, and nothing is ever substituted bac
 writer differentiates the *CSE'd* program (common subexpressions are intermediates too), which
 keeps even closed-form Jacobians small. Partial derivatives are taken structurally (sum,
 product and chain rule over sympy's tree, ``fdiff`` for functions) — much faster than
-``sympy.diff`` on large sums. Distributional derivatives (``DiracDelta`` from ``sign``,
-``Heaviside``, ``Abs``…) are replaced by zero: the generated Jacobians are the derivatives almost
+``sympy.diff`` on large sums; a ``Piecewise`` is differentiated branch by branch under the same
+conditions (the one-sided derivative at a switching point). The description language's
+non-smooth functions (:mod:`neweul_py.model.functions`) have finite derivatives of their own;
+distributional derivatives of sympy's own ``sign``, ``Heaviside``, ``Abs`` (``DiracDelta``, from
+models built in Python) are replaced by zero: the generated Jacobians are the derivatives almost
 everywhere.
 """
 
@@ -104,6 +107,8 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
             for s, terms in g.items():
                 out.setdefault(s, []).append(_mul(rest, _add(terms)))
         return out
+    if isinstance(expr, sp.Piecewise):
+        return _piecewise_gradient_terms(expr, wanted)
     if expr.is_Pow and not (expr.exp.free_symbols & wanted):
         g = _gradient_terms(expr.base, wanted)
         factor = expr.exp * expr.base ** (expr.exp - 1)
@@ -118,6 +123,21 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
             return {s: [_mul(outer, _add(terms))] for s, terms in g.items()}
     for s in sorted(expr.free_symbols & wanted, key=lambda s: s.name):
         d = _no_delta(sp.diff(expr, s))
+        if d != 0:
+            out[s] = [d]
+    return out
+
+
+def _piecewise_gradient_terms(expr: sp.Piecewise, wanted: set[sp.Symbol] | frozenset[sp.Symbol]
+                              ) -> dict[sp.Symbol, list[sp.Expr]]:
+    """``∂/∂s Piecewise((e_i, c_i), …) = Piecewise((∂e_i/∂s, c_i), …)``: the derivative of the
+    branch that holds, so at a switching point the one-sided derivative of that branch (the
+    conditions are not differentiated — no ``DiracDelta``)."""
+    grads = [_gradient_terms(e, wanted) for e, _ in expr.args]
+    out: dict[sp.Symbol, list[sp.Expr]] = {}
+    for s in sorted(set().union(*grads), key=lambda s: s.name):
+        d = sp.Piecewise(*[(_add(g.get(s, [])), c)
+                           for g, (_, c) in zip(grads, expr.args, strict=True)])
         if d != 0:
             out[s] = [d]
     return out

@@ -5,6 +5,34 @@ Python floats and the functions of :mod:`math` (``_math.sin``), which is several
 per call than NumPy ufuncs on scalars; arrays are assembled with NumPy. Every symbol must have
 a name assigned by the caller: an unknown symbol is a :class:`~neweul_py.errors.GenerationError`
 (it means the equations use something the module does not define).
+
+Node types every printer of generated code must support
+-------------------------------------------------------
+Besides ``Symbol``, ``Integer``, ``Rational``, ``Float``, ``Add``, ``Mul``, ``Pow``, ``pi`` and the
+functions ``sin cos tan asin acos atan atan2 sinh cosh tanh exp log`` (``sqrt`` is
+``Pow(x, 1/2)``), the description language (:mod:`neweul_py.description.functions`) and its
+derivatives (:mod:`neweul_py.model.functions`, :mod:`.derivatives`) produce exactly:
+
+- ``sympy.Piecewise((v1, c1), …, (v_n, True))`` — the last condition is always ``True``;
+  printed here as nested conditional expressions ``(v1 if c1 else … v_n)`` (the generated
+  functions evaluate one state at a time, so scalar conditionals; a vectorized printer would
+  use ``np.select``/``np.where``). Conditions never contain a ``Piecewise``.
+- relationals ``StrictLessThan`` (``<``), ``LessThan`` (``<=``), ``StrictGreaterThan`` (``>``),
+  ``GreaterThan`` (``>=``), joined by ``And``/``Or`` — only inside ``Piecewise`` conditions
+  (sympy may also canonicalize a condition into ``Eq``/``Ne``/``Not``: print them too);
+- ``Min``, ``Max`` (two or more arguments; classes of :mod:`neweul_py.model.functions` named
+  like sympy's, so ``_print_Min``/``_print_Max`` apply): Python ``min``/``max``, C ``fmin``/``fmax``
+  folded;
+- ``Abs``: ``abs`` / C ``fabs``; ``sign``: ``0 at 0, else ±1`` (``copysign``);
+- ``Heaviside(x, 1)`` (always with ``H0 = 1``: the language's ``step``/``heaviside``, 1 for
+  ``x >= 0``, its derivatives' weights): ``(1.0 if x >= 0 else 0.0)``;
+- ``TableCurve`` of :mod:`neweul_py.model.force_elements` (tabulated characteristics: a chain
+  of comparisons, see its ``_pythoncode``) and its subclass ``SignalTable`` of
+  :mod:`neweul_py.model.functions` (tabulated input signals of ``t``, up to 10 000 pieces: a
+  balanced tree of comparisons); both expose ``pieces()`` and their knots ``args[1]``.
+
+No ``DiracDelta`` reaches a printer from description files (sympy's own ``Heaviside``/``sign``
+in models built in Python may produce one; :mod:`.derivatives` drops it in Jacobians).
 """
 
 from __future__ import annotations
@@ -85,8 +113,10 @@ class ScalarPrinter(PythonCodePrinter):
 
     def _print_Heaviside(self, expr: sp.Heaviside) -> str:
         arg = self._print(expr.args[0])
-        half = self._print(expr.args[1]) if len(expr.args) > 1 else "0.5"
-        return f"(1.0 if ({arg}) > 0 else 0.0 if ({arg}) < 0 else {half})"
+        h0 = expr.args[1] if len(expr.args) > 1 else sp.S.Half
+        if h0 == 1:  # the language's step (neweul_py.model.functions.Heaviside)
+            return f"(1.0 if ({arg}) >= 0 else 0.0)"
+        return f"(1.0 if ({arg}) > 0 else 0.0 if ({arg}) < 0 else {self._print(h0)})"
 
     def _print_Rational(self, expr: sp.Rational) -> str:
         if expr.q == 1:

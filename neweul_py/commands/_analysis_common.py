@@ -138,11 +138,13 @@ def check_overrides(module: Any, args: argparse.Namespace) -> None:
 
     from ..analysis._protocol import resolve_inputs, resolve_parameters
 
-    given = [*getattr(args, "param", []), *getattr(args, "set_input", [])]
+    # simulate's -u takes expressions of t (commands/_signals.py checks those); numbers here
+    numeric = [(k, v) for k, v in getattr(args, "set_input", []) if isinstance(v, float)]
+    given = [*getattr(args, "param", []), *numeric]
     if not given:
         return
     p = resolve_parameters(module, dict(getattr(args, "param", [])) or None)
-    resolve_inputs(module, 0.0, p, dict(getattr(args, "set_input", [])) or None)  # names
+    resolve_inputs(module, 0.0, p, dict(numeric) or None)  # names
     x0 = np.asarray(module.INITIAL_STATE, dtype=float)
     n = len(module.COORDINATES)
     what = ", ".join(f"{k} = {v:g}" for k, v in given)

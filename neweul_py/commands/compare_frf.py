@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -52,26 +52,31 @@ def frequency_grid(grid: Range, log: bool) -> np.ndarray:
     return np.asarray(grid.values(log))
 
 
-def plot(cmp: FRFComparison, path: str) -> None:
+_DOF_UNITS = {"ux": ("m", "N"), "uy": ("m", "N"), "uz": ("m", "N"), "rx": ("rad", "N·m"),
+              "ry": ("rad", "N·m"), "rz": ("rad", "N·m"), "p": ("Pa", "")}
+
+
+def frf_unit(fe: Any, output: str, input: str) -> str:
+    """Unit of ``|H|`` from the DOF kinds the output reads and the input loads (SI units of the
+    FE data: m, rad, Pa; N, N·m); empty where the kinds are mixed or unknown."""
+    def kind_unit(rows: Any, index: int) -> str:
+        kinds = {str(fe.dof_kind[d]) for d, _ in rows}
+        units = {_DOF_UNITS.get(k, ("", ""))[index] for k in kinds}
+        return units.pop() if len(units) == 1 else ""
+
+    out, inp = kind_unit(fe.outputs[output], 0), kind_unit(fe.inputs[input], 1)
+    if not out:
+        return ""
+    return f"{out}/{inp}" if inp else out
+
+
+def plot(cmp: FRFComparison, path: str, *, log_frequency: bool = False, unit: str = "") -> None:
     """Magnitudes (full, reduced) and relative error over frequency, saved to ``path``."""
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise NeweulError("plotting needs matplotlib: pip install 'neweul-py[plot]'") from None
-    fig = Figure(figsize=(7, 6))
-    FigureCanvasAgg(fig)
-    ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    f = cmp.frequencies_hz
-    ax1.semilogy(f, np.abs(cmp.full), label="full FE model")
-    ax1.semilogy(f, np.abs(cmp.reduced), "--", label="reduced body")
-    ax1.set_ylabel(f"|H| ({cmp.output} / {cmp.input})")
-    ax1.legend()
-    ax2.semilogy(f, np.maximum(cmp.relative_error, 1e-17))
-    ax2.set_ylabel("relative error")
-    ax2.set_xlabel("frequency [Hz]")
-    fig.tight_layout()
-    fig.savefig(path)
+    from ..analysis.plot import plot_frf_comparison
+
+    plot_frf_comparison(cmp.frequencies_hz, cmp.full, cmp.reduced, cmp.relative_error, path,
+                        output=cmp.output, input=cmp.input, unit=unit,
+                        log_frequency=log_frequency)
 
 
 def summary(cmp: FRFComparison, what: str) -> list[str]:
@@ -121,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
         cmp.to_csv(args.output)
         print(f"table: {args.output}")
     if args.plot:
-        plot(cmp, args.plot)
+        plot(cmp, args.plot, log_frequency=args.log,
+             unit=frf_unit(fe, args.response, args.input))
         print(f"plot: {args.plot}")
     return 0

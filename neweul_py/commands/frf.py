@@ -36,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..analysis.frf import SUFFIXES, frequency_response
     from ..analysis.linearize import linearize
+    from ..analysis.plot import signal_units
 
     common.split_output(args)
     common.check_files(args.output, SUFFIXES, "frequency responses", args.plot)
@@ -51,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         print(f"frequency response: {fr.save(args.output)}")
     if args.plot:
-        fr.plot(args.plot)
+        fr.plot(args.plot, log_frequency=args.log, output_units=signal_units(module))
         print(f"Bode plot: {args.plot}")
     if not args.output and not args.plot:
         print(f"{'frequency_hz':>14}  {'magnitude':>14}  {'phase_deg':>10}  output/input")

@@ -10,6 +10,7 @@ from typing import Any
 from ..progress import QUIET_HELP, Tracker
 from . import BACKENDS, CAPS, FORMS, SIMULATE_METHODS, count, number
 from . import _analysis_common as common
+from ._signals import input_assignment, input_function
 
 #: Largest number of integrator steps a run may need (``--max-steps``, docs/limits.md).
 DEFAULT_MAX_STEPS = 1_000_000
@@ -45,6 +46,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "explicit integrator steps than N (default "
                         f"{DEFAULT_MAX_STEPS:.0e}; stiff models: --method Radau or BDF)")
     common.add_parameter_argument(parser)
+    parser.add_argument("-u", "--set-input", type=input_assignment, action="append", default=[],
+                        metavar="NAME=EXPR", help="drive an input by an expression of t and the "
+                        "parameters, e.g. -u 'F=2*sin(3*t)' (repeatable)")
     parser.add_argument("--form", choices=FORMS, default="auto",
                         help="closed-form or recursive equations (default: auto)")
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
@@ -68,9 +72,11 @@ def run(args: argparse.Namespace) -> int:
     common.check_files(args.output, SUFFIXES, "results", args.plot)
     module = common.load_model(args)
     check_step_count(module, args)
+    p = dict(args.param) or None
+    u = input_function(module, args.set_input, p)
     with Tracker("simulate", unit="s", quiet=args.quiet) as track:  # a bar on a terminal
         result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
-                          atol=args.atol, n_out=args.n_out, p=dict(args.param) or None,
+                          atol=args.atol, n_out=args.n_out, p=p, u=u,
                           independent=args.independent, progress=track)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")

@@ -39,7 +39,7 @@ from ..ffrf.schema import INERTIA_FORMS
 from ..model import ElasticBody
 from .schema import Schema, section_items
 
-__all__ = ["base_directory", "load_elastic_bodies"]
+__all__ = ["base_directory", "description_directory", "load_elastic_bodies"]
 
 #: ``reader(path, modes) -> dict of arrays`` (the flat invariants), may raise DataError.
 ElasticReader = Callable[[Path, Any], dict]
@@ -58,6 +58,13 @@ def base_directory(filename: str, reader: ElasticReader | None = None) -> Iterat
         yield
     finally:
         _CONTEXT.reset(token)
+
+
+def description_directory() -> Path:
+    """The directory data files of the description being loaded are relative to (also the
+    signal tables of inputs); the working directory outside :func:`base_directory`."""
+    context = _CONTEXT.get()
+    return context[0] if context is not None else Path.cwd()
 
 
 def load_elastic_bodies(b: Any, section: Any, path: str) -> None:

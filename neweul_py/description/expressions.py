@@ -4,21 +4,36 @@ A tokenizer and a recursive-descent (precedence-climbing) parser that build symp
 directly from tokens. User text is never handed to ``eval``, ``exec``, sympy's string parser or
 Python's ``ast``: the only things that can come out of a string are numbers (converted by this
 module from digits it has validated), the symbols of a caller-supplied namespace, ``pi`` and the
-fixed list of functions below.
+fixed list of functions of :mod:`.functions`.
 
 Grammar (lowest precedence first)::
 
-    expression := term (("+" | "-") term)*
-    term       := unary (("*" | "/") unary)*
-    unary      := ("+" | "-") unary | power
-    power      := atom ("**" unary)?          # right-associative: a**b**c = a**(b**c)
-    atom       := NUMBER | NAME | NAME "(" arguments ")" | "(" expression ")"
-    arguments  := expression ("," expression)*
+    condition   := conjunction ("or" conjunction)*
+    conjunction := comparison ("and" comparison)*
+    comparison  := expression (("<" | "<=" | ">" | ">=") expression)?
+    expression  := term (("+" | "-") term)*
+    term        := unary (("*" | "/") unary)*
+    unary       := ("+" | "-") unary | power
+    power       := atom ("**" unary)?          # right-associative: a**b**c = a**(b**c)
+    atom        := NUMBER | NAME | NAME "(" arguments ")" | "(" condition ")"
+    arguments   := condition ("," condition)*
 
-so ``-a**2`` is ``-(a**2)`` and ``2**-1`` is ``1/2``, as in Python.
+so ``-a**2`` is ``-(a**2)`` and ``2**-1`` is ``1/2``, as in Python. A value must be an
+expression; a condition (a comparison, ``and``, ``or``) is only allowed where
+``piecewise(c1, v1, c2, v2, …, default)`` expects one.
 
 Numbers become exact sympy numbers: ``3`` → ``Integer(3)``, ``0.1`` and ``1e-3`` →
 ``Rational(1, 10)`` and ``Rational(1, 1000)``; the generated code prints them back as floats.
+
+Bounded work (every input gives a result or one :class:`ExpressionError` quickly):
+
+- sums and products are collected and built once (``sympy.Add(*terms)``,
+  ``sympy.Mul(*factors)``), so parsing is linear in the length of the text;
+- nesting (parentheses, unary signs, powers, calls) is limited to ``_MAX_DEPTH`` levels;
+- constants stay within the range of doubles; constant powers and function values are
+  evaluated with bounded work (:func:`.functions.constant_power`,
+  :func:`.functions.constant_value`) — e.g. ``351**-1e-10`` is evaluated numerically, ``exp(1000)``
+  and ``10**400`` are refused.
 """
 
 from __future__ import annotations
@@ -34,6 +49,7 @@ import sympy as sp
 from sympy.printing.str import StrPrinter
 
 from ..errors import ModelError
+from .functions import FUNCTIONS, ConstantError, constant_power, constant_value, in_float_range
 
 __all__ = [
     "CONSTANTS",
@@ -82,53 +98,20 @@ def _excerpt(text: str, column: int | None, width: int = 60) -> str:
     return ("…" if start > 0 else "") + repr(piece) + ("…" if start + width < len(text) else "")
 
 
-@dataclass(frozen=True)
-class _Function:
-    min_args: int
-    max_args: int | None  # None: any number >= min_args
-    build: Callable[..., sp.Expr]
-
-    def arity(self) -> str:
-        if self.max_args == self.min_args:
-            return f"{self.min_args} argument{'s' if self.min_args != 1 else ''}"
-        if self.max_args is None:
-            return f"at least {self.min_args} arguments"
-        return f"{self.min_args} to {self.max_args} arguments"
-
-
-#: The functions of the language: name → (argument count, sympy constructor).
-FUNCTIONS: Mapping[str, _Function] = {
-    "sin": _Function(1, 1, sp.sin),
-    "cos": _Function(1, 1, sp.cos),
-    "tan": _Function(1, 1, sp.tan),
-    "asin": _Function(1, 1, sp.asin),
-    "acos": _Function(1, 1, sp.acos),
-    "atan": _Function(1, 1, sp.atan),
-    "atan2": _Function(2, 2, sp.atan2),
-    "sinh": _Function(1, 1, sp.sinh),
-    "cosh": _Function(1, 1, sp.cosh),
-    "tanh": _Function(1, 1, sp.tanh),
-    "exp": _Function(1, 1, sp.exp),
-    "log": _Function(1, 1, sp.log),
-    "sqrt": _Function(1, 1, sp.sqrt),
-    "abs": _Function(1, 1, sp.Abs),
-    "sign": _Function(1, 1, sp.sign),
-    "min": _Function(2, None, sp.Min),
-    "max": _Function(2, None, sp.Max),
-    "heaviside": _Function(1, 1, sp.Heaviside),
-}
-
 #: Named constants of the language.
 CONSTANTS: Mapping[str, sp.Expr] = {"pi": sp.pi}
 
 _MAX_DEPTH = 100  # nesting depth of parentheses/unary operators/calls
 _MAX_NUMBER_LENGTH = 1000
-_MAX_DIGITS = 1000  # of number**number, to keep sympy from building astronomic integers
+_MAX_EXPONENT = 1000  # of a numeric power of a non-constant base
+_MAX_ROOT, _MAX_ROOT_POWER = 12, 64  # exact rational exponents p/q: q <= 12, |p| <= 64
 
 # --------------------------------------------------------------------------- tokenizer
 _NUMBER = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_OPERATORS = ("**", "+", "-", "*", "/", "(", ")", ",")
+_OPERATORS = ("**", "<=", ">=", "+", "-", "*", "/", "(", ")", ",", "<", ">")
+_COMPARISONS = {"<": sp.StrictLessThan, "<=": sp.LessThan, ">": sp.StrictGreaterThan,
+                ">=": sp.GreaterThan}
 _HINTS = {
     ".": "attribute access is not allowed",
     "'": "strings are not allowed",
@@ -139,7 +122,8 @@ _HINTS = {
     "}": "braces are not allowed",
     "^": "use ** for powers",
     ":": "lambdas, slices and annotations are not allowed",
-    "=": "assignments and comparisons are not allowed",
+    "=": "assignments and == are not allowed (comparisons: < <= > >= inside piecewise())",
+    "!": "!= is not allowed (comparisons: < <= > >= inside piecewise())",
     ";": "only a single expression is allowed",
 }
 
@@ -203,13 +187,16 @@ def _describe(token: _Token) -> str:
 def number(value: object, key_path: str = "") -> sp.Rational:
     """Convert a Python ``int``/``float`` (e.g. from YAML) into an exact sympy number.
 
-    ``bool``, NaN and infinities are rejected with :class:`ModelError`. Floats are converted
-    through their shortest decimal representation, so ``0.1`` becomes ``1/10`` — the same
-    number the parser makes of the text ``"0.1"``.
+    ``bool``, NaN, infinities and integers beyond the range of doubles are rejected with
+    :class:`ModelError`. Floats are converted through their shortest decimal representation, so
+    ``0.1`` becomes ``1/10`` — the same number the parser makes of the text ``"0.1"``.
     """
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ModelError(f"expected a number, got {type(value).__name__} {value!r}", key_path)
     if isinstance(value, int):
+        if value.bit_length() > 1024:
+            raise ModelError("the integer is outside the range of floating-point numbers",
+                             key_path)
         return sp.Integer(value)
     if not math.isfinite(value):
         raise ModelError(f"expected a finite number, got {value!r}", key_path)
@@ -219,13 +206,17 @@ def number(value: object, key_path: str = "") -> sp.Rational:
 
 def _number_token(token: _Token, text: str) -> sp.Rational:
     digits = token.text
-    if all(c.isdigit() for c in digits):
-        return sp.Integer(int(digits))
     exponent = digits.lower().partition("e")[2]
-    if (exponent and abs(int(exponent)) > 400) or not math.isfinite(float(digits)):
+    if exponent and abs(int(exponent)) > 400:
         raise ExpressionError(f"number {digits} is out of range", text, token.column)
-    frac = Fraction(digits)
-    return sp.Rational(frac.numerator, frac.denominator)
+    value = sp.Integer(int(digits)) if digits.isdigit() else sp.Rational(
+        *Fraction(digits).as_integer_ratio())
+    if not in_float_range(value):
+        raise ExpressionError(
+            f"number {digits} is out of range (outside the range of floating-point numbers)",
+            text, token.column,
+        )
+    return value
 
 
 def _is_real_number(value: sp.Expr) -> bool:
@@ -237,18 +228,46 @@ def _is_real_number(value: sp.Expr) -> bool:
 
 
 def _too_large(base: sp.Expr, exponent: sp.Expr) -> bool:
-    """Whether the exact number ``base**exponent`` would have more than ``_MAX_DIGITS`` digits
-    (or leading zeros)."""
-    if not (base.is_Rational and exponent.is_Rational) or base.is_zero or abs(base) == 1:
+    """Whether the constant power ``base**exponent`` is refused as out of range."""
+    if not (base.is_number and exponent.is_number):
         return False
-    if abs(exponent) > 10**6:
+    try:
+        constant_power(base, exponent)
+    except ConstantError:
         return True
-    digits = abs(math.log10(abs(base.p)) - math.log10(base.q))
-    return float(abs(exponent)) * digits > _MAX_DIGITS
+    return False
+
+
+def _tame(expr: sp.Expr, exponent: bool = False) -> sp.Expr:
+    """``expr`` with the rationals sympy cannot take roots of quickly as floats.
+
+    Under a non-integer power sympy takes exact roots of numeric factors of the base and of
+    numeric terms of the exponent — a perfect-power and factor search that does not end for
+    30-digit integers (``(999…9*b)**0.5``, ``c**(a - 1/2)``) or root degrees such as 10**10
+    (``351**-1e-10``, ``c**(1e-10 - b)``). So in a base, rationals with more than 64-bit
+    numerator or denominator become floats, in an exponent non-integers of a denominator above
+    12 or a numerator above 64 (the generated code computes in doubles anyway).
+    """
+    if exponent:
+        big = {r for r in expr.atoms(sp.Rational) if not r.is_Integer
+               and (r.q > _MAX_ROOT or abs(r.p) > _MAX_ROOT_POWER)}
+    else:
+        big = {r for r in expr.atoms(sp.Rational)
+               if r.p.bit_length() > 64 or r.q.bit_length() > 64}
+    if not big:
+        return expr
+    # through Fraction: sympy's Float(Rational) prints the integers (at most 4300 digits)
+    return expr.xreplace({r: sp.Float(float(Fraction(int(r.p), int(r.q))), 17) for r in big})
+
+
+def _is_expr(value: sp.Basic) -> bool:
+    return isinstance(value, sp.Expr)
 
 
 # --------------------------------------------------------------------------- parser
 class _Parser:
+    """Recursive descent over the token stream; each grammar rule is one method."""
+
     def __init__(
         self,
         text: str,
@@ -277,11 +296,29 @@ class _Parser:
         if self.depth > _MAX_DEPTH:
             raise self.error(f"expression is nested more than {_MAX_DEPTH} levels deep")
 
+    def value(self, result: sp.Basic, token: _Token) -> sp.Expr:
+        """``result`` if it is a value (not a condition)."""
+        if not _is_expr(result):
+            raise self.error(
+                "a comparison (<, <=, >, >=, and, or) is only allowed as a condition of "
+                "piecewise(cond, value, default)", token)
+        return result
+
+    def constant(self, result: sp.Expr, token: _Token) -> sp.Expr:
+        """Refuse a rational constant — or the numeric coefficient or term of a product or
+        sum (sympy keeps it first) — outside the range of doubles."""
+        number = result.args[0] if (result.is_Mul or result.is_Add) else result
+        if number.is_Rational and not in_float_range(number):
+            raise self.error("the constant is outside the range of floating-point numbers",
+                             token)
+        return result
+
     # grammar
     def parse(self) -> sp.Expr:
         if self.token.kind == "end":
             raise ExpressionError("empty expression; expected a number, a name or '('", self.text)
-        result = self.expression()
+        first = self.token
+        result = self.condition()
         if self.token.kind != "end":
             tok = self.token
             if tok.kind == ")":
@@ -291,54 +328,123 @@ class _Parser:
             raise self.error(
                 f"expected an operator (+ - * / **) or end of expression, found {_describe(tok)}"
             )
+        return self.value(result, first)
+
+    def condition(self) -> sp.Basic:
+        first = self.token
+        result = self.conjunction()
+        if not (self.token.kind == "name" and self.token.text == "or"):
+            return result
+        operands = [self.boolean(result, first)]
+        while self.token.kind == "name" and self.token.text == "or":
+            self.advance()
+            tok = self.token
+            operands.append(self.boolean(self.conjunction(), tok))
+        return sp.Or(*operands)
+
+    def conjunction(self) -> sp.Basic:
+        first = self.token
+        result = self.comparison()
+        if not (self.token.kind == "name" and self.token.text == "and"):
+            return result
+        operands = [self.boolean(result, first)]
+        while self.token.kind == "name" and self.token.text == "and":
+            self.advance()
+            tok = self.token
+            operands.append(self.boolean(self.comparison(), tok))
+        return sp.And(*operands)
+
+    def boolean(self, result: sp.Basic, token: _Token) -> sp.Basic:
+        if _is_expr(result):
+            raise self.error("'and'/'or' join comparisons (a < b and b < c), not values", token)
         return result
 
-    def expression(self) -> sp.Expr:
+    def comparison(self) -> sp.Basic:
+        first = self.token
+        left = self.expression()
+        if self.token.kind not in _COMPARISONS:
+            return left
+        op = self.advance()
+        right_token = self.token
+        right = self.value(self.expression(), right_token)
+        self.value(left, first)
+        if self.token.kind in _COMPARISONS:
+            raise self.error("chained comparisons are not allowed; use 'and'")
+        for side in (left, right):
+            if side.has(sp.Piecewise):
+                raise self.error("a comparison may not contain piecewise(); compare the "
+                                 "branches in separate conditions instead", op)
+        try:
+            return _COMPARISONS[op.kind](left, right)
+        except TypeError as exc:  # sympy cannot decide a comparison of constants
+            raise self.error(f"invalid comparison: {exc}", op) from None
+
+    def expression(self) -> sp.Basic:
+        first = self.token
         result = self.term()
+        if self.token.kind not in ("+", "-"):
+            return result
+        terms = [self.value(result, first)]
         while self.token.kind in ("+", "-"):
-            op = self.advance().kind
-            rhs = self.term()
-            result = result + rhs if op == "+" else result - rhs
-        return result
+            op = self.advance()
+            tok = self.token
+            rhs = self.value(self.term(), tok)
+            terms.append(rhs if op.kind == "+" else -rhs)
+        return self.constant(sp.Add(*terms), first)
 
-    def term(self) -> sp.Expr:
+    def term(self) -> sp.Basic:
+        first = self.token
         result = self.unary()
+        if self.token.kind not in ("*", "/"):
+            return result
+        factors = [self.value(result, first)]
         while self.token.kind in ("*", "/"):
             op = self.advance()
-            rhs = self.unary()
+            tok = self.token
+            rhs = self.value(self.unary(), tok)
             if op.kind == "*":
-                result = result * rhs
+                factors.append(rhs)
             else:
                 if rhs.is_zero:
                     raise self.error("division by zero", op)
-                result = result / rhs
-        return result
+                factors.append(sp.Pow(rhs, -1))
+        return self.constant(sp.Mul(*factors), first)
 
-    def unary(self) -> sp.Expr:
+    def unary(self) -> sp.Basic:
         if self.token.kind in ("+", "-"):
-            op = self.advance().kind
+            op = self.advance()
             self.enter()
-            operand = self.unary()
+            tok = self.token
+            operand = self.value(self.unary(), tok)
             self.depth -= 1
-            return -operand if op == "-" else operand
+            return -operand if op.kind == "-" else operand
         return self.power()
 
-    def power(self) -> sp.Expr:
+    def power(self) -> sp.Basic:
+        first = self.token
         base = self.atom()
         if self.token.kind != "**":
             return base
+        base = self.value(base, first)
         op = self.advance()
         self.enter()
-        exponent = self.unary()
+        tok = self.token
+        exponent = self.value(self.unary(), tok)
         self.depth -= 1
-        if base.is_Number and exponent.is_Number:
-            if base.is_zero and exponent.is_negative:
-                raise self.error("division by zero (0 to a negative power)", op)
-            if _too_large(base, exponent):
-                raise self.error(f"the power {base}**{exponent} is too large or too small", op)
+        if base.is_number and exponent.is_number:
+            return self.checked(lambda: constant_power(base, exponent), op)
+        shift = exponent.as_coeff_Add()[0] if base.is_number else exponent
+        if shift.is_Rational and abs(shift) > _MAX_EXPONENT:
+            # sympy distributes integer powers over products, (1e-300*b)**10**30, and splits
+            # off integer terms of exponents, c**(x + 10**30): it would compute them exactly
+            raise self.error(f"the exponent {shift} is too large (at most {_MAX_EXPONENT} in "
+                             "magnitude for a power of a variable, or as a term of a variable "
+                             "exponent)", op)
+        if not exponent.is_Integer:
+            base, exponent = _tame(base), _tame(exponent, exponent=True)
         return self.checked(lambda: base**exponent, op)
 
-    def atom(self) -> sp.Expr:
+    def atom(self) -> sp.Basic:
         tok = self.token
         if tok.kind == "number":
             self.advance()
@@ -348,7 +454,7 @@ class _Parser:
             if self.token.kind == ")":
                 raise self.error("empty parentheses '()' are not allowed (no tuples or calls)")
             self.enter()
-            inner = self.expression()
+            inner = self.condition()
             self.depth -= 1
             if self.token.kind != ")":
                 raise self.error(
@@ -379,12 +485,12 @@ class _Parser:
             )
         open_paren = self.advance()
         self.enter()
-        args: list[sp.Expr] = []
+        args: list[tuple[_Token, sp.Basic]] = []
         if self.token.kind != ")":
-            args.append(self.expression())
+            args.append((self.token, self.condition()))  # type: ignore[arg-type]
             while self.token.kind == ",":
                 self.advance()
-                args.append(self.expression())
+                args.append((self.token, self.condition()))  # type: ignore[arg-type]
         if self.token.kind != ")":
             raise self.error(
                 f"expected ',' or ')' to close the call of {name.text} at column "
@@ -392,23 +498,41 @@ class _Parser:
             )
         self.advance()
         self.depth -= 1
-        if len(args) < func.min_args or (func.max_args is not None and len(args) > func.max_args):
-            raise self.error(
-                f"{name.text}() takes {func.arity()}, got {len(args)}", name
-            )
-        return self.checked(lambda: func.build(*args), name)
+        n = len(args)
+        if n < func.min_args or (func.max_args is not None and n > func.max_args) or (
+                func.conditions and n % 2 == 0):
+            expected = "an odd number of arguments (cond, value, …, default), at least 3" \
+                if func.conditions else func.arity()
+            raise self.error(f"{name.text}() takes {expected}, got {n}", name)
+        values: list[sp.Basic] = []
+        for k, (tok, arg) in enumerate(args):  # type: ignore[misc]
+            if func.conditions and k % 2 == 0 and k < n - 1:
+                if _is_expr(arg):
+                    raise self.error(
+                        f"argument {k + 1} of piecewise() must be a condition such as t < T",
+                        tok)
+                values.append(arg)
+            else:
+                values.append(self.value(arg, tok))
+        if func.numeric is not None and all(v.is_number for v in values):
+            return self.checked(lambda: constant_value(func.numeric, tuple(values)), name)
+        if func.build is sp.sqrt:
+            values = [_tame(v) for v in values]
+        return self.checked(lambda: func.build(*values), name)
 
     def checked(self, build: Callable[[], sp.Expr], token: _Token) -> sp.Expr:
         """Build a power or function value; reject constant values that are not real."""
         try:
             result = build()
+        except ConstantError as exc:
+            raise self.error(str(exc), token) from None
         except (ValueError, TypeError, ArithmeticError) as exc:
             raise self.error(f"invalid value: {exc}", token) from None
         if result.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
             raise self.error(f"the value {result} is not finite", token)
         if result.is_number and not _is_real_number(result):
             raise self.error(f"the value {result} is not real", token)
-        return result
+        return self.constant(result, token)
 
     def name(self, tok: _Token) -> sp.Expr:
         name = tok.text
@@ -477,6 +601,11 @@ def parse_expression(
         raise
     except RecursionError:
         raise ExpressionError("expression is nested too deeply", text, key_path=key_path) from None
+    except (ValueError, ArithmeticError, MemoryError) as exc:
+        # a safety net under the bounds above: sympy refusing its own numbers (an integer of
+        # more than 4300 digits, an overflow) is a property of the text, not a bug
+        raise ExpressionError(f"cannot evaluate the numbers of this expression "
+                              f"({type(exc).__name__})", text, key_path=key_path) from None
     if result.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
         raise ExpressionError("expression is not finite", text, key_path=key_path)
     if result.has(sp.I):
@@ -525,6 +654,25 @@ class _LanguagePrinter(StrPrinter):
     def _print_Heaviside(self, expr: sp.Expr) -> str:
         return f"heaviside({self._print(expr.args[0])})"
 
+    def _print_Piecewise(self, expr: sp.Piecewise) -> str:
+        parts = []
+        for k, (value, cond) in enumerate(expr.args):
+            if k == len(expr.args) - 1:
+                parts.append(self._print(value))  # the default (its condition is True)
+            else:
+                parts += [self._print(cond), self._print(value)]
+        if len(expr.args) == 1:
+            return parts[0]
+        return f"piecewise({', '.join(parts)})"
+
+    def _print_And(self, expr: sp.Basic) -> str:
+        return " and ".join(
+            f"({self._print(a)})" if isinstance(a, sp.Or) else self._print(a) for a in expr.args
+        )
+
+    def _print_Or(self, expr: sp.Basic) -> str:
+        return " or ".join(self._print(a) for a in expr.args)
+
     def _print_Exp1(self, expr: sp.Expr) -> str:
         return "exp(1)"
 
@@ -542,6 +690,7 @@ def format_expression(expr: sp.Expr) -> str:
     """Print a sympy expression in the description language (inverse of the parser).
 
     ``parse_expression(format_expression(e), ns) == e`` for expressions of the language
-    (floats are printed with full precision and read back as exact rationals).
+    (floats are printed with full precision and read back as exact rationals; a
+    ``Piecewise`` whose last condition is not ``True`` prints its last value as the default).
     """
     return _LanguagePrinter({"full_prec": True}).doprint(expr)

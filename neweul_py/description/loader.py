@@ -17,8 +17,9 @@ from typing import Any
 from ..errors import DescriptionError, ModelError
 from ..model import INERTIAL, System
 from .builder import SystemBuilder, constant_number
-from .elastic import base_directory, load_elastic_bodies
+from .elastic import base_directory, description_directory, load_elastic_bodies
 from .schema import Schema, section_items
+from .signals import load_table_input
 from .yaml_tree import YamlTree, read_yaml
 
 __all__ = [
@@ -63,6 +64,9 @@ def _inputs(b: SystemBuilder, section: Any, path: str) -> None:
     for name, default in section_items(section, path, "name: expression of t and parameters"):
         if default is None:
             raise ModelError("an input needs a default excitation (e.g. 0)", f"{path}.{name}")
+        if isinstance(default, dict):  # {table: signal.csv, interpolation: …}
+            default = load_table_input(str(name), default, description_directory(),
+                                       f"{path}.{name}")
         b.input(name, default)
 
 
