@@ -107,7 +107,7 @@ class MiddleEarParameters:
     manubrium_reach: float = 0.8
     k_tm_manubrium: float = 36933.0
     k_chain: float = 1683.0
-    chain_limit_medial: float = 38e-6
+    chain_limit_medial: float = 42e-6
     chain_limit_lateral: float = 80e-6
     canal_length: float = 25e-3
     canal_diameter: float = 7.5e-3
