@@ -2,8 +2,8 @@
 published temporal-bone numbers (docs/middle-ear-measurements.md).
 
 Sign convention: Δp = p_canal − p_cavity; Δp > 0 is a *negative* middle-ear pressure.
-Refinement 0 (1 332 DOFs) keeps the tests fast; the trends hold at refine 1 and 2
-(examples/middle_ear/README.md, table).
+Refinement 0 (1 332 DOFs) keeps the tests fast (the README table gives refine 0, and refine 1
+where measured).
 """
 
 from __future__ import annotations
