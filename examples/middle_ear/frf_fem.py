@@ -5,10 +5,12 @@ Run after ``build_fem.py`` (see README.md)::
     python examples/middle_ear/frf_fem.py [DIR] [--plot]
 
 For every working point in DIR (default ``data/fem``) the model — with the ossicular support
-added back at the manubrium so that the TM is held as in the static solution — is driven by the
-canal volume-acceleration source, and ``|jω u_umbo,z / p_probe|`` [mm/s/Pa] is printed (and
-plotted to ``DIR/frf_umbo.png`` with ``--plot``). This is a check of the FE data, not the
-middle-ear model of the seed paper (no ossicle masses, linear support).
+added back at the manubrium, the chain tangent *of that working point* (file group
+``static_chain_tangent``, malleus condensed) so that the TM is held as in the static solution —
+is driven by the canal volume-acceleration source with the loss factors (``K + iG``, file group
+``loss_G``), and ``|jω u_umbo,z / p_probe|`` [mm/s/Pa] is printed (and plotted to
+``DIR/frf_umbo.png`` with ``--plot``). A check of the FE data, not the middle-ear model of the
+seed paper (no ossicle masses; ``dp_trend.py`` adds a lumped chain).
 """
 
 from __future__ import annotations
@@ -19,10 +21,12 @@ from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
 from neweul_py.elastic.fe_io import read_fe_model
+from neweul_py.fem.ear_transfer import umbo_transfer
 from neweul_py.fem.middle_ear import MiddleEarParameters, build_middle_ear
+from neweul_py.fem.ossicular_chain import condensed_support
+from neweul_py.fem.working_point_file import read_loss, read_static
 
 HERE = Path(__file__).resolve().parent
 FREQS = np.array([100, 200, 500, 800, 1000, 1500, 2000, 3000, 4000, 6000], dtype=float)
@@ -37,28 +41,22 @@ def main() -> None:
     sweep = json.loads((out / "sweep.json").read_text())
     params = MiddleEarParameters(**sweep["parameters"])
     me = build_middle_ear(params, sweep["refine"])
-    sup = me.support[me.free_dofs][:, me.free_dofs]
-    n_p = me.n_p
-    w_ref = 2 * np.pi * params.f_ref
+    md = me.manubrium_dofs
+    rows, cols = np.meshgrid(md, md, indexing="ij")
     curves = {}
     print("umbo velocity / probe pressure [mm/s/Pa]")
     print("  dp [Pa] " + " ".join(f"{f:>7.0f}" for f in FREQS))
     for wp in sweep["working_points"]:
-        fe = read_fe_model(out / wp["file"])
-        k = fe.K + sps.block_diag([sup, sps.csr_matrix((n_p, n_p))], format="csr")
-        d = fe.D + sps.block_diag(
-            [(params.tm_loss / w_ref) * sup, sps.csr_matrix((n_p, n_p))], format="csr"
+        path = out / wp["file"]
+        fe = read_fe_model(path)
+        g, _ = read_loss(path)
+        ks = condensed_support(
+            me.malleus_T, params.k_tm_manubrium, read_static(path)["chain_tangent"]
         )
-        b, cp, cu = (
-            fe.B("canal_volume_acceleration")[:, 0],
-            fe.C("probe_pressure")[0],
-            fe.C("umbo_uz")[0],
-        )
-        h = []
-        for f in FREQS:
-            w = 2 * np.pi * f
-            x = spla.spsolve((k + 1j * w * d - w**2 * fe.M).tocsc(), b.astype(complex))
-            h.append(abs(1j * w * (cu @ x) / (cp @ x)) * 1e3)
+        sup = sps.csr_matrix(
+            (ks.ravel(), (rows.ravel(), cols.ravel())), shape=(me.shell.n_dof,) * 2
+        ).tocsr()[me.free_dofs][:, me.free_dofs]
+        h = np.abs(umbo_transfer(fe, g, sup, FREQS, params.tm_loss)) * 1e3
         curves[wp["dp_Pa"]] = np.array(h)
         print(f"  {wp['dp_Pa']:+7.0f} " + " ".join(f"{v:7.3f}" for v in h))
     if args.plot:

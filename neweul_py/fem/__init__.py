@@ -12,8 +12,14 @@ Modules, one concern each (scikit-fem style: mesh, element, assembly, form apart
 * :mod:`~neweul_py.fem.assembly` – vectorized assembly of element arrays;
 * :mod:`~neweul_py.fem.coupling` – the coupling matrix ``C`` and the u–p matrices of Eq. (2);
 * :mod:`~neweul_py.fem.nonlinear` – Newton's method with adaptive load stepping;
-* :mod:`~neweul_py.fem.middle_ear` – the TM + ear canal + tympanic cavity model, static
-  solution (with its physical-validity bounds), working-point FE models and the pressure sweep;
+* :mod:`~neweul_py.fem.middle_ear` – the public entry of the middle-ear model (TM + ear canal +
+  tympanic cavity + antrum/mastoid, the TM held by the ossicular chain), split by job into
+  :mod:`~neweul_py.fem.ear_parameters` (data), :mod:`~neweul_py.fem.ear_model` (meshes,
+  constant matrices), :mod:`~neweul_py.fem.ossicular_chain` (the stiffening chain),
+  :mod:`~neweul_py.fem.ear_static` (static state, validity), :mod:`~neweul_py.fem.ear_working_point`
+  (linearized model, loss factors, static data), :mod:`~neweul_py.fem.ear_sweep` (sweep driver),
+  :mod:`~neweul_py.fem.working_point_file` (optional file groups) and
+  :mod:`~neweul_py.fem.ear_transfer` (frequency responses with the chain);
 * :mod:`~neweul_py.fem.output`, :mod:`~neweul_py.fem.plots` – atomic sweep output, pictures.
 """
 

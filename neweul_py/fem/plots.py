@@ -112,7 +112,7 @@ def plot_static(me: MiddleEar, states: list[StaticState], path: str | Path) -> P
 
 def tm_modes(me: MiddleEar, state: StaticState, n: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """In-vacuo TM modes at a working point, with the ossicular support: (f [Hz], modes (3N, n))."""
-    from .middle_ear import working_point_model
+    from .ear_working_point import working_point_model
 
     fe = working_point_model(me, state, include_support=True)
     nu = me.n_u

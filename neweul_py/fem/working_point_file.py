@@ -1,0 +1,103 @@
+"""Optional groups of a working-point FE file: the static state and the loss factors.
+
+A working point of ``neweul fem middle-ear`` is a ``neweul-fe`` ``.npz``
+(:func:`neweul_py.elastic.fe_io.write_fe_model`) with two optional groups that readers of the
+format may ignore (backward compatible: :func:`~neweul_py.elastic.fe_io.read_fe_model` reads
+only its own arrays):
+
+* ``static_*`` — the static state the model is linearized about
+  (:func:`~neweul_py.fem.ear_working_point.static_data`): ``static_dp`` [Pa],
+  ``static_node_id``, ``static_reference``, ``static_u`` (TM nodes, reference positions and
+  static displacements [m]), ``static_x`` (the static state on the model's DOFs),
+  ``static_manubrium_node_id``, ``static_manubrium_force`` (static forces of the malleus on the
+  manubrium nodes [N]), ``static_malleus_q`` (6), ``static_chain_tangent`` (6×6);
+* ``loss_*`` — the hysteretic damping ``G`` of the frequency-domain stiffness ``K + iG``
+  (``loss_G_data``, ``loss_G_indices``, ``loss_G_indptr``, ``loss_G_shape``: CSR) and
+  ``loss_meta`` (UTF-8 JSON: the loss factors, ``f_ref`` and how ``D = G/ω_ref`` was made).
+
+An FRF should use ``K + iG − ω² M`` (``D`` ignored); a time integration uses ``D``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sps
+
+from ..atomic import atomic_savez
+from ..elastic.fe_io import write_fe_model
+from ..elastic.fe_model import FEModel
+from ..errors import DataError
+from .ear_parameters import MiddleEarParameters
+
+__all__ = ["loss_info", "read_loss", "read_static", "write_working_point"]
+
+
+def loss_info(p: MiddleEarParameters) -> dict[str, Any]:
+    """The ``loss_meta`` record: loss factors and the time-domain equivalent."""
+    return {
+        "tm_loss": p.tm_loss,
+        "air_loss": p.air_loss,
+        "mastoid_loss": p.mastoid_loss,
+        "f_ref_Hz": p.f_ref,
+        "frequency_domain": "K + i G",
+        "time_domain": "D = G / (2 pi f_ref): the loss factors exact at f_ref, "
+        "eta(f) = eta f / f_ref elsewhere",
+    }
+
+
+def write_working_point(
+    fe: FEModel,
+    path: str | os.PathLike,
+    g: sps.spmatrix | None = None,
+    loss: dict[str, Any] | None = None,
+    static: dict[str, np.ndarray] | None = None,
+) -> None:
+    """Write ``fe`` as a ``neweul-fe`` ``.npz`` plus the optional ``loss_*``/``static_*`` groups.
+
+    The file is written twice atomically (the format writer, then with the groups added), so a
+    reader never sees a partial file.
+    """
+    path = Path(path)
+    write_fe_model(fe, path)
+    if g is None and static is None:
+        return
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    if g is not None:
+        g = sps.csr_matrix(g)
+        arrays["loss_G_data"] = g.data
+        arrays["loss_G_indices"] = g.indices.astype(np.int64)
+        arrays["loss_G_indptr"] = g.indptr.astype(np.int64)
+        arrays["loss_G_shape"] = np.asarray(g.shape, dtype=np.int64)
+        arrays["loss_meta"] = np.frombuffer(json.dumps(loss or {}).encode(), dtype=np.uint8)
+    for key, value in (static or {}).items():
+        arrays[f"static_{key}"] = np.asarray(value)
+    atomic_savez(path, **arrays)
+
+
+def read_loss(path: str | os.PathLike) -> tuple[sps.csr_matrix, dict[str, Any]] | None:
+    """``(G, loss_meta)`` of a working-point file, or ``None`` if it has no ``loss`` group."""
+    with np.load(path, allow_pickle=False) as data:
+        if "loss_G_data" not in data.files:
+            return None
+        try:
+            shape = tuple(int(s) for s in data["loss_G_shape"])
+            g = sps.csr_matrix(
+                (data["loss_G_data"], data["loss_G_indices"], data["loss_G_indptr"]), shape=shape
+            )
+            meta = json.loads(data["loss_meta"].tobytes().decode("utf-8"))
+        except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
+            raise DataError(f"inconsistent loss group ({exc})", str(path), "loss_G") from None
+    return g, meta
+
+
+def read_static(path: str | os.PathLike) -> dict[str, np.ndarray] | None:
+    """The ``static`` group (keys without the ``static_`` prefix), or ``None`` if absent."""
+    with np.load(path, allow_pickle=False) as data:
+        out = {k[len("static_") :]: data[k] for k in data.files if k.startswith("static_")}
+    return out or None
