@@ -46,7 +46,7 @@ def default_parameters():
 
 def default_inputs(t, p):
     """The default excitation ``u(t)`` of the description."""
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     u = _np.array((F0*_math.sin(Omega*t),), dtype=_np.float64)
     return u
 
@@ -54,7 +54,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.cos(phi)
     _c1 = _math.sin(phi)
     _c2 = (1/2)*l
@@ -69,7 +69,7 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
     d_x, d_phi = _np.asarray(yd, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     F, = _np.asarray(u, dtype=_np.float64).tolist()
@@ -79,9 +79,9 @@ def force_vector(t, y, yd, p, u=None):
     _c3 = l0 + x_
     _c4 = abs(_c3)
     _c5 = _c3/_c4
-    _c6 = _c0*g
+    _c6 = _c0*g_
     _c7 = _c1*mp
-    f = _np.array((F + _c5*(-k*(_c4 - l0) - _c5*d*d_x) + _c6*_c7 - _c7*(_c6 + _c2*d_phi*d_phi), -_c2*_c7*g), dtype=_np.float64)
+    f = _np.array((F + _c5*(-k*(_c4 - l0) - _c5*d*d_x) + _c6*_c7 - _c7*(_c6 + _c2*d_phi*d_phi), -_c2*_c7*g_), dtype=_np.float64)
     return f
 
 
@@ -89,7 +89,7 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     x_, phi, d_x, d_phi = x.tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     F, = _np.asarray(u, dtype=_np.float64).tolist()
@@ -99,13 +99,13 @@ def rhs(t, x, p, u=None):
     _c3 = l0 + x_
     _c4 = abs(_c3)
     _c5 = _c3/_c4
-    _c6 = _c0*g
+    _c6 = _c0*g_
     _c7 = _c1*mp
     M = _np.empty((2, 2))
     M[0, 0] = mc + mp*_c0*_c0 + mp*_c1*_c1
     M[0, 1] = M[1, 0] = -_c0*_c2*mp
     M[1, 1] = (1/3)*mp*l*l
-    f = _np.array((F + _c5*(-k*(_c4 - l0) - _c5*d*d_x) + _c6*_c7 - _c7*(_c6 + _c2*d_phi*d_phi), -_c2*_c7*g), dtype=_np.float64)
+    f = _np.array((F + _c5*(-k*(_c4 - l0) - _c5*d*d_x) + _c6*_c7 - _c7*(_c6 + _c2*d_phi*d_phi), -_c2*_c7*g_), dtype=_np.float64)
     xd = _np.empty(4)
     xd[:2] = x[2:4]
     xd[2:] = _np.linalg.solve(M, f)
@@ -116,7 +116,7 @@ def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
     d_x, d_phi = _np.asarray(yd, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.cos(phi)
     _c0 = _e0
     _e1 = _math.sin(phi)
@@ -130,15 +130,15 @@ def force_jacobians(t, y, yd, p, u=None):
     _e2 = 1/_c4
     _c5 = _c3*_e2
     _d3 = _e2 + (_c3*(-1/(_c4*_c4)))*_d2
-    _c6 = _c0*g
-    _d4 = g*_d0
+    _c6 = _c0*g_
+    _d4 = g_*_d0
     _c7 = _c1*mp
     _d5 = mp*_d1
     _e3 = -_c7
     fy = _np.zeros((2, 2))
     fy[0, 0] = (_c5*(-k))*_d2 + (-k*(_c4 - l0) - _c5*d*d_x + _c5*(-d*d_x))*_d3
     fy[0, 1] = (_c7 + _e3)*_d4 + (_c6 - (_c6 + _c2*d_phi*d_phi))*_d5
-    fy[1, 1] = (-_c2*g)*_d5
+    fy[1, 1] = (-_c2*g_)*_d5
     fyd = _np.zeros((2, 2))
     fyd[0, 0] = _c5*(-_c5*d)
     fyd[0, 1] = _e3*(_c2*(2*d_phi))
@@ -150,7 +150,7 @@ def force_jacobians(t, y, yd, p, u=None):
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
     _e0 = _math.cos(phi)
     _c0 = _e0
@@ -185,7 +185,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _o0 = _math.sin(phi)
     out = _np.array((_o0*(-l + _o0*x_) + x_*_math.cos(phi)**2, -d*d_x - k*x_), dtype=_np.float64)
     return out
@@ -194,7 +194,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.sin(phi)
     _o0 = _e0
     _e1 = _math.cos(phi)
@@ -212,12 +212,12 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
-    mc, mp, l, k, d, l0, F0, Omega, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _w0 = d_x*d_x
     _w1 = (1/2)*l
     _w2 = _math.cos(phi)
     _w3 = _math.sin(phi)
-    energy = _np.array(((1/2)*_w0*mc + (1/2)*mp*((_w2*d_x - _w1*d_phi)**2 + _w0*_w3*_w3) + (1/24)*mp*d_phi*d_phi*l*l, g*mp*(_w2*(-_w1 + _w3*x_) - _w2*_w3*x_), (1/2)*k*(-l0 + abs(l0 + x_))**2, 0), dtype=_np.float64)
+    energy = _np.array(((1/2)*_w0*mc + (1/2)*mp*((_w2*d_x - _w1*d_phi)**2 + _w0*_w3*_w3) + (1/24)*mp*d_phi*d_phi*l*l, g_*mp*(_w2*(-_w1 + _w3*x_) - _w2*_w3*x_), (1/2)*k*(-l0 + abs(l0 + x_))**2, 0), dtype=_np.float64)
     return energy
 
 

@@ -47,7 +47,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10 = _np.asarray(y, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link2_0 = _math.cos(q2)
     _s_link2_0 = _math.sin(q2)
     _JT_link2_0_0 = -_c_link2_0*l
@@ -675,11 +675,11 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10 = _np.asarray(y, dtype=_np.float64).tolist()
     d_q1, d_q2, d_q3, d_q4, d_q5, d_q6, d_q7, d_q8, d_q9, d_q10 = _np.asarray(yd, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link1_0 = _math.cos(q1)
     _s_link1_0 = _math.sin(q1)
-    _g_link1_0 = _s_link1_0*g
-    _g_link1_2 = -_c_link1_0*g
+    _g_link1_0 = _s_link1_0*g_
+    _g_link1_2 = -_c_link1_0*g_
     _c_link2_0 = _math.cos(q2)
     _s_link2_0 = _math.sin(q2)
     _w_link2_1 = d_q1 + d_q2
@@ -839,11 +839,11 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10, d_q1, d_q2, d_q3, d_q4, d_q5, d_q6, d_q7, d_q8, d_q9, d_q10 = x.tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link1_0 = _math.cos(q1)
     _s_link1_0 = _math.sin(q1)
-    _g_link1_0 = _s_link1_0*g
-    _g_link1_2 = -_c_link1_0*g
+    _g_link1_0 = _s_link1_0*g_
+    _g_link1_2 = -_c_link1_0*g_
     _c_link2_0 = _math.cos(q2)
     _s_link2_0 = _math.sin(q2)
     _JT_link2_0_0 = -_c_link2_0*l
@@ -1608,15 +1608,15 @@ def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10 = _np.asarray(y, dtype=_np.float64).tolist()
     d_q1, d_q2, d_q3, d_q4, d_q5, d_q6, d_q7, d_q8, d_q9, d_q10 = _np.asarray(yd, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link1_0 = _math.cos(q1)
     _d0 = -_math.sin(q1)
     _s_link1_0 = _math.sin(q1)
     _d1 = _math.cos(q1)
-    _g_link1_0 = _s_link1_0*g
-    _d2 = g*_d1
-    _g_link1_2 = -_c_link1_0*g
-    _d3 = (-g)*_d0
+    _g_link1_0 = _s_link1_0*g_
+    _d2 = g_*_d1
+    _g_link1_2 = -_c_link1_0*g_
+    _d3 = (-g_)*_d0
     _c_link2_0 = _math.cos(q2)
     _d4 = -_math.sin(q2)
     _s_link2_0 = _math.sin(q2)
@@ -3328,7 +3328,7 @@ def force_jacobians(t, y, yd, p, u=None):
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10 = _np.asarray(y, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2, _a3, _a4, _a5, _a6, _a7, _a8, _a9 = _np.asarray(a, dtype=_np.float64).tolist()
     _c_link2_0 = _math.cos(q2)
     _d0 = -_math.sin(q2)
@@ -6236,7 +6236,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10, d_q1, d_q2, d_q3, d_q4, d_q5, d_q6, d_q7, d_q8, d_q9, d_q10 = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link1_0 = _math.cos(q1)
     _s_link1_0 = _math.sin(q1)
     _c_link2_0 = _math.cos(q2)
@@ -6312,7 +6312,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10, d_q1, d_q2, d_q3, d_q4, d_q5, d_q6, d_q7, d_q8, d_q9, d_q10 = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link1_0 = _math.cos(q1)
     _d0 = -_math.sin(q1)
     _s_link1_0 = _math.sin(q1)
@@ -6699,7 +6699,7 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     q1, q2, q3, q4, q5, q6, q7, q8, q9, q10, d_q1, d_q2, d_q3, d_q4, d_q5, d_q6, d_q7, d_q8, d_q9, d_q10 = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c_link1_0 = _math.cos(q1)
     _s_link1_0 = _math.sin(q1)
     _c_link2_0 = _math.cos(q2)
@@ -7038,7 +7038,7 @@ def energy(t, x, p, u=None):
     _x_link1_2_11 = _c_link1_0*_x_link2_2_10 - _s_link1_0*_x_link2_0_10
     _w55 = d_q1*d_q1
     _w56 = l*l
-    energy = _np.array(((1/2)*m*((_JT_link3_0_2*d_q1 + _JT_link3_1_2*d_q2)**2 + (_JTc_rod3_0_0*d_q1 + _JTc_rod3_1_0*d_q2 - (1/2)*d_q3*l)**2) + (1/2)*m*((_JTc_rod2_0_0*d_q1 - (1/2)*d_q2*l)**2 + _JT_link2_0_2*_JT_link2_0_2*_w55) + (1/2)*m*((_JT_link4_0_2*d_q1 + _JT_link4_1_2*d_q2 + _JT_link4_2_2*d_q3)**2 + (_JTc_rod4_0_0*d_q1 + _JTc_rod4_1_0*d_q2 + _JTc_rod4_2_0*d_q3 - (1/2)*d_q4*l)**2) + (1/2)*m*((_JT_link5_0_2*d_q1 + _JT_link5_1_2*d_q2 + _JT_link5_2_2*d_q3 + _JT_link5_3_2*d_q4)**2 + (_JTc_rod5_0_0*d_q1 + _JTc_rod5_1_0*d_q2 + _JTc_rod5_2_0*d_q3 + _JTc_rod5_3_0*d_q4 - (1/2)*d_q5*l)**2) + (1/2)*m*((_JT_link6_0_2*d_q1 + _JT_link6_1_2*d_q2 + _JT_link6_2_2*d_q3 + _JT_link6_3_2*d_q4 + _JT_link6_4_2*d_q5)**2 + (_JTc_rod6_0_0*d_q1 + _JTc_rod6_1_0*d_q2 + _JTc_rod6_2_0*d_q3 + _JTc_rod6_3_0*d_q4 + _JTc_rod6_4_0*d_q5 - (1/2)*d_q6*l)**2) + (1/2)*m*((_JT_link7_0_2*d_q1 + _JT_link7_1_2*d_q2 + _JT_link7_2_2*d_q3 + _JT_link7_3_2*d_q4 + _JT_link7_4_2*d_q5 + _JT_link7_5_2*d_q6)**2 + (_JTc_rod7_0_0*d_q1 + _JTc_rod7_1_0*d_q2 + _JTc_rod7_2_0*d_q3 + _JTc_rod7_3_0*d_q4 + _JTc_rod7_4_0*d_q5 + _JTc_rod7_5_0*d_q6 - (1/2)*d_q7*l)**2) + (1/2)*m*((_JT_link8_0_2*d_q1 + _JT_link8_1_2*d_q2 + _JT_link8_2_2*d_q3 + _JT_link8_3_2*d_q4 + _JT_link8_4_2*d_q5 + _JT_link8_5_2*d_q6 + _JT_link8_6_2*d_q7)**2 + (_JTc_rod8_0_0*d_q1 + _JTc_rod8_1_0*d_q2 + _JTc_rod8_2_0*d_q3 + _JTc_rod8_3_0*d_q4 + _JTc_rod8_4_0*d_q5 + _JTc_rod8_5_0*d_q6 + _JTc_rod8_6_0*d_q7 - (1/2)*d_q8*l)**2) + (1/2)*m*((_JT_link9_0_2*d_q1 + _JT_link9_1_2*d_q2 + _JT_link9_2_2*d_q3 + _JT_link9_3_2*d_q4 + _JT_link9_4_2*d_q5 + _JT_link9_5_2*d_q6 + _JT_link9_6_2*d_q7 + _JT_link9_7_2*d_q8)**2 + (_JTc_rod9_0_0*d_q1 + _JTc_rod9_1_0*d_q2 + _JTc_rod9_2_0*d_q3 + _JTc_rod9_3_0*d_q4 + _JTc_rod9_4_0*d_q5 + _JTc_rod9_5_0*d_q6 + _JTc_rod9_6_0*d_q7 + _JTc_rod9_7_0*d_q8 - (1/2)*d_q9*l)**2) + (1/2)*m*((_JT_link10_0_2*d_q1 + _JT_link10_1_2*d_q2 + _JT_link10_2_2*d_q3 + _JT_link10_3_2*d_q4 + _JT_link10_4_2*d_q5 + _JT_link10_5_2*d_q6 + _JT_link10_6_2*d_q7 + _JT_link10_7_2*d_q8 + _JT_link10_8_2*d_q9)**2 + (_JTc_rod10_0_0*d_q1 + _JTc_rod10_1_0*d_q2 + _JTc_rod10_2_0*d_q3 + _JTc_rod10_3_0*d_q4 + _JTc_rod10_4_0*d_q5 + _JTc_rod10_5_0*d_q6 + _JTc_rod10_6_0*d_q7 + _JTc_rod10_7_0*d_q8 + _JTc_rod10_8_0*d_q9 - (1/2)*d_q10*l)**2) + (1/6)*m*_w55*_w56 + (1/24)*m*_w_link10_1*_w_link10_1*_w56 + (1/24)*m*_w_link2_1*_w_link2_1*_w56 + (1/24)*m*_w_link3_1*_w_link3_1*_w56 + (1/24)*m*_w_link4_1*_w_link4_1*_w56 + (1/24)*m*_w_link5_1*_w_link5_1*_w56 + (1/24)*m*_w_link6_1*_w_link6_1*_w56 + (1/24)*m*_w_link7_1*_w_link7_1*_w56 + (1/24)*m*_w_link8_1*_w_link8_1*_w56 + (1/24)*m*_w_link9_1*_w_link9_1*_w56, _x_link1_2_10*g*m + _x_link1_2_11*g*m + _x_link1_2_2*g*m + _x_link1_2_3*g*m + _x_link1_2_4*g*m + _x_link1_2_5*g*m + _x_link1_2_6*g*m + _x_link1_2_7*g*m + _x_link1_2_8*g*m + _x_link1_2_9*g*m, 0, 0), dtype=_np.float64)
+    energy = _np.array(((1/2)*m*((_JT_link3_0_2*d_q1 + _JT_link3_1_2*d_q2)**2 + (_JTc_rod3_0_0*d_q1 + _JTc_rod3_1_0*d_q2 - (1/2)*d_q3*l)**2) + (1/2)*m*((_JTc_rod2_0_0*d_q1 - (1/2)*d_q2*l)**2 + _JT_link2_0_2*_JT_link2_0_2*_w55) + (1/2)*m*((_JT_link4_0_2*d_q1 + _JT_link4_1_2*d_q2 + _JT_link4_2_2*d_q3)**2 + (_JTc_rod4_0_0*d_q1 + _JTc_rod4_1_0*d_q2 + _JTc_rod4_2_0*d_q3 - (1/2)*d_q4*l)**2) + (1/2)*m*((_JT_link5_0_2*d_q1 + _JT_link5_1_2*d_q2 + _JT_link5_2_2*d_q3 + _JT_link5_3_2*d_q4)**2 + (_JTc_rod5_0_0*d_q1 + _JTc_rod5_1_0*d_q2 + _JTc_rod5_2_0*d_q3 + _JTc_rod5_3_0*d_q4 - (1/2)*d_q5*l)**2) + (1/2)*m*((_JT_link6_0_2*d_q1 + _JT_link6_1_2*d_q2 + _JT_link6_2_2*d_q3 + _JT_link6_3_2*d_q4 + _JT_link6_4_2*d_q5)**2 + (_JTc_rod6_0_0*d_q1 + _JTc_rod6_1_0*d_q2 + _JTc_rod6_2_0*d_q3 + _JTc_rod6_3_0*d_q4 + _JTc_rod6_4_0*d_q5 - (1/2)*d_q6*l)**2) + (1/2)*m*((_JT_link7_0_2*d_q1 + _JT_link7_1_2*d_q2 + _JT_link7_2_2*d_q3 + _JT_link7_3_2*d_q4 + _JT_link7_4_2*d_q5 + _JT_link7_5_2*d_q6)**2 + (_JTc_rod7_0_0*d_q1 + _JTc_rod7_1_0*d_q2 + _JTc_rod7_2_0*d_q3 + _JTc_rod7_3_0*d_q4 + _JTc_rod7_4_0*d_q5 + _JTc_rod7_5_0*d_q6 - (1/2)*d_q7*l)**2) + (1/2)*m*((_JT_link8_0_2*d_q1 + _JT_link8_1_2*d_q2 + _JT_link8_2_2*d_q3 + _JT_link8_3_2*d_q4 + _JT_link8_4_2*d_q5 + _JT_link8_5_2*d_q6 + _JT_link8_6_2*d_q7)**2 + (_JTc_rod8_0_0*d_q1 + _JTc_rod8_1_0*d_q2 + _JTc_rod8_2_0*d_q3 + _JTc_rod8_3_0*d_q4 + _JTc_rod8_4_0*d_q5 + _JTc_rod8_5_0*d_q6 + _JTc_rod8_6_0*d_q7 - (1/2)*d_q8*l)**2) + (1/2)*m*((_JT_link9_0_2*d_q1 + _JT_link9_1_2*d_q2 + _JT_link9_2_2*d_q3 + _JT_link9_3_2*d_q4 + _JT_link9_4_2*d_q5 + _JT_link9_5_2*d_q6 + _JT_link9_6_2*d_q7 + _JT_link9_7_2*d_q8)**2 + (_JTc_rod9_0_0*d_q1 + _JTc_rod9_1_0*d_q2 + _JTc_rod9_2_0*d_q3 + _JTc_rod9_3_0*d_q4 + _JTc_rod9_4_0*d_q5 + _JTc_rod9_5_0*d_q6 + _JTc_rod9_6_0*d_q7 + _JTc_rod9_7_0*d_q8 - (1/2)*d_q9*l)**2) + (1/2)*m*((_JT_link10_0_2*d_q1 + _JT_link10_1_2*d_q2 + _JT_link10_2_2*d_q3 + _JT_link10_3_2*d_q4 + _JT_link10_4_2*d_q5 + _JT_link10_5_2*d_q6 + _JT_link10_6_2*d_q7 + _JT_link10_7_2*d_q8 + _JT_link10_8_2*d_q9)**2 + (_JTc_rod10_0_0*d_q1 + _JTc_rod10_1_0*d_q2 + _JTc_rod10_2_0*d_q3 + _JTc_rod10_3_0*d_q4 + _JTc_rod10_4_0*d_q5 + _JTc_rod10_5_0*d_q6 + _JTc_rod10_6_0*d_q7 + _JTc_rod10_7_0*d_q8 + _JTc_rod10_8_0*d_q9 - (1/2)*d_q10*l)**2) + (1/6)*m*_w55*_w56 + (1/24)*m*_w_link10_1*_w_link10_1*_w56 + (1/24)*m*_w_link2_1*_w_link2_1*_w56 + (1/24)*m*_w_link3_1*_w_link3_1*_w56 + (1/24)*m*_w_link4_1*_w_link4_1*_w56 + (1/24)*m*_w_link5_1*_w_link5_1*_w56 + (1/24)*m*_w_link6_1*_w_link6_1*_w56 + (1/24)*m*_w_link7_1*_w_link7_1*_w56 + (1/24)*m*_w_link8_1*_w_link8_1*_w56 + (1/24)*m*_w_link9_1*_w_link9_1*_w56, _x_link1_2_10*g_*m + _x_link1_2_11*g_*m + _x_link1_2_2*g_*m + _x_link1_2_3*g_*m + _x_link1_2_4*g_*m + _x_link1_2_5*g_*m + _x_link1_2_6*g_*m + _x_link1_2_7*g_*m + _x_link1_2_8*g_*m + _x_link1_2_9*g_*m, 0, 0), dtype=_np.float64)
     return energy
 
 

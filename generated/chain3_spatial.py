@@ -48,7 +48,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     a1, b1, a2, b2, a3, b3 = _np.asarray(y, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.cos(b1)
     _c1 = _math.cos(b2)
     _c2 = _math.sin(b2)
@@ -188,7 +188,7 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     a1, b1, a2, b2, a3, b3 = _np.asarray(y, dtype=_np.float64).tolist()
     d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = _np.asarray(yd, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.cos(b1)
     _c1 = _math.cos(b2)
     _c2 = _math.sin(b2)
@@ -317,8 +317,8 @@ def force_vector(t, y, yd, p, u=None):
     _c149 = _c12*_c125
     _c150 = 2*_c122*_c9
     _c151 = _math.sin(a1)
-    _c152 = _c151*g
-    _c153 = g*_math.cos(a1)
+    _c152 = _c151*g_
+    _c153 = g_*_math.cos(a1)
     _c154 = _c117*_c153 + _c152*_c3
     _c155 = _c154 - _c150 + _c13*_c148 + (1/2)*_c138*l - _c127*_c149
     _c156 = _c118*l
@@ -352,7 +352,7 @@ def force_vector(t, y, yd, p, u=None):
     _c184 = _c123*_c178 + _c130*d_b3 + _c131*d_b3 + _c138*_c20 - _c118*_c43 - _c130*_c141
     _c185 = _c167 + _c173 + (1/2)*_c171 + (1/2)*_c172 - _c165 - _c166
     _c186 = _c0*_c146*_c4
-    f = _np.array((-_c0*(-(1/6)*_c122*_c47 + (1/2)*_c4*_c40*d_a1*d_b1*m) - _c123*_c78 - _c137*_c37 - _c14*_c182 - _c140*_c7 - _c145*_c27 - _c155*_c77 - _c163*_c55 - _c176*_c62 - _c179*_c66 - _c180*_c71 - _c184*_c74 - _c0*_c122*_c42 - _c0*_c183*(_c151*g - _c122*l) + _c0*_c1*_c13*_c185*l*m, -_c137*_c68 - _c140*_c57 - _c145*_c59 - _c163*_c98 - _c176*_c91 - _c179*_c97 - _c180*_c92 - _c182*_c3 - _c184*_c93 - _c186*_c49 + (1/2)*l*m*(-_c157 - _c12*_c186) - _c155*_c183*_c57 + _c185*_c2*l*m + (1/2)*_c0*_c146*_c4*_c40*m + (1/2)*_c1*_c123*_c13*_c40*m, -_c1*_c140 - _c102*_c180 - _c103*_c176 - _c104*_c184 - _c137*_c60 - _c145*_c80 - _c123*_c2*_c42 - _c155*_c41*_c53 + _c1*_c179*_c19*_c25*l*m, -_c182 - _c109*_c180 - _c137*_c18 - _c145*_c26 + (1/2)*_c163*l*m - _c176*_c183*_c26 + _c179*_c20*l*m + (1/2)*_c184*_c19*_c25*_c40*m, -_c145*_c19 - _c176*_c34*_c41 - _c184*_c20*_c42, -_c137 + (1/2)*_c180*l*m), dtype=_np.float64)
+    f = _np.array((-_c0*(-(1/6)*_c122*_c47 + (1/2)*_c4*_c40*d_a1*d_b1*m) - _c123*_c78 - _c137*_c37 - _c14*_c182 - _c140*_c7 - _c145*_c27 - _c155*_c77 - _c163*_c55 - _c176*_c62 - _c179*_c66 - _c180*_c71 - _c184*_c74 - _c0*_c122*_c42 - _c0*_c183*(_c151*g_ - _c122*l) + _c0*_c1*_c13*_c185*l*m, -_c137*_c68 - _c140*_c57 - _c145*_c59 - _c163*_c98 - _c176*_c91 - _c179*_c97 - _c180*_c92 - _c182*_c3 - _c184*_c93 - _c186*_c49 + (1/2)*l*m*(-_c157 - _c12*_c186) - _c155*_c183*_c57 + _c185*_c2*l*m + (1/2)*_c0*_c146*_c4*_c40*m + (1/2)*_c1*_c123*_c13*_c40*m, -_c1*_c140 - _c102*_c180 - _c103*_c176 - _c104*_c184 - _c137*_c60 - _c145*_c80 - _c123*_c2*_c42 - _c155*_c41*_c53 + _c1*_c179*_c19*_c25*l*m, -_c182 - _c109*_c180 - _c137*_c18 - _c145*_c26 + (1/2)*_c163*l*m - _c176*_c183*_c26 + _c179*_c20*l*m + (1/2)*_c184*_c19*_c25*_c40*m, -_c145*_c19 - _c176*_c34*_c41 - _c184*_c20*_c42, -_c137 + (1/2)*_c180*l*m), dtype=_np.float64)
     return f
 
 
@@ -360,7 +360,7 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     a1, b1, a2, b2, a3, b3, d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = x.tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.cos(b1)
     _c1 = _math.cos(b2)
     _c2 = _math.sin(b2)
@@ -513,8 +513,8 @@ def rhs(t, x, p, u=None):
     _c149 = _c12*_c125
     _c150 = 2*_c122*_c9
     _c151 = _math.sin(a1)
-    _c152 = _c151*g
-    _c153 = g*_math.cos(a1)
+    _c152 = _c151*g_
+    _c153 = g_*_math.cos(a1)
     _c154 = _c117*_c153 + _c152*_c3
     _c155 = _c154 - _c150 + _c13*_c148 + (1/2)*_c138*l - _c127*_c149
     _c156 = _c118*l
@@ -570,7 +570,7 @@ def rhs(t, x, p, u=None):
     M[4, 4] = _c100*_c48 + _c107*_c42
     M[4, 5] = M[5, 4] = 0
     M[5, 5] = _c48
-    f = _np.array((-_c0*(-(1/6)*_c122*_c47 + (1/2)*_c4*_c40*d_a1*d_b1*m) - _c123*_c78 - _c137*_c37 - _c14*_c182 - _c140*_c7 - _c145*_c27 - _c155*_c77 - _c163*_c55 - _c176*_c62 - _c179*_c66 - _c180*_c71 - _c184*_c74 - _c0*_c122*_c42 - _c0*_c183*(_c151*g - _c122*l) + _c0*_c1*_c13*_c185*l*m, -_c137*_c68 - _c140*_c57 - _c145*_c59 - _c163*_c98 - _c176*_c91 - _c179*_c97 - _c180*_c92 - _c182*_c3 - _c184*_c93 - _c186*_c49 + (1/2)*l*m*(-_c157 - _c12*_c186) - _c155*_c183*_c57 + _c185*_c2*l*m + (1/2)*_c0*_c146*_c4*_c40*m + (1/2)*_c1*_c123*_c13*_c40*m, -_c1*_c140 - _c102*_c180 - _c103*_c176 - _c104*_c184 - _c137*_c60 - _c145*_c80 - _c123*_c2*_c42 - _c155*_c41*_c53 + _c1*_c179*_c19*_c25*l*m, -_c182 - _c109*_c180 - _c137*_c18 - _c145*_c26 + (1/2)*_c163*l*m - _c176*_c183*_c26 + _c179*_c20*l*m + (1/2)*_c184*_c19*_c25*_c40*m, -_c145*_c19 - _c176*_c34*_c41 - _c184*_c20*_c42, -_c137 + (1/2)*_c180*l*m), dtype=_np.float64)
+    f = _np.array((-_c0*(-(1/6)*_c122*_c47 + (1/2)*_c4*_c40*d_a1*d_b1*m) - _c123*_c78 - _c137*_c37 - _c14*_c182 - _c140*_c7 - _c145*_c27 - _c155*_c77 - _c163*_c55 - _c176*_c62 - _c179*_c66 - _c180*_c71 - _c184*_c74 - _c0*_c122*_c42 - _c0*_c183*(_c151*g_ - _c122*l) + _c0*_c1*_c13*_c185*l*m, -_c137*_c68 - _c140*_c57 - _c145*_c59 - _c163*_c98 - _c176*_c91 - _c179*_c97 - _c180*_c92 - _c182*_c3 - _c184*_c93 - _c186*_c49 + (1/2)*l*m*(-_c157 - _c12*_c186) - _c155*_c183*_c57 + _c185*_c2*l*m + (1/2)*_c0*_c146*_c4*_c40*m + (1/2)*_c1*_c123*_c13*_c40*m, -_c1*_c140 - _c102*_c180 - _c103*_c176 - _c104*_c184 - _c137*_c60 - _c145*_c80 - _c123*_c2*_c42 - _c155*_c41*_c53 + _c1*_c179*_c19*_c25*l*m, -_c182 - _c109*_c180 - _c137*_c18 - _c145*_c26 + (1/2)*_c163*l*m - _c176*_c183*_c26 + _c179*_c20*l*m + (1/2)*_c184*_c19*_c25*_c40*m, -_c145*_c19 - _c176*_c34*_c41 - _c184*_c20*_c42, -_c137 + (1/2)*_c180*l*m), dtype=_np.float64)
     xd = _np.empty(12)
     xd[:6] = x[6:12]
     xd[6:] = _np.linalg.solve(M, f)
@@ -581,7 +581,7 @@ def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     a1, b1, a2, b2, a3, b3 = _np.asarray(y, dtype=_np.float64).tolist()
     d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = _np.asarray(yd, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.cos(b1)
     _c0 = _e0
     _e1 = _math.sin(b1)
@@ -1182,11 +1182,11 @@ def force_jacobians(t, y, yd, p, u=None):
     _c151 = _e74
     _e75 = _math.cos(a1)
     _d395 = _e75
-    _e76 = _c151*g
+    _e76 = _c151*g_
     _c152 = _e76
-    _d396 = g*_d395
-    _c153 = g*_e75
-    _d397 = g*(-_e74)
+    _d396 = g_*_d395
+    _c153 = g_*_e75
+    _d397 = g_*(-_e74)
     _c154 = _c117*_c153 + _c152*_c3
     _d398 = _c3*_d396 + _c117*_d397
     _d399 = _c153*_d233
@@ -1499,7 +1499,7 @@ def force_jacobians(t, y, yd, p, u=None):
     _e175 = -_c34*_c41
     _e176 = -_c20*_c42
     fy = _np.empty((6, 6))
-    fy[0, 0] = (_e123*g)*_d395 + _e124*_d398 + _e125*_d433 + _e126*_d501 + _e127*_d521 + _e128*_d533 + _e129*_d567
+    fy[0, 0] = (_e123*g_)*_d395 + _e124*_d398 + _e125*_d433 + _e126*_d501 + _e127*_d521 + _e128*_d533 + _e129*_d567
     fy[0, 1] = (-(-(1/6)*_c122*_c47 + (1/2)*_c4*_c40*d_a1*d_b1*m) - _c122*_c42 - _c183*(_e76 - _c122*l) + _c1*_c13*_c185*l*m)*_d0 + _e131*_d245 + _e132*_d248 + _e133*_d311 + _e134*_d23 + _e135*_d334 + _e136*_d369 + _e124*_d401 + _e125*_d434 + _e126*_d502 + _e127*_d522 + _e128*_d534 + _e30*_d550 + _e137*_d556 + _e129*_d568 + _e138*_d50 + _e139*_d82 + (_e130*((1/2)*_c40*d_a1*d_b1*m))*_d4 + _e140*_d104 + _e141*_d123 + _e142*_d136 + _e143*_d10 + _e144*_d153 + _e145*_d164 + _e146*_d169 + _e72*_d172
     fy[0, 2] = _e132*_d249 + (_c0*_c1*_c185*l*m)*_d22 + _e133*_d312 + _e134*_d24 + _e135*_d335 + _e136*_d370 + _e124*_d402 + _e125*_d435 + _e126*_d503 + _e127*_d523 + _e128*_d535 + _e30*_d551 + _e137*_d557 + _e129*_d569 + _e138*_d51 + _e139*_d83 + _e140*_d105 + _e141*_d124 + _e142*_d137 + _e143*_d11 + _e144*_d154 + _e145*_d165 + _e146*_d170 + _e72*_d173
     fy[0, 3] = (_c0*_c13*_c185*l*m)*_d1 + _e132*_d250 + _e133*_d313 + _e135*_d336 + _e136*_d371 + _e124*_d403 + _e125*_d436 + _e126*_d504 + _e127*_d524 + _e128*_d536 + _e30*_d552 + _e137*_d558 + _e129*_d570 + _e138*_d52 + _e139*_d84 + _e140*_d106 + _e141*_d125 + _e142*_d138 + _e143*_d12 + _e144*_d155 + _e145*_d166 + _e146*_d171 + _e72*_d174
@@ -1578,7 +1578,7 @@ def force_jacobians(t, y, yd, p, u=None):
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
     a1, b1, a2, b2, a3, b3 = _np.asarray(y, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2, _a3, _a4, _a5 = _np.asarray(a, dtype=_np.float64).tolist()
     _e0 = _math.cos(b1)
     _c0 = _e0
@@ -2240,7 +2240,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     a1, b1, a2, b2, a3, b3, d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _o0 = _math.sin(b3)
     _o1 = _math.cos(b2)
     _o2 = _math.cos(a2)
@@ -2279,7 +2279,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     a1, b1, a2, b2, a3, b3, d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.sin(b3)
     _o0 = _e0
     _e1 = _math.cos(b3)
@@ -2436,7 +2436,7 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     a1, b1, a2, b2, a3, b3, d_a1, d_b1, d_a2, d_b2, d_a3, d_b3 = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, r, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _w0 = d_b1*d_b1
     _w1 = l*l
     _w2 = (1/4)*_w1
@@ -2506,7 +2506,7 @@ def energy(t, x, p, u=None):
     _w66 = _math.cos(a1)
     _w67 = _w4*_w66
     _w68 = _w15*_w66
-    _w69 = g*m
+    _w69 = g_*m
     _w70 = -_w24 - _w56
     _w71 = _w7*_w7
     energy = _np.array((_w0*_w55 + _w5*_w55 + _w51*_w50*_w50 + _w51*(_w31*_w52 + _w31*d_a3 + _w50*_w53 - _w42*_w54)**2 + _w55*_w52*_w52 + _w55*_w54*_w54 + _w55*(d_b3 + _w34*_w50 + _w36*_w54)**2 + _w55*(_w32*_w52 + _w32*d_a3 + _w47*_w54 - _w46*_w50)**2 + _w6*(_w0*_w2 + _w2*_w5) + _w6*((-_w11*_w13 - _w8*d_b1)**2 + ((1/2)*_w23 + _w24*_w26 + d_a1*(_w21 + (1/2)*_w19))**2 + (-_w29 + d_a1*(-_w28 - _w24*_w27) + d_b1*(-_w22 - (1/2)*_w20))**2) + _w6*((d_a1*(_w30*_w31 - _w32*_w35 - _w38*_w39) + d_b1*(_w31*_w40 - _w38*_w7 - _w25*_w34*_w37) - _w23*_w42 - _w41*d_b2)**2 + (_w29*_w47 + d_a1*(_w24*(_w18*_w32 + _w27*_w47 - _w45*_w46) + _w33*_w36 - _w10*_w13*_w34) + d_a2*(_w22*_w36 + _w24*(_w32*_w9 - _w46*_w7)) + d_b1*(_w24*(_w14*_w47 + _w25*_w32 + _w46*_w48) + _w36*_w49 - _w34*_w8) + (1/2)*_w37*d_a3)**2 + (d_a1*(_w30*_w32 + _w31*_w35 - _w24*(_w27*_w36 + _w34*_w45) + _w36*_w39*_w41) + d_a2*(-_w24*_w34*_w7 + _w31*_w34*_w9*l) + d_b1*(_w32*_w40 + _w46*_w8 + _w47*_w49 - _w24*(_w14*_w36 - _w34*_w48)) + d_b2*(-_w37 - _w24*_w36) - _w24*d_b3)**2) + _w3*_w51*_w15*_w15, _w69*(_w65*(_w14*_w62 + _w25*_w63 - _w48*_w64) + _w67*(_w12*_w62 + _w14*_w64*_w9 - _w14*_w63*_w7) - _w68*(_w63*_w9 + _w64*_w7)) + _w69*(_w65*(-_w12*_w20 - _w48*_w70 + _w12*_w14*_w71*l) + _w67*(-l*_w12*_w12 + _w14*_w70*_w9 - _w71*l*_w14*_w14) - _w68*(_w56*_w7 + _w7*_w70)) - _w24*_w67*_w69, 0, 0), dtype=_np.float64)

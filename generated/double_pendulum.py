@@ -49,7 +49,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = (1/2)*l2
     _c1 = _math.cos(phi2)
     _c2 = _c1*l1
@@ -70,15 +70,15 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = (1/2)*l2
     _c1 = _math.cos(phi2)
     _c2 = _c1*l1
     _c3 = -_c0 - _c2
     _c7 = _math.sin(phi2)
     _c8 = _c3*m2
-    _c9 = g*_math.cos(phi1)
-    _c10 = g*_math.sin(phi1)
+    _c9 = g_*_math.cos(phi1)
+    _c10 = g_*_math.sin(phi1)
     _c11 = d_phi1*d_phi1
     _c12 = -_c1*_c10 - _c7*_c9 - _c11*_c7*l1
     f = _np.array((-_c12*_c8 - (1/2)*_c10*l1*m1 + _c7*l1*m2*(_c0*(d_phi1 + d_phi2)**2 + _c1*_c9 + _c11*_c2 - _c10*_c7), _c0*_c12*m2), dtype=_np.float64)
@@ -89,7 +89,7 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     phi1, phi2, d_phi1, d_phi2 = x.tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = (1/2)*l2
     _c1 = _math.cos(phi2)
     _c2 = _c1*l1
@@ -99,8 +99,8 @@ def rhs(t, x, p, u=None):
     _c6 = (1/12)*_c5
     _c7 = _math.sin(phi2)
     _c8 = _c3*m2
-    _c9 = g*_math.cos(phi1)
-    _c10 = g*_math.sin(phi1)
+    _c9 = g_*_math.cos(phi1)
+    _c10 = g_*_math.sin(phi1)
     _c11 = d_phi1*d_phi1
     _c12 = -_c1*_c10 - _c7*_c9 - _c11*_c7*l1
     M = _np.empty((2, 2))
@@ -118,7 +118,7 @@ def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = (1/2)*l2
     _e0 = _math.cos(phi2)
     _c1 = _e0
@@ -132,11 +132,11 @@ def force_jacobians(t, y, yd, p, u=None):
     _d3 = _e0
     _c8 = _c3*m2
     _d4 = m2*_d2
-    _e2 = g*_math.cos(phi1)
+    _e2 = g_*_math.cos(phi1)
     _c9 = _e2
     _e3 = _math.sin(phi1)
-    _d5 = g*(-_e3)
-    _c10 = g*_e3
+    _d5 = g_*(-_e3)
+    _c10 = g_*_e3
     _d6 = _e2
     _c11 = d_phi1*d_phi1
     _e4 = 2*d_phi1
@@ -167,7 +167,7 @@ def force_jacobians(t, y, yd, p, u=None):
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
     _c0 = (1/2)*l2
     _e0 = _math.cos(phi2)
@@ -207,7 +207,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _o0 = _math.sin(phi2)
     _o1 = l1*_o0*_o0
     _o2 = _math.cos(phi2)
@@ -226,7 +226,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.sin(phi2)
     _o0 = _e0
     _e1 = _math.cos(phi2)
@@ -272,7 +272,7 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
-    m1, m2, l1, l2, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _w0 = (1/2)*l2
     _w1 = _math.cos(phi2)
     _w2 = _w1*l1
@@ -281,7 +281,7 @@ def energy(t, x, p, u=None):
     _w5 = _w4*_w4
     _w6 = d_phi1*d_phi1*l1*l1
     _w7 = _math.cos(phi1)
-    energy = _np.array(((1/2)*m2*((_w3*d_phi1 - _w0*d_phi2)**2 + _w5*_w6) + (1/6)*_w6*m1 + (1/24)*m2*l2*l2*(d_phi1 + d_phi2)**2, g*m2*(_w7*(_w1*_w3 - _w5*l1) - (_w2*_w4 + _w3*_w4)*_math.sin(phi1)) - (1/2)*_w7*g*l1*m1, 0, 0), dtype=_np.float64)
+    energy = _np.array(((1/2)*m2*((_w3*d_phi1 - _w0*d_phi2)**2 + _w5*_w6) + (1/6)*_w6*m1 + (1/24)*m2*l2*l2*(d_phi1 + d_phi2)**2, g_*m2*(_w7*(_w1*_w3 - _w5*l1) - (_w2*_w4 + _w3*_w4)*_math.sin(phi1)) - (1/2)*_w7*g_*l1*m1, 0, 0), dtype=_np.float64)
     return energy
 
 

@@ -55,7 +55,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = (1/2)*b
     _c1 = _math.cos(phi2)
     _c2 = _c1*a_
@@ -79,7 +79,7 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     Md, = _np.asarray(u, dtype=_np.float64).tolist()
@@ -92,10 +92,10 @@ def force_vector(t, y, yd, p, u=None):
     _c9 = d_phi1*d_phi1
     _c10 = _c7*a_
     _c11 = _math.cos(phi1)
-    _c12 = _c11*g
+    _c12 = _c11*g_
     _c13 = _math.sin(phi1)
-    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g
-    f = _np.array((Md - _c14*_c8 - cb*d_phi1 - _c10*mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g + _c11*_c7*g) - (1/2)*_c12*a_*ma, -_c0*_c14*mb, -cb*d_phi3 - kr*(phi3 - phi30) - (1/2)*c*g*mc*_math.cos(phi3)), dtype=_np.float64)
+    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g_
+    f = _np.array((Md - _c14*_c8 - cb*d_phi1 - _c10*mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g_ + _c11*_c7*g_) - (1/2)*_c12*a_*ma, -_c0*_c14*mb, -cb*d_phi3 - kr*(phi3 - phi30) - (1/2)*c*g_*mc*_math.cos(phi3)), dtype=_np.float64)
     return f
 
 
@@ -103,7 +103,7 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = x.tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     Md, = _np.asarray(u, dtype=_np.float64).tolist()
@@ -119,9 +119,9 @@ def rhs(t, x, p, u=None):
     _c9 = d_phi1*d_phi1
     _c10 = _c7*a_
     _c11 = _math.cos(phi1)
-    _c12 = _c11*g
+    _c12 = _c11*g_
     _c13 = _math.sin(phi1)
-    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g
+    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g_
     M = _np.empty((3, 3))
     M[0, 0] = _c6 + mb*_c3*_c3 + (1/3)*_c4*ma + _c4*mb*_c7*_c7
     M[0, 1] = M[1, 0] = _c6 + _c0*_c8
@@ -129,7 +129,7 @@ def rhs(t, x, p, u=None):
     M[1, 1] = (1/3)*_c5
     M[1, 2] = M[2, 1] = 0
     M[2, 2] = (1/3)*mc*c*c
-    f = _np.array((Md - _c14*_c8 - cb*d_phi1 - _c10*mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g + _c11*_c7*g) - (1/2)*_c12*a_*ma, -_c0*_c14*mb, -cb*d_phi3 - kr*(phi3 - phi30) - (1/2)*c*g*mc*_math.cos(phi3)), dtype=_np.float64)
+    f = _np.array((Md - _c14*_c8 - cb*d_phi1 - _c10*mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g_ + _c11*_c7*g_) - (1/2)*_c12*a_*ma, -_c0*_c14*mb, -cb*d_phi3 - kr*(phi3 - phi30) - (1/2)*c*g_*mc*_math.cos(phi3)), dtype=_np.float64)
     xd = _np.empty(6)
     xd[:3] = x[3:6]
     xd[3:] = _np.linalg.solve(M, f)
@@ -140,7 +140,7 @@ def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = (1/2)*b
     _e0 = _math.cos(phi2)
     _c1 = _e0
@@ -161,14 +161,14 @@ def force_jacobians(t, y, yd, p, u=None):
     _c11 = _e2
     _e3 = _math.sin(phi1)
     _d6 = -_e3
-    _e4 = _c11*g
+    _e4 = _c11*g_
     _c12 = _e4
-    _d7 = g*_d6
+    _d7 = g_*_d6
     _c13 = _e3
     _d8 = _e2
-    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g
-    _d9 = _c1*_d7 + (-_c7*g)*_d8
-    _d10 = _c12*_d0 + _c9*_d5 + (-_c13*g)*_d2
+    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g_
+    _d9 = _c1*_d7 + (-_c7*g_)*_d8
+    _d10 = _c12*_d0 + _c9*_d5 + (-_c13*g_)*_d2
     _d11 = _c10*_d4
     _e5 = -_c10*mb
     _e6 = -_c8
@@ -176,11 +176,11 @@ def force_jacobians(t, y, yd, p, u=None):
     _e8 = _e5*((-_c0)*((-2*d_phi1 - 2*d_phi2)*-1))
     _e9 = -_c0*mb
     fy = _np.zeros((3, 3))
-    fy[0, 0] = (_e5*(_c7*g))*_d6 + (-(1/2)*a_*ma)*_d7 + (_e5*(_c1*g))*_d8 + _e6*_d9
-    fy[0, 1] = (_e5*(_c13*g))*_d0 + (-mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g + _c11*_c7*g))*_d5 + _e6*_d10 + (_e5*(-_c9))*_d1 + (_e5*_e4)*_d2 + (-_c14)*_d3
+    fy[0, 0] = (_e5*(_c7*g_))*_d6 + (-(1/2)*a_*ma)*_d7 + (_e5*(_c1*g_))*_d8 + _e6*_d9
+    fy[0, 1] = (_e5*(_c13*g_))*_d0 + (-mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g_ + _c11*_c7*g_))*_d5 + _e6*_d10 + (_e5*(-_c9))*_d1 + (_e5*_e4)*_d2 + (-_c14)*_d3
     fy[1, 0] = _e9*_d9
     fy[1, 1] = _e9*_d10
-    fy[2, 2] = -kr + (-(1/2)*c*g*mc)*(-_math.sin(phi3))
+    fy[2, 2] = -kr + (-(1/2)*c*g_*mc)*(-_math.sin(phi3))
     fyd = _np.zeros((3, 3))
     fyd[0, 0] = _e6*_d11 + (_e5*(-_c2))*_d4 + _e7 + _e8
     fyd[0, 1] = _e8
@@ -194,7 +194,7 @@ def force_jacobians(t, y, yd, p, u=None):
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
     _c0 = (1/2)*b
     _e0 = _math.cos(phi2)
@@ -234,7 +234,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _o0 = _math.sin(phi2)
     _o1 = _math.cos(phi2)
     _o2 = _o1*a_
@@ -246,7 +246,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.sin(phi2)
     _o0 = _e0
     _e1 = _math.cos(phi2)
@@ -271,7 +271,7 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _w0 = (1/2)*b
     _w1 = _math.cos(phi2)
     _w2 = _w1*a_
@@ -282,14 +282,14 @@ def energy(t, x, p, u=None):
     _w7 = _math.sin(phi1)
     _w8 = d*_math.cos(phi3)
     _w9 = _math.sin(phi3)
-    energy = _np.array(((1/2)*mb*((_w0*d_phi2 + _w3*d_phi1)**2 + _w5*_w6) + (1/6)*_w6*ma + (1/6)*mc*c*c*d_phi3*d_phi3 + (1/24)*mb*b*b*(-d_phi1 - d_phi2)**2, g*mb*(_w7*(_w1*_w3 + _w5*a_) + (_w3*_w4 - _w2*_w4)*_math.cos(phi1)) + g*mc*(_w9*(_w8 + (1/2)*c) - _w8*_w9) + (1/2)*_w7*a_*g*ma, (1/2)*kr*(phi3 - phi30)**2, 0), dtype=_np.float64)
+    energy = _np.array(((1/2)*mb*((_w0*d_phi2 + _w3*d_phi1)**2 + _w5*_w6) + (1/6)*_w6*ma + (1/6)*mc*c*c*d_phi3*d_phi3 + (1/24)*mb*b*b*(-d_phi1 - d_phi2)**2, g_*mb*(_w7*(_w1*_w3 + _w5*a_) + (_w3*_w4 - _w2*_w4)*_math.cos(phi1)) + g_*mc*(_w9*(_w8 + (1/2)*c) - _w8*_w9) + (1/2)*_w7*a_*g_*ma, (1/2)*kr*(phi3 - phi30)**2, 0), dtype=_np.float64)
     return energy
 
 
 def constraints(t, y, p, u=None):
     """Holonomic constraints ``g(y, t)``, ordered as ``CONSTRAINTS``."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _g0 = _math.cos(phi1)
     _g1 = _math.sin(phi1)
     _g2 = _math.sin(phi2)
@@ -301,7 +301,7 @@ def constraints(t, y, p, u=None):
 def constraint_jacobian(t, y, p, u=None):
     """``G = ∂g/∂y``, shape (nc, n), analytic."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _G0 = _math.sin(phi1)
     _G1 = _math.cos(phi1)
     _G2 = _math.sin(phi2)
@@ -328,7 +328,7 @@ def constraint_gamma(t, y, yd, p, u=None):
     """``γ = ∂(G ẏ + ∂g/∂t)/∂y · ẏ + ∂(G ẏ + ∂g/∂t)/∂t`` with ``G ÿ + γ = 0``, shape (nc,)."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
-    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g = _np.asarray(p, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _h0 = _math.cos(phi1)
     _h1 = _math.sin(phi1)
     _h2 = _math.sin(phi2)

@@ -48,41 +48,41 @@ def default_inputs(t, p):
 
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
-    alpha, beta, gamma = _np.asarray(y, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.sin(beta)
     _c1 = _math.cos(beta)
     _c2 = _c1*_c1
-    _c3 = _math.cos(gamma)
+    _c3 = _math.cos(gamma_)
     _c4 = _c3*_c3
     _c5 = _c4*A
-    _c6 = _math.sin(gamma)
+    _c6 = _math.sin(gamma_)
     _c7 = _c6*_c6
     _c8 = _c7*A
     _c9 = m*s*s
     _c10 = _c4*_c9
     _c11 = _c7*_c9
-    _c12 = _c0*C
+    _c12 = _c0*C_
     M = _np.empty((3, 3))
-    M[0, 0] = _c10*_c2 + _c11*_c2 + _c2*_c5 + _c2*_c8 + C*_c0*_c0
+    M[0, 0] = _c10*_c2 + _c11*_c2 + _c2*_c5 + _c2*_c8 + C_*_c0*_c0
     M[0, 1] = M[1, 0] = 0
     M[0, 2] = M[2, 0] = _c12
     M[1, 1] = _c10 + _c11 + _c5 + _c8
     M[1, 2] = M[2, 1] = 0
-    M[2, 2] = C
+    M[2, 2] = C_
     return M
 
 
 def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
-    alpha, beta, gamma = _np.asarray(y, dtype=_np.float64).tolist()
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
     d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.sin(beta)
     _c1 = _math.cos(beta)
-    _c3 = _math.cos(gamma)
-    _c6 = _math.sin(gamma)
-    _c12 = _c0*C
+    _c3 = _math.cos(gamma_)
+    _c6 = _math.sin(gamma_)
+    _c12 = _c0*C_
     _c13 = _c6*d_beta
     _c14 = _c1*d_alpha
     _c15 = _c13 + _c14*_c3
@@ -90,41 +90,41 @@ def force_vector(t, y, yd, p, u=None):
     _c17 = _c13*_c16 - _c15*d_gamma
     _c18 = _c16 + d_gamma
     _c19 = _c15*_c18
-    _c20 = _c17*A + _c19*A - _c19*C
+    _c20 = _c17*A + _c19*A - _c19*C_
     _c21 = _c1*_c6
     _c22 = _c3*d_beta - _c14*_c6
     _c23 = _c22*d_gamma - _c16*_c3*d_beta
     _c24 = _c18*_c22
-    _c25 = _c23*A + _c24*C - _c24*A
+    _c25 = _c23*A + _c24*C_ - _c24*A
     _c26 = _c1*_c3
     _c27 = _math.sin(alpha)
     _c28 = _c0*_math.cos(alpha)
-    _c29 = _c24*s + g*(_c27*_c3 + _c28*_c6) - _c23*s
+    _c29 = _c24*s + g_*(_c27*_c3 + _c28*_c6) - _c23*s
     _c30 = m*s
-    _c31 = _c30*(_c17*s + _c19*s + g*(_c27*_c6 - _c28*_c3))
+    _c31 = _c30*(_c17*s + _c19*s + g_*(_c27*_c6 - _c28*_c3))
     _c32 = _c14*d_beta
-    f = _np.array((_c20*_c21 + _c21*_c31 - _c12*_c32 - _c25*_c26 + _c26*_c29*_c30, -_c20*_c3 - _c25*_c6 - _c3*_c31 + _c29*_c6*m*s, -_c32*C), dtype=_np.float64)
+    f = _np.array((_c20*_c21 + _c21*_c31 - _c12*_c32 - _c25*_c26 + _c26*_c29*_c30, -_c20*_c3 - _c25*_c6 - _c3*_c31 + _c29*_c6*m*s, -_c32*C_), dtype=_np.float64)
     return f
 
 
 def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
-    alpha, beta, gamma, d_alpha, d_beta, d_gamma = x.tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = x.tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = _math.sin(beta)
     _c1 = _math.cos(beta)
     _c2 = _c1*_c1
-    _c3 = _math.cos(gamma)
+    _c3 = _math.cos(gamma_)
     _c4 = _c3*_c3
     _c5 = _c4*A
-    _c6 = _math.sin(gamma)
+    _c6 = _math.sin(gamma_)
     _c7 = _c6*_c6
     _c8 = _c7*A
     _c9 = m*s*s
     _c10 = _c4*_c9
     _c11 = _c7*_c9
-    _c12 = _c0*C
+    _c12 = _c0*C_
     _c13 = _c6*d_beta
     _c14 = _c1*d_alpha
     _c15 = _c13 + _c14*_c3
@@ -132,27 +132,27 @@ def rhs(t, x, p, u=None):
     _c17 = _c13*_c16 - _c15*d_gamma
     _c18 = _c16 + d_gamma
     _c19 = _c15*_c18
-    _c20 = _c17*A + _c19*A - _c19*C
+    _c20 = _c17*A + _c19*A - _c19*C_
     _c21 = _c1*_c6
     _c22 = _c3*d_beta - _c14*_c6
     _c23 = _c22*d_gamma - _c16*_c3*d_beta
     _c24 = _c18*_c22
-    _c25 = _c23*A + _c24*C - _c24*A
+    _c25 = _c23*A + _c24*C_ - _c24*A
     _c26 = _c1*_c3
     _c27 = _math.sin(alpha)
     _c28 = _c0*_math.cos(alpha)
-    _c29 = _c24*s + g*(_c27*_c3 + _c28*_c6) - _c23*s
+    _c29 = _c24*s + g_*(_c27*_c3 + _c28*_c6) - _c23*s
     _c30 = m*s
-    _c31 = _c30*(_c17*s + _c19*s + g*(_c27*_c6 - _c28*_c3))
+    _c31 = _c30*(_c17*s + _c19*s + g_*(_c27*_c6 - _c28*_c3))
     _c32 = _c14*d_beta
     M = _np.empty((3, 3))
-    M[0, 0] = _c10*_c2 + _c11*_c2 + _c2*_c5 + _c2*_c8 + C*_c0*_c0
+    M[0, 0] = _c10*_c2 + _c11*_c2 + _c2*_c5 + _c2*_c8 + C_*_c0*_c0
     M[0, 1] = M[1, 0] = 0
     M[0, 2] = M[2, 0] = _c12
     M[1, 1] = _c10 + _c11 + _c5 + _c8
     M[1, 2] = M[2, 1] = 0
-    M[2, 2] = C
-    f = _np.array((_c20*_c21 + _c21*_c31 - _c12*_c32 - _c25*_c26 + _c26*_c29*_c30, -_c20*_c3 - _c25*_c6 - _c3*_c31 + _c29*_c6*m*s, -_c32*C), dtype=_np.float64)
+    M[2, 2] = C_
+    f = _np.array((_c20*_c21 + _c21*_c31 - _c12*_c32 - _c25*_c26 + _c26*_c29*_c30, -_c20*_c3 - _c25*_c6 - _c3*_c31 + _c29*_c6*m*s, -_c32*C_), dtype=_np.float64)
     xd = _np.empty(6)
     xd[:3] = x[3:6]
     xd[3:] = _np.linalg.solve(M, f)
@@ -161,23 +161,23 @@ def rhs(t, x, p, u=None):
 
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
-    alpha, beta, gamma = _np.asarray(y, dtype=_np.float64).tolist()
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
     d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.sin(beta)
     _c0 = _e0
     _e1 = _math.cos(beta)
     _d0 = _e1
     _c1 = _e1
     _d1 = -_e0
-    _e2 = _math.cos(gamma)
+    _e2 = _math.cos(gamma_)
     _c3 = _e2
-    _e3 = _math.sin(gamma)
+    _e3 = _math.sin(gamma_)
     _d2 = -_e3
     _c6 = _e3
     _d3 = _e2
-    _c12 = _c0*C
-    _d4 = C*_d0
+    _c12 = _c0*C_
+    _d4 = C_*_d0
     _c13 = _c6*d_beta
     _d5 = d_beta*_d3
     _c14 = _c1*d_alpha
@@ -201,8 +201,8 @@ def force_jacobians(t, y, yd, p, u=None):
     _d17 = _c18*_d8
     _d18 = _c18*_d9 + _c15*_c0
     _d19 = _c18*_c6
-    _c20 = _c17*A + _c19*A - _c19*C
-    _e5 = -C
+    _c20 = _c17*A + _c19*A - _c19*C_
+    _e5 = -C_
     _e6 = A + _e5
     _d20 = A*_d11 + _e6*_d16
     _d21 = A*_d12 + _e6*_d17
@@ -228,8 +228,8 @@ def force_jacobians(t, y, yd, p, u=None):
     _d35 = _c18*_d28
     _d36 = _c22*_c0 + _c18*_d29
     _d37 = _c18*_c3
-    _c25 = _c23*A + _c24*C - _c24*A
-    _e9 = C - A
+    _c25 = _c23*A + _c24*C_ - _c24*A
+    _e9 = C_ - A
     _d38 = A*_d30 + _e9*_d34
     _d39 = A*_d31 + _e9*_d35
     _d40 = A*_d32 + _e9*_d36
@@ -245,24 +245,24 @@ def force_jacobians(t, y, yd, p, u=None):
     _c28 = _c0*_e11
     _d46 = _c0*(-_e10)
     _d47 = _e11*_d0
-    _c29 = _c24*s + g*(_c27*_c3 + _c28*_c6) - _c23*s
-    _e12 = g*_c6
-    _d48 = (g*_c3)*_d45 + _e12*_d46
+    _c29 = _c24*s + g_*(_c27*_c3 + _c28*_c6) - _c23*s
+    _e12 = g_*_c6
+    _d48 = (g_*_c3)*_d45 + _e12*_d46
     _e13 = -s
     _d49 = _e13*_d30 + s*_d34 + _e12*_d47
-    _e14 = g*_c27
-    _d50 = _e13*_d31 + s*_d35 + _e14*_d2 + (g*_c28)*_d3
+    _e14 = g_*_c27
+    _d50 = _e13*_d31 + s*_d35 + _e14*_d2 + (g_*_c28)*_d3
     _d51 = _e13*_d32 + s*_d36
     _d52 = _e13*_d33 + s*_d37
     _d53 = _e13*_c22 + s*_c22
     _c30 = m*s
-    _c31 = _c30*(_c17*s + _c19*s + g*(_c27*_c6 - _c28*_c3))
+    _c31 = _c30*(_c17*s + _c19*s + g_*(_c27*_c6 - _c28*_c3))
     _e15 = -_c3
-    _e16 = _c30*(g*_e15)
+    _e16 = _c30*(g_*_e15)
     _d54 = (_c30*_e12)*_d45 + _e16*_d46
     _e17 = _c30*s
     _d55 = _e17*_d11 + _e17*_d16 + _e16*_d47
-    _d56 = _e17*_d12 + _e17*_d17 + (_c30*(g*(-_c28)))*_d2 + (_c30*_e14)*_d3
+    _d56 = _e17*_d12 + _e17*_d17 + (_c30*(g_*(-_c28)))*_d2 + (_c30*_e14)*_d3
     _d57 = _e17*_d13 + _e17*_d18
     _d58 = _e17*_d14 + _e17*_d19
     _d59 = _e17*_d15 + _e17*_c15
@@ -299,8 +299,8 @@ def force_jacobians(t, y, yd, p, u=None):
 
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
-    alpha, beta, gamma = _np.asarray(y, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
     _e0 = _math.sin(beta)
     _c0 = _e0
@@ -310,9 +310,9 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     _d1 = -_e0
     _c2 = _c1*_c1
     _d2 = (2*_c1)*_d1
-    _e2 = _math.cos(gamma)
+    _e2 = _math.cos(gamma_)
     _c3 = _e2
-    _e3 = _math.sin(gamma)
+    _e3 = _math.sin(gamma_)
     _d3 = -_e3
     _c4 = _c3*_c3
     _d4 = (2*_c3)*_d3
@@ -329,10 +329,10 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     _d9 = _c9*_d4
     _c11 = _c7*_c9
     _d10 = _c9*_d7
-    _d11 = C*_d0
+    _d11 = C_*_d0
     _e4 = _a0*_c2
     dMa = _np.zeros((3, 3))
-    dMa[0, 1] = (_a0*(C*(2*_c0)))*_d0 + _a2*_d11 + (_a0*(_c10 + _c11 + _c5 + _c8))*_d2
+    dMa[0, 1] = (_a0*(C_*(2*_c0)))*_d0 + _a2*_d11 + (_a0*(_c10 + _c11 + _c5 + _c8))*_d2
     dMa[0, 2] = _e4*_d9 + _e4*_d10 + _e4*_d5 + _e4*_d8
     dMa[1, 2] = _a1*_d9 + _a1*_d10 + _a1*_d5 + _a1*_d8
     dMa[2, 1] = _a0*_d11
@@ -356,8 +356,8 @@ def rhs_jacobian(t, x, p, u=None):
 
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
-    alpha, beta, gamma, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _o0 = s*_math.cos(beta)
     out = _np.array((s*_math.sin(beta), -_o0*_math.sin(alpha), _o0*_math.cos(alpha)), dtype=_np.float64)
     return out
@@ -365,8 +365,8 @@ def outputs(t, x, p, u=None):
 
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
-    alpha, beta, gamma, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = s*_math.cos(beta)
     _o0 = _e0
     _d0 = s*(-_math.sin(beta))
@@ -384,17 +384,17 @@ def output_jacobians(t, x, p, u=None):
 
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
-    alpha, beta, gamma, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
-    m, s, A, C, g = _np.asarray(p, dtype=_np.float64).tolist()
-    _w0 = _math.cos(gamma)
-    _w1 = _math.sin(gamma)
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _w0 = _math.cos(gamma_)
+    _w1 = _math.sin(gamma_)
     _w2 = _math.cos(beta)
     _w3 = _w2*d_alpha
     _w4 = _w1*_w3
     _w5 = (1/2)*A
     _w6 = _w1*d_beta
     _w7 = _w0*_w3
-    energy = _np.array((_w5*(_w6 + _w7)**2 + _w5*(-_w4 + _w0*d_beta)**2 + (1/2)*C*(d_gamma + d_alpha*_math.sin(beta))**2 + (1/2)*m*((-_w4*s + _w0*d_beta*s)**2 + (-_w6*s - _w7*s)**2), _w2*g*m*s*_math.cos(alpha), 0, 0), dtype=_np.float64)
+    energy = _np.array((_w5*(_w6 + _w7)**2 + _w5*(-_w4 + _w0*d_beta)**2 + (1/2)*C_*(d_gamma + d_alpha*_math.sin(beta))**2 + (1/2)*m*((-_w4*s + _w0*d_beta*s)**2 + (-_w6*s - _w7*s)**2), _w2*g_*m*s*_math.cos(alpha), 0, 0), dtype=_np.float64)
     return energy
 
 

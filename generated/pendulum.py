@@ -46,7 +46,7 @@ def default_inputs(t, p):
 
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     M = _np.empty((1, 1))
     M[0, 0] = m*l*l
     return M
@@ -55,8 +55,8 @@ def mass_matrix(t, y, p, u=None):
 def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
-    f = _np.array((-g*l*m*_math.sin(phi),), dtype=_np.float64)
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    f = _np.array((-g_*l*m*_math.sin(phi),), dtype=_np.float64)
     return f
 
 
@@ -64,10 +64,10 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     phi, d_phi = x.tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     M = _np.empty((1, 1))
     M[0, 0] = m*l*l
-    f = _np.array((-g*l*m*_math.sin(phi),), dtype=_np.float64)
+    f = _np.array((-g_*l*m*_math.sin(phi),), dtype=_np.float64)
     xd = _np.empty(2)
     xd[:1] = x[1:2]
     xd[1:] = _np.linalg.solve(M, f)
@@ -77,9 +77,9 @@ def rhs(t, x, p, u=None):
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     fy = _np.empty((1, 1))
-    fy[0, 0] = (-g*l*m)*_math.cos(phi)
+    fy[0, 0] = (-g_*l*m)*_math.cos(phi)
     fyd = _np.zeros((1, 1))
     fu = _np.empty((1, 0))
     return fy, fyd, fu
@@ -109,7 +109,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     out = _np.array((-l*_math.sin(phi), -l*_math.cos(phi)), dtype=_np.float64)
     return out
 
@@ -117,7 +117,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = -l
     C = _np.zeros((2, 2))
     C[0, 0] = _e0*_math.cos(phi)
@@ -129,8 +129,8 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
-    m, l, g = _np.asarray(p, dtype=_np.float64).tolist()
-    energy = _np.array(((1/2)*m*d_phi*d_phi*l*l, -g*l*m*_math.cos(phi), 0, 0), dtype=_np.float64)
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    energy = _np.array(((1/2)*m*d_phi*d_phi*l*l, -g_*l*m*_math.cos(phi), 0, 0), dtype=_np.float64)
     return energy
 
 

@@ -49,7 +49,7 @@ def default_parameters():
 
 def default_inputs(t, p):
     """The default excitation ``u(t)`` of the description."""
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = 2*(_math.pi)*v/L
     _c1 = _c0*t
     _c2 = A*_math.sin(_c1)
@@ -59,7 +59,7 @@ def default_inputs(t, p):
 
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     M = _np.empty((2, 2))
     M[0, 0] = mw
     M[0, 1] = M[1, 0] = 0
@@ -71,7 +71,7 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     zw, zb = _np.asarray(y, dtype=_np.float64).tolist()
     d_zw, d_zb = _np.asarray(yd, dtype=_np.float64).tolist()
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
@@ -84,7 +84,7 @@ def force_vector(t, y, yd, p, u=None):
     _c6 = abs(_c5)
     _c7 = 1/_c6
     _c8 = -_c5
-    f = _np.array((-_c4 - g*mw + _c7*_c8*(-ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)), _c4 - g*mb), dtype=_np.float64)
+    f = _np.array((-_c4 - g_*mw + _c7*_c8*(-ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)), _c4 - g_*mb), dtype=_np.float64)
     return f
 
 
@@ -92,7 +92,7 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     zw, zb, d_zw, d_zb = x.tolist()
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
@@ -109,7 +109,7 @@ def rhs(t, x, p, u=None):
     M[0, 0] = mw
     M[0, 1] = M[1, 0] = 0
     M[1, 1] = mb
-    f = _np.array((-_c4 - g*mw + _c7*_c8*(-ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)), _c4 - g*mb), dtype=_np.float64)
+    f = _np.array((-_c4 - g_*mw + _c7*_c8*(-ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)), _c4 - g_*mb), dtype=_np.float64)
     xd = _np.empty(4)
     xd[:2] = x[2:4]
     xd[2:] = _np.linalg.solve(M, f)
@@ -120,7 +120,7 @@ def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     zw, zb = _np.asarray(y, dtype=_np.float64).tolist()
     d_zw, d_zb = _np.asarray(yd, dtype=_np.float64).tolist()
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
@@ -201,7 +201,7 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
@@ -220,7 +220,7 @@ def outputs(t, x, p, u=None):
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
     zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
@@ -269,12 +269,12 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
-    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g = _np.asarray(p, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
     _w0 = -zw
-    energy = _np.array(((1/2)*mb*d_zb*d_zb + (1/2)*mw*d_zw*d_zw, g*mb*zb + g*mw*zw, (1/2)*ks*(-ls + abs(_w0 + zb))**2 + (1/2)*kt*(-lt + abs(_w0 + zr))**2, 0), dtype=_np.float64)
+    energy = _np.array(((1/2)*mb*d_zb*d_zb + (1/2)*mw*d_zw*d_zw, g_*mb*zb + g_*mw*zw, (1/2)*ks*(-ls + abs(_w0 + zb))**2 + (1/2)*kt*(-lt + abs(_w0 + zr))**2, 0), dtype=_np.float64)
     return energy
 
 

@@ -54,7 +54,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _c0 = mr*_math.cos(theta)**2
     _c1 = mr*_math.sin(theta)**2
     _c2 = _c0 + _c1
@@ -81,13 +81,13 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(yd, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     T, = _np.asarray(u, dtype=_np.float64).tolist()
     _c0 = mr*_math.cos(theta)**2
     _c1 = mr*_math.sin(theta)**2
-    f = _np.array((T - cc*d_phi - (1/2)*g*mc*r*_math.cos(phi), 0, -_c0*g - _c1*g, 0, -d_s*ds - ks*(s - s0)), dtype=_np.float64)
+    f = _np.array((T - cc*d_phi - (1/2)*g_*mc*r*_math.cos(phi), 0, -_c0*g_ - _c1*g_, 0, -d_s*ds - ks*(s - s0)), dtype=_np.float64)
     return f
 
 
@@ -95,7 +95,7 @@ def rhs(t, x, p, u=None):
     """First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion."""
     x = _np.asarray(x, dtype=_np.float64)
     phi, xr, zr, theta, s, d_phi, d_xr, d_zr, d_theta, d_s = x.tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     if u is None:
         u = default_inputs(t, p)
     T, = _np.asarray(u, dtype=_np.float64).tolist()
@@ -118,7 +118,7 @@ def rhs(t, x, p, u=None):
     M[3, 3] = (1/12)*mr*l*l
     M[3, 4] = M[4, 3] = 0
     M[4, 4] = ms
-    f = _np.array((T - cc*d_phi - (1/2)*g*mc*r*_math.cos(phi), 0, -_c0*g - _c1*g, 0, -d_s*ds - ks*(s - s0)), dtype=_np.float64)
+    f = _np.array((T - cc*d_phi - (1/2)*g_*mc*r*_math.cos(phi), 0, -_c0*g_ - _c1*g_, 0, -d_s*ds - ks*(s - s0)), dtype=_np.float64)
     xd = _np.empty(10)
     xd[:5] = x[5:10]
     xd[5:] = _np.linalg.solve(M, f)
@@ -128,14 +128,14 @@ def rhs(t, x, p, u=None):
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _e0 = _math.cos(theta)
     _e1 = _math.sin(theta)
     _d0 = mr*((2*_e0)*(-_e1))
     _d1 = mr*((2*_e1)*_e0)
-    _e2 = -g
+    _e2 = -g_
     fy = _np.zeros((5, 5))
-    fy[0, 0] = (-(1/2)*g*mc*r)*(-_math.sin(phi))
+    fy[0, 0] = (-(1/2)*g_*mc*r)*(-_math.sin(phi))
     fy[2, 3] = _e2*_d0 + _e2*_d1
     fy[4, 4] = -ks
     fyd = _np.zeros((5, 5))
@@ -149,7 +149,7 @@ def force_jacobians(t, y, yd, p, u=None):
 def mass_matrix_times_derivative(t, y, p, a, u=None):
     """``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n)."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2, _a3, _a4 = _np.asarray(a, dtype=_np.float64).tolist()
     _e0 = _math.cos(theta)
     _e1 = _math.sin(theta)
@@ -182,14 +182,14 @@ def rhs_jacobian(t, x, p, u=None):
 def outputs(t, x, p, u=None):
     """The outputs, ordered as ``OUTPUTS``."""
     phi, xr, zr, theta, s, d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(x, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     out = _np.array((-d_s*ds - ks*(s - s0), s, d_phi), dtype=_np.float64)
     return out
 
 
 def output_jacobians(t, x, p, u=None):
     """``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic."""
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     C = _np.zeros((3, 10))
     C[0, 4] = -ks
     C[0, 9] = -ds
@@ -202,17 +202,17 @@ def output_jacobians(t, x, p, u=None):
 def energy(t, x, p, u=None):
     """``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies)."""
     phi, xr, zr, theta, s, d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(x, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _w0 = _math.cos(theta)
     _w1 = _math.sin(theta)
-    energy = _np.array(((1/2)*mr*((_w0*d_xr + _w1*d_zr)**2 + (_w0*d_zr - _w1*d_xr)**2) + (1/2)*ms*d_s*d_s + (1/6)*mc*d_phi*d_phi*r*r + (1/24)*mr*d_theta*d_theta*l*l, g*mr*(_w0*(_w0*zr - _w1*xr) + _w1*(_w0*xr + _w1*zr)) + (1/2)*g*mc*r*_math.sin(phi), 0, 0), dtype=_np.float64)
+    energy = _np.array(((1/2)*mr*((_w0*d_xr + _w1*d_zr)**2 + (_w0*d_zr - _w1*d_xr)**2) + (1/2)*ms*d_s*d_s + (1/6)*mc*d_phi*d_phi*r*r + (1/24)*mr*d_theta*d_theta*l*l, g_*mr*(_w0*(_w0*zr - _w1*xr) + _w1*(_w0*xr + _w1*zr)) + (1/2)*g_*mc*r*_math.sin(phi), 0, 0), dtype=_np.float64)
     return energy
 
 
 def constraints(t, y, p, u=None):
     """Holonomic constraints ``g(y, t)``, ordered as ``CONSTRAINTS``."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _g0 = (1/2)*l
     _g1 = _g0*_math.cos(theta)
     _g2 = _g0*_math.sin(theta)
@@ -223,7 +223,7 @@ def constraints(t, y, p, u=None):
 def constraint_jacobian(t, y, p, u=None):
     """``G = ∂g/∂y``, shape (nc, n), analytic."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _G0 = (1/2)*l
     _G1 = _G0*_math.sin(theta)
     _G2 = _G0*_math.cos(theta)
@@ -252,7 +252,7 @@ def constraint_gamma(t, y, yd, p, u=None):
     """``γ = ∂(G ẏ + ∂g/∂t)/∂y · ẏ + ∂(G ẏ + ∂g/∂t)/∂t`` with ``G ÿ + γ = 0``, shape (nc,)."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(yd, dtype=_np.float64).tolist()
-    r, l, mc, mr, ms, ks, s0, ds, cc, g = _np.asarray(p, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _h0 = r*d_phi*d_phi
     _h1 = (1/2)*l*d_theta*d_theta
     _h2 = _h1*_math.cos(theta)

@@ -51,13 +51,25 @@ from ..model import as_expr
 
 __all__ = ["FastPrinter", "NamePool", "ScalarPrinter"]
 
-#: Names the generated code uses itself (arguments, module aliases, helpers).
+#: Names the generated code uses itself: the arguments and locals of its functions
+#: (``codegen/writer.py``, ``codegen/constraints.py``), the protocol functions and constants,
+#: module aliases and the embedded kernel's names. A model symbol with one of these names is
+#: given another local name (``fy`` → ``fy_``), so that it can never overwrite one of them.
 RESERVED: frozenset[str] = frozenset(
-    {"t", "y", "yd", "x", "p", "u", "a", "M", "f", "n", "_math", "_np", "math", "np", "numpy"}
+    {"t", "y", "yd", "ydd", "x", "xd", "p", "u", "a", "M", "f", "n", "fy", "fyd", "fu", "_fu",
+     "dMa", "J", "C", "D", "G", "g", "gt", "gamma", "out", "energy", "sigma",
+     "_math", "_np", "math", "np", "numpy", "base64", "zlib",
+     "default_parameters", "default_inputs", "mass_matrix", "force_vector", "rhs",
+     "force_jacobians", "mass_matrix_times_derivative", "rhs_jacobian", "outputs",
+     "output_jacobians", "constraints", "constraint_jacobian", "constraint_time_derivative",
+     "constraint_gamma", "constraint_reaction_jacobian", "schedule",
+     "PROTOCOL_VERSION", "MODEL_NAME", "DESCRIPTION", "COORDINATES", "COORDINATE_UNITS",
+     "INITIAL_STATE", "PARAMETERS", "INPUTS", "INPUT_RATES", "OUTPUTS", "OUTPUT_UNITS",
+     "CONSTRAINTS", "ENERGY", "STATE_SIZE", "SOURCE_HASH", "MASS_MATRIX_SYMMETRIC"}
     | set(dir(builtins))
 )
 
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 class NamePool:
@@ -75,7 +87,9 @@ class NamePool:
         if sym in self.names:
             return self.names[sym]
         base = wanted if wanted is not None else sym.name
-        if not _IDENT.match(base) or keyword.iskeyword(base):
+        if not _IDENT.fullmatch(base) or keyword.iskeyword(base) or base.startswith(
+                ("_rigid_", "_ncg", "ffrf_", "_FFRF", "_P0", "_SV", "_SW", "_NS", "_PARTS",
+                 "_ELASTIC")):
             base = "_s" + re.sub(r"[^A-Za-z0-9_]", "_", base)
         name = base
         while name in self._used or keyword.iskeyword(name):

@@ -6,6 +6,8 @@ Jacobians, at random states; ``rhs_jacobian`` also against central differences o
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import handmade
 import numpy as np
 import pytest
@@ -129,3 +131,48 @@ def test_names_clashing_with_generated_code_are_renamed():
     ns: dict = {}
     exec(compile(text, "<gen>", "exec"), ns)
     assert ns["COORDINATES"] == ["a", "b"]
+
+
+def test_model_names_never_overwrite_the_generated_locals(tmp_path: Path) -> None:
+    """Parameters named like the generated code's own locals and functions (``fy``, ``fyd``,
+    ``fu``, ``C``, ``D``, ``G``, ``M``, ``f``, ``J``, ``default_inputs``) give the same
+    linearization, FRF and Radau simulation as the same model with plain names (the
+    reference)."""
+    from neweul_py.analysis import load_generated, simulate
+    from neweul_py.analysis.frf import frequency_response
+    from neweul_py.analysis.linearize import linearize
+    from neweul_py.api import generate
+
+    names = ["fy", "fyd", "fu", "C", "D", "G", "M", "f", "J", "default_inputs"]
+    template = """
+name: {name}
+parameters: {{{p0}: 1.5, {p1}: 0.8, {p2}: 9.81, {p3}: 20.0, {p4}: 0.3, {p5}: 0.1,
+             {p6}: 0.7, {p7}: 0.2, {p8}: 0.05, {p9}: 1.0}}
+gravity: [0, 0, -{p2}]
+coordinates: {{a: {{initial: 0.4}}, z: {{}}}}
+inputs: {{F: 0}}
+frames:
+  slide: {{translation: [0, 0, z]}}
+  arm: {{parent: slide, rotation: [[y, a]]}}
+bodies:
+  cart: {{frame: slide, mass: {p6}}}
+  bob: {{frame: arm, mass: {p0}, center_of_mass: [0, 0, -{p1}],
+        inertia: {{diag: [{p8}, {p8}, {p8}]}}}}
+forces:
+  spring: {{type: spring_damper, between: [ISYS, slide], points: [[0, 0, 1], [0, 0, 0]],
+           stiffness: {p3}, damping: {p4}, length: {p9}}}
+  drive: {{type: generalized, coordinate: a, value: "{p5}*F - {p7}*d_a"}}
+outputs:
+  tip: {{position: arm, point: [0, 0, -{p1}], component: x}}
+"""
+    results = []
+    for tag, ps in (("clash", names), ("plain", [f"q{i}" for i in range(10)])):
+        text = template.format(name=tag, **{f"p{i}": n for i, n in enumerate(ps)})
+        (tmp_path / f"{tag}.yaml").write_text(text)
+        mod = load_generated(generate(tmp_path / f"{tag}.yaml", tmp_path / "gen"))
+        lin = linearize(mod)
+        fr = frequency_response(lin, [0.5, 2.0], ["F"], ["tip"])
+        res = simulate(mod, 1.0, method="Radau", rtol=1e-9, atol=1e-12, n_out=11)
+        results.append((lin.Q, lin.P, lin.B, fr.magnitude, res.y))
+    for a, b in zip(*results, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
