@@ -101,13 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(f"neweul_py.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"neweul_py.commands.{name}":
-                continue  # command not built yet
-            raise
-        module.register(sub)
+        # a missing command module is a broken installation: let its ImportError show
+        importlib.import_module(f"neweul_py.commands.{name}").register(sub)
     return parser
 
 

@@ -230,3 +230,13 @@ def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
                                                      "neweul_py.codegen",
                                                      "neweul_py.equations",
                                                      "neweul_py.description"))) == []
+
+
+def test_a_missing_command_module_fails_loudly(monkeypatch):
+    """A command module listed in COMMAND_MODULES that cannot be imported is a broken
+    installation: building the parser raises (it used to be skipped silently)."""
+    from neweul_py import cli
+
+    monkeypatch.setattr(cli, "COMMAND_MODULES", (*cli.COMMAND_MODULES, "no_such_command"))
+    with pytest.raises(ModuleNotFoundError, match="no_such_command"):
+        cli.build_parser()

@@ -412,7 +412,7 @@ def _krb_theta(t: float, Ws: float = 6.0, T: float = 15.0) -> tuple[float, float
 
 
 def _krb_tips(tmp_path: Path, t_end: float, n_out: int, tags=("stiff", "bare"),
-              Ws: float = 6.0, modes: int = 3) -> dict:
+              Ws: float = 6.0, modes: int = 3, n_el: int = 10) -> dict:
     """Chordwise tip deflection of the generated KRB model (10 beam elements, three in-plane
     bending modes) with and without the geometric stiffening terms."""
     import sys
@@ -423,7 +423,7 @@ def _krb_tips(tmp_path: Path, t_end: float, n_out: int, tags=("stiff", "bare"),
     from neweul_py.analysis import simulate
     from neweul_py.elastic.invariants import LOAD_CASES, compute_invariants, stress_stiffening
 
-    b = beam(10, length=10.0, E=7e10, G=2.7e10, rho=3000.0, A=4e-4, Iy=8e-7, Iz=2e-7)
+    b = beam(n_el, length=10.0, E=7e10, G=2.7e10, rho=3000.0, A=4e-4, Iy=8e-7, Iz=2e-7)
     lam, V = b.clamped_modes(30)
     inplane = [k for k in range(30) if np.abs(V[1::6, k]).max() > 1e3 * max(
         np.abs(V[2::6, k]).max(), np.abs(V[3::6, k]).max(), np.abs(V[4::6, k]).max(), 1e-300)]
@@ -433,7 +433,7 @@ def _krb_tips(tmp_path: Path, t_end: float, n_out: int, tags=("stiff", "bare"),
     tips = {}
     for tag in tags:
         kw = {"geometric_stiffness": kg} if tag == "stiff" else {}
-        inv = compute_invariants(b.fe, V[:, inplane[:modes]], nodes=[11], **kw)
+        inv = compute_invariants(b.fe, V[:, inplane[:modes]], nodes=[n_el + 1], **kw)
         np.savez(tmp_path / f"{tag}.npz", **inv.to_flat())
         mod = _generate(tmp_path, f"""
 name: krb_{tag}
@@ -441,7 +441,7 @@ parameters: {{Ws: {Ws!r}, T: 15.0}}
 frames:
   hub: {{rotation: [[z, "Ws/T*(t**2/2 + (T/(2*pi))**2*(cos(2*pi*t/T) - 1))"]]}}
 elastic_bodies:
-  beam: {{frame: hub, data: {tag}.npz, nodes: {{tip: 11}}}}
+  beam: {{frame: hub, data: {tag}.npz, nodes: {{tip: {n_el + 1}}}}}
 outputs:
   tip_y: {{position: beam.tip, in: hub, component: y}}
 """)
@@ -490,13 +490,15 @@ def test_kane_ryan_banerjee_spin_up(tmp_path: Path) -> None:
 @pytest.mark.parametrize("Ws", [4.0, 10.0])
 def test_kane_ryan_banerjee_spin_up_other_speeds(tmp_path: Path, Ws: float) -> None:
     """The spin-up at Ωs = 4 and 10 rad/s (below and well above the first bending frequency
-    3.8 rad/s): the extremum of the stiffened model within 0.5 % of the unreduced nonlinear
-    reference (tests/elastic/rotating_beam_reference.py, 10 elements) and the history within
-    1 % of its largest value."""
+    3.8 rad/s) against the unreduced nonlinear reference (tests/elastic/rotating_beam_reference
+    .py, 10 elements). At 4 rad/s the extremum is within 0.5 %; at 10 rad/s (tip deflection
+    8.6 % of the length) the first-order geometric stiffening leaves 0.61 % (0.69 % with both
+    meshes at 20 elements, and 3–5 modes change it by < 0.05 %): the geometric nonlinearity
+    beyond first order, which a linear floating-frame body does not have — so 1 % there."""
     t = np.linspace(0.0, 15.0, 151)
     stiff = _krb_tips(tmp_path, 15.0, 151, tags=("stiff",), Ws=Ws)["stiff"]
     ref = _krb_reference(t, 10, Ws)
-    assert stiff.min() == pytest.approx(ref.min(), rel=5e-3)
+    assert stiff.min() == pytest.approx(ref.min(), rel=5e-3 if Ws < 6 else 1e-2)
     assert np.abs(stiff - ref).max() < 0.01 * np.abs(ref).max()
 
 
