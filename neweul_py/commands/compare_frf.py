@@ -32,19 +32,25 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("model", metavar="MODEL", help="FE model: manifest .json or .npz")
     parser.add_argument("body", metavar="BODY", help="reduced-body file (.npz)")
-    common.add_signal_arguments(parser, required=True)
-    parser.add_argument("--f", dest="grid", type=range_type("--f", minimum=0.0),
-                        default=Range(10.0, 20000.0, 200, None, "--f"), metavar="START:STOP:N",
-                        help="frequencies [Hz]: START:STOP:N or a comma list (default "
-                        "10:20000:200)")
-    parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
-    parser.add_argument("--plot", metavar="FIG", help="magnitude and error plot (.png/.pdf)")
+    add_body_frf_arguments(parser, "magnitude and error plot (.png/.pdf)")
     parser.add_argument("--full-method", choices=FRF_METHODS, default="auto",
                         help="full FE model: sweep = adaptive interpolation checked by full "
                         "solves (fast), direct = one sparse LU per frequency (default auto: "
                         "sweep for more than 5 frequencies)")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
+
+
+def add_body_frf_arguments(parser: argparse.ArgumentParser, plot_help: str) -> None:
+    """``--input``, ``--response``, ``--f``, ``--log``, ``--plot`` of the FE/body frequency
+    responses (compare-frf, frf-body)."""
+    common.add_signal_arguments(parser, required=True)
+    parser.add_argument("--f", dest="grid", type=range_type("--f", minimum=0.0),
+                        default=Range(10.0, 20000.0, 200, None, "--f"), metavar="START:STOP:N",
+                        help="frequencies [Hz]: START:STOP:N or a comma list (default "
+                        "10:20000:200)")
+    parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
+    parser.add_argument("--plot", metavar="FIG", help=plot_help)
 
 
 def frequency_grid(grid: Range, log: bool) -> np.ndarray:

@@ -12,9 +12,9 @@ import numpy as np
 
 from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
-from . import Range, assignment, range_type
 from . import _analysis_common as common
-from .compare_frf import frequency_grid
+from . import assignment
+from .compare_frf import add_body_frf_arguments, frequency_grid
 
 if TYPE_CHECKING:
     from ..elastic.reduced_body import ReducedBody
@@ -32,13 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("body", metavar="BODY", help="reduced or parametric body file (.npz)")
     parser.add_argument("--at", type=lambda t: assignment(t, "--at"), metavar="NAME=VALUE",
                         help="parameter value of a parametric body (e.g. dp=-2000)")
-    common.add_signal_arguments(parser, required=True)
-    parser.add_argument("--f", dest="grid", type=range_type("--f", minimum=0.0),
-                        default=Range(10.0, 20000.0, 200, None, "--f"), metavar="START:STOP:N",
-                        help="frequencies [Hz]: START:STOP:N or a comma list (default "
-                        "10:20000:200)")
-    parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
-    parser.add_argument("--plot", metavar="FIG", help="Bode plot (.png/.pdf)")
+    add_body_frf_arguments(parser, "Bode plot (.png/.pdf)")
     parser.set_defaults(func=run)
 
 
