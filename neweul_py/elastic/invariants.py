@@ -1040,7 +1040,14 @@ def attach_invariants(body, fe, *, nodes: Sequence[int] | None = None, **kwargs)
     ids = [int(i) for i in np.asarray(body.nodes)[:, 0]] if nodes is None else nodes
     inv = compute_invariants(fe, body.V, body.W if body.two_sided else None, nodes=ids,
                              **kwargs)
-    return body.with_(invariants=inv.to_flat())
+    flat = inv.to_flat()
+    # Me, Ke, De are the body's projected M, K, D (same bases): keep the projection's bits, so
+    # that the file stores them once (reduced_body.SHARED_INVARIANTS)
+    for key, own in (("Me.m0", body.M), ("Ke.m0", body.K), ("De.m0", body.D)):
+        if own is not None and own.shape == flat[key].shape and np.allclose(
+                own, flat[key], rtol=1e-9, atol=1e-12 * max(float(np.abs(own).max()), 1e-300)):
+            flat[key] = np.array(own, dtype=np.float64)
+    return body.with_(invariants=flat)
 
 
 def body_invariants(body) -> Invariants | None:

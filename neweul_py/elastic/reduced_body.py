@@ -33,6 +33,9 @@ REDUCED_BODY_VERSION = 1
 _INV_PREFIX = "invariants/"
 _ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind", "V_kept",
            "W_kept")
+#: Invariants that are the body's own projected matrices (``Me = Wᵀ M V`` …): a file stores them
+#: once, as the matrix (metadata ``invariants_shared``).
+SHARED_INVARIANTS = {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D"}
 _OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind")
 
 
@@ -246,7 +249,13 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
         if body[key] is not None:
             arrays[key] = body[key]
     names = list(body.invariants or {})
+    shared = {}
     for name in names:
+        own = SHARED_INVARIANTS.get(name)
+        if own is not None and body[own] is not None and np.array_equal(body.invariants[name],
+                                                                        body[own]):
+            shared[name] = own      # the projected matrix itself: stored once
+            continue
         arrays[_INV_PREFIX + name] = body.invariants[name]
     meta = {
         "format": REDUCED_BODY_FORMAT,
@@ -258,6 +267,7 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
         "source": body.source,
         "parameters": body.parameters,
         "invariants": names if body.invariants is not None else None,
+        "invariants_shared": shared,
     }
     arrays["meta"] = json_to_uint8(meta)
     save_npz_atomic(path, arrays)
@@ -313,10 +323,16 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
     names = meta.get("invariants")
     invariants = None
     if names is not None:
-        absent = [n for n in names if _INV_PREFIX + n not in data]
+        shared = meta.get("invariants_shared") or {}
+        if not isinstance(shared, dict) or any(
+                SHARED_INVARIANTS.get(k) != v or v not in data for k, v in shared.items()):
+            raise DataError("invariants_shared must map Me.m0/Ke.m0/De.m0 to M/K/D", file,
+                            "meta")
+        absent = [n for n in names if _INV_PREFIX + n not in data and n not in shared]
         if absent:
             raise DataError(f"missing invariant arrays {absent}", file, "invariants")
-        invariants = {n: data[_INV_PREFIX + n] for n in names}
+        invariants = {n: data[shared[n]] if n in shared else data[_INV_PREFIX + n]
+                      for n in names}
     try:
         return ReducedBody(
             **{key: data[key] for key in _ARRAYS},

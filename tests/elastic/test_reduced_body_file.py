@@ -166,3 +166,23 @@ def test_object_arrays_are_refused(body, tmp_path):
         ReducedBody.load(path)
     with pytest.raises(DataError, match="object arrays"):
         body.with_(invariants={"x": np.array([None], dtype=object)})
+
+
+def test_projected_matrices_are_stored_once_with_the_invariants(tmp_path):
+    """A body with invariants stores Me, Ke, De (= Wᵀ M V, Wᵀ K V, Wᵀ D V) once, as the body's
+    own M, K, D (metadata ``invariants_shared``), and reads them back bit for bit
+    (reference: the body before saving)."""
+    from neweul_py.elastic.invariants import attach_invariants
+
+    fe = piston_duct(n_el=40, damping=0.3)
+    body = attach_invariants(reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1],
+                                          store_bases=True), fe, nodes=[1])
+    path = tmp_path / "b.npz"
+    body.save(path)
+    with np.load(path) as data:
+        assert not any(k in data for k in ("invariants/Me.m0", "invariants/Ke.m0"))
+        meta = json.loads(data["meta"].tobytes().decode())
+    assert meta["invariants_shared"] == {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D"}
+    back = ReducedBody.load(path)
+    for name, arr in body.invariants.items():
+        np.testing.assert_array_equal(back.invariants[name], arr)
