@@ -357,7 +357,6 @@ def test_flexible_pendulum_conserves_energy(tmp_path: Path, modes: int, lumped: 
     assert res.y[-1, 0] < -0.5 or res.y[:, 0].min() < -0.5          # it did fall
     assert drift < 1e-7
     if modes == 4:
-
         mod_sid, _ = _pendulum(tmp_path, modes, inertia="sid", tag="sid")
         try:
             drift_sid, _res = _energy_drift(mod_sid, inv)
