@@ -99,7 +99,7 @@ def test_no_import_circles() -> None:
 
 def test_no_private_names_across_modules() -> None:
     """``from X import _name`` never crosses modules (a package's private submodules,
-    ``from . import _protocol``, are its own business)."""
+    ``from . import protocol``, are its own business)."""
     files = {_module_name(p) for p in PKG.rglob("*.py")}
     bad = []
     for path in PKG.rglob("*.py"):

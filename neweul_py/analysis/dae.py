@@ -38,7 +38,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import NeweulError, SolverError
-from . import _protocol as proto
+from . import protocol as proto
 from .results import SimulationResult
 
 __all__ = [
@@ -328,7 +328,7 @@ def default_partition(g_jac: np.ndarray, max_cond: float = 1e8) -> np.ndarray | 
 
     The columns of ``G`` are scanned from the *last* coordinate to the first; a column is taken
     when it raises the rank of the columns taken so far (greedy rank test,
-    :func:`~neweul_py.analysis._protocol.partition`), until there are as many as constraints.
+    :func:`~neweul_py.analysis.protocol.partition`), until there are as many as constraints.
     The choice is accepted when the block ``G[:, dep]`` is well conditioned
     (``cond ≤ max_cond``); the coordinates not taken keep their values.
     """

@@ -4,7 +4,7 @@ At rest (``ẏ = 0``) the equations of motion reduce to ``F(y) = (q − k)(y, 0,
 holonomic constraints to ``F(y) + G_R(y)ᵀ λ = 0``, ``g(y) = 0`` (``M ÿ + k = q + G_Rᵀ λ`` at
 ``ÿ = ẏ = 0``; ``G_R`` the reaction Jacobian, ``= G = ∂g/∂y`` but for constraints on node
 frames of two-sided elastic bodies:
-:func:`~neweul_py.analysis._protocol.constraint_reaction_jacobian`).
+:func:`~neweul_py.analysis.protocol.constraint_reaction_jacobian`).
 Newton's method uses the symbolically generated ``∂F/∂y`` (``force_jacobians``); the curvature term
 ``∂(G_Rᵀλ)/∂y`` of constrained systems is a central difference of the analytic ``G_R``. Steps are
 limited to ``max_step`` per coordinate and damped by a backtracking line search on ``½‖R‖²``.
@@ -33,7 +33,7 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import SolverError
-from . import _protocol as proto
+from . import protocol as proto
 from .results import ResultDisplay, check_output_path
 
 __all__ = ["SUFFIXES", "EquilibriumResult", "equilibrium"]

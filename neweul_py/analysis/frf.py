@@ -29,7 +29,7 @@ import scipy.linalg as sla
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
-from . import _protocol as proto
+from . import protocol as proto
 from .linearize import LinearModel, linearize
 from .plot import check_plot_path, new_figure, plot_bode, save_figure
 from .results import ResultDisplay, check_output_path

@@ -11,7 +11,7 @@ generated Jacobians (``force_jacobians``, ``mass_matrix_times_derivative``, ``ou
 
 Constrained systems (``CONSTRAINTS`` non-empty) are linearized *on the constraint manifold* in
 minimal coordinates: the coordinates are partitioned into independent ``z`` and dependent ones
-(:func:`~neweul_py.analysis._protocol.partition`), the admissible motions are ``δy = N δz`` with
+(:func:`~neweul_py.analysis.protocol.partition`), the admissible motions are ``δy = N δz`` with
 ``G(y0) N = 0`` and ``N[indep] = I``, and the multipliers are eliminated by projecting with
 ``N_Rᵀ``, ``G_R(y0) N_R = 0``:
 
@@ -20,7 +20,7 @@ minimal coordinates: the coordinates are partitioned into independent ``z`` and 
 ``G_R`` is the Jacobian of the reactions ``G_Rᵀ λ`` (the module's ``constraint_reaction_jacobian``;
 it differs from ``G`` only for constraints on node frames of two-sided elastic bodies, whose
 reactions enter the elastic rows through the left basis, equations.md §2). Where ``G_R = G``,
-``N_R = N`` (:func:`~neweul_py.analysis._protocol.reaction_free_basis`); otherwise the model's
+``N_R = N`` (:func:`~neweul_py.analysis.protocol.reaction_free_basis`); otherwise the model's
 matrices are unsymmetric anyway. The term ``∂(G_Rᵀλ0)/∂y`` carries the stiffness that the
 constraint forces produce through the curvature of the manifold (for a pendulum in Cartesian
 coordinates it is *all* of the stiffness); it is obtained by central differences of the analytic
@@ -40,7 +40,7 @@ import numpy as np
 
 from ..atomic import atomic_savez
 from ..errors import NeweulError
-from . import _protocol as proto
+from . import protocol as proto
 from .results import check_output_path
 
 __all__ = ["LinearModel", "linearize"]

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import ModelError, NeweulError, SolverError
-from . import _protocol as proto
+from . import protocol as proto
 from .integrators import COMPILED_METHODS, check_compiled, integrate_compiled
 from .module import check_protocol, load_generated
 from .results import SimulationResult

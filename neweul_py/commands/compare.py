@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import functools
 
-from . import _analysis_common as common
+from . import common as common
 from . import number
 
 

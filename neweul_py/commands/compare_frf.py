@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
 from . import Range, range_type
-from . import _analysis_common as common
+from . import common as common
 
 #: ``--full-method`` choices; the same as :data:`neweul_py.elastic.quality.FRF_METHODS` (kept
 #: here so that building the parser imports no elastic code; a test checks they agree).

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import _analysis_common as common
+from . import common as common
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -10,7 +10,7 @@ import sys
 
 from ..progress import QUIET_HELP, Tracker
 from . import CAPS, count, number, range_type
-from . import _analysis_common as shared
+from . import common as shared
 
 __all__ = ["register"]
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from . import CAPS, range_type
-from . import _analysis_common as common
+from . import common as common
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

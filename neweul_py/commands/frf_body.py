@@ -12,8 +12,8 @@ import numpy as np
 
 from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
-from . import _analysis_common as common
 from . import assignment
+from . import common as common
 from .compare_frf import add_body_frf_arguments, frequency_grid
 
 if TYPE_CHECKING:

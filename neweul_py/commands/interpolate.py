@@ -18,7 +18,7 @@ import sys
 import time
 
 from ..errors import NeweulError
-from . import _analysis_common as shared
+from . import common as shared
 from . import number, values_type
 
 #: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as

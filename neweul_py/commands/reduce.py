@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import NeweulError
 from . import CAPS, count, interval, number, range_type
-from . import _analysis_common as shared
+from . import common as shared
 
 #: Highest frequency of ``--band`` [Hz]: ω² = (2π f)² stays far from overflow.
 MAX_BAND_HZ = 1e12

@@ -9,8 +9,8 @@ from typing import Any
 
 from ..progress import QUIET_HELP, Tracker
 from . import BACKENDS, CAPS, FORMS, SIMULATE_METHODS, count, number
-from . import _analysis_common as common
-from ._signals import input_assignment, input_function
+from . import common as common
+from .signals import input_assignment, input_function
 
 #: Largest number of integrator steps a run may need (``--max-steps``, docs/limits.md).
 DEFAULT_MAX_STEPS = 1_000_000
@@ -104,7 +104,7 @@ def check_step_count(module: Any, args: argparse.Namespace) -> None:
     """
     import numpy as np
 
-    from ..analysis._protocol import resolve_inputs, resolve_parameters
+    from ..analysis.protocol import resolve_inputs, resolve_parameters
     from ..errors import NeweulError
 
     if args.method in ("Radau", "BDF", "LSODA") or getattr(module, "CONSTRAINTS", None):

@@ -136,7 +136,7 @@ def check_overrides(module: Any, args: argparse.Namespace) -> None:
     """
     import numpy as np
 
-    from ..analysis._protocol import resolve_inputs, resolve_parameters
+    from ..analysis.protocol import resolve_inputs, resolve_parameters
 
     # simulate's -u takes expressions of t (commands/_signals.py checks those); numbers here
     numeric = [(k, v) for k, v in getattr(args, "set_input", []) if isinstance(v, float)]
