@@ -22,6 +22,7 @@ from sympy.printing.codeprinter import PrintMethodNotImplementedError
 
 from ..errors import GenerationError
 from ..model import as_expr
+from .printer import join_sum
 
 __all__ = ["CFallbackPrinter", "CPrinter"]
 
@@ -120,16 +121,7 @@ class CPrinter:
             s = _double(float(e))
             return s, (_UNARY if s.startswith(("-", "(")) else _ATOM)
         if e.is_Add:
-            out = []
-            for i, arg in enumerate(e.args):
-                s = self._paren(arg, _ADD)
-                if i == 0:
-                    out.append(s)
-                elif s.startswith("-"):
-                    out.append(" - " + s[1:])
-                else:
-                    out.append(" + " + s)
-            return "".join(out), _ADD
+            return join_sum([self._paren(arg, _ADD) for arg in e.args]), _ADD
         if e.is_Mul:
             return self._mul(e)
         if e.is_Pow:

@@ -49,7 +49,7 @@ from sympy.printing.pycode import PythonCodePrinter
 from ..errors import GenerationError
 from ..model import as_expr
 
-__all__ = ["FastPrinter", "NamePool", "ScalarPrinter"]
+__all__ = ["FastPrinter", "NamePool", "ScalarPrinter", "join_sum"]
 
 #: Names the generated code uses itself: the arguments and locals of its functions
 #: (``codegen/writer.py``, ``codegen/constraints.py``), the protocol functions and constants,
@@ -70,6 +70,20 @@ RESERVED: frozenset[str] = frozenset(
 )
 
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+def join_sum(terms: Iterable[str]) -> str:
+    """``a + b - c`` from printed terms: a term that starts with ``-`` is subtracted (shared
+    by the Python and the C printer, so that both print a sum alike)."""
+    out = []
+    for i, s in enumerate(terms):
+        if i == 0:
+            out.append(s)
+        elif s.startswith("-"):
+            out.append(" - " + s[1:])
+        else:
+            out.append(" + " + s)
+    return "".join(out)
 
 
 class NamePool:
@@ -199,16 +213,7 @@ class FastPrinter:
             s = repr(v)
             return s, (_UNARY if s.startswith("-") else _ATOM)
         if e.is_Add:
-            out = []
-            for i, arg in enumerate(e.args):
-                s = self._paren(arg, _ADD)
-                if i == 0:
-                    out.append(s)
-                elif s.startswith("-"):
-                    out.append(" - " + s[1:])
-                else:
-                    out.append(" + " + s)
-            return "".join(out), _ADD
+            return join_sum([self._paren(arg, _ADD) for arg in e.args]), _ADD
         if e.is_Mul:
             return self._mul(e)
         if e.is_Pow:
