@@ -152,13 +152,14 @@ def _register_beams(sub: argparse._SubParsersAction) -> None:
 def _write(model, args: argparse.Namespace) -> int:
     from ..elastic.fe_io import write_fe_model
 
-    stiffening = None
+    stiffening = responses = None
     if args.stiffening:
         print("geometric stiffness of the 12 unit inertia load cases (root clamped)",
               file=sys.stderr)
         stiffening = model.stiffening()
+        responses = model.stiffening_responses()
     write_fe_model(model.fe, args.output, node_sets=dict(model.node_sets),
-                   stiffening=stiffening)
+                   stiffening=stiffening, stiffening_responses=responses)
     print(f"wrote {args.output}: {model.fe.n_dofs} DOFs, {model.fe.nodes.shape[0]} nodes"
           + (", with stiffening" if stiffening else ""))
     return 0

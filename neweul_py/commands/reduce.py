@@ -151,10 +151,11 @@ def _interface_invariants(args: argparse.Namespace, body, fe):
     from ..elastic.fe_io import read_node_sets
     from ..elastic.interface import add_interface_frames, parse_node_set
     from ..elastic.invariants import attach_invariants
-    from ..elastic.stiffening import attach_stiffening, load_stiffening
+    from ..elastic.stiffening import attach_stiffening, load_responses, load_stiffening
 
     if args.stiffening:
-        body = attach_stiffening(body, fe, load_stiffening(args.model, fe), args.model)
+        body = attach_stiffening(body, fe, load_stiffening(args.model, fe), args.model,
+                                 responses=load_responses(args.model, fe))
     else:
         body = attach_invariants(body, fe)
     if args.interface_frame:

@@ -35,7 +35,10 @@ itself ignores them):
   ``"stiffening": {"wzz": "beam.KG.wzz.mtx", …}`` (Matrix Market / Harwell–Boeing files,
   relative to the manifest), in the ``.npz`` the CSR arrays ``KG.<c>_data``,
   ``KG.<c>_indices``, ``KG.<c>_indptr``, ``KG.<c>_shape``. Missing cases have no stiffening.
-  ``write_fe_model(…, stiffening=…)`` writes them to ``.npz`` files.
+  ``write_fe_model(…, stiffening=…)`` writes them to ``.npz`` files; with them the ``.npz``
+  may hold ``UG.<c>`` (n,), the static response ``u_c`` of the same case (support clamped),
+  which spans the second-order displacement field of the stiffened body
+  (:func:`read_stiffening_responses`; ``docs/equations.md`` §2.3).
 
 Writers are atomic: a single file is written to a temp file and moved with ``os.replace``. A
 manifest's companion files carry a content hash in their names (``<stem>.<hash>.M.mtx``,
@@ -66,6 +69,7 @@ from .fe_model import FEModel
 from .invariants import LOAD_CASES
 
 __all__ = ["FE_FORMAT", "FE_VERSION", "read_fe_model", "read_node_sets", "read_stiffening",
+           "read_stiffening_responses",
            "write_fe_model"]
 
 FE_FORMAT = "neweul-fe"
@@ -100,7 +104,8 @@ def read_fe_model(path: str | os.PathLike) -> FEModel:
 
 def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "mtx", *,
                    node_sets: dict[str, Any] | None = None,
-                   stiffening: dict[str, Any] | None = None) -> None:
+                   stiffening: dict[str, Any] | None = None,
+                   stiffening_responses: dict[str, Any] | None = None) -> None:
     """Write ``fe`` as a manifest (``.json``, with ``matrix_format`` files) or ``.npz``.
 
     Parameters
@@ -115,12 +120,12 @@ def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "m
         is in place (files of other names are never touched).
     matrix_format
         ``"mtx"`` (Matrix Market) or ``"hb"`` (Harwell–Boeing, written as ``.rua``).
-    node_sets, stiffening
-        Optional groups (module docstring): name → node ids, load case → n×n ``K_G,c``
-        (stiffening: ``.npz`` only).
+    node_sets, stiffening, stiffening_responses
+        Optional groups (module docstring): name → node ids, load case → n×n ``K_G,c``,
+        load case → (n,) static response ``u_c`` (stiffening: ``.npz`` only).
     """
     path = Path(path)
-    extra = _optional_groups(fe, node_sets, stiffening, path)
+    extra = _optional_groups(fe, node_sets, stiffening, path, stiffening_responses)
     if path.suffix.lower() == ".npz":
         _write_npz(fe, path, extra)
     else:
@@ -528,7 +533,8 @@ def _read_npz(path: Path) -> FEModel:
 
 
 # ------------------------------------------------ optional groups: node sets, stiffening
-def _optional_groups(fe: FEModel, node_sets, stiffening, path: Path) -> dict[str, Any]:
+def _optional_groups(fe: FEModel, node_sets, stiffening, path: Path,
+                     responses=None) -> dict[str, Any]:
     """Meta entries and arrays of the optional groups (validated before anything is written)."""
     out: dict[str, Any] = {"meta": {}, "arrays": {}}
     if node_sets:
@@ -556,6 +562,15 @@ def _optional_groups(fe: FEModel, node_sets, stiffening, path: Path) -> dict[str
                                   f"KG.{case}_indices": a.indices.astype(np.int64),
                                   f"KG.{case}_indptr": a.indptr.astype(np.int64),
                                   f"KG.{case}_shape": np.asarray(a.shape, dtype=np.int64)})
+    for case, u in (responses or {}).items():
+        if path.suffix.lower() != ".npz":
+            raise DataError("stiffening responses are written to .npz files only", str(path),
+                            "stiffening_responses")
+        u = np.asarray(u, dtype=np.float64)
+        if case not in LOAD_CASES or u.shape != (fe.n_dofs,) or not np.all(np.isfinite(u)):
+            raise DataError(f"must be a finite ({fe.n_dofs},) vector of a known load case, got "
+                            f"shape {u.shape}", str(path), f"UG.{case}")
+        out["arrays"][f"UG.{case}"] = u
     return out
 
 
@@ -648,4 +663,28 @@ def read_stiffening(path: str | os.PathLike) -> dict[str, sps.csr_matrix]:
             raise DataError(f"matrix must be square, got shape {a.shape}", file, f"KG.{case}")
         if not np.all(np.isfinite(a.data)):
             raise DataError("matrix has NaN/Inf entries", file, f"KG.{case}")
+    return out
+
+
+def read_stiffening_responses(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The static responses ``UG.<case>`` (n,) of an ``.npz`` FE file (``{}`` without them).
+
+    Raises
+    ------
+    DataError
+        Unknown load case, not a finite vector (item ``UG.<case>``).
+    """
+    path = Path(path)
+    _meta, data = _meta_of(path)
+    out: dict[str, np.ndarray] = {}
+    for key in sorted(data or {}):
+        if not key.startswith("UG."):
+            continue
+        case, u = key[3:], np.asarray(data[key])
+        if case not in LOAD_CASES:
+            raise DataError(f"unknown load case {case!r} (one of {', '.join(LOAD_CASES)})",
+                            str(path), key)
+        if u.ndim != 1 or u.dtype.kind not in "fi" or not np.all(np.isfinite(u)):
+            raise DataError(f"must be a finite vector, got shape {u.shape}", str(path), key)
+        out[case] = u.astype(np.float64)
     return out

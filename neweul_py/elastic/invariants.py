@@ -103,10 +103,12 @@ __all__ = [
     "OMEGA_PRODUCTS",
     "Invariants",
     "NodeFrame",
+    "QuadraticField",
     "attach_invariants",
     "body_invariants",
     "compute_invariants",
     "inertia_loads",
+    "inertia_responses",
     "omega_products",
     "skew",
     "stress_stiffening",
@@ -194,6 +196,49 @@ class NodeFrame:
 
 
 @dataclass(frozen=True, eq=False)
+class QuadraticField:
+    """The second-order displacement field ``u = Φ q + Y y(q)``, ``y_j = ½ qᵀ A_j q``
+    (``docs/equations.md`` §2.3), built by
+    :func:`neweul_py.elastic.second_order.second_order_field`.
+
+    Parameters
+    ----------
+    body
+        The invariants of the extended basis ``[Φ, Y]`` (one-sided, no stiffening, no node
+        frames): with ``z = [q; y(q)]`` its consistent FFRF equations are the exact kinetic
+        energy of the field, so ``M_b(q) = Tᵀ M_b,z(z) T`` is a Gram matrix and positive.
+    A
+        (ny, nq, nq) symmetric ``A_j``.
+    """
+
+    body: Invariants
+    A: np.ndarray
+
+    def transformed(self, R: np.ndarray) -> QuadraticField:
+        """After ``q = R q̃``: ``z = diag(R, I) z̃``, ``A_j → Rᵀ A_j R``."""
+        ny = self.A.shape[0]
+        nq, nr = R.shape
+        Rz = np.zeros((nq + ny, nr + ny))
+        Rz[:nq, :nr] = R
+        Rz[nq:, nr:] = np.eye(ny)
+        return QuadraticField(self.body.transformed(Rz, Rz.T),
+                              np.einsum("jkl,kK,lL->jKL", self.A, R, R))
+
+    def to_flat(self) -> dict[str, np.ndarray]:
+        """The flat arrays ``quad.<key>`` of the extended body and ``quad.A``."""
+        out = {f"quad.{k}": v for k, v in self.body.to_flat().items() if k != "names"}
+        out["quad.A"] = self.A.copy()
+        return out
+
+    @classmethod
+    def from_flat(cls, flat: Mapping[str, np.ndarray]) -> QuadraticField:
+        """Inverse of :meth:`to_flat` (the other keys of ``flat`` are ignored)."""
+        inner = {k[5:]: v for k, v in flat.items() if k.startswith("quad.") and k != "quad.A"}
+        return cls(Invariants.from_flat({**inner, "names": np.array([], dtype=str)}),
+                   np.asarray(flat["quad.A"], dtype=np.float64))
+
+
+@dataclass(frozen=True, eq=False)
 class Invariants:
     """The invariants of an elastic body in the floating frame of reference (§2).
 
@@ -233,6 +278,9 @@ class Invariants:
         (nq, nq, 3, 3) second-order inertia ``C2[k, l, a, b] = ∫ (e_a × Φ_k)·(e_b × Φ_l) dm``
         (V): ``J(q) += Σ q_k q_l C2[k, l]``, ``Gr_k(q) += 2 Σ_l q_l C2[l, k]``
         (equations.md §2.1); ``None`` for data without it (SID files).
+    quadratic
+        The second-order displacement field of a stiffened body (§2.3), which the kernel
+        uses instead of the first-order stiffening terms; ``None`` without it.
     """
 
     m: float
@@ -252,6 +300,7 @@ class Invariants:
     names: tuple[str, ...] = ()
     two_sided: bool = False
     J2: np.ndarray | None = None
+    quadratic: QuadraticField | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -334,8 +383,7 @@ class Invariants:
         :func:`neweul_py.ffrf.ffrf_velocity_terms`."""
         q, qd, w = (np.asarray(v, dtype=np.float64) for v in (q, qd, omega))
         b = self.kernel_form()
-        md, Mrr, _Mre, _Mer, Oe, c2q = ffrf_mass_blocks(b, q)
-        return np.concatenate(ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe, c2q))
+        return np.concatenate(ffrf_velocity_terms(b, q, qd, w, ffrf_mass_blocks(b, q)))
 
     def elastic_forces(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""
@@ -408,7 +456,8 @@ class Invariants:
             Gr=Taylor.from_arrays(gr.transpose(1, 0, 2).reshape(3, 3 * nr), nq=nr),
             Ge=Taylor.from_arrays(ge.transpose(1, 0, 2).reshape(nr, 3 * nr), nq=nr),
             Oe=rows_l(self.Oe), ksigma=rows_l(self.ksigma), Ke=rows_l(self.Ke, True),
-            De=rows_l(self.De, True), nodes=tuple(nodes), names=names, two_sided=two, J2=j2)
+            De=rows_l(self.De, True), nodes=tuple(nodes), names=names, two_sided=two, J2=j2,
+            quadratic=None if self.quadratic is None or two else self.quadratic.transformed(R))
 
     # --------------------------------------------------------------------- storage
     def to_flat(self) -> dict[str, np.ndarray]:
@@ -445,6 +494,8 @@ class Invariants:
         out["nodes.AP.m0"] = np.array([n.AP.m0 for n in self.nodes]).reshape(nk, 3, 3)
         out["nodes.AP.m1"] = np.array(
             [n.AP.with_order(1).m1 for n in self.nodes]).reshape(nk, 3, nq, 3)
+        if self.quadratic is not None:
+            out.update(self.quadratic.to_flat())
         return out
 
     @classmethod
@@ -493,9 +544,10 @@ class Invariants:
                 get("nodes.phi_w")[i].copy() if two_sided else None,
                 get("nodes.psi_w")[i].copy() if two_sided else None))
         j2 = flat.get("J.m2")
+        quadratic = QuadraticField.from_flat(flat) if "quad.A" in flat else None
         return cls(m=float(get("m")), nodes=tuple(nodes),
                    names=tuple(str(s) for s in get("names")), two_sided=two_sided,
-                   J2=None if j2 is None else np.asarray(j2), **taylors)
+                   J2=None if j2 is None else np.asarray(j2), quadratic=quadratic, **taylors)
 
     # ------------------------------------------------------------------------ SID
     @classmethod
@@ -750,32 +802,14 @@ def inertia_loads(fe) -> dict[str, np.ndarray]:
     return out
 
 
-def stress_stiffening(fe, geometric_stiffness_of, support: Sequence[int],
-                      cases: Sequence[str] = LOAD_CASES) -> dict[str, object]:
-    """The geometric stiffness of each unit load case, body supported at ``support``.
+def inertia_responses(fe, support: Sequence[int],
+                      cases: Sequence[str] = LOAD_CASES) -> dict[str, np.ndarray]:
+    """The static displacements ``u_c`` of the unit inertia load cases (:func:`inertia_loads`)
+    with the DOFs ``support`` fixed: ``K u_c = f_c`` on the others, ``u_c = 0`` on them.
 
-    Wallrapp's procedure: the d'Alembert loads of a unit frame acceleration, angular
-    acceleration or ω-product (:func:`inertia_loads`) are applied to the body held at its
-    reference frame (the DOFs ``support`` fixed), the static displacement ``u_c`` solves
-    ``K u_c = f_c`` on the remaining DOFs, and ``geometric_stiffness_of(u_c)`` — the element
-    formulation's stress stiffness of that state — is ``K_G,c``.
-
-    Parameters
-    ----------
-    fe
-        The FE model.
-    geometric_stiffness_of
-        Callable ``u (n,) → K_G`` (n×n, sparse or dense) of the element formulation.
-    support
-        DOF indices fixed in the static solutions (e.g. all DOFs of the node at the frame
-        origin); must make ``K`` nonsingular on the others.
-    cases
-        Load cases to compute (default all of :data:`LOAD_CASES`).
-
-    Returns
-    -------
-    dict
-        Case → ``K_G,c``, ready for ``compute_invariants(…, geometric_stiffness=…)``.
+    They span the second-order displacement field of a stiffened body
+    (:func:`neweul_py.elastic.second_order.second_order_field`) and give its geometric
+    stiffness (:func:`stress_stiffening`).
 
     Raises
     ------
@@ -805,8 +839,45 @@ def stress_stiffening(fe, geometric_stiffness_of, support: Sequence[int],
         u[free] = lu.solve(loads[c][free])
         if not np.all(np.isfinite(u)):
             raise DataError("K is singular on the unsupported DOFs", fe.source, "support")
-        out[c] = geometric_stiffness_of(u)
+        out[c] = u
     return out
+
+
+def stress_stiffening(fe, geometric_stiffness_of, support: Sequence[int],
+                      cases: Sequence[str] = LOAD_CASES) -> dict[str, object]:
+    """The geometric stiffness of each unit load case, body supported at ``support``.
+
+    Wallrapp's procedure: the d'Alembert loads of a unit frame acceleration, angular
+    acceleration or ω-product (:func:`inertia_loads`) are applied to the body held at its
+    reference frame (the DOFs ``support`` fixed), the static displacement ``u_c`` solves
+    ``K u_c = f_c`` on the remaining DOFs (:func:`inertia_responses`), and
+    ``geometric_stiffness_of(u_c)`` — the element formulation's stress stiffness of that
+    state — is ``K_G,c``.
+
+    Parameters
+    ----------
+    fe
+        The FE model.
+    geometric_stiffness_of
+        Callable ``u (n,) → K_G`` (n×n, sparse or dense) of the element formulation.
+    support
+        DOF indices fixed in the static solutions (e.g. all DOFs of the node at the frame
+        origin); must make ``K`` nonsingular on the others.
+    cases
+        Load cases to compute (default all of :data:`LOAD_CASES`).
+
+    Returns
+    -------
+    dict
+        Case → ``K_G,c``, ready for ``compute_invariants(…, geometric_stiffness=…)``.
+
+    Raises
+    ------
+    DataError
+        Unknown cases or support DOFs, or a support that leaves ``K`` singular.
+    """
+    return {c: geometric_stiffness_of(u)
+            for c, u in inertia_responses(fe, support, cases).items()}
 
 
 def compute_invariants(

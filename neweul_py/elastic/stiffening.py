@@ -20,11 +20,13 @@ import numpy as np
 import scipy.sparse as sps
 
 from ..errors import DataError
-from .fe_io import read_stiffening
+from .fe_io import read_stiffening, read_stiffening_responses
 from .fe_model import FEModel
 from .invariants import LOAD_CASES, Invariants, attach_invariants, omega_products
+from .second_order import second_order_field
 
-__all__ = ["attach_stiffening", "check_stiffening", "load_stiffening", "spin_stiffness"]
+__all__ = ["attach_stiffening", "check_stiffening", "load_responses", "load_stiffening",
+           "spin_stiffness"]
 
 
 def check_stiffening(stiffening: Mapping[str, object], n_dofs: int,
@@ -54,6 +56,17 @@ def check_stiffening(stiffening: Mapping[str, object], n_dofs: int,
     return out
 
 
+def load_responses(path: str | os.PathLike, fe: FEModel) -> dict[str, np.ndarray]:
+    """The static responses ``UG.<case>`` of the FE file ``path`` (``{}`` without them),
+    checked against ``fe``'s DOF count."""
+    out = read_stiffening_responses(path)
+    for case, u in out.items():
+        if u.shape != (fe.n_dofs,):
+            raise DataError(f"static response has shape {u.shape}, the model has "
+                            f"{fe.n_dofs} DOFs", str(path), f"UG.{case}")
+    return out
+
+
 def load_stiffening(path: str | os.PathLike, fe: FEModel) -> dict[str, sps.csr_matrix]:
     """The ``KG.<case>`` group of the FE file ``path``, checked against ``fe``.
 
@@ -71,16 +84,41 @@ def load_stiffening(path: str | os.PathLike, fe: FEModel) -> dict[str, sps.csr_m
 
 
 def attach_stiffening(body, fe: FEModel, stiffening: Mapping[str, object],
-                      source: str | None = None, **kwargs):
+                      source: str | None = None, responses: Mapping[str, object] | None = None,
+                      **kwargs):
     """``attach_invariants(body, fe, geometric_stiffness=…)`` after :func:`check_stiffening`
-    against the body's full basis (``source`` is named in errors, default ``fe.source``)."""
+    against the body's full basis (``source`` is named in errors, default ``fe.source``).
+
+    With the static ``responses`` ``u_c`` of the load cases (FE file group ``UG.<case>``) a
+    Galerkin body (one-sided, or two-sided with ``W = V``: symmetric models) also gets its
+    second-order displacement field
+    (:func:`~neweul_py.elastic.second_order.second_order_field`, ``docs/equations.md``
+    §2.3), which the kernel uses instead of the first-order stiffening terms."""
     src = fe.source if source is None else source
     n = fe.n_dofs if body.V is None else body.V.shape[0]
     if n != fe.n_dofs:
         raise DataError(f"the body's basis has {n} rows, the FE model {fe.n_dofs} DOFs", src,
                         "V")
     KG = check_stiffening(stiffening, n, src)
-    return attach_invariants(body, fe, geometric_stiffness=KG, **kwargs)
+    out = attach_invariants(body, fe, geometric_stiffness=KG, **kwargs)
+    if not responses or not _galerkin(body):
+        return out
+    for case, u in responses.items():
+        if np.shape(u) != (n,):
+            raise DataError(f"static response has shape {np.shape(u)}, expected ({n},)", src,
+                            f"UG.{case}")
+    field = second_order_field(fe, body.V, KG, responses)
+    return out.with_(invariants={**out.invariants, **field.to_flat()})
+
+
+def _galerkin(body) -> bool:
+    """Whether the body's left basis is its right basis (to round-off): one-sided data, or
+    the two-sided reduction of a symmetric FE model."""
+    if not body.two_sided:
+        return True
+    V, W = body.V, body.W
+    return W is not None and W.shape == V.shape and bool(
+        np.abs(W - V).max() <= 1e-10 * max(float(np.abs(V).max()), 1e-300))
 
 
 def spin_stiffness(inv: Invariants, omega: np.ndarray) -> np.ndarray:

@@ -34,7 +34,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from ..elastic.fe_model import FEModel
-from ..elastic.invariants import LOAD_CASES, stress_stiffening
+from ..elastic.invariants import LOAD_CASES, inertia_responses, stress_stiffening
 from ..errors import ModelError
 
 __all__ = ["SOLID_ELEMENTS", "SolidMaterial", "SolidModel", "solid_box"]
@@ -142,6 +142,14 @@ class SolidModel:
         (:func:`neweul_py.elastic.invariants.stress_stiffening`)."""
         fixed = self.fe.dofs_of_nodes(self.node_sets["root"]) if support is None else support
         return stress_stiffening(self.fe, self.geometric_stiffness, fixed, cases)
+
+    def stiffening_responses(self, support: Sequence[int] | None = None,
+                             cases: Sequence[str] = LOAD_CASES) -> dict[str, np.ndarray]:
+        """The static responses ``u_c`` of the same load cases and support as
+        :meth:`stiffening` (:func:`neweul_py.elastic.invariants.inertia_responses`): the
+        span of the body's second-order field (``docs/equations.md`` §2.3)."""
+        fixed = self.fe.dofs_of_nodes(self.node_sets["root"]) if support is None else support
+        return inertia_responses(self.fe, fixed, cases)
 
 
 def solid_box(

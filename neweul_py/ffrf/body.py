@@ -37,10 +37,12 @@ __all__ = [
     "KERNEL_FUNCTIONS",
     "ffrf_body_mass",
     "ffrf_elastic_forces",
+    "ffrf_first_moment",
     "ffrf_kinetic_energy",
     "ffrf_mass_blocks",
     "ffrf_omega_products",
     "ffrf_prepare",
+    "ffrf_quadratic_map",
     "ffrf_skew",
     "ffrf_strain_energy",
     "ffrf_velocity_terms",
@@ -96,7 +98,7 @@ def ffrf_prepare(flat, inertia="consistent"):
     ct1 = flat.get("Ct.m1")
     stiff = (c2 is not None and ct1 is not None and np.any(ct1)
              and not bool(np.asarray(flat.get("two_sided", False))))
-    return {
+    b = {
         "mass": float(np.asarray(flat["m"])),
         "nq": nq,
         "md0": np.asarray(flat["md.m0"], dtype=np.float64)[:, 0],
@@ -115,12 +117,39 @@ def ffrf_prepare(flat, inertia="consistent"):
         "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
         "De": np.asarray(flat["De.m0"], dtype=np.float64),
     }
+    if inertia == "consistent" and "quad.A" in flat:
+        # the second-order displacement field (equations.md §2.3): the body of the extended
+        # basis [Φ, Y] in z = [q; y(q)], which carries the stiffening instead of Ct¹, Oe¹ …
+        inner = {k[5:]: v for k, v in flat.items() if k.startswith("quad.") and k != "quad.A"}
+        nz = int(np.shape(inner["Me.m0"])[0])
+        inner.update({"m": flat["m"], "two_sided": False, "ksigma.m0": np.zeros((nz, 1)),
+                      "Ke.m0": np.zeros((nz, nz)), "De.m0": np.zeros((nz, nz))})
+        A = np.asarray(flat["quad.A"], dtype=np.float64)
+        b.update(quad=ffrf_prepare(inner), consistent_stiffening=False,
+                 A=np.ascontiguousarray(A.reshape(A.shape[0] * nq, nq)), ny=A.shape[0])
+    return b
+
+
+def ffrf_quadratic_map(b, q):
+    """``z = [q; y(q)]`` and ``T = ∂z/∂q = [I; A q]`` of the second-order field,
+    ``y_j = ½ qᵀ A_j q`` (equations.md §2.3)."""
+    Aq = (b["A"] @ q).reshape(b["ny"], b["nq"])
+    return np.concatenate((q, 0.5 * (Aq @ q))), np.vstack((np.eye(b["nq"], dtype=Aq.dtype), Aq))
 
 
 def ffrf_mass_blocks(b, q):
-    """The q-dependent blocks of ``M_b(q)``: ``md``, ``M_rr`` (6×6), ``M_re`` (6×nq), ``M_er``
-    (nq×6), ``Oe(q)`` (nq×6) and ``C2q[k, ab] = Σ_l q_l C2[l, k, a, b]`` (nq×9, or ``None``);
-    ``M_ee = Me`` is constant (module docstring). Matrix products only (BLAS)."""
+    """The q-dependent blocks of ``M_b(q)`` as a dict: ``md``, ``Mrr`` (6×6), ``Mre``
+    (6×nq), ``Mer`` (nq×6), ``Mee`` (nq×nq), and what :func:`ffrf_velocity_terms` reuses:
+    ``Oe`` (nq×6) and ``c2q[k, ab] = Σ_l q_l C2[l, k, a, b]`` (nq×9, or ``None``); for a
+    body with a second-order field, ``z``, ``T`` and ``inner`` (the blocks of the extended
+    body at ``z``: ``Mre = Mre_z T``, ``Mer = Tᵀ Mer_z``, ``Mee = Tᵀ Me_z T``, §2.3).
+    Matrix products only (BLAS)."""
+    if "quad" in b:
+        z, T = ffrf_quadratic_map(b, q)
+        inner = ffrf_mass_blocks(b["quad"], z)
+        return {"md": inner["md"], "Mrr": inner["Mrr"], "Mre": inner["Mre"] @ T,
+                "Mer": T.T @ inner["Mer"], "Mee": T.T @ (inner["Mee"] @ T), "z": z, "T": T,
+                "inner": inner}
     X = b["T0"] + b["T1"] @ q
     X = {k: X[i:j].reshape(shape) for k, (i, j, shape) in b["where"].items()}
     J = X["J"]
@@ -138,9 +167,9 @@ def ffrf_mass_blocks(b, q):
         # reaction of the prestress of the frame acceleration (gravity: a − g) on the
         # rotational rows, ½ s̃(q) with s_a = qᵀ Ct¹_a q (equations.md §2.1)
         Mrr[3:, :3] += 0.5 * ffrf_skew(ffrf_prestress(b, q, X["Ct"]))
-    Mre = np.vstack((b["md1"], X["Crv"].T))
-    Mer = np.hstack((X["Ct"], X["Cr"]))
-    return md, Mrr, Mre, Mer, X["Oe"], c2q
+    return {"md": md, "Mrr": Mrr, "Mre": np.vstack((b["md1"], X["Crv"].T)),
+            "Mer": np.hstack((X["Ct"], X["Cr"])), "Mee": b["Me"].astype(J.dtype),
+            "Oe": X["Oe"], "c2q": c2q}
 
 
 def ffrf_prestress(b, q, Ct):
@@ -151,23 +180,31 @@ def ffrf_prestress(b, q, Ct):
 
 def ffrf_body_mass(b, q):
     """The full (6+nq)² body mass matrix ``M_b(q)`` for ``[a, α, q̈]``."""
-    _md, Mrr, Mre, Mer, _Oe, _c2q = ffrf_mass_blocks(b, q)
-    return np.block([[Mrr, Mre], [Mer, b["Me"].astype(Mrr.dtype)]])
+    m = ffrf_mass_blocks(b, q)
+    return np.block([[m["Mrr"], m["Mre"]], [m["Mer"], m["Mee"]]])
 
 
-def ffrf_velocity_terms(b, q, qd, w, md, Jq, Oe, c2q):
-    """``h_ω`` split into the rigid rows (6,) and the elastic rows (nq,) (module docstring).
+def ffrf_velocity_terms(b, q, qd, w, m):
+    """``h_ω`` split into the rigid rows (6,) and the elastic rows (nq,) (module docstring);
+    ``m`` are the blocks of :func:`ffrf_mass_blocks` at the same ``q``.
 
-    ``md``, ``Jq`` (= ``M_rr[3:, 3:]``), ``Oe`` and ``c2q`` are those of
-    :func:`ffrf_mass_blocks` at the same ``q``.
+    With a second-order field (§2.3) the extended body's terms at ``ż = T q̇`` plus the
+    convective acceleration ``T' q̇ = [0; A(q̇, q̇)]``: ``h_r = h_r,z + Mre_z T'q̇``,
+    ``h_e = Tᵀ (h_e,z + Me_z T'q̇)``.
     """
+    if "quad" in b:
+        inner, T = m["inner"], m["T"]
+        acc = np.concatenate((0.0 * qd, ((b["A"] @ qd).reshape(b["ny"], b["nq"])) @ qd))
+        hr, he = ffrf_velocity_terms(b["quad"], m["z"], T @ qd, w, inner)
+        return hr + inner["Mre"] @ acc, T.T @ (he + inner["Mee"] @ acc)
     wt = ffrf_skew(w)
     qw = np.outer(qd, w).ravel()
+    md, Jq, c2q = m["md"], m["Mrr"][3:, 3:], m["c2q"]
     hr = np.concatenate((wt @ (wt @ md) + 2.0 * (wt @ (b["md1"] @ qd)),
                          wt @ (Jq @ w) + b["Gr"] @ qw))
     if c2q is not None:
         hr[3:] += 2.0 * ((qd @ c2q).reshape(3, 3) @ w)
-    he = Oe @ ffrf_omega_products(w) + b["Ge"] @ qw
+    he = m["Oe"] @ ffrf_omega_products(w) + b["Ge"] @ qw
     return hr, he
 
 
@@ -180,9 +217,19 @@ def ffrf_kinetic_energy(b, v, w, q, qd):
     """``T = ½ zᵀ M_b(q) z`` with ``z = [v; ω; q̇]`` (frame velocity and angular velocity in
     frame components). Exact for one-sided data; for two-sided data the elastic rows use
     ``W``, so this is the energy of the Petrov–Galerkin model, not a conserved quantity."""
+    if "quad" in b:
+        z, T = ffrf_quadratic_map(b, q)
+        return ffrf_kinetic_energy(b["quad"], v, w, z, T @ qd)
     z = np.concatenate((v, w, qd))
     inertia = dict(b, consistent_stiffening=False)      # the prestress reaction is no inertia
     return 0.5 * float(np.real(z @ (ffrf_body_mass(inertia, q) @ z)))
+
+
+def ffrf_first_moment(b, q):
+    """``md(q) = ∫ r dm`` (3,): the gravity potential of the body is ``m e − g·md(q)``."""
+    if "quad" in b:
+        return ffrf_first_moment(b["quad"], ffrf_quadratic_map(b, q)[0])
+    return b["md0"] + b["md1"] @ q
 
 
 def ffrf_strain_energy(b, q, g=None):
@@ -198,7 +245,7 @@ def ffrf_strain_energy(b, q, g=None):
 
 
 #: The functions a generated module embeds (in this order), see the module docstring.
-KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_prestress,
-                    ffrf_mass_blocks,
-                    ffrf_body_mass, ffrf_velocity_terms, ffrf_elastic_forces,
-                    ffrf_kinetic_energy, ffrf_strain_energy)
+KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_quadratic_map,
+                    ffrf_mass_blocks, ffrf_prestress, ffrf_body_mass, ffrf_velocity_terms,
+                    ffrf_elastic_forces, ffrf_kinetic_energy, ffrf_first_moment,
+                    ffrf_strain_energy)

@@ -71,6 +71,8 @@ def ffrf_mix(samples, w):
     for key, value in samples[0].items():
         if isinstance(value, np.ndarray):
             out[key] = sum(wi * b[key] for wi, b in zip(w, samples, strict=True))
+        elif key == "quad":                  # the extended body of a second-order field
+            out[key] = ffrf_mix([b[key] for b in samples], w)
         elif key == "mass":
             out[key] = float(np.real(sum(wi * b[key] for wi, b in zip(w, samples,
                                                                       strict=True))))

@@ -100,6 +100,14 @@ KERNEL_ARRAYS = ("md.m0", "md.m1", "J.m0", "J.m1", "J.m2", "Ct.m0", "Ct.m1", "Cr
                  "Cr.m1", "Crv.m0", "Crv.m1", "Me.m0", "Gr.m0", "Ge.m0", "Oe.m0", "Oe.m1",
                  "ksigma.m0", "Ke.m0", "De.m0")
 
+#: The arrays of a second-order displacement field (equations.md §2.3): the extended body
+#: ``quad.<key>`` (``nz = nq + ny`` coordinates ``z = [q; y]``, one-sided, no stiffening)
+#: and ``quad.A`` (ny, nq, nq) with ``y_j = ½ qᵀ A_j q``. Optional; the kernel uses them
+#: instead of the first-order stiffening terms when present (``inertia: consistent``).
+QUAD_ARRAYS = (*(f"quad.{k}" for k in KERNEL_ARRAYS
+                 if k not in ("Ct.m1", "ksigma.m0", "Ke.m0", "De.m0")), "quad.A")
+KERNEL_ARRAYS = KERNEL_ARRAYS + QUAD_ARRAYS
+
 
 def mode_count(flat: Mapping[str, np.ndarray]) -> int:
     """Number of elastic coordinates: the rows of ``Me.m0`` (0 if missing or malformed)."""
@@ -133,6 +141,8 @@ def check_flat(flat: Mapping[str, np.ndarray]) -> list[str]:
         return ["the elastic data hold no modes (Me.m0 is empty)"]
     nk = int(np.size(flat["nodes.id"]))
     problems = []
+    if "quad.A" in flat:
+        problems += _check_quadratic(flat, nq)
     for key, spec in SCHEMA.items():
         if key not in flat or key == "names":
             continue
@@ -143,4 +153,25 @@ def check_flat(flat: Mapping[str, np.ndarray]) -> list[str]:
                             f"Me.m0, {nk} node frames)")
         elif arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
             problems.append(f"array {key} holds NaN or Inf")
+    return problems
+
+
+def _check_quadratic(flat: Mapping[str, np.ndarray], nq: int) -> list[str]:
+    """The problems of the second-order field arrays (``quad.*``), each naming the key."""
+    inner = {k[5:]: v for k, v in flat.items() if k.startswith("quad.") and k != "quad.A"}
+    inner.update({k: flat[k] for k in ("format", "m", "two_sided") if k not in inner})
+    for key in ("ksigma.m0", "Ke.m0", "De.m0"):
+        inner.setdefault(key, np.zeros((mode_count(inner), 1 if key[0] == "k" else
+                                        mode_count(inner))))
+    for key in ("nodes.id", "nodes.origin.m0", "nodes.phi", "nodes.psi", "nodes.phi_w",
+                "nodes.psi_w", "nodes.AP.m0"):
+        inner.setdefault(key, np.zeros((0,)))
+    problems = [f"quad.{p}" for p in check_flat(inner) if "nodes" not in p]
+    A = np.asarray(flat["quad.A"])
+    nz = mode_count(inner)
+    if A.shape != (nz - nq, nq, nq):
+        problems.append(f"quad.A has shape {A.shape}, expected ({nz - nq}, {nq}, {nq}) (nq = "
+                        f"{nq} from Me.m0, {nz} from quad.Me.m0)")
+    elif A.dtype.kind == "f" and not np.all(np.isfinite(A)):
+        problems.append("array quad.A holds NaN or Inf")
     return problems

@@ -34,6 +34,7 @@ import numpy as np
 
 from .body import (
     ffrf_elastic_forces,
+    ffrf_first_moment,
     ffrf_kinetic_energy,
     ffrf_mass_blocks,
     ffrf_prepare,
@@ -150,39 +151,37 @@ def ffrf_frame(S, b, kin):
 
 
 def ffrf_terms(S, kin, y, yd):
-    """Per body: ``(J_V, J_W, ā, ᾱ, ω, g, q, q̇, md, M_rr, M_re, M_er, Oe, C2q)`` — the frame
-    kinematics and the mass blocks of :func:`~neweul_py.ffrf.body.ffrf_mass_blocks`, evaluated
-    once for the mass matrix and the force vector."""
+    """Per body: ``(J_V, J_W, ā, ᾱ, ω, g, q, q̇, blocks)`` — the frame kinematics and the
+    mass blocks of :func:`~neweul_py.ffrf.body.ffrf_mass_blocks`, evaluated once for the mass
+    matrix and the force vector."""
     out = []
     for b in S["bodies"]:
         Jv, Jw, abar, alphabar, w, g = ffrf_frame(S, b, kin)[:6]
         e = slice(b["first"], b["first"] + b["nq"])
         q, qd = y[e], yd[e]
-        out.append((Jv, Jw, abar, alphabar, w, g, q, qd, *ffrf_mass_blocks(b, q)))
+        out.append((Jv, Jw, abar, alphabar, w, g, q, qd, ffrf_mass_blocks(b, q)))
     return out
 
 
 def ffrf_add_mass(S, M, terms):
     """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices)."""
-    for b, (Jv, Jw, *_k, _q, _qd, _md, Mrr, Mre, Mer, _Oe, _c2q) in zip(
-            S["bodies"], terms, strict=True):
+    for b, (Jv, Jw, *_k, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
-        M = M + Jw.T @ (Mrr @ Jv)
-        M[:, e] += Jw.T @ Mre
-        M[e, :] += Mer @ Jv
-        M[e, e] += b["Me"]
+        M = M + Jw.T @ (m["Mrr"] @ Jv)
+        M[:, e] += Jw.T @ m["Mre"]
+        M[e, :] += m["Mer"] @ Jv
+        M[e, e] += m["Mee"]
     return M
 
 
 def ffrf_add_force(S, f, terms):
     """``q − k −= J_Wᵀ (M_b [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])``."""
-    for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, md, Mrr, _Mre, Mer, Oe, c2q) in zip(
-            S["bodies"], terms, strict=True):
+    for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
         acc = np.concatenate((abar - g, alphabar))
-        hr, he = ffrf_velocity_terms(b, q, qd, w, md, Mrr[3:, 3:], Oe, c2q)
-        f = f - Jw.T @ (Mrr @ acc + hr)
-        f[e] -= Mer @ acc + he + ffrf_elastic_forces(b, q, qd)
+        hr, he = ffrf_velocity_terms(b, q, qd, w, m)
+        f = f - Jw.T @ (m["Mrr"] @ acc + hr)
+        f[e] -= m["Mer"] @ acc + he + ffrf_elastic_forces(b, q, qd)
     return f
 
 
@@ -334,7 +333,7 @@ def ffrf_energy(S, t, x, p, u=None):
         sl = slice(b["first"], b["first"] + b["nq"])
         q, qd = y[sl], yd[sl]
         out[0] += ffrf_kinetic_energy(b, v, w, q, qd)
-        out[1] += b["mass"] * e - g @ (b["md0"] + b["md1"] @ q)
+        out[1] += b["mass"] * e - g @ ffrf_first_moment(b, q)
         out[3] += ffrf_strain_energy(b, q, g)
     return out
 
