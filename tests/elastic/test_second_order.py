@@ -248,3 +248,21 @@ def test_solid_body_field_matches_the_unreduced_stiffened_model() -> None:
     A = (fe.K + Om**2 * (s.stiffening(cases=["wzz"])["wzz"] - P.T @ fe.M @ P)).tocsc()
     ref = spla.eigsh(A[free][:, free], k=1, M=M, sigma=-1e-6)[0][0]
     assert got == pytest.approx(ref, rel=2e-3)
+
+
+def test_parametric_mixing_mixes_the_field() -> None:
+    """``ffrf_mix`` of two prepared samples with second-order fields (the generated module's
+    parametric bodies): every array of the extended body and ``A`` is the weighted sum, so
+    at the weights (1, 0) the mixed body's ``M_b(q)`` is sample 1's (reference: the sample
+    itself)."""
+    from neweul_py.ffrf.parametric import ffrf_mix
+
+    one = ffrf_prepare(_cloud(seed=5)[5].to_flat())
+    two = ffrf_prepare(_cloud(seed=6)[5].to_flat())
+    mixed = ffrf_mix([one, two], np.array([0.25, 0.75]))
+    np.testing.assert_allclose(mixed["A"], 0.25 * one["A"] + 0.75 * two["A"])
+    np.testing.assert_allclose(mixed["quad"]["T1"], 0.25 * one["quad"]["T1"]
+                               + 0.75 * two["quad"]["T1"])
+    q = np.array([0.1, -0.2, 0.05])
+    np.testing.assert_allclose(ffrf_body_mass(ffrf_mix([one, two], np.array([1.0, 0.0])), q),
+                               ffrf_body_mass(one, q), rtol=1e-14, atol=1e-14)
