@@ -78,6 +78,14 @@ class ElasticSplice:
     velocity: sp.ImmutableMatrix
     potential: sp.Expr
 
+    @property
+    def fixed_frame(self) -> bool:
+        """Whether the reference frame never moves (``J_T``, ``J_R``, ``ā``, ``ᾱ``, ``ω``,
+        ``v`` identically zero: ``ISYS`` or a constant offset of it): the body's equations
+        are then its elastic rows alone (equations.md §2.2)."""
+        return all(e == 0 for m in (self.JT, self.JR, self.abar, self.alphabar, self.omega,
+                                    self.velocity) for e in m)
+
     def expressions(self, columns: list[int] | None = None) -> list[sp.Expr]:
         """``[J_T (row-major), J_R, ā, ᾱ, ω, g, v, e]``: 6n + 16 expressions, in this order
         (``columns``: only these Jacobian columns), the layout of

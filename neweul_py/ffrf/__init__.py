@@ -20,6 +20,7 @@ from .body import (
     ffrf_velocity_terms,
 )
 from .schema import (
+    FIXED_ARRAYS,
     FLAT_FORMAT,
     INERTIA_FORMS,
     KERNEL_ARRAYS,
@@ -32,6 +33,7 @@ from .schema import (
 from .splice import PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack, ffrf_unpack
 
 __all__ = [
+    "FIXED_ARRAYS",
     "FLAT_FORMAT",
     "INERTIA_FORMS",
     "KERNEL_ARRAYS",

@@ -61,7 +61,7 @@ def ffrf_omega_products(w):
                      w[0] * w[2]])
 
 
-def ffrf_prepare(flat, inertia="consistent"):
+def ffrf_prepare(flat, inertia="consistent", fixed=False):
     """The kernel's working form of one body from its flat invariants (schema.py keys).
 
     The first-order parts of ``J``, ``Ct``, ``Cr``, ``Crv``, ``Oe`` are stacked into one
@@ -74,6 +74,9 @@ def ffrf_prepare(flat, inertia="consistent"):
         missing order-1 parts are zero).
     inertia
         ``"consistent"`` (use ``J.m2`` when present) or ``"sid"`` (ignore it).
+    fixed
+        The body's frame never moves and it has no stiffening (``FIXED_ARRAYS`` suffice):
+        only the elastic rows are kept (equations.md §2.2).
 
     Returns
     -------
@@ -83,6 +86,18 @@ def ffrf_prepare(flat, inertia="consistent"):
         ``Ge``, ``ks`` (nq,), ``Ke``, ``De``.
     """
     nq = int(np.shape(flat["Me.m0"])[0])
+    if fixed:
+        md1 = flat.get("md.m1")
+        return {"fixed": True, "mass": float(np.asarray(flat["m"])), "nq": nq,
+                "consistent_stiffening": False,
+                "md0": np.asarray(flat["md.m0"], dtype=np.float64)[:, 0],
+                "md1": np.zeros((3, nq)) if md1 is None else
+                np.asarray(md1, dtype=np.float64)[:, :, 0],
+                "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
+                "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
+                "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
+                "De": np.asarray(flat["De.m0"], dtype=np.float64),
+                "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0]}
     zeros, firsts, where, start = [], [], {}, 0
     for key in ("J", "Ct", "Cr", "Crv", "Oe"):
         m0 = np.asarray(flat[key + ".m0"], dtype=np.float64)
@@ -144,6 +159,12 @@ def ffrf_mass_blocks(b, q):
     body with a second-order field, ``z``, ``T`` and ``inner`` (the blocks of the extended
     body at ``z``: ``Mre = Mre_z T``, ``Mer = Tᵀ Mer_z``, ``Mee = Tᵀ Me_z T``, §2.3).
     Matrix products only (BLAS)."""
+    if "fixed" in b:                          # a body on a fixed frame: elastic rows only
+        Mrr = np.zeros((6, 6), dtype=q.dtype)
+        return {"md": b["md0"] + b["md1"] @ q, "Mrr": Mrr,
+                "Mre": np.zeros((6, b["nq"]), dtype=q.dtype),
+                "Mer": np.hstack((b["Ct0"], np.zeros((b["nq"], 3)))).astype(q.dtype),
+                "Mee": b["Me"].astype(q.dtype)}
     if "quad" in b:
         z, T = ffrf_quadratic_map(b, q)
         inner = ffrf_mass_blocks(b["quad"], z)
@@ -192,6 +213,8 @@ def ffrf_velocity_terms(b, q, qd, w, m):
     convective acceleration ``T' q̇ = [0; A(q̇, q̇)]``: ``h_r = h_r,z + Mre_z T'q̇``,
     ``h_e = Tᵀ (h_e,z + Me_z T'q̇)``.
     """
+    if "fixed" in b:
+        return np.zeros(6, dtype=qd.dtype), np.zeros(b["nq"], dtype=qd.dtype)
     if "quad" in b:
         inner, T = m["inner"], m["T"]
         acc = np.concatenate((0.0 * qd, ((b["A"] @ qd).reshape(b["ny"], b["nq"])) @ qd))

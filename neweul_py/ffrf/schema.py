@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "FIXED_ARRAYS",
     "FLAT_FORMAT",
     "INERTIA_FORMS",
     "KERNEL_ARRAYS",
@@ -107,6 +108,10 @@ KERNEL_ARRAYS = ("md.m0", "md.m1", "J.m0", "J.m1", "J.m2", "Ct.m0", "Ct.m1", "Cr
 QUAD_ARRAYS = (*(f"quad.{k}" for k in KERNEL_ARRAYS
                  if k not in ("Ct.m1", "ksigma.m0", "Ke.m0", "De.m0")), "quad.A")
 KERNEL_ARRAYS = KERNEL_ARRAYS + QUAD_ARRAYS
+
+#: The arrays of a body on a fixed frame without stiffening (equations.md §2.2): its
+#: equations are ``Me q̈ + De q̇ + Ke q + kσ = Ct⁰ g + node loads``, the rest is not embedded.
+FIXED_ARRAYS = ("md.m0", "md.m1", "Ct.m0", "Me.m0", "ksigma.m0", "Ke.m0", "De.m0")
 
 
 def mode_count(flat: Mapping[str, np.ndarray]) -> int:

@@ -98,12 +98,14 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     for entry in data:
         if "samples" in entry:
             prepared = [ffrf_prepare({k: ffrf_unpack(v) for k, v in sample.items()},
-                                     entry["inertia"]) for sample in entry["samples"]]
+                                     entry["inertia"], entry.get("fixed", False))
+                        for sample in entry["samples"]]
             b = dict(prepared[0])
             b.update(samples=prepared, values=ffrf_unpack(entry["values"]),
                      coeff=ffrf_unpack(entry["coeff"]))
         else:
-            b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"])
+            b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"],
+                             entry.get("fixed", False))
         b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
@@ -167,6 +169,10 @@ def ffrf_add_mass(S, M, terms):
     """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices)."""
     for b, (Jv, Jw, *_k, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
+        if "fixed" in b:                      # J_V = J_W = 0: the elastic rows alone
+            M = M.astype(np.result_type(M, m["Mee"]))     # a copy, as M + … below
+            M[e, e] += m["Mee"]
+            continue
         M = M + Jw.T @ (m["Mrr"] @ Jv)
         M[:, e] += Jw.T @ m["Mre"]
         M[e, :] += m["Mer"] @ Jv
@@ -178,6 +184,11 @@ def ffrf_add_force(S, f, terms):
     """``q − k −= J_Wᵀ (M_b [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])``."""
     for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
+        if "fixed" in b:                      # ā = ᾱ = ω = 0, J_W = 0
+            load = b["Ct0"] @ (abar - g) + ffrf_elastic_forces(b, q, qd)
+            f = f.astype(np.result_type(f, load))           # a copy, as f − … below
+            f[e] -= load
+            continue
         acc = np.concatenate((abar - g, alphabar))
         hr, he = ffrf_velocity_terms(b, q, qd, w, m)
         f = f - Jw.T @ (m["Mrr"] @ acc + hr)

@@ -73,6 +73,42 @@ def test_sid_beam_clamped_reproduces_the_file_frequencies(beam_dir: Path) -> Non
     np.testing.assert_allclose(np.sort_complex(got), np.sort_complex(ref), rtol=1e-6)
 
 
+def test_body_on_a_fixed_frame_is_linear_structural_dynamics(beam_dir: Path) -> None:
+    """The SID beam on ISYS under gravity with a spring to the ground at its tip node: the
+    generated module (which embeds only the elastic rows of a body whose frame never moves)
+    gives ``Me q̈ = −Ke q − De q̇ − kσ + Ct⁰ g + Φ_Pᵀ f_spring`` — the closed form of linear
+    structural dynamics, written out here from the file's matrices — for ``rhs`` and its
+    Jacobian, and the module holds none of the rigid-motion invariants."""
+    sid = read_sid(DATA / "beam.SID_FEM")
+    node = next(n for n in sid.nodes if n.id == 1793)
+    at = [float(v) for v in node.origin.m0.ravel()]          # the tip node's position
+    text = CLAMPED.replace("name: clamped_beam", "name: clamped_beam\nparameters: {g: 9.81, "
+                           "k: 1.0e3}\ngravity: [0, 0, -g]") + f"""
+forces:
+  tip: {{type: bushing, between: [ISYS, beam.tip], points: [{at}, [0, 0, 0]], stiffness: k}}
+"""
+    mod = _generate(beam_dir, text)
+    source = Path(mod.__file__).read_text()
+    assert "'fixed': True" in source and "'Oe.m1'" not in source and "'Gr.m0'" not in source
+    Me, De, Ke, Ct, ks = (sid[k].m0 for k in ("Me", "De", "Ke", "Ct", "ksigma"))
+    ks = ks[:, 0]
+    phi = node.phi.m0                                         # (3, nq): u_tip = Φ_P q
+    rng = np.random.default_rng(0)
+    q, qd = 1e-3 * rng.normal(size=11), 1e-2 * rng.normal(size=11)
+    g = np.array([0.0, 0.0, -9.81])
+    f_tip = -1.0e3 * (phi @ q)                                # spring of zero length at the node
+    qdd = np.linalg.solve(Me, -Ke @ q - De @ qd - ks + Ct @ g + phi.T @ f_tip)
+    p = mod.default_parameters()
+    xd = mod.rhs(0.0, np.concatenate((q, qd)), p)
+    np.testing.assert_allclose(xd[11:], qdd, rtol=1e-9, atol=1e-9 * np.abs(qdd).max())
+    J = mod.rhs_jacobian(0.0, np.concatenate((q, qd)), p)
+    Minv = np.linalg.inv(Me)
+    np.testing.assert_allclose(J[11:, :11], -Minv @ (Ke + 1.0e3 * phi.T @ phi), rtol=1e-8,
+                               atol=1e-8 * np.abs(Minv @ Ke).max())
+    np.testing.assert_allclose(J[11:, 11:], -Minv @ De, rtol=1e-8,
+                               atol=1e-8 * np.abs(Minv @ De).max())
+
+
 def test_clamped_beam_modes_subset_and_node_output(beam_dir: Path) -> None:
     """``modes: 3`` keeps the first three; the node output moves with Φ_P (``origin(q)``)."""
     mod = _generate(beam_dir, CLAMPED.replace("nodes: {tip: 1793}",
