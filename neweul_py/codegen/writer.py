@@ -233,6 +233,50 @@ def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.Immutabl
     return out
 
 
+def _pose_functions(ctx: Context, eq: Any, method: CseMethod,
+                    prefix: str) -> dict[str, tuple[str, ...]]:
+    """frame_poses (the poses of :class:`~neweul_py.equations.poses.FramePoses`) and
+    body_properties (mass, center of mass and inertia of the rigid bodies, parameters only)."""
+    y, p = ctx.y, ctx.p
+    n = len(y)
+    poses = eq.poses
+    nf = len(poses.frames)
+    out: dict[str, tuple[str, ...]] = {}
+    prog = eliminate(ctx.intermediates, [*poses.positions, *poses.rotations], prefix="_ncg_r",
+                     method=method)
+    b = checked(ctx, prog, (*y, *p, *ctx.u, time), "the frame poses")
+    body = (prologue(ctx, b, [(y, f"_np.asarray(x, dtype=_np.float64)[:{n}].tolist()"),
+                              (p, _P_SRC)])
+            + inputs_prologue(ctx, b) + assignments(ctx, b) + vector(ctx, "pose", b.finals))
+    out["frame_poses"] = _function(
+        f"{prefix}frame_poses", "t, x, p, u=None",
+        "Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS.",
+        [*body, f"return pose[:{3 * nf}].reshape({nf}, 3), pose[{3 * nf}:].reshape({nf}, 3, 3)"])
+    bodies = eq.system.bodies
+    nb = len(bodies)
+    values = [as_expr(b.mass) for b in bodies]
+    values += [as_expr(x) for b in bodies for x in b.center_of_mass]
+    values += [as_expr(x) for b in bodies for x in b.inertia]
+    b = checked(ctx, eliminate((), values, method=method), p, "the body properties")
+    body = (prologue(ctx, b, [(p, _P_SRC)]) + assignments(ctx, b) + vector(ctx, "v", b.finals))
+    out["body_properties"] = _function(
+        "body_properties", "p",
+        "Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3).",
+        [*body, f"return v[:{nb}], v[{nb}:{4 * nb}].reshape({nb}, 3), "
+                f"v[{4 * nb}:].reshape({nb}, 3, 3)"])
+    return out
+
+
+def _body_list(system: System) -> str:
+    """``BODIES``: one dict per rigid body, then per elastic body (with its node count)."""
+    rows = [f"\n    {{'name': {b.name!r}, 'frame': {b.frame!r}, 'kind': 'rigid'}},"
+            for b in system.bodies]
+    rows += [f"\n    {{'name': {b.name!r}, 'frame': {b.frame!r}, 'kind': 'elastic', "
+             f"'nodes': {len(b.data['nodes.id'])}}},"
+             for b in system.elastic_bodies]
+    return "[" + "".join(rows) + ("\n]" if rows else "]")
+
+
 def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
                ) -> dict[str, str]:
     system: System = eq.system
@@ -244,6 +288,7 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
     if [str(s) for s in p] != list(pdef):
         raise GenerationError("the equations' parameters differ from the model's")
     ce = getattr(eq, "constraints", None)
+    eq_poses = getattr(eq, "poses", None)
     return {
         "PROTOCOL_VERSION": repr(PROTOCOL_VERSION),
         "MODEL_NAME": repr(system.name),
@@ -263,6 +308,11 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
         "STATE_SIZE": repr(2 * len(y)),
         "SOURCE_HASH": repr(source_hash),
         "MASS_MATRIX_SYMMETRIC": repr(symmetric),
+        **({} if eq_poses is None else {
+            "FRAMES": repr(list(eq_poses.frames)),
+            "FRAME_PARENTS": repr(list(eq_poses.parents)),
+            "BODIES": _body_list(system),
+        }),
     }
 
 
@@ -368,6 +418,8 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     for name, block in constraint_functions(ctx, getattr(eq, "constraints", None), method,
                                             prefix).items():
         funcs[name] = tuple(block)
+    if getattr(eq, "poses", None) is not None:  # poses of the frames (animations)
+        funcs.update(_pose_functions(ctx, eq, method, prefix))
     pdef = tuple(float(pp.default) for pp in system.parameters)
     return ModuleParts(
         docstring=_header(system),

@@ -58,6 +58,7 @@ from .constraints import check_constraints, derive_constraints
 from .elastic import elastic_equations
 from .energy import energies
 from .force_elements import apply_force_element
+from .poses import frame_poses
 from .result import Equations
 
 __all__ = ["AUTO_CLOSED_MAX", "clear_cache", "newton_euler"]
@@ -181,6 +182,7 @@ def _derive(system: System, form: str) -> Equations:
     energy = energies(kin, system)
     constraints = derive_constraints(system)
     check_constraints(system, constraints)
+    poses = frame_poses(kin)  # last: its intermediates come after all the equations need
 
     mass = [[ZERO] * n for _ in range(n)]
     for i in range(n):
@@ -200,6 +202,7 @@ def _derive(system: System, form: str) -> Equations:
         constraints=constraints,
         energy=energy,
         elastic=elastic_equations(system),
+        poses=poses,
     )
 
 
