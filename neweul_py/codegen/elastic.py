@@ -32,6 +32,7 @@ import sympy as sp
 
 from ..ffrf import KERNEL_ARRAYS, KERNEL_FUNCTIONS, PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack
 from ..ffrf.parametric import weight_coefficients
+from ..progress import StagedProgress
 from .blocks import units
 from .writer import ModuleParts, module_parts
 
@@ -159,7 +160,8 @@ _NODE_POSITIONS = (
 )
 
 
-def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) -> ModuleParts:
+def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
+                         progress: StagedProgress = None) -> ModuleParts:
     """The parts of the module of a system with elastic bodies (module docstring).
 
     Parameters
@@ -168,7 +170,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         :class:`~neweul_py.equations.Equations` with ``elastic`` set.
     source_hash
         SHA-256 of the description.
-    cse
+    cse, progress
         Passed to :func:`.writer.module_parts`.
     """
     el = equations.elastic
@@ -191,7 +193,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         constraints=ce,
     )
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
-                         schedules=el.schedules)
+                         schedules=el.schedules, progress=progress)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
