@@ -163,9 +163,10 @@ def generate(
     progress
         A staged hook ``progress(stage, done, total)``, called after each frame
         (``"kinematics"``), each body, mass-matrix column and force element
-        (``"equations"``) and each block of the module (``"code generation"``): counts rise
-        to ``total`` within a stage. A :class:`neweul_py.progress.Tracker` draws one bar per
-        stage on a terminal; ``None`` (default) is silent.
+        (``"equations"``) and each block of the module (``"code generation"``; with
+        ``backend="c"`` also ``"C code"``): counts rise to ``total`` within a stage. A
+        :class:`neweul_py.progress.Tracker` draws one bar per stage on a terminal; ``None``
+        (default) is silent.
 
     Returns
     -------
@@ -207,7 +208,7 @@ def generate(
         )
     path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py",
                            progress=progress)
-    return _with_backend(path, backend, lambda: equations, rebuild=True)
+    return _with_backend(path, backend, lambda: equations, rebuild=True, progress=progress)
 
 
 def _check_backend(backend: str) -> None:
@@ -215,7 +216,8 @@ def _check_backend(backend: str) -> None:
         raise NeweulError(f"unknown backend {backend!r}; backends are: {', '.join(BACKENDS)}")
 
 
-def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False) -> Path:
+def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False,
+                  progress: StagedProgress = None) -> Path:
     """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
     compiled module next to it (written from ``equations()`` unless present, and loaded once,
     which builds its library). Models the C backend cannot compile yet (elastic bodies) keep
@@ -230,7 +232,7 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
     wrapper = c_module_path(path)
     if rebuild or not (wrapper.is_file() and wrapper.with_suffix(".c").is_file()):
         try:
-            write_c_module(equations(), path)
+            write_c_module(equations(), path, progress=progress)
         except GenerationError as exc:
             warnings.warn(f"{exc}; using the NumPy module {path}", RuntimeWarning, stacklevel=3)
             return path

@@ -229,7 +229,7 @@ class Steps:
 
         def tick(f: float) -> None:
             value = self.done + lo + (hi - lo) * min(max(float(f), 0.0), 1.0)
-            if value > self._last and value < self.total:
+            if self._last < value < min(self.done + 1, self.total):  # inside the step
                 self._last = value
                 self.progress(self.stage, value, self.total)  # type: ignore[misc, arg-type]
 

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import io
+import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from neweul_py.analysis import simulate
 from neweul_py.cli import main
@@ -125,3 +128,21 @@ def test_derivation_bars_on_a_terminal_only(tmp_path, capsys):
         clear_cache()
         assert main(["generate", str(desc), "-o", str(tmp_path / "c"), *extra]) == 0
         assert capsys.readouterr().err == ""
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                    reason="no C compiler")
+def test_compiled_backend_reports_its_blocks(tmp_path):
+    """Reference: the seven blocks of the C sources (codegen.writer.program_blocks)."""
+    from neweul_py.api import generate
+    from neweul_py.equations import clear_cache
+
+    clear_cache()
+    calls: list[tuple[str, float, int]] = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        generate(GENERATED.parent / "examples" / "pendulum.yaml", tmp_path, backend="c",
+                 progress=lambda *a: calls.append(a))
+    c_calls = [c for c in calls if c[0] == "C code"]
+    assert [c[1] for c in c_calls if float(c[1]).is_integer()] == list(range(1, 8))
+    assert {c[2] for c in c_calls} == {7}

@@ -466,7 +466,8 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     )
 
 
-def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
+def program_blocks(equations: Any, *, cse: bool = True,
+                   progress: StagedProgress = None) -> dict[str, Block]:
     """The CSE'd straight-line programs of the protocol functions, for other printers.
 
     The same calls to :func:`.cse.eliminate` and :func:`.derivatives.jacobian`, in the same
@@ -478,8 +479,10 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians``
     (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
-    bodies are spliced in numerically by :mod:`.elastic`).
+    bodies are spliced in numerically by :mod:`.elastic`). ``progress``: a staged hook,
+    ``("C code", done, 7)`` after each block.
     """
+    step = Steps(progress, "C code", 7)
     eq = equations
     y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
     n = len(y)
@@ -493,8 +496,10 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     out: dict[str, Block] = {}
     out["default_inputs"] = eliminate((), [as_expr(e) for e in eq.system.input_defaults],
                                       method=method)
+    step()
     m_values, m_where = mass_entries(M)
     program = eliminate(inter, [*m_values, *fvec], prefix="_ncg_c", method=method)
+    step()
     nm = len(m_values)
     m_full = sp.zeros(n, n)
     for value, places in zip(program.finals[:nm], m_where, strict=True):
@@ -504,15 +509,20 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     out["mass_matrix"] = subblock(program, list(m_full))
     out["force_vector"] = subblock(program, f_red)
     out["rhs"] = Block(program.assignments, (*m_full, *f_red))
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method, step.part())
     out["force_jacobians"] = Block(b.assignments, tuple(Jr))
+    step()
     ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method)
+    b, Jr = derivative_block(program.assignments, ma, y, d_method, step.part())
     out["mass_matrix_times_derivative"] = Block(b.assignments, tuple(Jr))
+    step()
     out_prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
     out["outputs"] = out_prog
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method)
+    step()
+    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method,
+                             step.part())
     out["output_jacobians"] = Block(b.assignments, tuple(Jr))
+    step()
     ce = getattr(eq, "constraints", None)
     if ce is not None and ce.nc:
         for name, exprs, prefix in (("constraints", ce.g, "_ncg_g"),
@@ -524,5 +534,6 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
         for name in ("constraints", "constraint_jacobian", "constraint_time_derivative",
                      "constraint_gamma"):
             out[name] = Block((), ())
+    step()
     return out
 
