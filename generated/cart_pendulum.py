@@ -35,6 +35,12 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4
 SOURCE_HASH = '98abe6029eac383415e6ff396c38222c2f622297fb3f7c7eae38bbbc5e305109'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['cart', 'rod']
+FRAME_PARENTS = ['ISYS', 'cart']
+BODIES = [
+    {'name': 'cart_body', 'frame': 'cart', 'kind': 'rigid'},
+    {'name': 'rod_body', 'frame': 'rod', 'kind': 'rigid'},
+]
 
 _P0 = (2.0, 0.5, 0.8, 40.0, 0.5, 1.0, 2.0, 4.0, 9.81)
 
@@ -239,3 +245,20 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    x_, phi = _np.asarray(x, dtype=_np.float64)[:2].tolist()
+    _r0 = _math.cos(phi)
+    _r1 = _math.sin(phi)
+    pose = _np.array((x_, 0, 0, x_, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, _r0, 0, _r1, 0, 1, 0, -_r1, 0, _r0), dtype=_np.float64)
+    return pose[:6].reshape(2, 3), pose[6:].reshape(2, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/12)*mp*l*l
+    v = _np.array((mc, mp, 0, 0, 0, 0, 0, -(1/2)*l, 0, 0, 0, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)

@@ -29,6 +29,20 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 20
 SOURCE_HASH = '0082003e04bd8aee7de667d8d4e2471e2760726ac811db5555c07475f35c1a87'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['link1', 'link2', 'link3', 'link4', 'link5', 'link6', 'link7', 'link8', 'link9', 'link10']
+FRAME_PARENTS = ['ISYS', 'link1', 'link2', 'link3', 'link4', 'link5', 'link6', 'link7', 'link8', 'link9']
+BODIES = [
+    {'name': 'rod1', 'frame': 'link1', 'kind': 'rigid'},
+    {'name': 'rod2', 'frame': 'link2', 'kind': 'rigid'},
+    {'name': 'rod3', 'frame': 'link3', 'kind': 'rigid'},
+    {'name': 'rod4', 'frame': 'link4', 'kind': 'rigid'},
+    {'name': 'rod5', 'frame': 'link5', 'kind': 'rigid'},
+    {'name': 'rod6', 'frame': 'link6', 'kind': 'rigid'},
+    {'name': 'rod7', 'frame': 'link7', 'kind': 'rigid'},
+    {'name': 'rod8', 'frame': 'link8', 'kind': 'rigid'},
+    {'name': 'rod9', 'frame': 'link9', 'kind': 'rigid'},
+    {'name': 'rod10', 'frame': 'link10', 'kind': 'rigid'},
+]
 
 _P0 = (1.0, 0.5, 9.81)
 
@@ -7060,3 +7074,94 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    q1, q2, q3, q4, q5, q6, q7, q8, q9, q10 = _np.asarray(x, dtype=_np.float64)[:10].tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c_link1_0 = _math.cos(q1)
+    _s_link1_0 = _math.sin(q1)
+    _c_link2_0 = _math.cos(q2)
+    _s_link2_0 = _math.sin(q2)
+    _c_link3_0 = _math.cos(q3)
+    _s_link3_0 = _math.sin(q3)
+    _c_link4_0 = _math.cos(q4)
+    _s_link4_0 = _math.sin(q4)
+    _c_link5_0 = _math.cos(q5)
+    _s_link5_0 = _math.sin(q5)
+    _c_link6_0 = _math.cos(q6)
+    _s_link6_0 = _math.sin(q6)
+    _c_link7_0 = _math.cos(q7)
+    _s_link7_0 = _math.sin(q7)
+    _c_link8_0 = _math.cos(q8)
+    _s_link8_0 = _math.sin(q8)
+    _c_link9_0 = _math.cos(q9)
+    _s_link9_0 = _math.sin(q9)
+    _c_link10_0 = _math.cos(q10)
+    _s_link10_0 = _math.sin(q10)
+    _r0_link2_0 = -_s_link1_0*l
+    _r0_link2_2 = -_c_link1_0*l
+    _S_link2_00 = _c_link1_0*_c_link2_0 - _s_link1_0*_s_link2_0
+    _S_link2_02 = _c_link1_0*_s_link2_0 + _c_link2_0*_s_link1_0
+    _S_link2_20 = -_c_link1_0*_s_link2_0 - _c_link2_0*_s_link1_0
+    _r0_link3_0 = _r0_link2_0 - _S_link2_02*l
+    _r0_link3_2 = _r0_link2_2 - _S_link2_00*l
+    _r0 = _S_link2_00*_c_link3_0
+    _S_link3_00 = _r0 - _S_link2_02*_s_link3_0
+    _S_link3_02 = _S_link2_00*_s_link3_0 + _S_link2_02*_c_link3_0
+    _S_link3_20 = _S_link2_20*_c_link3_0 - _S_link2_00*_s_link3_0
+    _S_link3_22 = _r0 + _S_link2_20*_s_link3_0
+    _r0_link4_0 = _r0_link3_0 - _S_link3_02*l
+    _r0_link4_2 = _r0_link3_2 - _S_link3_22*l
+    _S_link4_00 = _S_link3_00*_c_link4_0 - _S_link3_02*_s_link4_0
+    _S_link4_02 = _S_link3_00*_s_link4_0 + _S_link3_02*_c_link4_0
+    _S_link4_20 = _S_link3_20*_c_link4_0 - _S_link3_22*_s_link4_0
+    _S_link4_22 = _S_link3_20*_s_link4_0 + _S_link3_22*_c_link4_0
+    _r0_link5_0 = _r0_link4_0 - _S_link4_02*l
+    _r0_link5_2 = _r0_link4_2 - _S_link4_22*l
+    _S_link5_00 = _S_link4_00*_c_link5_0 - _S_link4_02*_s_link5_0
+    _S_link5_02 = _S_link4_00*_s_link5_0 + _S_link4_02*_c_link5_0
+    _S_link5_20 = _S_link4_20*_c_link5_0 - _S_link4_22*_s_link5_0
+    _S_link5_22 = _S_link4_20*_s_link5_0 + _S_link4_22*_c_link5_0
+    _r0_link6_0 = _r0_link5_0 - _S_link5_02*l
+    _r0_link6_2 = _r0_link5_2 - _S_link5_22*l
+    _S_link6_00 = _S_link5_00*_c_link6_0 - _S_link5_02*_s_link6_0
+    _S_link6_02 = _S_link5_00*_s_link6_0 + _S_link5_02*_c_link6_0
+    _S_link6_20 = _S_link5_20*_c_link6_0 - _S_link5_22*_s_link6_0
+    _S_link6_22 = _S_link5_20*_s_link6_0 + _S_link5_22*_c_link6_0
+    _r0_link7_0 = _r0_link6_0 - _S_link6_02*l
+    _r0_link7_2 = _r0_link6_2 - _S_link6_22*l
+    _S_link7_00 = _S_link6_00*_c_link7_0 - _S_link6_02*_s_link7_0
+    _S_link7_02 = _S_link6_00*_s_link7_0 + _S_link6_02*_c_link7_0
+    _S_link7_20 = _S_link6_20*_c_link7_0 - _S_link6_22*_s_link7_0
+    _S_link7_22 = _S_link6_20*_s_link7_0 + _S_link6_22*_c_link7_0
+    _r0_link8_0 = _r0_link7_0 - _S_link7_02*l
+    _r0_link8_2 = _r0_link7_2 - _S_link7_22*l
+    _S_link8_00 = _S_link7_00*_c_link8_0 - _S_link7_02*_s_link8_0
+    _S_link8_02 = _S_link7_00*_s_link8_0 + _S_link7_02*_c_link8_0
+    _S_link8_20 = _S_link7_20*_c_link8_0 - _S_link7_22*_s_link8_0
+    _S_link8_22 = _S_link7_20*_s_link8_0 + _S_link7_22*_c_link8_0
+    _r0_link9_0 = _r0_link8_0 - _S_link8_02*l
+    _r0_link9_2 = _r0_link8_2 - _S_link8_22*l
+    _S_link9_00 = _S_link8_00*_c_link9_0 - _S_link8_02*_s_link9_0
+    _S_link9_02 = _S_link8_00*_s_link9_0 + _S_link8_02*_c_link9_0
+    _S_link9_20 = _S_link8_20*_c_link9_0 - _S_link8_22*_s_link9_0
+    _S_link9_22 = _S_link8_20*_s_link9_0 + _S_link8_22*_c_link9_0
+    _r0_link10_0 = _r0_link9_0 - _S_link9_02*l
+    _r0_link10_2 = _r0_link9_2 - _S_link9_22*l
+    _S_link10_00 = _S_link9_00*_c_link10_0 - _S_link9_02*_s_link10_0
+    _S_link10_02 = _S_link9_00*_s_link10_0 + _S_link9_02*_c_link10_0
+    _S_link10_20 = _S_link9_20*_c_link10_0 - _S_link9_22*_s_link10_0
+    _S_link10_22 = _S_link9_20*_s_link10_0 + _S_link9_22*_c_link10_0
+    pose = _np.array((0, 0, 0, _r0_link2_0, 0, _r0_link2_2, _r0_link3_0, 0, _r0_link3_2, _r0_link4_0, 0, _r0_link4_2, _r0_link5_0, 0, _r0_link5_2, _r0_link6_0, 0, _r0_link6_2, _r0_link7_0, 0, _r0_link7_2, _r0_link8_0, 0, _r0_link8_2, _r0_link9_0, 0, _r0_link9_2, _r0_link10_0, 0, _r0_link10_2, _c_link1_0, 0, _s_link1_0, 0, 1, 0, -_s_link1_0, 0, _c_link1_0, _S_link2_00, 0, _S_link2_02, 0, 1, 0, _S_link2_20, 0, _S_link2_00, _S_link3_00, 0, _S_link3_02, 0, 1, 0, _S_link3_20, 0, _S_link3_22, _S_link4_00, 0, _S_link4_02, 0, 1, 0, _S_link4_20, 0, _S_link4_22, _S_link5_00, 0, _S_link5_02, 0, 1, 0, _S_link5_20, 0, _S_link5_22, _S_link6_00, 0, _S_link6_02, 0, 1, 0, _S_link6_20, 0, _S_link6_22, _S_link7_00, 0, _S_link7_02, 0, 1, 0, _S_link7_20, 0, _S_link7_22, _S_link8_00, 0, _S_link8_02, 0, 1, 0, _S_link8_20, 0, _S_link8_22, _S_link9_00, 0, _S_link9_02, 0, 1, 0, _S_link9_20, 0, _S_link9_22, _S_link10_00, 0, _S_link10_02, 0, 1, 0, _S_link10_20, 0, _S_link10_22), dtype=_np.float64)
+    return pose[:30].reshape(10, 3), pose[30:].reshape(10, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = -(1/2)*l
+    _c1 = (1/12)*m*l*l
+    v = _np.array((m, m, m, m, m, m, m, m, m, m, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:10], v[10:40].reshape(10, 3), v[40:].reshape(10, 3, 3)

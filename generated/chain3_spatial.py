@@ -30,6 +30,13 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 12
 SOURCE_HASH = '5a7f62d145411bf9f9865cd542aec137a6962683e137b04d52a475b1ffb7a648'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['link1', 'link2', 'link3']
+FRAME_PARENTS = ['ISYS', 'link1', 'link2']
+BODIES = [
+    {'name': 'rod1', 'frame': 'link1', 'kind': 'rigid'},
+    {'name': 'rod2', 'frame': 'link2', 'kind': 'rigid'},
+    {'name': 'rod3', 'frame': 'link3', 'kind': 'rigid'},
+]
 
 _P0 = (1.0, 0.5, 0.02, 9.81)
 
@@ -2531,3 +2538,58 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    a1, b1, a2, b2, a3, b3 = _np.asarray(x, dtype=_np.float64)[:6].tolist()
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _r0 = _math.sin(b1)
+    _r1 = _r0*l
+    _r2 = _math.cos(b1)
+    _r3 = _math.sin(a1)
+    _r4 = _r2*_r3
+    _r5 = _math.cos(a1)
+    _r6 = _r2*_r5
+    _r7 = _r6*l
+    _r8 = _math.sin(b2)
+    _r9 = _r2*_r8
+    _r10 = _math.cos(b2)
+    _r11 = _math.cos(a2)
+    _r12 = _r0*_r11
+    _r13 = _r9 + _r10*_r12
+    _r14 = _math.sin(a2)
+    _r15 = _r10*_r14
+    _r16 = -_r15*_r5 + _r0*_r3*_r8 - _r10*_r11*_r4
+    _r17 = _r0*_r5
+    _r18 = -_r15*_r3 - _r17*_r8 + _r10*_r11*_r2*_r5
+    _r19 = _r0*_r3
+    _r20 = _r10*_r2 - _r12*_r8
+    _r21 = _r0*_r14
+    _r22 = _r11*_r3
+    _r23 = _r10*_r19 + _r22*_r9 + _r14*_r5*_r8
+    _r24 = _r11*_r5 - _r14*_r4
+    _r25 = -_r10*_r17 + _r14*_r3*_r8 - _r11*_r5*_r9
+    _r26 = _r22 + _r14*_r6
+    _r27 = _math.cos(b3)
+    _r28 = _math.sin(b3)
+    _r29 = _math.cos(a3)
+    _r30 = _r13*_r29
+    _r31 = _math.sin(a3)
+    _r32 = _r21*_r31
+    _r33 = _r24*_r31
+    _r34 = _r16*_r29
+    _r35 = _r26*_r31
+    _r36 = _r18*_r29
+    pose = _np.array((0, 0, 0, -_r1, _r4*l, -_r7, -_r1 - _r13*l, -_r16*l + _r2*_r3*l, -_r7 - _r18*l, _r2, 0, _r0, _r19, _r5, -_r4, -_r17, _r3, _r6, _r20, _r21, _r13, _r23, _r24, _r16, _r25, _r26, _r18, _r20*_r27 + _r28*_r32 - _r28*_r30, _r13*_r31 + _r21*_r29, _r20*_r28 + _r27*_r30 - _r27*_r32, _r23*_r27 + _r28*_r33 - _r28*_r34, _r16*_r31 + _r24*_r29, _r23*_r28 + _r27*_r34 - _r27*_r33, _r25*_r27 + _r28*_r35 - _r28*_r36, _r18*_r31 + _r26*_r29, _r25*_r28 + _r27*_r36 - _r27*_r35), dtype=_np.float64)
+    return pose[:9].reshape(3, 3), pose[9:].reshape(3, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    m, l, r, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = -(1/2)*l
+    _c1 = (1/12)*m*l*l
+    _c2 = (1/2)*m*r*r
+    v = _np.array((m, m, m, 0, 0, _c0, 0, 0, _c0, 0, 0, _c0, _c1, 0, 0, 0, _c1, 0, 0, 0, _c2, _c1, 0, 0, 0, _c1, 0, 0, 0, _c2, _c1, 0, 0, 0, _c1, 0, 0, 0, _c2), dtype=_np.float64)
+    return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)

@@ -31,6 +31,12 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4
 SOURCE_HASH = 'ee4ccfb7b11c10bc206546450e2f0199c2dac39d63e92b2e3e511eed3633a162'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['link1', 'link2']
+FRAME_PARENTS = ['ISYS', 'link1']
+BODIES = [
+    {'name': 'rod1', 'frame': 'link1', 'kind': 'rigid'},
+    {'name': 'rod2', 'frame': 'link2', 'kind': 'rigid'},
+]
 
 _P0 = (1.0, 0.5, 1.0, 0.7, 9.81)
 
@@ -303,3 +309,26 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    phi1, phi2 = _np.asarray(x, dtype=_np.float64)[:2].tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _r0 = _math.sin(phi1)
+    _r1 = _math.cos(phi1)
+    _r2 = _math.sin(phi2)
+    _r3 = _math.cos(phi2)
+    _r4 = _r1*_r3 - _r0*_r2
+    _r5 = _r0*_r3 + _r1*_r2
+    pose = _np.array((0, 0, 0, -_r0*l1, 0, -_r1*l1, _r1, 0, _r0, 0, 1, 0, -_r0, 0, _r1, _r4, 0, _r5, 0, 1, 0, -_r5, 0, _r4), dtype=_np.float64)
+    return pose[:6].reshape(2, 3), pose[6:].reshape(2, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/12)*m1*l1*l1
+    _c1 = (1/12)*m2*l2*l2
+    v = _np.array((m1, m2, 0, 0, -(1/2)*l1, 0, 0, -(1/2)*l2, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)

@@ -37,6 +37,13 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 6
 SOURCE_HASH = '8d4e075e9b8c72fdf45e09b7f45841bacbc98bc92559e9dab11a0f07e69cc95c'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['crank', 'coupler', 'rocker']
+FRAME_PARENTS = ['ISYS', 'crank', 'ISYS']
+BODIES = [
+    {'name': 'crank_bar', 'frame': 'crank', 'kind': 'rigid'},
+    {'name': 'coupler_bar', 'frame': 'coupler', 'kind': 'rigid'},
+    {'name': 'rocker_bar', 'frame': 'rocker', 'kind': 'rigid'},
+]
 
 _P0 = (0.1, 0.35, 0.3, 0.3, 0.2, 0.6, 0.5, 2.0, 1.5, 0.01, 9.81)
 
@@ -342,3 +349,29 @@ def constraint_gamma(t, y, yd, p, u=None):
     _h10 = _h9*d_phi2
     gamma = _np.array((_h7*_math.cos(phi3) + d_phi1*(_h6 + d_phi1*(_h4*b - _h0*a_)) + d_phi2*(_h6 + _h5*d_phi1), _h7*_math.sin(phi3) + d_phi1*(_h10 + d_phi1*(_h8*b - _h1*a_)) + d_phi2*(_h10 + _h9*d_phi1)), dtype=_np.float64)
     return gamma
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    phi1, phi2, phi3 = _np.asarray(x, dtype=_np.float64)[:3].tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _r0 = _math.cos(phi1)
+    _r1 = _math.sin(phi1)
+    _r2 = _math.sin(phi2)
+    _r3 = _math.cos(phi2)
+    _r4 = _r0*_r3 - _r1*_r2
+    _r5 = _r0*_r2 + _r1*_r3
+    _r6 = _math.cos(phi3)
+    _r7 = _math.sin(phi3)
+    pose = _np.array((0, 0, 0, _r0*a_, 0, _r1*a_, d, 0, 0, _r0, 0, -_r1, 0, 1, 0, _r1, 0, _r0, _r4, 0, -_r5, 0, 1, 0, _r5, 0, _r4, _r6, 0, -_r7, 0, 1, 0, _r7, 0, _r6), dtype=_np.float64)
+    return pose[:9].reshape(3, 3), pose[9:].reshape(3, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/12)*ma*a_*a_
+    _c1 = (1/12)*mb*b*b
+    _c2 = (1/12)*mc*c*c
+    v = _np.array((ma, mb, mc, (1/2)*a_, 0, 0, (1/2)*b, 0, 0, (1/2)*c, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c2, 0, 0, 0, _c2), dtype=_np.float64)
+    return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)

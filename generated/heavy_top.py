@@ -31,6 +31,11 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 6
 SOURCE_HASH = 'de05ec76dbf566b761e557ac06eae049767c5acac25a7ccedb4af0e1f723c7e5'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['top']
+FRAME_PARENTS = ['ISYS']
+BODIES = [
+    {'name': 'rotor', 'frame': 'top', 'kind': 'rigid'},
+]
 
 _P0 = (1.0, 0.1, 0.004, 0.006, 9.81)
 
@@ -416,3 +421,26 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    alpha, beta, gamma_ = _np.asarray(x, dtype=_np.float64)[:3].tolist()
+    _r0 = _math.cos(beta)
+    _r1 = _math.cos(gamma_)
+    _r2 = _math.sin(gamma_)
+    _r3 = _math.sin(beta)
+    _r4 = _math.cos(alpha)
+    _r5 = _r2*_r4
+    _r6 = _math.sin(alpha)
+    _r7 = _r1*_r6
+    _r8 = _r2*_r6
+    pose = _np.array((0, 0, 0, _r0*_r1, -_r0*_r2, _r3, _r5 + _r3*_r7, _r1*_r4 - _r3*_r8, -_r0*_r6, _r8 - _r1*_r3*_r4, _r7 + _r3*_r5, _r0*_r4), dtype=_np.float64)
+    return pose[:3].reshape(1, 3), pose[3:].reshape(1, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    v = _np.array((m, 0, 0, s, A, 0, 0, 0, A, 0, 0, 0, C_), dtype=_np.float64)
+    return v[:1], v[1:4].reshape(1, 3), v[4:].reshape(1, 3, 3)

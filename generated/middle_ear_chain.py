@@ -48,6 +48,14 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 8
 SOURCE_HASH = '58cf018fd7e6f724ce5dddbd435fa3bb5d8aba46af60e35619cd5fa6e5dd764a'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['tm', 'malleus', 'incus', 'stapes']
+FRAME_PARENTS = ['ISYS', 'ISYS', 'ISYS', 'ISYS']
+BODIES = [
+    {'name': 'tm_mass', 'frame': 'tm', 'kind': 'rigid'},
+    {'name': 'malleus_mass', 'frame': 'malleus', 'kind': 'rigid'},
+    {'name': 'incus_mass', 'frame': 'incus', 'kind': 'rigid'},
+    {'name': 'stapes_mass', 'frame': 'stapes', 'kind': 'rigid'},
+]
 
 _P0 = (5.95e-06, 3.48e-05, 3.37e-05, 2.12e-06, 162.0, 36933.0, 893.0, 11410.0, 129.0, 12581.0, 764.0, 6.07e-05, 0.00699058166509, 0.0270690086123, -0.0186792537624, 0.00326659923282, 0.157854873573, -0.0705036789215, -0.00675644379411, 0.231316013035, -0.040244660738, 0.0527597589085)
 
@@ -234,3 +242,17 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    x_tm, x_malleus, x_incus, x_stapes = _np.asarray(x, dtype=_np.float64)[:4].tolist()
+    pose = _np.array((x_tm, 0, 0, x_malleus, 0, 0, x_incus, 0, 0, x_stapes, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1), dtype=_np.float64)
+    return pose[:12].reshape(4, 3), pose[12:].reshape(4, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    m_tm, m_malleus, m_incus, m_stapes, k_tm_annulus, k_tm_manubrium, k_malleus_ligaments, k_incudomalleolar_joint, k_incus_ligament, k_incudostapedial_joint, k_annular_ligament, A_tm, c_00, c_01, c_02, c_03, c_11, c_12, c_13, c_22, c_23, c_33 = _np.asarray(p, dtype=_np.float64).tolist()
+    v = _np.array((m_tm, m_malleus, m_incus, m_stapes, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:4], v[4:16].reshape(4, 3), v[16:].reshape(4, 3, 3)

@@ -29,6 +29,11 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 2
 SOURCE_HASH = 'e5fac1de1fdf196e05db99e22023f30483d9cae27571e66b1389d2f2f4fc2d00'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['rod']
+FRAME_PARENTS = ['ISYS']
+BODIES = [
+    {'name': 'bob', 'frame': 'rod', 'kind': 'rigid'},
+]
 
 _P0 = (1.0, 0.5, 9.81)
 
@@ -152,3 +157,19 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    phi, = _np.asarray(x, dtype=_np.float64)[:1].tolist()
+    _r0 = _math.cos(phi)
+    _r1 = _math.sin(phi)
+    pose = _np.array((0, 0, 0, _r0, 0, _r1, 0, 1, 0, -_r1, 0, _r0), dtype=_np.float64)
+    return pose[:3].reshape(1, 3), pose[3:].reshape(1, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    v = _np.array((m, 0, 0, -l, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:1], v[1:4].reshape(1, 3), v[4:].reshape(1, 3, 3)

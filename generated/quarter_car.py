@@ -38,6 +38,12 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4
 SOURCE_HASH = '821a3ba08419378923533f3efafe628dad51adcf507b0d2d3f7e0caa2ffd648e'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['road', 'wheel', 'body']
+FRAME_PARENTS = ['ISYS', 'ISYS', 'ISYS']
+BODIES = [
+    {'name': 'wheel_mass', 'frame': 'wheel', 'kind': 'rigid'},
+    {'name': 'body_mass', 'frame': 'body', 'kind': 'rigid'},
+]
 
 _P0 = (250.0, 35.0, 16000.0, 1000.0, 160000.0, 50.0, 0.4, 0.3, 0.01, 15.0, 5.0, 9.81)
 
@@ -296,3 +302,20 @@ def constraint_time_derivative(t, y, p, u=None):
 def constraint_gamma(t, y, yd, p, u=None):
     """``γ`` with ``G ÿ + γ = 0`` (none)."""
     return _np.zeros(0)
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    zw, zb = _np.asarray(x, dtype=_np.float64)[:2].tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    pose = _np.array((0, 0, zr, 0, 0, zw, 0, 0, zb, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1), dtype=_np.float64)
+    return pose[:9].reshape(3, 3), pose[9:].reshape(3, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    v = _np.array((mw, mb, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)

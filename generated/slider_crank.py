@@ -36,6 +36,13 @@ ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 10
 SOURCE_HASH = 'e315eb87166465b4582e8093aed3eb7f712d6cd435c4dabd1639a1df25bb30c4'
 MASS_MATRIX_SYMMETRIC = True
+FRAMES = ['crank', 'rod', 'slider']
+FRAME_PARENTS = ['ISYS', 'ISYS', 'ISYS']
+BODIES = [
+    {'name': 'crank_bar', 'frame': 'crank', 'kind': 'rigid'},
+    {'name': 'rod_bar', 'frame': 'rod', 'kind': 'rigid'},
+    {'name': 'slider_block', 'frame': 'slider', 'kind': 'rigid'},
+]
 
 _P0 = (0.1, 0.3, 1.0, 0.5, 0.8, 200.0, 0.35, 0.5, 0.002, 9.81)
 
@@ -259,3 +266,23 @@ def constraint_gamma(t, y, yd, p, u=None):
     _h3 = _h1*_math.sin(theta)
     gamma = _np.array((_h2 + _h0*_math.cos(phi), _h3 + _h0*_math.sin(phi), -_h2, -_h3), dtype=_np.float64)
     return gamma
+
+
+def frame_poses(t, x, p, u=None):
+    """Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS."""
+    phi, xr, zr, theta, s = _np.asarray(x, dtype=_np.float64)[:5].tolist()
+    _r0 = _math.cos(phi)
+    _r1 = _math.sin(phi)
+    _r2 = _math.cos(theta)
+    _r3 = _math.sin(theta)
+    pose = _np.array((0, 0, 0, xr, 0, zr, s, 0, 0, _r0, 0, -_r1, 0, 1, 0, _r1, 0, _r0, _r2, 0, -_r3, 0, 1, 0, _r3, 0, _r2, 1, 0, 0, 0, 1, 0, 0, 0, 1), dtype=_np.float64)
+    return pose[:9].reshape(3, 3), pose[9:].reshape(3, 3, 3)
+
+
+def body_properties(p):
+    """Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3)."""
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/12)*mc*r*r
+    _c1 = (1/12)*mr*l*l
+    v = _np.array((mc, mr, ms, (1/2)*r, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
+    return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)

@@ -20,6 +20,7 @@ import numpy as np
 from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
+from .progress import StagedProgress
 
 if TYPE_CHECKING:
     from .analysis.results import SimulationResult
@@ -99,8 +100,9 @@ def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None
     return _load(path, elastic_reader=elastic_reader or read_elastic_data)
 
 
-def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tuple[Any, str]:
-    """Load a description and derive its equations.
+def derive(description_path: str | os.PathLike[str], form: Form = "auto",
+           progress: StagedProgress = None) -> tuple[Any, str]:
+    """Load a description and derive its equations (``progress``: as in :func:`generate`).
 
     Returns
     -------
@@ -109,10 +111,11 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto") -> tup
     """
     _check_form(form)
     raw = _read(description_path)
-    return _derive_text(raw, description_path, form), _sha256(raw)
+    return _derive_text(raw, description_path, form, progress), _sha256(raw)
 
 
-def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form) -> Any:
+def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form,
+                 progress: StagedProgress = None) -> Any:
     """The equations of a description's bytes (errors name ``description_path``)."""
     from .description import load_description_text
     from .elastic.reader import read_elastic_data
@@ -128,7 +131,7 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
             os.fspath(description_path),
         )
     try:
-        return newton_euler(system, form=form)
+        return newton_euler(system, form=form, progress=progress)
     except DescriptionError:
         raise
     except ModelError as exc:  # found while deriving (e.g. coinciding spring points)
@@ -140,6 +143,7 @@ def generate(
     out_dir: str | os.PathLike[str] = "generated",
     form: Form = "auto",
     backend: Backend = "numpy",
+    progress: StagedProgress = None,
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
@@ -156,6 +160,13 @@ def generate(
     backend
         ``"numpy"`` or ``"c"``: also ``<name>_c.c`` and the compiled module ``<name>_c.py``
         (built at once; see :func:`_with_backend`).
+    progress
+        A staged hook ``progress(stage, done, total)``, called after each frame
+        (``"kinematics"``), each body, mass-matrix column and force element
+        (``"equations"``) and each block of the module (``"code generation"``; with
+        ``backend="c"`` also ``"C code"``): counts rise to ``total`` within a stage. A
+        :class:`neweul_py.progress.Tracker` draws one bar per stage on a terminal; ``None``
+        (default) is silent.
 
     Returns
     -------
@@ -179,23 +190,25 @@ def generate(
         from .equations import newton_euler
 
         _check_form(form)
-        equations, source_hash = newton_euler(source, form=form), source.fingerprint()
+        equations = newton_euler(source, form=form, progress=progress)
+        source_hash = source.fingerprint()
     elif isinstance(source, str) and "\n" in source:
         from .description import description_hash
 
         _check_form(form)
         raw = source.encode("utf-8")
-        equations = _derive_text(raw, "<description text>", form)
+        equations = _derive_text(raw, "<description text>", form, progress)
         source_hash = description_hash(raw)
     elif isinstance(source, str | os.PathLike):
-        equations, source_hash = derive(source, form)
+        equations, source_hash = derive(source, form, progress)
     else:
         raise NeweulError(
             f"generate: expected a description path, YAML text or a System, got "
             f"{type(source).__name__}"
         )
-    path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py")
-    return _with_backend(path, backend, lambda: equations, rebuild=True)
+    path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py",
+                           progress=progress)
+    return _with_backend(path, backend, lambda: equations, rebuild=True, progress=progress)
 
 
 def _check_backend(backend: str) -> None:
@@ -203,7 +216,8 @@ def _check_backend(backend: str) -> None:
         raise NeweulError(f"unknown backend {backend!r}; backends are: {', '.join(BACKENDS)}")
 
 
-def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False) -> Path:
+def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False,
+                  progress: StagedProgress = None) -> Path:
     """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
     compiled module next to it (written from ``equations()`` unless present, and loaded once,
     which builds its library). Models the C backend cannot compile yet (elastic bodies) keep
@@ -218,7 +232,7 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
     wrapper = c_module_path(path)
     if rebuild or not (wrapper.is_file() and wrapper.with_suffix(".c").is_file()):
         try:
-            write_c_module(equations(), path)
+            write_c_module(equations(), path, progress=progress)
         except GenerationError as exc:
             warnings.warn(f"{exc}; using the NumPy module {path}", RuntimeWarning, stacklevel=3)
             return path
@@ -320,7 +334,8 @@ class _Entry:
 
 
 def _cached_source(description_path: str | os.PathLike[str], form: Form,
-                   cache: str | os.PathLike[str] | None) -> _Entry:
+                   cache: str | os.PathLike[str] | None,
+                   progress: StagedProgress = None) -> _Entry:
     """The cache entry of a description, with its verified source and (on a hit) module."""
     from .analysis.module import check_protocol
 
@@ -329,7 +344,7 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
     path = _cache_entry(raw, description_path, form, cache)
 
     def derive_now() -> Any:
-        return _derive_text(raw, description_path, form)
+        return _derive_text(raw, description_path, form, progress)
 
     source = verified_bytes(path)
     if source is not None:
@@ -343,7 +358,7 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
     from .codegen import render_module
 
     equations = derive_now()
-    source = render_module(equations, _sha256(raw)).encode("utf-8")
+    source = render_module(equations, _sha256(raw), progress=progress).encode("utf-8")
     write_cached(path, source)
     return _Entry(path, source, None, derive_now, equations)
 
@@ -378,8 +393,10 @@ def load_description_module(
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
     backend: Backend = "numpy",
+    progress: StagedProgress = None,
 ) -> ModuleType:
-    """The generated module of a description. The NumPy module is imported from the verified
+    """The generated module of a description (``progress``: the derivation's on a cache
+    miss, as in :func:`generate`). The NumPy module is imported from the verified
     bytes of its cache entry (:func:`generated_module`), so that the file cannot change
     between check and import; the compiled one (``backend="c"``) is loaded through its
     wrapper, whose library :mod:`neweul_py.codegen.c_module` verifies by its hash.
@@ -392,7 +409,7 @@ def load_description_module(
     from .analysis.module import check_protocol, load_generated
 
     _check_backend(backend)
-    entry = _cached_source(description_path, form, cache)
+    entry = _cached_source(description_path, form, cache, progress)
     if backend != "numpy":
         return load_generated(_with_backend(entry.path, backend, entry.equations,
                                             rebuild=entry.fresh))

@@ -8,6 +8,10 @@ Two kinds of hooks reach this module, and a :class:`Tracker` serves as both:
 - a *counted* hook ``progress(done: float, total: float)`` — ``simulate(progress=...)`` passes
   the simulated time reached and the time span, sweeps the number of finished cases.
 
+- a *staged* hook ``progress(stage: str, done: int, total: int)`` — work in several steps
+  of different kinds, such as the derivation of a model (``"kinematics"``, ``"equations"``,
+  ``"code generation"``: frames, bodies, blocks); call sites use :class:`Steps`.
+
 Call sites in counted loops use :func:`report`, which advances a tracker's bar (with an
 estimate of the remaining time) and hands plain message hooks their message, so a user's
 ``print`` still works as a hook. Bars are drawn only when stderr is a terminal; messages are
@@ -27,12 +31,16 @@ import sys
 from collections.abc import Callable
 from typing import IO, Any
 
-__all__ = ["QUIET_HELP", "CountedProgress", "MessageProgress", "Tracker", "interactive", "report"]
+__all__ = ["QUIET_HELP", "CountedProgress", "MessageProgress", "StagedProgress", "Steps",
+           "Tracker", "interactive", "report"]
 
 #: A hook receiving short messages of long steps (``elastic.projection.Progress``).
 MessageProgress = Callable[[str], None] | None
 #: A hook receiving ``(done, total)`` of a counted loop.
 CountedProgress = Callable[[float, float], None] | None
+#: A hook receiving ``(stage, done, total)`` of work in stages (the derivation of a model);
+#: ``done`` counts finished steps, with fractions inside long steps.
+StagedProgress = Callable[[str, float, int], None] | None
 
 #: Help text of the ``--quiet`` option of the commands that report progress.
 QUIET_HELP = "no progress bars or progress messages on stderr"
@@ -92,12 +100,25 @@ class Tracker:
         return sys.stderr if self._stream is None else self._stream
 
     # ------------------------------------------------------------------ hooks
-    def __call__(self, what: str | float, total: float | None = None) -> None:
-        """A message hook (``what`` a string) or a counted hook (``what`` done of ``total``)."""
+    def __call__(self, what: str | float, done: float | None = None,
+                 total: float | None = None) -> None:
+        """A message hook (``what`` a string), a counted hook (``what`` done of ``done``,
+        the total) or a staged hook (stage ``what``, ``done`` of ``total``)."""
         if isinstance(what, str):
-            self.say(what)
+            if done is None:
+                self.say(what)
+            else:
+                self.stage(what, done, total if total is not None else done)
         else:
-            self.advance(float(what), float(total if total is not None else what))
+            self.advance(float(what), float(done if done is not None else what))
+
+    def stage(self, name: str, done: float, total: float) -> None:
+        """Move the bar of stage ``name`` to ``done`` of ``total`` (a new bar, labelled
+        ``name``, when the stage changes)."""
+        if name != self.desc:
+            self.close()
+            self.desc = name
+        self.advance(float(done), float(total))
 
     def say(self, message: str) -> None:
         """Print one message line (unless quiet)."""
@@ -161,3 +182,55 @@ def report(
         progress.advance(done, total, message)
     elif message:
         progress(message)
+
+
+class Steps:
+    """The steps of one stage of staged work, each reported to a staged hook.
+
+    Parameters
+    ----------
+    progress
+        ``progress(stage, done, total)`` (a :class:`Tracker` or any callable), or ``None``.
+    stage
+        Name of the stage (``"kinematics"``).
+    total
+        Number of steps.
+
+    Examples
+    --------
+    >>> calls = []
+    >>> step = Steps(lambda *a: calls.append(a), "frames", 2)
+    >>> step(); step()
+    >>> calls
+    [('frames', 1, 2), ('frames', 2, 2)]
+    """
+
+    def __init__(self, progress: StagedProgress, stage: str, total: int) -> None:
+        self.progress = progress
+        self.stage = stage
+        self.total = max(int(total), 1)
+        self.done = 0
+        self._last = 0.0
+
+    def __call__(self) -> None:
+        """One step done (never past ``total``)."""
+        if self.progress is None or self.done >= self.total:
+            return
+        self.done += 1
+        self._last = float(self.done)
+        self.progress(self.stage, self.done, self.total)
+
+    def part(self, lo: float = 0.0, hi: float = 1.0) -> Callable[[float], None] | None:
+        """A hook ``tick(f)`` for the inside of the current step: ``f`` in [0, 1] of a long
+        loop is reported as ``done + lo + f (hi − lo)`` (a fraction of the step, only when it
+        increases); ``None`` without a hook, so loops can skip the calls."""
+        if self.progress is None:
+            return None
+
+        def tick(f: float) -> None:
+            value = self.done + lo + (hi - lo) * min(max(float(f), 0.0), 1.0)
+            if self._last < value < min(self.done + 1, self.total):  # inside the step
+                self._last = value
+                self.progress(self.stage, value, self.total)  # type: ignore[misc, arg-type]
+
+        return tick

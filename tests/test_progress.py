@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import io
+import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from neweul_py.analysis import simulate
 from neweul_py.cli import main
@@ -67,3 +70,79 @@ def test_cli_simulate_quiet_and_not_a_terminal_stay_silent(capsys):
     for extra in ([], ["--quiet"]):
         assert main(["simulate", str(GENERATED / "pendulum.py"), "--t-end", "1", *extra]) == 0
         assert capsys.readouterr().err == ""
+
+
+def _chain(tmp_path: Path, n: int = 8) -> Path:
+    """An n-link spatial chain (recursive form: more than AUTO_CLOSED_MAX coordinates)."""
+    import sys
+
+    sys.path.insert(0, str(GENERATED.parent / "examples"))
+    try:
+        from make_chain import chain_description
+    finally:
+        sys.path.pop(0)
+    path = tmp_path / "chain.yaml"
+    path.write_text(chain_description(n, True))
+    return path
+
+
+def test_derivation_hook_counts_rise_per_stage_to_their_totals(tmp_path):
+    """Reference: the model itself — 8 frames in the kinematics; 8 bodies, 16 mass-matrix
+    columns (recursive form) and one closing step in the equations; the 12 blocks of the module
+    (11, and the poses) — and the unchanged module without a hook (byte for byte)."""
+    from neweul_py.api import generate
+    from neweul_py.equations import clear_cache
+
+    desc = _chain(tmp_path)
+    clear_cache()  # the derivation is cached by model: a hit reports nothing
+    calls: list[tuple[str, float, int]] = []
+    hooked = generate(desc, tmp_path / "a", progress=lambda *a: calls.append(a))
+    stages = list(dict.fromkeys(c[0] for c in calls))
+    assert stages == ["kinematics", "equations", "code generation"]
+    totals = {s: {c[2] for c in calls if c[0] == s} for s in stages}
+    assert totals == {"kinematics": {8}, "equations": {8 + 16 + 1}, "code generation": {12}}
+    for s in stages:
+        done = [c[1] for c in calls if c[0] == s]
+        assert np.all(np.diff(done) > 0) and done[-1] == totals[s].pop()
+    whole = [c[1] for c in calls if c[0] == "code generation" and float(c[1]).is_integer()]
+    assert whole == list(range(1, 13))  # every block, with fractions inside long ones
+    clear_cache()
+    plain = generate(desc, tmp_path / "b")
+    assert hooked.read_bytes() == plain.read_bytes()
+
+
+def test_derivation_bars_on_a_terminal_only(tmp_path, capsys):
+    """Reference: tqdm's bar labelled by stage on a (pretended) terminal; an empty stderr for
+    `neweul generate` off a terminal (capsys) and with --quiet."""
+    from neweul_py.api import generate
+    from neweul_py.equations import clear_cache
+
+    desc = _chain(tmp_path, 3)
+    buf = io.StringIO()
+    clear_cache()
+    with Tracker(stream=buf, bar=True) as track:
+        generate(desc, tmp_path / "a", progress=track)
+    text = buf.getvalue()
+    assert "kinematics:" in text and "equations:" in text and "code generation:" in text
+    for extra in ([], ["--quiet"]):
+        clear_cache()
+        assert main(["generate", str(desc), "-o", str(tmp_path / "c"), *extra]) == 0
+        assert capsys.readouterr().err == ""
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                    reason="no C compiler")
+def test_compiled_backend_reports_its_blocks(tmp_path):
+    """Reference: the seven blocks of the C sources (codegen.writer.program_blocks)."""
+    from neweul_py.api import generate
+    from neweul_py.equations import clear_cache
+
+    clear_cache()
+    calls: list[tuple[str, float, int]] = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        generate(GENERATED.parent / "examples" / "pendulum.yaml", tmp_path, backend="c",
+                 progress=lambda *a: calls.append(a))
+    c_calls = [c for c in calls if c[0] == "C code"]
+    assert [c[1] for c in c_calls if float(c[1]).is_integer()] == list(range(1, 8))
+    assert {c[2] for c in c_calls} == {7}

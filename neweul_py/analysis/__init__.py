@@ -11,10 +11,12 @@ Everything a script or notebook needs is importable from here::
 :class:`LinearModel`; ``modes`` → :class:`ModalResult`; ``frequency_response`` (alias ``frf``)
 → :class:`FrequencyResponse`; ``sweep`` runs any of them over parameter cases on Dask →
 :class:`SweepResult`; ``compare(result, reference)`` judges a result against a reference →
-:class:`Comparison`. Every result has ``to_dataframe()``, ``save(path)`` and a short
+:class:`Comparison`; ``animate(result, module, "movie.gif")`` draws the simulated model in
+3-D. Every result has ``to_dataframe()``, ``save(path)`` and a short
 ``repr`` with a notebook display.
 """
 
+from .animate import animate
 from .compare import Comparison, compare
 from .dae import ConstrainedSimulation, consistent_initial_state, simulate_constrained
 from .equilibrium import EquilibriumResult, equilibrium
@@ -38,6 +40,7 @@ __all__ = [
     "ModalResult",
     "SimulationResult",
     "SweepResult",
+    "animate",
     "check_protocol",
     "compare",
     "consistent_initial_state",

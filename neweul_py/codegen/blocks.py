@@ -9,7 +9,7 @@ names and symbol groups of one module, so that all of its functions agree on the
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import sympy as sp
@@ -102,10 +102,17 @@ def derivative_block(
     exprs: Sequence[sp.Expr],
     wrt: Sequence[sp.Symbol],
     method: CseMethod,
+    tick: Callable[[float], None] | None = None,
 ) -> tuple[Block, sp.ImmutableMatrix]:
-    """Forward-mode Jacobian of ``exprs`` through ``program``, then CSE over the result."""
-    d_inter, J = jacobian(exprs, wrt, program, prefix="_ncg_d")
+    """Forward-mode Jacobian of ``exprs`` through ``program``, then CSE over the result
+    (``tick``: progress of the derivative, :func:`.derivatives.jacobian`)."""
+    d_inter, J = jacobian(exprs, wrt, program, prefix="_ncg_d",
+                          tick=None if tick is None else (lambda f: tick(0.6 * f)))
+    if tick is not None:
+        tick(0.6)
     block = eliminate(d_inter, list(J), prefix="_ncg_e", method=method)
+    if tick is not None:
+        tick(1.0)
     return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
 
 
@@ -137,8 +144,19 @@ def inputs_prologue(ctx: Context, block: Block) -> list[str]:
     ]
 
 
-def assignments(ctx: Context, block: Block) -> list[str]:
-    return [f"{ctx.name(s)} = {ctx.pr(e)}" for s, e in block.assignments]
+def assignments(ctx: Context, block: Block,
+                tick: Callable[[float], None] | None = None) -> list[str]:
+    """The printed assignments of ``block`` (``tick``: called with the fraction printed)."""
+    if tick is None:
+        return [f"{ctx.name(s)} = {ctx.pr(e)}" for s, e in block.assignments]
+    lines = []
+    count = len(block.assignments)
+    every = max(count // 50, 1)
+    for k, (s, e) in enumerate(block.assignments):
+        if k % every == 0:
+            tick(k / count)
+        lines.append(f"{ctx.name(s)} = {ctx.pr(e)}")
+    return lines
 
 
 def vector(ctx: Context, target: str, values: Sequence[sp.Expr]) -> list[str]:

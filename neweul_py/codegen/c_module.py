@@ -33,6 +33,7 @@ import sympy as sp
 from ..atomic import atomic_write
 from ..errors import GenerationError
 from ..model import time
+from ..progress import StagedProgress
 from .c_printer import CPrinter
 from .c_templates import C_DOPRI5, C_LU, C_SUPPORT_DECLARATIONS
 from .cse import Block, free_symbols
@@ -313,7 +314,8 @@ def render_c_wrapper(
 
 
 def write_c_module(
-    equations: Any, numpy_path: str | os.PathLike[str], *, cse: bool = True
+    equations: Any, numpy_path: str | os.PathLike[str], *, cse: bool = True,
+    progress: StagedProgress = None,
 ) -> Path:
     """Write ``<name>_c.c`` and ``<name>_c.py`` next to the NumPy module ``numpy_path``.
 
@@ -323,6 +325,8 @@ def write_c_module(
         The symbolic equations the NumPy module was generated from.
     numpy_path
         The NumPy module (already written).
+    progress
+        A staged hook (:func:`.writer.program_blocks`).
 
     Returns
     -------
@@ -340,7 +344,7 @@ def write_c_module(
             f"model {system.name!r} has elastic bodies, which the C backend does not compile "
             "yet; use the NumPy module"
         )
-    blocks = program_blocks(equations, cse=cse)
+    blocks = program_blocks(equations, cse=cse, progress=progress)
     core, jac = render_c_sources(equations, blocks, system.name)
     numpy_path = Path(numpy_path)
     wrapper = c_module_path(numpy_path)

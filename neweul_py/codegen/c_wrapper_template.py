@@ -36,6 +36,10 @@ for _name, _value in vars(_twin).items():
         globals()[_name] = _value
 _S = 2 * _N
 default_parameters = _twin.default_parameters
+# protocol functions the library does not implement: the twin's (energy, poses of the frames)
+for _name in ("energy", "frame_poses", "body_properties", "node_positions"):
+    if callable(getattr(_twin, _name, None)):
+        globals()[_name] = getattr(_twin, _name)
 
 try:
     _ffi, _lib, _note = compiled_library(_HERE / _C_FILE, _C_SHA256, _CDEF,

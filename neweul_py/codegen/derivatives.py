@@ -22,7 +22,7 @@ everywhere.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import sympy as sp
 
@@ -148,6 +148,7 @@ def jacobian(
     wrt: Sequence[sp.Symbol],
     intermediates: Sequence[Assignment] = (),
     prefix: str = "_ncg_d",
+    tick: Callable[[float], None] | None = None,
 ) -> tuple[list[Assignment], sp.ImmutableMatrix]:
     """Jacobian ``∂exprs/∂wrt`` through the intermediates.
 
@@ -161,6 +162,8 @@ def jacobian(
         Ordered assignments the expressions (and each other) may use.
     prefix
         Name prefix of the derivative intermediates created here.
+    tick
+        Called with the fraction of the work done (about 75 times), for progress.
 
     Returns
     -------
@@ -199,7 +202,10 @@ def jacobian(
                 result[j] = value
         return result
 
-    for sym, expr in kept:
+    every = max(len(kept) // 50, 1)
+    for k, (sym, expr) in enumerate(kept):
+        if tick is not None and k % every == 0:
+            tick(0.5 * k / len(kept))
         out.append((sym, expr))
         derivs = total(expr)
         if not derivs:
@@ -216,7 +222,10 @@ def jacobian(
         wanted.add(sym)
 
     J = sp.zeros(len(exprs), len(wrt))
+    every = max(len(exprs) // 25, 1)
     for i, e in enumerate(exprs):
+        if tick is not None and i % every == 0:
+            tick(0.5 + 0.5 * i / len(exprs))
         for j, d in total(e).items():
             J[i, j] = d
     return out, sp.ImmutableMatrix(J)

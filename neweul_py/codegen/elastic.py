@@ -39,6 +39,7 @@ from ..ffrf import (
     ffrf_pack,
 )
 from ..ffrf.parametric import weight_coefficients
+from ..progress import StagedProgress
 from .blocks import units
 from .writer import ModuleParts, module_parts
 
@@ -127,7 +128,58 @@ def _wrapper(name: str, splice_fn: Any) -> tuple[str, ...]:
             f"    return {splice_fn.__name__}(ffrf_at(_FFRF, t, p), {call})")
 
 
-def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) -> ModuleParts:
+def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[str]:
+    """``_NODES``: per elastic body the node positions and translations ``Φ`` of its data
+    (``nodes.origin.m0``, ``nodes.phi``; per sample for parametric bodies), its reference
+    frame's index in ``FRAMES`` (−1: ISYS) and its elastic coordinates."""
+    lines = ["_NODES = ("]
+    k = 0
+    for s, first in zip(el.splices, firsts, strict=True):
+        b = s.body
+        lines += ["    {", f"        'name': {b.name!r},",
+                  f"        'frame': {frames.index(b.frame) if b.frame in frames else -1},",
+                  f"        'first': {first},", f"        'nq': {b.nq},"]
+        datasets = b.samples if b.parametric else (b.data,)
+        clouds = [f"{{'origin': {ffrf_pack(d['nodes.origin.m0'][:, :, 0])!r}, "
+                  f"'phi': {ffrf_pack(d['nodes.phi'])!r}}}" for d in datasets]
+        if b.parametric:
+            values = np.asarray(b.sample_values, dtype=np.float64)
+            coeff = weight_coefficients(values, b.interpolation)
+            lines += [f"        'k': {k},", f"        'values': {ffrf_pack(values)!r},",
+                      f"        'coeff': {ffrf_pack(coeff)!r},"]
+            k += 1
+        lines += ["        'samples': (", *(f"            {c}," for c in clouds), "        ),",
+                  "    },"]
+    return [*lines, ")"]
+
+
+#: ``node_positions`` of a module with elastic bodies: the node clouds of ``_NODES``, moved by
+#: the elastic coordinates (``x_P + Φ_P q``) and placed with the reference frame's pose.
+_NODE_POSITIONS = (
+    "def node_positions(t, x, p, u=None):",
+    '    """Per elastic body of ``BODIES``: its data\'s nodes (nk, 3) at ``x_P + Φ_P q``, '
+    'in ISYS."""',
+    "    x = _np.asarray(x, dtype=_np.float64)",
+    "    r, R = frame_poses(t, x, p, u)",
+    "    sigma = _rigid_schedule(t, p) if _PARTS else ()",
+    "    out = []",
+    "    for b in _NODES:",
+    "        samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b['samples']]",
+    "        cloud = samples[0]",
+    "        if 'values' in b:",
+    "            w = ffrf_weights(ffrf_unpack(b['values']), ffrf_unpack(b['coeff']),",
+    "                             sigma[b['k']], b['name'])",
+    "            cloud = ffrf_mix(samples, w)",
+    "        q = x[b['first']:b['first'] + b['nq']]",
+    "        local = cloud['origin'] + cloud['phi'] @ q",
+    "        f = b['frame']",
+    "        out.append(local if f < 0 else r[f] + local @ R[f].T)",
+    "    return out",
+)
+
+
+def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
+                         progress: StagedProgress = None) -> ModuleParts:
     """The parts of the module of a system with elastic bodies (module docstring).
 
     Parameters
@@ -136,7 +188,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         :class:`~neweul_py.equations.Equations` with ``elastic`` set.
     source_hash
         SHA-256 of the description.
-    cse
+    cse, progress
         Passed to :func:`.writer.module_parts`.
     """
     el = equations.elastic
@@ -159,7 +211,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         constraints=ce,
     )
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
-                         schedules=el.schedules)
+                         schedules=el.schedules, progress=progress)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
@@ -185,7 +237,10 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
                       for v, w in el.parts)
     private = (*rigid.private, f"_NS = {len(a_idx)}",
                f"_SV = {ffrf_pack(el.SV[a_idx])!r}", f"_SW = {ffrf_pack(el.SW[a_idx])!r}",
-               f"_PARTS = ({parts}{',' if len(el.parts) == 1 else ''})", *data)
+               f"_PARTS = ({parts}{',' if len(el.parts) == 1 else ''})", *data,
+               *(_node_clouds(el, list(equations.poses.frames),
+                                [true_index[s.first] for s in el.splices])
+                 if equations.poses else ()))
 
     functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs")}
     functions.update({f"_rigid_{k}": rigid.functions[k] for k in _RIGID_USED})
@@ -201,6 +256,14 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         f"                    {'_rigid_schedule' if el.schedules else 'None'})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
+    if "frame_poses" in rigid.functions:  # poses of the frames and the node clouds
+        functions["_rigid_frame_poses"] = rigid.functions["frame_poses"]
+        functions["frame_poses"] = (
+            "def frame_poses(t, x, p, u=None):",
+            f'    """{rigid.functions["frame_poses"][1].strip()[3:-3]}"""',
+            "    return _rigid_frame_poses(t, ffrf_symbolic_state(ffrf_at(_FFRF, t, p), x), p, u)")
+        functions["body_properties"] = rigid.functions["body_properties"]
+        functions["node_positions"] = _NODE_POSITIONS
 
     bodies = ", ".join(f"{s.body.name!r} ({s.body.nq} modes"
                        f"{', two-sided' if s.body.two_sided else ''}, {s.body.inertia} inertia)"

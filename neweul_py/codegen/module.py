@@ -14,13 +14,15 @@ from pathlib import Path
 from typing import Any
 
 from ..atomic import atomic_write
+from ..progress import StagedProgress
 from .elastic import elastic_module_parts
 from .writer import compose, module_parts
 
 __all__ = ["generate_module", "render_module"]
 
 
-def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
+def render_module(equations: Any, source_hash: str, *, cse: bool = True,
+                  progress: StagedProgress = None) -> str:
     """The complete source text of the generated module.
 
     Parameters
@@ -31,6 +33,9 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         SHA-256 (hex) of the description the equations came from; stored as ``SOURCE_HASH``.
     cse
         Eliminate common subexpressions (default). Off only for debugging.
+    progress
+        ``progress("code generation", done, total)`` after each block
+        (:mod:`neweul_py.progress`).
 
     Raises
     ------
@@ -38,12 +43,13 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True) -> str:
         When the equations cannot be turned into code.
     """
     if getattr(equations, "elastic", None) is not None:
-        return compose(elastic_module_parts(equations, source_hash, cse=cse))
-    return compose(module_parts(equations, source_hash, cse=cse))
+        return compose(elastic_module_parts(equations, source_hash, cse=cse, progress=progress))
+    return compose(module_parts(equations, source_hash, cse=cse, progress=progress))
 
 
 def generate_module(
-    equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True
+    equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True,
+    progress: StagedProgress = None,
 ) -> Path:
     """Render the module for ``equations`` and write it atomically to ``path``.
 
@@ -57,5 +63,5 @@ def generate_module(
     >>> generate_module(newton_euler(load_description("examples/pendulum.yaml")),
     ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
     """
-    text = render_module(equations, source_hash, cse=cse)
+    text = render_module(equations, source_hash, cse=cse, progress=progress)
     return atomic_write(path, text)

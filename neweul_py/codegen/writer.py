@@ -23,6 +23,7 @@ import sympy as sp
 
 from ..errors import GenerationError
 from ..model import System, as_expr, time
+from ..progress import StagedProgress, Steps
 from .blocks import (
     INDENT,
     Context,
@@ -105,8 +106,16 @@ def _function(name: str, args: str, doc: str, body: Sequence[str]) -> tuple[str,
     return tuple(function(f"{name}({args})", doc, body)[:-2])
 
 
+def _marked(step: Steps, fraction: float, value: Any) -> Any:
+    """``value``, after reporting ``fraction`` of the current step (long blocks)."""
+    tick = step.part()
+    if tick is not None:
+        tick(fraction)
+    return value
+
+
 def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
-              prefix: str) -> dict[str, tuple[str, ...]]:
+              prefix: str, step: Steps) -> dict[str, tuple[str, ...]]:
     """mass_matrix, force_vector, rhs, force_jacobians, mass_matrix_times_derivative and
     rhs_jacobian from one CSE'd program of ``M`` and ``q − k`` (equations.md §1)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
@@ -120,25 +129,30 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     nm = len(m_values)
     program = eliminate(ctx.intermediates, [*m_values, *fvec], prefix="_ncg_c", method=method)
     m_red, f_red = program.finals[:nm], program.finals[nm:]
+    step()
 
     b = checked(ctx, subblock(program, m_red), kin, "the mass matrix")
     body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC)]) + inputs_prologue(ctx, b)
-            + assignments(ctx, b) + mass_fill(ctx, n, b.finals, m_where))
+            + assignments(ctx, b, step.part()) + mass_fill(ctx, n, b.finals, m_where))
     out["mass_matrix"] = _function(f"{prefix}mass_matrix", "t, y, p, u=None",
                                    "Mass matrix ``M(y, t)``, shape (n, n).", [*body, "return M"])
+    step()
 
     b = checked(ctx, subblock(program, f_red), dyn, "the force vector")
     body = (prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
-            + inputs_prologue(ctx, b) + assignments(ctx, b) + vector(ctx, "f", b.finals))
+            + inputs_prologue(ctx, b) + assignments(ctx, b, step.part())
+            + vector(ctx, "f", b.finals))
     out["force_vector"] = _function(f"{prefix}force_vector", "t, y, yd, p, u=None",
                                     "Generalized forces ``q − k``, shape (n,).",
                                     [*body, "return f"])
+    step()
 
     b = checked(ctx, program, dyn, "the right-hand side")
     body = ["x = _np.asarray(x, dtype=_np.float64)"]
     if uses(b, (*y, *yd)):
         body.append(unpack_line([ctx.name(s) for s in (*y, *yd)], "x.tolist()"))
-    body += prologue(ctx, b, [(p, _P_SRC)]) + inputs_prologue(ctx, b) + assignments(ctx, b)
+    body += (prologue(ctx, b, [(p, _P_SRC)]) + inputs_prologue(ctx, b)
+             + assignments(ctx, b, step.part()))
     body += mass_fill(ctx, n, b.finals[:nm], m_where)
     body += vector(ctx, "f", b.finals[nm:])
     body += [f"xd = _np.empty({2 * n})", f"xd[:{n}] = x[{n}:{2 * n}]",
@@ -146,11 +160,14 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     out["rhs"] = _function(f"{prefix}rhs", "t, x, p, u=None",
                            "First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion.",
                            [line for line in body if line])
+    step()
 
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
-    b = checked(ctx, b, dyn, "the force Jacobians")
-    body = (prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
-            + inputs_prologue(ctx, b) + assignments(ctx, b))
+    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method,
+                             step.part(0.0, 0.5))
+    b = _marked(step, 0.6, checked(ctx, b, dyn, "the force Jacobians"))
+    body = _marked(step, 0.7, prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
+                   + inputs_prologue(ctx, b))
+    body += assignments(ctx, b, step.part(0.7, 1.0))
     body += matrix_fill(ctx, "fy", (n, n), sparse(Jr[:, :n]))
     body += matrix_fill(ctx, "fyd", (n, n), sparse(Jr[:, n:2 * n]))
     body += matrix_fill(ctx, "fu", (n, nu), sparse(Jr[:, 2 * n:]))
@@ -158,6 +175,7 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
         f"{prefix}force_jacobians", "t, y, yd, p, u=None",
         "``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic.",
         [*body, "return fy, fyd, fu"])
+    step()
 
     a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
     for i, s in enumerate(a_syms):
@@ -167,15 +185,17 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
         for i, j in places:
             m_full[i, j] = value
     ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method)
-    b = checked(ctx, b, (*kin, *a_syms), "∂(M a)/∂y")
-    body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC),
-                              (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")])
-            + inputs_prologue(ctx, b) + assignments(ctx, b)
+    b, Jr = derivative_block(program.assignments, ma, y, d_method, step.part(0.0, 0.5))
+    b = _marked(step, 0.6, checked(ctx, b, (*kin, *a_syms), "∂(M a)/∂y"))
+    body = (_marked(step, 0.7, prologue(
+                ctx, b, [(y, _Y_SRC), (p, _P_SRC),
+                         (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")]))
+            + inputs_prologue(ctx, b) + assignments(ctx, b, step.part(0.7, 1.0))
             + matrix_fill(ctx, "dMa", (n, n), sparse(Jr)))
     out["mass_matrix_times_derivative"] = _function(
         f"{prefix}mass_matrix_times_derivative", "t, y, p, a, u=None",
         "``∂(M(y) a)/∂y`` for a fixed vector ``a``, shape (n, n).", [*body, "return dMa"])
+    step()
 
     out["rhs_jacobian"] = _function(
         f"{prefix}rhs_jacobian", "t, x, p, u=None",
@@ -199,7 +219,7 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
 
 def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.ImmutableMatrix,
                      method: CseMethod, d_method: CseMethod,
-                     prefix: str) -> dict[str, tuple[str, ...]]:
+                     prefix: str, step: Steps) -> dict[str, tuple[str, ...]]:
     """outputs, output_jacobians and energy: functions of the state ``x = [y, ẏ]``."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n = len(y)
@@ -212,16 +232,20 @@ def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.Immutabl
             + vector(ctx, "out", b.finals))
     out["outputs"] = _function(f"{prefix}outputs", "t, x, p, u=None",
                                "The outputs, ordered as ``OUTPUTS``.", [*body, "return out"])
+    step()
     ny = outs.shape[0]
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method)
+    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method,
+                             step.part(0.0, 0.6))
     b = checked(ctx, b, dyn, "the output Jacobians")
-    body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b) + assignments(ctx, b)
+    body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b)
+            + assignments(ctx, b, step.part(0.6, 1.0))
             + matrix_fill(ctx, "C", (ny, 2 * n), sparse(Jr[:, :2 * n]) if ny else {})
             + matrix_fill(ctx, "D", (ny, len(u)), sparse(Jr[:, 2 * n:]) if ny else {}))
     out["output_jacobians"] = _function(
         f"{prefix}output_jacobians", "t, x, p, u=None",
         "``∂out/∂x`` (ny, STATE_SIZE) and ``∂out/∂u`` (ny, nu), analytic.",
         [*body, "return C, D"])
+    step()
     e_prog = eliminate(ctx.intermediates, list(energy), prefix="_ncg_w", method=method)
     b = checked(ctx, e_prog, dyn, "the energy")
     body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b) + assignments(ctx, b)
@@ -230,7 +254,52 @@ def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.Immutabl
         f"{prefix}energy", "t, x, p, u=None",
         "``[kinetic, gravity, springs, strain]`` energy (``ENERGY``; strain: elastic bodies).",
         [*body, "return energy"])
+    step()
     return out
+
+
+def _pose_functions(ctx: Context, eq: Any, method: CseMethod,
+                    prefix: str) -> dict[str, tuple[str, ...]]:
+    """frame_poses (the poses of :class:`~neweul_py.equations.poses.FramePoses`) and
+    body_properties (mass, center of mass and inertia of the rigid bodies, parameters only)."""
+    y, p = ctx.y, ctx.p
+    n = len(y)
+    poses = eq.poses
+    nf = len(poses.frames)
+    out: dict[str, tuple[str, ...]] = {}
+    prog = eliminate(ctx.intermediates, [*poses.positions, *poses.rotations], prefix="_ncg_r",
+                     method=method)
+    b = checked(ctx, prog, (*y, *p, *ctx.u, time), "the frame poses")
+    body = (prologue(ctx, b, [(y, f"_np.asarray(x, dtype=_np.float64)[:{n}].tolist()"),
+                              (p, _P_SRC)])
+            + inputs_prologue(ctx, b) + assignments(ctx, b) + vector(ctx, "pose", b.finals))
+    out["frame_poses"] = _function(
+        f"{prefix}frame_poses", "t, x, p, u=None",
+        "Origins ``r`` (nF, 3) and rotations ``S`` (nF, 3, 3) of ``FRAMES``, in ISYS.",
+        [*body, f"return pose[:{3 * nf}].reshape({nf}, 3), pose[{3 * nf}:].reshape({nf}, 3, 3)"])
+    bodies = eq.system.bodies
+    nb = len(bodies)
+    values = [as_expr(b.mass) for b in bodies]
+    values += [as_expr(x) for b in bodies for x in b.center_of_mass]
+    values += [as_expr(x) for b in bodies for x in b.inertia]
+    b = checked(ctx, eliminate((), values, method=method), p, "the body properties")
+    body = (prologue(ctx, b, [(p, _P_SRC)]) + assignments(ctx, b) + vector(ctx, "v", b.finals))
+    out["body_properties"] = _function(
+        "body_properties", "p",
+        "Rigid ``BODIES``: masses (nb,), centers of mass (nb, 3), inertias (nb, 3, 3).",
+        [*body, f"return v[:{nb}], v[{nb}:{4 * nb}].reshape({nb}, 3), "
+                f"v[{4 * nb}:].reshape({nb}, 3, 3)"])
+    return out
+
+
+def _body_list(system: System) -> str:
+    """``BODIES``: one dict per rigid body, then per elastic body (with its node count)."""
+    rows = [f"\n    {{'name': {b.name!r}, 'frame': {b.frame!r}, 'kind': 'rigid'}},"
+            for b in system.bodies]
+    rows += [f"\n    {{'name': {b.name!r}, 'frame': {b.frame!r}, 'kind': 'elastic', "
+             f"'nodes': {len(b.data['nodes.id'])}}},"
+             for b in system.elastic_bodies]
+    return "[" + "".join(rows) + ("\n]" if rows else "]")
 
 
 def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
@@ -244,6 +313,7 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
     if [str(s) for s in p] != list(pdef):
         raise GenerationError("the equations' parameters differ from the model's")
     ce = getattr(eq, "constraints", None)
+    eq_poses = getattr(eq, "poses", None)
     return {
         "PROTOCOL_VERSION": repr(PROTOCOL_VERSION),
         "MODEL_NAME": repr(system.name),
@@ -263,6 +333,11 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
         "STATE_SIZE": repr(2 * len(y)),
         "SOURCE_HASH": repr(source_hash),
         "MASS_MATRIX_SYMMETRIC": repr(symmetric),
+        **({} if eq_poses is None else {
+            "FRAMES": repr(list(eq_poses.frames)),
+            "FRAME_PARENTS": repr(list(eq_poses.parents)),
+            "BODIES": _body_list(system),
+        }),
     }
 
 
@@ -278,7 +353,8 @@ def _header(system: System) -> tuple[str, ...]:
 
 
 def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: str = "",
-                 allow_empty: bool = False, schedules: Sequence[sp.Expr] = ()) -> ModuleParts:
+                 allow_empty: bool = False, schedules: Sequence[sp.Expr] = (),
+                 progress: StagedProgress = None) -> ModuleParts:
     """The parts of the generated module of (the symbolic part of) ``equations``.
 
     Parameters
@@ -299,6 +375,9 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     schedules
         Scheduling expressions of parametric elastic bodies (parameters and ``t``): emitted
         as ``{prefix}schedule(t, p)``.
+    progress
+        ``progress("code generation", done, total)`` after each block (CSE, derivatives,
+        printing of one function; :mod:`neweul_py.progress`).
 
     Raises
     ------
@@ -341,6 +420,9 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     # subtrees worth the (super-linear) search; of closed-form ones tree CSE is cheap and helps.
     d_method: CseMethod = "none" if not cse or inter else "tree"
 
+    has_poses = getattr(eq, "poses", None) is not None
+    # default inputs, (schedules), 6 blocks of the dynamics, 3 of the state, constraints, poses
+    step = Steps(progress, "code generation", 11 + bool(schedules) + has_poses)
     funcs: dict[str, tuple[str, ...]] = {
         "default_parameters": _function(
             "default_parameters", "",
@@ -354,6 +436,7 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     funcs["default_inputs"] = _function("default_inputs", "t, p",
                                         "The default excitation ``u(t)`` of the description.",
                                         [*body, "return u"])
+    step()
     if schedules:
         b = checked(ctx, eliminate((), [as_expr(e) for e in schedules], method=method),
                     (*p, time), "the schedules of the parametric elastic bodies")
@@ -362,12 +445,17 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         funcs["schedule"] = _function(f"{prefix}schedule", "t, p",
                                       "Scheduling values of the parametric elastic bodies.",
                                       [*body, "return sigma"])
-    funcs.update(_dynamics(ctx, eq, method, d_method, prefix))
-    funcs.update(_state_functions(ctx, outs, energy, method, d_method, prefix))
+        step()
+    funcs.update(_dynamics(ctx, eq, method, d_method, prefix, step))
+    funcs.update(_state_functions(ctx, outs, energy, method, d_method, prefix, step))
     # constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py)
     for name, block in constraint_functions(ctx, getattr(eq, "constraints", None), method,
                                             prefix).items():
         funcs[name] = tuple(block)
+    step()
+    if has_poses:  # poses of the frames (animations)
+        funcs.update(_pose_functions(ctx, eq, method, prefix))
+        step()
     pdef = tuple(float(pp.default) for pp in system.parameters)
     return ModuleParts(
         docstring=_header(system),
@@ -378,7 +466,8 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     )
 
 
-def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
+def program_blocks(equations: Any, *, cse: bool = True,
+                   progress: StagedProgress = None) -> dict[str, Block]:
     """The CSE'd straight-line programs of the protocol functions, for other printers.
 
     The same calls to :func:`.cse.eliminate` and :func:`.derivatives.jacobian`, in the same
@@ -390,8 +479,10 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians``
     (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
-    bodies are spliced in numerically by :mod:`.elastic`).
+    bodies are spliced in numerically by :mod:`.elastic`). ``progress``: a staged hook,
+    ``("C code", done, 7)`` after each block.
     """
+    step = Steps(progress, "C code", 7)
     eq = equations
     y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
     n = len(y)
@@ -405,8 +496,10 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     out: dict[str, Block] = {}
     out["default_inputs"] = eliminate((), [as_expr(e) for e in eq.system.input_defaults],
                                       method=method)
+    step()
     m_values, m_where = mass_entries(M)
     program = eliminate(inter, [*m_values, *fvec], prefix="_ncg_c", method=method)
+    step()
     nm = len(m_values)
     m_full = sp.zeros(n, n)
     for value, places in zip(program.finals[:nm], m_where, strict=True):
@@ -416,15 +509,20 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     out["mass_matrix"] = subblock(program, list(m_full))
     out["force_vector"] = subblock(program, f_red)
     out["rhs"] = Block(program.assignments, (*m_full, *f_red))
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method, step.part())
     out["force_jacobians"] = Block(b.assignments, tuple(Jr))
+    step()
     ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method)
+    b, Jr = derivative_block(program.assignments, ma, y, d_method, step.part())
     out["mass_matrix_times_derivative"] = Block(b.assignments, tuple(Jr))
+    step()
     out_prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
     out["outputs"] = out_prog
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method)
+    step()
+    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method,
+                             step.part())
     out["output_jacobians"] = Block(b.assignments, tuple(Jr))
+    step()
     ce = getattr(eq, "constraints", None)
     if ce is not None and ce.nc:
         for name, exprs, prefix in (("constraints", ce.g, "_ncg_g"),
@@ -436,5 +534,6 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
         for name in ("constraints", "constraint_jacobian", "constraint_time_derivative",
                      "constraint_gamma"):
             out[name] = Block((), ())
+    step()
     return out
 

@@ -70,6 +70,7 @@ CAPS: dict[str, int] = {
     "--modes": 10_000,          # modes of reduce --method modal
     "--points": 1_000,          # Krylov expansion points
     "--max-steps": 10**9,       # integrator steps of simulate
+    "--frames": 10_000,         # pictures of simulate --animate (≈ 0.1 s each)
 }
 
 

@@ -119,9 +119,12 @@ def load_model(args: argparse.Namespace) -> Any:
                                                    NeweulError))
     else:
         from ..api import load_description_module  # symbolic layers only on a cache miss
+        from ..progress import Tracker
 
-        module = load_description_module(args.file, args.form,
-                                         backend=getattr(args, "backend", "numpy"))
+        with Tracker(quiet=getattr(args, "quiet", False)) as track:  # bars of a derivation
+            module = load_description_module(args.file, args.form,
+                                             backend=getattr(args, "backend", "numpy"),
+                                             progress=track)
     check_overrides(module, args)
     return module
 

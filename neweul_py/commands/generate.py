@@ -1,9 +1,11 @@
-"""``neweul generate FILE [-o DIR] [--form auto|closed|recursive]``."""
+"""``neweul generate FILE [-o DIR] [--form auto|closed|recursive] [--backend numpy|c]
+[-q]``."""
 
 from __future__ import annotations
 
 import argparse
 
+from ..progress import QUIET_HELP
 from . import BACKENDS, FORMS
 
 
@@ -23,13 +25,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="closed-form or recursive equations (default: auto)")
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
                         help="c: also compile the module (DIR/<name>_c.py, a C library via cffi)")
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Generate and print the path written."""
     from ..api import generate  # the symbolic layers, only when generating
+    from ..progress import Tracker
 
-    path = generate(args.file, args.out_dir, args.form, args.backend)
+    with Tracker(quiet=args.quiet) as track:  # a bar per stage of the derivation on a terminal
+        path = generate(args.file, args.out_dir, args.form, args.backend, progress=track)
     print(path)
     return 0

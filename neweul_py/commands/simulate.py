@@ -1,5 +1,6 @@
 """``neweul simulate FILE --t-end T [--method M] [--rtol R] [--atol A] [--n-out N]
-[--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]``."""
+[--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]
+[--animate movie.gif|.mp4 [--fps F] [--frames N] [--body-shape box|ellipsoid]]``."""
 
 from __future__ import annotations
 
@@ -11,6 +12,9 @@ from ..progress import QUIET_HELP, Tracker
 from . import BACKENDS, CAPS, FORMS, SIMULATE_METHODS, count, number
 from . import common as common
 from .signals import input_assignment, input_function
+
+#: ``--body-shape`` choices (= ``analysis.scene.SHAPES``; not imported: the CLI starts fast).
+BODY_SHAPES = ("box", "ellipsoid")
 
 #: Largest number of integrator steps a run may need (``--max-steps``, docs/limits.md).
 DEFAULT_MAX_STEPS = 1_000_000
@@ -60,6 +64,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                ".npz")
     parser.add_argument("--plot", metavar="FIG",
                         help="plot coordinates and outputs (.png/.pdf/.svg; matplotlib)")
+    parser.add_argument("--animate", metavar="MOVIE",
+                        help="animate the model in 3-D: frames, bodies, node clouds (.gif, or "
+                        ".mp4 with ffmpeg; matplotlib)")
+    parser.add_argument("--fps", type=functools.partial(number, option="--fps", positive=True,
+                                                        maximum=240.0),
+                        default=20.0, help="pictures per second of the animation and per "
+                        "simulated second (default 20)")
+    parser.add_argument("--frames", type=count("--frames"), default=150, metavar="N",
+                        help="at most N pictures (default 150; longer runs play faster than "
+                        "real time)")
+    parser.add_argument("--body-shape", choices=BODY_SHAPES, default="box",
+                        help="rigid bodies as the box or ellipsoid of their mass and inertia")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
 
@@ -70,6 +86,10 @@ def run(args: argparse.Namespace) -> int:
     from ..analysis.simulate import simulate
 
     common.check_files(args.output, SUFFIXES, "results", args.plot)
+    if args.animate:
+        from ..analysis.animate import check_animation_path
+
+        check_animation_path(args.animate)
     module = common.load_model(args)
     check_step_count(module, args)
     p = dict(args.param) or None
@@ -86,7 +106,14 @@ def run(args: argparse.Namespace) -> int:
         from ..analysis.plot import plot_result
 
         print(f"plot: {plot_result(result, args.plot)}")
-    if not args.output and not args.plot:
+    if args.animate:
+        from ..analysis.animate import animate
+
+        with Tracker("animate", unit="picture", quiet=args.quiet) as track:
+            movie = animate(result, module, args.animate, fps=args.fps, frames=args.frames,
+                            shape=args.body_shape, u=u, progress=track)
+        print(f"animation: {movie}")
+    if not args.output and not args.plot and not args.animate:
         final = ", ".join(f"{n} = {v:.6g}" for n, v in zip(result.names[1:],
                                                            result.table[-1, 1:], strict=True))
         print(f"final state: {final}")

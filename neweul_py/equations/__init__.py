@@ -12,14 +12,17 @@ from .linearization import (
     output_jacobians,
 )
 from .newton_euler import AUTO_CLOSED_MAX, clear_cache, newton_euler
+from .poses import FramePoses, frame_poses
 from .result import Equations
 
 __all__ = [
     "AUTO_CLOSED_MAX",
     "Derivatives",
     "Equations",
+    "FramePoses",
     "clear_cache",
     "force_jacobians",
+    "frame_poses",
     "jacobian",
     "mass_matrix_times_derivative",
     "newton_euler",

@@ -54,10 +54,12 @@ from ..model import (
     System,
     Torque,
 )
+from ..progress import StagedProgress, Steps
 from .constraints import check_constraints, derive_constraints
 from .elastic import elastic_equations
 from .energy import energies
 from .force_elements import apply_force_element
+from .poses import frame_poses
 from .result import Equations
 
 __all__ = ["AUTO_CLOSED_MAX", "clear_cache", "newton_euler"]
@@ -76,7 +78,8 @@ def clear_cache() -> None:
     _CACHE.clear()
 
 
-def newton_euler(system: System, form: Form = "auto") -> Equations:
+def newton_euler(system: System, form: Form = "auto",
+                 progress: StagedProgress = None) -> Equations:
     """Derive ``M``, ``q − k`` and the outputs of ``system`` (equations.md §1).
 
     Parameters
@@ -90,6 +93,10 @@ def newton_euler(system: System, form: Form = "auto") -> Equations:
         so that the derivation grows about linearly in the number of bodies per Jacobian
         column (O(N²) operations for an N-link chain). ``"auto"``: closed for at most
         :data:`AUTO_CLOSED_MAX` coordinates, else recursive.
+    progress
+        ``progress(stage, done, total)`` after each frame (``"kinematics"``) and each body,
+        mass-matrix column and force element (``"equations"``); not called on a cache hit
+        (:mod:`neweul_py.progress`).
 
     Returns
     -------
@@ -130,7 +137,7 @@ def newton_euler(system: System, form: Form = "auto") -> Equations:
     if cached is not None:
         _CACHE.move_to_end(key)
         return cached
-    result = _derive(system, form)
+    result = _derive(system, form, progress)
     _CACHE[key] = result
     while len(_CACHE) > _CACHE_SIZE:
         _CACHE.popitem(last=False)
@@ -138,24 +145,30 @@ def newton_euler(system: System, form: Form = "auto") -> Equations:
 
 
 # ---------------------------------------------------------------------------- derivation
-def _derive(system: System, form: str) -> Equations:
-    kin = absolute_kinematics(system, form)  # type: ignore[arg-type]
+def _derive(system: System, form: str, progress: StagedProgress = None) -> Equations:
+    kin = absolute_kinematics(system, form, progress)  # type: ignore[arg-type]
     n = kin.n
     mass_terms: list[list[list[sp.Expr]]] = [[[] for _ in range(n)] for _ in range(n)]
     force_terms: list[list[sp.Expr]] = [[] for _ in range(n)]
 
     recursive = form == "recursive"
+    # bodies (+ the mass-matrix columns in recursive form), force elements, then outputs,
+    # energy, constraints, elastic splice and poses together
+    step = Steps(progress, "equations",
+                 len(system.bodies) + (n if recursive else 0) + len(system.forces) + 1)
     if recursive:
         # spatial inertia forces at the frame origins, applied through Jᵀ by one backward pass
         seeds: dict[str, list[tuple[Vec3, Vec3]]] = {}
         for body in system.bodies:
             _body(kin, body, None, force_terms, seeds)
+            step()
         for j, terms in enumerate(_transpose_jacobian(kin, seeds, "Q", n)):
             force_terms[j].extend(terms)
-        _mass_matrix_backward(kin, system.bodies, mass_terms)
+        _mass_matrix_backward(kin, system.bodies, mass_terms, step)
     else:
         for body in system.bodies:
             _body(kin, body, mass_terms, force_terms)
+            step()
     index = {c.name: j for j, c in enumerate(system.coordinates)}
 
     def base(kin: Kinematics, fe: object, terms: list[list[sp.Expr]], path: str) -> None:
@@ -173,14 +186,18 @@ def _derive(system: System, form: str) -> Equations:
 
     # spring–dampers, bushings, rotational elements, the enabled factor and the reported
     # forces: equations/force_elements.py (issue 4)
-    reported = {
-        fe.name: apply_force_element(kin, fe, force_terms, index, f"forces.{fe.name}", base)
-        for fe in system.forces
-    }
+    reported = {}
+    for fe in system.forces:
+        reported[fe.name] = apply_force_element(kin, fe, force_terms, index,
+                                                f"forces.{fe.name}", base)
+        step()
     outputs = [_output(kin, out, reported) for out in system.outputs]
     energy = energies(kin, system)
     constraints = derive_constraints(system)
     check_constraints(system, constraints)
+    poses = frame_poses(kin)  # last: its intermediates come after all the equations need
+    elastic = elastic_equations(system)
+    step()
 
     mass = [[ZERO] * n for _ in range(n)]
     for i in range(n):
@@ -199,7 +216,8 @@ def _derive(system: System, form: str) -> Equations:
         output_names=tuple(o.name for o in system.outputs),
         constraints=constraints,
         energy=energy,
-        elastic=elastic_equations(system),
+        elastic=elastic,
+        poses=poses,
     )
 
 
@@ -281,7 +299,8 @@ def _body(
 
 
 def _mass_matrix_backward(
-    kin: Kinematics, bodies: Sequence[RigidBody], mass_terms: list[list[list[sp.Expr]]]
+    kin: Kinematics, bodies: Sequence[RigidBody], mass_terms: list[list[list[sp.Expr]]],
+    step: Steps | None = None,
 ) -> None:
     """``M = Σ_K J_Kᵀ Θ_K J_K`` column by column, the products ``J_Kᵀ (·)`` evaluated by a
     backward recursion over the frame tree (recursive form; equations.md §1).
@@ -312,6 +331,8 @@ def _mass_matrix_backward(
             acc.setdefault(body.frame, []).append((f, add(nc, cross(c, f))))
         for i, terms in enumerate(_transpose_jacobian(kin, acc, f"M{j}", j + 1)):
             mass_terms[i][j].extend(terms)
+        if step is not None:
+            step()
 
 
 def _transpose_jacobian(

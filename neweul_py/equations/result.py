@@ -13,6 +13,7 @@ import sympy as sp
 
 from ..model import System
 from .constraints import ConstraintEquations
+from .poses import FramePoses
 
 __all__ = ["Equations"]
 
@@ -61,6 +62,9 @@ class Equations:
     elastic
         The splice of the elastic bodies (:class:`~neweul_py.equations.elastic.ElasticEquations`),
         ``None`` without elastic bodies.
+    poses
+        The absolute poses of the frames (:class:`~neweul_py.equations.poses.FramePoses`,
+        for animations); ``None``: not derived.
     """
 
     system: System
@@ -76,6 +80,7 @@ class Equations:
     constraints: ConstraintEquations | None = None
     energy: sp.ImmutableMatrix | None = None
     elastic: Any = None
+    poses: FramePoses | None = None
 
     @property
     def n(self) -> int:
@@ -126,4 +131,5 @@ class Equations:
             force_vector=sub(self.force_vector),
             outputs=sub(self.outputs),
             energy=None if self.energy is None else sub(self.energy),
+            poses=None if self.poses is None else self.poses.substituted(values),
         )

@@ -35,6 +35,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..model import INERTIAL, Frame, System, as_expr, input_rate_name, symbol, time
+from ..progress import StagedProgress, Steps
 from .algebra import (
     ZERO,
     ZERO3,
@@ -123,7 +124,8 @@ class Kinematics:
     :attr:`workspace` at that moment, after everything they depend on.
     """
 
-    def __init__(self, system: System, workspace: Workspace) -> None:
+    def __init__(self, system: System, workspace: Workspace,
+                 progress: StagedProgress = None) -> None:
         self.system = system
         self.workspace = workspace
         self.coordinates = system.coordinate_symbols
@@ -144,8 +146,10 @@ class Kinematics:
         self.frames[INERTIAL] = FrameKinematics(
             INERTIAL, "", IDENTITY, ZERO3, zero_j, zero_j, ZERO3, ZERO3, ZERO3, ZERO3, ZERO3, g
         )
+        step = Steps(progress, "kinematics", len(system.frames))
         for frame in system.frames_topological:
             self.frames[frame.name] = self._frame(frame)
+            step()
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -396,7 +400,8 @@ class Kinematics:
         return ca[k - 1]
 
 
-def absolute_kinematics(system: System, form: Form = "closed") -> Kinematics:
+def absolute_kinematics(system: System, form: Form = "closed",
+                        progress: StagedProgress = None) -> Kinematics:
     """Absolute kinematics of all frames of ``system`` (equations.md §1).
 
     Parameters
@@ -406,6 +411,8 @@ def absolute_kinematics(system: System, form: Form = "closed") -> Kinematics:
     form
         ``"closed"``: every quantity fully substituted; ``"recursive"``: intermediates emitted
         into ``Kinematics.workspace`` (DESIGN.md, two ways to state the equations).
+    progress
+        ``progress("kinematics", done, total)`` after each frame (:mod:`neweul_py.progress`).
 
     Returns
     -------
@@ -429,5 +436,5 @@ def absolute_kinematics(system: System, form: Form = "closed") -> Kinematics:
     if form not in ("closed", "recursive"):
         raise ValueError(f"form must be 'closed' or 'recursive', not {form!r}")
     reserved = {str(s) for s in (*system.coordinate_symbols, *system.velocity_symbols)}
-    return Kinematics(system, Workspace(form == "recursive", reserved))
+    return Kinematics(system, Workspace(form == "recursive", reserved), progress)
 
