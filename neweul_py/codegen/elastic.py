@@ -161,20 +161,7 @@ _NODE_POSITIONS = (
     'in ISYS."""',
     "    x = _np.asarray(x, dtype=_np.float64)",
     "    r, R = frame_poses(t, x, p, u)",
-    "    sigma = _rigid_schedule(t, p) if _PARTS else ()",
-    "    out = []",
-    "    for b in _NODES:",
-    "        samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b['samples']]",
-    "        cloud = samples[0]",
-    "        if 'values' in b:",
-    "            w = ffrf_weights(ffrf_unpack(b['values']), ffrf_unpack(b['coeff']),",
-    "                             sigma[b['k']], b['name'])",
-    "            cloud = ffrf_mix(samples, w)",
-    "        q = x[b['first']:b['first'] + b['nq']]",
-    "        local = cloud['origin'] + cloud['phi'] @ q",
-    "        f = b['frame']",
-    "        out.append(local if f < 0 else r[f] + local @ R[f].T)",
-    "    return out",
+    "    return ffrf_node_positions(_FFRF, _NODES, r, R, t, x, p)",
 )
 
 

@@ -380,6 +380,27 @@ def ffrf_constraint_gamma(S, t, y, yd, p, u=None):
                                           SV @ np.asarray(yd, dtype=np.float64), p, u)
 
 
+def ffrf_node_positions(S, nodes, r, R, t, x, p):
+    """Per elastic body of ``nodes`` (``first``, ``nq``, ``frame``: index into the frame
+    poses ``r`` (nF, 3), ``R`` (nF, 3, 3) or −1 for ISYS, ``samples``: the packed node data
+    ``origin`` (nk, 3), ``phi`` (nk, 3, nq) per sample, and for parametric bodies ``values``,
+    ``coeff``, ``k``): its nodes at ``x_P + Φ_P q`` in ISYS (nk, 3), mixed at the schedule."""
+    sigma = S["schedule"](t, p) if S["parts"] else ()
+    out = []
+    for b in nodes:
+        samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b["samples"]]
+        cloud = samples[0]
+        if "values" in b:
+            w = ffrf_weights(ffrf_unpack(b["values"]), ffrf_unpack(b["coeff"]), sigma[b["k"]],
+                             b["name"])
+            cloud = ffrf_mix(samples, w)
+        q = x[b["first"]:b["first"] + b["nq"]]
+        local = cloud["origin"] + cloud["phi"] @ q
+        f = b["frame"]
+        out.append(local if f < 0 else r[f] + local @ R[f].T)
+    return out
+
+
 #: The protocol functions a module with elastic bodies delegates to (protocol name → splice
 #: function); each takes the context first.
 PROTOCOL = {
@@ -402,4 +423,5 @@ PROTOCOL = {
 #: The functions a generated module embeds after the kernel's (in this order).
 SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_at, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_kin, ffrf_kin_jacobians,
-                    ffrf_force_directional, ffrf_symbolic_state, *PROTOCOL.values())
+                    ffrf_force_directional, ffrf_symbolic_state, ffrf_node_positions,
+                    *PROTOCOL.values())
