@@ -124,8 +124,9 @@ def _wrapper(name: str, splice_fn: Any) -> tuple[str, ...]:
     args = ", ".join("u=None" if a == "u" else a for a in params)
     call = ", ".join(params)
     doc = (inspect.getdoc(splice_fn) or "").split("\n\n")[0].replace("\n", " ")
+    state = "y" if "y" in params else "x"
     return (f"def {name}({args}):", f'    """{doc}"""',
-            f"    return {splice_fn.__name__}(ffrf_at(_FFRF, t, p), {call})")
+            f"    return {splice_fn.__name__}(ffrf_at(_FFRF, t, p, {state}, u), {call})")
 
 
 def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[str]:
@@ -161,7 +162,7 @@ _NODE_POSITIONS = (
     'in ISYS."""',
     "    x = _np.asarray(x, dtype=_np.float64)",
     "    r, R = frame_poses(t, x, p, u)",
-    "    return ffrf_node_positions(_FFRF, _NODES, r, R, t, x, p)",
+    "    return ffrf_node_positions(_FFRF, _NODES, r, R, t, x, p, u)",
 )
 
 
@@ -198,7 +199,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         constraints=ce,
     )
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
-                         schedules=el.schedules, progress=progress)
+                         schedules=el.schedules, schedule_jacobians=el.schedule_jacobians,
+                         progress=progress)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
@@ -233,6 +235,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     functions.update({f"_rigid_{k}": rigid.functions[k] for k in _RIGID_USED})
     if el.schedules:
         functions["_rigid_schedule"] = rigid.functions["schedule"]
+        functions["_rigid_schedule_jacobians"] = rigid.functions["schedule_jacobians"]
     for fn in (*KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
         functions[fn.__name__] = tuple(inspect.getsource(fn).rstrip("\n").splitlines())
     rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in _RIGID_USED)
@@ -240,7 +243,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         "_FFRF = ffrf_system(_ELASTIC_DATA, _NS, _SV, _SW, len(OUTPUTS),",
         f"                    {{{rigid_map}}},",
         "                    default_inputs, _PARTS,",
-        f"                    {'_rigid_schedule' if el.schedules else 'None'})")
+        f"                    {'_rigid_schedule' if el.schedules else 'None'},",
+        f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
     if "frame_poses" in rigid.functions:  # poses of the frames and the node clouds
@@ -248,7 +252,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         functions["frame_poses"] = (
             "def frame_poses(t, x, p, u=None):",
             f'    """{rigid.functions["frame_poses"][1].strip()[3:-3]}"""',
-            "    return _rigid_frame_poses(t, ffrf_symbolic_state(ffrf_at(_FFRF, t, p), x), p, u)")
+            "    return _rigid_frame_poses(t, ffrf_symbolic_state(ffrf_at(_FFRF, t, p, x, u), x),"
+            " p, u)")
         functions["body_properties"] = rigid.functions["body_properties"]
         functions["node_positions"] = _NODE_POSITIONS
 

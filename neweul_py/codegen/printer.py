@@ -62,7 +62,8 @@ RESERVED: frozenset[str] = frozenset(
      "default_parameters", "default_inputs", "mass_matrix", "force_vector", "rhs",
      "force_jacobians", "mass_matrix_times_derivative", "rhs_jacobian", "outputs",
      "output_jacobians", "constraints", "constraint_jacobian", "constraint_time_derivative",
-     "constraint_gamma", "constraint_reaction_jacobian", "schedule",
+     "constraint_gamma", "constraint_reaction_jacobian", "schedule", "schedule_jacobians",
+     "Sy", "Su",
      "PROTOCOL_VERSION", "MODEL_NAME", "DESCRIPTION", "COORDINATES", "COORDINATE_UNITS",
      "INITIAL_STATE", "PARAMETERS", "INPUTS", "INPUT_RATES", "OUTPUTS", "OUTPUT_UNITS",
      "CONSTRAINTS", "ENERGY", "STATE_SIZE", "SOURCE_HASH", "MASS_MATRIX_SYMMETRIC"}

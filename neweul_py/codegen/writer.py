@@ -352,8 +352,41 @@ def _header(system: System) -> tuple[str, ...]:
     )
 
 
+def _schedule_functions(ctx: Context, schedules: Sequence[sp.Expr],
+                        jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None,
+                        method: CseMethod, prefix: str) -> dict[str, tuple[str, ...]]:
+    """``schedule(t, y, p, u)`` (the values ``σ`` of the parametric bodies) and
+    ``schedule_jacobians(t, y, p, u)`` (``∂σ/∂y``, ``∂σ/∂u``, from ``equations/``)."""
+    y, p, u = ctx.y, ctx.p, ctx.u
+    src = [(y, _Y_SRC), (p, _P_SRC)]
+    allowed = (*y, *p, *u, time)
+    out: dict[str, tuple[str, ...]] = {}
+    b = checked(ctx, eliminate((), [as_expr(e) for e in schedules], method=method), allowed,
+                "the schedules of the parametric elastic bodies")
+    body = (prologue(ctx, b, src) + inputs_prologue(ctx, b) + assignments(ctx, b)
+            + vector(ctx, "sigma", b.finals))
+    out["schedule"] = _function(f"{prefix}schedule", "t, y, p, u=None",
+                                "Scheduling values of the parametric elastic bodies.",
+                                [*body, "return sigma"])
+    k = len(schedules)
+    Jy, Ju = jacobians if jacobians is not None else (sp.zeros(k, len(y)), sp.zeros(k, len(u)))
+    entries = [as_expr(e) for e in (*Jy, *Ju)]
+    b = checked(ctx, eliminate((), entries, method=method), allowed,
+                "the schedule Jacobians of the parametric elastic bodies")
+    fy = {(i // len(y), i % len(y)): e for i, e in enumerate(b.finals[:k * len(y)]) if e != 0}
+    fu = {(i // len(u), i % len(u)): e for i, e in enumerate(b.finals[k * len(y):]) if e != 0}
+    body = (prologue(ctx, b, src) + inputs_prologue(ctx, b) + assignments(ctx, b)
+            + matrix_fill(ctx, "Sy", (k, len(y)), fy) + matrix_fill(ctx, "Su", (k, len(u)), fu))
+    out["schedule_jacobians"] = _function(
+        f"{prefix}schedule_jacobians", "t, y, p, u=None",
+        "``∂σ/∂y`` (k, n) and ``∂σ/∂u`` (k, nu) of the schedules, analytic.",
+        [*body, "return Sy, Su"])
+    return out
+
+
 def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: str = "",
                  allow_empty: bool = False, schedules: Sequence[sp.Expr] = (),
+                 schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None,
                  progress: StagedProgress = None) -> ModuleParts:
     """The parts of the generated module of (the symbolic part of) ``equations``.
 
@@ -372,9 +405,10 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         parts stay keyed by the protocol names).
     allow_empty
         Accept equations without coordinates (the symbolic part of an elastic-only model).
-    schedules
-        Scheduling expressions of parametric elastic bodies (parameters and ``t``): emitted
-        as ``{prefix}schedule(t, p)``.
+    schedules, schedule_jacobians
+        Scheduling expressions of parametric elastic bodies (parameters, inputs, ``t``,
+        coordinates) and their Jacobians: emitted as ``{prefix}schedule(t, y, p, u)`` and
+        ``{prefix}schedule_jacobians(t, y, p, u)``.
     progress
         ``progress("code generation", done, total)`` after each block (CSE, derivatives,
         printing of one function; :mod:`neweul_py.progress`).
@@ -438,13 +472,7 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
                                         [*body, "return u"])
     step()
     if schedules:
-        b = checked(ctx, eliminate((), [as_expr(e) for e in schedules], method=method),
-                    (*p, time), "the schedules of the parametric elastic bodies")
-        body = (prologue(ctx, b, [(p, _P_SRC)]) + assignments(ctx, b)
-                + vector(ctx, "sigma", b.finals))
-        funcs["schedule"] = _function(f"{prefix}schedule", "t, p",
-                                      "Scheduling values of the parametric elastic bodies.",
-                                      [*body, "return sigma"])
+        funcs.update(_schedule_functions(ctx, schedules, schedule_jacobians, method, prefix))
         step()
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix, step))
     funcs.update(_state_functions(ctx, outs, energy, method, d_method, prefix, step))

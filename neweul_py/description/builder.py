@@ -508,8 +508,9 @@ class SystemBuilder:
             Initial values and velocities of the elastic coordinates, one number per mode
             (``None``: zeros).
         schedule
-            The scheduling variable of a parametric body: an expression of parameters and
-            ``t`` (key path ``elastic_bodies.NAME.schedule``).
+            The scheduling variable of a parametric body: an expression of parameters,
+            inputs, ``t`` and the coordinates of the symbolic part (key path
+            ``elastic_bodies.NAME.schedule``).
 
         Raises
         ------
@@ -544,7 +545,7 @@ class SystemBuilder:
             self._elastic.append(lambda n, body=body: body)
         else:
             self._elastic.append(lambda n, body=body: dataclasses.replace(
-                body, schedule=n.expr(schedule, "excitation", f"{path}.schedule")))
+                body, schedule=n.expr(schedule, "kinematic", f"{path}.schedule")))
 
     def body(
         self,

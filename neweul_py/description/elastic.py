@@ -11,7 +11,8 @@ elastic_bodies:
     velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
     inertia: consistent        # optional: consistent (default, needs J.m2) | sid
     schedule: dp               # parametric bodies (neweul interpolate): the scheduling
-                               # variable, an expression of parameters and t
+                               # variable, an expression of parameters, inputs, t and
+                               # coordinates of the rigid part
 ```
 
 Unlisted modes start at 0. The values go into the generated module's ``INITIAL_STATE``.
@@ -130,7 +131,8 @@ def _samples(data: dict, schedule: Any, file: Path, item: str) -> tuple[list[dic
         return [], {}
     if schedule is None:
         raise ModelError(f"{file} is a parametric body: give its scheduling variable as "
-                         "'schedule: EXPR' (parameters and t)", f"{item}.schedule")
+                         "'schedule: EXPR' (parameters, inputs, t, coordinates)",
+                         f"{item}.schedule")
     values = [float(v) for v in data["parametric.values"]]
     samples = [{k.split("/", 1)[1]: v for k, v in data.items() if k.startswith(f"sample{i}/")}
                for i in range(len(values))]

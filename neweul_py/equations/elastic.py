@@ -242,7 +242,11 @@ class ElasticEquations:
         the maps ``y_s = S_V y`` (motion) and ``S_W`` (loads, left basis) without the node
         rows of parametric bodies, and those rows per parametric body and sample.
     schedules
-        The scheduling expressions of the parametric bodies (parameters and ``t``), in order.
+        The scheduling expressions ``σ`` of the parametric bodies (parameters, inputs, ``t``
+        and the active coordinates), in order.
+    schedule_jacobians
+        ``∂σ/∂y_s`` (k × active) and ``∂σ/∂u`` (k × inputs): the dependence of the
+        interpolation weights on the state and the inputs, for the analytic Jacobians.
     active
         Indices of the symbolic coordinates that are not elastic coordinates (the node
         frames move with the dependent node coordinates, so the elastic ones appear in no
@@ -261,6 +265,7 @@ class ElasticEquations:
     active: tuple[int, ...]
     hidden: tuple[sp.Expr, ...]
     offsets: tuple[int, ...]
+    schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None
 
 
 def elastic_equations(system: System) -> ElasticEquations | None:
@@ -277,5 +282,10 @@ def elastic_equations(system: System) -> ElasticEquations | None:
         offsets.append(len(hidden))
         hidden += s.expressions(list(active))
     schedules = tuple(b.schedule for b in system.elastic_bodies if b.parametric)
+    jacobians = None
+    if schedules:
+        sigma = sp.ImmutableMatrix(schedules)
+        jacobians = (sigma.jacobian([system.coordinates[j].symbol for j in active]),
+                     sigma.jacobian([u.symbol for u in system.inputs]))
     return ElasticEquations(splices, keep, SV, SW, parts, schedules, active, tuple(hidden),
-                            tuple(offsets))
+                            tuple(offsets), jacobians)

@@ -160,11 +160,11 @@ def ffrf_mass_blocks(b, q):
     body at ``z``: ``Mre = Mre_z T``, ``Mer = Tᵀ Mer_z``, ``Mee = Tᵀ Me_z T``, §2.3).
     Matrix products only (BLAS)."""
     if "fixed" in b:                          # a body on a fixed frame: elastic rows only
-        Mrr = np.zeros((6, 6), dtype=q.dtype)
-        return {"md": b["md0"] + b["md1"] @ q, "Mrr": Mrr,
-                "Mre": np.zeros((6, b["nq"]), dtype=q.dtype),
-                "Mer": np.hstack((b["Ct0"], np.zeros((b["nq"], 3)))).astype(q.dtype),
-                "Mee": b["Me"].astype(q.dtype)}
+        dt = np.result_type(q, b["Me"], b["Ct0"])
+        return {"md": b["md0"] + b["md1"] @ q, "Mrr": np.zeros((6, 6), dtype=dt),
+                "Mre": np.zeros((6, b["nq"]), dtype=dt),
+                "Mer": np.hstack((b["Ct0"], np.zeros((b["nq"], 3), dtype=dt))),
+                "Mee": b["Me"].astype(dt)}
     if "quad" in b:
         z, T = ffrf_quadratic_map(b, q)
         inner = ffrf_mass_blocks(b["quad"], z)

@@ -73,9 +73,9 @@ def ffrf_mix(samples, w):
             out[key] = sum(wi * b[key] for wi, b in zip(w, samples, strict=True))
         elif key == "quad":                  # the extended body of a second-order field
             out[key] = ffrf_mix([b[key] for b in samples], w)
-        elif key == "mass":
-            out[key] = float(np.real(sum(wi * b[key] for wi, b in zip(w, samples,
-                                                                      strict=True))))
+        elif key == "mass":                  # complex in the complex step in σ
+            v = sum(wi * b[key] for wi, b in zip(w, samples, strict=True))
+            out[key] = v if np.iscomplexobj(v) else float(v)
     return out
 
 

@@ -68,7 +68,8 @@ def ffrf_unpack(entry):
     return np.frombuffer(raw, dtype="<f8").reshape(shape).copy()
 
 
-def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None):
+def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None,
+                schedule_jacobians=None):
     """The splice context of a generated module.
 
     Parameters
@@ -91,8 +92,9 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         ``default_inputs(t, p)`` of the module.
     parts
         Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n): its node rows per sample.
-    schedule
-        ``schedule(t, p)``: the scheduling values of the parametric bodies, in order.
+    schedule, schedule_jacobians
+        ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
+        order, and ``schedule_jacobians(t, y_s, p, u)``: ``∂σ/∂y_s``, ``∂σ/∂u``.
     """
     bodies = []
     for entry in data:
@@ -113,17 +115,32 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
             "same": bool(np.array_equal(SV, SW)) and not parts, "nhidden": nhidden,
             "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30,
             "parts": tuple((ffrf_unpack(a), ffrf_unpack(b)) for a, b in parts),
-            "schedule": schedule}
+            "schedule": schedule, "schedule_jacobians": schedule_jacobians}
 
 
-def ffrf_at(S, t, p):
-    """The context at time ``t`` and parameters ``p``: parametric bodies mixed at their
-    scheduling values ``σ(t, p)`` and ``S_V(σ)``, ``S_W(σ)`` (frozen-parameter equations:
-    the weights' time derivatives are not taken, :mod:`.parametric`); ``S`` itself
-    without parametric bodies."""
+def ffrf_schedule(S, t, p, x=None, u=None):
+    """``σ(t, y_s, p, u)`` with ``y_s = S_V y`` (``x``: ``y`` or the state ``[y, ẏ]``; the
+    node rows of parametric bodies are not in this ``S_V``, and schedules cannot use them)."""
+    y = np.zeros(S["n"]) if x is None else np.asarray(x, dtype=np.float64)[:S["n"]]
+    if u is None:
+        u = S["default_inputs"](t, p)
+    return S["schedule"](t, S["SV"] @ y, p, u)
+
+
+def ffrf_at(S, t, p, x=None, u=None):
+    """The context at time ``t``, parameters ``p``, coordinates ``x`` (``y`` or the state)
+    and inputs ``u``: parametric bodies mixed at their scheduling values ``σ`` and ``S_V(σ)``,
+    ``S_W(σ)`` (frozen-parameter equations: the weights' time derivatives are not taken,
+    :mod:`.parametric`; their dependence on ``y`` and ``u`` enters the Jacobians,
+    :func:`ffrf_sigma_terms`); ``S`` itself without parametric bodies."""
     if not S["parts"]:
         return S
-    sigma = S["schedule"](t, p)
+    return ffrf_mixed(S, ffrf_schedule(S, t, p, x, u))
+
+
+def ffrf_mixed(S, sigma):
+    """The context with the parametric bodies mixed at ``sigma`` (real, or complex for the
+    complex-step derivative in ``σ``); it keeps ``base`` and ``sigma``."""
     bodies, SV, SW, k = [], S["SV"], S["SW"], 0
     for b in S["bodies"]:
         if "samples" not in b:
@@ -137,7 +154,53 @@ def ffrf_at(S, t, p):
         SV = SV + np.tensordot(w, SVs, axes=1)
         SW = SW + np.tensordot(w, SWs, axes=1)
         k += 1
-    return dict(S, bodies=tuple(bodies), SV=SV, SW=SW, same=bool(np.array_equal(SV, SW)))
+    return dict(S, bodies=tuple(bodies), SV=SV, SW=SW, same=bool(np.array_equal(SV, SW)),
+                base=S, sigma=np.asarray(sigma))
+
+
+def ffrf_sigma_sensitivity(S, t, y, p, u):
+    """``(∂σ/∂y, ∂σ/∂u)`` of a mixed context, ``(k, n)`` and ``(k, nu)``, or ``None`` when the
+    schedules depend on neither (functions of ``t`` and ``p`` only)."""
+    if "base" not in S or S["schedule_jacobians"] is None:
+        return None
+    Sy, Su = S["schedule_jacobians"](t, S["base"]["SV"] @ y, p, u)
+    if not np.any(Sy) and not np.any(Su):
+        return None
+    return Sy @ S["base"]["SV"], Su
+
+
+def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
+    """``∂(q − k)/∂σ`` (n, k) — or ``∂(M a)/∂σ`` with ``a`` — of a mixed context: the
+    complex step of the mixed bodies, ``S_V(σ)``, ``S_W(σ)`` in each ``σ_k``, with the
+    symbolic part's analytic Jacobians for its arguments ``y_s = S_V(σ) y`` (module
+    docstring, item 3)."""
+    base, sigma, h, ns = S["base"], S["sigma"], S["step"], S["ns"]
+    ys, yds = S["SV"] @ y, S["SV"] @ yd
+    rig = S["rigid"]
+    Cs = rig["output_jacobians"](t, np.concatenate((ys, yds)), p, u)[0][S["nhidden"]:]
+    kin = ffrf_kin(S, t, y, yd, p, u)
+    if a is None:
+        fs = rig["force_vector"](t, ys, yds, p, u)
+        fys, fyds, _fu = rig["force_jacobians"](t, ys, yds, p, u)
+    else:
+        a_s = S["SV"] @ a
+        Ms = rig["mass_matrix"](t, ys, p, u)
+        mm = rig["mass_matrix_times_derivative"](t, ys, p, a_s, u)
+    out = np.empty((S["n"], sigma.size))
+    for k in range(sigma.size):
+        Sc = ffrf_mixed(base, sigma + 1j * h * np.eye(sigma.size)[k])
+        dSV = Sc["SV"].imag / h
+        dys, dyds = dSV @ y, dSV @ yd
+        dkin = Cs[:, :ns] @ dys + Cs[:, ns:] @ dyds
+        terms = ffrf_terms(Sc, kin + 1j * h * dkin, y, yd)
+        if a is None:
+            f = Sc["SW"].T @ (fs + 1j * h * (fys @ dys + fyds @ dyds))
+            f = ffrf_add_force(Sc, f, terms)
+        else:
+            f = Sc["SW"].T @ (Ms @ (Sc["SV"] @ a) + 1j * h * (mm @ dys))
+            f = f + ffrf_add_mass(Sc, np.zeros((S["n"], S["n"]), dtype=complex), terms) @ a
+        out[:, k] = f.imag / h
+    return out
 
 
 def ffrf_frame(S, b, kin):
@@ -274,6 +337,11 @@ def ffrf_force_jacobians(S, t, y, yd, p, u=None):
     if fu.shape[1]:
         fu += ffrf_force_directional(S, kin, y, yd,
                                      [(Ku[:, k], z, z) for k in range(fu.shape[1])])
+    sens = ffrf_sigma_sensitivity(S, t, y, p, u)
+    if sens is not None:                      # the weights move with y and u
+        Fs = ffrf_sigma_terms(S, t, y, yd, p, u)
+        fy += Fs @ sens[0]
+        fu += Fs @ sens[1]
     return fy, fyd, fu
 
 
@@ -294,6 +362,9 @@ def ffrf_mass_matrix_times_derivative(S, t, y, p, a, u=None):
         dy[j] = 1.0
         Mc = ffrf_add_mass(S, zero, ffrf_terms(S, kin + 1j * h * Ky[:, j], y + 1j * h * dy, z))
         dMa[:, j] += (Mc @ a).imag / h
+    sens = ffrf_sigma_sensitivity(S, t, y, p, u)
+    if sens is not None:
+        dMa += ffrf_sigma_terms(S, t, y, z, p, u, a) @ sens[0]
     return dMa
 
 
@@ -326,9 +397,27 @@ def ffrf_outputs(S, t, x, p, u=None):
 
 def ffrf_output_jacobians(S, t, x, p, u=None):
     """``∂out/∂x`` (ny, 2n) and ``∂out/∂u`` (ny, nu)."""
+    x = np.asarray(x, dtype=np.float64)
+    if u is None:
+        u = S["default_inputs"](t, p)
     Cs, Ds = S["rigid"]["output_jacobians"](t, ffrf_symbolic_state(S, x), p, u)
-    Cs, ns, SV = Cs[:S["nhidden"]], S["ns"], S["SV"]
-    return np.hstack((Cs[:, :ns] @ SV, Cs[:, ns:] @ SV)), Ds[:S["nhidden"]].copy()
+    Cs, ns, SV, n = Cs[:S["nhidden"]], S["ns"], S["SV"], S["n"]
+    C, D = np.hstack((Cs[:, :ns] @ SV, Cs[:, ns:] @ SV)), Ds[:S["nhidden"]].copy()
+    sens = ffrf_sigma_sensitivity(S, t, x[:n], p, u)
+    if sens is not None:                      # S_V(σ) moves with the schedule
+        dSV = ffrf_dsv(S)
+        Os = np.stack([Cs[:, :ns] @ (d @ x[:n]) + Cs[:, ns:] @ (d @ x[n:2 * n]) for d in dSV],
+                      axis=1)
+        C[:, :n] += Os @ sens[0]
+        D += Os @ sens[1]
+    return C, D
+
+
+def ffrf_dsv(S):
+    """``∂S_V/∂σ_k`` (one (ns, n) array per parametric body) of a mixed context."""
+    base, sigma, h = S["base"], S["sigma"], S["step"]
+    return [ffrf_mixed(base, sigma + 1j * h * np.eye(sigma.size)[k])["SV"].imag / h
+            for k in range(sigma.size)]
 
 
 def ffrf_energy(S, t, x, p, u=None):
@@ -355,9 +444,15 @@ def ffrf_constraints(S, t, y, p, u=None):
 
 
 def ffrf_constraint_jacobian(S, t, y, p, u=None):
-    """``G = G_s S_V``: the constraints move with the node coordinates."""
+    """``G = G_s S_V`` (+ ``G_s (∂S_V/∂σ) y ∂σ/∂y`` for schedules of the coordinates): the
+    constraints move with the node coordinates."""
     y = np.asarray(y, dtype=np.float64)
-    return S["rigid"]["constraint_jacobian"](t, S["SV"] @ y, p, u) @ S["SV"]
+    Gs = S["rigid"]["constraint_jacobian"](t, S["SV"] @ y, p, u)
+    G = Gs @ S["SV"]
+    sens = ffrf_sigma_sensitivity(S, t, y, p, S["default_inputs"](t, p) if u is None else u)
+    if sens is not None:
+        G = G + np.stack([Gs @ (d @ y) for d in ffrf_dsv(S)], axis=1) @ sens[0]
+    return G
 
 
 def ffrf_constraint_reaction_jacobian(S, t, y, p, u=None):
@@ -380,12 +475,12 @@ def ffrf_constraint_gamma(S, t, y, yd, p, u=None):
                                           SV @ np.asarray(yd, dtype=np.float64), p, u)
 
 
-def ffrf_node_positions(S, nodes, r, R, t, x, p):
+def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
     """Per elastic body of ``nodes`` (``first``, ``nq``, ``frame``: index into the frame
     poses ``r`` (nF, 3), ``R`` (nF, 3, 3) or −1 for ISYS, ``samples``: the packed node data
     ``origin`` (nk, 3), ``phi`` (nk, 3, nq) per sample, and for parametric bodies ``values``,
     ``coeff``, ``k``): its nodes at ``x_P + Φ_P q`` in ISYS (nk, 3), mixed at the schedule."""
-    sigma = S["schedule"](t, p) if S["parts"] else ()
+    sigma = ffrf_schedule(S, t, p, x, u) if S["parts"] else ()
     out = []
     for b in nodes:
         samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b["samples"]]
@@ -421,7 +516,8 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_at, ffrf_frame,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_schedule, ffrf_at,
+                    ffrf_mixed, ffrf_sigma_sensitivity, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_kin, ffrf_kin_jacobians,
                     ffrf_force_directional, ffrf_symbolic_state, ffrf_node_positions,
                     *PROTOCOL.values())

@@ -85,7 +85,8 @@ class ElasticBody:
     interpolation
         ``"linear"`` or ``"cubic"`` weights between the samples.
     schedule
-        The scheduling variable ``σ`` (an expression of parameters and time).
+        The scheduling variable ``σ`` (an expression of parameters, inputs, time and the
+        coordinates of the rigid part).
 
     Raises
     ------

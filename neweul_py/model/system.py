@@ -460,6 +460,22 @@ def _validate_elastic(s: System, frames: set[str], seen: Mapping[str, str]) -> N
         if _hangs_on(s, e.frame, f"{e.name}."):
             raise ModelError("the reference frame cannot hang on the body's own nodes",
                              f"{path}.frame")
+    _validate_schedules(s)
+
+
+def _validate_schedules(s: System) -> None:
+    """A schedule may use parameters, inputs, ``t`` and the coordinates of the symbolic part,
+    but no elastic or node coordinate (they follow from the schedule itself)."""
+    elastic = {symbol(c): e.name for e in s.elastic_bodies
+               for c in (*e.coordinate_names, *e.all_node_coordinate_names)}
+    for e in s.elastic_bodies:
+        if e.schedule is None:
+            continue
+        used = sorted(str(c) for c in e.schedule.free_symbols if c in elastic)
+        if used:
+            raise ModelError(f"a schedule cannot use elastic or node coordinates "
+                             f"({', '.join(used)}): they depend on the schedule",
+                             f"elastic_bodies.{e.name}.schedule")
 
 
 def _hangs_on(s: System, frame: str, prefix: str) -> bool:

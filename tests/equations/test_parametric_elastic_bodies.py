@@ -96,10 +96,58 @@ def test_schedule_outside_the_samples_is_an_error(parametric) -> None:
         mod.rhs(0.0, np.array(mod.INITIAL_STATE), p)
 
 
+def _fd(f, x, h):
+    """Central differences of ``f`` at ``x`` (columns: the coordinates of ``x``)."""
+    cols = []
+    for j in range(x.size):
+        e = np.zeros_like(x)
+        e[j] = h * max(1.0, abs(x[j]))
+        cols.append((f(x + e) - f(x - e)) / (2 * e[j]))
+    return np.array(cols).T
+
+
+@pytest.mark.parametrize("frame", ["ISYS", "carrier"])
+def test_schedule_of_a_coordinate_and_an_input_enters_the_jacobians(parametric,
+                                                                    frame: str) -> None:
+    """``schedule: cs + 2000 z + 5 F`` (a coordinate of the symbolic part and an input), the
+    body on a fixed and on a moving frame: the analytic ``rhs_jacobian``, ``force_jacobians``
+    (``∂/∂u`` included) and ``output_jacobians`` of the generated module — chain rule through
+    the interpolation weights — equal central finite differences of its own ``rhs``,
+    ``force_vector`` and ``outputs`` (reference: the difference quotients, error O(h²))."""
+    tmp, _pb = parametric
+    text = _description("duct.npz", "cs + 2000*z + 5*F", 343.0).replace(
+        "duct: {frame: ISYS", f"duct: {{frame: {frame}") + """outputs:
+  piston: {position: duct.piston, in: ISYS, component: x}
+"""
+    (tmp / f"yu{frame}.yaml").write_text(text)
+    mod = load_generated(generate(tmp / f"yu{frame}.yaml", tmp / f"gen_yu{frame}"))
+    p = mod.default_parameters()
+    n = len(mod.COORDINATES)
+    rng = np.random.default_rng(1)
+    x = 1e-4 * rng.normal(size=2 * n)
+    u = np.array([0.3])
+    J = mod.rhs_jacobian(0.0, x, p, u)
+    ref = _fd(lambda xx: mod.rhs(0.0, xx, p, u), x, 1e-6)
+    assert np.abs(J - ref).max() <= 1e-9 * np.abs(ref).max()     # here 2e-14; frozen: 1e-4
+    fy, _fyd, fu = mod.force_jacobians(0.0, x[:n], x[n:], p, u)
+    ref_u = _fd(lambda uu: mod.force_vector(0.0, x[:n], x[n:], p, uu), u, 1e-4)
+    assert np.abs(fu - ref_u).max() <= 1e-5 * np.abs(ref_u).max()
+    ref_y = _fd(lambda yy: mod.force_vector(0.0, yy, x[n:], p, u), x[:n], 1e-6)
+    assert np.abs(fy - ref_y).max() <= 1e-9 * np.abs(ref_y).max()
+    C, D = mod.output_jacobians(0.0, x, p, u)
+    ref_c = _fd(lambda xx: mod.outputs(0.0, xx, p, u), x, 1e-6)
+    assert np.abs(C - ref_c).max() <= 1e-9 * np.abs(ref_c).max()   # frozen weights: 1e-8
+    ref_d = _fd(lambda uu: mod.outputs(0.0, x, p, uu), u, 1e-3)   # D is 3e-11: a larger step
+    assert np.abs(D - ref_d).max() <= 1e-5 * max(np.abs(ref_d).max(), 1e-300)
+    # the schedule really moves the body: another z changes the mass matrix
+    assert not np.allclose(mod.mass_matrix(0.0, x[:n], p, u),
+                           mod.mass_matrix(0.0, x[:n] + 5e-3, p, u))
+
+
 @pytest.mark.parametrize(("schedule", "words"), [
-    ("cz", "cz"), ("z", "coordinate"), (None, "schedule")])
+    ("cz", "cz"), ("duct_q1", "elastic or node coordinates"), (None, "schedule")])
 def test_bad_schedules_name_the_key(parametric, schedule, words) -> None:
-    """An unknown symbol, a coordinate, or a parametric body without a schedule: one
+    """An unknown symbol, an elastic coordinate, or a parametric body without a schedule: one
     DescriptionError naming ``elastic_bodies.duct.schedule``."""
     tmp, _pb = parametric
     (tmp / "bad.yaml").write_text(_description("duct.npz", schedule, 343.0))
