@@ -220,8 +220,9 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
                   progress: StagedProgress = None) -> Path:
     """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
     compiled module next to it (written from ``equations()`` unless present, and loaded once,
-    which builds its library). Models the C backend cannot compile yet (elastic bodies) keep
-    the NumPy module, with one warning."""
+    which builds its library). Models the C backend cannot compile (parametric elastic
+    bodies, bodies of more than ``MAX_EXPANDED_MODES`` modes) keep the NumPy module, with one
+    warning."""
     if backend == "numpy":
         return path
     import warnings

@@ -31,6 +31,7 @@ from typing import Any
 import sympy as sp
 
 from ..atomic import atomic_write
+from ..equations.elastic_expanded import expanded_equations
 from ..errors import GenerationError
 from ..model import time
 from ..progress import StagedProgress
@@ -336,14 +337,14 @@ def write_c_module(
     Raises
     ------
     GenerationError
-        For models with elastic bodies (not compiled yet) or unprintable expressions.
+        For elastic bodies that cannot be expanded (parametric, too many modes:
+        :func:`~neweul_py.equations.elastic_expanded.expanded_equations`) or unprintable
+        expressions.
     """
     system = equations.system
-    if getattr(system, "elastic_bodies", ()):
-        raise GenerationError(
-            f"model {system.name!r} has elastic bodies, which the C backend does not compile "
-            "yet; use the NumPy module"
-        )
+    if getattr(equations, "elastic", None) is not None:
+        # the kernel's terms as closed expressions (equations/elastic_expanded.py)
+        equations = expanded_equations(equations)
     blocks = program_blocks(equations, cse=cse, progress=progress)
     core, jac = render_c_sources(equations, blocks, system.name)
     numpy_path = Path(numpy_path)

@@ -72,7 +72,7 @@ def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
     # order-1/2 parts that are zero in every sample are left out (absent means zero)
     keys = tuple(k for k in KERNEL_ARRAYS if not k.endswith((".m1", ".m2"))
                  or any(k in d and np.any(d[k]) for d in datasets))
-    if _fixed(splice, datasets):
+    if splice.elastic_rows_only:
         # a frame that never moves and no stiffening: the elastic rows alone (§2.2)
         lines.append("        'fixed': True,")
         keys = FIXED_ARRAYS
@@ -85,13 +85,6 @@ def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
     for d in datasets:
         lines += ["            {", *_arrays(d, "                ", keys), "            },"]
     return [*lines, "        ),", "    },"]
-
-
-def _fixed(splice: Any, datasets: tuple[Any, ...]) -> bool:
-    """Whether the body's frame never moves and no sample holds stiffening that the frame's
-    (gravitational) acceleration would act through (``Ct.m1``, a second-order field)."""
-    return splice.fixed_frame and not any(
-        "quad.A" in d or ("Ct.m1" in d and np.any(d["Ct.m1"])) for d in datasets)
 
 
 def _symmetric(splices: tuple[Any, ...]) -> bool:

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from ..ffrf import frame_stiffening
 from ..kinematics import absolute_kinematics
 from ..model import INERTIAL, ElasticBody, System
 
@@ -85,6 +86,13 @@ class ElasticSplice:
         are then its elastic rows alone (equations.md §2.2)."""
         return all(e == 0 for m in (self.JT, self.JR, self.abar, self.alphabar, self.omega,
                                     self.velocity) for e in m)
+
+    @property
+    def elastic_rows_only(self) -> bool:
+        """A fixed frame and no stiffening the (gravitational) frame acceleration acts
+        through: the body is its elastic rows alone (``FIXED_ARRAYS`` suffice)."""
+        data = self.body.samples if self.body.parametric else (self.body.data,)
+        return self.fixed_frame and not any(frame_stiffening(d) for d in data)
 
     def expressions(self, columns: list[int] | None = None) -> list[sp.Expr]:
         """``[J_T (row-major), J_R, ā, ᾱ, ω, g, v, e]``: 6n + 16 expressions, in this order

@@ -28,9 +28,19 @@ from .schema import (
     SCHEMA_VERSION,
     TAYLOR_NAMES,
     check_flat,
+    frame_stiffening,
     mode_count,
 )
-from .splice import PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack, ffrf_unpack
+from .splice import (
+    PROTOCOL,
+    SPLICE_FUNCTIONS,
+    ffrf_add_force,
+    ffrf_add_mass,
+    ffrf_pack,
+    ffrf_system,
+    ffrf_terms,
+    ffrf_unpack,
+)
 
 __all__ = [
     "FIXED_ARRAYS",
@@ -44,6 +54,8 @@ __all__ = [
     "SPLICE_FUNCTIONS",
     "TAYLOR_NAMES",
     "check_flat",
+    "ffrf_add_force",
+    "ffrf_add_mass",
     "ffrf_body_mass",
     "ffrf_elastic_forces",
     "ffrf_kinetic_energy",
@@ -51,7 +63,10 @@ __all__ = [
     "ffrf_pack",
     "ffrf_prepare",
     "ffrf_strain_energy",
+    "ffrf_system",
+    "ffrf_terms",
     "ffrf_unpack",
     "ffrf_velocity_terms",
+    "frame_stiffening",
     "mode_count",
 ]

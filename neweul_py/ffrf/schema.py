@@ -29,6 +29,7 @@ __all__ = [
     "TAYLOR_NAMES",
     "ArraySpec",
     "check_flat",
+    "frame_stiffening",
     "mode_count",
 ]
 
@@ -112,6 +113,12 @@ KERNEL_ARRAYS = KERNEL_ARRAYS + QUAD_ARRAYS
 #: The arrays of a body on a fixed frame without stiffening (equations.md §2.2): its
 #: equations are ``Me q̈ + De q̇ + Ke q + kσ = Ct⁰ g + node loads``, the rest is not embedded.
 FIXED_ARRAYS = ("md.m0", "md.m1", "Ct.m0", "Me.m0", "ksigma.m0", "Ke.m0", "De.m0")
+
+
+def frame_stiffening(flat: Mapping[str, np.ndarray]) -> bool:
+    """Whether the data hold stiffening that the frame's acceleration (gravity on a fixed
+    frame) acts through: ``Ct.m1`` or a second-order field (``quad.A``)."""
+    return "quad.A" in flat or ("Ct.m1" in flat and bool(np.any(flat["Ct.m1"])))
 
 
 def mode_count(flat: Mapping[str, np.ndarray]) -> int:

@@ -43,8 +43,8 @@ from .body import (
 )
 from .parametric import ffrf_mix, ffrf_weights
 
-__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_at", "ffrf_pack", "ffrf_system",
-           "ffrf_unpack"]
+__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force", "ffrf_add_mass",
+           "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
 
 #: Entries of ``kin`` per body besides the two Jacobians: ā, ᾱ, ω, g, v (3 each), e (1)
 #: (written as the literal 16 in :func:`ffrf_frame`, whose source is embedded).

@@ -220,16 +220,95 @@ def test_piecewise_abs_min_max_sign_heaviside_print_as_c(tmp_path):
         np.testing.assert_allclose(out, ref(*v), rtol=1e-14, atol=1e-14)
 
 
-def test_elastic_models_are_refused_and_backends_agree():
-    """Reference: the documented scope (elastic bodies stay on the NumPy module for now) and
-    api.BACKENDS, which the CLI mirrors without importing the symbolic layers."""
+def test_parametric_bodies_are_refused_and_backends_agree():
+    """Reference: the documented scope (parametric elastic bodies, mixed at every call, stay
+    on the NumPy module) and api.BACKENDS, which the CLI mirrors without importing the
+    symbolic layers."""
     from neweul_py.api import BACKENDS as API_BACKENDS
 
     assert BACKENDS == API_BACKENDS
-    eq = types.SimpleNamespace(system=types.SimpleNamespace(name="flex", elastic_bodies=(1,)))
-    with pytest.raises(GenerationError, match="elastic bodies"):
+    body = types.SimpleNamespace(parametric=True, nq=2)
+    eq = types.SimpleNamespace(system=types.SimpleNamespace(name="flex"), elastic=types.
+                               SimpleNamespace(splices=(types.SimpleNamespace(body=body),)))
+    with pytest.raises(GenerationError, match="parametric"):
         write_c_module(eq, "flex.py")
     assert c_module_path(os.path.join("gen", "flex.py")) == Path("gen", "flex_c.py")
+
+
+_PENDULUM = """
+name: {name}
+parameters: {{g: 9.81, c: 0.2}}
+inputs: {{T: 0.1}}
+gravity: [0, -g, 0]
+coordinates: {{a: {{initial: 0.3}}}}
+frames:
+  arm: {{rotation: [[z, a]]}}
+elastic_bodies:
+  beam: {{frame: {frame}, data: {name}.npz, nodes: {{tip: 9}}}}
+bodies:
+  hub: {{frame: arm, mass: 1.0, center_of_mass: [0.1, 0, 0], inertia: {{diag: [0.1, 0.1, 0.1]}}}}
+forces:
+  drive: {{type: rotational_spring_damper, coordinate: a, stiffness: 0, damping: c}}
+  push: {{type: force, frame: beam.tip, vector: [0, T, 0], in: arm}}
+outputs:
+  tip_y: {{position: beam.tip, in: ISYS, component: y}}
+"""
+
+
+@pytest.mark.parametrize("form", ["plain", "first-order stiffening", "second-order field",
+                                  "fixed frame"])
+def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
+    """Elastic bodies in C: the kernel's terms expanded into closed expressions
+    (equations/elastic_expanded.py) and compiled, against the NumPy module that embeds the
+    kernel (itself checked against Newton's law of the mass points, tests/ffrf): every
+    protocol function agrees to round-off — a hinged beam (3 modes; without stiffening, with
+    the first-order terms, with the second-order field) and a body on ISYS (elastic rows
+    only), with a node load, an input and an output at the node."""
+    from neweul_py.api import load_description
+    from neweul_py.elastic.invariants import compute_invariants
+    from neweul_py.elastic.second_order import with_second_order
+    from neweul_py.fem.beam import BeamSection, beam_model
+
+    b = beam_model(1.0, 8, BeamSection(E=50.0, G=20.0, A=1.0, Iy=1.0, Iz=1.0), planar=True)
+    free = np.setdiff1d(np.arange(b.fe.n_dofs), b.node_dofs(0))
+    import scipy.linalg as sla
+
+    _lam, X = sla.eigh(b.fe.K.toarray()[np.ix_(free, free)],
+                       b.fe.M.toarray()[np.ix_(free, free)])
+    V = np.zeros((b.fe.n_dofs, 3))
+    V[free] = X[:, :3]
+    kg = b.stiffening() if "stiffening" in form or "field" in form else None
+    inv = compute_invariants(b.fe, V, nodes=[9], geometric_stiffness=kg)
+    if form == "second-order field":
+        inv = with_second_order(inv, b.fe, V, kg, b.stiffening_responses())
+    name = "flex_" + form.replace(" ", "_").replace("-", "_")
+    np.savez(tmp_path / f"{name}.npz", **inv.to_flat())
+    (tmp_path / f"{name}.yaml").write_text(_PENDULUM.format(
+        name=name, frame="ISYS" if form == "fixed frame" else "arm"))
+    eq = newton_euler(load_description(tmp_path / f"{name}.yaml"))
+    npath = generate_module(eq, "h", tmp_path / f"{name}.py")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc = _fresh(write_c_module(eq, npath))
+    assert mc.BACKEND == "c"
+    mnp = load_generated(npath)
+    rng = np.random.default_rng(3)
+    n = len(mnp.COORDINATES)
+    p = mnp.default_parameters()
+    for _ in range(2):
+        x = np.asarray(mnp.INITIAL_STATE) + 0.05 * rng.standard_normal(2 * n)
+        a = rng.standard_normal(n)
+        for u in (None, np.array([0.7])):
+            ref, got = _calls(mnp, 0.2, x, p, u, a), _calls(mc, 0.2, x, p, u, a)
+            for fname, r in ref.items():
+                rs = r if isinstance(r, tuple) else (r,)
+                gs = got[fname] if isinstance(got[fname], tuple) else (got[fname],)
+                for rr, gg in zip(rs, gs, strict=True):
+                    rr, gg = np.asarray(rr), np.asarray(gg)
+                    assert gg.shape == rr.shape, fname
+                    scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
+                    np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
+                                               err_msg=f"{form}: {fname}")
 
 
 def test_api_and_cli_thread_the_backend(tmp_path, monkeypatch):
