@@ -74,6 +74,21 @@ def _calls(mod, t, x, p, u, a):
     }
 
 
+def _assert_same(mnp, mc, args, label: str) -> None:
+    """Every protocol function of ``mc`` equals ``mnp``'s at ``args = (t, x, p, u, a)`` to
+    round-off (absolute 1e-10 of the largest entry + 1)."""
+    ref, got = _calls(mnp, *args), _calls(mc, *args)
+    for fname, r in ref.items():
+        rs = r if isinstance(r, tuple) else (r,)
+        gs = got[fname] if isinstance(got[fname], tuple) else (got[fname],)
+        for rr, gg in zip(rs, gs, strict=True):
+            rr, gg = np.asarray(rr), np.asarray(gg)
+            assert gg.shape == rr.shape, fname
+            scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
+            np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
+                                       err_msg=f"{label}: {fname}")
+
+
 CASES = [(name, "auto") for name in EXAMPLES] + [("double_pendulum", "recursive"),
                                                   ("chain3_spatial", "recursive")]
 
@@ -95,16 +110,7 @@ def test_every_protocol_function_equals_numpy_module(name, form, tmp_path):
         a = rng.standard_normal(n)
         t = 0.31 * k
         for u in (None, *([rng.standard_normal(nu)] if nu else [])):
-            ref, got = _calls(mnp, t, x, p, u, a), _calls(mc, t, x, p, u, a)
-            for fname, r in ref.items():
-                rs = r if isinstance(r, tuple) else (r,)
-                gs = got[fname] if isinstance(got[fname], tuple) else (got[fname],)
-                for rr, gg in zip(rs, gs, strict=True):
-                    rr, gg = np.asarray(rr), np.asarray(gg)
-                    assert gg.shape == rr.shape, fname
-                    scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
-                    np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
-                                               err_msg=f"{name}: {fname}")
+            _assert_same(mnp, mc, (t, x, p, u, a), name)
 
 
 def test_library_is_cached_and_a_foreign_one_never_loaded(tmp_path):
@@ -299,16 +305,7 @@ def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
         x = np.asarray(mnp.INITIAL_STATE) + 0.05 * rng.standard_normal(2 * n)
         a = rng.standard_normal(n)
         for u in (None, np.array([0.7])):
-            ref, got = _calls(mnp, 0.2, x, p, u, a), _calls(mc, 0.2, x, p, u, a)
-            for fname, r in ref.items():
-                rs = r if isinstance(r, tuple) else (r,)
-                gs = got[fname] if isinstance(got[fname], tuple) else (got[fname],)
-                for rr, gg in zip(rs, gs, strict=True):
-                    rr, gg = np.asarray(rr), np.asarray(gg)
-                    assert gg.shape == rr.shape, fname
-                    scale = 1.0 + (np.max(np.abs(rr)) if rr.size else 0.0)
-                    np.testing.assert_allclose(gg, rr, rtol=0, atol=1e-10 * scale,
-                                               err_msg=f"{form}: {fname}")
+            _assert_same(mnp, mc, (0.2, x, p, u, a), form)
 
 
 def test_api_and_cli_thread_the_backend(tmp_path, monkeypatch):
