@@ -684,7 +684,9 @@ def read_stiffening_responses(path: str | os.PathLike) -> dict[str, np.ndarray]:
         if case not in LOAD_CASES:
             raise DataError(f"unknown load case {case!r} (one of {', '.join(LOAD_CASES)})",
                             str(path), key)
-        if u.ndim != 1 or u.dtype.kind not in "fi" or not np.all(np.isfinite(u)):
+        if u.dtype.kind not in "fi":
+            raise DataError(f"must be a float vector, got dtype {u.dtype}", str(path), key)
+        if u.ndim != 1 or not np.all(np.isfinite(u)):
             raise DataError(f"must be a finite vector, got shape {u.shape}", str(path), key)
         out[case] = u.astype(np.float64)
     return out

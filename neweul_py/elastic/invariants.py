@@ -221,7 +221,7 @@ class QuadraticField:
         Rz = np.zeros((nq + ny, nr + ny))
         Rz[:nq, :nr] = R
         Rz[nq:, nr:] = np.eye(ny)
-        return QuadraticField(self.body.transformed(Rz, Rz.T),
+        return QuadraticField(self.body.transformed(Rz),          # stays one-sided
                               np.einsum("jkl,kK,lL->jKL", self.A, R, R))
 
     def to_flat(self) -> dict[str, np.ndarray]:
@@ -234,8 +234,12 @@ class QuadraticField:
     def from_flat(cls, flat: Mapping[str, np.ndarray]) -> QuadraticField:
         """Inverse of :meth:`to_flat` (the other keys of ``flat`` are ignored)."""
         inner = {k[5:]: v for k, v in flat.items() if k.startswith("quad.") and k != "quad.A"}
-        return cls(Invariants.from_flat({**inner, "names": np.array([], dtype=str)}),
-                   np.asarray(flat["quad.A"], dtype=np.float64))
+        try:
+            body = Invariants.from_flat({**inner, "names": np.array([], dtype=str)})
+        except DataError as exc:
+            raise DataError(exc.message, exc.file, f"quad.{exc.item}" if exc.item else "quad",
+                            exc.line) from None
+        return cls(body, np.asarray(flat["quad.A"], dtype=np.float64))
 
 
 @dataclass(frozen=True, eq=False)

@@ -101,13 +101,20 @@ def attach_stiffening(body, fe: FEModel, stiffening: Mapping[str, object],
                         "V")
     KG = check_stiffening(stiffening, n, src)
     out = attach_invariants(body, fe, geometric_stiffness=KG, **kwargs)
-    if not responses or not _galerkin(body):
+    if not responses:
+        return out
+    if not _galerkin(body):
+        import warnings
+
+        warnings.warn(f"{src}: the body is two-sided (W ≠ V), so its stiffening keeps the "
+                      "first-order terms, not the second-order field of the static responses "
+                      "(docs/equations.md §2.3; reduce with --one-sided for it)", stacklevel=2)
         return out
     for case, u in responses.items():
         if np.shape(u) != (n,):
             raise DataError(f"static response has shape {np.shape(u)}, expected ({n},)", src,
                             f"UG.{case}")
-    field = second_order_field(fe, body.V, KG, responses)
+    field = second_order_field(fe, body.V, KG, responses, source=src)
     return out.with_(invariants={**out.invariants, **field.to_flat()})
 
 

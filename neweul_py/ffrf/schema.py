@@ -171,19 +171,31 @@ def check_flat(flat: Mapping[str, np.ndarray]) -> list[str]:
 def _check_quadratic(flat: Mapping[str, np.ndarray], nq: int) -> list[str]:
     """The problems of the second-order field arrays (``quad.*``), each naming the key."""
     inner = {k[5:]: v for k, v in flat.items() if k.startswith("quad.") and k != "quad.A"}
-    inner.update({k: flat[k] for k in ("format", "m", "two_sided") if k not in inner})
-    for key in ("ksigma.m0", "Ke.m0", "De.m0"):
-        inner.setdefault(key, np.zeros((mode_count(inner), 1 if key[0] == "k" else
-                                        mode_count(inner))))
-    for key in ("nodes.id", "nodes.origin.m0", "nodes.phi", "nodes.psi", "nodes.phi_w",
-                "nodes.psi_w", "nodes.AP.m0"):
-        inner.setdefault(key, np.zeros((0,)))
-    problems = [f"quad.{p}" for p in check_flat(inner) if "nodes" not in p]
-    A = np.asarray(flat["quad.A"])
+    if "Me.m0" not in inner:
+        return ["the second-order field lacks quad.Me.m0"]
     nz = mode_count(inner)
+    # the extended body has no node frames and no elastic forces of its own
+    defaults = {"format": flat.get("format"), "m": flat.get("m"), "two_sided": False,
+                "ksigma.m0": np.zeros((nz, 1)), "Ke.m0": np.zeros((nz, nz)),
+                "De.m0": np.zeros((nz, nz)), "nodes.id": np.zeros(0),
+                **{k: np.zeros((0, *SCHEMA[k].shape[1:2])) for k in SCHEMA
+                   if k.startswith("nodes.") and k != "nodes.id"}}
+    checked = {**defaults, **{k: v for k, v in inner.items() if not k.startswith("nodes.")}}
+    problems = []
+    for p in check_flat(checked):
+        if "nodes." in p:
+            continue
+        for key in sorted(inner, key=len, reverse=True):     # name the flat key
+            if key in p:
+                p = p.replace(key, f"quad.{key}", 1)
+                break
+        problems.append(p)
+    A = np.asarray(flat["quad.A"])
     if A.shape != (nz - nq, nq, nq):
         problems.append(f"quad.A has shape {A.shape}, expected ({nz - nq}, {nq}, {nq}) (nq = "
                         f"{nq} from Me.m0, {nz} from quad.Me.m0)")
-    elif A.dtype.kind == "f" and not np.all(np.isfinite(A)):
-        problems.append("array quad.A holds NaN or Inf")
+    elif A.dtype.kind != "f" or not np.all(np.isfinite(A)):
+        problems.append("array quad.A holds NaN or Inf, or is not a float array")
+    elif A.size and np.abs(A - A.transpose(0, 2, 1)).max() > 1e-12 * np.abs(A).max():
+        problems.append("quad.A is not symmetric in its last two indices (y_j = ½ qᵀ A_j q)")
     return problems

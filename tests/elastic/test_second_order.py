@@ -137,26 +137,99 @@ def test_mass_matrix_stays_positive_definite() -> None:
         assert bool(low > 0) == positive
 
 
-def test_linearization_is_the_first_order_stiffening() -> None:
-    """About ``q = 0`` the field reproduces the stiffening of every load case exactly
-    (``f_c·Ψ = −Φᵀ K_G,c Φ``): the elastic-row stiffness of a spin about z gives Southwell's
-    α₁ flapwise… here in-plane, chordwise ``α₁ − 1``, and equals the first-order terms."""
-    _b, _V, trunc, quad, lam = _stiffened_beam(6)
-    b = ffrf_prepare(quad.to_flat())
-    w = np.array([0.0, 0.0, 0.3 * np.sqrt(lam[0])])
-    h = 1e-30
-    nq = quad.nq
+def _spin_stiffness(inv: Invariants, omega: float) -> np.ndarray:
+    """``Ke + ∂h_e/∂q`` at ``q = 0`` for a spin ``ω`` about z (complex step of the kernel)."""
+    b = ffrf_prepare(inv.to_flat())
+    h, nq = 1e-30, inv.nq
     Kw = np.empty((nq, nq))
     for j in range(nq):
         dq = np.zeros(nq, dtype=complex)
         dq[j] = 1j * h
-        _hr, he = ffrf_velocity_terms(b, dq, np.zeros(nq), w, ffrf_mass_blocks(b, dq))
+        _hr, he = ffrf_velocity_terms(b, dq, np.zeros(nq), np.array([0.0, 0.0, omega]),
+                                      ffrf_mass_blocks(b, dq))
         Kw[:, j] = he.imag / h
-    K = quad.Ke.m0 + Kw
-    om2 = np.sort(sla.eigvals(K, quad.Me.m0).real)
-    assert (om2[0] - lam[0]) / w[2] ** 2 == pytest.approx(SOUTHWELL_1 - 1, abs=3e-3)
-    K1 = trunc.Ke.m0 + np.einsum("ikc,c->ik", trunc.Oe.m1, [0, 0, w[2] ** 2, 0, 0, 0])
+    return inv.Ke.m0 + Kw
+
+
+def _chordwise_alpha(inv: Invariants, lam0: float) -> float:
+    """``(ω₁² − ω₀²)/Ω²`` of the first mode at Ω = 0.3 ω₀ (Southwell: α₁ − 1 chordwise)."""
+    om = 0.3 * np.sqrt(lam0)
+    return (np.sort(sla.eigvals(_spin_stiffness(inv, om), inv.Me.m0).real)[0] - lam0) / om**2
+
+
+def test_linearization_is_the_first_order_stiffening() -> None:
+    """About ``q = 0`` the field reproduces the stiffening of every load case exactly
+    (``f_c·Ψ = −Φᵀ K_G,c Φ``): the elastic-row stiffness of a spin about z gives Southwell's
+    chordwise ``α₁ − 1`` and equals the first-order terms."""
+    _b, _V, trunc, quad, lam = _stiffened_beam(6)
+    w = 0.3 * np.sqrt(lam[0])
+    assert _chordwise_alpha(quad, lam[0]) == pytest.approx(SOUTHWELL_1 - 1, abs=3e-3)
+    K1 = trunc.Ke.m0 + np.einsum("ikc,c->ik", trunc.Oe.m1, [0, 0, w**2, 0, 0, 0])
+    K = _spin_stiffness(quad, w)
     np.testing.assert_allclose(K, K1, atol=1e-9 * np.abs(K1).max())
+
+
+def _scaled_beam(length: float, slender: float = 100.0, modes: int = 3):
+    """A planar cantilever of length ``length`` and slenderness L/r (SI units)."""
+    r = length / slender
+    area = r * r
+    b = beam_model(length, 20, BeamSection(E=1e9, G=4e8, rho=1e3, A=area, Iy=area * r * r,
+                                           Iz=area * r * r), planar=True)
+    free = np.setdiff1d(np.arange(b.fe.n_dofs), b.node_dofs(0))
+    lam, X = sla.eigh(b.fe.K.toarray()[np.ix_(free, free)], b.fe.M.toarray()[np.ix_(free, free)])
+    V = np.zeros((b.fe.n_dofs, free.size))
+    V[free] = X
+    bend = [k for k in range(free.size)
+            if np.abs(V[1::3, k]).max() > 1e3 * np.abs(V[0::3, k]).max()][:modes]
+    V = V[:, bend] * np.sign(V[b.node_dofs(len(b.fe.nodes) - 1)[1], bend])   # tip up
+    KG = b.stiffening()
+    inv = compute_invariants(b.fe, V, geometric_stiffness=KG)
+    return b, V, KG, inv, lam[bend[0]]
+
+
+@pytest.mark.parametrize(("length", "slender"), [(1e-3, 100.0), (1e3, 100.0), (1.0, 1e4)])
+def test_field_does_not_depend_on_units_or_slenderness(length: float, slender: float) -> None:
+    """Southwell's chordwise ``α₁ − 1 = 0.1933`` (dimensionless) from the field of a 1 mm, a
+    1 km and an L/r = 10⁴ beam in SI units — the load cases' responses differ by many orders
+    of magnitude, the dual basis ``Y = U (Fᵀ U)⁺`` is equilibrated (before, a fixed cut on
+    the raw energies lost the stiffening of slender or small beams)."""
+    b, V, KG, inv, lam0 = _scaled_beam(length, slender)
+    quad = with_second_order(inv, b.fe, V, KG, b.stiffening_responses())
+    assert _chordwise_alpha(quad, lam0) == pytest.approx(SOUTHWELL_1 - 1, abs=3e-3)
+
+
+def test_responses_of_another_model_are_refused() -> None:
+    """Responses that do not solve ``K u = f`` of this model's inertia loads (scaled, or of a
+    beam with twice the stiffness) would scale the stiffening: one DataError naming
+    ``UG.<case>``; zero responses likewise."""
+    b, V, KG, inv, _lam0 = _scaled_beam(1.0)
+    U = b.stiffening_responses()
+    with pytest.raises(DataError, match="do not solve K u = f"):
+        with_second_order(inv, b.fe, V, KG, {k: 2.0 * u for k, u in U.items()})
+    with pytest.raises(DataError, match="zero"):
+        with_second_order(inv, b.fe, V, KG, {k: 0.0 * u for k, u in U.items()})
+
+
+def test_parametric_samples_mix_consistently() -> None:
+    """``y_c`` is the displacement conjugate to the unit load ``c`` in every sample, so two
+    samples (beams of length 1 and 1.2 with their own responses) mixed half and half give a
+    second-order ``J_zz(q)`` between the samples' and within 5 % of the body built at length
+    1.1 (the reference); before, each sample's y axes came from its own eigendecomposition
+    and the mix could flip the sign."""
+    from neweul_py.ffrf.parametric import ffrf_mix
+
+    def sample(length: float):
+        b, V, KG, inv, _lam0 = _scaled_beam(length)
+        return ffrf_prepare(with_second_order(inv, b.fe, V, KG,
+                                              b.stiffening_responses()).to_flat())
+
+    b1, b2, mid = sample(1.0), sample(1.2), sample(1.1)
+    mixed = ffrf_mix([b1, b2], np.array([0.5, 0.5]))
+    q = np.array([0.02, 0.005, 0.0])
+    dj = [ffrf_mass_blocks(bb, q)["Mrr"][5, 5] - ffrf_mass_blocks(bb, 0 * q)["Mrr"][5, 5]
+          for bb in (b1, b2, mixed, mid)]
+    assert min(dj[0], dj[1]) <= dj[2] <= max(dj[0], dj[1])
+    assert dj[2] == pytest.approx(dj[3], rel=0.05)
 
 
 def test_flat_form_round_trip_and_change_of_coordinates() -> None:
@@ -183,6 +256,12 @@ def test_bad_field_data() -> None:
     flat = inv.to_flat()
     flat["quad.A"] = np.zeros((5, 3, 3))
     assert any("quad.A" in p for p in check_flat(flat))
+    flat = inv.to_flat()
+    flat["quad.A"] = flat["quad.A"] + np.triu(np.ones((3, 3)), 1)[None]     # not symmetric
+    assert any("quad.A is not symmetric" in p for p in check_flat(flat))
+    flat = inv.to_flat()
+    flat["quad.Me.m0"] = flat["quad.Me.m0"] * np.nan
+    assert any("quad.Me.m0" in p and "NaN" in p for p in check_flat(flat))
     b = beam_model(1.0, 4)
     with pytest.raises(DataError, match="stiffening"):
         second_order_field(b.fe, np.zeros((b.fe.n_dofs, 2)), {"wzz": sps.eye(b.fe.n_dofs)}, {})
