@@ -35,7 +35,8 @@ MAX_EXPANDED_MODES = 40
 
 
 def _matrix(a: np.ndarray) -> sp.ImmutableMatrix:
-    return sp.ImmutableMatrix(a.shape[0], a.shape[1], [sp.sympify(v) for v in a.ravel()])
+    """A numeric (float) array as a sympy matrix of ``Float``."""
+    return sp.ImmutableMatrix(a.shape[0], a.shape[1], [sp.Float(float(v)) for v in a.ravel()])
 
 
 def expanded_equations(eq: Equations) -> Equations:
@@ -73,7 +74,7 @@ def expanded_equations(eq: Equations) -> Equations:
         return e.xreplace(sub) if sub else e
 
     SV, SW = el.SV[active], el.SW[active]
-    Ms = _matrix(np.array(eq.mass_matrix[active, active], dtype=object))
+    Ms = sp.ImmutableMatrix(eq.mass_matrix).extract(active, active)
     fs = sp.ImmutableMatrix([eq.force_vector[j, 0] for j in active])
     M = np.array(_matrix(SW.T) * put(Ms) * _matrix(SV), dtype=object)
     f = np.array(_matrix(SW.T) * put(fs), dtype=object).reshape(-1)
