@@ -2,12 +2,19 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
+
+try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead
+    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+except ImportError:  # NumPy only: numpy.linalg.solve
+    _dgesv = _dposv = None
 
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'pendulum'
@@ -31,6 +38,19 @@ SOURCE_HASH = 'e5fac1de1fdf196e05db99e22023f30483d9cae27571e66b1389d2f2f4fc2d00'
 MASS_MATRIX_SYMMETRIC = True
 
 _P0 = (1.0, 0.5, 9.81)
+_pack1 = _struct.Struct("1d").pack
+_pack3 = _struct.Struct("3d").pack
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is not None:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -47,8 +67,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    M = _np.empty((1, 1))
-    M[0, 0] = m*l*l
+    M = _np.frombuffer(bytearray(_pack1(m*l*l))).reshape(1, 1)
     return M
 
 
@@ -56,7 +75,8 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    f = _np.array((-g_*l*m*_math.sin(phi),), dtype=_np.float64)
+    _k0 = -g_*l*m
+    f = _np.array((_k0*_math.sin(phi),), dtype=_np.float64)
     return f
 
 
@@ -65,21 +85,17 @@ def rhs(t, x, p, u=None):
     x = _np.asarray(x, dtype=_np.float64)
     phi, d_phi = x.tolist()
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    M = _np.empty((1, 1))
-    M[0, 0] = m*l*l
-    f = _np.array((-g_*l*m*_math.sin(phi),), dtype=_np.float64)
-    xd = _np.empty(2)
-    xd[:1] = x[1:2]
-    xd[1:] = _np.linalg.solve(M, f)
-    return xd
+    _k0 = -g_*l*m
+    return _solve_packed(_pack3(d_phi, _k0*_math.sin(phi), m*l*l), 1)
 
 
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _k0 = -g_*l*m
     fy = _np.empty((1, 1))
-    fy[0, 0] = (-g_*l*m)*_math.cos(phi)
+    fy[0, 0] = _k0*_math.cos(phi)
     fyd = _np.zeros((1, 1))
     fu = _np.empty((1, 0))
     return fy, fyd, fu

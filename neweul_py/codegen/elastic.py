@@ -33,6 +33,7 @@ import sympy as sp
 from ..ffrf import KERNEL_ARRAYS, KERNEL_FUNCTIONS, PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack
 from ..ffrf.parametric import weight_coefficients
 from .blocks import units
+from .packing import IMPORTS
 from .writer import ModuleParts, module_parts
 
 __all__ = ["elastic_module_parts"]
@@ -134,6 +135,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         coordinates=tuple(equations.coordinates[j] for j in a_idx),
         velocities=tuple(equations.velocities[j] for j in a_idx),
         mass_matrix=equations.mass_matrix[a_idx, a_idx],
+        mass_factors=None if equations.mass_factors is None else tuple(
+            (w, tuple(g[j] for j in a_idx)) for w, g in equations.mass_factors),
         force_vector=equations.force_vector[a_idx, 0],
         outputs=sp.ImmutableMatrix(len(names) + len(hidden), 1,
                                    [*equations.outputs, *el.hidden]),
@@ -190,8 +193,9 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
     return rigid.with_(
         docstring=(*rigid.docstring, "", f"Elastic bodies: {bodies}; the floating-frame "
                    "kernel (neweul_py.ffrf) is embedded below."),
-        imports=("import base64", "import math as _math", "import zlib", "",
-                 "import numpy as _np", "import numpy as np"),
+        imports=("import base64", "import math as _math", "import struct as _struct",
+                 "import zlib", "", "import numpy as _np", "import numpy as np",
+                 *IMPORTS[IMPORTS.index("import numpy as _np") + 1:]),
         constants=constants,
         private=private,
         functions=functions,

@@ -40,11 +40,20 @@ from .blocks import (
     subblock,
     units,
     unpack_line,
-    uses,
     vector,
 )
 from .constraints import constraint_constant, constraint_functions
-from .cse import Block, CseMethod, eliminate
+from .cse import Block, CseMethod, eliminate, hoist_constant_factors
+from .packing import (
+    IMPORTS,
+    factored_definitions,
+    factored_mass,
+    factored_rhs,
+    pack_definition,
+    packed_matrix,
+    packed_rhs,
+    solver_definition,
+)
 from .printer import NamePool
 
 __all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts",
@@ -108,7 +117,8 @@ def _function(name: str, args: str, doc: str, body: Sequence[str]) -> tuple[str,
 def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
               prefix: str) -> dict[str, tuple[str, ...]]:
     """mass_matrix, force_vector, rhs, force_jacobians, mass_matrix_times_derivative and
-    rhs_jacobian from one CSE'd program of ``M`` and ``q − k`` (equations.md §1)."""
+    rhs_jacobian from one CSE'd program of ``M`` and ``q − k`` (equations.md §1). ``M`` is
+    packed in one buffer and ``rhs`` solves in place (:mod:`.packing`)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, nu = len(y), len(u)
     M = sp.ImmutableMatrix(eq.mass_matrix)
@@ -118,14 +128,24 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     out: dict[str, tuple[str, ...]] = {}
     m_values, m_where = mass_entries(M)
     nm = len(m_values)
-    program = eliminate(ctx.intermediates, [*m_values, *fvec], prefix="_ncg_c", method=method)
-    m_red, f_red = program.finals[:nm], program.finals[nm:]
+    factors = mass_factor_values(eq)
+    program = eliminate(*hoist_constant_factors(ctx.intermediates, [*m_values, *fvec, *factors],
+                                                ctx.p),
+                        prefix="_ncg_c", method=method)
+    m_red, f_red = program.finals[:nm], program.finals[nm:nm + n]
+    fac_red = program.finals[nm + n:]
 
-    b = checked(ctx, subblock(program, m_red), kin, "the mass matrix")
+    b = checked(ctx, subblock(program, fac_red or m_red), kin, "the mass matrix")
     body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC)]) + inputs_prologue(ctx, b)
-            + assignments(ctx, b) + mass_fill(ctx, n, b.finals, m_where))
+            + assignments(ctx, b))
+    if fac_red:
+        body += factored_mass(ctx, n, b.finals)
+    elif n:
+        body += [*packed_matrix(ctx, "M", n, b.finals, m_where), "return M"]
+    else:
+        body += [*mass_fill(ctx, n, b.finals, m_where), "return M"]
     out["mass_matrix"] = _function(f"{prefix}mass_matrix", "t, y, p, u=None",
-                                   "Mass matrix ``M(y, t)``, shape (n, n).", [*body, "return M"])
+                                   "Mass matrix ``M(y, t)``, shape (n, n).", body)
 
     b = checked(ctx, subblock(program, f_red), dyn, "the force vector")
     body = (prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
@@ -134,15 +154,19 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
                                     "Generalized forces ``q − k``, shape (n,).",
                                     [*body, "return f"])
 
-    b = checked(ctx, program, dyn, "the right-hand side")
+    b = checked(ctx, subblock(program, [*f_red, *fac_red]) if fac_red
+                else subblock(program, [*m_red, *f_red]), dyn, "the right-hand side")
     body = ["x = _np.asarray(x, dtype=_np.float64)"]
-    if uses(b, (*y, *yd)):
+    if n:
         body.append(unpack_line([ctx.name(s) for s in (*y, *yd)], "x.tolist()"))
     body += prologue(ctx, b, [(p, _P_SRC)]) + inputs_prologue(ctx, b) + assignments(ctx, b)
-    body += mass_fill(ctx, n, b.finals[:nm], m_where)
-    body += vector(ctx, "f", b.finals[nm:])
-    body += [f"xd = _np.empty({2 * n})", f"xd[:{n}] = x[{n}:{2 * n}]",
-             f"xd[{n}:] = _np.linalg.solve(M, f)" if n else "", "return xd"]
+    yd_names = [ctx.name(s) for s in yd]
+    if fac_red:
+        body += factored_rhs(ctx, yd_names, b.finals[:n], n, b.finals[n:])
+    elif n:
+        body += packed_rhs(ctx, yd_names, b.finals[nm:], n, b.finals[:nm], m_where)
+    else:
+        body += [*vector(ctx, "f", b.finals[nm:]), "return _np.empty(0)"]
     out["rhs"] = _function(f"{prefix}rhs", "t, x, p, u=None",
                            "First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion.",
                            [line for line in body if line])
@@ -273,7 +297,8 @@ def _header(system: System) -> tuple[str, ...]:
         f"Implements the generated-module protocol (version {PROTOCOL_VERSION}, "
         "docs/generated-module-protocol.md).",
         "State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered",
-        "as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.",
+        "as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses",
+        "SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.",
     )
 
 
@@ -369,13 +394,25 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
                                             prefix).items():
         funcs[name] = tuple(block)
     pdef = tuple(float(pp.default) for pp in system.parameters)
+    symmetric = bool(M == M.T)
+    k = len(mass_factor_values(eq))
+    sizes = (k, k + 2 * n) if k else (n * n, n * n + 2 * n) if n else ()
+    helpers = factored_definitions() if k else solver_definition(symmetric)
     return ModuleParts(
         docstring=_header(system),
-        imports=("import math as _math", "", "import numpy as _np"),
-        constants=_constants(eq, source_hash, names_out, bool(M == M.T)),
-        private=(f"_P0 = {pdef!r}",),
+        imports=IMPORTS,
+        constants=_constants(eq, source_hash, names_out, symmetric),
+        private=(f"_P0 = {pdef!r}", *(pack_definition(s) for s in sizes), "", "", *helpers),
         functions=funcs,
     )
+
+
+def mass_factor_values(eq: Any) -> list[sp.Expr]:
+    """The weights, then the rows (row by row) of ``eq.mass_factors``; empty without them."""
+    factors = getattr(eq, "mass_factors", None) if len(eq.coordinates) else None
+    if not factors:
+        return []
+    return [*(as_expr(w) for w, _ in factors), *(as_expr(g) for _, row in factors for g in row)]
 
 
 def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
@@ -390,7 +427,9 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians``
     (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
-    bodies are spliced in numerically by :mod:`.elastic`).
+    bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
+    ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
+    (:mod:`.packing`); the blocks here keep M's entries.
     """
     eq = equations
     y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
@@ -406,7 +445,8 @@ def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     out["default_inputs"] = eliminate((), [as_expr(e) for e in eq.system.input_defaults],
                                       method=method)
     m_values, m_where = mass_entries(M)
-    program = eliminate(inter, [*m_values, *fvec], prefix="_ncg_c", method=method)
+    program = eliminate(*hoist_constant_factors(inter, [*m_values, *fvec], eq.parameters),
+                        prefix="_ncg_c", method=method)
     nm = len(m_values)
     m_full = sp.zeros(n, n)
     for value, places in zip(program.finals[:nm], m_where, strict=True):

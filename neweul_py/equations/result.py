@@ -61,6 +61,10 @@ class Equations:
     elastic
         The splice of the elastic bodies (:class:`~neweul_py.equations.elastic.ElasticEquations`),
         ``None`` without elastic bodies.
+    mass_factors
+        The same mass matrix as weighted rank-one terms ``M = Σ_r w_r g_r g_rᵀ``, rows
+        ``(w_r, g_r)`` (recursive form; ``None`` in closed form): code generators may evaluate
+        ``M = Gᵀ diag(w) G`` numerically.
     """
 
     system: System
@@ -76,6 +80,7 @@ class Equations:
     constraints: ConstraintEquations | None = None
     energy: sp.ImmutableMatrix | None = None
     elastic: Any = None
+    mass_factors: tuple[tuple[sp.Expr, tuple[sp.Expr, ...]], ...] | None = None
 
     @property
     def n(self) -> int:
@@ -126,4 +131,5 @@ class Equations:
             force_vector=sub(self.force_vector),
             outputs=sub(self.outputs),
             energy=None if self.energy is None else sub(self.energy),
+            mass_factors=None,
         )
