@@ -1,5 +1,5 @@
-"""``neweul simulate FILE --t-end T [--method M] [--rtol R] [--atol A] [--n-out N]
-[--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]``."""
+"""``neweul simulate FILE --t-end T [--method M] [--step H] [--rho-inf R] [--rtol R]
+[--atol A] [--n-out N] [--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]``."""
 
 from __future__ import annotations
 
@@ -32,7 +32,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                           positive=True),
                         required=True, metavar="T", help="final time [s]")
     parser.add_argument("--method", choices=SIMULATE_METHODS, default="RK45",
-                        help="integrator (Radau, BDF, LSODA use the analytic Jacobian)")
+                        help="integrator (Radau, BDF, LSODA use the analytic Jacobian; "
+                        "generalized-alpha: fixed steps --step, for stiff elastic bodies)")
+    parser.add_argument("--step", type=functools.partial(number, option="--step",
+                                                         positive=True),
+                        metavar="H", help="step of --method generalized-alpha [s]")
+    parser.add_argument("--rho-inf", type=functools.partial(number, option="--rho-inf",
+                                                            minimum=0.0, maximum=1.0),
+                        default=0.9, metavar="R", help="generalized-alpha: spectral radius at "
+                        "infinite frequency, 0 … 1 (default 0.9)")
     parser.add_argument("--rtol", type=functools.partial(number, option="--rtol", positive=True,
                                                          maximum=1.0),
                         default=1e-6, help="relative tolerance")
@@ -77,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     with Tracker("simulate", unit="s", quiet=args.quiet) as track:  # a bar on a terminal
         result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
                           atol=args.atol, n_out=args.n_out, p=p, u=u,
-                          independent=args.independent, progress=track)
+                          independent=args.independent, progress=track, h=args.step,
+                          rho_inf=args.rho_inf)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:
@@ -107,7 +116,8 @@ def check_step_count(module: Any, args: argparse.Namespace) -> None:
     from ..analysis.protocol import resolve_inputs, resolve_parameters
     from ..errors import NeweulError
 
-    if args.method in ("Radau", "BDF", "LSODA") or getattr(module, "CONSTRAINTS", None):
+    if args.method in ("Radau", "BDF", "LSODA", "generalized-alpha") or getattr(
+            module, "CONSTRAINTS", None):
         return
     p = resolve_parameters(module, dict(args.param) or None)
     x0 = np.asarray(module.INITIAL_STATE, dtype=float)
