@@ -1,4 +1,5 @@
-"""``neweul generate FILE [-o DIR] [--form auto|closed|recursive]``."""
+"""``neweul generate FILE [-o DIR] [--form auto|closed|recursive] [--backend numpy|c]
+[--no-cache]``."""
 
 from __future__ import annotations
 
@@ -23,6 +24,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="closed-form or recursive equations (default: auto)")
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
                         help="c: also compile the module (DIR/<name>_c.py, a C library via cffi)")
+    parser.add_argument("--no-cache", dest="cache", action="store_false",
+                        help="derive even when the content-hash cache (the one of neweul "
+                        "simulate) holds the module of this description (NumPy backend)")
     parser.set_defaults(func=run)
 
 
@@ -30,6 +34,6 @@ def run(args: argparse.Namespace) -> int:
     """Generate and print the path written."""
     from ..api import generate  # the symbolic layers, only when generating
 
-    path = generate(args.file, args.out_dir, args.form, args.backend)
+    path = generate(args.file, args.out_dir, args.form, args.backend, cache=args.cache)
     print(path)
     return 0
