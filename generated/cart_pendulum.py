@@ -11,11 +11,6 @@ import struct as _struct
 
 import numpy as _np
 
-try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead
-    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
-except ImportError:  # NumPy only: numpy.linalg.solve
-    _dgesv = _dposv = None
-
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'cart_pendulum'
 DESCRIPTION = 'A cart on a horizontal rail, tied to a wall by a linear spring-damper and driven by a force F, carrying a pendulum (uniform rod) hinged about the y axis.\n'
@@ -48,9 +43,24 @@ _pack4 = _struct.Struct("4d").pack
 _pack8 = _struct.Struct("8d").pack
 
 
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
 def _solve_packed(b, n):
     """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
-    if _dposv is not None:
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
         a = _np.frombuffer(bytearray(b))
         r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
         if r[-1] == 0:

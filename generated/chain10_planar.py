@@ -11,11 +11,6 @@ import struct as _struct
 
 import numpy as _np
 
-try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead
-    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
-except ImportError:  # NumPy only: numpy.linalg.solve
-    _dgesv = _dposv = None
-
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'chain10_planar'
 DESCRIPTION = '10-link planar pendulum chain of uniform rods, one rotation about y per joint; joint angles relative to the previous link. Written by examples/make_chain.py.\n'
@@ -42,6 +37,19 @@ _pack319 = _struct.Struct("319d").pack
 _pack339 = _struct.Struct("339d").pack
 
 
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
 def _factored_mass(b, n, r):
     """``M = Gᵀ diag(w) G`` from the float64 bytes ``b`` of (w, G row by row)."""
     a = _np.frombuffer(b)
@@ -55,7 +63,9 @@ def _solve_factored(b, n, r):
     g = a[2 * n + r:].reshape(r, n)
     m = (g.T * a[2 * n:2 * n + r]) @ g
     x = a[:2 * n].copy()
-    if _dposv is not None:
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
         if _dposv(m.T, x[n:], overwrite_a=1, overwrite_b=1)[-1] == 0:
             return x
         m = (g.T * a[2 * n:2 * n + r]) @ g

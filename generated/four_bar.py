@@ -11,11 +11,6 @@ import struct as _struct
 
 import numpy as _np
 
-try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead
-    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
-except ImportError:  # NumPy only: numpy.linalg.solve
-    _dgesv = _dposv = None
-
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'four_bar'
 DESCRIPTION = 'Planar four-bar linkage (x horizontal, z up): crank a from the ground pivot O, coupler b, rocker c from the ground pivot D at (d, 0). Tree coordinates: crank angle phi1, coupler angle relative to the crank phi2, rocker angle phi3; one coincidence constraint (two components) closes the loop at the coupler-rocker joint. Uniform bars under gravity, a torsion spring on the rocker, a drive torque on the crank (input), bearing damping.\n'
@@ -50,9 +45,24 @@ _pack9 = _struct.Struct("9d").pack
 _pack15 = _struct.Struct("15d").pack
 
 
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
 def _solve_packed(b, n):
     """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
-    if _dposv is not None:
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
         a = _np.frombuffer(bytearray(b))
         r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
         if r[-1] == 0:

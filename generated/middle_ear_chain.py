@@ -11,11 +11,6 @@ import struct as _struct
 
 import numpy as _np
 
-try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead
-    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
-except ImportError:  # NumPy only: numpy.linalg.solve
-    _dgesv = _dposv = None
-
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'middle_ear_chain'
 DESCRIPTION = 'Lumped four-mass middle-ear chain (Lobato et al., LVATB1; docs/middle-ear-data.md): ground-TM-malleus-incus-stapes-ground with malleus and incus ligaments to ground, all springs as bushings along the piston axis x; modal loss factors 0.62, 0.32, 0.32, 0.0032 as viscous modal damping at each resonance (undamped modes at 795, 3961, 12995, 13644 Hz). Input: ear-canal sound pressure p_ec (Pa) times the TM area on the TM mass. Output: stapes velocity (m/s).\n'
@@ -61,9 +56,24 @@ _pack16 = _struct.Struct("16d").pack
 _pack24 = _struct.Struct("24d").pack
 
 
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
 def _solve_packed(b, n):
     """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
-    if _dposv is not None:
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
         a = _np.frombuffer(bytearray(b))
         r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
         if r[-1] == 0:

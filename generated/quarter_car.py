@@ -11,11 +11,6 @@ import struct as _struct
 
 import numpy as _np
 
-try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead
-    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
-except ImportError:  # NumPy only: numpy.linalg.solve
-    _dgesv = _dposv = None
-
 PROTOCOL_VERSION = 1
 MODEL_NAME = 'quarter_car'
 DESCRIPTION = 'Quarter-car on a road profile: body mass mb on the suspension (spring ks, damper cs) over the wheel mass mw on the tire (spring kt, damper ct). The road height zr is an input that moves the road frame (kinematic excitation): the tire damper sees its rate d_zr, which the generated module takes as a further input (INPUTS = [zr, d_zr, dd_zr]). Vertical motion only.\n'
@@ -51,9 +46,24 @@ _pack4 = _struct.Struct("4d").pack
 _pack8 = _struct.Struct("8d").pack
 
 
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
 def _solve_packed(b, n):
     """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
-    if _dposv is not None:
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
         a = _np.frombuffer(bytearray(b))
         r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
         if r[-1] == 0:

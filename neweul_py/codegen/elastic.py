@@ -33,7 +33,6 @@ import sympy as sp
 from ..ffrf import KERNEL_ARRAYS, KERNEL_FUNCTIONS, PROTOCOL, SPLICE_FUNCTIONS, ffrf_pack
 from ..ffrf.parametric import weight_coefficients
 from .blocks import units
-from .packing import IMPORTS
 from .writer import ModuleParts, module_parts
 
 __all__ = ["elastic_module_parts"]
@@ -194,8 +193,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True) 
         docstring=(*rigid.docstring, "", f"Elastic bodies: {bodies}; the floating-frame "
                    "kernel (neweul_py.ffrf) is embedded below."),
         imports=("import base64", "import math as _math", "import struct as _struct",
-                 "import zlib", "", "import numpy as _np", "import numpy as np",
-                 *IMPORTS[IMPORTS.index("import numpy as _np") + 1:]),
+                 "import zlib", "", "import numpy as _np", "import numpy as np"),
         constants=constants,
         private=private,
         functions=functions,

@@ -6,10 +6,10 @@ by entry costs about 60 ns per ``M[i, j] = v``; packing all values at once with
 ``numpy.frombuffer`` costs about 9 ns per value (and ``numpy.array`` of a tuple about 20 ns).
 The right-hand side packs ``(ẏ, q − k, M column by column)`` into one buffer and solves in
 place with LAPACK (``dposv``, Cholesky, for symmetric mass matrices; ``dgesv``, LU, else)
-through SciPy's wrappers — about 1 µs at n = 10 against about 5 µs for ``numpy.linalg.solve``,
-whose Python wrapper dominates for small systems. Without SciPy, or when ``dposv`` finds M not
-positive definite, or ``dgesv`` finds it singular, ``numpy.linalg.solve`` is used (and raises
-``numpy.linalg.LinAlgError`` as before).
+through SciPy's wrappers (imported at the first solve) — about 1 µs at n = 10 against about
+5 µs for ``numpy.linalg.solve``, whose Python wrapper dominates for small systems. Without
+SciPy, or when ``dposv`` finds M not positive definite, or ``dgesv`` finds it singular,
+``numpy.linalg.solve`` is used (and raises ``numpy.linalg.LinAlgError`` as before).
 
 When the equations give the mass matrix as weighted rank-one terms ``M = Σ_r w_r g_r g_rᵀ``
 (``Equations.mass_factors``, recursive form), the weights and the rows ``G`` are packed
@@ -26,7 +26,7 @@ import sympy as sp
 
 from .blocks import Context
 
-__all__ = ["IMPORTS", "factored_definitions", "factored_mass", "factored_rhs",
+__all__ = ["IMPORTS", "LAPACK_LOADER", "factored_definitions", "factored_mass", "factored_rhs",
            "pack_definition", "pack_name", "packed_matrix", "packed_rhs", "solver_definition"]
 
 #: Import lines of a module that uses packed fills and the LAPACK solve.
@@ -35,11 +35,22 @@ IMPORTS = (
     "import struct as _struct",
     "",
     "import numpy as _np",
+)
+
+#: The lazy import of SciPy's LAPACK wrappers (``scipy.linalg`` costs ~0.2 s of import: at the
+#: first solve, not when the module is imported). ``None``: not tried yet; ``False``: no SciPy.
+LAPACK_LOADER = (
+    "_dgesv = _dposv = None",
     "",
-    "try:  # SciPy's LAPACK wrappers: the small dense solve without numpy.linalg's overhead",
-    "    from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv",
-    "except ImportError:  # NumPy only: numpy.linalg.solve",
-    "    _dgesv = _dposv = None",
+    "",
+    "def _load_lapack():",
+    '    """SciPy\'s ``dgesv``/``dposv`` (the small dense solve without numpy.linalg\'s',
+    '    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""',
+    "    global _dgesv, _dposv",
+    "    try:",
+    "        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv",
+    "    except ImportError:  # NumPy only",
+    "        _dgesv = _dposv = False",
 )
 
 
@@ -58,9 +69,14 @@ def solver_definition(symmetric: bool) -> tuple[str, ...]:
     of ``(ẏ, q − k, M column by column)``, solved in place (one buffer, one LAPACK call)."""
     lapack = "_dposv" if symmetric else "_dgesv"
     return (
+        *LAPACK_LOADER,
+        "",
+        "",
         "def _solve_packed(b, n):",
         '    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""',
-        f"    if {lapack} is not None:",
+        f"    if {lapack} is None:",
+        "        _load_lapack()",
+        f"    if {lapack}:",
         "        a = _np.frombuffer(bytearray(b))",
         f"        r = {lapack}(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], "
         "overwrite_a=1, overwrite_b=1)",
@@ -118,6 +134,9 @@ def factored_definitions() -> tuple[str, ...]:
     diag(w) G`` from the packed ``(w, G row by row)``, and ``[ẏ, M⁻¹ f]`` from the packed
     ``(ẏ, f, w, G)`` (LAPACK ``dposv`` on the symmetric product, in place)."""
     return (
+        *LAPACK_LOADER,
+        "",
+        "",
         "def _factored_mass(b, n, r):",
         '    """``M = Gᵀ diag(w) G`` from the float64 bytes ``b`` of (w, G row by row)."""',
         "    a = _np.frombuffer(b)",
@@ -132,7 +151,9 @@ def factored_definitions() -> tuple[str, ...]:
         "    g = a[2 * n + r:].reshape(r, n)",
         "    m = (g.T * a[2 * n:2 * n + r]) @ g",
         "    x = a[:2 * n].copy()",
-        "    if _dposv is not None:",
+        "    if _dposv is None:",
+        "        _load_lapack()",
+        "    if _dposv:",
         "        if _dposv(m.T, x[n:], overwrite_a=1, overwrite_b=1)[-1] == 0:",
         "            return x",
         "        m = (g.T * a[2 * n:2 * n + r]) @ g",
