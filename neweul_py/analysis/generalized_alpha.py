@@ -77,14 +77,18 @@ class GeneralizedAlpha:
         ratio = (1 - self.alpha_f) / (1 - self.alpha_m)
         self.c_y = h * h * self.beta * ratio
         self.c_v = h * self.gamma * ratio
+        # ŷ = y + h ẏ + h²[(½ − β) a + β k], v̂ = ẏ + h[(1 − γ) a + γ k] with the known part
+        # k = (α_f ÿ − α_m a)/(1 − α_m) of a₊, as coefficients of a and ÿ
+        am, af = self.alpha_m, self.alpha_f
+        b, g = self.beta, self.gamma
+        self._ya, self._yy = h * h * (0.5 - b - b * am / (1 - am)), h * h * b * af / (1 - am)
+        self._va, self._vy = h * (1 - g - g * am / (1 - am)), h * g * af / (1 - am)
 
     def predict(self, y: np.ndarray, v: np.ndarray, a: np.ndarray, ydd: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
         """``(ŷ, v̂)``: ``y₊ = ŷ + c_y ÿ₊`` and ``ẏ₊ = v̂ + c_v ÿ₊`` (module docstring)."""
-        h, b, g = self.h, self.beta, self.gamma
-        known = (self.alpha_f * ydd - self.alpha_m * a) / (1 - self.alpha_m)
-        return (y + h * v + h * h * ((0.5 - b) * a + b * known),
-                v + h * ((1 - g) * a + g * known))
+        return (y + self.h * v + self._ya * a + self._yy * ydd,
+                v + self._va * a + self._vy * ydd)
 
     def next_a(self, a: np.ndarray, ydd: np.ndarray, ydd_new: np.ndarray) -> np.ndarray:
         """``a₊`` from ``(1 − α_m) a₊ + α_m a = (1 − α_f) ÿ₊ + α_f ÿ``."""
@@ -116,10 +120,9 @@ class _Problem:
         self.nfev = 0
         self.njev = 0
 
-    def acceleration(self, t: float, y: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``ÿ = M⁻¹ (q − k)`` (one ``rhs`` call)."""
+    def acceleration(self, t: float, x: np.ndarray) -> np.ndarray:
+        """``ÿ = M⁻¹ (q − k)`` at the state ``x = [y, ẏ]`` (one ``rhs`` call)."""
         self.nfev += 1
-        x = np.concatenate((y, v))
         return np.asarray(self.module.rhs(t, x, self.p, self.uf(t)), dtype=float)[self.n:]
 
     def newton_matrix(self, t: float, y: np.ndarray, yd: np.ndarray, ydd: np.ndarray,
@@ -135,7 +138,7 @@ class _Problem:
         return np.linalg.solve(S, mass)
 
 
-def _newton(prob: _Problem, c: GeneralizedAlpha, tn: float, y_hat: np.ndarray,
+def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
             v_hat: np.ndarray, x: np.ndarray, G: np.ndarray, scale: np.ndarray,
             theta: float, fresh: bool) -> tuple[np.ndarray | None, float]:
     """Modified Newton on ``r̃(ÿ₊) = ÿ₊ − rhs(ŷ + c_y ÿ₊, v̂ + c_v ÿ₊)`` from ``x``.
@@ -143,10 +146,11 @@ def _newton(prob: _Problem, c: GeneralizedAlpha, tn: float, y_hat: np.ndarray,
     Returns ``(ÿ₊, θ)``, or ``(None, θ)`` when it does not converge (or contracts slower than
     :data:`SLOW_CONTRACTION` with an old matrix, ``fresh`` false)."""
     previous = np.inf
+    z_hat = np.concatenate((y_hat, v_hat))
     for k in range(MAX_ITERATIONS):
-        dx = G @ (x - prob.acceleration(tn, y_hat + c.c_y * x, v_hat + c.c_v * x))
+        dx = G @ (x - prob.acceleration(tn, z_hat + cz * np.concatenate((x, x))))
         x = x - dx
-        err = float(np.max(np.abs(dx) * scale))
+        err = float((np.abs(dx) * scale).max())
         if not math.isfinite(err):
             return None, theta
         if k:
@@ -154,7 +158,7 @@ def _newton(prob: _Problem, c: GeneralizedAlpha, tn: float, y_hat: np.ndarray,
             if theta >= 1.0 or (theta > SLOW_CONTRACTION and not fresh):
                 return None, theta
         if (theta < 1.0 and theta / (1.0 - theta) * err <= 1.0) or err <= 1e-3 \
-                or np.max(np.abs(dx)) <= ROUND_OFF * np.max(np.abs(x)):
+                or np.abs(dx).max() <= ROUND_OFF * np.abs(x).max():
             return x, theta
         previous = err
     return None, theta
@@ -221,9 +225,10 @@ def integrate_generalized_alpha(
     h = (t1 - t0) / steps
     c = coefficients(rho_inf, h)
     n = x0.size // 2
+    cz = np.repeat((c.c_y, c.c_v), n)  # [y₊, ẏ₊] = [ŷ, v̂] + cz · [ÿ₊, ÿ₊]
     prob = _Problem(module, p, uf, n)
     y, v = x0[:n].astype(float), x0[n:].astype(float)
-    ydd = prob.acceleration(t0, y, v)
+    ydd = prob.acceleration(t0, np.concatenate((y, v)))
     a = ydd.copy()
     out = np.empty((times.size, 2 * n))
     k = int(np.searchsorted(times, t0, side="right"))
@@ -235,12 +240,12 @@ def integrate_generalized_alpha(
         t, tn = t0 + i * h, (t0 + (i + 1) * h if i + 1 < steps else t1)
         y_hat, v_hat = c.predict(y, v, a, ydd)
         scale = np.maximum(c.c_y / (atol + rtol * np.abs(y)), c.c_v / (atol + rtol * np.abs(v)))
-        x_new, theta = _newton(prob, c, tn, y_hat, v_hat, ydd, G, scale, theta, fresh)
+        x_new, theta = _newton(prob, cz, tn, y_hat, v_hat, ydd, G, scale, theta, fresh)
         fresh = False
         if x_new is None:  # rebuild the matrix at the predictor and try once more
             G = prob.newton_matrix(tn, y_hat + c.c_y * ydd, v_hat + c.c_v * ydd, ydd, c)
             fresh, theta = True, 0.5
-            x_new, theta = _newton(prob, c, tn, y_hat, v_hat, ydd, G, scale, theta, True)
+            x_new, theta = _newton(prob, cz, tn, y_hat, v_hat, ydd, G, scale, theta, True)
             if x_new is None:
                 raise SolverError(
                     f"generalized-alpha: Newton's method does not converge at t = {tn:g} "
