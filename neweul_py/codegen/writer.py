@@ -49,6 +49,7 @@ from .packing import (
     factored_definitions,
     factored_mass,
     factored_rhs,
+    factored_sizes,
     pack_definition,
     packed_matrix,
     packed_rhs,
@@ -395,9 +396,10 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         funcs[name] = tuple(block)
     pdef = tuple(float(pp.default) for pp in system.parameters)
     symmetric = bool(M == M.T)
-    k = len(mass_factor_values(eq))
-    sizes = (k, k + 2 * n) if k else (n * n, n * n + 2 * n) if n else ()
-    helpers = factored_definitions() if k else solver_definition(symmetric)
+    factors = mass_factor_values(eq)
+    sizes = (factored_sizes(n, factors) if factors
+             else (n * n, n * n + 2 * n) if n else ())
+    helpers = factored_definitions(n, factors) if factors else solver_definition(symmetric)
     return ModuleParts(
         docstring=_header(system),
         imports=IMPORTS,
