@@ -28,11 +28,9 @@ from .blocks import (
     Context,
     assignments,
     checked,
-    derivative_block,
     function,
     input_rates,
     inputs_prologue,
-    mass_entries,
     mass_fill,
     matrix_fill,
     prologue,
@@ -43,7 +41,7 @@ from .blocks import (
     vector,
 )
 from .constraints import constraint_constant, constraint_functions
-from .cse import Block, CseMethod, eliminate, hoist_constant_factors
+from .cse import Block, CseMethod, eliminate
 from .packing import (
     IMPORTS,
     factored_definitions,
@@ -56,6 +54,7 @@ from .packing import (
     solver_definition,
 )
 from .printer import NamePool
+from .programs import dynamics_programs, mass_factor_values, output_programs
 
 __all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts",
            "program_blocks"]
@@ -122,19 +121,12 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     packed in one buffer and ``rhs`` solves in place (:mod:`.packing`)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, nu = len(y), len(u)
-    M = sp.ImmutableMatrix(eq.mass_matrix)
-    fvec = sp.ImmutableMatrix(eq.force_vector)
     kin = (*y, *p, *u, time)
     dyn = (*kin, *yd)
     out: dict[str, tuple[str, ...]] = {}
-    m_values, m_where = mass_entries(M)
-    nm = len(m_values)
-    factors = mass_factor_values(eq)
-    program = eliminate(*hoist_constant_factors(ctx.intermediates, [*m_values, *fvec, *factors],
-                                                ctx.p),
-                        prefix="_ncg_c", method=method)
-    m_red, f_red = program.finals[:nm], program.finals[nm:nm + n]
-    fac_red = program.finals[nm + n:]
+    dp = dynamics_programs(eq, ctx.intermediates, method, d_method)
+    program, m_where, nm = dp.program, dp.m_where, dp.nm
+    m_red, f_red, fac_red = dp.parts(n)
 
     b = checked(ctx, subblock(program, fac_red or m_red), kin, "the mass matrix")
     body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC)]) + inputs_prologue(ctx, b)
@@ -172,7 +164,7 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
                            "First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion.",
                            [line for line in body if line])
 
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+    b, Jr = dp.force_jacobians
     b = checked(ctx, b, dyn, "the force Jacobians")
     body = (prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
             + inputs_prologue(ctx, b) + assignments(ctx, b))
@@ -187,12 +179,7 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
     for i, s in enumerate(a_syms):
         ctx.pool.claim(s, f"_a{i}")
-    m_full = sp.zeros(n, n)
-    for value, places in zip(m_red, m_where, strict=True):
-        for i, j in places:
-            m_full[i, j] = value
-    ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method)
+    b, Jr = dp.mass_derivative
     b = checked(ctx, b, (*kin, *a_syms), "∂(M a)/∂y")
     body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC),
                               (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")])
@@ -222,8 +209,8 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     return out
 
 
-def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.ImmutableMatrix,
-                     method: CseMethod, d_method: CseMethod,
+def _state_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix,
+                     energy: sp.ImmutableMatrix, method: CseMethod, d_method: CseMethod,
                      prefix: str) -> dict[str, tuple[str, ...]]:
     """outputs, output_jacobians and energy: functions of the state ``x = [y, ẏ]``."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
@@ -231,14 +218,15 @@ def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.Immutabl
     dyn = (*y, *p, *u, time, *yd)
     x_unpack = [((*y, *yd), "_np.asarray(x, dtype=_np.float64).tolist()"), (p, _P_SRC)]
     out: dict[str, tuple[str, ...]] = {}
-    out_prog = eliminate(ctx.intermediates, list(outs), prefix="_ncg_o", method=method)
+    op = output_programs(eq, ctx.intermediates, outs, method, d_method)
+    out_prog = op.program
     b = checked(ctx, out_prog, dyn, "the outputs")
     body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b) + assignments(ctx, b)
             + vector(ctx, "out", b.finals))
     out["outputs"] = _function(f"{prefix}outputs", "t, x, p, u=None",
                                "The outputs, ordered as ``OUTPUTS``.", [*body, "return out"])
     ny = outs.shape[0]
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method)
+    b, Jr = op.jacobians
     b = checked(ctx, b, dyn, "the output Jacobians")
     body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b) + assignments(ctx, b)
             + matrix_fill(ctx, "C", (ny, 2 * n), sparse(Jr[:, :2 * n]) if ny else {})
@@ -389,7 +377,7 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
                                       "Scheduling values of the parametric elastic bodies.",
                                       [*body, "return sigma"])
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix))
-    funcs.update(_state_functions(ctx, outs, energy, method, d_method, prefix))
+    funcs.update(_state_functions(ctx, eq, outs, energy, method, d_method, prefix))
     # constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py)
     for name, block in constraint_functions(ctx, getattr(eq, "constraints", None), method,
                                             prefix).items():
@@ -409,63 +397,44 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     )
 
 
-def mass_factor_values(eq: Any) -> list[sp.Expr]:
-    """The weights, then the rows (row by row) of ``eq.mass_factors``; empty without them."""
-    factors = getattr(eq, "mass_factors", None) if len(eq.coordinates) else None
-    if not factors:
-        return []
-    return [*(as_expr(w) for w, _ in factors), *(as_expr(g) for _, row in factors for g in row)]
-
 
 def program_blocks(equations: Any, *, cse: bool = True) -> dict[str, Block]:
     """The CSE'd straight-line programs of the protocol functions, for other printers.
 
-    The same calls to :func:`.cse.eliminate` and :func:`.derivatives.jacobian`, in the same
-    order and with the same methods, as :func:`render_module` makes (deterministic, so the
-    blocks are those the NumPy module prints). Matrices are given row-major with every entry
-    (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n of ``M``,
-    then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``, ``∂/∂u``),
-    ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}", real=True)``
-    of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians``
-    (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
+    The programs of :mod:`.programs`, which :func:`module_parts` prints too (computed once when
+    both backends are generated from the same equations object). Matrices are given row-major
+    with every entry (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n
+    of ``M``, then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``,
+    ``∂/∂u``), ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}",
+    real=True)`` of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny),
+    ``output_jacobians`` (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
     bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
     ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
     (:mod:`.packing`); the blocks here keep M's entries.
     """
     eq = equations
-    y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
-    n = len(y)
-    M = sp.ImmutableMatrix(eq.mass_matrix)
-    fvec = sp.ImmutableMatrix(eq.force_vector)
+    n = len(eq.coordinates)
     outs = sp.ImmutableMatrix(eq.outputs) if len(eq.outputs) else sp.ImmutableMatrix.zeros(0, 1)
     inter = tuple((s, as_expr(e)) for s, e in eq.intermediates)
     method: CseMethod = "none" if not cse else ("tree" if inter else "full")
     d_method: CseMethod = "none" if not cse or inter else "tree"
-    a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
     out: dict[str, Block] = {}
     out["default_inputs"] = eliminate((), [as_expr(e) for e in eq.system.input_defaults],
                                       method=method)
-    m_values, m_where = mass_entries(M)
-    program = eliminate(*hoist_constant_factors(inter, [*m_values, *fvec], eq.parameters),
-                        prefix="_ncg_c", method=method)
-    nm = len(m_values)
-    m_full = sp.zeros(n, n)
-    for value, places in zip(program.finals[:nm], m_where, strict=True):
-        for i, j in places:
-            m_full[i, j] = value
-    f_red = program.finals[nm:]
+    dp = dynamics_programs(eq, inter, method, d_method)
+    program, m_full = dp.program, dp.m_full
+    f_red = dp.parts(n)[1]
     out["mass_matrix"] = subblock(program, list(m_full))
     out["force_vector"] = subblock(program, f_red)
-    out["rhs"] = Block(program.assignments, (*m_full, *f_red))
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+    out["rhs"] = subblock(program, (*m_full, *f_red))
+    b, Jr = dp.force_jacobians
     out["force_jacobians"] = Block(b.assignments, tuple(Jr))
-    ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method)
+    b, Jr = dp.mass_derivative
     out["mass_matrix_times_derivative"] = Block(b.assignments, tuple(Jr))
-    out_prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
-    out["outputs"] = out_prog
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method)
+    op = output_programs(eq, inter, outs, method, d_method)
+    out["outputs"] = op.program
+    b, Jr = op.jacobians
     out["output_jacobians"] = Block(b.assignments, tuple(Jr))
     ce = getattr(eq, "constraints", None)
     if ce is not None and ce.nc:
