@@ -136,3 +136,20 @@ def test_bad_arguments_are_clear_errors(oscillator) -> None:
         simulate(mod, 1.0, method="generalized-alpha", h=0.1, rho_inf=1.5)
     with pytest.raises(NeweulError, match="step h"):
         simulate(mod, 1.0, method="generalized-alpha", h=-0.1)
+
+
+def test_cli_step_and_rho_inf(capsys) -> None:
+    """``neweul simulate --method generalized-alpha --step H --rho-inf R`` gives the final state
+    of the API call with the same arguments (reference: ``simulate``); without ``--step`` it
+    is one error line naming the option."""
+    from neweul_py.cli import main
+
+    path = GENERATED / "pendulum.py"
+    assert main(["simulate", str(path), "--t-end", "0.5", "--method", "generalized-alpha",
+                 "--step", "1e-3", "--rho-inf", "0.5", "-q"]) == 0
+    out = capsys.readouterr().out
+    res = simulate(load_generated(path), 0.5, method="generalized-alpha", h=1e-3, rho_inf=0.5)
+    assert f"phi = {res.y[-1, 0]:.6g}" in out
+    assert main(["simulate", str(path), "--t-end", "0.5", "--method", "generalized-alpha",
+                 "-q"]) == 1
+    assert "--step" in capsys.readouterr().err
