@@ -14,8 +14,8 @@ All figures of one run come from fresh processes started by this script, ours in
 (b) ``neweul generate`` of examples/chain10_planar.yaml as a whole process (NumPy and
     ``--backend c``) against a process running ``KanesMethod.kanes_equations``;
 (c) derivation + generation of the planar N = 30 and spatial N = 8 chains, NumPy and C;
-(d) a Hex20 flexible pendulum (10 modes, 1 s) in Exudyn (benchmarks/_peer_exudyn.py); our side
-    waits for the compiled elastic-body kernel and prints "n/a".
+(d) a Hex20 flexible pendulum (10 modes, 1 s) in Exudyn (benchmarks/_peer_exudyn.py) and ours
+    (benchmarks/_ours_hex_pendulum.py), both generalized-alpha with h = 1e-3, rho_inf = 0.9.
 
 Usage::
 
@@ -217,6 +217,8 @@ def main() -> None:
     for label, t, err in rows:
         print(f"    {label:38s} {t * 1e6:9.2f} µs   ×{t / o['rhs_c']:7.1f} of compiled"
               f"   (diff {err:.1e})")
+    print(f"    NumPy module: lambdify(cse=True) / ours = {lam['rhs'] / o['rhs_numpy']:.1f} "
+          "(goal >= 5; goal <= 20 us per call)")
     print(f"    rhs_jacobian: compiled {o['jac_c'] * 1e6:.1f} µs, NumPy "
           f"{o['jac_numpy'] * 1e6:.1f} µs (×{o['jac_numpy'] / o['jac_c']:.0f})")
     print(f"  code generation + compile: ours {g['c_text'] + g['compile']:.2f} s (C text "
@@ -256,12 +258,17 @@ def main() -> None:
 
     print("\n(b) whole process, examples/chain10_planar.yaml")
     with tempfile.TemporaryDirectory() as tmp:
+        cache = {"NEWEUL_CACHE": str(Path(tmp) / "cache")}
         cli = [sys.executable, "-m", "neweul_py.cli", "generate",
                str(ROOT / "examples" / "chain10_planar.yaml"), "-o", tmp]
-        t_np = _wall(cli)
-        t_c = _wall([*cli[:-1], str(Path(tmp) / "c"), "--backend", "c"])
+        t_np = _wall([*cli, "--no-cache"], cache)
+        t_miss = _wall(cli, cache)  # derives and stores in the content-hash cache
+        t_hit = _wall(cli, cache)  # the verified cache entry, no sympy
+        t_c = _wall([*cli[:-1], str(Path(tmp) / "c"), "--backend", "c"], cache)
     t_kane = _wall([sys.executable, str(HERE / "_peer_pydy.py"), "kane", "10"])
-    for label, t in (("neweul generate (NumPy):    ", t_np),
+    for label, t in (("neweul generate --no-cache:  ", t_np),
+                     ("neweul generate (cache miss):", t_miss),
+                     ("neweul generate (cache hit): ", t_hit),
                      ("neweul generate --backend c:", t_c)):
         print(f"    {label} {t[0]:6.2f} s wall, {t[1]:6.2f} s CPU   Kane/ours "
               f"{t_kane[0] / t[0]:5.1f} (wall), {t_kane[1] / t[1]:5.1f} (CPU)")
@@ -285,7 +292,16 @@ def main() -> None:
         print(f"    Exudyn ObjectFFRFreducedOrder: {e['solve']:.3f} s ({e['dofs']} FE dofs, "
               f"modes {e['modes_time']:.2f} s; tip at 1 s: "
               f"{', '.join(f'{v:.5f}' for v in e['tip'])})")
-        print("    ours: n/a (elastic bodies are not compiled yet; the FFRF kernel comes later)")
+        o = _run([sys.executable, str(HERE / "_ours_hex_pendulum.py"), "16", "10",
+                  "generalized-alpha", "1e-3", "0.9"])
+        print(f"    ours, generalized-alpha h = 1e-3, rho_inf = 0.9 (NumPy module): "
+              f"{o['simulate']:.3f} s wall, {o['simulate_cpu']:.3f} s CPU, {o['rhs_calls']} rhs "
+              f"calls; tip at 1 s: {', '.join(f'{v:.5f}' for v in o['tip'])}")
+        print(f"    Exudyn SolveDynamic: {e['solve']:.3f} s wall, {e['solve_cpu']:.3f} s CPU")
+        print(f"    ours / Exudyn: {o['simulate'] / e['solve']:.2f} (wall), "
+              f"{o['simulate_cpu'] / e['solve_cpu']:.2f} (CPU); tip z differs by "
+              f"{abs(o['tip'][1] - e['tip'][2]):.1e} m, x by "
+              f"{abs(o['tip'][0] - e['tip'][0]):.1e} m")
 
 
 if __name__ == "__main__":

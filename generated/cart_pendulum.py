@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -43,6 +45,34 @@ BODIES = [
 ]
 
 _P0 = (2.0, 0.5, 0.8, 40.0, 0.5, 1.0, 2.0, 4.0, 9.81)
+_pack4 = _struct.Struct("4d").pack
+_pack8 = _struct.Struct("8d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -61,13 +91,12 @@ def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
     mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = _math.cos(phi)
-    _c1 = _math.sin(phi)
-    _c2 = (1/2)*l
-    M = _np.empty((2, 2))
-    M[0, 0] = mc + mp*_c0*_c0 + mp*_c1*_c1
-    M[0, 1] = M[1, 0] = -_c0*_c2*mp
-    M[1, 1] = (1/3)*mp*l*l
+    _c0 = (1/2)*l
+    _k0 = -_c0*mp
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _mv1 = _c2*_k0
+    M = _np.frombuffer(bytearray(_pack4(mc + mp*_c2*_c2 + mp*_c3*_c3, _mv1, _mv1, (1/3)*mp*l*l))).reshape(2, 2)
     return M
 
 
@@ -79,15 +108,20 @@ def force_vector(t, y, yd, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     F, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = _math.cos(phi)
-    _c1 = _math.sin(phi)
-    _c2 = (1/2)*l
-    _c3 = l0 + x_
-    _c4 = abs(_c3)
-    _c5 = _c3/_c4
-    _c6 = _c0*g_
-    _c7 = _c1*mp
-    f = _np.array((F + _c5*(-k*(_c4 - l0) - _c5*d*d_x) + _c6*_c7 - _c7*(_c6 + _c2*d_phi*d_phi), -_c2*_c7*g_), dtype=_np.float64)
+    _c0 = (1/2)*l
+    _k1 = -k
+    _k2 = -d
+    _k3 = _c0
+    _k4 = -mp
+    _c1 = g_*mp
+    _k5 = _c1
+    _k6 = -_c0*_c1
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _c4 = l0 + x_
+    _c5 = abs(_c4)
+    _c6 = _c4/_c5
+    f = _np.array((F + _c6*(_k1*(_c5 - l0) + _c6*_k2*d_x) + _c2*_c3*_k5 + _c3*_k4*(_c2*g_ + _k3*d_phi*d_phi), _c3*_k6), dtype=_np.float64)
     return f
 
 
@@ -99,23 +133,22 @@ def rhs(t, x, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     F, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = _math.cos(phi)
-    _c1 = _math.sin(phi)
-    _c2 = (1/2)*l
-    _c3 = l0 + x_
-    _c4 = abs(_c3)
-    _c5 = _c3/_c4
-    _c6 = _c0*g_
-    _c7 = _c1*mp
-    M = _np.empty((2, 2))
-    M[0, 0] = mc + mp*_c0*_c0 + mp*_c1*_c1
-    M[0, 1] = M[1, 0] = -_c0*_c2*mp
-    M[1, 1] = (1/3)*mp*l*l
-    f = _np.array((F + _c5*(-k*(_c4 - l0) - _c5*d*d_x) + _c6*_c7 - _c7*(_c6 + _c2*d_phi*d_phi), -_c2*_c7*g_), dtype=_np.float64)
-    xd = _np.empty(4)
-    xd[:2] = x[2:4]
-    xd[2:] = _np.linalg.solve(M, f)
-    return xd
+    _c0 = (1/2)*l
+    _k0 = -_c0*mp
+    _k1 = -k
+    _k2 = -d
+    _k3 = _c0
+    _k4 = -mp
+    _c1 = g_*mp
+    _k5 = _c1
+    _k6 = -_c0*_c1
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _c4 = l0 + x_
+    _c5 = abs(_c4)
+    _c6 = _c4/_c5
+    _mv1 = _c2*_k0
+    return _solve_packed(_pack8(d_x, d_phi, F + _c6*(_k1*(_c5 - l0) + _c6*_k2*d_x) + _c2*_c3*_k5 + _c3*_k4*(_c2*g_ + _k3*d_phi*d_phi), _c3*_k6, mc + mp*_c2*_c2 + mp*_c3*_c3, _mv1, _mv1, (1/3)*mp*l*l), 2)
 
 
 def force_jacobians(t, y, yd, p, u=None):
@@ -123,31 +156,34 @@ def force_jacobians(t, y, yd, p, u=None):
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
     d_x, d_phi = _np.asarray(yd, dtype=_np.float64).tolist()
     mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _k1 = -k
+    _k2 = -d
+    _k3 = _c0
+    _k4 = -mp
+    _c1 = g_*mp
+    _k5 = _c1
+    _k6 = -_c0*_c1
     _e0 = _math.cos(phi)
-    _c0 = _e0
+    _c2 = _e0
     _e1 = _math.sin(phi)
     _d0 = -_e1
-    _c1 = _e1
+    _c3 = _e1
     _d1 = _e0
-    _c2 = (1/2)*l
-    _c3 = l0 + x_
-    _c4 = abs(_c3)
-    _d2 = ((0.0 if _c3 == 0 else _math.copysign(1, _c3)))
-    _e2 = 1/_c4
-    _c5 = _c3*_e2
-    _d3 = _e2 + (_c3*(-1/(_c4*_c4)))*_d2
-    _c6 = _c0*g_
-    _d4 = g_*_d0
-    _c7 = _c1*mp
-    _d5 = mp*_d1
-    _e3 = -_c7
+    _c4 = l0 + x_
+    _c5 = abs(_c4)
+    _d2 = ((0.0 if _c4 == 0 else _math.copysign(1, _c4)))
+    _e2 = 1/_c5
+    _c6 = _c4*_e2
+    _d3 = _e2 + (_c4*(-1/(_c5*_c5)))*_d2
+    _e3 = _c3*_k4
     fy = _np.zeros((2, 2))
-    fy[0, 0] = (_c5*(-k))*_d2 + (-k*(_c4 - l0) - _c5*d*d_x + _c5*(-d*d_x))*_d3
-    fy[0, 1] = (_c7 + _e3)*_d4 + (_c6 - (_c6 + _c2*d_phi*d_phi))*_d5
-    fy[1, 1] = (-_c2*g_)*_d5
+    fy[0, 0] = (_c6*_k1)*_d2 + (_k1*(_c5 - l0) + _c6*_k2*d_x + _c6*(_k2*d_x))*_d3
+    fy[0, 1] = (_c3*_k5 + _e3*g_)*_d0 + (_c2*_k5 + _k4*(_c2*g_ + _k3*d_phi*d_phi))*_d1
+    fy[1, 1] = _k6*_d1
     fyd = _np.zeros((2, 2))
-    fyd[0, 0] = _c5*(-_c5*d)
-    fyd[0, 1] = _e3*(_c2*(2*d_phi))
+    fyd[0, 0] = _c6*(_c6*_k2)
+    fyd[0, 1] = _e3*(_k3*(2*d_phi))
     fu = _np.zeros((2, 1))
     fu[0, 0] = 1
     return fy, fyd, fu
@@ -158,16 +194,17 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
     mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _k0 = -_c0*mp
     _e0 = _math.cos(phi)
-    _c0 = _e0
+    _c2 = _e0
     _e1 = _math.sin(phi)
     _d0 = -_e1
-    _c1 = _e1
+    _c3 = _e1
     _d1 = _e0
-    _c2 = (1/2)*l
     dMa = _np.zeros((2, 2))
-    dMa[0, 1] = (_a0*(mp*(2*_c0)) - _c2*_a1*mp)*_d0 + (_a0*(mp*(2*_c1)))*_d1
-    dMa[1, 1] = (-_c2*_a0*mp)*_d0
+    dMa[0, 1] = (_a0*(mp*(2*_c2)) + _k0*_a1)*_d0 + (_a0*(mp*(2*_c3)))*_d1
+    dMa[1, 1] = (_k0*_a0)*_d0
     return dMa
 
 

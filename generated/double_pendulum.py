@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -39,6 +41,34 @@ BODIES = [
 ]
 
 _P0 = (1.0, 0.5, 1.0, 0.7, 9.81)
+_pack4 = _struct.Struct("4d").pack
+_pack8 = _struct.Struct("8d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -56,19 +86,19 @@ def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
     m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = (1/2)*l2
-    _c1 = _math.cos(phi2)
-    _c2 = _c1*l1
-    _c3 = -_c0 - _c2
-    _c4 = l1*l1
+    _k0 = -l1
+    _c0 = l1*l1
+    _k1 = _c0*m2
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _k2 = -_c2
+    _c3 = _math.cos(phi2)
+    _c4 = -_c1 + _c3*_k0
     _c5 = m2*l2*l2
     _c6 = (1/12)*_c5
     _c7 = _math.sin(phi2)
-    _c8 = _c3*m2
-    M = _np.empty((2, 2))
-    M[0, 0] = _c6 + m2*_c3*_c3 + (1/3)*_c4*m1 + _c4*m2*_c7*_c7
-    M[0, 1] = M[1, 0] = _c6 - _c0*_c8
-    M[1, 1] = (1/3)*_c5
+    _mv1 = _c6 + _c4*_k2
+    M = _np.frombuffer(bytearray(_pack4(_c6 + _k1*_c7*_c7 + m2*_c4*_c4 + (1/3)*_c0*m1, _mv1, _mv1, (1/3)*_c5))).reshape(2, 2)
     return M
 
 
@@ -77,17 +107,24 @@ def force_vector(t, y, yd, p, u=None):
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
     m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = (1/2)*l2
-    _c1 = _math.cos(phi2)
-    _c2 = _c1*l1
-    _c3 = -_c0 - _c2
+    _k0 = -l1
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _k3 = -g_
+    _k4 = -m2
+    _k5 = _c1
+    _k6 = l1*m2
+    _k7 = -(1/2)*g_*l1*m1
+    _k8 = _c2
+    _c3 = _math.cos(phi2)
+    _c4 = -_c1 + _c3*_k0
     _c7 = _math.sin(phi2)
-    _c8 = _c3*m2
-    _c9 = g_*_math.cos(phi1)
-    _c10 = g_*_math.sin(phi1)
+    _c8 = _math.cos(phi1)
+    _c9 = _c7*_k3
+    _c10 = _math.sin(phi1)
     _c11 = d_phi1*d_phi1
-    _c12 = -_c1*_c10 - _c7*_c9 - _c11*_c7*l1
-    f = _np.array((-_c12*_c8 - (1/2)*_c10*l1*m1 + _c7*l1*m2*(_c0*(d_phi1 + d_phi2)**2 + _c1*_c9 + _c11*_c2 - _c10*_c7), _c0*_c12*m2), dtype=_np.float64)
+    _c12 = _c8*_c9 + _c10*_c3*_k3 + _c11*_c7*_k0
+    f = _np.array((_c10*_k7 + _c12*_c4*_k4 + _c7*_k6*(_c10*_c9 + _k5*(d_phi1 + d_phi2)**2 + _c11*_c3*l1 + _c3*_c8*g_), _c12*_k8), dtype=_np.float64)
     return f
 
 
@@ -96,28 +133,30 @@ def rhs(t, x, p, u=None):
     x = _np.asarray(x, dtype=_np.float64)
     phi1, phi2, d_phi1, d_phi2 = x.tolist()
     m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = (1/2)*l2
-    _c1 = _math.cos(phi2)
-    _c2 = _c1*l1
-    _c3 = -_c0 - _c2
-    _c4 = l1*l1
+    _k0 = -l1
+    _c0 = l1*l1
+    _k1 = _c0*m2
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _k2 = -_c2
+    _k3 = -g_
+    _k4 = -m2
+    _k5 = _c1
+    _k6 = l1*m2
+    _k7 = -(1/2)*g_*l1*m1
+    _k8 = _c2
+    _c3 = _math.cos(phi2)
+    _c4 = -_c1 + _c3*_k0
     _c5 = m2*l2*l2
     _c6 = (1/12)*_c5
     _c7 = _math.sin(phi2)
-    _c8 = _c3*m2
-    _c9 = g_*_math.cos(phi1)
-    _c10 = g_*_math.sin(phi1)
+    _c8 = _math.cos(phi1)
+    _c9 = _c7*_k3
+    _c10 = _math.sin(phi1)
     _c11 = d_phi1*d_phi1
-    _c12 = -_c1*_c10 - _c7*_c9 - _c11*_c7*l1
-    M = _np.empty((2, 2))
-    M[0, 0] = _c6 + m2*_c3*_c3 + (1/3)*_c4*m1 + _c4*m2*_c7*_c7
-    M[0, 1] = M[1, 0] = _c6 - _c0*_c8
-    M[1, 1] = (1/3)*_c5
-    f = _np.array((-_c12*_c8 - (1/2)*_c10*l1*m1 + _c7*l1*m2*(_c0*(d_phi1 + d_phi2)**2 + _c1*_c9 + _c11*_c2 - _c10*_c7), _c0*_c12*m2), dtype=_np.float64)
-    xd = _np.empty(4)
-    xd[:2] = x[2:4]
-    xd[2:] = _np.linalg.solve(M, f)
-    return xd
+    _c12 = _c8*_c9 + _c10*_c3*_k3 + _c11*_c7*_k0
+    _mv1 = _c6 + _c4*_k2
+    return _solve_packed(_pack8(d_phi1, d_phi2, _c10*_k7 + _c12*_c4*_k4 + _c7*_k6*(_c10*_c9 + _k5*(d_phi1 + d_phi2)**2 + _c11*_c3*l1 + _c3*_c8*g_), _c12*_k8, _c6 + _k1*_c7*_c7 + m2*_c4*_c4 + (1/3)*_c0*m1, _mv1, _mv1, (1/3)*_c5), 2)
 
 
 def force_jacobians(t, y, yd, p, u=None):
@@ -125,47 +164,50 @@ def force_jacobians(t, y, yd, p, u=None):
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
     m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = (1/2)*l2
+    _k0 = -l1
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _k3 = -g_
+    _k4 = -m2
+    _k5 = _c1
+    _k6 = l1*m2
+    _k7 = -(1/2)*g_*l1*m1
+    _k8 = _c2
     _e0 = _math.cos(phi2)
-    _c1 = _e0
+    _c3 = _e0
     _e1 = _math.sin(phi2)
     _d0 = -_e1
-    _c2 = _c1*l1
-    _d1 = l1*_d0
-    _c3 = -_c0 - _c2
-    _d2 = -_d1
+    _c4 = -_c1 + _c3*_k0
+    _d1 = _k0*_d0
     _c7 = _e1
-    _d3 = _e0
-    _c8 = _c3*m2
-    _d4 = m2*_d2
-    _e2 = g_*_math.cos(phi1)
-    _c9 = _e2
+    _d2 = _e0
+    _e2 = _math.cos(phi1)
+    _c8 = _e2
     _e3 = _math.sin(phi1)
-    _d5 = g_*(-_e3)
-    _c10 = g_*_e3
-    _d6 = _e2
+    _d3 = -_e3
+    _c9 = _c7*_k3
+    _d4 = _k3*_d2
+    _c10 = _e3
+    _d5 = _e2
     _c11 = d_phi1*d_phi1
     _e4 = 2*d_phi1
-    _d7 = _e4
-    _c12 = -_c1*_c10 - _c7*_c9 - _c11*_c7*l1
-    _e5 = -_c7
-    _d8 = (-_c1)*_d6 + _e5*_d5
-    _e6 = -_c10
-    _d9 = _e6*_d0 + (-_c9 - _c11*l1)*_d3
-    _d10 = (-_c7*l1)*_d7
-    _e7 = _c7*l1*m2
-    _e8 = -_c8
-    _e9 = _e7*(_c0*(_e4 + 2*d_phi2))
-    _e10 = _c0*m2
+    _d6 = _e4
+    _c12 = _c8*_c9 + _c10*_c3*_k3 + _c11*_c7*_k0
+    _d7 = (_c3*_k3)*_d5 + _c9*_d3
+    _d8 = (_c10*_k3)*_d0 + (_c11*_k0)*_d2 + _c8*_d4
+    _d9 = (_c7*_k0)*_d6
+    _e5 = _c7*_k6
+    _e6 = _c4*_k4
+    _e7 = _e5*(_k5*(_e4 + 2*d_phi2))
     fy = _np.empty((2, 2))
-    fy[0, 0] = (-(1/2)*l1*m1 + _e7*_e5)*_d6 + _e8*_d8 + (_e7*_c1)*_d5
-    fy[0, 1] = (_e7*_c9)*_d0 + _e8*_d9 + (_e7*_c11)*_d1 + (l1*m2*(_c0*(d_phi1 + d_phi2)**2 + _c1*_c9 + _c11*_c2 - _c10*_c7) + _e7*_e6)*_d3 + (-_c12)*_d4
-    fy[1, 0] = _e10*_d8
-    fy[1, 1] = _e10*_d9
+    fy[0, 0] = (_k7 + _e5*_c9)*_d5 + _e6*_d7 + (_e5*(_c3*g_))*_d3
+    fy[0, 1] = _e6*_d8 + (_e5*(_c11*l1 + _c8*g_))*_d0 + (_c12*_k4)*_d1 + (_k6*(_c10*_c9 + _k5*(d_phi1 + d_phi2)**2 + _c11*_c3*l1 + _c3*_c8*g_))*_d2 + (_e5*_c10)*_d4
+    fy[1, 0] = _k8*_d7
+    fy[1, 1] = _k8*_d8
     fyd = _np.zeros((2, 2))
-    fyd[0, 0] = (_e7*_c2)*_d7 + _e8*_d10 + _e9
-    fyd[0, 1] = _e9
-    fyd[1, 0] = _e10*_d10
+    fyd[0, 0] = (_e5*(_c3*l1))*_d6 + _e6*_d9 + _e7
+    fyd[0, 1] = _e7
+    fyd[1, 0] = _k8*_d9
     fu = _np.empty((2, 0))
     return fy, fyd, fu
 
@@ -175,23 +217,23 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
     m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
-    _c0 = (1/2)*l2
+    _k0 = -l1
+    _c0 = l1*l1
+    _k1 = _c0*m2
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _k2 = -_c2
     _e0 = _math.cos(phi2)
-    _c1 = _e0
+    _c3 = _e0
     _e1 = _math.sin(phi2)
     _d0 = -_e1
-    _c2 = _c1*l1
-    _d1 = l1*_d0
-    _e2 = -_c0
-    _c3 = _e2 - _c2
-    _d2 = -_d1
-    _c4 = l1*l1
+    _c4 = -_c1 + _c3*_k0
+    _d1 = _k0*_d0
     _c7 = _e1
-    _d3 = _e0
-    _d4 = m2*_d2
+    _d2 = _e0
     dMa = _np.zeros((2, 2))
-    dMa[0, 1] = (_a0*(m2*(2*_c3)))*_d2 + (_a0*((_c4*m2)*(2*_c7)))*_d3 + (_a1*_e2)*_d4
-    dMa[1, 1] = (_a0*_e2)*_d4
+    dMa[0, 1] = (_a0*(m2*(2*_c4)) + _a1*_k2)*_d1 + (_a0*(_k1*(2*_c7)))*_d2
+    dMa[1, 1] = (_a0*_k2)*_d1
     return dMa
 
 

@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -46,6 +48,34 @@ BODIES = [
 ]
 
 _P0 = (0.1, 0.35, 0.3, 0.3, 0.2, 0.6, 0.5, 2.0, 1.5, 0.01, 9.81)
+_pack9 = _struct.Struct("9d").pack
+_pack15 = _struct.Struct("15d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -63,22 +93,18 @@ def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
     a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = (1/2)*b
-    _c1 = _math.cos(phi2)
-    _c2 = _c1*a_
-    _c3 = _c0 + _c2
-    _c4 = a_*a_
-    _c5 = mb*b*b
-    _c6 = (1/12)*_c5
-    _c7 = _math.sin(phi2)
-    _c8 = _c3*mb
-    M = _np.empty((3, 3))
-    M[0, 0] = _c6 + mb*_c3*_c3 + (1/3)*_c4*ma + _c4*mb*_c7*_c7
-    M[0, 1] = M[1, 0] = _c6 + _c0*_c8
-    M[0, 2] = M[2, 0] = 0
-    M[1, 1] = (1/3)*_c5
-    M[1, 2] = M[2, 1] = 0
-    M[2, 2] = (1/3)*mc*c*c
+    _c0 = a_*a_
+    _k0 = _c0*mb
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _k1 = _c2
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _c6 = mb*b*b
+    _c7 = (1/12)*_c6
+    _c8 = _math.sin(phi2)
+    _mv1 = _c7 + _c5*_k1
+    M = _np.frombuffer(bytearray(_pack9(_c7 + _k0*_c8*_c8 + mb*_c5*_c5 + (1/3)*_c0*ma, _mv1, 0.0, _mv1, (1/3)*_c6, 0.0, 0.0, 0.0, (1/3)*mc*c*c))).reshape(3, 3)
     return M
 
 
@@ -90,19 +116,28 @@ def force_vector(t, y, yd, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     Md, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = (1/2)*b
-    _c1 = _math.cos(phi2)
-    _c2 = _c1*a_
-    _c3 = _c0 + _c2
-    _c7 = _math.sin(phi2)
-    _c8 = _c3*mb
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _k2 = -cb
+    _k3 = -g_
+    _k4 = -mb
+    _k5 = -_c1
+    _k6 = -a_
+    _k7 = -a_*mb
+    _c3 = (1/2)*g_
+    _k8 = -_c3*a_*ma
+    _k9 = -_c2
+    _k10 = -kr
+    _k11 = -_c3*c*mc
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _c8 = _math.sin(phi2)
     _c9 = d_phi1*d_phi1
-    _c10 = _c7*a_
-    _c11 = _math.cos(phi1)
-    _c12 = _c11*g_
-    _c13 = _math.sin(phi1)
-    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g_
-    f = _np.array((Md - _c14*_c8 - cb*d_phi1 - _c10*mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g_ + _c11*_c7*g_) - (1/2)*_c12*a_*ma, -_c0*_c14*mb, -cb*d_phi3 - kr*(phi3 - phi30) - (1/2)*c*g_*mc*_math.cos(phi3)), dtype=_np.float64)
+    _c10 = _math.cos(phi1)
+    _c11 = _c10*g_
+    _c12 = _math.sin(phi1)
+    _c13 = _c11*_c4 + _c12*_c8*_k3 + _c8*_c9*a_
+    f = _np.array((Md + _c10*_k8 + _k2*d_phi1 + _c13*_c5*_k4 + _c8*_k7*(_c11*_c8 + _k5*(-d_phi1 - d_phi2)**2 + _c12*_c4*g_ + _c4*_c9*_k6), _c13*_k9, _k10*(phi3 - phi30) + _k11*_math.cos(phi3) + _k2*d_phi3), dtype=_np.float64)
     return f
 
 
@@ -114,33 +149,34 @@ def rhs(t, x, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     Md, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = (1/2)*b
-    _c1 = _math.cos(phi2)
-    _c2 = _c1*a_
-    _c3 = _c0 + _c2
-    _c4 = a_*a_
-    _c5 = mb*b*b
-    _c6 = (1/12)*_c5
-    _c7 = _math.sin(phi2)
-    _c8 = _c3*mb
+    _c0 = a_*a_
+    _k0 = _c0*mb
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _k1 = _c2
+    _k2 = -cb
+    _k3 = -g_
+    _k4 = -mb
+    _k5 = -_c1
+    _k6 = -a_
+    _k7 = -a_*mb
+    _c3 = (1/2)*g_
+    _k8 = -_c3*a_*ma
+    _k9 = -_c2
+    _k10 = -kr
+    _k11 = -_c3*c*mc
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _c6 = mb*b*b
+    _c7 = (1/12)*_c6
+    _c8 = _math.sin(phi2)
     _c9 = d_phi1*d_phi1
-    _c10 = _c7*a_
-    _c11 = _math.cos(phi1)
-    _c12 = _c11*g_
-    _c13 = _math.sin(phi1)
-    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g_
-    M = _np.empty((3, 3))
-    M[0, 0] = _c6 + mb*_c3*_c3 + (1/3)*_c4*ma + _c4*mb*_c7*_c7
-    M[0, 1] = M[1, 0] = _c6 + _c0*_c8
-    M[0, 2] = M[2, 0] = 0
-    M[1, 1] = (1/3)*_c5
-    M[1, 2] = M[2, 1] = 0
-    M[2, 2] = (1/3)*mc*c*c
-    f = _np.array((Md - _c14*_c8 - cb*d_phi1 - _c10*mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g_ + _c11*_c7*g_) - (1/2)*_c12*a_*ma, -_c0*_c14*mb, -cb*d_phi3 - kr*(phi3 - phi30) - (1/2)*c*g_*mc*_math.cos(phi3)), dtype=_np.float64)
-    xd = _np.empty(6)
-    xd[:3] = x[3:6]
-    xd[3:] = _np.linalg.solve(M, f)
-    return xd
+    _c10 = _math.cos(phi1)
+    _c11 = _c10*g_
+    _c12 = _math.sin(phi1)
+    _c13 = _c11*_c4 + _c12*_c8*_k3 + _c8*_c9*a_
+    _mv1 = _c7 + _c5*_k1
+    return _solve_packed(_pack15(d_phi1, d_phi2, d_phi3, Md + _c10*_k8 + _k2*d_phi1 + _c13*_c5*_k4 + _c8*_k7*(_c11*_c8 + _k5*(-d_phi1 - d_phi2)**2 + _c12*_c4*g_ + _c4*_c9*_k6), _c13*_k9, _k10*(phi3 - phi30) + _k11*_math.cos(phi3) + _k2*d_phi3, _c7 + _k0*_c8*_c8 + mb*_c5*_c5 + (1/3)*_c0*ma, _mv1, 0.0, _mv1, (1/3)*_c6, 0.0, 0.0, 0.0, (1/3)*mc*c*c), 3)
 
 
 def force_jacobians(t, y, yd, p, u=None):
@@ -148,51 +184,55 @@ def force_jacobians(t, y, yd, p, u=None):
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
     d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
     a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = (1/2)*b
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _k2 = -cb
+    _k3 = -g_
+    _k4 = -mb
+    _k5 = -_c1
+    _k6 = -a_
+    _k7 = -a_*mb
+    _c3 = (1/2)*g_
+    _k8 = -_c3*a_*ma
+    _k9 = -_c2
+    _k10 = -kr
+    _k11 = -_c3*c*mc
     _e0 = _math.cos(phi2)
-    _c1 = _e0
+    _c4 = _e0
     _e1 = _math.sin(phi2)
     _d0 = -_e1
-    _c2 = _c1*a_
+    _c5 = _c1 + _c4*a_
     _d1 = a_*_d0
-    _c3 = _c0 + _c2
-    _c7 = _e1
+    _c8 = _e1
     _d2 = _e0
-    _c8 = _c3*mb
-    _d3 = mb*_d1
     _c9 = d_phi1*d_phi1
-    _d4 = 2*d_phi1
-    _c10 = _c7*a_
-    _d5 = a_*_d2
+    _d3 = 2*d_phi1
     _e2 = _math.cos(phi1)
-    _c11 = _e2
+    _c10 = _e2
     _e3 = _math.sin(phi1)
-    _d6 = -_e3
-    _e4 = _c11*g_
-    _c12 = _e4
-    _d7 = g_*_d6
-    _c13 = _e3
-    _d8 = _e2
-    _c14 = _c1*_c12 + _c10*_c9 - _c13*_c7*g_
-    _d9 = _c1*_d7 + (-_c7*g_)*_d8
-    _d10 = _c12*_d0 + _c9*_d5 + (-_c13*g_)*_d2
-    _d11 = _c10*_d4
-    _e5 = -_c10*mb
-    _e6 = -_c8
-    _e7 = -cb
-    _e8 = _e5*((-_c0)*((-2*d_phi1 - 2*d_phi2)*-1))
-    _e9 = -_c0*mb
+    _d4 = -_e3
+    _c11 = _c10*g_
+    _d5 = g_*_d4
+    _c12 = _e3
+    _d6 = _e2
+    _c13 = _c11*_c4 + _c12*_c8*_k3 + _c8*_c9*a_
+    _d7 = _c4*_d5 + (_c8*_k3)*_d6
+    _d8 = _c11*_d0 + (_c12*_k3 + _c9*a_)*_d2
+    _d9 = (_c8*a_)*_d3
+    _e4 = _c8*_k7
+    _e5 = _c5*_k4
+    _e6 = _e4*(_k5*((-2*d_phi1 - 2*d_phi2)*-1))
     fy = _np.zeros((3, 3))
-    fy[0, 0] = (_e5*(_c7*g_))*_d6 + (-(1/2)*a_*ma)*_d7 + (_e5*(_c1*g_))*_d8 + _e6*_d9
-    fy[0, 1] = (_e5*(_c13*g_))*_d0 + (-mb*(-_c0*(-d_phi1 - d_phi2)**2 - _c2*_c9 + _c1*_c13*g_ + _c11*_c7*g_))*_d5 + _e6*_d10 + (_e5*(-_c9))*_d1 + (_e5*_e4)*_d2 + (-_c14)*_d3
-    fy[1, 0] = _e9*_d9
-    fy[1, 1] = _e9*_d10
-    fy[2, 2] = -kr + (-(1/2)*c*g_*mc)*(-_math.sin(phi3))
+    fy[0, 0] = _k8*_d4 + (_e4*_c8)*_d5 + (_e4*(_c4*g_))*_d6 + _e5*_d7
+    fy[0, 1] = _e5*_d8 + (_e4*(_c12*g_ + _c9*_k6))*_d0 + (_c13*_k4)*_d1 + (_k7*(_c11*_c8 + _k5*(-d_phi1 - d_phi2)**2 + _c12*_c4*g_ + _c4*_c9*_k6) + _e4*_c11)*_d2
+    fy[1, 0] = _k9*_d7
+    fy[1, 1] = _k9*_d8
+    fy[2, 2] = _k10 + _k11*(-_math.sin(phi3))
     fyd = _np.zeros((3, 3))
-    fyd[0, 0] = _e6*_d11 + (_e5*(-_c2))*_d4 + _e7 + _e8
-    fyd[0, 1] = _e8
-    fyd[1, 0] = _e9*_d11
-    fyd[2, 2] = _e7
+    fyd[0, 0] = _e5*_d9 + (_e4*(_c4*_k6))*_d3 + _k2 + _e6
+    fyd[0, 1] = _e6
+    fyd[1, 0] = _k9*_d9
+    fyd[2, 2] = _k2
     fu = _np.zeros((3, 1))
     fu[0, 0] = 1
     return fy, fyd, fu
@@ -203,21 +243,22 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
     a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
-    _c0 = (1/2)*b
+    _c0 = a_*a_
+    _k0 = _c0*mb
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _k1 = _c2
     _e0 = _math.cos(phi2)
-    _c1 = _e0
+    _c4 = _e0
     _e1 = _math.sin(phi2)
     _d0 = -_e1
-    _c2 = _c1*a_
+    _c5 = _c1 + _c4*a_
     _d1 = a_*_d0
-    _c3 = _c0 + _c2
-    _c4 = a_*a_
-    _c7 = _e1
+    _c8 = _e1
     _d2 = _e0
-    _d3 = mb*_d1
     dMa = _np.zeros((3, 3))
-    dMa[0, 1] = (_a0*(mb*(2*_c3)))*_d1 + (_a0*((_c4*mb)*(2*_c7)))*_d2 + (_a1*_c0)*_d3
-    dMa[1, 1] = (_a0*_c0)*_d3
+    dMa[0, 1] = (_a0*(mb*(2*_c5)) + _a1*_k1)*_d1 + (_a0*(_k0*(2*_c8)))*_d2
+    dMa[1, 1] = (_a0*_k1)*_d1
     return dMa
 
 

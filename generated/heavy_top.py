@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -38,6 +40,34 @@ BODIES = [
 ]
 
 _P0 = (1.0, 0.1, 0.004, 0.006, 9.81)
+_pack9 = _struct.Struct("9d").pack
+_pack15 = _struct.Struct("15d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -55,26 +85,20 @@ def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = _math.sin(beta)
-    _c1 = _math.cos(beta)
-    _c2 = _c1*_c1
-    _c3 = _math.cos(gamma_)
-    _c4 = _c3*_c3
-    _c5 = _c4*A
-    _c6 = _math.sin(gamma_)
-    _c7 = _c6*_c6
-    _c8 = _c7*A
-    _c9 = m*s*s
-    _c10 = _c4*_c9
-    _c11 = _c7*_c9
-    _c12 = _c0*C_
-    M = _np.empty((3, 3))
-    M[0, 0] = _c10*_c2 + _c11*_c2 + _c2*_c5 + _c2*_c8 + C_*_c0*_c0
-    M[0, 1] = M[1, 0] = 0
-    M[0, 2] = M[2, 0] = _c12
-    M[1, 1] = _c10 + _c11 + _c5 + _c8
-    M[1, 2] = M[2, 1] = 0
-    M[2, 2] = C_
+    _k0 = m*s*s
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c3 = _c2*_c2
+    _c4 = _math.cos(gamma_)
+    _c5 = _c4*_c4
+    _c6 = _c5*A
+    _c7 = _math.sin(gamma_)
+    _c8 = _c7*_c7
+    _c9 = _c8*A
+    _c10 = _c5*_k0
+    _c11 = _c8*_k0
+    _mv2 = _c1*C_
+    M = _np.frombuffer(bytearray(_pack9(_c10*_c3 + _c11*_c3 + _c3*_c6 + _c3*_c9 + C_*_c1*_c1, 0.0, _mv2, 0.0, _c10 + _c11 + _c6 + _c9, 0.0, _mv2, 0.0, C_))).reshape(3, 3)
     return M
 
 
@@ -83,32 +107,36 @@ def force_vector(t, y, yd, p, u=None):
     alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
     d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = _math.sin(beta)
-    _c1 = _math.cos(beta)
-    _c3 = _math.cos(gamma_)
-    _c6 = _math.sin(gamma_)
-    _c12 = _c0*C_
-    _c13 = _c6*d_beta
-    _c14 = _c1*d_alpha
-    _c15 = _c13 + _c14*_c3
-    _c16 = _c0*d_alpha
-    _c17 = _c13*_c16 - _c15*d_gamma
-    _c18 = _c16 + d_gamma
-    _c19 = _c15*_c18
-    _c20 = _c17*A + _c19*A - _c19*C_
-    _c21 = _c1*_c6
-    _c22 = _c3*d_beta - _c14*_c6
-    _c23 = _c22*d_gamma - _c16*_c3*d_beta
-    _c24 = _c18*_c22
-    _c25 = _c23*A + _c24*C_ - _c24*A
-    _c26 = _c1*_c3
-    _c27 = _math.sin(alpha)
-    _c28 = _c0*_math.cos(alpha)
-    _c29 = _c24*s + g_*(_c27*_c3 + _c28*_c6) - _c23*s
-    _c30 = m*s
-    _c31 = _c30*(_c17*s + _c19*s + g_*(_c27*_c6 - _c28*_c3))
-    _c32 = _c14*d_beta
-    f = _np.array((_c20*_c21 + _c21*_c31 - _c12*_c32 - _c25*_c26 + _c26*_c29*_c30, -_c20*_c3 - _c25*_c6 - _c3*_c31 + _c29*_c6*m*s, -_c32*C_), dtype=_np.float64)
+    _k1 = -C_
+    _k2 = -A
+    _k3 = -s
+    _c0 = m*s
+    _k4 = _c0
+    _k5 = -_c0
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c4 = _math.cos(gamma_)
+    _c7 = _math.sin(gamma_)
+    _c12 = _c7*d_beta
+    _c13 = _c2*d_alpha
+    _c14 = _c12 + _c13*_c4
+    _c15 = _c1*d_alpha
+    _c16 = _c12*_c15 - _c14*d_gamma
+    _c17 = _c15 + d_gamma
+    _c18 = _c14*_c17
+    _c19 = _c16*A + _c18*_k1 + _c18*A
+    _c20 = _c2*_c7
+    _c21 = _c4*d_beta - _c13*_c7
+    _c22 = _c21*d_gamma - _c15*_c4*d_beta
+    _c23 = _c17*_c21
+    _c24 = _c22*A + _c23*_k2 + _c23*C_
+    _c25 = _c2*_c4
+    _c26 = _math.sin(alpha)
+    _c27 = _c1*_math.cos(alpha)
+    _c28 = _k4*(_c22*_k3 + _c23*s + g_*(_c26*_c4 + _c27*_c7))
+    _c29 = _c16*s + _c18*s + g_*(_c26*_c7 - _c27*_c4)
+    _c30 = _k1*d_beta
+    f = _np.array((_c19*_c20 + _c25*_c28 - _c24*_c25 + _c15*_c2*_c30 + _c20*_c29*_k4, _c28*_c7 - _c19*_c4 - _c24*_c7 + _c29*_c4*_k5, _c13*_c30), dtype=_np.float64)
     return f
 
 
@@ -117,51 +145,45 @@ def rhs(t, x, p, u=None):
     x = _np.asarray(x, dtype=_np.float64)
     alpha, beta, gamma_, d_alpha, d_beta, d_gamma = x.tolist()
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = _math.sin(beta)
-    _c1 = _math.cos(beta)
-    _c2 = _c1*_c1
-    _c3 = _math.cos(gamma_)
-    _c4 = _c3*_c3
-    _c5 = _c4*A
-    _c6 = _math.sin(gamma_)
-    _c7 = _c6*_c6
-    _c8 = _c7*A
-    _c9 = m*s*s
-    _c10 = _c4*_c9
-    _c11 = _c7*_c9
-    _c12 = _c0*C_
-    _c13 = _c6*d_beta
-    _c14 = _c1*d_alpha
-    _c15 = _c13 + _c14*_c3
-    _c16 = _c0*d_alpha
-    _c17 = _c13*_c16 - _c15*d_gamma
-    _c18 = _c16 + d_gamma
-    _c19 = _c15*_c18
-    _c20 = _c17*A + _c19*A - _c19*C_
-    _c21 = _c1*_c6
-    _c22 = _c3*d_beta - _c14*_c6
-    _c23 = _c22*d_gamma - _c16*_c3*d_beta
-    _c24 = _c18*_c22
-    _c25 = _c23*A + _c24*C_ - _c24*A
-    _c26 = _c1*_c3
-    _c27 = _math.sin(alpha)
-    _c28 = _c0*_math.cos(alpha)
-    _c29 = _c24*s + g_*(_c27*_c3 + _c28*_c6) - _c23*s
-    _c30 = m*s
-    _c31 = _c30*(_c17*s + _c19*s + g_*(_c27*_c6 - _c28*_c3))
-    _c32 = _c14*d_beta
-    M = _np.empty((3, 3))
-    M[0, 0] = _c10*_c2 + _c11*_c2 + _c2*_c5 + _c2*_c8 + C_*_c0*_c0
-    M[0, 1] = M[1, 0] = 0
-    M[0, 2] = M[2, 0] = _c12
-    M[1, 1] = _c10 + _c11 + _c5 + _c8
-    M[1, 2] = M[2, 1] = 0
-    M[2, 2] = C_
-    f = _np.array((_c20*_c21 + _c21*_c31 - _c12*_c32 - _c25*_c26 + _c26*_c29*_c30, -_c20*_c3 - _c25*_c6 - _c3*_c31 + _c29*_c6*m*s, -_c32*C_), dtype=_np.float64)
-    xd = _np.empty(6)
-    xd[:3] = x[3:6]
-    xd[3:] = _np.linalg.solve(M, f)
-    return xd
+    _k0 = m*s*s
+    _k1 = -C_
+    _k2 = -A
+    _k3 = -s
+    _c0 = m*s
+    _k4 = _c0
+    _k5 = -_c0
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c3 = _c2*_c2
+    _c4 = _math.cos(gamma_)
+    _c5 = _c4*_c4
+    _c6 = _c5*A
+    _c7 = _math.sin(gamma_)
+    _c8 = _c7*_c7
+    _c9 = _c8*A
+    _c10 = _c5*_k0
+    _c11 = _c8*_k0
+    _c12 = _c7*d_beta
+    _c13 = _c2*d_alpha
+    _c14 = _c12 + _c13*_c4
+    _c15 = _c1*d_alpha
+    _c16 = _c12*_c15 - _c14*d_gamma
+    _c17 = _c15 + d_gamma
+    _c18 = _c14*_c17
+    _c19 = _c16*A + _c18*_k1 + _c18*A
+    _c20 = _c2*_c7
+    _c21 = _c4*d_beta - _c13*_c7
+    _c22 = _c21*d_gamma - _c15*_c4*d_beta
+    _c23 = _c17*_c21
+    _c24 = _c22*A + _c23*_k2 + _c23*C_
+    _c25 = _c2*_c4
+    _c26 = _math.sin(alpha)
+    _c27 = _c1*_math.cos(alpha)
+    _c28 = _k4*(_c22*_k3 + _c23*s + g_*(_c26*_c4 + _c27*_c7))
+    _c29 = _c16*s + _c18*s + g_*(_c26*_c7 - _c27*_c4)
+    _c30 = _k1*d_beta
+    _mv2 = _c1*C_
+    return _solve_packed(_pack15(d_alpha, d_beta, d_gamma, _c19*_c20 + _c25*_c28 - _c24*_c25 + _c15*_c2*_c30 + _c20*_c29*_k4, _c28*_c7 - _c19*_c4 - _c24*_c7 + _c29*_c4*_k5, _c13*_c30, _c10*_c3 + _c11*_c3 + _c3*_c6 + _c3*_c9 + C_*_c1*_c1, 0.0, _mv2, 0.0, _c10 + _c11 + _c6 + _c9, 0.0, _mv2, 0.0, C_), 3)
 
 
 def force_jacobians(t, y, yd, p, u=None):
@@ -169,135 +191,135 @@ def force_jacobians(t, y, yd, p, u=None):
     alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
     d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _k1 = -C_
+    _k2 = -A
+    _k3 = -s
+    _c0 = m*s
+    _k4 = _c0
+    _k5 = -_c0
     _e0 = _math.sin(beta)
-    _c0 = _e0
+    _c1 = _e0
     _e1 = _math.cos(beta)
     _d0 = _e1
-    _c1 = _e1
+    _c2 = _e1
     _d1 = -_e0
     _e2 = _math.cos(gamma_)
-    _c3 = _e2
+    _c4 = _e2
     _e3 = _math.sin(gamma_)
     _d2 = -_e3
-    _c6 = _e3
+    _c7 = _e3
     _d3 = _e2
-    _c12 = _c0*C_
-    _d4 = C_*_d0
-    _c13 = _c6*d_beta
-    _d5 = d_beta*_d3
-    _c14 = _c1*d_alpha
-    _d6 = d_alpha*_d1
-    _c15 = _c13 + _c14*_c3
-    _d7 = _c3*_d6
-    _d8 = _d5 + _c14*_d2
-    _d9 = _c3*_c1
-    _c16 = _c0*d_alpha
-    _d10 = d_alpha*_d0
-    _c17 = _c13*_c16 - _c15*d_gamma
+    _c12 = _c7*d_beta
+    _d4 = d_beta*_d3
+    _c13 = _c2*d_alpha
+    _d5 = d_alpha*_d1
+    _c14 = _c12 + _c13*_c4
+    _d6 = _c4*_d5
+    _d7 = _d4 + _c13*_d2
+    _d8 = _c4*_c2
+    _c15 = _c1*d_alpha
+    _d9 = d_alpha*_d0
+    _c16 = _c12*_c15 - _c14*d_gamma
     _e4 = -d_gamma
-    _d11 = _e4*_d7 + _c13*_d10
-    _d12 = _c16*_d5 + _e4*_d8
-    _d13 = _e4*_d9 + _c13*_c0
-    _d14 = _c16*_c6 + _e4*_c6
-    _d15 = -_c15
-    _c18 = _c16 + d_gamma
-    _c19 = _c15*_c18
-    _d16 = _c18*_d7 + _c15*_d10
-    _d17 = _c18*_d8
-    _d18 = _c18*_d9 + _c15*_c0
-    _d19 = _c18*_c6
-    _c20 = _c17*A + _c19*A - _c19*C_
-    _e5 = -C_
-    _e6 = A + _e5
-    _d20 = A*_d11 + _e6*_d16
-    _d21 = A*_d12 + _e6*_d17
-    _d22 = A*_d13 + _e6*_d18
-    _d23 = A*_d14 + _e6*_d19
-    _d24 = A*_d15 + _e6*_c15
-    _c21 = _c1*_c6
-    _d25 = _c6*_d1
-    _d26 = _c1*_d3
-    _c22 = _c3*d_beta - _c14*_c6
-    _e7 = -_c6
-    _d27 = _e7*_d6
-    _d28 = d_beta*_d2 + (-_c14)*_d3
-    _d29 = _e7*_c1
-    _c23 = _c22*d_gamma - _c16*_c3*d_beta
-    _e8 = -_c3*d_beta
-    _d30 = _e8*_d10 + d_gamma*_d27
-    _d31 = d_gamma*_d28 + (-_c16*d_beta)*_d2
-    _d32 = _e8*_c0 + d_gamma*_d29
-    _d33 = d_gamma*_c3 - _c16*_c3
-    _c24 = _c18*_c22
-    _d34 = _c22*_d10 + _c18*_d27
-    _d35 = _c18*_d28
-    _d36 = _c22*_c0 + _c18*_d29
-    _d37 = _c18*_c3
-    _c25 = _c23*A + _c24*C_ - _c24*A
-    _e9 = C_ - A
-    _d38 = A*_d30 + _e9*_d34
-    _d39 = A*_d31 + _e9*_d35
-    _d40 = A*_d32 + _e9*_d36
-    _d41 = A*_d33 + _e9*_d37
-    _d42 = A*_c22 + _e9*_c22
-    _c26 = _c1*_c3
-    _d43 = _c3*_d1
-    _d44 = _c1*_d2
-    _e10 = _math.sin(alpha)
-    _c27 = _e10
-    _e11 = _math.cos(alpha)
-    _d45 = _e11
-    _c28 = _c0*_e11
-    _d46 = _c0*(-_e10)
-    _d47 = _e11*_d0
-    _c29 = _c24*s + g_*(_c27*_c3 + _c28*_c6) - _c23*s
-    _e12 = g_*_c6
-    _d48 = (g_*_c3)*_d45 + _e12*_d46
-    _e13 = -s
-    _d49 = _e13*_d30 + s*_d34 + _e12*_d47
-    _e14 = g_*_c27
-    _d50 = _e13*_d31 + s*_d35 + _e14*_d2 + (g_*_c28)*_d3
-    _d51 = _e13*_d32 + s*_d36
-    _d52 = _e13*_d33 + s*_d37
-    _d53 = _e13*_c22 + s*_c22
-    _c30 = m*s
-    _c31 = _c30*(_c17*s + _c19*s + g_*(_c27*_c6 - _c28*_c3))
-    _e15 = -_c3
-    _e16 = _c30*(g_*_e15)
-    _d54 = (_c30*_e12)*_d45 + _e16*_d46
-    _e17 = _c30*s
-    _d55 = _e17*_d11 + _e17*_d16 + _e16*_d47
-    _d56 = _e17*_d12 + _e17*_d17 + (_c30*(g_*(-_c28)))*_d2 + (_c30*_e14)*_d3
-    _d57 = _e17*_d13 + _e17*_d18
-    _d58 = _e17*_d14 + _e17*_d19
-    _d59 = _e17*_d15 + _e17*_c15
-    _c32 = _c14*d_beta
-    _d60 = d_beta*_d6
-    _d61 = d_beta*_c1
-    _e18 = _c26*_c30
-    _e19 = _c20 + _c31
-    _e20 = -_c26
+    _d10 = _e4*_d6 + _c12*_d9
+    _d11 = _c15*_d4 + _e4*_d7
+    _d12 = _e4*_d8 + _c12*_c1
+    _d13 = _c15*_c7 + _e4*_c7
+    _d14 = -_c14
+    _c17 = _c15 + d_gamma
+    _c18 = _c14*_c17
+    _d15 = _c17*_d6 + _c14*_d9
+    _d16 = _c17*_d7
+    _d17 = _c17*_d8 + _c14*_c1
+    _d18 = _c17*_c7
+    _c19 = _c16*A + _c18*_k1 + _c18*A
+    _e5 = _k1 + A
+    _d19 = A*_d10 + _e5*_d15
+    _d20 = A*_d11 + _e5*_d16
+    _d21 = A*_d12 + _e5*_d17
+    _d22 = A*_d13 + _e5*_d18
+    _d23 = A*_d14 + _e5*_c14
+    _c20 = _c2*_c7
+    _d24 = _c7*_d1
+    _d25 = _c2*_d3
+    _c21 = _c4*d_beta - _c13*_c7
+    _e6 = -_c7
+    _d26 = _e6*_d5
+    _d27 = d_beta*_d2 + (-_c13)*_d3
+    _d28 = _e6*_c2
+    _c22 = _c21*d_gamma - _c15*_c4*d_beta
+    _e7 = -_c4*d_beta
+    _d29 = _e7*_d9 + d_gamma*_d26
+    _d30 = d_gamma*_d27 + (-_c15*d_beta)*_d2
+    _d31 = _e7*_c1 + d_gamma*_d28
+    _d32 = d_gamma*_c4 - _c15*_c4
+    _c23 = _c17*_c21
+    _d33 = _c21*_d9 + _c17*_d26
+    _d34 = _c17*_d27
+    _d35 = _c21*_c1 + _c17*_d28
+    _d36 = _c17*_c4
+    _c24 = _c22*A + _c23*_k2 + _c23*C_
+    _e8 = _k2 + C_
+    _d37 = A*_d29 + _e8*_d33
+    _d38 = A*_d30 + _e8*_d34
+    _d39 = A*_d31 + _e8*_d35
+    _d40 = A*_d32 + _e8*_d36
+    _d41 = A*_c21 + _e8*_c21
+    _c25 = _c2*_c4
+    _d42 = _c4*_d1
+    _d43 = _c2*_d2
+    _e9 = _math.sin(alpha)
+    _c26 = _e9
+    _e10 = _math.cos(alpha)
+    _d44 = _e10
+    _c27 = _c1*_e10
+    _d45 = _c1*(-_e9)
+    _d46 = _e10*_d0
+    _c28 = _k4*(_c22*_k3 + _c23*s + g_*(_c26*_c4 + _c27*_c7))
+    _e11 = g_*_c7
+    _e12 = _k4*_e11
+    _d47 = (_k4*(g_*_c4))*_d44 + _e12*_d45
+    _e13 = _k4*_k3
+    _e14 = _k4*s
+    _d48 = _e13*_d29 + _e14*_d33 + _e12*_d46
+    _e15 = g_*_c26
+    _d49 = _e13*_d30 + _e14*_d34 + (_k4*_e15)*_d2 + (_k4*(g_*_c27))*_d3
+    _d50 = _e13*_d31 + _e14*_d35
+    _d51 = _e13*_d32 + _e14*_d36
+    _d52 = _e13*_c21 + _e14*_c21
+    _c29 = _c16*s + _c18*s + g_*(_c26*_c7 - _c27*_c4)
+    _e16 = -_c4
+    _e17 = g_*_e16
+    _d53 = _e11*_d44 + _e17*_d45
+    _d54 = s*_d10 + s*_d15 + _e17*_d46
+    _d55 = s*_d11 + s*_d16 + (g_*(-_c27))*_d2 + _e15*_d3
+    _d56 = s*_d12 + s*_d17
+    _d57 = s*_d13 + s*_d18
+    _d58 = s*_d14 + s*_c14
+    _c30 = _k1*d_beta
+    _e18 = _c20*_k4
+    _e19 = _c2*_c30
+    _e20 = _c19 + _c29*_k4
     _e21 = -_c25
-    _e22 = _e21 + _c29*_c30
-    _e23 = -_c12
-    _e24 = _c6*m*s
+    _e22 = _c28 - _c24
+    _e23 = _c4*_k5
     fy = _np.zeros((3, 3))
-    fy[0, 0] = _e18*_d48 + _c21*_d54
-    fy[0, 1] = (-_c32)*_d4 + _c21*_d20 + _e19*_d25 + _e20*_d38 + _e22*_d43 + _e18*_d49 + _c21*_d55 + _e23*_d60
-    fy[0, 2] = _c21*_d21 + _e19*_d26 + _e20*_d39 + _e22*_d44 + _e18*_d50 + _c21*_d56
-    fy[1, 0] = _e24*_d48 + _e15*_d54
-    fy[1, 1] = _e15*_d20 + _e7*_d38 + _e24*_d49 + _e15*_d55
-    fy[1, 2] = _e15*_d21 + _e7*_d39 + _e24*_d50 + (-_c20 - _c31)*_d2 + _e15*_d56 + (_e21 + _c29*m*s)*_d3
-    fy[2, 1] = _e5*_d60
+    fy[0, 0] = _c25*_d47 + _e18*_d53
+    fy[0, 1] = _e19*_d9 + _c20*_d19 + (_c15*_c30)*_d1 + _e20*_d24 + _e21*_d37 + _e22*_d42 + _c25*_d48 + _e18*_d54
+    fy[0, 2] = _c20*_d20 + _e20*_d25 + _e21*_d38 + _e22*_d43 + _c25*_d49 + _e18*_d55
+    fy[1, 0] = _c7*_d47 + _e23*_d53
+    fy[1, 1] = _e16*_d19 + _e6*_d37 + _c7*_d48 + _e23*_d54
+    fy[1, 2] = _e16*_d20 + _e6*_d38 + _c7*_d49 + _e23*_d55 + (-_c19 + _c29*_k5)*_d2 + _e22*_d3
+    fy[2, 1] = _c30*_d5
     fyd = _np.zeros((3, 3))
-    fyd[0, 0] = _c21*_d22 + _e20*_d40 + _e18*_d51 + _c21*_d57 + _e23*_d61
-    fyd[0, 1] = _c21*_d23 + _e20*_d41 + _e18*_d52 + _c21*_d58 + _e23*_c14
-    fyd[0, 2] = _c21*_d24 + _e20*_d42 + _e18*_d53 + _c21*_d59
-    fyd[1, 0] = _e15*_d22 + _e7*_d40 + _e24*_d51 + _e15*_d57
-    fyd[1, 1] = _e15*_d23 + _e7*_d41 + _e24*_d52 + _e15*_d58
-    fyd[1, 2] = _e15*_d24 + _e7*_d42 + _e24*_d53 + _e15*_d59
-    fyd[2, 0] = _e5*_d61
-    fyd[2, 1] = _e5*_c14
+    fyd[0, 0] = _e19*_c1 + _c20*_d21 + _e21*_d39 + _c25*_d50 + _e18*_d56
+    fyd[0, 1] = _c20*_d22 + _e21*_d40 + _c25*_d51 + _e18*_d57 + (_c15*_c2)*_k1
+    fyd[0, 2] = _c20*_d23 + _e21*_d41 + _c25*_d52 + _e18*_d58
+    fyd[1, 0] = _e16*_d21 + _e6*_d39 + _c7*_d50 + _e23*_d56
+    fyd[1, 1] = _e16*_d22 + _e6*_d40 + _c7*_d51 + _e23*_d57
+    fyd[1, 2] = _e16*_d23 + _e6*_d41 + _c7*_d52 + _e23*_d58
+    fyd[2, 0] = _c30*_c2
+    fyd[2, 1] = _c13*_k1
     fu = _np.empty((3, 0))
     return fy, fyd, fu
 
@@ -307,40 +329,39 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _k0 = m*s*s
     _e0 = _math.sin(beta)
-    _c0 = _e0
+    _c1 = _e0
     _e1 = _math.cos(beta)
     _d0 = _e1
-    _c1 = _e1
+    _c2 = _e1
     _d1 = -_e0
-    _c2 = _c1*_c1
-    _d2 = (2*_c1)*_d1
+    _c3 = _c2*_c2
+    _d2 = (2*_c2)*_d1
     _e2 = _math.cos(gamma_)
-    _c3 = _e2
+    _c4 = _e2
     _e3 = _math.sin(gamma_)
     _d3 = -_e3
-    _c4 = _c3*_c3
-    _d4 = (2*_c3)*_d3
-    _c5 = _c4*A
+    _c5 = _c4*_c4
+    _d4 = (2*_c4)*_d3
+    _c6 = _c5*A
     _d5 = A*_d4
-    _c6 = _e3
+    _c7 = _e3
     _d6 = _e2
-    _c7 = _c6*_c6
-    _d7 = (2*_c6)*_d6
-    _c8 = _c7*A
+    _c8 = _c7*_c7
+    _d7 = (2*_c7)*_d6
+    _c9 = _c8*A
     _d8 = A*_d7
-    _c9 = m*s*s
-    _c10 = _c4*_c9
-    _d9 = _c9*_d4
-    _c11 = _c7*_c9
-    _d10 = _c9*_d7
-    _d11 = C_*_d0
-    _e4 = _a0*_c2
+    _c10 = _c5*_k0
+    _d9 = _k0*_d4
+    _c11 = _c8*_k0
+    _d10 = _k0*_d7
+    _e4 = _a0*_c3
     dMa = _np.zeros((3, 3))
-    dMa[0, 1] = (_a0*(C_*(2*_c0)))*_d0 + _a2*_d11 + (_a0*(_c10 + _c11 + _c5 + _c8))*_d2
+    dMa[0, 1] = (_a0*(C_*(2*_c1)) + C_*_a2)*_d0 + (_a0*(_c10 + _c11 + _c6 + _c9))*_d2
     dMa[0, 2] = _e4*_d9 + _e4*_d10 + _e4*_d5 + _e4*_d8
     dMa[1, 2] = _a1*_d9 + _a1*_d10 + _a1*_d5 + _a1*_d8
-    dMa[2, 1] = _a0*_d11
+    dMa[2, 1] = (C_*_a0)*_d0
     return dMa
 
 

@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -58,6 +60,34 @@ BODIES = [
 ]
 
 _P0 = (5.95e-06, 3.48e-05, 3.37e-05, 2.12e-06, 162.0, 36933.0, 893.0, 11410.0, 129.0, 12581.0, 764.0, 6.07e-05, 0.00699058166509, 0.0270690086123, -0.0186792537624, 0.00326659923282, 0.157854873573, -0.0705036789215, -0.00675644379411, 0.231316013035, -0.040244660738, 0.0527597589085)
+_pack16 = _struct.Struct("16d").pack
+_pack24 = _struct.Struct("24d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -74,17 +104,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     m_tm, m_malleus, m_incus, m_stapes, k_tm_annulus, k_tm_manubrium, k_malleus_ligaments, k_incudomalleolar_joint, k_incus_ligament, k_incudostapedial_joint, k_annular_ligament, A_tm, c_00, c_01, c_02, c_03, c_11, c_12, c_13, c_22, c_23, c_33 = _np.asarray(p, dtype=_np.float64).tolist()
-    M = _np.empty((4, 4))
-    M[0, 0] = m_tm
-    M[0, 1] = M[1, 0] = 0
-    M[0, 2] = M[2, 0] = 0
-    M[0, 3] = M[3, 0] = 0
-    M[1, 1] = m_malleus
-    M[1, 2] = M[2, 1] = 0
-    M[1, 3] = M[3, 1] = 0
-    M[2, 2] = m_incus
-    M[2, 3] = M[3, 2] = 0
-    M[3, 3] = m_stapes
+    M = _np.frombuffer(bytearray(_pack16(m_tm, 0.0, 0.0, 0.0, 0.0, m_malleus, 0.0, 0.0, 0.0, 0.0, m_incus, 0.0, 0.0, 0.0, 0.0, m_stapes))).reshape(4, 4)
     return M
 
 
@@ -96,10 +116,27 @@ def force_vector(t, y, yd, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     p_ec, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = k_tm_manubrium*(x_malleus - x_tm)
-    _c1 = k_incudomalleolar_joint*(x_incus - x_malleus)
-    _c2 = k_incudostapedial_joint*(x_stapes - x_incus)
-    f = _np.array((_c0 + A_tm*p_ec - c_00*d_x_tm - c_01*d_x_malleus - c_02*d_x_incus - c_03*d_x_stapes - k_tm_annulus*x_tm, _c1 - _c0 - c_01*d_x_tm - c_11*d_x_malleus - c_12*d_x_incus - c_13*d_x_stapes - k_malleus_ligaments*x_malleus, _c2 - _c1 - c_02*d_x_tm - c_12*d_x_malleus - c_22*d_x_incus - c_23*d_x_stapes - k_incus_ligament*x_incus, -_c2 - c_03*d_x_tm - c_13*d_x_malleus - c_23*d_x_incus - c_33*d_x_stapes - k_annular_ligament*x_stapes), dtype=_np.float64)
+    _k0 = -c_00
+    _k1 = -c_01
+    _k2 = -c_02
+    _k3 = -c_03
+    _k4 = -k_tm_annulus
+    _k5 = -c_11
+    _k6 = -c_12
+    _k7 = -c_13
+    _k8 = -k_malleus_ligaments
+    _k9 = -k_tm_manubrium
+    _k10 = -c_22
+    _k11 = -c_23
+    _k12 = -k_incudomalleolar_joint
+    _k13 = -k_incus_ligament
+    _k14 = -c_33
+    _k15 = -k_annular_ligament
+    _k16 = -k_incudostapedial_joint
+    _c0 = x_malleus - x_tm
+    _c1 = x_incus - x_malleus
+    _c2 = x_stapes - x_incus
+    f = _np.array((_c0*k_tm_manubrium + _k0*d_x_tm + _k1*d_x_malleus + _k2*d_x_incus + _k3*d_x_stapes + _k4*x_tm + A_tm*p_ec, _c0*_k9 + _c1*k_incudomalleolar_joint + _k1*d_x_tm + _k5*d_x_malleus + _k6*d_x_incus + _k7*d_x_stapes + _k8*x_malleus, _c1*_k12 + _c2*k_incudostapedial_joint + _k10*d_x_incus + _k11*d_x_stapes + _k13*x_incus + _k2*d_x_tm + _k6*d_x_malleus, _c2*_k16 + _k11*d_x_incus + _k14*d_x_stapes + _k15*x_stapes + _k3*d_x_tm + _k7*d_x_malleus), dtype=_np.float64)
     return f
 
 
@@ -111,67 +148,77 @@ def rhs(t, x, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     p_ec, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = k_tm_manubrium*(x_malleus - x_tm)
-    _c1 = k_incudomalleolar_joint*(x_incus - x_malleus)
-    _c2 = k_incudostapedial_joint*(x_stapes - x_incus)
-    M = _np.empty((4, 4))
-    M[0, 0] = m_tm
-    M[0, 1] = M[1, 0] = 0
-    M[0, 2] = M[2, 0] = 0
-    M[0, 3] = M[3, 0] = 0
-    M[1, 1] = m_malleus
-    M[1, 2] = M[2, 1] = 0
-    M[1, 3] = M[3, 1] = 0
-    M[2, 2] = m_incus
-    M[2, 3] = M[3, 2] = 0
-    M[3, 3] = m_stapes
-    f = _np.array((_c0 + A_tm*p_ec - c_00*d_x_tm - c_01*d_x_malleus - c_02*d_x_incus - c_03*d_x_stapes - k_tm_annulus*x_tm, _c1 - _c0 - c_01*d_x_tm - c_11*d_x_malleus - c_12*d_x_incus - c_13*d_x_stapes - k_malleus_ligaments*x_malleus, _c2 - _c1 - c_02*d_x_tm - c_12*d_x_malleus - c_22*d_x_incus - c_23*d_x_stapes - k_incus_ligament*x_incus, -_c2 - c_03*d_x_tm - c_13*d_x_malleus - c_23*d_x_incus - c_33*d_x_stapes - k_annular_ligament*x_stapes), dtype=_np.float64)
-    xd = _np.empty(8)
-    xd[:4] = x[4:8]
-    xd[4:] = _np.linalg.solve(M, f)
-    return xd
+    _k0 = -c_00
+    _k1 = -c_01
+    _k2 = -c_02
+    _k3 = -c_03
+    _k4 = -k_tm_annulus
+    _k5 = -c_11
+    _k6 = -c_12
+    _k7 = -c_13
+    _k8 = -k_malleus_ligaments
+    _k9 = -k_tm_manubrium
+    _k10 = -c_22
+    _k11 = -c_23
+    _k12 = -k_incudomalleolar_joint
+    _k13 = -k_incus_ligament
+    _k14 = -c_33
+    _k15 = -k_annular_ligament
+    _k16 = -k_incudostapedial_joint
+    _c0 = x_malleus - x_tm
+    _c1 = x_incus - x_malleus
+    _c2 = x_stapes - x_incus
+    return _solve_packed(_pack24(d_x_tm, d_x_malleus, d_x_incus, d_x_stapes, _c0*k_tm_manubrium + _k0*d_x_tm + _k1*d_x_malleus + _k2*d_x_incus + _k3*d_x_stapes + _k4*x_tm + A_tm*p_ec, _c0*_k9 + _c1*k_incudomalleolar_joint + _k1*d_x_tm + _k5*d_x_malleus + _k6*d_x_incus + _k7*d_x_stapes + _k8*x_malleus, _c1*_k12 + _c2*k_incudostapedial_joint + _k10*d_x_incus + _k11*d_x_stapes + _k13*x_incus + _k2*d_x_tm + _k6*d_x_malleus, _c2*_k16 + _k11*d_x_incus + _k14*d_x_stapes + _k15*x_stapes + _k3*d_x_tm + _k7*d_x_malleus, m_tm, 0.0, 0.0, 0.0, 0.0, m_malleus, 0.0, 0.0, 0.0, 0.0, m_incus, 0.0, 0.0, 0.0, 0.0, m_stapes), 4)
 
 
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     m_tm, m_malleus, m_incus, m_stapes, k_tm_annulus, k_tm_manubrium, k_malleus_ligaments, k_incudomalleolar_joint, k_incus_ligament, k_incudostapedial_joint, k_annular_ligament, A_tm, c_00, c_01, c_02, c_03, c_11, c_12, c_13, c_22, c_23, c_33 = _np.asarray(p, dtype=_np.float64).tolist()
-    _d0 = k_tm_manubrium*-1
-    _d1 = k_incudomalleolar_joint*-1
-    _d2 = k_incudostapedial_joint*-1
-    _e0 = -c_01
-    _e1 = -c_02
-    _e2 = -c_03
-    _e3 = -c_12
-    _e4 = -c_13
-    _e5 = -c_23
+    _k0 = -c_00
+    _k1 = -c_01
+    _k2 = -c_02
+    _k3 = -c_03
+    _k4 = -k_tm_annulus
+    _k5 = -c_11
+    _k6 = -c_12
+    _k7 = -c_13
+    _k8 = -k_malleus_ligaments
+    _k9 = -k_tm_manubrium
+    _k10 = -c_22
+    _k11 = -c_23
+    _k12 = -k_incudomalleolar_joint
+    _k13 = -k_incus_ligament
+    _k14 = -c_33
+    _k15 = -k_annular_ligament
+    _k16 = -k_incudostapedial_joint
     fy = _np.zeros((4, 4))
-    fy[0, 0] = _d0 - k_tm_annulus
+    fy[0, 0] = k_tm_manubrium*-1 + _k4
     fy[0, 1] = k_tm_manubrium
-    fy[1, 0] = -_d0
-    fy[1, 1] = -k_tm_manubrium + _d1 - k_malleus_ligaments
+    fy[1, 0] = _k9*-1
+    fy[1, 1] = _k9 + k_incudomalleolar_joint*-1 + _k8
     fy[1, 2] = k_incudomalleolar_joint
-    fy[2, 1] = -_d1
-    fy[2, 2] = -k_incudomalleolar_joint + _d2 - k_incus_ligament
+    fy[2, 1] = _k12*-1
+    fy[2, 2] = _k12 + k_incudostapedial_joint*-1 + _k13
     fy[2, 3] = k_incudostapedial_joint
-    fy[3, 2] = -_d2
-    fy[3, 3] = -k_incudostapedial_joint - k_annular_ligament
+    fy[3, 2] = _k16*-1
+    fy[3, 3] = _k16 + _k15
     fyd = _np.empty((4, 4))
-    fyd[0, 0] = -c_00
-    fyd[0, 1] = _e0
-    fyd[0, 2] = _e1
-    fyd[0, 3] = _e2
-    fyd[1, 0] = _e0
-    fyd[1, 1] = -c_11
-    fyd[1, 2] = _e3
-    fyd[1, 3] = _e4
-    fyd[2, 0] = _e1
-    fyd[2, 1] = _e3
-    fyd[2, 2] = -c_22
-    fyd[2, 3] = _e5
-    fyd[3, 0] = _e2
-    fyd[3, 1] = _e4
-    fyd[3, 2] = _e5
-    fyd[3, 3] = -c_33
+    fyd[0, 0] = _k0
+    fyd[0, 1] = _k1
+    fyd[0, 2] = _k2
+    fyd[0, 3] = _k3
+    fyd[1, 0] = _k1
+    fyd[1, 1] = _k5
+    fyd[1, 2] = _k6
+    fyd[1, 3] = _k7
+    fyd[2, 0] = _k2
+    fyd[2, 1] = _k6
+    fyd[2, 2] = _k10
+    fyd[2, 3] = _k11
+    fyd[3, 0] = _k3
+    fyd[3, 1] = _k7
+    fyd[3, 2] = _k11
+    fyd[3, 3] = _k14
     fu = _np.zeros((4, 1))
     fu[0, 0] = A_tm
     return fy, fyd, fu

@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -36,6 +38,34 @@ BODIES = [
 ]
 
 _P0 = (1.0, 0.5, 9.81)
+_pack1 = _struct.Struct("1d").pack
+_pack3 = _struct.Struct("3d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -52,8 +82,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    M = _np.empty((1, 1))
-    M[0, 0] = m*l*l
+    M = _np.frombuffer(bytearray(_pack1(m*l*l))).reshape(1, 1)
     return M
 
 
@@ -61,7 +90,8 @@ def force_vector(t, y, yd, p, u=None):
     """Generalized forces ``q − k``, shape (n,)."""
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    f = _np.array((-g_*l*m*_math.sin(phi),), dtype=_np.float64)
+    _k0 = -g_*l*m
+    f = _np.array((_k0*_math.sin(phi),), dtype=_np.float64)
     return f
 
 
@@ -70,21 +100,17 @@ def rhs(t, x, p, u=None):
     x = _np.asarray(x, dtype=_np.float64)
     phi, d_phi = x.tolist()
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    M = _np.empty((1, 1))
-    M[0, 0] = m*l*l
-    f = _np.array((-g_*l*m*_math.sin(phi),), dtype=_np.float64)
-    xd = _np.empty(2)
-    xd[:1] = x[1:2]
-    xd[1:] = _np.linalg.solve(M, f)
-    return xd
+    _k0 = -g_*l*m
+    return _solve_packed(_pack3(d_phi, _k0*_math.sin(phi), m*l*l), 1)
 
 
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi, = _np.asarray(y, dtype=_np.float64).tolist()
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _k0 = -g_*l*m
     fy = _np.empty((1, 1))
-    fy[0, 0] = (-g_*l*m)*_math.cos(phi)
+    fy[0, 0] = _k0*_math.cos(phi)
     fyd = _np.zeros((1, 1))
     fu = _np.empty((1, 0))
     return fy, fyd, fu

@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -46,6 +48,34 @@ BODIES = [
 ]
 
 _P0 = (250.0, 35.0, 16000.0, 1000.0, 160000.0, 50.0, 0.4, 0.3, 0.01, 15.0, 5.0, 9.81)
+_pack4 = _struct.Struct("4d").pack
+_pack8 = _struct.Struct("8d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -66,10 +96,7 @@ def default_inputs(t, p):
 def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    M = _np.empty((2, 2))
-    M[0, 0] = mw
-    M[0, 1] = M[1, 0] = 0
-    M[1, 1] = mb
+    M = _np.frombuffer(bytearray(_pack4(mw, 0.0, 0.0, mb))).reshape(2, 2)
     return M
 
 
@@ -81,16 +108,20 @@ def force_vector(t, y, yd, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _k0 = -ct
+    _k1 = -kt
+    _k2 = -cs
+    _k3 = -ks
     _c0 = -zw
     _c1 = _c0 + zb
     _c2 = abs(_c1)
     _c3 = _c1/_c2
-    _c4 = _c3*(-cs*(_c3*d_zb - _c3*d_zw) - ks*(_c2 - ls))
+    _c4 = _c3*(_k2*(_c3*d_zb - _c3*d_zw) + _k3*(_c2 - ls))
     _c5 = _c0 + zr
     _c6 = abs(_c5)
     _c7 = 1/_c6
     _c8 = -_c5
-    f = _np.array((-_c4 - g_*mw + _c7*_c8*(-ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)), _c4 - g_*mb), dtype=_np.float64)
+    f = _np.array((-_c4 - g_*mw + _c7*_c8*(_k0*(_c7*_c8*d_zw - _c7*_c8*d_zr) + _k1*(_c6 - lt)), _c4 - g_*mb), dtype=_np.float64)
     return f
 
 
@@ -102,24 +133,20 @@ def rhs(t, x, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _k0 = -ct
+    _k1 = -kt
+    _k2 = -cs
+    _k3 = -ks
     _c0 = -zw
     _c1 = _c0 + zb
     _c2 = abs(_c1)
     _c3 = _c1/_c2
-    _c4 = _c3*(-cs*(_c3*d_zb - _c3*d_zw) - ks*(_c2 - ls))
+    _c4 = _c3*(_k2*(_c3*d_zb - _c3*d_zw) + _k3*(_c2 - ls))
     _c5 = _c0 + zr
     _c6 = abs(_c5)
     _c7 = 1/_c6
     _c8 = -_c5
-    M = _np.empty((2, 2))
-    M[0, 0] = mw
-    M[0, 1] = M[1, 0] = 0
-    M[1, 1] = mb
-    f = _np.array((-_c4 - g_*mw + _c7*_c8*(-ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)), _c4 - g_*mb), dtype=_np.float64)
-    xd = _np.empty(4)
-    xd[:2] = x[2:4]
-    xd[2:] = _np.linalg.solve(M, f)
-    return xd
+    return _solve_packed(_pack8(d_zw, d_zb, -_c4 - g_*mw + _c7*_c8*(_k0*(_c7*_c8*d_zw - _c7*_c8*d_zr) + _k1*(_c6 - lt)), _c4 - g_*mb, mw, 0.0, 0.0, mb), 2)
 
 
 def force_jacobians(t, y, yd, p, u=None):
@@ -130,6 +157,10 @@ def force_jacobians(t, y, yd, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _k0 = -ct
+    _k1 = -kt
+    _k2 = -cs
+    _k3 = -ks
     _c0 = -zw
     _c1 = _c0 + zb
     _c2 = abs(_c1)
@@ -141,43 +172,41 @@ def force_jacobians(t, y, yd, p, u=None):
     _e2 = _c1*(-1/(_c2*_c2))
     _d2 = _e1*-1 + _e2*_d0
     _d3 = _e1 + _e2*_d1
-    _e3 = _c3*(-ks)
-    _e4 = -cs
-    _e5 = -cs*(_c3*d_zb - _c3*d_zw) - ks*(_c2 - ls) + _c3*(_e4*(d_zb - d_zw))
-    _d4 = _e3*_d0 + _e5*_d2
-    _d5 = _e3*_d1 + _e5*_d3
-    _d6 = _c3*(_e4*(-_c3))
-    _d7 = _c3*(_e4*_c3)
+    _e3 = _c3*_k3
+    _e4 = _k2*(_c3*d_zb - _c3*d_zw) + _k3*(_c2 - ls) + _c3*(_k2*(d_zb - d_zw))
+    _d4 = _e3*_d0 + _e4*_d2
+    _d5 = _e3*_d1 + _e4*_d3
+    _d6 = _c3*(_k2*(-_c3))
+    _d7 = _c3*(_k2*_c3)
     _c5 = _c0 + zr
     _c6 = abs(_c5)
-    _e6 = ((0.0 if _c5 == 0 else _math.copysign(1, _c5)))
-    _d8 = _e6*-1
-    _d9 = _e6
+    _e5 = ((0.0 if _c5 == 0 else _math.copysign(1, _c5)))
+    _d8 = _e5*-1
+    _d9 = _e5
     _c7 = 1/_c6
-    _e7 = -1/(_c6*_c6)
-    _d10 = _e7*_d8
-    _d11 = _e7*_d9
+    _e6 = -1/(_c6*_c6)
+    _d10 = _e6*_d8
+    _d11 = _e6*_d9
     _c8 = -_c5
     _d12 = --1
-    _e8 = _c7*_c8
-    _e9 = _e8*(-kt)
-    _e10 = -ct*(_c7*_c8*d_zw - _c7*_c8*d_zr) - kt*(_c6 - lt)
-    _e11 = -ct
-    _e12 = _c8*_e10 + _e8*(_e11*(_c8*d_zw - _c8*d_zr))
-    _e13 = _c7*_e10 + _e8*(_e11*(_c7*d_zw - _c7*d_zr))
+    _e7 = _c7*_c8
+    _e8 = _e7*_k1
+    _e9 = _k0*(_c7*_c8*d_zw - _c7*_c8*d_zr) + _k1*(_c6 - lt)
+    _e10 = _c8*_e9 + _e7*(_k0*(_c8*d_zw - _c8*d_zr))
+    _e11 = _c7*_e9 + _e7*(_k0*(_c7*d_zw - _c7*d_zr))
     fy = _np.empty((2, 2))
-    fy[0, 0] = -_d4 + _e9*_d8 + _e12*_d10 + _e13*_d12
+    fy[0, 0] = -_d4 + _e8*_d8 + _e10*_d10 + _e11*_d12
     fy[0, 1] = -_d5
     fy[1, 0] = _d4
     fy[1, 1] = _d5
     fyd = _np.empty((2, 2))
-    fyd[0, 0] = -_d6 + _e8*(_e11*_e8)
+    fyd[0, 0] = -_d6 + _e7*(_k0*_e7)
     fyd[0, 1] = -_d7
     fyd[1, 0] = _d6
     fyd[1, 1] = _d7
     fu = _np.zeros((2, 3))
-    fu[0, 0] = _e9*_d9 + _e12*_d11 + _e13*-1
-    fu[0, 1] = _e8*(_e11*(-_c7*_c8))
+    fu[0, 0] = _e8*_d9 + _e10*_d11 + _e11*-1
+    fu[0, 1] = _e7*(_k0*(-_c7*_c8))
     return fy, fyd, fu
 
 

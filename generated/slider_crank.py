@@ -2,10 +2,12 @@
 
 Implements the generated-module protocol (version 1, docs/generated-module-protocol.md).
 State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered
-as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.
+as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses
+SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.
 """
 
 import math as _math
+import struct as _struct
 
 import numpy as _np
 
@@ -45,6 +47,34 @@ BODIES = [
 ]
 
 _P0 = (0.1, 0.3, 1.0, 0.5, 0.8, 200.0, 0.35, 0.5, 0.002, 9.81)
+_pack25 = _struct.Struct("25d").pack
+_pack35 = _struct.Struct("35d").pack
+
+
+_dgesv = _dposv = None
+
+
+def _load_lapack():
+    """SciPy's ``dgesv``/``dposv`` (the small dense solve without numpy.linalg's
+    overhead), or ``False`` without SciPy (then numpy.linalg.solve)."""
+    global _dgesv, _dposv
+    try:
+        from scipy.linalg.lapack import dgesv as _dgesv, dposv as _dposv
+    except ImportError:  # NumPy only
+        _dgesv = _dposv = False
+
+
+def _solve_packed(b, n):
+    """``[ẏ, M⁻¹ f]`` from the float64 bytes ``b`` of (ẏ, f, M column by column)."""
+    if _dposv is None:
+        _load_lapack()
+    if _dposv:
+        a = _np.frombuffer(bytearray(b))
+        r = _dposv(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n], overwrite_a=1, overwrite_b=1)
+        if r[-1] == 0:
+            return a[:2 * n]
+    a = _np.frombuffer(b)
+    return _np.concatenate((a[:n], _np.linalg.solve(a[2 * n:].reshape(n, n, order='F'), a[n:2 * n])))
 
 
 def default_parameters():
@@ -62,25 +92,10 @@ def mass_matrix(t, y, p, u=None):
     """Mass matrix ``M(y, t)``, shape (n, n)."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
     r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
-    _c0 = mr*_math.cos(theta)**2
-    _c1 = mr*_math.sin(theta)**2
-    _c2 = _c0 + _c1
-    M = _np.empty((5, 5))
-    M[0, 0] = (1/3)*mc*r*r
-    M[0, 1] = M[1, 0] = 0
-    M[0, 2] = M[2, 0] = 0
-    M[0, 3] = M[3, 0] = 0
-    M[0, 4] = M[4, 0] = 0
-    M[1, 1] = _c2
-    M[1, 2] = M[2, 1] = 0
-    M[1, 3] = M[3, 1] = 0
-    M[1, 4] = M[4, 1] = 0
-    M[2, 2] = _c2
-    M[2, 3] = M[3, 2] = 0
-    M[2, 4] = M[4, 2] = 0
-    M[3, 3] = (1/12)*mr*l*l
-    M[3, 4] = M[4, 3] = 0
-    M[4, 4] = ms
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    _c2 = _c0*mr + _c1*mr
+    M = _np.frombuffer(bytearray(_pack25((1/3)*mc*r*r, 0.0, 0.0, 0.0, 0.0, 0.0, _c2, 0.0, 0.0, 0.0, 0.0, 0.0, _c2, 0.0, 0.0, 0.0, 0.0, 0.0, (1/12)*mr*l*l, 0.0, 0.0, 0.0, 0.0, 0.0, ms))).reshape(5, 5)
     return M
 
 
@@ -92,9 +107,14 @@ def force_vector(t, y, yd, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     T, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = mr*_math.cos(theta)**2
-    _c1 = mr*_math.sin(theta)**2
-    f = _np.array((T - cc*d_phi - (1/2)*g_*mc*r*_math.cos(phi), 0, -_c0*g_ - _c1*g_, 0, -d_s*ds - ks*(s - s0)), dtype=_np.float64)
+    _k0 = -cc
+    _k1 = -(1/2)*g_*mc*r
+    _k2 = -g_*mr
+    _k3 = -ds
+    _k4 = -ks
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    f = _np.array((T + _k0*d_phi + _k1*_math.cos(phi), 0, _c0*_k2 + _c1*_k2, 0, _k3*d_s + _k4*(s - s0)), dtype=_np.float64)
     return f
 
 
@@ -106,48 +126,37 @@ def rhs(t, x, p, u=None):
     if u is None:
         u = default_inputs(t, p)
     T, = _np.asarray(u, dtype=_np.float64).tolist()
-    _c0 = mr*_math.cos(theta)**2
-    _c1 = mr*_math.sin(theta)**2
-    _c2 = _c0 + _c1
-    M = _np.empty((5, 5))
-    M[0, 0] = (1/3)*mc*r*r
-    M[0, 1] = M[1, 0] = 0
-    M[0, 2] = M[2, 0] = 0
-    M[0, 3] = M[3, 0] = 0
-    M[0, 4] = M[4, 0] = 0
-    M[1, 1] = _c2
-    M[1, 2] = M[2, 1] = 0
-    M[1, 3] = M[3, 1] = 0
-    M[1, 4] = M[4, 1] = 0
-    M[2, 2] = _c2
-    M[2, 3] = M[3, 2] = 0
-    M[2, 4] = M[4, 2] = 0
-    M[3, 3] = (1/12)*mr*l*l
-    M[3, 4] = M[4, 3] = 0
-    M[4, 4] = ms
-    f = _np.array((T - cc*d_phi - (1/2)*g_*mc*r*_math.cos(phi), 0, -_c0*g_ - _c1*g_, 0, -d_s*ds - ks*(s - s0)), dtype=_np.float64)
-    xd = _np.empty(10)
-    xd[:5] = x[5:10]
-    xd[5:] = _np.linalg.solve(M, f)
-    return xd
+    _k0 = -cc
+    _k1 = -(1/2)*g_*mc*r
+    _k2 = -g_*mr
+    _k3 = -ds
+    _k4 = -ks
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    _c2 = _c0*mr + _c1*mr
+    return _solve_packed(_pack35(d_phi, d_xr, d_zr, d_theta, d_s, T + _k0*d_phi + _k1*_math.cos(phi), 0.0, _c0*_k2 + _c1*_k2, 0.0, _k3*d_s + _k4*(s - s0), (1/3)*mc*r*r, 0.0, 0.0, 0.0, 0.0, 0.0, _c2, 0.0, 0.0, 0.0, 0.0, 0.0, _c2, 0.0, 0.0, 0.0, 0.0, 0.0, (1/12)*mr*l*l, 0.0, 0.0, 0.0, 0.0, 0.0, ms), 5)
 
 
 def force_jacobians(t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu), analytic."""
     phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
     r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _k0 = -cc
+    _k1 = -(1/2)*g_*mc*r
+    _k2 = -g_*mr
+    _k3 = -ds
+    _k4 = -ks
     _e0 = _math.cos(theta)
     _e1 = _math.sin(theta)
-    _d0 = mr*((2*_e0)*(-_e1))
-    _d1 = mr*((2*_e1)*_e0)
-    _e2 = -g_
+    _d0 = (2*_e0)*(-_e1)
+    _d1 = (2*_e1)*_e0
     fy = _np.zeros((5, 5))
-    fy[0, 0] = (-(1/2)*g_*mc*r)*(-_math.sin(phi))
-    fy[2, 3] = _e2*_d0 + _e2*_d1
-    fy[4, 4] = -ks
+    fy[0, 0] = _k1*(-_math.sin(phi))
+    fy[2, 3] = _k2*_d0 + _k2*_d1
+    fy[4, 4] = _k4
     fyd = _np.zeros((5, 5))
-    fyd[0, 0] = -cc
-    fyd[4, 4] = -ds
+    fyd[0, 0] = _k0
+    fyd[4, 4] = _k3
     fu = _np.zeros((5, 1))
     fu[0, 0] = 1
     return fy, fyd, fu
@@ -160,9 +169,9 @@ def mass_matrix_times_derivative(t, y, p, a, u=None):
     _a0, _a1, _a2, _a3, _a4 = _np.asarray(a, dtype=_np.float64).tolist()
     _e0 = _math.cos(theta)
     _e1 = _math.sin(theta)
-    _d0 = mr*((2*_e0)*(-_e1))
-    _d1 = mr*((2*_e1)*_e0)
-    _d2 = _d0 + _d1
+    _d0 = (2*_e0)*(-_e1)
+    _d1 = (2*_e1)*_e0
+    _d2 = mr*_d0 + mr*_d1
     dMa = _np.zeros((5, 5))
     dMa[1, 3] = _a1*_d2
     dMa[2, 3] = _a2*_d2

@@ -70,6 +70,14 @@ def _check_form(form: str) -> None:
         raise NeweulError(f"unknown form {form!r}; forms are: {', '.join(FORMS)}")
 
 
+def read_elastic_data(path: Any, *args: Any, **kwargs: Any) -> Any:
+    """:func:`neweul_py.elastic.reader.read_elastic_data`, imported at the first elastic body
+    (the elastic layer pulls in ``scipy.sparse``, ≈ 0.3 s, which rigid models never need)."""
+    from .elastic.reader import read_elastic_data as read
+
+    return read(path, *args, **kwargs)
+
+
 def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None) -> Any:
     """Load the description file at ``path`` into a :class:`~neweul_py.model.System`.
 
@@ -95,7 +103,6 @@ def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None
         As :func:`neweul_py.description.load_description_text`.
     """
     from .description import load_description as _load
-    from .elastic.reader import read_elastic_data
 
     return _load(path, elastic_reader=elastic_reader or read_elastic_data)
 
@@ -118,7 +125,6 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
                  progress: StagedProgress = None) -> Any:
     """The equations of a description's bytes (errors name ``description_path``)."""
     from .description import load_description_text
-    from .elastic.reader import read_elastic_data
     from .equations import newton_euler
 
     system = load_description_text(raw, os.fspath(description_path),
@@ -144,6 +150,7 @@ def generate(
     form: Form = "auto",
     backend: Backend = "numpy",
     progress: StagedProgress = None,
+    cache: bool | str | os.PathLike[str] = False,
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
@@ -167,6 +174,12 @@ def generate(
         ``backend="c"`` also ``"C code"``): counts rise to ``total`` within a stage. A
         :class:`neweul_py.progress.Tracker` draws one bar per stage on a terminal; ``None``
         (default) is silent.
+    cache
+        Description files only: take the NumPy module from the content-hash cache of
+        :func:`generated_module` (``True``: the default cache directory, or a directory),
+        deriving and storing it there on a miss. The module written is byte for byte the one
+        derivation would write (the key covers the description, its data files, the form and
+        the generator's source); a hit imports neither sympy nor the symbolic layers.
 
     Returns
     -------
@@ -181,9 +194,11 @@ def generate(
     >>> generate(Path("examples/pendulum.yaml").read_text(), "out")  # doctest: +SKIP
     PosixPath('out/pendulum.py')
     """
-    from .codegen import generate_module
-
     _check_backend(backend)
+    is_text = isinstance(source, str) and "\n" in source
+    if (isinstance(source, str | os.PathLike) and not is_text and cache is not False
+            and backend == "numpy"):
+        return _generate_cached(source, out_dir, form, None if cache is True else cache)
     from .model import System
 
     if isinstance(source, System):
@@ -192,7 +207,7 @@ def generate(
         _check_form(form)
         equations = newton_euler(source, form=form, progress=progress)
         source_hash = source.fingerprint()
-    elif isinstance(source, str) and "\n" in source:
+    elif is_text:
         from .description import description_hash
 
         _check_form(form)
@@ -206,9 +221,46 @@ def generate(
             f"generate: expected a description path, YAML text or a System, got "
             f"{type(source).__name__}"
         )
+    from .codegen import generate_module
+
     path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py",
                            progress=progress)
     return _with_backend(path, backend, lambda: equations, rebuild=True, progress=progress)
+
+
+def _constant_of(source: bytes, name: str) -> Any:
+    """The literal value of the protocol constant ``name = …`` (one line) of a module text
+    (``ast.literal_eval``: a literal, never code), ``None`` when absent or malformed."""
+    import ast
+
+    prefix = f"\n{name} = ".encode()
+    start = source.find(prefix)
+    if start < 0:
+        return None
+    end = source.find(b"\n", start + len(prefix))
+    try:
+        return ast.literal_eval(source[start + len(prefix):end].decode("utf-8"))
+    except (ValueError, SyntaxError, UnicodeDecodeError, MemoryError, RecursionError):
+        return None
+
+
+def _generate_cached(description_path: str | os.PathLike[str], out_dir: str | os.PathLike[str],
+                     form: Form, cache: str | os.PathLike[str] | None) -> Path:
+    """:func:`generate` through the content-hash cache: a verified hit is copied to
+    ``out_dir`` without importing sympy or the analysis package; a miss derives and stores."""
+    from .atomic import atomic_write
+
+    _check_form(form)
+    raw = _read(description_path)
+    source = verified_bytes(_cache_entry(raw, description_path, form, cache))
+    name = None
+    if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(raw):
+        name = _constant_of(source, "MODEL_NAME")
+    if not isinstance(name, str):
+        entry = _cached_source(description_path, form, cache)
+        source, name = entry.source, (entry.module.MODEL_NAME if entry.module is not None
+                                      else entry.equations().system.name)
+    return atomic_write(Path(out_dir) / f"{name}.py", source)
 
 
 def _check_backend(backend: str) -> None:

@@ -28,8 +28,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import linear_sum_assignment
 
 from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
@@ -187,6 +185,8 @@ def _resample(x: np.ndarray, y: np.ndarray, onto: np.ndarray) -> np.ndarray:
     if np.array_equal(x, onto):
         return y
     if x.size >= 4:
+        from scipy.interpolate import CubicSpline  # ~0.4 s: only when comparing
+
         return CubicSpline(x, y)(onto)
     return np.interp(onto, x, y.real) + (1j * np.interp(onto, x, y.imag)
                                          if np.iscomplexobj(y) else 0.0)
@@ -274,6 +274,8 @@ def _modes(a: Table, b: Table, rtol: Tolerance, atol: Tolerance, mac_min: float,
         ib = [b.coordinates.index(c) for c in common]
         mac = mac_matrix(a.shapes[ia], b.shapes[ib])
         cost = (1.0 - mac) + 1e-3 * cost
+    from scipy.optimize import linear_sum_assignment
+
     rows, cols = linear_sum_assignment(cost)
     match = dict(zip(cols.tolist(), rows.tolist(), strict=True))
     out = []

@@ -35,7 +35,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from ..errors import NeweulError, SolverError
 from . import protocol as proto
@@ -475,6 +474,8 @@ def simulate_constrained(
     record(0, times[0], y, yd)
     x = np.concatenate([y, yd])
     first_step = None
+    from scipy.integrate import solve_ivp  # imported when a loop is integrated
+
     for k in range(1, nt):
         t0, t1 = float(times[k - 1]), float(times[k])
         h0 = None if first_step is None else min(first_step, t1 - t0)

@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
@@ -260,6 +259,8 @@ def _solve_eig(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
 
 def _solve_hessenberg(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
     a, _, _, _ = lin.to_first_order()
+    import scipy.linalg as sla  # ~0.2 s of import: only here
+
     hmat, u = sla.hessenberg(a, calc_q=True)
     _, b1, ca, cb = _first_order(lin, cy, cyd, cydd, b, u)
     bt = u.T @ b1

@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
@@ -279,6 +278,8 @@ def modes(
     if m == 0:
         raise NeweulError("modes: the model has no degrees of freedom")
     a, e = lin.first_order_pencil()
+    import scipy.linalg as sla  # ~0.2 s of import: only here
+
     lam, vec = sla.eig(a, e)
     finite = np.isfinite(lam)
     lam, vec = lam[finite], vec[:, finite]

@@ -12,7 +12,6 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..errors import ModelError, NeweulError
 from .module import load_generated
@@ -204,6 +203,8 @@ def redundant_constraints(
     nc = g_jac.shape[0]
     if nc == 0:
         return []
+    import scipy.linalg as sla  # ~0.2 s of import: only here
+
     _, r, piv = sla.qr(g_jac.T, mode="economic", pivoting=True)
     diag = np.abs(np.diag(r))
     rank = int(np.sum(diag > rtol * diag[0])) if diag.size and diag[0] > 0 else 0

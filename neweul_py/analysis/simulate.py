@@ -1,7 +1,9 @@
 """Time integration of a generated module with :func:`scipy.integrate.solve_ivp`.
 
 Integrates the first-order form ``ẋ = rhs(t, x, p, u(t))`` of the generated module; the implicit
-methods (Radau, BDF, LSODA) get the module's analytic ``rhs_jacobian``.
+methods (Radau, BDF, LSODA) get the module's analytic ``rhs_jacobian``. ``method=
+"generalized-alpha"`` integrates the second-order form with fixed steps ``h`` instead
+(:mod:`~neweul_py.analysis.generalized_alpha`: stiff flexible bodies).
 """
 
 from __future__ import annotations
@@ -12,10 +14,10 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from ..errors import ModelError, NeweulError, SolverError
 from . import protocol as proto
+from .generalized_alpha import integrate_generalized_alpha
 from .integrators import COMPILED_METHODS, check_compiled, integrate_compiled
 from .module import check_protocol, load_generated
 from .results import SimulationResult
@@ -25,7 +27,9 @@ __all__ = ["METHODS", "simulate"]
 #: Integrators offered (``scipy.integrate.solve_ivp`` names; implicit ones use the Jacobian),
 #: then those running inside compiled modules (analysis/integrators.py).
 METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA",
-                            *COMPILED_METHODS)
+                            "generalized-alpha", *COMPILED_METHODS)
+#: The fixed-step second-order method (analysis/generalized_alpha.py).
+FIXED_STEP = "generalized-alpha"
 _IMPLICIT = frozenset({"Radau", "BDF", "LSODA"})
 
 InputLike = Callable[[float], Any] | Mapping[str, float] | Sequence[float] | np.ndarray | None
@@ -120,6 +124,8 @@ def simulate(
     max_step: float = np.inf,
     independent: Sequence[str] | None = None,
     progress: Callable[[float, float], None] | None = None,
+    h: float | None = None,
+    rho_inf: float = 0.9,
 ) -> SimulationResult:
     """Integrate a generated model from ``t_start`` to ``t_end``.
 
@@ -139,9 +145,12 @@ def simulate(
         Initial time [s].
     method
         One of :data:`METHODS`; ``"c-dopri5"``: RK45's method and step control in the C loop
-        of a compiled module (:mod:`~neweul_py.analysis.integrators`).
+        of a compiled module (:mod:`~neweul_py.analysis.integrators`);
+        ``"generalized-alpha"``: fixed steps ``h`` of the generalized-α method on the
+        second-order form (:mod:`~neweul_py.analysis.generalized_alpha`; stiff elastic
+        bodies, unconstrained models).
     rtol, atol
-        Tolerances of the integrator.
+        Tolerances of the integrator (of the Newton iterations for generalized-α).
     n_out
         Number of equally spaced output times (including both ends), unless ``t_eval`` is given.
     t_eval
@@ -166,6 +175,11 @@ def simulate(
         Called as ``progress(done, total)`` with the simulated time reached (``t − t_start``)
         and the span ``t_end − t_start``, at most about 200 times per run plus once at the end;
         a :class:`neweul_py.progress.Tracker` draws a bar with the remaining time on stderr.
+    h
+        Step size of ``method="generalized-alpha"`` (required there, unused otherwise).
+    rho_inf
+        Spectral radius at infinite frequency of ``method="generalized-alpha"``, in [0, 1]
+        (default 0.9, Exudyn's default: light damping of the unresolved modes).
 
     Returns
     -------
@@ -195,6 +209,13 @@ def simulate(
     if not (rtol > 0 and atol > 0):
         raise NeweulError("rtol and atol must be positive")
     check_compiled(module, method, u)
+    if method == FIXED_STEP:
+        if h is None:
+            raise NeweulError("method 'generalized-alpha' needs the step h "
+                              "(neweul simulate --step)")
+        if list(getattr(module, "CONSTRAINTS", []) or []):
+            raise NeweulError("method 'generalized-alpha' integrates unconstrained models; "
+                              "models with constraints use the DAE integrators (RK45, …)")
     pv = _parameters(module, p)
     x_init = _initial_state(module, x0)
     if list(getattr(module, "CONSTRAINTS", []) or []):
@@ -243,11 +264,18 @@ def simulate(
     state_names = [*module.COORDINATES, *(f"d_{c}" for c in module.COORDINATES)]
     try:
         with np.errstate(all="ignore"):
-            if method in COMPILED_METHODS:
+            if method == FIXED_STEP:
+                sol = integrate_generalized_alpha(
+                    module, (t_start, t_end), x_init, pv, uf, times, h=float(h),  # type: ignore[arg-type]
+                    rho_inf=rho_inf, rtol=rtol, atol=atol, names=state_names,
+                    progress=progress)
+            elif method in COMPILED_METHODS:
                 sol = integrate_compiled(module, (t_start, t_end), x_init, pv,
                                          None if u is None else uf(t_start), times, rtol=rtol,
                                          atol=atol, max_step=max_step, names=state_names)
             else:
+                from scipy.integrate import solve_ivp  # ~0.4 s; not for the other methods
+
                 sol = solve_ivp(f, (t_start, t_end), x_init, method=method, t_eval=times,
                                 rtol=rtol, atol=atol, max_step=max_step, **kwargs)
     except ArithmeticError as exc:  # the generated module: math.exp(1000), 1/0 of a spring …

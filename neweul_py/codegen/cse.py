@@ -31,7 +31,8 @@ from ..model import as_expr
 #: intermediates); ``"none"``: no elimination.
 CseMethod = Literal["full", "tree", "none"]
 
-__all__ = ["Block", "CseMethod", "eliminate", "free_symbols", "prune", "tree_cse"]
+__all__ = ["Block", "CseMethod", "eliminate", "free_symbols", "hoist_constant_factors", "prune",
+           "tree_cse"]
 
 Assignment = tuple[sp.Symbol, sp.Expr]
 
@@ -195,3 +196,57 @@ def eliminate(
     for expr in reduced_finals:
         emit_needed(free_symbols(expr))
     return Block(tuple(out), tuple(reduced_finals))
+
+
+def hoist_constant_factors(
+    intermediates: Sequence[Assignment],
+    finals: Sequence[sp.Expr],
+    constants: Sequence[sp.Symbol],
+    prefix: str = "_ncg_k",
+) -> tuple[list[Assignment], list[sp.Expr]]:
+    """Hoist the constant part of every product: ``(1/2)·x·l·m`` becomes ``k·x`` with
+    ``k = l·m/2`` assigned once, ahead of the program (``constants``: the parameters).
+
+    A product of ``c`` constant factors and other factors costs ``c`` multiplications per
+    evaluation; hoisted it costs one. Equal constant parts share one symbol. Products made of
+    constants only are left alone (CSE shares them). Deterministic: symbols are numbered in
+    the order of a depth-first walk.
+
+    Returns
+    -------
+    tuple
+        The assignments (the hoisted constants first, then the rewritten intermediates) and
+        the rewritten finals.
+    """
+    const = frozenset(constants)
+    table: dict[sp.Expr, sp.Symbol] = {}
+    hoisted: list[Assignment] = []
+    done: dict[sp.Basic, sp.Basic] = {}
+
+    def is_const(e: sp.Basic) -> bool:
+        return e.is_Number or (bool(free_symbols(e)) and free_symbols(e) <= const)
+
+    def rebuild(e: sp.Basic) -> sp.Basic:
+        if e.is_Atom or not e.args:
+            return e
+        hit = done.get(e)
+        if hit is not None:
+            return hit
+        args = tuple(rebuild(a) for a in e.args)
+        new = e if all(a is b for a, b in zip(args, e.args, strict=True)) else _rebuilt(e, args)
+        if new.is_Mul:
+            c = [a for a in new.args if is_const(a)]
+            rest = [a for a in new.args if not is_const(a)]
+            if len(c) >= 2 and rest:
+                key = sp.Mul(*c)
+                sym = table.get(key)
+                if sym is None:
+                    sym = table[key] = sp.Symbol(f"{prefix}{len(table)}")
+                    hoisted.append((sym, key))
+                new = sp.Mul._from_args((sym, *rest))
+        done[e] = new
+        return new
+
+    inter = [(s, rebuild(e)) for s, e in intermediates]
+    out = [rebuild(as_expr(e)) for e in finals]
+    return [*hoisted, *inter], out

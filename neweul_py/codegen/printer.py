@@ -104,7 +104,7 @@ class NamePool:
         base = wanted if wanted is not None else sym.name
         if not _IDENT.fullmatch(base) or keyword.iskeyword(base) or base.startswith(
                 ("_rigid_", "_ncg", "ffrf_", "_FFRF", "_P0", "_SV", "_SW", "_NS", "_PARTS",
-                 "_ELASTIC")):
+                 "_ELASTIC", "_pack", "_mv", "_solve_packed", "_struct", "_dposv", "_dgesv")):
             base = "_s" + re.sub(r"[^A-Za-z0-9_]", "_", base)
         name = base
         while name in self._used or keyword.iskeyword(name):

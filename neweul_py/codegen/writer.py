@@ -29,11 +29,9 @@ from .blocks import (
     Context,
     assignments,
     checked,
-    derivative_block,
     function,
     input_rates,
     inputs_prologue,
-    mass_entries,
     mass_fill,
     matrix_fill,
     prologue,
@@ -41,12 +39,23 @@ from .blocks import (
     subblock,
     units,
     unpack_line,
-    uses,
     vector,
 )
 from .constraints import constraint_constant, constraint_functions
 from .cse import Block, CseMethod, eliminate
+from .packing import (
+    IMPORTS,
+    factored_definitions,
+    factored_mass,
+    factored_rhs,
+    factored_sizes,
+    pack_definition,
+    packed_matrix,
+    packed_rhs,
+    solver_definition,
+)
 from .printer import NamePool
+from .programs import dynamics_programs, mass_factor_values, output_programs
 
 __all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts",
            "program_blocks"]
@@ -106,36 +115,32 @@ def _function(name: str, args: str, doc: str, body: Sequence[str]) -> tuple[str,
     return tuple(function(f"{name}({args})", doc, body)[:-2])
 
 
-def _marked(step: Steps, fraction: float, value: Any) -> Any:
-    """``value``, after reporting ``fraction`` of the current step (long blocks)."""
-    tick = step.part()
-    if tick is not None:
-        tick(fraction)
-    return value
-
-
 def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
               prefix: str, step: Steps) -> dict[str, tuple[str, ...]]:
     """mass_matrix, force_vector, rhs, force_jacobians, mass_matrix_times_derivative and
-    rhs_jacobian from one CSE'd program of ``M`` and ``q − k`` (equations.md §1)."""
+    rhs_jacobian from one CSE'd program of ``M`` and ``q − k`` (equations.md §1). ``M`` is
+    packed in one buffer and ``rhs`` solves in place (:mod:`.packing`)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, nu = len(y), len(u)
-    M = sp.ImmutableMatrix(eq.mass_matrix)
-    fvec = sp.ImmutableMatrix(eq.force_vector)
     kin = (*y, *p, *u, time)
     dyn = (*kin, *yd)
     out: dict[str, tuple[str, ...]] = {}
-    m_values, m_where = mass_entries(M)
-    nm = len(m_values)
-    program = eliminate(ctx.intermediates, [*m_values, *fvec], prefix="_ncg_c", method=method)
-    m_red, f_red = program.finals[:nm], program.finals[nm:]
+    dp = dynamics_programs(eq, ctx.intermediates, method, d_method)
+    program, m_where, nm = dp.program, dp.m_where, dp.nm
+    m_red, f_red, fac_red = dp.parts(n)
     step()
 
-    b = checked(ctx, subblock(program, m_red), kin, "the mass matrix")
+    b = checked(ctx, subblock(program, fac_red or m_red), kin, "the mass matrix")
     body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC)]) + inputs_prologue(ctx, b)
-            + assignments(ctx, b, step.part()) + mass_fill(ctx, n, b.finals, m_where))
+            + assignments(ctx, b))
+    if fac_red:
+        body += factored_mass(ctx, n, b.finals)
+    elif n:
+        body += [*packed_matrix(ctx, "M", n, b.finals, m_where), "return M"]
+    else:
+        body += [*mass_fill(ctx, n, b.finals, m_where), "return M"]
     out["mass_matrix"] = _function(f"{prefix}mass_matrix", "t, y, p, u=None",
-                                   "Mass matrix ``M(y, t)``, shape (n, n).", [*body, "return M"])
+                                   "Mass matrix ``M(y, t)``, shape (n, n).", body)
     step()
 
     b = checked(ctx, subblock(program, f_red), dyn, "the force vector")
@@ -147,27 +152,28 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
                                     [*body, "return f"])
     step()
 
-    b = checked(ctx, program, dyn, "the right-hand side")
+    b = checked(ctx, subblock(program, [*f_red, *fac_red]) if fac_red
+                else subblock(program, [*m_red, *f_red]), dyn, "the right-hand side")
     body = ["x = _np.asarray(x, dtype=_np.float64)"]
-    if uses(b, (*y, *yd)):
+    if n:
         body.append(unpack_line([ctx.name(s) for s in (*y, *yd)], "x.tolist()"))
-    body += (prologue(ctx, b, [(p, _P_SRC)]) + inputs_prologue(ctx, b)
-             + assignments(ctx, b, step.part()))
-    body += mass_fill(ctx, n, b.finals[:nm], m_where)
-    body += vector(ctx, "f", b.finals[nm:])
-    body += [f"xd = _np.empty({2 * n})", f"xd[:{n}] = x[{n}:{2 * n}]",
-             f"xd[{n}:] = _np.linalg.solve(M, f)" if n else "", "return xd"]
+    body += prologue(ctx, b, [(p, _P_SRC)]) + inputs_prologue(ctx, b) + assignments(ctx, b)
+    yd_names = [ctx.name(s) for s in yd]
+    if fac_red:
+        body += factored_rhs(ctx, yd_names, b.finals[:n], n, b.finals[n:])
+    elif n:
+        body += packed_rhs(ctx, yd_names, b.finals[nm:], n, b.finals[:nm], m_where)
+    else:
+        body += [*vector(ctx, "f", b.finals[nm:]), "return _np.empty(0)"]
     out["rhs"] = _function(f"{prefix}rhs", "t, x, p, u=None",
                            "First-order form ``[ẏ, M⁻¹(q − k)]`` of the equations of motion.",
                            [line for line in body if line])
     step()
 
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method,
-                             step.part(0.0, 0.5))
-    b = _marked(step, 0.6, checked(ctx, b, dyn, "the force Jacobians"))
-    body = _marked(step, 0.7, prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
-                   + inputs_prologue(ctx, b))
-    body += assignments(ctx, b, step.part(0.7, 1.0))
+    b, Jr = dp.force_jacobians
+    b = checked(ctx, b, dyn, "the force Jacobians")
+    body = (prologue(ctx, b, [(y, _Y_SRC), (yd, _YD_SRC), (p, _P_SRC)])
+            + inputs_prologue(ctx, b) + assignments(ctx, b))
     body += matrix_fill(ctx, "fy", (n, n), sparse(Jr[:, :n]))
     body += matrix_fill(ctx, "fyd", (n, n), sparse(Jr[:, n:2 * n]))
     body += matrix_fill(ctx, "fu", (n, nu), sparse(Jr[:, 2 * n:]))
@@ -180,17 +186,11 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
     for i, s in enumerate(a_syms):
         ctx.pool.claim(s, f"_a{i}")
-    m_full = sp.zeros(n, n)
-    for value, places in zip(m_red, m_where, strict=True):
-        for i, j in places:
-            m_full[i, j] = value
-    ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method, step.part(0.0, 0.5))
-    b = _marked(step, 0.6, checked(ctx, b, (*kin, *a_syms), "∂(M a)/∂y"))
-    body = (_marked(step, 0.7, prologue(
-                ctx, b, [(y, _Y_SRC), (p, _P_SRC),
-                         (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")]))
-            + inputs_prologue(ctx, b) + assignments(ctx, b, step.part(0.7, 1.0))
+    b, Jr = dp.mass_derivative
+    b = checked(ctx, b, (*kin, *a_syms), "∂(M a)/∂y")
+    body = (prologue(ctx, b, [(y, _Y_SRC), (p, _P_SRC),
+                              (a_syms, "_np.asarray(a, dtype=_np.float64).tolist()")])
+            + inputs_prologue(ctx, b) + assignments(ctx, b)
             + matrix_fill(ctx, "dMa", (n, n), sparse(Jr)))
     out["mass_matrix_times_derivative"] = _function(
         f"{prefix}mass_matrix_times_derivative", "t, y, p, a, u=None",
@@ -217,8 +217,8 @@ def _dynamics(ctx: Context, eq: Any, method: CseMethod, d_method: CseMethod,
     return out
 
 
-def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.ImmutableMatrix,
-                     method: CseMethod, d_method: CseMethod,
+def _state_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix,
+                     energy: sp.ImmutableMatrix, method: CseMethod, d_method: CseMethod,
                      prefix: str, step: Steps) -> dict[str, tuple[str, ...]]:
     """outputs, output_jacobians and energy: functions of the state ``x = [y, ẏ]``."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
@@ -226,7 +226,8 @@ def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.Immutabl
     dyn = (*y, *p, *u, time, *yd)
     x_unpack = [((*y, *yd), "_np.asarray(x, dtype=_np.float64).tolist()"), (p, _P_SRC)]
     out: dict[str, tuple[str, ...]] = {}
-    out_prog = eliminate(ctx.intermediates, list(outs), prefix="_ncg_o", method=method)
+    op = output_programs(eq, ctx.intermediates, outs, method, d_method)
+    out_prog = op.program
     b = checked(ctx, out_prog, dyn, "the outputs")
     body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b) + assignments(ctx, b)
             + vector(ctx, "out", b.finals))
@@ -234,8 +235,7 @@ def _state_functions(ctx: Context, outs: sp.ImmutableMatrix, energy: sp.Immutabl
                                "The outputs, ordered as ``OUTPUTS``.", [*body, "return out"])
     step()
     ny = outs.shape[0]
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method,
-                             step.part(0.0, 0.6))
+    b, Jr = op.jacobians
     b = checked(ctx, b, dyn, "the output Jacobians")
     body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b)
             + assignments(ctx, b, step.part(0.6, 1.0))
@@ -348,7 +348,8 @@ def _header(system: System) -> tuple[str, ...]:
         f"Implements the generated-module protocol (version {PROTOCOL_VERSION}, "
         "docs/generated-module-protocol.md).",
         "State ``x = [y, ẏ]``; parameters ``p`` ordered as ``PARAMETERS``; inputs ``u`` ordered",
-        "as ``INPUTS`` (``u=None``: the description's default excitation). Needs only NumPy.",
+        "as ``INPUTS`` (``u=None``: the description's default excitation). Needs NumPy; uses",
+        "SciPy's LAPACK wrappers for the solve of ``rhs`` when importable.",
     )
 
 
@@ -475,7 +476,7 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         funcs.update(_schedule_functions(ctx, schedules, schedule_jacobians, method, prefix))
         step()
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix, step))
-    funcs.update(_state_functions(ctx, outs, energy, method, d_method, prefix, step))
+    funcs.update(_state_functions(ctx, eq, outs, energy, method, d_method, prefix, step))
     # constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py)
     for name, block in constraint_functions(ctx, getattr(eq, "constraints", None), method,
                                             prefix).items():
@@ -485,11 +486,16 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         funcs.update(_pose_functions(ctx, eq, method, prefix))
         step()
     pdef = tuple(float(pp.default) for pp in system.parameters)
+    symmetric = bool(M == M.T)
+    factors = mass_factor_values(eq)
+    sizes = (factored_sizes(n, factors) if factors
+             else (n * n, n * n + 2 * n) if n else ())
+    helpers = factored_definitions(n, factors) if factors else solver_definition(symmetric)
     return ModuleParts(
         docstring=_header(system),
-        imports=("import math as _math", "", "import numpy as _np"),
-        constants=_constants(eq, source_hash, names_out, bool(M == M.T)),
-        private=(f"_P0 = {pdef!r}",),
+        imports=IMPORTS,
+        constants=_constants(eq, source_hash, names_out, symmetric),
+        private=(f"_P0 = {pdef!r}", *(pack_definition(s) for s in sizes), "", "", *helpers),
         functions=funcs,
     )
 
@@ -498,57 +504,47 @@ def program_blocks(equations: Any, *, cse: bool = True,
                    progress: StagedProgress = None) -> dict[str, Block]:
     """The CSE'd straight-line programs of the protocol functions, for other printers.
 
-    The same calls to :func:`.cse.eliminate` and :func:`.derivatives.jacobian`, in the same
-    order and with the same methods, as :func:`render_module` makes (deterministic, so the
-    blocks are those the NumPy module prints). Matrices are given row-major with every entry
-    (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n of ``M``,
-    then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``, ``∂/∂u``),
-    ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}", real=True)``
-    of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians``
-    (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
+    The programs of :mod:`.programs`, which :func:`module_parts` prints too (computed once when
+    both backends are generated from the same equations object). Matrices are given row-major
+    with every entry (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n
+    of ``M``, then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``,
+    ``∂/∂u``), ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}",
+    real=True)`` of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny),
+    ``output_jacobians`` (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
-    bodies are spliced in numerically by :mod:`.elastic`). ``progress``: a staged hook,
+    bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
+    ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
+    (:mod:`.packing`); the blocks here keep M's entries. ``progress``: a staged hook,
     ``("C code", done, 7)`` after each block.
     """
     step = Steps(progress, "C code", 7)
     eq = equations
-    y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
-    n = len(y)
-    M = sp.ImmutableMatrix(eq.mass_matrix)
-    fvec = sp.ImmutableMatrix(eq.force_vector)
+    n = len(eq.coordinates)
     outs = sp.ImmutableMatrix(eq.outputs) if len(eq.outputs) else sp.ImmutableMatrix.zeros(0, 1)
     inter = tuple((s, as_expr(e)) for s, e in eq.intermediates)
     method: CseMethod = "none" if not cse else ("tree" if inter else "full")
     d_method: CseMethod = "none" if not cse or inter else "tree"
-    a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
     out: dict[str, Block] = {}
     out["default_inputs"] = eliminate((), [as_expr(e) for e in eq.system.input_defaults],
                                       method=method)
     step()
-    m_values, m_where = mass_entries(M)
-    program = eliminate(inter, [*m_values, *fvec], prefix="_ncg_c", method=method)
-    step()
-    nm = len(m_values)
-    m_full = sp.zeros(n, n)
-    for value, places in zip(program.finals[:nm], m_where, strict=True):
-        for i, j in places:
-            m_full[i, j] = value
-    f_red = program.finals[nm:]
+    dp = dynamics_programs(eq, inter, method, d_method)
+    program, m_full = dp.program, dp.m_full
+    f_red = dp.parts(n)[1]
     out["mass_matrix"] = subblock(program, list(m_full))
     out["force_vector"] = subblock(program, f_red)
-    out["rhs"] = Block(program.assignments, (*m_full, *f_red))
-    b, Jr = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method, step.part())
+    out["rhs"] = subblock(program, (*m_full, *f_red))
+    step()
+    b, Jr = dp.force_jacobians
     out["force_jacobians"] = Block(b.assignments, tuple(Jr))
     step()
-    ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
-    b, Jr = derivative_block(program.assignments, ma, y, d_method, step.part())
+    b, Jr = dp.mass_derivative
     out["mass_matrix_times_derivative"] = Block(b.assignments, tuple(Jr))
     step()
-    out_prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
-    out["outputs"] = out_prog
+    op = output_programs(eq, inter, outs, method, d_method)
+    out["outputs"] = op.program
     step()
-    b, Jr = derivative_block(out_prog.assignments, out_prog.finals, (*y, *yd, *u), d_method,
-                             step.part())
+    b, Jr = op.jacobians
     out["output_jacobians"] = Block(b.assignments, tuple(Jr))
     step()
     ce = getattr(eq, "constraints", None)

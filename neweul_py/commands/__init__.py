@@ -49,7 +49,7 @@ BACKENDS: tuple[str, ...] = ("numpy", "c")
 #: Integrators of ``simulate --method``; the same as
 #: :data:`neweul_py.analysis.simulate.METHODS` (a test checks they agree).
 SIMULATE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "LSODA",
-                                     "c-dopri5")
+                                     "generalized-alpha", "c-dopri5")
 
 #: ``sweep --task`` choices and ``--stats`` names; the same as
 #: :data:`neweul_py.analysis.sweep_tasks.TASKS` and ``STATS`` (a test checks they agree).

@@ -1,5 +1,5 @@
 """``neweul generate FILE [-o DIR] [--form auto|closed|recursive] [--backend numpy|c]
-[-q]``."""
+[-q] [--no-cache]``."""
 
 from __future__ import annotations
 
@@ -26,6 +26,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
                         help="c: also compile the module (DIR/<name>_c.py, a C library via cffi)")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
+    parser.add_argument("--no-cache", dest="cache", action="store_false",
+                        help="derive even when the content-hash cache (the one of neweul "
+                        "simulate) holds the module of this description (NumPy backend)")
     parser.set_defaults(func=run)
 
 
@@ -35,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
     from ..progress import Tracker
 
     with Tracker(quiet=args.quiet) as track:  # a bar per stage of the derivation on a terminal
-        path = generate(args.file, args.out_dir, args.form, args.backend, progress=track)
+        path = generate(args.file, args.out_dir, args.form, args.backend, progress=track,
+                        cache=args.cache)
     print(path)
     return 0

@@ -1,5 +1,5 @@
-"""``neweul simulate FILE --t-end T [--method M] [--rtol R] [--atol A] [--n-out N]
-[--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]
+"""``neweul simulate FILE --t-end T [--method M] [--step H] [--rho-inf R] [--rtol R]
+[--atol A] [--n-out N] [--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]
 [--animate movie.gif|.mp4 [--fps F] [--frames N] [--body-shape box|ellipsoid]]``."""
 
 from __future__ import annotations
@@ -36,7 +36,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                           positive=True),
                         required=True, metavar="T", help="final time [s]")
     parser.add_argument("--method", choices=SIMULATE_METHODS, default="RK45",
-                        help="integrator (Radau, BDF, LSODA use the analytic Jacobian)")
+                        help="integrator (Radau, BDF, LSODA use the analytic Jacobian; "
+                        "generalized-alpha: fixed steps --step, for stiff elastic bodies)")
+    parser.add_argument("--step", type=functools.partial(number, option="--step",
+                                                         positive=True),
+                        metavar="H", help="step of --method generalized-alpha [s]")
+    parser.add_argument("--rho-inf", type=functools.partial(number, option="--rho-inf",
+                                                            minimum=0.0, maximum=1.0),
+                        default=0.9, metavar="R", help="generalized-alpha: spectral radius at "
+                        "infinite frequency, 0 … 1 (default 0.9)")
     parser.add_argument("--rtol", type=functools.partial(number, option="--rtol", positive=True,
                                                          maximum=1.0),
                         default=1e-6, help="relative tolerance")
@@ -97,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
     with Tracker("simulate", unit="s", quiet=args.quiet) as track:  # a bar on a terminal
         result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
                           atol=args.atol, n_out=args.n_out, p=p, u=u,
-                          independent=args.independent, progress=track)
+                          independent=args.independent, progress=track, h=args.step,
+                          rho_inf=args.rho_inf)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:
@@ -134,16 +143,22 @@ def check_step_count(module: Any, args: argparse.Namespace) -> None:
     from ..analysis.protocol import resolve_inputs, resolve_parameters
     from ..errors import NeweulError
 
-    if args.method in ("Radau", "BDF", "LSODA") or getattr(module, "CONSTRAINTS", None):
+    if args.method in ("Radau", "BDF", "LSODA", "generalized-alpha") or getattr(
+            module, "CONSTRAINTS", None):
         return
     p = resolve_parameters(module, dict(args.param) or None)
     x0 = np.asarray(module.INITIAL_STATE, dtype=float)
     if x0.size == 0 or x0.size > 2000:
         return
+    u0 = resolve_inputs(module, 0.0, p, None)
     with np.errstate(all="ignore"):
         try:
-            jac = np.asarray(module.rhs_jacobian(0.0, x0, p, resolve_inputs(module, 0.0, p, None)),
-                             dtype=float)
+            if getattr(module, "BACKEND", "numpy") == "c":
+                # central differences of the compiled rhs (2n calls of ~µs): the analytic
+                # Jacobian would build the module's derivative library first (~1 s of cc)
+                jac = _difference_jacobian(module, x0, p, u0)
+            else:
+                jac = np.asarray(module.rhs_jacobian(0.0, x0, p, u0), dtype=float)
             rate = float(np.max(np.abs(np.linalg.eigvals(jac)))) if np.all(
                 np.isfinite(jac)) else np.inf
         except (ArithmeticError, ValueError, np.linalg.LinAlgError):
@@ -156,3 +171,15 @@ def check_step_count(module: Any, args: argparse.Namespace) -> None:
             f"{args.max_steps}: the model is stiff at these parameters; use --method Radau or "
             "BDF, or a shorter --t-end"
         )
+
+
+def _difference_jacobian(module: Any, x0: Any, p: Any, u0: Any) -> Any:
+    """``∂rhs/∂x`` at ``(0, x0)`` by central differences (step ``1e-6 (1 + |x_j|)``): enough
+    for the magnitude of the fastest eigenvalue that :func:`check_step_count` needs."""
+    import numpy as np
+
+    steps = 1e-6 * (1.0 + np.abs(x0))
+    cols = [(np.asarray(module.rhs(0.0, x0 + e, p, u0), dtype=float)
+             - np.asarray(module.rhs(0.0, x0 - e, p, u0), dtype=float)) / (2 * e[j])
+            for j, e in enumerate(np.diag(steps))]
+    return np.column_stack(cols)

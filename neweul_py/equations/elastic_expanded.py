@@ -99,4 +99,5 @@ def expanded_equations(eq: Equations) -> Equations:
         intermediates=tuple((s, put(e)) for s, e in eq.intermediates),
         mass_matrix=sp.ImmutableMatrix(n, n, list(M.ravel())),
         force_vector=sp.ImmutableMatrix(n, 1, list(f)),
-        outputs=put(eq.outputs), constraints=ce, energy=None, elastic=None)
+        outputs=put(eq.outputs), constraints=ce, energy=None, elastic=None,
+        mass_factors=None)

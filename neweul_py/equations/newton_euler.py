@@ -164,8 +164,9 @@ def _derive(system: System, form: str, progress: StagedProgress = None) -> Equat
             step()
         for j, terms in enumerate(_transpose_jacobian(kin, seeds, "Q", n)):
             force_terms[j].extend(terms)
-        _mass_matrix_backward(kin, system.bodies, mass_terms, step)
+        factors = _mass_matrix_backward(kin, system.bodies, mass_terms, step)
     else:
+        factors = None
         for body in system.bodies:
             _body(kin, body, mass_terms, force_terms)
             step()
@@ -218,6 +219,7 @@ def _derive(system: System, form: str, progress: StagedProgress = None) -> Equat
         energy=energy,
         elastic=elastic,
         poses=poses,
+        mass_factors=factors,
     )
 
 
@@ -301,7 +303,7 @@ def _body(
 def _mass_matrix_backward(
     kin: Kinematics, bodies: Sequence[RigidBody], mass_terms: list[list[list[sp.Expr]]],
     step: Steps | None = None,
-) -> None:
+) -> tuple[tuple[sp.Expr, tuple[sp.Expr, ...]], ...]:
     """``M = Σ_K J_Kᵀ Θ_K J_K`` column by column, the products ``J_Kᵀ (·)`` evaluated by a
     backward recursion over the frame tree (recursive form; equations.md §1).
 
@@ -312,6 +314,8 @@ def _mass_matrix_backward(
     its parent. This equals ``Σ J_Tᵀ m J_T + J_Rᵀ I J_R`` exactly (see
     :class:`~neweul_py.kinematics.FrameKinematics`) at O(N²) instead of O(N³) operations for
     an N-link chain. Only ``i ≤ j`` is formed; M is mirrored.
+
+    Returns the same M as weighted rank-one terms (:func:`_mass_factors`).
     """
     n = kin.n
     seeds = []
@@ -320,6 +324,7 @@ def _mass_matrix_backward(
             continue
         c: Vec3 = tuple(body.center_of_mass)  # type: ignore[assignment]
         seeds.append((body, c, _com_jacobian(kin, body), _inertia(body)))
+    factors = _mass_factors(kin, seeds)
     for j in range(n):
         acc: dict[str, list[tuple[Vec3, Vec3]]] = {}
         for body, c, jt, inertia in seeds:
@@ -333,6 +338,40 @@ def _mass_matrix_backward(
             mass_terms[i][j].extend(terms)
         if step is not None:
             step()
+    return factors
+
+
+def _mass_factors(
+    kin: Kinematics, seeds: Sequence[tuple[RigidBody, Vec3, tuple[Vec3, ...], tuple[Vec3, ...]]]
+) -> tuple[tuple[sp.Expr, tuple[sp.Expr, ...]], ...]:
+    """``M = Σ_r w_r g_r g_rᵀ``: the rows ``g_r`` of the body Jacobians with their weights.
+
+    ``J_Tcᵀ m J_Tc`` gives one row per component of ``J_Tc`` (weight ``m``);
+    ``J_Rᵀ I J_R = Σ_a I_aa J_a J_aᵀ + Σ_(a<b) I_ab (J_a J_bᵀ + J_b J_aᵀ)`` one row per
+    diagonal entry and, per off-diagonal entry, the two rows ``J_a ± J_b`` with the weights
+    ``± I_ab / 2`` (``J_a J_bᵀ + J_b J_aᵀ = ½[(J_a + J_b)(…)ᵀ − (J_a − J_b)(…)ᵀ]``).
+    Identically zero rows are left out. Codegen evaluates ``M = Gᵀ diag(w) G`` numerically
+    (one matrix product instead of the O(N²) scalar recursion).
+    """
+    n = kin.n
+    rows: list[tuple[sp.Expr, tuple[sp.Expr, ...]]] = []
+
+    def add_row(w: sp.Expr, row: tuple[sp.Expr, ...]) -> None:
+        if not is_zero(w) and not all(is_zero(e) for e in row):
+            rows.append((w, row))
+
+    for body, _c, jt, inertia in seeds:
+        jr = kin.frames[body.frame].JR
+        for a in range(3):
+            add_row(body.mass, tuple(jt[j][a] for j in range(n)))
+        for a in range(3):
+            add_row(inertia[a][a], tuple(jr[j][a] for j in range(n)))
+        for a in range(3):
+            for b in range(a + 1, 3):
+                w = (inertia[a][b] + inertia[b][a]) / 4
+                add_row(w, tuple(jr[j][a] + jr[j][b] for j in range(n)))
+                add_row(-w, tuple(jr[j][a] - jr[j][b] for j in range(n)))
+    return tuple(rows)
 
 
 def _transpose_jacobian(

@@ -65,6 +65,10 @@ class Equations:
     poses
         The absolute poses of the frames (:class:`~neweul_py.equations.poses.FramePoses`,
         for animations); ``None``: not derived.
+    mass_factors
+        The same mass matrix as weighted rank-one terms ``M = Σ_r w_r g_r g_rᵀ``, rows
+        ``(w_r, g_r)`` (recursive form; ``None`` in closed form): code generators may evaluate
+        ``M = Gᵀ diag(w) G`` numerically.
     """
 
     system: System
@@ -81,6 +85,7 @@ class Equations:
     energy: sp.ImmutableMatrix | None = None
     elastic: Any = None
     poses: FramePoses | None = None
+    mass_factors: tuple[tuple[sp.Expr, tuple[sp.Expr, ...]], ...] | None = None
 
     @property
     def n(self) -> int:
@@ -132,4 +137,5 @@ class Equations:
             outputs=sub(self.outputs),
             energy=None if self.energy is None else sub(self.energy),
             poses=None if self.poses is None else self.poses.substituted(values),
+            mass_factors=None,
         )

@@ -164,3 +164,39 @@ def test_no_warning_on_a_clean_hit():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         api.generated_module(PENDULUM)
+
+
+def test_generate_through_the_cache_writes_the_same_bytes_without_sympy(tmp_path):
+    """``neweul generate`` (cache on by default): the first run derives and stores, the
+    second copies the verified entry without importing sympy; both outputs equal the shipped
+    ``generated/pendulum.py`` byte for byte, and ``--no-cache`` derives the same bytes."""
+    import subprocess
+    import sys
+
+    assert main(["generate", str(PENDULUM), "-o", str(tmp_path / "a")]) == 0
+    code = (
+        "import sys; sys.modules['sympy'] = None\n"
+        "from neweul_py.cli import main\n"
+        f"assert main(['generate', {str(PENDULUM)!r}, '-o', {str(tmp_path / 'b')!r}]) == 0\n"
+        "assert not any(k.startswith(('neweul_py.codegen', 'neweul_py.equations', "
+        "'neweul_py.analysis')) for k in sys.modules)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                   check=True)
+    assert main(["generate", str(PENDULUM), "-o", str(tmp_path / "c"), "--no-cache"]) == 0
+    shipped = (ROOT / "generated" / "pendulum.py").read_bytes()
+    for d in "abc":
+        assert (tmp_path / d / "pendulum.py").read_bytes() == shipped
+
+
+def test_generate_regenerates_a_tampered_cache_entry(tmp_path):
+    """A cached module whose bytes no longer match their digest is not copied: ``generate``
+    derives again (one CacheWarning) and writes the shipped bytes."""
+    path = api.generated_module(PENDULUM)
+    path.write_bytes(path.read_bytes().replace(b"MODEL_NAME = 'pendulum'",
+                                               b"MODEL_NAME = 'evil'"))
+    with pytest.warns(CacheWarning):
+        out = api.generate(PENDULUM, tmp_path / "out", cache=True)
+    assert out.name == "pendulum.py"
+    assert out.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()

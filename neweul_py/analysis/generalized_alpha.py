@@ -1,0 +1,268 @@
+"""Fixed-step generalized-α integration of ``M(y) ÿ = q − k`` (stiff flexible multibody systems).
+
+The generalized-α method of Chung & Hulbert (J. Appl. Mech. 60 (1993) 371–375) in the form of
+Arnold & Brüls for nonlinear second-order systems (Multibody Syst. Dyn. 18 (2007) 185–202,
+Eqs. (8)–(10)), as Exudyn and most flexible-multibody codes use it: with the step ``h``, an
+acceleration-like variable ``a`` and the true accelerations ``ÿ``,
+
+```
+y₊ = y + h ẏ + h² (½ − β) a + h² β a₊
+ẏ₊ = ẏ + h (1 − γ) a + h γ a₊
+(1 − α_m) a₊ + α_m a = (1 − α_f) ÿ₊ + α_f ÿ
+M(y₊) ÿ₊ = (q − k)(t₊, y₊, ẏ₊)
+```
+
+with ``α_m = (2ρ∞ − 1)/(ρ∞ + 1)``, ``α_f = ρ∞/(ρ∞ + 1)``, ``γ = ½ + α_f − α_m``,
+``β = ¼ (γ + ½)²``: second order, unconditionally stable for linear problems, and the
+spectral radius ``ρ∞ ∈ [0, 1]`` at infinite frequency damps the unresolved stiff modes
+(ρ∞ = 1: none, the trapezoidal rule; ρ∞ = 0: asymptotic annihilation) while the resolved
+ones keep their amplitude to O(h²).
+
+The unknown of a step is ``ÿ₊``; ``y₊`` and ``ẏ₊`` are affine in it
+(``y₊ = ŷ + h² β′ ÿ₊``, ``ẏ₊ = v̂ + h γ′ ÿ₊``, ``β′ = β (1 − α_f)/(1 − α_m)``,
+``γ′ = γ (1 − α_f)/(1 − α_m)``). Newton's method on the residual
+``r(ÿ₊) = M(y₊) ÿ₊ − (q − k)`` uses the iteration matrix
+``S = M + h γ′ C_t + h² β′ K_t`` with ``C_t = −∂(q−k)/∂ẏ``,
+``K_t = −∂(q−k)/∂y + ∂(M ÿ)/∂y`` (the module's analytic ``force_jacobians`` and
+``mass_matrix_times_derivative``). *Modified* Newton: the iteration matrix is built once and
+reused over the iterations and the steps; it is rebuilt only when an iteration contracts too
+slowly or fails to converge within a few iterations. The residual is taken in the
+acceleration form ``r̃ = ÿ₊ − rhs(y₊, ẏ₊)`` (``= M⁻¹ r``), so that one iteration costs one
+``rhs`` call (one evaluation of the frame kinematics for M and q − k together) and one
+matrix–vector product with the stored ``S⁻¹ M``. The iterations stop by the estimate of
+Hairer & Wanner (*Solving ODEs II*, §IV.8, Eq. (8.10)): with the contraction
+``θ = ‖Δ_k‖/‖Δ_(k−1)‖`` the remaining error is about ``θ/(1 − θ) ‖Δ_k‖`` (the last step's θ
+serves for the first iteration), measured on the position and velocity updates
+``h² β′ Δ`` and ``h γ′ Δ`` against ``atol + rtol |·|``. Output times between steps are
+interpolated by cubic Hermite polynomials (``y`` from ``y, ẏ``; ``ẏ`` from ``ẏ, ÿ``), so the
+user sees the same result arrays as from the SciPy methods.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from ..errors import NeweulError, SolverError
+from .integrators import CompiledSolution
+
+__all__ = ["GeneralizedAlpha", "coefficients", "integrate_generalized_alpha"]
+
+#: Newton iterations per step before the iteration matrix is rebuilt (and then the step fails).
+MAX_ITERATIONS = 8
+#: Contraction above which the iteration matrix is rebuilt.
+SLOW_CONTRACTION = 0.5
+#: An increment below this multiple of the round-off of ``ÿ₊`` counts as converged (with
+#: ``ω h ≫ 1`` the positions ``ŷ + h² β′ ÿ₊`` lose digits to cancellation, so tight
+#: tolerances cannot be met by the increments).
+ROUND_OFF = 64 * np.finfo(float).eps
+
+
+class GeneralizedAlpha:
+    """The coefficients ``α_m, α_f, γ, β`` of the method for ``ρ∞`` (Chung & Hulbert 1993,
+    Eqs. (25), (17), (20)) and the factors ``h² β′``, ``h γ′`` of ``ÿ₊`` in ``y₊``, ``ẏ₊``."""
+
+    def __init__(self, rho_inf: float, h: float = 1.0) -> None:
+        if not 0.0 <= rho_inf <= 1.0:
+            raise NeweulError(f"rho_inf must lie in [0, 1], got {rho_inf:g}")
+        self.rho_inf, self.h = float(rho_inf), float(h)
+        self.alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0)
+        self.alpha_f = rho_inf / (rho_inf + 1.0)
+        self.gamma = 0.5 + self.alpha_f - self.alpha_m
+        self.beta = 0.25 * (self.gamma + 0.5) ** 2
+        ratio = (1 - self.alpha_f) / (1 - self.alpha_m)
+        self.c_y = h * h * self.beta * ratio
+        self.c_v = h * self.gamma * ratio
+        # ŷ = y + h ẏ + h²[(½ − β) a + β k], v̂ = ẏ + h[(1 − γ) a + γ k] with the known part
+        # k = (α_f ÿ − α_m a)/(1 − α_m) of a₊, as coefficients of a and ÿ
+        am, af = self.alpha_m, self.alpha_f
+        b, g = self.beta, self.gamma
+        self._ya, self._yy = h * h * (0.5 - b - b * am / (1 - am)), h * h * b * af / (1 - am)
+        self._va, self._vy = h * (1 - g - g * am / (1 - am)), h * g * af / (1 - am)
+
+    def predict(self, y: np.ndarray, v: np.ndarray, a: np.ndarray, ydd: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """``(ŷ, v̂)``: ``y₊ = ŷ + c_y ÿ₊`` and ``ẏ₊ = v̂ + c_v ÿ₊`` (module docstring)."""
+        return (y + self.h * v + self._ya * a + self._yy * ydd,
+                v + self._va * a + self._vy * ydd)
+
+    def next_a(self, a: np.ndarray, ydd: np.ndarray, ydd_new: np.ndarray) -> np.ndarray:
+        """``a₊`` from ``(1 − α_m) a₊ + α_m a = (1 − α_f) ÿ₊ + α_f ÿ``."""
+        return ((1 - self.alpha_f) * ydd_new + self.alpha_f * ydd - self.alpha_m * a) / (
+            1 - self.alpha_m)
+
+
+def coefficients(rho_inf: float, h: float = 1.0) -> GeneralizedAlpha:
+    """The method's coefficients for the spectral radius ``rho_inf`` (and the step ``h``)."""
+    return GeneralizedAlpha(rho_inf, h)
+
+
+def _hermite(t0: float, t1: float, p0: np.ndarray, d0: np.ndarray, p1: np.ndarray,
+             d1: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Cubic Hermite interpolation of values ``p`` with derivatives ``d`` at times ``t``."""
+    h = t1 - t0
+    s = ((t - t0) / h)[:, None]
+    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+    return h00 * p0 + h10 * h * d0 + h01 * p1 + h11 * h * d1
+
+
+class _Problem:
+    """The module with fixed ``p`` and inputs: accelerations and the Newton matrix."""
+
+    def __init__(self, module: ModuleType, p: np.ndarray, uf: Callable[[float], Any],
+                 n: int) -> None:
+        self.module, self.p, self.uf, self.n = module, p, uf, n
+        self.nfev = 0
+        self.njev = 0
+
+    def acceleration(self, t: float, x: np.ndarray) -> np.ndarray:
+        """``ÿ = M⁻¹ (q − k)`` at the state ``x = [y, ẏ]`` (one ``rhs`` call)."""
+        self.nfev += 1
+        return np.asarray(self.module.rhs(t, x, self.p, self.uf(t)), dtype=float)[self.n:]
+
+    def newton_matrix(self, t: float, y: np.ndarray, yd: np.ndarray, ydd: np.ndarray,
+                      c: GeneralizedAlpha) -> np.ndarray:
+        """``S⁻¹ M`` with ``S = M + c_v C_t + c_y K_t`` at ``(t, y, ẏ, ÿ)``: the inverse of
+        ``∂r̃/∂ÿ₊`` for the acceleration-form residual."""
+        self.njev += 1
+        u, m = self.uf(t), self.module
+        fy, fyd, _fu = m.force_jacobians(t, y, yd, self.p, u)
+        dma = m.mass_matrix_times_derivative(t, y, self.p, ydd, u)
+        mass = np.asarray(m.mass_matrix(t, y, self.p, u), dtype=float)
+        S = mass - c.c_v * np.asarray(fyd) + c.c_y * (np.asarray(dma) - np.asarray(fy))
+        return np.linalg.solve(S, mass)
+
+
+def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
+            v_hat: np.ndarray, x: np.ndarray, G: np.ndarray, scale: np.ndarray,
+            theta: float, fresh: bool) -> tuple[np.ndarray | None, float]:
+    """Modified Newton on ``r̃(ÿ₊) = ÿ₊ − rhs(ŷ + c_y ÿ₊, v̂ + c_v ÿ₊)`` from ``x``.
+
+    Returns ``(ÿ₊, θ)``, or ``(None, θ)`` when it does not converge (or contracts slower than
+    :data:`SLOW_CONTRACTION` with an old matrix, ``fresh`` false)."""
+    previous = np.inf
+    z_hat = np.concatenate((y_hat, v_hat))
+    for k in range(MAX_ITERATIONS):
+        dx = G @ (x - prob.acceleration(tn, z_hat + cz * np.concatenate((x, x))))
+        x = x - dx
+        err = float((np.abs(dx) * scale).max())
+        if not math.isfinite(err):
+            return None, theta
+        if k:
+            theta = err / previous
+            if theta >= 1.0 or (theta > SLOW_CONTRACTION and not fresh):
+                return None, theta
+        if (theta < 1.0 and theta / (1.0 - theta) * err <= 1.0) or err <= 1e-3 \
+                or np.abs(dx).max() <= ROUND_OFF * np.abs(x).max():
+            return x, theta
+        previous = err
+    return None, theta
+
+
+def integrate_generalized_alpha(
+    module: ModuleType,
+    t_span: tuple[float, float],
+    x0: np.ndarray,
+    p: np.ndarray,
+    uf: Callable[[float], Any],
+    times: np.ndarray,
+    *,
+    h: float,
+    rho_inf: float,
+    rtol: float,
+    atol: float,
+    names: list[str],
+    progress: Callable[[float, float], None] | None = None,
+) -> CompiledSolution:
+    """Integrate the module from ``x0`` over ``t_span`` with generalized-α steps of (at most)
+    ``h``.
+
+    Parameters
+    ----------
+    module
+        A generated module (``rhs``, ``mass_matrix``, ``force_jacobians``,
+        ``mass_matrix_times_derivative``).
+    t_span
+        ``(t_start, t_end)``; the span is divided into ``ceil(span / h)`` equal steps.
+    x0
+        Initial state ``[y, ẏ]``.
+    p, uf
+        Parameters and the input function ``u(t)`` (``None`` results: default excitation).
+    times
+        Output times (increasing, within ``t_span``).
+    h
+        Step size.
+    rho_inf
+        Spectral radius at infinite frequency, in ``[0, 1]``.
+    rtol, atol
+        Tolerances of the Newton iterations on the position and velocity updates.
+    names
+        State names for error messages.
+    progress
+        ``progress(done, total)`` hook, called about 200 times.
+
+    Returns
+    -------
+    CompiledSolution
+        The states at ``times`` (``y`` of shape (2n, len(times))) and the number of
+        ``rhs`` evaluations as ``nfev``.
+
+    Raises
+    ------
+    SolverError
+        When Newton's method does not converge in a step even with a fresh iteration matrix
+        (with the last state reached).
+    """
+    t0, t1 = t_span
+    if not (np.isfinite(h) and h > 0):
+        raise NeweulError(f"the step h must be a positive number, got {h!r}")
+    steps = max(1, int(np.ceil((t1 - t0) / h * (1 - 1e-12))))
+    h = (t1 - t0) / steps
+    c = coefficients(rho_inf, h)
+    n = x0.size // 2
+    cz = np.repeat((c.c_y, c.c_v), n)  # [y₊, ẏ₊] = [ŷ, v̂] + cz · [ÿ₊, ÿ₊]
+    prob = _Problem(module, p, uf, n)
+    y, v = x0[:n].astype(float), x0[n:].astype(float)
+    ydd = prob.acceleration(t0, np.concatenate((y, v)))
+    a = ydd.copy()
+    out = np.empty((times.size, 2 * n))
+    k = int(np.searchsorted(times, t0, side="right"))
+    out[:k] = x0
+    G = prob.newton_matrix(t0, y, v, ydd, c)
+    fresh, theta = True, 0.5
+    report = max(1, steps // 200)
+    for i in range(steps):
+        t, tn = t0 + i * h, (t0 + (i + 1) * h if i + 1 < steps else t1)
+        y_hat, v_hat = c.predict(y, v, a, ydd)
+        scale = np.maximum(c.c_y / (atol + rtol * np.abs(y)), c.c_v / (atol + rtol * np.abs(v)))
+        x_new, theta = _newton(prob, cz, tn, y_hat, v_hat, ydd, G, scale, theta, fresh)
+        fresh = False
+        if x_new is None:  # rebuild the matrix at the predictor and try once more
+            G = prob.newton_matrix(tn, y_hat + c.c_y * ydd, v_hat + c.c_v * ydd, ydd, c)
+            fresh, theta = True, 0.5
+            x_new, theta = _newton(prob, cz, tn, y_hat, v_hat, ydd, G, scale, theta, True)
+            if x_new is None:
+                raise SolverError(
+                    f"generalized-alpha: Newton's method does not converge at t = {tn:g} "
+                    f"(h = {h:g}); use a smaller step", last_iterate=np.concatenate((y, v)),
+                    names=names)
+        a = c.next_a(a, ydd, x_new)
+        y_new, v_new = y_hat + c.c_y * x_new, v_hat + c.c_v * x_new
+        j = int(np.searchsorted(times, tn, side="right")) if i + 1 < steps else times.size
+        if j > k:
+            out[k:j, :n] = _hermite(t, tn, y, v, y_new, v_new, times[k:j])
+            out[k:j, n:] = _hermite(t, tn, v, ydd, v_new, x_new, times[k:j])
+            k = j
+        y, v, ydd = y_new, v_new, x_new
+        if progress is not None and i % report == 0:
+            progress(tn - t0, t1 - t0)
+    sol = CompiledSolution(times, out.T, True,
+                           "The solver successfully reached the end of the integration "
+                           "interval.", prob.nfev)
+    sol.njev = prob.njev  # type: ignore[attr-defined]
+    return sol
