@@ -26,7 +26,7 @@ import numpy as np
 
 
 def run(nx: int, modes: int, method: str = "Radau", rtol: float = 1e-6, h: float = 1e-3,
-        rho_inf: float = 0.9) -> dict:
+        rho_inf: float = 0.9, backend: str = "numpy") -> dict:
     from neweul_py.analysis import load_generated, simulate
     from neweul_py.api import generate
     from neweul_py.elastic.craig_bampton import reduce_craig_bampton
@@ -63,12 +63,13 @@ outputs:
   tip_x: {{position: block.tip, component: x}}
   tip_z: {{position: block.tip, component: z}}
 """)
-        mod = load_generated(generate(d / "pendulum.yaml", d / "gen"))
+        mod = load_generated(generate(d / "pendulum.yaml", d / "gen", backend=backend))
         t1, c1 = time.perf_counter(), time.process_time()
         extra = {"h": h, "rho_inf": rho_inf} if method == "generalized-alpha" else {}
         res = simulate(mod, 1.0, method=method, rtol=rtol, atol=1e-9, n_out=11, **extra)
         t2, c2 = time.perf_counter(), time.process_time()
     return {"dofs": int(fe.M.shape[0]), "modes": modes, "generate": t1 - t0,
+            "backend": getattr(mod, "BACKEND", "numpy"),
             "simulate": t2 - t1, "simulate_cpu": c2 - c1,
             "rhs_calls": int(getattr(res, "nfev", -1)),
             "tip": [float(res.outputs[-1, 0]), float(res.outputs[-1, 1])]}
@@ -79,4 +80,5 @@ if __name__ == "__main__":
     print(json.dumps(run(int(args[0]) if args else 16, int(args[1]) if len(args) > 1 else 10,
                          args[2] if len(args) > 2 else "Radau",
                          h=float(args[3]) if len(args) > 3 else 1e-3,
-                         rho_inf=float(args[4]) if len(args) > 4 else 0.9)))
+                         rho_inf=float(args[4]) if len(args) > 4 else 0.9,
+                         backend=args[5] if len(args) > 5 else "numpy")))

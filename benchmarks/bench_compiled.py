@@ -292,16 +292,18 @@ def main() -> None:
         print(f"    Exudyn ObjectFFRFreducedOrder: {e['solve']:.3f} s ({e['dofs']} FE dofs, "
               f"modes {e['modes_time']:.2f} s; tip at 1 s: "
               f"{', '.join(f'{v:.5f}' for v in e['tip'])})")
-        o = _run([sys.executable, str(HERE / "_ours_hex_pendulum.py"), "16", "10",
-                  "generalized-alpha", "1e-3", "0.9"])
-        print(f"    ours, generalized-alpha h = 1e-3, rho_inf = 0.9 (NumPy module): "
-              f"{o['simulate']:.3f} s wall, {o['simulate_cpu']:.3f} s CPU, {o['rhs_calls']} rhs "
-              f"calls; tip at 1 s: {', '.join(f'{v:.5f}' for v in o['tip'])}")
         print(f"    Exudyn SolveDynamic: {e['solve']:.3f} s wall, {e['solve_cpu']:.3f} s CPU")
-        print(f"    ours / Exudyn: {o['simulate'] / e['solve']:.2f} (wall), "
-              f"{o['simulate_cpu'] / e['solve_cpu']:.2f} (CPU); tip z differs by "
-              f"{abs(o['tip'][1] - e['tip'][2]):.1e} m, x by "
-              f"{abs(o['tip'][0] - e['tip'][0]):.1e} m")
+        for backend, label in (("numpy", "NumPy module"), ("c", "compiled module")):
+            o = _run([sys.executable, str(HERE / "_ours_hex_pendulum.py"), "16", "10",
+                      "generalized-alpha", "1e-3", "0.9", backend])
+            print(f"    ours, generalized-alpha h = 1e-3, rho_inf = 0.9 ({label}, "
+                  f"{o['backend']}): {o['simulate']:.3f} s wall, {o['simulate_cpu']:.3f} s CPU, "
+                  f"{o['rhs_calls']} rhs calls; tip at 1 s: "
+                  f"{', '.join(f'{v:.5f}' for v in o['tip'])}")
+            print(f"    ours / Exudyn: {o['simulate'] / e['solve']:.2f} (wall), "
+                  f"{o['simulate_cpu'] / e['solve_cpu']:.2f} (CPU); tip z differs by "
+                  f"{abs(o['tip'][1] - e['tip'][2]):.1e} m, x by "
+                  f"{abs(o['tip'][0] - e['tip'][0]):.1e} m")
 
 
 if __name__ == "__main__":
