@@ -7,9 +7,11 @@ Run from the repository root (README.md, "The assembled EMBS")::
 1. the FE sweep ``neweul fem middle-ear --pressures -4000:4000:9`` into
    ``examples/middle_ear/data/fem`` (skipped when it is there with the same refinement);
 2. a snapshot global basis (:mod:`neweul_py.elastic.snapshot_basis`): full FE responses of
-   every working point at 10 frequencies 100 Hz–8 kHz to the canal sound source and to the
+   every working point at 20 Hz and 10 frequencies 100 Hz–8 kHz to the canal sound source and to the
    six rigid motions of the malleus seen through the TM–manubrium springs (36 933 N/m in
-   all, equal per manubrium node), POD-compressed per u/p block in the energy norms;
+   all, equal per manubrium node), and the adjoint responses of the probe pressure, the umbo
+   and the six malleus loads (same factorizations), POD-compressed per u/p block in the
+   energy norms;
 3. every working point's FE model projected on it (fixed-frame invariants: the body is on
    ISYS, gravity 0) → ``examples/middle_ear/data/embs/tm_air.npz`` (a parametric body,
    cubic weights in ``dp``), and the node ids and chain factors the description uses
@@ -36,12 +38,12 @@ from neweul_py.elastic.global_basis import energy_metric
 from neweul_py.elastic.interpolation import save_parametric_body
 from neweul_py.elastic.snapshot_basis import basis_parametric_body, snapshot_basis
 from neweul_py.fem.ear_transfer import LumpedChain
-from neweul_py.fem.middle_ear import MiddleEarParameters, build_middle_ear
+from neweul_py.fem.middle_ear import MiddleEarParameters
 from neweul_py.fem.working_point_file import read_static
 
 HERE = Path(__file__).resolve().parent
 PRESSURES = np.arange(-4000.0, 4001.0, 1000.0)
-SNAPSHOT_HZ = np.geomspace(100.0, 8000.0, 10)
+SNAPSHOT_HZ = np.r_[20.0, np.geomspace(100.0, 8000.0, 10)]
 
 
 def model_file(fem: Path, dp: float) -> Path:
@@ -60,8 +62,25 @@ def ensure_sweep(fem: Path, refine: int) -> dict:
     return json.loads(sweep.read_text())
 
 
-def interface_loads(fe, me, k_attach: float) -> tuple[sps.csr_matrix, np.ndarray]:
-    """``K_x`` (the TM–manubrium springs to ground) and the loads ``[b_canal, K_x T]``."""
+def rigid_map(fe, names: list[str], umbo: int) -> np.ndarray:
+    """(3m, 6) rigid malleus map ``u = t + θ × (x − x_umbo)`` in the row order of ``names``
+    (``manubrium.<id>.u?``; the FE inputs are ordered as strings, "20" before "8")."""
+    xyz = {int(r[0]): r[1:4] for r in fe.nodes}
+    T = np.zeros((len(names), 6))
+    e = np.eye(3)
+    for row, name in enumerate(names):
+        _, node, kind = name.split(".")
+        a = "xyz".index(kind[1])
+        r = xyz[int(node)] - xyz[umbo]
+        T[row, a] = 1.0
+        T[row, 3:] = [np.cross(e[b], r)[a] for b in range(3)]
+    return T
+
+
+def interface_loads(fe, umbo: int, k_attach: float
+                    ) -> tuple[sps.csr_matrix, np.ndarray, np.ndarray]:
+    """``K_x`` (the TM–manubrium springs to ground), the loads ``[b_canal, K_x T]`` and the
+    output rows (transposed) ``[c_probe, c_umbo, K_x T]`` of the adjoint snapshots."""
     man = [name for name in fe.inputs if name.startswith("manubrium.")]
     dofs = np.array([fe.inputs[name][0][0] for name in man])
     k = k_attach / (dofs.size // 3)
@@ -69,8 +88,13 @@ def interface_loads(fe, me, k_attach: float) -> tuple[sps.csr_matrix, np.ndarray
     Kx = sps.csr_matrix((np.full(dofs.size, k), (dofs, dofs)), shape=(n, n))
     F = np.zeros((n, 7))
     F[:, 0] = fe.B("canal_volume_acceleration")[:, 0]
-    F[dofs, 1:] = k * me.malleus_T
-    return Kx, F
+    F[dofs, 1:] = k * rigid_map(fe, man, umbo)
+    Cadj = np.zeros((n, 8))
+    for j, name in enumerate(("probe_pressure", "umbo_uz")):
+        for i, w in fe.outputs[name]:
+            Cadj[i, j] += w
+    Cadj[:, 2:] = F[:, 1:]
+    return Kx, F, Cadj
 
 
 def write_static(fes, V: np.ndarray, fem: Path, path: Path) -> None:
@@ -110,19 +134,24 @@ def main() -> None:
     fem, out = args.dir / "fem", args.dir / "embs"
     sweep = ensure_sweep(fem, args.refine)
     params = MiddleEarParameters(**sweep["parameters"])
-    me = build_middle_ear(params, args.refine)
     fes = [read_fe_model(model_file(fem, p)) for p in PRESSURES]
-    Kx, F = interface_loads(fes[0], me, params.k_tm_manubrium)
+    Kx, F, Cadj = interface_loads(fes[0], int(sweep["interface_nodes"]["umbo"]),
+                                  params.k_tm_manubrium)
     out.mkdir(parents=True, exist_ok=True)
-    cache = out / f"basis_r{args.refine}_{args.rtol:g}_{args.order}.npz"
+    cache = out / f"basis3_r{args.refine}_{args.rtol:g}.npz"   # the snapshots take minutes
+    done, prior = np.zeros(0), None
     if cache.exists():
         with np.load(cache) as z:
             V, energy = z["V"], z["energy"]
-    else:
-        V, energy = snapshot_basis(fes, [F] * len(fes), SNAPSHOT_HZ, Kx, rtol=args.rtol,
-                                   order=args.order,
-                                   progress=lambda m: print(m, file=sys.stderr))
-        np.savez(cache, V=V, energy=energy)
+            done = z["freqs"]
+        prior = V
+    todo = np.array([f for f in SNAPSHOT_HZ if not np.any(np.isclose(f, done))])
+    if todo.size:       # a cached basis is extended by the missing frequencies only
+        V, energy = snapshot_basis(fes, [F] * len(fes), todo, Kx, rtol=args.rtol,
+                                   progress=lambda m: print(m, file=sys.stderr), prior=prior,
+                                   adjoint=[Cadj] * len(fes))
+        np.savez(cache, V=V, energy=energy, freqs=np.union1d(done, todo))
+    V, energy = V[:, :args.order], energy[:args.order]   # columns by decreasing energy
     manubrium = [int(i) for i in sweep["interface_nodes"]["manubrium"]]
     body = basis_parametric_body(fes, V, PRESSURES, parameter="dp", keep_nodes=manubrium,
                                  energy=energy)

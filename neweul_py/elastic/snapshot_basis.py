@@ -51,7 +51,9 @@ def _say(progress: Progress, msg: str) -> None:
 def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                    freqs_hz: Sequence[float], extra_stiffness: sps.spmatrix | None = None,
                    rtol: float = 1e-8, order: int | None = None,
-                   progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+                   progress: Progress = None,
+                   prior: np.ndarray | None = None,
+                   adjoint: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The G-orthonormal, u/p block-diagonal snapshot basis (module docstring).
 
     Parameters
@@ -69,13 +71,23 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         which a direction is dropped.
     order
         Keep at most this many directions (the most energetic over both blocks).
+    adjoint
+        Per sample (n, l) output rows ``c`` (transposed): the adjoint snapshots
+        ``A_ijᵀ y = c`` join the others (same factorization, transposed solve). With primal
+        and dual solutions in one Galerkin space the transfer-function error is of second
+        order in the projection error (Petrov–Galerkin accuracy from a Galerkin basis; the
+        u–p model is unsymmetric).
+    prior
+        Columns of an earlier basis of the same models (e.g. the snapshots at other
+        frequencies, compressed): they join the new snapshots, so a basis can be extended
+        by further frequencies without solving the old ones again.
 
     Returns
     -------
     V, energy
         (n, r) basis and the POD energy of each column.
     """
-    if len(loads) != len(fes):
+    if len(loads) != len(fes) or (adjoint is not None and len(adjoint) != len(fes)):
         raise DataError(f"{len(loads)} load sets for {len(fes)} FE models", None, "loads")
     f = np.asarray(freqs_hz, dtype=float)
     if f.size == 0 or np.any(f <= 0) or not np.all(np.isfinite(f)):
@@ -88,8 +100,11 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
             lu = spla.splu(sps.csc_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
             X = lu.solve(np.asarray(F, dtype=complex))
             snaps += [X.real, X.imag]
+            if adjoint is not None:
+                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), trans="T")
+                snaps += [Y.real, Y.imag]
         _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
-    S = np.hstack(snaps)
+    S = np.hstack(snaps if prior is None else [np.asarray(prior, dtype=float), *snaps])
     G = energy_metric(fes)
     kinds = fes[0].dof_kind
     blocks = [kinds == "p", kinds != "p"] if fes[0].kind == "up-coupled" else [
@@ -123,7 +138,7 @@ def _rigid_mass(fe: FEModel) -> tuple[float, np.ndarray, np.ndarray]:
     for a in range(3):                      # rotation about a: displacement e_a × x
         R[:, 3 + a] = np.cross(e[a], pos)[np.arange(u.size), axis]
     Mr = R.T @ (Muu @ R)
-    m = float(np.trace(Mr[:3, :3]) / 3.0)
+    m = float(np.max(np.diag(Mr[:3, :3])))   # a model may lack some translation DOFs
     md = np.array([Mr[1, 5], Mr[2, 3], Mr[0, 4]]).reshape(3, 1)   # ∫ x dm from the couplings
     return m, md, 0.5 * (Mr[3:, 3:] + Mr[3:, 3:].T)
 
