@@ -11,8 +11,8 @@ Run from the repository root after ``build_embs.py`` (README.md, "Studies")::
    at the 9 pressures −4000…4000 Pa, magnitude and phase, from the generated EMBS linearized
    at each Δp; the low-frequency change (mean 100–1000 Hz, dB re Δp = 0) against Gyo &
    Goode 1987 (``docs/middle-ear-measurements.md``);
-3. **time simulation**: a 1 kHz tone in the canal while Δp ramps 0 → +2000 Pa (a middle-ear
-   pressure of −2 kPa, swallow-like: 100 ms up, 100 ms held, 100 ms down) — a copy of the
+3. **time simulation**: a 1 kHz tone in the canal while Δp goes 0 → +2000 Pa → 0 (a middle-ear
+   pressure of −2 kPa, swallow-like: ``2000 sin²(πt/350 ms)``) — a copy of the
    description in which every ``dp`` is the ramp ``dp(t)`` (schedule and chain factor alike);
    the frozen-parameter assumption (README, docs/equations-middle-ear.md §7).
 
@@ -40,8 +40,9 @@ from validate_embs import DESCRIPTION, HERE, embs_frf, modules, transfer
 
 PRESSURES = np.arange(-4000.0, 4001.0, 1000.0)
 GYO_GOODE = {1000.0: (-5.0, 1.0), 2000.0: (-9.2, 1.3), 3000.0: (-13.1, 1.8)}  # dB, mean ± sd
-RAMP = ("piecewise(t < 0.05, 0, t < 0.15, (t - 0.05)/0.1, t < 0.25, 1, t < 0.35, "
-        "(0.35 - t)/0.1, 0)")
+#: A smooth swallow-like bump 0 → 1 → 0 over 0 ≤ t ≤ 0.35 s (no piecewise(): the chain
+#: factor compares dp in its own piecewise(), and comparisons may not contain one).
+RAMP = "sin(pi*t/0.35)**2"
 
 
 def static_table(data: Path) -> list[dict[str, float]]:
@@ -101,7 +102,7 @@ def ramp_description(out: Path) -> Path:
     return path
 
 
-def time_study(out: Path, f_tone: float = 1000.0, t_end: float = 0.4):
+def time_study(out: Path, f_tone: float = 1000.0, t_end: float = 0.35):
     """The tone under the Δp ramp (module docstring); returns (t, results, seconds)."""
     desc = ramp_description(out)
     try:
@@ -176,10 +177,10 @@ def main() -> None:
         tc, ap_ = envelope(t, pp, 1e-3)
         _, av = envelope(t, vs, 1e-3)
         ratio = av / ap_
-        lines += ["", f"## Time simulation: 1 kHz tone, Δp ramp 0 → +2000 Pa → 0 "
+        lines += ["", f"## Time simulation: 1 kHz tone, Δp = 2000 sin²(πt/0.35 s) Pa "
                   f"(BDF, {secs:.0f} s)", "",
                   "| t [ms] | Δp(t) [Pa] | stapes/probe amplitude [mm/s/Pa] |", "|---|---|---|"]
-        for tm in (0.03, 0.1, 0.2, 0.3, 0.38):
+        for tm in (0.02, 0.09, 0.175, 0.26, 0.33):
             i = int(np.argmin(np.abs(tc - tm)))
             lines.append(f"| {1e3 * tc[i]:.0f} | {2000 * _ramp(tc[i]):.0f} | "
                          f"{1e3 * ratio[i]:.4f} |")
@@ -189,7 +190,7 @@ def main() -> None:
 
 
 def _ramp(t: float) -> float:
-    return float(np.interp(t, [0.0, 0.05, 0.15, 0.25, 0.35, 1.0], [0, 0, 1, 1, 0, 0]))
+    return float(np.sin(np.pi * t / 0.35) ** 2) if 0.0 <= t <= 0.35 else 0.0
 
 
 def _plots(out: Path, f, H, st, res) -> None:
@@ -248,7 +249,7 @@ def _plots(out: Path, f, H, st, res) -> None:
         ax[1].plot(1e3 * t, 1e3 * np.asarray(res.outputs)[:, names.index("stapes_velocity")],
                    lw=0.3)
         ax[1].set_ylabel("stapes velocity [mm/s]")
-        ax[1].set_xlabel("t [ms] (Δp: 0 → +2000 Pa in 50–150 ms, back in 250–350 ms)")
+        ax[1].set_xlabel("t [ms] (Δp = 2000 sin²(πt/350 ms) Pa)")
         fig.tight_layout()
         fig.savefig(out / "time.png", dpi=120)
     print(f"plots in {out}")
