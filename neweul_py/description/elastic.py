@@ -13,7 +13,18 @@ elastic_bodies:
     schedule: dp               # parametric bodies (neweul interpolate): the scheduling
                                # variable, an expression of parameters, inputs, t and
                                # coordinates of the rigid part
+    inputs: {canal_volume_acceleration: Q}   # optional: the body's own FE inputs, driven
+                               # by an expression (of inputs, parameters, t, …)
+    outputs: {probe_pressure: p_probe}      # optional: the body's own FE outputs as
+                               # description outputs (C V q)
 ```
+
+The body's own FE inputs and outputs (reduced-body and parametric files, the ``io.*`` arrays of
+:func:`neweul_py.elastic.reader.read_elastic_data`): an input becomes one generalized force
+``(Wᵀb)_k · EXPR`` on every elastic coordinate ``NAME_qk``, an output the expression
+``Σ_k (C V)_k NAME_qk``. A parametric body's modal loads and output rows must be the same at
+every sample (a global basis, ``neweul_py.elastic.global_basis``, has them so when the FE
+inputs and outputs do not move with the schedule); otherwise the key is refused.
 
 Unlisted modes start at 0. The values go into the generated module's ``INITIAL_STATE``.
 
@@ -71,7 +82,8 @@ def description_directory() -> Path:
 def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
     """Section loader: every entry becomes an :class:`ElasticBody` on the builder ``b``."""
     schema = Schema(required=("frame", "data"),
-                    optional=("nodes", "modes", "initial", "velocity", "inertia", "schedule"))
+                    optional=("nodes", "modes", "initial", "velocity", "inertia", "schedule",
+                              "inputs", "outputs"))
     for name, spec in section_items(section, path, "elastic body definitions"):
         item = f"{path}.{name}"
         spec = schema.check(spec, item, "an elastic body")
@@ -118,6 +130,69 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
         start = {key: _per_mode(spec.get(key), body, f"{item}.{key}")
                  for key in ("initial", "velocity")}
         b.elastic_body(body, start["initial"], start["velocity"], schedule)
+        _body_io(b, body, spec, item)
+
+
+def _io_array(body: ElasticBody, key: str, item: str) -> Any:
+    """``io.B`` / ``io.C`` of a body, the same at every sample of a parametric body."""
+    if "io.B" not in body.data:
+        raise ModelError(f"{body.source} holds no FE inputs/outputs (a reduced-body or "
+                         "parametric-body .npz has them; SID and bare invariants files do "
+                         "not)", item)
+    first = body.data[key]
+    scale = float(abs(first).max()) if first.size else 0.0
+    for i, sample in enumerate(body.samples[1:], start=2):
+        if float(abs(sample[key] - first).max(initial=0.0)) > 1e-9 * scale:
+            raise ModelError(f"the body's {'modal loads' if key == 'io.B' else 'output rows'} "
+                             f"differ between sample 1 and sample {i}: they would need "
+                             "scheduled coefficients (use a global basis, "
+                             "neweul_py.elastic.global_basis)", item)
+    return first
+
+
+def _number(v: float) -> str:
+    return repr(float(v))
+
+
+def _body_io(b: Any, body: ElasticBody, spec: dict, item: str) -> None:
+    """``inputs``/``outputs`` of an elastic body: generalized forces on its elastic
+    coordinates and expression outputs (module docstring)."""
+    q = body.coordinate_names
+    for key, array, names_key in (("inputs", "io.B", "io.inputs"),
+                                  ("outputs", "io.C", "io.outputs")):
+        given = spec.get(key)
+        if given is None:
+            continue
+        path = f"{item}.{key}"
+        if not isinstance(given, dict) or not given:
+            raise ModelError(f"expected a mapping FE {key[:-1]} name: "
+                             f"{'expression' if key == 'inputs' else 'output name'}", path)
+        matrix = _io_array(body, array, path)
+        names = [str(n) for n in body.data[names_key]]
+        for fe_name, value in given.items():
+            if str(fe_name) not in names:
+                raise ModelError(f"unknown FE {key[:-1]} {fe_name!r}; the body has: "
+                                 f"{', '.join(names)}", f"{path}.{fe_name}")
+            j = names.index(str(fe_name))
+            if key == "inputs":
+                if isinstance(value, bool) or not isinstance(value, str | int | float):
+                    raise ModelError(f"expected an expression, got {value!r}",
+                                     f"{path}.{fe_name}")
+                for k, coef in enumerate(matrix[:, j]):
+                    if coef != 0.0:
+                        b.generalized_force(f"{q[k]}_{_slug(str(fe_name))}", q[k],
+                                            f"{_number(coef)}*({value})")
+            else:
+                if not isinstance(value, str):
+                    raise ModelError(f"expected an output name, got {value!r}",
+                                     f"{path}.{fe_name}")
+                terms = [f"{_number(c)}*{q[k]}" for k, c in enumerate(matrix[j]) if c != 0.0]
+                b.output(value, " + ".join(terms) or "0")
+
+
+def _slug(name: str) -> str:
+    """An FE input name as a part of a force name (letters, digits, underscores)."""
+    return "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
 
 
 def _samples(data: dict, schedule: Any, file: Path, item: str) -> tuple[list[dict], dict]:

@@ -60,7 +60,8 @@ from .invariants import attach_invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
 
-__all__ = ["GLOBAL_RANK_RTOL", "energy_metric", "global_bases", "global_parametric_body",
+__all__ = ["GLOBAL_RANK_RTOL", "energy_metric", "g_orthonormal", "global_bases",
+           "global_parametric_body",
            "global_sample_bodies"]
 
 #: Relative POD energy (eigenvalue of the Gram matrix of unit-energy columns, i.e. a
@@ -100,7 +101,7 @@ def energy_metric(fes: Sequence[FEModel]) -> sps.csr_matrix:
     return sps.csr_matrix(Ks + 0.5 * (Mf + Mf.T) / rho)
 
 
-def _g_orth(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarray, np.ndarray]:
+def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarray, np.ndarray]:
     """G-orthonormal basis of span X by the eigen-decomposition of ``XᵀGX`` (POD)."""
     GX = G @ X
     norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", X, GX), 0.0))
@@ -152,7 +153,7 @@ def global_bases(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
         if not rows.any():
             continue
         part = np.where(rows[:, None], stacked, 0.0)
-        Q, lam = _g_orth(part, G, rank_rtol)
+        Q, lam = g_orthonormal(part, G, rank_rtol)
         Vs.append(Q)
         energies.append(lam[:Q.shape[1]])
     V, energy = np.hstack(Vs), np.concatenate(energies)

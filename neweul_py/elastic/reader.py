@@ -22,7 +22,14 @@ from .invariants import FLAT_FORMAT, Invariants, body_invariants
 from .reduced_body import load_reduced_body
 from .sid import read_sid
 
-__all__ = ["PARAMETRIC_KEYS", "read_elastic_data"]
+__all__ = ["IO_KEYS", "PARAMETRIC_KEYS", "read_elastic_data"]
+
+#: Keys of the body's own FE inputs and outputs (reduced-body and parametric files):
+#: ``io.B`` (nq, ni) the modal loads ``Wᵀ B`` per unit input, ``io.C`` (no, nq) the output rows
+#: ``C V``, ``io.inputs``, ``io.outputs`` their names (in the coordinates of the invariants,
+#: after a mode selection). Descriptions use them through ``elastic_bodies.NAME.inputs`` and
+#: ``.outputs`` (docs/description-format.md).
+IO_KEYS = ("io.B", "io.C", "io.inputs", "io.outputs")
 
 #: Keys of the result for a parametric body: ``parametric.values`` (k,) sample values,
 #: ``parametric.interpolation``, ``parametric.parameter``, and per sample ``i`` its flat
@@ -73,6 +80,8 @@ def read_elastic_data(
                     raise DataError("the reduced body holds no floating-frame invariants "
                                     "(fill them with elastic.invariants.attach_invariants)",
                                     file=file, item="invariants")
+                io = _io(body.B, body.C, body.input_names, body.output_names, inv.nq, modes,
+                         file)
         else:
             inv = Invariants.from_sid(read_sid(p))
     except DataError as exc:  # errors of the invariants' own checks name no file
@@ -81,7 +90,23 @@ def read_elastic_data(
         raise DataError(exc.message, file, exc.item, exc.line) from None
     if modes is not None:
         inv = _select(inv, modes, file)
-    return inv.to_flat()
+    flat = inv.to_flat()
+    if p.suffix.lower() == ".npz" and not _is_flat(arrays):
+        flat.update(io)
+    return flat
+
+
+def _io(B: np.ndarray, C: np.ndarray, inputs: Sequence[str], outputs: Sequence[str], nq: int,
+        modes: int | Sequence[int] | None, file: str) -> dict[str, np.ndarray]:
+    """The :data:`IO_KEYS` arrays of a body (the selected modes only)."""
+    B, C = np.asarray(B, dtype=np.float64), np.asarray(C, dtype=np.float64)
+    if B.shape[0] != nq or C.shape[1] != nq:
+        raise DataError(f"B {B.shape} / C {C.shape} do not match the {nq} elastic "
+                        "coordinates of the invariants", file=file, item="B")
+    idx = _mode_index(modes, nq, file) if modes is not None else list(range(nq))
+    return {"io.B": B[idx].copy(), "io.C": C[:, idx].copy(),
+            "io.inputs": np.array(list(inputs), dtype=str),
+            "io.outputs": np.array(list(outputs), dtype=str)}
 
 
 def _is_parametric(arrays: dict[str, np.ndarray], file: str) -> bool:
@@ -106,9 +131,11 @@ def _parametric(p: Path, modes: int | Sequence[int] | None, file: str) -> dict[s
     for i in range(body.n_samples):
         flat = {k: (a[i] if a.dtype.kind == "f" else a[0]) for k, a in body.invariants.items()}
         inv = Invariants.from_flat(flat)
+        io = _io(body.B[i], body.C[i], body.input_names, body.output_names, inv.nq, modes,
+                 file)
         if modes is not None:
             inv = _select(inv, modes, file)
-        out.update({f"sample{i}/{k}": v for k, v in inv.to_flat().items()})
+        out.update({f"sample{i}/{k}": v for k, v in {**inv.to_flat(), **io}.items()})
     return out
 
 
@@ -120,6 +147,15 @@ def _is_flat(arrays: dict[str, np.ndarray]) -> bool:
 
 def _select(inv: Invariants, modes: int | Sequence[int], file: str) -> Invariants:
     nq = inv.nq
+    idx = _mode_index(modes, nq, file)
+    R = np.eye(nq)[:, idx]
+    names = tuple(inv.names[i] for i in idx)
+    out = inv.transformed(right=R, left=R.T if inv.two_sided else None)
+    return replace(out, names=names)
+
+
+def _mode_index(modes: int | Sequence[int], nq: int, file: str) -> list[int]:
+    """0-based indices of a mode selection (a count or 1-based mode numbers)."""
     if isinstance(modes, bool):
         raise DataError(f"modes must be a count or a list of mode numbers, got {modes!r}",
                         file=file, item="modes")
@@ -138,7 +174,4 @@ def _select(inv: Invariants, modes: int | Sequence[int], file: str) -> Invariant
         if len(set(idx)) != len(idx) or not idx:
             raise DataError("mode numbers must be distinct and not empty", file=file,
                             item="modes")
-    R = np.eye(nq)[:, idx]
-    names = tuple(inv.names[i] for i in idx)
-    out = inv.transformed(right=R, left=R.T if inv.two_sided else None)
-    return replace(out, names=names)
+    return idx

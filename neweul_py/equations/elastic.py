@@ -40,10 +40,11 @@ import sympy as sp
 
 from ..ffrf import frame_stiffening
 from ..kinematics import absolute_kinematics
-from ..model import INERTIAL, ElasticBody, System
+from ..model import INERTIAL, ElasticBody, GeneralizedForce, System
+from ..model.system import iter_expressions
 
 __all__ = ["ElasticEquations", "ElasticSplice", "elastic_equations", "elastic_splices",
-           "node_coordinate_map", "node_coordinate_parts"]
+           "node_coordinate_map", "node_coordinate_parts", "used_elastic_coordinates"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,6 +277,25 @@ class ElasticEquations:
     schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None
 
 
+def used_elastic_coordinates(system: System, elastic_q: set[str]) -> set[str]:
+    """The elastic coordinates that the symbolic part itself uses: targets of generalized
+    forces (modal loads such as the body's own FE inputs, ``W_jᵀ b``) and coordinates or
+    velocities named in any expression (outputs such as ``C V q``). They join the active
+    coordinates of the symbolic part, whose rows and columns for them hold only these terms
+    (the splice adds the body's own equations); without this a generalized force on an
+    elastic coordinate would be dropped."""
+    used = {f.coordinate for f in system.forces
+            if isinstance(f, GeneralizedForce) and f.coordinate in elastic_q}
+    by_symbol = {}
+    for c in system.coordinates:
+        if c.name in elastic_q:
+            by_symbol[c.symbol] = c.name
+            by_symbol[c.velocity_symbol] = c.name
+    for expr in iter_expressions(system):
+        used.update(by_symbol[s] for s in expr.free_symbols if s in by_symbol)
+    return used
+
+
 def elastic_equations(system: System) -> ElasticEquations | None:
     """The complete elastic splice of ``system`` (``None`` without elastic bodies)."""
     if not system.elastic_bodies:
@@ -283,7 +303,9 @@ def elastic_equations(system: System) -> ElasticEquations | None:
     splices = elastic_splices(system)
     keep, SV, SW, parts = node_coordinate_parts(system)
     elastic_q = {n for b in system.elastic_bodies for n in b.coordinate_names}
-    active = tuple(j for j, c in enumerate(system.coordinates) if c.name not in elastic_q)
+    used = used_elastic_coordinates(system, elastic_q)
+    active = tuple(j for j, c in enumerate(system.coordinates)
+                   if c.name not in elastic_q or c.name in used)
     hidden: list[sp.Expr] = []
     offsets = []
     for s in splices:

@@ -1,0 +1,259 @@
+"""Studies of the middle-ear EMBS, as the seed paper does (issue 13 item 6).
+
+Run from the repository root after ``build_embs.py`` (README.md, "Studies")::
+
+    python examples/middle_ear/studies.py [--out examples/middle_ear/data/studies] [--no-time]
+
+1. **static** umbo and stapes displacement vs Δp (the FE static state of the sweep: TM held by
+   the stiffening chain; the stapes from the LVATB1 chain's tangent, integrated along the
+   load path);
+2. **FRFs** umbo velocity (TM node 1) and stapes velocity per probe pressure, 100 Hz–8 kHz,
+   at the 9 pressures −4000…4000 Pa, magnitude and phase, from the generated EMBS linearized
+   at each Δp; the low-frequency change (mean 100–1000 Hz, dB re Δp = 0) against Gyo &
+   Goode 1987 (``docs/middle-ear-measurements.md``);
+3. **time simulation**: a 1 kHz tone in the canal while Δp goes 0 → +2000 Pa → 0 (a middle-ear
+   pressure of −2 kPa, swallow-like: ``2000 sin²(πt/350 ms)``) — a copy of the
+   description in which every ``dp`` is the ramp ``dp(t)`` (schedule and chain factor alike);
+   the frozen-parameter assumption (README, docs/equations-middle-ear.md §7).
+
+Writes ``results.md`` (the tables), ``frf.png``, ``dp_trend.png``, ``static.png``,
+``time.png`` and ``frf.csv`` into ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from neweul_py.analysis import load_generated, simulate
+from neweul_py.api import generate
+from neweul_py.fem.ear_transfer import LumpedChain
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from validate_embs import DESCRIPTION, HERE, embs_frf, modules, transfer
+
+PRESSURES = np.arange(-4000.0, 4001.0, 1000.0)
+GYO_GOODE = {1000.0: (-5.0, 1.0), 2000.0: (-9.2, 1.3), 3000.0: (-13.1, 1.8)}  # dB, mean ± sd
+#: A smooth swallow-like bump 0 → 1 → 0 over 0 ≤ t ≤ 0.35 s (no piecewise(): the chain
+#: factor compares dp in its own piecewise(), and comparisons may not contain one).
+RAMP = "sin(pi*t/0.35)**2"
+
+
+def static_table(data: Path) -> list[dict[str, float]]:
+    """Static umbo, malleus and stapes displacement per Δp (the sweep's ``static.csv``).
+
+    The stapes: the lumped LVATB1 chain (``LumpedChain``) with the ligaments to ground scaled
+    to the tangent at each working point transmits ``dx_s/dx_m`` of the malleus increment;
+    integrated (trapezoid) from Δp = 0 along each sign of the load path."""
+    with open(data / "fem" / "static.csv", newline="") as fh:
+        rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    rows.sort(key=lambda r: r["dp_Pa"])
+    ch = LumpedChain()
+
+    def ratio(k_t: float) -> float:
+        phi = ch.ligament_factor(k_t)
+        k_s = 1.0 / (1.0 / ch.k_is_joint + 1.0 / (ch.k_annular * phi))
+        k_i = ch.k_incus_lig * phi + k_s
+        incus = ch.k_im_joint / (ch.k_im_joint + k_i)       # x_i / x_m
+        return incus * ch.k_is_joint / (ch.k_is_joint + ch.k_annular * phi)  # x_s / x_m
+
+    i0 = next(i for i, r in enumerate(rows) if r["dp_Pa"] == 0.0)
+    stapes = np.zeros(len(rows))
+    for rng in (range(i0 + 1, len(rows)), range(i0 - 1, -1, -1)):
+        prev = i0
+        for i in rng:
+            a, b = rows[prev], rows[i]
+            r = 0.5 * (ratio(a["chain_tangent_z_N_per_m"]) + ratio(b["chain_tangent_z_N_per_m"]))
+            stapes[i] = stapes[prev] + r * (b["malleus_qz_m"] - a["malleus_qz_m"])
+            prev = i
+    return [{"dp": r["dp_Pa"], "umbo_um": 1e6 * r["umbo_uz_m"],
+             "malleus_um": 1e6 * r["malleus_qz_m"], "stapes_um": 1e6 * s,
+             "volume_mm3": 1e9 * r["volume_displacement_m3"],
+             "tangent": r["chain_tangent_z_N_per_m"]} for r, s in zip(rows, stapes, strict=True)]
+
+
+def frf_study(mod, f: np.ndarray) -> dict[float, dict[str, np.ndarray]]:
+    """Umbo and stapes velocity per probe pressure at every sample pressure."""
+    return {dp: transfer(embs_frf(mod, dp, f), f) for dp in PRESSURES}
+
+
+def low_db(h: np.ndarray, h0: np.ndarray, f: np.ndarray) -> float:
+    """Mean over 100–1000 Hz of ``20 log10 |h/h0|``."""
+    band = (f >= 100.0) & (f <= 1000.0)
+    return float(np.mean(20 * np.log10(np.abs(h[band]) / np.abs(h0[band]))))
+
+
+def ramp_description(out: Path) -> Path:
+    """``middle_ear.yaml`` with every ``dp`` (schedule, chain factor) replaced by
+    ``dp + dp_ramp*ramp(t)``; written next to the original's data (same relative data path)."""
+    text = DESCRIPTION.read_text()
+    head, body = text.split("\ncoordinates:", 1)
+    body = re.sub(r"\bdp\b", f"(dp + dp_ramp*{RAMP})", body)
+    head = head.replace("parameters:\n", "parameters:\n  dp_ramp: 2000.0   # Pa, ramp amplitude\n",
+                        1).replace("name: middle_ear", "name: middle_ear_ramp")
+    path = HERE / "middle_ear_ramp.yaml.tmp"
+    path.write_text(head + "\ncoordinates:" + body)
+    return path
+
+
+def time_study(out: Path, f_tone: float = 1000.0, t_end: float = 0.35):
+    """The tone under the Δp ramp (module docstring); returns (t, results, seconds)."""
+    desc = ramp_description(out)
+    try:
+        mod = load_generated(generate(desc, out / "generated_ramp"))
+    finally:
+        desc.unlink()
+    p = {"Q_amp": 1e-5, "f_tone": f_tone}
+    t0 = time.perf_counter()
+    res = simulate(mod, t_end, method="BDF", rtol=1e-5, atol=1e-12, p=p,
+                   n_out=int(t_end * f_tone * 20) + 1, max_step=1.0 / (f_tone * 10))
+    return res, time.perf_counter() - t0
+
+
+def envelope(t: np.ndarray, x: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """RMS·√2 over consecutive periods."""
+    n = int(np.floor((t[-1] - t[0]) / period))
+    edges = t[0] + period * np.arange(n + 1)
+    idx = np.searchsorted(t, edges)
+    sums = np.add.reduceat(x**2, idx[:-1])[: n]
+    amp = np.sqrt(2 * sums / np.maximum(np.diff(idx), 1))
+    return 0.5 * (edges[:-1] + edges[1:]), amp
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dir", type=Path, default=HERE / "data")
+    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--nf", type=int, default=80)
+    ap.add_argument("--no-time", action="store_true", help="skip the time simulation")
+    args = ap.parse_args()
+    out = args.out or args.dir / "studies"
+    out.mkdir(parents=True, exist_ok=True)
+    lines = ["# Middle-ear EMBS studies (examples/middle_ear/studies.py)", ""]
+    st = static_table(args.dir)
+    lines += ["## Static state vs Δp (Δp > 0: negative middle-ear pressure; + = medial)", "",
+              "| Δp [Pa] | umbo u_z [µm] | malleus [µm] | stapes [µm] | TM volume [mm³] |"
+              " chain tangent [N/m] |", "|---|---|---|---|---|---|"]
+    lines += [f"| {r['dp']:+.0f} | {r['umbo_um']:+.1f} | {r['malleus_um']:+.1f} | "
+              f"{r['stapes_um']:+.2f} | {r['volume_mm3']:+.2f} | {r['tangent']:.0f} |"
+              for r in st]
+    mod, _chain = modules(args.dir)
+    f = np.geomspace(100.0, 8000.0, args.nf)
+    H = frf_study(mod, f)
+    h0 = H[0.0]
+    lines += ["", "## Low-frequency change (mean 100–1000 Hz, re Δp = 0) and values at 1 kHz",
+              "", "| Δp [Pa] | umbo [dB] | stapes [dB] | Gyo & Goode 1987 umbo [dB] |"
+              " umbo 1 kHz [mm/s/Pa] | stapes 1 kHz [mm/s/Pa] | stapes peak [mm/s/Pa] at [Hz] |",
+              "|---|---|---|---|---|---|---|"]
+    k1 = int(np.argmin(np.abs(f - 1000.0)))
+    for dp, h in H.items():
+        gg = GYO_GOODE.get(dp)
+        ref = f"{gg[0]:+.1f} ± {gg[1]:.1f}" if gg else ""
+        ks = int(np.argmax(np.abs(h["stapes"])))
+        lines.append(f"| {dp:+.0f} | {low_db(h['umbo'], h0['umbo'], f):+.2f} | "
+                     f"{low_db(h['stapes'], h0['stapes'], f):+.2f} | {ref} | "
+                     f"{1e3 * abs(h['umbo'][k1]):.3f} | {1e3 * abs(h['stapes'][k1]):.3f} | "
+                     f"{1e3 * abs(h['stapes'][ks]):.3f} at {f[ks]:.0f} |")
+    with open(out / "frf.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["dp_Pa", "frequency_Hz", "umbo_re", "umbo_im", "stapes_re", "stapes_im"])
+        for dp, h in H.items():
+            for i, fi in enumerate(f):
+                w.writerow([dp, fi, h["umbo"][i].real, h["umbo"][i].imag,
+                            h["stapes"][i].real, h["stapes"][i].imag])
+    res = None
+    if not args.no_time:
+        res, secs = time_study(out)
+        t = np.asarray(res.t)
+        names = list(res.output_names)
+        pp = np.asarray(res.outputs)[:, names.index("p_probe")]
+        vs = np.asarray(res.outputs)[:, names.index("stapes_velocity")]
+        tc, ap_ = envelope(t, pp, 1e-3)
+        _, av = envelope(t, vs, 1e-3)
+        ratio = av / ap_
+        lines += ["", f"## Time simulation: 1 kHz tone, Δp = 2000 sin²(πt/0.35 s) Pa "
+                  f"(BDF, {secs:.0f} s)", "",
+                  "| t [ms] | Δp(t) [Pa] | stapes/probe amplitude [mm/s/Pa] |", "|---|---|---|"]
+        for tm in (0.02, 0.09, 0.175, 0.26, 0.33):
+            i = int(np.argmin(np.abs(tc - tm)))
+            lines.append(f"| {1e3 * tc[i]:.0f} | {2000 * _ramp(tc[i]):.0f} | "
+                         f"{1e3 * ratio[i]:.4f} |")
+    (out / "results.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    _plots(out, f, H, st, res)
+
+
+def _ramp(t: float) -> float:
+    return float(np.sin(np.pi * t / 0.35) ** 2) if 0.0 <= t <= 0.35 else 0.0
+
+
+def _plots(out: Path, f, H, st, res) -> None:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover - matplotlib is in the test extra
+        print("matplotlib missing: no plots", file=sys.stderr)
+        return
+    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    cmap = plt.get_cmap("coolwarm")
+    for dp, h in H.items():
+        c = cmap((dp + 4000) / 8000)
+        for j, key in enumerate(("umbo", "stapes")):
+            ax[0, j].loglog(f, 1e3 * np.abs(h[key]), color=c, label=f"{dp:+.0f} Pa")
+            ax[1, j].semilogx(f, np.degrees(np.unwrap(np.angle(h[key]))), color=c)
+    for j, key in enumerate(("umbo", "stapes")):
+        ax[0, j].set_title(f"{key} velocity / probe pressure")
+        ax[0, j].set_ylabel("mm/s/Pa")
+        ax[1, j].set_ylabel("phase [deg]")
+        ax[1, j].set_xlabel("frequency [Hz]")
+        for a in ax[:, j]:
+            a.grid(True, which="both", lw=0.3)
+    ax[0, 0].legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    fig.savefig(out / "frf.png", dpi=120)
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    dps = np.array(list(H))
+    for key in ("umbo", "stapes"):
+        ax.plot(dps, [low_db(H[d][key], H[0.0][key], f) for d in dps], "o-", label=key)
+    gg = np.array([(d, m, s) for d, (m, s) in GYO_GOODE.items()])
+    ax.errorbar(gg[:, 0], gg[:, 1], yerr=gg[:, 2], fmt="ks", label="Gyo & Goode 1987 umbo")
+    ax.set_xlabel("Δp = p_canal − p_cavity [Pa]")
+    ax.set_ylabel("change 100–1000 Hz [dB]")
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "dp_trend.png", dpi=120)
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    ax.plot([r["dp"] for r in st], [r["umbo_um"] for r in st], "o-", label="umbo")
+    ax.plot([r["dp"] for r in st], [r["stapes_um"] for r in st], "s-", label="stapes")
+    ax.set_xlabel("Δp [Pa]")
+    ax.set_ylabel("static displacement (medial +) [µm]")
+    ax.grid(True, lw=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "static.png", dpi=120)
+    if res is not None:
+        t = np.asarray(res.t)
+        names = list(res.output_names)
+        fig, ax = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
+        ax[0].plot(1e3 * t, np.asarray(res.outputs)[:, names.index("p_probe")], lw=0.3)
+        ax[0].set_ylabel("probe pressure [Pa]")
+        ax[1].plot(1e3 * t, 1e3 * np.asarray(res.outputs)[:, names.index("stapes_velocity")],
+                   lw=0.3)
+        ax[1].set_ylabel("stapes velocity [mm/s]")
+        ax[1].set_xlabel("t [ms] (Δp = 2000 sin²(πt/350 ms) Pa)")
+        fig.tight_layout()
+        fig.savefig(out / "time.png", dpi=120)
+    print(f"plots in {out}")
+
+
+if __name__ == "__main__":
+    main()

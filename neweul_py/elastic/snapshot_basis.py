@@ -1,0 +1,225 @@
+"""A small global basis from frequency-response snapshots of the interface-loaded FE models.
+
+The global basis of :mod:`~neweul_py.elastic.global_basis` (the local bases of all samples,
+POD-compressed) is accurate between samples but large: on the middle-ear sweep (refine 1,
+9 samples, 30 modes + static correction each) it keeps 600 directions, and truncating it by
+POD energy loses the response (100 % error at 200 directions) because the energy of a
+basis vector says nothing about its share in the transfer functions the model is used for.
+
+Here the basis is built from the responses themselves (rational-interpolation snapshots,
+Baur, Beattie, Benner & Gugercin 2011, *SIAM J. Sci. Comput.* 33, §3; Benner, Gugercin &
+Willcox 2015, *SIAM Rev.* 57, §3.3): for every sample ``i`` and snapshot frequency ``ω_j``
+
+    X_ij = (K_i + K_x + iω_j D_i − ω_j² M_i)⁻¹ F_i          (full FE model, sparse LU)
+
+with ``F_i`` the loads the body will see and ``K_x`` a stiffness the body will be attached
+with (the middle ear: the canal sound source, and the TM–manubrium springs ``K_x`` loaded by
+the six rigid motions ``K_x T`` of the malleus — every response of the TM with *any* chain
+attached through a rigid malleus is such a combination, so the basis serves every chain). The
+real and imaginary parts are split into their structural and pressure rows and each block is
+compressed in its energy metric (:func:`~neweul_py.elastic.global_basis.energy_metric`,
+:func:`~neweul_py.elastic.global_basis.g_orthonormal`): the block-diagonal Galerkin basis
+keeps the u–p structure and stability of Eq. (2) at every parameter value, as in
+:mod:`~neweul_py.elastic.global_basis`. ``K_x`` is used for the snapshots only; the reduced
+body is the projection of the FE model itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from ..errors import DataError
+from .fe_model import FEModel
+from .global_basis import energy_metric, g_orthonormal
+from .interpolation import ParametricBody
+from .invariants import Invariants
+from .projection import Progress, build_reduced_body
+from .reduced_body import ReducedBody
+
+__all__ = ["basis_parametric_body", "fixed_frame_invariants", "snapshot_basis"]
+
+
+def _say(progress: Progress, msg: str) -> None:
+    if progress is not None:
+        progress(msg)
+
+
+def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
+                   freqs_hz: Sequence[float], extra_stiffness: sps.spmatrix | None = None,
+                   rtol: float = 1e-8, order: int | None = None,
+                   progress: Progress = None,
+                   prior: np.ndarray | None = None,
+                   adjoint: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The G-orthonormal, u/p block-diagonal snapshot basis (module docstring).
+
+    Parameters
+    ----------
+    fes
+        The FE model of every sample (one discretization).
+    loads
+        Per sample the (n, k) loads ``F_i``.
+    freqs_hz
+        Snapshot frequencies [Hz] (> 0: the u–p stiffness of closed air volumes is singular).
+    extra_stiffness
+        ``K_x`` (n × n) added for the snapshots only (``None``: none).
+    rtol
+        Relative POD energy (eigenvalue of the Gram matrix of unit-energy snapshots) below
+        which a direction is dropped.
+    order
+        Keep at most this many directions (the most energetic over both blocks).
+    adjoint
+        Per sample (n, l) output rows ``c`` (transposed): the adjoint snapshots
+        ``A_ijᵀ y = c`` join the others (same factorization, transposed solve). With primal
+        and dual solutions in one Galerkin space the transfer-function error is of second
+        order in the projection error (Petrov–Galerkin accuracy from a Galerkin basis; the
+        u–p model is unsymmetric).
+    prior
+        Columns of an earlier basis of the same models (e.g. the snapshots at other
+        frequencies, compressed): they join the new snapshots, so a basis can be extended
+        by further frequencies without solving the old ones again.
+
+    Returns
+    -------
+    V, energy
+        (n, r) basis and the POD energy of each column.
+    """
+    if len(loads) != len(fes) or (adjoint is not None and len(adjoint) != len(fes)):
+        raise DataError(f"{len(loads)} load sets for {len(fes)} FE models", None, "loads")
+    f = np.asarray(freqs_hz, dtype=float)
+    if f.size == 0 or np.any(f <= 0) or not np.all(np.isfinite(f)):
+        raise DataError("snapshot frequencies must be positive and finite", None, "freqs")
+    snaps = []
+    for i, (fe, F) in enumerate(zip(fes, loads, strict=True)):
+        K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
+        D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
+        for w in 2 * np.pi * f:
+            lu = spla.splu(sps.csc_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
+            X = lu.solve(np.asarray(F, dtype=complex))
+            snaps += [X.real, X.imag]
+            if adjoint is not None:
+                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), trans="T")
+                snaps += [Y.real, Y.imag]
+        _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+    S = np.hstack(snaps if prior is None else [np.asarray(prior, dtype=float), *snaps])
+    G = energy_metric(fes)
+    kinds = fes[0].dof_kind
+    blocks = [kinds == "p", kinds != "p"] if fes[0].kind == "up-coupled" else [
+        np.ones(kinds.size, dtype=bool)]
+    Vs, energies = [], []
+    for rows in blocks:
+        part = np.where(rows[:, None], S, 0.0)
+        if not np.any(part):
+            continue
+        Q, lam = g_orthonormal(part, G, rtol)
+        Vs.append(Q)
+        energies.append(lam[:Q.shape[1]])
+    V, energy = np.hstack(Vs), np.concatenate(energies)
+    idx = np.argsort(-energy, kind="stable")[:order]
+    _say(progress, f"snapshot basis: {idx.size} directions from {S.shape[1]} snapshots")
+    return V[:, idx], energy[idx]
+
+
+def _rigid_mass(fe: FEModel) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, first moment and inertia about the origin of the structural DOFs of ``fe``
+    (``rᵀ M_uu r`` of the rigid translations and rotations)."""
+    kinds = fe.dof_kind
+    xyz = {int(r[0]): r[1:4] for r in fe.nodes}
+    u = np.flatnonzero(np.isin(kinds, ("ux", "uy", "uz")))
+    pos = np.array([xyz[int(n)] for n in fe.dof_node[u]])
+    axis = np.searchsorted(["ux", "uy", "uz"], kinds[u])
+    Muu = fe.M[u][:, u]
+    R = np.zeros((u.size, 6))
+    R[np.arange(u.size), axis] = 1.0
+    e = np.eye(3)
+    for a in range(3):                      # rotation about a: displacement e_a × x
+        R[:, 3 + a] = np.cross(e[a], pos)[np.arange(u.size), axis]
+    Mr = R.T @ (Muu @ R)
+    m = float(np.max(np.diag(Mr[:3, :3])))   # a model may lack some translation DOFs
+    md = np.array([Mr[1, 5], Mr[2, 3], Mr[0, 4]]).reshape(3, 1)   # ∫ x dm from the couplings
+    return m, md, 0.5 * (Mr[3:, 3:] + Mr[3:, 3:].T)
+
+
+def fixed_frame_invariants(body: ReducedBody, fe: FEModel) -> ReducedBody:
+    """The body with the invariants of an elastic body on a **fixed** frame.
+
+    On a frame that does not move (``a = α = ω = 0``) and without gravity, the body's
+    equations (``docs/equations.md`` §2) reduce to ``Me q̈ + De q̇ + Ke q = node loads``:
+    the frame-coupling invariants (``Ct``, ``Cr``, ``Crv``, ``Gr``, ``Ge``, ``Oe``,
+    ``kσ``, the first- and second-order parts) multiply zero and are stored as zeros
+    (a few bytes compressed instead of ``O(nq²)`` per sample). Mass, first moment and
+    inertia are the rigid properties of the structure. **Only valid for a body whose
+    reference frame is ISYS in a description with zero gravity.** Node frames: the kept
+    nodes, ``Φ_P`` / ``Φ_W`` from the body's kept rows, no rotations (``Ψ = 0``: translation
+    DOFs only).
+    """
+    nq = body.order
+    m, md, J = _rigid_mass(fe)
+    z = np.zeros
+    nodes = body.nodes
+    nk = nodes.shape[0]
+    phi, phi_w = z((nk, 3, nq)), z((nk, 3, nq))
+    for k, nid in enumerate(nodes[:, 0].astype(np.int64)):
+        for a, kind in enumerate(("ux", "uy", "uz")):
+            hit = np.flatnonzero((body.dof_node == nid) & (body.dof_kind == kind))
+            if hit.size:
+                phi[k, a] = body.V_kept[hit[0]]
+                phi_w[k, a] = body.W_kept[hit[0]]
+    flat = {
+        "format": np.array("neweul-invariants-1"), "m": np.array(m),
+        "names": np.array([f"q{i + 1}" for i in range(nq)], dtype=str),
+        "two_sided": np.array(bool(body.two_sided)),
+        "md.m0": md, "J.m0": J, "Ct.m0": z((nq, 3)), "Cr.m0": z((nq, 3)),
+        "Crv.m0": z((nq, 3)), "Me.m0": np.array(body.M), "Gr.m0": z((3, 3 * nq)),
+        "Ge.m0": z((nq, 3 * nq)), "Oe.m0": z((nq, 6)), "ksigma.m0": z((nq, 1)),
+        "Ke.m0": np.array(body.K), "De.m0": np.array(body.D),
+        "nodes.id": nodes[:, 0].astype(np.int64),
+        "nodes.origin.m0": nodes[:, 1:4].reshape(nk, 3, 1).copy(),
+        "nodes.origin.m1": phi.reshape(nk, 3, nq, 1).copy(),
+        "nodes.phi": phi, "nodes.psi": z((nk, 3, nq)), "nodes.phi_w": phi_w,
+        "nodes.psi_w": z((nk, 3, nq)), "nodes.AP.m0": np.broadcast_to(np.eye(3),
+                                                                       (nk, 3, 3)).copy(),
+        "nodes.AP.m1": z((nk, 3, nq, 3)),
+    }
+    Invariants.from_flat(flat)          # checked against the schema
+    return body.with_(invariants=flat)
+
+
+def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequence[float], *,
+                          parameter: str = "p", keep_nodes: Sequence[int] | None = None,
+                          interpolation: str = "cubic", energy: np.ndarray | None = None,
+                          progress: Progress = None) -> ParametricBody:
+    """The parametric body of one Galerkin basis ``V`` for every sample (``X_i = Vᵀ X_i V``),
+    with :func:`fixed_frame_invariants`; interpolated entrywise as in
+    :func:`~neweul_py.elastic.global_basis.global_parametric_body`."""
+    s = np.asarray(samples, dtype=float)
+    if s.size != len(fes) or s.size < 2 or np.any(np.diff(s) <= 0):
+        raise DataError("need at least two increasing sample values, one per FE model",
+                        None, "samples")
+    bodies = []
+    for i, fe in enumerate(fes):
+        b = build_reduced_body(fe, V, V, "snapshot", {"order": int(V.shape[1])},
+                               keep_nodes=keep_nodes)
+        b = b.with_(parameters={parameter: float(s[i])})
+        bodies.append(fixed_frame_invariants(b, fe))
+        _say(progress, f"projected sample {i + 1} of {len(fes)}")
+    k, r = len(bodies), V.shape[1]
+    eye = np.broadcast_to(np.eye(r), (k, r, r)).copy()
+    inv = {name: np.stack([np.asarray(b.invariants[name]) for b in bodies])
+           for name in bodies[0].invariants}
+    g0 = bodies[0]
+    sv = np.sqrt(np.maximum(energy, 0.0)) if energy is not None else np.ones(r)
+    return ParametricBody(
+        parameter=str(parameter), samples=s,
+        **{key: np.stack([b[key] for b in bodies]) for key in ("M", "D", "K", "B", "C",
+                                                                "V_kept", "W_kept")},
+        T=eye, L=eye.copy(), R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
+        two_sided=False, input_names=g0.input_names, output_names=g0.output_names,
+        nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
+        V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
+        interpolation=interpolation, sample_sources=tuple(dict(b.source) for b in bodies),
+        sample_methods=("snapshot",) * k, sample_settings=tuple(b.settings for b in bodies),
+    )
