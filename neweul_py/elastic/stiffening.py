@@ -110,10 +110,6 @@ def attach_stiffening(body, fe: FEModel, stiffening: Mapping[str, object],
                       "first-order terms, not the second-order field of the static responses "
                       "(docs/equations.md §2.3; reduce with --one-sided for it)", stacklevel=2)
         return out
-    for case, u in responses.items():
-        if np.shape(u) != (n,):
-            raise DataError(f"static response has shape {np.shape(u)}, expected ({n},)", src,
-                            f"UG.{case}")
     field = second_order_field(fe, body.V, KG, responses, source=src)
     return out.with_(invariants={**out.invariants, **field.to_flat()})
 

@@ -174,7 +174,7 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
     complex step of the mixed bodies, ``S_V(σ)``, ``S_W(σ)`` in each ``σ_k``, with the
     symbolic part's analytic Jacobians for its arguments ``y_s = S_V(σ) y`` (module
     docstring, item 3)."""
-    base, sigma, h, ns = S["base"], S["sigma"], S["step"], S["ns"]
+    sigma, h, ns = S["sigma"], S["step"], S["ns"]
     ys, yds = S["SV"] @ y, S["SV"] @ yd
     rig = S["rigid"]
     Cs = rig["output_jacobians"](t, np.concatenate((ys, yds)), p, u)[0][S["nhidden"]:]
@@ -187,8 +187,7 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
         Ms = rig["mass_matrix"](t, ys, p, u)
         mm = rig["mass_matrix_times_derivative"](t, ys, p, a_s, u)
     out = np.empty((S["n"], sigma.size))
-    for k in range(sigma.size):
-        Sc = ffrf_mixed(base, sigma + 1j * h * np.eye(sigma.size)[k])
+    for k, Sc in enumerate(ffrf_sigma_steps(S)):
         dSV = Sc["SV"].imag / h
         dys, dyds = dSV @ y, dSV @ yd
         dkin = Cs[:, :ns] @ dys + Cs[:, ns:] @ dyds
@@ -413,11 +412,17 @@ def ffrf_output_jacobians(S, t, x, p, u=None):
     return C, D
 
 
+def ffrf_sigma_steps(S):
+    """The mixed context at ``σ + i h e_k`` for each parametric body ``k`` (the complex
+    step in ``σ``)."""
+    sigma, h = S["sigma"], S["step"]
+    return [ffrf_mixed(S["base"], sigma + 1j * h * np.eye(sigma.size)[k])
+            for k in range(sigma.size)]
+
+
 def ffrf_dsv(S):
     """``∂S_V/∂σ_k`` (one (ns, n) array per parametric body) of a mixed context."""
-    base, sigma, h = S["base"], S["sigma"], S["step"]
-    return [ffrf_mixed(base, sigma + 1j * h * np.eye(sigma.size)[k])["SV"].imag / h
-            for k in range(sigma.size)]
+    return [Sc["SV"].imag / S["step"] for Sc in ffrf_sigma_steps(S)]
 
 
 def ffrf_energy(S, t, x, p, u=None):
@@ -517,7 +522,8 @@ PROTOCOL = {
 
 #: The functions a generated module embeds after the kernel's (in this order).
 SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_schedule, ffrf_at,
-                    ffrf_mixed, ffrf_sigma_sensitivity, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
+                    ffrf_mixed, ffrf_sigma_sensitivity, ffrf_sigma_steps, ffrf_sigma_terms,
+                    ffrf_dsv, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_kin, ffrf_kin_jacobians,
                     ffrf_force_directional, ffrf_symbolic_state, ffrf_node_positions,
                     *PROTOCOL.values())
