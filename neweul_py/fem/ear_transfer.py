@@ -28,7 +28,7 @@ import scipy.sparse.linalg as spla
 from ..elastic.fe_model import FEModel
 from ..errors import ModelError
 
-__all__ = ["LumpedChain", "chain_transfer", "umbo_transfer"]
+__all__ = ["LumpedChain", "chain_transfer", "manubrium_input_order", "umbo_transfer"]
 
 
 @dataclass(frozen=True)
@@ -110,6 +110,14 @@ def umbo_transfer(
     return 1j * w * (x @ cu) / (x @ cp)
 
 
+def manubrium_input_order(name: str) -> tuple[int, str]:
+    """Sort key of an FE input ``manubrium.<node>.u<x|y|z>``: node id as a number, then the
+    component (the row order of ``MiddleEar.malleus_T``; string order would put node 20
+    before node 8)."""
+    _, node, comp = name.split(".")
+    return int(node), comp
+
+
 def chain_transfer(
     fe: FEModel,
     g: sps.spmatrix,
@@ -150,8 +158,9 @@ def chain_transfer(
     kc = np.asarray(static["chain_tangent"])
     k_target = float(kc[2, 2])
     phi = ch.ligament_factor(k_target)
-    man = [name for name in fe.inputs if name.startswith("manubrium.")]
-    dofs = np.array([fe.inputs[name][0][0] for name in man])  # ordered node, x, y, z
+    man = sorted((name for name in fe.inputs if name.startswith("manubrium.")),
+                 key=manubrium_input_order)           # the node order of malleus_T's rows
+    dofs = np.array([fe.inputs[name][0][0] for name in man])
     if dofs.size != malleus_T.shape[0]:
         raise ModelError("manubrium DOFs do not match the malleus map", "chain_transfer")
     # DOFs: FE (n), malleus q (6), incus, stapes

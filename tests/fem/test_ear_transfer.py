@@ -119,3 +119,21 @@ def test_loss_factor_is_frequency_independent(sweep):
     assert abs(g[:nu][:, :nu] - me.params.tm_loss * ks).max() < 1e-9 * abs(ks).max()
     w = 2 * np.pi * me.params.f_ref
     assert abs(fe.D - g / w).max() < 1e-12 * abs(g).max() / w
+
+
+def test_chain_transfer_does_not_depend_on_the_order_of_the_fe_inputs(sweep):
+    """The lever arms of the malleus: ``malleus_T``'s rows are in node order, so the result
+    must not change when the FE file lists its ``manubrium.<node>.u?`` inputs in another
+    order (a file read back lists them as strings: node 20 before node 8). Reference: the
+    same model with the inputs in node order."""
+    import dataclasses
+
+    me, states = sweep
+    s = states[1000.0]
+    fe = working_point_model(me, s)
+    args = (hysteretic_damping(me, s), static_data(me, s), me.malleus_T,
+            me.params.k_tm_manubrium, np.array([300.0, 1500.0]))
+    reordered = dataclasses.replace(fe, inputs=dict(sorted(fe.inputs.items(), reverse=True)))
+    a, b = chain_transfer(fe, *args), chain_transfer(reordered, *args)
+    for key in ("umbo", "stapes"):
+        assert np.allclose(a[key], b[key], rtol=1e-10, atol=0.0), key
