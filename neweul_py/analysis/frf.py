@@ -13,7 +13,7 @@
 
 ``benchmarks/bench_frf.py`` compares them with a Python loop of ``numpy.linalg.solve`` calls.
 
-Loss factors (equations.md §1.2): a model with a hysteretic matrix ``G`` is solved in the
+Loss factors (equations.md §1.1): a model with a hysteretic matrix ``G`` is solved in the
 loss-factor form ``(−ω² M0 + jω (P − G/ω_ref) + Q + jG)`` by default (``damping="loss"``,
 ``"solve"`` only: the form is not a constant first-order pencil); ``damping="viscous"`` gives
 the time-domain equivalent ``−ω² M0 + jω P + Q``.
@@ -357,7 +357,7 @@ def frequency_response(
     -------
     FrequencyResponse
         ``H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D`` (equations.md §1; with loss factors
-        ``C(−ω² M0 + jω (P − G/ω_ref) + Q + jG)⁻¹ B + D``, §1.2) for every frequency;
+        ``C(−ω² M0 + jω (P − G/ω_ref) + Q + jG)⁻¹ B + D``, §1.1) for every frequency;
         for an input that moves frames (``INPUT_RATES``), ``B = B_u + jω B_du − ω² B_ddu``
         and likewise ``D``.
 

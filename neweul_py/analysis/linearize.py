@@ -88,7 +88,7 @@ class LinearModel:
         module); a harmonic input then acts through ``B_u + jω B_du − ω² B_ddu``.
     G : ndarray (m, m) or None
         The hysteretic matrix of the loss factors (``K + iG`` in the frequency domain,
-        equations.md §1.2), projected like ``Q``; ``P`` holds its time-domain equivalent
+        equations.md §1.1), projected like ``Q``; ``P`` holds its time-domain equivalent
         ``G/ω_ref``. ``None``: the module has no loss factors (``loss_matrix``).
     loss_reference_frequency : float or None
         ``f_ref`` [Hz] of ``G`` (``ω_ref = 2π f_ref``).
@@ -137,7 +137,7 @@ class LinearModel:
         return self.G is not None and bool(np.any(self.G))
 
     def dynamic_stiffness(self, w: np.ndarray, damping: str = "loss") -> np.ndarray:
-        """``Z(ω)`` (nf, m, m) for the angular frequencies ``w`` (equations.md §1.2).
+        """``Z(ω)`` (nf, m, m) for the angular frequencies ``w`` (equations.md §1.1).
 
         ``"loss"``: ``−ω² M0 + jω (P − G/ω_ref) + Q + jG`` — the loss factors as hysteretic
         damping, the rest of ``P`` viscous; ``"viscous"`` (and models without ``G``):

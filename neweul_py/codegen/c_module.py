@@ -275,7 +275,7 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     b = blocks["output_jacobians"]
     jac += _function(f"nw_output_jacobians({_X_ARGS})", [
         *_X_PROLOGUE, *_body(g, b, "out", "the output Jacobians")], _big(b))
-    if "loss_matrix" in blocks:       # the hysteretic matrix G (equations.md §1.2)
+    if "loss_matrix" in blocks:       # the hysteretic matrix G (equations.md §1.1)
         b = blocks["loss_matrix"]
         jac += _function(f"nw_loss_matrix({_X_ARGS})", [
             *_X_PROLOGUE, *_body(g, b, "out", "the loss matrix")], _big(b))

@@ -248,7 +248,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         functions[name] = _wrapper(name, fn)
     if "loss_matrix" in rigid.functions or any(
             "Le.m0" in d for s in el.splices for d in (s.body.samples or (s.body.data,))):
-        # loss factors of the force elements and the bodies' Le (equations.md §1.2)
+        # loss factors of the force elements and the bodies' Le (equations.md §1.1)
         functions["loss_matrix"] = _wrapper("loss_matrix", ffrf_loss_matrix)
         constants["LOSS_REFERENCE_FREQUENCY"] = repr(float(system.loss_reference_frequency))
     if "frame_poses" in rigid.functions:  # poses of the frames and the node clouds

@@ -134,7 +134,7 @@ def output_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatr
 
 def loss_program(eq: Any, inter: Sequence[Assignment], method: CseMethod) -> Block | None:
     """The CSE'd program of the hysteretic matrix ``G`` (``Equations.loss_matrix``, n·n
-    row-major, zeros included; equations.md §1.2), ``None`` when the model has none."""
+    row-major, zeros included; equations.md §1.1), ``None`` when the model has none."""
     G = getattr(eq, "loss_matrix", None)
     if G is None:
         return None

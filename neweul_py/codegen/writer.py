@@ -261,7 +261,7 @@ def _state_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix,
 def _loss_function(ctx: Context, eq: Any, method: CseMethod, prefix: str
                    ) -> dict[str, tuple[str, ...]]:
     """``loss_matrix(t, x, p, u=None)``: the hysteretic matrix ``G`` of the force elements'
-    loss factors (equations.md §1.2), or nothing when the model has none."""
+    loss factors (equations.md §1.1), or nothing when the model has none."""
     b = loss_program(eq, ctx.intermediates, method)
     if b is None:
         return {}
@@ -535,7 +535,7 @@ def program_blocks(equations: Any, *, cse: bool = True,
     real=True)`` of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny),
     ``output_jacobians`` (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc) and, for models with loss
-    factors, ``loss_matrix`` (n·n, equations.md §1.2). Rigid models only (elastic
+    factors, ``loss_matrix`` (n·n, equations.md §1.1). Rigid models only (elastic
     bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
     ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
     (:mod:`.packing`); the blocks here keep M's entries. ``progress``: a staged hook,

@@ -443,7 +443,7 @@ class SystemBuilder:
     def loss_reference_frequency(self, value: object) -> None:
         """Set the model's ``loss_reference_frequency`` [Hz] (a positive number; default
         1000): the frequency at which the time-domain equivalent of the loss factors is exact
-        (docs/equations.md §1.2)."""
+        (docs/equations.md §1.1)."""
         key = "loss_reference_frequency"
         f = constant_number(value, key)
         if not (math.isfinite(f) and f > 0):
@@ -714,7 +714,7 @@ class SystemBuilder:
         force over ``sd``) directly (:func:`~neweul_py.model.table_characteristic`).
         ``enabled``, ``report``: see :meth:`force` (reports ``<name>_force``, the tensile force).
         ``loss_factor`` (parameters only, ≥ 0): hysteretic damping on the spring's tangent
-        stiffness (docs/equations.md §1.2).
+        stiffness (docs/equations.md §1.1).
         """
         path = self._declare("forces", "force", name)
         self._report(name, report, path, "SpringDamper")
@@ -833,7 +833,7 @@ class SystemBuilder:
         ``{"diag": [a, b, c]}`` or one value (isotropic, ``value·I``). Reports ``<name>_fx``
         … ``_fz``, ``_mx`` … ``_mz`` (force and torque on the second frame). ``loss_factor``
         (parameters only, ≥ 0): hysteretic damping on both stiffness matrices
-        (docs/equations.md §1.2).
+        (docs/equations.md §1.1).
         """
         path = self._declare("forces", "force", name)
         self._report(name, report, path, "Bushing")

@@ -551,7 +551,7 @@ def _read_npz(path: Path) -> FEModel:
         raise DataError(exc.message, file, "loss_G" if exc.item == "G" else exc.item) from None
 
 
-#: Keys of the optional loss group of an ``.npz`` FE file (``docs/equations.md`` §1.2): the
+#: Keys of the optional loss group of an ``.npz`` FE file (``docs/equations.md`` §1.1): the
 #: hysteretic damping ``G`` of ``K + iG`` in CSR form and ``loss_meta`` (UTF-8 JSON with at
 #: least ``f_ref_Hz``, the reference frequency of the time-domain equivalent ``D = G/ω_ref``).
 LOSS_KEYS = ("loss_G_data", "loss_G_indices", "loss_G_indptr", "loss_G_shape", "loss_meta")

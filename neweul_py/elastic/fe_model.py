@@ -90,7 +90,7 @@ class FEModel:
         The file the model was read from (named in error messages), or ``None``.
     G
         Optional sparse n×n hysteretic damping of the frequency-domain stiffness ``K + iG``
-        (loss factors, ``docs/equations.md`` §1.2); ``D`` then holds the time-domain
+        (loss factors, ``docs/equations.md`` §1.1); ``D`` then holds the time-domain
         equivalent ``G/ω_ref`` (plus any viscous damping of its own).
     loss_reference_frequency
         The reference frequency ``f_ref`` [Hz] of ``G`` (``ω_ref = 2π f_ref``; required with

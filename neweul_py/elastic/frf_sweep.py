@@ -53,7 +53,7 @@ DAMPING_FORMS = ("loss", "viscous")
 
 class LossForm:
     """An FE model in the loss-factor form of the frequency domain (``docs/equations.md``
-    §1.2): ``K + iG`` (complex) and ``D − G/ω_ref``, so that ``K + jωD − ω²M`` of the solvers
+    §1.1): ``K + iG`` (complex) and ``D − G/ω_ref``, so that ``K + jωD − ω²M`` of the solvers
     is ``K + iG + jω(D − G/ω_ref) − ω²M``; every other attribute is the model's own."""
 
     def __init__(self, fe: FEModel) -> None:

@@ -221,7 +221,7 @@ class ParametricBody:
         Per sample: the ``source``, ``method`` and ``settings`` of the local body.
     G, loss_reference_frequency
         Optional (k, r, r) transformed hysteretic matrices ``G̃_i = L_i G_r,i T_i⁻¹`` of
-        ``K + iG`` (loss factors, ``docs/equations.md`` §1.2), interpolated like ``K``,
+        ``K + iG`` (loss factors, ``docs/equations.md`` §1.1), interpolated like ``K``,
         and their common reference frequency [Hz].
     """
 

@@ -287,7 +287,7 @@ class Invariants:
         uses instead of the first-order stiffening terms; ``None`` without it.
     Le, loss_f_ref
         Optional nq×nq hysteretic matrix ``Wᵀ G V`` of the frequency-domain stiffness
-        ``Ke + i Le`` (loss factors, §1.2) and its reference frequency [Hz] (flat keys
+        ``Ke + i Le`` (loss factors, §1.1) and its reference frequency [Hz] (flat keys
         ``Le.m0``, ``loss.f_ref``); ``De`` holds the time-domain equivalent.
     """
 

@@ -134,7 +134,7 @@ def build_reduced_body(
     """Project ``fe`` with ``(V, W)`` and wrap the result as a :class:`ReducedBody`.
 
     ``M``, ``D``, ``K`` and the hysteretic damping ``G`` of ``K + iG`` (when the FE model has
-    one, ``docs/equations.md`` §1.2) are projected alike, ``X_r = Wᵀ X V``; the body keeps
+    one, ``docs/equations.md`` §1.1) are projected alike, ``X_r = Wᵀ X V``; the body keeps
     ``G``'s reference frequency, and ``D`` stays the FE model's own (for the middle-ear files
     already ``G/ω_ref``: nothing is added, so nothing is counted twice).
 

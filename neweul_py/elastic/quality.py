@@ -104,7 +104,7 @@ def frf_full(
         Target relative error of the sweep.
     damping
         ``"loss"`` (default): ``K + iG + jω(D − G/ω_ref) − ω²M`` for a model with a hysteretic
-        matrix ``G`` (loss factors, ``docs/equations.md`` §1.2); ``"viscous"``: ``K + jωD −
+        matrix ``G`` (loss factors, ``docs/equations.md`` §1.1); ``"viscous"``: ``K + jωD −
         ω²M`` (the time-domain equivalent). Without ``G`` both are the same.
 
     Returns
@@ -450,7 +450,7 @@ def compare_frf(
 
     ``check`` (default): first :func:`check_source` — a body reduced from another model is
     refused. ``damping``: ``"loss"`` (default; ``K + iG`` on both sides where they have a
-    hysteretic matrix, ``docs/equations.md`` §1.2) or ``"viscous"``.
+    hysteretic matrix, ``docs/equations.md`` §1.1) or ``"viscous"``.
 
     Examples
     --------

@@ -97,7 +97,7 @@ class ReducedBody:
         parametric family (§4).
     G
         Optional (r, r) reduced hysteretic damping ``Wᵀ G_FE V`` of the frequency-domain
-        stiffness ``K + iG`` (loss factors, ``docs/equations.md`` §1.2); ``D`` holds its
+        stiffness ``K + iG`` (loss factors, ``docs/equations.md`` §1.1); ``D`` holds its
         time-domain equivalent ``G/ω_ref`` when the FE model's ``D`` did.
     loss_reference_frequency
         The reference frequency ``f_ref`` [Hz] of ``G`` (required with it).

@@ -6,7 +6,7 @@ the element *reports* (:class:`~neweul_py.model.ForceOutput`): ``{"force": F}`` 
 elements, ``{"fx": …, "mz": …}`` for vector ones. :func:`apply_force_element` dispatches and
 applies the element's ``enabled`` factor to both.
 
-Loss factors (equations.md §1.2): an element with ``loss_factor`` η gets the viscous
+Loss factors (equations.md §1.1): an element with ``loss_factor`` η gets the viscous
 equivalent ``(η/ω_ref) k_t`` of its tangent stiffness ``k_t`` on its own rate (in ``q − k``),
 and adds ``η k_t`` to the hysteretic matrix ``G`` of ``K + iG`` — by construction
 ``G = −ω_ref ∂(q_loss)/∂ẏ`` of exactly those loss-equivalent forces: ``η k_t (∂s/∂y)ᵀ(∂s/∂y)``

@@ -71,7 +71,7 @@ class Equations:
         ``M = Gᵀ diag(w) G`` numerically.
     loss_matrix
         The hysteretic matrix ``G`` (n×n, may reference intermediates) of the force elements'
-        loss factors, ``K + iG`` in the frequency domain (equations.md §1.2); ``None``: no
+        loss factors, ``K + iG`` in the frequency domain (equations.md §1.1); ``None``: no
         element has a loss factor. The time-domain equivalent ``G/ω_ref`` is already in
         ``force_vector``; the elastic bodies' ``Le`` is added by the splice.
     """

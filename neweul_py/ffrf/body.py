@@ -85,7 +85,7 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
         ``mass``, ``nq``, ``md0`` (3,), ``md1`` (3, nq), ``T0``, ``T1``, ``where`` (key →
         slice and shape in the stack), ``C2`` ((nq, nq, 3, 3) or ``None``), ``Me``, ``Gr``,
         ``Ge``, ``ks`` (nq,), ``Ke``, ``De``, and ``Le`` (the hysteretic matrix of
-        ``K + iG``, equations.md §1.2) when the data hold ``Le.m0``.
+        ``K + iG``, equations.md §1.1) when the data hold ``Le.m0``.
     """
     nq = int(np.shape(flat["Me.m0"])[0])
     if fixed:
@@ -275,7 +275,7 @@ def ffrf_strain_energy(b, q, g=None):
 
 def ffrf_loss_matrix(S, t, x, p, u=None):
     """The hysteretic matrix ``G`` of the frequency-domain stiffness ``K + iG`` on the
-    coordinates (equations.md §1.2): ``S_Wᵀ G_s S_V`` of the symbolic part's force elements
+    coordinates (equations.md §1.1): ``S_Wᵀ G_s S_V`` of the symbolic part's force elements
     (their loss factors times their stiffness, ``G_s`` of ``rigid["loss_matrix"]`` at
     ``y_s = S_V y``, absent: zero) plus every body's ``Le`` on its elastic rows.
 

@@ -178,7 +178,7 @@ def check_flat(flat: Mapping[str, np.ndarray]) -> list[str]:
 
 def loss_reference_frequency(flat: Mapping[str, np.ndarray]) -> float | None:
     """The reference frequency ``f_ref`` [Hz] of a body's hysteretic matrix ``Le.m0``
-    (``loss.f_ref``), or ``None`` for a body without one (equations.md §1.2)."""
+    (``loss.f_ref``), or ``None`` for a body without one (equations.md §1.1)."""
     if "Le.m0" not in flat or "loss.f_ref" not in flat:
         return None
     return float(np.asarray(flat["loss.f_ref"]))

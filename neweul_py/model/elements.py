@@ -214,7 +214,7 @@ class SpringDamper(ForceElement):
 
     ``loss_factor`` η ≥ 0 (parameters only): hysteretic damping ``K(1 + iη)`` in the
     frequency domain on the spring's tangent stiffness ``∂F/∂s``; in the time domain its
-    viscous equivalent ``(η/ω_ref) ∂F/∂s`` acts on ``ṡ`` (equations.md §1.2, ``ω_ref`` from the
+    viscous equivalent ``(η/ω_ref) ∂F/∂s`` acts on ``ṡ`` (equations.md §1.1, ``ω_ref`` from the
     model's ``loss_reference_frequency``).
     """
 

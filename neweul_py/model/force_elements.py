@@ -260,7 +260,7 @@ class Bushing(ForceElement):
 
     ``loss_factor`` η ≥ 0 (parameters only): hysteretic damping ``K(1 + iη)`` on both
     stiffness matrices in the frequency domain; in the time domain the viscous equivalent
-    ``(η/ω_ref) K_t``, ``(η/ω_ref) K_r`` is added to ``D_t``, ``D_r`` (equations.md §1.2).
+    ``(η/ω_ref) K_t``, ``(η/ω_ref) K_r`` is added to ``D_t``, ``D_r`` (equations.md §1.1).
     """
 
     name: str

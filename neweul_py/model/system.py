@@ -72,7 +72,7 @@ class System:
         coordinates, the dependent coordinates of their node frames and the node frames
         (``NAME.label``) are in ``coordinates`` and ``frames``.
     loss_reference_frequency
-        ``f_ref`` [Hz] of the loss factors (equations.md §1.2): the time domain replaces the
+        ``f_ref`` [Hz] of the loss factors (equations.md §1.1): the time domain replaces the
         hysteretic damping ``iG`` by its viscous equivalent ``G/ω_ref``, exact at
         ``ω_ref = 2π f_ref``; one per model (a body whose data hold another is an error).
 
@@ -450,7 +450,7 @@ def _input_rate_orders(s: System) -> dict[str, int]:
 def _validate_losses(s: System, constant: Mapping[str, sp.Symbol]) -> None:
     """``loss_reference_frequency`` a positive finite number; every ``loss_factor`` uses
     parameters only and is finite and ≥ 0 at the parameter defaults; every elastic body with
-    a hysteretic matrix has the model's reference frequency (equations.md §1.2)."""
+    a hysteretic matrix has the model's reference frequency (equations.md §1.1)."""
     f = s.loss_reference_frequency
     if (isinstance(f, bool) or not isinstance(f, int | float) or not math.isfinite(f)
             or f <= 0):

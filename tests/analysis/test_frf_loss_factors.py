@@ -1,4 +1,4 @@
-"""Loss factors in the frequency domain (docs/equations.md §1.2): ``loss_factor`` of force
+"""Loss factors in the frequency domain (docs/equations.md §1.1): ``loss_factor`` of force
 elements, ``loss_matrix`` of generated modules, ``linearize``'s ``G`` and ``frf`` in the form
 ``C(K + iG + iω(D − G/ω_ref) − ω²M)⁻¹B`` (``damping="viscous"``: the time-domain equivalent)."""
 
@@ -118,7 +118,7 @@ def test_loss_form_equals_viscous_form_at_the_reference_frequency(sdof) -> None:
 
 
 def test_time_domain_equivalent_is_the_viscous_damper(sdof) -> None:
-    """Reference: the time domain carries ``c = ηk/ω_ref`` on ``ẋ`` (docs/equations.md §1.2):
+    """Reference: the time domain carries ``c = ηk/ω_ref`` on ``ẋ`` (docs/equations.md §1.1):
     ``q − k = F − k x − (ηk/ω_ref) ẋ`` about the rest position."""
     p = sdof.default_parameters()
     f = sdof.force_vector(0.0, [0.001], [0.3], p, [0.0])

@@ -1,4 +1,4 @@
-"""The generated ``loss_matrix`` (docs/equations.md §1.2) in both backends: the compiled
+"""The generated ``loss_matrix`` (docs/equations.md §1.1) in both backends: the compiled
 module's equals the NumPy twin's, for a rigid model with loss factors and for an elastic body
 with a hysteretic matrix (the expanded form of the C backend against the kernel splice of
 the NumPy module); models without loss factors have no ``loss_matrix`` (their text is

@@ -1,4 +1,4 @@
-"""Loss factors of FE models and reduced bodies (docs/equations.md §1.2): the hysteretic
+"""Loss factors of FE models and reduced bodies (docs/equations.md §1.1): the hysteretic
 matrix ``G`` of ``K + iG`` read from an FE file's loss group, projected two-sidedly like
 ``K`` into reduced and parametric bodies (``Le.m0`` of the invariants), and the frequency
 responses in the loss-factor form, on a lossy version of the ``examples/elastic_up_body``
