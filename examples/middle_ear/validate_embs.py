@@ -3,6 +3,7 @@
 Run from the repository root after ``build_embs.py`` (README.md, "Validation")::
 
     python examples/middle_ear/validate_embs.py [--pressures -4000,0,2000,2500] [--nf 40]
+        [--damping loss|viscous]
 
 For each Δp: the generated module of ``middle_ear.yaml`` (parametric TM + air body scheduled
 at Δp, ossicles, 7 TM–manubrium bushings), linearized, against the full FE model of that
@@ -10,7 +11,9 @@ working point (``neweul fem middle-ear``; between samples, e.g. 2500 Pa, the FE 
 linearized *there*) coupled directly with the **same** chain: the description with the TM
 body removed and each node frame ``tm.mK`` replaced by a frame on three free translations,
 generated and linearized, its matrices attached to the FE DOFs of the manubrium nodes
-(:func:`neweul_py.fem.ear_coupled.coupled_frf`). Both use the viscous FE damping ``D``.
+(:func:`neweul_py.fem.ear_coupled.coupled_frf`). Both use the loss factors as ``K + iG``
+(the body's ``Le``, the FE model's ``G``, the chain's ``loss_factor``: docs/equations.md
+§1.1; ``--damping viscous``: both the viscous equivalent ``D``).
 Printed: max relative error of the umbo velocity (TM node 1) and of the stapes velocity per
 probe pressure, below 2 kHz and 2–5 kHz.
 """
@@ -30,6 +33,7 @@ from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
 from neweul_py.elastic import read_fe_model
+from neweul_py.elastic.frf_sweep import frequency_form
 from neweul_py.fem.ear_coupled import coupled_frf
 
 HERE = Path(__file__).resolve().parent
@@ -111,14 +115,15 @@ def parameters_at(mod, dp: float) -> np.ndarray:
     return p
 
 
-def embs_frf(mod, dp: float, f: np.ndarray) -> dict[str, np.ndarray]:
-    """p_probe, umbo_uz, stapes_velocity per unit Q of the linearized EMBS."""
+def embs_frf(mod, dp: float, f: np.ndarray, damping: str = "loss") -> dict[str, np.ndarray]:
+    """p_probe, umbo_uz, stapes_velocity per unit Q of the linearized EMBS (``damping``:
+    ``"loss"``, the loss factors as ``K + iG``, or ``"viscous"``, docs/equations.md §1.1)."""
     lin = linearize(mod, p=parameters_at(mod, dp))
     j = list(lin.inputs).index("Q")
     m = lin.M0.shape[0]
     out = {}
-    xs = np.array([np.linalg.solve(lin.Q + 1j * w * lin.P - w * w * lin.M0, lin.B[:, j])
-                   for w in 2 * np.pi * f])
+    xs = np.linalg.solve(lin.dynamic_stiffness(2 * np.pi * f, damping), lin.B[:, j][None, :, None]
+                         )[:, :, 0]
     w = 2 * np.pi * f
     for name in ("p_probe", "umbo_uz", "stapes_velocity", "umbo_velocity_z"):
         c = lin.C[list(lin.outputs).index(name)]
@@ -126,16 +131,22 @@ def embs_frf(mod, dp: float, f: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def reference_frf(chain_mod, fe_path: Path, dp: float, f: np.ndarray) -> dict[str, np.ndarray]:
-    """The same outputs of the FE model + the chain assembled directly."""
+def reference_frf(chain_mod, fe_path: Path, dp: float, f: np.ndarray,
+                  damping: str = "loss") -> dict[str, np.ndarray]:
+    """The same outputs of the FE model + the chain assembled directly (``damping`` as in
+    :func:`embs_frf`: the FE model's ``K + iG`` and the chain's loss factors, or both
+    viscous)."""
     lin = linearize(chain_mod, p=parameters_at(chain_mod, dp))
     names = list(lin.coordinates)
-    fe = read_fe_model(fe_path)
+    fe = frequency_form(read_fe_model(fe_path), damping)
     node = [n for n in names if n.startswith("n") and n[1:].split("_")[0].isdigit()]
     own = [n for n in names if n not in node]
     order = [names.index(n) for n in (*own, *node)]
-    chain = {k: getattr(lin, a)[np.ix_(order, order)] for k, a in
-             (("M", "M0"), ("D", "P"), ("K", "Q"))}
+    P, Q = lin.P, lin.Q
+    if damping == "loss" and lin.has_loss:      # K + iG, D − G/ω_ref of the chain as well
+        P = P - lin.G / (2 * np.pi * lin.loss_reference_frequency)
+        Q = Q + 1j * lin.G
+    chain = {k: a[np.ix_(order, order)] for k, a in (("M", lin.M0), ("D", P), ("K", Q))}
     k = np.arange(len(own), len(names))
     chain["M"][k, k] -= PROBE_MASS
     dofs = [fe.inputs[f"manubrium.{n[1:].split('_')[0]}.u{n[-1]}"][0][0] for n in node]
@@ -162,10 +173,11 @@ def modules(data: Path, description: Path = DESCRIPTION):
     return mod, load_generated(generate(chain_file, gen))
 
 
-def errors(mod, chain_mod, dp: float, f: np.ndarray, data: Path) -> dict[str, np.ndarray]:
+def errors(mod, chain_mod, dp: float, f: np.ndarray, data: Path,
+           damping: str = "loss") -> dict[str, np.ndarray]:
     """Relative error per frequency of the EMBS transfer functions against the reference."""
-    got = transfer(embs_frf(mod, dp, f), f)
-    ref = transfer(reference_frf(chain_mod, fe_model_at(dp, data), dp, f), f)
+    got = transfer(embs_frf(mod, dp, f, damping), f)
+    ref = transfer(reference_frf(chain_mod, fe_model_at(dp, data), dp, f, damping), f)
     return {k: np.abs(got[k] - ref[k]) / np.abs(ref[k]) for k in got} | {
         f"ref_{k}": v for k, v in ref.items()} | {f"got_{k}": v for k, v in got.items()}
 
@@ -175,6 +187,8 @@ def main() -> None:
     ap.add_argument("--pressures", default="-4000,0,2000,2500")
     ap.add_argument("--nf", type=int, default=40)
     ap.add_argument("--dir", type=Path, default=HERE / "data")
+    ap.add_argument("--damping", choices=("loss", "viscous"), default="loss",
+                    help="loss factors as K + iG (default) or their viscous equivalent")
     args = ap.parse_args()
     f = np.geomspace(100.0, 5000.0, args.nf)
     mod, chain_mod = modules(args.dir)
@@ -184,7 +198,7 @@ def main() -> None:
           f"{'stapes 2-5k':>11}")
     low = f < 2000
     for dp in (float(v) for v in args.pressures.split(",")):
-        e = errors(mod, chain_mod, dp, f, args.dir)
+        e = errors(mod, chain_mod, dp, f, args.dir, args.damping)
         print(f"{dp:>+8.0f} {e['umbo'][low].max():>10.2e} {e['umbo'][~low].max():>10.2e} "
               f"{e['stapes'][low].max():>11.2e} {e['stapes'][~low].max():>11.2e}")
 

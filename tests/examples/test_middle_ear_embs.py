@@ -62,11 +62,18 @@ def test_embs_between_samples_against_the_fe_model_linearized_there(built) -> No
     0.18 %, README)."""
     data, (mod, chain) = built
     f = np.geomspace(100.0, 5000.0, 16)
-    e = validate_embs.errors(mod, chain, 2500.0, f, data)
+    e = validate_embs.errors(mod, chain, 2500.0, f, data, damping="viscous")
     low = f < 2000.0
     for key in ("umbo", "stapes"):
         assert e[key][low].max() <= 5e-3, (key, e[key][low].max())
         assert e[key].max() <= 1e-2, (key, e[key].max())
+    # in the loss-factor form (K + iG, docs/equations.md §1.1) the resonances above f_ref are
+    # less damped than with the viscous equivalent, and the same interpolation error shows
+    # more: measured at refine 0, umbo 3.0 % and stapes 1.7 % at 3.9 kHz, below 2 kHz 0.43 %
+    e = validate_embs.errors(mod, chain, 2500.0, f, data)
+    for key in ("umbo", "stapes"):
+        assert e[key][low].max() <= 5e-3, (key, e[key][low].max())
+        assert e[key].max() <= 5e-2, (key, e[key].max())
 
 
 @pytest.mark.slow

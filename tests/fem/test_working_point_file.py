@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from neweul_py.elastic.fe_io import read_fe_model
+from neweul_py.errors import DataError
 from neweul_py.fem.ear_model import build_middle_ear
 from neweul_py.fem.ear_static import solve_static, static_summary
 from neweul_py.fem.ear_working_point import hysteretic_damping, static_data, working_point_model
@@ -20,16 +21,23 @@ def point():
 
 
 def test_round_trip_and_backward_compatible(point, tmp_path):
-    """The file still reads as a plain ``neweul-fe`` model (the groups are ignored by the
-    format reader), and the groups come back unchanged."""
+    """The file still reads as a plain ``neweul-fe`` model (the static group is ignored by the
+    format reader; the loss group becomes the model's ``G`` with its reference frequency,
+    docs/equations.md §1.1), and the groups come back unchanged; a loss group that does not
+    name its reference frequency is one error naming ``loss_meta.f_ref_Hz``."""
     me, s = point
     fe, g, grp = working_point_model(me, s), hysteretic_damping(me, s), static_data(me, s)
     path = tmp_path / "wp.npz"
-    write_working_point(fe, path, g, {"tm_loss": 0.1}, grp)
+    write_working_point(fe, path, g, {"tm_loss": 0.1, "f_ref_Hz": 1000.0}, grp)
     fe2 = read_fe_model(path)
     assert fe2.n_dofs == fe.n_dofs and abs(fe2.K - fe.K).max() == 0
+    assert abs(fe2.G - g).max() == 0 and fe2.loss_reference_frequency == 1000.0
     g2, meta = read_loss(path)
-    assert abs(g2 - g).max() == 0 and meta == {"tm_loss": 0.1}
+    assert abs(g2 - g).max() == 0 and meta == {"tm_loss": 0.1, "f_ref_Hz": 1000.0}
+    write_working_point(fe, tmp_path / "bad.npz", g, {"tm_loss": 0.1})
+    with pytest.raises(DataError) as exc:
+        read_fe_model(tmp_path / "bad.npz")
+    assert exc.value.item == "loss_meta.f_ref_Hz"
     st = read_static(path)
     for key, val in grp.items():
         np.testing.assert_array_equal(st[key], val)
