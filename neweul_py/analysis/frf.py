@@ -12,6 +12,11 @@
   only as accurate as the eigenvector matrix is well conditioned (not for defective systems).
 
 ``benchmarks/bench_frf.py`` compares them with a Python loop of ``numpy.linalg.solve`` calls.
+
+Loss factors (equations.md §1.2): a model with a hysteretic matrix ``G`` is solved in the
+loss-factor form ``(−ω² M0 + jω (P − G/ω_ref) + Q + jG)`` by default (``damping="loss"``,
+``"solve"`` only: the form is not a constant first-order pencil); ``damping="viscous"`` gives
+the time-domain equivalent ``−ω² M0 + jω P + Q``.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ import numpy as np
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 from . import protocol as proto
-from .linearize import LinearModel, linearize
+from .linearize import DAMPING_FORMS, LinearModel, linearize
 from .plot import check_plot_path, new_figure, plot_bode, save_figure
 from .results import ResultDisplay, check_output_path
 
@@ -217,14 +222,14 @@ def _as_names(value: str | Sequence[str] | None, default: Sequence[str]) -> list
     return list(value)
 
 
-def _solve_second_order(lin, w, cy, cyd, cydd, d, b) -> np.ndarray:
+def _solve_second_order(lin, w, cy, cyd, cydd, d, b, damping="loss") -> np.ndarray:
     m = lin.n
     nf = w.size
     h = np.empty((nf, cy.shape[0], b.shape[1]), dtype=complex)
     chunk = max(1, _CHUNK_BYTES // max(1, 16 * m * m))
     for lo in range(0, nf, chunk):
         ww = w[lo : lo + chunk, None, None]
-        z = -(ww**2) * lin.M0 + 1j * ww * lin.P + lin.Q
+        z = lin.dynamic_stiffness(ww[:, 0, 0], damping)
         x = np.linalg.solve(z, np.broadcast_to(b, (z.shape[0], m, b.shape[1])))
         c = cy + 1j * ww * cyd - ww**2 * cydd
         h[lo : lo + chunk] = c @ x + d
@@ -322,6 +327,7 @@ def frequency_response(
     outputs: str | Sequence[str] | None = None,
     *,
     method: str = "solve",
+    damping: str = "loss",
     **linearize_kwargs: Any,
 ) -> FrequencyResponse:
     """Frequency response of outputs to inputs over the frequencies ``f`` (Hz).
@@ -342,11 +348,16 @@ def frequency_response(
         (default: all module outputs, or all coordinates when the module has none).
     method
         ``"solve"`` (default), ``"hessenberg"`` or ``"eig"`` (see the module docstring).
+    damping
+        ``"loss"`` (default): the loss factors of a model with a hysteretic matrix ``G`` as
+        ``K + iG`` (module docstring; ``"solve"`` only); ``"viscous"``: the time-domain
+        equivalent ``G/ω_ref``. Models without loss factors give the same either way.
 
     Returns
     -------
     FrequencyResponse
-        ``H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D`` (equations.md §1) for every frequency;
+        ``H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D`` (equations.md §1; with loss factors
+        ``C(−ω² M0 + jω (P − G/ω_ref) + Q + jG)⁻¹ B + D``, §1.2) for every frequency;
         for an input that moves frames (``INPUT_RATES``), ``B = B_u + jω B_du − ω² B_ddu``
         and likewise ``D``.
 
@@ -378,7 +389,20 @@ def frequency_response(
     cy, cyd, cydd, d_all = lin.output_rows(out_names)
     freq = np.asarray(f, dtype=float).reshape(-1)
     w = 2 * np.pi * freq
-    solve = _METHODS[method]
+    if damping not in DAMPING_FORMS:
+        raise NeweulError(f"unknown damping form {damping!r}; valid: {', '.join(DAMPING_FORMS)}")
+    if damping == "loss" and lin.has_loss:
+        if method != "solve":
+            raise NeweulError(f"the loss-factor form (K + iG) needs the method 'solve', not "
+                              f"{method!r} (or damping 'viscous', the time-domain equivalent)")
+
+        def solve(lin, w, cy, cyd, cydd, d, b):
+            return _solve_second_order(lin, w, cy, cyd, cydd, d, b, "loss")
+    elif method == "solve":
+        def solve(lin, w, cy, cyd, cydd, d, b):
+            return _solve_second_order(lin, w, cy, cyd, cydd, d, b, "viscous")
+    else:
+        solve = _METHODS[method]
     h = solve(lin, w, cy, cyd, cydd, d_all[:, cols], lin.B[:, cols])
     # Kinematic excitation: an input u with rate entries d_u, dd_u acts harmonically through
     # B_u + jω B_du − ω² B_ddu (and likewise D); H is linear in B, so add (jω)^k H_k.

@@ -43,7 +43,10 @@ from ..errors import NeweulError
 from . import protocol as proto
 from .results import check_output_path
 
-__all__ = ["LinearModel", "linearize"]
+__all__ = ["DAMPING_FORMS", "LinearModel", "linearize"]
+
+#: Damping forms of the frequency domain (:meth:`LinearModel.dynamic_stiffness`).
+DAMPING_FORMS = ("loss", "viscous")
 
 
 @dataclass(frozen=True, repr=False)
@@ -83,6 +86,12 @@ class LinearModel:
         For inputs that move frames (kinematic excitation), the names of the entries of
         ``inputs`` that hold their first and second time derivatives (``INPUT_RATES`` of the
         module); a harmonic input then acts through ``B_u + jω B_du − ω² B_ddu``.
+    G : ndarray (m, m) or None
+        The hysteretic matrix of the loss factors (``K + iG`` in the frequency domain,
+        equations.md §1.2), projected like ``Q``; ``P`` holds its time-domain equivalent
+        ``G/ω_ref``. ``None``: the module has no loss factors (``loss_matrix``).
+    loss_reference_frequency : float or None
+        ``f_ref`` [Hz] of ``G`` (``ω_ref = 2π f_ref``).
     """
 
     M0: np.ndarray
@@ -104,6 +113,8 @@ class LinearModel:
     lambda0: np.ndarray = field(default_factory=lambda: np.zeros(0))
     constraints: tuple[str, ...] = ()
     input_rates: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    G: np.ndarray | None = None
+    loss_reference_frequency: float | None = None
 
     def __repr__(self) -> str:
         return (f"LinearModel({self.n} coordinates ({', '.join(self.coordinates[:6])}"
@@ -119,6 +130,28 @@ class LinearModel:
     def state_names(self) -> list[str]:
         """Names of the first-order state ``[z, ż]``."""
         return [*self.coordinates, *(f"d_{c}" for c in self.coordinates)]
+
+    @property
+    def has_loss(self) -> bool:
+        """Whether the model carries a nonzero hysteretic matrix ``G``."""
+        return self.G is not None and bool(np.any(self.G))
+
+    def dynamic_stiffness(self, w: np.ndarray, damping: str = "loss") -> np.ndarray:
+        """``Z(ω)`` (nf, m, m) for the angular frequencies ``w`` (equations.md §1.2).
+
+        ``"loss"``: ``−ω² M0 + jω (P − G/ω_ref) + Q + jG`` — the loss factors as hysteretic
+        damping, the rest of ``P`` viscous; ``"viscous"`` (and models without ``G``):
+        ``−ω² M0 + jω P + Q``, the time-domain equivalent. The two agree at ``ω = ω_ref``.
+        """
+        if damping not in DAMPING_FORMS:
+            raise NeweulError(f"unknown damping form {damping!r}; valid: "
+                              f"{', '.join(DAMPING_FORMS)}")
+        ww = np.asarray(w, dtype=float)[:, None, None]
+        z = -(ww**2) * self.M0 + 1j * ww * self.P + self.Q
+        if damping == "loss" and self.has_loss:
+            w_ref = 2 * np.pi * float(self.loss_reference_frequency)
+            z = z + 1j * (1.0 - ww / w_ref) * self.G
+        return z
 
     def first_order_pencil(self) -> tuple[np.ndarray, np.ndarray]:
         """``(Ã, E)`` with ``E ẋ = Ã x``: ``E = diag(I, M0)``, ``Ã = [[0, I], [−Q, −P]]``."""
@@ -254,6 +287,9 @@ class LinearModel:
             input_rates=np.array(
                 [[name, *rates, "", ""][:3] for name, rates in self.input_rates], dtype=str
             ).reshape(-1, 3),
+            **({} if self.G is None else {
+                "G": self.G, "loss_reference_frequency": np.array(
+                    float(self.loss_reference_frequency))}),
         )
 
     @classmethod
@@ -265,6 +301,9 @@ class LinearModel:
             for k in ("M0", "P", "Q", "B", "C", "D", "basis", "y0", "yd0", "u0", "p", "lambda0"):
                 kw[k] = f[k]
             kw["t"] = float(f["t"])
+            if "G" in f:
+                kw["G"] = f["G"]
+                kw["loss_reference_frequency"] = float(f["loss_reference_frequency"])
             if "input_rates" in f:
                 kw["input_rates"] = tuple(
                     (str(row[0]), tuple(str(r) for r in row[1:] if r)) for row in f["input_rates"]
@@ -309,7 +348,8 @@ def linearize(
     -------
     LinearModel
         ``M0, P, Q, B, C, D`` with ``Q`` including ``∂(M ÿ0)/∂y`` (and, with constraints, the
-        projection on the constraint manifold described in the module docstring).
+        projection on the constraint manifold described in the module docstring), and the
+        hysteretic matrix ``G`` of the loss factors when the module has ``loss_matrix``.
 
     Examples
     --------
@@ -363,6 +403,10 @@ def linearize(
     if np.any(ydd0):
         q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
     nt = left.T
+    g_loss, f_ref = None, None
+    if callable(getattr(module, "loss_matrix", None)):
+        g_loss = nt @ np.asarray(module.loss_matrix(t, x0, pv, u), dtype=float) @ basis
+        f_ref = float(module.LOSS_REFERENCE_FREQUENCY)
     two = np.zeros((2 * n, 2 * indep.size))
     two[:n, : indep.size] = basis
     two[n:, indep.size :] = basis
@@ -389,6 +433,8 @@ def linearize(
             (name, tuple(rates))
             for name, rates in sorted((getattr(module, "INPUT_RATES", None) or {}).items())
         ),
+        G=g_loss,
+        loss_reference_frequency=f_ref,
     )
 
 

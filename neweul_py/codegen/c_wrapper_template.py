@@ -21,7 +21,7 @@ from pathlib import Path as _Path
 from .c_runtime import BackendUnavailable, compiled_library, load_twin
 
 _MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _CDEF = ""
-_N = _NU = _NP = _NY = _NC = 0
+_N = _NU = _NP = _NY = _NC = _LOSS = 0
 
 # ---- template begins
 import threading as _threading  # noqa: E402
@@ -66,6 +66,8 @@ if _lib is None:
     rhs_jacobian = _twin.rhs_jacobian
     outputs = _twin.outputs
     output_jacobians = _twin.output_jacobians
+    if _LOSS:
+        loss_matrix = _twin.loss_matrix
     constraints = _twin.constraints
     constraint_jacobian = _twin.constraint_jacobian
     constraint_time_derivative = _twin.constraint_time_derivative
@@ -194,6 +196,17 @@ else:
         lib.nw_output_jacobians(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
                                  _fb("double[]", out))
         return out[:, :_S], out[:, _S:]
+
+    if _LOSS:
+        def loss_matrix(t, x, p, u=None):
+            """Hysteretic matrix ``G`` of ``K + iG`` (loss factors), shape (n, n)."""
+            lib = _jac_lib()
+            if lib is None:
+                return _twin.loss_matrix(t, x, p, u)
+            out = _np.empty((_N, _N))
+            lib.nw_loss_matrix(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+                               _fb("double[]", out))
+            return out
 
     def _positional(fn, size, t, y, p, u):
         out = _np.empty(size)

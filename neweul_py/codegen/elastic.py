@@ -38,6 +38,7 @@ from ..ffrf import (
     SPLICE_FUNCTIONS,
     ffrf_pack,
 )
+from ..ffrf.body import ffrf_loss_matrix
 from ..ffrf.parametric import weight_coefficients
 from ..progress import StagedProgress
 from .blocks import units
@@ -192,6 +193,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                                    [*equations.outputs, *el.hidden]),
         output_names=(*names, *hidden),
         constraints=ce,
+        loss_matrix=None if equations.loss_matrix is None
+        else equations.loss_matrix[a_idx, a_idx],
     )
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
                          schedules=el.schedules, schedule_jacobians=el.schedule_jacobians,
@@ -227,13 +230,14 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                  if equations.poses else ()))
 
     functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs")}
-    functions.update({f"_rigid_{k}": rigid.functions[k] for k in _RIGID_USED})
+    used = (*_RIGID_USED, *(("loss_matrix",) if "loss_matrix" in rigid.functions else ()))
+    functions.update({f"_rigid_{k}": rigid.functions[k] for k in used})
     if el.schedules:
         functions["_rigid_schedule"] = rigid.functions["schedule"]
         functions["_rigid_schedule_jacobians"] = rigid.functions["schedule_jacobians"]
     for fn in (*KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
         functions[fn.__name__] = tuple(inspect.getsource(fn).rstrip("\n").splitlines())
-    rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in _RIGID_USED)
+    rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in used)
     functions["_FFRF"] = (
         "_FFRF = ffrf_system(_ELASTIC_DATA, _NS, _SV, _SW, len(OUTPUTS),",
         f"                    {{{rigid_map}}},",
@@ -242,6 +246,11 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
+    if "loss_matrix" in rigid.functions or any(
+            "Le.m0" in d for s in el.splices for d in (s.body.samples or (s.body.data,))):
+        # loss factors of the force elements and the bodies' Le (equations.md §1.2)
+        functions["loss_matrix"] = _wrapper("loss_matrix", ffrf_loss_matrix)
+        constants["LOSS_REFERENCE_FREQUENCY"] = repr(float(system.loss_reference_frequency))
     if "frame_poses" in rigid.functions:  # poses of the frames and the node clouds
         functions["_rigid_frame_poses"] = rigid.functions["frame_poses"]
         functions["frame_poses"] = (

@@ -22,8 +22,8 @@ from ..model import as_expr
 from .blocks import derivative_block, mass_entries
 from .cse import Assignment, Block, CseMethod, eliminate, hoist_constant_factors
 
-__all__ = ["DynamicsPrograms", "OutputPrograms", "dynamics_programs", "mass_factor_values",
-           "output_programs"]
+__all__ = ["DynamicsPrograms", "OutputPrograms", "dynamics_programs", "loss_program",
+           "mass_factor_values", "output_programs"]
 
 #: Recently computed programs: (equations, key, value), newest last.
 _RECENT: list[tuple[Any, tuple[Any, ...], Any]] = []
@@ -130,3 +130,16 @@ def output_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatr
                                                      (*y, *yd, *u), d_method))
 
     return _remembered(eq, ("outputs", method, d_method, tuple(outs)), compute)
+
+
+def loss_program(eq: Any, inter: Sequence[Assignment], method: CseMethod) -> Block | None:
+    """The CSE'd program of the hysteretic matrix ``G`` (``Equations.loss_matrix``, n·n
+    row-major, zeros included; equations.md §1.2), ``None`` when the model has none."""
+    G = getattr(eq, "loss_matrix", None)
+    if G is None:
+        return None
+
+    def compute() -> Block:
+        return eliminate(inter, [as_expr(e) for e in G], prefix="_ncg_l", method=method)
+
+    return _remembered(eq, ("loss", method), compute)

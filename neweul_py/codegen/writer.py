@@ -55,7 +55,7 @@ from .packing import (
     solver_definition,
 )
 from .printer import NamePool
-from .programs import dynamics_programs, mass_factor_values, output_programs
+from .programs import dynamics_programs, loss_program, mass_factor_values, output_programs
 
 __all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts",
            "program_blocks"]
@@ -258,6 +258,26 @@ def _state_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix,
     return out
 
 
+def _loss_function(ctx: Context, eq: Any, method: CseMethod, prefix: str
+                   ) -> dict[str, tuple[str, ...]]:
+    """``loss_matrix(t, x, p, u=None)``: the hysteretic matrix ``G`` of the force elements'
+    loss factors (equations.md §1.2), or nothing when the model has none."""
+    b = loss_program(eq, ctx.intermediates, method)
+    if b is None:
+        return {}
+    y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
+    n = len(y)
+    b = checked(ctx, b, (*y, *p, *u, time, *yd), "the loss matrix")
+    x_unpack = [((*y, *yd), "_np.asarray(x, dtype=_np.float64).tolist()"), (p, _P_SRC)]
+    G = sp.ImmutableMatrix(n, n, list(b.finals)) if n else sp.ImmutableMatrix.zeros(0, 0)
+    body = (prologue(ctx, b, x_unpack) + inputs_prologue(ctx, b) + assignments(ctx, b)
+            + matrix_fill(ctx, "G", (n, n), sparse(G)))
+    return {"loss_matrix": _function(
+        f"{prefix}loss_matrix", "t, x, p, u=None",
+        "Hysteretic matrix ``G`` of ``K + iG`` (loss factors), shape (n, n).",
+        [*body, "return G"])}
+
+
 def _pose_functions(ctx: Context, eq: Any, method: CseMethod,
                     prefix: str) -> dict[str, tuple[str, ...]]:
     """frame_poses (the poses of :class:`~neweul_py.equations.poses.FramePoses`) and
@@ -333,6 +353,8 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
         "STATE_SIZE": repr(2 * len(y)),
         "SOURCE_HASH": repr(source_hash),
         "MASS_MATRIX_SYMMETRIC": repr(symmetric),
+        **({} if getattr(eq, "loss_matrix", None) is None else {
+            "LOSS_REFERENCE_FREQUENCY": repr(float(system.loss_reference_frequency))}),
         **({} if eq_poses is None else {
             "FRAMES": repr(list(eq_poses.frames)),
             "FRAME_PARENTS": repr(list(eq_poses.parents)),
@@ -477,6 +499,7 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         step()
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix, step))
     funcs.update(_state_functions(ctx, eq, outs, energy, method, d_method, prefix, step))
+    funcs.update(_loss_function(ctx, eq, method, prefix))
     # constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py)
     for name, block in constraint_functions(ctx, getattr(eq, "constraints", None), method,
                                             prefix).items():
@@ -511,7 +534,8 @@ def program_blocks(equations: Any, *, cse: bool = True,
     ``∂/∂u``), ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}",
     real=True)`` of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny),
     ``output_jacobians`` (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
-    ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc). Rigid models only (elastic
+    ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc) and, for models with loss
+    factors, ``loss_matrix`` (n·n, equations.md §1.2). Rigid models only (elastic
     bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
     ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
     (:mod:`.packing`); the blocks here keep M's entries. ``progress``: a staged hook,
@@ -558,6 +582,9 @@ def program_blocks(equations: Any, *, cse: bool = True,
         for name in ("constraints", "constraint_jacobian", "constraint_time_derivative",
                      "constraint_gamma"):
             out[name] = Block((), ())
+    loss = loss_program(eq, inter, method)
+    if loss is not None:
+        out["loss_matrix"] = loss
     step()
     return out
 

@@ -51,6 +51,9 @@ def add_body_frf_arguments(parser: argparse.ArgumentParser, plot_help: str) -> N
                         "10:20000:200)")
     parser.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
     parser.add_argument("--plot", metavar="FIG", help=plot_help)
+    parser.add_argument("--damping", choices=("loss", "viscous"), default="loss",
+                        help="loss: the loss factors as K + iG where the data hold G "
+                        "(default); viscous: the time-domain equivalent D")
 
 
 def frequency_grid(grid: Range, log: bool) -> np.ndarray:
@@ -125,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     with Tracker("full FRF", unit="freq", quiet=args.quiet) as track:  # a bar on a terminal
         track.say(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")
         cmp = compare_frf(fe, body, f, args.input, args.response, progress=track,
-                          check=False, method=args.full_method)
+                          check=False, method=args.full_method, damping=args.damping)
     for line in summary(cmp, f"order {body.order} vs {fe.n_dofs} DOFs"):
         print(line)
     if args.output:

@@ -15,8 +15,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "frf",
         help="frequency response of outputs to inputs (Bode data and plot)",
         description="H(jω) = C(−ω² M0 + jω P + Q)⁻¹ B + D of the linearized model for all "
-        "frequencies at once. Outputs are model outputs, coordinates, d_<coordinate> or "
-        "dd_<coordinate>.",
+        "frequencies at once; with loss factors C(−ω² M0 + jω (P − G/ω_ref) + Q + iG)⁻¹ B + D "
+        "(--damping viscous: the time-domain equivalent). Outputs are model outputs, "
+        "coordinates, d_<coordinate> or dd_<coordinate>.",
     )
     common.add_model_arguments(parser)
     common.add_signal_arguments(parser, required=False)
@@ -26,6 +27,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--log", action="store_true", help="logarithmically spaced frequencies")
     parser.add_argument("--method", choices=("solve", "hessenberg", "eig"), default="solve",
                         help="evaluation method (default: batched second-order solve)")
+    parser.add_argument("--damping", choices=("loss", "viscous"), default="loss",
+                        help="loss: loss factors as hysteretic damping K + iG (default); "
+                        "viscous: their time-domain equivalent G/ω_ref")
     parser.add_argument("--plot", metavar="FIG", help="Bode plot (.png/.pdf/.svg; matplotlib)")
     parser.set_defaults(func=run)
 
@@ -43,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     f = np.asarray(args.f.values(args.log))
     module = common.load_model(args)
     lin = linearize(module, **common.linearize_kwargs(module, args))
-    fr = frequency_response(lin, f, args.input, args.response, method=args.method)
+    fr = frequency_response(lin, f, args.input, args.response, method=args.method,
+                            damping=args.damping)
     if not np.all(np.isfinite(fr.magnitude)):
         from ..errors import SolverError
 

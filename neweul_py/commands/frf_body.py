@@ -1,7 +1,9 @@
 """``neweul frf-body BODY.npz [--at NAME=VALUE] --input I --response O [--response O2 …]
 --f START:STOP:N [--log] [-o frf.csv] [--plot fig.png]``: frequency response of a reduced or
 parametric body alone, ``H(j2πf) = C_r (K_r + jωD_r − ω²M_r)⁻¹ B_r`` from its own FE inputs
-and outputs — no FE model is read or solved."""
+and outputs — no FE model is read or solved; a body with loss factors (a hysteretic matrix
+``G_r``) in the form ``K_r + iG_r + jω(D_r − G_r/ω_ref) − ω²M_r`` unless ``--damping
+viscous``."""
 
 from __future__ import annotations
 
@@ -104,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     common.check_files(args.output, (".csv",), "frequency responses", args.plot)
     f = frequency_grid(args.grid, args.log)
     body = load_body(args.body, args.at)
-    H = frf_reduced(body, f, args.input, args.response)[:, :, 0]
+    H = frf_reduced(body, f, args.input, args.response, args.damping)[:, :, 0]
     band = retained_band_hz(body)
     in_band = None if band is None else f <= band
     where = "" if args.at is None else f" at {args.at[0]} = {args.at[1]:g}"

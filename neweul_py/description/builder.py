@@ -263,6 +263,20 @@ def _enabled(n: _Names, enabled: object, path: str) -> sp.Expr:
     return n.expr(enabled, "constant", f"{path}.enabled")
 
 
+def _loss_factor(n: _Names, value: object, path: str) -> sp.Expr:
+    """The loss factor η of an element with a stiffness (parameters only; default 0). A
+    number must be finite and ≥ 0 here; an expression is checked at the parameter defaults
+    when the system is built."""
+    if value is None or (isinstance(value, int | float) and not isinstance(value, bool)
+                         and value == 0):
+        return sp.Integer(0)
+    key = f"{path}.loss_factor"
+    if isinstance(value, float | int) and not isinstance(value, bool) and not (
+            math.isfinite(value) and value >= 0):
+        raise ModelError(f"a loss factor is a finite number ≥ 0, got {value!r}", key)
+    return n.expr(value, "constant", key)
+
+
 def _points(n: _Names, points: object, path: str) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
     if points is None:
         return sp.ImmutableMatrix.zeros(3, 1), sp.ImmutableMatrix.zeros(3, 1)
@@ -361,6 +375,7 @@ class SystemBuilder:
         self._constraints: list[_Make] = []
         self._constraint_names: set[str] = set()
         self._gravity: _Make | None = None
+        self._loss_reference: float | None = None
         self._elastic: list[Callable[[_Names], ElasticBody]] = []
 
     # -------------------------------------------------------------- helpers
@@ -425,6 +440,16 @@ class SystemBuilder:
         return symbol(name)
 
     # -------------------------------------------------------------- geometry
+    def loss_reference_frequency(self, value: object) -> None:
+        """Set the model's ``loss_reference_frequency`` [Hz] (a positive number; default
+        1000): the frequency at which the time-domain equivalent of the loss factors is exact
+        (docs/equations.md §1.2)."""
+        key = "loss_reference_frequency"
+        f = constant_number(value, key)
+        if not (math.isfinite(f) and f > 0):
+            raise ModelError(f"must be a positive frequency in Hz, got {value!r}", key)
+        self._loss_reference = float(f)
+
     def gravity(self, vector: object) -> None:
         """Set the gravitational acceleration (ISYS components, parameters allowed)."""
         _check_vector(vector, "gravity")
@@ -674,6 +699,7 @@ class SystemBuilder:
         stiffness: object,
         damping: object = 0,
         length: object = 0,
+        loss_factor: object = 0,
         enabled: object = None,
         report: bool = False,
     ) -> None:
@@ -687,6 +713,8 @@ class SystemBuilder:
         "interpolation": "linear" | "spline"}`` giving the spring force over ``s`` (the damper
         force over ``sd``) directly (:func:`~neweul_py.model.table_characteristic`).
         ``enabled``, ``report``: see :meth:`force` (reports ``<name>_force``, the tensile force).
+        ``loss_factor`` (parameters only, ≥ 0): hysteretic damping on the spring's tangent
+        stiffness (docs/equations.md §1.2).
         """
         path = self._declare("forces", "force", name)
         self._report(name, report, path, "SpringDamper")
@@ -724,6 +752,7 @@ class SystemBuilder:
                 spring_force=k_curve,
                 damper_force=d_curve,
                 enabled=_enabled(n, enabled, path),
+                loss_factor=_loss_factor(n, loss_factor, path),
             )
 
         self._forces.append(make)
@@ -738,6 +767,7 @@ class SystemBuilder:
         stiffness: object = 0,
         damping: object = 0,
         angle: object = 0,
+        loss_factor: object = 0,
         enabled: object = None,
         report: bool = False,
     ) -> None:
@@ -777,6 +807,7 @@ class SystemBuilder:
                 spring_force=k_curve,
                 damper_force=d_curve,
                 enabled=_enabled(n, enabled, path),
+                loss_factor=_loss_factor(n, loss_factor, path),
             )
 
         self._forces.append(make)
@@ -791,6 +822,7 @@ class SystemBuilder:
         damping: object = 0,
         rotational_stiffness: object = 0,
         rotational_damping: object = 0,
+        loss_factor: object = 0,
         enabled: object = None,
         report: bool = False,
     ) -> None:
@@ -799,7 +831,9 @@ class SystemBuilder:
 
         Each of the four matrices (first frame's components) is a 3×3 list of lists,
         ``{"diag": [a, b, c]}`` or one value (isotropic, ``value·I``). Reports ``<name>_fx``
-        … ``_fz``, ``_mx`` … ``_mz`` (force and torque on the second frame).
+        … ``_fz``, ``_mx`` … ``_mz`` (force and torque on the second frame). ``loss_factor``
+        (parameters only, ≥ 0): hysteretic damping on both stiffness matrices
+        (docs/equations.md §1.2).
         """
         path = self._declare("forces", "force", name)
         self._report(name, report, path, "Bushing")
@@ -820,6 +854,7 @@ class SystemBuilder:
             return Bushing(
                 name, frames[0], frames[1], **mats, point_a=pa, point_b=pb,
                 enabled=_enabled(n, enabled, path),
+                loss_factor=_loss_factor(n, loss_factor, path),
             )
 
         self._forces.append(make)
@@ -1002,6 +1037,8 @@ class SystemBuilder:
             description=self._description,
             constraints=constraints,
             elastic_bodies=tuple(make(n) for make in self._elastic),
+            **({} if self._loss_reference is None
+               else {"loss_reference_frequency": self._loss_reference}),
         )
 
 

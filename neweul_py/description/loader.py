@@ -74,6 +74,10 @@ def _gravity(b: SystemBuilder, value: Any, path: str) -> None:
     b.gravity(value)
 
 
+def _loss_reference(b: SystemBuilder, value: Any, path: str) -> None:
+    b.loss_reference_frequency(value)
+
+
 FRAME = Schema(optional=("parent", "translation", "rotation"))
 
 
@@ -126,7 +130,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
     "spring_damper": ForceType(
         Schema(
             required=("type", "between", "stiffness"),
-            optional=("points", "damping", "length", *SWITCHES),
+            optional=("points", "damping", "length", "loss_factor", *SWITCHES),
         ),
         lambda b, n, s: b.spring_damper(
             n,
@@ -135,6 +139,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
             stiffness=s["stiffness"],
             damping=s.get("damping", 0),
             length=s.get("length", 0),
+            loss_factor=s.get("loss_factor", 0),
             **_switches(s),
         ),
     ),
@@ -142,7 +147,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
         Schema(
             required=("type",),
             optional=("coordinate", "between", "axis", "stiffness", "damping", "angle",
-                      *SWITCHES),
+                      "loss_factor", *SWITCHES),
         ),
         lambda b, n, s: b.rotational_spring_damper(
             n,
@@ -152,6 +157,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
             stiffness=s.get("stiffness", 0),
             damping=s.get("damping", 0),
             angle=s.get("angle", 0),
+            loss_factor=s.get("loss_factor", 0),
             **_switches(s),
         ),
     ),
@@ -159,7 +165,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
         Schema(
             required=("type", "between"),
             optional=("points", "stiffness", "damping", "rotational_stiffness",
-                      "rotational_damping", *SWITCHES),
+                      "rotational_damping", "loss_factor", *SWITCHES),
         ),
         lambda b, n, s: b.bushing(
             n,
@@ -169,6 +175,7 @@ FORCE_TYPES: Mapping[str, ForceType] = {
             damping=s.get("damping", 0),
             rotational_stiffness=s.get("rotational_stiffness", 0),
             rotational_damping=s.get("rotational_damping", 0),
+            loss_factor=s.get("loss_factor", 0),
             **_switches(s),
         ),
     ),
@@ -252,6 +259,7 @@ SECTIONS: Mapping[str, Section] = {
     "name": Section(None, required=True),
     "description": Section(None),
     "gravity": Section(_gravity),
+    "loss_reference_frequency": Section(_loss_reference),
     "parameters": Section(_parameters),
     "coordinates": Section(_coordinates),
     "inputs": Section(_inputs),

@@ -55,6 +55,7 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -68,9 +69,8 @@ from ._io import atomic_write, json_from_uint8, json_to_uint8, load_npz, save_np
 from .fe_model import FEModel
 from .invariants import LOAD_CASES
 
-__all__ = ["FE_FORMAT", "FE_VERSION", "read_fe_model", "read_node_sets", "read_stiffening",
-           "read_stiffening_responses",
-           "write_fe_model"]
+__all__ = ["FE_FORMAT", "FE_VERSION", "LOSS_KEYS", "loss_group", "read_fe_model",
+           "read_node_sets", "read_stiffening", "read_stiffening_responses", "write_fe_model"]
 
 FE_FORMAT = "neweul-fe"
 FE_VERSION = 1
@@ -489,6 +489,9 @@ def _write_npz(fe: FEModel, path: Path, extra: dict[str, Any] | None = None) -> 
     arrays: dict[str, np.ndarray] = {"meta": json_to_uint8({**_meta(fe),
                                                             **extra.get("meta", {})})}
     arrays.update(extra.get("arrays", {}))
+    if fe.G is not None:
+        arrays.update(loss_group(fe.G, {"f_ref_Hz": fe.loss_reference_frequency,
+                                        **extra.get("loss_meta", {})}))
     for key in ("M", "K", "D"):
         a = getattr(fe, key)
         if a is None:
@@ -501,6 +504,16 @@ def _write_npz(fe: FEModel, path: Path, extra: dict[str, Any] | None = None) -> 
     arrays["dof_node"] = fe.dof_node
     arrays["dof_kind"] = fe.dof_kind.astype("U2")
     save_npz_atomic(path, arrays)
+
+
+def loss_group(G: sps.spmatrix, meta: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """The arrays of the optional loss group (:data:`LOSS_KEYS`) for ``G`` and ``meta``
+    (which must hold ``f_ref_Hz``)."""
+    g = sps.csr_matrix(G)
+    return {"loss_G_data": g.data, "loss_G_indices": g.indices.astype(np.int64),
+            "loss_G_indptr": g.indptr.astype(np.int64),
+            "loss_G_shape": np.asarray(g.shape, dtype=np.int64),
+            "loss_meta": json_to_uint8(dict(meta))}
 
 
 def _read_npz(path: Path) -> FEModel:
@@ -528,7 +541,43 @@ def _read_npz(path: Path) -> FEModel:
     for key in ("nodes", "dof_node", "dof_kind"):
         if key not in data:
             raise DataError("missing array", file, key)
-    return _build(file, meta, matrices, data["nodes"], data["dof_node"], data["dof_kind"])
+    fe = _build(file, meta, matrices, data["nodes"], data["dof_node"], data["dof_kind"])
+    loss = _read_loss_group(data, file)
+    if loss is None:
+        return fe
+    try:
+        return fe.with_(G=loss[0], loss_reference_frequency=loss[1])
+    except DataError as exc:
+        raise DataError(exc.message, file, "loss_G" if exc.item == "G" else exc.item) from None
+
+
+#: Keys of the optional loss group of an ``.npz`` FE file (``docs/equations.md`` §1.2): the
+#: hysteretic damping ``G`` of ``K + iG`` in CSR form and ``loss_meta`` (UTF-8 JSON with at
+#: least ``f_ref_Hz``, the reference frequency of the time-domain equivalent ``D = G/ω_ref``).
+LOSS_KEYS = ("loss_G_data", "loss_G_indices", "loss_G_indptr", "loss_G_shape", "loss_meta")
+
+
+def _read_loss_group(data: Mapping[str, np.ndarray], file: str
+                     ) -> tuple[sps.csr_matrix, float] | None:
+    """``(G, f_ref)`` of the optional loss group, ``None`` without one."""
+    if "loss_G_data" not in data:
+        return None
+    missing = [k for k in LOSS_KEYS if k not in data]
+    if missing:
+        raise DataError(f"the loss group lacks {', '.join(missing)}", file, "loss_G")
+    try:
+        G = sps.csr_matrix((data["loss_G_data"].astype(np.float64), data["loss_G_indices"],
+                            data["loss_G_indptr"]),
+                           shape=tuple(int(s) for s in data["loss_G_shape"]))
+        G.check_format(full_check=True)
+    except (ValueError, TypeError, IndexError) as exc:
+        raise DataError(f"inconsistent CSR arrays ({exc})", file, "loss_G") from None
+    meta = json_from_uint8(data["loss_meta"], file)
+    f_ref = meta.get("f_ref_Hz") if isinstance(meta, dict) else None
+    if not isinstance(f_ref, int | float) or isinstance(f_ref, bool):
+        raise DataError(f"loss_meta must name the reference frequency f_ref_Hz, got "
+                        f"{f_ref!r}", file, "loss_meta.f_ref_Hz")
+    return G, float(f_ref)
 
 
 

@@ -88,6 +88,13 @@ class FEModel:
         that is not (relative max-abs asymmetry > :data:`SYMMETRY_RTOL`) is an error.
     source
         The file the model was read from (named in error messages), or ``None``.
+    G
+        Optional sparse n×n hysteretic damping of the frequency-domain stiffness ``K + iG``
+        (loss factors, ``docs/equations.md`` §1.2); ``D`` then holds the time-domain
+        equivalent ``G/ω_ref`` (plus any viscous damping of its own).
+    loss_reference_frequency
+        The reference frequency ``f_ref`` [Hz] of ``G`` (``ω_ref = 2π f_ref``; required with
+        ``G``, a positive finite number).
 
     Raises
     ------
@@ -122,16 +129,18 @@ class FEModel:
     name: str = "fe-model"
     symmetric: Mapping[str, bool] = field(default_factory=dict)
     source: str | None = None
+    G: sps.csr_matrix | None = None
+    loss_reference_frequency: float | None = None
 
     # ------------------------------------------------------------------ validation
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         src = self.source
         mats = {}
-        for key in ("M", "K", "D"):
+        for key in ("M", "K", "D", "G"):
             a = getattr(self, key)
             if a is None:
-                if key != "D":
+                if key not in ("D", "G"):
                     raise DataError("matrix is missing", src, key)
                 continue
             try:
@@ -251,6 +260,20 @@ class FEModel:
                 raise DataError(f"declared symmetric but max|A−Aᵀ|/max|A| = "
                                 f"{asymmetry(a):.3g}", src, key)
         set_(self, "symmetric", sym)
+        self._check_loss()
+
+    def _check_loss(self) -> None:
+        """``G`` and ``loss_reference_frequency`` come together; ``f_ref`` > 0, finite."""
+        f = self.loss_reference_frequency
+        if self.G is None:
+            if f is not None:
+                raise DataError("a loss reference frequency without a hysteretic matrix G",
+                                self.source, "loss_reference_frequency")
+            return
+        if f is None or not _is_real_number(f) or not np.isfinite(f) or f <= 0:
+            raise DataError(f"the hysteretic matrix G needs a positive reference frequency in "
+                            f"Hz, got {f!r}", self.source, "loss_reference_frequency")
+        object.__setattr__(self, "loss_reference_frequency", float(f))
 
     def _check_up_blocks(self, is_p: np.ndarray) -> None:
         """Block structure of Eq. (2): ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ``."""

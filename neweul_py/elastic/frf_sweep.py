@@ -37,12 +37,45 @@ from ..errors import DataError
 from .fe_model import FEModel
 from .projection import Progress, orthonormal_append
 
-__all__ = ["SweepResult", "frf_direct", "frf_sweep", "solve_at"]
+__all__ = ["DAMPING_FORMS", "LossForm", "SweepResult", "frequency_form", "frf_direct",
+           "frf_sweep", "solve_at"]
 
 #: Fill-reducing ordering for the complex factorizations of the sweep: on the middle-ear
 #: u–p model (refine 1) COLAMD took 0.36 s and 3.6e6 factor entries against 1.3 s / 4.3e6
 #: for MMD_AT_PLUS_A and 1.2–1.6 s for the real-equivalent form of twice the size.
 SWEEP_PERMC_SPEC = "COLAMD"
+
+
+#: Damping forms of the frequency domain: ``"loss"`` (``K + iG`` where the model has a
+#: hysteretic matrix ``G``) and ``"viscous"`` (its time-domain equivalent ``D``).
+DAMPING_FORMS = ("loss", "viscous")
+
+
+class LossForm:
+    """An FE model in the loss-factor form of the frequency domain (``docs/equations.md``
+    §1.2): ``K + iG`` (complex) and ``D − G/ω_ref``, so that ``K + jωD − ω²M`` of the solvers
+    is ``K + iG + jω(D − G/ω_ref) − ω²M``; every other attribute is the model's own."""
+
+    def __init__(self, fe: FEModel) -> None:
+        self._fe = fe
+        w_ref = 2 * np.pi * float(fe.loss_reference_frequency)
+        D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
+        self.K = sps.csr_matrix(fe.K + 1j * fe.G)
+        self.D = sps.csr_matrix(D - fe.G / w_ref)
+
+    def __getattr__(self, name: str):
+        return getattr(self._fe, name)
+
+
+def frequency_form(fe: FEModel, damping: str = "loss") -> FEModel | LossForm:
+    """``fe`` as the frequency-domain solvers should see it: :class:`LossForm` for
+    ``damping="loss"`` and a model with a hysteretic matrix ``G``, else ``fe`` itself."""
+    if damping not in DAMPING_FORMS:
+        raise DataError(f"must be one of {', '.join(DAMPING_FORMS)}, got {damping!r}", None,
+                        "damping")
+    if damping == "loss" and getattr(fe, "G", None) is not None:
+        return LossForm(fe)
+    return fe
 
 
 def _dynamic(fe: FEModel, w: float) -> sps.csc_matrix:

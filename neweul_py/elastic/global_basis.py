@@ -55,7 +55,7 @@ import scipy.sparse as sps
 
 from ..errors import DataError
 from .fe_model import FEModel
-from .interpolation import ParametricBody, check_samples, sample_values
+from .interpolation import ParametricBody, check_samples, sample_values, stacked_loss
 from .invariants import attach_invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
@@ -256,6 +256,7 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
     g0 = gb[0]
     return ParametricBody(
         parameter=str(parameter), samples=s,
+        **stacked_loss(gb),
         **{key: np.stack([b[key] for b in gb]) for key in ("M", "D", "K", "B", "C",
                                                             "V_kept", "W_kept")},
         T=eye, L=eye.copy(), R=g0.V, singular_values=np.sqrt(np.maximum(energy, 0.0)),

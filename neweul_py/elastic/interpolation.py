@@ -138,7 +138,7 @@ _GROUP_ORDER = ("translation", "rotation", "pressure")
 _INV_PREFIX = "invariants/"
 _ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
            "V_kept", "W_kept", "T", "L", "R", "singular_values", "svd_weights")
-_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind")
+_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G")
 #: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
 _STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
 
@@ -219,6 +219,10 @@ class ParametricBody:
         Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
     sample_sources, sample_methods, sample_settings
         Per sample: the ``source``, ``method`` and ``settings`` of the local body.
+    G, loss_reference_frequency
+        Optional (k, r, r) transformed hysteretic matrices ``G̃_i = L_i G_r,i T_i⁻¹`` of
+        ``K + iG`` (loss factors, ``docs/equations.md`` §1.2), interpolated like ``K``,
+        and their common reference frequency [Hz].
     """
 
     parameter: str
@@ -256,6 +260,8 @@ class ParametricBody:
     sample_methods: tuple[str, ...] = ()
     sample_settings: tuple[Mapping[str, Any], ...] = ()
     format_version: int = PARAMETRIC_BODY_VERSION
+    G: np.ndarray | None = None
+    loss_reference_frequency: float | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -337,6 +343,20 @@ class ParametricBody:
             set_(self, key, vals)
         if self.invariants is not None:
             set_(self, "invariants", _check_stacked(self.invariants, k))
+        if self.G is not None:
+            g = _floats(self.G, "G", 3)
+            if g.shape != (k, r, r):
+                raise DataError(f"must be {(k, r, r)}, got {g.shape}", None, "G")
+            f = self.loss_reference_frequency
+            if (f is None or isinstance(f, bool) or not isinstance(f, int | float | np.floating)
+                    or not np.isfinite(f) or f <= 0):
+                raise DataError(f"the hysteretic matrices G need a positive reference "
+                                f"frequency in Hz, got {f!r}", None, "loss_reference_frequency")
+            set_(self, "G", g)
+            set_(self, "loss_reference_frequency", float(f))
+        elif self.loss_reference_frequency is not None:
+            raise DataError("a loss reference frequency without hysteretic matrices G", None,
+                            "loss_reference_frequency")
 
     def _check_row_scaling(self, n_rows: int) -> None:
         set_ = object.__setattr__
@@ -539,6 +559,8 @@ class ParametricBody:
             return np.einsum("i,i...->...", w[idx], stack[idx])
 
         arrays = {key: mix(self[key]) for key in _STACKED}
+        if self.G is not None:
+            arrays.update(G=mix(self.G), loss_reference_frequency=self.loss_reference_frequency)
         V = None if self.V is None else mix(self.V)
         W = None if self.W is None else mix(self.W)
         inv = None
@@ -581,6 +603,25 @@ class ParametricBody:
     def load(cls, path: str | os.PathLike) -> ParametricBody:
         """Read a file written by :meth:`save`."""
         return load_parametric_body(path)
+
+
+def stacked_loss(bodies: Sequence[ReducedBody]) -> dict[str, Any]:
+    """``{"G": (k, r, r), "loss_reference_frequency": f}`` of sample bodies that all carry
+    a hysteretic matrix, ``{}`` when none does; a :class:`DataError` naming the sample when
+    only some do or their reference frequencies differ."""
+    has = [b.G is not None for b in bodies]
+    if not any(has):
+        return {}
+    if not all(has):
+        i = has.index(False)
+        raise DataError(f"sample {i + 1} has no hysteretic matrix G, sample "
+                        f"{has.index(True) + 1} has one (loss factors in some samples only)",
+                        None, "G")
+    f = {b.loss_reference_frequency for b in bodies}
+    if len(f) != 1:
+        raise DataError(f"the samples' loss reference frequencies differ: {sorted(f)} Hz",
+                        None, "loss_reference_frequency")
+    return {"G": np.stack([b.G for b in bodies]), "loss_reference_frequency": f.pop()}
 
 
 def _check_stacked(inv: Mapping[str, np.ndarray], k: int) -> dict[str, np.ndarray]:
@@ -1012,6 +1053,8 @@ def interpolate(
         out["L"].append(L)
         for key in ("M", "D", "K"):
             out[key].append(L @ b[key] @ Tinv)
+        if b.G is not None:
+            out.setdefault("G", []).append(L @ b.G @ Tinv)
         out["B"].append(L @ b.B)
         out["C"].append(b.C @ Tinv)
         out["V_kept"].append(b.V_kept @ Tinv)
@@ -1045,6 +1088,9 @@ def interpolate(
         full_dof_kind=full_kinds if (basis == "full" or store_bases) else None,
         invariants=inv,
         interpolation=interpolation,
+        **({"G": np.stack(out["G"]),
+            "loss_reference_frequency": stacked_loss(bodies)["loss_reference_frequency"]}
+           if "G" in out else stacked_loss(bodies)),
         sample_sources=tuple(b.source for b in bodies),
         sample_methods=tuple(b.method for b in bodies),
         sample_settings=tuple(b.settings for b in bodies),
@@ -1147,6 +1193,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
         "sample_methods": list(body.sample_methods),
         "sample_settings": list(body.sample_settings),
         "invariants": names if body.invariants is not None else None,
+        **({"loss_reference_frequency": body.loss_reference_frequency}
+           if body.G is not None else {}),
     }
     arrays["meta"] = json_to_uint8(meta)
     save_npz_atomic(path, arrays)
@@ -1210,6 +1258,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             sample_settings=tuple(meta.get("sample_settings") or ()),
             invariants=invariants,
             format_version=int(meta["version"]),
+            loss_reference_frequency=meta.get("loss_reference_frequency"),
         )
     except DataError as exc:
         raise DataError(exc.message, file, exc.item) from None

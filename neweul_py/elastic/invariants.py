@@ -285,6 +285,10 @@ class Invariants:
     quadratic
         The second-order displacement field of a stiffened body (§2.3), which the kernel
         uses instead of the first-order stiffening terms; ``None`` without it.
+    Le, loss_f_ref
+        Optional nq×nq hysteretic matrix ``Wᵀ G V`` of the frequency-domain stiffness
+        ``Ke + i Le`` (loss factors, §1.2) and its reference frequency [Hz] (flat keys
+        ``Le.m0``, ``loss.f_ref``); ``De`` holds the time-domain equivalent.
     """
 
     m: float
@@ -305,10 +309,22 @@ class Invariants:
     two_sided: bool = False
     J2: np.ndarray | None = None
     quadratic: QuadraticField | None = None
+    Le: np.ndarray | None = None
+    loss_f_ref: float | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         nq = self.Me.nrow
+        if (self.Le is None) != (self.loss_f_ref is None):
+            raise DataError("the hysteretic matrix and its reference frequency come together",
+                            item="Le.m0")
+        if self.Le is not None:
+            le = np.array(self.Le, dtype=np.float64)
+            if le.shape != (nq, nq):
+                raise DataError(f"shape {le.shape}, expected ({nq}, {nq})", item="Le.m0")
+            le.setflags(write=False)
+            set_(self, "Le", le)
+            set_(self, "loss_f_ref", float(self.loss_f_ref))
         want = {"md": (3, 1), "J": (3, 3), "Ct": (nq, 3), "Cr": (nq, 3), "Crv": (nq, 3),
                 "Me": (nq, nq), "Gr": (3, 3 * nq), "Ge": (nq, 3 * nq), "Oe": (nq, 6),
                 "ksigma": (nq, 1), "Ke": (nq, nq), "De": (nq, nq)}
@@ -461,7 +477,8 @@ class Invariants:
             Ge=Taylor.from_arrays(ge.transpose(1, 0, 2).reshape(nr, 3 * nr), nq=nr),
             Oe=rows_l(self.Oe), ksigma=rows_l(self.ksigma), Ke=rows_l(self.Ke, True),
             De=rows_l(self.De, True), nodes=tuple(nodes), names=names, two_sided=two, J2=j2,
-            quadratic=None if self.quadratic is None or two else self.quadratic.transformed(R))
+            quadratic=None if self.quadratic is None or two else self.quadratic.transformed(R),
+            Le=None if self.Le is None else L @ self.Le @ R, loss_f_ref=self.loss_f_ref)
 
     # --------------------------------------------------------------------- storage
     def to_flat(self) -> dict[str, np.ndarray]:
@@ -500,6 +517,9 @@ class Invariants:
             [n.AP.with_order(1).m1 for n in self.nodes]).reshape(nk, 3, nq, 3)
         if self.quadratic is not None:
             out.update(self.quadratic.to_flat())
+        if self.Le is not None:
+            out["Le.m0"] = self.Le.copy()
+            out["loss.f_ref"] = np.array(self.loss_f_ref)
         return out
 
     @classmethod
@@ -549,9 +569,12 @@ class Invariants:
                 get("nodes.psi_w")[i].copy() if two_sided else None))
         j2 = flat.get("J.m2")
         quadratic = QuadraticField.from_flat(flat) if "quad.A" in flat else None
+        le = flat.get("Le.m0")
         return cls(m=float(get("m")), nodes=tuple(nodes),
                    names=tuple(str(s) for s in get("names")), two_sided=two_sided,
-                   J2=None if j2 is None else np.asarray(j2), quadratic=quadratic, **taylors)
+                   J2=None if j2 is None else np.asarray(j2), quadratic=quadratic,
+                   Le=None if le is None else np.asarray(le),
+                   loss_f_ref=None if le is None else float(get("loss.f_ref")), **taylors)
 
     # ------------------------------------------------------------------------ SID
     @classmethod
@@ -1019,6 +1042,7 @@ def compute_invariants(
     K = sps.csr_matrix(fe.K)
     Ke = W.T @ (K @ V)
     De = np.zeros((nq, nq)) if fe.D is None else W.T @ (sps.csr_matrix(fe.D) @ V)
+    Le = None if getattr(fe, "G", None) is None else W.T @ (sps.csr_matrix(fe.G) @ V)
     ks = np.zeros((nq, 1)) if ksigma is None else np.asarray(ksigma, float).reshape(nq, 1)
 
     def T(m0, m1=None) -> Taylor:
@@ -1044,6 +1068,7 @@ def compute_invariants(
         names=tuple(names) if names is not None else (),
         two_sided=two_sided,
         J2=0.5 * (C2 + C2.transpose(1, 0, 3, 2)) + C2g,
+        Le=Le, loss_f_ref=None if Le is None else fe.loss_reference_frequency,
     )
 
 
@@ -1118,8 +1143,9 @@ def attach_invariants(body, fe, *, nodes: Sequence[int] | None = None, **kwargs)
     flat = inv.to_flat()
     # Me, Ke, De are the body's projected M, K, D (same bases): keep the projection's bits, so
     # that the file stores them once (reduced_body.SHARED_INVARIANTS)
-    for key, own in (("Me.m0", body.M), ("Ke.m0", body.K), ("De.m0", body.D)):
-        if own is not None and own.shape == flat[key].shape and np.allclose(
+    for key, own in (("Me.m0", body.M), ("Ke.m0", body.K), ("De.m0", body.D),
+                     ("Le.m0", body.G)):
+        if own is not None and key in flat and own.shape == flat[key].shape and np.allclose(
                 own, flat[key], rtol=1e-9, atol=1e-12 * max(float(np.abs(own).max()), 1e-300)):
             flat[key] = np.array(own, dtype=np.float64)
     return body.with_(invariants=flat)

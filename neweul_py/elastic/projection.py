@@ -133,10 +133,15 @@ def build_reduced_body(
 ) -> ReducedBody:
     """Project ``fe`` with ``(V, W)`` and wrap the result as a :class:`ReducedBody`.
 
+    ``M``, ``D``, ``K`` and the hysteretic damping ``G`` of ``K + iG`` (when the FE model has
+    one, ``docs/equations.md`` §1.2) are projected alike, ``X_r = Wᵀ X V``; the body keeps
+    ``G``'s reference frequency, and ``D`` stays the FE model's own (for the middle-ear files
+    already ``G/ω_ref``: nothing is added, so nothing is counted twice).
+
     ``keep_nodes`` (node ids) selects the rows of ``V`` that are stored (all DOFs of those
     nodes); by default the nodes carrying an input or output DOF.
     """
-    red = project(V, W, {"M": fe.M, "D": fe.D, "K": fe.K}, B=fe.B(), C=fe.C())
+    red = project(V, W, {"M": fe.M, "D": fe.D, "K": fe.K, "G": fe.G}, B=fe.B(), C=fe.C())
     nodes = fe.io_nodes() if keep_nodes is None else np.unique(np.asarray(keep_nodes,
                                                                           dtype=np.int64))
     dofs = fe.dofs_of_nodes(nodes)
@@ -150,7 +155,8 @@ def build_reduced_body(
         V=V if store_bases else None, W=W if store_bases else None,
         full_dof_kind=fe.dof_kind if store_bases else None,
         method=method, settings=dict(settings),
-        eigenvalues=eigenvalues,
+        eigenvalues=eigenvalues, G=red["G"],
+        loss_reference_frequency=fe.loss_reference_frequency,
         source={"name": fe.name, "file": fe.source, "kind": fe.kind, "n_dofs": fe.n_dofs,
                 "density": fe.density, "fingerprint": fe.fingerprint},
     )

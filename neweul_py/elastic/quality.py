@@ -29,7 +29,7 @@ from ..progress import report
 from ._io import atomic_write
 from .eigen import ShiftInvert, SparseLU, default_shift, frequencies_hz, right_blocks
 from .fe_model import FEModel
-from .frf_sweep import SweepResult, frf_sweep
+from .frf_sweep import DAMPING_FORMS, SweepResult, frequency_form, frf_sweep
 from .projection import Progress
 from .reduced_body import ReducedBody
 
@@ -69,7 +69,7 @@ def _common_pattern(mats: Sequence[sps.spmatrix]) -> tuple[sps.csc_matrix, list[
     pattern = sps.csc_matrix((np.ones(union.size), union % n, indptr), shape=(n, n))
     values = []
     for c, k in zip(coos, keys, strict=True):
-        v = np.zeros(union.size)
+        v = np.zeros(union.size, dtype=np.result_type(c.data, np.float64))
         np.add.at(v, np.searchsorted(union, k), c.data)
         values.append(v)
     return pattern, values
@@ -83,6 +83,7 @@ def frf_full(
     progress: Progress = None,
     method: str = "auto",
     rtol: float = SWEEP_RTOL,
+    damping: str = "loss",
 ) -> np.ndarray:
     """Frequency response of the full FE model (checked fast sweep or direct solves).
 
@@ -101,13 +102,18 @@ def frf_full(
         also returns the measured errors of the sweep.
     rtol
         Target relative error of the sweep.
+    damping
+        ``"loss"`` (default): ``K + iG + jω(D − G/ω_ref) − ω²M`` for a model with a hysteretic
+        matrix ``G`` (loss factors, ``docs/equations.md`` §1.2); ``"viscous"``: ``K + jωD −
+        ω²M`` (the time-domain equivalent). Without ``G`` both are the same.
 
     Returns
     -------
     numpy.ndarray
         (nf, n_out, n_in) complex ``H(j2πf)``.
     """
-    return frf_full_checked(fe, frequencies_hz, inputs, outputs, progress, method, rtol)[0]
+    return frf_full_checked(fe, frequencies_hz, inputs, outputs, progress, method, rtol,
+                            damping)[0]
 
 
 def frf_full_checked(
@@ -118,12 +124,14 @@ def frf_full_checked(
     progress: Progress = None,
     method: str = "auto",
     rtol: float = SWEEP_RTOL,
+    damping: str = "loss",
 ) -> tuple[np.ndarray, SweepResult | None]:
     """:func:`frf_full` and the :class:`~neweul_py.elastic.frf_sweep.SweepResult` of a sweep
     (``None`` for direct solves)."""
     if method not in FRF_METHODS:
         raise DataError(f"must be one of {', '.join(FRF_METHODS)}, got {method!r}", None,
                         "method")
+    fe = frequency_form(fe, damping)
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=np.float64))
     if method != "direct" and f.size > 5:
         res = frf_sweep(fe, f, inputs, outputs, rtol=rtol, progress=progress)
@@ -162,8 +170,12 @@ def frf_reduced(
     frequencies_hz: np.ndarray,
     inputs: Sequence[str] | str | None = None,
     outputs: Sequence[str] | str | None = None,
+    damping: str = "loss",
 ) -> np.ndarray:
     """Frequency response of a reduced body, all frequencies in one batched solve.
+
+    ``damping`` as in :func:`frf_full`: for a body with a hysteretic matrix ``G_r`` the
+    default is the loss-factor form ``K_r + iG_r + jω(D_r − G_r/ω_ref) − ω²M_r``.
 
     Returns
     -------
@@ -175,6 +187,12 @@ def frf_reduced(
     co = _pick(body.output_names, outputs, "outputs")
     w = 2 * np.pi * f[:, None, None]
     A = body.K[None] + 1j * w * body.D[None] - w**2 * body.M[None]
+    if damping not in DAMPING_FORMS:
+        raise DataError(f"must be one of {', '.join(DAMPING_FORMS)}, got {damping!r}", None,
+                        "damping")
+    if damping == "loss" and body.G is not None:        # K + iG + jω(D − G/ω_ref)
+        w_ref = 2 * np.pi * float(body.loss_reference_frequency)
+        A = A + 1j * (1.0 - w / w_ref) * body.G[None]
     X = np.linalg.solve(A, np.broadcast_to(body.B[:, bi], (f.size, *body.B[:, bi].shape)))
     return body.C[co] @ X
 
@@ -425,12 +443,14 @@ def compare_frf(
     progress: Progress = None,
     check: bool = True,
     method: str = "auto",
+    damping: str = "loss",
 ) -> FRFComparison:
     """FRF of ``fe`` (:func:`frf_full` with ``method``) and of ``body`` (batched dense) for
     one input/output.
 
     ``check`` (default): first :func:`check_source` — a body reduced from another model is
-    refused.
+    refused. ``damping``: ``"loss"`` (default; ``K + iG`` on both sides where they have a
+    hysteretic matrix, ``docs/equations.md`` §1.2) or ``"viscous"``.
 
     Examples
     --------
@@ -439,8 +459,9 @@ def compare_frf(
     """
     if check:
         check_source(fe, body)
-    full, sweep = frf_full_checked(fe, frequencies_hz, input, output, progress, method)
-    red = frf_reduced(body, frequencies_hz, input, output)[:, 0, 0]
+    full, sweep = frf_full_checked(fe, frequencies_hz, input, output, progress, method,
+                                   damping=damping)
+    red = frf_reduced(body, frequencies_hz, input, output, damping)[:, 0, 0]
     return FRFComparison(np.asarray(frequencies_hz, dtype=np.float64), full[:, 0, 0], red,
                          input, output, retained_band_hz(body),
                          None if sweep is None else sweep.max_checked_error)

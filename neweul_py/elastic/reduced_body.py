@@ -35,8 +35,8 @@ _ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind"
            "W_kept")
 #: Invariants that are the body's own projected matrices (``Me = Wᵀ M V`` …): a file stores them
 #: once, as the matrix (metadata ``invariants_shared``).
-SHARED_INVARIANTS = {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D"}
-_OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind")
+SHARED_INVARIANTS = {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D", "Le.m0": "G"}
+_OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind", "G")
 
 
 def json_normal(obj: Any, item: str) -> Any:
@@ -95,6 +95,12 @@ class ReducedBody:
     parameters
         Optional parameter values (name → float) at which this body is a sample of a
         parametric family (§4).
+    G
+        Optional (r, r) reduced hysteretic damping ``Wᵀ G_FE V`` of the frequency-domain
+        stiffness ``K + iG`` (loss factors, ``docs/equations.md`` §1.2); ``D`` holds its
+        time-domain equivalent ``G/ω_ref`` when the FE model's ``D`` did.
+    loss_reference_frequency
+        The reference frequency ``f_ref`` [Hz] of ``G`` (required with it).
 
     Raises
     ------
@@ -125,6 +131,8 @@ class ReducedBody:
     parameters: Mapping[str, float] | None = None
     full_dof_kind: np.ndarray | None = None
     format_version: int = REDUCED_BODY_VERSION
+    G: np.ndarray | None = None
+    loss_reference_frequency: float | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -192,6 +200,7 @@ class ReducedBody:
                 raise DataError("the kinds of the kept DOFs differ from dof_kind", None,
                                 "full_dof_kind")
             set_(self, "full_dof_kind", kinds)
+        self._validate_loss(r)
         for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept"):
             if not np.all(np.isfinite(self[key])):
                 raise DataError("has NaN/Inf entries", None, key)
@@ -211,6 +220,26 @@ class ReducedBody:
                                     f"invariants.{k}")
                 inv[str(k)] = a
             set_(self, "invariants", inv)
+
+    def _validate_loss(self, r: int) -> None:
+        """``G`` (r × r, finite) and its positive reference frequency come together."""
+        f = self.loss_reference_frequency
+        if self.G is None:
+            if f is not None:
+                raise DataError("a loss reference frequency without a hysteretic matrix G",
+                                None, "loss_reference_frequency")
+            return
+        g = np.asarray(self.G, dtype=np.float64)
+        if g.shape != (r, r):
+            raise DataError(f"must be {r}×{r}, got {g.shape}", None, "G")
+        if not np.all(np.isfinite(g)):
+            raise DataError("has NaN/Inf entries", None, "G")
+        if (f is None or isinstance(f, bool) or not isinstance(f, int | float | np.floating)
+                or not np.isfinite(f) or f <= 0):
+            raise DataError(f"the hysteretic matrix G needs a positive reference frequency in "
+                            f"Hz, got {f!r}", None, "loss_reference_frequency")
+        object.__setattr__(self, "G", g)
+        object.__setattr__(self, "loss_reference_frequency", float(f))
 
     def __getitem__(self, key: str) -> Any:
         return getattr(self, key)
@@ -268,6 +297,8 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
         "parameters": body.parameters,
         "invariants": names if body.invariants is not None else None,
         "invariants_shared": shared,
+        **({"loss_reference_frequency": body.loss_reference_frequency}
+           if body.G is not None else {}),
     }
     arrays["meta"] = json_to_uint8(meta)
     save_npz_atomic(path, arrays)
@@ -285,6 +316,8 @@ _META_FIELDS: dict[str, tuple[Any, str]] = {
     "invariants": (lambda v: v is None or (isinstance(v, list)
                                            and all(isinstance(s, str) for s in v)),
                    "null or a list of strings"),
+    "loss_reference_frequency": (lambda v: isinstance(v, int | float)
+                                 and not isinstance(v, bool), "a number (Hz)"),
     "parameters": (lambda v: v is None or (isinstance(v, dict) and all(
         isinstance(x, int | float) and not isinstance(x, bool) for x in v.values())),
                    "null or an object of numbers"),
@@ -326,8 +359,8 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
         shared = meta.get("invariants_shared") or {}
         if not isinstance(shared, dict) or any(
                 SHARED_INVARIANTS.get(k) != v or v not in data for k, v in shared.items()):
-            raise DataError("invariants_shared must map Me.m0/Ke.m0/De.m0 to M/K/D", file,
-                            "meta")
+            raise DataError("invariants_shared must map Me.m0/Ke.m0/De.m0/Le.m0 to M/K/D/G",
+                            file, "meta")
         absent = [n for n in names if _INV_PREFIX + n not in data and n not in shared]
         if absent:
             raise DataError(f"missing invariant arrays {absent}", file, "invariants")
@@ -345,6 +378,7 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
             parameters=meta.get("parameters"),
             invariants=invariants,
             format_version=int(meta["version"]),
+            loss_reference_frequency=meta.get("loss_reference_frequency"),
         )
     except DataError as exc:
         raise DataError(exc.message, file, exc.item) from None

@@ -35,7 +35,7 @@ import scipy.sparse.linalg as spla
 from ..errors import DataError
 from .fe_model import FEModel
 from .global_basis import energy_metric, g_orthonormal
-from .interpolation import ParametricBody
+from .interpolation import ParametricBody, stacked_loss
 from .invariants import Invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
@@ -176,6 +176,8 @@ def fixed_frame_invariants(body: ReducedBody, fe: FEModel) -> ReducedBody:
         "Crv.m0": z((nq, 3)), "Me.m0": np.array(body.M), "Gr.m0": z((3, 3 * nq)),
         "Ge.m0": z((nq, 3 * nq)), "Oe.m0": z((nq, 6)), "ksigma.m0": z((nq, 1)),
         "Ke.m0": np.array(body.K), "De.m0": np.array(body.D),
+        **({"Le.m0": np.array(body.G), "loss.f_ref": np.array(body.loss_reference_frequency)}
+           if body.G is not None else {}),
         "nodes.id": nodes[:, 0].astype(np.int64),
         "nodes.origin.m0": nodes[:, 1:4].reshape(nk, 3, 1).copy(),
         "nodes.origin.m1": phi.reshape(nk, 3, nq, 1).copy(),
@@ -216,6 +218,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         parameter=str(parameter), samples=s,
         **{key: np.stack([b[key] for b in bodies]) for key in ("M", "D", "K", "B", "C",
                                                                 "V_kept", "W_kept")},
+        **stacked_loss(bodies),
         T=eye, L=eye.copy(), R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
         two_sided=False, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,

@@ -24,6 +24,7 @@ import sympy as sp
 
 from ..errors import GenerationError
 from ..ffrf import ffrf_add_force, ffrf_add_mass, ffrf_system, ffrf_terms
+from ..ffrf.body import ffrf_loss_matrix
 from .constraints import ConstraintEquations
 from .result import Equations
 
@@ -88,16 +89,23 @@ def expanded_equations(eq: Equations) -> Equations:
     terms = ffrf_terms(S, kin, np.array(y, dtype=object), np.array(yd, dtype=object))
     M = ffrf_add_mass(S, M, terms)
     f = ffrf_add_force(S, f, terms)
+    loss = None
+    n = len(y)
+    if eq.loss_matrix is not None or any("Le" in b for b in S["bodies"]):
+        # the bodies' Le from the kernel, the elements' G through S_Wᵀ G_s S_V
+        loss = _matrix(ffrf_loss_matrix(S, 0.0, np.zeros(n), None))
+        if eq.loss_matrix is not None:
+            Gs = put(sp.ImmutableMatrix(eq.loss_matrix).extract(active, active))
+            loss = loss + _matrix(SW.T) * Gs * _matrix(SV)
     ce = eq.constraints
     if ce is not None:
         ce = ConstraintEquations(
             names=ce.names, g=put(ce.g), G=put(ce.G)[:, active] * _matrix(SV),
             g_t=put(ce.g_t), gamma=put(ce.gamma))
-    n = len(y)
     return dataclasses.replace(
         eq, coordinates=y, velocities=yd,
         intermediates=tuple((s, put(e)) for s, e in eq.intermediates),
         mass_matrix=sp.ImmutableMatrix(n, n, list(M.ravel())),
         force_vector=sp.ImmutableMatrix(n, 1, list(f)),
         outputs=put(eq.outputs), constraints=ce, energy=None, elastic=None,
-        mass_factors=None)
+        mass_factors=None, loss_matrix=loss)

@@ -5,6 +5,12 @@ Each function adds the element's contribution to per-coordinate term lists and r
 the element *reports* (:class:`~neweul_py.model.ForceOutput`): ``{"force": F}`` for scalar
 elements, ``{"fx": …, "mz": …}`` for vector ones. :func:`apply_force_element` dispatches and
 applies the element's ``enabled`` factor to both.
+
+Loss factors (equations.md §1.2): an element with ``loss_factor`` η gets the viscous
+equivalent ``(η/ω_ref) k_t`` of its tangent stiffness ``k_t`` on its own rate (in ``q − k``),
+and adds ``η k_t`` to the hysteretic matrix ``G`` of ``K + iG`` — by construction
+``G = −ω_ref ∂(q_loss)/∂ẏ`` of exactly those loss-equivalent forces: ``η k_t (∂s/∂y)ᵀ(∂s/∂y)``
+for a spring–damper, ``η (c_jᵀ K_t c_k + J_R,jᵀ K_r J_R,k)`` for a bushing.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from ..model import (
 )
 
 __all__ = [
+    "LossTerms",
     "apply_force_element",
     "bushing",
     "reported_quantities",
@@ -39,6 +46,8 @@ __all__ = [
 ]
 
 Terms = list[list[sp.Expr]]
+#: Entries ``(j, k) → terms`` of the hysteretic matrix ``G`` (only the nonzero ones).
+LossTerms = dict[tuple[int, int], list[sp.Expr]]
 
 #: The force elements whose generalized forces this module derives.
 HANDLED = (SpringDamper, RotationalSpringDamper, Bushing)
@@ -50,14 +59,37 @@ def _law(fe: SpringDamper | RotationalSpringDamper, s: sp.Expr, sd: sp.Expr) -> 
     return law.xreplace({ELONGATION: s, ELONGATION_RATE: sd})
 
 
+def _tangent(fe: SpringDamper | RotationalSpringDamper, s: sp.Expr, sd: sp.Expr) -> sp.Expr:
+    """The tangent stiffness ``∂F_spring/∂s`` of the characteristic (its spring part: the
+    table curve or ``stiffness·s``), with the kinematics substituted."""
+    spring = characteristic_force(fe.stiffness, sp.Integer(0), fe.spring_force, None)
+    return sp.diff(spring, ELONGATION).xreplace({ELONGATION: s, ELONGATION_RATE: sd})
+
+
+def _add_loss(loss: LossTerms | None, eta_k: object, rows: list[sp.Expr],
+              cols: list[sp.Expr] | None = None) -> None:
+    """``G[j, k] += eta_k · rows[j] · cols[k]`` for the nonzero entries."""
+    if loss is None:
+        return
+    cols = rows if cols is None else cols
+    for j, a in enumerate(rows):
+        if is_zero(a):
+            continue
+        for k, b in enumerate(cols):
+            if not is_zero(b):
+                loss.setdefault((j, k), []).append(eta_k * a * b)
+
+
 def _needs_no_direction(fe: SpringDamper) -> bool:
     """A linear spring of rest length 0 without damping: ``F e = k d`` is defined at ``d = 0``."""
-    return (is_zero(fe.length) and is_zero(fe.damping) and fe.spring_force is None
+    return (is_zero(fe.length) and is_zero(fe.damping) and is_zero(fe.loss_factor)
+            and fe.spring_force is None
             and fe.damper_force is None
             and not ({ELONGATION, ELONGATION_RATE} & fe.stiffness.free_symbols))
 
 
-def spring_damper(kin: Kinematics, fe: SpringDamper, terms: Terms, path: str) -> dict[str, sp.Expr]:
+def spring_damper(kin: Kinematics, fe: SpringDamper, terms: Terms, path: str,
+                  loss: LossTerms | None = None, omega_ref: float = 1.0) -> dict[str, sp.Expr]:
     """A point-to-point spring–damper with a (possibly nonlinear) characteristic.
 
     With ``d = r_B − r_A``, distance ``ℓ = |d|``, ``e = d/ℓ``, elongation ``s = ℓ − length``
@@ -103,7 +135,12 @@ def spring_damper(kin: Kinematics, fe: SpringDamper, terms: Terms, path: str) ->
         f"sd_{name}",
     )
     elongation = ws.let(dist - fe.length, f"el_{name}")
-    force = ws.let(_law(fe, elongation, sdot), f"f_{name}")
+    law = _law(fe, elongation, sdot)
+    if not is_zero(fe.loss_factor):
+        kt = ws.let(fe.loss_factor * _tangent(fe, elongation, sdot), f"kl_{name}")
+        law = law + kt / omega_ref * sdot
+        _add_loss(loss, kt, ds)
+    force = ws.let(law, f"f_{name}")
     for j in range(kin.n):
         if not is_zero(ds[j]):
             terms[j].append(-force * ds[j])
@@ -130,7 +167,8 @@ def _relative_angular(kin: Kinematics, frame_a: str, frame_b: str, name: str):
 
 
 def rotational_spring_damper(
-    kin: Kinematics, fe: RotationalSpringDamper, terms: Terms, index: Mapping[str, int], path: str
+    kin: Kinematics, fe: RotationalSpringDamper, terms: Terms, index: Mapping[str, int], path: str,
+    loss: LossTerms | None = None, omega_ref: float = 1.0,
 ) -> dict[str, sp.Expr]:
     """A rotational spring–damper (:class:`~neweul_py.model.RotationalSpringDamper`).
 
@@ -157,14 +195,20 @@ def rotational_spring_damper(
         s = ws.let(sp.atan2(R[cc][b] - R[b][cc], R[b][b] + R[cc][cc]) - fe.angle, f"el_{name}")
         ds = [col[a] for col in jr]
         sd = ws.let(w_rel[a] - kin._bar_rate(fe.angle), f"sd_{name}")
-    force = ws.let(_law(fe, s, sd), f"f_{name}")
+    law = _law(fe, s, sd)
+    if not is_zero(fe.loss_factor):
+        kt = ws.let(fe.loss_factor * _tangent(fe, s, sd), f"kl_{name}")
+        law = law + kt / omega_ref * sd
+        _add_loss(loss, kt, list(ds))
+    force = ws.let(law, f"f_{name}")
     for j in range(kin.n):
         if not is_zero(ds[j]):
             terms[j].append(-force * ds[j])
     return {"force": force}
 
 
-def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str) -> dict[str, sp.Expr]:
+def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str,
+            loss: LossTerms | None = None, omega_ref: float = 1.0) -> dict[str, sp.Expr]:
     """A linear 6-DOF bushing (:class:`~neweul_py.model.Bushing`), all in A components.
 
     Translation: ``Δr = S_Aᵀ (r_PB − r_PA)``; its Jacobian columns
@@ -185,6 +229,12 @@ def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str) -> dict[str, 
     Kt, Dt = matrix(fe.stiffness), matrix(fe.damping)
     Kr, Dr = matrix(fe.rotational_stiffness), matrix(fe.rotational_damping)
     zero = lambda m: all(is_zero(x) for row in m for x in row)  # noqa: E731
+    eta = fe.loss_factor
+    if not is_zero(eta):        # the viscous equivalent (η/ω_ref) K of the loss factor
+        Dt = tuple(tuple(d + eta / omega_ref * k for d, k in zip(dr, kr, strict=True))
+                   for dr, kr in zip(Dt, Kt, strict=True))
+        Dr = tuple(tuple(d + eta / omega_ref * k for d, k in zip(dr, kr, strict=True))
+                   for dr, kr in zip(Dr, Kr, strict=True))
 
     if not (zero(Kt) and zero(Dt)):
         anc = kin.common_ancestor(A, B)
@@ -206,6 +256,12 @@ def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str) -> dict[str, 
             add(*(scale(v, cols[j]) for j, v in enumerate(kin.velocities)), cbar), f"drd_{name}"
         )
         f = ws.let_vec(add(mat_vec(Kt, dr), mat_vec(Dt, rate)), f"fb_{name}")
+        if not is_zero(eta) and not zero(Kt):
+            for a in range(3):
+                for b in range(3):
+                    if not is_zero(Kt[a][b]):
+                        _add_loss(loss, eta * Kt[a][b], [c[a] for c in cols],
+                                  [c[b] for c in cols])
         for j in range(n):
             term = dot(cols[j], f)
             if not is_zero(term):
@@ -220,6 +276,12 @@ def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str) -> dict[str, 
             tuple((R[c][b] - R[b][c]) / 2 for b, c in ((1, 2), (2, 0), (0, 1))), f"th_{name}"
         )
         w_rel, jr = _relative_angular(kin, A, B, name)
+        if not is_zero(eta) and not zero(Kr):
+            for a in range(3):
+                for b in range(3):
+                    if not is_zero(Kr[a][b]):
+                        _add_loss(loss, eta * Kr[a][b], [c[a] for c in jr],
+                                  [c[b] for c in jr])
         torque = ws.let_vec(
             scale(-1, add(mat_vec(Kr, theta), mat_vec(Dr, w_rel))), f"lb_{name}"
         )
@@ -252,6 +314,8 @@ def apply_force_element(
     index: Mapping[str, int],
     path: str,
     base: object = None,
+    loss: LossTerms | None = None,
+    omega_ref: float = 1.0,
 ) -> dict[str, sp.Expr]:
     """Add ``fe``'s generalized forces, times its ``enabled`` factor, to ``force_terms``.
 
@@ -260,6 +324,10 @@ def apply_force_element(
     base
         ``base(kin, fe, terms, path)`` derives the elements this module does not handle
         (those of :mod:`~neweul_py.equations.newton_euler`).
+    loss, omega_ref
+        Entries of the hysteretic matrix ``G`` to add to (times ``enabled``; module
+        docstring) and the reference angular frequency ``ω_ref = 2π f_ref`` of the
+        loss-equivalent viscous forces.
 
     Returns
     -------
@@ -268,12 +336,13 @@ def apply_force_element(
         multiplied by ``enabled``.
     """
     terms: Terms = [[] for _ in range(kin.n)]
+    own: LossTerms = {}
     if isinstance(fe, SpringDamper):
-        reported = spring_damper(kin, fe, terms, path)
+        reported = spring_damper(kin, fe, terms, path, own, omega_ref)
     elif isinstance(fe, RotationalSpringDamper):
-        reported = rotational_spring_damper(kin, fe, terms, index, path)
+        reported = rotational_spring_damper(kin, fe, terms, index, path, own, omega_ref)
     elif isinstance(fe, Bushing):
-        reported = bushing(kin, fe, terms, path)
+        reported = bushing(kin, fe, terms, path, own, omega_ref)
     elif base is not None:
         base(kin, fe, terms, path)  # type: ignore[operator]
         reported = reported_quantities(fe)
@@ -286,4 +355,8 @@ def apply_force_element(
             force_terms[j].append(value if enabled == 1 else enabled * value)
     if enabled != 1:
         reported = {k: enabled * v for k, v in reported.items()}
+    if loss is not None:
+        for jk, items in own.items():
+            value = total(items)
+            loss.setdefault(jk, []).append(value if enabled == 1 else enabled * value)
     return reported

@@ -20,6 +20,7 @@ The two forms evaluate the same sums differently (and so check each other in the
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Literal
@@ -188,9 +189,11 @@ def _derive(system: System, form: str, progress: StagedProgress = None) -> Equat
     # spring–dampers, bushings, rotational elements, the enabled factor and the reported
     # forces: equations/force_elements.py (issue 4)
     reported = {}
+    loss: dict[tuple[int, int], list[sp.Expr]] = {}
+    omega_ref = sp.Float(2 * math.pi * system.loss_reference_frequency)
     for fe in system.forces:
         reported[fe.name] = apply_force_element(kin, fe, force_terms, index,
-                                                f"forces.{fe.name}", base)
+                                                f"forces.{fe.name}", base, loss, omega_ref)
         step()
     outputs = [_output(kin, out, reported) for out in system.outputs]
     energy = energies(kin, system)
@@ -220,6 +223,8 @@ def _derive(system: System, form: str, progress: StagedProgress = None) -> Equat
         elastic=elastic,
         poses=poses,
         mass_factors=factors,
+        loss_matrix=None if not loss else sp.ImmutableMatrix(
+            n, n, lambda i, j: total(loss.get((i, j), []))),
     )
 
 

@@ -69,6 +69,11 @@ class Equations:
         The same mass matrix as weighted rank-one terms ``M = Σ_r w_r g_r g_rᵀ``, rows
         ``(w_r, g_r)`` (recursive form; ``None`` in closed form): code generators may evaluate
         ``M = Gᵀ diag(w) G`` numerically.
+    loss_matrix
+        The hysteretic matrix ``G`` (n×n, may reference intermediates) of the force elements'
+        loss factors, ``K + iG`` in the frequency domain (equations.md §1.2); ``None``: no
+        element has a loss factor. The time-domain equivalent ``G/ω_ref`` is already in
+        ``force_vector``; the elastic bodies' ``Le`` is added by the splice.
     """
 
     system: System
@@ -86,6 +91,7 @@ class Equations:
     elastic: Any = None
     poses: FramePoses | None = None
     mass_factors: tuple[tuple[sp.Expr, tuple[sp.Expr, ...]], ...] | None = None
+    loss_matrix: sp.ImmutableMatrix | None = None
 
     @property
     def n(self) -> int:
@@ -136,6 +142,7 @@ class Equations:
             force_vector=sub(self.force_vector),
             outputs=sub(self.outputs),
             energy=None if self.energy is None else sub(self.energy),
+            loss_matrix=None if self.loss_matrix is None else sub(self.loss_matrix),
             poses=None if self.poses is None else self.poses.substituted(values),
             mass_factors=None,
         )

@@ -39,6 +39,7 @@ __all__ = [
     "ffrf_elastic_forces",
     "ffrf_first_moment",
     "ffrf_kinetic_energy",
+    "ffrf_loss_matrix",
     "ffrf_mass_blocks",
     "ffrf_omega_products",
     "ffrf_prepare",
@@ -83,7 +84,8 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
     dict
         ``mass``, ``nq``, ``md0`` (3,), ``md1`` (3, nq), ``T0``, ``T1``, ``where`` (key →
         slice and shape in the stack), ``C2`` ((nq, nq, 3, 3) or ``None``), ``Me``, ``Gr``,
-        ``Ge``, ``ks`` (nq,), ``Ke``, ``De``.
+        ``Ge``, ``ks`` (nq,), ``Ke``, ``De``, and ``Le`` (the hysteretic matrix of
+        ``K + iG``, equations.md §1.2) when the data hold ``Le.m0``.
     """
     nq = int(np.shape(flat["Me.m0"])[0])
     if fixed:
@@ -97,7 +99,9 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
                 "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
                 "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
                 "De": np.asarray(flat["De.m0"], dtype=np.float64),
-                "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0]}
+                "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0],
+                **({"Le": np.asarray(flat["Le.m0"], dtype=np.float64)}
+                   if "Le.m0" in flat else {})}
     zeros, firsts, where, start = [], [], {}, 0
     for key in ("J", "Ct", "Cr", "Crv", "Oe"):
         m0 = np.asarray(flat[key + ".m0"], dtype=np.float64)
@@ -132,6 +136,8 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
         "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
         "De": np.asarray(flat["De.m0"], dtype=np.float64),
     }
+    if "Le.m0" in flat:
+        b["Le"] = np.asarray(flat["Le.m0"], dtype=np.float64)
     if inertia == "consistent" and "quad.A" in flat:
         # the second-order displacement field (equations.md §2.3): the body of the extended
         # basis [Φ, Y] in z = [q; y(q)], which carries the stiffening instead of Ct¹, Oe¹ …
@@ -267,8 +273,35 @@ def ffrf_strain_energy(b, q, g=None):
     return float(np.real(out))
 
 
+def ffrf_loss_matrix(S, t, x, p, u=None):
+    """The hysteretic matrix ``G`` of the frequency-domain stiffness ``K + iG`` on the
+    coordinates (equations.md §1.2): ``S_Wᵀ G_s S_V`` of the symbolic part's force elements
+    (their loss factors times their stiffness, ``G_s`` of ``rigid["loss_matrix"]`` at
+    ``y_s = S_V y``, absent: zero) plus every body's ``Le`` on its elastic rows.
+
+    ``S`` is the splice context (:func:`neweul_py.ffrf.splice.ffrf_system`, mixed at the
+    schedule for parametric bodies); ``x`` the state ``[y, ẏ]`` (or ``y``).
+    """
+    n = S["n"]
+    x = np.asarray(x, dtype=np.float64)
+    y = x[:n]
+    yd = x[n:2 * n] if x.size >= 2 * n else np.zeros(n)
+    G = np.zeros((n, n))
+    own = S["rigid"].get("loss_matrix")
+    if own is not None:
+        if u is None:
+            u = S["default_inputs"](t, p)
+        Gs = own(t, np.concatenate((S["SV"] @ y, S["SV"] @ yd)), p, u)
+        G = G + S["SW"].T @ (Gs @ S["SV"])
+    for b in S["bodies"]:
+        if "Le" in b:
+            e = slice(b["first"], b["first"] + b["nq"])
+            G[e, e] += np.real(b["Le"])
+    return G
+
+
 #: The functions a generated module embeds (in this order), see the module docstring.
 KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_quadratic_map,
                     ffrf_mass_blocks, ffrf_prestress, ffrf_body_mass, ffrf_velocity_terms,
                     ffrf_elastic_forces, ffrf_kinetic_energy, ffrf_first_moment,
-                    ffrf_strain_energy)
+                    ffrf_strain_energy, ffrf_loss_matrix)

@@ -30,6 +30,7 @@ __all__ = [
     "ArraySpec",
     "check_flat",
     "frame_stiffening",
+    "loss_reference_frequency",
     "mode_count",
 ]
 
@@ -85,6 +86,10 @@ SCHEMA: dict[str, ArraySpec] = {
     "ksigma.m0": ArraySpec(("nq", 1), True, "modal forces of reference stresses", "W"),
     "Ke.m0": ArraySpec(("nq", "nq"), True, "modal stiffness Wᵀ K V", "W"),
     "De.m0": ArraySpec(("nq", "nq"), True, "modal damping Wᵀ D V", "W"),
+    "Le.m0": ArraySpec(("nq", "nq"), False,
+                       "modal hysteretic (loss) stiffness Wᵀ G V: K + iG in the frequency "
+                       "domain; De holds its time-domain equivalent Le/ω_ref", "W"),
+    "loss.f_ref": ArraySpec((), False, "reference frequency f_ref [Hz] of Le (ω_ref = 2π f_ref)"),
     "nodes.id": ArraySpec(("nk",), True, "node ids"),
     "nodes.origin.m0": ArraySpec(("nk", 3, 1), True, "node positions"),
     "nodes.origin.m1": ArraySpec(("nk", 3, "nq", 1), False, "Φ of the node origins", "V"),
@@ -96,23 +101,25 @@ SCHEMA: dict[str, ArraySpec] = {
     "nodes.AP.m1": ArraySpec(("nk", 3, "nq", 3), False, "their first-order part", "V"),
 }
 
-#: The arrays the generated module embeds for the kernel (order-1 parts and ``J.m2`` are
-#: optional; absent means zero).
+#: The arrays the generated module embeds for the kernel (order-1 parts, ``J.m2`` and the
+#: hysteretic matrix ``Le.m0`` are optional; absent means zero; its reference frequency is
+#: the model's ``loss_reference_frequency``, checked equal to ``loss.f_ref``).
 KERNEL_ARRAYS = ("md.m0", "md.m1", "J.m0", "J.m1", "J.m2", "Ct.m0", "Ct.m1", "Cr.m0",
                  "Cr.m1", "Crv.m0", "Crv.m1", "Me.m0", "Gr.m0", "Ge.m0", "Oe.m0", "Oe.m1",
-                 "ksigma.m0", "Ke.m0", "De.m0")
+                 "ksigma.m0", "Ke.m0", "De.m0", "Le.m0")
 
 #: The arrays of a second-order displacement field (equations.md §2.3): the extended body
 #: ``quad.<key>`` (``nz = nq + ny`` coordinates ``z = [q; y]``, one-sided, no stiffening)
 #: and ``quad.A`` (ny, nq, nq) with ``y_j = ½ qᵀ A_j q``. Optional; the kernel uses them
 #: instead of the first-order stiffening terms when present (``inertia: consistent``).
 QUAD_ARRAYS = (*(f"quad.{k}" for k in KERNEL_ARRAYS
-                 if k not in ("Ct.m1", "ksigma.m0", "Ke.m0", "De.m0")), "quad.A")
+                 if k not in ("Ct.m1", "ksigma.m0", "Ke.m0", "De.m0", "Le.m0")),
+                "quad.A")
 KERNEL_ARRAYS = KERNEL_ARRAYS + QUAD_ARRAYS
 
 #: The arrays of a body on a fixed frame without stiffening (equations.md §2.2): its
 #: equations are ``Me q̈ + De q̇ + Ke q + kσ = Ct⁰ g + node loads``, the rest is not embedded.
-FIXED_ARRAYS = ("md.m0", "md.m1", "Ct.m0", "Me.m0", "ksigma.m0", "Ke.m0", "De.m0")
+FIXED_ARRAYS = ("md.m0", "md.m1", "Ct.m0", "Me.m0", "ksigma.m0", "Ke.m0", "De.m0", "Le.m0")
 
 
 def frame_stiffening(flat: Mapping[str, np.ndarray]) -> bool:
@@ -165,7 +172,29 @@ def check_flat(flat: Mapping[str, np.ndarray]) -> list[str]:
                             f"Me.m0, {nk} node frames)")
         elif arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
             problems.append(f"array {key} holds NaN or Inf")
+    problems += _check_loss(flat)
     return problems
+
+
+def loss_reference_frequency(flat: Mapping[str, np.ndarray]) -> float | None:
+    """The reference frequency ``f_ref`` [Hz] of a body's hysteretic matrix ``Le.m0``
+    (``loss.f_ref``), or ``None`` for a body without one (equations.md §1.2)."""
+    if "Le.m0" not in flat or "loss.f_ref" not in flat:
+        return None
+    return float(np.asarray(flat["loss.f_ref"]))
+
+
+def _check_loss(flat: Mapping[str, np.ndarray]) -> list[str]:
+    """``Le.m0`` and ``loss.f_ref`` come together; ``f_ref`` is a positive finite number."""
+    has_le, has_f = "Le.m0" in flat, "loss.f_ref" in flat
+    if has_le != has_f:
+        return ["Le.m0 and loss.f_ref come together (the hysteretic matrix and its reference "
+                "frequency)"]
+    if has_f:
+        f = np.asarray(flat["loss.f_ref"])
+        if f.dtype.kind not in "fiu" or not np.isfinite(f) or float(f) <= 0:
+            return [f"loss.f_ref must be a positive frequency in Hz, got {f!r}"]
+    return []
 
 
 def _check_quadratic(flat: Mapping[str, np.ndarray], nq: int) -> list[str]:

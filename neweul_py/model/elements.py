@@ -211,6 +211,11 @@ class SpringDamper(ForceElement):
     are characteristic curves (tables, :func:`~neweul_py.model.table_characteristic`) that
     replace ``stiffness·(s − length)`` / ``damping·ṡ``
     (:func:`~neweul_py.model.characteristic_force`).
+
+    ``loss_factor`` η ≥ 0 (parameters only): hysteretic damping ``K(1 + iη)`` in the
+    frequency domain on the spring's tangent stiffness ``∂F/∂s``; in the time domain its
+    viscous equivalent ``(η/ω_ref) ∂F/∂s`` acts on ``ṡ`` (equations.md §1.2, ``ω_ref`` from the
+    model's ``loss_reference_frequency``).
     """
 
     name: str
@@ -224,6 +229,7 @@ class SpringDamper(ForceElement):
     spring_force: sp.Expr | None = None
     damper_force: sp.Expr | None = None
     enabled: sp.Expr = _ONE
+    loss_factor: sp.Expr = _ZERO
 
 
 class Output:

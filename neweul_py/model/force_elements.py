@@ -257,6 +257,10 @@ class Bushing(ForceElement):
     part is derived from its potential ``½ Δrᵀ K_t Δr`` exactly (generalized force
     ``−(∂Δr/∂y)ᵀ (K_t Δr + D_t Δṙ)``); the rotational part is the small-rotation law. It is at
     rest where the two points coincide and the frames are parallel.
+
+    ``loss_factor`` η ≥ 0 (parameters only): hysteretic damping ``K(1 + iη)`` on both
+    stiffness matrices in the frequency domain; in the time domain the viscous equivalent
+    ``(η/ω_ref) K_t``, ``(η/ω_ref) K_r`` is added to ``D_t``, ``D_r`` (equations.md §1.2).
     """
 
     name: str
@@ -269,6 +273,7 @@ class Bushing(ForceElement):
     point_a: sp.ImmutableMatrix = field(default_factory=_zero3)
     point_b: sp.ImmutableMatrix = field(default_factory=_zero3)
     enabled: sp.Expr = _ONE
+    loss_factor: sp.Expr = _ZERO
 
     def __post_init__(self) -> None:
         for attr in ("stiffness", "damping", "rotational_stiffness", "rotational_damping"):
@@ -289,7 +294,7 @@ class RotationalSpringDamper(ForceElement):
     torque ``−F(s, sd)`` about the axis acting on B and its reaction on A.
 
     ``F`` is :func:`characteristic_force` of ``stiffness``, ``damping`` and the optional table
-    curves.
+    curves; ``loss_factor`` as for :class:`~neweul_py.model.SpringDamper` (on ``∂F/∂s``).
     """
 
     name: str
@@ -303,6 +308,7 @@ class RotationalSpringDamper(ForceElement):
     spring_force: sp.Expr | None = None
     damper_force: sp.Expr | None = None
     enabled: sp.Expr = _ONE
+    loss_factor: sp.Expr = _ZERO
 
     def __post_init__(self) -> None:
         path = f"forces.{self.name}"

@@ -12,6 +12,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
+from ..ffrf.schema import loss_reference_frequency
 from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
 from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
@@ -39,7 +40,12 @@ from .force_elements import (
 )
 from .symbols import INERTIAL, check_name, input_rate_name, symbol, time, velocity_name
 
-__all__ = ["System"]
+__all__ = ["DEFAULT_LOSS_REFERENCE_FREQUENCY", "LOSS_ELEMENTS", "System"]
+
+#: The default ``loss_reference_frequency`` [Hz].
+DEFAULT_LOSS_REFERENCE_FREQUENCY = 1000.0
+#: The force elements that may have a ``loss_factor`` (those with a stiffness).
+LOSS_ELEMENTS = ("SpringDamper", "RotationalSpringDamper", "Bushing")
 
 
 @dataclass(frozen=True)
@@ -65,6 +71,10 @@ class System:
         Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`, issue 6); their
         coordinates, the dependent coordinates of their node frames and the node frames
         (``NAME.label``) are in ``coordinates`` and ``frames``.
+    loss_reference_frequency
+        ``f_ref`` [Hz] of the loss factors (equations.md §1.2): the time domain replaces the
+        hysteretic damping ``iG`` by its viscous equivalent ``G/ω_ref``, exact at
+        ``ω_ref = 2π f_ref``; one per model (a body whose data hold another is an error).
 
     Raises
     ------
@@ -85,6 +95,7 @@ class System:
     description: str = ""
     constraints: tuple[Constraint, ...] = ()
     elastic_bodies: tuple[ElasticBody, ...] = ()
+    loss_reference_frequency: float = DEFAULT_LOSS_REFERENCE_FREQUENCY
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -262,6 +273,7 @@ def _validate(s: System) -> None:
         _check_symbols(u.default, {**par, **tt}, f"inputs.{u.name}")
 
     frames = {INERTIAL, *s.frame_map}
+    _validate_losses(s, constant)
     _validate_elastic(s, frames, seen)
     _validate_frames(s, kinematic)
 
@@ -433,6 +445,41 @@ def _input_rate_orders(s: System) -> dict[str, int]:
             name, k = rate_symbols[sym]
             orders[name] = max(orders[name], k)
     return orders
+
+
+def _validate_losses(s: System, constant: Mapping[str, sp.Symbol]) -> None:
+    """``loss_reference_frequency`` a positive finite number; every ``loss_factor`` uses
+    parameters only and is finite and ≥ 0 at the parameter defaults; every elastic body with
+    a hysteretic matrix has the model's reference frequency (equations.md §1.2)."""
+    f = s.loss_reference_frequency
+    if (isinstance(f, bool) or not isinstance(f, int | float) or not math.isfinite(f)
+            or f <= 0):
+        raise ModelError(f"the loss reference frequency must be a positive number of Hz, got "
+                         f"{f!r}", "loss_reference_frequency")
+    object.__setattr__(s, "loss_reference_frequency", float(f))
+    defaults = {p.symbol: p.default for p in s.parameters}
+    for fe in s.forces:
+        eta = getattr(fe, "loss_factor", None)
+        if eta is None or eta == 0:
+            continue
+        path = f"forces.{fe.name}.loss_factor"
+        if type(fe).__name__ not in LOSS_ELEMENTS:
+            raise ModelError(f"only {', '.join(LOSS_ELEMENTS)} have a loss factor", path)
+        _check_symbols(eta, constant, path)
+        value = _numeric(eta, defaults)
+        if value is None or not math.isfinite(value) or value < 0:
+            got = eta if value is None else value
+            raise ModelError(f"a loss factor is a finite number ≥ 0, got {got} at the "
+                             "parameter defaults", path)
+    for e in s.elastic_bodies:
+        for i, data in enumerate(e.samples or (e.data,)):
+            own = loss_reference_frequency(data)
+            if own is not None and own != s.loss_reference_frequency:
+                where = f" (sample {i + 1})" if e.samples else ""
+                raise ModelError(
+                    f"the body's data{where} hold loss factors for f_ref = {own:g} Hz, the "
+                    f"model's loss_reference_frequency is {s.loss_reference_frequency:g} Hz "
+                    "(set loss_reference_frequency to the body's)", f"elastic_bodies.{e.name}")
 
 
 def _validate_elastic(s: System, frames: set[str], seen: Mapping[str, str]) -> None:
