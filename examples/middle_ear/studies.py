@@ -86,12 +86,13 @@ def static_table(data: Path, gen: Path, text: str) -> list[dict[str, float]]:
             for r, s in zip(rows, stapes, strict=True)]
 
 
-def frf_study(mod, f: np.ndarray) -> dict[float, dict[str, np.ndarray]]:
+def frf_study(mod, f: np.ndarray, damping: str = "loss") -> dict[float, dict[str, np.ndarray]]:
     """Umbo (TM node 1), malleus (at the umbo) and stapes velocity per probe pressure at every
-    sample pressure."""
+    sample pressure; loss factors as ``K + iG`` (``damping="viscous"``: the time-domain
+    equivalent ``G/ω_ref``)."""
     out = {}
     for dp in PRESSURES:
-        h = embs_frf(mod, dp, f)
+        h = embs_frf(mod, dp, f, damping)
         out[dp] = transfer(h, f) | {"malleus": h["umbo_velocity_z"] / h["p_probe"]}
     return out
 

@@ -111,14 +111,16 @@ def parameters_at(mod, dp: float) -> np.ndarray:
     return p
 
 
-def embs_frf(mod, dp: float, f: np.ndarray) -> dict[str, np.ndarray]:
-    """p_probe, umbo_uz, stapes_velocity per unit Q of the linearized EMBS."""
+def embs_frf(mod, dp: float, f: np.ndarray, damping: str = "viscous") -> dict[str, np.ndarray]:
+    """p_probe, umbo_uz, stapes_velocity per unit Q of the linearized EMBS; ``damping``:
+    ``"viscous"`` (the time-domain equivalent, as the reference) or ``"loss"`` (``K + iG``:
+    :meth:`~neweul_py.analysis.linearize.LinearModel.dynamic_stiffness`)."""
     lin = linearize(mod, p=parameters_at(mod, dp))
     j = list(lin.inputs).index("Q")
     m = lin.M0.shape[0]
     out = {}
-    xs = np.array([np.linalg.solve(lin.Q + 1j * w * lin.P - w * w * lin.M0, lin.B[:, j])
-                   for w in 2 * np.pi * f])
+    z = lin.dynamic_stiffness(2 * np.pi * np.asarray(f, dtype=float), damping)
+    xs = np.linalg.solve(z, np.broadcast_to(lin.B[:, j], (len(f), m))[..., None])[..., 0]
     w = 2 * np.pi * f
     for name in ("p_probe", "umbo_uz", "stapes_velocity", "umbo_velocity_z"):
         c = lin.C[list(lin.outputs).index(name)]
