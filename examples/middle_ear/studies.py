@@ -2,15 +2,20 @@
 
 Run from the repository root after ``build_embs.py`` (README.md, "Studies")::
 
-    python examples/middle_ear/studies.py [--out examples/middle_ear/data/studies] [--no-time]
+    python examples/middle_ear/studies.py --dir DATA [--out OUT] [--no-time] [--nf 60]
+
+``DATA`` (the sweep and body of ``build_embs.py``) is only read: the description retargeted to
+it (:func:`chain_factor.retarget`: manubrium nodes, per-node attachment, ``φ(Δp)``) and the
+generated module are written under ``OUT`` (default ``DATA/studies``).
 
 1. **static** umbo and stapes displacement vs Δp (the FE static state of the sweep: TM held by
-   the stiffening chain; the stapes from the LVATB1 chain's tangent, integrated along the
-   load path);
-2. **FRFs** umbo velocity (TM node 1) and stapes velocity per probe pressure, 100 Hz–8 kHz,
-   at the 9 pressures −4000…4000 Pa, magnitude and phase, from the generated EMBS linearized
-   at each Δp; the low-frequency change (mean 100–1000 Hz, dB re Δp = 0) against Gyo &
-   Goode 1987 (``docs/middle-ear-measurements.md``);
+   the stiffening chain; the stapes from the 3-D chain's static stapes/umbo ratio at each
+   working point, integrated along the load path);
+2. **FRFs** umbo velocity (TM node 1), malleus (at the umbo) and stapes velocity per probe
+   pressure, 100 Hz–8 kHz, at the 9 pressures −4000…4000 Pa, magnitude and phase, from the
+   generated EMBS linearized at each Δp, loss factors as ``K + iG``; the low-frequency change
+   (mean 100–1000 Hz, dB re Δp = 0) against Gyo & Goode 1987
+   (``docs/middle-ear-measurements.md``);
 3. **time simulation**: a 1 kHz tone in the canal while Δp goes 0 → +2000 Pa → 0 (a middle-ear
    pressure of −2 kPa, swallow-like: ``2000 sin²(πt/350 ms)``) — a copy of the
    description in which every ``dp`` is the ramp ``dp(t)`` (schedule and chain factor alike);
