@@ -2,15 +2,20 @@
 
 Run from the repository root after ``build_embs.py`` (README.md, "Studies")::
 
-    python examples/middle_ear/studies.py [--out examples/middle_ear/data/studies] [--no-time]
+    python examples/middle_ear/studies.py --dir DATA [--out OUT] [--no-time] [--nf 60]
+
+``DATA`` (the sweep and body of ``build_embs.py``) is only read: the description retargeted to
+it (:func:`chain_factor.retarget`: manubrium nodes, per-node attachment, ``φ(Δp)``) and the
+generated module are written under ``OUT`` (default ``DATA/studies``).
 
 1. **static** umbo and stapes displacement vs Δp (the FE static state of the sweep: TM held by
-   the stiffening chain; the stapes from the LVATB1 chain's tangent, integrated along the
-   load path);
-2. **FRFs** umbo velocity (TM node 1) and stapes velocity per probe pressure, 100 Hz–8 kHz,
-   at the 9 pressures −4000…4000 Pa, magnitude and phase, from the generated EMBS linearized
-   at each Δp; the low-frequency change (mean 100–1000 Hz, dB re Δp = 0) against Gyo &
-   Goode 1987 (``docs/middle-ear-measurements.md``);
+   the stiffening chain; the stapes from the 3-D chain's static stapes/umbo ratio at each
+   working point, integrated along the load path);
+2. **FRFs** umbo velocity (TM node 1), malleus (at the umbo) and stapes velocity per probe
+   pressure, 100 Hz–8 kHz, at the 9 pressures −4000…4000 Pa, magnitude and phase, from the
+   generated EMBS linearized at each Δp, loss factors as ``K + iG``; the low-frequency change
+   (mean 100–1000 Hz, dB re Δp = 0) against Gyo & Goode 1987
+   (``docs/middle-ear-measurements.md``);
 3. **time simulation**: a 1 kHz tone in the canal while Δp goes 0 → +2000 Pa → 0 (a middle-ear
    pressure of −2 kPa, swallow-like: ``2000 sin²(πt/350 ms)``) — a copy of the
    description in which every ``dp`` is the ramp ``dp(t)`` (schedule and chain factor alike);
@@ -33,10 +38,17 @@ import numpy as np
 
 from neweul_py.analysis import load_generated, simulate
 from neweul_py.api import generate
-from neweul_py.fem.ear_transfer import LumpedChain
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from validate_embs import DESCRIPTION, HERE, embs_frf, modules, transfer
+from chain_factor import (
+    PHI,
+    calibration_module,
+    factor_table,
+    retarget,
+    sweep_tangents,
+    umbo_stiffness,
+)
+from validate_embs import DESCRIPTION, HERE, embs_frf, parameters_at, transfer
 
 PRESSURES = np.arange(-4000.0, 4001.0, 1000.0)
 GYO_GOODE = {1000.0: (-5.0, 1.0), 2000.0: (-9.2, 1.3), 3000.0: (-13.1, 1.8)}  # dB, mean ± sd
@@ -45,23 +57,23 @@ GYO_GOODE = {1000.0: (-5.0, 1.0), 2000.0: (-9.2, 1.3), 3000.0: (-13.1, 1.8)}  # 
 RAMP = "sin(pi*t/0.35)**2"
 
 
-def static_table(data: Path) -> list[dict[str, float]]:
+def static_table(data: Path, gen: Path, text: str) -> list[dict[str, float]]:
     """Static umbo, malleus and stapes displacement per Δp (the sweep's ``static.csv``).
 
-    The stapes: the lumped LVATB1 chain (``LumpedChain``) with the ligaments to ground scaled
-    to the tangent at each working point transmits ``dx_s/dx_m`` of the malleus increment;
-    integrated (trapezoid) from Δp = 0 along each sign of the load path."""
+    The stapes: the 3-D chain of the description (TM removed), stiffened by ``φ(Δp)``,
+    transmits ``dx_s/dx_m`` of a static malleus increment at the umbo
+    (:func:`chain_factor.umbo_stiffness`); integrated (trapezoid) from Δp = 0 along each sign
+    of the load path."""
     with open(data / "fem" / "static.csv", newline="") as fh:
         rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(fh)]
     rows.sort(key=lambda r: r["dp_Pa"])
-    ch = LumpedChain()
+    mod = calibration_module(text, data, gen)
+    phi = factor_table(mod, sweep_tangents(data))
 
-    def ratio(k_t: float) -> float:
-        phi = ch.ligament_factor(k_t)
-        k_s = 1.0 / (1.0 / ch.k_is_joint + 1.0 / (ch.k_annular * phi))
-        k_i = ch.k_incus_lig * phi + k_s
-        incus = ch.k_im_joint / (ch.k_im_joint + k_i)       # x_i / x_m
-        return incus * ch.k_is_joint / (ch.k_is_joint + ch.k_annular * phi)  # x_s / x_m
+    def ratio(dp: float) -> float:
+        p = parameters_at(mod, dp)
+        p[list(mod.PARAMETERS).index(PHI)] = phi[dp]
+        return umbo_stiffness(mod, p)["stapes_ratio"]
 
     i0 = next(i for i, r in enumerate(rows) if r["dp_Pa"] == 0.0)
     stapes = np.zeros(len(rows))
@@ -69,18 +81,36 @@ def static_table(data: Path) -> list[dict[str, float]]:
         prev = i0
         for i in rng:
             a, b = rows[prev], rows[i]
-            r = 0.5 * (ratio(a["chain_tangent_z_N_per_m"]) + ratio(b["chain_tangent_z_N_per_m"]))
+            r = 0.5 * (ratio(a["dp_Pa"]) + ratio(b["dp_Pa"]))
             stapes[i] = stapes[prev] + r * (b["malleus_qz_m"] - a["malleus_qz_m"])
             prev = i
     return [{"dp": r["dp_Pa"], "umbo_um": 1e6 * r["umbo_uz_m"],
              "malleus_um": 1e6 * r["malleus_qz_m"], "stapes_um": 1e6 * s,
              "volume_mm3": 1e9 * r["volume_displacement_m3"],
-             "tangent": r["chain_tangent_z_N_per_m"]} for r, s in zip(rows, stapes, strict=True)]
+             "tangent": r["chain_tangent_z_N_per_m"], "phi": phi[r["dp_Pa"]]}
+            for r, s in zip(rows, stapes, strict=True)]
 
 
-def frf_study(mod, f: np.ndarray) -> dict[float, dict[str, np.ndarray]]:
-    """Umbo and stapes velocity per probe pressure at every sample pressure."""
-    return {dp: transfer(embs_frf(mod, dp, f), f) for dp in PRESSURES}
+def frf_study(mod, f: np.ndarray, damping: str = "loss") -> dict[float, dict[str, np.ndarray]]:
+    """Umbo (TM node 1), malleus (at the umbo) and stapes velocity per probe pressure at every
+    sample pressure; loss factors as ``K + iG`` (``damping="viscous"``: the time-domain
+    equivalent ``G/ω_ref``)."""
+    out = {}
+    for dp in PRESSURES:
+        h = embs_frf(mod, dp, f, damping)
+        out[dp] = transfer(h, f) | {"malleus": h["umbo_velocity_z"] / h["p_probe"]}
+    return out
+
+
+def embs_module(data: Path, out: Path):
+    """The EMBS of ``middle_ear.yaml`` retargeted to the sweep and body in ``data``
+    (:func:`chain_factor.retarget`: its manubrium nodes and factor table); everything is
+    written under ``out`` (``data`` is only read)."""
+    gen = out / "generated"
+    text = retarget(DESCRIPTION.read_text(), data, gen)
+    path = out / "middle_ear.yaml"
+    path.write_text(text)
+    return load_generated(generate(path, gen)), text
 
 
 def low_db(h: np.ndarray, h0: np.ndarray, f: np.ndarray) -> float:
@@ -136,27 +166,29 @@ def main() -> None:
     out = args.out or args.dir / "studies"
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Middle-ear EMBS studies (examples/middle_ear/studies.py)", ""]
-    st = static_table(args.dir)
+    mod, text = embs_module(args.dir, out)
+    st = static_table(args.dir, out / "generated", text)
     lines += ["## Static state vs Δp (Δp > 0: negative middle-ear pressure; + = medial)", "",
               "| Δp [Pa] | umbo u_z [µm] | malleus [µm] | stapes [µm] | TM volume [mm³] |"
-              " chain tangent [N/m] |", "|---|---|---|---|---|---|"]
+              " chain tangent [N/m] | φ |", "|---|---|---|---|---|---|---|"]
     lines += [f"| {r['dp']:+.0f} | {r['umbo_um']:+.1f} | {r['malleus_um']:+.1f} | "
-              f"{r['stapes_um']:+.2f} | {r['volume_mm3']:+.2f} | {r['tangent']:.0f} |"
-              for r in st]
-    mod, _chain = modules(args.dir)
+              f"{r['stapes_um']:+.2f} | {r['volume_mm3']:+.2f} | {r['tangent']:.0f} | "
+              f"{r['phi']:.3f} |" for r in st]
     f = np.geomspace(100.0, 8000.0, args.nf)
     H = frf_study(mod, f)
     h0 = H[0.0]
     lines += ["", "## Low-frequency change (mean 100–1000 Hz, re Δp = 0) and values at 1 kHz",
-              "", "| Δp [Pa] | umbo [dB] | stapes [dB] | Gyo & Goode 1987 umbo [dB] |"
-              " umbo 1 kHz [mm/s/Pa] | stapes 1 kHz [mm/s/Pa] | stapes peak [mm/s/Pa] at [Hz] |",
-              "|---|---|---|---|---|---|---|"]
+              "", "| Δp [Pa] | umbo [dB] | malleus [dB] | stapes [dB] |"
+              " Gyo & Goode 1987 umbo [dB] | umbo 1 kHz [mm/s/Pa] | stapes 1 kHz [mm/s/Pa] |"
+              " stapes peak [mm/s/Pa] at [Hz] |",
+              "|---|---|---|---|---|---|---|---|"]
     k1 = int(np.argmin(np.abs(f - 1000.0)))
     for dp, h in H.items():
         gg = GYO_GOODE.get(dp)
         ref = f"{gg[0]:+.1f} ± {gg[1]:.1f}" if gg else ""
         ks = int(np.argmax(np.abs(h["stapes"])))
         lines.append(f"| {dp:+.0f} | {low_db(h['umbo'], h0['umbo'], f):+.2f} | "
+                     f"{low_db(h['malleus'], h0['malleus'], f):+.2f} | "
                      f"{low_db(h['stapes'], h0['stapes'], f):+.2f} | {ref} | "
                      f"{1e3 * abs(h['umbo'][k1]):.3f} | {1e3 * abs(h['stapes'][k1]):.3f} | "
                      f"{1e3 * abs(h['stapes'][ks]):.3f} at {f[ks]:.0f} |")
@@ -221,7 +253,7 @@ def _plots(out: Path, f, H, st, res) -> None:
     fig.savefig(out / "frf.png", dpi=120)
     fig, ax = plt.subplots(figsize=(5, 3.5))
     dps = np.array(list(H))
-    for key in ("umbo", "stapes"):
+    for key in ("umbo", "malleus", "stapes"):
         ax.plot(dps, [low_db(H[d][key], H[0.0][key], f) for d in dps], "o-", label=key)
     gg = np.array([(d, m, s) for d, (m, s) in GYO_GOODE.items()])
     ax.errorbar(gg[:, 0], gg[:, 1], yerr=gg[:, 2], fmt="ks", label="Gyo & Goode 1987 umbo")

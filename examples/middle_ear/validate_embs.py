@@ -122,8 +122,8 @@ def embs_frf(mod, dp: float, f: np.ndarray, damping: str = "loss") -> dict[str, 
     j = list(lin.inputs).index("Q")
     m = lin.M0.shape[0]
     out = {}
-    xs = np.linalg.solve(lin.dynamic_stiffness(2 * np.pi * f, damping), lin.B[:, j][None, :, None]
-                         )[:, :, 0]
+    z = lin.dynamic_stiffness(2 * np.pi * np.asarray(f, dtype=float), damping)
+    xs = np.linalg.solve(z, np.broadcast_to(lin.B[:, j], (len(f), m))[..., None])[..., 0]
     w = 2 * np.pi * f
     for name in ("p_probe", "umbo_uz", "stapes_velocity", "umbo_velocity_z"):
         c = lin.C[list(lin.outputs).index(name)]
