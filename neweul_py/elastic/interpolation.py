@@ -100,6 +100,7 @@ from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
 from .reduced_body import ReducedBody, json_normal
+from .static_state import StaticDeflection, static_from_arrays
 
 __all__ = [
     "BASES",
@@ -219,6 +220,10 @@ class ParametricBody:
         Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
     sample_sources, sample_methods, sample_settings
         Per sample: the ``source``, ``method`` and ``settings`` of the local body.
+    static
+        Optional static states of the samples
+        (:class:`~neweul_py.elastic.static_state.StaticDeflection`, stacked; ``q`` in the
+        common coordinates), mixed by :meth:`at` with the same weights.
     """
 
     parameter: str
@@ -255,6 +260,7 @@ class ParametricBody:
     sample_sources: tuple[Mapping[str, Any], ...] = ()
     sample_methods: tuple[str, ...] = ()
     sample_settings: tuple[Mapping[str, Any], ...] = ()
+    static: StaticDeflection | None = None
     format_version: int = PARAMETRIC_BODY_VERSION
 
     def __post_init__(self) -> None:
@@ -337,6 +343,11 @@ class ParametricBody:
             set_(self, key, vals)
         if self.invariants is not None:
             set_(self, "invariants", _check_stacked(self.invariants, k))
+        if self.static is not None:
+            if not isinstance(self.static, StaticDeflection):
+                raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
+                                None, "static")
+            self.static.check(r, self.nodes.shape[0], len(self.output_names), k)
 
     def _check_row_scaling(self, n_rows: int) -> None:
         set_ = object.__setattr__
@@ -570,6 +581,7 @@ class ParametricBody:
             full_dof_kind=None if V is None else self.full_dof_kind,
             method="interpolated", settings=settings, source=source, invariants=inv,
             parameters={self.parameter: float(p)},
+            static=None if self.static is None else self.static.mixed(w),
         )
 
     # ------------------------------------------------------------------ file I/O
@@ -1021,6 +1033,14 @@ def interpolate(
             out["W"].append((b.W if two else b.V) @ L.T)
         if b.invariants is not None:
             invs.append(_transform_invariants(b, Tinv, L, two, i))
+    static = None
+    if any(b.static is not None for b in bodies):
+        if not all(b.static is not None for b in bodies):
+            raise DataError("some samples carry a static state and some do not: "
+                            + ", ".join(_label(labels, i) for i, b in enumerate(bodies)
+                                        if b.static is None) + " lack it", None, "static")
+        static = StaticDeflection.stack([b.static.transformed(T) for b, T in
+                                         zip(bodies, out["T"], strict=True)])
     inv = None
     if invs:
         keys = list(invs[0])
@@ -1043,7 +1063,7 @@ def interpolate(
         left_row_scale=left,
         pressure_weight=float(pressure_weight) if scaling == "kind" else None,
         full_dof_kind=full_kinds if (basis == "full" or store_bases) else None,
-        invariants=inv,
+        invariants=inv, static=static,
         interpolation=interpolation,
         sample_sources=tuple(b.source for b in bodies),
         sample_methods=tuple(b.method for b in bodies),
@@ -1132,6 +1152,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     names = list(body.invariants or {})
     for name in names:
         arrays[_INV_PREFIX + name] = body.invariants[name]
+    if body.static is not None:
+        arrays.update(body.static.to_arrays())
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": body.format_version,
@@ -1209,6 +1231,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             sample_methods=tuple(meta.get("sample_methods") or ()),
             sample_settings=tuple(meta.get("sample_settings") or ()),
             invariants=invariants,
+            static=static_from_arrays(data, file),
             format_version=int(meta["version"]),
         )
     except DataError as exc:
