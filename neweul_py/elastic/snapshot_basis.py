@@ -42,7 +42,8 @@ from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
 from .static_state import StaticDeflection, static_deflection
 
-__all__ = ["basis_parametric_body", "fixed_frame_invariants", "snapshot_basis"]
+__all__ = ["basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
+           "snapshot_basis"]
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -190,6 +191,20 @@ def fixed_frame_invariants(body: ReducedBody, fe: FEModel) -> ReducedBody:
     return body.with_(invariants=flat)
 
 
+def check_same_mesh(fes: Sequence[FEModel], samples: Sequence[float]) -> None:
+    """One :class:`DataError` naming the first sample whose nodes or DOFs differ from the
+    first sample's: the samples of a parametric body share one mesh (one ``V`` for all)."""
+    ref = fes[0]
+    for fe, p in zip(fes, samples, strict=True):
+        if not (fe.n_dofs == ref.n_dofs and np.array_equal(fe.dof_node, ref.dof_node)
+                and np.array_equal(fe.dof_kind, ref.dof_kind)
+                and np.array_equal(fe.nodes, ref.nodes)):
+            raise DataError(f"the sample at {p:g} ({fe.n_dofs} DOFs, {fe.nodes.shape[0]} nodes) "
+                            f"has other nodes or DOFs than the one at {samples[0]:g} "
+                            f"({ref.n_dofs} DOFs, {ref.nodes.shape[0]} nodes): the samples of a "
+                            "parametric body must share one mesh", fe.source, "nodes")
+
+
 def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequence[float], *,
                           parameter: str = "p", keep_nodes: Sequence[int] | None = None,
                           interpolation: str = "cubic", energy: np.ndarray | None = None,
@@ -209,6 +224,10 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     if s.size != len(fes) or s.size < 2 or np.any(np.diff(s) <= 0):
         raise DataError("need at least two increasing sample values, one per FE model",
                         None, "samples")
+    check_same_mesh(fes, s)
+    if V.shape[0] != fes[0].n_dofs:
+        raise DataError(f"the basis has {V.shape[0]} rows for FE models of {fes[0].n_dofs} DOFs",
+                        None, "V")
     if static is not None and len(static) != len(fes):
         raise DataError(f"{len(static)} static states for {len(fes)} samples", None, "static")
     G = energy_metric(fes) if static is not None else None
