@@ -86,3 +86,40 @@ def test_the_build_writes_a_body_with_its_static_state_and_a_checked_description
     rows = np.genfromtxt(data / "fem" / "static.csv", delimiter=",", names=True)
     umbo = pb.static.outputs[:, list(pb.output_names).index("umbo_uz")]
     np.testing.assert_allclose(umbo, rows["umbo_uz_m"], rtol=1e-10, atol=1e-18)  # CSV: 12 digits
+
+
+@pytest.mark.slow
+def test_refined_body_between_samples_against_the_fe_model_linearized_there(tmp_path):
+    """Refine 0, 9 working points + the refinement (default ``--tol``): between samples the
+    body (no codegen: the chain attached to its matrices as ``midpoint_error.py`` does)
+    against the unreduced FE model linearized there with the same chain
+    (``validate_embs.reference_frf``): ≤ 1e-3 below 2 kHz and ≤ 2 % to 5 kHz at points that
+    are neither samples nor refinement test points."""
+    import numpy as np
+
+    sys.path.insert(0, str(EXAMPLE))
+    import midpoint_error as me
+    import validate_embs as ve
+
+    from neweul_py.elastic.interpolation import load_parametric_body
+
+    data = tmp_path / "d"
+    res = build(data, "--no-generate")
+    assert res.returncode == 0, res.stderr
+    pb = load_parametric_body(data / "embs" / "tm_air.npz")
+    desc = data / "embs" / "middle_ear.yaml"
+    chain_file = data / "embs" / "middle_ear_chain.yaml"
+    chain_file.write_text(ve.chain_description(desc.read_text(), data))
+    chain_mod = ve.load_generated(ve.generate(chain_file, data / "embs" / "generated"))
+    f = np.geomspace(100.0, 5000.0, 16)
+    low = f < 2000.0
+    for dp in (-1400.0, 600.0, 2600.0):
+        assert dp not in pb.samples
+        chain, own, node = me.chain_matrices(chain_mod, dp)
+        ref = ve.transfer(ve.reference_frf(chain_mod, ve.fe_model_at(dp, data), dp, f), f)
+        got = me.as_transfer(me.reduced_coupled(*me.body_parts(pb.at(dp), node), chain, own,
+                                                f), f)
+        for key in ("umbo", "stapes"):
+            e = np.abs(got[key] - ref[key]) / np.abs(ref[key])
+            assert e[low].max() <= 1e-3, (dp, key, e[low].max())
+            assert e.max() <= 2e-2, (dp, key, e.max())
