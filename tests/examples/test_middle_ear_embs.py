@@ -19,6 +19,7 @@ import pytest
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "middle_ear"
 sys.path.insert(0, str(EXAMPLE))
+import static_embs  # noqa: E402
 import validate_embs  # noqa: E402
 
 
@@ -86,36 +87,6 @@ def test_embs_is_stable_at_every_sample(built) -> None:
         assert s.real.max() <= 1e-6 * np.abs(s).max(), (dp, s.real.max())
 
 
-def chain_restoring(table: bool):
-    """The chain at the malleus as the FE static solution has it (docs/equations-middle-ear.md
-    §2): the tangent at Δp = 0 in every direction plus, along z, the excess of the stiffening
-    characteristic — the closed form ``F(s) − k₀ s`` or the ``chain_stiffening`` table of
-    ``ossicles.yaml`` (natural cubic spline, as the description interpolates it)."""
-    import yaml
-    from scipy.interpolate import CubicSpline
-
-    from neweul_py.fem.middle_ear import MiddleEarParameters
-
-    p = MiddleEarParameters()
-    k0, sp, sm = p.k_chain, p.chain_limit_medial, p.chain_limit_lateral
-    forces = yaml.safe_load((EXAMPLE / "ossicles.yaml").read_text())["forces"]
-    tab = np.array(forces["chain_stiffening"]["stiffness"]["table"])
-    g = CubicSpline(tab[:, 0], tab[:, 1], bc_type="natural")
-
-    def restoring(y, kc0):
-        F, K = kc0 @ y, kc0.copy()
-        z = y[2]
-        if table:
-            F[2] += g(z)
-            K[2, 2] += g(z, 1)
-        else:
-            s = sp if z >= 0 else sm
-            F[2] = -np.sign(z) * k0 * s * np.log(1 - abs(z) / s)
-            K[2, 2] = k0 / (1 - abs(z) / s)
-        return F, K
-    return restoring
-
-
 @pytest.mark.slow
 def test_static_equilibrium_of_the_body_and_chain_is_the_fe_static_state(built) -> None:
     """The body carries each working point's static state (``static/*``); with the static
@@ -143,12 +114,11 @@ def test_static_equilibrium_of_the_body_and_chain_is_the_fe_static_state(built) 
     mid = validate_embs.fe_model_at(2500.0, data)
     ref[2500.0] = np.genfromtxt(mid.parent / "static.csv", delimiter=",", names=True)
     for table, tol_sample, tol_mid in ((False, 1e-9, 2e-3), (True, 3e-2, 3e-2)):
-        rest = chain_restoring(table)
+        rest = static_embs.chain_restoring(table, kc0)
         for dp, r in ref.items():
             if dp == 0.0:
                 continue
-            sol = tied_static_equilibrium(pb.at(dp), man, k,
-                                          lambda y, rest=rest: rest(y, kc0), umbo)
+            sol = tied_static_equilibrium(pb.at(dp), man, k, rest, umbo)
             tol = tol_sample if dp in pb.samples else tol_mid
             for name, col in (("umbo_uz", "umbo_uz_m"),
                               ("tm_volume_displacement", "volume_displacement_m3")):
