@@ -198,3 +198,21 @@ def test_parametric_body_rejects_a_static_state_of_the_wrong_stack():
         ParametricBody(**{f.name: getattr(pb, f.name) for f in
                           pb.__dataclass_fields__.values() if f.name != "static"},
                        static=bodies[0].static)
+
+
+def test_global_interpolation_carries_the_static_state():
+    """``neweul interpolate --method global`` (global_parametric_body): every sample's static
+    state in the global coordinates; at a sample ``V q = x_s`` (closed form ``u_s = F/k``, the
+    global basis spans the local ones), node arrays and outputs unchanged."""
+    from neweul_py.elastic.global_basis import global_parametric_body
+
+    ks = [1.5e5, 2.0e5, 2.5e5]
+    fes = [piston_duct(40, stiffness=k, damping=2.0) for k in ks]
+    bodies = [piston_body(k) for k in ks]
+    pb = global_parametric_body(fes, bodies, [0.0, 1.0, 2.0], parameter="p")
+    for i, k in enumerate(ks):
+        st = pb.at(float(i)).static
+        assert (pb.R @ st.q)[0] == pytest.approx(F_STATIC / k, rel=1e-8)
+        assert np.array_equal(st.node_u, bodies[i].static.node_u)
+        assert np.array_equal(st.outputs, bodies[i].static.outputs)
+        assert st.residual < 1e-8
