@@ -43,7 +43,8 @@ import scipy.sparse as sps
 
 from ..errors import DataError, SolverError
 
-__all__ = ["STATIC_KEYS", "STATIC_PREFIX", "StaticDeflection", "node_rows", "rigid_map",
+__all__ = ["STATIC_KEYS", "STATIC_PREFIX", "StaticDeflection", "node_positions", "node_rows",
+           "rigid_map",
            "static_deflection", "static_from_arrays", "tied_static_equilibrium"]
 
 STATIC_PREFIX = "static/"
@@ -325,3 +326,22 @@ def tied_static_equilibrium(body: Any, node_ids: np.ndarray, k: float,
     node_u = node_u.reshape(-1, 3)
     return {"q": q, "y": y, "node_u": node_u, "outputs": st.outputs + body.C @ q,
             "iterations": iterations}
+
+
+def node_positions(body: Any, q: np.ndarray | None = None) -> np.ndarray:
+    """(n_nodes, 3) positions of the body's node frames in the nonlinear state,
+    ``X + u_s + Φ q`` (reference + static deflection + the motion about it; ``q = None``: the
+    static state itself). A body without a static state gives ``X + Φ q``.
+
+    Examples
+    --------
+    >>> node_positions(parametric_body.at(-2000.0))[0]      # doctest: +SKIP
+    array([ 3.4e-06, 0.0, 1.95e-03])
+    """
+    X = np.asarray(body.nodes[:, 1:4], dtype=np.float64)
+    u = X.copy() if body.static is None else X + body.static.node_u
+    if q is not None:
+        rows = node_rows(body.nodes, body.dof_node, body.dof_kind)
+        phi = np.where(rows[..., None] >= 0, body.V_kept[np.maximum(rows, 0)], 0.0)
+        u = u + phi @ np.asarray(q, dtype=np.float64)
+    return u

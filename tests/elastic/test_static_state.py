@@ -216,3 +216,19 @@ def test_global_interpolation_carries_the_static_state():
         assert np.array_equal(st.node_u, bodies[i].static.node_u)
         assert np.array_equal(st.outputs, bodies[i].static.outputs)
         assert st.residual < 1e-8
+
+
+def test_node_positions_of_the_nonlinear_state():
+    """``X + u_s + Φ q`` at the node frames: the piston node at ``x = F/k`` in the static
+    state, moved by the piston row of ``V`` for a motion ``q`` (reference: the closed form and
+    the body's own basis rows)."""
+    from neweul_py.elastic.static_state import node_positions
+
+    k = 2.0e5
+    b = piston_body(k)
+    x0 = b.nodes[0, 1]
+    assert node_positions(b)[0, 0] == x0 + F_STATIC / k
+    q = np.linspace(0.1, 0.6, b.order) * 1e-6
+    assert node_positions(b, q)[0, 0] == pytest.approx(x0 + F_STATIC / k + b.V[0] @ q,
+                                                       rel=1e-14)
+    assert node_positions(b.with_(static=None))[0, 0] == x0
