@@ -29,6 +29,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "reduce",
     "compare_frf",
     "frf_body",
+    "body_info",
     "interpolate",
     "fem",
     "sweep", "compare",

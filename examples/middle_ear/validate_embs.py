@@ -164,8 +164,13 @@ def transfer(h: dict[str, np.ndarray], f: np.ndarray) -> dict[str, np.ndarray]:
             "stapes": h["stapes_velocity"] / h["p_probe"]}
 
 
-def modules(data: Path, description: Path = DESCRIPTION):
-    """The generated EMBS and chain-only modules (cached under ``data/embs``)."""
+def modules(data: Path, description: Path | None = None):
+    """The generated EMBS and chain-only modules (cached under ``data/embs``); the description
+    defaults to the one ``build_embs.py`` wrote for this build (``DATA/embs/middle_ear.yaml``),
+    else ``middle_ear.yaml``."""
+    if description is None:
+        built = data / "embs" / "middle_ear.yaml"
+        description = built if built.exists() else DESCRIPTION
     gen = data / "embs" / "generated"
     mod = load_generated(generate(description, gen))
     chain_file = data / "embs" / "middle_ear_chain.yaml"

@@ -225,6 +225,36 @@ def check_rigid_motion(fe, body, output: str, skip_rigid: bool, fixed_frame: boo
     return f"{free.shape[1]} free rigid motion(s) of the FE model, none in the basis"
 
 
+def _fe_static(path: str) -> dict | None:
+    """The static group of a working-point FE file (``neweul fem middle-ear``), if any."""
+    from ..fem.working_point_file import read_static
+
+    st = read_static(path) if str(path).endswith(".npz") else None
+    return st if st is not None and "x" in st else None
+
+
+def _with_static(body, fe, st: dict):
+    """The body with the static state of its working point (docs/equations-middle-ear.md
+    §5): static coordinates of ``static_x``, node displacements, the static interface forces
+    at the kept nodes among ``static_manubrium_node_id`` and the outputs ``C x_s``; ``q_s``
+    is the projection of ``x_s`` on ``span V`` in the energy metric of the model
+    (:func:`~neweul_py.elastic.global_basis.energy_metric`: displacements and pressures in
+    one unit-consistent norm)."""
+    from ..elastic.global_basis import energy_metric
+    from ..elastic.static_state import static_deflection
+
+    kept = {int(n) for n in body.nodes[:, 0]}
+    ids = [int(i) for i in st.get("manubrium_node_id", ())]
+    forces = {i: f for i, f in zip(ids, st.get("manubrium_force", ()), strict=True)
+              if i in kept}
+    state = static_deflection(body, st["x"], output_rows=fe.C(), node_force=forces,
+                              metric=energy_metric([fe]))
+    _progress(f"static state of the working point: residual of V q_s {float(state.residual):.2e}"
+              + (f"; interface forces at {len(forces)} of {len(ids)} nodes (the others are not "
+                 "kept)" if len(forces) < len(ids) else ""))
+    return body.with_(static=state)
+
+
 def run(args: argparse.Namespace) -> int:
     """Read, reduce, write; print a summary (order, frequencies, stability)."""
     from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
@@ -241,9 +271,11 @@ def run(args: argparse.Namespace) -> int:
     _progress(f"reading {args.model}")
     fe = read_fe_model(args.model)
     _progress(f"{fe.name}: {fe.n_dofs} DOFs, kind {fe.kind}")
+    static = _fe_static(args.model)
     common = dict(two_sided=args.two_sided, static_correction=args.static_correction,
                   keep_nodes=args.keep_nodes,
-                  store_bases=args.store_bases or args.invariants, progress=_progress)
+                  store_bases=args.store_bases or args.invariants or static is not None,
+                  progress=_progress)
     if args.method == "craig-bampton":
         body = _reduce_craig_bampton(args, fe, common)
     elif args.method == "modal":
@@ -258,13 +290,15 @@ def run(args: argparse.Namespace) -> int:
                               f"{max(1, len(fe.inputs))} input(s) asks for {wanted} Krylov "
                               f"vectors, more than the {fe.n_dofs} DOFs of {fe.name}")
         body = reduce_krylov(fe, points=points, order=order, **common)
+    if static is not None:
+        body = _with_static(body, fe, static)
     if args.invariants:
         _progress("computing the floating-frame invariants")
         body = _interface_invariants(args, body, fe)
         note = check_rigid_motion(fe, body, args.output, args.skip_rigid, args.fixed_frame)
         _progress(note)
-        if not args.store_bases:
-            body = body.with_(V=None, W=None, full_dof_kind=None)
+    if not args.store_bases:
+        body = body.with_(V=None, W=None, full_dof_kind=None)
     body.save(args.output)
     st = stability(body)
     side = "two-sided" if args.two_sided else "one-sided"

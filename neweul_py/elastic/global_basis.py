@@ -59,10 +59,17 @@ from .interpolation import ParametricBody, check_samples, sample_values, stacked
 from .invariants import attach_invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
+from .static_state import StaticDeflection, static_deflection
 
-__all__ = ["GLOBAL_RANK_RTOL", "energy_metric", "g_orthonormal", "global_bases",
-           "global_parametric_body",
-           "global_sample_bodies"]
+__all__ = [
+    "GLOBAL_RANK_RTOL",
+    "energy_metric",
+    "g_orthonormal",
+    "global_bases",
+    "global_parametric_body",
+    "global_sample_bodies",
+    "global_static",
+]
 
 #: Relative POD energy (eigenvalue of the Gram matrix of unit-energy columns, i.e. a
 #: singular value of 1e-6) below which a direction of the stacked local bases is numerically
@@ -215,8 +222,26 @@ def global_sample_bodies(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
         if b.invariants is not None:
             _say(progress, f"sample {i + 1}: invariants in the global coordinates")
             g = attach_invariants(g, fe)
+        if b.static is not None:
+            g = g.with_(static=global_static(b, g, energy_metric(fes)))
         out.append(g)
+    if 0 < sum(b.static is not None for b in bodies) < len(bodies):
+        raise DataError("some sample bodies carry a static state and some do not", None,
+                        "static")
     return out, energy
+
+
+def global_static(local: ReducedBody, body: ReducedBody, G: sps.spmatrix) -> StaticDeflection:
+    """The local body's static state in the global coordinates of ``body``: ``q`` the
+    Ḡ-projection of the local state ``V_l q_l`` on the global basis; node displacements,
+    interface forces and outputs unchanged (physical); residual ``r_l + r_g`` — the local one
+    plus that of the second projection, a bound on ``‖x_s − V q‖_Ḡ/‖x_s‖_Ḡ`` (``x_s`` itself
+    is not in the local body file)."""
+    st = local.static
+    x = local.V @ st.q
+    g = static_deflection(body, x, metric=G)
+    return StaticDeflection(q=g.q, node_u=st.node_u, node_force=st.node_force,
+                            outputs=st.outputs, residual=st.residual + g.residual)
 
 
 def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
@@ -266,6 +291,8 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
         V=np.stack([b.V for b in gb]) if store_bases else None,
         W=np.stack([b.W for b in gb]) if store_bases else None,
         full_dof_kind=fes[0].dof_kind, invariants=inv, interpolation=interpolation,
+        static=(StaticDeflection.stack([b.static for b in gb]) if gb[0].static is not None
+                else None),
         sample_sources=tuple(b.source for b in gb),
         sample_methods=tuple(b.method for b in gb),
         sample_settings=tuple(b.settings for b in gb),

@@ -100,6 +100,7 @@ from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
 from .reduced_body import ReducedBody, json_normal
+from .static_state import StaticDeflection, static_from_arrays
 
 __all__ = [
     "BASES",
@@ -223,6 +224,10 @@ class ParametricBody:
         Optional (k, r, r) transformed hysteretic matrices ``G̃_i = L_i G_r,i T_i⁻¹`` of
         ``K + iG`` (loss factors, ``docs/equations.md`` §1.1), interpolated like ``K``,
         and their common reference frequency [Hz].
+    static
+        Optional static states of the samples
+        (:class:`~neweul_py.elastic.static_state.StaticDeflection`, stacked; ``q`` in the
+        common coordinates), mixed by :meth:`at` with the same weights.
     """
 
     parameter: str
@@ -259,6 +264,7 @@ class ParametricBody:
     sample_sources: tuple[Mapping[str, Any], ...] = ()
     sample_methods: tuple[str, ...] = ()
     sample_settings: tuple[Mapping[str, Any], ...] = ()
+    static: StaticDeflection | None = None
     format_version: int = PARAMETRIC_BODY_VERSION
     G: np.ndarray | None = None
     loss_reference_frequency: float | None = None
@@ -357,6 +363,11 @@ class ParametricBody:
         elif self.loss_reference_frequency is not None:
             raise DataError("a loss reference frequency without hysteretic matrices G", None,
                             "loss_reference_frequency")
+        if self.static is not None:
+            if not isinstance(self.static, StaticDeflection):
+                raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
+                                None, "static")
+            self.static.check(r, self.nodes.shape[0], len(self.output_names), k)
 
     def _check_row_scaling(self, n_rows: int) -> None:
         set_ = object.__setattr__
@@ -592,6 +603,7 @@ class ParametricBody:
             full_dof_kind=None if V is None else self.full_dof_kind,
             method="interpolated", settings=settings, source=source, invariants=inv,
             parameters={self.parameter: float(p)},
+            static=None if self.static is None else self.static.mixed(w),
         )
 
     # ------------------------------------------------------------------ file I/O
@@ -1064,6 +1076,14 @@ def interpolate(
             out["W"].append((b.W if two else b.V) @ L.T)
         if b.invariants is not None:
             invs.append(_transform_invariants(b, Tinv, L, two, i))
+    static = None
+    if any(b.static is not None for b in bodies):
+        if not all(b.static is not None for b in bodies):
+            raise DataError("some samples carry a static state and some do not: "
+                            + ", ".join(_label(labels, i) for i, b in enumerate(bodies)
+                                        if b.static is None) + " lack it", None, "static")
+        static = StaticDeflection.stack([b.static.transformed(T) for b, T in
+                                         zip(bodies, out["T"], strict=True)])
     inv = None
     if invs:
         keys = list(invs[0])
@@ -1086,7 +1106,7 @@ def interpolate(
         left_row_scale=left,
         pressure_weight=float(pressure_weight) if scaling == "kind" else None,
         full_dof_kind=full_kinds if (basis == "full" or store_bases) else None,
-        invariants=inv,
+        invariants=inv, static=static,
         interpolation=interpolation,
         **({"G": np.stack(out["G"]),
             "loss_reference_frequency": stacked_loss(bodies)["loss_reference_frequency"]}
@@ -1178,6 +1198,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     names = list(body.invariants or {})
     for name in names:
         arrays[_INV_PREFIX + name] = body.invariants[name]
+    if body.static is not None:
+        arrays.update(body.static.to_arrays())
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": body.format_version,
@@ -1257,6 +1279,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             sample_methods=tuple(meta.get("sample_methods") or ()),
             sample_settings=tuple(meta.get("sample_settings") or ()),
             invariants=invariants,
+            static=static_from_arrays(data, file),
             format_version=int(meta["version"]),
             loss_reference_frequency=meta.get("loss_reference_frequency"),
         )

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import DataError
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .fe_model import DOF_KINDS
+from .static_state import StaticDeflection, static_from_arrays
 
 __all__ = [
     "REDUCED_BODY_FORMAT",
@@ -101,6 +102,11 @@ class ReducedBody:
         time-domain equivalent ``G/ω_ref`` when the FE model's ``D`` did.
     loss_reference_frequency
         The reference frequency ``f_ref`` [Hz] of ``G`` (required with it).
+    static
+        Optional static state the body is linearized about
+        (:class:`~neweul_py.elastic.static_state.StaticDeflection`: static reduced
+        coordinates, node displacements and interface forces, output values; arrays
+        ``static/*``).
 
     Raises
     ------
@@ -130,6 +136,7 @@ class ReducedBody:
     invariants: Mapping[str, np.ndarray] | None = None
     parameters: Mapping[str, float] | None = None
     full_dof_kind: np.ndarray | None = None
+    static: StaticDeflection | None = None
     format_version: int = REDUCED_BODY_VERSION
     G: np.ndarray | None = None
     loss_reference_frequency: float | None = None
@@ -220,6 +227,11 @@ class ReducedBody:
                                     f"invariants.{k}")
                 inv[str(k)] = a
             set_(self, "invariants", inv)
+        if self.static is not None:
+            if not isinstance(self.static, StaticDeflection):
+                raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
+                                None, "static")
+            self.static.check(r, self.nodes.shape[0], len(self.output_names))
 
     def _validate_loss(self, r: int) -> None:
         """``G`` (r × r, finite) and its positive reference frequency come together."""
@@ -286,6 +298,8 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
             shared[name] = own      # the projected matrix itself: stored once
             continue
         arrays[_INV_PREFIX + name] = body.invariants[name]
+    if body.static is not None:
+        arrays.update(body.static.to_arrays())
     meta = {
         "format": REDUCED_BODY_FORMAT,
         "version": body.format_version,
@@ -377,6 +391,7 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
             source=meta.get("source") or {},
             parameters=meta.get("parameters"),
             invariants=invariants,
+            static=static_from_arrays(data, file),
             format_version=int(meta["version"]),
             loss_reference_frequency=meta.get("loss_reference_frequency"),
         )

@@ -26,7 +26,8 @@ body is the projection of the FE model itself.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sps
@@ -39,8 +40,10 @@ from .interpolation import ParametricBody, stacked_loss
 from .invariants import Invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
+from .static_state import StaticDeflection, static_deflection
 
-__all__ = ["basis_parametric_body", "fixed_frame_invariants", "snapshot_basis"]
+__all__ = ["basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
+           "snapshot_basis"]
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -190,23 +193,55 @@ def fixed_frame_invariants(body: ReducedBody, fe: FEModel) -> ReducedBody:
     return body.with_(invariants=flat)
 
 
+def check_same_mesh(fes: Sequence[FEModel], samples: Sequence[float]) -> None:
+    """One :class:`DataError` naming the first sample whose nodes or DOFs differ from the
+    first sample's: the samples of a parametric body share one mesh (one ``V`` for all)."""
+    ref = fes[0]
+    for fe, p in zip(fes, samples, strict=True):
+        if not (fe.n_dofs == ref.n_dofs and np.array_equal(fe.dof_node, ref.dof_node)
+                and np.array_equal(fe.dof_kind, ref.dof_kind)
+                and np.array_equal(fe.nodes, ref.nodes)):
+            raise DataError(f"the sample at {p:g} ({fe.n_dofs} DOFs, {fe.nodes.shape[0]} nodes) "
+                            f"has other nodes or DOFs than the one at {samples[0]:g} "
+                            f"({ref.n_dofs} DOFs, {ref.nodes.shape[0]} nodes): the samples of a "
+                            "parametric body must share one mesh", fe.source, "nodes")
+
+
 def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequence[float], *,
                           parameter: str = "p", keep_nodes: Sequence[int] | None = None,
                           interpolation: str = "cubic", energy: np.ndarray | None = None,
+                          static: Sequence[Mapping[str, Any]] | None = None,
                           progress: Progress = None) -> ParametricBody:
     """The parametric body of one Galerkin basis ``V`` for every sample (``X_i = Vᵀ X_i V``),
     with :func:`fixed_frame_invariants`; interpolated entrywise as in
-    :func:`~neweul_py.elastic.global_basis.global_parametric_body`."""
+    :func:`~neweul_py.elastic.global_basis.global_parametric_body`.
+
+    ``static`` gives per sample the static state it is linearized about, as the keyword
+    arguments of :func:`~neweul_py.elastic.static_state.static_deflection` (``x`` — the FE
+    static state; ``node_force``, ``outputs``; the output rows are the FE model's and the
+    projection is ``Ḡ``-orthogonal in the energy metric of the samples, in which ``V`` is
+    orthonormal): the body then carries it (``static/*``, docs/equations-middle-ear.md §5).
+    """
     s = np.asarray(samples, dtype=float)
     if s.size != len(fes) or s.size < 2 or np.any(np.diff(s) <= 0):
         raise DataError("need at least two increasing sample values, one per FE model",
                         None, "samples")
-    bodies = []
+    check_same_mesh(fes, s)
+    if V.shape[0] != fes[0].n_dofs:
+        raise DataError(f"the basis has {V.shape[0]} rows for FE models of {fes[0].n_dofs} DOFs",
+                        None, "V")
+    if static is not None and len(static) != len(fes):
+        raise DataError(f"{len(static)} static states for {len(fes)} samples", None, "static")
+    G = energy_metric(fes) if static is not None else None
+    bodies, states = [], []
     for i, fe in enumerate(fes):
         b = build_reduced_body(fe, V, V, "snapshot", {"order": int(V.shape[1])},
                                keep_nodes=keep_nodes)
         b = b.with_(parameters={parameter: float(s[i])})
         bodies.append(fixed_frame_invariants(b, fe))
+        if static is not None:
+            states.append(static_deflection(b, V=V, W=V, output_rows=fe.C(), metric=G,
+                                            **static[i]))
         _say(progress, f"projected sample {i + 1} of {len(fes)}")
     k, r = len(bodies), V.shape[1]
     eye = np.broadcast_to(np.eye(r), (k, r, r)).copy()
@@ -225,4 +260,5 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
         interpolation=interpolation, sample_sources=tuple(dict(b.source) for b in bodies),
         sample_methods=("snapshot",) * k, sample_settings=tuple(b.settings for b in bodies),
+        static=StaticDeflection.stack(states) if states else None,
     )

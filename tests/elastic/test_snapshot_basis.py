@@ -96,3 +96,13 @@ def test_bad_input() -> None:
         snapshot_basis([fe], [fe.B("force")], [0.0, 10.0])
     with pytest.raises(DataError, match="load sets"):
         snapshot_basis([fe, fe], [fe.B("force")], [10.0])
+
+
+def test_samples_on_different_meshes_are_one_error(family) -> None:
+    """A sample with other nodes or DOFs than the first (another mesh): one DataError naming
+    it, before anything is projected (reference: the two FE models' DOF counts)."""
+    fes, V, _ = family
+    other = piston_duct(n_el=60, c=SPEEDS[1], damping=3.0)
+    with pytest.raises(DataError, match=r"sample at 343 .*other nodes or DOFs"):
+        basis_parametric_body([fes[0], other, fes[2]], V, SPEEDS, parameter="c",
+                              keep_nodes=[1])

@@ -1,0 +1,70 @@
+"""``neweul reduce`` of a working-point FE file carries its static state into the body, and
+``neweul body-info`` shows it.
+
+Reference: the FE static solution of ``neweul fem middle-ear`` (refine 0, one working point):
+``static.csv`` (umbo displacement, support force) and the file's ``static_*`` group.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from neweul_py.cli import main
+from neweul_py.elastic import ReducedBody
+from neweul_py.fem.working_point_file import read_static
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
+from fe_builders import piston_duct
+
+
+@pytest.fixture(scope="module")
+def working_point(tmp_path_factory):
+    d = tmp_path_factory.mktemp("wp")
+    assert main(["fem", "middle-ear", "--refine", "0", "--pressures", "2000:2000:1", "-o",
+                 str(d / "fem"), "-q"]) == 0
+    return d, d / "fem" / "model_dp+02000.npz"
+
+
+def test_reduce_writes_the_static_state_of_the_working_point(working_point, capsys):
+    """Node displacements and interface forces are the FE file's, bit for bit; the static
+    umbo output is ``static.csv``'s umbo displacement; the forces sum to minus the support
+    force the TM passes to the chain."""
+    d, fe_file = working_point
+    out = d / "b.npz"
+    assert main(["reduce", str(fe_file), "--modes", "20", "--static-correction", "-o",
+                 str(out)]) == 0
+    body = ReducedBody.load(out)
+    st, fe_st = body.static, read_static(fe_file)
+    assert body.V is None                       # bases used for the projection, not stored
+    ids = [int(n) for n in body.nodes[:, 0]]
+    tm = {int(n): u for n, u in zip(fe_st["node_id"], fe_st["u"], strict=True)}
+    for i, nid in enumerate(ids):
+        if nid in tm:
+            assert np.array_equal(st.node_u[i], tm[nid]), nid
+    for nid, f in zip(fe_st["manubrium_node_id"], fe_st["manubrium_force"], strict=True):
+        assert np.array_equal(st.node_force[ids.index(int(nid))], f)
+    row = np.genfromtxt(d / "fem" / "static.csv", delimiter=",", names=True)
+    umbo = st.outputs[list(body.output_names).index("umbo_uz")]
+    assert umbo == pytest.approx(float(row["umbo_uz_m"]), rel=1e-12)
+    assert st.node_force[:, 2].sum() == pytest.approx(-float(row["support_force_z_N"]),
+                                                      rel=1e-9)
+    assert 0 < float(st.residual) < 1.0
+    capsys.readouterr()
+    assert main(["body-info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "static state: residual of V q_s" in text and "node      1: u_s" in text
+    assert "sum of the interface forces" in text and "output umbo_uz: +3.06" in text
+
+
+def test_body_info_of_a_body_without_static_state(tmp_path, capsys):
+    """A body reduced from a plain FE model says it has none (reference: the file)."""
+    from neweul_py.elastic import reduce_modal
+
+    reduce_modal(piston_duct(30), modes=3).save(tmp_path / "p.npz")
+    assert main(["body-info", str(tmp_path / "p.npz")]) == 0
+    assert "no static state" in capsys.readouterr().out
+    assert main(["body-info", str(tmp_path / "p.npz"), "--at", "p=1"]) == 1
