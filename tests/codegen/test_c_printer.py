@@ -41,7 +41,8 @@ def test_linear_combinations_print_as_table_rows_with_the_same_value(tmp_path):
                                    "double f(const double *, const double *, const double *);",
                                    tmp_path / "cache")
     yv, ydv, pv = rng.standard_normal(n), rng.standard_normal(n), rng.standard_normal(1)
-    ref = float(expr.subs({**dict(zip(y, yv, strict=True)), **dict(zip(yd, ydv, strict=True)), p0: pv[0]}))
+    values = {**dict(zip(y, yv, strict=True)), **dict(zip(yd, ydv, strict=True)), p0: pv[0]}
+    ref = float(expr.subs(values))
     got = lib.f(ffi.from_buffer("double[]", yv), ffi.from_buffer("double[]", ydv),
                 ffi.from_buffer("double[]", pv))
     assert got == pytest.approx(ref, rel=1e-13, abs=1e-13)
