@@ -141,12 +141,25 @@ class CPrinter:
     dots
         Where long linear combinations of ``y``, ``yd``, ``a`` go as table rows (:class:`DotRows`);
         ``None`` prints them term by term.
+    scaled
+        Locals known to be ``c·v`` (hoisted constant factors: ``w → (c, v)``); within such
+        combinations a factor ``w`` counts as the number ``c`` times ``v`` (the local itself
+        stays for its other uses).
     """
 
-    def __init__(self, names: Mapping[sp.Symbol, str], dots: DotRows | None = None) -> None:
+    def __init__(self, names: Mapping[sp.Symbol, str], dots: DotRows | None = None,
+                 scaled: Mapping[sp.Symbol, tuple[sp.Number, sp.Symbol]] | None = None
+                 ) -> None:
         self._names = names
         self._dots = dots
         self._fallback = CFallbackPrinter(self)
+        self._elements: dict[sp.Symbol, tuple[str, int]] = {}
+        self._scaled = dict(scaled or {})
+        if dots is not None:
+            for sym, text in names.items():
+                m = _ELEMENT.fullmatch(text)
+                if m:
+                    self._elements[sym] = (m.group(1), int(m.group(2)))
 
     def doprint_expr(self, expr: sp.Basic) -> str:
         """Print one scalar expression or raise :class:`GenerationError`."""
@@ -191,30 +204,41 @@ class CPrinter:
     def _dot_terms(self, e: sp.Add) -> list[sp.Basic | str]:
         """The terms of ``e``, those of each long linear combination of one array (same
         other factor) replaced by one printed ``r*nw_dot(…)`` (:class:`DotRows`)."""
-        dots = self._dots
-        if len(e.args) < dots.least:
-            return list(e.args)
+        dots, elements, scaled = self._dots, self._elements, self._scaled
+        args = e.args
+        if len(args) < dots.least or sum(
+                any(f in elements for f in (t.args if t.is_Mul else (t,))) for t in args
+        ) < dots.least:
+            return list(args)
         groups: dict[tuple[str, sp.Basic], dict[int, float]] = {}
         where: list[tuple[str, sp.Basic] | None] = []
-        for term in e.args:
-            coeff, rest = term.as_coeff_Mul()
+        for term in args:
+            factors = term.args if term.is_Mul else (term,)
             key = None
-            if coeff.is_Float or coeff.is_Rational:
-                factors = sp.Mul.make_args(rest)
-                for k, f in enumerate(factors):
-                    m = _ELEMENT.fullmatch(self._names.get(f, "")) if f.is_Symbol else None
-                    if m:
-                        key = (m.group(1), sp.Mul(*factors[:k], *factors[k + 1:]))
-                        row = groups.setdefault(key, {})
-                        if int(m.group(2)) in row:
-                            key = None
-                        else:
-                            row[int(m.group(2))] = float(coeff)
-                        break
+            hit = next((f for f in factors if f in elements), None)
+            if hit is not None:
+                array, index = elements[hit]
+                coeff, rest = 1.0, []
+                for f in factors:
+                    if f is hit:
+                        continue
+                    if f.is_Number:
+                        coeff *= float(f)
+                    elif f in scaled:
+                        coeff *= float(scaled[f][0])
+                        rest.append(scaled[f][1])
+                    else:
+                        rest.append(f)
+                key = (array, sp.Mul(*rest))
+                row = groups.setdefault(key, {})
+                if index in row:
+                    key = None
+                else:
+                    row[index] = coeff
             where.append(key)
         out: list[sp.Basic | str] = []
         done: set[tuple[str, sp.Basic]] = set()
-        for term, key in zip(e.args, where, strict=True):
+        for term, key in zip(args, where, strict=True):
             if key is None or len(groups[key]) < dots.least:
                 out.append(term)
             elif key not in done:
