@@ -10,6 +10,7 @@ other exception is a bug and keeps its traceback.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import re
 import sys
@@ -107,8 +108,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Thresholds of the cyclic garbage collector for a CLI process (CPython's default is
+#: ``(700, 10, 10)``). Importing sympy and deriving create millions of short-lived, acyclic
+#: objects that reference counting frees; with the default, generation-0 collections every
+#: 700 allocations cost ≈ 7 % of a cold ``neweul generate`` (chain N = 10: 0.99 → 0.92 s CPU;
+#: collection disabled altogether: 0.89 s). Cyclic garbage is still collected, after 20 000
+#: allocations instead of 700.
+GC_THRESHOLDS = (20_000, 10, 10)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``neweul`` console script."""
+    gc.set_threshold(*GC_THRESHOLDS)
     parser = build_parser()
     args = parser.parse_args(argv)
 

@@ -7,8 +7,9 @@
   function per protocol function, printed by :class:`.c_printer.CPrinter`
   from exactly the blocks the NumPy module prints (:func:`.writer.program_blocks`: same CSE,
   same forward-mode derivatives), the linear solve of ``rhs`` and ``rhs_jacobian`` by dense LU
-  with partial pivoting (no symmetry assumed), and a Dormand–Prince 5(4) loop
-  (:mod:`.c_templates`);
+  with partial pivoting (no symmetry assumed) or, when the mass matrix has a constant block
+  (elastic coordinates), by block elimination with its inverse (:mod:`.c_solve`), and a
+  Dormand–Prince 5(4) loop (:mod:`.c_templates`);
 * ``<name>_c.py`` — a thin wrapper with the twin's constants and the protocol's names and
   signatures, calling the shared library through cffi (ABI mode: ``dlopen`` of a library built
   by the system C compiler). Build, cache (``__neweul_c__/`` next to the module, keyed by the
@@ -35,7 +36,8 @@ from ..equations.elastic_expanded import expanded_equations
 from ..errors import GenerationError
 from ..model import time
 from ..progress import StagedProgress
-from .c_printer import CPrinter
+from .c_printer import CPrinter, DotRows
+from .c_solve import c_solver, constant_block
 from .c_templates import C_DOPRI5, C_LU, C_SUPPORT_DECLARATIONS
 from .cse import Block, free_symbols
 from .writer import program_blocks
@@ -75,25 +77,33 @@ def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
     )
 
 
-def _body(g: _Groups, block: Block, target: str, what: str) -> list[str]:
+def _body(g: _Groups, block: Block, target: str, what: str,
+          dots: DotRows | None = None) -> list[str]:
     """Statements computing ``block``: locals ``w<k>``, then ``target[i] = final_i``
-    (zeros by ``memset``; repeated finals — symmetric mass entries — computed once)."""
+    (zeros by ``memset``; repeated finals — symmetric mass entries — computed once); long
+    linear combinations of ``y``, ``yd``, ``a`` as rows of ``dots``."""
     names = dict(g.names)
-    for k, (s, _) in enumerate(block.assignments):
+    assignments, finals = block.assignments, block.finals
+    for k, (s, _) in enumerate(assignments):
         names[s] = f"w{k}"
-    pr = CPrinter(names)
+    pr = CPrinter(names, dots, _scaled_parameters(g, assignments) if dots else None)
     lines: list[str] = []
     if g.u and _uses(block, g.u):
         lines.append("NW_DEFAULT_INPUTS;")
     try:
-        for k, (_, e) in enumerate(block.assignments):
+        for k, (_, e) in enumerate(assignments):
             lines.append(f"const double w{k} = {pr.doprint_expr(e)};")
-        finals = list(block.finals)
         if any(f == 0 for f in finals):
             lines.append(f"memset({target}, 0, {len(finals)} * sizeof(double));")
+        constant = _constant_runs(finals)
+        for i, run in constant.items():
+            lines.append(f"{{ static const double c[{len(run)}] = "
+                         f"{{{', '.join(pr.doprint_expr(v) for v in run)}}};")
+            lines.append(f"  memcpy({target} + {i}, c, sizeof c); }}")
+        skip = {i + k for i, run in constant.items() for k in range(len(run))}
         first: dict[sp.Basic, int] = {}
         for i, f in enumerate(finals):
-            if f == 0:
+            if f == 0 or i in skip:
                 continue
             if not f.is_Atom and f in first:
                 lines.append(f"{target}[{i}] = {target}[{first[f]}];")
@@ -103,6 +113,37 @@ def _body(g: _Groups, block: Block, target: str, what: str) -> list[str]:
     except GenerationError as exc:
         raise GenerationError(f"{what}: {exc}") from None
     return lines
+
+
+#: Shortest run of consecutive numeric finals copied from a table (constant ``Mee`` rows).
+MIN_RUN = 8
+
+
+def _constant_runs(finals: Sequence[sp.Basic]) -> dict[int, list[sp.Basic]]:
+    """Start → values of the runs of at least :data:`MIN_RUN` consecutive nonzero numbers."""
+    runs: dict[int, list[sp.Basic]] = {}
+    start = None
+    for i, f in enumerate([*finals, sp.S.Zero]):
+        if f.is_Number and f != 0:
+            start = i if start is None else start
+            continue
+        if start is not None and i - start >= MIN_RUN:
+            runs[start] = list(finals[start:i])
+        start = None
+    return runs
+
+
+def _scaled_parameters(g: _Groups, assignments: Sequence[tuple[sp.Symbol, sp.Expr]]
+                       ) -> dict[sp.Symbol, tuple[sp.Number, sp.Symbol]]:
+    """Locals ``w = c·p_k`` (hoisted constant factors, codegen/cse.py): within a sum
+    ``Σ c_i w ẏ_i`` the printer reads them as ``c·p_k``, so that the sum is one linear
+    combination of ``ẏ`` again (:class:`.c_printer.DotRows`). Not the CSE's shared terms
+    ``w_i = c_i q_i``: their sums ``Σ_i w_i`` as table rows were slower (20-mode beam, hot
+    rhs 1.19 → 1.48 µs) than adding the shared products; substituting the locals into the
+    expressions instead took seconds for long rigid chains."""
+    params = set(g.p)
+    return {s: e.args for s, e in assignments
+            if e.is_Mul and len(e.args) == 2 and e.args[0].is_Number and e.args[1] in params}
 
 
 #: Derivative functions with more locals than this are compiled without optimization
@@ -165,20 +206,19 @@ int nw_rhs_jacobian(double t, const double *x, const double *p, const double *u,
 {
     NW_DEFAULT_INPUTS;
     const double *y = x, *yd = x + NW_N;
-    double M[NW_N * NW_N], ydd[NW_N], fj[NW_N * (2 * NW_N + NW_NU)], dMa[NW_N * NW_N];
-    double b[NW_N * 2 * NW_N];
-    int piv[NW_N];
+    double M[NW_N * NW_N], M2[NW_N * NW_N], ydd[NW_N], fj[NW_N * (2 * NW_N + NW_NU)];
+    double dMa[NW_N * NW_N], b[NW_N * 2 * NW_N];
     nw_mass_matrix(t, y, p, u, M);
     nw_force_vector(t, y, yd, p, u, ydd);
-    if (nw_lu(NW_N, M, piv)) return 1;
-    nw_lu_solve(NW_N, M, piv, 1, ydd);
+    memcpy(M2, M, sizeof M);
+    if (nw_solve(M2, 1, ydd)) return 1;
     nw_force_jacobians(t, y, yd, p, u, fj);
     nw_mass_matrix_times_derivative(t, y, p, ydd, u, dMa);
     for (int i = 0; i < NW_N; ++i)
         for (int j = 0; j < 2 * NW_N; ++j)
             b[i * 2 * NW_N + j] = fj[i * (2 * NW_N + NW_NU) + j]
                                   - (j < NW_N ? dMa[i * NW_N + j] : 0.0);
-    nw_lu_solve(NW_N, M, piv, 2 * NW_N, b);
+    if (nw_solve(M, 2 * NW_N, b)) return 1;
     memset(out, 0, NW_STATE_SIZE * NW_STATE_SIZE * sizeof(double));
     for (int i = 0; i < NW_N; ++i) out[i * NW_STATE_SIZE + NW_N + i] = 1.0;
     memcpy(out + NW_N * NW_STATE_SIZE, b, sizeof b);
@@ -207,7 +247,7 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
                      ) -> tuple[str, str]:
     """The C99 texts of the two libraries (deterministic, like the NumPy module).
 
-    The *core* (``<name>_c.c``: ``M``, ``q − k``, ``rhs`` with its LU solve, outputs,
+    The *core* (``<name>_c.c``: ``M``, ``q − k``, ``rhs`` with its linear solve, outputs,
     constraints, default inputs and the Dormand–Prince loop) is what simulations need and
     builds at import; the *derivatives* (``<name>_c_jac.c``: ``force_jacobians``,
     ``∂(M a)/∂y``, ``rhs_jacobian``, ``output_jacobians``, with private copies of ``M`` and
@@ -218,13 +258,17 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     n, nu = len(g.y), len(g.u)
     lu_protos = ["static int nw_lu(int n, double *a, int *piv);",
                  "static void nw_lu_solve(int n, const double *lu, const int *piv, int m, "
-                 "double *b);"]
+                 "double *b);", "static int nw_solve(double *a, int m, double *b);"]
+    # M x = b: dense LU, or block elimination of a constant block (c_solve.py)
+    solve = c_solver(constant_block(sp.ImmutableMatrix(equations.mass_matrix))
+                     if n else None)
 
     # M and q − k from the one CSE'd program of rhs (computed once per call of any of the
     # three; mass_matrix passes ẏ = 0, on which M does not depend)
+    dots = DotRows(n)  # one table for both files (the core's rows come first)
     mf = [
-        *_function(f"nw_mf({_YYD_ARGS})", _body(g, blocks["rhs"], "out", "the right-hand side"),
-                   static=True),
+        *_function(f"nw_mf({_YYD_ARGS})",
+                   _body(g, blocks["rhs"], "out", "the right-hand side", dots), static=True),
         *_function(f"nw_mass_matrix({_Y_ARGS})", [
             "double yd[NW_N] = {0}, mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf);",
             "memcpy(out, mf, NW_N * NW_N * sizeof(double));"]),
@@ -232,54 +276,59 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
             "double mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf);",
             "memcpy(out, mf + NW_N * NW_N, NW_N * sizeof(double));"]),
     ]
-    inputs = _body(g, blocks["default_inputs"], "out", "the default inputs")
+    inputs = _body(g, blocks["default_inputs"], "out", "the default inputs", dots)
 
-    core = _head(model_name, "Equations of motion", n, nu, [
+    core_head = _head(model_name, "Equations of motion", n, nu, [
         core_declarations(), f"static int nw_mf({_YYD_ARGS});", *lu_protos])
+    core = list(core_head)
     core += _function("nw_default_inputs(double t, const double *p, double *out)", inputs)
     core += mf
     core += _function(f"nw_rhs({_X_ARGS})", [
-        *_X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];", "int piv[NW_N];",
+        *_X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];",
         "nw_mf(t, y, yd, p, u, mf);",
-        "if (nw_lu(NW_N, mf, piv)) return 1;",
-        "nw_lu_solve(NW_N, mf, piv, 1, mf + NW_N * NW_N);",
+        "if (nw_solve(mf, 1, mf + NW_N * NW_N)) return 1;",
         "memcpy(out, yd, NW_N * sizeof(double));",
         "memcpy(out + NW_N, mf + NW_N * NW_N, NW_N * sizeof(double));",
     ])
     core += _function(f"nw_outputs({_X_ARGS})",
-                      [*_X_PROLOGUE, *_body(g, blocks["outputs"], "out", "the outputs")])
+                      [*_X_PROLOGUE, *_body(g, blocks["outputs"], "out", "the outputs", dots)])
     for name, args in (("constraints", _Y_ARGS), ("constraint_jacobian", _Y_ARGS),
                        ("constraint_time_derivative", _Y_ARGS),
                        ("constraint_gamma", _YYD_ARGS)):
         core += _function(f"nw_{name}({args})",
-                          _body(g, blocks[name], "out", name.replace("_", " ")))
-    core += [C_LU, C_DOPRI5]
+                          _body(g, blocks[name], "out", name.replace("_", " "), dots))
+    core += [C_LU, solve, C_DOPRI5]
+    core_rows = len(dots.rows)
 
-    jac = _head(model_name, "Derivatives of the equations of motion", n, nu, [
+    jac_head = _head(model_name, "Derivatives of the equations of motion", n, nu, [
         jacobian_declarations("loss_matrix" in blocks),
         "static int nw_default_inputs(double t, const double *p, double *out);",
         f"static int nw_mf({_YYD_ARGS});",
         f"static int nw_mass_matrix({_Y_ARGS});",
         f"static int nw_force_vector({_YYD_ARGS});", *lu_protos])
+    jac = list(jac_head)
     jac += _function("nw_default_inputs(double t, const double *p, double *out)", inputs,
                      static=True)
     jac += [line.replace("int nw_mass_matrix(", "static int nw_mass_matrix(")
             .replace("int nw_force_vector(", "static int nw_force_vector(") for line in mf]
     b = blocks["force_jacobians"]
     jac += _function(f"nw_force_jacobians({_YYD_ARGS})",
-                     _body(g, b, "out", "the force Jacobians"), _big(b))
+                     _body(g, b, "out", "the force Jacobians", dots), _big(b))
     b = blocks["mass_matrix_times_derivative"]
     jac += _function(f"nw_mass_matrix_times_derivative({_MMTD_ARGS})",
-                     _body(g, b, "out", "∂(M a)/∂y"), _big(b))
+                     _body(g, b, "out", "∂(M a)/∂y", dots), _big(b))
     jac += [_RHS_JACOBIAN]
     b = blocks["output_jacobians"]
     jac += _function(f"nw_output_jacobians({_X_ARGS})", [
-        *_X_PROLOGUE, *_body(g, b, "out", "the output Jacobians")], _big(b))
+        *_X_PROLOGUE, *_body(g, b, "out", "the output Jacobians", dots)], _big(b))
     if "loss_matrix" in blocks:       # the hysteretic matrix G (equations.md §1.1)
         b = blocks["loss_matrix"]
         jac += _function(f"nw_loss_matrix({_X_ARGS})", [
-            *_X_PROLOGUE, *_body(g, b, "out", "the loss matrix")], _big(b))
-    jac += [C_LU]
+            *_X_PROLOGUE, *_body(g, b, "out", "the loss matrix", dots)], _big(b))
+    jac += [C_LU, solve]
+    # the rows' table and nw_dot right after the declarations of each file
+    core[len(core_head):len(core_head)] = dots.table(core_rows)
+    jac[len(jac_head):len(jac_head)] = dots.table()
     return ("\n".join(core).rstrip("\n") + "\n", "\n".join(jac).rstrip("\n") + "\n")
 
 

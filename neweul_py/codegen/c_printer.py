@@ -14,6 +14,7 @@ NumPy module's printer (:mod:`.printer`): ``sign(0) = 0``, ``Heaviside(0) = 1/2`
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 
 import sympy as sp
@@ -24,7 +25,7 @@ from ..errors import GenerationError
 from ..model import as_expr
 from .printer import join_sum
 
-__all__ = ["CFallbackPrinter", "CPrinter"]
+__all__ = ["CFallbackPrinter", "CPrinter", "DotRows"]
 
 _ADD, _MUL, _UNARY, _ATOM = 10, 20, 25, 40
 
@@ -80,6 +81,59 @@ class CFallbackPrinter(C99CodePrinter):
         return "0"
 
 
+#: A C array element of the state-sized arrays ``y``, ``yd``, ``a`` (``"yd[3]"``).
+_ELEMENT = re.compile(r"(y|yd|a)\[(\d+)\]")
+
+
+class DotRows:
+    """The constant coefficient rows of the long linear combinations of a C file.
+
+    A sum with at least :attr:`least` terms ``c_i · v[i] · r`` (``c_i`` numbers, ``v`` one of
+    the state-sized arrays ``y``, ``ẏ``, ``a`` of length ``n``, the same factor ``r``) prints as
+    ``r*nw_dot(NW_T + k, v)``: one row of ``n`` doubles in the table ``NW_T`` instead of as many
+    multiplications by literals. The expanded terms of elastic bodies (``Ke q``, ``ω² Kσ q``,
+    ``Ct¹ q`` …, equations/elastic_expanded.py) are such sums; as straight-line code they are
+    tens of kB of instructions that are fetched anew at every call from Python, as a table they
+    are read by a small loop. Identical rows are stored once.
+    """
+
+    def __init__(self, n: int, least: int = 8) -> None:
+        self.n = n
+        self.least = max(least, n // 4)
+        self.rows: dict[tuple[float, ...], int] = {}
+
+    def offset(self, row: tuple[float, ...]) -> int:
+        """The offset of ``row`` in the table (appended when new)."""
+        return self.rows.setdefault(row, len(self.rows) * self.n)
+
+    def table(self, count: int | None = None) -> list[str]:
+        """C lines defining the table (its first ``count`` rows) and ``nw_dot``; none
+        without rows."""
+        rows = list(self.rows)[:count]
+        if not rows:
+            return []
+        values = ", ".join(_double(v) for row in rows for v in row)
+        return [
+            f"static const double NW_T[{len(rows) * self.n}] = {{{values}}};",
+            # vectorized and unrolled by gcc's -O3 (the libraries build with -O1): 20 % of a
+            # 20-mode rhs (c_runtime.C_FLAGS; other compilers ignore the attribute, as the
+            # optimize("O0") of codegen/c_module.BIG_FUNCTION)
+            '__attribute__((optimize("O3"))) static double nw_dot(const double *c, '
+            'const double *v)',
+            "{",
+            "    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;",
+            "    int i = 0;",
+            f"    for (; i + 4 <= {self.n}; i += 4) {{",
+            "        s0 += c[i] * v[i]; s1 += c[i + 1] * v[i + 1];",
+            "        s2 += c[i + 2] * v[i + 2]; s3 += c[i + 3] * v[i + 3];",
+            "    }",
+            f"    for (; i < {self.n}; ++i) s0 += c[i] * v[i];",
+            "    return (s0 + s1) + (s2 + s3);",
+            "}",
+            "",
+        ]
+
+
 class CPrinter:
     """Prints scalar sympy expressions as C99 ``double`` expressions.
 
@@ -88,11 +142,28 @@ class CPrinter:
     names
         Symbol → C expression (``"y[3]"``, ``"w12"``, ``"t"``); an unknown symbol is a
         :class:`~neweul_py.errors.GenerationError`.
+    dots
+        Where long linear combinations of ``y``, ``yd``, ``a`` go as table rows (:class:`DotRows`);
+        ``None`` prints them term by term.
+    scaled
+        Locals known to be ``c·v`` (hoisted constant factors: ``w → (c, v)``); within such
+        combinations a factor ``w`` counts as the number ``c`` times ``v`` (the local itself
+        stays for its other uses).
     """
 
-    def __init__(self, names: Mapping[sp.Symbol, str]) -> None:
+    def __init__(self, names: Mapping[sp.Symbol, str], dots: DotRows | None = None,
+                 scaled: Mapping[sp.Symbol, tuple[sp.Number, sp.Symbol]] | None = None
+                 ) -> None:
         self._names = names
+        self._dots = dots
         self._fallback = CFallbackPrinter(self)
+        self._elements: dict[sp.Symbol, tuple[str, int]] = {}
+        self._scaled = dict(scaled or {})
+        if dots is not None:
+            for sym, text in names.items():
+                m = _ELEMENT.fullmatch(text)
+                if m:
+                    self._elements[sym] = (m.group(1), int(m.group(2)))
 
     def doprint_expr(self, expr: sp.Basic) -> str:
         """Print one scalar expression or raise :class:`GenerationError`."""
@@ -121,7 +192,9 @@ class CPrinter:
             s = _double(float(e))
             return s, (_UNARY if s.startswith(("-", "(")) else _ATOM)
         if e.is_Add:
-            return join_sum([self._paren(arg, _ADD) for arg in e.args]), _ADD
+            terms = self._dot_terms(e) if self._dots is not None else e.args
+            return join_sum([t if isinstance(t, str) else self._paren(t, _ADD)
+                             for t in terms]), _ADD
         if e.is_Mul:
             return self._mul(e)
         if e.is_Pow:
@@ -131,6 +204,55 @@ class CPrinter:
             args = ", ".join(self.p(a)[0] for a in e.args)
             return f"{func}({args})", _ATOM
         return f"({self._fallback.doprint(e)})", _ATOM
+
+    def _dot_terms(self, e: sp.Add) -> list[sp.Basic | str]:
+        """The terms of ``e``, those of each long linear combination of one array (same
+        other factor) replaced by one printed ``r*nw_dot(…)`` (:class:`DotRows`)."""
+        dots, elements, scaled = self._dots, self._elements, self._scaled
+        args = e.args
+        if len(args) < dots.least or sum(
+                any(f in elements for f in (t.args if t.is_Mul else (t,))) for t in args
+        ) < dots.least:
+            return list(args)
+        groups: dict[tuple[str, sp.Basic], dict[int, float]] = {}
+        where: list[tuple[str, sp.Basic] | None] = []
+        for term in args:
+            factors = term.args if term.is_Mul else (term,)
+            key = None
+            hit = next((f for f in factors if f in elements), None)
+            if hit is not None:
+                array, index = elements[hit]
+                coeff, rest = 1.0, []
+                for f in factors:
+                    if f is hit:
+                        continue
+                    if f.is_Number:
+                        coeff *= float(f)
+                    elif f in scaled:
+                        coeff *= float(scaled[f][0])
+                        rest.append(scaled[f][1])
+                    else:
+                        rest.append(f)
+                key = (array, sp.Mul(*rest))
+                row = groups.setdefault(key, {})
+                if index in row:
+                    key = None
+                else:
+                    row[index] = coeff
+            where.append(key)
+        out: list[sp.Basic | str] = []
+        done: set[tuple[str, sp.Basic]] = set()
+        for term, key in zip(args, where, strict=True):
+            if key is None or len(groups[key]) < dots.least:
+                out.append(term)
+            elif key not in done:
+                done.add(key)
+                row = [0.0] * dots.n
+                for i, c in groups[key].items():
+                    row[i] = c
+                dot = f"nw_dot(NW_T + {dots.offset(tuple(row))}, {key[0]})"
+                out.append(dot if key[1] == 1 else f"{self._paren(key[1], _MUL)}*{dot}")
+        return out
 
     def _mul(self, e: sp.Mul) -> tuple[str, int]:
         coeff, rest = e.as_coeff_Mul()

@@ -18,6 +18,7 @@ call) are not expanded.
 from __future__ import annotations
 
 import dataclasses
+import numbers
 
 import numpy as np
 import sympy as sp
@@ -28,7 +29,7 @@ from ..ffrf.body import ffrf_loss_matrix
 from .constraints import ConstraintEquations
 from .result import Equations
 
-__all__ = ["MAX_EXPANDED_MODES", "expanded_equations"]
+__all__ = ["MAX_EXPANDED_MODES", "Terms", "expanded_equations"]
 
 #: Elastic coordinates above which the expansion is refused (its expressions and their
 #: derivatives would take minutes to generate; the NumPy module handles any size).
@@ -38,6 +39,71 @@ MAX_EXPANDED_MODES = 40
 def _matrix(a: np.ndarray) -> sp.ImmutableMatrix:
     """A numeric (float) array as a sympy matrix of ``Float``."""
     return sp.ImmutableMatrix(a.shape[0], a.shape[1], [sp.Float(float(v)) for v in a.ravel()])
+
+
+class Terms:
+    """A sympy sum kept as the list of its terms while the kernel's NumPy code computes with it.
+
+    NumPy's products of object arrays add one product at a time (``s = s + a_k b_k``), and a
+    sympy ``Add`` re-flattens all its terms at every step, so a sum of ``n`` products cost
+    ``O(n²)``; here ``+`` only joins term lists and the ``Add`` is built once, when a product
+    or :meth:`expr` needs it (the same expression up to the order in which equal terms'
+    numeric coefficients are added). Numbers times a sum distribute, as in sympy.
+    """
+
+    __slots__ = ("_expr", "terms")
+
+    def __init__(self, terms: list) -> None:
+        self.terms = terms
+        self._expr = None
+
+    def expr(self) -> sp.Expr:
+        """The sum as one sympy expression."""
+        if self._expr is None:
+            self._expr = sp.Add(*self.terms)
+        return self._expr
+
+    @staticmethod
+    def _of(o) -> list:
+        return o.terms if isinstance(o, Terms) else [o]
+
+    def __add__(self, o):
+        if isinstance(o, numbers.Number) and o == 0:
+            return self
+        return Terms(self.terms + self._of(o))
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return Terms([-t for t in self.terms])
+
+    def __sub__(self, o):
+        return self + (-o)
+
+    def __rsub__(self, o):
+        return (-self) + o
+
+    def __mul__(self, o):
+        if isinstance(o, numbers.Number) or getattr(o, "is_Number", False):
+            if o == 0:
+                return 0.0
+            if o == 1:
+                return self
+        other = o.expr() if isinstance(o, Terms) else o
+        mine = self.expr()
+        if mine == 0 or other == 0:        # 0·e: no product (sympy would test e for ∞)
+            return 0.0
+        return Terms([mine * other])
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, o):
+        return self * (1.0 / o)
+
+
+def _expr(e):
+    """A value of the kernel's arrays as a sympy expression."""
+    return e.expr() if isinstance(e, Terms) else sp.sympify(e)
 
 
 def expanded_equations(eq: Equations) -> Equations:
@@ -77,23 +143,31 @@ def expanded_equations(eq: Equations) -> Equations:
     SV, SW = el.SV[active], el.SW[active]
     Ms = sp.ImmutableMatrix(eq.mass_matrix).extract(active, active)
     fs = sp.ImmutableMatrix([eq.force_vector[j, 0] for j in active])
-    M = np.array(_matrix(SW.T) * put(Ms) * _matrix(SV), dtype=object)
-    f = np.array(_matrix(SW.T) * put(fs), dtype=object).reshape(-1)
+    def lazy(values) -> np.ndarray:
+        out = np.empty(len(values), dtype=object)
+        out[:] = [Terms([v]) for v in values]
+        return out
+
+    # S_Wᵀ M_s S_V and S_Wᵀ (q − k)_s with float matrices (their zeros cost nothing here;
+    # sympy checks every factor of a product by 0.0 for infinities)
+    M = SW.T @ lazy(list(put(Ms))).reshape(Ms.shape) @ SV
+    f = SW.T @ lazy(list(put(fs)))
     entries = []
     for s, offset in zip(el.splices, el.offsets, strict=True):
         entries.append({**s.body.data, "name": s.body.name, "first": index[s.first],
                         "kin": offset, "inertia": s.body.inertia,
                         "fixed": s.elastic_rows_only})
     S = ffrf_system(entries, len(active), SV, SW, 0, {}, None)
-    kin = np.array([put(e) for e in el.hidden], dtype=object)
-    terms = ffrf_terms(S, kin, np.array(y, dtype=object), np.array(yd, dtype=object))
-    M = ffrf_add_mass(S, M, terms)
-    f = ffrf_add_force(S, f, terms)
+    kin = lazy([put(e) for e in el.hidden])
+    terms = ffrf_terms(S, kin, lazy(y), lazy(yd))
+    M = np.vectorize(_expr, otypes=[object])(ffrf_add_mass(S, M, terms))
+    f = np.vectorize(_expr, otypes=[object])(ffrf_add_force(S, f, terms))
     loss = None
     n = len(y)
     if eq.loss_matrix is not None or any("Le" in b for b in S["bodies"]):
         # the bodies' Le from the kernel, the elements' G through S_Wᵀ G_s S_V
-        loss = _matrix(ffrf_loss_matrix(S, 0.0, np.zeros(n), None))
+        loss = _matrix(np.vectorize(_expr, otypes=[object])(
+            ffrf_loss_matrix(S, 0.0, np.zeros(n), None)))
         if eq.loss_matrix is not None:
             Gs = put(sp.ImmutableMatrix(eq.loss_matrix).extract(active, active))
             loss = loss + _matrix(SW.T) * Gs * _matrix(SV)

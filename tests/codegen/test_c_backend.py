@@ -262,14 +262,16 @@ outputs:
 
 
 @pytest.mark.parametrize("form", ["plain", "first-order stiffening", "second-order field",
-                                  "fixed frame"])
+                                  "fixed frame", "plain 10 modes"])
 def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
     """Elastic bodies in C: the kernel's terms expanded into closed expressions
     (equations/elastic_expanded.py) and compiled, against the NumPy module that embeds the
     kernel (itself checked against Newton's law of the mass points, tests/ffrf): every
     protocol function agrees to round-off — a hinged beam (3 modes; without stiffening, with
-    the first-order terms, with the second-order field) and a body on ISYS (elastic rows
-    only), with a node load, an input and an output at the node."""
+    the first-order terms, with the second-order field; 10 modes, whose long linear
+    combinations print as table rows) and a body on ISYS (elastic rows only), with a node
+    load, an input and an output at the node; the constant ``Mee`` solved by block
+    elimination, ``Mee(q)`` of the second-order field by the dense LU."""
     from neweul_py.api import load_description
     from neweul_py.elastic.invariants import compute_invariants
     from neweul_py.elastic.second_order import with_second_order
@@ -281,8 +283,9 @@ def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
 
     _lam, X = sla.eigh(b.fe.K.toarray()[np.ix_(free, free)],
                        b.fe.M.toarray()[np.ix_(free, free)])
-    V = np.zeros((b.fe.n_dofs, 3))
-    V[free] = X[:, :3]
+    nq = 10 if "10 modes" in form else 3
+    V = np.zeros((b.fe.n_dofs, nq))
+    V[free] = X[:, :nq]
     kg = b.stiffening() if "stiffening" in form or "field" in form else None
     inv = compute_invariants(b.fe, V, nodes=[9], geometric_stiffness=kg)
     if form == "second-order field":
@@ -297,6 +300,10 @@ def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
         warnings.simplefilter("error")
         mc = _fresh(write_c_module(eq, npath))
     assert mc.BACKEND == "c"
+    # a constant Mee is eliminated as a block (codegen/c_solve.py); M_ee(q) of the field not
+    c_text = (tmp_path / f"{name}_c.c").read_text()
+    assert ("#define NW_NE" in c_text) == (form != "second-order field")
+    assert ("nw_dot(NW_T" in c_text) == (nq == 10)  # Ke q … as table rows (c_printer.py)
     mnp = load_generated(npath)
     rng = np.random.default_rng(3)
     n = len(mnp.COORDINATES)
