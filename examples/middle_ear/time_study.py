@@ -213,7 +213,7 @@ def plot(path: Path, run: Run, env: dict[str, np.ndarray], qs_dp: np.ndarray,
         a.plot(1e3 * env["t"], 1e3 * np.interp(env["dp"], qs_dp, qs[key]), "r--", lw=1.0,
                label="quasi-static |H(f; Δp(t))|·|Q|")
         a.set_ylabel(f"{label} velocity [mm/s]")
-        a.legend(fontsize=7, loc="upper right")
+        a.legend(fontsize=7, loc="upper center")
         a.grid(True, lw=0.3)
     ax[2].set_xlabel("t [ms]")
     fig.tight_layout()
