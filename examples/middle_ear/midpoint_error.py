@@ -132,7 +132,8 @@ def main() -> None:
     for dp in (float(v) for v in args.pressures.split(",")):
         chain, own, node = chain_matrices(chain_mod, dp)
         fe = read_fe_model(ve.fe_model_at(dp, args.dir))
-        ref = ve.transfer(ve.reference_frf(chain_mod, ve.fe_model_at(dp, args.dir), dp, f), f)
+        ref = ve.transfer(ve.reference_frf(chain_mod, ve.fe_model_at(dp, args.dir), dp, f,
+                                            "viscous"), f)   # the body's viscous D
         near = pb.samples[int(np.argmin(np.abs(pb.samples - dp)))]
         models = {"projected": projected(fe, V, node),
                   "interpolated": body_parts(pb.at(dp), node),

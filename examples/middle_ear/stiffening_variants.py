@@ -78,7 +78,7 @@ def main() -> None:
         mod = load_generated(generate(path, args.gen))
         H = {}
         for dp in PRESSURES:
-            r = reference_frf(mod, fe_model_at(dp, args.dir), dp, f)
+            r = reference_frf(mod, fe_model_at(dp, args.dir), dp, f, "viscous")
             H[dp] = transfer(r, f) | {"malleus": r["umbo_velocity_z"] / r["p_probe"]}
         cells = ["/".join(f"{low_db(H[dp][k], H[0.0][k], f):+.1f}"
                           for k in ("umbo", "malleus", "stapes")) for dp in PRESSURES if dp]

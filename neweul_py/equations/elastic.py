@@ -262,7 +262,8 @@ class ElasticEquations:
         symbolic expression): the coordinates of the symbolic part.
     hidden
         The hidden outputs ``[kin of body 1, kin of body 2, …]`` in the active columns
-        (:meth:`ElasticSplice.expressions`), and ``offsets`` where each body's starts.
+        (:meth:`ElasticSplice.expressions`; none for a body on a fixed frame,
+        ``elastic_rows_only``), and ``offsets`` where each body's starts.
     """
 
     splices: tuple[ElasticSplice, ...]
@@ -310,7 +311,10 @@ def elastic_equations(system: System) -> ElasticEquations | None:
     offsets = []
     for s in splices:
         offsets.append(len(hidden))
-        hidden += s.expressions(list(active))
+        # a body on a fixed frame needs no Jacobian columns (they are zero): 16 entries
+        # instead of 6·len(active) + 16, whose output Jacobians codegen would otherwise
+        # differentiate and print (quadratic in the coordinates the symbolic part carries)
+        hidden += s.expressions([] if s.elastic_rows_only else list(active))
     schedules = tuple(b.schedule for b in system.elastic_bodies if b.parametric)
     jacobians = None
     if schedules:

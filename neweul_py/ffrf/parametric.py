@@ -4,7 +4,10 @@ A parametric body holds ``k`` samples of its flat invariants in common coordinat
 et al. 2010, equations.md §4, steps 1–6) at the sample values ``s_1 < … < s_k`` of its
 scheduling variable ``σ``. At every evaluation the body is ``X(σ) = Σ_i w_i(σ) X_i`` for
 every stored array — the kernel's working form is linear in the arrays, so the samples are
-prepared once and mixed (:func:`ffrf_mix`).
+prepared once, their arrays stacked into one matrix ``B`` (k, N) (:func:`ffrf_stack`, one row
+per sample, every array of the body flattened into the columns), and each evaluation mixes
+them with **one** matrix product ``w B`` (:func:`ffrf_mix`; the arrays of the mixed body are
+views into that one result): no loop over samples or arrays doing arithmetic.
 
 The weights are the cardinal functions of the interpolation, stored as piecewise cubic
 polynomials ``w_i(σ) = Σ_m c[m, j, i] (σ − s_j)^(3−m)`` on interval ``j`` (the layout of
@@ -24,7 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PARAMETRIC_FUNCTIONS", "ffrf_mix", "ffrf_weights", "weight_coefficients"]
+__all__ = ["PARAMETRIC_FUNCTIONS", "ffrf_mix", "ffrf_stack", "ffrf_weights",
+           "weight_coefficients"]
 
 
 def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
@@ -65,19 +69,59 @@ def ffrf_weights(samples, coefficients, value, name):
     return ((c[0] * dx + c[1]) * dx + c[2]) * dx + c[3]
 
 
-def ffrf_mix(samples, w):
-    """``Σ_i w_i b_i`` of prepared samples (the numeric entries; the rest from sample 1)."""
-    out = dict(samples[0])
-    for key, value in samples[0].items():
-        if isinstance(value, np.ndarray):
-            out[key] = sum(wi * b[key] for wi, b in zip(w, samples, strict=True))
-        elif key == "quad":                  # the extended body of a second-order field
-            out[key] = ffrf_mix([b[key] for b in samples], w)
-        elif key == "mass":                  # complex in the complex step in σ
-            v = sum(wi * b[key] for wi, b in zip(w, samples, strict=True))
-            out[key] = v if np.iscomplexobj(v) else float(v)
+def ffrf_stack(samples, extra=None):
+    """The mixing form of prepared samples: ``{"stack": B (k, N), "layout", "template"}``.
+
+    Every numeric entry of the sample dicts (arrays, the mass, the arrays of a nested
+    ``quad`` body of a second-order field) becomes a column block of ``B``; ``layout`` lists
+    ``(path, start, stop, shape)`` per entry and ``template`` holds the rest (sizes, flags,
+    slices) from sample 1. ``extra`` (optional): more arrays per sample, ``name → (k, …)``,
+    stacked after them (the node rows ``S_V,i``, ``S_W,i`` of the splice)."""
+    layout, columns, start = [], [], 0
+
+    def walk(path, entries):
+        nonlocal start
+        for key, value in entries[0].items():
+            if key == "quad":                 # the extended body of a second-order field
+                walk((*path, key), [e[key] for e in entries])
+            elif isinstance(value, np.ndarray) or key == "mass":
+                block = np.stack([np.asarray(e[key], dtype=np.float64) for e in entries])
+                shape = block.shape[1:]
+                size = int(np.prod(shape, dtype=np.int64))
+                layout.append(((*path, key), start, start + size, shape))
+                columns.append(block.reshape(len(entries), size))
+                start += size
+
+    walk((), samples)
+    for key, block in (extra or {}).items():
+        block = np.asarray(block, dtype=np.float64)
+        size = int(np.prod(block.shape[1:], dtype=np.int64))
+        layout.append(((key,), start, start + size, block.shape[1:]))
+        columns.append(block.reshape(block.shape[0], size))
+        start += size
+    template = {k: v for k, v in samples[0].items()
+                if not (isinstance(v, np.ndarray) or k == "mass")}
+    return {"stack": np.ascontiguousarray(np.hstack(columns)), "layout": tuple(layout),
+            "template": template}
+
+
+def ffrf_mix(mixing, w):
+    """``Σ_i w_i b_i``: the body of the weights ``w`` (k,) from :func:`ffrf_stack`'s form, by
+    one product ``w B`` (for complex ``w``, the complex step in ``σ``: one product each for the
+    real and the imaginary part, so ``B`` is never copied to complex); the arrays are views
+    into the result, the other entries those of sample 1."""
+    B = mixing["stack"]
+    flat = w @ B if not np.iscomplexobj(w) else (w.real @ B) + 1j * (w.imag @ B)
+    out = dict(mixing["template"])
+    if "quad" in out:
+        out["quad"] = dict(out["quad"])
+    for path, i, j, shape in mixing["layout"]:
+        target = out
+        for key in path[:-1]:
+            target = target[key]
+        target[path[-1]] = flat[i:j].reshape(shape) if shape else flat[i]
     return out
 
 
 #: The functions a generated module embeds for parametric bodies.
-PARAMETRIC_FUNCTIONS = (ffrf_weights, ffrf_mix)
+PARAMETRIC_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix)

@@ -41,7 +41,7 @@ from .body import (
     ffrf_strain_energy,
     ffrf_velocity_terms,
 )
-from .parametric import ffrf_mix, ffrf_weights
+from .parametric import ffrf_mix, ffrf_stack, ffrf_weights
 
 __all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force", "ffrf_add_mass",
            "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
@@ -91,30 +91,36 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     default_inputs
         ``default_inputs(t, p)`` of the module.
     parts
-        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n): its node rows per sample.
+        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n): its node rows per sample
+        (stacked with the body's arrays, :func:`~neweul_py.ffrf.parametric.ffrf_stack`).
     schedule, schedule_jacobians
         ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
         order, and ``schedule_jacobians(t, y_s, p, u)``: ``∂σ/∂y_s``, ``∂σ/∂u``.
     """
-    bodies = []
+    bodies, parts = [], list(parts)
     for entry in data:
         if "samples" in entry:
             prepared = [ffrf_prepare({k: ffrf_unpack(v) for k, v in sample.items()},
                                      entry["inertia"], entry.get("fixed", False))
                         for sample in entry["samples"]]
+            sv_i, sw_i = (ffrf_unpack(a) for a in parts.pop(0))
+            # its node rows per sample (the rows not zero in every sample) join the stack
+            rows = np.flatnonzero(np.any(sv_i, axis=(0, 2)) | np.any(sw_i, axis=(0, 2)))
             b = dict(prepared[0])
-            b.update(samples=prepared, values=ffrf_unpack(entry["values"]),
-                     coeff=ffrf_unpack(entry["coeff"]))
+            b.update(mixing=ffrf_stack(prepared, {"_sv": sv_i[:, rows], "_sw": sw_i[:, rows]}),
+                     rows=rows,
+                     values=ffrf_unpack(entry["values"]), coeff=ffrf_unpack(entry["coeff"]))
         else:
             b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"],
                              entry.get("fixed", False))
         b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
+    npar = sum("mixing" in b for b in bodies)
     return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
-            "same": bool(np.array_equal(SV, SW)) and not parts, "nhidden": nhidden,
+            "same": bool(np.array_equal(SV, SW)) and not npar, "nhidden": nhidden,
             "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30,
-            "parts": tuple((ffrf_unpack(a), ffrf_unpack(b)) for a, b in parts),
+            "parametric": npar, "memo": [None],
             "schedule": schedule, "schedule_jacobians": schedule_jacobians}
 
 
@@ -132,10 +138,21 @@ def ffrf_at(S, t, p, x=None, u=None):
     and inputs ``u``: parametric bodies mixed at their scheduling values ``σ`` and ``S_V(σ)``,
     ``S_W(σ)`` (frozen-parameter equations: the weights' time derivatives are not taken,
     :mod:`.parametric`; their dependence on ``y`` and ``u`` enters the Jacobians,
-    :func:`ffrf_sigma_terms`); ``S`` itself without parametric bodies."""
-    if not S["parts"]:
+    :func:`ffrf_sigma_terms`); ``S`` itself without parametric bodies.
+
+    The last mixed context is remembered (``S["memo"]``, one entry keyed by the bytes of
+    ``σ``): the Newton iterations of an implicit step, and the Jacobian calls at one time,
+    evaluate the module at one ``σ`` several times and mix the samples once."""
+    if not S["parametric"]:
         return S
-    return ffrf_mixed(S, ffrf_schedule(S, t, p, x, u))
+    sigma = np.asarray(ffrf_schedule(S, t, p, x, u), dtype=np.float64)
+    key = sigma.tobytes()
+    memo = S["memo"][0]
+    if memo is not None and memo[0] == key:
+        return memo[1]
+    mixed = ffrf_mixed(S, sigma)
+    S["memo"][0] = (key, mixed)
+    return mixed
 
 
 def ffrf_mixed(S, sigma):
@@ -143,16 +160,16 @@ def ffrf_mixed(S, sigma):
     complex-step derivative in ``σ``); it keeps ``base`` and ``sigma``."""
     bodies, SV, SW, k = [], S["SV"], S["SW"], 0
     for b in S["bodies"]:
-        if "samples" not in b:
+        if "mixing" not in b:
             bodies.append(b)
             continue
         w = ffrf_weights(b["values"], b["coeff"], sigma[k], b["name"])
-        mixed = ffrf_mix(b["samples"], w)
+        mixed = ffrf_mix(b["mixing"], w)    # one product w B for all arrays and node rows
         mixed.update(name=b["name"], first=b["first"], kin=b["kin"])
+        SV, SW = SV.astype(np.result_type(SV, w)), SW.astype(np.result_type(SW, w))  # copies
+        SV[b["rows"]] += mixed.pop("_sv")
+        SW[b["rows"]] += mixed.pop("_sw")
         bodies.append(mixed)
-        SVs, SWs = S["parts"][k]
-        SV = SV + np.tensordot(w, SVs, axes=1)
-        SW = SW + np.tensordot(w, SWs, axes=1)
         k += 1
     return dict(S, bodies=tuple(bodies), SV=SV, SW=SW, same=bool(np.array_equal(SV, SW)),
                 base=S, sigma=np.asarray(sigma))
@@ -203,8 +220,14 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
 
 
 def ffrf_frame(S, b, kin):
-    """``(J_V, J_W, ā, ᾱ, ω, g, v, e)`` of body ``b`` from the hidden outputs ``kin``."""
-    ns, o = S["ns"], b["kin"]
+    """``(J_V, J_W, ā, ᾱ, ω, g, v, e)`` of body ``b`` from the hidden outputs ``kin`` (a body
+    on a fixed frame has no Jacobian entries there: its ``J_V = J_W = 0``)."""
+    o = b["kin"]
+    if "fixed" in b:
+        tail = kin[o:o + 16]
+        zero = np.zeros((6, S["n"]), dtype=kin.dtype)
+        return zero, zero, tail[0:3], tail[3:6], tail[6:9], tail[9:12], tail[12:15], tail[15]
+    ns = S["ns"]
     JT = kin[o:o + 3 * ns].reshape(3, ns)
     JR = kin[o + 3 * ns:o + 6 * ns].reshape(3, ns)
     tail = kin[o + 6 * ns:o + 6 * ns + 16]
@@ -258,6 +281,15 @@ def ffrf_add_force(S, f, terms):
     return f
 
 
+def ffrf_sandwich(SW, A, SV):
+    """``S_Wᵀ A S_V`` through the rows and columns of ``A`` that are not zero: the symbolic
+    part's matrices vanish on the node coordinates that carry no mass or force element, and
+    ``S_V`` has a row per symbolic coordinate (``ns`` can be far above the rows in use)."""
+    r = np.flatnonzero(np.any(A, axis=1))
+    c = np.flatnonzero(np.any(A, axis=0))
+    return SW[r].T @ (A[np.ix_(r, c)] @ SV[c])
+
+
 def ffrf_kin(S, t, y, yd, p, u):
     """The hidden outputs (frame kinematics of the bodies) at ``y_s = S_V y``."""
     xs = np.concatenate((S["SV"] @ y, S["SV"] @ yd))
@@ -270,7 +302,7 @@ def ffrf_mass_matrix(S, t, y, p, u=None):
     z = np.zeros_like(y)
     terms = ffrf_terms(S, ffrf_kin(S, t, y, z, p, u), y, z)
     Ms = S["rigid"]["mass_matrix"](t, S["SV"] @ y, p, u)
-    return ffrf_add_mass(S, S["SW"].T @ Ms @ S["SV"], terms)
+    return ffrf_add_mass(S, ffrf_sandwich(S["SW"], Ms, S["SV"]), terms)
 
 
 def ffrf_force_vector(S, t, y, yd, p, u=None):
@@ -289,7 +321,8 @@ def ffrf_rhs(S, t, x, p, u=None):
     y, yd = x[:n], x[n:2 * n]
     terms = ffrf_terms(S, ffrf_kin(S, t, y, yd, p, u), y, yd)
     ys, yds = S["SV"] @ y, S["SV"] @ yd
-    M = ffrf_add_mass(S, S["SW"].T @ S["rigid"]["mass_matrix"](t, ys, p, u) @ S["SV"], terms)
+    M = ffrf_add_mass(S, ffrf_sandwich(S["SW"], S["rigid"]["mass_matrix"](t, ys, p, u), S["SV"]),
+                      terms)
     f = ffrf_add_force(S, S["SW"].T @ S["rigid"]["force_vector"](t, ys, yds, p, u), terms)
     xd = np.empty(2 * n)
     xd[:n] = yd
@@ -303,7 +336,19 @@ def ffrf_kin_jacobians(S, t, y, yd, p, u):
     xs = np.concatenate((S["SV"] @ y, S["SV"] @ yd))
     Cs, Ds = S["rigid"]["output_jacobians"](t, xs, p, u)
     Cs, ns = Cs[S["nhidden"]:], S["ns"]
-    return Cs[:, :ns] @ S["SV"], Cs[:, ns:] @ S["SV"], Ds[S["nhidden"]:]
+    return (ffrf_sparse_product(Cs[:, :ns], S["SV"]), ffrf_sparse_product(Cs[:, ns:], S["SV"]),
+            Ds[S["nhidden"]:])
+
+
+def ffrf_sparse_product(A, B):
+    """``A B`` through the rows and columns of ``A`` that are not zero (the frame
+    kinematics of a body on a fixed frame are zero, and ``6 ns + 16`` rows per body times
+    ``S_V`` would be the largest product of a Jacobian)."""
+    r = np.flatnonzero(np.any(A, axis=1))
+    c = np.flatnonzero(np.any(A, axis=0))
+    out = np.zeros((A.shape[0], B.shape[1]), dtype=np.result_type(A, B))
+    out[r] = A[np.ix_(r, c)] @ B[c]
+    return out
 
 
 def ffrf_force_directional(S, kin, y, yd, directions):
@@ -319,6 +364,24 @@ def ffrf_force_directional(S, kin, y, yd, directions):
     return out
 
 
+def ffrf_moving(S):
+    """The context with only the bodies whose frame moves (the others are linear in their
+    coordinates and need no complex step)."""
+    return dict(S, bodies=tuple(b for b in S["bodies"] if "fixed" not in b))
+
+
+def ffrf_fixed_force_jacobians(S, fy, fyd):
+    """The Jacobians of the elastic rows of bodies on a fixed frame, in place: their load
+    ``Ct (ā − g) + Ke q + De q̇ + kσ`` is linear in ``q``, ``q̇`` and ``ā − g`` is constant (the
+    frame never moves), so ``∂/∂q = Ke`` and ``∂/∂q̇ = De``."""
+    for b in S["bodies"]:
+        if "fixed" not in b:
+            continue
+        e = slice(b["first"], b["first"] + b["nq"])
+        fy[e, e] -= b["Ke"]
+        fyd[e, e] -= b["De"]
+
+
 def ffrf_force_jacobians(S, t, y, yd, p, u=None):
     """``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` (n, n) and ``∂(q−k)/∂u`` (n, nu)."""
     y = np.asarray(y, dtype=np.float64)
@@ -327,15 +390,20 @@ def ffrf_force_jacobians(S, t, y, yd, p, u=None):
         u = S["default_inputs"](t, p)
     SV, SW, n = S["SV"], S["SW"], S["n"]
     fys, fyds, fus = S["rigid"]["force_jacobians"](t, SV @ y, SV @ yd, p, u)
-    fy, fyd, fu = SW.T @ fys @ SV, SW.T @ fyds @ SV, SW.T @ fus
-    kin = ffrf_kin(S, t, y, yd, p, u)
-    Ky, Kyd, Ku = ffrf_kin_jacobians(S, t, y, yd, p, u)
-    z, eye = np.zeros(n), np.eye(n)
-    fy += ffrf_force_directional(S, kin, y, yd, [(Ky[:, j], eye[j], z) for j in range(n)])
-    fyd += ffrf_force_directional(S, kin, y, yd, [(Kyd[:, j], z, eye[j]) for j in range(n)])
-    if fu.shape[1]:
-        fu += ffrf_force_directional(S, kin, y, yd,
-                                     [(Ku[:, k], z, z) for k in range(fu.shape[1])])
+    fy, fyd = ffrf_sandwich(SW, fys, SV), ffrf_sandwich(SW, fyds, SV)
+    fu = SW.T @ fus
+    ffrf_fixed_force_jacobians(S, fy, fyd)
+    Sm = ffrf_moving(S)
+    if Sm["bodies"]:                          # complex steps for the moving bodies only
+        kin = ffrf_kin(S, t, y, yd, p, u)
+        Ky, Kyd, Ku = ffrf_kin_jacobians(S, t, y, yd, p, u)
+        z, eye = np.zeros(n), np.eye(n)
+        fy += ffrf_force_directional(Sm, kin, y, yd, [(Ky[:, j], eye[j], z) for j in range(n)])
+        fyd += ffrf_force_directional(Sm, kin, y, yd,
+                                      [(Kyd[:, j], z, eye[j]) for j in range(n)])
+        if fu.shape[1]:
+            fu += ffrf_force_directional(Sm, kin, y, yd,
+                                         [(Ku[:, k], z, z) for k in range(fu.shape[1])])
     sens = ffrf_sigma_sensitivity(S, t, y, p, u)
     if sens is not None:                      # the weights move with y and u
         Fs = ffrf_sigma_terms(S, t, y, yd, p, u)
@@ -351,16 +419,20 @@ def ffrf_mass_matrix_times_derivative(S, t, y, p, a, u=None):
     if u is None:
         u = S["default_inputs"](t, p)
     SV, SW, n, h = S["SV"], S["SW"], S["n"], S["step"]
-    dMa = SW.T @ S["rigid"]["mass_matrix_times_derivative"](t, SV @ y, p, SV @ a, u) @ SV
+    dMa = ffrf_sandwich(SW, S["rigid"]["mass_matrix_times_derivative"](t, SV @ y, p, SV @ a, u),
+                        SV)
     z = np.zeros(n)
-    kin = ffrf_kin(S, t, y, z, p, u)
-    Ky = ffrf_kin_jacobians(S, t, y, z, p, u)[0]
-    zero = np.zeros((n, n), dtype=complex)
-    for j in range(n):
-        dy = np.zeros(n)
-        dy[j] = 1.0
-        Mc = ffrf_add_mass(S, zero, ffrf_terms(S, kin + 1j * h * Ky[:, j], y + 1j * h * dy, z))
-        dMa[:, j] += (Mc @ a).imag / h
+    Sm = ffrf_moving(S)                      # M_b of a body on a fixed frame is constant
+    if Sm["bodies"]:
+        kin = ffrf_kin(S, t, y, z, p, u)
+        Ky = ffrf_kin_jacobians(S, t, y, z, p, u)[0]
+        zero = np.zeros((n, n), dtype=complex)
+        for j in range(n):
+            dy = np.zeros(n)
+            dy[j] = 1.0
+            Mc = ffrf_add_mass(Sm, zero, ffrf_terms(Sm, kin + 1j * h * Ky[:, j],
+                                                    y + 1j * h * dy, z))
+            dMa[:, j] += (Mc @ a).imag / h
     sens = ffrf_sigma_sensitivity(S, t, y, p, u)
     if sens is not None:
         dMa += ffrf_sigma_terms(S, t, y, z, p, u, a) @ sens[0]
@@ -485,7 +557,7 @@ def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
     poses ``r`` (nF, 3), ``R`` (nF, 3, 3) or −1 for ISYS, ``samples``: the packed node data
     ``origin`` (nk, 3), ``phi`` (nk, 3, nq) per sample, and for parametric bodies ``values``,
     ``coeff``, ``k``): its nodes at ``x_P + Φ_P q`` in ISYS (nk, 3), mixed at the schedule."""
-    sigma = ffrf_schedule(S, t, p, x, u) if S["parts"] else ()
+    sigma = ffrf_schedule(S, t, p, x, u) if S["parametric"] else ()
     out = []
     for b in nodes:
         samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b["samples"]]
@@ -493,7 +565,7 @@ def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
         if "values" in b:
             w = ffrf_weights(ffrf_unpack(b["values"]), ffrf_unpack(b["coeff"]), sigma[b["k"]],
                              b["name"])
-            cloud = ffrf_mix(samples, w)
+            cloud = ffrf_mix(ffrf_stack(samples), w)
         q = x[b["first"]:b["first"] + b["nq"]]
         local = cloud["origin"] + cloud["phi"] @ q
         f = b["frame"]
@@ -521,9 +593,11 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unpack, ffrf_system, ffrf_schedule, ffrf_at,
-                    ffrf_mixed, ffrf_sigma_sensitivity, ffrf_sigma_steps, ffrf_sigma_terms,
-                    ffrf_dsv, ffrf_frame,
-                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_kin, ffrf_kin_jacobians,
-                    ffrf_force_directional, ffrf_symbolic_state, ffrf_node_positions,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system,
+                    ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
+                    ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_sandwich, ffrf_kin,
+                    ffrf_kin_jacobians, ffrf_sparse_product,
+                    ffrf_force_directional, ffrf_moving, ffrf_fixed_force_jacobians,
+                    ffrf_symbolic_state, ffrf_node_positions,
                     *PROTOCOL.values())

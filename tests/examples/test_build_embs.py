@@ -116,7 +116,8 @@ def test_refined_body_between_samples_against_the_fe_model_linearized_there(tmp_
     for dp in (-1400.0, 600.0, 2600.0):
         assert dp not in pb.samples
         chain, own, node = me.chain_matrices(chain_mod, dp)
-        ref = ve.transfer(ve.reference_frf(chain_mod, ve.fe_model_at(dp, data), dp, f), f)
+        ref = ve.transfer(ve.reference_frf(chain_mod, ve.fe_model_at(dp, data), dp, f,
+                                            "viscous"), f)   # as reduced_coupled's D
         got = me.as_transfer(me.reduced_coupled(*me.body_parts(pb.at(dp), node), chain, own,
                                                 f), f)
         for key in ("umbo", "stapes"):
