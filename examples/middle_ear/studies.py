@@ -43,7 +43,7 @@ from chain_factor import (
     sweep_tangents,
     umbo_stiffness,
 )
-from validate_embs import DESCRIPTION, HERE, embs_frf, parameters_at, transfer
+from validate_embs import DESCRIPTION, HERE, embs_frf, parameters_at, require_build, transfer
 
 PRESSURES = np.arange(-4000.0, 4001.0, 1000.0)
 GYO_GOODE = {1000.0: (-5.0, 1.0), 2000.0: (-9.2, 1.3), 3000.0: (-13.1, 1.8)}  # dB, mean ± sd
@@ -114,12 +114,16 @@ def low_db(h: np.ndarray, h0: np.ndarray, f: np.ndarray) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dir", type=Path, default=HERE / "data")
-    ap.add_argument("--out", type=Path, default=None)
-    ap.add_argument("--nf", type=int, default=80)
+    ap.add_argument("--dir", type=Path, default=HERE / "data",
+                    help="the build of build_embs.py (read only; default examples/middle_ear/data)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="tables, CSV, plots and generated modules (default DIR/studies)")
+    ap.add_argument("--nf", type=int, default=80,
+                    help="log-spaced frequencies 100 Hz–8 kHz (default 80)")
     ap.add_argument("--no-time", action="store_true",
                     help="accepted and ignored (the time study is time_study.py)")
     args = ap.parse_args()
+    require_build(args.dir, float(PRESSURES.min()), float(PRESSURES.max()))
     out = args.out or args.dir / "studies"
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Middle-ear EMBS studies (examples/middle_ear/studies.py)", ""]

@@ -51,7 +51,7 @@ from neweul_py.progress import Tracker
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from chain_factor import retarget
-from validate_embs import DESCRIPTION, HERE
+from validate_embs import DESCRIPTION, HERE, require_build
 
 #: The swallow-like bump 0 → 1 → 0 over 0 ≤ t ≤ t_ramp (no piecewise(): the chain factor
 #: compares dp in its own piecewise(), and comparisons may not contain one).
@@ -222,20 +222,31 @@ def plot(path: Path, run: Run, env: dict[str, np.ndarray], qs_dp: np.ndarray,
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dir", type=Path, default=HERE / "data")
-    ap.add_argument("--out", type=Path, default=None)
-    ap.add_argument("--plot", type=Path, default=HERE / "embs_ramp.png")
-    ap.add_argument("--f-tone", type=float, default=1000.0)
+    ap.add_argument("--dir", type=Path, default=HERE / "data",
+                    help="the build of build_embs.py (read only; default examples/middle_ear/data)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="traces, tables, generated module (default DIR/time_study)")
+    ap.add_argument("--plot", type=Path, default=None,
+                    help="the figure (default OUT/embs_ramp.png; the README's is "
+                    "examples/middle_ear/embs_ramp.png)")
+    ap.add_argument("--f-tone", type=float, default=1000.0, help="tone [Hz] (default 1000)")
     ap.add_argument("--q-amp", type=float, default=1e-5, help="tone amplitude [m^3/s^2]")
-    ap.add_argument("--dp-peak", type=float, default=2000.0)
-    ap.add_argument("--t-ramp", type=float, default=0.35)
-    ap.add_argument("--steps-per-period", type=int, default=100)
-    ap.add_argument("--rho-inf", type=float, default=0.8)
+    ap.add_argument("--dp-peak", type=float, default=2000.0,
+                    help="ramp amplitude [Pa] (default 2000: a middle-ear pressure of -2 kPa)")
+    ap.add_argument("--t-ramp", type=float, default=0.35,
+                    help="ramp duration [s] (default 0.35; e.g. 0.02 for a quick run)")
+    ap.add_argument("--steps-per-period", type=int, default=100,
+                    help="generalized-alpha steps per tone period (default 100)")
+    ap.add_argument("--rho-inf", type=float, default=0.8, help="spectral radius at infinity")
     ap.add_argument("--method", default="generalized-alpha")
-    ap.add_argument("--check-periods", type=int, default=10)
-    ap.add_argument("--check-only", action="store_true")
+    ap.add_argument("--check-periods", type=int, default=10,
+                    help="periods of the check at constant dp (default 10)")
+    ap.add_argument("--check-only", action="store_true",
+                    help="only the check at constant dp against the FRF (seconds)")
     args = ap.parse_args()
+    require_build(args.dir, 0.0, args.dp_peak)
     out = args.out or args.dir / "time_study"
+    args.plot = args.plot or out / "embs_ramp.png"
     f, spp = args.f_tone, args.steps_per_period
     wall = time.perf_counter()
     t0 = time.perf_counter()

@@ -90,6 +90,20 @@ def retarget_description(text: str, manubrium: list[int], data: Path, body: str)
     return yaml.safe_dump(d, sort_keys=False)
 
 
+def require_build(data: Path, *dps: float) -> None:
+    """Stop with one line unless ``data`` holds a build of ``build_embs.py`` whose sweep
+    covers every Δp in ``dps`` (the body refuses extrapolation)."""
+    sweep, body = data / "fem" / "sweep.json", data / "embs" / "tm_air.npz"
+    if not sweep.is_file() or not body.is_file():
+        raise SystemExit(f"{data}: no middle-ear build here (run examples/middle_ear/"
+                         f"build_embs.py --dir {data} first)")
+    pts = [float(w["dp_Pa"]) for w in json.loads(sweep.read_text())["working_points"]]
+    bad = [dp for dp in dps if not min(pts) <= dp <= max(pts)]
+    if bad:
+        raise SystemExit(f"{data}: Δp = {bad[0]:g} Pa is outside the sweep "
+                         f"[{min(pts):g}, {max(pts):g}] Pa (no extrapolation)")
+
+
 def model_path(fem: Path, dp: float) -> Path:
     return fem / f"model_dp{int(dp):+06d}.npz"
 

@@ -154,7 +154,9 @@ def check_overrides(module: Any, args: argparse.Namespace) -> None:
     with np.errstate(all="ignore"):
         try:
             m = np.asarray(module.mass_matrix(0.0, x0[:n], p), dtype=float)
-        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+        except ValueError as exc:     # e.g. a schedule value outside a body's sampled range
+            raise NeweulError(f"with {what}: {exc}") from None
+        except (ArithmeticError, np.linalg.LinAlgError):
             m = np.full((1, 1), np.nan)
     if not np.all(np.isfinite(m)):
         raise NeweulError(f"with {what} the mass matrix at the initial state is not finite")
@@ -167,6 +169,26 @@ def check_overrides(module: Any, args: argparse.Namespace) -> None:
                 f"semidefinite (smallest eigenvalue {lo:.3g}): a negative mass or inertia, "
                 "which a description refuses"
             )
+    _check_loss_override(module, x0, p, what)
+
+
+def _check_loss_override(module: Any, x0: Any, p: Any, what: str) -> None:
+    """Symmetric models: the hysteretic matrix ``G`` at the initial state must be positive
+    semidefinite, as every ``loss_factor ≥ 0`` makes it (a negative loss factor given with
+    ``-p`` is refused like a negative mass; docs/equations.md §1.1)."""
+    import numpy as np
+
+    loss = getattr(module, "loss_matrix", None)
+    if loss is None or not getattr(module, "MASS_MATRIX_SYMMETRIC", False):
+        return
+    with np.errstate(all="ignore"):
+        g = np.asarray(loss(0.0, x0, p), dtype=float)
+    if g.size and np.all(np.isfinite(g)):
+        lo = float(np.linalg.eigvalsh(0.5 * (g + g.T))[0])
+        if lo < -1e-12 * (float(np.abs(g).max()) or 1.0):
+            raise NeweulError(f"with {what} the loss matrix G at the initial state is not "
+                              f"positive semidefinite (smallest eigenvalue {lo:.3g}): a "
+                              "negative loss factor, which a description refuses")
 
 
 def parameters(args: argparse.Namespace) -> dict[str, float] | None:

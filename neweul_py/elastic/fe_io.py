@@ -125,6 +125,9 @@ def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "m
         load case → (n,) static response ``u_c`` (stiffening: ``.npz`` only).
     """
     path = Path(path)
+    if fe.G is not None and path.suffix.lower() != ".npz":
+        raise DataError("the loss group (hysteretic matrix G) is written to .npz files only",
+                        str(path), "G")
     extra = _optional_groups(fe, node_sets, stiffening, path, stiffening_responses)
     if path.suffix.lower() == ".npz":
         _write_npz(fe, path, extra)

@@ -273,6 +273,9 @@ class FEModel:
         if f is None or not _is_real_number(f) or not np.isfinite(f) or f <= 0:
             raise DataError(f"the hysteretic matrix G needs a positive reference frequency in "
                             f"Hz, got {f!r}", self.source, "loss_reference_frequency")
+        if self.D is None:      # the loss form subtracts G/ω_ref from D (equations.md §1.1)
+            raise DataError("a hysteretic matrix G needs the time-domain damping D, which "
+                            "contains its equivalent G/ω_ref", self.source, "D")
         object.__setattr__(self, "loss_reference_frequency", float(f))
 
     def _check_up_blocks(self, is_p: np.ndarray) -> None:
@@ -326,7 +329,8 @@ class FEModel:
             h.update(f"{tag}:{a.dtype.str}:{a.shape}".encode())
             h.update(a.tobytes())
 
-        for key in ("M", "K", "D"):
+        keys = ("M", "K", "D") + (("G",) if self.G is not None else ())
+        for key in keys:    # G only when present: fingerprints of lossless models unchanged
             a = getattr(self, key)
             if a is None:
                 h.update(f"{key}:none".encode())
@@ -337,6 +341,8 @@ class FEModel:
             add(f"{key}.indptr", a.indptr.astype(np.int64))
             add(f"{key}.indices", a.indices.astype(np.int64))
             add(f"{key}.data", a.data)
+        if self.G is not None:
+            h.update(f"f_ref:{self.loss_reference_frequency!r}".encode())
         add("nodes", self.nodes)
         add("dof_node", self.dof_node)
         add("dof_kind", self.dof_kind.astype("U2"))

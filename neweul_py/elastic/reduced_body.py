@@ -241,6 +241,9 @@ class ReducedBody:
                 raise DataError("a loss reference frequency without a hysteretic matrix G",
                                 None, "loss_reference_frequency")
             return
+        if self.D is None:      # the loss form subtracts G/ω_ref from D (equations.md §1.1)
+            raise DataError("a hysteretic matrix G needs the time-domain damping D, which "
+                            "contains its equivalent G/ω_ref", None, "D")
         g = np.asarray(self.G, dtype=np.float64)
         if g.shape != (r, r):
             raise DataError(f"must be {r}×{r}, got {g.shape}", None, "G")

@@ -240,3 +240,24 @@ def test_a_missing_command_module_fails_loudly(monkeypatch):
     monkeypatch.setattr(cli, "COMMAND_MODULES", (*cli.COMMAND_MODULES, "no_such_command"))
     with pytest.raises(ModuleNotFoundError, match="no_such_command"):
         cli.build_parser()
+
+
+def test_negative_loss_factor_is_refused_like_a_negative_mass(capsys, tmp_path):
+    """``-p eta=-1`` on a spring with ``loss_factor: eta``: a description refuses η < 0 at
+    its defaults; the override makes the hysteretic matrix G = η k at the initial state
+    negative (closed form for one spring), one error line."""
+    desc = tmp_path / "sdof.yaml"
+    desc.write_text(
+        "name: sdof_loss\ngravity: [0, 0, 0]\nparameters: {m: 2.0, k: 1000.0, eta: 0.05}\n"
+        "coordinates: {x: 0.0}\ninputs: {F: 0}\nframes: {cart: {translation: [x, 0, 0]}}\n"
+        "bodies: {block: {frame: cart, mass: m, inertia: {diag: [0, 0, 0]}}}\n"
+        "forces:\n  spring: {type: spring_damper, between: [ISYS, cart], points: "
+        "[[-1, 0, 0], [0, 0, 0]], length: 1.0, stiffness: k, loss_factor: eta}\n"
+        "  drive: {type: generalized, coordinate: x, value: F}\n")
+    code, _, err = _run(capsys, "frf", str(desc), "--input", "F", "--response", "x",
+                        "--f", "1,2", "-p", "eta=-1")
+    assert code == 1 and err.count("\n") == 1, err
+    assert "eta = -1" in err and "negative loss factor" in err
+    code, _, err = _run(capsys, "frf", str(desc), "--input", "F", "--response", "x",
+                        "--f", "1,2", "-p", "eta=0.1")
+    assert code == 0, err

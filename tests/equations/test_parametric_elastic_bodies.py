@@ -155,3 +155,18 @@ def test_bad_schedules_name_the_key(parametric, schedule, words) -> None:
         generate(tmp / "bad.yaml", tmp / "gen_bad")
     assert "elastic_bodies.duct.schedule" in str(info.value)
     assert words in str(info.value)
+
+
+def test_schedule_outside_the_samples_from_the_command_line_names_the_range(parametric,
+                                                                          capsys) -> None:
+    """``neweul frf … -p cs=500``: one error line naming the body, the value and the sampled
+    range (it said "the mass matrix at the initial state is not finite"). Reference: the
+    samples 300 and 390 of the fixture."""
+    from neweul_py.cli import main
+
+    tmp, _pb = parametric
+    (tmp / "cli.yaml").write_text(_description("duct.npz", "cs", 343.0))
+    code = main(["frf", str(tmp / "cli.yaml"), "--f", "100,200", "-p", "cs=500"])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and err.count("\n") == 0, err
+    assert "'duct'" in err and "500" in err and "[300, 390]" in err, err
