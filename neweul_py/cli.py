@@ -119,7 +119,6 @@ GC_THRESHOLDS = (20_000, 10, 10)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``neweul`` console script."""
-    gc.set_threshold(*GC_THRESHOLDS)
     parser = build_parser()
     args = parser.parse_args(argv)
 
@@ -127,10 +126,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"neweul {args.command}: warning: {message}", file=sys.stderr)
 
     previous, warnings.showwarning = warnings.showwarning, one_line
+    gc_before = gc.get_threshold()      # restored: in-process callers keep their own
+    gc.set_threshold(*GC_THRESHOLDS)
     try:
         return _run(args)
     finally:
         warnings.showwarning = previous
+        gc.set_threshold(*gc_before)
 
 
 def _run(args: argparse.Namespace) -> int:
