@@ -187,6 +187,9 @@ def read_yaml(text: str, file: str = "<description>") -> YamlTree:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         problem = " ".join(str(p) for p in (exc.context, exc.problem) if p)
+        if "maximum nesting depth" in problem:  # libyaml ≥ 0.2.5's scanner looks ahead
+            raise DescriptionError(f"the document is nested more than {MAX_DEPTH} levels "
+                                   "deep", "", file, mark.line + 1 if mark else None) from None
         raise DescriptionError(
             f"malformed YAML: {problem or exc}", "", file, mark.line + 1 if mark else None
         ) from None
