@@ -331,7 +331,10 @@ def sweep(
         nthreads = max(1, sum(client.nthreads().values()))
         size = chunk_size or max(1, math.ceil(len(cases) / (4 * nthreads)))
         chunks = [cases[i:i + size] for i in range(0, len(cases), size)]
-        shipped = client.scatter(source, broadcast=True)  # the module, once per worker
+        # the module, once per worker; a fresh key per sweep (hash=False): with the content
+        # hash as key, a sweep of the same module right after another could be handed the
+        # previous sweep's scattered data while the workers were releasing it
+        shipped = client.scatter(source, broadcast=True, hash=False)
         futures = [client.submit(run_cases, shipped, task, options, c, pure=False)
                    for c in chunks]
         index = {f.key: k for k, f in enumerate(futures)}
