@@ -12,6 +12,7 @@ import argparse
 
 import numpy as np
 
+from ..errors import NeweulError
 from . import assignment
 
 #: Node lines shown per state: every node with an interface force, then others up to this.
@@ -56,17 +57,23 @@ def _state(label: str, nodes: np.ndarray, st, outputs: tuple[str, ...]) -> list[
 def run(args: argparse.Namespace) -> int:
     """Print the summary (one block per working point with a static state)."""
     from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
-    from .frf_body import load_body
+    from ..elastic.reduced_body import load_reduced_body
+    from .frf_body import body_at
 
     parametric = is_parametric_body_file(args.body)
-    pb = load_parametric_body(args.body) if parametric else None
-    body = load_body(args.body, args.at) if (args.at or not parametric) else pb.at(pb.samples[0])
+    pb = load_parametric_body(args.body) if parametric else None     # the file read once
+    if pb is None and args.at is not None:
+        raise NeweulError(f"{args.body}: --at applies to parametric bodies; this is a "
+                          "reduced body")
+    body = (load_reduced_body(args.body) if pb is None
+            else body_at(pb, args.body, args.at) if args.at is not None else None)
+    shape = pb if body is None else body                 # order, nodes and names of both
     lines = [f"{args.body}: {'parametric' if parametric else 'reduced'} body of order "
-             f"{body.order}, {body.nodes.shape[0]} kept nodes "
-             f"({', '.join(str(int(n)) for n in body.nodes[:SHOWN, 0])}"
-             f"{' …' if body.nodes.shape[0] > SHOWN else ''})",
-             f"  inputs: {', '.join(body.input_names) or '-'}",
-             f"  outputs: {', '.join(body.output_names) or '-'}"]
+             f"{shape.order}, {shape.nodes.shape[0]} kept nodes "
+             f"({', '.join(str(int(n)) for n in shape.nodes[:SHOWN, 0])}"
+             f"{' …' if shape.nodes.shape[0] > SHOWN else ''})",
+             f"  inputs: {', '.join(shape.input_names) or '-'}",
+             f"  outputs: {', '.join(shape.output_names) or '-'}"]
     if pb is not None:
         lines.append(f"  {pb.n_samples} samples of {pb.parameter} in [{pb.range[0]:g}, "
                      f"{pb.range[1]:g}] ({pb.interpolation} weights): "
@@ -84,6 +91,6 @@ def run(args: argparse.Namespace) -> int:
                      "configuration)")
     for label, st in states:
         if st is not None:
-            lines += _state(label, body.nodes, st, body.output_names)
+            lines += _state(label, shape.nodes, st, shape.output_names)
     print("\n".join(lines))
     return 0

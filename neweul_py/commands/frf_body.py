@@ -19,6 +19,7 @@ from . import common as common
 from .compare_frf import add_body_frf_arguments, frequency_grid
 
 if TYPE_CHECKING:
+    from ..elastic.interpolation import ParametricBody
     from ..elastic.reduced_body import ReducedBody
 
 
@@ -44,21 +45,26 @@ def load_body(path: str, at: tuple[str, float] | None) -> ReducedBody:
     from ..elastic.reduced_body import load_reduced_body
 
     if is_parametric_body_file(path):
-        pb = load_parametric_body(path)
-        lo, hi = pb.range
-        if at is None:
-            raise NeweulError(f"{path}: a parametric body of {pb.parameter!r}: give --at "
-                              f"{pb.parameter}=VALUE in [{lo:g}, {hi:g}]")
-        if at[0] != pb.parameter:
-            raise NeweulError(f"{path}: --at names {at[0]!r}, the body's parameter is "
-                              f"{pb.parameter!r}")
-        try:
-            return pb.at(at[1])
-        except DataError as exc:
-            raise DataError(exc.message, path, exc.item) from None
+        return body_at(load_parametric_body(path), path, at)
     if at is not None:
         raise NeweulError(f"{path}: --at applies to parametric bodies; this is a reduced body")
     return load_reduced_body(path)
+
+
+def body_at(pb: ParametricBody, path: str, at: tuple[str, float] | None) -> ReducedBody:
+    """The parametric body ``pb`` (read from ``path``) at ``at = (name, value)``; one error
+    naming the file without ``at``, for another parameter or outside the sampled range."""
+    lo, hi = pb.range
+    if at is None:
+        raise NeweulError(f"{path}: a parametric body of {pb.parameter!r}: give --at "
+                          f"{pb.parameter}=VALUE in [{lo:g}, {hi:g}]")
+    if at[0] != pb.parameter:
+        raise NeweulError(f"{path}: --at names {at[0]!r}, the body's parameter is "
+                          f"{pb.parameter!r}")
+    try:
+        return pb.at(at[1])
+    except DataError as exc:
+        raise DataError(exc.message, path, exc.item) from None
 
 
 def _table(f: np.ndarray, H: np.ndarray, outputs: list[str], in_band: np.ndarray | None
