@@ -15,7 +15,7 @@ for a spring–damper, ``η (c_jᵀ K_t c_k + J_R,jᵀ K_r J_R,k)`` for a bushin
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import sympy as sp
 
@@ -78,6 +78,17 @@ def _add_loss(loss: LossTerms | None, eta_k: object, rows: list[sp.Expr],
         for k, b in enumerate(cols):
             if not is_zero(b):
                 loss.setdefault((j, k), []).append(eta_k * a * b)
+
+
+def _add_matrix_loss(loss: LossTerms | None, eta: object, K: Sequence[Sequence[object]],
+                     cols: list) -> None:
+    """``G += η Σ_ab K_ab c_a c_bᵀ`` for a 3×3 stiffness ``K`` acting on the relative
+    displacement (or rotation) whose Jacobian columns are ``cols`` (a bushing's translation
+    and rotation alike)."""
+    for a in range(3):
+        for b in range(3):
+            if not is_zero(K[a][b]):
+                _add_loss(loss, eta * K[a][b], [c[a] for c in cols], [c[b] for c in cols])
 
 
 def _needs_no_direction(fe: SpringDamper) -> bool:
@@ -257,11 +268,7 @@ def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str,
         )
         f = ws.let_vec(add(mat_vec(Kt, dr), mat_vec(Dt, rate)), f"fb_{name}")
         if not is_zero(eta) and not zero(Kt):
-            for a in range(3):
-                for b in range(3):
-                    if not is_zero(Kt[a][b]):
-                        _add_loss(loss, eta * Kt[a][b], [c[a] for c in cols],
-                                  [c[b] for c in cols])
+            _add_matrix_loss(loss, eta, Kt, cols)
         for j in range(n):
             term = dot(cols[j], f)
             if not is_zero(term):
@@ -277,11 +284,7 @@ def bushing(kin: Kinematics, fe: Bushing, terms: Terms, path: str,
         )
         w_rel, jr = _relative_angular(kin, A, B, name)
         if not is_zero(eta) and not zero(Kr):
-            for a in range(3):
-                for b in range(3):
-                    if not is_zero(Kr[a][b]):
-                        _add_loss(loss, eta * Kr[a][b], [c[a] for c in jr],
-                                  [c[b] for c in jr])
+            _add_matrix_loss(loss, eta, Kr, jr)
         torque = ws.let_vec(
             scale(-1, add(mat_vec(Kr, theta), mat_vec(Dr, w_rel))), f"lb_{name}"
         )
