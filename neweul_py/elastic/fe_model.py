@@ -49,6 +49,25 @@ def _is_real_number(x: object) -> bool:
             and np.ndim(x) == 0)
 
 
+def loss_reference(G: object, f: object, D: object, source: str | None) -> float | None:
+    """The reference frequency of a hysteretic matrix ``G`` (docs/equations.md §1.1), checked:
+    ``G`` and ``f`` come together, ``f`` is a positive finite number [Hz], and the time-domain
+    damping ``D`` (which contains ``G/ω_ref``, subtracted by the loss form) is there. ``None``
+    without ``G``. FE models, reduced and parametric bodies share this rule."""
+    if G is None:
+        if f is not None:
+            raise DataError("a loss reference frequency without a hysteretic matrix G",
+                            source, "loss_reference_frequency")
+        return None
+    if f is None or not _is_real_number(f) or not np.isfinite(f) or f <= 0:
+        raise DataError(f"the hysteretic matrix G needs a positive reference frequency in "
+                        f"Hz, got {f!r}", source, "loss_reference_frequency")
+    if D is None:
+        raise DataError("a hysteretic matrix G needs the time-domain damping D, which "
+                        "contains its equivalent G/ω_ref", source, "D")
+    return float(f)
+
+
 def asymmetry(a: sps.spmatrix) -> float:
     """``max|A − Aᵀ| / max|A|`` (0 for the zero matrix)."""
     scale = _max_abs(a)
@@ -263,20 +282,9 @@ class FEModel:
         self._check_loss()
 
     def _check_loss(self) -> None:
-        """``G`` and ``loss_reference_frequency`` come together; ``f_ref`` > 0, finite."""
-        f = self.loss_reference_frequency
-        if self.G is None:
-            if f is not None:
-                raise DataError("a loss reference frequency without a hysteretic matrix G",
-                                self.source, "loss_reference_frequency")
-            return
-        if f is None or not _is_real_number(f) or not np.isfinite(f) or f <= 0:
-            raise DataError(f"the hysteretic matrix G needs a positive reference frequency in "
-                            f"Hz, got {f!r}", self.source, "loss_reference_frequency")
-        if self.D is None:      # the loss form subtracts G/ω_ref from D (equations.md §1.1)
-            raise DataError("a hysteretic matrix G needs the time-domain damping D, which "
-                            "contains its equivalent G/ω_ref", self.source, "D")
-        object.__setattr__(self, "loss_reference_frequency", float(f))
+        """``G`` and ``loss_reference_frequency``: :func:`loss_reference`."""
+        object.__setattr__(self, "loss_reference_frequency", loss_reference(
+            self.G, self.loss_reference_frequency, self.D, self.source))
 
     def _check_up_blocks(self, is_p: np.ndarray) -> None:
         """Block structure of Eq. (2): ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ``."""

@@ -97,6 +97,7 @@ import numpy as np
 from ..errors import DataError, SolverError
 from ..progress import report
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
+from .fe_model import loss_reference
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
 from .reduced_body import ReducedBody, json_normal
@@ -349,20 +350,13 @@ class ParametricBody:
             set_(self, key, vals)
         if self.invariants is not None:
             set_(self, "invariants", _check_stacked(self.invariants, k))
+        f = loss_reference(self.G, self.loss_reference_frequency, self.D, None)
         if self.G is not None:
             g = _floats(self.G, "G", 3)
             if g.shape != (k, r, r):
                 raise DataError(f"must be {(k, r, r)}, got {g.shape}", None, "G")
-            f = self.loss_reference_frequency
-            if (f is None or isinstance(f, bool) or not isinstance(f, int | float | np.floating)
-                    or not np.isfinite(f) or f <= 0):
-                raise DataError(f"the hysteretic matrices G need a positive reference "
-                                f"frequency in Hz, got {f!r}", None, "loss_reference_frequency")
             set_(self, "G", g)
-            set_(self, "loss_reference_frequency", float(f))
-        elif self.loss_reference_frequency is not None:
-            raise DataError("a loss reference frequency without hysteretic matrices G", None,
-                            "loss_reference_frequency")
+            set_(self, "loss_reference_frequency", f)
         if self.static is not None:
             if not isinstance(self.static, StaticDeflection):
                 raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",

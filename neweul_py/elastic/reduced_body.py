@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import DataError
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
-from .fe_model import DOF_KINDS
+from .fe_model import DOF_KINDS, loss_reference
 from .static_state import StaticDeflection, static_from_arrays
 
 __all__ = [
@@ -234,27 +234,17 @@ class ReducedBody:
             self.static.check(r, self.nodes.shape[0], len(self.output_names))
 
     def _validate_loss(self, r: int) -> None:
-        """``G`` (r × r, finite) and its positive reference frequency come together."""
-        f = self.loss_reference_frequency
+        """``G`` (r × r, finite) and its reference frequency (:func:`~.fe_model.loss_reference`)."""
+        f = loss_reference(self.G, self.loss_reference_frequency, self.D, None)
         if self.G is None:
-            if f is not None:
-                raise DataError("a loss reference frequency without a hysteretic matrix G",
-                                None, "loss_reference_frequency")
             return
-        if self.D is None:      # the loss form subtracts G/ω_ref from D (equations.md §1.1)
-            raise DataError("a hysteretic matrix G needs the time-domain damping D, which "
-                            "contains its equivalent G/ω_ref", None, "D")
         g = np.asarray(self.G, dtype=np.float64)
         if g.shape != (r, r):
             raise DataError(f"must be {r}×{r}, got {g.shape}", None, "G")
         if not np.all(np.isfinite(g)):
             raise DataError("has NaN/Inf entries", None, "G")
-        if (f is None or isinstance(f, bool) or not isinstance(f, int | float | np.floating)
-                or not np.isfinite(f) or f <= 0):
-            raise DataError(f"the hysteretic matrix G needs a positive reference frequency in "
-                            f"Hz, got {f!r}", None, "loss_reference_frequency")
         object.__setattr__(self, "G", g)
-        object.__setattr__(self, "loss_reference_frequency", float(f))
+        object.__setattr__(self, "loss_reference_frequency", f)
 
     def __getitem__(self, key: str) -> Any:
         return getattr(self, key)
