@@ -102,8 +102,15 @@ class Terms:
 
 
 def _expr(e):
-    """A value of the kernel's arrays as a sympy expression."""
-    return e.expr() if isinstance(e, Terms) else sp.sympify(e)
+    """A value of the kernel's arrays as a sympy expression: a lazy sum, a sympy object or a
+    number of the body's float arrays (never text)."""
+    if isinstance(e, Terms):
+        return e.expr()
+    if isinstance(e, sp.Basic):
+        return e
+    if isinstance(e, int | np.integer):
+        return sp.Integer(int(e))
+    return sp.Float(float(e))
 
 
 def expanded_equations(eq: Equations) -> Equations:
