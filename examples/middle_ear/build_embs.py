@@ -176,7 +176,7 @@ def write_description(out: Path, data: Path) -> Path:
     # the manubrium nodes, the per-node TM–manubrium stiffness and the chain's φ(Δp) table
     # of this sweep (chain_factor.retarget; it generates the chain alone to find φ)
     text = chain_factor.retarget(validate_embs.DESCRIPTION.read_text(), data,
-                                 out / "generated_chain_factor")
+                                 out / "generated_chain_factor", where=out)
     path = out / "middle_ear.yaml"
     load_description_text(text, str(path), elastic_reader=read_elastic_data)   # then write
     atomic_write(path, text)

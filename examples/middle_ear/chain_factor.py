@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -140,15 +141,18 @@ def factor_table(mod, tangents: Mapping[float, float]) -> dict[float, float]:
     return out
 
 
-def retarget(text: str, data: Path, gen: Path) -> str:
+def retarget(text: str, data: Path, gen: Path, where: Path | None = None) -> str:
     """``middle_ear.yaml`` text for the sweep in ``data``: its manubrium nodes (per-node
-    stiffness by :func:`tm_node_stiffness`) and its factor table."""
+    stiffness by :func:`tm_node_stiffness`) and its factor table. ``where``: the directory
+    the text will be written to; the body's path is then relative to it (so that the build
+    can be moved as a whole), else absolute."""
     man = [int(i) for i in
            json.loads((data / "fem" / "sweep.json").read_text())["interface_nodes"]["manubrium"]]
     pos = chain_node_positions(data)
     d = yaml.safe_load(text)
     tm = d["elastic_bodies"]["tm"]
-    tm["data"] = str((data / "embs" / "tm_air.npz").resolve())
+    body = (data / "embs" / "tm_air.npz").resolve()
+    tm["data"] = str(body) if where is None else os.path.relpath(body, Path(where).resolve())
     tm["nodes"] = {f"m{i}": i for i in man}
     template = next(v for k, v in d["forces"].items() if k.startswith("tm_manubrium_"))
     forces = {k: v for k, v in d["forces"].items() if not k.startswith("tm_manubrium_")}

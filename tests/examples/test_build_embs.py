@@ -70,8 +70,9 @@ def test_a_manubrium_node_not_in_the_body_is_one_error(sweep, tmp_path):
 def test_the_build_writes_a_body_with_its_static_state_and_a_checked_description(sweep,
                                                                                  tmp_path):
     """From the sweep: body (with ``static/*``), ``build.json``, the retargeted description
-    (loaded), no module with ``--no-generate``; the static umbo output of every sample is the
-    FE static solution's (``static.csv``)."""
+    (loaded; its body path relative to it, so that a moved build still loads), no module
+    with ``--no-generate``; the static umbo output of every sample is the FE static
+    solution's (``static.csv``)."""
     import numpy as np
 
     from neweul_py.elastic.interpolation import load_parametric_body
@@ -86,6 +87,16 @@ def test_the_build_writes_a_body_with_its_static_state_and_a_checked_description
     rows = np.genfromtxt(data / "fem" / "static.csv", delimiter=",", names=True)
     umbo = pb.static.outputs[:, list(pb.output_names).index("umbo_uz")]
     np.testing.assert_allclose(umbo, rows["umbo_uz_m"], rtol=1e-10, atol=1e-18)  # CSV: 12 digits
+    # the description names its body relative to itself: the build can be moved as a whole
+    import yaml
+
+    from neweul_py.api import load_description
+
+    moved = tmp_path / "moved"
+    data.rename(moved)
+    desc = moved / "embs" / "middle_ear.yaml"
+    assert yaml.safe_load(desc.read_text())["elastic_bodies"]["tm"]["data"] == "tm_air.npz"
+    assert "tm" in {b.name for b in load_description(desc).elastic_bodies}
 
 
 @pytest.mark.slow
