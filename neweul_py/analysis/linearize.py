@@ -40,13 +40,13 @@ import numpy as np
 
 from ..atomic import atomic_savez
 from ..errors import NeweulError
+from ..ffrf.loss_form import DAMPING_FORMS, loss_form
 from . import protocol as proto
 from .results import check_output_path
 
 __all__ = ["DAMPING_FORMS", "LinearModel", "linearize"]
 
 #: Damping forms of the frequency domain (:meth:`LinearModel.dynamic_stiffness`).
-DAMPING_FORMS = ("loss", "viscous")
 
 
 @dataclass(frozen=True, repr=False)
@@ -146,12 +146,11 @@ class LinearModel:
         if damping not in DAMPING_FORMS:
             raise NeweulError(f"unknown damping form {damping!r}; valid: "
                               f"{', '.join(DAMPING_FORMS)}")
-        ww = np.asarray(w, dtype=float)[:, None, None]
-        z = -(ww**2) * self.M0 + 1j * ww * self.P + self.Q
+        Q, P = self.Q, self.P
         if damping == "loss" and self.has_loss:
-            w_ref = 2 * np.pi * float(self.loss_reference_frequency)
-            z = z + 1j * (1.0 - ww / w_ref) * self.G
-        return z
+            Q, P = loss_form(Q, P, self.G, self.loss_reference_frequency)
+        ww = np.asarray(w, dtype=float)[:, None, None]
+        return -(ww**2) * self.M0 + 1j * ww * P + Q
 
     def first_order_pencil(self) -> tuple[np.ndarray, np.ndarray]:
         """``(Ã, E)`` with ``E ẋ = Ã x``: ``E = diag(I, M0)``, ``Ã = [[0, I], [−Q, −P]]``."""

@@ -34,6 +34,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from ..errors import DataError
+from ..ffrf.loss_form import DAMPING_FORMS, loss_form
 from .fe_model import FEModel
 from .projection import Progress, orthonormal_append
 
@@ -46,11 +47,6 @@ __all__ = ["DAMPING_FORMS", "LossForm", "SweepResult", "frequency_form", "frf_di
 SWEEP_PERMC_SPEC = "COLAMD"
 
 
-#: Damping forms of the frequency domain: ``"loss"`` (``K + iG`` where the model has a
-#: hysteretic matrix ``G``) and ``"viscous"`` (its time-domain equivalent ``D``).
-DAMPING_FORMS = ("loss", "viscous")
-
-
 class LossForm:
     """An FE model in the loss-factor form of the frequency domain (``docs/equations.md``
     §1.1): ``K + iG`` (complex) and ``D − G/ω_ref``, so that ``K + jωD − ω²M`` of the solvers
@@ -58,10 +54,9 @@ class LossForm:
 
     def __init__(self, fe: FEModel) -> None:
         self._fe = fe
-        w_ref = 2 * np.pi * float(fe.loss_reference_frequency)
         D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
-        self.K = sps.csr_matrix(fe.K + 1j * fe.G)
-        self.D = sps.csr_matrix(D - fe.G / w_ref)
+        K, D = loss_form(fe.K, D, fe.G, fe.loss_reference_frequency)
+        self.K, self.D = sps.csr_matrix(K), sps.csr_matrix(D)
 
     def __getattr__(self, name: str):
         return getattr(self._fe, name)

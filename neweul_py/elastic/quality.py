@@ -25,11 +25,12 @@ import scipy.linalg as sla
 import scipy.sparse as sps
 
 from ..errors import DataError
+from ..ffrf.loss_form import DAMPING_FORMS, loss_form
 from ..progress import report
 from ._io import atomic_write
 from .eigen import ShiftInvert, SparseLU, default_shift, frequencies_hz, right_blocks
 from .fe_model import FEModel
-from .frf_sweep import DAMPING_FORMS, SweepResult, frequency_form, frf_sweep
+from .frf_sweep import SweepResult, frequency_form, frf_sweep
 from .projection import Progress
 from .reduced_body import ReducedBody
 
@@ -185,14 +186,14 @@ def frf_reduced(
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=np.float64))
     bi = _pick(body.input_names, inputs, "inputs")
     co = _pick(body.output_names, outputs, "outputs")
-    w = 2 * np.pi * f[:, None, None]
-    A = body.K[None] + 1j * w * body.D[None] - w**2 * body.M[None]
     if damping not in DAMPING_FORMS:
         raise DataError(f"must be one of {', '.join(DAMPING_FORMS)}, got {damping!r}", None,
                         "damping")
+    K, D = body.K, body.D
     if damping == "loss" and body.G is not None:        # K + iG + jω(D − G/ω_ref)
-        w_ref = 2 * np.pi * float(body.loss_reference_frequency)
-        A = A + 1j * (1.0 - w / w_ref) * body.G[None]
+        K, D = loss_form(K, D, body.G, body.loss_reference_frequency)
+    w = 2 * np.pi * f[:, None, None]
+    A = K[None] + 1j * w * D[None] - w**2 * body.M[None]
     X = np.linalg.solve(A, np.broadcast_to(body.B[:, bi], (f.size, *body.B[:, bi].shape)))
     return body.C[co] @ X
 
