@@ -35,15 +35,18 @@ import numpy as np
 
 __all__ = [
     "KERNEL_FUNCTIONS",
+    "ffrf_body_loads",
     "ffrf_body_mass",
     "ffrf_elastic_forces",
     "ffrf_first_moment",
     "ffrf_kinetic_energy",
+    "ffrf_linear_stack",
     "ffrf_loss_matrix",
     "ffrf_mass_blocks",
     "ffrf_omega_products",
     "ffrf_prepare",
     "ffrf_quadratic_map",
+    "ffrf_rigid_map",
     "ffrf_skew",
     "ffrf_strain_energy",
     "ffrf_velocity_terms",
@@ -65,8 +68,11 @@ def ffrf_omega_products(w):
 def ffrf_prepare(flat, inertia="consistent", fixed=False):
     """The kernel's working form of one body from its flat invariants (schema.py keys).
 
-    The first-order parts of ``J``, ``Ct``, ``Cr``, ``Crv``, ``Oe`` are stacked into one
-    matrix ``T1`` so that all of them follow from one product ``T0 + T1 q``.
+    Everything affine in ``q`` — ``md``, ``J⁰ + J¹ q``, ``[Ct Cr Oe]``, ``Crvᵀ`` and
+    ``c2q = Σ_l q_l C2[l]`` — is stacked into one matrix ``T1`` (:func:`ffrf_linear_stack`)
+    so that all of it follows from one product ``T0 + T1 q``, and the rigid block ``Mrr`` is
+    one product ``P0 + P [md; J; s]`` (:func:`ffrf_rigid_map`): a call costs a few BLAS
+    products, not one NumPy operation per block.
 
     Parameters
     ----------
@@ -83,9 +89,10 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
     -------
     dict
         ``mass``, ``nq``, ``md0`` (3,), ``md1`` (3, nq), ``T0``, ``T1``, ``where`` (key →
-        slice and shape in the stack), ``C2`` ((nq, nq, 3, 3) or ``None``), ``Me``, ``Gr``,
-        ``Ge``, ``ks`` (nq,), ``Ke``, ``De``, and ``Le`` (the hysteretic matrix of
-        ``K + iG``, equations.md §1.1) when the data hold ``Le.m0``.
+        slice and shape in the stack; ``c2q`` only with second-order inertia), ``P0``,
+        ``P``, ``Me``, ``Gr``, ``Ge``, ``GrGe`` (both stacked), ``ks`` (nq,), ``Ke``, ``De``,
+        and ``Le`` (the hysteretic matrix of ``K + iG``, equations.md §1.1) when the data
+        hold ``Le.m0``.
     """
     nq = int(np.shape(flat["Me.m0"])[0])
     if fixed:
@@ -102,36 +109,30 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
                 "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0],
                 **({"Le": np.asarray(flat["Le.m0"], dtype=np.float64)}
                    if "Le.m0" in flat else {})}
-    zeros, firsts, where, start = [], [], {}, 0
-    for key in ("J", "Ct", "Cr", "Crv", "Oe"):
-        m0 = np.asarray(flat[key + ".m0"], dtype=np.float64)
-        m1 = flat.get(key + ".m1")
-        size = m0.size
-        zeros.append(m0.ravel())
-        firsts.append(np.zeros((size, nq)) if m1 is None else
-                      np.asarray(m1, dtype=np.float64).transpose(0, 2, 1).reshape(size, nq))
-        where[key] = (start, start + size, m0.shape)
-        start += size
     md1 = flat.get("md.m1")
+    md1 = np.zeros((3, nq)) if md1 is None else np.asarray(md1, dtype=np.float64)[:, :, 0]
     c2 = flat.get("J.m2") if inertia == "consistent" else None
     ct1 = flat.get("Ct.m1")
     stiff = (c2 is not None and ct1 is not None and np.any(ct1)
              and not bool(np.asarray(flat.get("two_sided", False))))
+    T0, T1, where = ffrf_linear_stack(flat, nq, md1, c2)
     b = {
         "mass": float(np.asarray(flat["m"])),
         "nq": nq,
         "md0": np.asarray(flat["md.m0"], dtype=np.float64)[:, 0],
-        "md1": np.zeros((3, nq)) if md1 is None else np.asarray(md1, dtype=np.float64)[:, :, 0],
-        "T0": np.concatenate(zeros),
-        "T1": np.ascontiguousarray(np.vstack(firsts)),
+        "md1": md1,
+        "T0": T0,
+        "T1": T1,
         "where": where,
-        "C2": None if c2 is None else np.ascontiguousarray(
-            np.asarray(c2, dtype=np.float64).reshape(nq, 9 * nq)),
+        "P0": np.kron(np.diag([1.0, 0.0]), np.eye(3)).ravel() * float(np.asarray(flat["m"])),
+        "P": ffrf_rigid_map(bool(stiff)),
         "consistent_stiffening": bool(stiff),
         "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
         "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
         "Gr": np.asarray(flat["Gr.m0"], dtype=np.float64),
         "Ge": np.asarray(flat["Ge.m0"], dtype=np.float64),
+        "GrGe": np.vstack((np.asarray(flat["Gr.m0"], dtype=np.float64),
+                           np.asarray(flat["Ge.m0"], dtype=np.float64))),
         "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0],
         "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
         "De": np.asarray(flat["De.m0"], dtype=np.float64),
@@ -151,6 +152,57 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
     return b
 
 
+def ffrf_linear_stack(flat, nq, md1, c2):
+    """``(T0, T1, where)``: the affine-in-``q`` quantities of a body as one stack,
+    ``X = T0 + T1 q``, with ``where`` (key → start, stop, shape) for its blocks ``md`` (3,),
+    ``J`` (3, 3, without the second-order part), ``E12`` (nq, 12) = ``[Ct Cr Oe]`` (row-major,
+    so ``Mer`` and the elastic-row loads are views of one block), ``CrvT`` (3, nq) and, with
+    ``c2`` (``J.m2``, (nq, nq, 3, 3)), ``c2q`` (nq, 9) with ``c2q[k, ab] = Σ_l q_l C2[l, k, a, b]``
+    (equations.md §2.1)."""
+
+    def part(key, shape0):
+        m0 = np.asarray(flat[key + ".m0"], dtype=np.float64).reshape(shape0)
+        m1 = flat.get(key + ".m1")
+        m1 = (np.zeros((*shape0, nq)) if m1 is None else        # m1[i, l, j] of m0[i, j]
+              np.asarray(m1, dtype=np.float64).transpose(0, 2, 1).reshape(*shape0, nq))
+        return m0, m1
+
+    J0, J1 = part("J", (3, 3))
+    e0, e1 = zip(*(part(k, (nq, c)) for k, c in (("Ct", 3), ("Cr", 3), ("Oe", 6))),
+                 strict=True)
+    v0, v1 = part("Crv", (nq, 3))
+    blocks = [("md", np.asarray(flat["md.m0"], dtype=np.float64)[:, 0], md1),
+              ("J", J0, J1), ("E12", np.hstack(e0), np.concatenate(e1, axis=1)),
+              ("CrvT", v0.T, v1.transpose(1, 0, 2))]
+    if c2 is not None:
+        C2 = np.asarray(c2, dtype=np.float64).reshape(nq, 9 * nq)
+        blocks.append(("c2q", np.zeros((nq, 9)), C2.T.reshape(nq, 9, nq)))
+    where, start, zeros, firsts = {}, 0, [], []
+    for key, m0, m1 in blocks:
+        where[key] = (start, start + m0.size, m0.shape)
+        start += m0.size
+        zeros.append(m0.ravel())
+        firsts.append(m1.reshape(m0.size, nq))
+    return np.concatenate(zeros), np.ascontiguousarray(np.vstack(firsts)), where
+
+
+def ffrf_rigid_map(stiff):
+    """``P`` (36, 12 or 15): ``Mrr = P0 + P [md; J; s]`` (row-major 6×6, ``P0`` the mass on
+    the translational diagonal) with ``Mrr[3:, :3] = m̃d (+ ½ s̃)``, ``Mrr[:3, 3:] = −m̃d``,
+    ``Mrr[3:, 3:] = J``, and ``s`` the prestress of :func:`ffrf_prestress` (only with
+    ``stiff``, equations.md §2.1). Entries 0 and ±1, ½: the product is exact."""
+    P = np.zeros((6, 6, 15))
+    skew = np.zeros((3, 3, 3))                # ṽ[i, j] = skew[i, j, k] v[k]
+    skew[0, 1, 2], skew[0, 2, 1] = -1.0, 1.0
+    skew[1, 0, 2], skew[1, 2, 0] = 1.0, -1.0
+    skew[2, 0, 1], skew[2, 1, 0] = -1.0, 1.0
+    P[3:, :3, 0:3] = skew
+    P[:3, 3:, 0:3] = -skew
+    P[3:, 3:, 3:12] = np.eye(9).reshape(3, 3, 9)
+    P[3:, :3, 12:15] = 0.5 * skew
+    return P.reshape(36, 15) if stiff else np.ascontiguousarray(P.reshape(36, 15)[:, :12])
+
+
 def ffrf_quadratic_map(b, q):
     """``z = [q; y(q)]`` and ``T = ∂z/∂q = [I; A q]`` of the second-order field,
     ``y_j = ½ qᵀ A_j q`` (equations.md §2.3)."""
@@ -160,17 +212,19 @@ def ffrf_quadratic_map(b, q):
 
 def ffrf_mass_blocks(b, q):
     """The q-dependent blocks of ``M_b(q)`` as a dict: ``md``, ``Mrr`` (6×6), ``Mre``
-    (6×nq), ``Mer`` (nq×6), ``Mee`` (nq×nq), and what :func:`ffrf_velocity_terms` reuses:
-    ``Oe`` (nq×6) and ``c2q[k, ab] = Σ_l q_l C2[l, k, a, b]`` (nq×9, or ``None``); for a
-    body with a second-order field, ``z``, ``T`` and ``inner`` (the blocks of the extended
-    body at ``z``: ``Mre = Mre_z T``, ``Mer = Tᵀ Mer_z``, ``Mee = Tᵀ Me_z T``, §2.3).
-    Matrix products only (BLAS)."""
+    (6×nq), ``Mer`` (nq×6), ``Mee`` (nq×nq, the body's own array: not to be written to),
+    and what :func:`ffrf_body_loads` reuses: ``E12`` (nq×12) = ``[Ct Cr Oe]`` (``Mer`` and
+    ``Oe`` are views of it) and ``c2q[k, ab] = Σ_l q_l C2[l, k, a, b]`` (nq×9, or ``None``);
+    for a body with a second-order field, ``z``, ``T`` and ``inner`` (the blocks of the
+    extended body at ``z``: ``Mre = Mre_z T``, ``Mer = Tᵀ Mer_z``, ``Mee = Tᵀ Me_z T``, §2.3).
+    Matrix products only (BLAS): ``X = T0 + T1 q`` and ``Mrr = P0 + P [md; J; s]``
+    (:func:`ffrf_prepare`)."""
     if "fixed" in b:                          # a body on a fixed frame: elastic rows only
         dt = np.result_type(q, b["Me"], b["Ct0"])
         return {"md": b["md0"] + b["md1"] @ q, "Mrr": np.zeros((6, 6), dtype=dt),
                 "Mre": np.zeros((6, b["nq"]), dtype=dt),
                 "Mer": np.hstack((b["Ct0"], np.zeros((b["nq"], 3), dtype=dt))),
-                "Mee": b["Me"].astype(dt)}
+                "Mee": b["Me"]}
     if "quad" in b:
         z, T = ffrf_quadratic_map(b, q)
         inner = ffrf_mass_blocks(b["quad"], z)
@@ -178,25 +232,25 @@ def ffrf_mass_blocks(b, q):
                 "Mer": T.T @ inner["Mer"], "Mee": T.T @ (inner["Mee"] @ T), "z": z, "T": T,
                 "inner": inner}
     X = b["T0"] + b["T1"] @ q
-    X = {k: X[i:j].reshape(shape) for k, (i, j, shape) in b["where"].items()}
-    J = X["J"]
-    c2q = None
-    if b["C2"] is not None:
-        c2q = (q @ b["C2"]).reshape(b["nq"], 9)
-        J = J + (q @ c2q).reshape(3, 3)
-    md = b["md0"] + b["md1"] @ q
-    Mrr = np.zeros((6, 6), dtype=J.dtype)
-    Mrr[0, 0] = Mrr[1, 1] = Mrr[2, 2] = b["mass"]
-    Mrr[3:, :3] = ffrf_skew(md)
-    Mrr[:3, 3:] = -Mrr[3:, :3]
-    Mrr[3:, 3:] = J
+    where, nq = b["where"], b["nq"]
+    i, j, _shape = where["E12"]
+    E12 = X[i:j].reshape(nq, 12)
+    i, j, _shape = where["CrvT"]
+    CrvT = X[i:j].reshape(3, nq)
+    md, J, c2q = X[0:3], X[3:12], None
+    if "c2q" in where:
+        i, j, _shape = where["c2q"]
+        c2q = X[i:j].reshape(nq, 9)
+        J = J + q @ c2q
     if b["consistent_stiffening"]:
         # reaction of the prestress of the frame acceleration (gravity: a − g) on the
         # rotational rows, ½ s̃(q) with s_a = qᵀ Ct¹_a q (equations.md §2.1)
-        Mrr[3:, :3] += 0.5 * ffrf_skew(ffrf_prestress(b, q, X["Ct"]))
-    return {"md": md, "Mrr": Mrr, "Mre": np.vstack((b["md1"], X["Crv"].T)),
-            "Mer": np.hstack((X["Ct"], X["Cr"])), "Mee": b["Me"].astype(J.dtype),
-            "Oe": X["Oe"], "c2q": c2q}
+        z = np.concatenate((md, J, ffrf_prestress(b, q, E12[:, :3])))
+    else:
+        z = np.concatenate((md, J))
+    return {"md": md, "Mrr": (b["P0"] + b["P"][:, :z.size] @ z).reshape(6, 6),
+            "Mre": np.vstack((b["md1"], CrvT)), "Mer": E12[:, :6], "Mee": b["Me"],
+            "E12": E12, "Oe": E12[:, 6:], "c2q": c2q}
 
 
 def ffrf_prestress(b, q, Ct):
@@ -213,27 +267,39 @@ def ffrf_body_mass(b, q):
 
 def ffrf_velocity_terms(b, q, qd, w, m):
     """``h_ω`` split into the rigid rows (6,) and the elastic rows (nq,) (module docstring);
-    ``m`` are the blocks of :func:`ffrf_mass_blocks` at the same ``q``.
+    ``m`` are the blocks of :func:`ffrf_mass_blocks` at the same ``q``: the loads of
+    :func:`ffrf_body_loads` at zero frame acceleration."""
+    return ffrf_body_loads(b, q, qd, np.zeros(6), w, m)
 
-    With a second-order field (§2.3) the extended body's terms at ``ż = T q̇`` plus the
+
+def ffrf_body_loads(b, q, qd, acc, w, m):
+    """``M_b(q) [acc; 0] + h_ω`` split into the rigid rows (6,) and the elastic rows (nq,)
+    (module docstring; ``acc = [ā − g; ᾱ]``, ``m`` the blocks of :func:`ffrf_mass_blocks`
+    at the same ``q``). The elastic rows ``Ct a + Cr α + Oe ω_q`` are one product of the
+    block ``E12 = [Ct Cr Oe]``, the ``Gr``, ``Ge`` terms one of ``[Gr; Ge]``, and
+    ``Mrr[:, 3:] ω = [ω̃ md; J ω]`` gives both rigid velocity products.
+
+    With a second-order field (§2.3) the extended body's loads at ``ż = T q̇`` plus the
     convective acceleration ``T' q̇ = [0; A(q̇, q̇)]``: ``h_r = h_r,z + Mre_z T'q̇``,
     ``h_e = Tᵀ (h_e,z + Me_z T'q̇)``.
     """
-    if "fixed" in b:
-        return np.zeros(6, dtype=qd.dtype), np.zeros(b["nq"], dtype=qd.dtype)
+    if "fixed" in b:                          # M_b = [0, 0; Ct⁰, 0, Me], no h_ω
+        return np.zeros(6, dtype=qd.dtype), b["Ct0"] @ acc[:3]
     if "quad" in b:
         inner, T = m["inner"], m["T"]
-        acc = np.concatenate((0.0 * qd, ((b["A"] @ qd).reshape(b["ny"], b["nq"])) @ qd))
-        hr, he = ffrf_velocity_terms(b["quad"], m["z"], T @ qd, w, inner)
-        return hr + inner["Mre"] @ acc, T.T @ (he + inner["Mee"] @ acc)
+        cacc = np.concatenate((0.0 * qd, ((b["A"] @ qd).reshape(b["ny"], b["nq"])) @ qd))
+        hr, he = ffrf_body_loads(b["quad"], m["z"], T @ qd, acc, w, inner)
+        return hr + inner["Mre"] @ cacc, T.T @ (he + inner["Mee"] @ cacc)
     wt = ffrf_skew(w)
     qw = np.outer(qd, w).ravel()
-    md, Jq, c2q = m["md"], m["Mrr"][3:, 3:], m["c2q"]
-    hr = np.concatenate((wt @ (wt @ md) + 2.0 * (wt @ (b["md1"] @ qd)),
-                         wt @ (Jq @ w) + b["Gr"] @ qw))
+    g = b["GrGe"] @ qw                        # [Gr (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
+    Mrr, c2q = m["Mrr"], m["c2q"]
+    y = Mrr[:, 3:] @ w                        # [ω̃ md; J ω]
+    rot = wt @ y[3:] + g[:3]
     if c2q is not None:
-        hr[3:] += 2.0 * ((qd @ c2q).reshape(3, 3) @ w)
-    he = m["Oe"] @ ffrf_omega_products(w) + b["Ge"] @ qw
+        rot = rot + 2.0 * ((qd @ c2q).reshape(3, 3) @ w)
+    hr = np.concatenate((wt @ (y[:3] + 2.0 * (b["md1"] @ qd)), rot)) + Mrr @ acc
+    he = m["E12"] @ np.concatenate((acc, ffrf_omega_products(w))) + g[3:]
     return hr, he
 
 
@@ -267,9 +333,9 @@ def ffrf_strain_energy(b, q, g=None):
     ``−½ g·s(q)`` (``g`` in frame components)."""
     out = 0.5 * q @ (b["Ke"] @ q) + b["ks"] @ q
     if b["consistent_stiffening"] and g is not None:
-        X = b["T0"] + b["T1"] @ q
-        i, j, shape = b["where"]["Ct"]
-        out = out - 0.5 * g @ ffrf_prestress(b, q, X[i:j].reshape(shape))
+        i, j, _shape = b["where"]["E12"]
+        Ct = (b["T0"][i:j] + b["T1"][i:j] @ q).reshape(b["nq"], 12)[:, :3]
+        out = out - 0.5 * g @ ffrf_prestress(b, q, Ct)
     return float(np.real(out))
 
 
@@ -301,7 +367,8 @@ def ffrf_loss_matrix(S, t, x, p, u=None):
 
 
 #: The functions a generated module embeds (in this order), see the module docstring.
-KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_quadratic_map,
-                    ffrf_mass_blocks, ffrf_prestress, ffrf_body_mass, ffrf_velocity_terms,
+KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_linear_stack,
+                    ffrf_rigid_map, ffrf_quadratic_map, ffrf_mass_blocks, ffrf_prestress,
+                    ffrf_body_mass, ffrf_velocity_terms, ffrf_body_loads,
                     ffrf_elastic_forces, ffrf_kinetic_energy, ffrf_first_moment,
                     ffrf_strain_energy, ffrf_loss_matrix)
