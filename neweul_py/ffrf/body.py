@@ -39,6 +39,7 @@ __all__ = [
     "ffrf_body_mass",
     "ffrf_elastic_forces",
     "ffrf_first_moment",
+    "ffrf_gyroscopic",
     "ffrf_kinetic_energy",
     "ffrf_linear_stack",
     "ffrf_loss_matrix",
@@ -49,6 +50,7 @@ __all__ = [
     "ffrf_rigid_map",
     "ffrf_skew",
     "ffrf_strain_energy",
+    "ffrf_velocity_map",
     "ffrf_velocity_terms",
 ]
 
@@ -69,9 +71,10 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
     """The kernel's working form of one body from its flat invariants (schema.py keys).
 
     Everything affine in ``q`` — ``md``, ``J⁰ + J¹ q``, ``[Ct Cr Oe]``, ``Crvᵀ`` and
-    ``c2q = Σ_l q_l C2[l]`` — is stacked into one matrix ``T1`` (:func:`ffrf_linear_stack`)
-    so that all of it follows from one product ``T0 + T1 q``, and the rigid block ``Mrr`` is
-    one product ``P0 + P [md; J; s]`` (:func:`ffrf_rigid_map`): a call costs a few BLAS
+    ``Σ_l q_l C2[l]`` — is stacked into one matrix ``T1`` (:func:`ffrf_linear_stack`) so
+    that all of it follows from one product ``T0 + T1 q``; the rigid rows ``[Mrr | H]`` of
+    ``M_b [acc; 0] + h_ω`` are one product ``P0 + P z`` (:func:`ffrf_rigid_map`) and the
+    terms in ``q̇ ⊗ ω`` one of ``G`` (:func:`ffrf_velocity_map`): a call costs a few BLAS
     products, not one NumPy operation per block.
 
     Parameters
@@ -89,8 +92,9 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
     -------
     dict
         ``mass``, ``nq``, ``md0`` (3,), ``md1`` (3, nq), ``T0``, ``T1``, ``where`` (key →
-        slice and shape in the stack; ``c2q`` only with second-order inertia), ``P0``,
-        ``P``, ``Me``, ``Gr``, ``Ge``, ``GrGe`` (both stacked), ``ks`` (nq,), ``Ke``, ``De``,
+        slice and shape in the stack; ``c2w`` only with second-order inertia), ``P0``,
+        ``P`` (:func:`ffrf_rigid_map`), ``Me``, ``Gr``, ``Ge``, ``G``
+        (:func:`ffrf_velocity_map`), ``ks`` (nq,), ``Ke``, ``De``,
         and ``Le`` (the hysteretic matrix of ``K + iG``, equations.md §1.1) when the data
         hold ``Le.m0``.
     """
@@ -124,15 +128,14 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
         "T0": T0,
         "T1": T1,
         "where": where,
-        "P0": np.kron(np.diag([1.0, 0.0]), np.eye(3)).ravel() * float(np.asarray(flat["m"])),
-        "P": ffrf_rigid_map(bool(stiff)),
+        "P0": np.kron(np.diag([1.0, 0.0]), np.eye(3, 6)).ravel() * float(np.asarray(flat["m"])),
+        "P": ffrf_rigid_map(c2 is not None, bool(stiff)),
         "consistent_stiffening": bool(stiff),
         "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
         "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
         "Gr": np.asarray(flat["Gr.m0"], dtype=np.float64),
         "Ge": np.asarray(flat["Ge.m0"], dtype=np.float64),
-        "GrGe": np.vstack((np.asarray(flat["Gr.m0"], dtype=np.float64),
-                           np.asarray(flat["Ge.m0"], dtype=np.float64))),
+        "G": ffrf_velocity_map(md1, flat["Gr.m0"], flat["Ge.m0"]),
         "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0],
         "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
         "De": np.asarray(flat["De.m0"], dtype=np.float64),
@@ -157,8 +160,9 @@ def ffrf_linear_stack(flat, nq, md1, c2):
     ``X = T0 + T1 q``, with ``where`` (key → start, stop, shape) for its blocks ``md`` (3,),
     ``J`` (3, 3, without the second-order part), ``E12`` (nq, 12) = ``[Ct Cr Oe]`` (row-major,
     so ``Mer`` and the elastic-row loads are views of one block), ``CrvT`` (3, nq) and, with
-    ``c2`` (``J.m2``, (nq, nq, 3, 3)), ``c2q`` (nq, 9) with ``c2q[k, ab] = Σ_l q_l C2[l, k, a, b]``
-    (equations.md §2.1)."""
+    ``c2`` (``J.m2``, (nq, nq, 3, 3)), ``c2w`` (3, nq, 3) with
+    ``c2w[a, k, b] = 2 Σ_l q_l C2[l, k, a, b]`` (equations.md §2.1): ``q c2w = 2 J²(q)``
+    and ``c2w (q̇ ⊗ ω) = 2 Σ_kl q̇_k q_l C2[l, k] ω``, the second-order part of ``Σ_k Gr_k q̇_k ω``."""
 
     def part(key, shape0):
         m0 = np.asarray(flat[key + ".m0"], dtype=np.float64).reshape(shape0)
@@ -175,8 +179,8 @@ def ffrf_linear_stack(flat, nq, md1, c2):
               ("J", J0, J1), ("E12", np.hstack(e0), np.concatenate(e1, axis=1)),
               ("CrvT", v0.T, v1.transpose(1, 0, 2))]
     if c2 is not None:
-        C2 = np.asarray(c2, dtype=np.float64).reshape(nq, 9 * nq)
-        blocks.append(("c2q", np.zeros((nq, 9)), C2.T.reshape(nq, 9, nq)))
+        C2 = 2.0 * np.asarray(c2, dtype=np.float64).reshape(nq, nq, 3, 3).transpose(2, 1, 3, 0)
+        blocks.append(("c2w", np.zeros((3, nq, 3)), C2))
     where, start, zeros, firsts = {}, 0, [], []
     for key, m0, m1 in blocks:
         where[key] = (start, start + m0.size, m0.shape)
@@ -186,21 +190,57 @@ def ffrf_linear_stack(flat, nq, md1, c2):
     return np.concatenate(zeros), np.ascontiguousarray(np.vstack(firsts)), where
 
 
-def ffrf_rigid_map(stiff):
-    """``P`` (36, 12 or 15): ``Mrr = P0 + P [md; J; s]`` (row-major 6×6, ``P0`` the mass on
-    the translational diagonal) with ``Mrr[3:, :3] = m̃d (+ ½ s̃)``, ``Mrr[:3, 3:] = −m̃d``,
-    ``Mrr[3:, 3:] = J``, and ``s`` the prestress of :func:`ffrf_prestress` (only with
-    ``stiff``, equations.md §2.1). Entries 0 and ±1, ½: the product is exact."""
-    P = np.zeros((6, 6, 15))
+def ffrf_rigid_map(second, stiff):
+    """``P`` (72, 12 + 9 + 3): the rigid rows of the body as ``K = [Mrr | H] = P0 + P z``
+    (6×12 row-major), ``z = [md; J⁰ + J¹q; 2 J²(q) (with ``second``); s (with ``stiff``)]``,
+    so that ``M_b [acc; 0] + h_ω`` has the rigid rows ``K [acc; ω_q] + …``:
+
+    * ``Mrr[3:, :3] = m̃d (+ ½ s̃)``, ``Mrr[:3, 3:] = −m̃d``, ``Mrr[3:, 3:] = J`` (``P0``: the
+      mass on the translational diagonal; ``s`` the prestress of :func:`ffrf_prestress`);
+    * ``H ω_q = [ω̃ ω̃ md; ω̃ J ω]``, the quadratic velocity terms on the products ``ω_q``
+      (:func:`ffrf_omega_products`), found by polarization of the unit vectors.
+
+    All entries are small integers or ½: the product is exact (equations.md §2.1)."""
     skew = np.zeros((3, 3, 3))                # ṽ[i, j] = skew[i, j, k] v[k]
     skew[0, 1, 2], skew[0, 2, 1] = -1.0, 1.0
     skew[1, 0, 2], skew[1, 2, 0] = 1.0, -1.0
     skew[2, 0, 1], skew[2, 1, 0] = -1.0, 1.0
+    P = np.zeros((6, 12, 24))
     P[3:, :3, 0:3] = skew
-    P[:3, 3:, 0:3] = -skew
-    P[3:, 3:, 3:12] = np.eye(9).reshape(3, 3, 9)
-    P[3:, :3, 12:15] = 0.5 * skew
-    return P.reshape(36, 15) if stiff else np.ascontiguousarray(P.reshape(36, 15)[:, :12])
+    P[:3, 3:6, 0:3] = -skew
+    P[3:, 3:6, 3:12] = np.eye(9).reshape(3, 3, 9)
+    P[3:, 3:6, 12:21] = 0.5 * np.eye(9).reshape(3, 3, 9)
+    P[3:, :3, 21:24] = 0.5 * skew
+    eye = np.eye(3)
+    for j in range(12):                       # H for md = e_j, then J = E_j
+        md, J = np.eye(12)[j, :3], np.eye(12)[j, 3:].reshape(3, 3)
+        for c, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))):
+            h = ffrf_gyroscopic(md, J, eye[a])
+            if a != b:                        # the coefficient of ω_a ω_b
+                h = ffrf_gyroscopic(md, J, eye[a] + eye[b]) - h - ffrf_gyroscopic(md, J, eye[b])
+            P[:, 6 + c, j] = h
+    P[:, 6:, 12:21] = 0.5 * P[:, 6:, 3:12]
+    cols = [*range(12), *(range(12, 21) if second else ()), *(range(21, 24) if stiff else ())]
+    return np.ascontiguousarray(P.reshape(72, 24)[:, cols])
+
+
+def ffrf_gyroscopic(md, J, w):
+    """``[ω̃ ω̃ md; ω̃ J ω]`` (6,): the terms of ``h_ω``'s rigid rows quadratic in ``ω``."""
+    wt = ffrf_skew(w)
+    return np.concatenate((wt @ (wt @ md), wt @ (J @ w)))
+
+
+def ffrf_velocity_map(md1, Gr, Ge):
+    """``G`` (6 + nq, 3 nq): the terms of ``h_ω`` linear in ``q̇ ⊗ ω`` (index ``3k + c``,
+    ``np.outer(q̇, ω).ravel()``) with constant coefficients, ``[2 ω̃ md¹ q̇; Σ_k Gr⁰_k q̇_k ω;
+    Σ_k Ge_k q̇_k ω]`` (module docstring): ``2 ω̃ md¹_k q̇_k = 2 q̇_k ω_c (e_c × md¹_k)``."""
+    md1 = np.asarray(md1, dtype=np.float64)
+    nq = md1.shape[1]
+    top = np.zeros((3, nq, 3))
+    for c in range(3):
+        top[:, :, c] = 2.0 * (ffrf_skew(np.eye(3)[c]) @ md1)
+    return np.vstack((top.reshape(3, 3 * nq), np.asarray(Gr, dtype=np.float64),
+                      np.asarray(Ge, dtype=np.float64)))
 
 
 def ffrf_quadratic_map(b, q):
@@ -217,7 +257,7 @@ def ffrf_mass_blocks(b, q):
     ``Oe`` are views of it) and ``c2q[k, ab] = Σ_l q_l C2[l, k, a, b]`` (nq×9, or ``None``);
     for a body with a second-order field, ``z``, ``T`` and ``inner`` (the blocks of the
     extended body at ``z``: ``Mre = Mre_z T``, ``Mer = Tᵀ Mer_z``, ``Mee = Tᵀ Me_z T``, §2.3).
-    Matrix products only (BLAS): ``X = T0 + T1 q`` and ``Mrr = P0 + P [md; J; s]``
+    Matrix products only (BLAS): ``X = T0 + T1 q`` and ``K = P0 + P z``
     (:func:`ffrf_prepare`)."""
     if "fixed" in b:                          # a body on a fixed frame: elastic rows only
         dt = np.result_type(q, b["Me"], b["Ct0"])
@@ -236,21 +276,19 @@ def ffrf_mass_blocks(b, q):
     i, j, _shape = where["E12"]
     E12 = X[i:j].reshape(nq, 12)
     i, j, _shape = where["CrvT"]
-    CrvT = X[i:j].reshape(3, nq)
-    md, J, c2q = X[0:3], X[3:12], None
-    if "c2q" in where:
-        i, j, _shape = where["c2q"]
-        c2q = X[i:j].reshape(nq, 9)
-        J = J + q @ c2q
+    parts, c2w = [X[0:12]], None              # z = [md; J⁰ + J¹q; 2 J²; s]
+    if "c2w" in where:
+        c2w = X[where["c2w"][0]:where["c2w"][1]].reshape(3, nq, 3)
+        parts.append((q @ c2w).ravel())
     if b["consistent_stiffening"]:
         # reaction of the prestress of the frame acceleration (gravity: a − g) on the
         # rotational rows, ½ s̃(q) with s_a = qᵀ Ct¹_a q (equations.md §2.1)
-        z = np.concatenate((md, J, ffrf_prestress(b, q, E12[:, :3])))
-    else:
-        z = np.concatenate((md, J))
-    return {"md": md, "Mrr": (b["P0"] + b["P"][:, :z.size] @ z).reshape(6, 6),
-            "Mre": np.vstack((b["md1"], CrvT)), "Mer": E12[:, :6], "Mee": b["Me"],
-            "E12": E12, "Oe": E12[:, 6:], "c2q": c2q}
+        parts.append(ffrf_prestress(b, q, E12[:, :3]))
+    z = np.concatenate(parts) if len(parts) > 1 else parts[0]
+    K = (b["P0"] + b["P"][:, :z.size] @ z).reshape(6, 12)
+    return {"md": X[0:3], "Mrr": K[:, :6], "Mre": np.vstack((b["md1"], X[i:j].reshape(3, nq))),
+            "Mer": E12[:, :6], "Mee": b["Me"], "K": K, "E12": E12, "Oe": E12[:, 6:],
+            "c2w": None if c2w is None else c2w.reshape(3, 3 * nq)}
 
 
 def ffrf_prestress(b, q, Ct):
@@ -275,9 +313,9 @@ def ffrf_velocity_terms(b, q, qd, w, m):
 def ffrf_body_loads(b, q, qd, acc, w, m):
     """``M_b(q) [acc; 0] + h_ω`` split into the rigid rows (6,) and the elastic rows (nq,)
     (module docstring; ``acc = [ā − g; ᾱ]``, ``m`` the blocks of :func:`ffrf_mass_blocks`
-    at the same ``q``). The elastic rows ``Ct a + Cr α + Oe ω_q`` are one product of the
-    block ``E12 = [Ct Cr Oe]``, the ``Gr``, ``Ge`` terms one of ``[Gr; Ge]``, and
-    ``Mrr[:, 3:] ω = [ω̃ md; J ω]`` gives both rigid velocity products.
+    at the same ``q``). With ``v = [acc; ω_q]`` the rows are the products ``K v`` (rigid,
+    :func:`ffrf_rigid_map`) and ``E12 v`` (elastic, ``Ct a + Cr α + Oe ω_q``), plus ``G``
+    (:func:`ffrf_velocity_map`) and the second-order ``c2w`` times ``q̇ ⊗ ω``.
 
     With a second-order field (§2.3) the extended body's loads at ``ż = T q̇`` plus the
     convective acceleration ``T' q̇ = [0; A(q̇, q̇)]``: ``h_r = h_r,z + Mre_z T'q̇``,
@@ -290,17 +328,14 @@ def ffrf_body_loads(b, q, qd, acc, w, m):
         cacc = np.concatenate((0.0 * qd, ((b["A"] @ qd).reshape(b["ny"], b["nq"])) @ qd))
         hr, he = ffrf_body_loads(b["quad"], m["z"], T @ qd, acc, w, inner)
         return hr + inner["Mre"] @ cacc, T.T @ (he + inner["Mee"] @ cacc)
-    wt = ffrf_skew(w)
     qw = np.outer(qd, w).ravel()
-    g = b["GrGe"] @ qw                        # [Gr (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
-    Mrr, c2q = m["Mrr"], m["c2q"]
-    y = Mrr[:, 3:] @ w                        # [ω̃ md; J ω]
-    rot = wt @ y[3:] + g[:3]
-    if c2q is not None:
-        rot = rot + 2.0 * ((qd @ c2q).reshape(3, 3) @ w)
-    hr = np.concatenate((wt @ (y[:3] + 2.0 * (b["md1"] @ qd)), rot)) + Mrr @ acc
-    he = m["E12"] @ np.concatenate((acc, ffrf_omega_products(w))) + g[3:]
-    return hr, he
+    g = b["G"] @ qw                           # [2 ω̃ md¹ q̇; Gr⁰ (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
+    v = np.concatenate((acc, ffrf_omega_products(w)))
+    hr = m["K"] @ v + g[:6]                   # Mrr acc + [ω̃ ω̃ md; ω̃ J ω] + …
+    if m["c2w"] is not None:
+        # hr is complex or object whenever c2w (q) or qw (q̇, ω) are: adding in place is safe
+        hr[3:] += m["c2w"] @ qw
+    return hr, m["E12"] @ v + g[6:]
 
 
 def ffrf_elastic_forces(b, q, qd):
@@ -368,7 +403,8 @@ def ffrf_loss_matrix(S, t, x, p, u=None):
 
 #: The functions a generated module embeds (in this order), see the module docstring.
 KERNEL_FUNCTIONS = (ffrf_skew, ffrf_omega_products, ffrf_prepare, ffrf_linear_stack,
-                    ffrf_rigid_map, ffrf_quadratic_map, ffrf_mass_blocks, ffrf_prestress,
+                    ffrf_rigid_map, ffrf_gyroscopic, ffrf_velocity_map, ffrf_quadratic_map,
+                    ffrf_mass_blocks, ffrf_prestress,
                     ffrf_body_mass, ffrf_velocity_terms, ffrf_body_loads,
                     ffrf_elastic_forces, ffrf_kinetic_energy, ffrf_first_moment,
                     ffrf_strain_energy, ffrf_loss_matrix)
