@@ -142,8 +142,9 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
     ``J_T``, ``J_R`` columns there are zero, ``kin_pattern``), without second-order fields and
     parametric bodies. Returns ``None`` otherwise, when ``D`` is worse conditioned than
     ``1e8`` or when the dense solve is cheaper (fewer than 24 elastic coordinates besides
-    rigid ones): else ``{"R", "E"}`` (index arrays), ``"ix"`` (the index tuples of the
-    blocks ``RR``, ``RE``, ``ER``) and ``"Dinv"``."""
+    rigid ones): else ``{"R", "E"}`` (index arrays), ``"r"``, ``"e"`` (the same or slices,
+    :func:`ffrf_index`), ``"ix"`` (the index tuples of the blocks ``RR``, ``RE``, ``ER``)
+    and ``"Dinv"``."""
     if pattern is None or kin_pattern is None or not bodies:
         return None
     if any("quad" in b or "mixing" in b for b in bodies):
@@ -172,8 +173,20 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
         k += b["nq"]
     if not np.all(np.isfinite(D)) or np.linalg.cond(D) > 1e8:
         return None
-    return {"R": R, "E": E, "Dinv": np.linalg.inv(D),
-            "ix": (np.ix_(R, R), np.ix_(R, E), np.ix_(E, R))}
+    rs, es = ffrf_index(R), ffrf_index(E)
+    if isinstance(rs, slice) and isinstance(es, slice):
+        ix = ((rs, rs), (rs, es), (es, rs))
+    else:
+        ix = (np.ix_(R, R), np.ix_(R, E), np.ix_(E, R))
+    return {"R": R, "E": E, "Dinv": np.linalg.inv(D), "ix": ix, "r": rs, "e": es}
+
+
+def ffrf_index(k):
+    """The index array ``k`` as a slice when it is a contiguous ascending range (views
+    instead of copies), else ``k``."""
+    if k.size and np.array_equal(k, np.arange(k[0], k[0] + k.size)):
+        return slice(int(k[0]), int(k[0]) + k.size)
+    return k
 
 
 def ffrf_solve(S, M, f):
@@ -182,10 +195,10 @@ def ffrf_solve(S, M, f):
     blk = S["block"]
     if blk is None:
         return np.linalg.solve(M, f)
-    R, E, Dinv = blk["R"], blk["E"], blk["Dinv"]
+    R, E, Dinv = blk["r"], blk["e"], blk["Dinv"]
     out = np.empty(f.shape)
     yf = Dinv @ f[E]
-    if not R.size:
+    if not blk["R"].size:
         out[E] = yf
         return out
     RR, RE, ER = blk["ix"]
@@ -204,14 +217,8 @@ def ffrf_mass_maps(SV, SW, pattern):
     ``S_Vᵀ`` for the symbolic state ``[S_V y, S_V ẏ] = ([y; ẏ] S_Vᵀ)`` in one product."""
     if pattern is None:
         return None, SV.T.copy()
-
-    def index(k):
-        if k.size and np.array_equal(k, np.arange(k[0], k[0] + k.size)):
-            return slice(int(k[0]), int(k[0]) + k.size)
-        return k
-
     r, c = pattern
-    ix = (index(r), index(c))
+    ix = (ffrf_index(r), ffrf_index(c))
     if not isinstance(ix[0], slice) or not isinstance(ix[1], slice):
         ix = np.ix_(r, c)
     return (ix, np.ascontiguousarray(SW[r].T), np.ascontiguousarray(SV[c])), SV.T.copy()
@@ -713,7 +720,7 @@ PROTOCOL = {
 
 #: The functions a generated module embeds after the kernel's (in this order).
 SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system,
-                    ffrf_mass_maps, ffrf_block, ffrf_solve,
+                    ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_symbolic_mass,
