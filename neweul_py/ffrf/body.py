@@ -62,9 +62,11 @@ def ffrf_skew(v):
 
 
 def ffrf_omega_products(w):
-    """``ω_q = [ωx², ωy², ωz², ωxωy, ωyωz, ωxωz]`` (the column order of ``Oe``)."""
-    return np.array([w[0] * w[0], w[1] * w[1], w[2] * w[2], w[0] * w[1], w[1] * w[2],
-                     w[0] * w[2]])
+    """``ω_q = [ωx², ωy², ωz², ωxωy, ωyωz, ωxωz]`` (the column order of ``Oe``); the six
+    products of Python scalars (``tolist``: real, complex or the objects of an object array),
+    not of NumPy scalars."""
+    x, y, z = w.tolist()
+    return np.array([x * x, y * y, z * z, x * y, y * z, x * z])
 
 
 def ffrf_prepare(flat, inertia="consistent", fixed=False):
@@ -286,7 +288,7 @@ def ffrf_mass_blocks(b, q):
         parts.append(ffrf_prestress(b, q, E12[:, :3]))
     z = np.concatenate(parts) if len(parts) > 1 else parts[0]
     K = (b["P0"] + b["P"][:, :z.size] @ z).reshape(6, 12)
-    return {"md": X[0:3], "Mrr": K[:, :6], "Mre": np.vstack((b["md1"], X[i:j].reshape(3, nq))),
+    return {"md": X[0:3], "Mrr": K[:, :6], "Mre": np.concatenate((b["md1"], X[i:j].reshape(3, nq))),
             "Mer": E12[:, :6], "Mee": b["Me"], "K": K, "E12": E12, "Oe": E12[:, 6:],
             "c2w": None if c2w is None else c2w.reshape(3, 3 * nq)}
 
@@ -328,7 +330,7 @@ def ffrf_body_loads(b, q, qd, acc, w, m):
         cacc = np.concatenate((0.0 * qd, ((b["A"] @ qd).reshape(b["ny"], b["nq"])) @ qd))
         hr, he = ffrf_body_loads(b["quad"], m["z"], T @ qd, acc, w, inner)
         return hr + inner["Mre"] @ cacc, T.T @ (he + inner["Mee"] @ cacc)
-    qw = np.outer(qd, w).ravel()
+    qw = (qd[:, None] * w).ravel()            # q̇ ⊗ ω, index 3k + c
     g = b["G"] @ qw                           # [2 ω̃ md¹ q̇; Gr⁰ (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
     v = np.concatenate((acc, ffrf_omega_products(w)))
     hr = m["K"] @ v + g[:6]                   # Mrr acc + [ω̃ ω̃ md; ω̃ J ω] + …

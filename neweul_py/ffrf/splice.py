@@ -125,6 +125,7 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
             "parametric": npar, "memo": [None], "clouds": [None],
             "schedule": schedule, "schedule_jacobians": schedule_jacobians,
             "pattern": pattern, "maps": ffrf_mass_maps(SV, SW, pattern),
+            "acc_map": np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4)))),
             "block": ffrf_block(bodies, ns, SV, SW, pattern, None if kin_pattern is None
                                 else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp))}
 
@@ -320,19 +321,17 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
 
 
 def ffrf_frame(S, b, kin):
-    """``(J_V, J_W, ā, ᾱ, ω, g, v, e)`` of body ``b`` from the hidden outputs ``kin`` (a body
-    on a fixed frame has no Jacobian entries there: its ``J_V = J_W = 0``)."""
+    """``(J_V, J_W, tail)`` of body ``b`` from the hidden outputs ``kin``, ``tail = [ā, ᾱ,
+    ω, g, v, e]`` (16; a body on a fixed frame has no Jacobian entries there: its
+    ``J_V = J_W = 0``)."""
     o = b["kin"]
     if "fixed" in b:
-        tail = kin[o:o + 16]
         zero = np.zeros((6, S["n"]), dtype=kin.dtype)
-        return zero, zero, tail[0:3], tail[3:6], tail[6:9], tail[9:12], tail[12:15], tail[15]
+        return zero, zero, kin[o:o + 16]
     ns = S["ns"]
     Js = kin[o:o + 6 * ns].reshape(6, ns)     # [J_T; J_R]
-    tail = kin[o + 6 * ns:o + 6 * ns + 16]
     Jv = Js @ S["SV"]
-    Jw = Jv if S["same"] else Js @ S["SW"]
-    return Jv, Jw, tail[0:3], tail[3:6], tail[6:9], tail[9:12], tail[12:15], tail[15]
+    return Jv, Jv if S["same"] else Js @ S["SW"], kin[o + 6 * ns:o + 6 * ns + 16]
 
 
 def ffrf_terms(S, kin, y, yd):
@@ -343,10 +342,10 @@ def ffrf_terms(S, kin, y, yd):
     vector."""
     out = []
     for b in S["bodies"]:
-        Jv, Jw, abar, alphabar, w, g = ffrf_frame(S, b, kin)[:6]
+        Jv, Jw, tail = ffrf_frame(S, b, kin)
         e = slice(b["first"], b["first"] + b["nq"])
-        q, qd = y[e], yd[e]
-        out.append((Jv, Jw, np.concatenate((abar - g, alphabar)), w, q, qd,
+        q = y[e]
+        out.append((Jv, Jw, S["acc_map"] @ tail, tail[6:9], q, yd[e],
                     None if "fixed" in b else ffrf_mass_blocks(b, q)))
     return out
 
@@ -437,10 +436,7 @@ def ffrf_rhs(S, t, x, p, u=None):
     terms = ffrf_terms(S, rig["outputs"](t, xs, p, u)[S["nhidden"]:], y, yd)
     M = ffrf_add_mass(S, ffrf_symbolic_mass(S, rig["mass_matrix"](t, xs[:ns], p, u)), terms)
     f = ffrf_add_force(S, S["SW"].T @ rig["force_vector"](t, xs[:ns], xs[ns:], p, u), terms)
-    xd = np.empty(2 * n)
-    xd[:n] = yd
-    xd[n:] = ffrf_solve(S, M, f)
-    return xd
+    return np.concatenate((yd, ffrf_solve(S, M, f)))
 
 
 def ffrf_kin_jacobians(S, t, y, yd, p, u):
@@ -619,7 +615,8 @@ def ffrf_energy(S, t, x, p, u=None):
     out = np.array(S["rigid"]["energy"](t, ffrf_symbolic_state(S, x), p, u), dtype=np.float64)
     kin = ffrf_kin(S, t, y, yd, p, u)
     for b in S["bodies"]:
-        _Jv, _Jw, _a, _al, w, g, v, e = ffrf_frame(S, b, kin)
+        tail = ffrf_frame(S, b, kin)[2]
+        w, g, v, e = tail[6:9], tail[9:12], tail[12:15], tail[15]
         sl = slice(b["first"], b["first"] + b["nq"])
         q, qd = y[sl], yd[sl]
         out[0] += ffrf_kinetic_energy(b, v, w, q, qd)
