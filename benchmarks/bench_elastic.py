@@ -10,7 +10,11 @@ same description without the elastic body (the tip spring then acts on the link)
 Measured in one run, per ``nq``: generation time (``load → newton_euler → render → write``),
 module size, and the time per call of ``rhs`` (best of 7 CPU-time loops), NumPy module and
 compiled module (``backend="c"``, up to ``MAX_EXPANDED_MODES``); printed with the ratio to the
-rigid part alone (after one warm-up generation). Nothing is asserted.
+rigid part alone (after one warm-up generation), and the number of NumPy-level operations one
+NumPy ``rhs`` call executes in the embedded kernel (the ``ffrf_*`` functions: array operators
+and stores into arrays, counted bytecode by bytecode, plus calls of NumPy functions and array
+methods; slicing and look-ups are not counted; each operation costs roughly 0.3–1 µs).
+Nothing is asserted.
 
 BLAS runs single-threaded (``OPENBLAS_NUM_THREADS`` etc. default to 1 here, set before NumPy is
 imported): for these small matrices threads only add overhead, and on a loaded machine the
@@ -24,6 +28,7 @@ Usage::
 
 from __future__ import annotations
 
+import dis
 import os
 import sys
 import tempfile
@@ -84,8 +89,60 @@ def _time_rhs(mod) -> float:
     return min(runs) / number
 
 
+#: Bytecodes of the kernel counted as one NumPy-level operation each (array arithmetic and
+#: products, stores into arrays; the few integer sums of indices are counted too).
+_OPS = {dis.opmap["BINARY_OP"], dis.opmap["STORE_SUBSCR"]}
+
+
+def _is_numpy(fn) -> bool:
+    """Whether a C function (``c_call``) is NumPy's: a NumPy function or an array method."""
+    owner = getattr(fn, "__self__", None)
+    return (str(getattr(fn, "__module__", None) or "").startswith("numpy")
+            or isinstance(owner, np.ndarray) or owner is np)
+
+
+def _kernel_ops(mod) -> int:
+    """NumPy-level operations of one ``rhs`` call in the embedded kernel (``ffrf_*``
+    functions): the bytecodes ``_OPS`` (``sys.settrace``) plus the calls of NumPy functions
+    and array methods made from it (``sys.setprofile``), each outermost call counted once."""
+    p = mod.default_parameters()
+    x = np.array(mod.INITIAL_STATE, dtype=float)
+    x[len(mod.COORDINATES):] = 0.1
+    count = 0
+
+    def kernel(frame) -> bool:
+        return frame is not None and frame.f_code.co_name.startswith("ffrf_")
+
+    def trace(frame, event, _arg):
+        nonlocal count
+        if not kernel(frame):
+            return None
+        frame.f_trace_opcodes = True
+        if event == "opcode" and frame.f_code.co_code[frame.f_lasti] in _OPS:
+            count += 1
+        return trace
+
+    def profile(frame, event, arg):
+        nonlocal count
+        if event == "c_call" and kernel(frame) and _is_numpy(arg):
+            count += 1
+        elif (event == "call" and kernel(frame.f_back) and "numpy" in frame.f_code.co_filename
+              and not frame.f_code.co_name.endswith("_dispatcher")):
+            count += 1                        # (array-function dispatchers: not a second call)
+
+    mod.rhs(0.0, x, p)                        # a warm call (lazy set-up is not counted)
+    sys.settrace(trace)
+    sys.setprofile(profile)
+    try:
+        mod.rhs(0.0, x, p)
+    finally:
+        sys.setprofile(None)
+        sys.settrace(None)
+    return count
+
+
 def _generate(text: str, directory: Path, name: str,
-              backend: str = "numpy") -> tuple[float, float, int]:
+              backend: str = "numpy") -> tuple[float, float, int, int]:
     desc = directory / f"{name}.yaml"
     desc.write_text(text)
     t0 = time.perf_counter()
@@ -93,8 +150,9 @@ def _generate(text: str, directory: Path, name: str,
     gen = time.perf_counter() - t0
     mod = load_generated(path)
     if getattr(mod, "BACKEND", "numpy") != backend:
-        return gen, float("nan"), path.stat().st_size
-    return gen, _time_rhs(mod), path.stat().st_size
+        return gen, float("nan"), path.stat().st_size, 0
+    ops = _kernel_ops(mod) if backend == "numpy" else 0
+    return gen, _time_rhs(mod), path.stat().st_size, ops
 
 
 def main(counts: list[int]) -> None:
@@ -106,15 +164,16 @@ def main(counts: list[int]) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         _generate(RIGID.format(name="warmup", extra="", tip="link2"), d, "warmup")
-        g0, r0, s0 = _generate(RIGID.format(name="rigid", extra="", tip="link2"), d, "rigid")
-        _gc, rc, _sc = _generate(RIGID.format(name="rigidc", extra="", tip="link2"), d,
-                                 "rigidc", "c")
+        g0, r0, s0, _o = _generate(RIGID.format(name="rigid", extra="", tip="link2"), d,
+                                   "rigid")
+        _gc, rc, _sc, _o = _generate(RIGID.format(name="rigidc", extra="", tip="link2"), d,
+                                     "rigidc", "c")
         print(f"rigid part alone: generate {g0:.2f} s, rhs {r0 * 1e6:.1f} µs/call (C: "
               f"{rc * 1e6:.2f} µs), module {s0 / 1e3:.0f} kB")
-        print("| modes | generate | rhs per call | rhs / rigid | module size | C rhs | "
-              "C / rigid C |")
-        print("|---|---|---|---|---|---|---|")
-        print(f"| rigid only | {g0:.2f} s | {r0 * 1e6:.1f} µs | 1 | {s0 / 1e3:.0f} kB | "
+        print("| modes | generate | rhs per call | rhs / rigid | kernel ops | module size | "
+              "C rhs | C / rigid C |")
+        print("|---|---|---|---|---|---|---|---|")
+        print(f"| rigid only | {g0:.2f} s | {r0 * 1e6:.1f} µs | 1 | 0 | {s0 / 1e3:.0f} kB | "
               f"{rc * 1e6:.2f} µs | 1 |")
         for nq in counts:
             t0 = time.perf_counter()
@@ -122,16 +181,16 @@ def main(counts: list[int]) -> None:
             t_inv = time.perf_counter() - t0
             np.savez(d / f"beam{nq}.npz", **inv.to_flat())
             extra = ELASTIC.format(data=f"beam{nq}.npz", tip_id=tip_id)
-            g, r, s = _generate(RIGID.format(name=f"flex{nq}", extra=extra, tip="beam.tip"),
-                                d, f"flex{nq}")
+            g, r, s, ops = _generate(RIGID.format(name=f"flex{nq}", extra=extra,
+                                                  tip="beam.tip"), d, f"flex{nq}")
             text = RIGID.format(name=f"flex{nq}c", extra=extra, tip="beam.tip")
             if nq <= MAX_EXPANDED_MODES:
-                gc, rcq, _s = _generate(text, d, f"flex{nq}c", "c")
+                gc, rcq, _s, _o = _generate(text, d, f"flex{nq}c", "c")
                 c_cols = f"{rcq * 1e6:.2f} µs (+ {gc:.1f} s) | {rcq / rc:.1f}×"
             else:
                 c_cols = f"— (NumPy above {MAX_EXPANDED_MODES} modes) | —"
             print(f"| {nq} | {g:.2f} s (+ invariants {t_inv:.2f} s) | {r * 1e6:.1f} µs | "
-                  f"{r / r0:.1f}× | {s / 1e3:.0f} kB | {c_cols} |")
+                  f"{r / r0:.1f}× | {ops} | {s / 1e3:.0f} kB | {c_cols} |")
 
 
 if __name__ == "__main__":

@@ -13,7 +13,11 @@ The module of a model with elastic bodies is put together from
    functions as the package and stays importable with NumPy alone;
 3. the numeric data: per body its flat invariant arrays
    (:data:`~neweul_py.ffrf.schema.KERNEL_ARRAYS`, base64 of the zlib-compressed
-   little-endian float64 bytes, ``ffrf_pack``) and the node-coordinate maps ``S_V``, ``S_W``;
+   little-endian float64 bytes, ``ffrf_pack``), the node-coordinate maps ``S_V``, ``S_W``
+   and ``_MASS_PATTERN``: the rows and columns of the symbolic part's mass matrix that are
+   not zero by construction (so that ``S_Wᵀ M_s S_V`` needs no search for them per call) and
+   ``_KIN_PATTERN``, the hidden outputs not zero by construction (together they show whether
+   the elastic block of ``M`` is constant, :func:`~neweul_py.ffrf.splice.ffrf_block`);
 4. one-line protocol functions that call the splice with the module's context ``_FFRF``.
 
 Nothing is derived here and no rendered text is edited: parts are selected, renamed and
@@ -222,7 +226,12 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     data.append(")")
     parts = ", ".join(f"({ffrf_pack(v[:, a_idx])!r}, {ffrf_pack(w[:, a_idx])!r})"
                       for v, w in el.parts)
+    Ms = symbolic.mass_matrix
+    pattern = ([i for i in range(Ms.rows) if any(e != 0 for e in Ms.row(i))],
+               [j for j in range(Ms.cols) if any(e != 0 for e in Ms.col(j))])
     private = (*rigid.private, f"_NS = {len(a_idx)}",
+               f"_MASS_PATTERN = ({pattern[0]!r}, {pattern[1]!r})",
+               f"_KIN_PATTERN = {[i for i, e in enumerate(el.hidden) if e != 0]!r}",
                f"_SV = {ffrf_pack(el.SV[a_idx])!r}", f"_SW = {ffrf_pack(el.SW[a_idx])!r}",
                f"_PARTS = ({parts}{',' if len(el.parts) == 1 else ''})", *data,
                *(_node_clouds(el, list(equations.poses.frames),
@@ -243,7 +252,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         f"                    {{{rigid_map}}},",
         "                    default_inputs, _PARTS,",
         f"                    {'_rigid_schedule' if el.schedules else 'None'},",
-        f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'})")
+        f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'},",
+        "                    _MASS_PATTERN, _KIN_PATTERN)")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
     if "loss_matrix" in rigid.functions or any(

@@ -33,13 +33,13 @@ import zlib
 import numpy as np
 
 from .body import (
+    ffrf_body_loads,
     ffrf_elastic_forces,
     ffrf_first_moment,
     ffrf_kinetic_energy,
     ffrf_mass_blocks,
     ffrf_prepare,
     ffrf_strain_energy,
-    ffrf_velocity_terms,
 )
 from .parametric import ffrf_mix, ffrf_stack, ffrf_weights
 
@@ -69,7 +69,7 @@ def ffrf_unpack(entry):
 
 
 def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None,
-                schedule_jacobians=None):
+                schedule_jacobians=None, mass_pattern=None, kin_pattern=None):
     """The splice context of a generated module.
 
     Parameters
@@ -117,11 +117,112 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
     npar = sum("mixing" in b for b in bodies)
+    pattern = None if mass_pattern is None else tuple(
+        np.asarray(ffrf_unpack(v), dtype=np.intp).ravel() for v in mass_pattern)
     return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
             "same": bool(np.array_equal(SV, SW)) and not npar, "nhidden": nhidden,
             "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30,
-            "parametric": npar, "memo": [None],
-            "schedule": schedule, "schedule_jacobians": schedule_jacobians}
+            "parametric": npar, "memo": [None], "clouds": [None],
+            "schedule": schedule, "schedule_jacobians": schedule_jacobians,
+            "pattern": pattern, "maps": ffrf_mass_maps(SV, SW, pattern),
+            "acc_map": np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4)))),
+            "block": ffrf_block(bodies, ns, SV, SW, pattern, None if kin_pattern is None
+                                else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp))}
+
+
+def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
+    """The block elimination of the elastic coordinates ``E`` for ``M x = f``, when their
+    block ``D = M[E, E]`` is the constant ``blockdiag(Me)`` by construction (Golub & Van
+    Loan, *Matrix Computations*, §3.2.10; as :mod:`neweul_py.codegen.c_solve`)::
+
+        S = M[R, R] − M[R, E] D⁻¹ M[E, R],  S x_R = f_R − M[R, E] D⁻¹ f_E,
+        x_E = D⁻¹ (f_E − M[E, R] x_R)
+
+    ``D`` is constant when no mass of the symbolic part sits on the node coordinates
+    (``M_s[S_W E, S_V E] = 0``, ``pattern``) and no moving body's frame moves with them (its
+    ``J_T``, ``J_R`` columns there are zero, ``kin_pattern``), without second-order fields and
+    parametric bodies. Returns ``None`` otherwise, when ``D`` is worse conditioned than
+    ``1e8`` or when the dense solve is cheaper (fewer than 24 elastic coordinates besides
+    rigid ones): else ``{"R", "E"}`` (index arrays), ``"r"``, ``"e"`` (the same or slices,
+    :func:`ffrf_index`), ``"ix"`` (the index tuples of the blocks ``RR``, ``RE``, ``ER``)
+    and ``"Dinv"``."""
+    if pattern is None or kin_pattern is None or not bodies:
+        return None
+    if any("quad" in b or "mixing" in b for b in bodies):
+        return None
+    n = SV.shape[1]
+    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies])
+    R = np.setdiff1d(np.arange(n), E)
+    if R.size and E.size < 24:
+        return None
+    rv = np.flatnonzero(np.any(SV[:, E], axis=1))
+    rw = np.flatnonzero(np.any(SW[:, E], axis=1))
+    if np.intersect1d(pattern[0], rw).size and np.intersect1d(pattern[1], rv).size:
+        return None
+    size = max(int(kin_pattern.max(initial=-1)) + 1, *(b["kin"] + 6 * ns + 16 for b in bodies))
+    nonzero = np.zeros(size, dtype=bool)
+    nonzero[kin_pattern] = True
+    touched = np.union1d(rv, rw)
+    for b in bodies:
+        cols = nonzero[b["kin"]:b["kin"] + 6 * ns].reshape(6, ns).any(axis=0)
+        if "fixed" not in b and np.any(cols[touched]):
+            return None
+    D = np.zeros((E.size, E.size))
+    k = 0
+    for b in bodies:
+        D[k:k + b["nq"], k:k + b["nq"]] = b["Me"]
+        k += b["nq"]
+    if not np.all(np.isfinite(D)) or np.linalg.cond(D) > 1e8:
+        return None
+    rs, es = ffrf_index(R), ffrf_index(E)
+    if isinstance(rs, slice) and isinstance(es, slice):
+        ix = ((rs, rs), (rs, es), (es, rs))
+    else:
+        ix = (np.ix_(R, R), np.ix_(R, E), np.ix_(E, R))
+    return {"R": R, "E": E, "Dinv": np.linalg.inv(D), "ix": ix, "r": rs, "e": es}
+
+
+def ffrf_index(k):
+    """The index array ``k`` as a slice when it is a contiguous ascending range (views
+    instead of copies), else ``k``."""
+    if k.size and np.array_equal(k, np.arange(k[0], k[0] + k.size)):
+        return slice(int(k[0]), int(k[0]) + k.size)
+    return k
+
+
+def ffrf_solve(S, M, f):
+    """``M⁻¹ f`` (``f``: (n,) or (n, k)): by :func:`ffrf_block`'s elimination when the
+    context has it, else the dense LU of ``numpy.linalg.solve``."""
+    blk = S["block"]
+    if blk is None:
+        return np.linalg.solve(M, f)
+    R, E, Dinv = blk["r"], blk["e"], blk["Dinv"]
+    out = np.empty(f.shape)
+    yf = Dinv @ f[E]
+    if not blk["R"].size:
+        out[E] = yf
+        return out
+    RR, RE, ER = blk["ix"]
+    Y = Dinv @ M[ER]
+    B = M[RE]
+    xR = np.linalg.solve(M[RR] - B @ Y, f[R] - B @ yf)
+    out[R] = xR
+    out[E] = yf - Y @ xR
+    return out
+
+
+def ffrf_mass_maps(SV, SW, pattern):
+    """What ``S_Wᵀ M_s S_V`` needs besides ``M_s`` when the rows ``r`` and columns ``c`` of
+    ``M_s`` that can be nonzero are known (``pattern``, else ``None``): ``(index, S_W[r]ᵀ,
+    S_V[c])``, ``index`` selecting ``M_s[r, c]`` (slices for contiguous ranges); and
+    ``S_Vᵀ`` for the symbolic state ``[S_V y, S_V ẏ] = ([y; ẏ] S_Vᵀ)`` in one product."""
+    if pattern is None:
+        return None, SV.T.copy()
+    r, c = pattern
+    ix = (ffrf_index(r), ffrf_index(c))
+    if not isinstance(ix[0], slice) or not isinstance(ix[1], slice):
+        ix = np.ix_(r, c)
+    return (ix, np.ascontiguousarray(SW[r].T), np.ascontiguousarray(SV[c])), SV.T.copy()
 
 
 def ffrf_schedule(S, t, p, x=None, u=None):
@@ -172,7 +273,7 @@ def ffrf_mixed(S, sigma):
         bodies.append(mixed)
         k += 1
     return dict(S, bodies=tuple(bodies), SV=SV, SW=SW, same=bool(np.array_equal(SV, SW)),
-                base=S, sigma=np.asarray(sigma))
+                base=S, sigma=np.asarray(sigma), maps=ffrf_mass_maps(SV, SW, S["pattern"]))
 
 
 def ffrf_sigma_sensitivity(S, t, y, p, u):
@@ -220,65 +321,75 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
 
 
 def ffrf_frame(S, b, kin):
-    """``(J_V, J_W, ā, ᾱ, ω, g, v, e)`` of body ``b`` from the hidden outputs ``kin`` (a body
-    on a fixed frame has no Jacobian entries there: its ``J_V = J_W = 0``)."""
+    """``(J_V, J_W, tail)`` of body ``b`` from the hidden outputs ``kin``, ``tail = [ā, ᾱ,
+    ω, g, v, e]`` (16; a body on a fixed frame has no Jacobian entries there: its
+    ``J_V = J_W = 0``)."""
     o = b["kin"]
     if "fixed" in b:
-        tail = kin[o:o + 16]
         zero = np.zeros((6, S["n"]), dtype=kin.dtype)
-        return zero, zero, tail[0:3], tail[3:6], tail[6:9], tail[9:12], tail[12:15], tail[15]
+        return zero, zero, kin[o:o + 16]
     ns = S["ns"]
-    JT = kin[o:o + 3 * ns].reshape(3, ns)
-    JR = kin[o + 3 * ns:o + 6 * ns].reshape(3, ns)
-    tail = kin[o + 6 * ns:o + 6 * ns + 16]
-    Js = np.vstack((JT, JR))
+    Js = kin[o:o + 6 * ns].reshape(6, ns)     # [J_T; J_R]
     Jv = Js @ S["SV"]
-    Jw = Jv if S["same"] else Js @ S["SW"]
-    return Jv, Jw, tail[0:3], tail[3:6], tail[6:9], tail[9:12], tail[12:15], tail[15]
+    return Jv, Jv if S["same"] else Js @ S["SW"], kin[o + 6 * ns:o + 6 * ns + 16]
 
 
 def ffrf_terms(S, kin, y, yd):
-    """Per body: ``(J_V, J_W, ā, ᾱ, ω, g, q, q̇, blocks)`` — the frame kinematics and the
-    mass blocks of :func:`~neweul_py.ffrf.body.ffrf_mass_blocks`, evaluated once for the mass
-    matrix and the force vector."""
+    """Per body: ``(J_V, J_W, acc, ω, q, q̇, blocks)`` — the frame kinematics
+    (``acc = [ā − g; ᾱ]``) and the mass blocks of
+    :func:`~neweul_py.ffrf.body.ffrf_mass_blocks` (``None`` for a body on a fixed frame,
+    whose mass is its constant ``Me``), evaluated once for the mass matrix and the force
+    vector."""
     out = []
     for b in S["bodies"]:
-        Jv, Jw, abar, alphabar, w, g = ffrf_frame(S, b, kin)[:6]
+        Jv, Jw, tail = ffrf_frame(S, b, kin)
         e = slice(b["first"], b["first"] + b["nq"])
-        q, qd = y[e], yd[e]
-        out.append((Jv, Jw, abar, alphabar, w, g, q, qd, ffrf_mass_blocks(b, q)))
+        q = y[e]
+        out.append((Jv, Jw, S["acc_map"] @ tail, tail[6:9], q, yd[e],
+                    None if "fixed" in b else ffrf_mass_blocks(b, q)))
     return out
 
 
 def ffrf_add_mass(S, M, terms):
-    """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices)."""
+    """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices):
+    ``J_Wᵀ (Mrr J_V + Mre E) + Eᵀ (Mer J_V + Mee E)``."""
     for b, (Jv, Jw, *_k, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
-        if "fixed" in b:                      # J_V = J_W = 0: the elastic rows alone
-            M = M.astype(np.result_type(M, m["Mee"]))     # a copy, as M + … below
-            M[e, e] += m["Mee"]
+        if m is None:                         # a fixed frame, J_V = J_W = 0: Me alone
+            M = M.astype(np.result_type(M, b["Me"]))       # a copy, as M + … below
+            M[e, e] += b["Me"]
             continue
-        M = M + Jw.T @ (m["Mrr"] @ Jv)
-        M[:, e] += Jw.T @ m["Mre"]
+        U = m["Mrr"] @ Jv
+        U[:, e] += m["Mre"]
+        M = M + Jw.T @ U
         M[e, :] += m["Mer"] @ Jv
         M[e, e] += m["Mee"]
     return M
 
 
 def ffrf_add_force(S, f, terms):
-    """``q − k −= J_Wᵀ (M_b [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])``."""
-    for b, (_Jv, Jw, abar, alphabar, w, g, q, qd, m) in zip(S["bodies"], terms, strict=True):
+    """``q − k −= J_Wᵀ (M_b [ā − g; ᾱ; 0] + h_ω + [0; 0; Ke q + De q̇ + kσ])`` (the rigid
+    rows of a body on a fixed frame, ``J_W = 0``, are not formed)."""
+    for b, (_Jv, Jw, acc, w, q, qd, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
-        if "fixed" in b:                      # ā = ᾱ = ω = 0, J_W = 0
-            load = b["Ct0"] @ (abar - g) + ffrf_elastic_forces(b, q, qd)
-            f = f.astype(np.result_type(f, load))           # a copy, as f − … below
-            f[e] -= load
-            continue
-        acc = np.concatenate((abar - g, alphabar))
-        hr, he = ffrf_velocity_terms(b, q, qd, w, m)
-        f = f - Jw.T @ (m["Mrr"] @ acc + hr)
-        f[e] -= m["Mer"] @ acc + he + ffrf_elastic_forces(b, q, qd)
+        hr, he = ffrf_body_loads(b, q, qd, acc, w, m)
+        he = he + ffrf_elastic_forces(b, q, qd)
+        if m is None:
+            f = f.astype(np.result_type(f, he))            # a copy, as f − … below
+        else:
+            f = f - Jw.T @ hr
+        f[e] -= he
     return f
+
+
+def ffrf_symbolic_mass(S, Ms):
+    """``S_Wᵀ M_s S_V``: through the rows and columns of ``M_s`` known to be in use
+    (``S["maps"]``, :func:`ffrf_mass_maps`), else :func:`ffrf_sandwich`."""
+    maps = S["maps"][0]
+    if maps is None:
+        return ffrf_sandwich(S["SW"], Ms, S["SV"])
+    ix, SWrT, SVc = maps
+    return SWrT @ (Ms[ix] @ SVc)
 
 
 def ffrf_sandwich(SW, A, SV):
@@ -302,7 +413,7 @@ def ffrf_mass_matrix(S, t, y, p, u=None):
     z = np.zeros_like(y)
     terms = ffrf_terms(S, ffrf_kin(S, t, y, z, p, u), y, z)
     Ms = S["rigid"]["mass_matrix"](t, S["SV"] @ y, p, u)
-    return ffrf_add_mass(S, ffrf_sandwich(S["SW"], Ms, S["SV"]), terms)
+    return ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms)
 
 
 def ffrf_force_vector(S, t, y, yd, p, u=None):
@@ -315,19 +426,17 @@ def ffrf_force_vector(S, t, y, yd, p, u=None):
 
 
 def ffrf_rhs(S, t, x, p, u=None):
-    """``[ẏ, M⁻¹ (q − k)]``: one evaluation of the frame kinematics for both."""
+    """``[ẏ, M⁻¹ (q − k)]``: one evaluation of the symbolic state ``[S_V y, S_V ẏ]`` and of
+    the frame kinematics for both."""
     x = np.asarray(x, dtype=np.float64)
-    n = S["n"]
+    n, ns = S["n"], S["ns"]
     y, yd = x[:n], x[n:2 * n]
-    terms = ffrf_terms(S, ffrf_kin(S, t, y, yd, p, u), y, yd)
-    ys, yds = S["SV"] @ y, S["SV"] @ yd
-    M = ffrf_add_mass(S, ffrf_sandwich(S["SW"], S["rigid"]["mass_matrix"](t, ys, p, u), S["SV"]),
-                      terms)
-    f = ffrf_add_force(S, S["SW"].T @ S["rigid"]["force_vector"](t, ys, yds, p, u), terms)
-    xd = np.empty(2 * n)
-    xd[:n] = yd
-    xd[n:] = np.linalg.solve(M, f)
-    return xd
+    xs = (x[:2 * n].reshape(2, n) @ S["maps"][1]).ravel()
+    rig = S["rigid"]
+    terms = ffrf_terms(S, rig["outputs"](t, xs, p, u)[S["nhidden"]:], y, yd)
+    M = ffrf_add_mass(S, ffrf_symbolic_mass(S, rig["mass_matrix"](t, xs[:ns], p, u)), terms)
+    f = ffrf_add_force(S, S["SW"].T @ rig["force_vector"](t, xs[:ns], xs[ns:], p, u), terms)
+    return np.concatenate((yd, ffrf_solve(S, M, f)))
 
 
 def ffrf_kin_jacobians(S, t, y, yd, p, u):
@@ -445,12 +554,12 @@ def ffrf_rhs_jacobian(S, t, x, p, u=None):
     n = S["n"]
     y, yd = x[:n], x[n:2 * n]
     M = ffrf_mass_matrix(S, t, y, p, u)
-    ydd = np.linalg.solve(M, ffrf_force_vector(S, t, y, yd, p, u))
+    ydd = ffrf_solve(S, M, ffrf_force_vector(S, t, y, yd, p, u))
     fy, fyd, _fu = ffrf_force_jacobians(S, t, y, yd, p, u)
     dMa = ffrf_mass_matrix_times_derivative(S, t, y, p, ydd, u)
     J = np.zeros((2 * n, 2 * n))
     J[:n, n:] = np.eye(n)
-    J[n:, :] = np.linalg.solve(M, np.hstack((fy - dMa, fyd)))
+    J[n:, :] = ffrf_solve(S, M, np.hstack((fy - dMa, fyd)))
     return J
 
 
@@ -506,7 +615,8 @@ def ffrf_energy(S, t, x, p, u=None):
     out = np.array(S["rigid"]["energy"](t, ffrf_symbolic_state(S, x), p, u), dtype=np.float64)
     kin = ffrf_kin(S, t, y, yd, p, u)
     for b in S["bodies"]:
-        _Jv, _Jw, _a, _al, w, g, v, e = ffrf_frame(S, b, kin)
+        tail = ffrf_frame(S, b, kin)[2]
+        w, g, v, e = tail[6:9], tail[9:12], tail[12:15], tail[15]
         sl = slice(b["first"], b["first"] + b["nq"])
         q, qd = y[sl], yd[sl]
         out[0] += ffrf_kinetic_energy(b, v, w, q, qd)
@@ -556,21 +666,34 @@ def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
     """Per elastic body of ``nodes`` (``first``, ``nq``, ``frame``: index into the frame
     poses ``r`` (nF, 3), ``R`` (nF, 3, 3) or −1 for ISYS, ``samples``: the packed node data
     ``origin`` (nk, 3), ``phi`` (nk, 3, nq) per sample, and for parametric bodies ``values``,
-    ``coeff``, ``k``): its nodes at ``x_P + Φ_P q`` in ISYS (nk, 3), mixed at the schedule."""
+    ``coeff``, ``k``): its nodes at ``x_P + Φ_P q`` in ISYS (nk, 3), mixed at the schedule.
+    The clouds are unpacked and stacked at the first call (kept in ``S["clouds"]``)."""
     sigma = ffrf_schedule(S, t, p, x, u) if S["parametric"] else ()
+    kept = S["clouds"][0]
+    if kept is None or kept[0] is not nodes:
+        kept = (nodes, [ffrf_clouds(b) for b in nodes])
+        S["clouds"][0] = kept
     out = []
-    for b in nodes:
-        samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b["samples"]]
-        cloud = samples[0]
+    for b, cloud in zip(nodes, kept[1], strict=True):
         if "values" in b:
-            w = ffrf_weights(ffrf_unpack(b["values"]), ffrf_unpack(b["coeff"]), sigma[b["k"]],
-                             b["name"])
-            cloud = ffrf_mix(ffrf_stack(samples), w)
+            cloud = ffrf_mix(cloud["mixing"], ffrf_weights(cloud["values"], cloud["coeff"],
+                                                           sigma[b["k"]], b["name"]))
         q = x[b["first"]:b["first"] + b["nq"]]
         local = cloud["origin"] + cloud["phi"] @ q
         f = b["frame"]
         out.append(local if f < 0 else r[f] + local @ R[f].T)
     return out
+
+
+def ffrf_clouds(b):
+    """The node cloud of one entry of :func:`ffrf_node_positions`: ``origin``, ``phi``
+    (unpacked), or for a parametric body the mixing form of its samples with ``values``,
+    ``coeff``."""
+    samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b["samples"]]
+    if "values" not in b:
+        return samples[0]
+    return {"mixing": ffrf_stack(samples), "values": ffrf_unpack(b["values"]),
+            "coeff": ffrf_unpack(b["coeff"])}
 
 
 #: The protocol functions a module with elastic bodies delegates to (protocol name → splice
@@ -594,10 +717,12 @@ PROTOCOL = {
 
 #: The functions a generated module embeds after the kernel's (in this order).
 SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system,
+                    ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
-                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_sandwich, ffrf_kin,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_symbolic_mass,
+                    ffrf_sandwich, ffrf_kin,
                     ffrf_kin_jacobians, ffrf_sparse_product,
                     ffrf_force_directional, ffrf_moving, ffrf_fixed_force_jacobians,
-                    ffrf_symbolic_state, ffrf_node_positions,
+                    ffrf_symbolic_state, ffrf_node_positions, ffrf_clouds,
                     *PROTOCOL.values())
