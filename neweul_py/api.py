@@ -15,14 +15,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
 
-import numpy as np
-
 from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from .analysis.results import SimulationResult
 
 __all__ = [
