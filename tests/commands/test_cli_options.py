@@ -269,6 +269,25 @@ def test_console_run_freezes_its_objects_and_in_process_calls_do_not(tmp_path):
     assert "True" in words and "False" not in words
 
 
+@pytest.mark.parametrize("command", ["generate", "simulate", "compare-frf", "frf-body",
+                                     "body-info", "fem", "sweep"])
+def test_the_parser_of_one_command_is_the_full_parsers(command, capsys):
+    """``main`` registers only the sub-command it runs: its ``--help`` and the usage error of
+    a bad option read the same as with every sub-command registered (reference: the full
+    parser of :func:`build_parser`)."""
+
+    def output(parser, words):
+        with pytest.raises(SystemExit):
+            parser.parse_args(words)
+        out = capsys.readouterr()
+        return out.out + out.err
+
+    assert len(build_parser(command)._subparsers._group_actions[0].choices) == 1
+    for words in ([command, "--help"], [command, "--no-such-option"]):
+        assert output(build_parser(command), words) == output(build_parser(), words)
+    assert "compare-frf" in output(build_parser("--help"), ["--help"])
+
+
 def test_a_missing_command_module_fails_loudly(monkeypatch):
     """A command module listed in COMMAND_MODULES that cannot be imported is a broken
     installation: building the parser raises (it used to be skipped silently)."""
