@@ -60,9 +60,29 @@ def prune(intermediates: Sequence[Assignment], finals: Sequence[sp.Expr]) -> lis
     return kept
 
 
+#: ``Basic.free_symbols`` (the union over the arguments: Add, Mul, Pow, numbers …) and
+#: ``Symbol.free_symbols`` (``{self}``); other classes (functions, Piecewise, Derivative …)
+#: define their own.
+_UNION_OF_ARGS = sp.Basic.free_symbols
+_ITSELF = sp.Symbol.free_symbols
+
+
 @functools.lru_cache(maxsize=1 << 16)
 def _free_cached(expr: sp.Basic) -> frozenset[sp.Symbol]:
-    return frozenset(expr.free_symbols)
+    """``expr.free_symbols`` in one walk over the tree (sympy's property builds a set at
+    every node of it), asking each class with a rule of its own for its answer."""
+    out: set[sp.Basic] = set()
+    stack = [expr]
+    while stack:
+        e = stack.pop()
+        rule = type(e).free_symbols
+        if rule is _UNION_OF_ARGS:
+            stack.extend(e.args)
+        elif rule is _ITSELF:
+            out.add(e)
+        else:
+            out |= e.free_symbols
+    return frozenset(out)
 
 
 def free_symbols(expr: sp.Basic) -> frozenset[sp.Symbol]:
