@@ -236,13 +236,16 @@ def test_generate_of_a_rigid_model_imports_no_numpy(tmp_path):
     """``neweul generate`` of rigid examples (a chain, a spatial chain, inputs and springs)
     derives and prints with sympy alone: a fresh process has no NumPy, SciPy, skfem,
     matplotlib, elastic or floating-frame code in ``sys.modules`` afterwards (issue 14 item
-    4: the cold ``generate`` pays for no import it does not need)."""
+    4: the cold ``generate`` pays for no import it does not need), with the cache off or
+    missing."""
     files = [str(EXAMPLES / f"{name}.yaml")
              for name in ("pendulum", "chain3_spatial", "quarter_car", "cart_pendulum")]
-    code = ("import sys\nfrom neweul_py.cli import main\n"
+    code = (f"import os, sys\nos.environ['NEWEUL_CACHE'] = {str(tmp_path / 'cache')!r}\n"
+            "from neweul_py.cli import main\n"
             f"for f in {files!r}:\n"
             f"    assert main(['generate', f, '-o', {str(tmp_path)!r}, '--no-cache', '-q']) == 0\n"
-            "print(' '.join(sys.modules))\n")
+            f"assert main(['generate', {files[0]!r}, '-o', {str(tmp_path / 'b')!r}, '-q']) == 0\n"
+            "print(' '.join(sys.modules))\n")  # the last: a cache miss, derived and stored
     loaded = _modules_after(code)
     assert "neweul_py.codegen.writer" in loaded and "sympy" in loaded
     assert sorted(m for m in loaded if m.split(".")[0] in ("numpy", "scipy", "skfem",
