@@ -21,6 +21,7 @@ Usage::
 
     nice -n 10 python benchmarks/bench_compiled.py            # everything (~ 3 min)
     nice -n 10 python benchmarks/bench_compiled.py --skip-peers
+    python benchmarks/bench_compiled.py --only generate --kane-runs 3   # (b) alone, ~1 min
 
 Per-call figures are CPU time of the calling process (best of 5 loops); whole processes are
 given as wall and CPU time (user + system of the process and its compiler), since on the
@@ -202,6 +203,33 @@ def _rel(a: list[float], b: list[float]) -> float:
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
 
 
+def _whole_process(kane_runs: int) -> None:
+    """(b): ``neweul generate`` of examples/chain10_planar.yaml as whole processes (best CPU
+    of 5 cold runs, the bytecode cache warm) against the KanesMethod process (best CPU of
+    ``kane_runs``; plain sympy, this Python)."""
+    print("\n(b) whole process, examples/chain10_planar.yaml")
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = {"NEWEUL_CACHE": str(Path(tmp) / "cache")}
+        cli = [sys.executable, "-m", "neweul_py.cli", "generate",
+               str(ROOT / "examples" / "chain10_planar.yaml"), "-o", tmp]
+        _wall([*cli, "--no-cache"], cache)  # warm the bytecode cache (and nothing else)
+        t_np = min((_wall([*cli, "--no-cache"], cache) for _ in range(5)), key=lambda t: t[1])
+        t_miss = _wall(cli, cache)  # derives and stores in the content-hash cache
+        t_hit = _wall(cli, cache)  # the verified cache entry, no sympy
+        t_c = _wall([*cli[:-1], str(Path(tmp) / "c"), "--backend", "c"], cache)
+    t_kane = min((_wall([sys.executable, str(HERE / "_peer_pydy.py"), "kane", "10"])
+                  for _ in range(kane_runs)), key=lambda t: t[1])
+    print(f"    (best CPU of 5 cold runs; KanesMethod best of {kane_runs}; the bytecode cache "
+          f"warm: {PYCACHE}; load average {os.getloadavg()[0]:.1f})")
+    for label, t in (("neweul generate --no-cache:  ", t_np),
+                     ("neweul generate (cache miss):", t_miss),
+                     ("neweul generate (cache hit): ", t_hit),
+                     ("neweul generate --backend c:", t_c)):
+        print(f"    {label} {t[0]:6.2f} s wall, {t[1]:6.2f} s CPU   Kane/ours "
+              f"{t_kane[0] / t[0]:5.1f} (wall), {t_kane[1] / t[1]:5.1f} (CPU)")
+    print(f"    KanesMethod process:          {t_kane[0]:6.2f} s wall, {t_kane[1]:6.2f} s CPU")
+
+
 # ----------------------------------------------------------------------------- main
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -209,9 +237,19 @@ def main() -> None:
     parser.add_argument("--peer-python", default="/work/venvs/peers/bin/python")
     parser.add_argument("--skip-peers", action="store_true")
     parser.add_argument("-n", type=int, default=10, help="chain length of (a) (default 10)")
+    parser.add_argument("--only", choices=("all", "generate"), default="all",
+                        help="generate: part (b) alone (no peer venv needed: KanesMethod is "
+                        "plain sympy)")
+    parser.add_argument("--kane-runs", type=int, default=1, metavar="K",
+                        help="KanesMethod processes of (b), best CPU of K (default 1)")
     args = parser.parse_args()
     if args.worker:
         _worker(args.worker)
+        return
+    if args.only == "generate":
+        print(f"Python {sys.version.split()[0]}; one fresh process per job; "
+              f"load average {os.getloadavg()[0]:.1f}")
+        _whole_process(args.kane_runs)
         return
     n = args.n
     peer = not args.skip_peers and Path(args.peer_python).exists()
@@ -274,25 +312,7 @@ def main() -> None:
         print(f"    PyDy Cython ({s}), RK45:  {t[0]:6.2f} s wall, {t[1]:6.2f} s CPU   "
               f"PyDy/ours {t[0] / t_e2e[0]:5.1f} (wall), {t[1] / t_e2e[1]:5.1f} (CPU)")
 
-    print("\n(b) whole process, examples/chain10_planar.yaml")
-    with tempfile.TemporaryDirectory() as tmp:
-        cache = {"NEWEUL_CACHE": str(Path(tmp) / "cache")}
-        cli = [sys.executable, "-m", "neweul_py.cli", "generate",
-               str(ROOT / "examples" / "chain10_planar.yaml"), "-o", tmp]
-        _wall([*cli, "--no-cache"], cache)  # warm the bytecode cache (and nothing else)
-        t_np = min((_wall([*cli, "--no-cache"], cache) for _ in range(3)), key=lambda t: t[1])
-        t_miss = _wall(cli, cache)  # derives and stores in the content-hash cache
-        t_hit = _wall(cli, cache)  # the verified cache entry, no sympy
-        t_c = _wall([*cli[:-1], str(Path(tmp) / "c"), "--backend", "c"], cache)
-    t_kane = _wall([sys.executable, str(HERE / "_peer_pydy.py"), "kane", "10"])
-    print(f"    (best CPU of 3 cold runs each; the bytecode cache warm: {PYCACHE})")
-    for label, t in (("neweul generate --no-cache:  ", t_np),
-                     ("neweul generate (cache miss):", t_miss),
-                     ("neweul generate (cache hit): ", t_hit),
-                     ("neweul generate --backend c:", t_c)):
-        print(f"    {label} {t[0]:6.2f} s wall, {t[1]:6.2f} s CPU   Kane/ours "
-              f"{t_kane[0] / t[0]:5.1f} (wall), {t_kane[1] / t[1]:5.1f} (CPU)")
-    print(f"    KanesMethod process:          {t_kane[0]:6.2f} s wall, {t_kane[1]:6.2f} s CPU")
+    _whole_process(args.kane_runs)
 
     print("\n(c) derivation + generation (fresh process each)")
     print(f"    {'model':14s} {'derive':>7s} {'NumPy':>7s} {'C text':>7s} {'cc core':>8s} "

@@ -15,14 +15,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
 
-import numpy as np
-
 from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from .analysis.results import SimulationResult
 
 __all__ = [
@@ -390,8 +390,6 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
                    cache: str | os.PathLike[str] | None,
                    progress: StagedProgress = None) -> _Entry:
     """The cache entry of a description, with its verified source and (on a hit) module."""
-    from .analysis.module import check_protocol
-
     _check_form(form)
     raw = _read(description_path)
     path = _cache_entry(raw, description_path, form, cache)
@@ -401,6 +399,9 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
 
     source = verified_bytes(path)
     if source is not None:
+        # here, not above: a miss derives and writes without the analysis layer (NumPy)
+        from .analysis.module import check_protocol
+
         try:
             module = import_verified(path, source)
             check_protocol(module, str(path))

@@ -31,8 +31,8 @@ from ..model import as_expr
 #: intermediates); ``"none"``: no elimination.
 CseMethod = Literal["full", "tree", "none"]
 
-__all__ = ["Block", "CseMethod", "eliminate", "free_symbols", "hoist_constant_factors", "prune",
-           "tree_cse"]
+__all__ = ["Block", "CseMethod", "eliminate", "free_symbols", "hoist_constant_factors",
+           "numbered_symbols", "prune", "tree_cse"]
 
 Assignment = tuple[sp.Symbol, sp.Expr]
 
@@ -60,9 +60,29 @@ def prune(intermediates: Sequence[Assignment], finals: Sequence[sp.Expr]) -> lis
     return kept
 
 
+#: ``Basic.free_symbols`` (the union over the arguments: Add, Mul, Pow, numbers …) and
+#: ``Symbol.free_symbols`` (``{self}``); other classes (functions, Piecewise, Derivative …)
+#: define their own.
+_UNION_OF_ARGS = sp.Basic.free_symbols
+_ITSELF = sp.Symbol.free_symbols
+
+
 @functools.lru_cache(maxsize=1 << 16)
 def _free_cached(expr: sp.Basic) -> frozenset[sp.Symbol]:
-    return frozenset(expr.free_symbols)
+    """``expr.free_symbols`` in one walk over the tree (sympy's property builds a set at
+    every node of it), asking each class with a rule of its own for its answer."""
+    out: set[sp.Basic] = set()
+    stack = [expr]
+    while stack:
+        e = stack.pop()
+        rule = type(e).free_symbols
+        if rule is _UNION_OF_ARGS:
+            stack.extend(e.args)
+        elif rule is _ITSELF:
+            out.add(e)
+        else:
+            out |= e.free_symbols
+    return frozenset(out)
 
 
 def free_symbols(expr: sp.Basic) -> frozenset[sp.Symbol]:
@@ -125,10 +145,20 @@ def tree_cse(
     return replacements, reduced
 
 
-def _numbered(prefix: str) -> Iterator[sp.Symbol]:
+#: The symbols ``prefix0, prefix1, …`` made so far, per prefix (each block numbers its own
+#: from 0, so the same names recur in every function of a module and in every module).
+_NUMBERED: dict[str, list[sp.Symbol]] = {}
+
+
+def numbered_symbols(prefix: str) -> Iterator[sp.Symbol]:
+    """``Symbol(prefix0), Symbol(prefix1), …``: each made once per process and reused (equal
+    to a new ``Symbol`` of that name; making them was ~10 % of generating a module)."""
+    made = _NUMBERED.setdefault(prefix, [])
     k = 0
     while True:
-        yield sp.Symbol(f"{prefix}{k}")
+        if k == len(made):
+            made.append(sp.Symbol(f"{prefix}{k}"))
+        yield made[k]
         k += 1
 
 
@@ -163,9 +193,9 @@ def eliminate(
         return Block(tuple(kept), tuple(finals))
     exprs = [e for _, e in kept] + finals
     if method == "full":
-        replacements, reduced = sp.cse(exprs, symbols=_numbered(prefix), order="none")
+        replacements, reduced = sp.cse(exprs, symbols=numbered_symbols(prefix), order="none")
     elif method == "tree":
-        replacements, reduced = tree_cse(exprs, _numbered(prefix))
+        replacements, reduced = tree_cse(exprs, numbered_symbols(prefix))
     else:
         raise ValueError(f"unknown CSE method {method!r}")
     reduced_inter = reduced[: len(kept)]

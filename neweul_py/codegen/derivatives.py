@@ -22,24 +22,17 @@ everywhere.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 
 import sympy as sp
 
 from ..model import as_expr
-from .cse import Assignment, prune
+from .cse import Assignment, numbered_symbols, prune
 
 __all__ = ["gradient", "jacobian"]
 
 
 _ONE, _ZERO = sp.S.One, sp.S.Zero
-
-
-def _numbered(prefix: str) -> Iterator[sp.Symbol]:
-    k = 0
-    while True:
-        yield sp.Symbol(f"{prefix}{k}")
-        k += 1
 
 
 def _no_delta(d: sp.Expr) -> sp.Expr:
@@ -181,7 +174,7 @@ def jacobian(
     exprs = [as_expr(e) for e in exprs]
     kept = prune(intermediates, exprs)
     index = {v: j for j, v in enumerate(wrt)}
-    names = _numbered(prefix)
+    names = numbered_symbols(prefix)
     # dz[z] = {j: dz/dwrt_j (a symbol or an atom)}, non-zero entries only
     dz: dict[sp.Symbol, dict[int, sp.Expr]] = {}
     wanted: set[sp.Symbol] = set(wrt)

@@ -15,7 +15,6 @@ from typing import Any
 
 from ..atomic import atomic_write
 from ..progress import StagedProgress
-from .elastic import elastic_module_parts
 from .writer import compose, module_parts
 
 __all__ = ["generate_module", "render_module"]
@@ -43,6 +42,10 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True,
         When the equations cannot be turned into code.
     """
     if getattr(equations, "elastic", None) is not None:
+        # here: the elastic composition embeds the NumPy kernel (neweul_py.ffrf), which a
+        # rigid model never imports
+        from .elastic import elastic_module_parts
+
         return compose(elastic_module_parts(equations, source_hash, cse=cse, progress=progress))
     return compose(module_parts(equations, source_hash, cse=cse, progress=progress))
 

@@ -165,6 +165,7 @@ class ScalarPrinter(PythonCodePrinter):
 
 # ------------------------------------------------------------------------------ fast printer
 _ADD, _MUL, _UNARY, _POW, _ATOM = 10, 20, 25, 30, 40
+_ONE = sp.S.One
 
 #: sympy function classes printed as ``_math.<name>(…)``.
 _MATH_FUNCTIONS: dict[type, str] = {
@@ -231,7 +232,7 @@ class FastPrinter:
         coeff, rest = e.as_coeff_Mul()
         num: list[str] = []
         den: list[tuple[sp.Basic, sp.Basic]] = []
-        for f in sp.Mul.make_args(rest):
+        for f in rest.args if rest.is_Mul else (rest,):  # = Mul.make_args(rest)
             if f.is_Pow and f.exp.is_Rational and f.exp.is_negative:
                 den.append((f.base, -f.exp))
             else:
@@ -243,7 +244,7 @@ class FastPrinter:
                 s += "/" + parts[0][0]
             else:
                 s += "/(" + "*".join(p if pr > _ADD else f"({p})" for p, pr in parts) + ")"
-        if coeff == 1:
+        if coeff is _ONE or coeff == 1:
             return s, _MUL
         negative = coeff.is_negative
         c = -coeff if negative else coeff
@@ -252,7 +253,7 @@ class FastPrinter:
         return ("-" + s if negative else s), _MUL
 
     def _pow(self, base: sp.Basic, exp: sp.Basic) -> tuple[str, int]:
-        if exp == 1:
+        if exp is _ONE or exp == 1:
             return self._p(base)
         if exp == sp.S.Half:
             return f"_math.sqrt({self._p(base)[0]})", _ATOM

@@ -9,11 +9,13 @@ there, and how well the basis holds the state."""
 from __future__ import annotations
 
 import argparse
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from ..errors import NeweulError
 from . import assignment
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: Node lines shown per state: every node with an interface force, then others up to this.
 SHOWN = 12
@@ -36,6 +38,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _state(label: str, nodes: np.ndarray, st, outputs: tuple[str, ...]) -> list[str]:
+    import numpy as np
+
     lines = [f"{label}: residual of V q_s {float(st.residual):.2e}, |q_s| "
              f"{float(np.linalg.norm(st.q)):.4g}"]
     loaded = np.any(st.node_force != 0, axis=1)
@@ -56,6 +60,8 @@ def _state(label: str, nodes: np.ndarray, st, outputs: tuple[str, ...]) -> list[
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary (one block per working point with a static state)."""
+    import numpy as np
+
     from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
     from ..elastic.reduced_body import load_reduced_body
     from .frf_body import body_at

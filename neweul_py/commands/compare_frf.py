@@ -6,8 +6,6 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
 from . import Range, range_type
@@ -18,6 +16,8 @@ from . import common as common
 FRF_METHODS: tuple[str, ...] = ("auto", "sweep", "direct")
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from ..elastic.quality import FRFComparison
 
 
@@ -58,6 +58,8 @@ def add_body_frf_arguments(parser: argparse.ArgumentParser, plot_help: str) -> N
 
 def frequency_grid(grid: Range, log: bool) -> np.ndarray:
     """Linear or logarithmic grid (a log grid needs a positive start)."""
+    import numpy as np  # here: building the parser of every command needs no NumPy
+
     return np.asarray(grid.values(log))
 
 
@@ -90,6 +92,8 @@ def plot(cmp: FRFComparison, path: str, *, log_frequency: bool = False, unit: st
 
 def summary(cmp: FRFComparison, what: str) -> list[str]:
     """The printed result: the error inside the retained band, the frequencies above it."""
+    import numpy as np
+
     err, f, inside = cmp.relative_error, cmp.frequencies_hz, cmp.in_band
     name = f"{cmp.output} / {cmp.input}"
     lines = []

@@ -10,8 +10,6 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
 from . import assignment
@@ -19,6 +17,8 @@ from . import common as common
 from .compare_frf import add_body_frf_arguments, frequency_grid
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from ..elastic.interpolation import ParametricBody
     from ..elastic.reduced_body import ReducedBody
 
@@ -69,6 +69,8 @@ def body_at(pb: ParametricBody, path: str, at: tuple[str, float] | None) -> Redu
 
 def _table(f: np.ndarray, H: np.ndarray, outputs: list[str], in_band: np.ndarray | None
            ) -> tuple[str, np.ndarray]:
+    import numpy as np
+
     cols, names = [f], ["frequency_hz"]
     for j, o in enumerate(outputs):
         h = H[:, j]
@@ -82,6 +84,7 @@ def _table(f: np.ndarray, H: np.ndarray, outputs: list[str], in_band: np.ndarray
 
 def _plot(f: np.ndarray, H: np.ndarray, outputs: list[str], inp: str, path: str,
           log: bool) -> None:
+    import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -103,6 +106,8 @@ def _plot(f: np.ndarray, H: np.ndarray, outputs: list[str], inp: str, path: str,
 def run(args: argparse.Namespace) -> int:
     """Evaluate the body and report (the CSV: frequency_hz and per response real, imag,
     magnitude, phase_deg, and in_band when the body records its retained band)."""
+    import numpy as np
+
     from ..elastic.quality import frf_reduced, retained_band_hz
 
     common.split_output(args)

@@ -7,10 +7,9 @@ from __future__ import annotations
 
 import argparse
 import functools
+import math
 import sys
 import time
-
-import numpy as np
 
 from ..errors import NeweulError
 from . import CAPS, count, interval, number, range_type
@@ -282,7 +281,7 @@ def run(args: argparse.Namespace) -> int:
         body = reduce_modal(fe, modes=args.modes, band=args.band, shift=args.shift,
                             skip_rigid=args.skip_rigid, **common)
     else:
-        points = [2j * np.pi * f for f in args.points]
+        points = [2j * math.pi * f for f in args.points]
         order = 4 if args.order is None else args.order
         wanted = order * len(points) * max(1, len(fe.inputs))
         if wanted > fe.n_dofs:

@@ -12,11 +12,12 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from ..errors import NeweulError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def input_assignment(text: str) -> tuple[str, str]:
@@ -62,6 +63,8 @@ def input_function(module: Any, assignments: Sequence[tuple[str, str]],
     constants = {name: _number(text) for name, text in assignments}
     if all(v is not None for v in constants.values()) and not rates:
         return constants  # type: ignore[return-value]
+    import numpy as np  # here: the parser of every command is built without NumPy
+
     from ..description import parse_expression
     from ..description.signals import signal_function
     from ..errors import ModelError

@@ -47,7 +47,6 @@ from typing import Any
 import sympy as sp
 
 from ..errors import DataError, ModelError
-from ..ffrf.schema import INERTIA_FORMS
 from ..model import ElasticBody
 from .schema import Schema, section_items
 
@@ -221,6 +220,8 @@ def _inertia(value: Any, data: dict, file: Path, path: str) -> str:
     """The inertia form of a body (``consistent`` by default): a body whose data lack the
     second-order inertia ``J.m2`` (SID files) falls back to the SID truncation with one
     warning, or is refused when ``inertia: consistent`` is asked for explicitly."""
+    from ..ffrf.schema import INERTIA_FORMS  # the NumPy kernel: elastic models only
+
     if value is not None and value not in INERTIA_FORMS:
         raise ModelError(f"inertia must be one of {', '.join(INERTIA_FORMS)}, got {value!r}",
                          path)

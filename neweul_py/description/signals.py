@@ -23,14 +23,17 @@ import os
 import stat
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
 from ..model import time
 from ..model.force_elements import TableCurve
 from ..model.functions import SignalTable
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["MAX_SAMPLES", "read_signal", "signal_function", "table_signal"]
 
@@ -60,6 +63,8 @@ def read_signal(path: Path, column: str, time_column: str | None, key_path: str
         finite number, times that do not increase strictly, fewer than 2 or more than
         :data:`MAX_SAMPLES` samples.
     """
+    import numpy as np
+
     where = os.fspath(path)
     try:
         info = path.stat()
@@ -140,6 +145,8 @@ def table_signal(t: np.ndarray, u: np.ndarray, interpolation: str = "linear",
     (``scipy.interpolate.CubicSpline(bc_type="natural")``). Constant before the first and after
     the last sample.
     """
+    import numpy as np
+
     if interpolation not in _INTERPOLATIONS:
         raise ModelError(f"interpolation must be one of {', '.join(_INTERPOLATIONS)}, not "
                          f"{interpolation!r}", f"{key_path}.interpolation")
@@ -206,6 +213,8 @@ def signal_function(expr: sp.Basic, values: Mapping[sp.Symbol, float],
     ModelError
         For a symbol without a value or a node outside the language.
     """
+    import numpy as np
+
     def build(e: sp.Basic) -> Callable[[float], float]:
         if e == variable:
             return lambda t: t

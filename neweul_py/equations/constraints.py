@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
@@ -33,6 +33,9 @@ from ..model import (
     symbol,
     time,
 )
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["ConstraintEquations", "check_constraints", "derive_constraints"]
 
@@ -191,6 +194,8 @@ def check_constraints(
     """
     if ce.nc == 0:
         return
+    import numpy as np  # here: an unconstrained model is derived without NumPy
+
     values: dict[sp.Symbol, float] = {c.symbol: c.initial for c in system.coordinates}
     values.update({p.symbol: p.default for p in system.parameters})
     values[time] = 0.0

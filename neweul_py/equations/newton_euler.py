@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from collections.abc import Sequence
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import sympy as sp
 
@@ -57,11 +57,13 @@ from ..model import (
 )
 from ..progress import StagedProgress, Steps
 from .constraints import check_constraints, derive_constraints
-from .elastic import elastic_equations
 from .energy import energies
 from .force_elements import apply_force_element
 from .poses import frame_poses
 from .result import Equations
+
+if TYPE_CHECKING:
+    from .elastic import ElasticEquations
 
 __all__ = ["AUTO_CLOSED_MAX", "clear_cache", "newton_euler"]
 
@@ -77,6 +79,16 @@ _CACHE_SIZE = 32
 def clear_cache() -> None:
     """Forget all cached derivations."""
     _CACHE.clear()
+
+
+def _elastic_equations(system: System) -> ElasticEquations | None:
+    """:func:`.elastic.elastic_equations`, imported for a model with elastic bodies only (it
+    brings the NumPy kernel :mod:`neweul_py.ffrf`, which a rigid model never needs)."""
+    if not system.elastic_bodies:
+        return None
+    from .elastic import elastic_equations
+
+    return elastic_equations(system)
 
 
 def newton_euler(system: System, form: Form = "auto",
@@ -200,7 +212,7 @@ def _derive(system: System, form: str, progress: StagedProgress = None) -> Equat
     constraints = derive_constraints(system)
     check_constraints(system, constraints)
     poses = frame_poses(kin)  # last: its intermediates come after all the equations need
-    elastic = elastic_equations(system)
+    elastic = _elastic_equations(system)
     step()
 
     mass = [[ZERO] * n for _ in range(n)]

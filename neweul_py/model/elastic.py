@@ -16,8 +16,10 @@ dependent node coordinates ``[u; θ] = [Φ_P; Ψ_P] q`` each::
 so force elements, outputs, constraints and child frames use them like any frame, and the
 generated module maps node coordinates to modes numerically (:meth:`ElasticBody.node_frames`).
 
-This module imports nothing outside ``model`` (the arrays are read by
-:func:`neweul_py.elastic.reader.read_elastic_data`, called by the description layer).
+This module imports nothing outside ``model`` but the NumPy-only :mod:`neweul_py.ffrf.schema`
+that checks the arrays (read by :func:`neweul_py.elastic.reader.read_elastic_data`, called by
+the description layer). NumPy and that schema are imported where an elastic body is made or
+read, not with the module: a rigid model (``neweul generate`` of a chain) never imports NumPy.
 """
 
 from __future__ import annotations
@@ -26,22 +28,21 @@ import hashlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from ..ffrf.schema import INERTIA_FORMS, SCHEMA, check_flat
 from .elements import Frame
 from .symbols import check_name, symbol
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["ElasticBody", "is_node_frame_name"]
 
 #: Names of the six node components (dependent node coordinates ``NAME_label_<c>``).
 NODE_COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
-
-#: Arrays an elastic body needs (the required keys of :data:`neweul_py.ffrf.schema.SCHEMA`).
-REQUIRED_ARRAYS = tuple(k for k, spec in SCHEMA.items() if spec.required and k != "format")
 
 
 def is_node_frame_name(name: str) -> bool:
@@ -51,6 +52,8 @@ def is_node_frame_name(name: str) -> bool:
 
 
 def _frozen(a: object) -> np.ndarray:
+    import numpy as np
+
     arr = np.array(a)
     arr.setflags(write=False)
     return arr
@@ -107,6 +110,8 @@ class ElasticBody:
     schedule: sp.Expr | None = None
 
     def __post_init__(self) -> None:
+        from ..ffrf.schema import INERTIA_FORMS, check_flat
+
         path = f"elastic_bodies.{self.name}"
         why = check_name(self.name)
         if why is not None:
@@ -138,6 +143,10 @@ class ElasticBody:
 
     def _check_samples(self, path: str, data: Mapping[str, np.ndarray]) -> None:
         """Parametric bodies: every sample valid and of the first sample's layout."""
+        import numpy as np
+
+        from ..ffrf.schema import check_flat
+
         if not self.samples:
             if self.schedule is not None:
                 raise ModelError("a schedule needs parametric data (samples)", f"{path}.schedule")
@@ -198,6 +207,8 @@ class ElasticBody:
     def digest(self) -> str:
         """SHA-256 of the numeric data (sorted keys, dtype, shape, bytes; every sample of a
         parametric body, its sample values and interpolation)."""
+        import numpy as np
+
         h = hashlib.sha256()
         for data in (self.data, *self.samples):
             for key in sorted(data):
@@ -216,6 +227,8 @@ class ElasticBody:
     def node_components(self, label: str) -> tuple[int, ...]:
         """Components ``0…5`` (``ux uy uz rx ry rz``) in which node ``label`` moves or takes
         loads: rows of ``[Φ; Ψ]`` (or of the left basis ``[Φ_W; Ψ_W]``) that are not zero."""
+        import numpy as np
+
         i = self.node_index(dict(self.nodes)[label])
         moving = np.zeros(6, dtype=bool)
         for d in (self.data, *self.samples):
@@ -234,6 +247,8 @@ class ElasticBody:
         """``(T_V, T_W)``: the node coordinates are ``T_V q`` (rows of ``[Φ; Ψ]``), their
         generalized forces act on the elastic rows through ``T_Wᵀ`` (left basis); of sample
         ``sample`` for parametric bodies (default: the first)."""
+        import numpy as np
+
         d = self.data if sample is None else self.samples[sample]
         i = self.node_index(dict(self.nodes)[label])
         comps = list(self.node_components(label))
@@ -278,6 +293,8 @@ class ElasticBody:
 
 def _cardan_xyz(R: np.ndarray) -> tuple[float, float, float]:
     """Angles ``(a, b, c)`` with ``R = R_x(a) R_y(b) R_z(c)`` (0 for the identity)."""
+    import numpy as np
+
     R = np.asarray(R, dtype=np.float64)
     if np.allclose(R, np.eye(3), atol=1e-14, rtol=0):
         return (0.0, 0.0, 0.0)

@@ -142,10 +142,12 @@ class RigidBody:
                 f"inertia must be 3×3, got shape {self.inertia.shape}",
                 f"bodies.{self.name}.inertia",
             )
-        asym = (self.inertia - self.inertia.T).applyfunc(sp.expand)
         for i in range(3):
             for j in range(i + 1, 3):
-                if asym[i, j] != 0:
+                # entry by entry: equal entries need no algebra (the usual case), and the
+                # matrix difference ``(I − Iᵀ).applyfunc(expand)`` was most of loading a chain
+                a, b = self.inertia[i, j], self.inertia[j, i]
+                if a != b and sp.expand(a - b) != 0:
                     raise ModelError(
                         f"inertia must be symmetric: [{i}][{j}] = {self.inertia[i, j]} but "
                         f"[{j}][{i}] = {self.inertia[j, i]}",

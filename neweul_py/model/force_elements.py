@@ -16,14 +16,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
-import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
 from .elements import AXES, ForceElement, Output
 from .symbols import as_expr
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = [
     "ELONGATION",
@@ -129,6 +131,8 @@ class TableCurve(sp.Expr):
 def _natural_spline_slopes(x: np.ndarray, f: np.ndarray) -> np.ndarray:
     """First derivatives at the knots of the natural cubic spline through ``(x, f)``
     (zero curvature at both ends); tridiagonal system in the slopes."""
+    import numpy as np
+
     m = x.size
     h = np.diff(x)
     delta = np.diff(f) / h
@@ -177,6 +181,8 @@ def table_characteristic(
     >>> curve.evaluate(0.5), curve.evaluate(3.0)
     (1.0, 4.0)
     """
+    import numpy as np
+
     if interpolation not in ("linear", "spline"):
         raise ModelError(
             f"interpolation must be 'linear' or 'spline', not {interpolation!r}",

@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 
-import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from ..ffrf.schema import loss_reference_frequency
 from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
 from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
@@ -295,7 +293,7 @@ def _validate(s: System) -> None:
             raise ModelError(f"mass must not be negative (it is {mass:g})", f"{path}.mass")
         inertia = _numeric(b.inertia, defaults)
         if inertia is not None:
-            _check_inertia(np.asarray(inertia, dtype=float), f"{path}.inertia")
+            _check_inertia(inertia, f"{path}.inertia")
 
     coordinates = set(crd)
     for fe in s.forces:
@@ -471,6 +469,10 @@ def _validate_losses(s: System, constant: Mapping[str, sp.Symbol]) -> None:
             got = eta if value is None else value
             raise ModelError(f"a loss factor is a finite number ≥ 0, got {got} at the "
                              "parameter defaults", path)
+    if not s.elastic_bodies:
+        return
+    from ..ffrf.schema import loss_reference_frequency  # NumPy: elastic models only
+
     for e in s.elastic_bodies:
         for i, data in enumerate(e.samples or (e.data,)):
             own = loss_reference_frequency(data)
@@ -576,31 +578,72 @@ def _check_symbols(expr: object, allowed: Mapping[str, sp.Symbol], path: str) ->
 
 
 def _numeric(expr: sp.Basic, defaults: Mapping[sp.Symbol, float]) -> object:
-    """Value of a constant expression at the parameter defaults, or None if not numeric."""
+    """Value of a constant expression at the parameter defaults (a float, or rows of floats
+    for a matrix), or None if not numeric."""
     try:
         value = expr.subs(defaults)
         if isinstance(value, sp.MatrixBase):
-            return np.array(value.evalf(), dtype=float)
+            return [[float(v) for v in row] for row in value.evalf().tolist()]
         return float(value)
     except (TypeError, ValueError):
         return None
 
 
-def _check_inertia(inertia: np.ndarray, path: str) -> None:
+def symmetric_eigenvalues3(a: Sequence[Sequence[float]]) -> tuple[float, float, float]:
+    """Eigenvalues of a symmetric 3 × 3 matrix, ascending, by cyclic Jacobi rotations.
+
+    Each rotation ``(p, r)`` with ``θ = (a_rr − a_pp) / (2 a_pr)``,
+    ``t = sgn θ / (|θ| + √(θ² + 1))`` zeroes ``a_pr`` (Golub & Van Loan, *Matrix
+    Computations*, §8.5): ``a_pp −= t a_pr``, ``a_rr += t a_pr`` and the third row turns by
+    ``c = 1/√(t² + 1)``, ``s = t c``. Plain Python: checking an inertia tensor needs no NumPy.
+    A diagonal matrix gives its diagonal exactly; otherwise the rotations stop when the
+    off-diagonal part is below the rounding of the diagonal (a few sweeps); the matrix is
+    scaled by a power of two first, so no square overflows.
+    """
+    largest = max(abs(float(v)) for row in a for v in row)
+    e = math.frexp(largest)[1]  # a · 2⁻ᵉ is exact and below 1: no square overflows
+    m = [[math.ldexp(float(a[i][j]), -e) for j in range(3)] for i in range(3)]
+    for _ in range(50):
+        off = m[0][1] ** 2 + m[0][2] ** 2 + m[1][2] ** 2
+        if off <= 1e-40 * (m[0][0] ** 2 + m[1][1] ** 2 + m[2][2] ** 2) or off == 0.0:
+            break
+        for p, r in ((0, 1), (0, 2), (1, 2)):
+            apr = m[p][r]
+            if apr == 0.0:
+                continue
+            theta = (m[r][r] - m[p][p]) / (2.0 * apr)
+            t = math.copysign(1.0, theta) / (abs(theta) + math.hypot(theta, 1.0))
+            c = 1.0 / math.hypot(t, 1.0)
+            sn = t * c
+            k = 3 - p - r  # the third index
+            akp, akr = m[k][p], m[k][r]
+            m[k][p] = m[p][k] = c * akp - sn * akr
+            m[k][r] = m[r][k] = sn * akp + c * akr
+            m[p][p] -= t * apr
+            m[r][r] += t * apr
+            m[p][r] = m[r][p] = 0.0
+    d = sorted(math.ldexp(m[i][i], e) for i in range(3))
+    return d[0], d[1], d[2]
+
+
+def _check_inertia(inertia: Sequence[Sequence[float]], path: str) -> None:
     """A physical inertia tensor is symmetric positive semidefinite and its principal
     moments satisfy the triangle inequality (I1 ≤ I2 + I3)."""
-    if not np.all(np.isfinite(inertia)):
+    entries = [v for row in inertia for v in row]
+    if not all(math.isfinite(v) for v in entries):
         raise ModelError("inertia is not finite", path)
-    size = float(np.max(np.abs(inertia))) or 1.0  # scaled: 1e308 entries must not overflow
-    scaled = np.linalg.eigvalsh(0.5 * (inertia / size + inertia.T / size))
-    moments = size * scaled
-    if scaled[0] < -1e-12 * max(float(np.max(np.abs(scaled))), 1e-300):
+    size = max(abs(v) for v in entries) or 1.0  # scaled: 1e308 entries must not overflow
+    scaled = symmetric_eigenvalues3([[0.5 * (inertia[i][j] / size + inertia[j][i] / size)
+                                      for j in range(3)] for i in range(3)])
+    moments = [size * v for v in scaled]
+    largest = max(abs(v) for v in scaled)
+    if scaled[0] < -1e-12 * max(largest, 1e-300):
         raise ModelError(
             f"inertia must be positive semidefinite; principal moments are "
             f"{', '.join(f'{m:g}' for m in moments)}",
             path,
         )
-    if scaled[2] > scaled[0] + scaled[1] + 1e-9 * float(np.max(np.abs(scaled))):
+    if scaled[2] > scaled[0] + scaled[1] + 1e-9 * largest:
         raise ModelError(
             f"principal moments {', '.join(f'{m:g}' for m in moments)} violate the triangle "
             "inequality I3 ≤ I1 + I2 (no real body has them)",

@@ -232,6 +232,65 @@ def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
                                                      "neweul_py.description"))) == []
 
 
+def test_generate_of_a_rigid_model_imports_no_numpy(tmp_path):
+    """``neweul generate`` of rigid examples (a chain, a spatial chain, inputs and springs)
+    derives and prints with sympy alone: a fresh process has no NumPy, SciPy, skfem,
+    matplotlib, elastic or floating-frame code in ``sys.modules`` afterwards (issue 14 item
+    4: the cold ``generate`` pays for no import it does not need), with the cache off or
+    missing."""
+    files = [str(EXAMPLES / f"{name}.yaml")
+             for name in ("pendulum", "chain3_spatial", "quarter_car", "cart_pendulum")]
+    code = (f"import os, sys\nos.environ['NEWEUL_CACHE'] = {str(tmp_path / 'cache')!r}\n"
+            "from neweul_py.cli import main\n"
+            f"for f in {files!r}:\n"
+            f"    assert main(['generate', f, '-o', {str(tmp_path)!r}, '--no-cache', '-q']) == 0\n"
+            f"assert main(['generate', {files[0]!r}, '-o', {str(tmp_path / 'b')!r}, '-q']) == 0\n"
+            "print(' '.join(sys.modules))\n")  # the last: a cache miss, derived and stored
+    loaded = _modules_after(code)
+    assert "neweul_py.codegen.writer" in loaded and "sympy" in loaded
+    assert sorted(m for m in loaded if m.split(".")[0] in ("numpy", "scipy", "skfem",
+                                                           "matplotlib")
+                  or m.startswith(("neweul_py.ffrf", "neweul_py.elastic",
+                                   "neweul_py.analysis"))) == []
+    assert {p.name for p in tmp_path.glob("*.py")} == {"pendulum.py", "chain3_spatial.py",
+                                                       "quarter_car.py", "cart_pendulum.py"}
+
+
+def test_console_run_freezes_its_objects_and_in_process_calls_do_not(tmp_path):
+    """``main()`` as the console script (``argv`` None, the process exits next) hands its
+    objects to ``gc.freeze`` so that the shutdown collection skips them; ``main([...])`` from
+    Python (tests, notebooks) freezes nothing and gets its own GC thresholds back."""
+    desc = str(EXAMPLES / "pendulum.yaml")
+    code = ("import gc, sys\nfrom neweul_py.cli import main\n"
+            "gc.set_threshold(700, 10, 10)\n"
+            f"assert main(['generate', {desc!r}, '-o', {str(tmp_path)!r}, '--no-cache']) == 0\n"
+            "assert gc.get_freeze_count() == 0 and gc.get_threshold() == (700, 10, 10)\n"
+            f"sys.argv = ['neweul', 'generate', {desc!r}, '-o', {str(tmp_path)!r}, '-q']\n"
+            "assert main() == 0\n"
+            "print(gc.get_freeze_count() > 0, gc.get_threshold() == (700, 10, 10))\n")
+    words = _modules_after(code)  # the two printed paths and the two checks
+    assert "True" in words and "False" not in words
+
+
+@pytest.mark.parametrize("command", ["generate", "simulate", "compare-frf", "frf-body",
+                                     "body-info", "fem", "sweep"])
+def test_the_parser_of_one_command_is_the_full_parsers(command, capsys):
+    """``main`` registers only the sub-command it runs: its ``--help`` and the usage error of
+    a bad option read the same as with every sub-command registered (reference: the full
+    parser of :func:`build_parser`)."""
+
+    def output(parser, words):
+        with pytest.raises(SystemExit):
+            parser.parse_args(words)
+        out = capsys.readouterr()
+        return out.out + out.err
+
+    assert len(build_parser(command)._subparsers._group_actions[0].choices) == 1
+    for words in ([command, "--help"], [command, "--no-such-option"]):
+        assert output(build_parser(command), words) == output(build_parser(), words)
+    assert "compare-frf" in output(build_parser("--help"), ["--help"])
+
+
 def test_a_missing_command_module_fails_loudly(monkeypatch):
     """A command module listed in COMMAND_MODULES that cannot be imported is a broken
     installation: building the parser raises (it used to be skipped silently)."""

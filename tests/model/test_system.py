@@ -83,6 +83,39 @@ def test_unphysical_inertia_rejected(diag):
         pendulum(bodies=(RigidBody("bob", "arm", m, inertia=sp.ImmutableMatrix(sp.diag(*diag))),))
 
 
+def test_symmetric_eigenvalues3_matches_numpy():
+    """The Jacobi eigenvalues of the inertia check agree with LAPACK's ``eigvalsh`` to
+    round-off (reference: numpy.linalg.eigvalsh) on random, rank-deficient, nearly degenerate
+    and badly scaled symmetric matrices; a diagonal matrix gives its diagonal exactly."""
+    import numpy as np
+
+    from neweul_py.model.system import symmetric_eigenvalues3
+
+    rng = np.random.default_rng(3)
+    for k in range(600):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        d = rng.choice([0.0, 1.0, 1e-8, 2.0, 1.0 + 1e-12], 3) if k % 2 else rng.normal(size=3)
+        a = q @ np.diag(d) @ q.T
+        a = 0.5 * (a + a.T) * 10.0 ** rng.integers(-150, 150)
+        ref = np.linalg.eigvalsh(a)
+        got = np.array(symmetric_eigenvalues3(a.tolist()))
+        assert np.max(np.abs(got - ref)) <= 1e-14 * np.max(np.abs(ref))
+    assert symmetric_eigenvalues3([[2, 0, 0], [0, 0.1, 0], [0, 0, 3]]) == (0.1, 2.0, 3.0)
+    assert symmetric_eigenvalues3([[0, 0, 0]] * 3) == (0.0, 0.0, 0.0)
+
+
+def test_rotated_rod_inertia_is_accepted():
+    """A thin rod's inertia diag(0, I, I) turned 30° about z (principal moments 0, I, I:
+    on the boundary of the triangle inequality and of semidefiniteness) is a valid body."""
+    c, s = sp.cos(sp.pi / 6), sp.sin(sp.pi / 6)
+    r = sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    inertia = sp.ImmutableMatrix(r * sp.diag(0, 2, 2) * r.T)
+    pendulum(bodies=(RigidBody("bob", "arm", m, inertia=inertia),))
+    with pytest.raises(ModelError, match="positive semidefinite"):
+        pendulum(bodies=(RigidBody("bob", "arm", m,
+                                   inertia=sp.ImmutableMatrix(r * sp.diag(-0.1, 2, 2) * r.T)),))
+
+
 def test_duplicate_and_reserved_names():
     with pytest.raises(ModelError, match="already used"):
         pendulum(parameters=(Parameter("l", 1.0), Parameter("m", 1.0), Parameter("g", 1.0),
