@@ -45,31 +45,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests" / "elastic"))
 
+from beam_fe import DOUBLE_PENDULUM as RIGID  # noqa: E402
 from beam_fe import beam  # noqa: E402
 
 from neweul_py.analysis import load_generated  # noqa: E402
 from neweul_py.api import generate  # noqa: E402
 from neweul_py.elastic.invariants import compute_invariants, stress_stiffening  # noqa: E402
 from neweul_py.equations.elastic_expanded import MAX_EXPANDED_MODES  # noqa: E402
-
-RIGID = """
-name: {name}
-parameters: {{m: 1.0, l: 1.0, g: 9.81, k: 50.0, c: 0.5}}
-gravity: [0, -g, 0]
-coordinates: {{a: {{initial: 0.3}}, b: {{initial: -0.2}}}}
-frames:
-  link1: {{rotation: [[z, a]]}}
-  link2: {{parent: link1, translation: [l, 0, 0], rotation: [[z, b]]}}
-bodies:
-  arm1: {{frame: link1, mass: m, center_of_mass: [0.5*l, 0, 0],
-        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
-  arm2: {{frame: link2, mass: m, center_of_mass: [0.5*l, 0, 0],
-        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
-{extra}
-forces:
-  tip: {{type: spring_damper, between: [ISYS, {tip}], points: [[2.5, 0, 0], [0, 0, 0]],
-        stiffness: k, damping: c, length: 0.5}}
-"""
 
 ELASTIC = """
 elastic_bodies:

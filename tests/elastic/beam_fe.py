@@ -83,6 +83,31 @@ class Beam:
         return sps.kron(sps.eye(self.n_el + 1), blk, format="csr")
 
 
+
+#: A rigid double pendulum (two links, planar hinges about z, gravity −y) whose second link
+#: carries ``{extra}`` (e.g. an ``elastic_bodies:`` block) and whose tip ``{tip}`` (``link2`` or
+#: a node frame such as ``beam.tip``) a spring–damper ties to the ground: the model of
+#: ``benchmarks/bench_elastic.py`` and of the kernel's reference test (``tests/ffrf``);
+#: ``str.format`` fields ``name``, ``extra``, ``tip``.
+DOUBLE_PENDULUM = """\
+name: {name}
+parameters: {{m: 1.0, l: 1.0, g: 9.81, k: 50.0, c: 0.5}}
+gravity: [0, -g, 0]
+coordinates: {{a: {{initial: 0.3}}, b: {{initial: -0.2}}}}
+frames:
+  link1: {{rotation: [[z, a]]}}
+  link2: {{parent: link1, translation: [l, 0, 0], rotation: [[z, b]]}}
+bodies:
+  arm1: {{frame: link1, mass: m, center_of_mass: [0.5*l, 0, 0],
+        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
+  arm2: {{frame: link2, mass: m, center_of_mass: [0.5*l, 0, 0],
+        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
+{extra}
+forces:
+  tip: {{type: spring_damper, between: [ISYS, {tip}], points: [[2.5, 0, 0], [0, 0, 0]],
+        stiffness: k, damping: c, length: 0.5}}
+"""
+
 def beam(n_el: int = 20, length: float = 1.0, *, E: float = 1.0e4, G: float = 4.0e3,
          rho: float = 1.0, A: float = 1.0, Iy: float = 1.0e-4, Iz: float = 4.0e-4,
          offset: tuple[float, float, float] = (0.0, 0.0, 0.0), rotary: bool = False,

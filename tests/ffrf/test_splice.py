@@ -21,27 +21,10 @@ from neweul_py.api import generate
 from neweul_py.elastic.invariants import compute_invariants, stress_stiffening
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from beam_fe import beam
+from beam_fe import DOUBLE_PENDULUM, beam
 
-MODEL = """
-name: flex
-parameters: {{m: 1.0, l: 1.0, g: 9.81, k: 50.0, c: 0.5}}
-gravity: [0, -g, 0]
-coordinates: {{a: {{initial: 0.3}}, b: {{initial: -0.2}}}}
-frames:
-  link1: {{rotation: [[z, a]]}}
-  link2: {{parent: link1, translation: [l, 0, 0], rotation: [[z, b]]}}
-bodies:
-  arm1: {{frame: link1, mass: m, center_of_mass: [0.5*l, 0, 0],
-        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
-  arm2: {{frame: link2, mass: m, center_of_mass: [0.5*l, 0, 0],
-        inertia: {{diag: [0.05, 0.05, 0.1]}}}}
-elastic_bodies:
-  beam: {{frame: link2, data: beam.npz, nodes: {{tip: {tip}}}, inertia: {inertia}}}
-forces:
-  tip: {{type: spring_damper, between: [ISYS, beam.tip], points: [[2.5, 0, 0], [0, 0, 0]],
-        stiffness: k, damping: c, length: 0.5}}
-"""
+BEAM = ("elastic_bodies:\n  beam: {{frame: link2, data: beam.npz, nodes: {{tip: {tip}}}, "
+        "inertia: {inertia}}}")
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -131,7 +114,8 @@ def test_rhs_and_jacobian_equal_the_direct_assembly(tmp_path: Path, beam_data, n
     inv = compute_invariants(b.fe, V[:, :nq], nodes=[tip], geometric_stiffness=kg)
     F = inv.to_flat()
     np.savez(tmp_path / "beam.npz", **F)
-    (tmp_path / "flex.yaml").write_text(MODEL.format(tip=tip, inertia=inertia))
+    (tmp_path / "flex.yaml").write_text(DOUBLE_PENDULUM.format(
+        name="flex", extra=BEAM.format(tip=tip, inertia=inertia), tip="beam.tip"))
     mod = load_generated(generate(tmp_path / "flex.yaml", tmp_path / "gen"))
     S = mod._FFRF
     assert (S["block"] is not None) == (nq >= 24)
