@@ -46,8 +46,6 @@ from .results import check_output_path
 
 __all__ = ["DAMPING_FORMS", "LinearModel", "linearize"]
 
-#: Damping forms of the frequency domain (:meth:`LinearModel.dynamic_stiffness`).
-
 
 @dataclass(frozen=True, repr=False)
 class LinearModel:

@@ -135,8 +135,6 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
         "consistent_stiffening": bool(stiff),
         "Ct0": np.asarray(flat["Ct.m0"], dtype=np.float64),
         "Me": np.asarray(flat["Me.m0"], dtype=np.float64),
-        "Gr": np.asarray(flat["Gr.m0"], dtype=np.float64),
-        "Ge": np.asarray(flat["Ge.m0"], dtype=np.float64),
         "G": ffrf_velocity_map(md1, flat["Gr.m0"], flat["Ge.m0"]),
         "ks": np.asarray(flat["ksigma.m0"], dtype=np.float64)[:, 0],
         "Ke": np.asarray(flat["Ke.m0"], dtype=np.float64),
@@ -202,7 +200,7 @@ def ffrf_rigid_map(second, stiff):
     * ``H ω_q = [ω̃ ω̃ md; ω̃ J ω]``, the quadratic velocity terms on the products ``ω_q``
       (:func:`ffrf_omega_products`), found by polarization of the unit vectors.
 
-    All entries are small integers or ½: the product is exact (equations.md §2.1)."""
+    All entries are 0, ±1 or ±½: each product is exact, and a row sums at most four of them."""
     skew = np.zeros((3, 3, 3))                # ṽ[i, j] = skew[i, j, k] v[k]
     skew[0, 1, 2], skew[0, 2, 1] = -1.0, 1.0
     skew[1, 0, 2], skew[1, 2, 0] = 1.0, -1.0
