@@ -269,12 +269,17 @@ def _check_backend(backend: str) -> None:
 
 
 def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = False,
-                  progress: StagedProgress = None) -> Path:
+                  progress: StagedProgress = None, cached: bool = False) -> Path:
     """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
     compiled module next to it (written from ``equations()`` unless present, and loaded once,
     which builds its library). Models the C backend cannot compile (parametric elastic
     bodies, bodies of more than ``MAX_EXPANDED_MODES`` modes) keep the NumPy module, with one
-    warning."""
+    warning.
+
+    ``cached``: ``path`` is a cache entry. The compiled module's files (wrapper, core and
+    Jacobian C sources) then carry SHA-256 sidecars like the NumPy entry (:mod:`.cache`); a
+    file that does not verify is rewritten (one :class:`~neweul_py.cache.CacheWarning`),
+    and the wrapper is imported from its verified bytes (:func:`_load_cached_wrapper`)."""
     if backend == "numpy":
         return path
     import warnings
@@ -283,6 +288,9 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
     from .errors import GenerationError
 
     wrapper = c_module_path(path)
+    files = _compiled_files(wrapper)
+    if cached and not rebuild and all(f.is_file() for f in files):
+        rebuild = any(verified_bytes(f) is None for f in files)
     if rebuild or not (wrapper.is_file() and wrapper.with_suffix(".c").is_file()):
         try:
             write_c_module(equations(), path, progress=progress)
@@ -292,10 +300,44 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
         except OSError as exc:
             raise NeweulError(f"cannot write the compiled module next to {path}: "
                               f"{exc.strerror}") from None
+        if cached:
+            for f in files:     # the digests of what was just written (private cache dir)
+                write_cached(f, f.read_bytes())
+    if cached:
+        _load_cached_wrapper(wrapper)
+        return wrapper
     from .analysis.module import load_generated
 
     load_generated(wrapper)  # builds (or verifies) the library now; warns on fallback
     return wrapper
+
+
+def _compiled_files(wrapper: Path) -> tuple[Path, Path, Path]:
+    """The files of a compiled module: wrapper ``<name>_c.py``, ``<name>_c.c``,
+    ``<name>_c_jac.c`` (:func:`neweul_py.codegen.c_module.write_c_module`)."""
+    return wrapper, wrapper.with_suffix(".c"), wrapper.with_name(f"{wrapper.stem}_jac.c")
+
+
+def _load_cached_wrapper(wrapper: str | os.PathLike[str]) -> ModuleType:
+    """Import the compiled module ``wrapper`` of a cache entry from its verified bytes (its
+    sidecar digest; its C sources are verified by :func:`_with_backend` and again by the
+    wrapper against the digests it carries) and check its protocol.
+
+    Raises
+    ------
+    NeweulError
+        The wrapper does not verify (regenerate it through :func:`generated_module`) or does
+        not implement the protocol.
+    """
+    from .analysis.module import check_protocol
+
+    source = verified_bytes(wrapper)
+    if source is None:
+        raise NeweulError(f"{wrapper}: the compiled module in the cache does not verify "
+                          "against its recorded SHA-256")
+    module = import_verified(wrapper, source)
+    check_protocol(module, str(wrapper))
+    return module
 
 
 @functools.cache
@@ -439,7 +481,8 @@ def generated_module(
     """
     _check_backend(backend)
     entry = _cached_source(description_path, form, cache)
-    return _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh)
+    return _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh,
+                         cached=True)
 
 
 def load_description_module(
@@ -453,20 +496,23 @@ def load_description_module(
     miss, as in :func:`generate`). The NumPy module is imported from the verified
     bytes of its cache entry (:func:`generated_module`), so that the file cannot change
     between check and import; the compiled one (``backend="c"``) is loaded through its
-    wrapper, whose library :mod:`neweul_py.codegen.c_module` verifies by its hash.
+    wrapper, imported from its verified bytes as well (:func:`_load_cached_wrapper`), whose
+    library :mod:`neweul_py.codegen.c_module` verifies by its hash.
 
     Examples
     --------
     >>> mod = load_description_module("examples/pendulum.yaml")  # doctest: +SKIP
     >>> mod.rhs(0.0, mod.INITIAL_STATE, mod.default_parameters())  # doctest: +SKIP
     """
-    from .analysis.module import check_protocol, load_generated
+    from .analysis.module import check_protocol
 
     _check_backend(backend)
     entry = _cached_source(description_path, form, cache, progress)
     if backend != "numpy":
-        return load_generated(_with_backend(entry.path, backend, entry.equations,
-                                            rebuild=entry.fresh))
+        wrapper = _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh,
+                                cached=True)
+        if wrapper != entry.path:           # else: the NumPy module, with one warning
+            return _load_cached_wrapper(wrapper)
     module = entry.module
     if module is None:
         module = import_verified(entry.path, entry.source)

@@ -200,3 +200,25 @@ def test_generate_regenerates_a_tampered_cache_entry(tmp_path):
         out = api.generate(PENDULUM, tmp_path / "out", cache=True)
     assert out.name == "pendulum.py"
     assert out.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()
+
+
+def test_a_tampered_compiled_module_in_the_cache_is_rewritten_not_run(tmp_path):
+    """The compiled module of a cache entry (wrapper ``_c.py`` and its C sources) carries
+    digests like the NumPy entry: a wrapper with an injected line is not executed (the marker
+    file stays absent) but rewritten with one CacheWarning, and an edited C source is rebuilt
+    instead of falling back to NumPy on every later run (found by a fresh-clone audit)."""
+    marker = tmp_path / "ran"
+    api.load_description_module(PENDULUM, backend="c")
+    cache = Path(os.environ["NEWEUL_CACHE"])
+    (wrapper,) = cache.glob("pendulum_*_c.py")
+    clean = wrapper.read_bytes()
+    wrapper.write_bytes(f"open({str(marker)!r}, 'w').write('x')\n".encode() + clean)
+    with pytest.warns(CacheWarning, match="_c.py does not match"):
+        mod = api.load_description_module(PENDULUM, backend="c")
+    assert not marker.exists()
+    assert wrapper.read_bytes() == clean and mod.__file__ == str(wrapper)
+    c_file = wrapper.with_suffix(".c")
+    c_file.write_text(c_file.read_text() + "/* edited */\n")
+    with pytest.warns(CacheWarning, match="_c.c does not match"):
+        api.load_description_module(PENDULUM, backend="c")
+    assert "edited" not in c_file.read_text()
