@@ -146,11 +146,11 @@ def embs_frf(mod, dp: float, f: np.ndarray, damping: str = "loss") -> dict[str, 
 
 
 def reference_frf(chain_mod, fe_path: Path, dp: float, f: np.ndarray,
-                  damping: str = "loss") -> dict[str, np.ndarray]:
+                  damping: str = "loss", p: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The same outputs of the FE model + the chain assembled directly (``damping`` as in
     :func:`embs_frf`: the FE model's ``K + iG`` and the chain's loss factors, or both
-    viscous)."""
-    lin = linearize(chain_mod, p=parameters_at(chain_mod, dp))
+    viscous; ``p`` the chain's parameter vector, default its defaults with ``dp``)."""
+    lin = linearize(chain_mod, p=parameters_at(chain_mod, dp) if p is None else p)
     names = list(lin.coordinates)
     fe = frequency_form(read_fe_model(fe_path), damping)
     node = [n for n in names if n.startswith("n") and n[1:].split("_")[0].isdigit()]
