@@ -89,7 +89,7 @@ def _body(g: _Groups, block: Block, target: str, what: str,
     assignments, finals = block.assignments, block.finals
     for k, (s, _) in enumerate(assignments):
         names[s] = f"w{k}"
-    pr = CPrinter(names, dots, _scaled_parameters(g, assignments) if dots else None)
+    pr = CPrinter(names, dots, _scaled_locals(g, assignments) if dots else None)
     lines: list[str] = []
     if g.u and _uses(block, g.u):
         lines.append("NW_DEFAULT_INPUTS;")
@@ -140,14 +140,16 @@ def _constant_runs(finals: Sequence[sp.Basic]) -> dict[int, list[sp.Basic]]:
     return runs
 
 
-def _scaled_parameters(g: _Groups, assignments: Sequence[tuple[sp.Symbol, sp.Expr]]
+def _scaled_locals(g: _Groups, assignments: Sequence[tuple[sp.Symbol, sp.Expr]]
                        ) -> dict[sp.Symbol, tuple[sp.Number, sp.Symbol]]:
-    """Locals ``w = c·p_k`` (hoisted constant factors, codegen/cse.py): within a sum
-    ``Σ c_i w ẏ_i`` the printer reads them as ``c·p_k``, so that the sum is one linear
-    combination of ``ẏ`` again (:class:`.c_printer.DotRows`). Not the CSE's shared terms
-    ``w_i = c_i q_i``: their sums ``Σ_i w_i`` as table rows were slower (20-mode beam, hot
-    rhs 1.19 → 1.48 µs) than adding the shared products; substituting the locals into the
-    expressions instead took seconds for long rigid chains."""
+    """Locals ``w = c·v`` with ``v`` a parameter (hoisted constant factors, codegen/cse.py)
+    or an element of ``y``, ``ẏ``, ``a`` (the CSE's shared terms ``w_i = c_i q_i``): within
+    a sum ``Σ c_i w ẏ_i`` or ``Σ_i w_i`` the printer reads them as ``c·v``, so that the sum
+    is one linear combination of ``ẏ`` or ``q`` again (:class:`.c_printer.DotRows`; the
+    shared terms' sums as rows were slower than adding the products while each row was its
+    own dot product, 1.19 → 1.48 µs, and are faster since the rows of a function are one
+    product). Substituting the locals into the expressions instead took seconds for long
+    rigid chains."""
     params = set(g.p) | set(g.y) | set(g.yd) | set(g.a)
     return {s: e.args for s, e in assignments
             if e.is_Mul and len(e.args) == 2 and e.args[0].is_Number and e.args[1] in params}
