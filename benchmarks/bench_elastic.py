@@ -60,9 +60,9 @@ elastic_bodies:
 """
 
 
-def _time_all(mods: dict[str, object], rounds: int = 9) -> dict[str, float]:
+def _time_all(mods: dict[str, object], rounds: int = 25) -> dict[str, float]:
     """The best CPU time per ``rhs`` call of each module, measured interleaved: ``rounds``
-    rounds, in each a best of 3 loops of ~0.03 s per module, the minimum over the rounds
+    rounds, in each a best of 3 loops of ~0.01 s per module, the minimum over the rounds
     (``time.process_time``: on the shared machine wall-clock loops also count the other
     jobs; interleaving lets a change of the machine's load reach every module alike instead
     of the one that happens to be timed then)."""
@@ -75,7 +75,7 @@ def _time_all(mods: dict[str, object], rounds: int = 9) -> dict[str, float]:
     numbers = {}
     for key, call in calls.items():
         single = timeit.Timer(call, timer=time.process_time).timeit(20) / 20
-        numbers[key] = max(20, int(0.03 / max(single, 1e-7)))
+        numbers[key] = max(20, int(0.01 / max(single, 1e-7)))
     best = dict.fromkeys(calls, float("inf"))
     for _ in range(rounds):
         for key, call in calls.items():
