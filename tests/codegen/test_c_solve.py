@@ -74,12 +74,13 @@ def test_solve_equals_lapack(n, varying, diagonal, tmp_path):
     np.testing.assert_allclose(b1, np.linalg.solve(a, b[:, 0]), rtol=1e-12, atol=1e-12)
 
 
-def test_inverse_keeps_only_entries_above_its_rounding_error():
-    """Reference: Higham, *Accuracy and Stability of Numerical Algorithms*, §14.1 — the
-    computed inverse of ``D = I + E`` with off-diagonal ``|E_ij| ≈ 1e-16`` (the constant
-    ``Mee`` of mass-normalized modes) has off-diagonal entries of that size, below
-    ``n·ε·cond(D)·max|D⁻¹|``: they are dropped and the inverse is diagonal; entries of 1e-6
-    stay."""
+def test_inverse_drops_only_entries_below_the_products_rounding_error(tmp_path):
+    """Reference: the exact inverses and numpy.linalg.solve — the inverse of ``D = I + E``
+    with off-diagonal ``|E_ij| ≈ 1e-16`` (the constant ``Mee`` of mass-normalized modes)
+    becomes diagonal (its off-diagonal entries are below ``n·ε·√(X_ii X_jj)``), an entry of
+    1e-6 stays, and a badly scaled block (``S (I + F) S``, ``S = diag(1, 0.03, 30)``,
+    ``cond`` ≈ 1e6) keeps every entry: its solve equals LAPACK's; so does ``diag(1, 9e7)``,
+    at the largest condition number accepted."""
     rng = np.random.default_rng(0)
     n = 20
     d = np.eye(n) + 1e-16 * rng.standard_normal((n, n))
@@ -88,6 +89,19 @@ def test_inverse_keeps_only_entries_above_its_rounding_error():
     d[3, 5] = 1e-6
     block = constant_block(_symbolic(d, set()))
     assert block.inverse[3, 5] != 0.0
+    s = np.diag([1.0, 0.03, 30.0, 1.0])
+    a = s @ (np.eye(4) + 0.3 * rng.standard_normal((4, 4))) @ s
+    a[:, 3] = a[3, :] = [0.2, 0.1, 0.3, 5.0]   # coordinate 3 varying (the rest R)
+    block = constant_block(_symbolic(a, {3}))
+    exact = np.linalg.inv(a[:3, :3])
+    assert np.count_nonzero(block.inverse) == np.count_nonzero(exact) == 9
+    edge = constant_block(_symbolic(np.diag([1.0, 9e7]), set()))   # cond 9e7 ≤ 1e8
+    np.testing.assert_array_equal(edge.inverse, np.diag([1.0, 1 / 9e7]))
+    ffi, lib = _solver(tmp_path, _symbolic(a, {3}), 4)
+    b = rng.standard_normal(4)
+    aa, bb = a.copy(), b.copy()
+    assert lib.solve1(ffi.from_buffer("double[]", aa), ffi.from_buffer("double[]", bb)) == 0
+    np.testing.assert_allclose(bb, np.linalg.solve(a, b), rtol=1e-10)
 
 
 def test_singular_schur_complement_is_reported(tmp_path):
