@@ -78,15 +78,18 @@ def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
 
 
 def _body(g: _Groups, block: Block, target: str, what: str,
-          dots: DotRows | None = None) -> list[str]:
+          dots: DotRows | None = None, optional: frozenset[int] = frozenset()) -> list[str]:
     """Statements computing ``block``: locals ``w<k>``, then ``target[i] = final_i``
     (zeros by ``memset``; repeated finals — symmetric mass entries — computed once); long
-    linear combinations of ``y``, ``yd``, ``a`` as rows of ``dots``."""
+    linear combinations of ``y``, ``yd``, ``a`` as rows of ``dots``, one product per array
+    at the top (:meth:`.c_printer.DotRows.batch`). The finals ``optional`` are written only
+    ``if (full)`` (a flag of the function: the constant block that the block elimination of
+    ``rhs`` never reads, :mod:`.c_solve`)."""
     names = dict(g.names)
     assignments, finals = block.assignments, block.finals
     for k, (s, _) in enumerate(assignments):
         names[s] = f"w{k}"
-    pr = CPrinter(names, dots, _scaled_parameters(g, assignments) if dots else None)
+    pr = CPrinter(names, dots, _scaled_locals(g, assignments) if dots else None)
     lines: list[str] = []
     if g.u and _uses(block, g.u):
         lines.append("NW_DEFAULT_INPUTS;")
@@ -97,13 +100,17 @@ def _body(g: _Groups, block: Block, target: str, what: str,
             lines.append(f"memset({target}, 0, {len(finals)} * sizeof(double));")
         constant = _constant_runs(finals)
         for i, run in constant.items():
-            lines.append(f"{{ static const double c[{len(run)}] = "
+            cond = "if (full) " if optional.issuperset(range(i, i + len(run))) else ""
+            lines.append(f"{cond}{{ static const double c[{len(run)}] = "
                          f"{{{', '.join(pr.doprint_expr(v) for v in run)}}};")
             lines.append(f"  memcpy({target} + {i}, c, sizeof c); }}")
         skip = {i + k for i, run in constant.items() for k in range(len(run))}
         first: dict[sp.Basic, int] = {}
         for i, f in enumerate(finals):
             if f == 0 or i in skip:
+                continue
+            if i in optional:                 # (never the source of a copy)
+                lines.append(f"if (full) {target}[{i}] = {pr.doprint_expr(f)};")
                 continue
             if not f.is_Atom and f in first:
                 lines.append(f"{target}[{i}] = {target}[{first[f]}];")
@@ -112,7 +119,7 @@ def _body(g: _Groups, block: Block, target: str, what: str,
             lines.append(f"{target}[{i}] = {pr.doprint_expr(f)};")
     except GenerationError as exc:
         raise GenerationError(f"{what}: {exc}") from None
-    return lines
+    return dots.batch(lines) if dots is not None else lines
 
 
 #: Shortest run of consecutive numeric finals copied from a table (constant ``Mee`` rows).
@@ -133,15 +140,17 @@ def _constant_runs(finals: Sequence[sp.Basic]) -> dict[int, list[sp.Basic]]:
     return runs
 
 
-def _scaled_parameters(g: _Groups, assignments: Sequence[tuple[sp.Symbol, sp.Expr]]
+def _scaled_locals(g: _Groups, assignments: Sequence[tuple[sp.Symbol, sp.Expr]]
                        ) -> dict[sp.Symbol, tuple[sp.Number, sp.Symbol]]:
-    """Locals ``w = c·p_k`` (hoisted constant factors, codegen/cse.py): within a sum
-    ``Σ c_i w ẏ_i`` the printer reads them as ``c·p_k``, so that the sum is one linear
-    combination of ``ẏ`` again (:class:`.c_printer.DotRows`). Not the CSE's shared terms
-    ``w_i = c_i q_i``: their sums ``Σ_i w_i`` as table rows were slower (20-mode beam, hot
-    rhs 1.19 → 1.48 µs) than adding the shared products; substituting the locals into the
-    expressions instead took seconds for long rigid chains."""
-    params = set(g.p)
+    """Locals ``w = c·v`` with ``v`` a parameter (hoisted constant factors, codegen/cse.py)
+    or an element of ``y``, ``ẏ``, ``a`` (the CSE's shared terms ``w_i = c_i q_i``): within
+    a sum ``Σ c_i w ẏ_i`` or ``Σ_i w_i`` the printer reads them as ``c·v``, so that the sum
+    is one linear combination of ``ẏ`` or ``q`` again (:class:`.c_printer.DotRows`; the
+    shared terms' sums as rows were slower than adding the products while each row was its
+    own dot product, 1.19 → 1.48 µs, and are faster since the rows of a function are one
+    product). Substituting the locals into the expressions instead took seconds for long
+    rigid chains."""
+    params = set(g.p) | set(g.y) | set(g.yd) | set(g.a)
     return {s: e.args for s, e in assignments
             if e.is_Mul and len(e.args) == 2 and e.args[0].is_Number and e.args[1] in params}
 
@@ -170,6 +179,7 @@ _YYD_ARGS = ("double t, const double *y, const double *yd, const double *p, cons
              "double *out")
 _X_ARGS = "double t, const double *x, const double *p, const double *u, double *out"
 _X_PROLOGUE = ["const double *y = x;", "const double *yd = x + NW_N;"]
+_MF_SIGNATURE = f"nw_mf({_YYD_ARGS}, int full)"
 _MMTD_ARGS = ("double t, const double *y, const double *p, const double *a, const double *u, "
               "double *out")
 
@@ -211,7 +221,7 @@ int nw_rhs_jacobian(double t, const double *x, const double *p, const double *u,
     nw_mass_matrix(t, y, p, u, M);
     nw_force_vector(t, y, yd, p, u, ydd);
     memcpy(M2, M, sizeof M);
-    if (nw_solve(M2, 1, ydd)) return 1;
+    if (nw_solve1(M2, ydd)) return 1;
     nw_force_jacobians(t, y, yd, p, u, fj);
     nw_mass_matrix_times_derivative(t, y, p, ydd, u, dMa);
     for (int i = 0; i < NW_N; ++i)
@@ -258,35 +268,41 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     n, nu = len(g.y), len(g.u)
     lu_protos = ["static int nw_lu(int n, double *a, int *piv);",
                  "static void nw_lu_solve(int n, const double *lu, const int *piv, int m, "
-                 "double *b);", "static int nw_solve(double *a, int m, double *b);"]
+                 "double *b);", "static int nw_solve(double *a, int m, double *b);",
+                 "static int nw_solve1(double *a, double *b);"]
     # M x = b: dense LU, or block elimination of a constant block (c_solve.py)
-    solve = c_solver(constant_block(sp.ImmutableMatrix(equations.mass_matrix))
-                     if n else None)
+    block = constant_block(sp.ImmutableMatrix(equations.mass_matrix)) if n else None
+    solve = c_solver(block)
+    # the entries of that block, which the elimination never reads: not written for rhs
+    unread = frozenset() if block is None else frozenset(
+        i * n + j for i in block.block for j in block.block)
 
     # M and q − k from the one CSE'd program of rhs (computed once per call of any of the
-    # three; mass_matrix passes ẏ = 0, on which M does not depend)
-    dots = DotRows(n)  # one table for both files (the core's rows come first)
+    # three; mass_matrix passes ẏ = 0, on which M does not depend; full = 0: without the
+    # entries unread)
+    dots = DotRows(n)  # the rows of both files
     mf = [
-        *_function(f"nw_mf({_YYD_ARGS})",
-                   _body(g, blocks["rhs"], "out", "the right-hand side", dots), static=True),
+        *_function(_MF_SIGNATURE,
+                   _body(g, blocks["rhs"], "out", "the right-hand side", dots, unread),
+                   static=True),
         *_function(f"nw_mass_matrix({_Y_ARGS})", [
-            "double yd[NW_N] = {0}, mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf);",
+            "double yd[NW_N] = {0}, mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf, 1);",
             "memcpy(out, mf, NW_N * NW_N * sizeof(double));"]),
         *_function(f"nw_force_vector({_YYD_ARGS})", [
-            "double mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf);",
+            "double mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf, 0);",
             "memcpy(out, mf + NW_N * NW_N, NW_N * sizeof(double));"]),
     ]
     inputs = _body(g, blocks["default_inputs"], "out", "the default inputs", dots)
 
     core_head = _head(model_name, "Equations of motion", n, nu, [
-        core_declarations(), f"static int nw_mf({_YYD_ARGS});", *lu_protos])
+        core_declarations(), f"static int {_MF_SIGNATURE};", *lu_protos])
     core = list(core_head)
     core += _function("nw_default_inputs(double t, const double *p, double *out)", inputs)
     core += mf
     core += _function(f"nw_rhs({_X_ARGS})", [
         *_X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];",
-        "nw_mf(t, y, yd, p, u, mf);",
-        "if (nw_solve(mf, 1, mf + NW_N * NW_N)) return 1;",
+        "nw_mf(t, y, yd, p, u, mf, 0);",
+        "if (nw_solve1(mf, mf + NW_N * NW_N)) return 1;",
         "memcpy(out, yd, NW_N * sizeof(double));",
         "memcpy(out + NW_N, mf + NW_N * NW_N, NW_N * sizeof(double));",
     ])
@@ -298,12 +314,11 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
         core += _function(f"nw_{name}({args})",
                           _body(g, blocks[name], "out", name.replace("_", " "), dots))
     core += [C_LU, solve, C_DOPRI5]
-    core_rows = len(dots.rows)
 
     jac_head = _head(model_name, "Derivatives of the equations of motion", n, nu, [
         jacobian_declarations("loss_matrix" in blocks),
         "static int nw_default_inputs(double t, const double *p, double *out);",
-        f"static int nw_mf({_YYD_ARGS});",
+        f"static int {_MF_SIGNATURE};",
         f"static int nw_mass_matrix({_Y_ARGS});",
         f"static int nw_force_vector({_YYD_ARGS});", *lu_protos])
     jac = list(jac_head)
@@ -326,9 +341,9 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
         jac += _function(f"nw_loss_matrix({_X_ARGS})", [
             *_X_PROLOGUE, *_body(g, b, "out", "the loss matrix", dots)], _big(b))
     jac += [C_LU, solve]
-    # the rows' table and nw_dot right after the declarations of each file
-    core[len(core_head):len(core_head)] = dots.table(core_rows)
-    jac[len(jac_head):len(jac_head)] = dots.table()
+    # nw_rows (the products of the rows) right after the declarations of each file
+    core[len(core_head):len(core_head)] = dots.helper()
+    jac[len(jac_head):len(jac_head)] = dots.helper()
     return ("\n".join(core).rstrip("\n") + "\n", "\n".join(jac).rstrip("\n") + "\n")
 
 

@@ -17,6 +17,7 @@ import math
 import re
 from collections.abc import Mapping
 
+import numpy as np
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.codeprinter import PrintMethodNotImplementedError
@@ -90,48 +91,106 @@ class DotRows:
 
     A sum with at least :attr:`least` terms ``c_i · v[i] · r`` (``c_i`` numbers, ``v`` one of
     the state-sized arrays ``y``, ``ẏ``, ``a`` of length ``n``, the same factor ``r``) prints as
-    ``r*nw_dot(NW_T + k, v)``: one row of ``n`` doubles in the table ``NW_T`` instead of as many
+    ``r*nw_dot(NW_T + k, v)`` (``k``: the row's offset, :meth:`offset`) instead of as many
     multiplications by literals. The expanded terms of elastic bodies (``Ke q``, ``ω² Kσ q``,
     ``Ct¹ q`` …, equations/elastic_expanded.py) are such sums; as straight-line code they are
-    tens of kB of instructions that are fetched anew at every call from Python, as a table they
-    are read by a small loop. Identical rows are stored once.
+    tens of kB of instructions that are fetched anew at every call from Python.
+
+    :meth:`batch` then turns the rows one function uses into one matrix–vector product per
+    array at its top — a column-major table over the columns in use, read by the loop
+    ``nw_rows`` (:meth:`helper`) that the compiler vectorizes — and each ``nw_dot(…)`` into an
+    element of its result (no call per row, no horizontal sums, the zero columns of the
+    rigid coordinates skipped): a 20-mode beam's 93 rows cost 5 100 instructions per call as
+    separate dot products; as products its 116 rows (the CSE's shared ``c·q_k`` terms among
+    them, read through the printer's ``scaled`` locals) cost 2 600. Identical rows are stored
+    once.
     """
 
     def __init__(self, n: int, least: int = 8) -> None:
         self.n = n
         self.least = max(least, n // 4)
         self.rows: dict[tuple[float, ...], int] = {}
+        self._at: dict[int, tuple[float, ...]] = {}
 
     def offset(self, row: tuple[float, ...]) -> int:
-        """The offset of ``row`` in the table (appended when new)."""
-        return self.rows.setdefault(row, len(self.rows) * self.n)
+        """The offset (key) of ``row`` (appended when new)."""
+        k = self.rows.setdefault(row, len(self.rows) * self.n)
+        self._at[k] = row
+        return k
 
-    def table(self, count: int | None = None) -> list[str]:
-        """C lines defining the table (its first ``count`` rows) and ``nw_dot``; none
-        without rows."""
-        rows = list(self.rows)[:count]
-        if not rows:
+    def helper(self) -> list[str]:
+        """C lines defining ``nw_rows`` (none without rows)."""
+        if not self.rows:
             return []
-        values = ", ".join(_double(v) for row in rows for v in row)
         return [
-            f"static const double NW_T[{len(rows) * self.n}] = {{{values}}};",
-            # vectorized and unrolled by gcc's -O3 (the libraries build with -O1): 20 % of a
-            # 20-mode rhs (c_runtime.C_FLAGS; other compilers ignore the attribute, as the
-            # optimize("O0") of codegen/c_module.BIG_FUNCTION)
-            '__attribute__((optimize("O3"))) static double nw_dot(const double *c, '
-            'const double *v)',
+            "/* out[r] = sum_j T[j * k + r] v[col[j]], r < k: the long linear combinations of "
+            "one function",
+            "   (codegen/c_printer.DotRows); vectorized by gcc's -O3 (the libraries build with "
+            "-O1; other",
+            "   compilers ignore the attribute, as the optimize(\"O0\") of "
+            "codegen/c_module.BIG_FUNCTION),",
+            "   with gcc and glibc on x86-64 also as an AVX2 clone chosen at load time (the "
+            "same operations in",
+            "   the same order on four rows at once instead of two: the same results) */",
+            "#if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && "
+            "!defined(__clang__)",
+            '#define NW_CLONES __attribute__((target_clones("avx2", "default")))',
+            "#else",
+            "#define NW_CLONES",
+            "#endif",
+            '__attribute__((optimize("O3"))) NW_CLONES static void nw_rows(int k, int nc, '
+            "const double *restrict T,",
+            "                                                     const int *restrict col, "
+            "const double *restrict v,",
+            "                                                     double *restrict out)",
             "{",
-            "    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;",
-            "    int i = 0;",
-            f"    for (; i + 4 <= {self.n}; i += 4) {{",
-            "        s0 += c[i] * v[i]; s1 += c[i + 1] * v[i + 1];",
-            "        s2 += c[i + 2] * v[i + 2]; s3 += c[i + 3] * v[i + 3];",
+            "    int j = 0;",
+            "    for (int r = 0; r < k; ++r) out[r] = 0.0;",
+            "    for (; j + 4 <= nc; j += 4) {             /* four columns per pass over out */",
+            "        const double v0 = v[col[j]], v1 = v[col[j + 1]], v2 = v[col[j + 2]], "
+            "v3 = v[col[j + 3]];",
+            "        const double *c0 = T + j * k, *c1 = c0 + k, *c2 = c1 + k, *c3 = c2 + k;",
+            "        for (int r = 0; r < k; ++r)",
+            "            out[r] += (c0[r] * v0 + c1[r] * v1) + (c2[r] * v2 + c3[r] * v3);",
             "    }",
-            f"    for (; i < {self.n}; ++i) s0 += c[i] * v[i];",
-            "    return (s0 + s1) + (s2 + s3);",
+            "    for (; j < nc; ++j) {",
+            "        const double vj = v[col[j]], *c = T + j * k;",
+            "        for (int r = 0; r < k; ++r) out[r] += c[r] * vj;",
+            "    }",
             "}",
             "",
         ]
+
+    def batch(self, lines: list[str]) -> list[str]:
+        """``lines`` of one function with its ``nw_dot(NW_T + k, v)`` replaced by the elements
+        of one product per array ``v``, computed first (class docstring)."""
+        text = "\n".join(lines)
+        used: dict[str, dict[int, int]] = {}
+        for k, v in _DOT.findall(text):
+            rows = used.setdefault(v, {})
+            rows.setdefault(int(k), len(rows))
+        if not used:
+            return lines
+        head: list[str] = []
+        for v, rows in used.items():
+            table = np.array([self._at[k] for k in rows])            # (K, n)
+            cols = np.flatnonzero(np.any(table != 0.0, axis=0))
+            if not cols.size:                 # (rows of zeros only: nothing to multiply)
+                head.append(f"const double nw_{v}[{table.shape[0]}] = {{0}};")
+                continue
+            values = ", ".join(_double(x) for x in table[:, cols].T.ravel())
+            head += [f"static const double nw_T{v}[{table.shape[0] * cols.size}] = "
+                     f"{{{values}}};",
+                     f"static const int nw_C{v}[{cols.size}] = "
+                     f"{{{', '.join(str(int(c)) for c in cols)}}};",
+                     f"double nw_{v}[{table.shape[0]}];",
+                     f"nw_rows({table.shape[0]}, {cols.size}, nw_T{v}, nw_C{v}, {v}, nw_{v});"]
+        text = _DOT.sub(lambda m: f"nw_{m.group(2)}[{used[m.group(2)][int(m.group(1))]}]", text)
+        return head + text.split("\n")
+
+
+#: A row of :class:`DotRows` as the printer writes it.
+_DOT = re.compile(r"nw_dot\(NW_T \+ (\d+), (y|yd|a)\)")
 
 
 class CPrinter:
@@ -210,8 +269,12 @@ class CPrinter:
         other factor) replaced by one printed ``r*nw_dot(…)`` (:class:`DotRows`)."""
         dots, elements, scaled = self._dots, self._elements, self._scaled
         args = e.args
+
+        def element(f: sp.Basic) -> bool:
+            return f in elements or (f in scaled and scaled[f][1] in elements)
+
         if len(args) < dots.least or sum(
-                any(f in elements for f in (t.args if t.is_Mul else (t,))) for t in args
+                any(element(f) for f in (t.args if t.is_Mul else (t,))) for t in args
         ) < dots.least:
             return list(args)
         groups: dict[tuple[str, sp.Basic], dict[int, float]] = {}
@@ -219,10 +282,14 @@ class CPrinter:
         for term in args:
             factors = term.args if term.is_Mul else (term,)
             key = None
-            hit = next((f for f in factors if f in elements), None)
+            hit = next((f for f in factors if element(f)), None)
             if hit is not None:
-                array, index = elements[hit]
                 coeff, rest = 1.0, []
+                if hit in elements:
+                    array, index = elements[hit]
+                else:                          # a local c·v[i]: the number c times v[i]
+                    array, index = elements[scaled[hit][1]]
+                    coeff = float(scaled[hit][0])
                 for f in factors:
                     if f is hit:
                         continue

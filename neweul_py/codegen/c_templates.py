@@ -27,8 +27,9 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
 """
 
 C_LU = r"""
-/* ---- dense LU with partial pivoting (Golub & Van Loan, Alg. 3.4.1), row-major, in place */
-static int nw_lu(int n, double *a, int *piv)
+/* ---- dense LU with partial pivoting (Golub & Van Loan, Alg. 3.4.1), row-major, in place;
+   inlined into each solve (the block elimination's small LU of S then has constant sizes) */
+__attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *piv)
 {
     for (int k = 0; k < n; ++k) {
         int r = k;
@@ -55,7 +56,8 @@ static int nw_lu(int n, double *a, int *piv)
 }
 
 /* solve A X = B for m right-hand sides; b is row-major n x m, overwritten by X */
-static void nw_lu_solve(int n, const double *lu, const int *piv, int m, double *b)
+__attribute__((always_inline)) static inline void nw_lu_solve(int n, const double *lu,
+                                                              const int *piv, int m, double *b)
 {
     for (int k = 0; k < n; ++k)
         if (piv[k] != k)

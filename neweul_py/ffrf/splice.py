@@ -117,11 +117,15 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
     npar = sum("mixing" in b for b in bodies)
+    try:                                      # the small dense solve without numpy's set-up
+        from scipy.linalg.lapack import dgesv as gesv
+    except ImportError:                       # NumPy only
+        gesv = None
     pattern = None if mass_pattern is None else tuple(
         np.asarray(ffrf_unpack(v), dtype=np.intp).ravel() for v in mass_pattern)
     return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
             "same": bool(np.array_equal(SV, SW)) and not npar, "nhidden": nhidden,
-            "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30,
+            "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30, "gesv": gesv,
             "parametric": npar, "memo": [None], "clouds": [None],
             "schedule": schedule, "schedule_jacobians": schedule_jacobians,
             "pattern": pattern, "maps": ffrf_mass_maps(SV, SW, pattern),
@@ -192,12 +196,25 @@ def ffrf_index(k):
     return k
 
 
+def ffrf_dense_solve(S, M, f):
+    """``M⁻¹ f`` by the dense LU with partial pivoting: LAPACK's ``dgesv`` through SciPy
+    when it is installed (``S["gesv"]``; 22×22: a third of ``numpy.linalg.solve``'s time,
+    whose set-up dominates small systems), else — and for complex or singular systems —
+    ``numpy.linalg.solve`` (its ``LinAlgError``)."""
+    gesv = S["gesv"]
+    if gesv is not None and M.dtype == np.float64 and f.dtype == np.float64:
+        x, info = gesv(M, f)[2:]
+        if info == 0:
+            return x
+    return np.linalg.solve(M, f)
+
+
 def ffrf_solve(S, M, f):
     """``M⁻¹ f`` (``f``: (n,) or (n, k)): by :func:`ffrf_block`'s elimination when the
-    context has it, else the dense LU of ``numpy.linalg.solve``."""
+    context has it, else the dense LU (:func:`ffrf_dense_solve`)."""
     blk = S["block"]
     if blk is None:
-        return np.linalg.solve(M, f)
+        return ffrf_dense_solve(S, M, f)
     R, E, Dinv = blk["r"], blk["e"], blk["Dinv"]
     out = np.empty(f.shape, dtype=np.result_type(M, f))
     yf = Dinv @ f[E]
@@ -719,7 +736,7 @@ PROTOCOL = {
 
 #: The functions a generated module embeds after the kernel's (in this order).
 SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system,
-                    ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_solve,
+                    ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_symbolic_mass,

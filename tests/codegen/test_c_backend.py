@@ -303,7 +303,7 @@ def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
     # a constant Mee is eliminated as a block (codegen/c_solve.py); M_ee(q) of the field not
     c_text = (tmp_path / f"{name}_c.c").read_text()
     assert ("#define NW_NE" in c_text) == (form != "second-order field")
-    assert ("nw_dot(NW_T" in c_text) == (nq == 10)  # Ke q … as table rows (c_printer.py)
+    assert ("nw_rows(" in c_text) == (nq == 10)  # Ke q … as table rows (c_printer.py)
     mnp = load_generated(npath)
     rng = np.random.default_rng(3)
     n = len(mnp.COORDINATES)

@@ -19,7 +19,8 @@ pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc
 def test_linear_combinations_print_as_table_rows_with_the_same_value(tmp_path):
     """Reference: the expression evaluated by sympy at random numbers — a sum with a long
     combination of ``y`` (one row), a long one of ``ẏ`` times a common factor (a second row),
-    a short one (printed term by term) and other terms gives the same value compiled."""
+    a short one (printed term by term) and other terms gives the same value compiled, the
+    rows computed as one product per array at the top (``DotRows.batch``)."""
     n = 12
     y, yd = sp.symbols(f"y0:{n}"), sp.symbols(f"yd0:{n}")
     p0 = sp.Symbol("p0")
@@ -32,9 +33,11 @@ def test_linear_combinations_print_as_table_rows_with_the_same_value(tmp_path):
     dots = DotRows(n)
     text = CPrinter(names | {p0: "p[0]"}, dots).doprint_expr(expr)
     assert text.count("nw_dot(") == 2 and len(dots.rows) == 2
-    src = "\n".join(["#include <math.h>", *dots.table(),
+    body = dots.batch([f"return {text};"])
+    assert "nw_dot(" not in "".join(body) and sum("nw_rows(" in b for b in body) == 2
+    src = "\n".join(["#include <math.h>", *dots.helper(),
                      "double f(const double *y, const double *yd, const double *p)",
-                     f"{{ return {text}; }}", ""])
+                     "{", *body, "}", ""])
     c_path = tmp_path / "dots.c"
     c_path.write_text(src)
     ffi, lib, _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),

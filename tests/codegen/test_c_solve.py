@@ -31,32 +31,77 @@ def _symbolic(a: np.ndarray, varying: set[int]) -> sp.ImmutableMatrix:
 def _solver(tmp_path, a_sym, n):
     src = ("#include <math.h>\n#include <string.h>\n" + f"#define NW_N {n}\n" + C_LU
            + c_solver(constant_block(a_sym))
-           + "int solve(double *a, int m, double *b) { return nw_solve(a, m, b); }\n")
+           + "int solve(double *a, int m, double *b) { return nw_solve(a, m, b); }\n"
+           + "int solve1(double *a, double *b) { return nw_solve1(a, b); }\n")
     c_path = tmp_path / f"solve{n}_{hashlib.sha256(src.encode()).hexdigest()[:8]}.c"
     c_path.write_text(src)
     ffi, lib, _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),
-                                   "int solve(double *a, int m, double *b);",
+                                   "int solve(double *a, int m, double *b);"
+                                   "int solve1(double *a, double *b);",
                                    tmp_path / "cache")
     return ffi, lib
 
 
-@pytest.mark.parametrize(("n", "varying"), [(6, {0, 1}), (5, set()), (7, {3}), (4, {0, 1, 2})])
-def test_solve_equals_lapack(n, varying, tmp_path):
+@pytest.mark.parametrize(("n", "varying", "diagonal"),
+                         [(6, {0, 1}, False), (5, set(), False), (7, {3}, False),
+                          (4, {0, 1, 2}, False), (7, {0, 4}, False), (6, {0, 1}, True),
+                          (7, {2, 5}, True)])
+def test_solve_equals_lapack(n, varying, diagonal, tmp_path):
     """Reference: numpy.linalg.solve (LAPACK gesv) on random unsymmetric matrices, several
-    right-hand sides: the block elimination (constant rows/columns outside ``varying``; all
-    constant; a constant block split by a varying coordinate) and the dense LU (one constant
-    coordinate only) give the same solution."""
+    right-hand sides and one (``nw_solve1``): the block elimination (constant rows/columns
+    outside ``varying``; all constant; a constant block split by a varying coordinate;
+    ``R`` not one range; a diagonal constant block, whose inverse is stored as a diagonal)
+    and the dense LU (one constant coordinate only) give the same solution."""
     rng = np.random.default_rng(n)
     a = rng.standard_normal((n, n)) + n * np.eye(n)
+    if diagonal:
+        const = [j for j in range(n) if j not in varying]
+        d = a[np.ix_(const, const)]
+        a[np.ix_(const, const)] = np.diag(np.diag(d))
     b = rng.standard_normal((n, 3))
     block = constant_block(_symbolic(a, varying))
     assert (block is None) == (n - len(varying) < 2)
     if block is not None:
         assert block.block == tuple(j for j in range(n) if j not in varying)
     ffi, lib = _solver(tmp_path, _symbolic(a, varying), n)
+    c_text = c_solver(constant_block(_symbolic(a, varying)))
+    assert ("NW_DD" in c_text) == (diagonal and block is not None)
     aa, bb = a.copy(), b.copy()
     assert lib.solve(ffi.from_buffer("double[]", aa), 3, ffi.from_buffer("double[]", bb)) == 0
     np.testing.assert_allclose(bb, np.linalg.solve(a, b), rtol=1e-12, atol=1e-12)
+    aa, b1 = a.copy(), b[:, 0].copy()
+    assert lib.solve1(ffi.from_buffer("double[]", aa), ffi.from_buffer("double[]", b1)) == 0
+    np.testing.assert_allclose(b1, np.linalg.solve(a, b[:, 0]), rtol=1e-12, atol=1e-12)
+
+
+def test_inverse_drops_only_entries_below_the_products_rounding_error(tmp_path):
+    """Reference: the exact inverses and numpy.linalg.solve — the inverse of ``D = I + E``
+    with off-diagonal ``|E_ij| ≈ 1e-16`` (the constant ``Mee`` of mass-normalized modes)
+    becomes diagonal (its off-diagonal entries are below ``n·ε·√(X_ii X_jj)``), an entry of
+    1e-6 stays, and a badly scaled block (``S (I + F) S``, ``S = diag(1, 0.03, 30)``,
+    ``cond`` ≈ 1e6) keeps every entry: its solve equals LAPACK's; so does ``diag(1, 9e7)``,
+    at the largest condition number accepted."""
+    rng = np.random.default_rng(0)
+    n = 20
+    d = np.eye(n) + 1e-16 * rng.standard_normal((n, n))
+    block = constant_block(_symbolic(d, set()))
+    assert np.count_nonzero(block.inverse - np.diag(np.diag(block.inverse))) == 0
+    d[3, 5] = 1e-6
+    block = constant_block(_symbolic(d, set()))
+    assert block.inverse[3, 5] != 0.0
+    s = np.diag([1.0, 0.03, 30.0, 1.0])
+    a = s @ (np.eye(4) + 0.3 * rng.standard_normal((4, 4))) @ s
+    a[:, 3] = a[3, :] = [0.2, 0.1, 0.3, 5.0]   # coordinate 3 varying (the rest R)
+    block = constant_block(_symbolic(a, {3}))
+    exact = np.linalg.inv(a[:3, :3])
+    assert np.count_nonzero(block.inverse) == np.count_nonzero(exact) == 9
+    edge = constant_block(_symbolic(np.diag([1.0, 9e7]), set()))   # cond 9e7 ≤ 1e8
+    np.testing.assert_array_equal(edge.inverse, np.diag([1.0, 1 / 9e7]))
+    ffi, lib = _solver(tmp_path, _symbolic(a, {3}), 4)
+    b = rng.standard_normal(4)
+    aa, bb = a.copy(), b.copy()
+    assert lib.solve1(ffi.from_buffer("double[]", aa), ffi.from_buffer("double[]", bb)) == 0
+    np.testing.assert_allclose(bb, np.linalg.solve(a, b), rtol=1e-10)
 
 
 def test_singular_schur_complement_is_reported(tmp_path):

@@ -137,3 +137,27 @@ def test_rhs_and_jacobian_equal_the_direct_assembly(tmp_path: Path, beam_data, n
                               for d in np.eye(2 * n)])
         np.testing.assert_allclose(mod.rhs_jacobian(0.0, x, p), fd, rtol=0,
                                    atol=1e-6 * np.max(np.abs(fd)))
+
+
+def test_dense_solve_through_lapack_equals_numpy_and_falls_back() -> None:
+    """Reference: ``numpy.linalg.solve`` (LAPACK gesv) — ``ffrf_dense_solve`` gives its
+    solution through SciPy's ``dgesv`` for real systems (one and several right-hand sides),
+    the same with ``gesv = None`` (NumPy only) and for complex right-hand sides, and raises
+    its ``LinAlgError`` for a singular matrix."""
+    from neweul_py.ffrf.splice import ffrf_dense_solve
+
+    pytest.importorskip("scipy")
+    from scipy.linalg.lapack import dgesv
+
+    rng = np.random.default_rng(5)
+    M = rng.standard_normal((22, 22)) + 22 * np.eye(22)
+    for f in (rng.standard_normal(22), rng.standard_normal((22, 3))):
+        ref = np.linalg.solve(M, f)
+        for gesv in (dgesv, None):
+            np.testing.assert_allclose(ffrf_dense_solve({"gesv": gesv}, M, f), ref,
+                                       rtol=1e-13, atol=1e-14)
+    fc = rng.standard_normal(22) + 1j * rng.standard_normal(22)
+    np.testing.assert_allclose(ffrf_dense_solve({"gesv": dgesv}, M, fc),
+                               np.linalg.solve(M, fc), rtol=1e-13, atol=1e-14)
+    with pytest.raises(np.linalg.LinAlgError):
+        ffrf_dense_solve({"gesv": dgesv}, np.zeros((3, 3)), np.ones(3))
