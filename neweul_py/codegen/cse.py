@@ -93,7 +93,8 @@ def free_symbols(expr: sp.Basic) -> frozenset[sp.Symbol]:
 def _rebuilt(expr: sp.Basic, args: tuple[sp.Basic, ...]) -> sp.Basic:
     """``expr`` with new arguments (symbols for subtrees), without re-evaluating it."""
     if expr.is_Add or expr.is_Mul:
-        return expr.func._from_args(args)
+        # commutative stays commutative (symbols of commutative subtrees replace them)
+        return expr.func._from_args(args, True if expr.is_commutative is True else None)
     if expr.is_Pow:
         return sp.Pow(*args, evaluate=False)
     return expr.func(*args)

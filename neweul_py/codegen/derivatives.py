@@ -50,7 +50,7 @@ def _mul(a: sp.Expr, b: sp.Expr) -> sp.Expr:
         return a
     if a is _ZERO or b is _ZERO:
         return _ZERO
-    return sp.Mul._from_args((a, b))
+    return sp.Mul._from_args((a, b), _commutative((a, b)))
 
 
 def _add(terms: list[sp.Expr]) -> sp.Expr:
@@ -58,7 +58,16 @@ def _add(terms: list[sp.Expr]) -> sp.Expr:
     terms = [t for t in terms if t is not _ZERO]
     if not terms:
         return _ZERO
-    return terms[0] if len(terms) == 1 else sp.Add._from_args(terms)
+    return terms[0] if len(terms) == 1 else sp.Add._from_args(terms, _commutative(terms))
+
+
+def _commutative(args: Sequence[sp.Expr]) -> bool | None:
+    """``True`` when every argument is commutative, else ``None`` (``_from_args`` then works
+    it out: ``fuzzy_and`` over the arguments, which costs more than these lookups)."""
+    for a in args:
+        if a.is_commutative is not True:
+            return None
+    return True
 
 
 def gradient(expr: sp.Expr, wanted: set[sp.Symbol] | frozenset[sp.Symbol]) -> dict[sp.Symbol,

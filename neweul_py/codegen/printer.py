@@ -229,10 +229,18 @@ class FastPrinter:
         return f"({self._fallback.doprint_expr(e)})", _ATOM
 
     def _mul(self, e: sp.Mul) -> tuple[str, int]:
-        coeff, rest = e.as_coeff_Mul()
+        # the factors of ``coeff, rest = e.as_coeff_Mul()``, ``Mul.make_args(rest)``, without
+        # building ``rest``
+        args = e.args
+        if args[0].is_Number:
+            coeff, factors = args[0], args[1:]
+            if len(factors) == 1 and factors[0].is_Mul:
+                factors = factors[0].args
+        else:
+            coeff, factors = _ONE, args
         num: list[str] = []
         den: list[tuple[sp.Basic, sp.Basic]] = []
-        for f in rest.args if rest.is_Mul else (rest,):  # = Mul.make_args(rest)
+        for f in factors:
             if f.is_Pow and f.exp.is_Rational and f.exp.is_negative:
                 den.append((f.base, -f.exp))
             else:
