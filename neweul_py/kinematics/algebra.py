@@ -13,8 +13,8 @@ from collections.abc import Iterable, Sequence
 import sympy as sp
 
 from ..model import as_expr
-from .canonical import add as _add
-from .canonical import mul as _mul2
+from ..model.canonical import add as _add
+from ..model.canonical import mul as _mul2
 
 __all__ = [
     "ZERO",

@@ -15,8 +15,8 @@ import random
 import pytest
 import sympy as sp
 
-from neweul_py.kinematics.canonical import add, mul
 from neweul_py.model import symbol
+from neweul_py.model.canonical import add, mul
 
 x, y, z, w = (symbol(n) for n in ("x", "y", "z", "w"))
 p = sp.Symbol("p", positive=True)
@@ -42,18 +42,37 @@ def same(a: sp.Basic, b: sp.Basic) -> bool:
         same(s, t) for s, t in zip(a.args, b.args, strict=True))
 
 
-#: Operands the fast paths accept (and products of them): most lists built from these take
-#: them, the rest (equal bases, like terms) go to sympy.
-SIMPLE = [*(symbol(f"s{i}") for i in range(8)), p, d, sp.cos(x), sp.sin(y), f, x**2, y**-1,
-          sp.sqrt(p), sp.Integer(2), sp.Rational(-1, 2), sp.S.NegativeOne]
+#: Operands the fast paths accept (and products and sums of them): most lists built from
+#: these take them, combining like terms and equal bases on the way; a few go to sympy.
+_S = [symbol(f"s{i}") for i in range(6)]
+SIMPLE = [*_S, p, d, sp.cos(x), sp.sin(y), f, x**2, y**-1, sp.sqrt(p), _S[0] + _S[1],
+          2 * _S[2] - _S[3], _S[0] + 1, (_S[4] - _S[5])**2, sp.Integer(2), sp.Rational(-1, 2),
+          sp.S.NegativeOne, sp.Rational(1, 3)]
 
 
-def operand(rng: random.Random, depth: int = 0, simple: bool = False) -> sp.Expr:
+def raw(rng: random.Random, depth: int = 0) -> sp.Expr:
+    """Nodes as code generation rebuilds them: arguments in any order, nested, unevaluated
+    powers (``_from_args``, ``evaluate=False``)."""
     r = rng.random()
+    if r < 0.5 or depth > 1:
+        return rng.choice(SIMPLE)
+    if r < 0.6:
+        return sp.Pow(rng.choice(_S), rng.choice([2, -1, sp.Rational(1, 2)]), evaluate=False)
+    parts = [raw(rng, depth + 1) for _ in range(rng.randint(2, 3))]
+    rng.shuffle(parts)
+    cls = sp.Mul if r < 0.8 else sp.Add
+    return cls._from_args(parts, True)
+
+
+def operand(rng: random.Random, depth: int = 0, simple: bool | str = False) -> sp.Expr:
+    r = rng.random()
+    if simple == "raw":
+        return raw(rng)
     if simple:
-        if r < 0.7 or depth > 1:
+        if r < 0.6 or depth > 1:
             return rng.choice(SIMPLE)
-        return sp.Mul(*(operand(rng, depth + 1, True) for _ in range(rng.randint(2, 3))))
+        parts = [operand(rng, depth + 1, True) for _ in range(rng.randint(2, 3))]
+        return sp.Mul(*parts) if r < 0.8 else sp.Add(*parts)
     if r < 0.45 or depth > 1:
         return rng.choice(ATOMS)
     if r < 0.65:
@@ -64,9 +83,9 @@ def operand(rng: random.Random, depth: int = 0, simple: bool = False) -> sp.Expr
     return sp.Mul(*parts) if r < 0.85 else sp.Add(*parts)
 
 
-@pytest.mark.parametrize("simple", [False, True])
+@pytest.mark.parametrize("simple", [False, True, "raw"])
 @pytest.mark.parametrize("seed", range(3))
-def test_mul_is_sympys_mul(seed: int, simple: bool) -> None:
+def test_mul_is_sympys_mul(seed: int, simple: bool | str) -> None:
     """``mul`` = ``sympy.Mul`` on 1500 random operand lists (1–5 operands)."""
     rng = random.Random(seed)
     for _ in range(1500):
@@ -74,9 +93,9 @@ def test_mul_is_sympys_mul(seed: int, simple: bool) -> None:
         assert same(mul(*ops), sp.Mul(*ops)), ops
 
 
-@pytest.mark.parametrize("simple", [False, True])
+@pytest.mark.parametrize("simple", [False, True, "raw"])
 @pytest.mark.parametrize("seed", range(3))
-def test_add_is_sympys_add(seed: int, simple: bool) -> None:
+def test_add_is_sympys_add(seed: int, simple: bool | str) -> None:
     """``add`` = ``sympy.Add`` on 1500 random operand lists (1–5 operands)."""
     rng = random.Random(100 + seed)
     for _ in range(1500):
@@ -97,9 +116,21 @@ def test_typical_products_take_the_fast_path() -> None:
         assert fast is not sp.Add(*ops) and same(fast, sp.Add(*ops))
 
 
-def test_combining_operands_go_to_sympy() -> None:
-    """Operands that combine are sympy's business: ``x·x``, ``x − x``, ``2x + x``."""
-    assert mul(x, x) == x**2
+def test_combining_operands() -> None:
+    """Equal bases and like terms combine, rationals distribute over a sum, as in sympy:
+    ``x·x``, ``x·x⁻¹``, ``x − x``, ``2x + x``, ``2 (x + y)``, ``(x + y) + (z − y)``."""
+    assert same(mul(x, x), x**2) and mul(x, 1 / x) is sp.S.One
     assert add(x, -x) is sp.S.Zero
     assert same(add(2 * x, x), 3 * x)
     assert same(mul(sp.Integer(2), x + y), 2 * x + 2 * y)
+    assert same(add(x + y, z - y), x + z)
+
+
+def test_other_operands_go_to_sympy() -> None:
+    """Floats, ``pi``, ``exp``, non-commutative symbols, ``2*(x + y)`` kept as a product:
+    sympy's constructor (its cached node: the identical object)."""
+    for ops in [(sp.Float(1.5), x), (sp.pi, x), (sp.exp(x), sp.exp(y)), (nc, x)]:
+        assert mul(*ops) is sp.Mul(*ops)
+        assert add(*ops) is sp.Add(*ops)
+    twice = sp.Mul(2, x + y, evaluate=False)
+    assert add(twice, z) is sp.Add(twice, z)
