@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 import sympy as sp
 
 from ..model import as_expr
-from .cse import Assignment, numbered_symbols, prune
+from .cse import Assignment, free_symbols, numbered_symbols, prune
 
 __all__ = ["gradient", "jacobian"]
 
@@ -90,7 +90,7 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
                     ) -> dict[sp.Symbol, list[sp.Expr]]:
     if expr.is_Symbol:
         return {expr: [sp.S.One]} if expr in wanted else {}
-    if expr.is_Atom or not (expr.free_symbols & wanted):
+    if expr.is_Atom or not (free_symbols(expr) & wanted):
         return {}
     out: dict[sp.Symbol, list[sp.Expr]] = {}
     if expr.is_Add:
@@ -111,7 +111,7 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
         return out
     if isinstance(expr, sp.Piecewise):
         return _piecewise_gradient_terms(expr, wanted)
-    if expr.is_Pow and not (expr.exp.free_symbols & wanted):
+    if expr.is_Pow and not (free_symbols(expr.exp) & wanted):
         g = _gradient_terms(expr.base, wanted)
         factor = expr.exp * expr.base ** (expr.exp - 1)
         return {s: [_mul(factor, _add(terms))] for s, terms in g.items()}
@@ -123,7 +123,7 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
             outer = None
         if outer is not None and not isinstance(outer, sp.Derivative | sp.Subs):
             return {s: [_mul(outer, _add(terms))] for s, terms in g.items()}
-    for s in sorted(expr.free_symbols & wanted, key=lambda s: s.name):
+    for s in sorted(free_symbols(expr) & wanted, key=lambda s: s.name):
         d = _no_delta(sp.diff(expr, s))
         if d != 0:
             out[s] = [d]

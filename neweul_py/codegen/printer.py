@@ -215,7 +215,11 @@ class FastPrinter:
             s = repr(v)
             return s, (_UNARY if s.startswith("-") else _ATOM)
         if e.is_Add:
-            return join_sum([self._paren(arg, _ADD) for arg in e.args]), _ADD
+            terms = []
+            for arg in e.args:
+                s, prec = self._p(arg)
+                terms.append(s if prec >= _ADD else f"({s})")
+            return join_sum(terms), _ADD
         if e.is_Mul:
             return self._mul(e)
         if e.is_Pow:
@@ -244,7 +248,8 @@ class FastPrinter:
             if f.is_Pow and f.exp.is_Rational and f.exp.is_negative:
                 den.append((f.base, -f.exp))
             else:
-                num.append(self._paren(f, _MUL + 1 if f.is_Mul else _MUL))
+                s, prec = self._p(f)
+                num.append(s if prec >= (_MUL + 1 if f.is_Mul else _MUL) else f"({s})")
         s = "*".join(num) if num else "1"
         if den:
             parts = [self._pow(b, x) for b, x in den]
