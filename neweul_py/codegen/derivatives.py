@@ -93,19 +93,33 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
     if expr.is_Atom or not (free_symbols(expr) & wanted):
         return {}
     out: dict[sp.Symbol, list[sp.Expr]] = {}
+    # a symbol among the arguments is handled in place: ∂s/∂s = 1 (the recursion's result)
     if expr.is_Add:
         for arg in expr.args:
+            if arg.is_Symbol:
+                if arg in wanted:
+                    out.setdefault(arg, []).append(_ONE)
+                continue
             for s, terms in _gradient_terms(arg, wanted).items():
                 out.setdefault(s, []).extend(terms)
         return out
     if expr.is_Mul:
         args = expr.args
+        commutative = True if expr.is_commutative is True else None
         for i, arg in enumerate(args):
-            g = _gradient_terms(arg, wanted)
-            if not g:
-                continue
+            if arg.is_Symbol:
+                if arg not in wanted:
+                    continue
+                g = None
+            else:
+                g = _gradient_terms(arg, wanted)
+                if not g:
+                    continue
             others = args[:i] + args[i + 1:]
-            rest = others[0] if len(others) == 1 else sp.Mul._from_args(others)
+            rest = others[0] if len(others) == 1 else sp.Mul._from_args(others, commutative)
+            if g is None:
+                out.setdefault(arg, []).append(rest)  # = _mul(rest, _add([1]))
+                continue
             for s, terms in g.items():
                 out.setdefault(s, []).append(_mul(rest, _add(terms)))
         return out
