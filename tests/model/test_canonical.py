@@ -25,7 +25,8 @@ d = sp.Dummy("d")
 f = sp.Function("f")(symbol("t"))
 nc = sp.Symbol("A", commutative=False)
 
-ATOMS = [x, y, z, w, p, u, d, sp.cos(x), sp.sin(y), f, sp.exp(z), sp.Abs(u),
+ATOMS = [x, y, z, w, p, u, d, sp.cos(x), sp.sin(y), f, sp.exp(z), sp.Abs(u), sp.sign(y),
+         sp.Heaviside(x, 1), sp.Min(x, y), sp.Piecewise((x, y > 0), (z, True)),
          x**2, y**-1, sp.sqrt(p), z**sp.Rational(3, 2), (x + y)**2, sp.Integer(2)**x, sp.pi]
 NUMBERS = [sp.S.One, sp.S.Zero, sp.S.NegativeOne, sp.Integer(2), sp.Integer(-3),
            sp.Rational(1, 2), sp.Rational(-2, 3), sp.Float(1.5), sp.Float(0.0)]
