@@ -16,7 +16,6 @@ module never iterates over sets without sorting. The result is the same for ever
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -24,6 +23,7 @@ from typing import Literal
 import sympy as sp
 
 from ..model import as_expr
+from ..model.canonical import mul
 
 #: ``"full"``: ``sympy.cse`` (tree CSE plus its search for common argument subsets of Add/Mul,
 #: best for large closed-form expressions); ``"tree"``: only repeated identical subtrees
@@ -47,15 +47,15 @@ class Block:
 
 def prune(intermediates: Sequence[Assignment], finals: Sequence[sp.Expr]) -> list[Assignment]:
     """The intermediates that ``finals`` need, directly or through other intermediates, in order."""
-    defined = {s for s, _ in intermediates}
+    # every free symbol is collected (not only the intermediates': only theirs are looked up)
     needed: set[sp.Symbol] = set()
     for e in finals:
-        needed |= free_symbols(e) & defined
+        needed |= free_symbols(e)
     kept: list[Assignment] = []
     for sym, expr in reversed(intermediates):
         if sym in needed:
             kept.append((sym, expr))
-            needed |= free_symbols(expr) & defined
+            needed |= free_symbols(expr)
     kept.reverse()
     return kept
 
@@ -67,8 +67,7 @@ _UNION_OF_ARGS = sp.Basic.free_symbols
 _ITSELF = sp.Symbol.free_symbols
 
 
-@functools.lru_cache(maxsize=1 << 16)
-def _free_cached(expr: sp.Basic) -> frozenset[sp.Symbol]:
+def _free_walk(expr: sp.Basic) -> frozenset[sp.Symbol]:
     """``expr.free_symbols`` in one walk over the tree (sympy's property builds a set at
     every node of it), asking each class with a rule of its own for its answer."""
     out: set[sp.Basic] = set()
@@ -85,15 +84,34 @@ def _free_cached(expr: sp.Basic) -> frozenset[sp.Symbol]:
     return frozenset(out)
 
 
+#: The free symbols of the expressions asked about, by identity: ``id(expr) → (expr,
+#: symbols)`` (an entry holds its expression, so its id is not reused while it lives). Keyed
+#: by identity, not equality: most expressions asked about are new (derivative and CSE
+#: programs), and hashing them — sympy's ``__hash__`` hashes every new node of a tree —
+#: cost more than the walk. Emptied when full.
+_FREE: dict[int, tuple[sp.Basic, frozenset[sp.Symbol]]] = {}
+_FREE_SIZE = 1 << 17
+
+
 def free_symbols(expr: sp.Basic) -> frozenset[sp.Symbol]:
     """Free symbols (memoized: the same expressions are scanned by several functions)."""
-    return _free_cached(expr) if isinstance(expr, sp.Basic) else frozenset()
+    hit = _FREE.get(id(expr))
+    if hit is not None and hit[0] is expr:
+        return hit[1]
+    if not isinstance(expr, sp.Basic):
+        return frozenset()
+    symbols = _free_walk(expr)
+    if len(_FREE) >= _FREE_SIZE:
+        _FREE.clear()
+    _FREE[id(expr)] = (expr, symbols)
+    return symbols
 
 
 def _rebuilt(expr: sp.Basic, args: tuple[sp.Basic, ...]) -> sp.Basic:
     """``expr`` with new arguments (symbols for subtrees), without re-evaluating it."""
     if expr.is_Add or expr.is_Mul:
-        return expr.func._from_args(args)
+        # commutative stays commutative (symbols of commutative subtrees replace them)
+        return expr.func._from_args(args, True if expr.is_commutative is True else None)
     if expr.is_Pow:
         return sp.Pow(*args, evaluate=False)
     return expr.func(*args)
@@ -254,7 +272,10 @@ def hoist_constant_factors(
     done: dict[sp.Basic, sp.Basic] = {}
 
     def is_const(e: sp.Basic) -> bool:
-        return e.is_Number or (bool(free_symbols(e)) and free_symbols(e) <= const)
+        if e.is_Number:
+            return True
+        fs = free_symbols(e)
+        return bool(fs) and fs <= const
 
     def rebuild(e: sp.Basic) -> sp.Basic:
         if e.is_Atom or not e.args:
@@ -265,15 +286,17 @@ def hoist_constant_factors(
         args = tuple(rebuild(a) for a in e.args)
         new = e if all(a is b for a, b in zip(args, e.args, strict=True)) else _rebuilt(e, args)
         if new.is_Mul:
-            c = [a for a in new.args if is_const(a)]
-            rest = [a for a in new.args if not is_const(a)]
+            flags = [is_const(a) for a in new.args]
+            c = [a for a, f in zip(new.args, flags, strict=True) if f]
+            rest = [a for a, f in zip(new.args, flags, strict=True) if not f]
             if len(c) >= 2 and rest:
-                key = sp.Mul(*c)
+                key = mul(*c)  # = sp.Mul(*c)
                 sym = table.get(key)
                 if sym is None:
                     sym = table[key] = sp.Symbol(f"{prefix}{len(table)}")
                     hoisted.append((sym, key))
-                new = sp.Mul._from_args((sym, *rest))
+                new = sp.Mul._from_args((sym, *rest),
+                                        True if new.is_commutative is True else None)
         done[e] = new
         return new
 

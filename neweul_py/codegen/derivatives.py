@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 import sympy as sp
 
 from ..model import as_expr
-from .cse import Assignment, numbered_symbols, prune
+from .cse import Assignment, free_symbols, numbered_symbols, prune
 
 __all__ = ["gradient", "jacobian"]
 
@@ -50,7 +50,7 @@ def _mul(a: sp.Expr, b: sp.Expr) -> sp.Expr:
         return a
     if a is _ZERO or b is _ZERO:
         return _ZERO
-    return sp.Mul._from_args((a, b))
+    return sp.Mul._from_args((a, b), _commutative((a, b)))
 
 
 def _add(terms: list[sp.Expr]) -> sp.Expr:
@@ -58,7 +58,16 @@ def _add(terms: list[sp.Expr]) -> sp.Expr:
     terms = [t for t in terms if t is not _ZERO]
     if not terms:
         return _ZERO
-    return terms[0] if len(terms) == 1 else sp.Add._from_args(terms)
+    return terms[0] if len(terms) == 1 else sp.Add._from_args(terms, _commutative(terms))
+
+
+def _commutative(args: Sequence[sp.Expr]) -> bool | None:
+    """``True`` when every argument is commutative, else ``None`` (``_from_args`` then works
+    it out: ``fuzzy_and`` over the arguments, which costs more than these lookups)."""
+    for a in args:
+        if a.is_commutative is not True:
+            return None
+    return True
 
 
 def gradient(expr: sp.Expr, wanted: set[sp.Symbol] | frozenset[sp.Symbol]) -> dict[sp.Symbol,
@@ -81,28 +90,42 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
                     ) -> dict[sp.Symbol, list[sp.Expr]]:
     if expr.is_Symbol:
         return {expr: [sp.S.One]} if expr in wanted else {}
-    if expr.is_Atom or not (expr.free_symbols & wanted):
+    if expr.is_Atom or not (free_symbols(expr) & wanted):
         return {}
     out: dict[sp.Symbol, list[sp.Expr]] = {}
+    # a symbol among the arguments is handled in place: ∂s/∂s = 1 (the recursion's result)
     if expr.is_Add:
         for arg in expr.args:
+            if arg.is_Symbol:
+                if arg in wanted:
+                    out.setdefault(arg, []).append(_ONE)
+                continue
             for s, terms in _gradient_terms(arg, wanted).items():
                 out.setdefault(s, []).extend(terms)
         return out
     if expr.is_Mul:
         args = expr.args
+        commutative = True if expr.is_commutative is True else None
         for i, arg in enumerate(args):
-            g = _gradient_terms(arg, wanted)
-            if not g:
-                continue
+            if arg.is_Symbol:
+                if arg not in wanted:
+                    continue
+                g = None
+            else:
+                g = _gradient_terms(arg, wanted)
+                if not g:
+                    continue
             others = args[:i] + args[i + 1:]
-            rest = others[0] if len(others) == 1 else sp.Mul._from_args(others)
+            rest = others[0] if len(others) == 1 else sp.Mul._from_args(others, commutative)
+            if g is None:
+                out.setdefault(arg, []).append(rest)  # = _mul(rest, _add([1]))
+                continue
             for s, terms in g.items():
                 out.setdefault(s, []).append(_mul(rest, _add(terms)))
         return out
     if isinstance(expr, sp.Piecewise):
         return _piecewise_gradient_terms(expr, wanted)
-    if expr.is_Pow and not (expr.exp.free_symbols & wanted):
+    if expr.is_Pow and not (free_symbols(expr.exp) & wanted):
         g = _gradient_terms(expr.base, wanted)
         factor = expr.exp * expr.base ** (expr.exp - 1)
         return {s: [_mul(factor, _add(terms))] for s, terms in g.items()}
@@ -114,7 +137,7 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
             outer = None
         if outer is not None and not isinstance(outer, sp.Derivative | sp.Subs):
             return {s: [_mul(outer, _add(terms))] for s, terms in g.items()}
-    for s in sorted(expr.free_symbols & wanted, key=lambda s: s.name):
+    for s in sorted(free_symbols(expr) & wanted, key=lambda s: s.name):
         d = _no_delta(sp.diff(expr, s))
         if d != 0:
             out[s] = [d]

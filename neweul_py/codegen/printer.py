@@ -215,7 +215,11 @@ class FastPrinter:
             s = repr(v)
             return s, (_UNARY if s.startswith("-") else _ATOM)
         if e.is_Add:
-            return join_sum([self._paren(arg, _ADD) for arg in e.args]), _ADD
+            terms = []
+            for arg in e.args:
+                s, prec = self._p(arg)
+                terms.append(s if prec >= _ADD else f"({s})")
+            return join_sum(terms), _ADD
         if e.is_Mul:
             return self._mul(e)
         if e.is_Pow:
@@ -229,14 +233,23 @@ class FastPrinter:
         return f"({self._fallback.doprint_expr(e)})", _ATOM
 
     def _mul(self, e: sp.Mul) -> tuple[str, int]:
-        coeff, rest = e.as_coeff_Mul()
+        # the factors of ``coeff, rest = e.as_coeff_Mul()``, ``Mul.make_args(rest)``, without
+        # building ``rest``
+        args = e.args
+        if args[0].is_Number:
+            coeff, factors = args[0], args[1:]
+            if len(factors) == 1 and factors[0].is_Mul:
+                factors = factors[0].args
+        else:
+            coeff, factors = _ONE, args
         num: list[str] = []
         den: list[tuple[sp.Basic, sp.Basic]] = []
-        for f in rest.args if rest.is_Mul else (rest,):  # = Mul.make_args(rest)
+        for f in factors:
             if f.is_Pow and f.exp.is_Rational and f.exp.is_negative:
                 den.append((f.base, -f.exp))
             else:
-                num.append(self._paren(f, _MUL + 1 if f.is_Mul else _MUL))
+                s, prec = self._p(f)
+                num.append(s if prec >= (_MUL + 1 if f.is_Mul else _MUL) else f"({s})")
         s = "*".join(num) if num else "1"
         if den:
             parts = [self._pow(b, x) for b, x in den]

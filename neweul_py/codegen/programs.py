@@ -19,6 +19,7 @@ from typing import Any
 import sympy as sp
 
 from ..model import as_expr
+from ..model.canonical import add, mul
 from .blocks import derivative_block, mass_entries
 from .cse import Assignment, Block, CseMethod, eliminate, hoist_constant_factors
 
@@ -105,7 +106,7 @@ def dynamics_programs(eq: Any, inter: Sequence[Assignment], method: CseMethod,
         f_red = program.finals[nm:nm + n]
         fj = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
         a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
-        ma = [sp.Add(*(m_full[i, j] * a_syms[j] for j in range(n))) for i in range(n)]
+        ma = [add(*(mul(m_full[i, j], a_syms[j]) for j in range(n))) for i in range(n)]
         mj = derivative_block(program.assignments, ma, y, d_method)
         return DynamicsPrograms(program, m_where, m_full, fj, mj)
 

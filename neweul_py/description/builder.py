@@ -214,12 +214,25 @@ class _Names:
 
     symbols: Mapping[str, sp.Symbol]  # every name that stands for a symbol
     kinds: Mapping[str, str]  # every name of the model → its kind
+    #: Expression strings parsed so far, ``(text, scope) → expression`` (a description
+    #: repeats the same few: ``m``, ``-l``, ``m*l**2/12`` … once per body); failures are not
+    #: kept (their error names the key path).
+    parsed: dict[tuple[str, str], sp.Expr] = dataclasses.field(
+        default_factory=dict, compare=False, repr=False)
 
     def namespace(self, scope: str) -> dict[str, sp.Symbol]:
         kinds = SCOPES[scope]
         return {n: s for n, s in self.symbols.items() if self.kinds[n] in kinds}
 
     def expr(self, value: object, scope: str, key_path: str) -> sp.Expr:
+        if isinstance(value, str):
+            hit = self.parsed.get((value, scope))
+            if hit is None:
+                hit = self.parsed[value, scope] = self._parse(value, scope, key_path)
+            return hit
+        return self._parse(value, scope, key_path)
+
+    def _parse(self, value: object, scope: str, key_path: str) -> sp.Expr:
         namespace = self.namespace(scope)
         if isinstance(value, sp.Basic) and not isinstance(value, sp.MatrixBase):
             # Symbols created by a user with other assumptions stand for the model's symbols.
@@ -241,8 +254,10 @@ class _Names:
 
     def inertia(self, value: object, key_path: str) -> sp.ImmutableMatrix:
         if isinstance(value, Mapping):
-            diag = self.vector(value["diag"], "constant", f"{key_path}.diag")
-            return sp.ImmutableMatrix(sp.diag(*diag))
+            diag = list(self.vector(value["diag"], "constant", f"{key_path}.diag"))
+            k = len(diag)  # = sp.diag(*diag), without the general block-diagonal builder
+            return sp.ImmutableMatrix(k, k, [diag[i] if i == j else sp.S.Zero
+                                             for i in range(k) for j in range(k)])
         if isinstance(value, sp.MatrixBase):
             value = value.tolist()
         return sp.ImmutableMatrix(

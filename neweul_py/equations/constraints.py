@@ -13,9 +13,9 @@ eliminates the common subexpressions.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import sympy as sp
 
@@ -34,10 +34,7 @@ from ..model import (
     time,
 )
 
-if TYPE_CHECKING:
-    import numpy as np
-
-__all__ = ["ConstraintEquations", "check_constraints", "derive_constraints"]
+__all__ = ["ConstraintEquations", "check_constraints", "dependent_rows", "derive_constraints"]
 
 
 @dataclass(frozen=True)
@@ -184,6 +181,9 @@ def check_constraints(
 
     ``G`` is evaluated at the description's initial coordinates, the default parameters,
     ``t = 0`` and the default inputs; its rows must be linearly independent (rank ``nc``).
+    Row by row, a row is independent of the rows accepted before it when its distance to
+    their span exceeds ``rtol · max|G|`` (:func:`dependent_rows`; plain Python: a model with
+    closed loops is derived without NumPy as well).
 
     Raises
     ------
@@ -194,46 +194,38 @@ def check_constraints(
     """
     if ce.nc == 0:
         return
-    import numpy as np  # here: an unconstrained model is derived without NumPy
-
     values: dict[sp.Symbol, float] = {c.symbol: c.initial for c in system.coordinates}
     values.update({p.symbol: p.default for p in system.parameters})
     values[time] = 0.0
     for sym, expr in zip(system.input_symbols, system.input_defaults, strict=True):
         values[sym] = float(expr.xreplace(values).evalf())
 
-    def num(m: sp.ImmutableMatrix) -> np.ndarray:
+    def num(m: sp.ImmutableMatrix) -> list[list[float]] | None:
         try:
-            return np.array(m.xreplace(values).evalf(), dtype=float).reshape(m.shape)
+            rows = [[float(v) for v in row] for row in m.xreplace(values).evalf().tolist()]
         except (TypeError, ValueError):
-            return np.full(m.shape, np.nan)
+            return None
+        return rows if all(math.isfinite(v) for row in rows for v in row) else None
 
-    G, g = num(ce.G), num(ce.g).reshape(-1)
-    if not (np.all(np.isfinite(G)) and np.all(np.isfinite(g))):
+    G, gm = num(ce.G), num(ce.g)
+    if G is None or gm is None:
         return  # not evaluable at the initial state (e.g. outside a square root's domain)
-    scale = max(float(np.abs(G).max()), 1e-300)
+    g = [row[0] for row in gm]
+    g_scale = 1e-9 * max(1.0, max(abs(v) for v in g))
     report: list[str] = []
     first: list[str] = []
     item = {nm: c.name for c in system.constraints for nm in c.names}
-    independent: list[int] = []
-    for i in range(ce.nc):
-        trial = [*independent, i]
-        sv = np.linalg.svd(G[trial], compute_uv=False)
-        if sv.size and sv[-1] > rtol * scale:
-            independent.append(i)
-            continue
-        if not independent or not np.any(np.abs(G[i]) > rtol * scale):
-            kind = "redundant" if abs(g[i]) <= 1e-9 * max(1.0, np.abs(g).max()) else "inconsistent"
+    for i, combination in dependent_rows(G, rtol):
+        if combination is None:
+            kind = "redundant" if abs(g[i]) <= g_scale else "inconsistent"
             report.append(f"{ce.names[i]} ({kind}: zero Jacobian row)")
-            first.append(item[ce.names[i]])
-            continue
-        coef, *_ = np.linalg.lstsq(G[independent].T, G[i], rcond=None)
-        partners = [ce.names[k] for k, c in zip(independent, coef, strict=True)
-                    if abs(c) > 1e-8 * np.abs(coef).max()]
-        mismatch = abs(g[i] - coef @ g[independent])
-        kind = "redundant" if mismatch <= 1e-9 * max(1.0, np.abs(g).max()) else "inconsistent"
-        report.append(f"{ce.names[i]} ({kind}: its Jacobian row is a combination of "
-                      f"{', '.join(partners)})")
+        else:
+            largest = max(abs(c) for _, c in combination)
+            partners = [ce.names[k] for k, c in combination if abs(c) > 1e-8 * largest]
+            mismatch = abs(g[i] - sum(c * g[k] for k, c in combination))
+            kind = "redundant" if mismatch <= g_scale else "inconsistent"
+            report.append(f"{ce.names[i]} ({kind}: its Jacobian row is a combination of "
+                          f"{', '.join(partners)})")
         first.append(item[ce.names[i]])
     if report:
         raise ModelError(
@@ -242,3 +234,52 @@ def check_constraints(
             "geometry",
             f"constraints.{first[0]}",
         )
+
+
+def dependent_rows(G: Sequence[Sequence[float]], rtol: float = 1e-9
+                   ) -> list[tuple[int, list[tuple[int, float]] | None]]:
+    """The rows of ``G`` that depend on the rows before them, with the combination.
+
+    Rows are taken in order; row ``i`` is *independent* when its distance to the span of the
+    independent rows before it exceeds ``rtol · max|G|``. That distance is the norm of the
+    residual of modified Gram–Schmidt, orthogonalized twice (which makes the computed basis
+    orthonormal to rounding, "twice is enough": Giraud et al., Numer. Math. 101 (2005)). The
+    independent rows are ``G_I = R Q`` (``Q`` orthonormal rows, ``R`` lower triangular); a
+    dependent row ``G_i ≈ a Q`` (``a = Q G_iᵀ``) is the combination ``c G_I`` with
+    ``Rᵀ cᵀ = aᵀ`` — the least-squares solution of ``G_Iᵀ c = G_i``.
+
+    Returns
+    -------
+    list
+        ``(i, [(k, c_k), …])`` for each dependent row ``i`` (``k``: the independent rows), or
+        ``(i, None)`` when the row is zero (below the tolerance) or nothing came before it.
+    """
+    scale = max((abs(v) for row in G for v in row), default=0.0)
+    tol = rtol * max(scale, 1e-300)
+    basis: list[list[float]] = []  # Q: orthonormal rows
+    r_rows: list[list[float]] = []  # R: row j holds the coefficients of G_I[j] on Q[:j + 1]
+    independent: list[int] = []
+    out: list[tuple[int, list[tuple[int, float]] | None]] = []
+    for i, row in enumerate(G):
+        r = [float(v) for v in row]
+        a = [0.0] * len(basis)
+        for _ in range(2):
+            for j, q in enumerate(basis):
+                c = sum(qv * rv for qv, rv in zip(q, r, strict=True))
+                a[j] += c
+                r = [rv - c * qv for rv, qv in zip(r, q, strict=True)]
+        norm = math.sqrt(sum(v * v for v in r))
+        if norm > tol:
+            basis.append([v / norm for v in r])
+            r_rows.append([*a, norm])
+            independent.append(i)
+            continue
+        if not independent or not any(abs(v) > tol for v in row):
+            out.append((i, None))
+            continue
+        c = [0.0] * len(independent)  # Rᵀ c = a, R lower triangular: back substitution
+        for j in reversed(range(len(independent))):
+            c[j] = (a[j] - sum(r_rows[k][j] * c[k] for k in range(j + 1, len(independent)))
+                    ) / r_rows[j][j]
+        out.append((i, list(zip(independent, c, strict=True))))
+    return out

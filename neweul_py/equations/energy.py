@@ -18,9 +18,12 @@ import sympy as sp
 
 from ..kinematics import Kinematics
 from ..kinematics.algebra import dot, mat_vec, sub
-from ..model import INERTIAL, RotationalSpringDamper, SpringDamper, System, symbol
+from ..model import INERTIAL, RotationalSpringDamper, SpringDamper, System, as_expr, symbol
+from ..model.canonical import add, mul
 
 __all__ = ["energies"]
+
+_HALF = sp.Rational(1, 2)
 
 
 def _kinetic_and_gravity(kin: Kinematics, system: System) -> tuple[sp.Expr, sp.Expr]:
@@ -35,10 +38,12 @@ def _kinetic_and_gravity(kin: Kinematics, system: System) -> tuple[sp.Expr, sp.E
         v = kin.velocity(kin.point(body.frame, c, f"bodies.{body.name}.center_of_mass"))
         w = fk.omega
         inertia = tuple(tuple(body.inertia[i, j] for j in range(3)) for i in range(3))
-        kinetic.append(sp.Rational(1, 2) * (body.mass * dot(v, v) + dot(w, mat_vec(inertia, w))))
+        m = as_expr(body.mass)
+        # ½ (m v·v + ω·Iω) and −m g·r, sympy's nodes by the constructors of model.canonical
+        kinetic.append(mul(_HALF, add(mul(m, dot(v, v)), dot(w, mat_vec(inertia, w)))))
         r = kin.point_position(body.frame, c, INERTIAL)
-        gravity.append(-body.mass * dot(g, r))
-    return sp.Add(*kinetic), sp.Add(*gravity)
+        gravity.append(mul(-m, dot(g, r)))
+    return add(*kinetic), add(*gravity)
 
 
 def _springs(kin: Kinematics, system: System) -> sp.Expr:

@@ -35,6 +35,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..model import INERTIAL, Frame, System, as_expr, input_rate_name, symbol, time
+from ..model.canonical import mul
 from ..progress import StagedProgress, Steps
 from .algebra import (
     ZERO,
@@ -192,7 +193,7 @@ class Kinematics:
 
     def _rate(self, dy: Sequence[sp.Expr], dt: sp.Expr) -> sp.Expr:
         """``Σ_j dy_j ẏ_j + dt``."""
-        terms = [sp.Mul(d, v) for d, v in zip(dy, self.velocities, strict=True) if not is_zero(d)]
+        terms = [mul(d, v) for d, v in zip(dy, self.velocities, strict=True) if not is_zero(d)]
         return total([*terms, dt])
 
     def _bar_rate(self, expr: sp.Expr) -> sp.Expr:
@@ -386,7 +387,7 @@ class Kinematics:
     def velocity(self, pk: PointKinematics) -> Vec3:
         """``J ẏ + v̄`` (components of the point's frame)."""
         return tuple(
-            total([*(sp.Mul(c[i], v) for c, v in zip(pk.J, self.velocities, strict=True)
+            total([*(mul(c[i], v) for c, v in zip(pk.J, self.velocities, strict=True)
                      if not is_zero(c[i])), pk.vbar[i]])
             for i in range(3)
         )  # type: ignore[return-value]

@@ -13,6 +13,8 @@ from collections.abc import Iterable, Sequence
 import sympy as sp
 
 from ..model import as_expr
+from ..model.canonical import add as _add
+from ..model.canonical import mul as _mul2
 
 __all__ = [
     "ZERO",
@@ -57,7 +59,7 @@ def _mul(a: sp.Expr, b: sp.Expr) -> sp.Expr | None:
         return b
     if b is sp.S.One:
         return a
-    return sp.Mul(a, b)
+    return _mul2(a, b)
 
 
 def total(terms: Iterable[sp.Expr | None]) -> sp.Expr:
@@ -67,7 +69,7 @@ def total(terms: Iterable[sp.Expr | None]) -> sp.Expr:
         return ZERO
     if len(kept) == 1:
         return kept[0]
-    return sp.Add(*kept)
+    return _add(*kept)
 
 
 def dot(a: Sequence[sp.Expr], b: Sequence[sp.Expr]) -> sp.Expr:
@@ -90,7 +92,7 @@ def scale_one(c: sp.Expr | int, x: sp.Expr) -> sp.Expr:
         return ZERO
     if c == 1:
         return x
-    return sp.Mul(c, x)
+    return _mul2(as_expr(c), x)
 
 
 def scale(c: sp.Expr | int, v: Sequence[sp.Expr]) -> Vec3:
@@ -111,7 +113,7 @@ def cross(a: Sequence[sp.Expr], b: Sequence[sp.Expr]) -> Vec3:
 
 
 def _neg(x: sp.Expr | None) -> sp.Expr | None:
-    return None if x is None else sp.Mul(-1, x)
+    return None if x is None else _mul2(sp.S.NegativeOne, x)
 
 
 def mat_vec(m: Mat3, v: Sequence[sp.Expr]) -> Vec3:

@@ -579,11 +579,14 @@ def _check_symbols(expr: object, allowed: Mapping[str, sp.Symbol], path: str) ->
 
 def _numeric(expr: sp.Basic, defaults: Mapping[sp.Symbol, float]) -> object:
     """Value of a constant expression at the parameter defaults (a float, or rows of floats
-    for a matrix), or None if not numeric."""
+    for a matrix), or None if not numeric. The defaults replace the symbols all at once
+    (``xreplace``; ``subs`` orders the pairs and rebuilds the expression once per pair, and
+    was most of the time of loading a description)."""
+    values = {k: sp.sympify(v) for k, v in defaults.items()}
     try:
-        value = expr.subs(defaults)
+        value = expr.xreplace(values)
         if isinstance(value, sp.MatrixBase):
-            return [[float(v) for v in row] for row in value.evalf().tolist()]
+            return [[float(v) for v in row] for row in value.tolist()]
         return float(value)
     except (TypeError, ValueError):
         return None

@@ -14,7 +14,7 @@ import pytest
 import sympy as sp
 
 from neweul_py.description import load_description, load_description_text
-from neweul_py.equations.constraints import derive_constraints
+from neweul_py.equations.constraints import dependent_rows, derive_constraints
 from neweul_py.errors import ModelError
 from neweul_py.model import time
 
@@ -140,3 +140,78 @@ def test_constraint_errors_name_the_key() -> None:
         load_description_text(BASE + "  c1: {coincide: [b, ISYS], components: [w]}\n")
     with pytest.raises(ModelError, match=r"constraints\.c1: .*unknown name 'q'"):
         load_description_text(BASE + "  c1: x - q\n")
+
+
+def _svd_reference(G: np.ndarray, rtol: float = 1e-9) -> list[tuple[int, list | None]]:
+    """The rank test ``dependent_rows`` replaced: a row is independent when the smallest
+    singular value of it stacked under the independent rows exceeds ``rtol · max|G|``;
+    combinations by ``numpy.linalg.lstsq``."""
+    scale = max(float(np.abs(G).max()), 1e-300)
+    independent: list[int] = []
+    out: list[tuple[int, list | None]] = []
+    for i in range(G.shape[0]):
+        sv = np.linalg.svd(G[[*independent, i]], compute_uv=False)
+        if sv.size and sv[-1] > rtol * scale:
+            independent.append(i)
+            continue
+        if not independent or not np.any(np.abs(G[i]) > rtol * scale):
+            out.append((i, None))
+            continue
+        coef, *_ = np.linalg.lstsq(G[independent].T, G[i], rcond=None)
+        out.append((i, list(zip(independent, coef, strict=True))))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_dependent_rows_match_the_svd_rank_test(seed: int) -> None:
+    """Plain-Python ``dependent_rows`` (Gram–Schmidt) against the SVD / least-squares test it
+    replaced: random m × n matrices (1 ≤ m ≤ n ≤ 8) whose rows are random, zero, or random
+    combinations of earlier rows (scaled from 1e-6 to 1e6) — the same rows found dependent,
+    the same combinations (to 1e-8 relative)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 9))
+    m = int(rng.integers(1, n + 1))
+    rows: list[np.ndarray] = []
+    for _ in range(m):
+        kind = rng.random()
+        if rows and kind < 0.35:
+            pick = rng.choice(len(rows), size=min(len(rows), 2), replace=False)
+            rows.append(sum(rng.normal() * rows[k] for k in pick))
+        elif kind < 0.45:
+            rows.append(np.zeros(n))
+        else:
+            rows.append(rng.normal(size=n))
+    G = np.array(rows) * 10.0 ** rng.integers(-6, 7)
+    ours, ref = dependent_rows(G.tolist()), _svd_reference(G)
+    assert [i for i, _ in ours] == [i for i, _ in ref]
+    for (_, c1), (_, c2) in zip(ours, ref, strict=True):
+        if c1 is None or c2 is None:
+            assert c1 is None and c2 is None
+            continue
+        assert [k for k, _ in c1] == [k for k, _ in c2]
+        a, b = np.array([c for _, c in c1]), np.array([c for _, c in c2])
+        np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-8 * np.abs(b).max())
+
+
+def test_more_rows_than_columns_are_dependent() -> None:
+    """Three rows in the plane: the third is a combination of the first two (the SVD test
+    took the singular values of the 3 × 2 stack, two of them, and accepted it)."""
+    out = dependent_rows([[1.0, 0.0], [1.0, 1.0], [2.0, 3.0]])
+    assert [i for i, _ in out] == [2]
+    np.testing.assert_allclose([c for _, c in out[0][1]], [-1.0, 3.0], rtol=1e-12)
+
+
+def test_a_closed_loop_is_derived_without_numpy() -> None:
+    """The rank check is plain Python: deriving the four-bar (a closed loop) in a fresh
+    process imports no NumPy."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = ("import sys; from neweul_py.api import derive; "
+            f"derive({str(root / 'examples' / 'four_bar.yaml')!r}); "
+            "print('numpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=root)
+    assert out.stdout.strip() == "False"
