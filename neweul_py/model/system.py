@@ -582,7 +582,7 @@ def _numeric(expr: sp.Basic, defaults: Mapping[sp.Symbol, float]) -> object:
     for a matrix), or None if not numeric. The defaults replace the symbols all at once
     (``xreplace``; ``subs`` orders the pairs and rebuilds the expression once per pair, and
     was most of the time of loading a description)."""
-    values = {k: sp.sympify(v) for k, v in defaults.items()}
+    values = {k: sp.Float(float(v)) for k, v in defaults.items()}
     try:
         value = expr.xreplace(values)
         if isinstance(value, sp.MatrixBase):
