@@ -174,7 +174,7 @@ def expanded_equations(eq: Equations) -> Equations:
     # factors per row); as symbols a row is a short sum over them
     kin, kin_inter = [], []
     for i, e in enumerate(el.hidden):
-        e = sp.sympify(put(e))
+        e = put(e) if isinstance(e, sp.Basic) else sp.Number(e)   # numbers: a zero row
         if not e.is_Atom:
             kin_inter.append((sp.Symbol(f"_ncg_kin{i}", real=True), e))
             e = kin_inter[-1][0]
