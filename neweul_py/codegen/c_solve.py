@@ -53,7 +53,7 @@ class ConstantBlock:
     rest, block
         The indices ``R`` and ``E`` (ascending; together ``0 … n − 1``).
     inverse
-        ``D⁻¹`` (``|E| × |E|``), entries below ``ε·max|D⁻¹|`` set to zero.
+        ``D⁻¹`` (``|E| × |E|``), the entries :func:`negligible` names set to zero.
     """
 
     rest: tuple[int, ...]
@@ -84,10 +84,12 @@ def constant_block(mass_matrix: sp.MatrixBase) -> ConstantBlock | None:
 
 def negligible(inv: np.ndarray) -> np.ndarray:
     """The off-diagonal entries of an inverse ``X = D⁻¹`` (``n × n``) with
-    ``|X_ij| ≤ n·ε·√(|X_ii| |X_jj|)``: dropping them changes ``X b`` by at most ``n²ε``
-    relative to the diagonal's part — the rounding error of the product itself (Higham,
-    *Accuracy and Stability of Numerical Algorithms*, 2nd ed., §3.5) — and the rule does not
-    depend on a symmetric scaling ``D → S D S`` (badly scaled blocks keep their entries). For
+    ``|X_ij| ≤ n·ε·√(|X_ii| |X_jj|)``: in the symmetrically scaled coordinates
+    ``X̃ = S X S``, ``S = diag(|X_ii|)^{-1/2}``, dropping them changes ``X̃ b`` by at most
+    ``n²ε`` relative to the diagonal's part — the rounding error of the product itself (Higham,
+    *Accuracy and Stability of Numerical Algorithms*, 2nd ed., §3.5); the rule does not depend
+    on a symmetric scaling ``D → S D S`` (badly scaled blocks keep their entries), but a
+    two-sided one ``S₁ D S₂`` (unsymmetric blocks) changes it by ``√(s₁ᵢ s₂ⱼ / (s₂ᵢ s₁ⱼ))``. For
     ``D = I + O(ε)`` (the ``Mee`` of mass-normalized modes) the inverse becomes diagonal."""
     a = np.abs(inv)
     d = np.sqrt(np.outer(np.diag(a), np.diag(a)))
