@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from neweul_py.commands import number as cli_number
 from neweul_py.fem.ear_sweep import pressure_sweep
 from neweul_py.fem.middle_ear import MiddleEarParameters
 
@@ -54,11 +55,14 @@ def assignments(text: str) -> dict[str, str]:
 
 
 def number(value: str, default: float, where: str) -> float:
-    """``"1.5e-3"`` or ``"x0.3"`` (a factor on ``default``)."""
+    """``"1.5e-3"`` or ``"x0.3"`` (a factor on ``default``), each as the CLI's
+    :func:`neweul_py.commands.number` (finite, bounded)."""
     try:
-        return float(value[1:]) * default if value.startswith("x") else float(value)
-    except ValueError:
-        raise SystemExit(f"{where}: {value!r} is not a number or xFACTOR") from None
+        if value.startswith("x"):
+            return cli_number(value[1:], where) * default
+        return cli_number(value, where)
+    except argparse.ArgumentTypeError as exc:
+        raise SystemExit(str(exc)) from None
 
 
 def summary(f: np.ndarray, h: dict[str, np.ndarray]) -> str:
