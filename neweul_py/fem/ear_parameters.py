@@ -50,9 +50,14 @@ class MiddleEarParameters:
         — Wang, Reddy & Lee, *Shear Deformable Beams and Plates*, 2000 — i.e. ≈ 1 % at
         ``t = a/20``; the TM has ``a/t ≈ 55``).
     tm_E, tm_nu, tm_rho
-        Pars tensa Young's modulus, Poisson ratio, density (Wada & Kobayashi; De Greef 2014).
+        Pars tensa Young's modulus (storage modulus), Poisson ratio, density. ``tm_E`` = 26 MPa
+        and ``tm_loss`` = 0.13 are one measurement's pair: Zhang & Gan 2013 (dynamic modulus of
+        the human TM, E′ 15.1 → 27.6 MPa and E″ 0.28 → 4.1 MPa from 1 Hz to 3.8 kHz), each
+        interpolated as a power law to 2 kHz, the band of the TM's first coupled modes
+        (E′ 26.3 MPa, E″/E′ 0.127; docs/middle-ear-measurements.md §6). Static FE models
+        fitted at acoustic frequencies give 32 MPa (Wada & Kobayashi; De Greef 2014).
     tm_loss
-        TM loss factor η (De Greef et al. 2014: 0.01–0.13).
+        TM loss factor η (above; De Greef et al. 2014: 0.01–0.13).
     manubrium_reach
         Fraction of the TM radius covered by the manubrium nodes, from the umbo.
     k_tm_manubrium
@@ -67,8 +72,11 @@ class MiddleEarParameters:
         umbo, ``F(s) = −sign(s) k₀ s± ln(1 − |s|/s±)`` (tangent ``k₀/(1 − |s|/s±)``;
         :mod:`neweul_py.fem.ossicular_chain`): medial (``s > 0``, the stapes pushed into the
         vestibule against the annular ligament) and lateral (the incudomalleolar joint
-        yields, Hüttenbrink 1988). Calibrated against the low-frequency umbo losses of
-        Gyo & Goode 1987 (``docs/middle-ear-measurements.md``).
+        yields, Hüttenbrink 1988). ``s₊`` = 70 µm is the least-squares fit (refine 0, in
+        units of the standard deviations) of the low-frequency loss of the TM node and the
+        malleus at the umbo to Gyo & Goode's means at +1/+2/+3 kPa
+        (``docs/middle-ear-measurements.md`` §2; examples/middle_ear/README.md); ``s₋`` =
+        80 µm is chosen (no measured magnitudes for Δp < 0 were available).
     mastoid_volume
         Air volume of the antrum and the mastoid air cells [m³] behind the aditus, a lumped
         compliance ``V_m/(ρc²)`` (0: a closed tympanic cavity). 3.5 cm³, so that the middle-ear
@@ -100,14 +108,14 @@ class MiddleEarParameters:
     tm_depth: float = 2.0e-3
     tm_bulge: float = 0.5e-3
     tm_thickness: float = 80e-6
-    tm_E: float = 32e6
+    tm_E: float = 26e6
     tm_nu: float = 0.3
     tm_rho: float = 1200.0
-    tm_loss: float = 0.1
+    tm_loss: float = 0.13
     manubrium_reach: float = 0.8
     k_tm_manubrium: float = 36933.0
     k_chain: float = 1683.0
-    chain_limit_medial: float = 42e-6
+    chain_limit_medial: float = 70e-6
     chain_limit_lateral: float = 80e-6
     canal_length: float = 25e-3
     canal_diameter: float = 7.5e-3
