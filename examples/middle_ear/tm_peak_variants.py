@@ -1,4 +1,5 @@
-"""What moves the 2.3 kHz stapes peak? (README.md, "Studies", the Δp = 0 reading).
+"""What moves the stapes peaks at Δp = 0, the chain's and the TM's own mode? (README.md,
+"Studies", the Δp = 0 reading).
 
 Run from the repository root after ``build_embs.py``::
 
