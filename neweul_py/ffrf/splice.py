@@ -217,16 +217,16 @@ def ffrf_solve(S, M, f):
         return ffrf_dense_solve(S, M, f)
     R, E, Dinv = blk["r"], blk["e"], blk["Dinv"]
     out = np.empty(f.shape, dtype=np.result_type(M, f))
-    yf = Dinv @ f[E]
+    yf = np.dot(Dinv, f[E])
     if not blk["R"].size:
         out[E] = yf
         return out
     RR, RE, ER = blk["ix"]
-    Y = Dinv @ M[ER]
+    Y = np.dot(Dinv, M[ER])
     B = M[RE]
-    xR = np.linalg.solve(M[RR] - B @ Y, f[R] - B @ yf)
+    xR = np.linalg.solve(M[RR] - np.dot(B, Y), f[R] - np.dot(B, yf))
     out[R] = xR
-    out[E] = yf - Y @ xR
+    out[E] = yf - np.dot(Y, xR)
     return out
 
 
@@ -349,8 +349,8 @@ def ffrf_frame(S, b, kin):
         return zero, zero, kin[o:o + 16]
     ns = S["ns"]
     Js = kin[o:o + 6 * ns].reshape(6, ns)     # [J_T; J_R]
-    Jv = Js @ S["SV"]
-    return Jv, Jv if S["same"] else Js @ S["SW"], kin[o + 6 * ns:o + 6 * ns + 16]
+    Jv = np.dot(Js, S["SV"])
+    return Jv, Jv if S["same"] else np.dot(Js, S["SW"]), kin[o + 6 * ns:o + 6 * ns + 16]
 
 
 def ffrf_terms(S, kin, y, yd):
@@ -364,7 +364,7 @@ def ffrf_terms(S, kin, y, yd):
         Jv, Jw, tail = ffrf_frame(S, b, kin)
         e = slice(b["first"], b["first"] + b["nq"])
         q = y[e]
-        out.append((Jv, Jw, S["acc_map"] @ tail, tail[6:9], q, yd[e],
+        out.append((Jv, Jw, np.dot(S["acc_map"], tail), tail[6:9], q, yd[e],
                     None if "fixed" in b else ffrf_mass_blocks(b, q)))
     return out
 
@@ -378,10 +378,10 @@ def ffrf_add_mass(S, M, terms):
             M = M.astype(np.result_type(M, b["Me"]))       # a copy, as M + … below
             M[e, e] += b["Me"]
             continue
-        U = m["Mrr"] @ Jv
+        U = np.dot(m["Mrr"], Jv)
         U[:, e] += m["Mre"]
-        M = M + Jw.T @ U
-        M[e, :] += m["Mer"] @ Jv
+        M = M + np.dot(Jw.T, U)
+        M[e, :] += np.dot(m["Mer"], Jv)
         M[e, e] += m["Mee"]
     return M
 
@@ -396,7 +396,7 @@ def ffrf_add_force(S, f, terms):
         if m is None:
             f = f.astype(np.result_type(f, he))            # a copy, as f − … below
         else:
-            f = f - Jw.T @ hr
+            f = f - np.dot(Jw.T, hr)
         f[e] -= he
     return f
 
@@ -408,7 +408,7 @@ def ffrf_symbolic_mass(S, Ms):
     if maps is None:
         return ffrf_sandwich(S["SW"], Ms, S["SV"])
     ix, SWrT, SVc = maps
-    return SWrT @ (Ms[ix] @ SVc)
+    return np.dot(SWrT, np.dot(Ms[ix], SVc))
 
 
 def ffrf_sandwich(SW, A, SV):
@@ -445,17 +445,37 @@ def ffrf_force_vector(S, t, y, yd, p, u=None):
 
 
 def ffrf_rhs(S, t, x, p, u=None):
-    """``[ẏ, M⁻¹ (q − k)]``: one evaluation of the symbolic state ``[S_V y, S_V ẏ]`` and of
-    the frame kinematics for both."""
+    """``[ẏ, M⁻¹ (q − k)]`` (:func:`ffrf_dynamics`)."""
     x = np.asarray(x, dtype=np.float64)
-    n, ns = S["n"], S["ns"]
+    M, f = ffrf_dynamics(S, t, x, p, u)
+    n = S["n"]
+    return np.concatenate((x[n:2 * n], ffrf_solve(S, M, f)))
+
+
+def ffrf_dynamics(S, t, x, p, u=None):
+    """``(M, q − k)`` at the state ``x`` (float64): one evaluation of the symbolic state
+    ``[S_V y, S_V ẏ]``, of the symbolic part (:func:`ffrf_parts`) and of the frame
+    kinematics and mass blocks for both."""
+    n = S["n"]
     y, yd = x[:n], x[n:2 * n]
-    xs = (x[:2 * n].reshape(2, n) @ S["maps"][1]).ravel()
+    xs = np.dot(x[:2 * n].reshape(2, n), S["maps"][1]).ravel()
+    kin, Ms, fs = ffrf_parts(S, t, xs, p, u)
+    terms = ffrf_terms(S, kin, y, yd)
+    return (ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms),
+            ffrf_add_force(S, np.dot(S["SW"].T, fs), terms))
+
+
+def ffrf_parts(S, t, xs, p, u):
+    """``(kin, M_s, (q − k)_s)`` at the symbolic state ``xs = [y_s, ẏ_s]``: one call of the
+    symbolic part's fused ``rhs_parts`` (its hidden outputs, mass matrix and forces from one
+    CSE'd program), or of its three functions when it has none."""
     rig = S["rigid"]
-    terms = ffrf_terms(S, rig["outputs"](t, xs, p, u)[S["nhidden"]:], y, yd)
-    M = ffrf_add_mass(S, ffrf_symbolic_mass(S, rig["mass_matrix"](t, xs[:ns], p, u)), terms)
-    f = ffrf_add_force(S, S["SW"].T @ rig["force_vector"](t, xs[:ns], xs[ns:], p, u), terms)
-    return np.concatenate((yd, ffrf_solve(S, M, f)))
+    fused = rig.get("rhs_parts")
+    if fused is not None:
+        return fused(t, xs, p, u)
+    ns = S["ns"]
+    return (rig["outputs"](t, xs, p, u)[S["nhidden"]:], rig["mass_matrix"](t, xs[:ns], p, u),
+            rig["force_vector"](t, xs[:ns], xs[ns:], p, u))
 
 
 def ffrf_kin_jacobians(S, t, y, yd, p, u):
@@ -572,8 +592,8 @@ def ffrf_rhs_jacobian(S, t, x, p, u=None):
     x = np.asarray(x, dtype=np.float64)
     n = S["n"]
     y, yd = x[:n], x[n:2 * n]
-    M = ffrf_mass_matrix(S, t, y, p, u)
-    ydd = ffrf_solve(S, M, ffrf_force_vector(S, t, y, yd, p, u))
+    M, f = ffrf_dynamics(S, t, x, p, u)
+    ydd = ffrf_solve(S, M, f)
     fy, fyd, _fu = ffrf_force_jacobians(S, t, y, yd, p, u)
     dMa = ffrf_mass_matrix_times_derivative(S, t, y, p, ydd, u)
     J = np.zeros((2 * n, 2 * n))
@@ -739,7 +759,8 @@ SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system
                     ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
-                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_symbolic_mass,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_dynamics, ffrf_parts,
+                    ffrf_symbolic_mass,
                     ffrf_sandwich, ffrf_kin,
                     ffrf_kin_jacobians, ffrf_sparse_product,
                     ffrf_force_directional, ffrf_moving, ffrf_fixed_force_jacobians,
