@@ -39,6 +39,7 @@ from ..ffrf import (
     FIXED_ARRAYS,
     KERNEL_ARRAYS,
     KERNEL_FUNCTIONS,
+    MAX_BLOCK_CONDITION,
     PROTOCOL,
     SPLICE_FUNCTIONS,
     ffrf_pack,
@@ -255,7 +256,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         "                    default_inputs, _PARTS,",
         f"                    {'_rigid_schedule' if el.schedules else 'None'},",
         f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'},",
-        "                    _MASS_PATTERN, _KIN_PATTERN)")
+        f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
     if "loss_matrix" in rigid.functions or any(

@@ -43,8 +43,16 @@ from .body import (
 )
 from .parametric import ffrf_mix, ffrf_stack, ffrf_weights
 
-__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force", "ffrf_add_mass",
-           "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
+__all__ = ["KIN_TAIL", "MAX_BLOCK_CONDITION", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force",
+           "ffrf_add_mass", "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
+
+#: Largest condition number of a constant block ``D`` of ``M`` that is eliminated with its
+#: explicit inverse, in the NumPy kernel (:func:`ffrf_block`, passed by the generated module)
+#: and the compiled backend (:func:`neweul_py.codegen.c_solve.constant_block`) alike. The
+#: elimination multiplies by ``D⁻¹``, which is not backward stable: its error grows like
+#: ``cond(D)`` against the dense LU's (4e-11 against 4e-12 at ``cond(D)`` = 5e4); the
+#: ``Me`` of mass-normalized modes has ``cond`` ≈ 1.
+MAX_BLOCK_CONDITION = 1e4
 
 #: Entries of ``kin`` per body besides the two Jacobians: ā, ᾱ, ω, g, v (3 each), e (1)
 #: (written as the literal 16 in :func:`ffrf_frame`, whose source is embedded).
@@ -69,7 +77,8 @@ def ffrf_unpack(entry):
 
 
 def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None,
-                schedule_jacobians=None, mass_pattern=None, kin_pattern=None):
+                schedule_jacobians=None, mass_pattern=None, kin_pattern=None,
+                max_condition=0.0):
     """The splice context of a generated module.
 
     Parameters
@@ -96,6 +105,10 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     schedule, schedule_jacobians
         ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
         order, and ``schedule_jacobians(t, y_s, p, u)``: ``∂σ/∂y_s``, ``∂σ/∂u``.
+    mass_pattern, kin_pattern, max_condition
+        The rows and columns of ``M_s`` and the hidden outputs not zero by construction,
+        and the largest condition number of a constant elastic block that
+        :func:`ffrf_block` eliminates (:data:`MAX_BLOCK_CONDITION`; 0: none).
     """
     bodies, parts = [], list(parts)
     for entry in data:
@@ -131,10 +144,11 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
             "pattern": pattern, "maps": ffrf_mass_maps(SV, SW, pattern),
             "acc_map": np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4)))),
             "block": ffrf_block(bodies, ns, SV, SW, pattern, None if kin_pattern is None
-                                else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp))}
+                                else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp),
+                                max_condition)}
 
 
-def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
+def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern, max_condition):
     """The block elimination of the elastic coordinates ``E`` for ``M x = f``, when their
     block ``D = M[E, E]`` is the constant ``blockdiag(Me)`` by construction (Golub & Van
     Loan, *Matrix Computations*, §3.2.10; as :mod:`neweul_py.codegen.c_solve`)::
@@ -146,9 +160,9 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
     (``M_s[S_W E, S_V E] = 0``, ``pattern``) and no moving body's frame moves with them (its
     ``J_T``, ``J_R`` columns there are zero, ``kin_pattern``), without second-order fields and
     parametric bodies. Returns ``None`` otherwise, when ``D`` is worse conditioned than
-    ``1e4`` (the elimination multiplies by ``D⁻¹``, which is not backward stable: its error
-    grows like ``cond(D)`` against the dense LU's, 4e-11 against 4e-12 at ``cond(D)`` = 5e4)
-    or when the dense solve is cheaper (fewer than 24 elastic coordinates besides rigid
+    ``max_condition`` (:data:`MAX_BLOCK_CONDITION`, shared with the compiled backend: the
+    elimination multiplies by ``D⁻¹``, which is not backward stable) or when the dense solve
+    is cheaper (fewer than 24 elastic coordinates besides rigid
     ones): else ``{"R", "E"}`` (index arrays), ``"r"``, ``"e"`` (the same or slices,
     :func:`ffrf_index`), ``"ix"`` (the index tuples of the blocks ``RR``, ``RE``, ``ER``)
     and ``"Dinv"``."""
@@ -178,7 +192,7 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
     for b in bodies:
         D[k:k + b["nq"], k:k + b["nq"]] = b["Me"]
         k += b["nq"]
-    if not np.all(np.isfinite(D)) or np.linalg.cond(D) > 1e4:
+    if not np.all(np.isfinite(D)) or np.linalg.cond(D) > max_condition:
         return None
     rs, es = ffrf_index(R), ffrf_index(E)
     if isinstance(rs, slice) and isinstance(es, slice):
