@@ -43,14 +43,13 @@ def _solver(tmp_path, a_sym, n):
         "solve1": head + c_solver(block)
         + "int solve1(double *a, double *b) { return nw_solve1(a, b); }\n",
     }
-    cdefs = {"solve": "int solve(double *a, int m, double *b);",
-             "solve1": "int solve1(double *a, double *b);"}
-    libs = {}
-    for key, src in texts.items():
+    cdef = "int solve(double *a, int m, double *b); int solve1(double *a, double *b);"
+    libs, ffi = {}, None
+    for key, src in texts.items():      # one FFI for both (its buffers are passed to both)
         c_path = tmp_path / f"{key}{n}_{hashlib.sha256(src.encode()).hexdigest()[:8]}.c"
         c_path.write_text(src)
         ffi, libs[key], _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),
-                                             cdefs[key], tmp_path / "cache")
+                                             cdef, tmp_path / "cache", ffi=ffi)
     return ffi, types.SimpleNamespace(**{k: getattr(v, k) for k, v in libs.items()})
 
 
