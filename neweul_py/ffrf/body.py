@@ -61,12 +61,13 @@ def ffrf_skew(v):
                      [-v[1], v[0], 0.0 * v[0]]])
 
 
-def ffrf_omega_products(w):
+def ffrf_omega_products(w, head=None):
     """``ω_q = [ωx², ωy², ωz², ωxωy, ωyωz, ωxωz]`` (the column order of ``Oe``); the six
     products of Python scalars (``tolist``: real, complex or the objects of an object array),
-    not of NumPy scalars."""
+    not of NumPy scalars. With ``head`` (a vector): ``[head; ω_q]`` as one array."""
     x, y, z = w.tolist()
-    return np.array([x * x, y * y, z * z, x * y, y * z, x * z])
+    first = [] if head is None else head.tolist()
+    return np.array([*first, x * x, y * y, z * z, x * y, y * z, x * z])
 
 
 def ffrf_prepare(flat, inertia="consistent", fixed=False):
@@ -96,7 +97,8 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
         ``mass``, ``nq``, ``md0`` (3,), ``md1`` (3, nq), ``T0``, ``T1``, ``where`` (key →
         slice and shape in the stack; ``c2w`` only with second-order inertia), ``P0``,
         ``P`` (:func:`ffrf_rigid_map`), ``Me``, ``Gr``, ``Ge``, ``G``
-        (:func:`ffrf_velocity_map`), ``ks`` (nq,), ``Ke``, ``De``,
+        (:func:`ffrf_velocity_map`), ``ks`` (nq,), ``Ke``, ``De``, ``damped`` and
+        ``prestressed`` (``De``, ``ks`` not all zero; not set for a fixed frame: true),
         and ``Le`` (the hysteretic matrix of ``K + iG``, equations.md §1.1) when the data
         hold ``Le.m0``.
     """
@@ -142,6 +144,7 @@ def ffrf_prepare(flat, inertia="consistent", fixed=False):
     }
     if "Le.m0" in flat:
         b["Le"] = np.asarray(flat["Le.m0"], dtype=np.float64)
+    b.update(damped=bool(np.any(b["De"])), prestressed=bool(np.any(b["ks"])))
     if inertia == "consistent" and "quad.A" in flat:
         # the second-order displacement field (equations.md §2.3): the body of the extended
         # basis [Φ, Y] in z = [q; y(q)], which carries the stiffening instead of Ct¹, Oe¹ …
@@ -332,7 +335,7 @@ def ffrf_body_loads(b, q, qd, acc, w, m):
         return hr + inner["Mre"] @ cacc, T.T @ (he + inner["Mee"] @ cacc)
     qw = (qd[:, None] * w).ravel()            # q̇ ⊗ ω, index 3k + c
     g = np.dot(b["G"], qw)                         # [2 ω̃ md¹ q̇; Gr⁰ (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
-    v = np.concatenate((acc, ffrf_omega_products(w)))
+    v = ffrf_omega_products(w, acc)           # [acc; ω_q]
     hr = np.dot(m["K"], v) + g[:6]                 # Mrr acc + [ω̃ ω̃ md; ω̃ J ω] + …
     if m["c2w"] is not None:
         # hr is complex or object whenever c2w (q) or qw (q̇, ω) are: adding in place is safe
@@ -341,8 +344,14 @@ def ffrf_body_loads(b, q, qd, acc, w, m):
 
 
 def ffrf_elastic_forces(b, q, qd):
-    """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side)."""
-    return np.dot(b["Ke"], q) + np.dot(b["De"], qd) + b["ks"]
+    """``Ke q + De q̇ + kσ`` (elastic rows, left-hand side; ``De``, ``kσ`` not added where
+    :func:`ffrf_prepare` found them zero: ``damped``, ``prestressed``)."""
+    f = np.dot(b["Ke"], q)
+    if b.get("damped", True):
+        f = f + np.dot(b["De"], qd)
+    if b.get("prestressed", True):
+        f = f + b["ks"]
+    return f
 
 
 def ffrf_kinetic_energy(b, v, w, q, qd):

@@ -129,6 +129,11 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
+    for b in bodies:
+        if "mixing" not in b and "quad" not in b and "fixed" not in b:
+            rows = np.zeros((b["nq"], SV.shape[1]))           # Mee E (ffrf_add_mass)
+            rows[:, b["first"]:b["first"] + b["nq"]] = b["Me"]
+            b["Mee_rows"] = rows
     npar = sum("mixing" in b for b in bodies)
     try:                                      # the small dense solve without numpy's set-up
         from scipy.linalg.lapack import dgesv as gesv
@@ -385,7 +390,8 @@ def ffrf_terms(S, kin, y, yd):
 
 def ffrf_add_mass(S, M, terms):
     """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices):
-    ``J_Wᵀ (Mrr J_V + Mre E) + Eᵀ (Mer J_V + Mee E)``."""
+    ``J_Wᵀ (Mrr J_V + Mre E) + Eᵀ (Mer J_V + Mee E)``; a constant ``Mee`` enters through its
+    rows ``Mee E`` (``Mee_rows``, (nq, n), made by :func:`ffrf_system`)."""
     for b, (Jv, Jw, *_k, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
         if m is None:                         # a fixed frame, J_V = J_W = 0: Me alone
@@ -395,8 +401,13 @@ def ffrf_add_mass(S, M, terms):
         U = np.dot(m["Mrr"], Jv)
         U[:, e] += m["Mre"]
         M = M + np.dot(Jw.T, U)
-        M[e, :] += np.dot(m["Mer"], Jv)
-        M[e, e] += m["Mee"]
+        V = np.dot(m["Mer"], Jv)
+        rows = b.get("Mee_rows")
+        if rows is not None and m["Mee"] is b["Me"]:
+            M[e, :] += V + rows               # the constant Mee E: no strided addition
+        else:
+            M[e, :] += V
+            M[e, e] += m["Mee"]
     return M
 
 
