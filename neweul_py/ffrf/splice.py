@@ -492,15 +492,9 @@ def ffrf_dynamics(S, t, x, p, u=None):
 
 def ffrf_parts(S, t, xs, p, u):
     """``(kin, M_s, (q − k)_s)`` at the symbolic state ``xs = [y_s, ẏ_s]``: one call of the
-    symbolic part's fused ``rhs_parts`` (its hidden outputs, mass matrix and forces from one
-    CSE'd program), or of its three functions when it has none."""
-    rig = S["rigid"]
-    fused = rig.get("rhs_parts")
-    if fused is not None:
-        return fused(t, xs, p, u)
-    ns = S["ns"]
-    return (rig["outputs"](t, xs, p, u)[S["nhidden"]:], rig["mass_matrix"](t, xs[:ns], p, u),
-            rig["force_vector"](t, xs[:ns], xs[ns:], p, u))
+    symbolic part's ``rhs_parts`` (its hidden outputs, mass matrix and forces from one CSE'd
+    program, :func:`neweul_py.codegen.writer.module_parts`)."""
+    return S["rigid"]["rhs_parts"](t, xs, p, u)
 
 
 def ffrf_kin_jacobians(S, t, y, yd, p, u):
