@@ -79,7 +79,8 @@ def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
 
 def _body(g: _Groups, block: Block, target: str, what: str,
           dots: DotRows | None = None, optional: frozenset[int] = frozenset()) -> list[str]:
-    """Statements computing ``block``: locals ``w<k>``, then ``target[i] = final_i``
+    """Statements computing ``block``: locals ``w<k>`` (those the finals read, directly or
+    through other locals), then ``target[i] = final_i``
     (zeros by ``memset``; repeated finals — symmetric mass entries — computed once); long
     linear combinations of ``y``, ``yd``, ``a`` as rows of ``dots``, one product per array
     at the top (:meth:`.c_printer.DotRows.batch`). The finals ``optional`` are written only
@@ -94,8 +95,12 @@ def _body(g: _Groups, block: Block, target: str, what: str,
     if g.u and _uses(block, g.u):
         lines.append("NW_DEFAULT_INPUTS;")
     try:
-        for k, (_, e) in enumerate(assignments):
-            lines.append(f"const double w{k} = {pr.doprint_expr(e)};")
+        printed = []                          # (local, its line, the locals it reads)
+        for k, (s, e) in enumerate(assignments):
+            pr.used = set()
+            printed.append((s, f"const double w{k} = {pr.doprint_expr(e)};", pr.used))
+        pr.used = set()
+        finals_at = len(lines)
         if any(f == 0 for f in finals):
             lines.append(f"memset({target}, 0, {len(finals)} * sizeof(double));")
         constant = _constant_runs(finals)
@@ -119,6 +124,13 @@ def _body(g: _Groups, block: Block, target: str, what: str,
             lines.append(f"{target}[{i}] = {pr.doprint_expr(f)};")
     except GenerationError as exc:
         raise GenerationError(f"{what}: {exc}") from None
+    # only the locals something reads: a shared term c·q_k that every row reads as the
+    # number c times q_k (DotRows) would be an unused variable of the C text
+    needed = pr.used
+    for s, _line, reads in reversed(printed):
+        if s in needed:
+            needed |= reads
+    lines[finals_at:finals_at] = [line for s, line, _reads in printed if s in needed]
     return dots.batch(lines) if dots is not None else lines
 
 
@@ -179,6 +191,12 @@ _YYD_ARGS = ("double t, const double *y, const double *yd, const double *p, cons
              "double *out")
 _X_ARGS = "double t, const double *x, const double *p, const double *u, double *out"
 _X_PROLOGUE = ["const double *y = x;", "const double *yd = x + NW_N;"]
+
+
+def _x_prologue(g: _Groups, block: Block) -> list[str]:
+    """The lines of :data:`_X_PROLOGUE` that ``block`` reads (no unused variables)."""
+    return [line for line, group in zip(_X_PROLOGUE, (g.y, g.yd), strict=True)
+            if _uses(block, group)]
 _MF_SIGNATURE = f"nw_mf({_YYD_ARGS}, int full)"
 _MMTD_ARGS = ("double t, const double *y, const double *p, const double *a, const double *u, "
               "double *out")
@@ -216,19 +234,20 @@ int nw_rhs_jacobian(double t, const double *x, const double *p, const double *u,
 {
     NW_DEFAULT_INPUTS;
     const double *y = x, *yd = x + NW_N;
-    double M[NW_N * NW_N], M2[NW_N * NW_N], ydd[NW_N], fj[NW_N * (2 * NW_N + NW_NU)];
+    double M[NW_N * NW_N], ydd[NW_N], fj[NW_N * (2 * NW_N + NW_NU)];
     double dMa[NW_N * NW_N], b[NW_N * 2 * NW_N];
+    nw_fac fac;                                 /* one factorization of M for both solves */
     nw_mass_matrix(t, y, p, u, M);
     nw_force_vector(t, y, yd, p, u, ydd);
-    memcpy(M2, M, sizeof M);
-    if (nw_solve1(M2, ydd)) return 1;
+    if (nw_factor(M, &fac)) return 1;
+    nw_factored_solve(M, &fac, 1, ydd);
     nw_force_jacobians(t, y, yd, p, u, fj);
     nw_mass_matrix_times_derivative(t, y, p, ydd, u, dMa);
     for (int i = 0; i < NW_N; ++i)
         for (int j = 0; j < 2 * NW_N; ++j)
             b[i * 2 * NW_N + j] = fj[i * (2 * NW_N + NW_NU) + j]
                                   - (j < NW_N ? dMa[i * NW_N + j] : 0.0);
-    if (nw_solve(M, 2 * NW_N, b)) return 1;
+    nw_factored_solve(M, &fac, 2 * NW_N, b);
     memset(out, 0, NW_STATE_SIZE * NW_STATE_SIZE * sizeof(double));
     for (int i = 0; i < NW_N; ++i) out[i * NW_STATE_SIZE + NW_N + i] = 1.0;
     memcpy(out + NW_N * NW_STATE_SIZE, b, sizeof b);
@@ -268,11 +287,11 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     n, nu = len(g.y), len(g.u)
     lu_protos = ["static int nw_lu(int n, double *a, int *piv);",
                  "static void nw_lu_solve(int n, const double *lu, const int *piv, int m, "
-                 "double *b);", "static int nw_solve(double *a, int m, double *b);",
-                 "static int nw_solve1(double *a, double *b);"]
-    # M x = b: dense LU, or block elimination of a constant block (c_solve.py)
+                 "double *b);"]
+    # M x = b: dense LU, or block elimination of a constant block (c_solve.py); the core's
+    # rhs solves once (nw_solve1), rhs_jacobian twice with one factorization
     block = constant_block(sp.ImmutableMatrix(equations.mass_matrix)) if n else None
-    solve = c_solver(block)
+    solve, solve_factored = c_solver(block), c_solver(block, factored=True)
     # the entries of that block, which the elimination never reads: not written for rhs
     unread = frozenset() if block is None else frozenset(
         i * n + j for i in block.block for j in block.block)
@@ -295,7 +314,8 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     inputs = _body(g, blocks["default_inputs"], "out", "the default inputs", dots)
 
     core_head = _head(model_name, "Equations of motion", n, nu, [
-        core_declarations(), f"static int {_MF_SIGNATURE};", *lu_protos])
+        core_declarations(), f"static int {_MF_SIGNATURE};", *lu_protos,
+        "static int nw_solve1(double *a, double *b);"])
     core = list(core_head)
     core += _function("nw_default_inputs(double t, const double *p, double *out)", inputs)
     core += mf
@@ -307,7 +327,8 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
         "memcpy(out + NW_N, mf + NW_N * NW_N, NW_N * sizeof(double));",
     ])
     core += _function(f"nw_outputs({_X_ARGS})",
-                      [*_X_PROLOGUE, *_body(g, blocks["outputs"], "out", "the outputs", dots)])
+                      [*_x_prologue(g, blocks["outputs"]),
+                       *_body(g, blocks["outputs"], "out", "the outputs", dots)])
     for name, args in (("constraints", _Y_ARGS), ("constraint_jacobian", _Y_ARGS),
                        ("constraint_time_derivative", _Y_ARGS),
                        ("constraint_gamma", _YYD_ARGS)):
@@ -332,15 +353,14 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     b = blocks["mass_matrix_times_derivative"]
     jac += _function(f"nw_mass_matrix_times_derivative({_MMTD_ARGS})",
                      _body(g, b, "out", "∂(M a)/∂y", dots), _big(b))
-    jac += [_RHS_JACOBIAN]
+    jac += [C_LU, solve_factored, _RHS_JACOBIAN]   # (nw_fac before its use)
     b = blocks["output_jacobians"]
     jac += _function(f"nw_output_jacobians({_X_ARGS})", [
-        *_X_PROLOGUE, *_body(g, b, "out", "the output Jacobians", dots)], _big(b))
+        *_x_prologue(g, b), *_body(g, b, "out", "the output Jacobians", dots)], _big(b))
     if "loss_matrix" in blocks:       # the hysteretic matrix G (equations.md §1.1)
         b = blocks["loss_matrix"]
         jac += _function(f"nw_loss_matrix({_X_ARGS})", [
-            *_X_PROLOGUE, *_body(g, b, "out", "the loss matrix", dots)], _big(b))
-    jac += [C_LU, solve]
+            *_x_prologue(g, b), *_body(g, b, "out", "the loss matrix", dots)], _big(b))
     # nw_rows (the products of the rows) right after the declarations of each file
     core[len(core_head):len(core_head)] = dots.helper()
     jac[len(jac_head):len(jac_head)] = dots.helper()

@@ -218,6 +218,9 @@ class CPrinter:
         self._fallback = CFallbackPrinter(self)
         self._elements: dict[sp.Symbol, tuple[str, int]] = {}
         self._scaled = dict(scaled or {})
+        #: The symbols printed by name (reset by the caller): the locals an expression reads —
+        #: a local ``c·v`` that a row reads as the number ``c`` times ``v`` is not among them.
+        self.used: set[sp.Symbol] = set()
         if dots is not None:
             for sym, text in names.items():
                 m = _ELEMENT.fullmatch(text)
@@ -239,12 +242,14 @@ class CPrinter:
         """``(text, precedence)`` of ``e``."""
         if e.is_Symbol:
             try:
-                return self._names[e], _ATOM
+                text = self._names[e]
             except KeyError:
                 raise GenerationError(
                     f"the equations use the symbol {e.name!r}, which is neither a coordinate, "
                     "velocity, parameter, input, t nor an intermediate quantity"
                 ) from None
+            self.used.add(e)
+            return text, _ATOM
         if e.is_Number or e.is_NumberSymbol:
             if e.is_Rational and not e.is_Integer:
                 return f"({_double(e.p)}/{_double(e.q)})", _ATOM

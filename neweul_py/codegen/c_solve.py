@@ -1,9 +1,10 @@
 """The linear solve ``M ẍ = f`` of the compiled backend, shaped by the mass matrix's structure.
 
-:func:`c_solver` writes ``nw_solve(a, m, b)`` (``a``: the row-major ``n × n`` mass matrix,
-destroyed; ``b``: ``n × m`` right-hand sides, overwritten by the solution) and
-``nw_solve1(a, b)`` (``m = 1``, the right-hand side's) for :mod:`.c_module`, in one of two
-forms:
+:func:`c_solver` writes ``nw_solve1(a, b)`` (``a``: the row-major ``n × n`` mass matrix,
+destroyed; ``b``: the right-hand side, overwritten by the solution; the ``rhs``'s) or
+``nw_factor(a, f)`` and ``nw_factored_solve(a, f, m, b)`` (``b``: ``n × m`` right-hand sides;
+one factorization for the two solves of ``rhs_jacobian``) for :mod:`.c_module`, in one of
+two forms:
 
 * **dense LU** with partial pivoting of the whole matrix (``nw_lu``/``nw_lu_solve`` of
   :mod:`.c_templates`), ``n³/3`` operations;
@@ -36,12 +37,12 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from ..ffrf import MAX_BLOCK_CONDITION
+
 __all__ = ["MIN_BLOCK", "ConstantBlock", "c_solver", "constant_block", "negligible"]
 
 #: Smallest constant block eliminated (a single constant entry gains nothing).
 MIN_BLOCK = 2
-#: Largest condition number of ``D`` accepted for an explicit inverse.
-MAX_CONDITION = 1e8
 
 
 @dataclass(frozen=True)
@@ -64,7 +65,10 @@ class ConstantBlock:
 def constant_block(mass_matrix: sp.MatrixBase) -> ConstantBlock | None:
     """The largest set ``E`` (greedy in index order) of coordinates whose block
     ``M[E, E]`` holds numbers only, with its inverse; ``None`` when it is smaller than
-    :data:`MIN_BLOCK`, singular or worse conditioned than :data:`MAX_CONDITION`."""
+    :data:`MIN_BLOCK`, singular or worse conditioned than
+    :data:`~neweul_py.ffrf.splice.MAX_BLOCK_CONDITION` (``1e4``, the threshold of the NumPy
+    kernel's elimination too: the explicit inverse is not backward stable, its error grows
+    like ``cond(D)``)."""
     n = mass_matrix.shape[0]
     block: list[int] = []
     for j in range(n):
@@ -74,7 +78,7 @@ def constant_block(mass_matrix: sp.MatrixBase) -> ConstantBlock | None:
     if len(block) < MIN_BLOCK:
         return None
     d = np.array([[float(mass_matrix[i, j]) for j in block] for i in block])
-    if not np.all(np.isfinite(d)) or np.linalg.cond(d) > MAX_CONDITION:
+    if not np.all(np.isfinite(d)) or np.linalg.cond(d) > MAX_BLOCK_CONDITION:
         return None
     inv = np.linalg.inv(d)
     inv[negligible(inv)] = 0.0
@@ -108,15 +112,29 @@ def _doubles(values) -> str:
 
 _DENSE = """
 /* ---- M x = b: dense LU of the whole mass matrix */
-static int nw_solve(double *a, int m, double *b)
+typedef struct {{ int piv[NW_N]; }} nw_fac;
+{solve}"""
+
+#: ``nw_solve1`` of the dense LU (the right-hand side of ``rhs``).
+_DENSE_SOLVE1 = """
+static int nw_solve1(double *a, double *b)
 {
     int piv[NW_N];
     if (nw_lu(NW_N, a, piv)) return 1;
-    nw_lu_solve(NW_N, a, piv, m, b);
+    nw_lu_solve(NW_N, a, piv, 1, b);
     return 0;
 }
+"""
 
-static int nw_solve1(double *a, double *b) { return nw_solve(a, 1, b); }
+#: ``nw_factor``/``nw_factored_solve`` of the dense LU (``rhs_jacobian``: one factorization
+#: for its two solves).
+_DENSE_FACTORED = """
+static int nw_factor(double *a, nw_fac *f) { return nw_lu(NW_N, a, f->piv); }
+
+static void nw_factored_solve(const double *a, const nw_fac *f, int m, double *b)
+{
+    nw_lu_solve(NW_N, a, f->piv, m, b);
+}
 """
 
 _BLOCK = """
@@ -132,27 +150,48 @@ __attribute__((always_inline, optimize("O3"))) static inline void nw_dinv(
 {{
 {dinv}}}
 
-/* the elimination for m right-hand sides; inlined into nw_solve1 with m = 1 (the rhs); its
-   loops over E vectorized by gcc's -O3 (the libraries build with -O1) */
-__attribute__((always_inline, optimize("O3"))) static inline int nw_block_solve(double *a, int m,
-                                                                                double *b)
+/* the factorization: X = D^-1 M[E,R] and the LU of S (a is only read) */
+typedef struct {{ double X[NW_NE * NW_NR + 1], S[NW_NR * NW_NR + 1]; int piv[NW_NR + 1]; }} nw_fac;
+
+__attribute__((always_inline, optimize("O3"))) static inline int nw_block_factor(
+    const double *a, nw_fac *f)
+{{
+{factor_code}}}
+
+/* the solve for m right-hand sides with the factorization; its loops over E vectorized by
+   gcc's -O3 (the libraries build with -O1) */
+__attribute__((always_inline, optimize("O3"))) static inline void nw_block_apply(
+    const double *a, const nw_fac *f, int m, double *b)
 {{
     double z[NW_NE * m];
     nw_dinv(m, b, m, z);                                   /* z = D^-1 b_E */
-{rest_code}    for (int e = 0; e < NW_NE; ++e)
+{apply_code}    for (int e = 0; e < NW_NE; ++e)
         for (int c = 0; c < m; ++c) b[NW_IE(e) * m + c] = z[e * m + c];
-    return 0;
 }}
+{solve}"""
 
-__attribute__((optimize("O3"))) static int nw_solve(double *a, int m, double *b)
-{{
-    return nw_block_solve(a, m, b);
-}}
-
+#: ``nw_solve1`` of the block elimination: factorization and solve inlined with ``m = 1``.
+_BLOCK_SOLVE1 = """
 __attribute__((optimize("O3"))) static int nw_solve1(double *a, double *b)
-{{
-    return nw_block_solve(a, 1, b);
-}}
+{
+    nw_fac f;
+    if (nw_block_factor(a, &f)) return 1;
+    nw_block_apply(a, &f, 1, b);
+    return 0;
+}
+"""
+
+_BLOCK_FACTORED = """
+__attribute__((optimize("O3"))) static int nw_factor(double *a, nw_fac *f)
+{
+    return nw_block_factor(a, f);
+}
+
+__attribute__((optimize("O3"))) static void nw_factored_solve(const double *a, const nw_fac *f,
+                                                              int m, double *b)
+{
+    nw_block_apply(a, f, m, b);
+}
 """
 
 #: ``D⁻¹`` applied as a diagonal (``NW_DD``) or in compressed rows (``NW_DP``, ``NW_DJ``,
@@ -172,33 +211,18 @@ _DINV_SPARSE = """\
         }
 """
 
-_REST_CODE = """\
-    double X[NW_NE * NW_NR], S[NW_NR * NW_NR], g[NW_NR * m];
-    int piv[NW_NR];
-    nw_dinv(NW_NR, a + NW_IR(0), NW_N, X);  /* X = D^-1 M[E,R] (R contiguous) */
+#: :func:`nw_block_factor`'s body when ``R`` is not empty.
+_FACTOR_CODE = """\
+    nw_dinv(NW_NR, a + NW_IR(0), NW_N, f->X);  /* X = D^-1 M[E,R] (R contiguous) */
     for (int r = 0; r < NW_NR; ++r) {
         const double *row = a + NW_IR(r) * NW_N;
         for (int q = 0; q < NW_NR; ++q) {                  /* S = M[R,R] - M[R,E] X */
             double s = row[NW_IR(q)];
-            for (int e = 0; e < NW_NE; ++e) s -= row[NW_IE(e)] * X[e * NW_NR + q];
-            S[r * NW_NR + q] = s;
-        }
-        for (int c = 0; c < m; ++c) {                      /* g = b_R - M[R,E] z */
-            double s = b[NW_IR(r) * m + c];
-            for (int e = 0; e < NW_NE; ++e) s -= row[NW_IE(e)] * z[e * m + c];
-            g[r * m + c] = s;
+            for (int e = 0; e < NW_NE; ++e) s -= row[NW_IE(e)] * f->X[e * NW_NR + q];
+            f->S[r * NW_NR + q] = s;
         }
     }
-    if (nw_lu(NW_NR, S, piv)) return 1;
-    nw_lu_solve(NW_NR, S, piv, m, g);                      /* x_R */
-    for (int e = 0; e < NW_NE; ++e)                        /* x_E = z - X x_R */
-        for (int c = 0; c < m; ++c) {
-            double s = z[e * m + c];
-            for (int r = 0; r < NW_NR; ++r) s -= X[e * NW_NR + r] * g[r * m + c];
-            z[e * m + c] = s;
-        }
-    for (int r = 0; r < NW_NR; ++r)
-        for (int c = 0; c < m; ++c) b[NW_IR(r) * m + c] = g[r * m + c];
+    return nw_lu(NW_NR, f->S, f->piv);
 """
 
 #: ``X = D⁻¹ M[E, R]`` when ``R`` is not one contiguous range (columns one by one).
@@ -206,8 +230,30 @@ _X_SCATTERED = """\
     for (int r = 0; r < NW_NR; ++r) {                  /* X = D^-1 M[E,R], column by column */
         double xr[NW_NE];
         nw_dinv(1, a + NW_IR(r), NW_N, xr);
-        for (int e = 0; e < NW_NE; ++e) X[e * NW_NR + r] = xr[e];
+        for (int e = 0; e < NW_NE; ++e) f->X[e * NW_NR + r] = xr[e];
     }
+"""
+
+#: :func:`nw_block_apply`'s part for ``R`` when it is not empty.
+_APPLY_CODE = """\
+    double g[NW_NR * m];
+    for (int r = 0; r < NW_NR; ++r) {
+        const double *row = a + NW_IR(r) * NW_N;
+        for (int c = 0; c < m; ++c) {                      /* g = b_R - M[R,E] z */
+            double s = b[NW_IR(r) * m + c];
+            for (int e = 0; e < NW_NE; ++e) s -= row[NW_IE(e)] * z[e * m + c];
+            g[r * m + c] = s;
+        }
+    }
+    nw_lu_solve(NW_NR, f->S, f->piv, m, g);                /* x_R */
+    for (int e = 0; e < NW_NE; ++e)                        /* x_E = z - X x_R */
+        for (int c = 0; c < m; ++c) {
+            double s = z[e * m + c];
+            for (int r = 0; r < NW_NR; ++r) s -= f->X[e * NW_NR + r] * g[r * m + c];
+            z[e * m + c] = s;
+        }
+    for (int r = 0; r < NW_NR; ++r)
+        for (int c = 0; c < m; ++c) b[NW_IR(r) * m + c] = g[r * m + c];
 """
 
 
@@ -221,15 +267,18 @@ def _index_macro(name: str, var: str, idx: tuple[int, ...]) -> tuple[str, str]:
             f"static const int {table}[{max(len(idx), 1)}] = {_ints(idx or (0,))};")
 
 
-def c_solver(block: ConstantBlock | None) -> str:
-    """The C text of ``static int nw_solve(double *a, int m, double *b)`` and of
-    ``nw_solve1(a, b)`` (``m = 1``, the right-hand side; module docstring); it uses
-    ``nw_lu``/``nw_lu_solve`` and the macro ``NW_N``. The coordinates ``E``, ``R`` are
+def c_solver(block: ConstantBlock | None, factored: bool = False) -> str:
+    """The C text of the solve of ``M x = b`` (module docstring): ``static int
+    nw_solve1(double *a, double *b)`` (one right-hand side, the ``rhs``'s; ``a`` destroyed)
+    or, with ``factored``, ``static int nw_factor(double *a, nw_fac *f)`` and ``static void
+    nw_factored_solve(const double *a, const nw_fac *f, int m, double *b)`` (one
+    factorization for several solves: ``rhs_jacobian``; ``a`` is kept for the second); it
+    uses ``nw_lu``/``nw_lu_solve`` and the macro ``NW_N``. The coordinates ``E``, ``R`` are
     offsets when contiguous, ``D⁻¹`` a diagonal when it has no other entries, and the solve
     for one right-hand side is the same loops with ``m = 1`` inlined (a 20-mode beam on two
     rigid coordinates: 5 600 instructions per solve → about 1 200)."""
     if block is None:
-        return _DENSE
+        return _DENSE.format(solve=_DENSE_FACTORED if factored else _DENSE_SOLVE1)
     inv = block.inverse
     ie, ie_table = _index_macro("NW_IE", "e", block.block)
     decls = [ie, ie_table]
@@ -247,14 +296,14 @@ def c_solver(block: ConstantBlock | None) -> str:
                   f"static const int NW_DJ[{int(dp[-1])}] = {_ints(dj)};",
                   f"static const double NW_DV[{int(dp[-1])}] = {_doubles(dv)};"]
         dinv = _DINV_SPARSE
-    rest_code = ""
+    factor_code, apply_code = "    (void)a; (void)f;\n    return 0;\n", "    (void)f;\n"
     if block.rest:
         ir, ir_table = _index_macro("NW_IR", "r", block.rest)
         decls += [ir, ir_table]
-        rest_code = _REST_CODE
+        factor_code, apply_code = _FACTOR_CODE, _APPLY_CODE
         if ir_table:
-            first, rest_code = rest_code.split("    nw_dinv(NW_NR, a + NW_IR(0), NW_N, X);", 1)
-            rest_code = first + _X_SCATTERED + rest_code.split("\n", 1)[1]
+            factor_code = _X_SCATTERED + factor_code.split("\n", 1)[1]
     return _BLOCK.format(nr=len(block.rest), ne=len(block.block), dform=dform,
                          decls="\n".join(d for d in decls if d), dinv=dinv,
-                         rest_code=rest_code)
+                         factor_code=factor_code, apply_code=apply_code,
+                         solve=_BLOCK_FACTORED if factored else _BLOCK_SOLVE1)

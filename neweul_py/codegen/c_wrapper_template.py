@@ -36,8 +36,11 @@ for _name, _value in vars(_twin).items():
         globals()[_name] = _value
 _S = 2 * _N
 default_parameters = _twin.default_parameters
-# protocol functions the library does not implement: the twin's (energy, poses of the frames)
-for _name in ("energy", "frame_poses", "body_properties", "node_positions"):
+# protocol functions the library does not implement: the twin's (energy, poses of the frames,
+# the reaction Jacobian G_R = G_s S_W of modules with elastic bodies — the library's
+# constraint_jacobian is G = G_s S_V, which differs from it at node frames of two-sided bodies)
+for _name in ("energy", "frame_poses", "body_properties", "node_positions",
+              "constraint_reaction_jacobian"):
     if callable(getattr(_twin, _name, None)):
         globals()[_name] = getattr(_twin, _name)
 

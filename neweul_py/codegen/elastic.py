@@ -5,7 +5,8 @@ The module of a model with elastic bodies is put together from
 1. the symbolic part, rendered by :func:`.writer.module_parts` with the prefix ``_rigid_``
    from :attr:`Equations.elastic <neweul_py.equations.Equations>`: the active (non-elastic)
    coordinates, and as hidden outputs the reference-frame kinematics of every body
-   (:meth:`~neweul_py.equations.elastic.ElasticSplice.expressions`);
+   (:meth:`~neweul_py.equations.elastic.ElasticSplice.expressions`); ``_rigid_rhs_parts``
+   computes those, ``M_s`` and ``(q − k)_s`` in one CSE'd function (one call per ``rhs``);
 2. the floating-frame kernel, **embedded verbatim** — the source of
    :data:`neweul_py.ffrf.body.KERNEL_FUNCTIONS` (the body equations) and
    :data:`neweul_py.ffrf.splice.SPLICE_FUNCTIONS` (their splice into ``M``, ``q − k``, the
@@ -38,6 +39,7 @@ from ..ffrf import (
     FIXED_ARRAYS,
     KERNEL_ARRAYS,
     KERNEL_FUNCTIONS,
+    MAX_BLOCK_CONDITION,
     PROTOCOL,
     SPLICE_FUNCTIONS,
     ffrf_pack,
@@ -51,9 +53,10 @@ from .writer import ModuleParts, module_parts
 __all__ = ["elastic_module_parts"]
 
 #: Functions of the symbolic part that the splice calls (the others are not emitted).
-_RIGID_USED = ("mass_matrix", "force_vector", "force_jacobians", "mass_matrix_times_derivative",
-               "outputs", "output_jacobians", "energy", "constraints", "constraint_jacobian",
-               "constraint_time_derivative", "constraint_gamma")
+_RIGID_USED = ("rhs_parts", "mass_matrix", "force_vector", "force_jacobians",
+               "mass_matrix_times_derivative", "outputs", "output_jacobians", "energy",
+               "constraints", "constraint_jacobian", "constraint_time_derivative",
+               "constraint_gamma")
 
 
 def _arrays(data: Any, indent: str, keys: tuple[str, ...]) -> list[str]:
@@ -202,7 +205,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     )
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
                          schedules=el.schedules, schedule_jacobians=el.schedule_jacobians,
-                         progress=progress)
+                         rhs_parts=len(names), progress=progress)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
@@ -253,7 +256,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         "                    default_inputs, _PARTS,",
         f"                    {'_rigid_schedule' if el.schedules else 'None'},",
         f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'},",
-        "                    _MASS_PATTERN, _KIN_PATTERN)")
+        f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
     if "loss_matrix" in rigid.functions or any(

@@ -27,8 +27,8 @@ import sympy as sp
 from .blocks import Context
 
 __all__ = ["IMPORTS", "LAPACK_LOADER", "factored_definitions", "factored_mass", "factored_rhs",
-           "factored_sizes", "pack_definition", "pack_name", "packed_matrix", "packed_rhs",
-           "solver_definition"]
+           "factored_sizes", "pack_definition", "pack_name", "packed_matrix", "packed_parts",
+           "packed_rhs", "solver_definition"]
 
 #: Import lines of a module that uses packed fills and the LAPACK solve.
 IMPORTS = (
@@ -204,3 +204,28 @@ def factored_rhs(ctx: Context, yd_names: Sequence[str], f_values: Sequence[sp.Ex
     r, fac = _factored_items(ctx, n, values)
     items = [*yd_names, *(_float_text(ctx, v) for v in f_values), *fac]
     return [f"return _solve_factored({pack_name(len(items))}({', '.join(items)}), {n}, {r})"]
+
+
+def packed_parts(ctx: Context, out_values: Sequence[sp.Expr], f_values: Sequence[sp.Expr],
+                 n: int, mass: Sequence[sp.Expr],
+                 where: Sequence[Sequence[tuple[int, int]]] | None) -> tuple[int, list[str]]:
+    """The closing lines of a function returning ``(out, M, q − k)``: all values packed into
+    one buffer (one ``struct`` call instead of three arrays), ``out`` and ``q − k`` views of
+    it, ``M`` from the factored form (``where`` is ``None``: ``mass`` holds w, then G;
+    ``_factored_mass``) or the (n, n) view of its unique entries ``mass`` at ``where``
+    (row-major; read-only, as the other two). Returns the number of packed values too."""
+    if where is None:
+        r, items = _factored_items(ctx, n, mass)
+        m_text = f"_factored_mass(a[{len(out_values) + n}:], {n}, {r})"
+        lines: list[str] = []
+    else:
+        lines, items = _entries(ctx, n, mass, where, column_major=False)
+        m_text = f"a[{len(out_values) + n}:].reshape({n}, {n})"
+    values = [*(_float_text(ctx, v) for v in (*out_values, *f_values)), *items]
+    k, ny = len(values), len(out_values)
+    if not k:
+        return 0, ["return _np.zeros(0), _np.zeros((0, 0)), _np.zeros(0)"]
+    if not n:
+        m_text = "_np.zeros((0, 0))"
+    return k, [*lines, f"a = _np.frombuffer({pack_name(k)}({', '.join(values)}))",
+               f"return a[:{ny}], {m_text}, a[{ny}:{ny + n}]"]

@@ -24,7 +24,7 @@ from .blocks import derivative_block, mass_entries
 from .cse import Assignment, Block, CseMethod, eliminate, hoist_constant_factors
 
 __all__ = ["DynamicsPrograms", "OutputPrograms", "dynamics_programs", "loss_program",
-           "mass_factor_values", "output_programs"]
+           "mass_factor_values", "output_programs", "rhs_parts_program"]
 
 #: Recently computed programs: (equations, key, value), newest last.
 _RECENT: list[tuple[Any, tuple[Any, ...], Any]] = []
@@ -131,6 +131,33 @@ def output_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatr
                                                      (*y, *yd, *u), d_method))
 
     return _remembered(eq, ("outputs", method, d_method, tuple(outs)), compute)
+
+
+def rhs_parts_program(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatrix,
+                      method: CseMethod) -> tuple[Block, list[list[tuple[int, int]]] | None]:
+    """One CSE'd block of the outputs ``outs``, ``q − k`` and the mass matrix: its finals are
+    ``outs``, then ``q − k``, then the factored form's weights and rows
+    (:func:`mass_factor_values`) or, in closed form, M's unique entries; returned with the
+    positions of those entries (:func:`.blocks.mass_entries`; ``None`` in the factored form).
+    The splice of elastic bodies needs all three at one state in every ``rhs`` call
+    (their frame kinematics are hidden outputs, :mod:`.elastic`): one program computes the
+    subexpressions they share (rotations, Jacobian rows, velocities) once."""
+    def compute() -> tuple[Block, list[list[tuple[int, int]]] | None]:
+        n = len(eq.coordinates)
+        fvec = sp.ImmutableMatrix(eq.force_vector) if n else sp.ImmutableMatrix.zeros(0, 1)
+        factors = mass_factor_values(eq)
+        where = None
+        if factors:
+            mass = factors
+        else:
+            M = sp.ImmutableMatrix(eq.mass_matrix) if n else sp.ImmutableMatrix.zeros(0, 0)
+            mass, where = mass_entries(M)
+        program = eliminate(*hoist_constant_factors(
+            inter, [*outs, *fvec, *mass], tuple(eq.parameters), prefix="_ncg_xk"),
+            prefix="_ncg_x", method=method)
+        return program, where
+
+    return _remembered(eq, ("rhs_parts", method, tuple(outs)), compute)
 
 
 def loss_program(eq: Any, inter: Sequence[Assignment], method: CseMethod) -> Block | None:

@@ -51,11 +51,18 @@ from .packing import (
     factored_sizes,
     pack_definition,
     packed_matrix,
+    packed_parts,
     packed_rhs,
     solver_definition,
 )
 from .printer import NamePool
-from .programs import dynamics_programs, loss_program, mass_factor_values, output_programs
+from .programs import (
+    dynamics_programs,
+    loss_program,
+    mass_factor_values,
+    output_programs,
+    rhs_parts_program,
+)
 
 __all__ = ["ENERGY_TERMS", "PROTOCOL_VERSION", "ModuleParts", "compose", "module_parts",
            "program_blocks"]
@@ -258,6 +265,29 @@ def _state_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix,
     return out
 
 
+def _rhs_parts(ctx: Context, eq: Any, outs: sp.ImmutableMatrix, method: CseMethod,
+               prefix: str) -> tuple[int, dict[str, tuple[str, ...]]]:
+    """``rhs_parts(t, x, p, u=None)``: the outputs ``outs``, ``M`` and ``q − k`` at one state
+    from one CSE'd program (:func:`.programs.rhs_parts_program`), and the number of values
+    it packs. The splice of elastic bodies calls it once per ``rhs`` instead of
+    ``outputs``, ``mass_matrix`` and ``force_vector`` (with ``outs`` the hidden frame
+    kinematics, :mod:`.elastic`)."""
+    y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
+    n, ny = len(y), outs.shape[0]
+    prog, where = rhs_parts_program(eq, ctx.intermediates, outs, method)
+    b = checked(ctx, prog, (*y, *p, *u, time, *yd), "the outputs, mass matrix and forces")
+    body = (prologue(ctx, b, [((*y, *yd), "_np.asarray(x, dtype=_np.float64).tolist()"),
+                              (p, _P_SRC)])
+            + inputs_prologue(ctx, b) + assignments(ctx, b))
+    k, closing = packed_parts(ctx, b.finals[:ny], b.finals[ny:ny + n], n, b.finals[ny + n:],
+                              where)
+    return k, {"rhs_parts": _function(
+        f"{prefix}rhs_parts", "t, x, p, u=None",
+        "``(out, M, q − k)`` at the state ``x``: the selected outputs, the mass matrix and "
+        "the generalized forces, with their common subexpressions computed once.",
+        [*body, *closing])}
+
+
 def _loss_function(ctx: Context, eq: Any, method: CseMethod, prefix: str
                    ) -> dict[str, tuple[str, ...]]:
     """``loss_matrix(t, x, p, u=None)``: the hysteretic matrix ``G`` of the force elements'
@@ -410,7 +440,7 @@ def _schedule_functions(ctx: Context, schedules: Sequence[sp.Expr],
 def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: str = "",
                  allow_empty: bool = False, schedules: Sequence[sp.Expr] = (),
                  schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None,
-                 progress: StagedProgress = None) -> ModuleParts:
+                 rhs_parts: int | None = None, progress: StagedProgress = None) -> ModuleParts:
     """The parts of the generated module of (the symbolic part of) ``equations``.
 
     Parameters
@@ -432,6 +462,10 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         Scheduling expressions of parametric elastic bodies (parameters, inputs, ``t``,
         coordinates) and their Jacobians: emitted as ``{prefix}schedule(t, y, p, u)`` and
         ``{prefix}schedule_jacobians(t, y, p, u)``.
+    rhs_parts
+        With an index ``k``: also ``{prefix}rhs_parts(t, x, p, u)``, the outputs from ``k`` on
+        with ``M`` and ``q − k`` from one program (:func:`_rhs_parts`; the splice of
+        elastic bodies, whose frame kinematics are those outputs).
     progress
         ``progress("code generation", done, total)`` after each block (CSE, derivatives,
         printing of one function; :mod:`neweul_py.progress`).
@@ -500,6 +534,10 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix, step))
     funcs.update(_state_functions(ctx, eq, outs, energy, method, d_method, prefix, step))
     funcs.update(_loss_function(ctx, eq, method, prefix))
+    parts_size = 0
+    if rhs_parts is not None:
+        parts_size, fused = _rhs_parts(ctx, eq, outs[rhs_parts:, :], method, prefix)
+        funcs.update(fused)
     # constraints g, G, ∂g/∂t, γ of closed loops (codegen/constraints.py)
     for name, block in constraint_functions(ctx, getattr(eq, "constraints", None), method,
                                             prefix).items():
@@ -513,6 +551,8 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     factors = mass_factor_values(eq)
     sizes = (factored_sizes(n, factors) if factors
              else (n * n, n * n + 2 * n) if n else ())
+    if parts_size and parts_size not in sizes:
+        sizes = (*sizes, parts_size)
     helpers = factored_definitions(n, factors) if factors else solver_definition(symmetric)
     return ModuleParts(
         docstring=_header(system),

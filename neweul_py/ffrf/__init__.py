@@ -32,6 +32,7 @@ from .schema import (
     mode_count,
 )
 from .splice import (
+    MAX_BLOCK_CONDITION,
     PROTOCOL,
     SPLICE_FUNCTIONS,
     ffrf_add_force,
@@ -48,6 +49,7 @@ __all__ = [
     "INERTIA_FORMS",
     "KERNEL_ARRAYS",
     "KERNEL_FUNCTIONS",
+    "MAX_BLOCK_CONDITION",
     "PROTOCOL",
     "SCHEMA",
     "SCHEMA_VERSION",

@@ -43,8 +43,16 @@ from .body import (
 )
 from .parametric import ffrf_mix, ffrf_stack, ffrf_weights
 
-__all__ = ["KIN_TAIL", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force", "ffrf_add_mass",
-           "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
+__all__ = ["KIN_TAIL", "MAX_BLOCK_CONDITION", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force",
+           "ffrf_add_mass", "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
+
+#: Largest condition number of a constant block ``D`` of ``M`` that is eliminated with its
+#: explicit inverse, in the NumPy kernel (:func:`ffrf_block`, passed by the generated module)
+#: and the compiled backend (:func:`neweul_py.codegen.c_solve.constant_block`) alike. The
+#: elimination multiplies by ``D⁻¹``, which is not backward stable: its error grows like
+#: ``cond(D)`` against the dense LU's (4e-11 against 4e-12 at ``cond(D)`` = 5e4); the
+#: ``Me`` of mass-normalized modes has ``cond`` ≈ 1.
+MAX_BLOCK_CONDITION = 1e4
 
 #: Entries of ``kin`` per body besides the two Jacobians: ā, ᾱ, ω, g, v (3 each), e (1)
 #: (written as the literal 16 in :func:`ffrf_frame`, whose source is embedded).
@@ -69,7 +77,8 @@ def ffrf_unpack(entry):
 
 
 def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None,
-                schedule_jacobians=None, mass_pattern=None, kin_pattern=None):
+                schedule_jacobians=None, mass_pattern=None, kin_pattern=None,
+                max_condition=0.0):
     """The splice context of a generated module.
 
     Parameters
@@ -96,6 +105,10 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     schedule, schedule_jacobians
         ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
         order, and ``schedule_jacobians(t, y_s, p, u)``: ``∂σ/∂y_s``, ``∂σ/∂u``.
+    mass_pattern, kin_pattern, max_condition
+        The rows and columns of ``M_s`` and the hidden outputs not zero by construction,
+        and the largest condition number of a constant elastic block that
+        :func:`ffrf_block` eliminates (:data:`MAX_BLOCK_CONDITION`; 0: none).
     """
     bodies, parts = [], list(parts)
     for entry in data:
@@ -116,6 +129,11 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
         bodies.append(b)
     SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
+    for b in bodies:
+        if "mixing" not in b and "quad" not in b and "fixed" not in b:
+            rows = np.zeros((b["nq"], SV.shape[1]))           # Mee E (ffrf_add_mass)
+            rows[:, b["first"]:b["first"] + b["nq"]] = b["Me"]
+            b["Mee_rows"] = rows
     npar = sum("mixing" in b for b in bodies)
     try:                                      # the small dense solve without numpy's set-up
         from scipy.linalg.lapack import dgesv as gesv
@@ -131,10 +149,11 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
             "pattern": pattern, "maps": ffrf_mass_maps(SV, SW, pattern),
             "acc_map": np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4)))),
             "block": ffrf_block(bodies, ns, SV, SW, pattern, None if kin_pattern is None
-                                else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp))}
+                                else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp),
+                                max_condition)}
 
 
-def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
+def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern, max_condition):
     """The block elimination of the elastic coordinates ``E`` for ``M x = f``, when their
     block ``D = M[E, E]`` is the constant ``blockdiag(Me)`` by construction (Golub & Van
     Loan, *Matrix Computations*, §3.2.10; as :mod:`neweul_py.codegen.c_solve`)::
@@ -146,9 +165,9 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
     (``M_s[S_W E, S_V E] = 0``, ``pattern``) and no moving body's frame moves with them (its
     ``J_T``, ``J_R`` columns there are zero, ``kin_pattern``), without second-order fields and
     parametric bodies. Returns ``None`` otherwise, when ``D`` is worse conditioned than
-    ``1e4`` (the elimination multiplies by ``D⁻¹``, which is not backward stable: its error
-    grows like ``cond(D)`` against the dense LU's, 4e-11 against 4e-12 at ``cond(D)`` = 5e4)
-    or when the dense solve is cheaper (fewer than 24 elastic coordinates besides rigid
+    ``max_condition`` (:data:`MAX_BLOCK_CONDITION`, shared with the compiled backend: the
+    elimination multiplies by ``D⁻¹``, which is not backward stable) or when the dense solve
+    is cheaper (fewer than 24 elastic coordinates besides rigid
     ones): else ``{"R", "E"}`` (index arrays), ``"r"``, ``"e"`` (the same or slices,
     :func:`ffrf_index`), ``"ix"`` (the index tuples of the blocks ``RR``, ``RE``, ``ER``)
     and ``"Dinv"``."""
@@ -178,7 +197,7 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern):
     for b in bodies:
         D[k:k + b["nq"], k:k + b["nq"]] = b["Me"]
         k += b["nq"]
-    if not np.all(np.isfinite(D)) or np.linalg.cond(D) > 1e4:
+    if not np.all(np.isfinite(D)) or np.linalg.cond(D) > max_condition:
         return None
     rs, es = ffrf_index(R), ffrf_index(E)
     if isinstance(rs, slice) and isinstance(es, slice):
@@ -217,16 +236,16 @@ def ffrf_solve(S, M, f):
         return ffrf_dense_solve(S, M, f)
     R, E, Dinv = blk["r"], blk["e"], blk["Dinv"]
     out = np.empty(f.shape, dtype=np.result_type(M, f))
-    yf = Dinv @ f[E]
+    yf = np.dot(Dinv, f[E])
     if not blk["R"].size:
         out[E] = yf
         return out
     RR, RE, ER = blk["ix"]
-    Y = Dinv @ M[ER]
+    Y = np.dot(Dinv, M[ER])
     B = M[RE]
-    xR = np.linalg.solve(M[RR] - B @ Y, f[R] - B @ yf)
+    xR = np.linalg.solve(M[RR] - np.dot(B, Y), f[R] - np.dot(B, yf))
     out[R] = xR
-    out[E] = yf - Y @ xR
+    out[E] = yf - np.dot(Y, xR)
     return out
 
 
@@ -349,8 +368,8 @@ def ffrf_frame(S, b, kin):
         return zero, zero, kin[o:o + 16]
     ns = S["ns"]
     Js = kin[o:o + 6 * ns].reshape(6, ns)     # [J_T; J_R]
-    Jv = Js @ S["SV"]
-    return Jv, Jv if S["same"] else Js @ S["SW"], kin[o + 6 * ns:o + 6 * ns + 16]
+    Jv = np.dot(Js, S["SV"])
+    return Jv, Jv if S["same"] else np.dot(Js, S["SW"]), kin[o + 6 * ns:o + 6 * ns + 16]
 
 
 def ffrf_terms(S, kin, y, yd):
@@ -364,25 +383,31 @@ def ffrf_terms(S, kin, y, yd):
         Jv, Jw, tail = ffrf_frame(S, b, kin)
         e = slice(b["first"], b["first"] + b["nq"])
         q = y[e]
-        out.append((Jv, Jw, S["acc_map"] @ tail, tail[6:9], q, yd[e],
+        out.append((Jv, Jw, np.dot(S["acc_map"], tail), tail[6:9], q, yd[e],
                     None if "fixed" in b else ffrf_mass_blocks(b, q)))
     return out
 
 
 def ffrf_add_mass(S, M, terms):
     """``M += J_Wᵀ M_b(q) J_V`` for every body (the ``E`` rows/columns as index slices):
-    ``J_Wᵀ (Mrr J_V + Mre E) + Eᵀ (Mer J_V + Mee E)``."""
+    ``J_Wᵀ (Mrr J_V + Mre E) + Eᵀ (Mer J_V + Mee E)``; a constant ``Mee`` enters through its
+    rows ``Mee E`` (``Mee_rows``, (nq, n), made by :func:`ffrf_system`)."""
     for b, (Jv, Jw, *_k, m) in zip(S["bodies"], terms, strict=True):
         e = slice(b["first"], b["first"] + b["nq"])
         if m is None:                         # a fixed frame, J_V = J_W = 0: Me alone
             M = M.astype(np.result_type(M, b["Me"]))       # a copy, as M + … below
             M[e, e] += b["Me"]
             continue
-        U = m["Mrr"] @ Jv
+        U = np.dot(m["Mrr"], Jv)
         U[:, e] += m["Mre"]
-        M = M + Jw.T @ U
-        M[e, :] += m["Mer"] @ Jv
-        M[e, e] += m["Mee"]
+        M = M + np.dot(Jw.T, U)
+        V = np.dot(m["Mer"], Jv)
+        rows = b.get("Mee_rows")
+        if rows is not None and m["Mee"] is b["Me"]:
+            M[e, :] += V + rows               # the constant Mee E: no strided addition
+        else:
+            M[e, :] += V
+            M[e, e] += m["Mee"]
     return M
 
 
@@ -396,7 +421,7 @@ def ffrf_add_force(S, f, terms):
         if m is None:
             f = f.astype(np.result_type(f, he))            # a copy, as f − … below
         else:
-            f = f - Jw.T @ hr
+            f = f - np.dot(Jw.T, hr)
         f[e] -= he
     return f
 
@@ -408,7 +433,7 @@ def ffrf_symbolic_mass(S, Ms):
     if maps is None:
         return ffrf_sandwich(S["SW"], Ms, S["SV"])
     ix, SWrT, SVc = maps
-    return SWrT @ (Ms[ix] @ SVc)
+    return np.dot(SWrT, np.dot(Ms[ix], SVc))
 
 
 def ffrf_sandwich(SW, A, SV):
@@ -445,17 +470,31 @@ def ffrf_force_vector(S, t, y, yd, p, u=None):
 
 
 def ffrf_rhs(S, t, x, p, u=None):
-    """``[ẏ, M⁻¹ (q − k)]``: one evaluation of the symbolic state ``[S_V y, S_V ẏ]`` and of
-    the frame kinematics for both."""
+    """``[ẏ, M⁻¹ (q − k)]`` (:func:`ffrf_dynamics`)."""
     x = np.asarray(x, dtype=np.float64)
-    n, ns = S["n"], S["ns"]
+    M, f = ffrf_dynamics(S, t, x, p, u)
+    n = S["n"]
+    return np.concatenate((x[n:2 * n], ffrf_solve(S, M, f)))
+
+
+def ffrf_dynamics(S, t, x, p, u=None):
+    """``(M, q − k)`` at the state ``x`` (float64): one evaluation of the symbolic state
+    ``[S_V y, S_V ẏ]``, of the symbolic part (:func:`ffrf_parts`) and of the frame
+    kinematics and mass blocks for both."""
+    n = S["n"]
     y, yd = x[:n], x[n:2 * n]
-    xs = (x[:2 * n].reshape(2, n) @ S["maps"][1]).ravel()
-    rig = S["rigid"]
-    terms = ffrf_terms(S, rig["outputs"](t, xs, p, u)[S["nhidden"]:], y, yd)
-    M = ffrf_add_mass(S, ffrf_symbolic_mass(S, rig["mass_matrix"](t, xs[:ns], p, u)), terms)
-    f = ffrf_add_force(S, S["SW"].T @ rig["force_vector"](t, xs[:ns], xs[ns:], p, u), terms)
-    return np.concatenate((yd, ffrf_solve(S, M, f)))
+    xs = np.dot(x[:2 * n].reshape(2, n), S["maps"][1]).ravel()
+    kin, Ms, fs = ffrf_parts(S, t, xs, p, u)
+    terms = ffrf_terms(S, kin, y, yd)
+    return (ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms),
+            ffrf_add_force(S, np.dot(S["SW"].T, fs), terms))
+
+
+def ffrf_parts(S, t, xs, p, u):
+    """``(kin, M_s, (q − k)_s)`` at the symbolic state ``xs = [y_s, ẏ_s]``: one call of the
+    symbolic part's ``rhs_parts`` (its hidden outputs, mass matrix and forces from one CSE'd
+    program, :func:`neweul_py.codegen.writer.module_parts`)."""
+    return S["rigid"]["rhs_parts"](t, xs, p, u)
 
 
 def ffrf_kin_jacobians(S, t, y, yd, p, u):
@@ -572,8 +611,8 @@ def ffrf_rhs_jacobian(S, t, x, p, u=None):
     x = np.asarray(x, dtype=np.float64)
     n = S["n"]
     y, yd = x[:n], x[n:2 * n]
-    M = ffrf_mass_matrix(S, t, y, p, u)
-    ydd = ffrf_solve(S, M, ffrf_force_vector(S, t, y, yd, p, u))
+    M, f = ffrf_dynamics(S, t, x, p, u)
+    ydd = ffrf_solve(S, M, f)
     fy, fyd, _fu = ffrf_force_jacobians(S, t, y, yd, p, u)
     dMa = ffrf_mass_matrix_times_derivative(S, t, y, p, ydd, u)
     J = np.zeros((2 * n, 2 * n))
@@ -739,7 +778,8 @@ SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system
                     ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
-                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_symbolic_mass,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_dynamics, ffrf_parts,
+                    ffrf_symbolic_mass,
                     ffrf_sandwich, ffrf_kin,
                     ffrf_kin_jacobians, ffrf_sparse_product,
                     ffrf_force_directional, ffrf_moving, ffrf_fixed_force_jacobians,

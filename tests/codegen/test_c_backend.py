@@ -7,6 +7,7 @@ from __future__ import annotations
 import itertools
 import os
 import shutil
+import sys
 import types
 import warnings
 from pathlib import Path
@@ -372,3 +373,69 @@ def test_lu_solves_unsymmetric_systems_with_pivoting(tmp_path):
     singular = np.array([[1.0, 2.0], [2.0, 4.0]])
     assert lib.solve(2, ffi.from_buffer("double[]", singular), 1,
                      ffi.from_buffer("double[]", np.ones(2))) == 1
+
+
+_NODE_PIN = """
+name: pinned_duct
+parameters: {g: 9.81, mB: 0.03}
+gravity: [0, -g, 0]
+coordinates: {a: {initial: 0.2}, bx: {}, by: {}, bz: {}}
+frames:
+  hub: {rotation: [[z, a]]}
+  arm: {parent: hub, translation: [0.3, 0, 0], rotation: [[z, 0.4]]}
+  bf: {translation: [bx, by, bz]}
+elastic_bodies:
+  duct: {frame: arm, data: duct.npz, nodes: {piston: 1}}
+bodies:
+  B: {frame: bf, mass: mB}
+constraints:
+  pin: {coincide: [duct.piston, bf]}
+"""
+
+
+@pytest.mark.parametrize("name", ["four_bar", "slider_crank", "two-sided node"])
+def test_constraint_reaction_jacobian_as_the_numpy_module(name, tmp_path):
+    """Reference: the NumPy module of the same equations. The compiled module has a
+    ``constraint_reaction_jacobian`` exactly when its twin has one (rigid loops: neither,
+    readers use ``G_R = G``) and returns the same ``G_R``: at a node frame of a two-sided
+    elastic host (the piston–duct of tests/equations/test_elastic_constraint_on_node.py)
+    ``G_R = G_s S_W`` differs from the library's ``G = G_s S_V``, and a compiled module
+    without it would have sent the reactions through ``Φ_P`` instead of ``W_P``."""
+    from neweul_py.analysis import protocol as proto
+
+    if name == "two-sided node":
+        sys.path.insert(0, str(ROOT / "tests" / "elastic"))
+        from fe_builders import piston_duct
+
+        from neweul_py.elastic import reduce_modal, save_reduced_body
+        from neweul_py.elastic.invariants import attach_invariants
+
+        fe = piston_duct(n_el=40)
+        host = reduce_modal(fe, modes=5, two_sided=True, keep_nodes=[1], store_bases=True,
+                            skip_rigid=True)
+        save_reduced_body(attach_invariants(host, fe, nodes=[1]), tmp_path / "duct.npz")
+        (tmp_path / "pinned_duct.yaml").write_text(_NODE_PIN)
+        from neweul_py.api import load_description as load_with_data
+
+        eq = newton_euler(load_with_data(tmp_path / "pinned_duct.yaml"))
+        npath = generate_module(eq, "h", tmp_path / "pinned_duct.py")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            mc = _fresh(write_c_module(eq, npath))
+        mnp = load_generated(npath)
+    else:
+        mnp, mc = _modules(name, tmp_path)
+    assert mc.BACKEND == "c"
+    own = callable(getattr(mnp, "constraint_reaction_jacobian", None))
+    assert callable(getattr(mc, "constraint_reaction_jacobian", None)) == own
+    assert own == (name == "two-sided node")
+    rng = np.random.default_rng(5)
+    n, p = len(mnp.COORDINATES), mnp.default_parameters()
+    for _ in range(2):
+        y = np.asarray(mnp.INITIAL_STATE[:n]) + 0.1 * rng.standard_normal(n)
+        ref = proto.constraint_reaction_jacobian(mnp, 0.0, y, p)
+        np.testing.assert_allclose(proto.constraint_reaction_jacobian(mc, 0.0, y, p), ref,
+                                   rtol=0, atol=1e-12 * (1 + np.abs(ref).max()))
+        if own:
+            G = mc.constraint_jacobian(0.0, y, p)
+            assert np.abs(G - ref).max() > 1e-3 * np.abs(ref).max()

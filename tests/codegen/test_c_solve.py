@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import shutil
+import types
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ import sympy as sp
 from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_solve import c_solver, constant_block
 from neweul_py.codegen.c_templates import C_LU
+from neweul_py.ffrf import MAX_BLOCK_CONDITION
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                                 reason="no C compiler")
@@ -29,17 +31,26 @@ def _symbolic(a: np.ndarray, varying: set[int]) -> sp.ImmutableMatrix:
 
 
 def _solver(tmp_path, a_sym, n):
-    src = ("#include <math.h>\n#include <string.h>\n" + f"#define NW_N {n}\n" + C_LU
-           + c_solver(constant_block(a_sym))
-           + "int solve(double *a, int m, double *b) { return nw_solve(a, m, b); }\n"
-           + "int solve1(double *a, double *b) { return nw_solve1(a, b); }\n")
-    c_path = tmp_path / f"solve{n}_{hashlib.sha256(src.encode()).hexdigest()[:8]}.c"
-    c_path.write_text(src)
-    ffi, lib, _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),
-                                   "int solve(double *a, int m, double *b);"
-                                   "int solve1(double *a, double *b);",
-                                   tmp_path / "cache")
-    return ffi, lib
+    """``solve(a, m, b)`` (``nw_factor`` and ``nw_factored_solve``, as ``rhs_jacobian``) and
+    ``solve1(a, b)`` (``nw_solve1``, as ``rhs``): two libraries, each with one form."""
+    head = "#include <math.h>\n#include <string.h>\n" + f"#define NW_N {n}\n" + C_LU
+    block = constant_block(a_sym)
+    texts = {
+        "solve": head + c_solver(block, factored=True)
+        + "int solve(double *a, int m, double *b)\n"
+          "{ nw_fac f; if (nw_factor(a, &f)) return 1; nw_factored_solve(a, &f, m, b);"
+          " return 0; }\n",
+        "solve1": head + c_solver(block)
+        + "int solve1(double *a, double *b) { return nw_solve1(a, b); }\n",
+    }
+    cdef = "int solve(double *a, int m, double *b); int solve1(double *a, double *b);"
+    libs, ffi = {}, None
+    for key, src in texts.items():      # one FFI for both (its buffers are passed to both)
+        c_path = tmp_path / f"{key}{n}_{hashlib.sha256(src.encode()).hexdigest()[:8]}.c"
+        c_path.write_text(src)
+        ffi, libs[key], _ = compiled_library(c_path, hashlib.sha256(src.encode()).hexdigest(),
+                                             cdef, tmp_path / "cache", ffi=ffi)
+    return ffi, types.SimpleNamespace(**{k: getattr(v, k) for k, v in libs.items()})
 
 
 @pytest.mark.parametrize(("n", "varying", "diagonal"),
@@ -78,9 +89,10 @@ def test_inverse_drops_only_entries_below_the_products_rounding_error(tmp_path):
     """Reference: the exact inverses and numpy.linalg.solve — the inverse of ``D = I + E``
     with off-diagonal ``|E_ij| ≈ 1e-16`` (the constant ``Mee`` of mass-normalized modes)
     becomes diagonal (its off-diagonal entries are below ``n·ε·√(X_ii X_jj)``), an entry of
-    1e-6 stays, and a badly scaled block (``S (I + F) S``, ``S = diag(1, 0.03, 30)``,
-    ``cond`` ≈ 1e6) keeps every entry: its solve equals LAPACK's; so does ``diag(1, 9e7)``,
-    at the largest condition number accepted."""
+    1e-6 stays, and a badly scaled block (``S (I + F) S``, ``S = diag(1, 0.1, 3)``,
+    ``cond`` ≈ 1e3) keeps every entry: its solve equals LAPACK's; so does ``diag(1, 9e3)``,
+    at the largest condition number accepted (``MAX_BLOCK_CONDITION`` = 1e4, shared with
+    the NumPy kernel)."""
     rng = np.random.default_rng(0)
     n = 20
     d = np.eye(n) + 1e-16 * rng.standard_normal((n, n))
@@ -89,14 +101,15 @@ def test_inverse_drops_only_entries_below_the_products_rounding_error(tmp_path):
     d[3, 5] = 1e-6
     block = constant_block(_symbolic(d, set()))
     assert block.inverse[3, 5] != 0.0
-    s = np.diag([1.0, 0.03, 30.0, 1.0])
+    s = np.diag([1.0, 0.1, 3.0, 1.0])
     a = s @ (np.eye(4) + 0.3 * rng.standard_normal((4, 4))) @ s
     a[:, 3] = a[3, :] = [0.2, 0.1, 0.3, 5.0]   # coordinate 3 varying (the rest R)
     block = constant_block(_symbolic(a, {3}))
     exact = np.linalg.inv(a[:3, :3])
     assert np.count_nonzero(block.inverse) == np.count_nonzero(exact) == 9
-    edge = constant_block(_symbolic(np.diag([1.0, 9e7]), set()))   # cond 9e7 ≤ 1e8
-    np.testing.assert_array_equal(edge.inverse, np.diag([1.0, 1 / 9e7]))
+    assert np.linalg.cond(a[:3, :3]) > 100.0
+    edge = constant_block(_symbolic(np.diag([1.0, 9e3]), set()))   # cond 9e3 ≤ 1e4
+    np.testing.assert_array_equal(edge.inverse, np.diag([1.0, 1 / 9e3]))
     ffi, lib = _solver(tmp_path, _symbolic(a, {3}), 4)
     b = rng.standard_normal(4)
     aa, bb = a.copy(), b.copy()
@@ -116,10 +129,13 @@ def test_singular_schur_complement_is_reported(tmp_path):
 
 
 def test_ill_conditioned_or_symbolic_blocks_stay_dense():
-    """Reference: the documented limits — a constant block worse conditioned than 1e8 or
-    entries that are expressions are not inverted explicitly."""
+    """Reference: the documented limits — a constant block worse conditioned than
+    ``MAX_BLOCK_CONDITION`` (1e4, the NumPy kernel's bound too) or entries that are
+    expressions are not inverted explicitly."""
+    assert MAX_BLOCK_CONDITION == 1e4
     a = np.diag([1.0, 1e-12, 1.0])
     assert constant_block(_symbolic(a, set())) is None
+    assert constant_block(_symbolic(np.diag([1.0, 2e4]), set())) is None
     assert constant_block(_symbolic(np.eye(3), {0, 1})) is None
     m, k = sp.symbols("m k")
     assert constant_block(sp.ImmutableMatrix([[m, 0], [0, k]])) is None
