@@ -334,9 +334,9 @@ def ffrf_body_loads(b, q, qd, acc, w, m):
         hr, he = ffrf_body_loads(b["quad"], m["z"], T @ qd, acc, w, inner)
         return hr + inner["Mre"] @ cacc, T.T @ (he + inner["Mee"] @ cacc)
     qw = (qd[:, None] * w).ravel()            # q̇ ⊗ ω, index 3k + c
-    g = np.dot(b["G"], qw)                         # [2 ω̃ md¹ q̇; Gr⁰ (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
+    g = np.dot(b["G"], qw)                    # [2 ω̃ md¹ q̇; Gr⁰ (q̇ ⊗ ω); Ge (q̇ ⊗ ω)]
     v = ffrf_omega_products(w, acc)           # [acc; ω_q]
-    hr = np.dot(m["K"], v) + g[:6]                 # Mrr acc + [ω̃ ω̃ md; ω̃ J ω] + …
+    hr = np.dot(m["K"], v) + g[:6]            # Mrr acc + [ω̃ ω̃ md; ω̃ J ω] + …
     if m["c2w"] is not None:
         # hr is complex or object whenever c2w (q) or qw (q̇, ω) are: adding in place is safe
         hr[3:] += np.dot(m["c2w"], qw)

@@ -479,22 +479,16 @@ def ffrf_rhs(S, t, x, p, u=None):
 
 def ffrf_dynamics(S, t, x, p, u=None):
     """``(M, q − k)`` at the state ``x`` (float64): one evaluation of the symbolic state
-    ``[S_V y, S_V ẏ]``, of the symbolic part (:func:`ffrf_parts`) and of the frame
+    ``[S_V y, S_V ẏ]``, of the symbolic part (its ``rhs_parts``: the hidden outputs,
+    ``M_s`` and ``(q − k)_s`` from one CSE'd program) and of the frame
     kinematics and mass blocks for both."""
     n = S["n"]
     y, yd = x[:n], x[n:2 * n]
     xs = np.dot(x[:2 * n].reshape(2, n), S["maps"][1]).ravel()
-    kin, Ms, fs = ffrf_parts(S, t, xs, p, u)
+    kin, Ms, fs = S["rigid"]["rhs_parts"](t, xs, p, u)   # one CSE'd call (codegen/writer.py)
     terms = ffrf_terms(S, kin, y, yd)
     return (ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms),
             ffrf_add_force(S, np.dot(S["SW"].T, fs), terms))
-
-
-def ffrf_parts(S, t, xs, p, u):
-    """``(kin, M_s, (q − k)_s)`` at the symbolic state ``xs = [y_s, ẏ_s]``: one call of the
-    symbolic part's ``rhs_parts`` (its hidden outputs, mass matrix and forces from one CSE'd
-    program, :func:`neweul_py.codegen.writer.module_parts`)."""
-    return S["rigid"]["rhs_parts"](t, xs, p, u)
 
 
 def ffrf_kin_jacobians(S, t, y, yd, p, u):
@@ -778,7 +772,7 @@ SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system
                     ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
-                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_dynamics, ffrf_parts,
+                    ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_dynamics,
                     ffrf_symbolic_mass,
                     ffrf_sandwich, ffrf_kin,
                     ffrf_kin_jacobians, ffrf_sparse_product,
