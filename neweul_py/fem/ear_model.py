@@ -137,7 +137,7 @@ def build_middle_ear(
     tm = cone_membrane(a, h, rings, p.manubrium_reach, p.tm_bulge)
     if tm.line.size < 2:
         raise ModelError("mesh too coarse for a manubrium of ≥ 2 nodes", "refine")
-    material = ShellMaterial(p.tm_E, p.tm_nu, p.tm_thickness, p.tm_rho)
+    material = ShellMaterial(p.tm_E_static, p.tm_nu, p.tm_thickness, p.tm_rho)
     shell = ShellStructure.create(tm.points, tm.triangles, material)
     size = a / rings
     x0 = tm.points

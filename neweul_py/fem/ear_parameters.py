@@ -56,6 +56,14 @@ class MiddleEarParameters:
         interpolated as a power law to 2 kHz, the band of the TM's first coupled modes
         (E′ 26.3 MPa, E″/E′ 0.127; docs/middle-ear-measurements.md §6). Static FE models
         fitted at acoustic frequencies give 32 MPa (Wada & Kobayashi; De Greef 2014).
+        ``tm_E`` is the modulus of the small motions about the static state (the material
+        part of the working point's tangent and of its loss).
+    tm_E_static
+        Modulus of the static state under Δp [Pa]: 15.1 MPa, Zhang & Gan 2013's storage
+        modulus at 1 Hz, their lowest frequency (a pressure change held for seconds or a
+        swallow of a few hundred ms is slower still). The static state and its membrane
+        prestress come from this modulus, the dynamics about it from ``tm_E``
+        (docs/equations-middle-ear.md §3).
     tm_loss
         TM loss factor η (above; De Greef et al. 2014: 0.01–0.13).
     manubrium_reach
@@ -72,11 +80,14 @@ class MiddleEarParameters:
         umbo, ``F(s) = −sign(s) k₀ s± ln(1 − |s|/s±)`` (tangent ``k₀/(1 − |s|/s±)``;
         :mod:`neweul_py.fem.ossicular_chain`): medial (``s > 0``, the stapes pushed into the
         vestibule against the annular ligament) and lateral (the incudomalleolar joint
-        yields, Hüttenbrink 1988). ``s₊`` = 70 µm is the least-squares fit (refine 0, in
-        units of the standard deviations) of the low-frequency loss of the TM node and the
-        malleus at the umbo to Gyo & Goode's means at +1/+2/+3 kPa
-        (``docs/middle-ear-measurements.md`` §2; examples/middle_ear/README.md); ``s₋`` =
-        80 µm is chosen (no measured magnitudes for Δp < 0 were available).
+        yields, Hüttenbrink 1988). ``s₊`` = 200 µm: the low-frequency loss of the malleus at
+        the umbo (the point Gyo & Goode measured) against their means at +1/+2/+3 kPa, on the
+        unreduced FE model with the 3-D chain at refine 1 and 2 (``docs/middle-ear-
+        measurements.md`` §2; examples/middle_ear/README.md, "Results"). The fit is shallow:
+        with the static modulus ``tm_E_static`` most of the loss is the TM's own stress
+        stiffening (a nearly linear chain, ``s₊`` = 1 mm, still loses −4.4/−9.2/−11.4 dB). ``s₋`` =
+        230 µm keeps the former ratio ``s₋/s₊`` = 8/7 (lateral softer: the joints glide); no
+        measured magnitudes for Δp < 0 were available.
     mastoid_volume
         Air volume of the antrum and the mastoid air cells [m³] behind the aditus, a lumped
         compliance ``V_m/(ρc²)`` (0: a closed tympanic cavity). 3.5 cm³, so that the middle-ear
@@ -109,14 +120,15 @@ class MiddleEarParameters:
     tm_bulge: float = 0.5e-3
     tm_thickness: float = 80e-6
     tm_E: float = 26e6
+    tm_E_static: float = 15.1e6
     tm_nu: float = 0.3
     tm_rho: float = 1200.0
     tm_loss: float = 0.13
     manubrium_reach: float = 0.8
     k_tm_manubrium: float = 36933.0
     k_chain: float = 1683.0
-    chain_limit_medial: float = 70e-6
-    chain_limit_lateral: float = 80e-6
+    chain_limit_medial: float = 200e-6
+    chain_limit_lateral: float = 230e-6
     canal_length: float = 25e-3
     canal_diameter: float = 7.5e-3
     cavity_volume: float = 0.5e-6
@@ -136,7 +148,7 @@ class MiddleEarParameters:
             if not (isinstance(v, int | float) and math.isfinite(v)):
                 raise ModelError(f"must be a finite number, got {v!r}", f"middle_ear.{f.name}")
         positive = (
-            "tm_area tm_thickness tm_E tm_rho k_tm_manubrium k_chain canal_length "
+            "tm_area tm_thickness tm_E tm_E_static tm_rho k_tm_manubrium k_chain canal_length "
             "canal_diameter cavity_volume rho_air c_air probe_distance f_ref "
             "chain_limit_medial chain_limit_lateral aditus_area aditus_length"
         ).split()

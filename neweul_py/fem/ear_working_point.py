@@ -31,7 +31,21 @@ from .ear_static import (
 from .nonlinear import StaticState
 from .ossicular_chain import chain_tangent_matrix
 
-__all__ = ["hysteretic_damping", "static_data", "working_point_model"]
+__all__ = ["hysteretic_damping", "static_data", "tm_tangent", "working_point_model"]
+
+
+def tm_tangent(me: MiddleEar, u: np.ndarray) -> sps.csr_matrix:
+    """The TM's tangent about the static displacements ``u`` without the pressure's load
+    stiffness: ``K_m(E) + K_σ(S(u; E_s)) + (E/E_s) K_b`` (docs/equations-middle-ear.md §3).
+
+    The static state is solved with ``tm_E_static`` (the shell's material,
+    :mod:`neweul_py.fem.ear_static`); the small motions about it see the storage modulus ``tm_E``
+    in the material part of the membrane tangent and in the bending, while the membrane
+    stress of the stress stiffening is the static one.
+    """
+    p = me.params
+    _, _, km = me.shell.membrane(u, incremental_modulus=p.tm_E)
+    return (km + (p.tm_E / p.tm_E_static) * me.shell.bending).tocsr()
 
 
 def hysteretic_damping(
@@ -46,10 +60,8 @@ def hysteretic_damping(
     aditus (its inertance becomes ``M_a (1 − iη_m)``, a resistance).
     """
     p = me.params
-    shell, fi = me.shell, me.free_dofs
-    u = tm_displacements(me, state)
-    _, _, km = shell.membrane(u)
-    gs = p.tm_loss * (km + shell.bending)
+    fi = me.free_dofs
+    gs = p.tm_loss * tm_tangent(me, tm_displacements(me, state))
     if include_support:
         gs = gs + p.tm_loss * support_at(me, state)
     gs = gs.tocsr()[fi][:, fi]
@@ -125,10 +137,9 @@ def working_point_model(
     p = me.params
     shell, fi = me.shell, me.free_dofs
     u = tm_displacements(me, state)
-    _, _, km = shell.membrane(u)
     _, _, kp = shell.pressure(u, state.load)
     _, grad_v, _ = shell.pressure(u, 1.0)  # ∂V/∂u: the linearized volume displacement
-    ks = km + shell.bending + kp
+    ks = tm_tangent(me, u) + kp
     if include_support:
         ks = ks + support_at(me, state)
     ks = ks.tocsr()[fi][:, fi]

@@ -200,7 +200,7 @@ class ShellStructure:
         return node_dofs(self.triangles, 3)
 
     def membrane(
-        self, u: np.ndarray, tangent: bool = True
+        self, u: np.ndarray, tangent: bool = True, incremental_modulus: float | None = None
     ) -> tuple[float, np.ndarray, sps.csr_matrix | None]:
         """Membrane energy, internal forces (3n,) and consistent tangent (TL St. Venant–Kirchhoff).
 
@@ -210,6 +210,11 @@ class ShellStructure:
             (n, 3) or (3n,) nodal displacements from the reference configuration.
         tangent
             Also return the tangent (material + stress-stiffening).
+        incremental_modulus
+            Young's modulus of the tangent's material part ``∫ Bᵀ 𝔻 B dA`` (default the
+            material's ``E``); the stress stiffening keeps the stress of ``u`` under ``E``.
+            Small motions about a state reached with another modulus (a viscoelastic tissue
+            loaded slowly and vibrated fast: docs/equations-middle-ear.md §3).
         """
         m = self.material
         x = self.points + np.reshape(u, (-1, 3))
@@ -233,6 +238,8 @@ class ShellStructure:
         b[:, 1] = g[:, :, None, 1] * f[:, None, :, 1]
         b[:, 2] = g[:, :, None, 1] * f[:, None, :, 0] + g[:, :, None, 0] * f[:, None, :, 1]
         b = b.reshape(-1, 3, 9)
+        if incremental_modulus is not None:
+            dm = dm * (incremental_modulus / m.E)
         km = np.einsum("e,evk,vw,ewl->ekl", a, b, dm, b)
         gg = np.einsum("e,eaI,eIJ,ebJ->eab", a, g, nmat, g)
         kg = np.einsum("eab,ij->eaibj", gg, np.eye(3)).reshape(-1, 9, 9)

@@ -76,17 +76,17 @@ def test_embs_matches_the_unreduced_fe_model_at_the_samples(built, dp: float) ->
 def test_embs_between_samples_against_the_fe_model_linearized_there(built) -> None:
     """At Δp = 2500 Pa (between the samples 2000 and 3000 Pa) against the FE model
     linearized at 2500 Pa: the error of interpolating the FE matrices (cubic weights), measured
-    at refine 0: 0.75 % (umbo) / 0.83 % (stapes) max to 5 kHz, 0.37 % below 2 kHz; asserted
-    at 1 % and 0.5 %. The fixture builds without refinement (``--tol 0``): the 1-kPa samples
-    are too coarse for 1e-3 between them; the refined body is tested in
-    ``test_build_embs.py``."""
+    at refine 0: 1.3 % (umbo) max to 5 kHz, 0.25 % below 2 kHz (0.75 % / 0.37 % while the
+    static state used the dynamic modulus); asserted at the issue's 2 % and at 0.5 %. The
+    fixture builds without refinement (``--tol 0``): the 1-kPa samples are too coarse for
+    1e-3 between them; the refined body is tested in ``test_build_embs.py``."""
     data, (mod, chain), _ = built
     f = np.geomspace(100.0, 5000.0, 16)
     e = validate_embs.errors(mod, chain, 2500.0, f, data, damping="viscous")
     low = f < 2000.0
     for key in ("umbo", "stapes"):
         assert e[key][low].max() <= 5e-3, (key, e[key][low].max())
-        assert e[key].max() <= 1e-2, (key, e[key].max())
+        assert e[key].max() <= 2e-2, (key, e[key].max())
     # in the loss-factor form (K + iG, docs/equations.md §1.1) the resonances above f_ref are
     # less damped than with the viscous equivalent, and the same interpolation error shows
     # more: measured at refine 0, umbo 3.0 % and stapes 1.7 % at 3.9 kHz, below 2 kHz 0.43 %
@@ -207,7 +207,8 @@ def test_static_pressure_of_either_sign_lowers_low_frequency_transmission(study)
 def test_umbo_loss_within_two_standard_deviations_of_gyo_goode(study) -> None:
     """Umbo loss (TM node 1 and the malleus at the umbo) at +1/+2/+3 kPa within Gyo & Goode's
     mean ± 2 standard deviations (5 temporal bones, 1987). Measured at refine 0: TM node
-    −4.6/−9.7/−12.4 dB, malleus −4.8/−9.9/−12.8 dB (``s₊`` is fitted to these means)."""
+    −6.1/−9.7/−11.4 dB, malleus −6.1/−9.7/−11.3 dB (``s₊`` is fitted to the malleus's means
+    at refine 1 and 2, where it lies within 0.6 and 0.8 SD: examples/middle_ear/README.md)."""
     for key in ("umbo", "malleus"):
         low = _low(study, key)
         for dp, (mean, sd) in GYO_GOODE.items():
@@ -219,8 +220,9 @@ def test_stapes_loses_less_than_the_umbo(study) -> None:
     """Murakami et al. 1997 (15 temporal bones): the change in stapes vibration is smaller
     than that of the umbo at low frequencies, for either sign of Δp. The measured umbo is the
     manubrium tip, i.e. the malleus at the umbo: the stapes loses less at every working point.
-    Against the TM node at the umbo (tied to the malleus by the TM–manubrium springs) it holds
-    up to ±2 kPa (refine 1: not at ±4 kPa, by ≤ 0.4 dB; README)."""
+    Against the TM node at the umbo (tied to the malleus by the TM–manubrium springs) it is
+    asserted up to ±2 kPa (refine 1 holds it at every Δp since the static state has its own
+    modulus; README)."""
     st, um, ma = _low(study, "stapes"), _low(study, "umbo"), _low(study, "malleus")
     for dp in PRESSURES[PRESSURES != 0.0]:
         assert st[dp] > ma[dp], (dp, st[dp], ma[dp])
@@ -236,7 +238,8 @@ def test_static_equilibrium_of_the_body_and_chain_is_the_fe_static_state(built) 
     manubrium nodes) gives the FE static umbo displacement and swept volume (reference: the
     FE static solution, ``static.csv`` of ``neweul fem middle-ear``, and at 2500 Pa the FE
     model built there): with the closed-form characteristic ≤ 1e-9 at the samples and
-    ≤ 2e-3 between them (the static state mixed by the body's weights); with the
+    ≤ 5e-3 between them (the static state mixed by the body's weights; measured 3.0e-3 at
+    2500 Pa, refine 0, 1-kPa samples); with the
     ``ossicles.yaml`` table ≤ 3 % (the table's own error: 7 mN at −55 µm)."""
     from neweul_py.elastic.interpolation import load_parametric_body
     from neweul_py.elastic.static_state import tied_static_equilibrium
@@ -254,7 +257,7 @@ def test_static_equilibrium_of_the_body_and_chain_is_the_fe_static_state(built) 
                                                         delimiter=",", names=True)}
     mid = validate_embs.fe_model_at(2500.0, data)
     ref[2500.0] = np.genfromtxt(mid.parent / "static.csv", delimiter=",", names=True)
-    for table, tol_sample, tol_mid in ((False, 1e-9, 2e-3), (True, 3e-2, 3e-2)):
+    for table, tol_sample, tol_mid in ((False, 1e-9, 5e-3), (True, 3e-2, 3e-2)):
         rest = static_embs.chain_restoring(table, kc0)
         for dp, r in ref.items():
             if dp == 0.0:

