@@ -13,6 +13,7 @@ parameter), the chain coupled to the unreduced FE model of each working point
 (:func:`validate_embs.reference_frf`, ``K + iG``), and the mean change 100–1000 Hz re Δp = 0
 of the TM node at the umbo, the malleus at the umbo and the stapes; then the malleus's
 deviations from Gyo & Goode 1987 in units of their standard deviations and their RMS.
+An existing ``OUT/<label>/fem`` is reused (delete ``OUT`` after changing the code's defaults).
 """
 
 from __future__ import annotations
