@@ -82,8 +82,9 @@ class MiddleEarParameters:
         vestibule against the annular ligament) and lateral (the incudomalleolar joint
         yields, Hüttenbrink 1988). ``s₊`` = 200 µm: the low-frequency loss of the malleus at
         the umbo (the point Gyo & Goode measured) against their means at +1/+2/+3 kPa, on the
-        unreduced FE model with the 3-D chain at refine 1 and 2 (``docs/middle-ear-
-        measurements.md`` §2; examples/middle_ear/README.md, "Results"). The fit is shallow:
+        unreduced FE model with the 3-D chain at refine 1 and 2
+        (``docs/middle-ear-measurements.md`` §2; examples/middle_ear/README.md, "The static
+        modulus"). The fit is shallow:
         with the static modulus ``tm_E_static`` most of the loss is the TM's own stress
         stiffening (a nearly linear chain, ``s₊`` = 1 mm, still loses −4.4/−9.2/−11.4 dB). ``s₋`` =
         230 µm keeps the former ratio ``s₋/s₊`` = 8/7 (lateral softer: the joints glide); no

@@ -49,19 +49,26 @@ def tm_tangent(me: MiddleEar, u: np.ndarray) -> sps.csr_matrix:
 
 
 def hysteretic_damping(
-    me: MiddleEar, state: StaticState, include_support: bool = False
+    me: MiddleEar,
+    state: StaticState,
+    include_support: bool = False,
+    *,
+    tm_k: sps.spmatrix | None = None,
 ) -> sps.csr_matrix:
     """``G`` of the frequency-domain stiffness ``K + iG`` (DOFs of :func:`working_point_model`).
 
-    ``G = blockdiag(η_TM (K_m + K_b) [+ η_TM K_sup], η_air Kf_acoustic + η_m Kf_aditus)``:
-    the TM loss factor on its material tangent (membrane material and stress stiffening,
-    bending; not on the load stiffness of the pressure, which stores no energy in the
-    tissue), the air loss factor on the acoustic Laplacian, the mastoid loss factor on the
-    aditus (its inertance becomes ``M_a (1 − iη_m)``, a resistance).
+    ``G = blockdiag(η_TM (K_m + K_σ + (E/E_s) K_b) [+ η_TM K_sup], η_air Kf_acoustic +
+    η_m Kf_aditus)``: the TM loss factor on its tangent (:func:`tm_tangent`: membrane
+    material and stress stiffening, bending; not on the load stiffness of the pressure,
+    which stores no energy in the tissue), the air loss factor on the acoustic Laplacian, the
+    mastoid loss factor on the aditus (its inertance becomes ``M_a (1 − iη_m)``, a
+    resistance). ``tm_k``: :func:`tm_tangent` at the state, when the caller has it.
     """
     p = me.params
     fi = me.free_dofs
-    gs = p.tm_loss * tm_tangent(me, tm_displacements(me, state))
+    if tm_k is None:
+        tm_k = tm_tangent(me, tm_displacements(me, state))
+    gs = p.tm_loss * tm_k
     if include_support:
         gs = gs + p.tm_loss * support_at(me, state)
     gs = gs.tocsr()[fi][:, fi]
@@ -139,7 +146,8 @@ def working_point_model(
     u = tm_displacements(me, state)
     _, _, kp = shell.pressure(u, state.load)
     _, grad_v, _ = shell.pressure(u, 1.0)  # ∂V/∂u: the linearized volume displacement
-    ks = tm_tangent(me, u) + kp
+    kt = tm_tangent(me, u)
+    ks = kt + kp
     if include_support:
         ks = ks + support_at(me, state)
     ks = ks.tocsr()[fi][:, fi]
@@ -154,7 +162,7 @@ def working_point_model(
     c_cav = coupling_matrix(x, me.tm.triangles, all_nodes, nc + me.cavity_tm_nodes, n_tm, n_p, -1.0)
     c = (c_canal + c_cav).tocsr()[fi]
     w = 2 * np.pi * p.f_ref
-    g = hysteretic_damping(me, state, include_support)
+    g = hysteretic_damping(me, state, include_support, tm_k=kt)
     m, _, k = assemble_up(ms, ks, me.Mf, me.Kf, c, p.rho_air)
     d = g / w
 
