@@ -54,6 +54,7 @@ def hysteretic_damping(
     include_support: bool = False,
     *,
     tm_k: sps.spmatrix | None = None,
+    support: sps.spmatrix | None = None,
 ) -> sps.csr_matrix:
     """``G`` of the frequency-domain stiffness ``K + iG`` (DOFs of :func:`working_point_model`).
 
@@ -62,7 +63,8 @@ def hysteretic_damping(
     material and stress stiffening, bending; not on the load stiffness of the pressure,
     which stores no energy in the tissue), the air loss factor on the acoustic Laplacian, the
     mastoid loss factor on the aditus (its inertance becomes ``M_a (1 − iη_m)``, a
-    resistance). ``tm_k``: :func:`tm_tangent` at the state, when the caller has it.
+    resistance). ``tm_k``: :func:`tm_tangent` at the state, and ``support``:
+    :func:`~neweul_py.fem.ear_static.support_at` at the state, when the caller has them.
     """
     p = me.params
     fi = me.free_dofs
@@ -70,7 +72,7 @@ def hysteretic_damping(
         tm_k = tm_tangent(me, tm_displacements(me, state))
     gs = p.tm_loss * tm_k
     if include_support:
-        gs = gs + p.tm_loss * support_at(me, state)
+        gs = gs + p.tm_loss * (support_at(me, state) if support is None else support)
     gs = gs.tocsr()[fi][:, fi]
     gs = 0.5 * (gs + gs.T)
     kad = me.Kf_aditus if me.Kf_aditus is not None else sps.csr_matrix(me.Kf.shape)
@@ -148,8 +150,9 @@ def working_point_model(
     _, grad_v, _ = shell.pressure(u, 1.0)  # ∂V/∂u: the linearized volume displacement
     kt = tm_tangent(me, u)
     ks = kt + kp
-    if include_support:
-        ks = ks + support_at(me, state)
+    sup = support_at(me, state) if include_support else None
+    if sup is not None:
+        ks = ks + sup
     ks = ks.tocsr()[fi][:, fi]
     ks = 0.5 * (ks + ks.T)  # remove round-off asymmetry
     ms = shell.mass()[fi][:, fi]
@@ -162,7 +165,7 @@ def working_point_model(
     c_cav = coupling_matrix(x, me.tm.triangles, all_nodes, nc + me.cavity_tm_nodes, n_tm, n_p, -1.0)
     c = (c_canal + c_cav).tocsr()[fi]
     w = 2 * np.pi * p.f_ref
-    g = hysteretic_damping(me, state, include_support, tm_k=kt)
+    g = hysteretic_damping(me, state, include_support, tm_k=kt, support=sup)
     m, _, k = assemble_up(ms, ks, me.Mf, me.Kf, c, p.rho_air)
     d = g / w
 
