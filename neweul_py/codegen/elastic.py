@@ -45,7 +45,7 @@ from ..ffrf import (
     ffrf_pack,
 )
 from ..ffrf.body import ffrf_loss_matrix
-from ..ffrf.parametric import weight_coefficients
+from ..ffrf.parametric import weight_polynomials
 from ..progress import StagedProgress
 from .blocks import units
 from .writer import ModuleParts, module_parts
@@ -86,9 +86,10 @@ def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
         keys = FIXED_ARRAYS
     if not b.parametric:
         return [*lines, *_arrays(b.data, "        ", keys), "    },"]
-    values = np.asarray(b.sample_values, dtype=np.float64)
-    lines += [f"        'values': {ffrf_pack(values)!r},",
-              f"        'coeff': {ffrf_pack(weight_coefficients(values, b.interpolation))!r},",
+    breaks, coeff = weight_polynomials(np.asarray(b.sample_values, dtype=np.float64),
+                                       b.interpolation, b.coordinate)
+    lines += [f"        'values': {ffrf_pack(breaks)!r},",
+              f"        'coeff': {ffrf_pack(coeff)!r},",
               "        'samples': ("]
     for d in datasets:
         lines += ["            {", *_arrays(d, "                ", keys), "            },"]
@@ -145,8 +146,8 @@ def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[str]:
         clouds = [f"{{'origin': {ffrf_pack(d['nodes.origin.m0'][:, :, 0])!r}, "
                   f"'phi': {ffrf_pack(d['nodes.phi'])!r}}}" for d in datasets]
         if b.parametric:
-            values = np.asarray(b.sample_values, dtype=np.float64)
-            coeff = weight_coefficients(values, b.interpolation)
+            values, coeff = weight_polynomials(np.asarray(b.sample_values, dtype=np.float64),
+                                               b.interpolation, b.coordinate)
             lines += [f"        'k': {k},", f"        'values': {ffrf_pack(values)!r},",
                       f"        'coeff': {ffrf_pack(coeff)!r},"]
             k += 1

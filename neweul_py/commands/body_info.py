@@ -82,7 +82,9 @@ def run(args: argparse.Namespace) -> int:
              f"  outputs: {', '.join(shape.output_names) or '-'}"]
     if pb is not None:
         lines.append(f"  {pb.n_samples} samples of {pb.parameter} in [{pb.range[0]:g}, "
-                     f"{pb.range[1]:g}] ({pb.interpolation} weights): "
+                     f"{pb.range[1]:g}] ({pb.interpolation} weights"
+                     + (f" in {pb.coordinate_name}, {pb.coordinate.shape[1]} knots"
+                        if pb.coordinate is not None else "") + "): "
                      + ", ".join(f"{s:g}" for s in pb.samples))
     if args.at is not None:
         states = [(f"  at {args.at[0]} = {args.at[1]:g}", body.static)]

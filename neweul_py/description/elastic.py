@@ -212,6 +212,7 @@ def _samples(data: dict, schedule: Any, file: Path, item: str) -> tuple[list[dic
                for i in range(len(values))]
     extra = {"samples": tuple(samples), "sample_values": tuple(values),
              "interpolation": str(data["parametric.interpolation"]),
+             "coordinate": data.get("parametric.coordinate"),
              "schedule": sp.Integer(0)}          # the builder parses the expression
     return samples, extra
 

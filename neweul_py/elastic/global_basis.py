@@ -262,9 +262,10 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
 
     ``interpolation`` (the default weights of :meth:`ParametricBody.at`) is ``"cubic"``:
     the FE matrices of the middle ear depend on the static pressure nonlinearly (stress
-    stiffening), and between samples 1 kPa apart cubic-spline weights gave 0.03–0.08 %
-    median / 0.3–1.2 % max FRF error against 1.4–3.2 % / 21–41 % for linear weights
-    (``benchmarks/bench_interpolation.py``).
+    stiffening); between samples 1 kPa apart cubic weights in Δp give at worst 4.1 % median /
+    35 % max FRF error against 15.6 % / 122 % for linear weights, and cubic weights in the
+    static volume displacement (``ParametricBody.with_(coordinate=…)``, equations.md §4.1)
+    0.56 % / 5.9 % (``benchmarks/bench_interpolation.py``, refine 1).
     """
     bodies = list(bodies)
     if len(bodies) < 2:

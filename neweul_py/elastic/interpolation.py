@@ -95,6 +95,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, SolverError
+from ..ffrf.parametric import coordinate_problem, ffrf_weights, weight_polynomials
 from ..progress import report
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .fe_model import loss_reference
@@ -112,6 +113,7 @@ __all__ = [
     "ROW_SCALINGS",
     "ParametricBody",
     "check_samples",
+    "coordinate_table",
     "interpolate",
     "is_parametric_body_file",
     "kind_row_scale",
@@ -122,9 +124,12 @@ __all__ = [
 
 PARAMETRIC_BODY_FORMAT = "neweul-parametric-body"
 #: Version 2 added the row scaling (``row_scaling``, ``row_scale``) and ``full_dof_kind``;
-#: version-1 files are read with ``row_scaling = "none"``.
+#: version-1 files are read with ``row_scaling = "none"``. Version 3 is written only for a
+#: body with an interpolation coordinate (``coordinate``), so that older readers refuse it
+#: instead of weighting in the parameter itself.
 PARAMETRIC_BODY_VERSION = 2
-_READABLE_VERSIONS = (1, 2)
+COORDINATE_VERSION = 3
+_READABLE_VERSIONS = (1, 2, 3)
 #: Weight functions of :meth:`ParametricBody.at`.
 INTERPOLATIONS = ("linear", "cubic")
 #: Rows of the bases that determine the common subspace (module docstring).
@@ -140,7 +145,7 @@ _GROUP_ORDER = ("translation", "rotation", "pressure")
 _INV_PREFIX = "invariants/"
 _ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
            "V_kept", "W_kept", "T", "L", "R", "singular_values", "svd_weights")
-_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G")
+_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G", "coordinate")
 #: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
 _STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
 
@@ -219,6 +224,12 @@ class ParametricBody:
         names, node ids, flags) are equal for all samples.
     interpolation
         Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
+    coordinate, coordinate_name
+        Optional interpolation coordinate ``ξ(σ)`` (``docs/equations.md`` §4.1): a (2, n)
+        table of knots ``σ_j`` (including every sample, spanning exactly their range) and
+        strictly monotone values ``ξ_j``; the cubic weights are then taken in ``ξ``
+        (:func:`~neweul_py.ffrf.parametric.weight_polynomials`), and its name (e.g.
+        ``tm_volume_displacement``) says what ``ξ`` is.
     sample_sources, sample_methods, sample_settings
         Per sample: the ``source``, ``method`` and ``settings`` of the local body.
     G, loss_reference_frequency
@@ -269,6 +280,8 @@ class ParametricBody:
     format_version: int = PARAMETRIC_BODY_VERSION
     G: np.ndarray | None = None
     loss_reference_frequency: float | None = None
+    coordinate: np.ndarray | None = None
+    coordinate_name: str = ""
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -336,6 +349,7 @@ class ParametricBody:
         if self.interpolation not in INTERPOLATIONS:
             raise DataError(f"must be one of {INTERPOLATIONS}, got {self.interpolation!r}",
                             None, "interpolation")
+        self._check_coordinate()
         set_(self, "two_sided", bool(self.two_sided))
         self._check_row_scaling(Rm.shape[0])
         for key, default in (("sample_sources", {}), ("sample_settings", {}),
@@ -362,6 +376,27 @@ class ParametricBody:
                 raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
                                 None, "static")
             self.static.check(r, self.nodes.shape[0], len(self.output_names), k)
+
+    def _check_coordinate(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "coordinate_name", str(self.coordinate_name))
+        if self.coordinate is None:
+            if self.coordinate_name:
+                raise DataError("a coordinate name without a coordinate table", None,
+                                "coordinate_name")
+            return
+        why = coordinate_problem(self.samples, self.coordinate)
+        if why is not None:
+            raise DataError(why, None, "coordinate")
+        if self.interpolation != "cubic":
+            raise DataError("an interpolation coordinate needs cubic weights, got "
+                            f"{self.interpolation!r}", None, "coordinate")
+        if not self.coordinate_name:
+            raise DataError("an interpolation coordinate needs a name (what ξ is)", None,
+                            "coordinate_name")
+        set_(self, "coordinate", np.array(self.coordinate, dtype=np.float64))
+        if self.format_version < COORDINATE_VERSION:
+            set_(self, "format_version", COORDINATE_VERSION)
 
     def _check_row_scaling(self, n_rows: int) -> None:
         set_ = object.__setattr__
@@ -487,8 +522,10 @@ class ParametricBody:
         ``"linear"``: the hat functions of the samples, i.e. linear between the two
         neighbouring samples, zero elsewhere. ``"cubic"``: the cardinal functions of the
         not-a-knot cubic spline through the samples (``S_i(p_j) = δ_ij``; two samples give
-        the linear weights, three a parabola). At a sample the weight vector is exactly
-        the unit vector, so the sample's matrices are returned bit for bit.
+        the linear weights, three a parabola), in the interpolation coordinate
+        :attr:`coordinate` when the body has one. At a sample the weight vector is exactly
+        the unit vector, so the sample's matrices are returned bit for bit. The weights are
+        those of the generated module (:mod:`neweul_py.ffrf.parametric`, one home).
 
         Raises
         ------
@@ -500,6 +537,10 @@ class ParametricBody:
         if kind not in INTERPOLATIONS:
             raise DataError(f"unknown interpolation {kind!r} (one of "
                             f"{', '.join(INTERPOLATIONS)})", None, "interpolation")
+        if kind != self.interpolation and self.coordinate is not None:
+            raise DataError(f"parametric body {self.name!r} has the interpolation "
+                            f"coordinate {self.coordinate_name!r}: its weights are "
+                            f"{self.interpolation!r}", None, "interpolation")
         try:
             p = float(p)
         except (TypeError, ValueError):
@@ -520,10 +561,8 @@ class ParametricBody:
             t = (p - s[j]) / (s[j + 1] - s[j])
             w[j], w[j + 1] = 1.0 - t, t
             return w
-        from scipy.interpolate import CubicSpline
-
-        return np.asarray(CubicSpline(s, np.eye(s.size), bc_type="not-a-knot")(p),
-                          dtype=np.float64)
+        breaks, c = weight_polynomials(s, kind, self.coordinate)
+        return np.asarray(ffrf_weights(breaks, c, p, self.name), dtype=np.float64)
 
     def at(self, p: float, interpolation: str | None = None) -> ReducedBody:
         """The reduced body at parameter value ``p``: ``X(p) = Σ_i w_i(p) X̃_i`` (§4, step 5).
@@ -586,6 +625,7 @@ class ParametricBody:
         settings = {
             "two_sided": self.two_sided, "parameter": self.parameter, "value": float(p),
             "interpolation": kind, "samples": self.samples.tolist(), "weights": w.tolist(),
+            **({"coordinate": self.coordinate_name} if self.coordinate is not None else {}),
             "basis": self.basis, "row_scaling": self.row_scaling,
             "pressure_weight": self.pressure_weight,
             "sample_methods": list(self.sample_methods),
@@ -1182,6 +1222,47 @@ def _transform_invariants(body: ReducedBody, Tinv: np.ndarray, L: np.ndarray, tw
     return inv.transformed(Tinv, left).to_flat()
 
 
+def coordinate_table(samples: Sequence[float], sigma: Sequence[float], xi: Sequence[float],
+                     source: str | None = None) -> np.ndarray:
+    """The (2, n) interpolation-coordinate table of :class:`ParametricBody` from a curve
+    ``(σ_j, ξ_j)`` (e.g. ``static_curve.csv`` of ``neweul fem middle-ear --static-curve``):
+    sorted, cut to the samples' range, the knots that match a sample within 1e-9 of the range
+    set to it exactly.
+
+    Raises
+    ------
+    DataError
+        Curve and values of different lengths, a value that is not finite, a repeated
+        ``σ``, a sample that is not on the curve (naming ``source``), or a table that
+        :func:`~neweul_py.ffrf.parametric.coordinate_problem` refuses.
+    """
+    s = np.asarray(samples, dtype=np.float64)
+    sig, val = np.asarray(sigma, dtype=np.float64), np.asarray(xi, dtype=np.float64)
+    if sig.shape != val.shape or sig.ndim != 1:
+        raise DataError(f"{sig.size} knots for {val.size} coordinate values", source,
+                        "coordinate")
+    if not (np.all(np.isfinite(sig)) and np.all(np.isfinite(val))):
+        raise DataError("the curve holds a value that is not a finite number", source,
+                        "coordinate")
+    order = np.argsort(sig, kind="stable")
+    sig, val = sig[order], val[order]
+    if np.any(np.diff(sig) == 0):
+        raise DataError("the curve repeats a parameter value", source, "coordinate")
+    tol = 1e-9 * max(float(s[-1] - s[0]), 1e-300)
+    for v in s:
+        hit = np.flatnonzero(np.abs(sig - v) <= tol)
+        if not hit.size:
+            raise DataError(f"the sample {v:g} is not on the curve (it must hold every "
+                            "sample value)", source, "coordinate")
+        sig[hit[0]] = v
+    keep = (sig >= s[0]) & (sig <= s[-1])
+    table = np.vstack([sig[keep], val[keep]])
+    why = coordinate_problem(s, table)
+    if why is not None:
+        raise DataError(why, source, "coordinate")
+    return table
+
+
 # ---------------------------------------------------------------------- file format
 def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
@@ -1211,6 +1292,7 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
         "invariants": names if body.invariants is not None else None,
         **({"loss_reference_frequency": body.loss_reference_frequency}
            if body.G is not None else {}),
+        **({"coordinate_name": body.coordinate_name} if body.coordinate is not None else {}),
     }
     arrays["meta"] = json_to_uint8(meta)
     save_npz_atomic(path, arrays)
@@ -1247,6 +1329,9 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     extra = [key for key in ("row_scale", "left_row_scale", "full_dof_kind") if key in data]
     if version == 1 and extra:
         raise DataError(f"a version-1 file holds no {extra}", file, extra[0])
+    if version < COORDINATE_VERSION and "coordinate" in data:
+        raise DataError(f"a version-{version} file holds no interpolation coordinate", file,
+                        "coordinate")
     missing = [key for key in _ARRAYS if key not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
@@ -1276,6 +1361,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             static=static_from_arrays(data, file),
             format_version=int(meta["version"]),
             loss_reference_frequency=meta.get("loss_reference_frequency"),
+            coordinate_name=meta.get("coordinate_name", "") if version >= 3 else "",
         )
     except DataError as exc:
         raise DataError(exc.message, file, exc.item) from None

@@ -33,7 +33,8 @@ IO_KEYS = ("io.B", "io.C", "io.inputs", "io.outputs")
 
 #: Keys of the result for a parametric body: ``parametric.values`` (k,) sample values,
 #: ``parametric.interpolation``, ``parametric.parameter``, and per sample ``i`` its flat
-#: invariants under ``sample{i}/<key>``.
+#: invariants under ``sample{i}/<key>``; with an interpolation coordinate also
+#: ``parametric.coordinate`` (2, n) and ``parametric.coordinate_name``.
 PARAMETRIC_KEYS = ("parametric.values", "parametric.interpolation", "parametric.parameter")
 
 
@@ -128,6 +129,9 @@ def _parametric(p: Path, modes: int | Sequence[int] | None, file: str) -> dict[s
         "parametric.interpolation": np.array(body.interpolation),
         "parametric.parameter": np.array(body.parameter),
     }
+    if body.coordinate is not None:
+        out["parametric.coordinate"] = np.array(body.coordinate, dtype=np.float64)
+        out["parametric.coordinate_name"] = np.array(body.coordinate_name)
     for i in range(body.n_samples):
         flat = {k: (a[i] if a.dtype.kind == "f" else a[0]) for k, a in body.invariants.items()}
         inv = Invariants.from_flat(flat)

@@ -10,12 +10,23 @@ them with **one** matrix product ``w B`` (:func:`ffrf_mix`; the arrays of the mi
 views into that one result): no loop over samples or arrays doing arithmetic.
 
 The weights are the cardinal functions of the interpolation, stored as piecewise cubic
-polynomials ``w_i(σ) = Σ_m c[m, j, i] (σ − s_j)^(3−m)`` on interval ``j`` (the layout of
-``scipy.interpolate.PPoly.c``): hat functions for ``linear``, the not-a-knot spline for
-``cubic``; :func:`weight_coefficients` makes them (at generation time, with SciPy) and
-:func:`ffrf_weights` evaluates them (NumPy only, complex-step differentiable). A value
-outside ``[s_1, s_k]`` is an error naming the body, the value and the range: no
-extrapolation.
+polynomials ``w_i(σ) = Σ_m c[m, j, i] (σ − b_j)^(3−m)`` on interval ``j`` of the breakpoints
+``b`` (the layout of ``scipy.interpolate.PPoly.c``): hat functions for ``linear``, the
+not-a-knot spline for ``cubic``; :func:`weight_polynomials` makes them (at generation time,
+with SciPy) and :func:`ffrf_weights` evaluates them (NumPy only, complex-step
+differentiable). A value outside ``[b_1, b_n] = [s_1, s_k]`` is an error naming the body, the
+value and the range: no extrapolation.
+
+**Interpolation coordinate** (equations.md §4.1). The cubic weights may be taken in a
+coordinate ``ξ(σ)`` other than ``σ`` itself: ``w_i(σ) = S_i(ξ(σ))`` with ``S_i`` the cardinal
+not-a-knot splines through ``ξ_i = ξ(s_i)``. ``ξ`` is given as a table ``(σ_j, ξ_j)``,
+strictly monotone, whose knots ``σ_j`` include every sample value and span exactly
+``[s_1, s_k]``; between the knots ``ξ`` is the shape-preserving PCHIP interpolant of the table.
+The stored weights are the piecewise cubic Hermite interpolants on the knots of the exact
+values ``S_i(ξ_j)`` and slopes ``S_i′(ξ_j) ξ′(σ_j)`` (an O(h⁴) approximation of the
+composition for knot spacing ``h``): still cubic, so the generated module evaluates them as
+before; they sum to one (``Σ S_i ≡ 1``, ``Σ S_i′ ≡ 0``) and are the unit vectors at the
+samples.
 
 Frozen-parameter assumption: the equations use ``X(σ(t))`` without the time derivatives of the
 weights (the usual linear-parameter-varying reading of parametric reduced models), exact for
@@ -27,8 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PARAMETRIC_FUNCTIONS", "ffrf_mix", "ffrf_stack", "ffrf_weights",
-           "weight_coefficients"]
+__all__ = ["PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix", "ffrf_stack",
+           "ffrf_weights", "weight_coefficients", "weight_polynomials"]
 
 
 def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
@@ -55,9 +66,78 @@ def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
     return np.ascontiguousarray(CubicSpline(s, np.eye(k), bc_type="not-a-knot").c)
 
 
+def coordinate_problem(samples: np.ndarray, coordinate: np.ndarray) -> str | None:
+    """What is wrong with an interpolation coordinate table (module docstring), or ``None``.
+
+    ``coordinate`` (2, n): knots ``σ_j`` (row 0) and coordinate values ``ξ_j`` (row 1)."""
+    c = np.asarray(coordinate)
+    if c.ndim != 2 or c.shape[0] != 2 or c.shape[1] < 2 or c.dtype.kind not in "fi":
+        return f"must be a (2, n ≥ 2) table of knots and values, got shape {c.shape}"
+    if not np.all(np.isfinite(c)):
+        return "holds a value that is not a finite number"
+    knots, xi = c.astype(np.float64)
+    s = np.asarray(samples, dtype=np.float64)
+    if np.any(np.diff(knots) <= 0):
+        return "its knots (row 0) must be strictly increasing"
+    if knots[0] != s[0] or knots[-1] != s[-1]:
+        return (f"its knots must span the samples' range [{s[0]:g}, {s[-1]:g}] exactly, "
+                f"got [{knots[0]:g}, {knots[-1]:g}]")
+    absent = [float(v) for v in s if v not in knots]
+    if absent:
+        return f"its knots must include every sample value; missing {absent}"
+    d = np.diff(xi)
+    if not (np.all(d > 0) or np.all(d < 0)):
+        return "its values (row 1) must be strictly monotone in the knots"
+    return None
+
+
+def weight_polynomials(samples: np.ndarray, interpolation: str,
+                       coordinate: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(b, c)``: the breakpoints (n,) and the coefficients (4, n−1, k) of the weights.
+
+    Without ``coordinate``: ``b`` = the samples, ``c`` = :func:`weight_coefficients`. With a
+    coordinate table (2, n) (cubic weights only; module docstring): ``b`` = its knots and
+    ``c`` the cubic Hermite pieces of ``S_i(ξ(σ))``.
+
+    Raises
+    ------
+    ValueError
+        A coordinate with linear weights, or a coordinate table that
+        :func:`coordinate_problem` refuses.
+    """
+    s = np.asarray(samples, dtype=np.float64)
+    if coordinate is None:
+        return s.copy(), weight_coefficients(s, interpolation)
+    if interpolation != "cubic":
+        raise ValueError("an interpolation coordinate needs cubic weights")
+    why = coordinate_problem(s, coordinate)
+    if why is not None:
+        raise ValueError(f"interpolation coordinate: {why}")
+    from scipy.interpolate import CubicSpline, PchipInterpolator
+
+    knots, xi = np.asarray(coordinate, dtype=np.float64)
+    if xi[-1] < xi[0]:                       # a decreasing coordinate: the same weights
+        xi = -xi
+    slope = PchipInterpolator(knots, xi).derivative()(knots)
+    xs = xi[np.searchsorted(knots, s)]       # ξ at the samples (they are knots)
+    spline = CubicSpline(xs, np.eye(s.size), bc_type="not-a-knot")
+    y = spline(xi)                           # (n, k): S_i(ξ_j); unit rows at the samples
+    y[np.searchsorted(knots, s)] = np.eye(s.size)
+    m = spline(xi, 1) * slope[:, None]       # S_i′(ξ_j) ξ′(σ_j)
+    h = np.diff(knots)[:, None]
+    dy = (y[1:] - y[:-1]) / h
+    c = np.empty((4, knots.size - 1, s.size))
+    c[0] = (m[:-1] + m[1:] - 2.0 * dy) / h**2
+    c[1] = (3.0 * dy - 2.0 * m[:-1] - m[1:]) / h
+    c[2], c[3] = m[:-1], y[:-1]
+    return knots.copy(), np.ascontiguousarray(c)
+
+
 def ffrf_weights(samples, coefficients, value, name):
     """The weights ``w_i(σ)`` (k,) at ``value`` (real or complex; the interval from its real
-    part). Raises ``ValueError`` naming the body ``name`` outside ``[s_1, s_k]``."""
+    part). ``samples``: the breakpoints of :func:`weight_polynomials` (the sample values, or
+    the knots of an interpolation coordinate). Raises ``ValueError`` naming the body
+    ``name`` outside ``[s_1, s_k]``."""
     s = samples
     x = np.real(value)
     if not (s[0] <= x <= s[-1]):

@@ -87,6 +87,9 @@ class ElasticBody:
         The sample values ``s_1 < … < s_k``.
     interpolation
         ``"linear"`` or ``"cubic"`` weights between the samples.
+    coordinate
+        Optional (2, n) interpolation coordinate table ``(σ_j, ξ_j)``: the cubic weights are
+        taken in ``ξ(σ)`` (equations.md §4.1, :func:`neweul_py.ffrf.parametric.weight_polynomials`).
     schedule
         The scheduling variable ``σ`` (an expression of parameters, inputs, time and the
         coordinates of the rigid part).
@@ -108,6 +111,7 @@ class ElasticBody:
     sample_values: tuple[float, ...] = ()
     interpolation: str = "linear"
     schedule: sp.Expr | None = None
+    coordinate: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         from ..ffrf.schema import INERTIA_FORMS, check_flat
@@ -160,6 +164,16 @@ class ElasticBody:
                              "per sample", f"{path}.data")
         if self.interpolation not in ("linear", "cubic"):
             raise ModelError(f"unknown interpolation {self.interpolation!r}", f"{path}.data")
+        if self.coordinate is not None:
+            from ..ffrf.parametric import coordinate_problem
+
+            why = coordinate_problem(np.asarray(values), self.coordinate)
+            if why is None and self.interpolation != "cubic":
+                why = "an interpolation coordinate needs cubic weights"
+            if why is not None:
+                raise ModelError(f"interpolation coordinate: {why}", f"{path}.data")
+            object.__setattr__(self, "coordinate", _frozen(
+                np.asarray(self.coordinate, dtype=np.float64)))
         samples = []
         for i, sample in enumerate(self.samples):
             flat = {k: _frozen(v) for k, v in dict(sample).items()}
@@ -216,6 +230,8 @@ class ElasticBody:
                 h.update(f"{key}|{arr.dtype.str}|{arr.shape}|".encode())
                 h.update(arr.tobytes() if arr.dtype.kind != "U" else str(arr.tolist()).encode())
         h.update(f"{self.sample_values!r}|{self.interpolation}".encode())
+        if self.coordinate is not None:
+            h.update(b"coordinate|" + np.ascontiguousarray(self.coordinate).tobytes())
         return h.hexdigest()
 
     def __repr__(self) -> str:  # canonical: the System fingerprint uses it

@@ -40,6 +40,7 @@ from neweul_py.elastic import (
     stability,
 )
 from neweul_py.elastic._io import json_to_uint8
+from neweul_py.elastic.interpolation import coordinate_table
 from neweul_py.elastic.invariants import attach_invariants, body_invariants, compute_invariants
 from neweul_py.elastic.projection import build_reduced_body
 from neweul_py.errors import DataError, SolverError
@@ -632,8 +633,8 @@ def test_bad_files_are_rejected(pbody, tmp_path):
     assert exc.value.file == str(tmp_path / "b.npz")
     data = dict(np.load(path))
     meta = json.loads(data["meta"].tobytes().decode())
-    np.savez(path, **{**data, "meta": json_to_uint8({**meta, "version": 3})})
-    with pytest.raises(DataError, match="unsupported version 3"):
+    np.savez(path, **{**data, "meta": json_to_uint8({**meta, "version": 99})})
+    with pytest.raises(DataError, match="unsupported version 99"):
         load_parametric_body(path)
     del data["T"]
     np.savez(path, **data)
@@ -759,3 +760,106 @@ def _assert_same_core(a: ParametricBody, b: ParametricBody) -> None:
         assert np.array_equal(a[key], b[key]), key
     assert a.row_scaling == b.row_scaling
     assert a.sample_sources == b.sample_sources
+
+
+def _with_coordinate(pb: ParametricBody) -> ParametricBody:
+    """``pbody`` weighted in ``ξ = σ² + σ`` (monotone, curved) on 41 knots."""
+    knots = np.linspace(pb.samples[0], pb.samples[-1], 41)
+    return pb.with_(interpolation="cubic", coordinate=np.vstack([knots, knots**2 + knots]),
+                    coordinate_name="xi")
+
+
+def test_interpolation_coordinate_weights_and_file(pbody, tmp_path):
+    """A body weighted in a coordinate ``ξ(σ)`` (equations.md §4.1): its weights are those
+    of :func:`neweul_py.ffrf.parametric.weight_polynomials` (the generated module's), within
+    1e-6 of the composition ``S_i(ξ(σ))``, differ from the weights in σ, and survive the
+    file (version 3, which an older reader refuses) bit for bit."""
+    from scipy.interpolate import CubicSpline, PchipInterpolator
+
+    pb = _with_coordinate(pbody)
+    assert pb.format_version == 3
+    knots, xi = pb.coordinate
+    xi_of = PchipInterpolator(knots, xi)
+    S = CubicSpline(xi_of(pb.samples), np.eye(pb.n_samples), bc_type="not-a-knot")
+    for p in (0.13, 0.77, 1.6):
+        w = pb.weights(p)
+        np.testing.assert_allclose(w, S(xi_of(p)), atol=1e-6)
+        assert np.abs(w - pbody.weights(p, "cubic")).max() > 1e-3
+    assert pb.at(0.77).settings["coordinate"] == "xi"
+    pb.save(tmp_path / "xi.npz")
+    back = load_parametric_body(tmp_path / "xi.npz")
+    assert back.coordinate_name == "xi" and np.array_equal(back.coordinate, pb.coordinate)
+    assert np.array_equal(back.at(0.77).K, pb.at(0.77).K)
+    with np.load(tmp_path / "xi.npz", allow_pickle=False) as z:
+        data = dict(z)
+    meta = json.loads(data["meta"].tobytes().decode())
+    assert meta["version"] == 3 and meta["coordinate_name"] == "xi"
+    np.savez(tmp_path / "old.npz", **{**data, "meta": json_to_uint8({**meta, "version": 2})})
+    with pytest.raises(DataError, match="version-2 file holds no interpolation coordinate"):
+        load_parametric_body(tmp_path / "old.npz")
+
+
+def test_bad_interpolation_coordinates_are_refused(pbody):
+    """A coordinate with linear weights, without a name, a name without a table, a table
+    that misses a sample, and linear weights asked of a coordinate body: one DataError each,
+    naming the field."""
+    pb = _with_coordinate(pbody)
+    knots, xi = pb.coordinate
+    cases = [
+        (dict(interpolation="linear", coordinate=pb.coordinate, coordinate_name="xi"),
+         "cubic weights", "coordinate"),
+        (dict(interpolation="cubic", coordinate=pb.coordinate, coordinate_name=""),
+         "needs a name", "coordinate_name"),
+        (dict(interpolation="cubic", coordinate=None, coordinate_name="xi"),
+         "without a coordinate table", "coordinate_name"),
+    ]
+    for kw, words, item in cases:
+        with pytest.raises(DataError, match=words) as exc:
+            pbody.with_(**kw)
+        assert exc.value.item == item
+    bad = np.vstack([np.delete(knots, 20), np.delete(xi, 20)])    # σ = 1 is a sample
+    with pytest.raises(DataError, match="include every sample") as exc:
+        pbody.with_(interpolation="cubic", coordinate=bad, coordinate_name="xi")
+    assert exc.value.item == "coordinate"
+    with pytest.raises(DataError, match="its weights are 'cubic'"):
+        pb.weights(0.5, "linear")
+
+
+def test_cli_interpolate_with_a_coordinate_curve(tmp_path, capsys):
+    """`neweul interpolate --coordinate CURVE.csv:SIGMA:XI` writes the body with its cubic
+    weights in XI (the table cut to the samples' range, equal to ``coordinate_table``); a
+    curve without a sample, a missing column, a non-number, a bad spec and linear weights
+    are one-line errors that write nothing."""
+    s = grid(3)
+    paths = []
+    for i, p in enumerate(s):
+        paths.append(str(tmp_path / f"b{i}.npz"))
+        local(p).with_(parameters={"p": float(p)}).save(paths[-1])
+    sig = np.linspace(-0.5, 2.5, 31)
+    curve = tmp_path / "curve.csv"
+    curve.write_text("p,xi\n" + "".join(f"{a:.17g},{a**3 + 2 * a:.17g}\n" for a in sig))
+    out = tmp_path / "pb.npz"
+    assert main([*LOCAL, *paths, "--parameter", "p", "--coordinate", f"{curve}:p:xi",
+                 "-o", str(out)]) == 0
+    assert "weights in xi" in capsys.readouterr().out
+    pb = ParametricBody.load(out)
+    assert pb.interpolation == "cubic" and pb.coordinate_name == "xi"
+    np.testing.assert_array_equal(pb.coordinate,
+                                  coordinate_table(s, sig, sig**3 + 2 * sig, str(curve)))
+    assert pb.coordinate[0, 0] == 0.0 and pb.coordinate[0, -1] == 2.0
+    gap = tmp_path / "gap.csv"
+    gap.write_text("p,xi\n0,0\n0.5,1\n2,5\n")
+    nan = tmp_path / "nan.csv"
+    nan.write_text("p,xi\n0,0\n1,nan\n2,5\n")
+    for spec, extra, text in ((f"{gap}:p:xi", [], "sample 1 is not on the curve"),
+                              (f"{curve}:p:volume", [], "no column 'volume'"),
+                              (f"{nan}:p:xi", [], "line 3: xi = 'nan' is not a finite"),
+                              (f"{curve}:p", [], "must be CURVE.csv:SIGMA:XI"),
+                              (f"{curve}:p:xi", ["--interpolation", "linear"],
+                               "needs cubic weights")):
+        bad = tmp_path / "bad.npz"
+        assert main([*LOCAL, *paths, "--parameter", "p", "--coordinate", spec, *extra,
+                     "-o", str(bad)]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err[-1].startswith("neweul interpolate: error:") and text in err[-1], err[-1]
+        assert not bad.exists()

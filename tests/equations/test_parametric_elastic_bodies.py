@@ -85,6 +85,25 @@ def test_scheduled_body_equals_the_interpolated_body(parametric, c: float) -> No
     assert np.allclose(got, ref, rtol=1e-9, atol=0)
 
 
+@pytest.mark.parametrize("c", [321.5, 370.0])
+def test_body_weighted_in_a_coordinate_equals_the_interpolated_body(parametric,
+                                                                    c: float) -> None:
+    """A body whose cubic weights are taken in ``ξ = c²`` (the interpolation coordinate,
+    equations.md §4.1) gives, scheduled in the generated module, the FRF of
+    ``ParametricBody.at(c)`` of that body (whose weights differ from the weights in ``c``)."""
+    tmp, pb = parametric
+    knots = np.linspace(SPEEDS[0], SPEEDS[-1], 31)
+    knots = np.unique(np.concatenate([knots, SPEEDS]))
+    xb = pb.with_(interpolation="cubic", coordinate=np.vstack([knots, knots**2]),
+                  coordinate_name="c_squared")
+    assert np.abs(xb.weights(c) - pb.weights(c, "cubic")).max() > 1e-4
+    save_parametric_body(xb, tmp / "duct_xi.npz")
+    save_reduced_body(xb.at(c), tmp / f"xi_at{c}.npz")
+    ref = _frf(tmp, _description(f"xi_at{c}.npz", None, c), f"xi_fixed{c}.yaml")
+    got = _frf(tmp, _description("duct_xi.npz", "cs", c), f"xi_sched{c}.yaml")
+    assert np.allclose(got, ref, rtol=1e-9, atol=0)
+
+
 def test_schedule_outside_the_samples_is_an_error(parametric) -> None:
     """No extrapolation: σ outside [300, 390] names the body, the value and the range."""
     tmp, _pb = parametric
