@@ -50,6 +50,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="keep the ossicular-chain support springs in the exported stiffness",
     )
+    me.add_argument(
+        "--static-curve", type=functools.partial(number, option="--static-curve",
+                                                 positive=True),
+        default=None, metavar="STEP",
+        help="also solve the static state every STEP Pa over the sweep's range and write "
+        "static_curve.csv (static solves only; the table of an interpolation coordinate: "
+        "neweul interpolate --coordinate DIR/static_curve.csv:dp_Pa:volume_displacement_m3)",
+    )
     me.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     me.set_defaults(func=_middle_ear)
     _register_beams(sub)
@@ -67,6 +75,7 @@ def _middle_ear(args: argparse.Namespace) -> int:
             include_support=args.include_support,
             verbose=True,
             progress=track,
+            static_curve=args.static_curve,
         )
     print(f"wrote {len(result.models)} working points to {args.output}")
     return 0
