@@ -10,6 +10,13 @@ canal_volume_acceleration, 100 Hz–5 kHz (log), of
   coordinates (:func:`neweul_py.elastic.interpolation.interpolate`, its default metric);
 * ``global``/``global-cubic``: one global basis of all samples, every sample's full FE model
   projected onto it (:mod:`neweul_py.elastic.global_basis`), linear / cubic-spline weights;
+* ``global-cubic-V``: the same global sample bodies, with the cubic-spline weights taken in
+  the TM's static volume displacement ``V(Δp)`` (the work conjugate of the static pressure,
+  ``docs/equations.md`` §4.1) instead of in ``Δp``: ``w_i(Δp) = S_i(V(Δp))``, ``S_i`` the
+  cardinal not-a-knot splines through ``V(Δp_i)`` of the samples, ``V(Δp)`` from the sweep's
+  static curve (static solves every 100 Pa, ``--static-curve 100``; the static solve is
+  cheap, the reduction is not) — what ``neweul interpolate --coordinate
+  DIR/static_curve.csv:dp_Pa:volume_displacement_m3`` writes;
 * ``nearest-``/``nearest+``: the local body of the lower / upper neighbouring sample
   (equidistant: both are "the nearest sample")
 
@@ -20,12 +27,14 @@ Printed per midpoint and method: median and max over frequency of the relative e
 neighbours' median and max at every midpoint.
 
 Run: ``python benchmarks/bench_interpolation.py [--dir /tmp/me17] [--modes 30]`` (builds the
-FE sweep into ``--dir`` when it is missing; caches reductions and full FRFs there).
+FE sweep with its static curve into ``--dir`` when it is missing; caches reductions and full
+FRFs there).
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import subprocess
 import sys
 import time
@@ -35,6 +44,7 @@ import numpy as np
 
 from neweul_py.elastic import interpolate, read_fe_model, reduce_modal
 from neweul_py.elastic.global_basis import global_parametric_body
+from neweul_py.elastic.interpolation import coordinate_table
 from neweul_py.elastic.quality import frf_full, frf_reduced
 from neweul_py.elastic.reduced_body import ReducedBody
 
@@ -44,6 +54,15 @@ OUTPUTS = ["umbo_uz", "probe_pressure"]
 
 def _model(d: Path, dp: float) -> Path:
     return d / f"model_dp{int(dp):+06d}.npz"
+
+
+def static_curve(d: Path) -> tuple[np.ndarray, np.ndarray]:
+    """``(Δp, V)``: the TM's static volume displacement on the sweep's static curve
+    (``static_curve.csv`` of ``--static-curve 100``: static solves every 100 Pa)."""
+    with open(d / "static_curve.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return (np.array([float(r["dp_Pa"]) for r in rows]),
+            np.array([float(r["volume_displacement_m3"]) for r in rows]))
 
 
 def main() -> None:
@@ -58,11 +77,11 @@ def main() -> None:
     d: Path = args.dir
     samples = np.arange(-4000.0, 4001.0, 1000.0)
     mids = 0.5 * (samples[1:] + samples[:-1])
-    if not _model(d, 0).exists():
+    if not (d / "static_curve.csv").exists():
         print(f"building the FE sweep in {d}", file=sys.stderr)
         subprocess.run([sys.executable, "-m", "neweul_py.cli", "fem", "middle-ear",
-                        "--pressures", "-4000:4000:17", "--refine", "1", "-o", str(d)],
-                       check=True)
+                        "--pressures", "-4000:4000:17", "--refine", "1", "--static-curve",
+                        "100", "-o", str(d)], check=True)
     f = np.geomspace(100.0, 5000.0, args.nf)
     t0 = time.perf_counter()
     fes = [read_fe_model(_model(d, p)) for p in samples]
@@ -96,10 +115,14 @@ def main() -> None:
         refs[p] = frf_full(fe, f, INPUT, OUTPUTS)[:, :, 0]
         print(f"full FRF at {p:+g} Pa: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
         np.save(path, refs[p])
+    sig, vol = static_curve(d)
+    glob_v = glob.with_(coordinate=coordinate_table(samples, sig, vol, str(d)),
+                        coordinate_name="volume_displacement_m3")
     methods = {
         "local": lambda p: local.at(p),
         "global": lambda p: glob.at(p, "linear"),
         "global-cubic": lambda p: glob.at(p, "cubic"),
+        "global-cubic-V": lambda p: glob_v.at(p),
         "nearest-": lambda p: bodies[int(np.searchsorted(samples, p)) - 1],
         "nearest+": lambda p: bodies[int(np.searchsorted(samples, p))],
     }
