@@ -2,7 +2,8 @@
 
 Run from the repository root (README.md, "The assembled EMBS")::
 
-    python examples/middle_ear/build_embs.py [--dir DATA] [--refine 1] [--tol 3e-4] [-q]
+    python examples/middle_ear/build_embs.py [--dir DATA] [--refine 1] [--tol 3e-4]
+        [--coordinate volume|dp] [-q]
 
 One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
 
@@ -21,7 +22,9 @@ One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
    the body is on ISYS, gravity 0), with its static state (static reduced coordinates, node
    displacements and interface forces at the manubrium, static outputs; ``static/*``,
    docs/equations-middle-ear.md §5) → ``DATA/embs/tm_air.npz`` (a parametric body, cubic
-   weights in ``dp``), and ``DATA/embs/build.json`` (samples, node ids, chain factors);
+   weights in the TM's static volume displacement, docs/equations.md §4.1 — the sweep also
+   writes its static curve every 100 Pa — or with ``--coordinate dp`` in ``dp``), and
+   ``DATA/embs/build.json`` (samples, node ids, chain factors);
 5. **description**: ``middle_ear.yaml`` retargeted to this body and its manubrium nodes →
    ``DATA/embs/middle_ear.yaml``, loaded (a node that is not in the body, an input or output
    the body lacks: one error naming the key);
@@ -70,11 +73,17 @@ def model_file(fem: Path, dp: float) -> Path:
     return fem / f"model_dp{dp:+06.0f}.npz"
 
 
-def build_sweep(fem: Path, refine: int, pressures, quiet: bool) -> None:
+#: Step of the static curve of the volume coordinate [Pa] (``--coordinate volume``).
+CURVE_STEP = 100.0
+
+
+def build_sweep(fem: Path, refine: int, pressures, quiet: bool, curve: bool = False) -> None:
     """``neweul fem middle-ear`` at ``pressures`` into ``fem`` (atomically: all or nothing;
-    an unconverged static state is its one error line, and nothing is written)."""
+    an unconverged static state is its one error line, and nothing is written); ``curve``:
+    with its static curve (``--static-curve``)."""
     cmd = [sys.executable, "-m", "neweul_py.cli", "fem", "middle-ear", "--pressures",
            ",".join(f"{p:g}" for p in pressures), "--refine", str(refine), "-o", str(fem)]
+    cmd += ["--static-curve", f"{CURVE_STEP:g}"] if curve else []
     done = subprocess.run(cmd + (["-q"] if quiet else []), stderr=subprocess.PIPE, text=True)
     if done.returncode:
         lines = [x for x in done.stderr.splitlines() if x.strip()]
@@ -83,13 +92,16 @@ def build_sweep(fem: Path, refine: int, pressures, quiet: bool) -> None:
         sys.stderr.write(done.stderr)
 
 
-def ensure_sweep(fem: Path, refine: int, pressures: np.ndarray, quiet: bool) -> dict:
-    """The FE sweep in ``fem`` (built when missing, of another refinement or other points)."""
+def ensure_sweep(fem: Path, refine: int, pressures: np.ndarray, quiet: bool,
+                 curve: bool = False) -> dict:
+    """The FE sweep in ``fem`` (built when missing, of another refinement or other points,
+    or without the static curve that ``curve`` asks for)."""
     sweep = fem / "sweep.json"
     if sweep.exists() and json.loads(sweep.read_text()).get("refine") == refine and all(
-            model_file(fem, p).exists() for p in pressures):
+            model_file(fem, p).exists() for p in pressures) and (
+            not curve or (fem / "static_curve.csv").exists()):
         return json.loads(sweep.read_text())
-    build_sweep(fem, refine, pressures, quiet)
+    build_sweep(fem, refine, pressures, quiet, curve)
     return json.loads(sweep.read_text())
 
 
@@ -126,6 +138,22 @@ def interface_loads(fe, umbo: int, k_attach: float
             Cadj[i, j] += w
     Cadj[:, 2:] = F[:, 1:]
     return Kx, F, Cadj
+
+
+def volume_coordinate(where: dict[float, Path], curve: Path, points) -> np.ndarray:
+    """The (2, n) volume-coordinate table of a body of the working points ``points``
+    (docs/equations.md §4.1): the static curve ``curve`` and the exact swept volume of every
+    known working point (``static.csv`` of each directory in ``where``)."""
+    from neweul_py.elastic.interpolation import coordinate_table
+
+    table: dict[float, float] = {}
+    for path in (curve, *sorted({d / "static.csv" for d in where.values()})):
+        rows = np.genfromtxt(path, delimiter=",", names=True)
+        table |= dict(zip(np.atleast_1d(rows["dp_Pa"]).tolist(),
+                          np.atleast_1d(rows["volume_displacement_m3"]).tolist(), strict=True))
+    sig = np.array(sorted(table))
+    return coordinate_table(np.sort(np.asarray(points, dtype=float)), sig,
+                            np.array([table[v] for v in sig]), str(curve))
 
 
 def static_states(where: dict[float, Path], pressures, manubrium: list[int]) -> list[dict]:
@@ -263,6 +291,10 @@ def main() -> None:
                     help="refinement: add working points where the interpolated body differs "
                     "from the projected FE model by more than this (default 3e-4, the basis "
                     "error at the midpoints; 0: no refinement)")
+    ap.add_argument("--coordinate", choices=("dp", "volume"), default="volume",
+                    help="the variable of the body's cubic weights: the TM's static volume "
+                    "displacement (default; docs/equations.md §4.1; the sweep also solves its "
+                    f"static curve every {CURVE_STEP:g} Pa) or dp itself")
     ap.add_argument("--pressures", default="-4000:4000:9", metavar="START:STOP:N",
                     help="working points of the FE sweep [Pa] (START:STOP:N or a comma list; "
                     "default -4000:4000:9)")
@@ -299,7 +331,8 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
     fem, extra, out = args.dir / "fem", args.dir / "fem_refine", args.dir / "embs"
     pressures = parse_pressures(args.pressures)
     track.say(f"1/6 FE sweep (refine {args.refine}) in {fem}")
-    sweep = ensure_sweep(fem, args.refine, pressures, args.quiet)
+    volume = args.coordinate == "volume"
+    sweep = ensure_sweep(fem, args.refine, pressures, args.quiet, volume)
     params = MiddleEarParameters(**sweep["parameters"])
     manubrium = [int(i) for i in sweep["interface_nodes"]["manubrium"]]
     umbo = int(sweep["interface_nodes"]["umbo"])
@@ -324,9 +357,13 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
         check_same_mesh(fe_list, pts)
         if len(pts) == 1:     # one working point: its FE model projected
             return build_reduced_body(fe_list[0], V, V, "snapshot", {}, keep_nodes=manubrium)
-        return basis_parametric_body(
+        pb = basis_parametric_body(
             fe_list, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
             static=static_states(where, pts, manubrium) if static else None)
+        if not volume:
+            return pb
+        return pb.with_(coordinate=volume_coordinate(where, fem / "static_curve.csv", pts),
+                        coordinate_name="volume_displacement_m3")
 
     def more_models(points):
         new = [p for p in points if p not in where]
@@ -356,7 +393,7 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
     tangent = [float(read_static(model_file(where[p], p))["chain_tangent"][2, 2])
                for p in samples]
     info = {"refine": args.refine, "order": int(V.shape[1]), "rtol": args.rtol,
-            "tol": args.tol, "pressures_Pa": samples.tolist(),
+            "tol": args.tol, "coordinate": args.coordinate, "pressures_Pa": samples.tolist(),
             "snapshot_Hz": SNAPSHOT_HZ.tolist(), "manubrium": manubrium, "umbo": umbo,
             "static_residual": body.static.residual.tolist(),
             "chain_tangent_N_per_m": tangent,
