@@ -25,10 +25,12 @@ def build(data: Path, *args: str) -> subprocess.CompletedProcess:
 
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory) -> Path:
-    """A refine-0 FE sweep of three working points (seconds)."""
+    """A refine-0 FE sweep of three working points with the static curve the default volume
+    coordinate needs (seconds; without the curve the build would rebuild the sweep)."""
     data = tmp_path_factory.mktemp("me0")
     subprocess.run([sys.executable, "-m", "neweul_py.cli", "fem", "middle-ear", "--refine", "0",
-                    "--pressures=-1000,0,1000", "-o", str(data / "fem"), "-q"], check=True)
+                    "--pressures=-1000,0,1000", "--static-curve", "100", "-o",
+                    str(data / "fem"), "-q"], check=True)
     return data
 
 
