@@ -111,7 +111,7 @@ class ElasticBody:
     sample_values: tuple[float, ...] = ()
     interpolation: str = "linear"
     schedule: sp.Expr | None = None
-    coordinate: np.ndarray | None = field(default=None, compare=False)
+    coordinate: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         from ..ffrf.schema import INERTIA_FORMS, check_flat
