@@ -131,16 +131,26 @@ def _curve(spec: str) -> tuple[str, str, list[float], list[float]]:
     if len(parts) != 3 or not all(parts):
         raise NeweulError(f"--coordinate must be CURVE.csv:SIGMA:XI, got {spec!r}")
     path, sig_col, xi_col = parts
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(fh))
+    try:                                  # utf-8-sig: a spreadsheet's byte-order mark
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.DictReader(fh, skipinitialspace=True)
+            header = [h.strip() for h in (reader.fieldnames or [])]
+            reader.fieldnames = header
+            rows = list(reader)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise DataError(f"cannot read the curve ({exc})", path, "coordinate") from None
     if not rows:
         raise DataError("the curve has no rows", path, "coordinate")
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:
+        raise DataError(f"the header names {', '.join(twice)} more than once", path, twice[0])
     for col in (sig_col, xi_col):
-        if col not in rows[0]:
-            raise DataError(f"no column {col!r} (columns: {', '.join(rows[0])})", path, col)
+        if col not in header:
+            raise DataError(f"no column {col!r} (columns: {', '.join(header)})", path, col)
+    for line, row in enumerate(rows, start=2):
+        if None in row:
+            raise DataError(f"line {line}: more fields than the header's {len(header)}",
+                            path, "coordinate")
     values: dict[str, list[float]] = {sig_col: [], xi_col: []}
     for line, row in enumerate(rows, start=2):
         for col in values:

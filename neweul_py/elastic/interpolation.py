@@ -379,11 +379,15 @@ class ParametricBody:
 
     def _check_coordinate(self) -> None:
         set_ = object.__setattr__
-        set_(self, "coordinate_name", str(self.coordinate_name))
+        if not isinstance(self.coordinate_name, str):
+            raise DataError(f"must be a string, got {self.coordinate_name!r}", None,
+                            "coordinate_name")
         if self.coordinate is None:
             if self.coordinate_name:
                 raise DataError("a coordinate name without a coordinate table", None,
                                 "coordinate_name")
+            if self.format_version == COORDINATE_VERSION:   # version 3 means "has one"
+                set_(self, "format_version", PARAMETRIC_BODY_VERSION)
             return
         why = coordinate_problem(self.samples, self.coordinate)
         if why is not None:
@@ -395,6 +399,10 @@ class ParametricBody:
             raise DataError("an interpolation coordinate needs a name (what ξ is)", None,
                             "coordinate_name")
         set_(self, "coordinate", np.array(self.coordinate, dtype=np.float64))
+        try:
+            weight_polynomials(self.samples, "cubic", self.coordinate)
+        except ValueError as exc:
+            raise DataError(str(exc), None, "coordinate") from None
         if self.format_version < COORDINATE_VERSION:
             set_(self, "format_version", COORDINATE_VERSION)
 
@@ -1249,13 +1257,16 @@ def coordinate_table(samples: Sequence[float], sigma: Sequence[float], xi: Seque
     if np.any(np.diff(sig) == 0):
         raise DataError("the curve repeats a parameter value", source, "coordinate")
     tol = 1e-9 * max(float(s[-1] - s[0]), 1e-300)
+    keep = np.ones(sig.size, dtype=bool)
     for v in s:
-        hit = np.flatnonzero(np.abs(sig - v) <= tol)
-        if not hit.size:
+        near = np.flatnonzero(np.abs(sig - v) <= tol)
+        if not near.size:
             raise DataError(f"the sample {v:g} is not on the curve (it must hold every "
                             "sample value)", source, "coordinate")
-        sig[hit[0]] = v
-    keep = (sig >= s[0]) & (sig <= s[-1])
+        best = near[np.argmin(np.abs(sig[near] - v))]
+        sig[best] = v                      # the sample exactly; its near-duplicates go
+        keep[near[near != best]] = False
+    keep &= (sig >= s[0]) & (sig <= s[-1])
     table = np.vstack([sig[keep], val[keep]])
     why = coordinate_problem(s, table)
     if why is not None:

@@ -12,6 +12,7 @@ import scipy.sparse as sps
 from ..elastic.fe_model import FEModel
 from ..elastic.projection import Progress
 from ..errors import ModelError
+from ..ffrf.parametric import MAX_KNOTS
 from ..progress import report
 from .ear_model import MiddleEar, build_middle_ear
 from .ear_parameters import MiddleEarParameters
@@ -70,9 +71,10 @@ def curve_pressures(pressures: Sequence[float], step: float) -> list[float]:
         raise ModelError(f"the static-curve step must be a positive number of Pa, got {step!r}",
                          "static_curve")
     lo, hi = min(pressures), max(pressures)
-    if (hi - lo) / step > 10_000:
+    if (hi - lo) / step > MAX_KNOTS - 1:
         raise ModelError(f"a static curve of step {step:g} Pa over [{lo:g}, {hi:g}] would hold "
-                         "more than 10 001 points", "static_curve")
+                         f"more than {MAX_KNOTS} points (the most knots of an interpolation "
+                         "coordinate)", "static_curve")
     grid = step * np.arange(math.ceil(lo / step), math.floor(hi / step) + 1)
     return sorted({*map(float, pressures), *map(float, grid)})
 

@@ -66,13 +66,26 @@ def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
     return np.ascontiguousarray(CubicSpline(s, np.eye(k), bc_type="not-a-knot").c)
 
 
+#: Most knots of an interpolation coordinate (the cap of ``neweul fem --static-curve`` too):
+#: the generated module embeds (4, n−1, k) weight coefficients.
+MAX_KNOTS = 10_001
+#: Largest Lebesgue constant ``max_σ Σ_i |w_i(σ)|`` of coordinate weights (at the knots and
+#: 7 points inside each piece): a
+#: coordinate whose values crowd some samples together amplifies the sample data by more.
+MAX_LEBESGUE = 100.0
+
+
 def coordinate_problem(samples: np.ndarray, coordinate: np.ndarray) -> str | None:
     """What is wrong with an interpolation coordinate table (module docstring), or ``None``.
 
     ``coordinate`` (2, n): knots ``σ_j`` (row 0) and coordinate values ``ξ_j`` (row 1)."""
     c = np.asarray(coordinate)
-    if c.ndim != 2 or c.shape[0] != 2 or c.shape[1] < 2 or c.dtype.kind not in "fi":
+    if c.ndim != 2 or c.shape[0] != 2 or c.shape[1] < 2:
         return f"must be a (2, n ≥ 2) table of knots and values, got shape {c.shape}"
+    if c.dtype.kind not in "fi":
+        return f"must hold real numbers, got dtype {c.dtype}"
+    if c.shape[1] > MAX_KNOTS:
+        return f"has {c.shape[1]} knots, more than {MAX_KNOTS}"
     if not np.all(np.isfinite(c)):
         return "holds a value that is not a finite number"
     knots, xi = c.astype(np.float64)
@@ -80,8 +93,8 @@ def coordinate_problem(samples: np.ndarray, coordinate: np.ndarray) -> str | Non
     if np.any(np.diff(knots) <= 0):
         return "its knots (row 0) must be strictly increasing"
     if knots[0] != s[0] or knots[-1] != s[-1]:
-        return (f"its knots must span the samples' range [{s[0]:g}, {s[-1]:g}] exactly, "
-                f"got [{knots[0]:g}, {knots[-1]:g}]")
+        return (f"its knots must span the samples' range [{s[0]!r}, {s[-1]!r}] exactly, "
+                f"got [{knots[0]!r}, {knots[-1]!r}]")
     absent = [float(v) for v in s if v not in knots]
     if absent:
         return f"its knots must include every sample value; missing {absent}"
@@ -102,8 +115,9 @@ def weight_polynomials(samples: np.ndarray, interpolation: str,
     Raises
     ------
     ValueError
-        A coordinate with linear weights, or a coordinate table that
-        :func:`coordinate_problem` refuses.
+        A coordinate with linear weights, a coordinate table that
+        :func:`coordinate_problem` refuses, or weights whose Lebesgue constant at the knots
+        exceeds :data:`MAX_LEBESGUE` (values that crowd some samples together).
     """
     s = np.asarray(samples, dtype=np.float64)
     if coordinate is None:
@@ -120,16 +134,24 @@ def weight_polynomials(samples: np.ndarray, interpolation: str,
         xi = -xi
     slope = PchipInterpolator(knots, xi).derivative()(knots)
     xs = xi[np.searchsorted(knots, s)]       # ξ at the samples (they are knots)
-    spline = CubicSpline(xs, np.eye(s.size), bc_type="not-a-knot")
-    y = spline(xi)                           # (n, k): S_i(ξ_j); unit rows at the samples
-    y[np.searchsorted(knots, s)] = np.eye(s.size)
-    m = spline(xi, 1) * slope[:, None]       # S_i′(ξ_j) ξ′(σ_j)
-    h = np.diff(knots)[:, None]
-    dy = (y[1:] - y[:-1]) / h
-    c = np.empty((4, knots.size - 1, s.size))
-    c[0] = (m[:-1] + m[1:] - 2.0 * dy) / h**2
-    c[1] = (3.0 * dy - 2.0 * m[:-1] - m[1:]) / h
-    c[2], c[3] = m[:-1], y[:-1]
+    with np.errstate(all="ignore"):          # crowded values: refused below
+        spline = CubicSpline(xs, np.eye(s.size), bc_type="not-a-knot")
+        y = spline(xi)                           # (n, k): S_i(ξ_j); unit rows at the samples
+        y[np.searchsorted(knots, s)] = np.eye(s.size)
+        m = spline(xi, 1) * slope[:, None]       # S_i′(ξ_j) ξ′(σ_j)
+        h = np.diff(knots)[:, None]
+        dy = (y[1:] - y[:-1]) / h
+        c = np.empty((4, knots.size - 1, s.size))
+        c[0] = (m[:-1] + m[1:] - 2.0 * dy) / h**2
+        c[1] = (3.0 * dy - 2.0 * m[:-1] - m[1:]) / h
+        c[2], c[3] = m[:-1], y[:-1]
+        t = (np.arange(1, 8) / 8.0)[:, None, None] * h[None]     # 7 points inside each piece
+        inside = ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
+    lebesgue = float(np.max(np.r_[np.abs(y).sum(axis=1), np.abs(inside).sum(axis=2).ravel()]))
+    if not (lebesgue <= MAX_LEBESGUE and np.all(np.isfinite(c))):    # NaN, inf too
+        raise ValueError(f"interpolation coordinate: its values crowd the samples (the weights "
+                         f"reach a Lebesgue constant of {lebesgue:.3g} > {MAX_LEBESGUE:g}); "
+                         "use a coordinate that spaces the samples more evenly")
     return knots.copy(), np.ascontiguousarray(c)
 
 

@@ -324,7 +324,10 @@ def test_printed_trees_parse_back_to_the_same_expression(tree) -> None:
 def _assert_same_value(parsed: sp.Expr, expected: sp.Expr, text: str) -> None:
     x = complex(parsed.evalf(30, subs=POINT))
     y = complex(expected.evalf(30, subs=POINT))
-    assert abs(x - y) <= 1e-12 * (1 + abs(y)), text
+    # 1e-10: the parser folds numeric subterms in double precision, and a trigonometric
+    # function of a large folded argument amplifies its round-off (hypothesis found
+    # sin((pi**pi)**pi), argument 8e4: 2e-12); a wrong regrouping is off by O(1)
+    assert abs(x - y) <= 1e-10 * (1 + abs(y)), text
 
 
 @settings(max_examples=300, deadline=None)

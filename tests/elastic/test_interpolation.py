@@ -851,7 +851,22 @@ def test_cli_interpolate_with_a_coordinate_curve(tmp_path, capsys):
     gap.write_text("p,xi\n0,0\n0.5,1\n2,5\n")
     nan = tmp_path / "nan.csv"
     nan.write_text("p,xi\n0,0\n1,nan\n2,5\n")
+    twice = tmp_path / "twice.csv"
+    twice.write_text("p,xi,xi\n0,0,0\n1,1,1\n2,5,5\n")
+    wide = tmp_path / "wide.csv"
+    wide.write_text("p,xi\n0,0\n1,1,7\n2,5\n")
+    crowd = tmp_path / "crowd.csv"
+    crowd.write_text("p,xi\n0,0\n1,1e-300\n2,1\n")
+    bom = tmp_path / "bom.csv"                       # a spreadsheet's: BOM, spaces
+    bom.write_bytes(b"\xef\xbb\xbfp, xi\n" + "".join(
+        f"{a:.17g}, {a**3 + 2 * a:.17g}\n" for a in sig).encode())
+    assert main([*LOCAL, *paths, "--parameter", "p", "--coordinate", f"{bom}:p:xi",
+                 "-o", str(tmp_path / "bom.npz")]) == 0
+    capsys.readouterr()
     for spec, extra, text in ((f"{gap}:p:xi", [], "sample 1 is not on the curve"),
+                              (f"{twice}:p:xi", [], "names xi more than once"),
+                              (f"{wide}:p:xi", [], "line 3: more fields"),
+                              (f"{crowd}:p:xi", [], "crowd the samples"),
                               (f"{curve}:p:volume", [], "no column 'volume'"),
                               (f"{nan}:p:xi", [], "line 3: xi = 'nan' is not a finite"),
                               (f"{curve}:p", [], "must be CURVE.csv:SIGMA:XI"),
@@ -863,3 +878,24 @@ def test_cli_interpolate_with_a_coordinate_curve(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert err[-1].startswith("neweul interpolate: error:") and text in err[-1], err[-1]
         assert not bad.exists()
+
+
+def test_coordinate_table_snaps_the_nearest_knot_and_drops_near_duplicates():
+    """A curve with knots 1e-12 below and at a sample, or a sample 1e-7 off a grid point:
+    the nearest knot becomes the sample and its near-duplicates go (not a "not increasing"
+    error); a non-string coordinate name and a version-3 file without a coordinate are
+    handled (the fresh-clone audit's cases)."""
+    sig = np.array([-1.0, -1e-12, 0.0, 1.0, 2.0])
+    t = coordinate_table([0.0, 1.0, 2.0], sig, sig**3 + 3 * sig)
+    np.testing.assert_array_equal(t[0], [0.0, 1.0, 2.0])
+    grid = np.linspace(-4000.0, 4000.0, 81)
+    t = coordinate_table([-4000.0, 100.0000001, 4000.0], grid, grid)
+    assert 100.0000001 in t[0] and 100.0 not in t[0] and t.shape == (2, 81)
+
+
+def test_coordinate_name_must_be_text_and_version_3_means_a_coordinate(pbody):
+    pb = _with_coordinate(pbody)
+    with pytest.raises(DataError, match="must be a string") as exc:
+        pb.with_(coordinate_name=42)
+    assert exc.value.item == "coordinate_name"
+    assert pb.with_(coordinate=None, coordinate_name="").format_version == 2

@@ -34,7 +34,7 @@ def test_curve_pressures_hold_the_grid_and_the_working_points():
     for step in (0.0, -1.0, float("nan")):
         with pytest.raises(ModelError, match="positive number"):
             curve_pressures([0.0, 1.0], step)
-    with pytest.raises(ModelError, match="more than 10 001"):
+    with pytest.raises(ModelError, match="more than 10001 points"):
         curve_pressures([-4000.0, 4000.0], 0.5)
 
 

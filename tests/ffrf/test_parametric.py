@@ -124,3 +124,18 @@ def test_bad_coordinate_tables_are_refused(table, words) -> None:
     assert coordinate_problem(s, good) is None
     with pytest.raises(ValueError, match="cubic weights"):
         weight_polynomials(s, "linear", good)
+
+
+def test_crowded_or_oversized_coordinates_are_refused() -> None:
+    """A coordinate whose values crowd samples together (weights of 1e299, or NaN) exceeds
+    the Lebesgue bound; more knots than MAX_KNOTS, or a table of strings, is refused by
+    name (the fresh-clone audit's cases)."""
+    from neweul_py.ffrf.parametric import MAX_KNOTS, coordinate_problem, weight_polynomials
+
+    s = np.array([0.0, 1.0, 2.0])
+    for xi1 in (1e-300, 1e-6):
+        with pytest.raises(ValueError, match="crowd the samples"):
+            weight_polynomials(s, "cubic", np.array([[0.0, 1.0, 2.0], [0.0, xi1, 1.0]]))
+    big = np.vstack([np.linspace(0.0, 2.0, MAX_KNOTS + 1)] * 2)
+    assert f"more than {MAX_KNOTS}" in coordinate_problem(s, big)
+    assert "real numbers" in coordinate_problem(s, np.array([["0", "1"], ["0", "1"]]))
