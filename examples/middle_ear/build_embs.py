@@ -140,17 +140,24 @@ def interface_loads(fe, umbo: int, k_attach: float
     return Kx, F, Cadj
 
 
+def swept_volumes(paths) -> dict[float, float]:
+    """``Δp → V``: the exact swept volume of the rows of the sweeps' ``static.csv`` (or
+    ``static_curve.csv``) files ``paths``."""
+    volume: dict[float, float] = {}
+    for path in paths:
+        rows = np.genfromtxt(path, delimiter=",", names=True)
+        volume |= dict(zip(np.atleast_1d(rows["dp_Pa"]).tolist(),
+                           np.atleast_1d(rows["volume_displacement_m3"]).tolist(), strict=True))
+    return volume
+
+
 def volume_coordinate(where: dict[float, Path], curve: Path, points) -> np.ndarray:
     """The (2, n) volume-coordinate table of a body of the working points ``points``
     (docs/equations.md §4.1): the static curve ``curve`` and the exact swept volume of every
     known working point (``static.csv`` of each directory in ``where``)."""
     from neweul_py.elastic.interpolation import coordinate_table
 
-    table: dict[float, float] = {}
-    for path in (curve, *sorted({d / "static.csv" for d in where.values()})):
-        rows = np.genfromtxt(path, delimiter=",", names=True)
-        table |= dict(zip(np.atleast_1d(rows["dp_Pa"]).tolist(),
-                          np.atleast_1d(rows["volume_displacement_m3"]).tolist(), strict=True))
+    table = swept_volumes([curve, *sorted({d / "static.csv" for d in where.values()})])
     sig = np.array(sorted(table))
     return coordinate_table(np.sort(np.asarray(points, dtype=float)), sig,
                             np.array([table[v] for v in sig]), str(curve))
@@ -164,11 +171,7 @@ def static_states(where: dict[float, Path], pressures, manubrium: list[int]) -> 
     row applied to ``x_s`` is only the linearized volume). A working point without a static
     group, or whose malleus forces act on other nodes than ``manubrium``, is one
     :class:`DataError`."""
-    volume: dict[float, float] = {}
-    for d in set(where.values()):
-        rows = np.genfromtxt(d / "static.csv", delimiter=",", names=True)
-        volume |= dict(zip(np.atleast_1d(rows["dp_Pa"]).tolist(),
-                           np.atleast_1d(rows["volume_displacement_m3"]).tolist(), strict=True))
+    volume = swept_volumes(d / "static.csv" for d in set(where.values()))
     out = []
     for p in pressures:
         path = model_file(where[float(p)], p)

@@ -147,12 +147,11 @@ def _curve(spec: str) -> tuple[str, str, list[float], list[float]]:
     for col in (sig_col, xi_col):
         if col not in header:
             raise DataError(f"no column {col!r} (columns: {', '.join(header)})", path, col)
+    values: dict[str, list[float]] = {sig_col: [], xi_col: []}
     for line, row in enumerate(rows, start=2):
         if None in row:
             raise DataError(f"line {line}: more fields than the header's {len(header)}",
                             path, "coordinate")
-    values: dict[str, list[float]] = {sig_col: [], xi_col: []}
-    for line, row in enumerate(rows, start=2):
         for col in values:
             try:
                 v = float(row[col])

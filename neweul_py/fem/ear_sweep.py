@@ -157,6 +157,7 @@ def pressure_sweep(
 
         check_output_dir(out_dir)  # fail before the work, checked again when writing
     me = build_middle_ear(params, refine, verbose=verbose)
+    grid = None if static_curve is None else curve_pressures(dps, float(static_curve))
     states = solve_static(me, dps, options, progress=progress)
     table = tuple(static_summary(me, s) for s in states)
     if verbose:
@@ -167,8 +168,7 @@ def pressure_sweep(
                 )
             )
     curve: tuple[dict[str, float], ...] = ()
-    if static_curve is not None:
-        grid = curve_pressures(dps, float(static_curve))
+    if grid is not None:
         report(progress, f"static curve: {len(grid)} pressures, every {static_curve:g} Pa")
         curve = tuple(static_summary(me, s) for s in solve_static(me, grid, options))
     models, damping, groups = [], [], []
