@@ -76,7 +76,7 @@ def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
     b = splice.body
     lines = ["    {", f"        'name': {b.name!r},", f"        'first': {first},",
              f"        'kin': {offset},", f"        'inertia': {b.inertia!r},"]
-    datasets = b.samples if b.parametric else (b.data,)
+    datasets = b.datasets
     # order-1/2 parts that are zero in every sample are left out (absent means zero)
     keys = tuple(k for k in KERNEL_ARRAYS if not k.endswith((".m1", ".m2"))
                  or any(k in d and np.any(d[k]) for d in datasets))
@@ -91,9 +91,15 @@ def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
     lines += [f"        'values': {ffrf_pack(breaks)!r},",
               f"        'coeff': {ffrf_pack(coeff)!r},",
               "        'samples': ("]
-    for d in datasets:
+    for d in b.samples:
         lines += ["            {", *_arrays(d, "                ", keys), "            },"]
-    return [*lines, "        ),", "    },"]
+    lines.append("        ),")
+    if b.slopes:                        # Hermite weights: the samples' slopes (§4.2)
+        lines.append("        'slopes': (")
+        for d in b.slopes:
+            lines += ["            {", *_arrays(d, "                ", keys), "            },"]
+        lines.append("        ),")
+    return [*lines, "    },"]
 
 
 def _symmetric(splices: tuple[Any, ...]) -> bool:
@@ -142,7 +148,7 @@ def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[str]:
         lines += ["    {", f"        'name': {b.name!r},",
                   f"        'frame': {frames.index(b.frame) if b.frame in frames else -1},",
                   f"        'first': {first},", f"        'nq': {b.nq},"]
-        datasets = b.samples if b.parametric else (b.data,)
+        datasets = b.datasets             # the slopes' clouds follow the samples' (§4.2)
         clouds = [f"{{'origin': {ffrf_pack(d['nodes.origin.m0'][:, :, 0])!r}, "
                   f"'phi': {ffrf_pack(d['nodes.phi'])!r}}}" for d in datasets]
         if b.parametric:

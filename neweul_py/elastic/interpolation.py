@@ -102,7 +102,7 @@ from .fe_model import loss_reference
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
 from .reduced_body import ReducedBody, json_normal
-from .static_state import StaticDeflection, static_from_arrays
+from .static_state import STATIC_KEYS, STATIC_PREFIX, StaticDeflection, static_from_arrays
 
 __all__ = [
     "BASES",
@@ -127,11 +127,13 @@ PARAMETRIC_BODY_FORMAT = "neweul-parametric-body"
 #: version-1 files are read with ``row_scaling = "none"``. Version 3 is written only for a
 #: body with an interpolation coordinate (``coordinate``), so that older readers refuse it
 #: instead of weighting in the parameter itself.
+#: Version 4 is written only for a body with sample slopes (``slopes``, Hermite weights).
 PARAMETRIC_BODY_VERSION = 2
 COORDINATE_VERSION = 3
-_READABLE_VERSIONS = (1, 2, 3)
+SLOPES_VERSION = 4
+_READABLE_VERSIONS = (1, 2, 3, 4)
 #: Weight functions of :meth:`ParametricBody.at`.
-INTERPOLATIONS = ("linear", "cubic")
+INTERPOLATIONS = ("linear", "cubic", "hermite")
 #: Rows of the bases that determine the common subspace (module docstring).
 BASES = ("auto", "full", "kept")
 #: Row scalings of :func:`interpolate` (module docstring); ``"given"`` is stored for an array.
@@ -143,6 +145,7 @@ KIND_GROUPS = {"ux": "translation", "uy": "translation", "uz": "translation",
                "rx": "rotation", "ry": "rotation", "rz": "rotation", "p": "pressure"}
 _GROUP_ORDER = ("translation", "rotation", "pressure")
 _INV_PREFIX = "invariants/"
+_SLOPE_PREFIX = "slope/"
 _ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
            "V_kept", "W_kept", "T", "L", "R", "singular_values", "svd_weights")
 _OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G", "coordinate")
@@ -240,6 +243,14 @@ class ParametricBody:
         Optional static states of the samples
         (:class:`~neweul_py.elastic.static_state.StaticDeflection`, stacked; ``q`` in the
         common coordinates), mixed by :meth:`at` with the same weights.
+    slopes
+        Optional sample slopes ``dX/dσ`` at every sample (``docs/equations.md`` §4.2), the
+        data of ``hermite`` weights: ``key → (k, …)`` for every interpolated stack — ``M``,
+        ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept`` (and ``G``, ``V``, ``W`` when
+        stored), ``invariants/<name>`` for the floating-point invariants and
+        ``static/<key>`` for the static state (``static/residual`` zero) — each of the shape
+        of its stack (:func:`~neweul_py.elastic.global_basis.global_parametric_body` makes
+        them from FE models next to the samples).
     """
 
     parameter: str
@@ -282,6 +293,7 @@ class ParametricBody:
     loss_reference_frequency: float | None = None
     coordinate: np.ndarray | None = None
     coordinate_name: str = ""
+    slopes: Mapping[str, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -376,6 +388,62 @@ class ParametricBody:
                 raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
                                 None, "static")
             self.static.check(r, self.nodes.shape[0], len(self.output_names), k)
+        self._check_slopes()
+
+    def slope_keys(self) -> tuple[str, ...]:
+        """The keys :attr:`slopes` must hold (every interpolated stack of this body)."""
+        keys = [*_STACKED, *(key for key in ("G", "V", "W") if self[key] is not None)]
+        keys += [_INV_PREFIX + n for n, a in (self.invariants or {}).items()
+                 if a.dtype.kind == "f"]
+        if self.static is not None:
+            keys += [STATIC_PREFIX + key for key in STATIC_KEYS]
+        return tuple(keys)
+
+    def stack(self, key: str) -> np.ndarray:
+        """The sample stack (k, …) of a :meth:`slope_keys` key."""
+        if key.startswith(_INV_PREFIX):
+            return self.invariants[key[len(_INV_PREFIX):]]
+        if key.startswith(STATIC_PREFIX):
+            return self.static[key[len(STATIC_PREFIX):]]
+        return self[key]
+
+    def _check_slopes(self) -> None:
+        set_ = object.__setattr__
+        if self.slopes is None:
+            if self.interpolation == "hermite":
+                raise DataError("Hermite weights need the sample slopes", None, "slopes")
+            if self.format_version == SLOPES_VERSION:      # version 4 means "has them"
+                set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
+                     else PARAMETRIC_BODY_VERSION)
+            return
+        if not isinstance(self.slopes, Mapping):
+            raise DataError(f"must be a mapping key → (k, …) array, got "
+                            f"{type(self.slopes).__name__}", None, "slopes")
+        want = self.slope_keys()
+        extra = sorted(set(self.slopes) - set(want))
+        missing = [key for key in want if key not in self.slopes]
+        if extra or missing:
+            raise DataError(f"must hold the slope of every interpolated stack "
+                            f"({len(want)} for this body, ParametricBody.slope_keys)"
+                            + (f"; missing {missing}" if missing else "")
+                            + (f"; unknown {extra}" if extra else ""), None, "slopes")
+        out = {}
+        for key in want:
+            a = np.asarray(self.slopes[key])
+            shape = self.stack(key).shape
+            if a.dtype.kind not in "fi" or a.shape != shape:
+                raise DataError(f"must be real of shape {shape}, got {a.dtype} {a.shape}",
+                                None, f"slopes.{key}")
+            a = a.astype(np.float64)
+            if not np.all(np.isfinite(a)):
+                raise DataError("holds a value that is not a finite number", None,
+                                f"slopes.{key}")
+            out[key] = a
+        if self.static is not None and np.any(out[STATIC_PREFIX + "residual"]):
+            raise DataError("the slope of a residual is not stored (must be zero)", None,
+                            "slopes.static/residual")
+        set_(self, "slopes", out)
+        set_(self, "format_version", SLOPES_VERSION)
 
     def _check_coordinate(self) -> None:
         set_ = object.__setattr__
@@ -392,15 +460,15 @@ class ParametricBody:
         why = coordinate_problem(self.samples, self.coordinate)
         if why is not None:
             raise DataError(why, None, "coordinate")
-        if self.interpolation != "cubic":
-            raise DataError("an interpolation coordinate needs cubic weights, got "
+        if self.interpolation not in ("cubic", "hermite"):
+            raise DataError("an interpolation coordinate needs cubic or Hermite weights, got "
                             f"{self.interpolation!r}", None, "coordinate")
         if not self.coordinate_name:
             raise DataError("an interpolation coordinate needs a name (what ξ is)", None,
                             "coordinate_name")
         set_(self, "coordinate", np.array(self.coordinate, dtype=np.float64))
         try:
-            weight_polynomials(self.samples, "cubic", self.coordinate)
+            weight_polynomials(self.samples, self.interpolation, self.coordinate)
         except ValueError as exc:
             raise DataError(str(exc), None, "coordinate") from None
         if self.format_version < COORDINATE_VERSION:
@@ -531,9 +599,12 @@ class ParametricBody:
         neighbouring samples, zero elsewhere. ``"cubic"``: the cardinal functions of the
         not-a-knot cubic spline through the samples (``S_i(p_j) = δ_ij``; two samples give
         the linear weights, three a parabola), in the interpolation coordinate
-        :attr:`coordinate` when the body has one. At a sample the weight vector is exactly
-        the unit vector, so the sample's matrices are returned bit for bit. The weights are
-        those of the generated module (:mod:`neweul_py.ffrf.parametric`, one home).
+        :attr:`coordinate` when the body has one. ``"hermite"`` (a body with
+        :attr:`slopes`): ``2k`` weights, the first ``k`` of the samples and the last ``k`` of
+        their slopes — the piecewise cubic Hermite basis (equations.md §4.2). At a sample
+        the weight vector is exactly the unit vector, so the sample's matrices are returned
+        bit for bit. The weights are those of the generated module
+        (:mod:`neweul_py.ffrf.parametric`, one home).
 
         Raises
         ------
@@ -545,6 +616,9 @@ class ParametricBody:
         if kind not in INTERPOLATIONS:
             raise DataError(f"unknown interpolation {kind!r} (one of "
                             f"{', '.join(INTERPOLATIONS)})", None, "interpolation")
+        if kind == "hermite" and self.slopes is None:
+            raise DataError(f"parametric body {self.name!r} holds no sample slopes: Hermite "
+                            "weights need them", None, "interpolation")
         if kind != self.interpolation and self.coordinate is not None:
             raise DataError(f"parametric body {self.name!r} has the interpolation "
                             f"coordinate {self.coordinate_name!r}: its weights are "
@@ -559,7 +633,7 @@ class ParametricBody:
             raise DataError(f"parametric body {self.name!r}: {self.parameter} = {p:g} is "
                             f"outside the sampled range [{lo:g}, {hi:g}]; the parametric "
                             "body does not extrapolate (add a sample)", None, self.parameter)
-        w = np.zeros(s.size)
+        w = np.zeros(2 * s.size if kind == "hermite" else s.size)
         hit = np.flatnonzero(s == p)
         if hit.size:
             w[hit[0]] = 1.0
@@ -604,22 +678,28 @@ class ParametricBody:
         kind = self.interpolation if interpolation is None else interpolation
         w = self.weights(p, kind)
         idx = np.flatnonzero(w)
+        k = self.n_samples
 
-        def mix(stack: np.ndarray) -> np.ndarray:
-            if idx.size == 1:
+        def mix(key: str) -> np.ndarray:
+            stack = self.stack(key)
+            if idx.size == 1 and idx[0] < k:
                 return stack[idx[0]].copy()
-            return np.einsum("i,i...->...", w[idx], stack[idx])
+            out = np.einsum("i,i...->...", w[idx[idx < k]], stack[idx[idx < k]])
+            if w.size > k:                          # Hermite: the slopes' part
+                j = idx[idx >= k] - k
+                out += np.einsum("i,i...->...", w[j + k], self.slopes[key][j])
+            return out
 
-        arrays = {key: mix(self[key]) for key in _STACKED}
+        arrays = {key: mix(key) for key in _STACKED}
         if self.G is not None:
-            arrays.update(G=mix(self.G), loss_reference_frequency=self.loss_reference_frequency)
-        V = None if self.V is None else mix(self.V)
-        W = None if self.W is None else mix(self.W)
+            arrays.update(G=mix("G"), loss_reference_frequency=self.loss_reference_frequency)
+        V = None if self.V is None else mix("V")
+        W = None if self.W is None else mix("W")
         inv = None
         if self.invariants is not None:
             inv = {}
             for name, a in self.invariants.items():
-                inv[name] = mix(a) if a.dtype.kind == "f" else a[0].copy()
+                inv[name] = mix(_INV_PREFIX + name) if a.dtype.kind == "f" else a[0].copy()
         hit = np.flatnonzero(self.samples == float(p))
         if hit.size:
             source = dict(self.sample_sources[hit[0]])
@@ -645,7 +725,8 @@ class ParametricBody:
             full_dof_kind=None if V is None else self.full_dof_kind,
             method="interpolated", settings=settings, source=source, invariants=inv,
             parameters={self.parameter: float(p)},
-            static=None if self.static is None else self.static.mixed(w),
+            static=None if self.static is None else StaticDeflection(
+                *(mix(STATIC_PREFIX + key) for key in STATIC_KEYS)),
         )
 
     # ------------------------------------------------------------------ file I/O
@@ -1286,6 +1367,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
         arrays[_INV_PREFIX + name] = body.invariants[name]
     if body.static is not None:
         arrays.update(body.static.to_arrays())
+    for key, a in (body.slopes or {}).items():
+        arrays[_SLOPE_PREFIX + key] = a
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": body.format_version,
@@ -1343,6 +1426,11 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     if version < COORDINATE_VERSION and "coordinate" in data:
         raise DataError(f"a version-{version} file holds no interpolation coordinate", file,
                         "coordinate")
+    slopes = {key[len(_SLOPE_PREFIX):]: a for key, a in data.items()
+              if key.startswith(_SLOPE_PREFIX)}
+    if version < SLOPES_VERSION and slopes:
+        raise DataError(f"a version-{version} file holds no sample slopes", file,
+                        _SLOPE_PREFIX + next(iter(slopes)))
     missing = [key for key in _ARRAYS if key not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
@@ -1373,6 +1461,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             format_version=int(meta["version"]),
             loss_reference_frequency=meta.get("loss_reference_frequency"),
             coordinate_name=meta.get("coordinate_name", "") if version >= 3 else "",
+            slopes=slopes or None,
         )
     except DataError as exc:
         raise DataError(exc.message, file, exc.item) from None

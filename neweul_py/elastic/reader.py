@@ -34,7 +34,9 @@ IO_KEYS = ("io.B", "io.C", "io.inputs", "io.outputs")
 #: Keys of the result for a parametric body: ``parametric.values`` (k,) sample values,
 #: ``parametric.interpolation``, ``parametric.parameter``, and per sample ``i`` its flat
 #: invariants under ``sample{i}/<key>``; with an interpolation coordinate also
-#: ``parametric.coordinate`` (2, n) and ``parametric.coordinate_name``.
+#: ``parametric.coordinate`` (2, n) and ``parametric.coordinate_name``; with sample slopes
+#: (Hermite weights, equations.md §4.2) the slope of every float array of sample ``i``
+#: under ``slope{i}/<key>`` (its other entries those of the sample).
 PARAMETRIC_KEYS = ("parametric.values", "parametric.interpolation", "parametric.parameter")
 
 
@@ -132,14 +134,19 @@ def _parametric(p: Path, modes: int | Sequence[int] | None, file: str) -> dict[s
     if body.coordinate is not None:
         out["parametric.coordinate"] = np.array(body.coordinate, dtype=np.float64)
         out["parametric.coordinate_name"] = np.array(body.coordinate_name)
-    for i in range(body.n_samples):
-        flat = {k: (a[i] if a.dtype.kind == "f" else a[0]) for k, a in body.invariants.items()}
-        inv = Invariants.from_flat(flat)
-        io = _io(body.B[i], body.C[i], body.input_names, body.output_names, inv.nq, modes,
-                 file)
-        if modes is not None:
-            inv = _select(inv, modes, file)
-        out.update({f"sample{i}/{k}": v for k, v in {**inv.to_flat(), **io}.items()})
+    sets = [("sample", lambda k, a, i: a[i], body.B, body.C)]
+    if body.slopes is not None:
+        sets.append(("slope", lambda k, a, i: body.slopes["invariants/" + k][i],
+                     body.slopes["B"], body.slopes["C"]))
+    for prefix, value, B, C in sets:
+        for i in range(body.n_samples):
+            flat = {k: (value(k, a, i) if a.dtype.kind == "f" else a[0])
+                    for k, a in body.invariants.items()}
+            inv = Invariants.from_flat(flat)
+            io = _io(B[i], C[i], body.input_names, body.output_names, inv.nq, modes, file)
+            if modes is not None:
+                inv = _select(inv, modes, file)
+            out.update({f"{prefix}{i}/{k}": v for k, v in {**inv.to_flat(), **io}.items()})
     return out
 
 

@@ -221,7 +221,7 @@ def node_coordinate_parts(system: System) -> tuple[tuple[int, ...], np.ndarray, 
     parts = []
     for b in system.elastic_bodies:
         cols = [col[index[n]] for n in b.coordinate_names]
-        samples = range(len(b.samples)) if b.parametric else (None,)
+        samples = range(len(b.datasets)) if b.parametric else (None,)
         SVs = np.zeros((len(samples), ns, len(keep)))
         SWs = np.zeros_like(SVs)
         for i, sample in enumerate(samples):

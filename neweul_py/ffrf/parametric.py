@@ -28,6 +28,15 @@ composition for knot spacing ``h``): still cubic, so the generated module evalua
 before; they sum to one (``Σ S_i ≡ 1``, ``Σ S_i′ ≡ 0``) and are the unit vectors at the
 samples.
 
+**Sample slopes** (equations.md §4.2). With ``hermite`` weights every sample also carries
+its slope ``X_i′ = dX/dσ(s_i)`` and the body is ``X(σ) = Σ_i w_i(σ) X_i + Σ_i v_i(σ) X_i′``:
+the piecewise cubic Hermite interpolant in ``ξ`` (``ξ = σ`` without a coordinate) through the
+values and the slopes ``dX/dξ = X_i′/ξ′(s_i)`` at the samples. The ``2k`` weights
+``[w; v]`` are the columns of one coefficient array, so the module mixes ``[X_i; X_i′]``
+with the same one product; ``w_i``, ``v_i`` vanish outside the two intervals next to
+``s_i`` (no global coupling), ``Σ w_i ≡ 1``, and the slopes enter through the *linear* part
+of the kernel's working form only (:func:`ffrf_slope_form`).
+
 Frozen-parameter assumption: the equations use ``X(σ(t))`` without the time derivatives of the
 weights (the usual linear-parameter-varying reading of parametric reduced models), exact for
 a constant ``σ`` and a good approximation while ``σ`` changes slowly against the body's
@@ -38,8 +47,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix", "ffrf_stack",
-           "ffrf_weights", "weight_coefficients", "weight_polynomials"]
+__all__ = ["PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix", "ffrf_slope_form",
+           "ffrf_slope_prepared", "ffrf_stack", "ffrf_weights", "hermite_coefficients",
+           "slope_step", "weight_coefficients", "weight_polynomials"]
 
 
 def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
@@ -50,10 +60,13 @@ def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
     samples
         Strictly increasing sample values (k ≥ 2).
     interpolation
-        ``"linear"`` or ``"cubic"`` (not-a-knot; two samples give the linear weights).
+        ``"linear"``, ``"cubic"`` (not-a-knot; two samples give the linear weights) or
+        ``"hermite"`` (:func:`hermite_coefficients`: (4, k−1, 2k)).
     """
     s = np.asarray(samples, dtype=np.float64)
     k = s.size
+    if interpolation == "hermite":
+        return hermite_coefficients(s)
     if interpolation == "linear" or k == 2:
         c = np.zeros((4, k - 1, k))
         h = np.diff(s)
@@ -64,6 +77,29 @@ def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
     from scipy.interpolate import CubicSpline
 
     return np.ascontiguousarray(CubicSpline(s, np.eye(k), bc_type="not-a-knot").c)
+
+
+def hermite_coefficients(samples: np.ndarray) -> np.ndarray:
+    """``c`` (4, k−1, 2k): the cubic Hermite basis on the samples (module docstring) —
+    columns ``0…k−1`` the value weights ``w_i`` (``w_i(s_j) = δ_ij``, ``w_i′(s_j) = 0``),
+    columns ``k…2k−1`` the slope weights ``v_i`` (``v_i(s_j) = 0``, ``v_i′(s_j) = δ_ij``)."""
+    s = np.asarray(samples, dtype=np.float64)
+    k = s.size
+    h = np.diff(s)[:, None]
+    y = np.hstack((np.eye(k), np.zeros((k, k))))        # values at the samples
+    m = np.hstack((np.zeros((k, k)), np.eye(k)))        # slopes at the samples
+    return _hermite_pieces(y, m, h)
+
+
+def _hermite_pieces(y: np.ndarray, m: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """The cubic pieces (4, n−1, ·) with values ``y`` and slopes ``m`` (n, ·) at breakpoints
+    ``h = diff(b)[:, None]`` apart."""
+    dy = (y[1:] - y[:-1]) / h
+    c = np.empty((4, h.shape[0], y.shape[1]))
+    c[0] = (m[:-1] + m[1:] - 2.0 * dy) / h**2
+    c[1] = (3.0 * dy - 2.0 * m[:-1] - m[1:]) / h
+    c[2], c[3] = m[:-1], y[:-1]
+    return np.ascontiguousarray(c)
 
 
 #: Most knots of an interpolation coordinate (the cap of ``neweul fem --static-curve`` too):
@@ -106,11 +142,12 @@ def coordinate_problem(samples: np.ndarray, coordinate: np.ndarray) -> str | Non
 
 def weight_polynomials(samples: np.ndarray, interpolation: str,
                        coordinate: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``(b, c)``: the breakpoints (n,) and the coefficients (4, n−1, k) of the weights.
+    """``(b, c)``: the breakpoints (n,) and the coefficients (4, n−1, k or 2k) of the weights.
 
     Without ``coordinate``: ``b`` = the samples, ``c`` = :func:`weight_coefficients`. With a
-    coordinate table (2, n) (cubic weights only; module docstring): ``b`` = its knots and
-    ``c`` the cubic Hermite pieces of ``S_i(ξ(σ))``.
+    coordinate table (2, n) (cubic or Hermite weights; module docstring): ``b`` = its knots
+    and ``c`` the cubic Hermite pieces of ``S_i(ξ(σ))`` — for ``hermite`` of the value
+    weights ``H_i(ξ(σ))`` and the slope weights ``H̄_i(ξ(σ))/ξ′(s_i)`` (slopes in ``σ``).
 
     Raises
     ------
@@ -122,37 +159,44 @@ def weight_polynomials(samples: np.ndarray, interpolation: str,
     s = np.asarray(samples, dtype=np.float64)
     if coordinate is None:
         return s.copy(), weight_coefficients(s, interpolation)
-    if interpolation != "cubic":
-        raise ValueError("an interpolation coordinate needs cubic weights")
+    if interpolation not in ("cubic", "hermite"):
+        raise ValueError("an interpolation coordinate needs cubic or Hermite weights")
     why = coordinate_problem(s, coordinate)
     if why is not None:
         raise ValueError(f"interpolation coordinate: {why}")
-    from scipy.interpolate import CubicSpline, PchipInterpolator
+    from scipy.interpolate import CubicSpline, PchipInterpolator, PPoly
 
     knots, xi = np.asarray(coordinate, dtype=np.float64)
     if xi[-1] < xi[0]:                       # a decreasing coordinate: the same weights
         xi = -xi
     slope = PchipInterpolator(knots, xi).derivative()(knots)
-    xs = xi[np.searchsorted(knots, s)]       # ξ at the samples (they are knots)
+    at = np.searchsorted(knots, s)           # the samples' knots
+    xs = xi[at]                              # ξ at the samples
+    k = s.size
     with np.errstate(all="ignore"):          # crowded values: refused below
-        spline = CubicSpline(xs, np.eye(s.size), bc_type="not-a-knot")
-        y = spline(xi)                           # (n, k): S_i(ξ_j); unit rows at the samples
-        y[np.searchsorted(knots, s)] = np.eye(s.size)
+        if interpolation == "cubic":
+            spline = CubicSpline(xs, np.eye(k), bc_type="not-a-knot")
+            unit = np.eye(k)
+        else:
+            spline = PPoly(hermite_coefficients(xs), xs)
+            spline.c[:, :, k:] /= slope[at]          # slopes given in σ: dX/dξ = X′/ξ′(s_i)
+            unit = np.hstack((np.eye(k), np.zeros((k, k))))
+        y = spline(xi)                           # (n, ·): S_i(ξ_j); unit rows at the samples
+        y[at] = unit
         m = spline(xi, 1) * slope[:, None]       # S_i′(ξ_j) ξ′(σ_j)
+        if interpolation == "hermite":
+            m[at] = np.hstack((np.zeros((k, k)), np.eye(k)))
         h = np.diff(knots)[:, None]
-        dy = (y[1:] - y[:-1]) / h
-        c = np.empty((4, knots.size - 1, s.size))
-        c[0] = (m[:-1] + m[1:] - 2.0 * dy) / h**2
-        c[1] = (3.0 * dy - 2.0 * m[:-1] - m[1:]) / h
-        c[2], c[3] = m[:-1], y[:-1]
+        c = _hermite_pieces(y, m, h)
         t = (np.arange(1, 8) / 8.0)[:, None, None] * h[None]     # 7 points inside each piece
         inside = ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
-    lebesgue = float(np.max(np.r_[np.abs(y).sum(axis=1), np.abs(inside).sum(axis=2).ravel()]))
+    lebesgue = float(np.max(np.r_[np.abs(y[:, :k]).sum(axis=1),
+                                  np.abs(inside[:, :, :k]).sum(axis=2).ravel()]))
     if not (lebesgue <= MAX_LEBESGUE and np.all(np.isfinite(c))):    # NaN, inf too
         raise ValueError(f"interpolation coordinate: its values crowd the samples (the weights "
                          f"reach a Lebesgue constant of {lebesgue:.3g} > {MAX_LEBESGUE:g}); "
                          "use a coordinate that spaces the samples more evenly")
-    return knots.copy(), np.ascontiguousarray(c)
+    return knots.copy(), c
 
 
 def ffrf_weights(samples, coefficients, value, name):
@@ -225,5 +269,46 @@ def ffrf_mix(mixing, w):
     return out
 
 
+def slope_step(sample, slope):
+    """``τ`` for :func:`ffrf_slope_form`: the power of two nearest to
+    ``max|X_i| / max|X_i′|`` over the float arrays of a sample and its slope (so that
+    ``X_i + τ X_i′`` changes every array at the scale of its values; 1 for a zero slope)."""
+    def peak(flat):
+        return max((float(np.max(np.abs(v), initial=0.0)) for v in flat.values()
+                    if isinstance(v, np.ndarray) and v.dtype.kind == "f"), default=0.0)
+    a, b = peak(sample), peak(slope)
+    return 1.0 if a == 0.0 or b == 0.0 else float(2.0 ** np.round(np.log2(a / b)))
+
+
+def ffrf_slope_form(prepared, shifted, tau):
+    """The working form of a sample slope ``X_i′``: ``(F(X_i + τ X_i′) − F(X_i)) / τ`` entry
+    by entry, ``F`` the kernel's working form (``prepared`` = ``F(X_i)``, ``shifted`` =
+    ``F(X_i + τ X_i′)``, :func:`slope_step`). ``F`` is affine in the arrays (constant maps such
+    as ``P``, the mass column of ``P0``), so this is exactly its linear part, which is what
+    multiplies a slope weight (module docstring), with the flags and layout of the sample;
+    entries that are not numeric are those of ``prepared``."""
+    out = dict(prepared)
+    for key, value in prepared.items():
+        if isinstance(value, dict) and key != "where":
+            out[key] = ffrf_slope_form(value, shifted[key], tau)
+        elif isinstance(value, np.ndarray) and value.dtype.kind == "f":
+            out[key] = (shifted[key] - value) / tau
+        elif key == "mass":
+            out[key] = (float(shifted[key]) - float(value)) / tau
+    return out
+
+
+def ffrf_slope_prepared(prepare, sample, slope, *args):
+    """The working form of the slope ``slope`` of ``sample`` (both flat arrays):
+    :func:`ffrf_slope_form` of ``prepare(sample, *args)`` and of the sample shifted by
+    ``τ`` times its slope (:func:`slope_step`)."""
+    tau = slope_step(sample, slope)
+    shifted = {k: (v + tau * np.asarray(slope[k], dtype=np.float64)
+                   if isinstance(v, np.ndarray) and v.dtype.kind == "f" else v)
+               for k, v in sample.items()}
+    return ffrf_slope_form(prepare(sample, *args), prepare(shifted, *args), tau)
+
+
 #: The functions a generated module embeds for parametric bodies.
-PARAMETRIC_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix)
+PARAMETRIC_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, slope_step, ffrf_slope_form,
+                        ffrf_slope_prepared)

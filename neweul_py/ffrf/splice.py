@@ -41,7 +41,14 @@ from .body import (
     ffrf_prepare,
     ffrf_strain_energy,
 )
-from .parametric import ffrf_mix, ffrf_stack, ffrf_weights
+from .parametric import (
+    ffrf_mix,
+    ffrf_slope_form,
+    ffrf_slope_prepared,
+    ffrf_stack,
+    ffrf_weights,
+    slope_step,
+)
 
 __all__ = ["KIN_TAIL", "MAX_BLOCK_CONDITION", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force",
            "ffrf_add_mass", "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
@@ -100,7 +107,8 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     default_inputs
         ``default_inputs(t, p)`` of the module.
     parts
-        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n): its node rows per sample
+        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n; 2k with slopes, the
+        samples' then their slopes'): its node rows per sample
         (stacked with the body's arrays, :func:`~neweul_py.ffrf.parametric.ffrf_stack`).
     schedule, schedule_jacobians
         ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
@@ -113,9 +121,15 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     bodies, parts = [], list(parts)
     for entry in data:
         if "samples" in entry:
-            prepared = [ffrf_prepare({k: ffrf_unpack(v) for k, v in sample.items()},
-                                     entry["inertia"], entry.get("fixed", False))
-                        for sample in entry["samples"]]
+            how = (entry["inertia"], entry.get("fixed", False))
+            flats = [{k: ffrf_unpack(v) for k, v in sample.items()}
+                     for sample in entry["samples"]]
+            prepared = [ffrf_prepare(flat, *how) for flat in flats]
+            # Hermite weights: the slopes' working forms follow the samples' (§4.2)
+            prepared += [ffrf_slope_prepared(ffrf_prepare, flat,
+                                             {k: ffrf_unpack(v) for k, v in slope.items()}, *how)
+                         for flat, slope in zip(flats, entry["slopes"], strict=True)
+                         ] if "slopes" in entry else []
             sv_i, sw_i = (ffrf_unpack(a) for a in parts.pop(0))
             # its node rows per sample (the rows not zero in every sample) join the stack
             rows = np.flatnonzero(np.any(sv_i, axis=(0, 2)) | np.any(sw_i, axis=(0, 2)))
@@ -768,7 +782,8 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unpack, ffrf_system,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, slope_step, ffrf_slope_form,
+                    ffrf_slope_prepared, ffrf_unpack, ffrf_system,
                     ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,

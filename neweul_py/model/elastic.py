@@ -86,13 +86,17 @@ class ElasticBody:
     sample_values
         The sample values ``s_1 < … < s_k``.
     interpolation
-        ``"linear"`` or ``"cubic"`` weights between the samples.
+        ``"linear"``, ``"cubic"`` or ``"hermite"`` weights between the samples.
     coordinate
-        Optional (2, n) interpolation coordinate table ``(σ_j, ξ_j)``: the cubic weights are
-        taken in ``ξ(σ)`` (equations.md §4.1, :func:`neweul_py.ffrf.parametric.weight_polynomials`).
+        Optional (2, n) interpolation coordinate table ``(σ_j, ξ_j)``: the cubic or Hermite
+        weights are taken in ``ξ(σ)`` (equations.md §4.1,
+        :func:`neweul_py.ffrf.parametric.weight_polynomials`).
     schedule
         The scheduling variable ``σ`` (an expression of parameters, inputs, time and the
         coordinates of the rigid part).
+    slopes
+        With ``hermite`` weights (equations.md §4.2): per sample the slopes ``dX/dσ`` of its
+        flat invariants (the float arrays; the other entries those of the sample).
 
     Raises
     ------
@@ -112,6 +116,7 @@ class ElasticBody:
     interpolation: str = "linear"
     schedule: sp.Expr | None = None
     coordinate: np.ndarray | None = None
+    slopes: tuple[Mapping[str, np.ndarray], ...] = ()
 
     def __post_init__(self) -> None:
         from ..ffrf.schema import INERTIA_FORMS, check_flat
@@ -162,14 +167,17 @@ class ElasticBody:
                 np.isfinite(values)) or np.any(np.diff(values) <= 0):
             raise ModelError("the sample values must be at least two increasing numbers, one "
                              "per sample", f"{path}.data")
-        if self.interpolation not in ("linear", "cubic"):
+        if self.interpolation not in ("linear", "cubic", "hermite"):
             raise ModelError(f"unknown interpolation {self.interpolation!r}", f"{path}.data")
+        if (self.interpolation == "hermite") != bool(self.slopes):
+            raise ModelError("Hermite weights and sample slopes come together (the slopes "
+                             "are their data)", f"{path}.data")
         if self.coordinate is not None:
             from ..ffrf.parametric import coordinate_problem
 
             why = coordinate_problem(np.asarray(values), self.coordinate)
-            if why is None and self.interpolation != "cubic":
-                why = "an interpolation coordinate needs cubic weights"
+            if why is None and self.interpolation not in ("cubic", "hermite"):
+                why = "an interpolation coordinate needs cubic or Hermite weights"
             if why is not None:
                 raise ModelError(f"interpolation coordinate: {why}", f"{path}.data")
             object.__setattr__(self, "coordinate", _frozen(
@@ -188,6 +196,36 @@ class ElasticBody:
             samples.append(flat)
         object.__setattr__(self, "samples", tuple(samples))
         object.__setattr__(self, "sample_values", values)
+        if self.slopes:
+            object.__setattr__(self, "slopes", self._checked_slopes(path, samples))
+
+    def _checked_slopes(self, path: str, samples: list[dict]) -> tuple[dict, ...]:
+        """One slope per sample, of its sample's arrays and shapes, finite."""
+        import numpy as np
+
+        if len(self.slopes) != len(samples):
+            raise ModelError(f"{len(self.slopes)} sample slopes for {len(samples)} samples",
+                             f"{path}.data")
+        out = []
+        for i, (slope, sample) in enumerate(zip(self.slopes, samples, strict=True)):
+            flat = {k: _frozen(v) for k, v in dict(slope).items()}
+            flat.setdefault("format", sample["format"])
+            bad = next((k for k in sample if k not in flat or flat[k].shape != sample[k].shape),
+                       None) or next((k for k in flat if k not in sample), None)
+            if bad is None:
+                bad = next((k for k, v in flat.items() if v.dtype.kind == "f"
+                            and not np.all(np.isfinite(v))), None)
+            if bad is not None:
+                raise ModelError(f"slope of sample {i + 1}: array {bad!r} missing, of another "
+                                 "shape than the sample's, or not finite", f"{path}.data")
+            out.append(flat)
+        return tuple(out)
+
+    @property
+    def datasets(self) -> tuple[Mapping[str, np.ndarray], ...]:
+        """What the interpolation weights mix, in the order of their columns: the samples,
+        then their slopes (``hermite``); ``(data,)`` for a body without a schedule."""
+        return (*self.samples, *self.slopes) if self.parametric else (self.data,)
 
     @property
     def parametric(self) -> bool:
@@ -224,7 +262,7 @@ class ElasticBody:
         import numpy as np
 
         h = hashlib.sha256()
-        for data in (self.data, *self.samples):
+        for data in (self.data, *self.samples, *self.slopes):
             for key in sorted(data):
                 arr = np.ascontiguousarray(data[key])
                 h.update(f"{key}|{arr.dtype.str}|{arr.shape}|".encode())
@@ -261,11 +299,11 @@ class ElasticBody:
 
     def node_maps(self, label: str, sample: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(T_V, T_W)``: the node coordinates are ``T_V q`` (rows of ``[Φ; Ψ]``), their
-        generalized forces act on the elastic rows through ``T_Wᵀ`` (left basis); of sample
-        ``sample`` for parametric bodies (default: the first)."""
+        generalized forces act on the elastic rows through ``T_Wᵀ`` (left basis); of the data
+        set ``sample`` of :attr:`datasets` for parametric bodies (default: the first sample)."""
         import numpy as np
 
-        d = self.data if sample is None else self.samples[sample]
+        d = self.data if sample is None else self.datasets[sample]
         i = self.node_index(dict(self.nodes)[label])
         comps = list(self.node_components(label))
         tv = np.vstack((d["nodes.phi"][i], d["nodes.psi"][i]))[comps]

@@ -807,7 +807,7 @@ def test_bad_interpolation_coordinates_are_refused(pbody):
     knots, xi = pb.coordinate
     cases = [
         (dict(interpolation="linear", coordinate=pb.coordinate, coordinate_name="xi"),
-         "cubic weights", "coordinate"),
+         "cubic or Hermite weights", "coordinate"),
         (dict(interpolation="cubic", coordinate=pb.coordinate, coordinate_name=""),
          "needs a name", "coordinate_name"),
         (dict(interpolation="cubic", coordinate=None, coordinate_name="xi"),
@@ -899,3 +899,62 @@ def test_coordinate_name_must_be_text_and_version_3_means_a_coordinate(pbody):
         pb.with_(coordinate_name=42)
     assert exc.value.item == "coordinate_name"
     assert pb.with_(coordinate=None, coordinate_name="").format_version == 2
+
+
+def _fd_slopes(pb: ParametricBody) -> dict:
+    """Sample slopes of every stack (``numpy.gradient``; residual slopes zero)."""
+    return {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
+            * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
+
+
+def test_sample_slopes_weights_and_file(pbody, tmp_path):
+    """A body with sample slopes (Hermite weights, equations.md §4.2): ``2k`` weights that
+    reproduce a cubic in the parameter from its values and slopes exactly (reference: the
+    cubic itself), the sample bit for bit at a sample, ``at`` equal to ``Σ w_i X_i +
+    Σ v_i X_i′`` computed here, and the file (version 4, which an older reader refuses)
+    bit for bit."""
+    hb = pbody.with_(interpolation="hermite", slopes=_fd_slopes(pbody))
+    assert hb.format_version == 4
+    s = hb.samples
+    f, df = (lambda x: 2 * x**3 - x + 0.5), (lambda x: 6 * x**2 - 1)
+    for p in (0.13, 0.77, 1.6 * s[-1] / 2):
+        w = hb.weights(p)
+        assert w.size == 2 * s.size and abs(w[:s.size].sum() - 1) < 1e-14
+        assert abs(w @ np.r_[f(s), df(s)] - f(p)) < 1e-12
+        k = s.size
+        ref = np.einsum("i,i...->...", w[:k], hb.K) + np.einsum("i,i...->...", w[k:],
+                                                                 hb.slopes["K"])
+        np.testing.assert_allclose(hb.at(p).K, ref, rtol=1e-13, atol=0)
+    assert np.array_equal(hb.at(s[1]).K, pbody.K[1])
+    assert np.array_equal(hb.at(s[1], "cubic").K, pbody.K[1])
+    hb.save(tmp_path / "h.npz")
+    back = load_parametric_body(tmp_path / "h.npz")
+    assert back.interpolation == "hermite" and sorted(back.slopes) == sorted(hb.slopes)
+    assert np.array_equal(back.at(0.77).K, hb.at(0.77).K)
+    assert np.array_equal(back.at(0.77).invariants["Me.m0"], hb.at(0.77).invariants["Me.m0"])
+    with np.load(tmp_path / "h.npz", allow_pickle=False) as z:
+        data = dict(z)
+    meta = json.loads(data["meta"].tobytes().decode())
+    assert meta["version"] == 4
+    np.savez(tmp_path / "old.npz", **{**data, "meta": json_to_uint8({**meta, "version": 3})})
+    with pytest.raises(DataError, match="version-3 file holds no sample slopes"):
+        load_parametric_body(tmp_path / "old.npz")
+
+
+def test_bad_sample_slopes_are_refused(pbody):
+    """Hermite weights without slopes, slopes lacking a stack or with an unknown one, of the
+    wrong shape, with NaN, or a residual slope: one DataError each, naming the field."""
+    good = _fd_slopes(pbody)
+    nan = dict(good, K=np.full_like(good["K"], np.nan))
+    cases = [(dict(interpolation="hermite"), "need the sample slopes", "slopes"),
+             (dict(slopes={k: v for k, v in good.items() if k != "K"}), r"missing \['K'\]",
+              "slopes"),
+             (dict(slopes={**good, "X": good["K"]}), r"unknown \['X'\]", "slopes"),
+             (dict(slopes=dict(good, K=good["K"][:2])), "must be real of shape", "slopes.K"),
+             (dict(slopes=nan), "not a finite number", "slopes.K")]
+    for kw, words, item in cases:
+        with pytest.raises(DataError, match=words) as exc:
+            pbody.with_(**{"interpolation": "hermite", **kw})
+        assert exc.value.item == item
+    with pytest.raises(DataError, match="no sample slopes: Hermite weights need them"):
+        pbody.weights(0.5, "hermite")

@@ -125,21 +125,66 @@ def _fd(f, x, h):
     return np.array(cols).T
 
 
+def _fd_slopes(pb):
+    """Sample slopes of ``pb``: first-order one-sided differences of its stacks at the ends,
+    second-order central ones inside (``numpy.gradient``; any consistent slope data serve the
+    check, and these are not those of the not-a-knot spline, a parabola for 3 samples)."""
+    return {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
+            * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
+
+
+@pytest.fixture(scope="module")
+def hermite(parametric) -> tuple[Path, object]:
+    """The duct body with sample slopes and Hermite weights (equations.md §4.2)."""
+    tmp, pb = parametric
+    hb = pb.with_(interpolation="hermite", slopes=_fd_slopes(pb))
+    save_parametric_body(hb, tmp / "duct_h.npz")
+    return tmp, hb
+
+
+@pytest.mark.parametrize("c", [321.5, 370.0])
+@pytest.mark.parametrize("coordinate", [False, True])
+def test_body_with_sample_slopes_equals_the_interpolated_body(hermite, c: float,
+                                                              coordinate: bool) -> None:
+    """A body with sample slopes and Hermite weights (in ``c``, or in ``ξ = c²``) gives,
+    scheduled in the generated module, the FRF of ``ParametricBody.at(c)`` of that body; its
+    weights are not the cubic ones (reference: ``ParametricBody.at``, the elastic layer's
+    own interpolation, entered as a fixed body)."""
+    tmp, hb = hermite
+    name, other = "duct_h", hb.at(c, "cubic")
+    if coordinate:
+        other = hb.at(c)                            # Hermite weights in c itself
+        knots = np.unique(np.concatenate([np.linspace(SPEEDS[0], SPEEDS[-1], 31), SPEEDS]))
+        hb = hb.with_(coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
+        name = "duct_hx"
+        save_parametric_body(hb, tmp / f"{name}.npz")
+    assert hb.weights(c).size == 2 * hb.n_samples
+    assert np.abs(hb.at(c).K - other.K).max() > 1e-6 * np.abs(other.K).max()
+    save_reduced_body(hb.at(c), tmp / f"{name}_at{c}.npz")
+    ref = _frf(tmp, _description(f"{name}_at{c}.npz", None, c), f"{name}_fixed{c}.yaml")
+    got = _frf(tmp, _description(f"{name}.npz", "cs", c), f"{name}_sched{c}.yaml")
+    assert np.allclose(got, ref, rtol=1e-9, atol=0)
+
+
 @pytest.mark.parametrize("frame", ["ISYS", "carrier"])
-def test_schedule_of_a_coordinate_and_an_input_enters_the_jacobians(parametric,
-                                                                    frame: str) -> None:
+@pytest.mark.parametrize("data", ["duct.npz", "duct_h.npz"])
+def test_schedule_of_a_coordinate_and_an_input_enters_the_jacobians(parametric, hermite,
+                                                                    frame: str,
+                                                                    data: str) -> None:
     """``schedule: cs + 2000 z + 5 F`` (a coordinate of the symbolic part and an input), the
-    body on a fixed and on a moving frame: the analytic ``rhs_jacobian``, ``force_jacobians``
+    body on a fixed and on a moving frame, with cubic or Hermite weights (sample slopes):
+    the analytic ``rhs_jacobian``, ``force_jacobians``
     (``∂/∂u`` included) and ``output_jacobians`` of the generated module — chain rule through
     the interpolation weights — equal central finite differences of its own ``rhs``,
     ``force_vector`` and ``outputs`` (reference: the difference quotients, error O(h²))."""
     tmp, _pb = parametric
-    text = _description("duct.npz", "cs + 2000*z + 5*F", 343.0).replace(
+    text = _description(data, "cs + 2000*z + 5*F", 343.0).replace(
         "duct: {frame: ISYS", f"duct: {{frame: {frame}") + """outputs:
   piston: {position: duct.piston, in: ISYS, component: x}
 """
-    (tmp / f"yu{frame}.yaml").write_text(text)
-    mod = load_generated(generate(tmp / f"yu{frame}.yaml", tmp / f"gen_yu{frame}"))
+    tag = f"{frame}{data[:-4]}"
+    (tmp / f"yu{tag}.yaml").write_text(text)
+    mod = load_generated(generate(tmp / f"yu{tag}.yaml", tmp / f"gen_yu{tag}"))
     p = mod.default_parameters()
     n = len(mod.COORDINATES)
     rng = np.random.default_rng(1)

@@ -122,7 +122,7 @@ def test_bad_coordinate_tables_are_refused(table, words) -> None:
         weight_polynomials(s, "cubic", table)
     good = np.array([[0.0, 1.0, 2.0], [0.0, 1.0, 3.0]])
     assert coordinate_problem(s, good) is None
-    with pytest.raises(ValueError, match="cubic weights"):
+    with pytest.raises(ValueError, match="cubic or Hermite weights"):
         weight_polynomials(s, "linear", good)
 
 
@@ -139,3 +139,67 @@ def test_crowded_or_oversized_coordinates_are_refused() -> None:
     big = np.vstack([np.linspace(0.0, 2.0, MAX_KNOTS + 1)] * 2)
     assert f"more than {MAX_KNOTS}" in coordinate_problem(s, big)
     assert "real numbers" in coordinate_problem(s, np.array([["0", "1"], ["0", "1"]]))
+
+
+def test_hermite_weights_interpolate_values_and_slopes() -> None:
+    """Hermite weights (equations.md §4.2): in σ they reproduce any cubic from its values
+    and slopes at the samples (reference: the cubic); in a coordinate ξ(σ) they equal the
+    cubic Hermite interpolant in ξ of scipy's ``CubicHermiteSpline`` with the slopes
+    ``dX/dξ = X′/ξ′(s_i)`` (composition on fine knots, O(h⁴)); value weights sum to one and
+    are the unit vectors at the samples, slope weights vanish there."""
+    from scipy.interpolate import CubicHermiteSpline, PchipInterpolator
+
+    from neweul_py.ffrf.parametric import ffrf_weights, weight_polynomials
+
+    s = np.array([0.0, 0.5, 1.5, 2.0])
+    k = s.size
+    f, df = (lambda x: x**3 - 2 * x**2 + 0.3), (lambda x: 3 * x**2 - 4 * x)
+    b, c = weight_polynomials(s, "hermite")
+    assert c.shape == (4, k - 1, 2 * k)
+    for x in (0.1, 0.7, 1.2, 1.99):
+        w = ffrf_weights(b, c, x, "x")
+        assert abs(w @ np.r_[f(s), df(s)] - f(x)) < 1e-13
+        assert abs(w[:k].sum() - 1.0) < 1e-14
+    for i, x in enumerate(s):
+        w = ffrf_weights(b, c, x, "x")
+        np.testing.assert_allclose(w, np.r_[np.eye(k)[i], np.zeros(k)], atol=1e-14)
+    knots = np.unique(np.r_[np.linspace(0.0, 2.0, 201), s])
+    xi = np.exp(knots)                              # ξ(σ) = e^σ
+    b, c = weight_polynomials(s, "hermite", np.vstack([knots, xi]))
+    dxi = PchipInterpolator(knots, xi).derivative()(s)
+    ref = CubicHermiteSpline(np.exp(s), np.sin(s), np.cos(s) / dxi)
+    for x in (0.1, 0.7, 1.2, 1.99):
+        w = ffrf_weights(b, c, x, "x")
+        assert abs(w @ np.r_[np.sin(s), np.cos(s)] - ref(np.exp(x))) < 1e-6
+
+
+def test_slope_working_form_is_the_linear_part() -> None:
+    """``ffrf_slope_prepared`` of a body's flat arrays and a slope equals ``F(X + X′) −
+    F(X)`` of the kernel's working form ``F`` (affine: the constant maps cancel), computed
+    here with a unit step (reference: the difference itself, to round-off)."""
+    import scipy.sparse as sps
+
+    from neweul_py.elastic.fe_model import FEModel
+    from neweul_py.elastic.invariants import compute_invariants
+    from neweul_py.ffrf.body import ffrf_prepare
+    from neweul_py.ffrf.parametric import ffrf_slope_prepared
+
+    rng = np.random.default_rng(4)
+    n, nq = 9, 3                                   # lumped mass points (tests/ffrf/test_body)
+    x = rng.normal(size=(n, 3))
+    ids = np.arange(1, n + 1)
+    fe = FEModel(M=sps.diags(np.repeat(rng.uniform(0.5, 2.0, n), 3)).tocsr(),
+                 K=sps.identity(3 * n, format="csr"), D=None, nodes=np.column_stack([ids, x]),
+                 dof_node=np.repeat(ids, 3), dof_kind=np.tile(np.array(["ux", "uy", "uz"]), n))
+    flat = compute_invariants(fe, rng.normal(size=(3 * n, nq)) * 0.3).to_flat()
+    # a slope keeps the sample's zero pattern (as samples of one body share their flags)
+    slope = {k: (1e-3 * rng.standard_normal(v.shape) * (v != 0) if isinstance(v, np.ndarray)
+                 and v.dtype.kind == "f" else v) for k, v in flat.items()}
+    got = ffrf_slope_prepared(ffrf_prepare, flat, slope)
+    plus = ffrf_prepare({k: (v + slope[k] if isinstance(v, np.ndarray) and v.dtype.kind == "f"
+                             else v) for k, v in flat.items()})
+    base = ffrf_prepare(flat)
+    for key in ("T0", "T1", "Me", "Ke", "G", "P", "P0"):
+        np.testing.assert_allclose(got[key], plus[key] - base[key], rtol=0,
+                                   atol=1e-12 * max(np.abs(plus[key]).max(), 1.0))
+    assert not np.any(got["P"])
