@@ -197,15 +197,27 @@ def _check_slope_options(args: argparse.Namespace) -> None:
                           f"--interpolation {args.interpolation}")
 
 
-def _slope_models(files: list[str]) -> tuple[list, list]:
-    """The FE models of ``--slope-models`` as (minus, plus)."""
+def _slope_models(files: list[str], bodies: list) -> tuple[tuple, tuple | None]:
+    """The FE models of ``--slope-models`` as (minus, plus), and, when the bodies carry
+    static states, the static states of those working-point files (minus, plus) — a file
+    without one is a :class:`DataError` naming it."""
     from ..elastic import read_fe_model
+    from ..errors import DataError
+    from ..fem.working_point_file import static_loads
 
-    fes = []
-    for path in files:
+    fes, states = [], []
+    need = bodies[0].static is not None
+    for i, path in enumerate(files):
         _progress(f"reading {path}")
         fes.append(read_fe_model(path))
-    return fes[0::2], fes[1::2]
+        if need:
+            kept = {int(n) for n in bodies[i // 2].nodes[:, 0]}
+            states.append(static_loads(path, kept))
+            if states[-1] is None:
+                raise DataError("the bodies carry static states, this slope model has none "
+                                "(a working point of neweul fem middle-ear has one)", path,
+                                "static")
+    return (fes[0::2], fes[1::2]), ((states[0::2], states[1::2]) if need else None)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -240,11 +252,13 @@ def run(args: argparse.Namespace) -> int:
         bodies.append(load_reduced_body(path))
     if args.method == "global":
         fes = _models(args, bodies)
-        slopes = _slope_models(args.slope_models) if args.slope_models else None
+        slopes, statics = (_slope_models(args.slope_models, bodies) if args.slope_models
+                           else (None, None))
         pb = global_parametric_body(fes, bodies, args.values, parameter=args.parameter,
                                     interpolation=args.interpolation or "cubic",
                                     store_bases=args.store_bases, labels=args.bodies,
                                     slope_models=slopes, slope_step=args.slope_step,
+                                    slope_statics=statics,
                                     progress=_progress)
     else:
         pb = interpolate(bodies, args.values, parameter=args.parameter, basis=args.basis,

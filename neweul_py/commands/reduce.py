@@ -224,15 +224,7 @@ def check_rigid_motion(fe, body, output: str, skip_rigid: bool, fixed_frame: boo
     return f"{free.shape[1]} free rigid motion(s) of the FE model, none in the basis"
 
 
-def _fe_static(path: str) -> dict | None:
-    """The static group of a working-point FE file (``neweul fem middle-ear``), if any."""
-    from ..fem.working_point_file import read_static
-
-    st = read_static(path) if str(path).endswith(".npz") else None
-    return st if st is not None and "x" in st else None
-
-
-def _with_static(body, fe, st: dict):
+def _with_static(body, fe, path: str):
     """The body with the static state of its working point (docs/equations-middle-ear.md
     §5): static coordinates of ``static_x``, node displacements, the static interface forces
     at the kept nodes among ``static_manubrium_node_id`` and the outputs ``C x_s``; ``q_s``
@@ -241,16 +233,15 @@ def _with_static(body, fe, st: dict):
     one unit-consistent norm)."""
     from ..elastic.global_basis import energy_metric
     from ..elastic.static_state import static_deflection
+    from ..fem.working_point_file import static_loads
 
-    kept = {int(n) for n in body.nodes[:, 0]}
-    ids = [int(i) for i in st.get("manubrium_node_id", ())]
-    forces = {i: f for i, f in zip(ids, st.get("manubrium_force", ()), strict=True)
-              if i in kept}
-    state = static_deflection(body, st["x"], output_rows=fe.C(), node_force=forces,
-                              metric=energy_metric([fe]))
+    loads = static_loads(path, {int(n) for n in body.nodes[:, 0]})
+    every = static_loads(path)["node_force"]
+    state = static_deflection(body, output_rows=fe.C(), metric=energy_metric([fe]), **loads)
+    forces = loads["node_force"]
     _progress(f"static state of the working point: residual of V q_s {float(state.residual):.2e}"
-              + (f"; interface forces at {len(forces)} of {len(ids)} nodes (the others are not "
-                 "kept)" if len(forces) < len(ids) else ""))
+              + (f"; interface forces at {len(forces)} of {len(every)} nodes (the others are not "
+                 "kept)" if len(forces) < len(every) else ""))
     return body.with_(static=state)
 
 
@@ -259,6 +250,7 @@ def run(args: argparse.Namespace) -> int:
     from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
     from ..elastic.eigen import frequencies_hz
     from ..elastic.quality import right_half_plane_poles
+    from ..fem.working_point_file import static_loads
 
     if args.points is not None:
         args.points = args.points.values()
@@ -270,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
     _progress(f"reading {args.model}")
     fe = read_fe_model(args.model)
     _progress(f"{fe.name}: {fe.n_dofs} DOFs, kind {fe.kind}")
-    static = _fe_static(args.model)
+    static = static_loads(args.model)
     common = dict(two_sided=args.two_sided, static_correction=args.static_correction,
                   keep_nodes=args.keep_nodes,
                   store_bases=args.store_bases or args.invariants or static is not None,
@@ -290,7 +282,7 @@ def run(args: argparse.Namespace) -> int:
                               f"vectors, more than the {fe.n_dofs} DOFs of {fe.name}")
         body = reduce_krylov(fe, points=points, order=order, **common)
     if static is not None:
-        body = _with_static(body, fe, static)
+        body = _with_static(body, fe, args.model)
     if args.invariants:
         _progress("computing the floating-frame invariants")
         body = _interface_invariants(args, body, fe)

@@ -53,7 +53,7 @@ parametric body also carries ``X_i′ = (Vᵀ X(σ_i + δ) V − Vᵀ X(σ_i −
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sps
@@ -64,7 +64,7 @@ from .interpolation import ParametricBody, check_samples, sample_values, stacked
 from .invariants import attach_invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
-from .static_state import StaticDeflection, static_deflection
+from .static_state import STATIC_KEYS, STATIC_PREFIX, StaticDeflection, static_deflection
 
 __all__ = [
     "GLOBAL_RANK_RTOL",
@@ -256,21 +256,27 @@ def global_static(local: ReducedBody, body: ReducedBody, G: sps.spmatrix) -> Sta
 
 
 def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequence[FEModel],
-                  step: float, gb: Sequence[ReducedBody], progress: Progress = None
-                  ) -> dict[str, np.ndarray]:
+                  step: float, gb: Sequence[ReducedBody],
+                  statics: tuple[Sequence[Mapping], Sequence[Mapping]] | None = None,
+                  progress: Progress = None) -> dict[str, np.ndarray]:
     """The sample slopes of the global sample bodies ``gb`` of the FE models ``fes`` (module
     docstring): the FE models ``minus`` at ``σ_i − δ`` and ``plus`` at ``σ_i + δ``, ``step`` =
     ``δ``, projected on the
     global basis of ``gb`` like the samples (same kept nodes, invariants when the samples
     carry them), central differences of every stack :meth:`ParametricBody.slope_keys` names
-    (the bases themselves are constant: zero slopes).
+    (the bases themselves are constant: zero slopes). Samples with static states need
+    ``statics`` = the :func:`~neweul_py.elastic.static_state.static_deflection` keywords
+    (``x``, ``node_force``, ``outputs``) of every slope model, ``(minus, plus)``: their
+    states are projected on the global basis in the energy metric of the samples, and the
+    slopes of ``q``, the node displacements and forces and the outputs are their central
+    differences (of the projection of the FE static state; residual slope zero).
 
     Raises
     ------
     DataError
         A count that is not one model per sample, a step that is not a positive number,
-        models on another mesh, or samples with static states (their slopes need the static
-        states of the neighbouring models, which an FE model does not carry).
+        models on another mesh, samples with static states without ``statics`` (an FE
+        model does not carry its static state), or ``statics`` for samples without one.
     """
     k = len(gb)
     if len(minus) != k or len(plus) != k:
@@ -284,11 +290,17 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
     if not (np.isfinite(step) and step > 0):
         raise DataError(f"the slope step must be a positive number, got {step!r}", None,
                         "slope_step")
-    if gb[0].static is not None:
-        raise DataError("sample slopes of static states are not supported: the FE models "
-                        "next to the samples carry no static state", None, "static")
+    if (gb[0].static is not None) != (statics is not None):
+        raise DataError("the samples carry static states: their slopes need the static "
+                        "states of the slope models (slope_statics; an FE model does not "
+                        "carry its own)" if statics is None else "static states of the slope "
+                        "models given for samples without static states", None, "static")
+    if statics is not None and any(len(st) != k for st in statics):
+        raise DataError(f"one static state per slope model ({k} on each side), got "
+                        f"{[len(st) for st in statics]}", None, "static")
     V, W = gb[0].V, gb[0].W
     check_same_models([*fes, *minus, *plus], "FE model (samples, then slope models)")
+    G = energy_metric(fes) if statics is not None else None
     side: list[list[ReducedBody]] = [[], []]
     for j, models in enumerate((minus, plus)):
         for i, fe in enumerate(models):
@@ -297,6 +309,9 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
                                    store_bases=True)
             if gb[i].invariants is not None:
                 b = attach_invariants(b, fe)
+            if statics is not None:
+                b = b.with_(static=static_deflection(b, output_rows=fe.C(), metric=G,
+                                                     **statics[j][i]))
             side[j].append(b)
         _say(progress, f"slopes: {'minus' if j == 0 else 'plus'} side projected ({k} models)")
     keys = ["M", "D", "K", "B", "C", "V_kept", "W_kept"]
@@ -311,6 +326,11 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
                 out["invariants/" + name] = np.stack([
                     (np.asarray(bp.invariants[name]) - np.asarray(bm.invariants[name]))
                     / (2.0 * step) for bm, bp in zip(*side, strict=True)])
+    if statics is not None:
+        for key in STATIC_KEYS:
+            out[STATIC_PREFIX + key] = np.stack([
+                (bp.static[key] - bm.static[key]) / (2.0 * step) * (key != "residual")
+                for bm, bp in zip(*side, strict=True)])
     return out
 
 
@@ -321,6 +341,8 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
                            labels: Sequence[str] | None = None,
                            slope_models: tuple[Sequence[FEModel], Sequence[FEModel]] | None
                            = None, slope_step: float | None = None,
+                           slope_statics: tuple[Sequence[Mapping], Sequence[Mapping]] | None
+                           = None,
                            progress: Progress = None) -> ParametricBody:
     """The parametric body of the global basis (module docstring).
 
@@ -340,7 +362,8 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
     0.56 % / 5.9 % (``benchmarks/bench_interpolation.py``, refine 1).
 
     ``slope_models = (minus, plus)`` with ``slope_step = δ``: the FE models at ``σ_i ∓ δ``
-    give the sample slopes (:func:`global_slopes`) and the body's weights are ``"hermite"``
+    give the sample slopes (:func:`global_slopes`; ``slope_statics`` their static states
+    when the samples carry one) and the body's weights are ``"hermite"``
     (equations.md §4.2): with the volume coordinate 0.23 % / 3.1 % on the same benchmark.
     """
     bodies = list(bodies)
@@ -358,7 +381,7 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
     g0 = gb[0]
     slopes = None
     if slope_models is not None:
-        slopes = global_slopes(fes, *slope_models, slope_step, gb, progress)
+        slopes = global_slopes(fes, *slope_models, slope_step, gb, slope_statics, progress)
         if store_bases:
             slopes.update(V=np.zeros((k, *g0.V.shape)), W=np.zeros((k, *g0.W.shape)))
         interpolation = "hermite"

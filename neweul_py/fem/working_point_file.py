@@ -34,7 +34,7 @@ from ..elastic.fe_model import FEModel
 from ..errors import DataError
 from .ear_parameters import MiddleEarParameters
 
-__all__ = ["loss_info", "read_loss", "read_static", "write_working_point"]
+__all__ = ["loss_info", "read_loss", "read_static", "static_loads", "write_working_point"]
 
 
 def loss_info(p: MiddleEarParameters) -> dict[str, Any]:
@@ -94,6 +94,21 @@ def read_loss(path: str | os.PathLike) -> tuple[sps.csr_matrix, dict[str, Any]] 
         except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
             raise DataError(f"inconsistent loss group ({exc})", str(path), "loss_G") from None
     return g, meta
+
+
+def static_loads(path: str | os.PathLike, kept: set[int] | None = None
+                 ) -> dict[str, Any] | None:
+    """The keywords of :func:`neweul_py.elastic.static_state.static_deflection` for the
+    working point in ``path``: ``x`` (``static_x``) and ``node_force`` (the static manubrium
+    forces at the node ids in ``kept``, all of them for ``None``); ``None`` for a file without
+    a static state (or not ``.npz``)."""
+    st = read_static(path) if str(path).endswith(".npz") else None
+    if st is None or "x" not in st:
+        return None
+    ids = [int(i) for i in st.get("manubrium_node_id", ())]
+    forces = {i: f for i, f in zip(ids, st.get("manubrium_force", ()), strict=True)
+              if kept is None or i in kept}
+    return {"x": st["x"], "node_force": forces}
 
 
 def read_static(path: str | os.PathLike) -> dict[str, np.ndarray] | None:

@@ -265,3 +265,46 @@ def test_cli_interpolate_with_slope_models(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()[-1]
         assert err.startswith("neweul interpolate: error:") and words in err, err
         assert not bad.exists()
+
+
+def test_sample_slopes_of_static_states():
+    """Samples that carry static states (``x_s(p) = sin(3p) a + p² b`` here) get the slopes
+    of their projection on the global basis, of the node displacements and of the outputs
+    from the slope models' static states: central differences of the same projections
+    (reference: computed here from ``x_s(p ± δ)``); without those states the build is one
+    DataError naming them."""
+    from neweul_py.elastic.static_state import static_deflection
+
+    rng = np.random.default_rng(7)
+    fes = [fe_exp(p) for p in SAMPLES]
+    n = fes[0].n_dofs
+    a, b = rng.standard_normal(n) * 1e-6, rng.standard_normal(n) * 1e-6
+
+    def x_s(p: float) -> np.ndarray:
+        return np.sin(3 * p) * a + p**2 * b
+
+    G = energy_metric(fes)
+    bodies = [body_at(p) for p in SAMPLES]
+    bodies = [bb.with_(static=static_deflection(bb, x_s(p), output_rows=fe.C(), metric=G))
+              for bb, p, fe in zip(bodies, SAMPLES, fes, strict=True)]
+    side = ([fe_exp(p - STEP) for p in SAMPLES], [fe_exp(p + STEP) for p in SAMPLES])
+    with pytest.raises(DataError, match="need the static states of the slope models"):
+        global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
+                               slope_step=STEP)
+    statics = ([{"x": x_s(p - STEP)} for p in SAMPLES], [{"x": x_s(p + STEP)} for p in SAMPLES])
+    hb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
+                                slope_step=STEP, slope_statics=statics)
+    V = hb.R
+    proj = lambda x: np.linalg.solve(V.T @ (G @ V), V.T @ (G @ x))  # noqa: E731
+    kept = hb.kept_dofs
+    for i, p in enumerate(SAMPLES):
+        dq = (proj(x_s(p + STEP)) - proj(x_s(p - STEP))) / (2 * STEP)
+        np.testing.assert_allclose(hb.slopes["static/q"][i], dq, rtol=0,
+                                   atol=1e-8 * np.abs(dq).max())
+        du = (x_s(p + STEP) - x_s(p - STEP))[kept] / (2 * STEP)
+        got = hb.slopes["static/node_u"][i].ravel()
+        assert np.abs(got).max() > 0 and np.abs(got).max() <= np.abs(du).max() * (1 + 1e-9)
+        dy = (fes[i].C() @ (x_s(p + STEP) - x_s(p - STEP))) / (2 * STEP)
+        np.testing.assert_allclose(hb.slopes["static/outputs"][i], dy, rtol=2e-2,
+                                   atol=1e-3 * np.abs(dy).max())
+    assert not np.any(hb.slopes["static/residual"])
