@@ -3,7 +3,7 @@
 Run from the repository root (README.md, "The assembled EMBS")::
 
     python examples/middle_ear/build_embs.py [--dir DATA] [--refine 1] [--tol 3e-4]
-        [--coordinate volume|dp] [-q]
+        [--coordinate volume|dp] [--slope-step 20] [-q]
 
 One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
 
@@ -21,9 +21,11 @@ One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
 4. **body**: every working point's FE model projected on the basis (fixed-frame invariants:
    the body is on ISYS, gravity 0), with its static state (static reduced coordinates, node
    displacements and interface forces at the manubrium, static outputs; ``static/*``,
-   docs/equations-middle-ear.md §5) → ``DATA/embs/tm_air.npz`` (a parametric body, cubic
-   weights in the TM's static volume displacement, docs/equations.md §4.1 — the sweep also
-   writes its static curve every 100 Pa — or with ``--coordinate dp`` in ``dp``), and
+   docs/equations-middle-ear.md §5) → ``DATA/embs/tm_air.npz`` (a parametric body with the
+   samples' slopes — the FE models at every working point ∓ 20 Pa in ``DATA/fem_slopes``,
+   their static states included, docs/equations.md §4.2 — and Hermite weights in the TM's
+   static volume displacement, §4.1 — the sweep also writes its static curve every 100 Pa;
+   ``--coordinate dp``: in ``dp``; ``--slope-step 0``: cubic weights without slopes), and
    ``DATA/embs/build.json`` (samples, node ids, chain factors);
 5. **description**: ``middle_ear.yaml`` retargeted to this body and its manubrium nodes →
    ``DATA/embs/middle_ear.yaml``, loaded (a node that is not in the body, an input or output
@@ -73,6 +75,8 @@ def model_file(fem: Path, dp: float) -> Path:
     return fem / f"model_dp{dp:+06.0f}.npz"
 
 
+#: Step of the slope models [Pa] (``--slope-step``; whole pascals: file names hold them).
+SLOPE_STEP = 20.0
 #: Step of the static curve of the volume coordinate [Pa] (``--coordinate volume``).
 CURVE_STEP = 100.0
 
@@ -298,6 +302,10 @@ def main() -> None:
                     help="the variable of the body's cubic weights: the TM's static volume "
                     "displacement (default; docs/equations.md §4.1; the sweep also solves its "
                     f"static curve every {CURVE_STEP:g} Pa) or dp itself")
+    ap.add_argument("--slope-step", type=float, default=SLOPE_STEP, metavar="PA",
+                    help="the samples' slopes from the FE models at every working point ∓ PA "
+                    f"(Hermite weights, docs/equations.md §4.2; default {SLOPE_STEP:g} Pa; 0: "
+                    "cubic weights through the values alone)")
     ap.add_argument("--pressures", default="-4000:4000:9", metavar="START:STOP:N",
                     help="working points of the FE sweep [Pa] (START:STOP:N or a comma list; "
                     "default -4000:4000:9)")
@@ -332,6 +340,10 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
     """The six steps of the module docstring."""
     t0 = time.perf_counter()
     fem, extra, out = args.dir / "fem", args.dir / "fem_refine", args.dir / "embs"
+    near, step = args.dir / "fem_slopes", args.slope_step
+    if not (np.isfinite(step) and 0 <= step < MIN_INTERVAL / 2 and step == round(step)):
+        raise NeweulError(f"--slope-step {step:g}: a whole number of pascals in [0, "
+                          f"{MIN_INTERVAL / 2:g})")
     pressures = parse_pressures(args.pressures)
     track.say(f"1/6 FE sweep (refine {args.refine}) in {fem}")
     volume = args.coordinate == "volume"
@@ -354,6 +366,23 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
             models[p] = read_fe_model(model_file(where[p], p))
         return models[p]
 
+    def slope_models(pts: list[float], static: bool) -> dict:
+        """The keywords of the samples' slopes (``--slope-step``; docs/equations.md §4.2):
+        the FE models at every working point ∓ ``step`` (built into ``DATA/fem_slopes`` when
+        missing) and, for the final body, their static states."""
+        if step <= 0:
+            return {}
+        side = [[p + sign * step for p in pts] for sign in (-1.0, 1.0)]
+        new = [p for p in side[0] + side[1] if p not in where]
+        if new:
+            known = [p for p, d in where.items() if d == near]
+            build_sweep(near, args.refine, sorted({*known, *new}), True)
+            where.update({float(p): near for p in new})
+        return {"slope_models": tuple([model(p) for p in ps] for ps in side),
+                "slope_step": step,
+                "slope_static": tuple(static_states(where, ps, manubrium) for ps in side)
+                if static else None}
+
     def body_of(points, static: bool = False):
         pts = [float(p) for p in points]
         fe_list = [model(p) for p in pts]
@@ -362,7 +391,8 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
             return build_reduced_body(fe_list[0], V, V, "snapshot", {}, keep_nodes=manubrium)
         pb = basis_parametric_body(
             fe_list, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
-            static=static_states(where, pts, manubrium) if static else None)
+            static=static_states(where, pts, manubrium) if static else None,
+            **slope_models(pts, static))
         if not volume:
             return pb
         return pb.with_(coordinate=volume_coordinate(where, fem / "static_curve.csv", pts),
@@ -396,7 +426,8 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
     tangent = [float(read_static(model_file(where[p], p))["chain_tangent"][2, 2])
                for p in samples]
     info = {"refine": args.refine, "order": int(V.shape[1]), "rtol": args.rtol,
-            "tol": args.tol, "coordinate": args.coordinate, "pressures_Pa": samples.tolist(),
+            "tol": args.tol, "coordinate": args.coordinate, "slope_step_Pa": step,
+            "interpolation": body.interpolation, "pressures_Pa": samples.tolist(),
             "snapshot_Hz": SNAPSHOT_HZ.tolist(), "manubrium": manubrium, "umbo": umbo,
             "static_residual": body.static.residual.tolist(),
             "chain_tangent_N_per_m": tangent,

@@ -60,7 +60,14 @@ import scipy.sparse as sps
 
 from ..errors import DataError
 from .fe_model import FEModel
-from .interpolation import ParametricBody, check_samples, sample_values, stacked_loss
+from .interpolation import (
+    ParametricBody,
+    bodies_stack,
+    central_slopes,
+    check_samples,
+    sample_values,
+    stacked_loss,
+)
 from .invariants import attach_invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
@@ -282,14 +289,7 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
     if len(minus) != k or len(plus) != k:
         raise DataError(f"the slopes need one FE model on each side of each of the {k} "
                         f"samples, got {len(minus)} and {len(plus)}", None, "slopes")
-    try:
-        step = float(step)
-    except (TypeError, ValueError):
-        raise DataError(f"the slope step must be a number, got {step!r}", None,
-                        "slope_step") from None
-    if not (np.isfinite(step) and step > 0):
-        raise DataError(f"the slope step must be a positive number, got {step!r}", None,
-                        "slope_step")
+    central_slopes(None, None, step, ())          # the step, before any projection
     if (gb[0].static is not None) != (statics is not None):
         raise DataError("the samples carry static states: their slopes need the static "
                         "states of the slope models (slope_statics; an FE model does not "
@@ -314,24 +314,13 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
                                                      **statics[j][i]))
             side[j].append(b)
         _say(progress, f"slopes: {'minus' if j == 0 else 'plus'} side projected ({k} models)")
-    keys = ["M", "D", "K", "B", "C", "V_kept", "W_kept"]
-    if gb[0].G is not None:
-        keys.append("G")
-    out = {key: np.stack([(bp[key] - bm[key]) / (2.0 * step) for bm, bp in zip(*side,
-                                                                            strict=True)])
-           for key in keys}
-    if gb[0].invariants is not None:
-        for name, a in gb[0].invariants.items():
-            if np.asarray(a).dtype.kind == "f":
-                out["invariants/" + name] = np.stack([
-                    (np.asarray(bp.invariants[name]) - np.asarray(bm.invariants[name]))
-                    / (2.0 * step) for bm, bp in zip(*side, strict=True)])
-    if statics is not None:
-        for key in STATIC_KEYS:
-            out[STATIC_PREFIX + key] = np.stack([
-                (bp.static[key] - bm.static[key]) / (2.0 * step) * (key != "residual")
-                for bm, bp in zip(*side, strict=True)])
-    return out
+    keys = ["M", "D", "K", "B", "C", "V_kept", "W_kept", *(["G"] if gb[0].G is not None
+                                                            else [])]
+    keys += ["invariants/" + name for name, a in (gb[0].invariants or {}).items()
+             if np.asarray(a).dtype.kind == "f"]
+    keys += [STATIC_PREFIX + key for key in STATIC_KEYS] if statics is not None else []
+    return central_slopes(lambda key: bodies_stack(side[0], key),
+                          lambda key: bodies_stack(side[1], key), step, keys)
 
 
 def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],

@@ -112,6 +112,8 @@ __all__ = [
     "PRESSURE_WEIGHT",
     "ROW_SCALINGS",
     "ParametricBody",
+    "bodies_stack",
+    "central_slopes",
     "check_samples",
     "coordinate_table",
     "interpolate",
@@ -738,6 +740,40 @@ class ParametricBody:
     def load(cls, path: str | os.PathLike) -> ParametricBody:
         """Read a file written by :meth:`save`."""
         return load_parametric_body(path)
+
+
+def bodies_stack(bodies: Sequence[ReducedBody], key: str) -> np.ndarray:
+    """The (k, …) stack over reduced bodies of a :meth:`ParametricBody.slope_keys` key
+    (``M`` …, ``invariants/<name>``, ``static/<key>``)."""
+    if key.startswith(_INV_PREFIX):
+        return np.stack([np.asarray(b.invariants[key[len(_INV_PREFIX):]]) for b in bodies])
+    if key.startswith(STATIC_PREFIX):
+        return np.stack([b.static[key[len(STATIC_PREFIX):]] for b in bodies])
+    return np.stack([b[key] for b in bodies])
+
+
+def central_slopes(minus: Any, plus: Any, step: float, keys: Sequence[str]
+                   ) -> dict[str, np.ndarray]:
+    """Sample slopes by central differences (``docs/equations.md`` §4.2): per key
+    ``(plus(key) − minus(key)) / (2 step)``, ``minus``/``plus`` giving the (k, …) stacks at
+    the samples ∓ ``step`` (:meth:`ParametricBody.stack`, or :func:`bodies_stack` of
+    their bodies); the residual of a static state gets no slope (zero).
+
+    Raises
+    ------
+    DataError
+        A step that is not a positive finite number.
+    """
+    try:
+        step = float(step)
+    except (TypeError, ValueError):
+        raise DataError(f"the slope step must be a number, got {step!r}", None,
+                        "slope_step") from None
+    if not (np.isfinite(step) and step > 0):
+        raise DataError(f"the slope step must be a positive number, got {step!r}", None,
+                        "slope_step")
+    return {key: (plus(key) - minus(key)) / (2.0 * step)
+            * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
 
 
 def stacked_loss(bodies: Sequence[ReducedBody]) -> dict[str, Any]:

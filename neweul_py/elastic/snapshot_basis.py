@@ -36,7 +36,7 @@ import scipy.sparse.linalg as spla
 from ..errors import DataError
 from .fe_model import FEModel
 from .global_basis import energy_metric, g_orthonormal
-from .interpolation import ParametricBody, stacked_loss
+from .interpolation import ParametricBody, central_slopes, stacked_loss
 from .invariants import Invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
@@ -211,10 +211,22 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                           parameter: str = "p", keep_nodes: Sequence[int] | None = None,
                           interpolation: str = "cubic", energy: np.ndarray | None = None,
                           static: Sequence[Mapping[str, Any]] | None = None,
+                          slope_models: tuple[Sequence[FEModel], Sequence[FEModel]] | None
+                          = None, slope_step: float | None = None,
+                          slope_static: tuple[Sequence[Mapping[str, Any]],
+                                              Sequence[Mapping[str, Any]]] | None = None,
+                          metric: sps.spmatrix | None = None,
                           progress: Progress = None) -> ParametricBody:
     """The parametric body of one Galerkin basis ``V`` for every sample (``X_i = Vᵀ X_i V``),
     with :func:`fixed_frame_invariants`; interpolated entrywise as in
     :func:`~neweul_py.elastic.global_basis.global_parametric_body`.
+
+    ``slope_models = (minus, plus)``: the FE models at every sample ∓ ``slope_step``
+    (``slope_static`` their static states, needed with ``static``) projected on the same
+    ``V`` — the same kept nodes, and the static states in the samples' energy metric — give
+    the samples' slopes by central differences, and the body's weights are ``"hermite"``
+    (docs/equations.md §4.2). ``metric``: the energy metric of the static projection
+    (default: that of ``fes``).
 
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.static_state.static_deflection` (``x`` — the FE
@@ -232,7 +244,18 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                         None, "V")
     if static is not None and len(static) != len(fes):
         raise DataError(f"{len(static)} static states for {len(fes)} samples", None, "static")
-    G = energy_metric(fes) if static is not None else None
+    if (slope_models is None) != (slope_step is None) or (
+            slope_models is not None and (static is None) != (slope_static is None)):
+        raise DataError("slope models go with a slope step, and with their static states "
+                        "exactly when the samples carry static states", None, "slopes")
+    if slope_models is not None:
+        central_slopes(None, None, slope_step, ())      # the step, before any projection
+        if any(len(m) != s.size for m in slope_models):
+            raise DataError(f"one slope model on each side of each of the {s.size} samples, "
+                            f"got {[len(m) for m in slope_models]}", None, "slopes")
+        d = float(slope_step)
+        check_same_mesh([*fes, *slope_models[0], *slope_models[1]], [*s, *(s - d), *(s + d)])
+    G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
     bodies, states = [], []
     for i, fe in enumerate(fes):
         b = build_reduced_body(fe, V, V, "snapshot", {"order": int(V.shape[1])},
@@ -249,7 +272,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
            for name in bodies[0].invariants}
     g0 = bodies[0]
     sv = np.sqrt(np.maximum(energy, 0.0)) if energy is not None else np.ones(r)
-    return ParametricBody(
+    pb = ParametricBody(
         parameter=str(parameter), samples=s,
         **{key: np.stack([b[key] for b in bodies]) for key in ("M", "D", "K", "B", "C",
                                                                 "V_kept", "W_kept")},
@@ -262,3 +285,12 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         sample_methods=("snapshot",) * k, sample_settings=tuple(b.settings for b in bodies),
         static=StaticDeflection.stack(states) if states else None,
     )
+    if slope_models is None:
+        return pb
+    side = [basis_parametric_body(models, V, s + sign * float(slope_step), parameter=parameter,
+                                  keep_nodes=keep_nodes, energy=energy, metric=G,
+                                  static=None if slope_static is None else slope_static[j],
+                                  progress=progress)
+            for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
+    return pb.with_(interpolation="hermite", slopes=central_slopes(
+        side[0].stack, side[1].stack, slope_step, pb.slope_keys()))

@@ -254,9 +254,14 @@ def ffrf_stack(samples, extra=None):
 def ffrf_mix(mixing, w):
     """``Σ_i w_i b_i``: the body of the weights ``w`` (k,) from :func:`ffrf_stack`'s form, by
     one product ``w B`` (for complex ``w``, the complex step in ``σ``: one product each for the
-    real and the imaginary part, so ``B`` is never copied to complex); the arrays are views
-    into the result, the other entries those of sample 1."""
+    real and the imaginary part, so ``B`` is never copied to complex; weights that vanish
+    outside a narrow band of rows — linear ones, and Hermite ones with the rows of samples and
+    slopes interleaved — use that band only, a view);
+    the arrays are views into the result, the other entries those of sample 1."""
     B = mixing["stack"]
+    nz = np.flatnonzero(w)
+    if nz.size and 2 * (nz[-1] + 1 - nz[0]) <= w.size:    # local weights: their rows (a view)
+        B, w = B[nz[0]:nz[-1] + 1], w[nz[0]:nz[-1] + 1]
     flat = w @ B if not np.iscomplexobj(w) else (w.real @ B) + 1j * (w.imag @ B)
     out = dict(mixing["template"])
     if "quad" in out:

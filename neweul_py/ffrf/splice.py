@@ -131,12 +131,18 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
                          for flat, slope in zip(flats, entry["slopes"], strict=True)
                          ] if "slopes" in entry else []
             sv_i, sw_i = (ffrf_unpack(a) for a in parts.pop(0))
+            coeff = ffrf_unpack(entry["coeff"])
+            if "slopes" in entry:     # rows X_1, X_1′, X_2, X_2′ …: a sample's band is narrow
+                k = len(flats)
+                order = np.arange(2 * k).reshape(2, k).T.ravel()
+                prepared = [prepared[i] for i in order]
+                sv_i, sw_i, coeff = sv_i[order], sw_i[order], coeff[:, :, order]
             # its node rows per sample (the rows not zero in every sample) join the stack
             rows = np.flatnonzero(np.any(sv_i, axis=(0, 2)) | np.any(sw_i, axis=(0, 2)))
             b = dict(prepared[0])
             b.update(mixing=ffrf_stack(prepared, {"_sv": sv_i[:, rows], "_sw": sw_i[:, rows]}),
                      rows=rows,
-                     values=ffrf_unpack(entry["values"]), coeff=ffrf_unpack(entry["coeff"]))
+                     values=ffrf_unpack(entry["values"]), coeff=coeff)
         else:
             b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"],
                              entry.get("fixed", False))

@@ -106,3 +106,39 @@ def test_samples_on_different_meshes_are_one_error(family) -> None:
     with pytest.raises(DataError, match=r"sample at 343 .*other nodes or DOFs"):
         basis_parametric_body([fes[0], other, fes[2]], V, SPEEDS, parameter="c",
                               keep_nodes=[1])
+
+
+def test_sample_slopes_with_static_states(family) -> None:
+    """With the FE models at every sound speed ∓ 0.5 m/s and static states (a static
+    displacement ``x_s(c) = (c/343)² a``), the body carries the central differences of the
+    projected matrices and of the static coordinates — computed here from ``V`` and the
+    energy metric of the samples — and Hermite weights; bad slope input is one DataError."""
+    from neweul_py.elastic.global_basis import energy_metric
+
+    fes, V, _body = family
+    step = 0.5
+    near = [[piston_duct(n_el=80, c=c + sign * step, damping=3.0) for c in SPEEDS]
+            for sign in (-1, 1)]
+    a = np.random.default_rng(3).standard_normal(fes[0].n_dofs) * 1e-7
+    x_s = lambda c: (c / 343.0) ** 2 * a  # noqa: E731
+    static = [{"x": x_s(c)} for c in SPEEDS]
+    side = tuple([{"x": x_s(c + sign * step)} for c in SPEEDS] for sign in (-1, 1))
+    hb = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                               slope_models=tuple(near), slope_step=step, slope_static=side)
+    assert hb.interpolation == "hermite"
+    G = energy_metric(fes)
+    for i, c in enumerate(SPEEDS):
+        dK = V.T @ ((near[1][i].K - near[0][i].K) @ V) / (2 * step)
+        np.testing.assert_allclose(hb.slopes["K"][i], dK, rtol=0, atol=1e-9 * abs(dK).max())
+        dq = V.T @ (G @ (x_s(c + step) - x_s(c - step))) / (2 * step)    # V is G-orthonormal
+        np.testing.assert_allclose(hb.slopes["static/q"][i], dq, rtol=1e-6,
+                                   atol=1e-9 * abs(dq).max())
+    with pytest.raises(DataError, match="slope models go with a slope step"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                              slope_models=tuple(near), slope_step=step)
+    with pytest.raises(DataError, match="positive number"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
+                              slope_models=tuple(near), slope_step=-1.0)
+    with pytest.raises(DataError, match="one slope model on each side"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
+                              slope_models=(near[0][:2], near[1]), slope_step=step)

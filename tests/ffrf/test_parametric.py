@@ -22,14 +22,16 @@ def _sample(rng: np.random.Generator) -> dict:
 
 def test_one_product_equals_the_weighted_sum_of_every_array() -> None:
     """Arrays, the mass, the nested body of a second-order field and extra rows (``S_V,i``)
-    mixed with real and with complex weights (the complex step in σ) equal ``Σ w_i X_i``;
-    the other entries are sample 1's."""
+    mixed with real and with complex weights (the complex step in σ), dense or nonzero in a
+    band of samples only, equal ``Σ w_i X_i``; the other entries are sample 1's."""
     rng = np.random.default_rng(3)
     samples = [_sample(rng) for _ in range(4)]
     rows = rng.standard_normal((4, 2, 5))
     mixing = ffrf_stack(samples, {"_sv": rows})
     assert mixing["stack"].shape[0] == 4
-    for w in (rng.standard_normal(4), rng.standard_normal(4) + 1e-30j * rng.standard_normal(4)):
+    band = np.r_[0.0, rng.standard_normal(2), 0.0]     # local weights: the band's rows only
+    for w in (rng.standard_normal(4), rng.standard_normal(4) + 1e-30j * rng.standard_normal(4),
+              band, band + 1e-30j * np.r_[0.0, 1.0, 2.0, 0.0]):
         got = ffrf_mix(mixing, w)
         for key in ("Me", "ks", "md0", "mass"):
             ref = sum(wi * s[key] for wi, s in zip(w, samples, strict=True))
