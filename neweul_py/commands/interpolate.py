@@ -197,19 +197,30 @@ def _check_slope_options(args: argparse.Namespace) -> None:
                           f"--interpolation {args.interpolation}")
 
 
-def _slope_models(files: list[str], bodies: list) -> tuple[tuple, tuple | None]:
+def _slope_models(files: list[str], bodies: list, values, step: float
+                  ) -> tuple[tuple, tuple | None]:
     """The FE models of ``--slope-models`` as (minus, plus), and, when the bodies carry
     static states, the static states of those working-point files (minus, plus) — a file
-    without one is a :class:`DataError` naming it."""
+    without one is a :class:`DataError` naming it. A working-point file records its static
+    pressure difference (``static_dp``): one that is not its sample value ∓ ``step`` (files
+    swapped, or of another step) is a :class:`DataError` naming it."""
     from ..elastic import read_fe_model
     from ..errors import DataError
-    from ..fem.working_point_file import static_loads
+    from ..fem.working_point_file import read_static, static_loads
 
     fes, states = [], []
     need = bodies[0].static is not None
     for i, path in enumerate(files):
         _progress(f"reading {path}")
         fes.append(read_fe_model(path))
+        want = float(values[i // 2]) + (step if i % 2 else -step)
+        st = read_static(path) if str(path).endswith(".npz") else None
+        if st is not None and "dp" in st and abs(float(st["dp"]) - want) > 1e-9 * max(
+                1.0, abs(want)):
+            raise DataError(f"this slope model is the working point at {float(st['dp']):g}, "
+                            f"--slope-models wants {want:g} here (sample {values[i // 2]:g} "
+                            f"{'+' if i % 2 else '−'} {step:g}: per body the model below, "
+                            "then the one above)", path, "static_dp")
         if need:
             kept = {int(n) for n in bodies[i // 2].nodes[:, 0]}
             states.append(static_loads(path, kept))
@@ -223,7 +234,7 @@ def _slope_models(files: list[str], bodies: list) -> tuple[tuple, tuple | None]:
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
     from ..elastic.global_basis import global_parametric_body
-    from ..elastic.interpolation import interpolate
+    from ..elastic.interpolation import coordinate_table, interpolate, sample_values
     from ..elastic.reduced_body import load_reduced_body
 
     shared.check_files(args.output, (".npz",), "parametric bodies")
@@ -250,10 +261,15 @@ def run(args: argparse.Namespace) -> int:
     for path in args.bodies:
         _progress(f"reading {path}")
         bodies.append(load_reduced_body(path))
+    values = sample_values(bodies, args.values, args.parameter)
+    table = None
+    if curve is not None:                 # checked before any projection
+        path, _name, sig, xi = curve
+        table = coordinate_table(values, sig, xi, path)
     if args.method == "global":
+        slopes, statics = (_slope_models(args.slope_models, bodies, values, args.slope_step)
+                           if args.slope_models else (None, None))
         fes = _models(args, bodies)
-        slopes, statics = (_slope_models(args.slope_models, bodies) if args.slope_models
-                           else (None, None))
         pb = global_parametric_body(fes, bodies, args.values, parameter=args.parameter,
                                     interpolation=args.interpolation or "cubic",
                                     store_bases=args.store_bases, labels=args.bodies,
@@ -267,13 +283,9 @@ def run(args: argparse.Namespace) -> int:
                          interpolation=args.interpolation or "linear",
                          store_bases=args.store_bases, progress=_progress,
                          labels=args.bodies)
-    if curve is not None:
-        from ..elastic.interpolation import coordinate_table
-
-        path, name, sig, xi = curve
+    if table is not None:
         pb = pb.with_(interpolation="hermite" if pb.slopes is not None else "cubic",
-                      coordinate=coordinate_table(pb.samples, sig, xi, path),
-                      coordinate_name=name)
+                      coordinate=table, coordinate_name=curve[1])
     pb.save(args.output)
     lo, hi = pb.range
     sv = pb.singular_values

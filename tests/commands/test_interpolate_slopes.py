@@ -27,7 +27,8 @@ def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
     """Three refine-0 working points, reduced with their static states, and the working
     points ∓ 20 Pa: the Hermite body's static node-displacement slopes are the central
     differences of the files' static states at the kept nodes; a slope model without a static
-    state is one error line naming it, and nothing is written."""
+    state, or the slope models of a sample swapped (their static_dp says so), is one error
+    line naming it, and nothing is written."""
     fem, near = tmp_path / "fem", tmp_path / "near"
     assert main(["fem", "middle-ear", "--pressures=-1000,0,1000", "--refine", "0", "-q",
                  "-o", str(fem)]) == 0
@@ -56,10 +57,14 @@ def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
             if nid in ids:
                 np.testing.assert_allclose(pb.slopes["static/node_u"][i][r], du[ids.index(nid)],
                                            rtol=1e-6, atol=1e-9 * np.abs(du).max())
+    swapped = [slopes[1], slopes[0], *slopes[2:]]
+    bad = tmp_path / "bad.npz"
+    assert main([*base, "--slope-models", *swapped, "--slope-step", "20", "-o", str(bad)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "working point at -980" in err and "wants -1020 here" in err and not bad.exists()
     bare = tmp_path / "bare.npz"
     with np.load(slopes[0], allow_pickle=False) as z:
         np.savez(bare, **{k: z[k] for k in z.files if not k.startswith("static_")})
-    bad = tmp_path / "bad.npz"
     assert main([*base, "--slope-models", str(bare), *slopes[1:], "--slope-step", "20",
                  "-o", str(bad)]) == 1
     err = capsys.readouterr().err.strip().splitlines()[-1]
