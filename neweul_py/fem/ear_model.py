@@ -127,14 +127,14 @@ def build_middle_ear(
     --------
     >>> me = build_middle_ear(refine=0)
     >>> me.dof_counts()["total"]
-    1331
+    1332
     """
     p = params or MiddleEarParameters()
     if not isinstance(refine, int) or refine < 0 or refine > 5:
         raise ModelError(f"refinement level must be an integer in 0…5, got {refine!r}", "refine")
     a, h = p.tm_radius, p.tm_depth
     rings = 4 * 2**refine
-    tm = cone_membrane(a, h, rings, p.manubrium_reach, p.tm_bulge)
+    tm = cone_membrane(a, h, rings, p.manubrium_reach, p.tm_bulge, p.umbo_offset)
     if tm.line.size < 2:
         raise ModelError("mesh too coarse for a manubrium of ≥ 2 nodes", "refine")
     material = ShellMaterial(p.tm_E_static, p.tm_nu, p.tm_thickness, p.tm_rho)
@@ -142,12 +142,12 @@ def build_middle_ear(
     size = a / rings
     x0 = tm.points
     scale_end = 0.5 * p.canal_diameter / a
+    centre = tm.rim_centre  # the canal's axis passes through the rim's centre
 
     def canal_morph(pts: np.ndarray, s: float) -> np.ndarray:
         f = 1.0 + s * (scale_end - 1.0)
-        return np.column_stack(
-            [pts[:, 0] * f, pts[:, 1] * f, (1 - s) * pts[:, 2] - s * p.canal_length]
-        )
+        xy = centre + (pts[:, :2] - centre) * f
+        return np.column_stack([xy, (1 - s) * pts[:, 2] - s * p.canal_length])
 
     lc = p.cavity_length
 
@@ -179,7 +179,7 @@ def build_middle_ear(
     rows, cols = np.meshgrid(md, md, indexing="ij")
     support = sps.csr_matrix((ks.ravel(), (rows.ravel(), cols.ravel())), shape=(shell.n_dof,) * 2)
 
-    probe = np.array([0.0, 0.0, -p.probe_distance])
+    probe = np.array([centre[0], centre[1], -p.probe_distance])
     weights, nodes4 = _barycentric(canal, probe)
     me = MiddleEar(
         p,

@@ -67,7 +67,18 @@ class MiddleEarParameters:
     tm_loss
         TM loss factor η (above; De Greef et al. 2014: 0.01–0.13).
     manubrium_reach
-        Fraction of the TM radius covered by the manubrium nodes, from the umbo.
+        Fraction of the way from the umbo to the superior rim covered by the manubrium nodes
+        (rim nodes excluded): 1, the manubrium runs from the umbo to the lateral process of
+        the malleus, which lies at the superior margin of the pars tensa (the malleal
+        prominence; the anterior and posterior striae run from it to the tympanic spines and
+        bound the pars tensa: docs/middle-ear-measurements.md §6). It was 0.8 before session
+        19 (no source).
+    umbo_offset
+        Anterior offset of the umbo from the centre of the (circular) rim, as a fraction of
+        the radius: 0.16, so that the posterior-superior quadrant (the quadrants cut by the
+        manubrium and by the line through the umbo across it) holds 31 % of the pars tensa,
+        as Kassem et al. 2022 measured in 23 temporal bones (the largest quadrant; 25 % for a
+        centred umbo). Mesh: :func:`neweul_py.fem.mesh.cone_membrane`.
     k_tm_manubrium
         Total TM–manubrium attachment stiffness [N/m] (LVATB1, Lobato et al.: 36 933 N/m).
     k_chain
@@ -80,15 +91,15 @@ class MiddleEarParameters:
         umbo, ``F(s) = −sign(s) k₀ s± ln(1 − |s|/s±)`` (tangent ``k₀/(1 − |s|/s±)``;
         :mod:`neweul_py.fem.ossicular_chain`): medial (``s > 0``, the stapes pushed into the
         vestibule against the annular ligament) and lateral (the incudomalleolar joint
-        yields, Hüttenbrink 1988). ``s₊`` = 200 µm: the low-frequency loss of the malleus at
+        yields, Hüttenbrink 1988). ``s₊`` = 120 µm: the low-frequency loss of the malleus at
         the umbo (the point Gyo & Goode measured) against their means at +1/+2/+3 kPa, on the
-        unreduced FE model with the 3-D chain at refine 1 and 2
-        (``docs/middle-ear-measurements.md`` §2; examples/middle_ear/README.md, "The static
-        modulus"). The fit is shallow:
-        with the static modulus ``tm_E_static`` most of the loss is the TM's own stress
-        stiffening (a nearly linear chain, ``s₊`` = 1 mm, still loses −4.4/−9.2/−11.4 dB). ``s₋`` =
-        230 µm keeps the former ratio ``s₋/s₊`` = 8/7 (lateral softer: the joints glide); no
-        measured magnitudes for Δp < 0 were available.
+        unreduced FE model with the 3-D chain at refine 1 (RMS of the z-scores 0.31; 200 µm
+        before the off-centre umbo and the manubrium to the rim of session 19, with which
+        the losses grew) (``docs/middle-ear-measurements.md`` §2;
+        examples/middle_ear/README.md, "The off-centre umbo"). The fit is shallow: with the
+        static modulus ``tm_E_static`` most of the loss is the TM's own stress stiffening.
+        ``s₋`` = 140 µm keeps the ratio ``s₋/s₊`` ≈ 8/7 of the earlier fits (lateral softer:
+        the joints glide); no measured magnitudes for Δp < 0 were available.
     mastoid_volume
         Air volume of the antrum and the mastoid air cells [m³] behind the aditus, a lumped
         compliance ``V_m/(ρc²)`` (0: a closed tympanic cavity). 3.5 cm³, so that the middle-ear
@@ -109,7 +120,8 @@ class MiddleEarParameters:
     air_loss
         Small acoustic loss factor of the air.
     probe_distance
-        Probe microphone on the axis this far lateral of the TM rim plane [m].
+        Probe microphone on the canal's axis (through the rim's centre) this far lateral of
+        the TM rim plane [m].
     f_ref
         Frequency [Hz] at which the equivalent viscous damping of the time domain matches the
         loss factors (the frequency domain uses the loss factors themselves,
@@ -125,11 +137,12 @@ class MiddleEarParameters:
     tm_nu: float = 0.3
     tm_rho: float = 1200.0
     tm_loss: float = 0.13
-    manubrium_reach: float = 0.8
+    manubrium_reach: float = 1.0
+    umbo_offset: float = 0.16
     k_tm_manubrium: float = 36933.0
     k_chain: float = 1683.0
-    chain_limit_medial: float = 200e-6
-    chain_limit_lateral: float = 230e-6
+    chain_limit_medial: float = 120e-6
+    chain_limit_lateral: float = 140e-6
     canal_length: float = 25e-3
     canal_diameter: float = 7.5e-3
     cavity_volume: float = 0.5e-6
@@ -163,8 +176,11 @@ class MiddleEarParameters:
         for name in ("tm_loss", "air_loss", "mastoid_loss"):
             if not 0 <= getattr(self, name) < 1:
                 raise ModelError("loss factor must be in [0, 1)", f"middle_ear.{name}")
-        if not 0 < self.manubrium_reach < 1:
-            raise ModelError("must be in (0, 1)", "middle_ear.manubrium_reach")
+        if not 0 < self.manubrium_reach <= 1:
+            raise ModelError("must be in (0, 1]", "middle_ear.manubrium_reach")
+        if not 0 <= self.umbo_offset < 0.5:
+            raise ModelError("must be in [0, 0.5) (a fraction of the TM radius)",
+                             "middle_ear.umbo_offset")
         a = self.tm_radius
         if self.tm_thickness > a / THIN_SHELL_RATIO:
             raise ModelError(

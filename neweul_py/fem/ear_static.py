@@ -164,8 +164,9 @@ def static_validity(me: MiddleEar, state: StaticState) -> tuple[ValidityBound, .
     the deformed TM; that is consistent only while the TM moves little compared with the air
     spaces. Checked (``x = X + u`` the deformed TM nodes, ``ΔV`` the swept volume):
 
-    * **walls**: every TM node stays inside the tympanic cavity (``z ≤ L_c``, ``r ≤ a``) and the
-      ear canal (``z ≥ −L``, inside the canal's conical wall) — penetration depth ≤ 0;
+    * **walls**: every TM node stays inside the tympanic cavity (``z ≤ L_c``, ``r ≤ a``, ``r``
+      from the rim's centre) and the ear canal (``z ≥ −L``, inside the canal's conical wall)
+      — penetration depth ≤ 0;
     * **no inversion of the cone**: ``max |u| ≤`` :data:`MAX_DISPLACEMENT_FRACTION` ``· H``,
       ``H = max z − min z`` of the reference TM (the cone inverts when its apex has moved by
       about ``H``; not checked for a flat TM);
@@ -186,7 +187,8 @@ def static_validity(me: MiddleEar, state: StaticState) -> tuple[ValidityBound, .
     a, length, lc = p.tm_radius, p.canal_length, p.cavity_length
     u = _full(me, state)
     x = me.shell.points + u
-    r, z = np.hypot(x[:, 0], x[:, 1]), x[:, 2]
+    r = np.hypot(*(x[:, :2] - me.tm.rim_centre).T)  # from the canal's and cavity's axis
+    z = x[:, 2]
     tol = 1e-9 * a
     # canal wall: the extruded rim, r = a + (d/2 − a)·(−z/L) for −L ≤ z ≤ 0
     r_canal = a + (0.5 * p.canal_diameter - a) * np.clip(-z / length, 0.0, 1.0)

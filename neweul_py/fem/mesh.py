@@ -4,20 +4,23 @@ Everything here is arrays in, arrays out (no element physics):
 
 * :func:`disk_mesh` – a triangulated disc of ``n_rings`` concentric rings (node ``j = 0`` of every
   ring lies on the positive x axis, so that a radial line of nodes exists for the manubrium);
-* :func:`cone_membrane` – the disc lifted to a shallow cone (the tympanic membrane);
+* :func:`cone_membrane` – the disc lifted to a shallow cone (the tympanic membrane), its apex
+  (umbo) optionally off the rim's centre;
 * :func:`extrude_tets` – a prism-layer extrusion of a surface triangulation, split into tetrahedra
   conformingly, with a user-supplied morph for each layer (ear canal, tympanic cavity);
 * :func:`box_tets` – a structured box of tetrahedra (verification).
 
 The coordinate system of the middle-ear models: ``z`` is the medial direction (from the ear canal
 through the TM into the tympanic cavity), the TM rim lies in the plane ``z = 0``, the umbo at
-``z = depth`` on the axis, the manubrium along ``+x`` (superior).
+``(0, 0, depth)``, the manubrium along ``+x`` (superior), ``+y`` anterior. The rim is a circle
+centred on the umbo, or posterior-superior of it for an off-centre umbo
+(:attr:`SurfaceMesh.rim_centre`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import Delaunay
@@ -31,6 +34,7 @@ __all__ = [
     "cone_membrane",
     "disk_mesh",
     "extrude_tets",
+    "manubrium_section",
     "tet_volumes",
     "triangle_areas",
 ]
@@ -53,6 +57,9 @@ class SurfaceMesh:
         Indices of a radial line of nodes from the centre outwards (the manubrium), centre first.
     ring
         (n,) ring number of each node (0 = centre).
+    rim_centre
+        (2,) ``x, y`` of the centre of the circular rim (the origin unless the umbo is off
+        centre).
     """
 
     points: np.ndarray
@@ -60,6 +67,7 @@ class SurfaceMesh:
     boundary: np.ndarray
     line: np.ndarray
     ring: np.ndarray
+    rim_centre: np.ndarray = field(default_factory=lambda: np.zeros(2))
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,9 +137,27 @@ def disk_mesh(radius: float, n_rings: int) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def cone_membrane(
-    radius: float, depth: float, n_rings: int, line_length: float = 1.0, bulge: float = 0.0
+    radius: float,
+    depth: float,
+    n_rings: int,
+    line_length: float = 1.0,
+    bulge: float = 0.0,
+    umbo_offset: float = 0.0,
 ) -> SurfaceMesh:
-    """The tympanic membrane: a shallow cone ``z = depth (1 − r / radius)`` over a disc mesh.
+    """The tympanic membrane: a shallow cone over a disc mesh, apex (umbo) at ``(0, 0, depth)``.
+
+    The profile along every ray from the umbo to the rim is
+    ``z = depth (1 − ρ) − 4 bulge ρ (1 − ρ)``, ``ρ`` the fraction of the way from the umbo to
+    the rim. With ``umbo_offset = e > 0`` the umbo lies ``e·radius`` anterior of the rim's
+    centre: the disc point ``p`` (``r = |p|``) is mapped to ``p + (1 − r/radius) u``,
+    ``u = (0, e·radius)`` — every ring ``r`` becomes the circle of radius ``r`` about
+    ``(1 − r/radius) u``, the rim stays, the centre goes to ``u``, ``ρ = r/radius`` on the
+    rays from ``u`` (Jacobian ``I − u p̂ᵀ/radius``, determinant ``1 − u·p̂/radius ≥ 1 − e``, so no
+    element folds for ``e < 1``; the area and the volume under the cone are those of the
+    centred cone). The radial line of the positive ``x`` axis becomes the straight segment
+    from the umbo to the superior rim point ``(radius, 0)``; the mesh is then turned about the
+    umbo by ``atan e`` and moved so that the umbo is at the origin and that segment (the
+    manubrium) runs along ``+x`` again. ``docs/equations-middle-ear.md`` §1 (geometry).
 
     Parameters
     ----------
@@ -139,16 +165,18 @@ def cone_membrane(
         Radius of the rim (annulus).
     depth
         Height of the apex (umbo) above the rim plane, positive medially (``depth = 0`` gives a
-        flat circular plate).
+        flat plate).
     n_rings
         Rings of the disc mesh (refinement).
     line_length
-        Fraction of the radius covered by the radial line of interface nodes (manubrium),
-        measured from the centre; rim nodes are never part of it.
+        Fraction of the way from the umbo to the rim covered by the radial line of interface
+        nodes (manubrium); rim nodes are never part of it.
     bulge
-        Lateral (−z) bulge of the radial generators at mid-radius: the profile is
-        ``z = depth (1 − ρ) − 4 bulge ρ (1 − ρ)``, ``ρ = r / radius`` (the curved radial fibres of
+        Lateral (−z) bulge of the radial generators at mid-way (the curved radial fibres of
         the pars tensa; 0 gives a straight cone).
+    umbo_offset
+        Anterior offset ``e`` of the umbo from the rim's centre, as a fraction of the radius
+        (``0 ≤ e < 0.5``; 0: the centred cone).
 
     Returns
     -------
@@ -158,17 +186,54 @@ def cone_membrane(
         raise ModelError(
             f"cone depth must be in [0, radius) = [0, {radius}), got {depth!r}", "geometry.depth"
         )
+    if not (np.isfinite(umbo_offset) and 0.0 <= umbo_offset < 0.5):
+        raise ModelError(
+            f"umbo offset must be in [0, 0.5) of the radius, got {umbo_offset!r}",
+            "geometry.umbo_offset",
+        )
     xy, tri, ring = disk_mesh(radius, n_rings)
     r = np.hypot(xy[:, 0], xy[:, 1])
     rho = r / radius
     z = depth * (1.0 - rho) - 4.0 * bulge * rho * (1.0 - rho)
-    points = np.column_stack([xy, z])
     boundary = np.flatnonzero(ring == n_rings)
     on_axis = (np.abs(xy[:, 1]) < 1e-12 * radius) & (xy[:, 0] >= -1e-12 * radius)
     in_reach = (r <= line_length * radius * (1 + 1e-12)) & (ring < n_rings)
     line = np.flatnonzero(on_axis & in_reach)
     line = line[np.argsort(r[line])]
-    return SurfaceMesh(points, tri, boundary, line, ring)
+    xy, centre = _off_centre(xy, rho, radius, umbo_offset)
+    return SurfaceMesh(np.column_stack([xy, z]), tri, boundary, line, ring, centre)
+
+
+def _off_centre(
+    xy: np.ndarray, rho: np.ndarray, radius: float, e: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The map of :func:`cone_membrane` for an umbo ``e·radius`` anterior of the rim's centre,
+    in the umbo's frame (manubrium along ``+x``); returns the points and the rim's centre."""
+    u = np.array([0.0, e * radius])
+    q = xy + (1.0 - rho)[:, None] * u - u
+    c, s = np.cos(np.arctan(e)), np.sin(np.arctan(e))
+    turn = np.array([[c, -s], [s, c]])
+    return q @ turn.T, turn @ -u
+
+
+def manubrium_section(mesh: SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
+    """The TM section through the umbo along the manubrium's ray and the opposite one.
+
+    The nodes of the disc's positive and negative ``x`` axes (node ``1 + 3k(k − 1)`` and
+    ``1 + 3k²`` of ring ``k`` in :func:`disk_mesh`'s order) — straight rays from the umbo to
+    the superior and to the inferior rim point, also for an off-centre umbo — ordered from the
+    inferior rim to the superior one.
+
+    Returns
+    -------
+    nodes, s
+        Node indices and their signed in-plane distance from the umbo (``+`` superior).
+    """
+    k = np.arange(1, int(mesh.ring.max()) + 1)
+    nodes = np.concatenate([(1 + 3 * k**2)[::-1], [0], 1 + 3 * k * (k - 1)])
+    d = np.hypot(*(mesh.points[nodes, :2] - mesh.points[0, :2]).T)
+    s = np.where(np.arange(nodes.size) < k.size, -d, d)
+    return nodes, s
 
 
 def extrude_tets(

@@ -13,6 +13,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from ..errors import NeweulError
+from .mesh import manubrium_section
 
 if TYPE_CHECKING:
     from .middle_ear import MiddleEar
@@ -72,20 +73,20 @@ def plot_mesh(me: MiddleEar, path: str | Path) -> Path:
 
 
 def plot_static(me: MiddleEar, states: list[StaticState], path: str | Path) -> Path:
-    """Static TM deflection: the section ``y = 0`` and ``u_z`` over the TM for each state."""
+    """Static TM deflection: the section through the umbo along the manubrium
+    (:func:`~neweul_py.fem.mesh.manubrium_section`) and ``u_z`` over the TM for each state."""
     plt = require_matplotlib()
     tm = me.tm
     n = len(states)
     fig, axes = plt.subplots(1, n + 1, figsize=(4.2 * (n + 1), 4))
-    sec = np.flatnonzero(np.abs(tm.points[:, 1]) < 1e-12)
-    sec = sec[np.argsort(tm.points[sec, 0])]
+    sec, along = manubrium_section(tm)
     ax = axes[0]
-    ax.plot(tm.points[sec, 0] * 1e3, tm.points[sec, 2] * 1e3, "k-", label="unloaded")
+    ax.plot(along * 1e3, tm.points[sec, 2] * 1e3, "k-", label="unloaded")
     for s in states:
         u = np.zeros(me.shell.n_dof)
         u[me.free_dofs] = s.u
         x = tm.points + u.reshape(-1, 3)
-        ax.plot(x[sec, 0] * 1e3, x[sec, 2] * 1e3, label=f"Δp = {s.load:+.0f} Pa")
+        ax.plot(along * 1e3, x[sec, 2] * 1e3, label=f"Δp = {s.load:+.0f} Pa")
         k = axes[1 + states.index(s)]
         tc = k.tripcolor(
             tm.points[:, 0] * 1e3,
@@ -99,9 +100,9 @@ def plot_static(me: MiddleEar, states: list[StaticState], path: str | Path) -> P
         k.set_aspect("equal")
         k.set_title(f"Δp = {s.load:+.0f} Pa")
         k.set_xlabel("x [mm]")
-    ax.set_xlabel("x (superior) [mm]")
+    ax.set_xlabel("from the umbo along the manubrium (+ superior) [mm]")
     ax.set_ylabel("z (medial) [mm]")
-    ax.set_title("TM section y = 0")
+    ax.set_title("TM section through the umbo")
     ax.legend(fontsize=8)
     fig.tight_layout()
     path = Path(path)

@@ -57,7 +57,8 @@ def test_reduce_writes_the_static_state_of_the_working_point(working_point, caps
     assert main(["body-info", str(out)]) == 0
     text = capsys.readouterr().out
     assert "static state: residual of V q_s" in text and "node      1: u_s" in text
-    assert "sum of the interface forces" in text and "output umbo_uz: +3.50698" in text
+    assert "sum of the interface forces" in text
+    assert f"output umbo_uz: {umbo:+.6e}" in text
 
 
 def test_body_info_of_a_body_without_static_state(tmp_path, capsys):

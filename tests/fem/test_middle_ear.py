@@ -174,6 +174,8 @@ def test_parse_pressures():
         ({"tm_thickness": 0.01}, "tm_thickness"),
         ({"tm_depth": 0.01}, "tm_depth"),
         ({"tm_E": float("nan")}, "tm_E"),
+        ({"umbo_offset": 0.6}, "umbo_offset"),
+        ({"manubrium_reach": 1.2}, "manubrium_reach"),
     ],
 )
 def test_bad_geometry(change, key):
@@ -203,9 +205,10 @@ def test_pressure_beyond_convergence_writes_nothing(tmp_path):
     holds the umbo; −1.8 kPa with the former 32 MPa TM, −2.9 kPa with the former linear
     support): load
     control cannot pass it, so the sweep raises SolverError naming the last converged load
-    step, carries that state, and writes nothing."""
+    step, carries that state, and writes nothing. (The centred cone with the former 0.8-radius
+    manubrium; the off-centre default buckles at ≈ −0.3 kPa.)"""
     out = tmp_path / "never"
-    params = MiddleEarParameters(tm_bulge=0.0, k_chain=1.0)
+    params = MiddleEarParameters(tm_bulge=0.0, k_chain=1.0, umbo_offset=0.0, manubrium_reach=0.8)
     with pytest.raises(SolverError, match="last converged") as err:
         pressure_sweep([0.0, -4000.0], params=params, refine=0, out_dir=str(out))
     last = err.value.last_iterate
@@ -335,8 +338,9 @@ def test_wall_penetration_bounds():
     assert bounds(umbo, [0, 0, lc - x0[umbo, 2] - 1e-4])[CAVITY_WALL].ok
     # a node of the outer free ring pushed radially to r = 1.05 a (still z > 0)
     node = int(np.flatnonzero(me.tm.ring == me.tm.ring.max() - 1)[0])
-    r0 = np.hypot(*x0[node, :2])
-    e = np.r_[x0[node, :2] / r0, 0.0]
+    rel = x0[node, :2] - me.tm.rim_centre  # radial from the rim's (and the cavity's) axis
+    r0 = np.hypot(*rel)
+    e = np.r_[rel / r0, 0.0]
     b = bounds(node, (1.05 * a - r0) * e)
     assert b[CAVITY_WALL].value == pytest.approx(0.05 * a)
     # the same node at z = −1 mm, r = a: outside the canal wall by (a − d/2)·1 mm / 25 mm
