@@ -108,6 +108,26 @@ def _massless(module: ModuleType, t: float, x: np.ndarray, p: np.ndarray) -> str
     return ""
 
 
+def _absolute_tolerance(module: ModuleType, method: str, atol: Any) -> float | np.ndarray:
+    """``atol`` as a positive number, or one positive value per state where the method
+    takes that (generalized-α, SciPy's ``solve_ivp``; not the compiled loop, not models with
+    constraints)."""
+    a = np.asarray(atol, dtype=float)
+    if not (np.all(np.isfinite(a)) and np.all(a > 0)):
+        raise NeweulError("rtol and atol must be positive")
+    if a.ndim == 0:
+        return float(a)
+    size = int(module.STATE_SIZE)
+    if a.shape != (size,):
+        raise NeweulError(f"atol must be a number or one value per state ({size}), "
+                          f"got shape {a.shape}")
+    if method in COMPILED_METHODS or list(getattr(module, "CONSTRAINTS", []) or []):
+        raise NeweulError(f"atol per state applies to generalized-alpha and the SciPy methods "
+                          f"of unconstrained models, not to {method!r}"
+                          + (" with constraints" if getattr(module, "CONSTRAINTS", None) else ""))
+    return a
+
+
 def simulate(
     module: ModuleType | str | os.PathLike[str],
     t_end: float,
@@ -115,7 +135,7 @@ def simulate(
     t_start: float = 0.0,
     method: str = "RK45",
     rtol: float = 1e-6,
-    atol: float = 1e-9,
+    atol: float | Sequence[float] | np.ndarray = 1e-9,
     n_out: int = 501,
     t_eval: Sequence[float] | np.ndarray | None = None,
     p: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
@@ -150,7 +170,9 @@ def simulate(
         second-order form (:mod:`~neweul_py.analysis.generalized_alpha`; stiff elastic
         bodies, unconstrained models).
     rtol, atol
-        Tolerances of the integrator (of the Newton iterations for generalized-α).
+        Tolerances of the integrator (of the Newton iterations for generalized-α). ``atol``
+        may be one value per state (``STATE_SIZE``: positions and velocities have different
+        units) for generalized-α and the SciPy methods.
     n_out
         Number of equally spaced output times (including both ends), unless ``t_eval`` is given.
     t_eval
@@ -206,7 +228,8 @@ def simulate(
     t_start, t_end = float(t_start), float(t_end)
     if not (np.isfinite(t_start) and np.isfinite(t_end)) or t_end <= t_start:
         raise NeweulError(f"t_end ({t_end:g}) must be a finite time after t_start ({t_start:g})")
-    if not (rtol > 0 and atol > 0):
+    atol = _absolute_tolerance(module, method, atol)
+    if not rtol > 0:
         raise NeweulError("rtol and atol must be positive")
     check_compiled(module, method, u)
     if method == FIXED_STEP:

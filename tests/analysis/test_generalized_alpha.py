@@ -153,3 +153,30 @@ def test_cli_step_and_rho_inf(capsys) -> None:
     assert main(["simulate", str(path), "--t-end", "0.5", "--method", "generalized-alpha",
                  "-q"]) == 1
     assert "--step" in capsys.readouterr().err
+
+
+def test_absolute_tolerance_per_state(oscillator) -> None:
+    """``atol`` may be one value per state ``[y, ẏ]``: the same value everywhere gives the
+    scalar's trajectory exactly, and a velocity tolerance in velocity units (ω times the
+    position's) still meets the closed form of the damped oscillator to the method's error
+    (1e-4 at h = 1e-3 s, ω = 5 rad/s)."""
+    mod = oscillator(50.0, 0.4)
+    kw = {"method": "generalized-alpha", "h": 1e-3, "rho_inf": 0.8, "rtol": 1e-10, "n_out": 11}
+    scalar = simulate(mod, 2.0, atol=1e-12, **kw)
+    uniform = simulate(mod, 2.0, atol=np.full(mod.STATE_SIZE, 1e-12), **kw)
+    np.testing.assert_array_equal(uniform.y, scalar.y)
+    units = simulate(mod, 2.0, atol=np.array([1e-12, 5e-12]), **kw)
+    exact = 1.0 + _oscillator_exact(units.t, 2.0, 50.0, 0.4, 0.1)
+    assert np.abs(units.y[:, 0] - exact).max() < 1e-4
+
+
+@pytest.mark.parametrize(("atol", "method", "match"), [
+    (np.array([1e-9, 1e-9, 1e-9]), "generalized-alpha", r"one value per state \(2\), got shape"),
+    (np.array([1e-9, -1.0]), "generalized-alpha", "must be positive"),
+    (np.array([1e-9, np.nan]), "RK45", "must be positive"),
+])
+def test_bad_absolute_tolerance_is_refused(oscillator, atol, method, match) -> None:
+    """A per-state ``atol`` of the wrong length, or with a value that is not a positive
+    number, is one NeweulError naming it."""
+    with pytest.raises(NeweulError, match=match):
+        simulate(oscillator(50.0, 0.4), 1.0, method=method, h=1e-3, atol=atol)
