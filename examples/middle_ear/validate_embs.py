@@ -6,11 +6,11 @@ Run from the repository root after ``build_embs.py`` (README.md, "Validation")::
         [--damping loss|viscous]
 
 For each Δp: the generated module of ``middle_ear.yaml`` (parametric TM + air body scheduled
-at Δp, ossicles, 7 TM–manubrium bushings), linearized, against the full FE model of that
-working point (``neweul fem middle-ear``; between samples, e.g. 2500 Pa, the FE model
-linearized *there*) coupled directly with the **same** chain: the description with the TM
-body removed and each node frame ``tm.mK`` replaced by a frame on three free translations,
-generated and linearized, its matrices attached to the FE DOFs of the manubrium nodes
+at Δp, ossicles, one TM–manubrium bushing per manubrium node), linearized, against the full
+FE model of that working point (``neweul fem middle-ear``; between samples, e.g. 2500 Pa,
+the FE model linearized *there*) coupled directly with the **same** chain: the description
+with the TM body removed and each node frame ``tm.mK`` replaced by a frame on three free
+translations, generated and linearized, its matrices attached to the FE DOFs of the manubrium nodes
 (:func:`neweul_py.fem.ear_coupled.coupled_frf`). Both use the loss factors as ``K + iG``
 (the body's ``Le``, the FE model's ``G``, the chain's ``loss_factor``: docs/equations.md
 §1.1; ``--damping viscous``: both the viscous equivalent ``D``).
