@@ -102,7 +102,13 @@ from .fe_model import loss_reference
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
 from .reduced_body import ReducedBody, json_normal
-from .static_state import STATIC_KEYS, STATIC_PREFIX, StaticDeflection, static_from_arrays
+from .static_state import (
+    STATIC_KEYS,
+    STATIC_PREFIX,
+    StaticDeflection,
+    residual_bound,
+    static_from_arrays,
+)
 
 __all__ = [
     "BASES",
@@ -244,7 +250,8 @@ class ParametricBody:
     static
         Optional static states of the samples
         (:class:`~neweul_py.elastic.static_state.StaticDeflection`, stacked; ``q`` in the
-        common coordinates), mixed by :meth:`at` with the same weights.
+        common coordinates), mixed by :meth:`at` with the same weights (the residual: the
+        largest of the samples mixed).
     slopes
         Optional sample slopes ``dX/dσ`` at every sample (``docs/equations.md`` §4.2), the
         data of ``hermite`` weights: ``key → (k, …)`` for every interpolated stack — ``M``,
@@ -652,8 +659,12 @@ class ParametricBody:
         """The reduced body at parameter value ``p``: ``X(p) = Σ_i w_i(p) X̃_i`` (§4, step 5).
 
         Every stored quantity — ``M``, ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept``, the
-        full bases and the invariants — is interpolated with the same weights
-        (:meth:`weights`), so the body stays consistent (§4, step 6).
+        full bases, the invariants and the static state — is interpolated with the same
+        weights (:meth:`weights`), so the body stays consistent (§4, step 6). The static
+        state's relative residual is not: a ratio of norms, mixed with signed (cubic)
+        weights it can turn negative; the body's ``static.residual`` is the bound
+        ``max_i r_i`` over the samples with a nonzero weight
+        (:func:`~neweul_py.elastic.static_state.residual_bound`).
 
         Parameters
         ----------
@@ -728,7 +739,8 @@ class ParametricBody:
             method="interpolated", settings=settings, source=source, invariants=inv,
             parameters={self.parameter: float(p)},
             static=None if self.static is None else StaticDeflection(
-                *(mix(STATIC_PREFIX + key) for key in STATIC_KEYS)),
+                **{key: mix(STATIC_PREFIX + key) for key in STATIC_KEYS if key != "residual"},
+                residual=residual_bound(self.static.residual, w)),
         )
 
     # ------------------------------------------------------------------ file I/O
