@@ -112,6 +112,7 @@ from .static_state import (
 
 __all__ = [
     "BASES",
+    "CARRIED_INVARIANTS",
     "INTERPOLATIONS",
     "PARAMETRIC_BODY_FORMAT",
     "PARAMETRIC_BODY_VERSION",
@@ -159,6 +160,10 @@ _ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node",
 _OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G", "coordinate")
 #: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
 _STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
+#: Floating-point invariants that are one value for all samples (checked when the body is
+#: built, their slopes zero): :meth:`ParametricBody.at` carries them, it does not mix them
+#: (weights that sum to one only to round-off would turn 1000 Hz into 1000.0000000000001).
+CARRIED_INVARIANTS = ("loss.f_ref",)
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -232,7 +237,8 @@ class ParametricBody:
     invariants
         Optional flat invariants (:meth:`Invariants.to_flat` names) of the transformed
         samples, each stacked to (k, …); entries that are not floating point (format tag,
-        names, node ids, flags) are equal for all samples.
+        names, node ids, flags) and :data:`CARRIED_INVARIANTS` (``loss.f_ref``) are equal
+        for all samples.
     interpolation
         Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
     coordinate, coordinate_name
@@ -451,6 +457,11 @@ class ParametricBody:
         if self.static is not None and np.any(out[STATIC_PREFIX + "residual"]):
             raise DataError("the slope of a residual is not stored (must be zero)", None,
                             "slopes.static/residual")
+        for name in CARRIED_INVARIANTS:
+            key = _INV_PREFIX + name
+            if key in out and np.any(out[key]):
+                raise DataError("the slope of a value common to all samples is zero", None,
+                                f"slopes.{key}")
         set_(self, "slopes", out)
         set_(self, "format_version", SLOPES_VERSION)
 
@@ -660,7 +671,9 @@ class ParametricBody:
 
         Every stored quantity — ``M``, ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept``, the
         full bases, the invariants and the static state — is interpolated with the same
-        weights (:meth:`weights`), so the body stays consistent (§4, step 6). The static
+        weights (:meth:`weights`), so the body stays consistent (§4, step 6). What is one
+        value for all samples is carried: the non-float invariants and
+        :data:`CARRIED_INVARIANTS` (the loss reference frequency ``loss.f_ref``). The static
         state's relative residual is not: a ratio of norms, mixed with signed (cubic)
         weights it can turn negative; the body's ``static.residual`` is the bound
         ``max_i r_i`` over the samples with a nonzero weight
@@ -712,7 +725,8 @@ class ParametricBody:
         if self.invariants is not None:
             inv = {}
             for name, a in self.invariants.items():
-                inv[name] = mix(_INV_PREFIX + name) if a.dtype.kind == "f" else a[0].copy()
+                mixed = a.dtype.kind == "f" and name not in CARRIED_INVARIANTS
+                inv[name] = mix(_INV_PREFIX + name) if mixed else a[0].copy()
         hit = np.flatnonzero(self.samples == float(p))
         if hit.size:
             source = dict(self.sample_sources[hit[0]])
@@ -817,14 +831,22 @@ def _check_stacked(inv: Mapping[str, np.ndarray], k: int) -> dict[str, np.ndarra
         if a.ndim < 1 or a.shape[0] != k:
             raise DataError(f"must be stacked over the {k} samples, got shape {a.shape}",
                             None, item)
-        if a.dtype.kind == "f":
-            if not np.all(np.isfinite(a)):
-                raise DataError("has NaN/Inf entries", None, item)
-        elif any(not np.array_equal(a[0], a[i]) for i in range(1, k)):
-            raise DataError("differs between samples (only floating-point invariants are "
-                            "interpolated)", None, item)
+        if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+            raise DataError("has NaN/Inf entries", None, item)
+        if a.dtype.kind != "f" or name in CARRIED_INVARIANTS:
+            _check_constant(a, item)
         out[str(name)] = a
     return out
+
+
+def _check_constant(a: np.ndarray, item: str) -> None:
+    """A stacked invariant that must be one value for all samples (not interpolated): a
+    :class:`DataError` naming the first sample that differs from sample 1."""
+    for i in range(1, a.shape[0]):
+        if not np.array_equal(a[0], a[i]):
+            got = f" ({a[i].tolist()!r} vs {a[0].tolist()!r})" if a[0].size == 1 else ""
+            raise DataError(f"sample {i + 1} differs from sample 1{got}: one value for all "
+                            "samples (it is carried, not interpolated)", None, item)
 
 
 # ---------------------------------------------------------------------- interpolate

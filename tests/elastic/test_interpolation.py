@@ -958,3 +958,38 @@ def test_bad_sample_slopes_are_refused(pbody):
         assert exc.value.item == item
     with pytest.raises(DataError, match="no sample slopes: Hermite weights need them"):
         pbody.weights(0.5, "hermite")
+
+
+def _lossy(pb: ParametricBody, f_ref: np.ndarray) -> ParametricBody:
+    """``pb`` with a hysteretic invariant ``Le.m0`` and the reference frequencies ``f_ref``
+    of its samples (``loss.f_ref``)."""
+    return pb.with_(invariants={**pb.invariants, "Le.m0": 0.01 * pb.K, "loss.f_ref": f_ref})
+
+
+def test_loss_reference_frequency_is_carried_not_mixed(pbody):
+    """``loss.f_ref`` is one value for all samples: ``at(p)`` returns it exactly (reference:
+    the samples' 1000.0), where the cubic weights, which sum to one only to round-off, give
+    1000.0000000000001 at some of these p (so mixing it would fail here)."""
+    lb = _lossy(pbody, np.full(pbody.n_samples, 1000.0))
+    ps = np.linspace(*pbody.range, 201)
+    assert any(lb.weights(p) @ lb.invariants["loss.f_ref"] != 1000.0 for p in ps)
+    assert all(float(lb.at(p).invariants["loss.f_ref"]) == 1000.0 for p in ps)
+    hb = lb.with_(interpolation="hermite", slopes=_fd_slopes(lb))
+    assert float(hb.at(0.77).invariants["loss.f_ref"]) == 1000.0
+
+
+def test_samples_with_different_loss_reference_frequencies_name_the_sample(pbody):
+    """A stack of ``loss.f_ref`` that is not one value, or a nonzero slope of it: one
+    DataError naming the sample (and both values) or the slope (reference: the samples
+    given, 1000 and 1000.0000000000001 Hz in sample 3)."""
+    f = np.full(pbody.n_samples, 1000.0)
+    f[2] = np.nextafter(1000.0, 2000.0)
+    with pytest.raises(DataError, match=r"sample 3 differs from sample 1 \(1000\.0000000000001"
+                       r" vs 1000\.0\)") as exc:
+        _lossy(pbody, f)
+    assert exc.value.item == "invariants.loss.f_ref"
+    lb = _lossy(pbody, np.full(pbody.n_samples, 1000.0))
+    slopes = _fd_slopes(lb)
+    slopes["invariants/loss.f_ref"] = np.ones(pbody.n_samples)
+    with pytest.raises(DataError, match="slope of a value common to all samples is zero"):
+        lb.with_(interpolation="hermite", slopes=slopes)
