@@ -125,6 +125,7 @@ def _models(args: argparse.Namespace, bodies: list) -> list:
         if not model:
             raise DataError("the body records no FE model file: give --models (or use "
                             "--method local)", path, "source")
+        shared.refuse_overwrite(args.output, {f"FE model (recorded by {path})": model})
         _progress(f"reading {model}")
         fe = read_fe_model(model)
         check_source(fe, body, path)
@@ -238,6 +239,8 @@ def run(args: argparse.Namespace) -> int:
     from ..elastic.reduced_body import load_reduced_body
 
     shared.check_files(args.output, (".npz",), "parametric bodies")
+    shared.refuse_overwrite(args.output, {"BODY": args.bodies, "--models": args.models,
+                                          "--slope-models": args.slope_models})
     if args.values is not None and len(args.values) != len(args.bodies):
         raise NeweulError(f"--values has {len(args.values)} entries for {len(args.bodies)} "
                           "bodies")
