@@ -240,7 +240,8 @@ class ParametricBody:
         names, node ids, flags) and :data:`CARRIED_INVARIANTS` (``loss.f_ref``) are equal
         for all samples.
     interpolation
-        Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
+        Default weight function of :meth:`at`: ``"linear"``, ``"cubic"`` or ``"hermite"``
+        (with :attr:`slopes`, and only then).
     coordinate, coordinate_name
         Optional interpolation coordinate ``ξ(σ)`` (``docs/equations.md`` §4.1): a (2, n)
         table of knots ``σ_j`` (including every sample, spanning exactly their range) and
@@ -260,7 +261,8 @@ class ParametricBody:
         largest of the samples mixed).
     slopes
         Optional sample slopes ``dX/dσ`` at every sample (``docs/equations.md`` §4.2), the
-        data of ``hermite`` weights: ``key → (k, …)`` for every interpolated stack — ``M``,
+        data of ``hermite`` weights (present exactly when :attr:`interpolation` is
+        ``"hermite"``): ``key → (k, …)`` for every interpolated stack — ``M``,
         ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept`` (and ``G``, ``V``, ``W`` when
         stored), ``invariants/<name>`` for the floating-point invariants and
         ``static/<key>`` for the static state (``static/residual`` zero) — each of the shape
@@ -424,9 +426,13 @@ class ParametricBody:
 
     def _check_slopes(self) -> None:
         set_ = object.__setattr__
+        if (self.interpolation == "hermite") != (self.slopes is not None):
+            what = (f"sample slopes (slope/*) with interpolation {self.interpolation!r}"
+                    if self.slopes is not None else "interpolation 'hermite' without sample "
+                    "slopes (slope/*)")
+            raise DataError(f"Hermite weights and sample slopes come together (the slopes are "
+                            f"their data): {what}", None, "interpolation")
         if self.slopes is None:
-            if self.interpolation == "hermite":
-                raise DataError("Hermite weights need the sample slopes", None, "slopes")
             if self.format_version == SLOPES_VERSION:      # version 4 means "has them"
                 set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
                      else PARAMETRIC_BODY_VERSION)

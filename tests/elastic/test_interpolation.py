@@ -17,6 +17,7 @@ model with the transformed bases, and closed-form identities of the weights.
 from __future__ import annotations
 
 import json
+import re
 from functools import cache
 from itertools import pairwise
 
@@ -946,7 +947,8 @@ def test_bad_sample_slopes_are_refused(pbody):
     wrong shape, with NaN, or a residual slope: one DataError each, naming the field."""
     good = _fd_slopes(pbody)
     nan = dict(good, K=np.full_like(good["K"], np.nan))
-    cases = [(dict(interpolation="hermite"), "need the sample slopes", "slopes"),
+    cases = [(dict(interpolation="hermite"), "'hermite' without sample slopes",
+              "interpolation"),
              (dict(slopes={k: v for k, v in good.items() if k != "K"}), r"missing \['K'\]",
               "slopes"),
              (dict(slopes={**good, "X": good["K"]}), r"unknown \['X'\]", "slopes"),
@@ -993,3 +995,29 @@ def test_samples_with_different_loss_reference_frequencies_name_the_sample(pbody
     slopes["invariants/loss.f_ref"] = np.ones(pbody.n_samples)
     with pytest.raises(DataError, match="slope of a value common to all samples is zero"):
         lb.with_(interpolation="hermite", slopes=slopes)
+
+
+def test_slopes_and_hermite_weights_come_together_in_a_file(pbody, tmp_path):
+    """docs/reduced-body-format.md: ``slope/*`` is present exactly with ``interpolation =
+    "hermite"``. A version-4 file whose slopes come with cubic weights (read before, its
+    slopes ignored), a Hermite file without its slopes, and such a body in memory: one
+    DataError naming the file and ``interpolation`` (reference: the rule of the format, the
+    one ``generate`` applies, "Hermite weights and sample slopes come together")."""
+    hb = pbody.with_(interpolation="hermite", slopes=_fd_slopes(pbody))
+    hb.save(tmp_path / "h.npz")
+    with np.load(tmp_path / "h.npz", allow_pickle=False) as z:
+        data = dict(z)
+    meta = json.loads(data["meta"].tobytes().decode())
+    np.savez(tmp_path / "cubic.npz", **{**data, "meta": json_to_uint8(
+        {**meta, "interpolation": "cubic"})})
+    np.savez(tmp_path / "bare.npz", **{k: v for k, v in data.items()
+                                       if not k.startswith("slope/")})
+    for name, words in (("cubic.npz", "sample slopes (slope/*) with interpolation 'cubic'"),
+                        ("bare.npz", "interpolation 'hermite' without sample slopes")):
+        with pytest.raises(DataError, match=re.escape(words)) as exc:
+            load_parametric_body(tmp_path / name)
+        assert exc.value.file == str(tmp_path / name) and exc.value.item == "interpolation"
+        assert "Hermite weights and sample slopes come together" in str(exc.value)
+    with pytest.raises(DataError, match="come together") as exc:
+        pbody.with_(slopes=_fd_slopes(pbody))
+    assert exc.value.item == "interpolation"
