@@ -255,7 +255,8 @@ def run(args: argparse.Namespace) -> int:
                                           args.pressure_weight != PRESSURE_WEIGHT),
                                          ("--weights", args.weights is not None)) if given]
         if local_only:
-            raise NeweulError(f"{' and '.join(local_only)} apply to --method local only (the "
+            verb = "applies" if len(local_only) == 1 else "apply"
+            raise NeweulError(f"{' and '.join(local_only)} {verb} to --method local only (the "
                               "global basis has no common-coordinate SVD)")
     elif args.models is not None:
         raise NeweulError("--models applies to --method global only")

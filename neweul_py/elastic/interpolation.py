@@ -444,30 +444,34 @@ class ParametricBody:
         extra = sorted(set(self.slopes) - set(want))
         missing = [key for key in want if key not in self.slopes]
         if extra or missing:
+            def keys(names: list[str]) -> list[str]:
+                return [_SLOPE_PREFIX + name for name in names]
+
             raise DataError(f"must hold the slope of every interpolated stack "
                             f"({len(want)} for this body, ParametricBody.slope_keys)"
-                            + (f"; missing {missing}" if missing else "")
-                            + (f"; unknown {extra}" if extra else ""), None, "slopes")
+                            + (f"; missing {keys(missing)}" if missing else "")
+                            + (f"; unknown {keys(extra)}" if extra else ""), None,
+                            _SLOPE_PREFIX + (missing or extra)[0])
         out = {}
         for key in want:
             a = np.asarray(self.slopes[key])
             shape = self.stack(key).shape
             if a.dtype.kind not in "fi" or a.shape != shape:
                 raise DataError(f"must be real of shape {shape}, got {a.dtype} {a.shape}",
-                                None, f"slopes.{key}")
+                                None, _SLOPE_PREFIX + key)
             a = a.astype(np.float64)
             if not np.all(np.isfinite(a)):
                 raise DataError("holds a value that is not a finite number", None,
-                                f"slopes.{key}")
+                                _SLOPE_PREFIX + key)
             out[key] = a
         if self.static is not None and np.any(out[STATIC_PREFIX + "residual"]):
             raise DataError("the slope of a residual is not stored (must be zero)", None,
-                            "slopes.static/residual")
+                            f"{_SLOPE_PREFIX}{STATIC_PREFIX}residual")
         for name in CARRIED_INVARIANTS:
             key = _INV_PREFIX + name
             if key in out and np.any(out[key]):
                 raise DataError("the slope of a value common to all samples is zero", None,
-                                f"slopes.{key}")
+                                _SLOPE_PREFIX + key)
         set_(self, "slopes", out)
         set_(self, "format_version", SLOPES_VERSION)
 

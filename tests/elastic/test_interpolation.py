@@ -942,22 +942,31 @@ def test_sample_slopes_weights_and_file(pbody, tmp_path):
         load_parametric_body(tmp_path / "old.npz")
 
 
-def test_bad_sample_slopes_are_refused(pbody):
+def test_bad_sample_slopes_are_refused(pbody, tmp_path):
     """Hermite weights without slopes, slopes lacking a stack or with an unknown one, of the
-    wrong shape, with NaN, or a residual slope: one DataError each, naming the field."""
+    wrong shape, or with NaN: one DataError each, naming the field as the file names it
+    (``slope/K``, docs/reduced-body-format.md), in memory and read from a file."""
     good = _fd_slopes(pbody)
     nan = dict(good, K=np.full_like(good["K"], np.nan))
     cases = [(dict(interpolation="hermite"), "'hermite' without sample slopes",
               "interpolation"),
-             (dict(slopes={k: v for k, v in good.items() if k != "K"}), r"missing \['K'\]",
-              "slopes"),
-             (dict(slopes={**good, "X": good["K"]}), r"unknown \['X'\]", "slopes"),
-             (dict(slopes=dict(good, K=good["K"][:2])), "must be real of shape", "slopes.K"),
-             (dict(slopes=nan), "not a finite number", "slopes.K")]
+             (dict(slopes={k: v for k, v in good.items() if k != "K"}),
+              r"missing \['slope/K'\]", "slope/K"),
+             (dict(slopes={**good, "X": good["K"]}), r"unknown \['slope/X'\]", "slope/X"),
+             (dict(slopes=dict(good, K=good["K"][:2])), "must be real of shape", "slope/K"),
+             (dict(slopes=nan), "not a finite number", "slope/K")]
     for kw, words, item in cases:
         with pytest.raises(DataError, match=words) as exc:
             pbody.with_(**{"interpolation": "hermite", **kw})
         assert exc.value.item == item
+    path = tmp_path / "h.npz"
+    pbody.with_(interpolation="hermite", slopes=good).save(path)
+    with np.load(path, allow_pickle=False) as z:
+        data = dict(z)
+    np.savez(path, **{**data, "slope/K": data["slope/K"][:2]})
+    with pytest.raises(DataError, match="must be real of shape") as exc:
+        load_parametric_body(path)
+    assert exc.value.item == "slope/K" and exc.value.file == str(path)
     with pytest.raises(DataError, match="no sample slopes: Hermite weights need them"):
         pbody.weights(0.5, "hermite")
 
@@ -993,8 +1002,9 @@ def test_samples_with_different_loss_reference_frequencies_name_the_sample(pbody
     lb = _lossy(pbody, np.full(pbody.n_samples, 1000.0))
     slopes = _fd_slopes(lb)
     slopes["invariants/loss.f_ref"] = np.ones(pbody.n_samples)
-    with pytest.raises(DataError, match="slope of a value common to all samples is zero"):
+    with pytest.raises(DataError, match="slope of a value common to all samples is zero") as exc:
         lb.with_(interpolation="hermite", slopes=slopes)
+    assert exc.value.item == "slope/invariants/loss.f_ref"
 
 
 def test_slopes_and_hermite_weights_come_together_in_a_file(pbody, tmp_path):
