@@ -8,6 +8,9 @@ file names are checked before anything is computed (:func:`check_files`).
 from __future__ import annotations
 
 import argparse
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 from ..errors import NeweulError
@@ -106,6 +109,47 @@ def check_files(
         from ..analysis.plot import check_plot_path
 
         check_plot_path(plot)
+
+
+def refuse_overwrite(output: str | None, inputs: Mapping[str, str | Sequence[str] | None],
+                     option: str = "-o/--output") -> None:
+    """Refuse an output file that is one of the command's input files, before any work.
+
+    Parameters
+    ----------
+    output
+        The file the command will write (``None``: nothing to check).
+    inputs
+        What names each input → its file or files (``None`` entries are skipped), e.g.
+        ``{"BODY": args.bodies, "--slope-models": args.slope_models}``.
+    option
+        The output option, as the error names it.
+
+    Raises
+    ------
+    NeweulError
+        One line naming ``option``, the input and the file: the same path once resolved
+        (links, ``..``) or the same file on disk (a hard link).
+    """
+    if not output:
+        return
+    out = Path(output)
+    for name, files in inputs.items():
+        for file in [files] if isinstance(files, str) else (files or ()):
+            if file and same_file(out, Path(file)):
+                raise NeweulError(f"{option} {output} is the input {name} {file}: writing it "
+                                  "would overwrite that input (write to another file)")
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name one file: equal resolved paths, or (both existing) the
+    same file on disk."""
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def load_model(args: argparse.Namespace) -> Any:

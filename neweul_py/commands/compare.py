@@ -58,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from ..analysis.compare import compare
 
     common.check_files(args.out, (".csv",), "error tables", args.plot)
+    common.refuse_overwrite(args.out, {"RESULT": args.result, "REFERENCE": args.reference})
     rtol = {"*": 1e-3, **dict(args.rtol)}
     atol = {"*": 1e-12, **dict(args.atol)}
     cmp = compare(args.result, args.reference, signals=args.signals, rtol=rtol, atol=atol,

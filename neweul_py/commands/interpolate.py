@@ -125,6 +125,7 @@ def _models(args: argparse.Namespace, bodies: list) -> list:
         if not model:
             raise DataError("the body records no FE model file: give --models (or use "
                             "--method local)", path, "source")
+        shared.refuse_overwrite(args.output, {f"FE model (recorded by {path})": model})
         _progress(f"reading {model}")
         fe = read_fe_model(model)
         check_source(fe, body, path)
@@ -238,6 +239,8 @@ def run(args: argparse.Namespace) -> int:
     from ..elastic.reduced_body import load_reduced_body
 
     shared.check_files(args.output, (".npz",), "parametric bodies")
+    shared.refuse_overwrite(args.output, {"BODY": args.bodies, "--models": args.models,
+                                          "--slope-models": args.slope_models})
     if args.values is not None and len(args.values) != len(args.bodies):
         raise NeweulError(f"--values has {len(args.values)} entries for {len(args.bodies)} "
                           "bodies")
@@ -252,7 +255,8 @@ def run(args: argparse.Namespace) -> int:
                                           args.pressure_weight != PRESSURE_WEIGHT),
                                          ("--weights", args.weights is not None)) if given]
         if local_only:
-            raise NeweulError(f"{' and '.join(local_only)} apply to --method local only (the "
+            verb = "applies" if len(local_only) == 1 else "apply"
+            raise NeweulError(f"{' and '.join(local_only)} {verb} to --method local only (the "
                               "global basis has no common-coordinate SVD)")
     elif args.models is not None:
         raise NeweulError("--models applies to --method global only")

@@ -255,6 +255,7 @@ def run(args: argparse.Namespace) -> int:
     if args.points is not None:
         args.points = args.points.values()
     shared.check_files(args.output, (".npz",), "reduced bodies")
+    shared.refuse_overwrite(args.output, {"MODEL": args.model})
     _check_options(args)
     if args.stiffening or args.interface_frame:
         args.invariants = True

@@ -107,9 +107,11 @@ def _cases(args: argparse.Namespace) -> list:
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, run the sweep, report failures, write the table."""
     from ..sweep import check_sweep_output, sweep
+    from .common import refuse_overwrite
 
     if args.out:
         check_sweep_output(args.out)
+        refuse_overwrite(args.out, {"--cases": args.cases}, "-o/--out")
     options = _options(args)
     cases = _cases(args)
     if not args.file.endswith(".py"):

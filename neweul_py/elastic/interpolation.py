@@ -102,10 +102,17 @@ from .fe_model import loss_reference
 from .invariants import FLAT_FORMAT, Invariants
 from .projection import Progress
 from .reduced_body import ReducedBody, json_normal
-from .static_state import STATIC_KEYS, STATIC_PREFIX, StaticDeflection, static_from_arrays
+from .static_state import (
+    STATIC_KEYS,
+    STATIC_PREFIX,
+    StaticDeflection,
+    residual_bound,
+    static_from_arrays,
+)
 
 __all__ = [
     "BASES",
+    "CARRIED_INVARIANTS",
     "INTERPOLATIONS",
     "PARAMETRIC_BODY_FORMAT",
     "PARAMETRIC_BODY_VERSION",
@@ -153,6 +160,10 @@ _ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node",
 _OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G", "coordinate")
 #: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
 _STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
+#: Floating-point invariants that are one value for all samples (checked when the body is
+#: built, their slopes zero): :meth:`ParametricBody.at` carries them, it does not mix them
+#: (weights that sum to one only to round-off would turn 1000 Hz into 1000.0000000000001).
+CARRIED_INVARIANTS = ("loss.f_ref",)
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -226,9 +237,11 @@ class ParametricBody:
     invariants
         Optional flat invariants (:meth:`Invariants.to_flat` names) of the transformed
         samples, each stacked to (k, …); entries that are not floating point (format tag,
-        names, node ids, flags) are equal for all samples.
+        names, node ids, flags) and :data:`CARRIED_INVARIANTS` (``loss.f_ref``) are equal
+        for all samples.
     interpolation
-        Default weight function of :meth:`at`: ``"linear"`` or ``"cubic"``.
+        Default weight function of :meth:`at`: ``"linear"``, ``"cubic"`` or ``"hermite"``
+        (with :attr:`slopes`, and only then).
     coordinate, coordinate_name
         Optional interpolation coordinate ``ξ(σ)`` (``docs/equations.md`` §4.1): a (2, n)
         table of knots ``σ_j`` (including every sample, spanning exactly their range) and
@@ -244,10 +257,12 @@ class ParametricBody:
     static
         Optional static states of the samples
         (:class:`~neweul_py.elastic.static_state.StaticDeflection`, stacked; ``q`` in the
-        common coordinates), mixed by :meth:`at` with the same weights.
+        common coordinates), mixed by :meth:`at` with the same weights (the residual: the
+        largest of the samples mixed).
     slopes
         Optional sample slopes ``dX/dσ`` at every sample (``docs/equations.md`` §4.2), the
-        data of ``hermite`` weights: ``key → (k, …)`` for every interpolated stack — ``M``,
+        data of ``hermite`` weights (present exactly when :attr:`interpolation` is
+        ``"hermite"``): ``key → (k, …)`` for every interpolated stack — ``M``,
         ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept`` (and ``G``, ``V``, ``W`` when
         stored), ``invariants/<name>`` for the floating-point invariants and
         ``static/<key>`` for the static state (``static/residual`` zero) — each of the shape
@@ -411,9 +426,13 @@ class ParametricBody:
 
     def _check_slopes(self) -> None:
         set_ = object.__setattr__
+        if (self.interpolation == "hermite") != (self.slopes is not None):
+            what = (f"sample slopes (slope/*) with interpolation {self.interpolation!r}"
+                    if self.slopes is not None else "interpolation 'hermite' without sample "
+                    "slopes (slope/*)")
+            raise DataError(f"Hermite weights and sample slopes come together (the slopes are "
+                            f"their data): {what}", None, "interpolation")
         if self.slopes is None:
-            if self.interpolation == "hermite":
-                raise DataError("Hermite weights need the sample slopes", None, "slopes")
             if self.format_version == SLOPES_VERSION:      # version 4 means "has them"
                 set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
                      else PARAMETRIC_BODY_VERSION)
@@ -425,25 +444,34 @@ class ParametricBody:
         extra = sorted(set(self.slopes) - set(want))
         missing = [key for key in want if key not in self.slopes]
         if extra or missing:
+            def keys(names: list[str]) -> list[str]:
+                return [_SLOPE_PREFIX + name for name in names]
+
             raise DataError(f"must hold the slope of every interpolated stack "
                             f"({len(want)} for this body, ParametricBody.slope_keys)"
-                            + (f"; missing {missing}" if missing else "")
-                            + (f"; unknown {extra}" if extra else ""), None, "slopes")
+                            + (f"; missing {keys(missing)}" if missing else "")
+                            + (f"; unknown {keys(extra)}" if extra else ""), None,
+                            _SLOPE_PREFIX + (missing or extra)[0])
         out = {}
         for key in want:
             a = np.asarray(self.slopes[key])
             shape = self.stack(key).shape
             if a.dtype.kind not in "fi" or a.shape != shape:
                 raise DataError(f"must be real of shape {shape}, got {a.dtype} {a.shape}",
-                                None, f"slopes.{key}")
+                                None, _SLOPE_PREFIX + key)
             a = a.astype(np.float64)
             if not np.all(np.isfinite(a)):
                 raise DataError("holds a value that is not a finite number", None,
-                                f"slopes.{key}")
+                                _SLOPE_PREFIX + key)
             out[key] = a
         if self.static is not None and np.any(out[STATIC_PREFIX + "residual"]):
             raise DataError("the slope of a residual is not stored (must be zero)", None,
-                            "slopes.static/residual")
+                            f"{_SLOPE_PREFIX}{STATIC_PREFIX}residual")
+        for name in CARRIED_INVARIANTS:
+            key = _INV_PREFIX + name
+            if key in out and np.any(out[key]):
+                raise DataError("the slope of a value common to all samples is zero", None,
+                                _SLOPE_PREFIX + key)
         set_(self, "slopes", out)
         set_(self, "format_version", SLOPES_VERSION)
 
@@ -652,8 +680,14 @@ class ParametricBody:
         """The reduced body at parameter value ``p``: ``X(p) = Σ_i w_i(p) X̃_i`` (§4, step 5).
 
         Every stored quantity — ``M``, ``D``, ``K``, ``B``, ``C``, ``V_kept``, ``W_kept``, the
-        full bases and the invariants — is interpolated with the same weights
-        (:meth:`weights`), so the body stays consistent (§4, step 6).
+        full bases, the invariants and the static state — is interpolated with the same
+        weights (:meth:`weights`), so the body stays consistent (§4, step 6). What is one
+        value for all samples is carried: the non-float invariants and
+        :data:`CARRIED_INVARIANTS` (the loss reference frequency ``loss.f_ref``). The static
+        state's relative residual is not: a ratio of norms, mixed with signed (cubic)
+        weights it can turn negative; the body's ``static.residual`` is the bound
+        ``max_i r_i`` over the samples with a nonzero weight
+        (:func:`~neweul_py.elastic.static_state.residual_bound`).
 
         Parameters
         ----------
@@ -701,7 +735,8 @@ class ParametricBody:
         if self.invariants is not None:
             inv = {}
             for name, a in self.invariants.items():
-                inv[name] = mix(_INV_PREFIX + name) if a.dtype.kind == "f" else a[0].copy()
+                mixed = a.dtype.kind == "f" and name not in CARRIED_INVARIANTS
+                inv[name] = mix(_INV_PREFIX + name) if mixed else a[0].copy()
         hit = np.flatnonzero(self.samples == float(p))
         if hit.size:
             source = dict(self.sample_sources[hit[0]])
@@ -728,7 +763,8 @@ class ParametricBody:
             method="interpolated", settings=settings, source=source, invariants=inv,
             parameters={self.parameter: float(p)},
             static=None if self.static is None else StaticDeflection(
-                *(mix(STATIC_PREFIX + key) for key in STATIC_KEYS)),
+                **{key: mix(STATIC_PREFIX + key) for key in STATIC_KEYS if key != "residual"},
+                residual=residual_bound(self.static.residual, w)),
         )
 
     # ------------------------------------------------------------------ file I/O
@@ -805,14 +841,22 @@ def _check_stacked(inv: Mapping[str, np.ndarray], k: int) -> dict[str, np.ndarra
         if a.ndim < 1 or a.shape[0] != k:
             raise DataError(f"must be stacked over the {k} samples, got shape {a.shape}",
                             None, item)
-        if a.dtype.kind == "f":
-            if not np.all(np.isfinite(a)):
-                raise DataError("has NaN/Inf entries", None, item)
-        elif any(not np.array_equal(a[0], a[i]) for i in range(1, k)):
-            raise DataError("differs between samples (only floating-point invariants are "
-                            "interpolated)", None, item)
+        if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+            raise DataError("has NaN/Inf entries", None, item)
+        if a.dtype.kind != "f" or name in CARRIED_INVARIANTS:
+            _check_constant(a, item)
         out[str(name)] = a
     return out
+
+
+def _check_constant(a: np.ndarray, item: str) -> None:
+    """A stacked invariant that must be one value for all samples (not interpolated): a
+    :class:`DataError` naming the first sample that differs from sample 1."""
+    for i in range(1, a.shape[0]):
+        if not np.array_equal(a[0], a[i]):
+            got = f" ({a[i].tolist()!r} vs {a[0].tolist()!r})" if a[0].size == 1 else ""
+            raise DataError(f"sample {i + 1} differs from sample 1{got}: one value for all "
+                            "samples (it is carried, not interpolated)", None, item)
 
 
 # ---------------------------------------------------------------------- interpolate

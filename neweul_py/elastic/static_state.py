@@ -27,8 +27,10 @@ state, per working point:
 In a file the group is the arrays ``static/q``, ``static/node_u``, ``static/node_force``,
 ``static/outputs``, ``static/residual`` (``docs/reduced-body-format.md``); a parametric body
 stacks them over its samples (first axis) and :meth:`StaticDeflection.mixed` mixes them with
-the body's interpolation weights, like every other stored quantity. In common coordinates
-``q̃ = T_i q_i`` (:meth:`StaticDeflection.transformed`); the physical arrays do not change.
+the body's interpolation weights, like every other stored quantity — except the residual, a
+ratio of norms, which is the largest residual of the samples mixed (:func:`residual_bound`).
+In common coordinates ``q̃ = T_i q_i`` (:meth:`StaticDeflection.transformed`); the physical
+arrays do not change.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ import scipy.sparse as sps
 from ..errors import DataError, SolverError
 
 __all__ = ["STATIC_KEYS", "STATIC_PREFIX", "StaticDeflection", "node_positions", "node_rows",
-           "rigid_map",
+           "residual_bound", "rigid_map",
            "static_deflection", "static_from_arrays", "tied_static_equilibrium"]
 
 STATIC_PREFIX = "static/"
@@ -109,14 +111,15 @@ class StaticDeflection:
 
     def mixed(self, w: np.ndarray) -> StaticDeflection:
         """``Σ_i w_i X_i`` of stacked samples (the weights of
-        :meth:`~neweul_py.elastic.interpolation.ParametricBody.weights`); a unit vector
-        returns that sample bit for bit."""
+        :meth:`~neweul_py.elastic.interpolation.ParametricBody.weights`), the residual
+        :func:`residual_bound`; a unit vector returns that sample bit for bit."""
         w = np.asarray(w, dtype=np.float64)
         idx = np.flatnonzero(w)
         if idx.size == 1:
             return StaticDeflection(*(self[key][idx[0]].copy() for key in STATIC_KEYS))
-        return StaticDeflection(*(np.einsum("i,i...->...", w[idx], self[key][idx])
-                                  for key in STATIC_KEYS))
+        return StaticDeflection(**{key: np.einsum("i,i...->...", w[idx], self[key][idx])
+                                   for key in STATIC_KEYS if key != "residual"},
+                                residual=residual_bound(self.residual, w))
 
     def transformed(self, T: np.ndarray) -> StaticDeflection:
         """The state in common coordinates ``q̃ = T q`` (``T`` = ``T_i`` of the sample)."""
@@ -130,6 +133,33 @@ class StaticDeflection:
     def stack(states: list[StaticDeflection]) -> StaticDeflection:
         """The samples' states stacked on a first axis."""
         return StaticDeflection(*(np.stack([s[key] for s in states]) for key in STATIC_KEYS))
+
+
+def residual_bound(residuals: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The relative residual of a static state mixed from samples with the weights ``w``.
+
+    A residual ``‖x_s − V q‖/‖x_s‖`` is a ratio of norms, not a quantity linear in the
+    state: mixing it with signed weights (cubic cardinal functions are negative between
+    some samples) can give a negative "residual". The mixed state's residual is therefore
+    the bound ``max_i r_i`` over the samples with a nonzero weight ``w_i`` (the FE state
+    between samples is not known, so its own residual cannot be computed).
+
+    Parameters
+    ----------
+    residuals
+        (k,) the samples' residuals, each ≥ 0.
+    w
+        (k,) or (2k,) weights; with Hermite weights the last ``k`` (those of the slopes,
+        whose residual slope is zero) do not count.
+
+    Returns
+    -------
+    numpy.ndarray
+        The () residual, ≥ 0 (the sample's own at a unit weight vector).
+    """
+    r = np.asarray(residuals, dtype=np.float64)
+    used = np.flatnonzero(np.asarray(w, dtype=np.float64)[:r.size])
+    return np.array(r[used].max() if used.size else r.max())
 
 
 def static_from_arrays(data: Mapping[str, np.ndarray], file: str | None = None

@@ -33,6 +33,7 @@ with ``J_b S_V``, like a rigid body there.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +45,8 @@ from ..model import INERTIAL, ElasticBody, GeneralizedForce, System
 from ..model.system import iter_expressions
 
 __all__ = ["ElasticEquations", "ElasticSplice", "elastic_equations", "elastic_splices",
-           "node_coordinate_map", "node_coordinate_parts", "used_elastic_coordinates"]
+           "node_coordinate_map", "node_coordinate_parts", "schedule_jacobian",
+           "used_elastic_coordinates"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -297,6 +299,29 @@ def used_elastic_coordinates(system: System, elastic_q: set[str]) -> set[str]:
     return used
 
 
+def schedule_jacobian(sigma: sp.ImmutableMatrix, symbols: Sequence[sp.Symbol]
+                      ) -> sp.ImmutableMatrix:
+    """``∂σ/∂x`` of the scheduling expressions ``sigma`` (k × 1) for the symbols ``x``.
+
+    Parameters
+    ----------
+    sigma
+        The k scheduling expressions, a column.
+    symbols
+        The variables ``x`` (coordinates or inputs); may be empty.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        (k, len(symbols)); for no symbols the empty (k, 0) matrix — a model without inputs
+        or without rigid coordinates (SymPy's ``jacobian`` refuses an empty list).
+    """
+    symbols = list(symbols)
+    if not symbols:
+        return sp.ImmutableMatrix.zeros(sigma.rows, 0)
+    return sp.ImmutableMatrix(sigma.jacobian(symbols))
+
+
 def elastic_equations(system: System) -> ElasticEquations | None:
     """The complete elastic splice of ``system`` (``None`` without elastic bodies)."""
     if not system.elastic_bodies:
@@ -319,7 +344,7 @@ def elastic_equations(system: System) -> ElasticEquations | None:
     jacobians = None
     if schedules:
         sigma = sp.ImmutableMatrix(schedules)
-        jacobians = (sigma.jacobian([system.coordinates[j].symbol for j in active]),
-                     sigma.jacobian([u.symbol for u in system.inputs]))
+        jacobians = (schedule_jacobian(sigma, [system.coordinates[j].symbol for j in active]),
+                     schedule_jacobian(sigma, [u.symbol for u in system.inputs]))
     return ElasticEquations(splices, keep, SV, SW, parts, schedules, active, tuple(hidden),
                             tuple(offsets), jacobians)

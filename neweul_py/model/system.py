@@ -445,6 +445,13 @@ def _input_rate_orders(s: System) -> dict[str, int]:
     return orders
 
 
+def _exact(x: float) -> str:
+    """``x`` with as many digits as it takes to tell it from any other float (``:g`` when
+    that is exact, else the shortest round-trip form: ``1000.0000000000001``)."""
+    short = format(x, "g")
+    return short if float(short) == x else repr(float(x))
+
+
 def _validate_losses(s: System, constant: Mapping[str, sp.Symbol]) -> None:
     """``loss_reference_frequency`` a positive finite number; every ``loss_factor`` uses
     parameters only and is finite and ≥ 0 at the parameter defaults; every elastic body with
@@ -479,8 +486,9 @@ def _validate_losses(s: System, constant: Mapping[str, sp.Symbol]) -> None:
             if own is not None and own != s.loss_reference_frequency:
                 where = f" (sample {i + 1})" if e.samples else ""
                 raise ModelError(
-                    f"the body's data{where} hold loss factors for f_ref = {own:g} Hz, the "
-                    f"model's loss_reference_frequency is {s.loss_reference_frequency:g} Hz "
+                    f"the body's data{where} hold loss factors for f_ref = {_exact(own)} Hz, "
+                    f"the model's loss_reference_frequency is "
+                    f"{_exact(s.loss_reference_frequency)} Hz "
                     "(set loss_reference_frequency to the body's)", f"elastic_bodies.{e.name}")
 
 

@@ -144,7 +144,10 @@ def test_cli_interpolate_global_and_frf_body(tmp_path, capsys):
         assert err.startswith("neweul frf-body: error:") and text in err
     assert main(["interpolate", *paths, "--parameter", "p", "--weights", "1,1,1", "-o",
                  str(tmp_path / "x.npz")]) == 1
-    assert "apply to --method local only" in capsys.readouterr().err
+    assert "--weights applies to --method local only" in capsys.readouterr().err
+    assert main(["interpolate", *paths, "--parameter", "p", "--basis", "kept", "--weights",
+                 "1,1,1", "-o", str(tmp_path / "x.npz")]) == 1
+    assert "--basis and --weights apply to --method local only" in capsys.readouterr().err
 
 
 def test_invariants_follow_the_global_basis():

@@ -17,6 +17,7 @@ model with the transformed bases, and closed-form identities of the weights.
 from __future__ import annotations
 
 import json
+import re
 from functools import cache
 from itertools import pairwise
 
@@ -941,20 +942,92 @@ def test_sample_slopes_weights_and_file(pbody, tmp_path):
         load_parametric_body(tmp_path / "old.npz")
 
 
-def test_bad_sample_slopes_are_refused(pbody):
+def test_bad_sample_slopes_are_refused(pbody, tmp_path):
     """Hermite weights without slopes, slopes lacking a stack or with an unknown one, of the
-    wrong shape, with NaN, or a residual slope: one DataError each, naming the field."""
+    wrong shape, or with NaN: one DataError each, naming the field as the file names it
+    (``slope/K``, docs/reduced-body-format.md), in memory and read from a file."""
     good = _fd_slopes(pbody)
     nan = dict(good, K=np.full_like(good["K"], np.nan))
-    cases = [(dict(interpolation="hermite"), "need the sample slopes", "slopes"),
-             (dict(slopes={k: v for k, v in good.items() if k != "K"}), r"missing \['K'\]",
-              "slopes"),
-             (dict(slopes={**good, "X": good["K"]}), r"unknown \['X'\]", "slopes"),
-             (dict(slopes=dict(good, K=good["K"][:2])), "must be real of shape", "slopes.K"),
-             (dict(slopes=nan), "not a finite number", "slopes.K")]
+    cases = [(dict(interpolation="hermite"), "'hermite' without sample slopes",
+              "interpolation"),
+             (dict(slopes={k: v for k, v in good.items() if k != "K"}),
+              r"missing \['slope/K'\]", "slope/K"),
+             (dict(slopes={**good, "X": good["K"]}), r"unknown \['slope/X'\]", "slope/X"),
+             (dict(slopes=dict(good, K=good["K"][:2])), "must be real of shape", "slope/K"),
+             (dict(slopes=nan), "not a finite number", "slope/K")]
     for kw, words, item in cases:
         with pytest.raises(DataError, match=words) as exc:
             pbody.with_(**{"interpolation": "hermite", **kw})
         assert exc.value.item == item
+    path = tmp_path / "h.npz"
+    pbody.with_(interpolation="hermite", slopes=good).save(path)
+    with np.load(path, allow_pickle=False) as z:
+        data = dict(z)
+    np.savez(path, **{**data, "slope/K": data["slope/K"][:2]})
+    with pytest.raises(DataError, match="must be real of shape") as exc:
+        load_parametric_body(path)
+    assert exc.value.item == "slope/K" and exc.value.file == str(path)
     with pytest.raises(DataError, match="no sample slopes: Hermite weights need them"):
         pbody.weights(0.5, "hermite")
+
+
+def _lossy(pb: ParametricBody, f_ref: np.ndarray) -> ParametricBody:
+    """``pb`` with a hysteretic invariant ``Le.m0`` and the reference frequencies ``f_ref``
+    of its samples (``loss.f_ref``)."""
+    return pb.with_(invariants={**pb.invariants, "Le.m0": 0.01 * pb.K, "loss.f_ref": f_ref})
+
+
+def test_loss_reference_frequency_is_carried_not_mixed(pbody):
+    """``loss.f_ref`` is one value for all samples: ``at(p)`` returns it exactly (reference:
+    the samples' 1000.0), where the cubic weights, which sum to one only to round-off, give
+    1000.0000000000001 at some of these p (so mixing it would fail here)."""
+    lb = _lossy(pbody, np.full(pbody.n_samples, 1000.0))
+    ps = np.linspace(*pbody.range, 201)
+    assert any(lb.weights(p) @ lb.invariants["loss.f_ref"] != 1000.0 for p in ps)
+    assert all(float(lb.at(p).invariants["loss.f_ref"]) == 1000.0 for p in ps)
+    hb = lb.with_(interpolation="hermite", slopes=_fd_slopes(lb))
+    assert float(hb.at(0.77).invariants["loss.f_ref"]) == 1000.0
+
+
+def test_samples_with_different_loss_reference_frequencies_name_the_sample(pbody):
+    """A stack of ``loss.f_ref`` that is not one value, or a nonzero slope of it: one
+    DataError naming the sample (and both values) or the slope (reference: the samples
+    given, 1000 and 1000.0000000000001 Hz in sample 3)."""
+    f = np.full(pbody.n_samples, 1000.0)
+    f[2] = np.nextafter(1000.0, 2000.0)
+    with pytest.raises(DataError, match=r"sample 3 differs from sample 1 \(1000\.0000000000001"
+                       r" vs 1000\.0\)") as exc:
+        _lossy(pbody, f)
+    assert exc.value.item == "invariants.loss.f_ref"
+    lb = _lossy(pbody, np.full(pbody.n_samples, 1000.0))
+    slopes = _fd_slopes(lb)
+    slopes["invariants/loss.f_ref"] = np.ones(pbody.n_samples)
+    with pytest.raises(DataError, match="slope of a value common to all samples is zero") as exc:
+        lb.with_(interpolation="hermite", slopes=slopes)
+    assert exc.value.item == "slope/invariants/loss.f_ref"
+
+
+def test_slopes_and_hermite_weights_come_together_in_a_file(pbody, tmp_path):
+    """docs/reduced-body-format.md: ``slope/*`` is present exactly with ``interpolation =
+    "hermite"``. A version-4 file whose slopes come with cubic weights (read before, its
+    slopes ignored), a Hermite file without its slopes, and such a body in memory: one
+    DataError naming the file and ``interpolation`` (reference: the rule of the format, the
+    one ``generate`` applies, "Hermite weights and sample slopes come together")."""
+    hb = pbody.with_(interpolation="hermite", slopes=_fd_slopes(pbody))
+    hb.save(tmp_path / "h.npz")
+    with np.load(tmp_path / "h.npz", allow_pickle=False) as z:
+        data = dict(z)
+    meta = json.loads(data["meta"].tobytes().decode())
+    np.savez(tmp_path / "cubic.npz", **{**data, "meta": json_to_uint8(
+        {**meta, "interpolation": "cubic"})})
+    np.savez(tmp_path / "bare.npz", **{k: v for k, v in data.items()
+                                       if not k.startswith("slope/")})
+    for name, words in (("cubic.npz", "sample slopes (slope/*) with interpolation 'cubic'"),
+                        ("bare.npz", "interpolation 'hermite' without sample slopes")):
+        with pytest.raises(DataError, match=re.escape(words)) as exc:
+            load_parametric_body(tmp_path / name)
+        assert exc.value.file == str(tmp_path / name) and exc.value.item == "interpolation"
+        assert "Hermite weights and sample slopes come together" in str(exc.value)
+    with pytest.raises(DataError, match="come together") as exc:
+        pbody.with_(slopes=_fd_slopes(pbody))
+    assert exc.value.item == "interpolation"

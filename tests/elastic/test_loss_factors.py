@@ -222,3 +222,20 @@ def test_model_with_another_reference_frequency_than_its_body_is_refused(
     (tmp_path / "default.yaml").write_text(text)      # the default, 1000 Hz, differs too
     with pytest.raises(NeweulError, match="loss_reference_frequency"):
         api.generate(tmp_path / "default.yaml", tmp_path / "gen")
+
+
+def test_nearly_equal_reference_frequencies_are_printed_apart(reduced: Path) -> None:
+    """A body whose ``loss.f_ref`` is 1000.0000000000001 Hz (one ulp above the model's
+    1000 Hz) is refused with both values printed to the digits that tell them apart (it
+    said "1000 Hz … is 1000 Hz"). Reference: the two floats given."""
+    from neweul_py.elastic.reader import read_elastic_data
+    from neweul_py.errors import ModelError
+    from neweul_py.model import ElasticBody, System
+
+    data = read_elastic_data(reduced / "body.npz", None)
+    data["loss.f_ref"] = np.array(np.nextafter(1000.0, 2000.0))
+    body = ElasticBody("duct", "ISYS", data)
+    with pytest.raises(ModelError, match=r"f_ref = 1000\.0000000000001 Hz, the model's "
+                       r"loss_reference_frequency is 1000 Hz") as exc:
+        System(name="nearly", elastic_bodies=(body,), loss_reference_frequency=1000.0)
+    assert exc.value.key_path == "elastic_bodies.duct"

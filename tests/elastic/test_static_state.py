@@ -10,6 +10,8 @@ scalar static equilibrium of piston + tie spring + nonlinear restoring force sol
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from fe_builders import piston_duct
@@ -232,3 +234,27 @@ def test_node_positions_of_the_nonlinear_state():
     assert node_positions(b, q)[0, 0] == pytest.approx(x0 + F_STATIC / k + b.V[0] @ q,
                                                        rel=1e-14)
     assert node_positions(b.with_(static=None))[0, 0] == x0
+
+
+def test_mixed_residual_is_the_bound_of_the_samples_mixed():
+    """Cubic weights over three samples are negative between samples 2 and 3 (at p = 1.5 the
+    first sample's weight is (p − 1)(p − 2)/2 = −0.125), so the weighted sum of residuals
+    0.3, 0.01, 0.01 would be −0.026 (and the body refused as "a relative residual is never
+    negative"). Reference: the residual of a mixed state is max r_i over the samples with a
+    nonzero weight — 0.3 for cubic weights, 0.01 for linear ones at p = 1.5 (samples 2 and
+    3 only); the other arrays are still Σ w_i X_i."""
+    residuals = [0.3, 0.01, 0.01]
+    bodies = [piston_body(k) for k in (1.5e5, 2.0e5, 2.5e5)]
+    bodies = [b.with_(static=dataclasses.replace(b.static, residual=np.array(r)))
+              for b, r in zip(bodies, residuals, strict=True)]
+    pb = interpolate(bodies, [0.0, 1.0, 2.0], parameter="p", interpolation="cubic",
+                     row_scaling="none")
+    w = pb.weights(1.5)
+    assert w[0] == pytest.approx(-0.125) and w @ residuals < 0
+    cubic = pb.at(1.5).static
+    assert cubic.residual == 0.3
+    np.testing.assert_allclose(cubic.node_u, np.einsum("i,i...->...", w, pb.static.node_u),
+                               rtol=1e-15)
+    assert pb.at(1.5, "linear").static.residual == 0.01
+    assert pb.at(1.0).static.residual == 0.01
+    assert pb.static.mixed(w).residual == 0.3

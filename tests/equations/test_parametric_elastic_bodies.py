@@ -234,3 +234,62 @@ def test_schedule_outside_the_samples_from_the_command_line_names_the_range(para
     err = capsys.readouterr().err.strip()
     assert code == 1 and err.count("\n") == 0, err
     assert "'duct'" in err and "500" in err and "[300, 390]" in err, err
+
+
+def _readme_scheduled_block() -> str:
+    """The README's YAML block of a scheduled body (the one with ``schedule:``)."""
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    blocks = [b.split("```", 1)[0] for b in text.split("```yaml\n")[1:]]
+    found = [b for b in blocks if "schedule:" in b]
+    assert len(found) == 1, "the README holds one YAML block with a scheduled body"
+    return found[0]
+
+
+def test_scheduled_body_alone_without_inputs_or_coordinates(parametric) -> None:
+    """The README's block — a scheduled body on ISYS, no ``inputs:``, no rigid coordinates
+    (``∂σ/∂y``, ``∂σ/∂u`` are empty; generate raised SymPy's "X must be a row or a column
+    matrix") — generates a module whose mass matrix and ``rhs_jacobian`` at ``cs = 321.5``
+    (between samples) are those of the model with ``ParametricBody.at(321.5)`` as a fixed
+    body (reference: the elastic layer's interpolation)."""
+    tmp, pb = parametric
+    c = 321.5
+    block = _readme_scheduled_block()
+    assert "inputs" not in block and "coordinates" not in block
+    save_reduced_body(pb.at(c), tmp / "alone_at.npz")
+    mods = []
+    for name, text in (("alone", block), ("alone_fixed", block.replace(
+            "duct.npz", "alone_at.npz").replace(", schedule: cs", ""))):
+        (tmp / f"{name}.yaml").write_text(text)
+        mods.append(load_generated(generate(tmp / f"{name}.yaml", tmp / f"gen_{name}")))
+    got, ref = mods
+    assert not got.INPUTS and list(got.COORDINATES) == list(ref.COORDINATES)
+    p = got.default_parameters()
+    p[list(got.PARAMETERS).index("cs")] = c
+    x = 1e-4 * np.random.default_rng(2).normal(size=len(got.INITIAL_STATE))
+    n = len(got.COORDINATES)
+    pr = ref.default_parameters()
+    assert np.allclose(got.mass_matrix(0.0, x[:n], p), ref.mass_matrix(0.0, x[:n], pr),
+                       rtol=1e-12, atol=0)
+    assert np.allclose(got.rhs_jacobian(0.0, x, p), ref.rhs_jacobian(0.0, x, pr),
+                       rtol=1e-9, atol=1e-12 * np.abs(ref.rhs_jacobian(0.0, x, pr)).max())
+
+
+def test_schedule_of_a_coordinate_without_inputs_enters_the_jacobian(parametric) -> None:
+    """``schedule: cs + 2000 z`` in a model with a rigid coordinate and no ``inputs:`` (an
+    empty ``∂σ/∂u``): it generates, and the analytic ``rhs_jacobian`` equals central finite
+    differences of its own ``rhs`` (reference: the difference quotients, error O(h²))."""
+    tmp, _pb = parametric
+    text = _description("duct.npz", "cs + 2000*z", 343.0).replace("inputs: {F: 0}\n", "")
+    text = text.replace("  push: {type: force, frame: carrier, vector: [F, 0, 0], in: ISYS}\n",
+                        "")
+    (tmp / "no_inputs.yaml").write_text(text)
+    mod = load_generated(generate(tmp / "no_inputs.yaml", tmp / "gen_no_inputs"))
+    assert not mod.INPUTS and "z" in mod.COORDINATES
+    p = mod.default_parameters()
+    x = 1e-4 * np.random.default_rng(3).normal(size=len(mod.INITIAL_STATE))
+    J = mod.rhs_jacobian(0.0, x, p)
+    ref = _fd(lambda xx: mod.rhs(0.0, xx, p), x, 1e-6)
+    assert np.abs(J - ref).max() <= 1e-9 * np.abs(ref).max()
+    n = len(mod.COORDINATES)
+    assert not np.allclose(mod.mass_matrix(0.0, x[:n], p),
+                           mod.mass_matrix(0.0, x[:n] + 5e-3, p))
