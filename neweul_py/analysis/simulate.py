@@ -8,6 +8,7 @@ methods (Radau, BDF, LSODA) get the module's analytic ``rhs_jacobian``. ``method
 
 from __future__ import annotations
 
+import numbers
 import os
 from collections.abc import Callable, Mapping, Sequence
 from types import ModuleType
@@ -112,9 +113,13 @@ def _absolute_tolerance(module: ModuleType, method: str, atol: Any) -> float | n
     """``atol`` as a positive number, or one positive value per state where the method
     takes that (generalized-α, SciPy's ``solve_ivp``; not the compiled loop, not models with
     constraints)."""
-    a = np.asarray(atol, dtype=float)
-    if not (np.all(np.isfinite(a)) and np.all(a > 0)):
-        raise NeweulError("rtol and atol must be positive")
+    bad = NeweulError(f"atol must be a positive number or one per state, got {atol!r:.60}")
+    raw = np.asarray(atol)
+    if isinstance(atol, str | bytes) or raw.dtype.kind not in "fiu":  # no text, bool, complex
+        raise bad
+    a = raw.astype(float)
+    if not (a.size and np.all(np.isfinite(a)) and np.all(a > 0)):
+        raise bad
     if a.ndim == 0:
         return float(a)
     size = int(module.STATE_SIZE)
@@ -229,8 +234,8 @@ def simulate(
     if not (np.isfinite(t_start) and np.isfinite(t_end)) or t_end <= t_start:
         raise NeweulError(f"t_end ({t_end:g}) must be a finite time after t_start ({t_start:g})")
     atol = _absolute_tolerance(module, method, atol)
-    if not rtol > 0:
-        raise NeweulError("rtol and atol must be positive")
+    if not (isinstance(rtol, numbers.Real) and not isinstance(rtol, bool) and rtol > 0):
+        raise NeweulError(f"rtol must be a positive number, got {rtol!r}")
     check_compiled(module, method, u)
     if method == FIXED_STEP:
         if h is None:
