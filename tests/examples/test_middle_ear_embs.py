@@ -178,12 +178,12 @@ def test_stapes_volume_displacement_at_low_frequency_matches_kringlebotn_gunders
 @pytest.mark.slow
 def test_stapes_velocity_has_its_largest_peak_in_the_normal_band(study) -> None:
     """The same band for the largest peak (ASTM F2504 / Rosowski et al. 2007: one broad peak
-    at 0.6–1.5 kHz). Measured: refine 0 0.249 mm/s/Pa at 1.48 kHz (the TM's own mode 0.173
-    at 2.32 kHz), refine 1 0.239 at 1.45 kHz. With the former TM modulus 32 MPa, TM loss
-    factor 0.1 and LVATB1's modal loss factor 0.32 on every chain element the TM's mode was
-    the largest (0.22 at 2.26 kHz, refine 1): examples/middle_ear/README.md, "Δp = 0". The
-    margin is small (1.1 dB over the TM's mode; a 20 % stiffer TM or a 50 % larger cochlear
-    load reverses it: README, "How firm this is")."""
+    at 0.6–1.5 kHz). Measured with the off-centre umbo (session 19): refine 0 0.270 mm/s/Pa
+    at 1.43 kHz (the next peak 0.152 at 2.23 kHz, 5.0 dB below), refine 1 0.259 at 1.45 kHz
+    (7.4 dB above the next); it stays the largest with the TM modulus ×1.2 and the cochlear
+    load ×1.5, which made the centred cone's TM mode the largest (its margin was 1.1 dB;
+    examples/middle_ear/README.md, "The off-centre umbo"). The frequency is the tight part:
+    3–4 % inside the band's edge."""
     f, H = study
     k = int(np.argmax(np.abs(H[0.0]["stapes"])))
     assert 600.0 <= f[k] <= 1500.0, f[k]
