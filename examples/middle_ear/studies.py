@@ -143,7 +143,7 @@ def main() -> None:
               " Gyo & Goode 1987 umbo [dB] | umbo 1 kHz [mm/s/Pa] | stapes 1 kHz [mm/s/Pa] |"
               " stapes peak [mm/s/Pa] at [Hz] |",
               "|---|---|---|---|---|---|---|---|"]
-    k1 = int(np.argmin(np.abs(f - 1000.0)))
+    at_1k = frf_study(mod, np.array([1000.0]))  # exactly 1 kHz, whatever the grid
     for dp, h in H.items():
         gg = GYO_GOODE.get(dp)
         ref = f"{gg[0]:+.1f} ± {gg[1]:.1f}" if gg else ""
@@ -151,7 +151,8 @@ def main() -> None:
         lines.append(f"| {dp:+.0f} | {low_db(h['umbo'], h0['umbo'], f):+.2f} | "
                      f"{low_db(h['malleus'], h0['malleus'], f):+.2f} | "
                      f"{low_db(h['stapes'], h0['stapes'], f):+.2f} | {ref} | "
-                     f"{1e3 * abs(h['umbo'][k1]):.3f} | {1e3 * abs(h['stapes'][k1]):.3f} | "
+                     f"{1e3 * abs(at_1k[dp]['umbo'][0]):.3f} | "
+                     f"{1e3 * abs(at_1k[dp]['stapes'][0]):.3f} | "
                      f"{1e3 * abs(h['stapes'][ks]):.3f} at {f[ks]:.0f} |")
     with open(out / "frf.csv", "w", newline="") as fh:
         w = csv.writer(fh)
