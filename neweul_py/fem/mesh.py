@@ -217,12 +217,12 @@ def _off_centre(
 
 
 def manubrium_section(mesh: SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
-    """The TM section through the umbo along the manubrium's ray and the opposite one.
+    """The TM section through the umbo along the manubrium's ray and the inferior one.
 
     The nodes of the disc's positive and negative ``x`` axes (node ``1 + 3k(k − 1)`` and
     ``1 + 3k²`` of ring ``k`` in :func:`disk_mesh`'s order) — straight rays from the umbo to
-    the superior and to the inferior rim point, also for an off-centre umbo — ordered from the
-    inferior rim to the superior one.
+    the superior and to the inferior rim point (for an off-centre umbo they meet at
+    ``180° − 2 atan e``, not in one line) — ordered from the inferior rim to the superior one.
 
     Returns
     -------

@@ -86,10 +86,10 @@ def test_bad_umbo_offset(e):
 
 
 @pytest.mark.parametrize("e", [0.0, 0.16])
-def test_manubrium_section_is_the_straight_line_through_the_umbo(e):
+def test_manubrium_section_runs_along_two_straight_rays(e):
     """The section runs from the inferior rim through the umbo to the superior rim along two
-    straight rays (collinear points: zero cross product), distances increasing, and its
-    superior part holds the manubrium nodes."""
+    straight rays (collinear points on each: zero cross product), distances increasing, and
+    its superior part holds the manubrium nodes."""
     tm = cone_membrane(1.0, 0.3, 6, 1.0, 0.05, umbo_offset=e)
     nodes, s = manubrium_section(tm)
     assert np.all(np.diff(s) > 0) and s[6] == 0.0 and nodes[6] == tm.line[0]
