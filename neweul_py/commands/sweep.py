@@ -10,6 +10,7 @@ import sys
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
 from . import FORMS, SIMULATE_METHODS, SWEEP_STATS, SWEEP_TASKS, count, number, range_type
+from .common import refuse_overwrite
 
 #: Failures listed on stderr (the table holds all of them).
 _SHOWN_FAILURES = 5
@@ -107,7 +108,6 @@ def _cases(args: argparse.Namespace) -> list:
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, run the sweep, report failures, write the table."""
     from ..sweep import check_sweep_output, sweep
-    from .common import refuse_overwrite
 
     if args.out:
         check_sweep_output(args.out)
