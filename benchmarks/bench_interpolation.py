@@ -22,6 +22,10 @@ canal_volume_acceleration, 100 Hz–5 kHz (log), of
   solves and assemblies only, no reduction; ``DIR/slopes``) projected on the same basis,
   central differences, and cubic Hermite weights in ``Δp`` / in ``V`` — what ``neweul
   interpolate --slope-models … --slope-step 20`` writes;
+* ``global-quintic``/``global-quintic-V``: the same, with the samples' curvatures too — the
+  central second differences of the same slope models with the samples themselves (no
+  more FE solves), quintic Hermite weights in ``Δp`` / in ``V`` (``docs/equations.md`` §4.2;
+  ``neweul interpolate … --interpolation quintic-hermite``);
 * ``nearest-``/``nearest+``: the local body of the lower / upper neighbouring sample
   (equidistant: both are "the nearest sample")
 
@@ -78,6 +82,9 @@ def main() -> None:
     ap.add_argument("--dir", default="/tmp/neweul-bench-interp", type=Path)
     ap.add_argument("--modes", type=int, default=30)
     ap.add_argument("--nf", type=int, default=100)
+    ap.add_argument("--slope-step", type=float, default=SLOPE_STEP,
+                    help=f"step of the slope models [Pa] (default {SLOPE_STEP:g}; another "
+                    "step builds its own models in DIR/slopes<STEP>)")
     ap.add_argument("--order", type=int, default=None,
                     help="truncate the global basis to this many directions (default: all "
                     "above the numerical rank)")
@@ -90,10 +97,11 @@ def main() -> None:
         subprocess.run([sys.executable, "-m", "neweul_py.cli", "fem", "middle-ear",
                         "--pressures", "-4000:4000:17", "--refine", "1", "--static-curve",
                         "100", "-o", str(d)], check=True)
-    slopes = d / "slopes"
+    step = float(args.slope_step)
+    slopes = d / ("slopes" if step == SLOPE_STEP else f"slopes{step:g}")
     if not (slopes / "sweep.json").exists():
         print(f"building the slope models in {slopes}", file=sys.stderr)
-        near = ",".join(f"{p + sign * SLOPE_STEP:g}" for p in samples for sign in (-1, 1))
+        near = ",".join(f"{p + sign * step:g}" for p in samples for sign in (-1, 1))
         subprocess.run([sys.executable, "-m", "neweul_py.cli", "fem", "middle-ear",
                         f"--pressures={near}", "--refine", "1", "-q", "-o", str(slopes)],
                        check=True)
@@ -117,10 +125,13 @@ def main() -> None:
     t0 = time.perf_counter()
     glob = global_parametric_body(fes, bodies, samples, parameter="dp", order=args.order)
     t_glob = time.perf_counter() - t0
-    side = [[read_fe_model(_model(slopes, p + sign * SLOPE_STEP)) for p in samples]
+    side = [[read_fe_model(_model(slopes, p + sign * step)) for p in samples]
             for sign in (-1, 1)]
     herm = global_parametric_body(fes, bodies, samples, parameter="dp", order=args.order,
-                                  slope_models=(side[0], side[1]), slope_step=SLOPE_STEP)
+                                  slope_models=(side[0], side[1]), slope_step=step)
+    quint = global_parametric_body(fes, bodies, samples, parameter="dp", order=args.order,
+                                   interpolation="quintic-hermite",
+                                   slope_models=(side[0], side[1]), slope_step=step)
     print(f"reductions {t_red:.1f} s; local interpolation {t_local:.1f} s (order "
           f"{local.order}); global basis {t_glob:.1f} s (order {glob.order})")
     refs = {}
@@ -138,6 +149,8 @@ def main() -> None:
     glob_v = glob.with_(coordinate=coordinate_table(samples, sig, vol, str(d)),
                         coordinate_name="volume_displacement_m3")
     herm_v = herm.with_(coordinate=glob_v.coordinate, coordinate_name=glob_v.coordinate_name)
+    quint_v = quint.with_(coordinate=glob_v.coordinate,
+                          coordinate_name=glob_v.coordinate_name)
     methods = {
         "local": lambda p: local.at(p),
         "global": lambda p: glob.at(p, "linear"),
@@ -145,12 +158,14 @@ def main() -> None:
         "global-cubic-V": lambda p: glob_v.at(p),
         "global-hermite": lambda p: herm.at(p),
         "global-hermite-V": lambda p: herm_v.at(p),
+        "global-quintic": lambda p: quint.at(p),
+        "global-quintic-V": lambda p: quint_v.at(p),
         "nearest-": lambda p: bodies[int(np.searchsorted(samples, p)) - 1],
         "nearest+": lambda p: bodies[int(np.searchsorted(samples, p))],
     }
     print(f"relative FRF error per {INPUT}, {f[0]:g}–{f[-1]:g} Hz ({f.size} log points): "
           "median / max [%]")
-    print(f"{'dp [Pa]':>8} {'method':>13} " + " ".join(f"{o:>22}" for o in OUTPUTS))
+    print(f"{'dp [Pa]':>8} {'method':>16} " + " ".join(f"{o:>22}" for o in OUTPUTS))
     summary = {m: [] for m in methods}
     for p in mids:
         H = refs[p]
@@ -161,7 +176,7 @@ def main() -> None:
             summary[name].append((med, mx))
             cells = " ".join(f"{100 * a:>10.3f} / {100 * b:<9.3f}" for a, b in
                              zip(med, mx, strict=True))
-            print(f"{p:>+8g} {name:>13} {cells}")
+            print(f"{p:>+8g} {name:>16} {cells}")
     print("\nover all midpoints: worst median / worst max [%]; midpoints where the method "
           "beats both neighbours (median and max, every output)")
     near = np.array([[np.minimum(a, b) for a, b in zip(summary["nearest-"][i],
@@ -170,7 +185,7 @@ def main() -> None:
     for name, rows in summary.items():
         arr = np.array(rows)  # (mid, med/max, out)
         wins = int(np.sum(np.all(arr < near, axis=(1, 2))))
-        print(f"{name:>13}: " + ", ".join(
+        print(f"{name:>16}: " + ", ".join(
             f"{o} {100 * arr[:, 0, j].max():.3f} / {100 * arr[:, 1, j].max():.3f}"
             for j, o in enumerate(OUTPUTS)) + f"; beats nearest at {wins}/{mids.size}")
 

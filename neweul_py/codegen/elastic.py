@@ -94,11 +94,13 @@ def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
     for d in b.samples:
         lines += ["            {", *_arrays(d, "                ", keys), "            },"]
     lines.append("        ),")
-    if b.slopes:                        # Hermite weights: the samples' slopes (§4.2)
-        lines.append("        'slopes': (")
-        for d in b.slopes:
-            lines += ["            {", *_arrays(d, "                ", keys), "            },"]
-        lines.append("        ),")
+    for what in ("slopes", "curvatures"):   # Hermite weights: the samples' derivatives (§4.2)
+        if getattr(b, what):
+            lines.append(f"        '{what}': (")
+            for d in getattr(b, what):
+                lines += ["            {", *_arrays(d, "                ", keys),
+                          "            },"]
+            lines.append("        ),")
     return [*lines, "    },"]
 
 

@@ -1,11 +1,14 @@
 """``neweul interpolate BODY1.npz BODY2.npz … --parameter NAME [--values V1,V2,…]
-[--method global|local] [--models FE1,FE2,…] [--interpolation linear|cubic]
+[--method global|local] [--models FE1,FE2,…]
+[--interpolation linear|cubic|hermite|quintic-hermite]
 [--basis auto|full|kept] [--row-scaling kind|none] [--pressure-weight W] [--weights W1,…]
 [--coordinate CURVE.csv:SIGMA:XI] [--slope-models FE1- FE1+ … --slope-step D] [--store-bases]
 -o pbody.npz``: local reduced bodies → parametric body (``docs/equations.md`` §4;
 ``--coordinate``: cubic weights in the coordinate ``XI`` of the curve instead of in the
 parameter, §4.1; ``--slope-models``: the FE models at every sample value ∓ ``D`` give the
-samples' slopes, and the weights are Hermite, §4.2).
+samples' slopes, and the weights are Hermite, §4.2 — with ``--interpolation
+quintic-hermite`` the same models also give the samples' curvatures, quintic Hermite
+weights).
 
 ``--method global`` (default): one global basis of all samples, every sample's FE model
 projected onto it (:mod:`neweul_py.elastic.global_basis`); the FE models are the files the
@@ -27,7 +30,7 @@ from . import number, values_type
 #: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as
 #: :mod:`neweul_py.elastic.interpolation` (kept here so that building the parser imports no
 #: elastic code; a test checks they agree).
-INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic", "hermite")
+INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic", "hermite", "quintic-hermite")
 BASES: tuple[str, ...] = ("auto", "full", "kept")
 PRESSURE_WEIGHT = 1e-3
 
@@ -63,7 +66,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "--method global — on the middle-ear sweep at worst 4.1 %% median "
                         "error between samples against 15.6 %% linear, 0.56 %% with "
                         "--coordinate — linear for --method local; hermite with "
-                        "--slope-models)")
+                        "--slope-models, or quintic-hermite: with their curvatures too, "
+                        "from the same models)")
     parser.add_argument("--basis", choices=BASES, default="auto",
                         help="(--method local) basis rows for the common subspace: full "
                         "bases (needs --store-bases at reduction) or the kept rows (default "
@@ -96,7 +100,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "sample value minus and plus --slope-step (2 files per body); the "
                         "samples then carry their slopes and the weights are Hermite "
                         "(docs/equations.md §4.2; on the middle-ear sweep with --coordinate "
-                        "0.27 %% median / 7.5 %% max error between samples). Working-point "
+                        "0.27 %% median / 7.5 %% max error between samples, 0.07 %% / 2.1 %% "
+                        "with --interpolation quintic-hermite). Working-point "
                         "files record their static dp, which is checked against the sample "
                         "∓ step; other FE files are taken in the order given")
     parser.add_argument("--slope-step", default=None,
@@ -185,9 +190,9 @@ def _check_slope_options(args: argparse.Namespace) -> None:
     if (args.slope_models is None) != (args.slope_step is None):
         raise NeweulError("--slope-models and --slope-step go together")
     if args.slope_models is None:
-        if args.interpolation == "hermite":
-            raise NeweulError("--interpolation hermite needs the samples' slopes "
-                              "(--slope-models, --slope-step)")
+        if args.interpolation in ("hermite", "quintic-hermite"):
+            raise NeweulError(f"--interpolation {args.interpolation} needs the samples' "
+                              "slopes (--slope-models, --slope-step)")
         return
     if args.method != "global":
         raise NeweulError("--slope-models applies to --method global only")
@@ -195,9 +200,9 @@ def _check_slope_options(args: argparse.Namespace) -> None:
         raise NeweulError(f"--slope-models has {len(args.slope_models)} files for "
                           f"{len(args.bodies)} bodies (2 per body: the FE models at the "
                           "sample value minus and plus --slope-step)")
-    if args.interpolation not in (None, "hermite"):
-        raise NeweulError(f"--slope-models gives Hermite weights, not "
-                          f"--interpolation {args.interpolation}")
+    if args.interpolation not in (None, "hermite", "quintic-hermite"):
+        raise NeweulError(f"--slope-models gives Hermite weights (hermite or "
+                          f"quintic-hermite), not --interpolation {args.interpolation}")
 
 
 def _slope_models(files: list[str], bodies: list, values, step: float
@@ -232,6 +237,26 @@ def _slope_models(files: list[str], bodies: list, values, step: float
                                 "(a working point of neweul fem middle-ear has one)", path,
                                 "static")
     return (fes[0::2], fes[1::2]), ((states[0::2], states[1::2]) if need else None)
+
+
+def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
+    """The samples' own FE static states (their working-point files: ``--models`` or the
+    files the bodies record), for the curvatures of their static states — projected like
+    the slope models' (:func:`~neweul_py.elastic.global_basis.global_slopes`); a file
+    without one is a :class:`DataError` naming it."""
+    from ..errors import DataError
+    from ..fem.working_point_file import static_loads
+
+    out = []
+    for i, body in enumerate(bodies):
+        path = args.models[i] if args.models else body.source.get("file")
+        kept = {int(n) for n in body.nodes[:, 0]}
+        out.append(static_loads(path, kept))
+        if out[-1] is None:
+            raise DataError("the curvatures of the static states need each sample's FE "
+                            "static state; this FE model has none (a working point of "
+                            "neweul fem middle-ear has one)", path, "static")
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -276,11 +301,14 @@ def run(args: argparse.Namespace) -> int:
         slopes, statics = (_slope_models(args.slope_models, bodies, values, args.slope_step)
                            if args.slope_models else (None, None))
         fes = _models(args, bodies)
+        quintic = args.interpolation == "quintic-hermite"
         pb = global_parametric_body(fes, bodies, args.values, parameter=args.parameter,
                                     interpolation=args.interpolation or "cubic",
                                     store_bases=args.store_bases, labels=args.bodies,
                                     slope_models=slopes, slope_step=args.slope_step,
                                     slope_statics=statics,
+                                    sample_statics=_sample_statics(args, bodies)
+                                    if quintic and statics is not None else None,
                                     progress=_progress)
     else:
         pb = interpolate(bodies, args.values, parameter=args.parameter, basis=args.basis,
@@ -290,7 +318,7 @@ def run(args: argparse.Namespace) -> int:
                          store_bases=args.store_bases, progress=_progress,
                          labels=args.bodies)
     if table is not None:
-        pb = pb.with_(interpolation="hermite" if pb.slopes is not None else "cubic",
+        pb = pb.with_(interpolation=pb.interpolation if pb.slopes is not None else "cubic",
                       coordinate=table, coordinate_name=curve[1])
     pb.save(args.output)
     lo, hi = pb.range
@@ -302,6 +330,8 @@ def run(args: argparse.Namespace) -> int:
           f"order {pb.order} ({'two' if pb.two_sided else 'one'}-sided, {how}, "
           f"σ_r+1/σ_1 = {cut:.3g}"
           + (f", weights in {pb.coordinate_name}" if pb.coordinate is not None else "")
-          + (", with the samples' slopes (Hermite)" if pb.slopes is not None else "")
+          + (", with the samples' slopes and curvatures (quintic Hermite)"
+             if pb.curvatures is not None else ", with the samples' slopes (Hermite)"
+             if pb.slopes is not None else "")
           + f"), {time.perf_counter() - t0:.2f} s")
     return 0

@@ -208,11 +208,13 @@ def _samples(data: dict, schedule: Any, file: Path, item: str) -> tuple[list[dic
                          "'schedule: EXPR' (parameters, inputs, t, coordinates)",
                          f"{item}.schedule")
     values = [float(v) for v in data["parametric.values"]]
-    samples, slopes = ([{k.split("/", 1)[1]: v for k, v in data.items()
-                         if k.startswith(f"{prefix}{i}/")} for i in range(len(values))]
-                       for prefix in ("sample", "slope"))
+    samples, slopes, curvatures = ([{k.split("/", 1)[1]: v for k, v in data.items()
+                                     if k.startswith(f"{prefix}{i}/")}
+                                    for i in range(len(values))]
+                                   for prefix in ("sample", "slope", "curvature"))
     extra = {"samples": tuple(samples), "sample_values": tuple(values),
              "slopes": tuple(s for s in slopes if s),
+             "curvatures": tuple(s for s in curvatures if s),
              "interpolation": str(data["parametric.interpolation"]),
              "coordinate": data.get("parametric.coordinate"),
              "schedule": sp.Integer(0)}          # the builder parses the expression

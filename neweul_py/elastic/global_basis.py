@@ -48,7 +48,8 @@ energetic are kept.
 Sample slopes (equations.md §4.2). With FE models next to every sample, ``σ_i ± δ``, the
 parametric body also carries ``X_i′ = (Vᵀ X(σ_i + δ) V − Vᵀ X(σ_i − δ) V)/(2δ)`` (the same
 ``V``, so the slope of the projection is the projection of the FE slope, O(δ²)), and
-``hermite`` weights interpolate values and slopes (:func:`global_slopes`).
+``hermite`` weights interpolate values and slopes (:func:`global_slopes`); their second
+differences, with the samples themselves, give the curvatures of ``quintic-hermite`` weights.
 """
 
 from __future__ import annotations
@@ -63,6 +64,7 @@ from .fe_model import FEModel
 from .interpolation import (
     ParametricBody,
     bodies_stack,
+    central_curvatures,
     central_slopes,
     check_samples,
     sample_values,
@@ -265,25 +267,39 @@ def global_static(local: ReducedBody, body: ReducedBody, G: sps.spmatrix) -> Sta
 def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequence[FEModel],
                   step: float, gb: Sequence[ReducedBody],
                   statics: tuple[Sequence[Mapping], Sequence[Mapping]] | None = None,
-                  progress: Progress = None) -> dict[str, np.ndarray]:
-    """The sample slopes of the global sample bodies ``gb`` of the FE models ``fes`` (module
-    docstring): the FE models ``minus`` at ``σ_i − δ`` and ``plus`` at ``σ_i + δ``, ``step`` =
-    ``δ``, projected on the
+                  progress: Progress = None, *, curvatures: bool = False,
+                  sample_statics: Sequence[Mapping] | None = None
+                  ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray] | None]:
+    """The sample slopes (and curvatures) of the global sample bodies ``gb`` of the FE
+    models ``fes`` (module docstring): the FE models ``minus`` at ``σ_i − δ`` and ``plus`` at
+    ``σ_i + δ``, ``step`` = ``δ``, projected on the
     global basis of ``gb`` like the samples (same kept nodes, invariants when the samples
     carry them), central differences of every stack :meth:`ParametricBody.slope_keys` names
-    (the bases themselves are constant: zero slopes). Samples with static states need
-    ``statics`` = the :func:`~neweul_py.elastic.static_state.static_deflection` keywords
+    (the bases themselves are constant: zero slopes); with ``curvatures``, also the central
+    second differences ``(X(σ_i+δ) − 2X(σ_i) + X(σ_i−δ))/δ²`` (equations.md §4.2). Samples
+    with static states need ``statics`` = the
+    :func:`~neweul_py.elastic.static_state.static_deflection` keywords
     (``x``, ``node_force``, ``outputs``) of every slope model, ``(minus, plus)``: their
     states are projected on the global basis in the energy metric of the samples, and the
     slopes of ``q``, the node displacements and forces and the outputs are their central
-    differences (of the projection of the FE static state; residual slope zero).
+    differences (of the projection of the FE static state; residual slope zero). Their
+    curvatures need the samples' own FE static states (``sample_statics``, the same
+    keywords) projected alike: a second difference of states defined in two ways (the
+    samples' ``q`` is the projection of the local body's state) would be a difference of
+    the definitions over ``δ²``.
+
+    Returns
+    -------
+    slopes, curvatures
+        ``key → (k, …)``; ``curvatures`` is ``None`` unless asked for.
 
     Raises
     ------
     DataError
         A count that is not one model per sample, a step that is not a positive number,
         models on another mesh, samples with static states without ``statics`` (an FE
-        model does not carry its static state), or ``statics`` for samples without one.
+        model does not carry its static state), ``statics`` for samples without one, or
+        curvatures of static states without ``sample_statics``.
     """
     k = len(gb)
     if len(minus) != k or len(plus) != k:
@@ -298,29 +314,46 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
     if statics is not None and any(len(st) != k for st in statics):
         raise DataError(f"one static state per slope model ({k} on each side), got "
                         f"{[len(st) for st in statics]}", None, "static")
+    centre_statics = sample_statics if curvatures and statics is not None else None
+    if curvatures and statics is not None and (sample_statics is None
+                                               or len(sample_statics) != k):
+        raise DataError("the curvatures of the samples' static states need the samples' own "
+                        f"FE static states (sample_statics, {k}), projected like those of "
+                        "the slope models", None, "static")
     V, W = gb[0].V, gb[0].W
     check_same_models([*fes, *minus, *plus], "FE model (samples, then slope models)")
     G = energy_metric(fes) if statics is not None else None
+
+    def projected(fe: FEModel, i: int, state: Mapping | None) -> ReducedBody:
+        b = build_reduced_body(fe, V, W, "global", {"global": True},
+                               keep_nodes=gb[i].nodes[:, 0].astype(np.int64),
+                               store_bases=True)
+        if gb[i].invariants is not None:
+            b = attach_invariants(b, fe)
+        if state is not None:
+            b = b.with_(static=static_deflection(b, output_rows=fe.C(), metric=G, **state))
+        return b
+
     side: list[list[ReducedBody]] = [[], []]
     for j, models in enumerate((minus, plus)):
-        for i, fe in enumerate(models):
-            b = build_reduced_body(fe, V, W, "global", {"global": True},
-                                   keep_nodes=gb[i].nodes[:, 0].astype(np.int64),
-                                   store_bases=True)
-            if gb[i].invariants is not None:
-                b = attach_invariants(b, fe)
-            if statics is not None:
-                b = b.with_(static=static_deflection(b, output_rows=fe.C(), metric=G,
-                                                     **statics[j][i]))
-            side[j].append(b)
+        side[j] = [projected(fe, i, None if statics is None else statics[j][i])
+                   for i, fe in enumerate(models)]
         _say(progress, f"slopes: {'minus' if j == 0 else 'plus'} side projected ({k} models)")
     keys = ["M", "D", "K", "B", "C", "V_kept", "W_kept", *(["G"] if gb[0].G is not None
                                                             else [])]
     keys += ["invariants/" + name for name, a in (gb[0].invariants or {}).items()
              if np.asarray(a).dtype.kind == "f"]
     keys += [STATIC_PREFIX + key for key in STATIC_KEYS] if statics is not None else []
-    return central_slopes(lambda key: bodies_stack(side[0], key),
-                          lambda key: bodies_stack(side[1], key), step, keys)
+    slopes = central_slopes(lambda key: bodies_stack(side[0], key),
+                            lambda key: bodies_stack(side[1], key), step, keys)
+    if not curvatures:
+        return slopes, None
+    centre = list(gb) if centre_statics is None else [
+        gb[i].with_(static=projected(fe, i, centre_statics[i]).static)
+        for i, fe in enumerate(fes)]
+    return slopes, central_curvatures(lambda key: bodies_stack(side[0], key),
+                                      lambda key: bodies_stack(centre, key),
+                                      lambda key: bodies_stack(side[1], key), step, keys)
 
 
 def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
@@ -331,7 +364,7 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
                            slope_models: tuple[Sequence[FEModel], Sequence[FEModel]] | None
                            = None, slope_step: float | None = None,
                            slope_statics: tuple[Sequence[Mapping], Sequence[Mapping]] | None
-                           = None,
+                           = None, sample_statics: Sequence[Mapping] | None = None,
                            progress: Progress = None) -> ParametricBody:
     """The parametric body of the global basis (module docstring).
 
@@ -353,7 +386,10 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
     ``slope_models = (minus, plus)`` with ``slope_step = δ``: the FE models at ``σ_i ∓ δ``
     give the sample slopes (:func:`global_slopes`; ``slope_statics`` their static states
     when the samples carry one) and the body's weights are ``"hermite"``
-    (equations.md §4.2): with the volume coordinate 0.23 % / 3.1 % on the same benchmark.
+    (equations.md §4.2), or ``"quintic-hermite"`` when asked for (``interpolation``): the
+    same models also give the sample curvatures (``sample_statics``: the samples' own FE
+    static states, when they carry one). Figures on today's physics:
+    ``benchmarks/bench_interpolation.py``, whose README table quotes them.
     """
     bodies = list(bodies)
     if len(bodies) < 2:
@@ -368,12 +404,15 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
         inv = {name: np.stack([np.asarray(b.invariants[name]) for b in gb])
                for name in gb[0].invariants}
     g0 = gb[0]
-    slopes = None
+    slopes = curvatures = None
     if slope_models is not None:
-        slopes = global_slopes(fes, *slope_models, slope_step, gb, slope_statics, progress)
-        if store_bases:
-            slopes.update(V=np.zeros((k, *g0.V.shape)), W=np.zeros((k, *g0.W.shape)))
-        interpolation = "hermite"
+        interpolation = "quintic-hermite" if interpolation == "quintic-hermite" else "hermite"
+        slopes, curvatures = global_slopes(
+            fes, *slope_models, slope_step, gb, slope_statics, progress,
+            curvatures=interpolation == "quintic-hermite", sample_statics=sample_statics)
+        for data in (slopes, curvatures) if store_bases else ():
+            if data is not None:
+                data.update(V=np.zeros((k, *g0.V.shape)), W=np.zeros((k, *g0.W.shape)))
     return ParametricBody(
         parameter=str(parameter), samples=s,
         **stacked_loss(gb),
@@ -391,4 +430,5 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
         sample_sources=tuple(b.source for b in gb),
         sample_methods=tuple(b.method for b in gb),
         sample_settings=tuple(b.settings for b in gb), slopes=slopes,
+        curvatures=curvatures,
     )

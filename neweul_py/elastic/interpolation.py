@@ -95,7 +95,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, SolverError
-from ..ffrf.parametric import coordinate_problem, ffrf_weights, weight_polynomials
+from ..ffrf.parametric import HERMITE_ORDERS, coordinate_problem, ffrf_weights, weight_polynomials
 from ..progress import report
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .fe_model import loss_reference
@@ -120,6 +120,7 @@ __all__ = [
     "ROW_SCALINGS",
     "ParametricBody",
     "bodies_stack",
+    "central_curvatures",
     "central_slopes",
     "check_samples",
     "coordinate_table",
@@ -136,13 +137,15 @@ PARAMETRIC_BODY_FORMAT = "neweul-parametric-body"
 #: version-1 files are read with ``row_scaling = "none"``. Version 3 is written only for a
 #: body with an interpolation coordinate (``coordinate``), so that older readers refuse it
 #: instead of weighting in the parameter itself.
-#: Version 4 is written only for a body with sample slopes (``slopes``, Hermite weights).
+#: Version 4 is written only for a body with sample slopes (``slopes``, Hermite weights),
+#: version 5 only for one with sample curvatures too (``curvatures``, quintic Hermite).
 PARAMETRIC_BODY_VERSION = 2
 COORDINATE_VERSION = 3
 SLOPES_VERSION = 4
-_READABLE_VERSIONS = (1, 2, 3, 4)
+CURVATURES_VERSION = 5
+_READABLE_VERSIONS = (1, 2, 3, 4, 5)
 #: Weight functions of :meth:`ParametricBody.at`.
-INTERPOLATIONS = ("linear", "cubic", "hermite")
+INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)
 #: Rows of the bases that determine the common subspace (module docstring).
 BASES = ("auto", "full", "kept")
 #: Row scalings of :func:`interpolate` (module docstring); ``"given"`` is stored for an array.
@@ -155,6 +158,7 @@ KIND_GROUPS = {"ux": "translation", "uy": "translation", "uz": "translation",
 _GROUP_ORDER = ("translation", "rotation", "pressure")
 _INV_PREFIX = "invariants/"
 _SLOPE_PREFIX = "slope/"
+_CURVATURE_PREFIX = "curvature/"
 _ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
            "V_kept", "W_kept", "T", "L", "R", "singular_values", "svd_weights")
 _OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G", "coordinate")
@@ -240,8 +244,9 @@ class ParametricBody:
         names, node ids, flags) and :data:`CARRIED_INVARIANTS` (``loss.f_ref``) are equal
         for all samples.
     interpolation
-        Default weight function of :meth:`at`: ``"linear"``, ``"cubic"`` or ``"hermite"``
-        (with :attr:`slopes`, and only then).
+        Default weight function of :meth:`at`: ``"linear"``, ``"cubic"``, ``"hermite"``
+        (with :attr:`slopes`, and only then) or ``"quintic-hermite"`` (with :attr:`slopes`
+        and :attr:`curvatures`, and only then).
     coordinate, coordinate_name
         Optional interpolation coordinate ``ξ(σ)`` (``docs/equations.md`` §4.1): a (2, n)
         table of knots ``σ_j`` (including every sample, spanning exactly their range) and
@@ -268,6 +273,10 @@ class ParametricBody:
         ``static/<key>`` for the static state (``static/residual`` zero) — each of the shape
         of its stack (:func:`~neweul_py.elastic.global_basis.global_parametric_body` makes
         them from FE models next to the samples).
+    curvatures
+        Optional sample curvatures ``d²X/dσ²`` of the same keys and shapes (the data of
+        ``quintic-hermite`` weights, with :attr:`slopes`; ``static/residual`` zero): second
+        differences of the same FE models next to the samples (equations.md §4.2).
     """
 
     parameter: str
@@ -311,6 +320,7 @@ class ParametricBody:
     coordinate: np.ndarray | None = None
     coordinate_name: str = ""
     slopes: Mapping[str, np.ndarray] | None = None
+    curvatures: Mapping[str, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -426,54 +436,72 @@ class ParametricBody:
 
     def _check_slopes(self) -> None:
         set_ = object.__setattr__
-        if (self.interpolation == "hermite") != (self.slopes is not None):
-            what = (f"sample slopes (slope/*) with interpolation {self.interpolation!r}"
-                    if self.slopes is not None else "interpolation 'hermite' without sample "
-                    "slopes (slope/*)")
-            raise DataError(f"Hermite weights and sample slopes come together (the slopes are "
-                            f"their data): {what}", None, "interpolation")
+        need = HERMITE_ORDERS.get(self.interpolation, 0)
+        have = (self.slopes is not None) + (self.curvatures is not None)
+        if self.curvatures is not None and self.slopes is None:
+            raise DataError("sample curvatures (curvature/*) without sample slopes (slope/*)",
+                            None, "interpolation")
+        if need != have:
+            given = {0: "no sample slopes", 1: "sample slopes (slope/*)",
+                     2: "sample slopes and curvatures (slope/*, curvature/*)"}[have]
+            raise DataError(f"Hermite weights and their data come together (hermite: the "
+                            f"sample slopes; quintic-hermite: the slopes and curvatures): "
+                            f"interpolation {self.interpolation!r} with {given}", None,
+                            "interpolation")
         if self.slopes is None:
-            if self.format_version == SLOPES_VERSION:      # version 4 means "has them"
+            if self.format_version in (SLOPES_VERSION, CURVATURES_VERSION):
                 set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
-                     else PARAMETRIC_BODY_VERSION)
+                     else PARAMETRIC_BODY_VERSION)      # versions 4, 5 mean "has them"
             return
-        if not isinstance(self.slopes, Mapping):
+        set_(self, "slopes", self._checked_derivatives(self.slopes, _SLOPE_PREFIX, "slope"))
+        if self.curvatures is None:
+            set_(self, "format_version", SLOPES_VERSION)
+            return
+        set_(self, "curvatures", self._checked_derivatives(self.curvatures, _CURVATURE_PREFIX,
+                                                           "curvature"))
+        set_(self, "format_version", CURVATURES_VERSION)
+
+    def _checked_derivatives(self, given: Any, prefix: str, what: str
+                             ) -> dict[str, np.ndarray]:
+        """The sample slopes or curvatures, checked: a mapping of every
+        :meth:`slope_keys` key to a finite real array of its stack's shape, zero for the
+        static residual and for the values common to all samples."""
+        if not isinstance(given, Mapping):
             raise DataError(f"must be a mapping key → (k, …) array, got "
-                            f"{type(self.slopes).__name__}", None, "slopes")
+                            f"{type(given).__name__}", None, prefix.rstrip("/") + "s")
         want = self.slope_keys()
-        extra = sorted(set(self.slopes) - set(want))
-        missing = [key for key in want if key not in self.slopes]
+        extra = sorted(set(given) - set(want))
+        missing = [key for key in want if key not in given]
         if extra or missing:
             def keys(names: list[str]) -> list[str]:
-                return [_SLOPE_PREFIX + name for name in names]
+                return [prefix + name for name in names]
 
-            raise DataError(f"must hold the slope of every interpolated stack "
+            raise DataError(f"must hold the {what} of every interpolated stack "
                             f"({len(want)} for this body, ParametricBody.slope_keys)"
                             + (f"; missing {keys(missing)}" if missing else "")
                             + (f"; unknown {keys(extra)}" if extra else ""), None,
-                            _SLOPE_PREFIX + (missing or extra)[0])
+                            prefix + (missing or extra)[0])
         out = {}
         for key in want:
-            a = np.asarray(self.slopes[key])
+            a = np.asarray(given[key])
             shape = self.stack(key).shape
             if a.dtype.kind not in "fi" or a.shape != shape:
                 raise DataError(f"must be real of shape {shape}, got {a.dtype} {a.shape}",
-                                None, _SLOPE_PREFIX + key)
+                                None, prefix + key)
             a = a.astype(np.float64)
             if not np.all(np.isfinite(a)):
                 raise DataError("holds a value that is not a finite number", None,
-                                _SLOPE_PREFIX + key)
+                                prefix + key)
             out[key] = a
         if self.static is not None and np.any(out[STATIC_PREFIX + "residual"]):
-            raise DataError("the slope of a residual is not stored (must be zero)", None,
-                            f"{_SLOPE_PREFIX}{STATIC_PREFIX}residual")
+            raise DataError(f"the {what} of a residual is not stored (must be zero)", None,
+                            f"{prefix}{STATIC_PREFIX}residual")
         for name in CARRIED_INVARIANTS:
             key = _INV_PREFIX + name
             if key in out and np.any(out[key]):
-                raise DataError("the slope of a value common to all samples is zero", None,
-                                _SLOPE_PREFIX + key)
-        set_(self, "slopes", out)
-        set_(self, "format_version", SLOPES_VERSION)
+                raise DataError(f"the {what} of a value common to all samples is zero", None,
+                                prefix + key)
+        return out
 
     def _check_coordinate(self) -> None:
         set_ = object.__setattr__
@@ -490,7 +518,7 @@ class ParametricBody:
         why = coordinate_problem(self.samples, self.coordinate)
         if why is not None:
             raise DataError(why, None, "coordinate")
-        if self.interpolation not in ("cubic", "hermite"):
+        if self.interpolation not in ("cubic", *HERMITE_ORDERS):
             raise DataError("an interpolation coordinate needs cubic or Hermite weights, got "
                             f"{self.interpolation!r}", None, "coordinate")
         if not self.coordinate_name:
@@ -631,7 +659,9 @@ class ParametricBody:
         the linear weights, three a parabola), in the interpolation coordinate
         :attr:`coordinate` when the body has one. ``"hermite"`` (a body with
         :attr:`slopes`): ``2k`` weights, the first ``k`` of the samples and the last ``k`` of
-        their slopes — the piecewise cubic Hermite basis (equations.md §4.2). At a sample
+        their slopes — the piecewise cubic Hermite basis (equations.md §4.2);
+        ``"quintic-hermite"`` (with :attr:`curvatures` too): ``3k``, the third ``k`` of the
+        curvatures — the piecewise quintic Hermite basis. At a sample
         the weight vector is exactly the unit vector, so the sample's matrices are returned
         bit for bit. The weights are those of the generated module
         (:mod:`neweul_py.ffrf.parametric`, one home).
@@ -646,8 +676,10 @@ class ParametricBody:
         if kind not in INTERPOLATIONS:
             raise DataError(f"unknown interpolation {kind!r} (one of "
                             f"{', '.join(INTERPOLATIONS)})", None, "interpolation")
-        if kind == "hermite" and self.slopes is None:
-            raise DataError(f"parametric body {self.name!r} holds no sample slopes: Hermite "
+        blocks = 1 + HERMITE_ORDERS.get(kind, 0)
+        if blocks > 1 + (self.slopes is not None) + (self.curvatures is not None):
+            raise DataError(f"parametric body {self.name!r} holds no sample "
+                            f"{'slopes' if self.slopes is None else 'curvatures'}: {kind} "
                             "weights need them", None, "interpolation")
         if kind != self.interpolation and self.coordinate is not None:
             raise DataError(f"parametric body {self.name!r} has the interpolation "
@@ -663,7 +695,7 @@ class ParametricBody:
             raise DataError(f"parametric body {self.name!r}: {self.parameter} = {p:g} is "
                             f"outside the sampled range [{lo:g}, {hi:g}]; the parametric "
                             "body does not extrapolate (add a sample)", None, self.parameter)
-        w = np.zeros(2 * s.size if kind == "hermite" else s.size)
+        w = np.zeros(blocks * s.size)
         hit = np.flatnonzero(s == p)
         if hit.size:
             w[hit[0]] = 1.0
@@ -694,7 +726,8 @@ class ParametricBody:
         p
             Parameter value in ``[p_1, p_k]``.
         interpolation
-            ``"linear"`` or ``"cubic"`` (default: :attr:`interpolation`).
+            One of :data:`INTERPOLATIONS` the body has the data of (default:
+            :attr:`interpolation`).
 
         Returns
         -------
@@ -721,9 +754,9 @@ class ParametricBody:
             if idx.size == 1 and idx[0] < k:
                 return stack[idx[0]].copy()
             out = np.einsum("i,i...->...", w[idx[idx < k]], stack[idx[idx < k]])
-            if w.size > k:                          # Hermite: the slopes' part
-                j = idx[idx >= k] - k
-                out += np.einsum("i,i...->...", w[j + k], self.slopes[key][j])
+            for b, data in enumerate((self.slopes, self.curvatures)[:w.size // k - 1], 1):
+                j = idx[(idx >= b * k) & (idx < (b + 1) * k)] - b * k   # Hermite blocks
+                out += np.einsum("i,i...->...", w[j + b * k], data[key][j])
             return out
 
         arrays = {key: mix(key) for key in _STACKED}
@@ -788,6 +821,19 @@ def bodies_stack(bodies: Sequence[ReducedBody], key: str) -> np.ndarray:
     return np.stack([b[key] for b in bodies])
 
 
+def _slope_step(step: Any) -> float:
+    """The step of the models next to the samples, a positive finite number."""
+    try:
+        step = float(step)
+    except (TypeError, ValueError):
+        raise DataError(f"the slope step must be a number, got {step!r}", None,
+                        "slope_step") from None
+    if not (np.isfinite(step) and step > 0):
+        raise DataError(f"the slope step must be a positive number, got {step!r}", None,
+                        "slope_step")
+    return step
+
+
 def central_slopes(minus: Any, plus: Any, step: float, keys: Sequence[str]
                    ) -> dict[str, np.ndarray]:
     """Sample slopes by central differences (``docs/equations.md`` §4.2): per key
@@ -800,15 +846,25 @@ def central_slopes(minus: Any, plus: Any, step: float, keys: Sequence[str]
     DataError
         A step that is not a positive finite number.
     """
-    try:
-        step = float(step)
-    except (TypeError, ValueError):
-        raise DataError(f"the slope step must be a number, got {step!r}", None,
-                        "slope_step") from None
-    if not (np.isfinite(step) and step > 0):
-        raise DataError(f"the slope step must be a positive number, got {step!r}", None,
-                        "slope_step")
+    step = _slope_step(step)
     return {key: (plus(key) - minus(key)) / (2.0 * step)
+            * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
+
+
+def central_curvatures(minus: Any, centre: Any, plus: Any, step: float,
+                       keys: Sequence[str]) -> dict[str, np.ndarray]:
+    """Sample curvatures by central second differences (``docs/equations.md`` §4.2): per
+    key ``(plus(key) − 2 centre(key) + minus(key)) / step²`` (O(step²)), the stacks as in
+    :func:`central_slopes` and ``centre`` those of the samples themselves, defined alike
+    (the same projection); the residual of a static state gets none (zero).
+
+    Raises
+    ------
+    DataError
+        A step that is not a positive finite number.
+    """
+    step = _slope_step(step)
+    return {key: (plus(key) - 2.0 * centre(key) + minus(key)) / step**2
             * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
 
 
@@ -1449,6 +1505,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
         arrays.update(body.static.to_arrays())
     for key, a in (body.slopes or {}).items():
         arrays[_SLOPE_PREFIX + key] = a
+    for key, a in (body.curvatures or {}).items():
+        arrays[_CURVATURE_PREFIX + key] = a
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": body.format_version,
@@ -1511,6 +1569,11 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     if version < SLOPES_VERSION and slopes:
         raise DataError(f"a version-{version} file holds no sample slopes", file,
                         _SLOPE_PREFIX + next(iter(slopes)))
+    curvatures = {key[len(_CURVATURE_PREFIX):]: a for key, a in data.items()
+                  if key.startswith(_CURVATURE_PREFIX)}
+    if version < CURVATURES_VERSION and curvatures:
+        raise DataError(f"a version-{version} file holds no sample curvatures", file,
+                        _CURVATURE_PREFIX + next(iter(curvatures)))
     missing = [key for key in _ARRAYS if key not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
@@ -1542,6 +1605,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             loss_reference_frequency=meta.get("loss_reference_frequency"),
             coordinate_name=meta.get("coordinate_name", "") if version >= 3 else "",
             slopes=slopes or None,
+            curvatures=curvatures or None,
         )
     except DataError as exc:
         raise DataError(exc.message, file, exc.item) from None

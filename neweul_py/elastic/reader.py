@@ -36,7 +36,8 @@ IO_KEYS = ("io.B", "io.C", "io.inputs", "io.outputs")
 #: invariants under ``sample{i}/<key>``; with an interpolation coordinate also
 #: ``parametric.coordinate`` (2, n) and ``parametric.coordinate_name``; with sample slopes
 #: (Hermite weights, equations.md §4.2) the slope of every float array of sample ``i``
-#: under ``slope{i}/<key>`` (its other entries those of the sample).
+#: under ``slope{i}/<key>`` (its other entries those of the sample), and with sample
+#: curvatures (quintic Hermite weights) their curvatures under ``curvature{i}/<key>``.
 PARAMETRIC_KEYS = ("parametric.values", "parametric.interpolation", "parametric.parameter")
 
 
@@ -135,9 +136,10 @@ def _parametric(p: Path, modes: int | Sequence[int] | None, file: str) -> dict[s
         out["parametric.coordinate"] = np.array(body.coordinate, dtype=np.float64)
         out["parametric.coordinate_name"] = np.array(body.coordinate_name)
     sets = [("sample", lambda k, a, i: a[i], body.B, body.C)]
-    if body.slopes is not None:
-        sets.append(("slope", lambda k, a, i: body.slopes["invariants/" + k][i],
-                     body.slopes["B"], body.slopes["C"]))
+    for prefix, data in (("slope", body.slopes), ("curvature", body.curvatures)):
+        if data is not None:
+            sets.append((prefix, lambda k, a, i, data=data: data["invariants/" + k][i],
+                         data["B"], data["C"]))
     for prefix, value, B, C in sets:
         for i in range(body.n_samples):
             flat = {k: (value(k, a, i) if a.dtype.kind == "f" else a[0])

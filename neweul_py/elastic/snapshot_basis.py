@@ -36,7 +36,7 @@ import scipy.sparse.linalg as spla
 from ..errors import DataError
 from .fe_model import FEModel
 from .global_basis import energy_metric, g_orthonormal
-from .interpolation import ParametricBody, central_slopes, stacked_loss
+from .interpolation import ParametricBody, central_curvatures, central_slopes, stacked_loss
 from .invariants import Invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
@@ -225,8 +225,10 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     (``slope_static`` their static states, needed with ``static``) projected on the same
     ``V`` — the same kept nodes, and the static states in the samples' energy metric — give
     the samples' slopes by central differences, and the body's weights are ``"hermite"``
-    (docs/equations.md §4.2). ``metric``: the energy metric of the static projection
-    (default: that of ``fes``).
+    (docs/equations.md §4.2); with ``interpolation="quintic-hermite"`` also the curvatures
+    by central second differences (the samples and their slope models are projected
+    alike). ``metric``: the energy metric of the static projection (default: that of
+    ``fes``).
 
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.static_state.static_deflection` (``x`` — the FE
@@ -281,7 +283,8 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         two_sided=False, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
         V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
-        interpolation=interpolation, sample_sources=tuple(dict(b.source) for b in bodies),
+        interpolation=interpolation if slope_models is None else "cubic",
+        sample_sources=tuple(dict(b.source) for b in bodies),
         sample_methods=("snapshot",) * k, sample_settings=tuple(b.settings for b in bodies),
         static=StaticDeflection.stack(states) if states else None,
     )
@@ -292,5 +295,9 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                                   static=None if slope_static is None else slope_static[j],
                                   progress=progress)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
-    return pb.with_(interpolation="hermite", slopes=central_slopes(
-        side[0].stack, side[1].stack, slope_step, pb.slope_keys()))
+    slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
+    if interpolation != "quintic-hermite":
+        return pb.with_(interpolation="hermite", slopes=slopes)
+    return pb.with_(interpolation="quintic-hermite", slopes=slopes,
+                    curvatures=central_curvatures(side[0].stack, pb.stack, side[1].stack,
+                                                  slope_step, pb.slope_keys()))

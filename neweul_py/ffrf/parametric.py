@@ -35,7 +35,13 @@ values and the slopes ``dX/dξ = X_i′/ξ′(s_i)`` at the samples. The ``2k`` 
 ``[w; v]`` are the columns of one coefficient array, so the module mixes ``[X_i; X_i′]``
 with the same one product; ``w_i``, ``v_i`` vanish outside the two intervals next to
 ``s_i`` (no global coupling), ``Σ w_i ≡ 1``, and the slopes enter through the *linear* part
-of the kernel's working form only (:func:`ffrf_slope_form`).
+of the kernel's working form only (:func:`ffrf_slope_form`). ``quintic-hermite`` weights
+also interpolate the sample curvatures ``X_i″ = d²X/dσ²(s_i)``: the piecewise quintic Hermite
+interpolant (C², error O(h⁶) against O(h⁴)), ``3k`` weights ``[w; v; u]`` mixing
+``[X_i; X_i′; X_i″]``, stored as quintic pieces ((6, n−1, 3k); :func:`ffrf_weights`
+evaluates any degree). In a coordinate ``ξ`` the curvatures convert with ``ξ″`` too
+(:func:`weight_polynomials`), and the composed weights are stored as cubic Hermite pieces on
+the knots as above (C¹ in ``σ``, O(h⁴) in the knot spacing).
 
 Frozen-parameter assumption: the equations use ``X(σ(t))`` without the time derivatives of the
 weights (the usual linear-parameter-varying reading of parametric reduced models), exact for
@@ -47,26 +53,33 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix", "ffrf_slope_form",
-           "ffrf_slope_prepared", "ffrf_stack", "ffrf_weights", "hermite_coefficients",
-           "slope_step", "weight_coefficients", "weight_polynomials"]
+__all__ = ["HERMITE_ORDERS", "PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix",
+           "ffrf_slope_form", "ffrf_slope_prepared", "ffrf_stack", "ffrf_weights",
+           "hermite_coefficients", "slope_step", "weight_coefficients", "weight_polynomials"]
+
+
+#: The Hermite weights and how many derivatives of the samples they interpolate: the
+#: sample slopes ``X_i′`` (cubic), and the slopes and curvatures ``X_i″`` (quintic).
+HERMITE_ORDERS = {"hermite": 1, "quintic-hermite": 2}
 
 
 def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
-    """``c`` (4, k−1, k): the cardinal weight functions as piecewise cubics (module docstring).
+    """``c`` (d+1, k−1, ·): the cardinal weight functions as piecewise polynomials of degree
+    ``d`` (module docstring; 3, and 5 for ``quintic-hermite``).
 
     Parameters
     ----------
     samples
         Strictly increasing sample values (k ≥ 2).
     interpolation
-        ``"linear"``, ``"cubic"`` (not-a-knot; two samples give the linear weights) or
-        ``"hermite"`` (:func:`hermite_coefficients`: (4, k−1, 2k)).
+        ``"linear"``, ``"cubic"`` (not-a-knot; two samples give the linear weights),
+        ``"hermite"`` (:func:`hermite_coefficients`: (4, k−1, 2k)) or ``"quintic-hermite"``
+        ((6, k−1, 3k)).
     """
     s = np.asarray(samples, dtype=np.float64)
     k = s.size
-    if interpolation == "hermite":
-        return hermite_coefficients(s)
+    if interpolation in HERMITE_ORDERS:
+        return hermite_coefficients(s, HERMITE_ORDERS[interpolation])
     if interpolation == "linear" or k == 2:
         c = np.zeros((4, k - 1, k))
         h = np.diff(s)
@@ -79,16 +92,25 @@ def weight_coefficients(samples: np.ndarray, interpolation: str) -> np.ndarray:
     return np.ascontiguousarray(CubicSpline(s, np.eye(k), bc_type="not-a-knot").c)
 
 
-def hermite_coefficients(samples: np.ndarray) -> np.ndarray:
-    """``c`` (4, k−1, 2k): the cubic Hermite basis on the samples (module docstring) —
-    columns ``0…k−1`` the value weights ``w_i`` (``w_i(s_j) = δ_ij``, ``w_i′(s_j) = 0``),
-    columns ``k…2k−1`` the slope weights ``v_i`` (``v_i(s_j) = 0``, ``v_i′(s_j) = δ_ij``)."""
+def hermite_coefficients(samples: np.ndarray, derivatives: int = 1) -> np.ndarray:
+    """The Hermite basis on the samples (module docstring), columns in blocks of ``k``.
+
+    ``derivatives = 1``: ``c`` (4, k−1, 2k), the cubic Hermite basis — columns ``0…k−1``
+    the value weights ``w_i`` (``w_i(s_j) = δ_ij``, ``w_i′(s_j) = 0``), columns ``k…2k−1``
+    the slope weights ``v_i`` (``v_i(s_j) = 0``, ``v_i′(s_j) = δ_ij``). ``derivatives = 2``:
+    ``c`` (6, k−1, 3k), the quintic Hermite basis (equations.md §4.2), with a third block of
+    curvature weights ``u_i`` (``u_i″(s_j) = δ_ij``, value and slope zero at every sample;
+    the other blocks have zero second derivatives at the samples)."""
     s = np.asarray(samples, dtype=np.float64)
     k = s.size
     h = np.diff(s)[:, None]
-    y = np.hstack((np.eye(k), np.zeros((k, k))))        # values at the samples
-    m = np.hstack((np.zeros((k, k)), np.eye(k)))        # slopes at the samples
-    return _hermite_pieces(y, m, h)
+    unit = [np.hstack([np.eye(k) if b == a else np.zeros((k, k))
+                       for b in range(derivatives + 1)]) for a in range(derivatives + 1)]
+    if derivatives == 1:
+        return _hermite_pieces(unit[0], unit[1], h)
+    if derivatives == 2:
+        return _quintic_pieces(unit[0], unit[1], unit[2], h)
+    raise ValueError(f"Hermite weights with 1 or 2 derivatives, not {derivatives!r}")
 
 
 def _hermite_pieces(y: np.ndarray, m: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -99,6 +121,25 @@ def _hermite_pieces(y: np.ndarray, m: np.ndarray, h: np.ndarray) -> np.ndarray:
     c[0] = (m[:-1] + m[1:] - 2.0 * dy) / h**2
     c[1] = (3.0 * dy - 2.0 * m[:-1] - m[1:]) / h
     c[2], c[3] = m[:-1], y[:-1]
+    return np.ascontiguousarray(c)
+
+
+def _quintic_pieces(y: np.ndarray, m: np.ndarray, a: np.ndarray, h: np.ndarray
+                    ) -> np.ndarray:
+    """The quintic pieces (6, n−1, ·) with values ``y``, slopes ``m`` and second derivatives
+    ``a`` (n, ·) at breakpoints ``h = diff(b)[:, None]`` apart: on each piece
+    ``p(x) = y₀ + m₀x + a₀x²/2 + c₂x³ + c₁x⁴ + c₀x⁵``, the top three coefficients from the
+    conditions at ``x = h`` (the standard quintic Hermite solve)."""
+    y0, y1, m0, m1, a0, a1 = y[:-1], y[1:], m[:-1], m[1:], a[:-1], a[1:]
+    # residuals of the quadratic Taylor part at x = h: value, slope, second derivative
+    r0 = y1 - (y0 + m0 * h + 0.5 * a0 * h**2)
+    r1 = m1 - (m0 + a0 * h)
+    r2 = a1 - a0
+    c = np.empty((6, h.shape[0], y.shape[1]))
+    c[2] = (10.0 * r0 - 4.0 * r1 * h + 0.5 * r2 * h**2) / h**3
+    c[1] = (-15.0 * r0 + 7.0 * r1 * h - r2 * h**2) / h**4
+    c[0] = (6.0 * r0 - 3.0 * r1 * h + 0.5 * r2 * h**2) / h**5
+    c[3], c[4], c[5] = 0.5 * a0, m0, y0
     return np.ascontiguousarray(c)
 
 
@@ -142,12 +183,15 @@ def coordinate_problem(samples: np.ndarray, coordinate: np.ndarray) -> str | Non
 
 def weight_polynomials(samples: np.ndarray, interpolation: str,
                        coordinate: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``(b, c)``: the breakpoints (n,) and the coefficients (4, n−1, k or 2k) of the weights.
+    """``(b, c)``: the breakpoints (n,) and the coefficients (d+1, n−1, k, 2k or 3k) of the
+    weights (``d`` = 5 for quintic Hermite weights without a coordinate, 3 otherwise).
 
     Without ``coordinate``: ``b`` = the samples, ``c`` = :func:`weight_coefficients`. With a
     coordinate table (2, n) (cubic or Hermite weights; module docstring): ``b`` = its knots
     and ``c`` the cubic Hermite pieces of ``S_i(ξ(σ))`` — for ``hermite`` of the value
-    weights ``H_i(ξ(σ))`` and the slope weights ``H̄_i(ξ(σ))/ξ′(s_i)`` (slopes in ``σ``).
+    weights ``H_i(ξ(σ))`` and the slope weights ``H̄_i(ξ(σ))/ξ′(s_i)`` (slopes in ``σ``), for
+    ``quintic-hermite`` of the quintic basis with slopes and curvatures in ``σ``
+    (:func:`_hermite_in_coordinate`).
 
     Raises
     ------
@@ -159,7 +203,7 @@ def weight_polynomials(samples: np.ndarray, interpolation: str,
     s = np.asarray(samples, dtype=np.float64)
     if coordinate is None:
         return s.copy(), weight_coefficients(s, interpolation)
-    if interpolation not in ("cubic", "hermite"):
+    if interpolation not in ("cubic", *HERMITE_ORDERS):
         raise ValueError("an interpolation coordinate needs cubic or Hermite weights")
     why = coordinate_problem(s, coordinate)
     if why is not None:
@@ -176,16 +220,16 @@ def weight_polynomials(samples: np.ndarray, interpolation: str,
     with np.errstate(all="ignore"):          # crowded values: refused below
         if interpolation == "cubic":
             spline = CubicSpline(xs, np.eye(k), bc_type="not-a-knot")
-            unit = np.eye(k)
         else:
-            spline = PPoly(hermite_coefficients(xs), xs)
-            spline.c[:, :, k:] /= slope[at]          # slopes given in σ: dX/dξ = X′/ξ′(s_i)
-            unit = np.hstack((np.eye(k), np.zeros((k, k))))
+            spline = PPoly(_hermite_in_coordinate(xs, s, np.array([knots, xi]), slope[at],
+                                                  interpolation), xs)
+        blocks = spline.c.shape[2] // k              # 1, 2 or 3: values, slopes, curvatures
+        unit = np.hstack([np.eye(k)] + [np.zeros((k, k))] * (blocks - 1))
         y = spline(xi)                           # (n, ·): S_i(ξ_j); unit rows at the samples
         y[at] = unit
         m = spline(xi, 1) * slope[:, None]       # S_i′(ξ_j) ξ′(σ_j)
-        if interpolation == "hermite":
-            m[at] = np.hstack((np.zeros((k, k)), np.eye(k)))
+        if blocks > 1:
+            m[at] = np.roll(unit, k, axis=1)     # the slope weights' unit slopes in σ
         h = np.diff(knots)[:, None]
         c = _hermite_pieces(y, m, h)
         t = (np.arange(1, 8) / 8.0)[:, None, None] * h[None]     # 7 points inside each piece
@@ -197,6 +241,30 @@ def weight_polynomials(samples: np.ndarray, interpolation: str,
                          f"reach a Lebesgue constant of {lebesgue:.3g} > {MAX_LEBESGUE:g}); "
                          "use a coordinate that spaces the samples more evenly")
     return knots.copy(), c
+
+
+def _hermite_in_coordinate(xs: np.ndarray, samples: np.ndarray, coordinate: np.ndarray,
+                           slope: np.ndarray, interpolation: str) -> np.ndarray:
+    """The Hermite basis in ``ξ`` on the samples' values ``xs`` for data given in ``σ``
+    (equations.md §4.2): with ``Y_i = dX/dξ = X_i′/ξ′`` and
+    ``Z_i = d²X/dξ² = X_i″/ξ′² − ξ″ X_i′/ξ′³`` at ``s_i``, the weight of ``X_i′`` is
+    ``H¹_i/ξ′ − H²_i ξ″/ξ′³`` and that of ``X_i″`` is ``H²_i/ξ′²``. ``slope``: ``ξ′(s_i)`` of
+    the PCHIP interpolant of the table (the cubic Hermite weights, as stored since format 4);
+    the quintic ones take ``ξ′`` and ``ξ″`` at the samples from the not-a-knot cubic spline
+    of the table ``coordinate`` = ``(σ_j, ξ_j)`` (PCHIP has no second derivative there)."""
+    from scipy.interpolate import CubicSpline
+
+    k = xs.size
+    c = hermite_coefficients(xs, HERMITE_ORDERS[interpolation])
+    if interpolation == "hermite":
+        c[:, :, k:] /= slope
+        return c
+    table = CubicSpline(coordinate[0], coordinate[1], bc_type="not-a-knot")
+    d1, d2 = table(samples, 1), table(samples, 2)
+    c1, c2 = c[:, :, k:2 * k].copy(), c[:, :, 2 * k:].copy()
+    c[:, :, k:2 * k] = c1 / d1 - c2 * d2 / d1**3
+    c[:, :, 2 * k:] = c2 / d1**2
+    return c
 
 
 def ffrf_weights(samples, coefficients, value, name):
@@ -212,7 +280,10 @@ def ffrf_weights(samples, coefficients, value, name):
     j = min(int(np.searchsorted(s, x, side="right")) - 1, s.size - 2)
     dx = value - s[j]
     c = coefficients[:, j, :]
-    return ((c[0] * dx + c[1]) * dx + c[2]) * dx + c[3]
+    w = c[0]
+    for row in c[1:]:                         # Horner, any degree (cubic, quintic)
+        w = w * dx + row
+    return w
 
 
 def ffrf_stack(samples, extra=None):

@@ -107,8 +107,9 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
     default_inputs
         ``default_inputs(t, p)`` of the module.
     parts
-        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n; 2k with slopes, the
-        samples' then their slopes'): its node rows per sample
+        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n; 2k with slopes, 3k with
+        curvatures too, the samples' then their slopes' and curvatures'): its node rows per
+        sample
         (stacked with the body's arrays, :func:`~neweul_py.ffrf.parametric.ffrf_stack`).
     schedule, schedule_jacobians
         ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
@@ -125,16 +126,20 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
             flats = [{k: ffrf_unpack(v) for k, v in sample.items()}
                      for sample in entry["samples"]]
             prepared = [ffrf_prepare(flat, *how) for flat in flats]
-            # Hermite weights: the slopes' working forms follow the samples' (§4.2)
-            prepared += [ffrf_slope_prepared(ffrf_prepare, flat,
-                                             {k: ffrf_unpack(v) for k, v in slope.items()}, *how)
-                         for flat, slope in zip(flats, entry["slopes"], strict=True)
-                         ] if "slopes" in entry else []
+            # Hermite weights: the working forms of the slopes (and curvatures) follow the
+            # samples' — the linear part of the form (§4.2)
+            blocks = 1
+            for what in ("slopes", "curvatures"):
+                if what in entry:
+                    blocks += 1
+                    prepared += [ffrf_slope_prepared(
+                        ffrf_prepare, flat, {k: ffrf_unpack(v) for k, v in d.items()}, *how)
+                        for flat, d in zip(flats, entry[what], strict=True)]
             sv_i, sw_i = (ffrf_unpack(a) for a in parts.pop(0))
             coeff = ffrf_unpack(entry["coeff"])
-            if "slopes" in entry:     # rows X_1, X_1′, X_2, X_2′ …: a sample's band is narrow
+            if blocks > 1:            # rows X_1, X_1′(, X_1″), X_2 …: a sample's band is narrow
                 k = len(flats)
-                order = np.arange(2 * k).reshape(2, k).T.ravel()
+                order = np.arange(blocks * k).reshape(blocks, k).T.ravel()
                 prepared = [prepared[i] for i in order]
                 sv_i, sw_i, coeff = sv_i[order], sw_i[order], coeff[:, :, order]
             # its node rows per sample (the rows not zero in every sample) join the stack

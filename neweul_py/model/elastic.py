@@ -86,7 +86,8 @@ class ElasticBody:
     sample_values
         The sample values ``s_1 < … < s_k``.
     interpolation
-        ``"linear"``, ``"cubic"`` or ``"hermite"`` weights between the samples.
+        ``"linear"``, ``"cubic"``, ``"hermite"`` or ``"quintic-hermite"`` weights between
+        the samples.
     coordinate
         Optional (2, n) interpolation coordinate table ``(σ_j, ξ_j)``: the cubic or Hermite
         weights are taken in ``ξ(σ)`` (equations.md §4.1,
@@ -97,6 +98,9 @@ class ElasticBody:
     slopes
         With ``hermite`` weights (equations.md §4.2): per sample the slopes ``dX/dσ`` of its
         flat invariants (the float arrays; the other entries those of the sample).
+    curvatures
+        With ``quintic-hermite`` weights: per sample the curvatures ``d²X/dσ²`` of its flat
+        invariants, like ``slopes``.
 
     Raises
     ------
@@ -117,6 +121,7 @@ class ElasticBody:
     schedule: sp.Expr | None = None
     coordinate: np.ndarray | None = None
     slopes: tuple[Mapping[str, np.ndarray], ...] = ()
+    curvatures: tuple[Mapping[str, np.ndarray], ...] = ()
 
     def __post_init__(self) -> None:
         from ..ffrf.schema import INERTIA_FORMS, check_flat
@@ -167,16 +172,20 @@ class ElasticBody:
                 np.isfinite(values)) or np.any(np.diff(values) <= 0):
             raise ModelError("the sample values must be at least two increasing numbers, one "
                              "per sample", f"{path}.data")
-        if self.interpolation not in ("linear", "cubic", "hermite"):
+        from ..ffrf.parametric import HERMITE_ORDERS
+
+        if self.interpolation not in ("linear", "cubic", *HERMITE_ORDERS):
             raise ModelError(f"unknown interpolation {self.interpolation!r}", f"{path}.data")
-        if (self.interpolation == "hermite") != bool(self.slopes):
-            raise ModelError("Hermite weights and sample slopes come together (the slopes "
-                             "are their data)", f"{path}.data")
+        if (HERMITE_ORDERS.get(self.interpolation, 0) != bool(self.slopes)
+                + bool(self.curvatures)) or (self.curvatures and not self.slopes):
+            raise ModelError("Hermite weights and their data come together (hermite: the "
+                             "sample slopes; quintic-hermite: the slopes and curvatures)",
+                             f"{path}.data")
         if self.coordinate is not None:
             from ..ffrf.parametric import coordinate_problem
 
             why = coordinate_problem(np.asarray(values), self.coordinate)
-            if why is None and self.interpolation not in ("cubic", "hermite"):
+            if why is None and self.interpolation not in ("cubic", *HERMITE_ORDERS):
                 why = "an interpolation coordinate needs cubic or Hermite weights"
             if why is not None:
                 raise ModelError(f"interpolation coordinate: {why}", f"{path}.data")
@@ -196,18 +205,21 @@ class ElasticBody:
             samples.append(flat)
         object.__setattr__(self, "samples", tuple(samples))
         object.__setattr__(self, "sample_values", values)
-        if self.slopes:
-            object.__setattr__(self, "slopes", self._checked_slopes(path, samples))
+        for what in ("slopes", "curvatures"):
+            if getattr(self, what):
+                object.__setattr__(self, what, self._checked_slopes(path, samples, what))
 
-    def _checked_slopes(self, path: str, samples: list[dict]) -> tuple[dict, ...]:
-        """One slope per sample, of its sample's arrays and shapes, finite."""
+    def _checked_slopes(self, path: str, samples: list[dict], what: str = "slopes"
+                        ) -> tuple[dict, ...]:
+        """One slope (or curvature) per sample, of its sample's arrays and shapes, finite."""
         import numpy as np
 
-        if len(self.slopes) != len(samples):
-            raise ModelError(f"{len(self.slopes)} sample slopes for {len(samples)} samples",
+        given = getattr(self, what)
+        if len(given) != len(samples):
+            raise ModelError(f"{len(given)} sample {what} for {len(samples)} samples",
                              f"{path}.data")
         out = []
-        for i, (slope, sample) in enumerate(zip(self.slopes, samples, strict=True)):
+        for i, (slope, sample) in enumerate(zip(given, samples, strict=True)):
             flat = {k: _frozen(v) for k, v in dict(slope).items()}
             flat.setdefault("format", sample["format"])
             bad = next((k for k in sample if k not in flat or flat[k].shape != sample[k].shape),
@@ -216,16 +228,19 @@ class ElasticBody:
                 bad = next((k for k, v in flat.items() if v.dtype.kind == "f"
                             and not np.all(np.isfinite(v))), None)
             if bad is not None:
-                raise ModelError(f"slope of sample {i + 1}: array {bad!r} missing, of another "
-                                 "shape than the sample's, or not finite", f"{path}.data")
+                raise ModelError(f"{what[:-1]} of sample {i + 1}: array {bad!r} missing, of "
+                                 "another shape than the sample's, or not finite",
+                                 f"{path}.data")
             out.append(flat)
         return tuple(out)
 
     @property
     def datasets(self) -> tuple[Mapping[str, np.ndarray], ...]:
         """What the interpolation weights mix, in the order of their columns: the samples,
-        then their slopes (``hermite``); ``(data,)`` for a body without a schedule."""
-        return (*self.samples, *self.slopes) if self.parametric else (self.data,)
+        then their slopes (``hermite``), then their curvatures (``quintic-hermite``);
+        ``(data,)`` for a body without a schedule."""
+        return ((*self.samples, *self.slopes, *self.curvatures) if self.parametric
+                else (self.data,))
 
     @property
     def parametric(self) -> bool:
@@ -262,7 +277,7 @@ class ElasticBody:
         import numpy as np
 
         h = hashlib.sha256()
-        for data in (self.data, *self.samples, *self.slopes):
+        for data in (self.data, *self.samples, *self.slopes, *self.curvatures):
             for key in sorted(data):
                 arr = np.ascontiguousarray(data[key])
                 h.update(f"{key}|{arr.dtype.str}|{arr.shape}|".encode())

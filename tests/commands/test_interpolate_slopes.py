@@ -26,9 +26,10 @@ def _name(p: float) -> str:
 def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
     """Three refine-0 working points, reduced with their static states, and the working
     points ∓ 20 Pa: the Hermite body's static node-displacement slopes are the central
-    differences of the files' static states at the kept nodes; a slope model without a static
-    state, or the slope models of a sample swapped (their static_dp says so), is one error
-    line naming it, and nothing is written."""
+    differences of the files' static states at the kept nodes, and the quintic Hermite
+    body's curvatures their second differences with the samples' own files; a slope model
+    without a static state, or the slope models of a sample swapped (their static_dp says
+    so), is one error line naming it, and nothing is written."""
     fem, near = tmp_path / "fem", tmp_path / "near"
     assert main(["fem", "middle-ear", "--pressures=-1000,0,1000", "--refine", "0", "-q",
                  "-o", str(fem)]) == 0
@@ -57,6 +58,22 @@ def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
             if nid in ids:
                 np.testing.assert_allclose(pb.slopes["static/node_u"][i][r], du[ids.index(nid)],
                                            rtol=1e-6, atol=1e-9 * np.abs(du).max())
+    quint = tmp_path / "tmq.npz"
+    assert main([*base, "--slope-models", *slopes, "--slope-step", "20", "--interpolation",
+                 "quintic-hermite", "-o", str(quint)]) == 0
+    assert "curvatures (quintic Hermite)" in capsys.readouterr().out
+    qb = load_parametric_body(quint)
+    assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
+    for i, p in enumerate(SAMPLES):          # the samples' own states: their files' static_u
+        lo, mid, hi = (read_static(d / _name(p + s * STEP))
+                       for d, s in ((near, -1), (fem, 0), (near, 1)))
+        ids = [int(n) for n in mid["node_id"]]
+        d2u = (hi["u"] - 2 * mid["u"] + lo["u"]) / STEP**2
+        for nid, r in list(rows.items())[:20]:
+            if nid in ids:
+                np.testing.assert_allclose(qb.curvatures["static/node_u"][i][r],
+                                           d2u[ids.index(nid)], rtol=1e-5,
+                                           atol=1e-8 * np.abs(d2u).max())
     swapped = [slopes[1], slopes[0], *slopes[2:]]
     bad = tmp_path / "bad.npz"
     assert main([*base, "--slope-models", *swapped, "--slope-step", "20", "-o", str(bad)]) == 1

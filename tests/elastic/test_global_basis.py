@@ -262,7 +262,7 @@ def test_cli_interpolate_with_slope_models(tmp_path, capsys):
                          (["--slope-models", *slopes, "--slope-step", "1e-3", "--method",
                            "local"], "--method global only"),
                          (["--slope-models", *slopes, "--slope-step", "1e-3",
-                           "--interpolation", "cubic"], "Hermite weights, not"),
+                           "--interpolation", "cubic"], "quintic-hermite), not"),
                          (["--interpolation", "hermite"], "needs the samples' slopes")):
         assert main([*base, *extra, "-o", str(bad)]) == 1
         err = capsys.readouterr().err.strip().splitlines()[-1]
@@ -311,3 +311,70 @@ def test_sample_slopes_of_static_states():
         np.testing.assert_allclose(hb.slopes["static/outputs"][i], dy, rtol=2e-2,
                                    atol=1e-3 * np.abs(dy).max())
     assert not np.any(hb.slopes["static/residual"])
+
+
+def test_sample_curvatures_are_second_differences_and_beat_the_slopes_alone():
+    """With ``interpolation="quintic-hermite"`` the same slope models give the curvatures
+    ``Vᵀ(X(p+δ) − 2X(p) + X(p−δ))V/δ²`` (computed here from the stored basis), and the
+    quintic Hermite weights reproduce the projection of the FE matrices between samples
+    better than the cubic Hermite ones (reference: ``Vᵀ X(p) V`` of the FE model at the
+    midpoint, equations.md §4.2; the tension ``0.3 e^{2p}`` is not polynomial in ``p``). A
+    second difference loses ``ε/δ²`` to round-off, so the models sit ``δ = 0.02`` away (the
+    slopes' 1e-3 would leave the curvatures round-off; O(δ²) = 4e-4 of them here)."""
+    step = 0.02
+    fes = [fe_exp(p) for p in SAMPLES]
+    bodies = [reduce_modal(fe, modes=20, static_correction=True, store_bases=True)
+              for fe in fes]
+    side = ([fe_exp(p - step) for p in SAMPLES], [fe_exp(p + step) for p in SAMPLES])
+    qb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
+                                slope_step=step, interpolation="quintic-hermite")
+    hb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
+                                slope_step=step)
+    assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
+    V = qb.R
+    for i, p in enumerate(SAMPLES):
+        ref = V.T @ ((fe_exp(p + step).K - 2 * fe_exp(p).K + fe_exp(p - step).K) @ V) / step**2
+        np.testing.assert_allclose(qb.curvatures["K"][i], ref, rtol=0,
+                                   atol=1e-9 * np.abs(ref).max())
+    for p in MIDS:     # D: K's largest entries do not depend on p, their round-off would
+        ref = V.T @ (fe_exp(p).D @ V)                               # hide the difference
+        quintic = np.abs(qb.at(p).D - ref).max()
+        cubic = np.abs(hb.at(p).D - ref).max()
+        assert quintic < 0.2 * cubic, (p, quintic, cubic)       # here 0.08
+
+
+def test_sample_curvatures_of_static_states_need_the_samples_own_states():
+    """The static states' curvatures are the second differences of the projections of
+    ``x_s(p ± δ)`` and ``x_s(p)`` alike (reference: computed here); without the samples'
+    own FE states (``sample_statics``) the build is one DataError naming them — the
+    samples' ``q`` is the projection of the local body's state, a second difference mixing
+    the two definitions would be their difference over δ²."""
+    from neweul_py.elastic.static_state import static_deflection
+
+    rng = np.random.default_rng(7)
+    fes = [fe_exp(p) for p in SAMPLES]
+    n = fes[0].n_dofs
+    a, b = rng.standard_normal(n) * 1e-6, rng.standard_normal(n) * 1e-6
+
+    def x_s(p: float) -> np.ndarray:
+        return np.sin(3 * p) * a + p**2 * b
+
+    G = energy_metric(fes)
+    bodies = [body_at(p) for p in SAMPLES]
+    bodies = [bb.with_(static=static_deflection(bb, x_s(p), output_rows=fe.C(), metric=G))
+              for bb, p, fe in zip(bodies, SAMPLES, fes, strict=True)]
+    side = ([fe_exp(p - STEP) for p in SAMPLES], [fe_exp(p + STEP) for p in SAMPLES])
+    statics = ([{"x": x_s(p - STEP)} for p in SAMPLES], [{"x": x_s(p + STEP)} for p in SAMPLES])
+    kw = dict(parameter="p", slope_models=side, slope_step=STEP, slope_statics=statics,
+              interpolation="quintic-hermite")
+    with pytest.raises(DataError, match="need the samples' own FE static states"):
+        global_parametric_body(fes, bodies, SAMPLES, **kw)
+    qb = global_parametric_body(fes, bodies, SAMPLES, sample_statics=[{"x": x_s(p)}
+                                                                      for p in SAMPLES], **kw)
+    V = qb.R
+    proj = lambda x: np.linalg.solve(V.T @ (G @ V), V.T @ (G @ x))  # noqa: E731
+    for i, p in enumerate(SAMPLES):
+        d2q = (proj(x_s(p + STEP)) - 2 * proj(x_s(p)) + proj(x_s(p - STEP))) / STEP**2
+        np.testing.assert_allclose(qb.curvatures["static/q"][i], d2q, rtol=0,
+                                   atol=1e-5 * np.abs(d2q).max())
+    assert not np.any(qb.curvatures["static/residual"])

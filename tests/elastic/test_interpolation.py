@@ -942,13 +942,83 @@ def test_sample_slopes_weights_and_file(pbody, tmp_path):
         load_parametric_body(tmp_path / "old.npz")
 
 
+def _fd_curvatures(pb: ParametricBody) -> dict:
+    """Sample curvatures of every stack (``numpy.gradient`` twice; residual ones zero)."""
+    return {key: np.gradient(np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1),
+                             pb.samples, axis=0, edge_order=1)
+            * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
+
+
+def test_sample_curvatures_weights_and_file(pbody, tmp_path):
+    """A body with sample slopes and curvatures (quintic Hermite weights, equations.md
+    §4.2): ``3k`` weights that reproduce a quintic in the parameter from its values, slopes
+    and second derivatives exactly (reference: the quintic itself), ``at`` equal to
+    ``Σ w_i X_i + Σ v_i X_i′ + Σ u_i X_i″`` computed here, the sample bit for bit at a
+    sample, and the file (version 5, which a version-4 reader refuses) bit for bit; the
+    cubic Hermite weights of the same body ignore the curvatures."""
+    qb = pbody.with_(interpolation="quintic-hermite", slopes=_fd_slopes(pbody),
+                     curvatures=_fd_curvatures(pbody))
+    assert qb.format_version == 5
+    s, k = qb.samples, qb.n_samples
+    f = np.polynomial.Polynomial([0.5, -1.0, 0.0, 2.0, 0.3, -0.1])
+    for p in (0.13, 0.77, 1.6 * s[-1] / 2):
+        w = qb.weights(p)
+        assert w.size == 3 * k and abs(w[:k].sum() - 1) < 1e-14
+        assert abs(w @ np.r_[f(s), f.deriv(1)(s), f.deriv(2)(s)] - f(p)) < 1e-12
+        ref = (np.einsum("i,i...->...", w[:k], qb.K)
+               + np.einsum("i,i...->...", w[k:2 * k], qb.slopes["K"])
+               + np.einsum("i,i...->...", w[2 * k:], qb.curvatures["K"]))
+        np.testing.assert_allclose(qb.at(p).K, ref, rtol=1e-13, atol=0)
+        assert qb.weights(p, "hermite").size == 2 * k
+    assert np.array_equal(qb.at(s[1]).K, pbody.K[1])
+    qb.save(tmp_path / "q.npz")
+    back = load_parametric_body(tmp_path / "q.npz")
+    assert back.interpolation == "quintic-hermite"
+    assert sorted(back.curvatures) == sorted(qb.curvatures)
+    assert np.array_equal(back.at(0.77).K, qb.at(0.77).K)
+    assert np.array_equal(back.at(0.77).invariants["Me.m0"], qb.at(0.77).invariants["Me.m0"])
+    with np.load(tmp_path / "q.npz", allow_pickle=False) as z:
+        data = dict(z)
+    meta = json.loads(data["meta"].tobytes().decode())
+    assert meta["version"] == 5
+    np.savez(tmp_path / "old.npz", **{**data, "meta": json_to_uint8({**meta, "version": 4})})
+    with pytest.raises(DataError, match="version-4 file holds no sample curvatures"):
+        load_parametric_body(tmp_path / "old.npz")
+
+
+def test_bad_sample_curvatures_are_refused(pbody):
+    """Quintic Hermite weights without curvatures, curvatures without slopes or with cubic
+    Hermite weights, a curvature lacking a stack or holding NaN: one DataError each naming
+    the field as the file names it (``curvature/K``, ``interpolation``)."""
+    slopes, curv = _fd_slopes(pbody), _fd_curvatures(pbody)
+    cases = [(dict(interpolation="quintic-hermite", slopes=slopes), "with sample slopes",
+              "interpolation"),
+             (dict(interpolation="quintic-hermite", curvatures=curv), "without sample slopes",
+              "interpolation"),
+             (dict(interpolation="hermite", slopes=slopes, curvatures=curv),
+              "'hermite' with sample slopes and curvatures", "interpolation"),
+             (dict(interpolation="quintic-hermite", slopes=slopes,
+                   curvatures={k: v for k, v in curv.items() if k != "K"}),
+              r"missing \['curvature/K'\]", "curvature/K"),
+             (dict(interpolation="quintic-hermite", slopes=slopes,
+                   curvatures=dict(curv, K=np.full_like(curv["K"], np.nan))),
+              "not a finite number", "curvature/K")]
+    for kw, words, item in cases:
+        with pytest.raises(DataError, match=words) as exc:
+            pbody.with_(**kw)
+        assert exc.value.item == item
+    hb = pbody.with_(interpolation="hermite", slopes=slopes)
+    with pytest.raises(DataError, match="holds no sample curvatures"):
+        hb.weights(0.5, "quintic-hermite")
+
+
 def test_bad_sample_slopes_are_refused(pbody, tmp_path):
     """Hermite weights without slopes, slopes lacking a stack or with an unknown one, of the
     wrong shape, or with NaN: one DataError each, naming the field as the file names it
     (``slope/K``, docs/reduced-body-format.md), in memory and read from a file."""
     good = _fd_slopes(pbody)
     nan = dict(good, K=np.full_like(good["K"], np.nan))
-    cases = [(dict(interpolation="hermite"), "'hermite' without sample slopes",
+    cases = [(dict(interpolation="hermite"), "'hermite' with no sample slopes",
               "interpolation"),
              (dict(slopes={k: v for k, v in good.items() if k != "K"}),
               r"missing \['slope/K'\]", "slope/K"),
@@ -967,7 +1037,7 @@ def test_bad_sample_slopes_are_refused(pbody, tmp_path):
     with pytest.raises(DataError, match="must be real of shape") as exc:
         load_parametric_body(path)
     assert exc.value.item == "slope/K" and exc.value.file == str(path)
-    with pytest.raises(DataError, match="no sample slopes: Hermite weights need them"):
+    with pytest.raises(DataError, match="no sample slopes: hermite weights need them"):
         pbody.weights(0.5, "hermite")
 
 
@@ -1022,12 +1092,12 @@ def test_slopes_and_hermite_weights_come_together_in_a_file(pbody, tmp_path):
         {**meta, "interpolation": "cubic"})})
     np.savez(tmp_path / "bare.npz", **{k: v for k, v in data.items()
                                        if not k.startswith("slope/")})
-    for name, words in (("cubic.npz", "sample slopes (slope/*) with interpolation 'cubic'"),
-                        ("bare.npz", "interpolation 'hermite' without sample slopes")):
+    for name, words in (("cubic.npz", "interpolation 'cubic' with sample slopes (slope/*)"),
+                        ("bare.npz", "interpolation 'hermite' with no sample slopes")):
         with pytest.raises(DataError, match=re.escape(words)) as exc:
             load_parametric_body(tmp_path / name)
         assert exc.value.file == str(tmp_path / name) and exc.value.item == "interpolation"
-        assert "Hermite weights and sample slopes come together" in str(exc.value)
+        assert "Hermite weights and their data come together" in str(exc.value)
     with pytest.raises(DataError, match="come together") as exc:
         pbody.with_(slopes=_fd_slopes(pbody))
     assert exc.value.item == "interpolation"

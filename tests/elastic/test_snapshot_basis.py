@@ -112,7 +112,9 @@ def test_sample_slopes_with_static_states(family) -> None:
     """With the FE models at every sound speed ∓ 0.5 m/s and static states (a static
     displacement ``x_s(c) = (c/343)² a``), the body carries the central differences of the
     projected matrices and of the static coordinates — computed here from ``V`` and the
-    energy metric of the samples — and Hermite weights; bad slope input is one DataError."""
+    energy metric of the samples — and Hermite weights; with quintic Hermite weights also
+    the second differences with the samples (``x_s`` quadratic in ``c``: its curvature
+    exact); bad slope input is one DataError."""
     from neweul_py.elastic.global_basis import energy_metric
 
     fes, V, _body = family
@@ -133,6 +135,17 @@ def test_sample_slopes_with_static_states(family) -> None:
         dq = V.T @ (G @ (x_s(c + step) - x_s(c - step))) / (2 * step)    # V is G-orthonormal
         np.testing.assert_allclose(hb.slopes["static/q"][i], dq, rtol=1e-6,
                                    atol=1e-9 * abs(dq).max())
+    qb = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                               slope_models=tuple(near), slope_step=step, slope_static=side,
+                               interpolation="quintic-hermite")
+    assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
+    for i, c in enumerate(SPEEDS):   # second differences of the same projections
+        d2K = V.T @ ((near[1][i].K - 2 * fes[i].K + near[0][i].K) @ V) / step**2
+        np.testing.assert_allclose(qb.curvatures["K"][i], d2K, rtol=0,
+                                   atol=1e-6 * abs(d2K).max())
+        d2q = V.T @ (G @ (x_s(c + step) - 2 * x_s(c) + x_s(c - step))) / step**2
+        np.testing.assert_allclose(qb.curvatures["static/q"][i], d2q, rtol=1e-6,
+                                   atol=1e-9 * abs(d2q).max())
     with pytest.raises(DataError, match="slope models go with a slope step"):
         basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
                               slope_models=tuple(near), slope_step=step)

@@ -166,6 +166,28 @@ def test_body_with_sample_slopes_equals_the_interpolated_body(hermite, c: float,
     assert np.allclose(got, ref, rtol=1e-9, atol=0)
 
 
+def test_body_with_sample_curvatures_equals_the_interpolated_body(hermite) -> None:
+    """A body with sample slopes and curvatures (quintic Hermite weights, in ``ξ = c²``)
+    gives, scheduled in the generated module, the FRF of ``ParametricBody.at(c)`` of that
+    body, which is not that of its cubic Hermite weights (reference: ``ParametricBody.at``
+    entered as a fixed body)."""
+    tmp, hb = hermite
+    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
+            for key in hb.slope_keys()}
+    knots = np.unique(np.concatenate([np.linspace(SPEEDS[0], SPEEDS[-1], 31), SPEEDS]))
+    qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
+                  coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
+    save_parametric_body(qb, tmp / "duct_q.npz")
+    c = 333.0
+    assert qb.weights(c).size == 3 * qb.n_samples
+    other = hb.at(c)                       # the cubic Hermite weights in c
+    assert np.abs(qb.at(c).K - other.K).max() > 1e-9 * np.abs(other.K).max()
+    save_reduced_body(qb.at(c), tmp / f"duct_q_at{c}.npz")
+    ref = _frf(tmp, _description(f"duct_q_at{c}.npz", None, c), f"duct_q_fixed{c}.yaml")
+    got = _frf(tmp, _description("duct_q.npz", "cs", c), f"duct_q_sched{c}.yaml")
+    assert np.allclose(got, ref, rtol=1e-9, atol=0)
+
+
 @pytest.mark.parametrize("frame", ["ISYS", "carrier"])
 @pytest.mark.parametrize("data", ["duct.npz", "duct_h.npz"])
 def test_schedule_of_a_coordinate_and_an_input_enters_the_jacobians(parametric, hermite,

@@ -175,6 +175,51 @@ def test_hermite_weights_interpolate_values_and_slopes() -> None:
         assert abs(w @ np.r_[np.sin(s), np.cos(s)] - ref(np.exp(x))) < 1e-6
 
 
+def test_quintic_hermite_weights_interpolate_values_slopes_and_curvatures() -> None:
+    """Quintic Hermite weights (equations.md §4.2): in σ they reproduce any polynomial of
+    degree ≤ 5 from its values, slopes and second derivatives at the samples (reference: the
+    polynomial itself), are the unit vectors of the values at the samples, and their first
+    and second derivatives there, from both sides, are the unit vectors of the slopes and
+    curvatures (scipy's ``PPoly`` derivatives of the stored pieces). In a coordinate
+    ξ(σ) = e^σ they reproduce a quadratic in ξ from data given in σ (chain rule
+    ``X′ = ξ′ dX/dξ``,
+    ``X″ = ξ″ dX/dξ + ξ′² d²X/dξ²``; composition on fine knots, O(h⁴))."""
+    from scipy.interpolate import PPoly
+
+    from neweul_py.ffrf.parametric import ffrf_weights, weight_polynomials
+
+    s = np.array([-1.0, 0.2, 0.9, 2.0])
+    k = s.size
+    f = np.polynomial.Polynomial([0.3, -1.0, 0.5, 2.0, -0.7, 0.25])
+    b, c = weight_polynomials(s, "quintic-hermite")
+    assert c.shape == (6, k - 1, 3 * k)
+    data = np.r_[f(s), f.deriv(1)(s), f.deriv(2)(s)]
+    for x in (-0.9, 0.1, 0.55, 1.3, 1.99):
+        w = ffrf_weights(b, c, x, "x")
+        assert abs(w @ data - f(x)) < 1e-12 * max(1.0, abs(f(x)))
+        assert abs(w[:k].sum() - 1.0) < 1e-13
+    weights = PPoly(c, b)
+    for i, x in enumerate(s):
+        np.testing.assert_allclose(ffrf_weights(b, c, x, "x"), np.eye(3 * k)[i], atol=1e-14)
+        for side in (-1e-13, 1e-13):                 # both pieces next to an inner sample
+            if b[0] <= x + side <= b[-1]:
+                np.testing.assert_allclose(weights(x + side, 1), np.eye(3 * k)[k + i],
+                                           atol=1e-9)
+                np.testing.assert_allclose(weights(x + side, 2), np.eye(3 * k)[2 * k + i],
+                                           atol=1e-9)
+    knots = np.unique(np.round(np.r_[np.linspace(-1.0, 2.0, 601), s], 12))
+    b, c = weight_polynomials(s, "quintic-hermite", np.vstack([knots, np.exp(knots)]))
+    g = np.polynomial.Polynomial([1.0, -0.4, 0.05])        # X = g(ξ), ξ = e^σ
+    xs = np.exp(s)
+    data = np.r_[g(xs), g.deriv(1)(xs) * xs, g.deriv(1)(xs) * xs + g.deriv(2)(xs) * xs**2]
+    for x in (-0.9, 0.1, 0.55, 1.3, 1.99):
+        w = ffrf_weights(b, c, x, "x")
+        assert abs(w @ data - g(np.exp(x))) < 1e-6 * abs(g(np.exp(x))) + 1e-7
+    with pytest.raises(ValueError, match="1 or 2 derivatives"):
+        from neweul_py.ffrf.parametric import hermite_coefficients
+        hermite_coefficients(s, 3)
+
+
 def test_slope_working_form_is_the_linear_part() -> None:
     """``ffrf_slope_prepared`` of a body's flat arrays and a slope equals ``F(X + X′) −
     F(X)`` of the kernel's working form ``F`` (affine: the constant maps cancel), computed
