@@ -3,7 +3,8 @@
 Run from the repository root (README.md, "The assembled EMBS")::
 
     python examples/middle_ear/build_embs.py [--dir DATA] [--refine 1] [--tol 3e-4]
-        [--coordinate volume|dp] [--slope-step 20] [-q]
+        [--coordinate volume|dp] [--slope-step 20] [--interpolation quintic-hermite|hermite]
+        [-q]
 
 One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
 
@@ -22,8 +23,9 @@ One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
    the body is on ISYS, gravity 0), with its static state (static reduced coordinates, node
    displacements and interface forces at the manubrium, static outputs; ``static/*``,
    docs/equations-middle-ear.md §5) → ``DATA/embs/tm_air.npz`` (a parametric body with the
-   samples' slopes — the FE models at every working point ∓ 20 Pa in ``DATA/fem_slopes``,
-   their static states included, docs/equations.md §4.2 — and Hermite weights in the TM's
+   samples' slopes and curvatures — the FE models at every working point ∓ 20 Pa in
+   ``DATA/fem_slopes``, their static states included, docs/equations.md §4.2 — and quintic
+   Hermite weights (``--interpolation hermite``: cubic, slopes only) in the TM's
    static volume displacement, §4.1 — the sweep also writes its static curve every 100 Pa;
    ``--coordinate dp``: in ``dp``; ``--slope-step 0``: cubic weights without slopes), and
    ``DATA/embs/build.json`` (samples, node ids, chain factors);
@@ -306,6 +308,11 @@ def main() -> None:
                     help="the samples' slopes from the FE models at every working point ∓ PA "
                     f"(Hermite weights, docs/equations.md §4.2; default {SLOPE_STEP:g} Pa; 0: "
                     "cubic weights through the values alone)")
+    ap.add_argument("--interpolation", choices=("quintic-hermite", "hermite"),
+                    default="quintic-hermite",
+                    help="with the slope models: quintic Hermite weights — the samples' "
+                    "slopes and curvatures, from the same models (default) — or cubic "
+                    "Hermite weights (slopes only); docs/equations.md §4.2")
     ap.add_argument("--pressures", default="-4000:4000:9", metavar="START:STOP:N",
                     help="working points of the FE sweep [Pa] (START:STOP:N or a comma list; "
                     "default -4000:4000:9)")
@@ -392,6 +399,7 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
         pb = basis_parametric_body(
             fe_list, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
             static=static_states(where, pts, manubrium) if static else None,
+            interpolation=args.interpolation if step > 0 else "cubic",
             **slope_models(pts, static))
         if not volume:
             return pb

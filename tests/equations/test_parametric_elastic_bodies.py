@@ -166,11 +166,10 @@ def test_body_with_sample_slopes_equals_the_interpolated_body(hermite, c: float,
     assert np.allclose(got, ref, rtol=1e-9, atol=0)
 
 
-def test_body_with_sample_curvatures_equals_the_interpolated_body(hermite) -> None:
-    """A body with sample slopes and curvatures (quintic Hermite weights, in ``ξ = c²``)
-    gives, scheduled in the generated module, the FRF of ``ParametricBody.at(c)`` of that
-    body, which is not that of its cubic Hermite weights (reference: ``ParametricBody.at``
-    entered as a fixed body)."""
+@pytest.fixture(scope="module")
+def quintic(hermite) -> tuple[Path, object]:
+    """The Hermite duct body with sample curvatures too (quintic Hermite weights in
+    ``ξ = c²``, equations.md §4.2; any consistent curvature data serve the checks)."""
     tmp, hb = hermite
     curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
             for key in hb.slope_keys()}
@@ -178,9 +177,18 @@ def test_body_with_sample_curvatures_equals_the_interpolated_body(hermite) -> No
     qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
                   coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
     save_parametric_body(qb, tmp / "duct_q.npz")
+    return tmp, qb
+
+
+def test_body_with_sample_curvatures_equals_the_interpolated_body(hermite, quintic) -> None:
+    """A body with sample slopes and curvatures (quintic Hermite weights, in ``ξ = c²``)
+    gives, scheduled in the generated module, the FRF of ``ParametricBody.at(c)`` of that
+    body, which is not that of its cubic Hermite weights (reference: ``ParametricBody.at``
+    entered as a fixed body)."""
+    tmp, qb = quintic
     c = 333.0
     assert qb.weights(c).size == 3 * qb.n_samples
-    other = hb.at(c)                       # the cubic Hermite weights in c
+    other = hermite[1].at(c)                       # the cubic Hermite weights in c
     assert np.abs(qb.at(c).K - other.K).max() > 1e-9 * np.abs(other.K).max()
     save_reduced_body(qb.at(c), tmp / f"duct_q_at{c}.npz")
     ref = _frf(tmp, _description(f"duct_q_at{c}.npz", None, c), f"duct_q_fixed{c}.yaml")
@@ -189,12 +197,13 @@ def test_body_with_sample_curvatures_equals_the_interpolated_body(hermite) -> No
 
 
 @pytest.mark.parametrize("frame", ["ISYS", "carrier"])
-@pytest.mark.parametrize("data", ["duct.npz", "duct_h.npz"])
+@pytest.mark.parametrize("data", ["duct.npz", "duct_h.npz", "duct_q.npz"])
 def test_schedule_of_a_coordinate_and_an_input_enters_the_jacobians(parametric, hermite,
-                                                                    frame: str,
+                                                                    quintic, frame: str,
                                                                     data: str) -> None:
     """``schedule: cs + 2000 z + 5 F`` (a coordinate of the symbolic part and an input), the
-    body on a fixed and on a moving frame, with cubic or Hermite weights (sample slopes):
+    body on a fixed and on a moving frame, with cubic, Hermite (sample slopes) or quintic
+    Hermite weights (slopes and curvatures, in a coordinate):
     the analytic ``rhs_jacobian``, ``force_jacobians``
     (``∂/∂u`` included) and ``output_jacobians`` of the generated module — chain rule through
     the interpolation weights — equal central finite differences of its own ``rhs``,
