@@ -192,7 +192,9 @@ def _check_slope_options(args: argparse.Namespace) -> None:
     if args.slope_models is None:
         if args.interpolation in ("hermite", "quintic-hermite"):
             raise NeweulError(f"--interpolation {args.interpolation} needs the samples' "
-                              "slopes (--slope-models, --slope-step)")
+                              "slopes (--slope-models, --slope-step"
+                              + (", which --method global takes)" if args.method == "local"
+                                 else ")"))
         return
     if args.method != "global":
         raise NeweulError("--slope-models applies to --method global only")

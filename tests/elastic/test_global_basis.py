@@ -263,7 +263,9 @@ def test_cli_interpolate_with_slope_models(tmp_path, capsys):
                            "local"], "--method global only"),
                          (["--slope-models", *slopes, "--slope-step", "1e-3",
                            "--interpolation", "cubic"], "quintic-hermite), not"),
-                         (["--interpolation", "hermite"], "needs the samples' slopes")):
+                         (["--interpolation", "hermite"], "needs the samples' slopes"),
+                         (["--interpolation", "quintic-hermite", "--method", "local"],
+                          "which --method global takes")):
         assert main([*base, *extra, "-o", str(bad)]) == 1
         err = capsys.readouterr().err.strip().splitlines()[-1]
         assert err.startswith("neweul interpolate: error:") and words in err, err

@@ -188,7 +188,8 @@ def test_body_with_sample_curvatures_equals_the_interpolated_body(hermite, quint
     tmp, qb = quintic
     c = 333.0
     assert qb.weights(c).size == 3 * qb.n_samples
-    other = hermite[1].at(c)                       # the cubic Hermite weights in c
+    cubic = hermite[1].with_(coordinate=qb.coordinate, coordinate_name="c_squared")
+    other = cubic.at(c)                            # the cubic Hermite weights in ξ too
     assert np.abs(qb.at(c).K - other.K).max() > 1e-9 * np.abs(other.K).max()
     save_reduced_body(qb.at(c), tmp / f"duct_q_at{c}.npz")
     ref = _frf(tmp, _description(f"duct_q_at{c}.npz", None, c), f"duct_q_fixed{c}.yaml")
