@@ -272,12 +272,10 @@ def test_cli_interpolate_with_slope_models(tmp_path, capsys):
         assert not bad.exists()
 
 
-def test_sample_slopes_of_static_states():
-    """Samples that carry static states (``x_s(p) = sin(3p) a + p² b`` here) get the slopes
-    of their projection on the global basis, of the node displacements and of the outputs
-    from the slope models' static states: central differences of the same projections
-    (reference: computed here from ``x_s(p ± δ)``); without those states the build is one
-    DataError naming them."""
+def _static_samples():
+    """The samples of :func:`fe_exp` carrying static states ``x_s(p) = sin(3p) a + p² b``
+    (projected in the energy metric ``G``), and their slope models: ``(fes, bodies, x_s, G,
+    (minus, plus))``."""
     from neweul_py.elastic.static_state import static_deflection
 
     rng = np.random.default_rng(7)
@@ -293,6 +291,16 @@ def test_sample_slopes_of_static_states():
     bodies = [bb.with_(static=static_deflection(bb, x_s(p), output_rows=fe.C(), metric=G))
               for bb, p, fe in zip(bodies, SAMPLES, fes, strict=True)]
     side = ([fe_exp(p - STEP) for p in SAMPLES], [fe_exp(p + STEP) for p in SAMPLES])
+    return fes, bodies, x_s, G, side
+
+
+def test_sample_slopes_of_static_states():
+    """Samples that carry static states (``x_s(p) = sin(3p) a + p² b`` here) get the slopes
+    of their projection on the global basis, of the node displacements and of the outputs
+    from the slope models' static states: central differences of the same projections
+    (reference: computed here from ``x_s(p ± δ)``); without those states the build is one
+    DataError naming them."""
+    fes, bodies, x_s, G, side = _static_samples()
     with pytest.raises(DataError, match="need the static states of the slope models"):
         global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
                                slope_step=STEP)
@@ -351,21 +359,7 @@ def test_sample_curvatures_of_static_states_need_the_samples_own_states():
     own FE states (``sample_statics``) the build is one DataError naming them — the
     samples' ``q`` is the projection of the local body's state, a second difference mixing
     the two definitions would be their difference over δ²."""
-    from neweul_py.elastic.static_state import static_deflection
-
-    rng = np.random.default_rng(7)
-    fes = [fe_exp(p) for p in SAMPLES]
-    n = fes[0].n_dofs
-    a, b = rng.standard_normal(n) * 1e-6, rng.standard_normal(n) * 1e-6
-
-    def x_s(p: float) -> np.ndarray:
-        return np.sin(3 * p) * a + p**2 * b
-
-    G = energy_metric(fes)
-    bodies = [body_at(p) for p in SAMPLES]
-    bodies = [bb.with_(static=static_deflection(bb, x_s(p), output_rows=fe.C(), metric=G))
-              for bb, p, fe in zip(bodies, SAMPLES, fes, strict=True)]
-    side = ([fe_exp(p - STEP) for p in SAMPLES], [fe_exp(p + STEP) for p in SAMPLES])
+    fes, bodies, x_s, G, side = _static_samples()
     statics = ([{"x": x_s(p - STEP)} for p in SAMPLES], [{"x": x_s(p + STEP)} for p in SAMPLES])
     kw = dict(parameter="p", slope_models=side, slope_step=STEP, slope_statics=statics,
               interpolation="quintic-hermite")
