@@ -65,9 +65,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="default weights between samples (default: cubic spline for "
                         "--method global — on the middle-ear sweep at worst 4.1 %% median "
                         "error between samples against 15.6 %% linear, 0.56 %% with "
-                        "--coordinate — linear for --method local; hermite with "
-                        "--slope-models, or quintic-hermite: with their curvatures too, "
-                        "from the same models)")
+                        "--coordinate — linear for --method local; with --slope-models "
+                        "quintic-hermite, the samples' slopes and curvatures from the same "
+                        "models, or hermite, the slopes alone)")
     parser.add_argument("--basis", choices=BASES, default="auto",
                         help="(--method local) basis rows for the common subspace: full "
                         "bases (needs --store-bases at reduction) or the kept rows (default "
@@ -98,10 +98,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--slope-models", nargs="+", metavar="FE",
                         help="--method global: per body, in order, its FE model at the "
                         "sample value minus and plus --slope-step (2 files per body); the "
-                        "samples then carry their slopes and the weights are Hermite "
-                        "(docs/equations.md §4.2; on the middle-ear sweep with --coordinate "
-                        "0.27 %% median / 7.5 %% max error between samples, 0.07 %% / 2.1 %% "
-                        "with --interpolation quintic-hermite). Working-point "
+                        "samples then carry their slopes and curvatures and the weights "
+                        "are quintic Hermite (docs/equations.md §4.2; on the middle-ear "
+                        "sweep with --coordinate 0.075 %% median / 2.1 %% max error between "
+                        "samples, 0.44 %% / 11.3 %% with --interpolation hermite, the slopes "
+                        "alone). Working-point "
                         "files record their static dp, which is checked against the sample "
                         "∓ step; other FE files are taken in the order given")
     parser.add_argument("--slope-step", default=None,
@@ -303,9 +304,9 @@ def run(args: argparse.Namespace) -> int:
         slopes, statics = (_slope_models(args.slope_models, bodies, values, args.slope_step)
                            if args.slope_models else (None, None))
         fes = _models(args, bodies)
-        quintic = args.interpolation == "quintic-hermite"
+        quintic = args.interpolation in (None, "quintic-hermite")
         pb = global_parametric_body(fes, bodies, args.values, parameter=args.parameter,
-                                    interpolation=args.interpolation or "cubic",
+                                    interpolation=args.interpolation,
                                     store_bases=args.store_bases, labels=args.bodies,
                                     slope_models=slopes, slope_step=args.slope_step,
                                     slope_statics=statics,

@@ -67,6 +67,7 @@ from .interpolation import (
     central_curvatures,
     central_slopes,
     check_samples,
+    hermite_kind,
     sample_values,
     stacked_loss,
 )
@@ -358,7 +359,8 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
 
 def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
                            samples: Sequence[float] | None = None, *, parameter: str = "p",
-                           interpolation: str = "cubic", rank_rtol: float = GLOBAL_RANK_RTOL,
+                           interpolation: str | None = None,
+                           rank_rtol: float = GLOBAL_RANK_RTOL,
                            order: int | None = None, store_bases: bool = False,
                            labels: Sequence[str] | None = None,
                            slope_models: tuple[Sequence[FEModel], Sequence[FEModel]] | None
@@ -376,7 +378,8 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
     checked as :func:`~neweul_py.elastic.interpolation.interpolate` checks them (same
     layout, increasing values, ``labels`` naming the bodies in errors).
 
-    ``interpolation`` (the default weights of :meth:`ParametricBody.at`) is ``"cubic"``:
+    ``interpolation`` (the default weights of :meth:`ParametricBody.at`) is by default
+    ``"cubic"``, and ``"quintic-hermite"`` with slope models:
     the FE matrices of the middle ear depend on the static pressure nonlinearly (stress
     stiffening); between samples 1 kPa apart cubic weights in Δp give at worst 4.1 % median /
     35 % max FRF error against 15.6 % / 122 % for linear weights, and cubic weights in the
@@ -385,10 +388,11 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
 
     ``slope_models = (minus, plus)`` with ``slope_step = δ``: the FE models at ``σ_i ∓ δ``
     give the sample slopes (:func:`global_slopes`; ``slope_statics`` their static states
-    when the samples carry one) and the body's weights are ``"hermite"``
-    (equations.md §4.2), or ``"quintic-hermite"`` when asked for (``interpolation``): the
-    same models also give the sample curvatures (``sample_statics``: the samples' own FE
-    static states, when they carry one). Figures on today's physics:
+    when the samples carry one), and the same models also give the sample curvatures
+    (``sample_statics``: the samples' own FE static states, when they carry one) for the
+    default ``"quintic-hermite"`` weights (equations.md §4.2); ``interpolation="hermite"``
+    keeps the slopes alone, and weights without derivatives are refused with slope models
+    (a DataError naming ``interpolation``). Figures on today's physics:
     ``benchmarks/bench_interpolation.py``, whose README table quotes them.
     """
     bodies = list(bodies)
@@ -405,8 +409,8 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
                for name in gb[0].invariants}
     g0 = gb[0]
     slopes = curvatures = None
+    interpolation = hermite_kind(interpolation, slope_models is not None)
     if slope_models is not None:
-        interpolation = "quintic-hermite" if interpolation == "quintic-hermite" else "hermite"
         slopes, curvatures = global_slopes(
             fes, *slope_models, slope_step, gb, slope_statics, progress,
             curvatures=interpolation == "quintic-hermite", sample_statics=sample_statics)

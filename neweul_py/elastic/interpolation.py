@@ -124,6 +124,7 @@ __all__ = [
     "central_slopes",
     "check_samples",
     "coordinate_table",
+    "hermite_kind",
     "interpolate",
     "is_parametric_body_file",
     "kind_row_scale",
@@ -819,6 +820,25 @@ def bodies_stack(bodies: Sequence[ReducedBody], key: str) -> np.ndarray:
     if key.startswith(STATIC_PREFIX):
         return np.stack([b.static[key[len(STATIC_PREFIX):]] for b in bodies])
     return np.stack([b[key] for b in bodies])
+
+
+def hermite_kind(interpolation: str | None, slopes: bool) -> str:
+    """The weights of a parametric body built with (``slopes``) or without models next to
+    its samples: by default ``"quintic-hermite"`` (the models give the slopes and the
+    curvatures, equations.md §4.2) or ``"cubic"``; with the models only Hermite weights.
+
+    Raises
+    ------
+    DataError
+        Weights without derivatives asked for with the models (naming ``interpolation``).
+    """
+    if interpolation is None:
+        return "quintic-hermite" if slopes else "cubic"
+    if slopes and interpolation not in HERMITE_ORDERS:
+        raise DataError(f"the models next to the samples give Hermite weights "
+                        f"({', '.join(HERMITE_ORDERS)}), not {interpolation!r}", None,
+                        "interpolation")
+    return interpolation
 
 
 def _slope_step(step: Any) -> float:

@@ -36,7 +36,13 @@ import scipy.sparse.linalg as spla
 from ..errors import DataError
 from .fe_model import FEModel
 from .global_basis import energy_metric, g_orthonormal
-from .interpolation import ParametricBody, central_curvatures, central_slopes, stacked_loss
+from .interpolation import (
+    ParametricBody,
+    central_curvatures,
+    central_slopes,
+    hermite_kind,
+    stacked_loss,
+)
 from .invariants import Invariants
 from .projection import Progress, build_reduced_body
 from .reduced_body import ReducedBody
@@ -209,7 +215,8 @@ def check_same_mesh(fes: Sequence[FEModel], samples: Sequence[float]) -> None:
 
 def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequence[float], *,
                           parameter: str = "p", keep_nodes: Sequence[int] | None = None,
-                          interpolation: str = "cubic", energy: np.ndarray | None = None,
+                          interpolation: str | None = None,
+                          energy: np.ndarray | None = None,
                           static: Sequence[Mapping[str, Any]] | None = None,
                           slope_models: tuple[Sequence[FEModel], Sequence[FEModel]] | None
                           = None, slope_step: float | None = None,
@@ -224,11 +231,11 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     ``slope_models = (minus, plus)``: the FE models at every sample ∓ ``slope_step``
     (``slope_static`` their static states, needed with ``static``) projected on the same
     ``V`` — the same kept nodes, and the static states in the samples' energy metric — give
-    the samples' slopes by central differences, and the body's weights are ``"hermite"``
-    (docs/equations.md §4.2); with ``interpolation="quintic-hermite"`` also the curvatures
-    by central second differences (the samples and their slope models are projected
-    alike). ``metric``: the energy metric of the static projection (default: that of
-    ``fes``).
+    the samples' slopes by central differences and, for the default ``"quintic-hermite"``
+    weights, the curvatures by central second differences (the samples and their slope
+    models are projected alike; ``interpolation="hermite"``: the slopes alone; docs/
+    equations.md §4.2). Without slope models the default weights are ``"cubic"``.
+    ``metric``: the energy metric of the static projection (default: that of ``fes``).
 
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.static_state.static_deflection` (``x`` — the FE
@@ -237,6 +244,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     orthonormal): the body then carries it (``static/*``, docs/equations-middle-ear.md §5).
     """
     s = np.asarray(samples, dtype=float)
+    kind = hermite_kind(interpolation, slope_models is not None)
     if s.size != len(fes) or s.size < 2 or np.any(np.diff(s) <= 0):
         raise DataError("need at least two increasing sample values, one per FE model",
                         None, "samples")
@@ -283,7 +291,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         two_sided=False, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
         V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
-        interpolation=interpolation if slope_models is None else "cubic",
+        interpolation=kind if slope_models is None else "cubic",
         sample_sources=tuple(dict(b.source) for b in bodies),
         sample_methods=("snapshot",) * k, sample_settings=tuple(b.settings for b in bodies),
         static=StaticDeflection.stack(states) if states else None,
@@ -296,7 +304,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                                   progress=progress)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
     slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
-    if interpolation != "quintic-hermite":
+    if kind != "quintic-hermite":
         return pb.with_(interpolation="hermite", slopes=slopes)
     return pb.with_(interpolation="quintic-hermite", slopes=slopes,
                     curvatures=central_curvatures(side[0].stack, pb.stack, side[1].stack,

@@ -44,7 +44,8 @@ def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
     slopes = [str(near / _name(p + s * STEP)) for p in SAMPLES for s in (-1, 1)]
     out = tmp_path / "tm.npz"
     base = ["interpolate", *bodies, "--parameter", "dp", "--values", "-1000,0,1000"]
-    assert main([*base, "--slope-models", *slopes, "--slope-step", "20", "-o", str(out)]) == 0
+    assert main([*base, "--slope-models", *slopes, "--slope-step", "20", "--interpolation",
+                 "hermite", "-o", str(out)]) == 0
     capsys.readouterr()
     pb = load_parametric_body(out)
     assert pb.interpolation == "hermite" and "static/node_u" in pb.slopes
@@ -59,8 +60,8 @@ def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
                 np.testing.assert_allclose(pb.slopes["static/node_u"][i][r], du[ids.index(nid)],
                                            rtol=1e-6, atol=1e-9 * np.abs(du).max())
     quint = tmp_path / "tmq.npz"
-    assert main([*base, "--slope-models", *slopes, "--slope-step", "20", "--interpolation",
-                 "quintic-hermite", "-o", str(quint)]) == 0
+    assert main([*base, "--slope-models", *slopes, "--slope-step", "20",      # the default
+                 "-o", str(quint)]) == 0
     assert "curvatures (quintic Hermite)" in capsys.readouterr().out
     qb = load_parametric_body(quint)
     assert qb.interpolation == "quintic-hermite" and qb.format_version == 5

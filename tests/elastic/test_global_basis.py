@@ -188,7 +188,7 @@ def hermite_body() -> ParametricBody:
     bodies = [reduce_modal(fe, modes=20, static_correction=True, store_bases=True)
               for fe in fes]
     return global_parametric_body(
-        fes, bodies, SAMPLES, parameter="p",
+        fes, bodies, SAMPLES, parameter="p", interpolation="hermite",
         slope_models=([fe_exp(p - STEP) for p in SAMPLES], [fe_exp(p + STEP) for p in SAMPLES]),
         slope_step=STEP)
 
@@ -250,9 +250,14 @@ def test_cli_interpolate_with_slope_models(tmp_path, capsys):
     base = ["interpolate", *paths, "--parameter", "p", "--values", "0,0.2,0.4"]
     assert main([*base, "--slope-models", *slopes, "--slope-step", str(STEP),
                  "-o", str(out)]) == 0
-    assert "slopes (Hermite)" in capsys.readouterr().out
+    assert "slopes and curvatures (quintic Hermite)" in capsys.readouterr().out
     pb = ParametricBody.load(out)
-    assert pb.interpolation == "hermite"
+    assert pb.interpolation == "quintic-hermite"           # the default with slope models
+    cubic = tmp_path / "pbc.npz"
+    assert main([*base, "--slope-models", *slopes, "--slope-step", str(STEP),
+                 "--interpolation", "hermite", "-o", str(cubic)]) == 0
+    assert "slopes (Hermite)" in capsys.readouterr().out
+    assert ParametricBody.load(cubic).interpolation == "hermite"
     ref = pb.R.T @ ((fe_exp(0.2 + STEP).K - fe_exp(0.2 - STEP).K) @ pb.R) / (2 * STEP)
     np.testing.assert_allclose(pb.slopes["K"][1], ref, rtol=0, atol=1e-9 * np.abs(ref).max())
     bad = tmp_path / "bad.npz"
@@ -306,7 +311,8 @@ def test_sample_slopes_of_static_states():
                                slope_step=STEP)
     statics = ([{"x": x_s(p - STEP)} for p in SAMPLES], [{"x": x_s(p + STEP)} for p in SAMPLES])
     hb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
-                                slope_step=STEP, slope_statics=statics)
+                                slope_step=STEP, slope_statics=statics,
+                                interpolation="hermite")
     V = hb.R
     proj = lambda x: np.linalg.solve(V.T @ (G @ V), V.T @ (G @ x))  # noqa: E731
     kept = hb.kept_dofs
@@ -339,7 +345,7 @@ def test_sample_curvatures_are_second_differences_and_beat_the_slopes_alone():
     qb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
                                 slope_step=step, interpolation="quintic-hermite")
     hb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
-                                slope_step=step)
+                                slope_step=step, interpolation="hermite")
     assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
     V = qb.R
     for i, p in enumerate(SAMPLES):

@@ -126,7 +126,8 @@ def test_sample_slopes_with_static_states(family) -> None:
     static = [{"x": x_s(c)} for c in SPEEDS]
     side = tuple([{"x": x_s(c + sign * step)} for c in SPEEDS] for sign in (-1, 1))
     hb = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
-                               slope_models=tuple(near), slope_step=step, slope_static=side)
+                               slope_models=tuple(near), slope_step=step, slope_static=side,
+                               interpolation="hermite")
     assert hb.interpolation == "hermite"
     G = energy_metric(fes)
     for i, c in enumerate(SPEEDS):
@@ -136,8 +137,11 @@ def test_sample_slopes_with_static_states(family) -> None:
         np.testing.assert_allclose(hb.slopes["static/q"][i], dq, rtol=1e-6,
                                    atol=1e-9 * abs(dq).max())
     qb = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
-                               slope_models=tuple(near), slope_step=step, slope_static=side,
-                               interpolation="quintic-hermite")
+                               slope_models=tuple(near), slope_step=step, slope_static=side)
+    with pytest.raises(DataError, match="give Hermite weights"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                              slope_models=tuple(near), slope_step=step, slope_static=side,
+                              interpolation="cubic")
     assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
     for i, c in enumerate(SPEEDS):   # second differences of the same projections
         d2K = V.T @ ((near[1][i].K - 2 * fes[i].K + near[0][i].K) @ V) / step**2
