@@ -326,12 +326,15 @@ def run(args: argparse.Namespace) -> int:
     pb.save(args.output)
     lo, hi = pb.range
     sv = pb.singular_values
-    cut = sv[pb.order] / sv[0] if sv.size > pb.order else 0.0
-    how = ("global basis" if args.method == "global"
-           else f"local, {pb.basis} bases, row scaling {pb.row_scaling}")
+    if args.method == "global":     # the POD energies of the kept directions, nothing cut
+        how = (f"global basis, smallest kept POD energy {(sv[-1] / sv[0]) ** 2:.2g} of the "
+               "largest" if sv.size and sv[0] > 0 else "global basis")
+    else:                           # σ_r+1/σ_1: what the common subspace leaves out
+        how = (f"local, {pb.basis} bases, row scaling {pb.row_scaling}, "
+               + (f"σ_r+1/σ_1 = {sv[pb.order] / sv[0]:.3g}" if sv.size > pb.order
+                  else "every direction kept"))
     print(f"{args.output}: {pb.n_samples} samples of {pb.parameter} in [{lo:g}, {hi:g}], "
-          f"order {pb.order} ({'two' if pb.two_sided else 'one'}-sided, {how}, "
-          f"σ_r+1/σ_1 = {cut:.3g}"
+          f"order {pb.order} ({'two' if pb.two_sided else 'one'}-sided, {how}"
           + (f", weights in {pb.coordinate_name}" if pb.coordinate is not None else "")
           + (", with the samples' slopes and curvatures (quintic Hermite)"
              if pb.curvatures is not None else ", with the samples' slopes (Hermite)"

@@ -68,6 +68,7 @@ from .interpolation import (
     central_slopes,
     check_samples,
     hermite_kind,
+    model_sources,
     sample_values,
     stacked_loss,
 )
@@ -435,4 +436,7 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
         sample_methods=tuple(b.method for b in gb),
         sample_settings=tuple(b.settings for b in gb), slopes=slopes,
         curvatures=curvatures,
+        slope_step=None if slopes is None else float(slope_step),
+        slope_sources=() if slopes is None else model_sources([*slope_models[0],
+                                                               *slope_models[1]]),
     )

@@ -129,6 +129,7 @@ __all__ = [
     "is_parametric_body_file",
     "kind_row_scale",
     "load_parametric_body",
+    "model_sources",
     "sample_values",
     "save_parametric_body",
 ]
@@ -278,6 +279,10 @@ class ParametricBody:
         Optional sample curvatures ``d²X/dσ²`` of the same keys and shapes (the data of
         ``quintic-hermite`` weights, with :attr:`slopes`; ``static/residual`` zero): second
         differences of the same FE models next to the samples (equations.md §4.2).
+    slope_step, slope_sources
+        Where the slopes came from (optional, with :attr:`slopes` only): the step ``δ`` of
+        the models next to the samples and their sources (``file``, ``fingerprint``),
+        ``2k`` of them, every sample's ``σ_i − δ`` model, then every ``σ_i + δ`` one.
     """
 
     parameter: str
@@ -322,6 +327,8 @@ class ParametricBody:
     coordinate_name: str = ""
     slopes: Mapping[str, np.ndarray] | None = None
     curvatures: Mapping[str, np.ndarray] | None = None
+    slope_step: float | None = None
+    slope_sources: tuple[Mapping[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -449,6 +456,7 @@ class ParametricBody:
                             f"sample slopes; quintic-hermite: the slopes and curvatures): "
                             f"interpolation {self.interpolation!r} with {given}", None,
                             "interpolation")
+        self._check_slope_provenance()
         if self.slopes is None:
             if self.format_version in (SLOPES_VERSION, CURVATURES_VERSION):
                 set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
@@ -461,6 +469,22 @@ class ParametricBody:
         set_(self, "curvatures", self._checked_derivatives(self.curvatures, _CURVATURE_PREFIX,
                                                            "curvature"))
         set_(self, "format_version", CURVATURES_VERSION)
+
+    def _check_slope_provenance(self) -> None:
+        """``slope_step``: a positive finite number or ``None``; ``slope_sources``: none or
+        ``2k`` mappings; both only with slopes."""
+        sources = tuple(self.slope_sources or ())
+        if self.slopes is None and (self.slope_step is not None or sources):
+            raise DataError("a slope step or slope sources without sample slopes", None,
+                            "slope_step" if self.slope_step is not None else "slope_sources")
+        if self.slope_step is not None:
+            object.__setattr__(self, "slope_step", _slope_step(self.slope_step))
+        if sources and (len(sources) != 2 * self.samples.size
+                        or not all(isinstance(x, Mapping) for x in sources)):
+            raise DataError(f"must be {2 * self.samples.size} mappings (the models at every "
+                            f"sample − step, then + step), got {len(sources)}", None,
+                            "slope_sources")
+        object.__setattr__(self, "slope_sources", tuple(dict(x) for x in sources))
 
     def _checked_derivatives(self, given: Any, prefix: str, what: str
                              ) -> dict[str, np.ndarray]:
@@ -820,6 +844,12 @@ def bodies_stack(bodies: Sequence[ReducedBody], key: str) -> np.ndarray:
     if key.startswith(STATIC_PREFIX):
         return np.stack([b.static[key[len(STATIC_PREFIX):]] for b in bodies])
     return np.stack([b[key] for b in bodies])
+
+
+def model_sources(fes: Sequence[Any]) -> tuple[dict[str, Any], ...]:
+    """``{"file", "fingerprint"}`` of each FE model (the :attr:`ParametricBody.slope_sources`
+    of its slope models)."""
+    return tuple({"file": fe.source, "fingerprint": fe.fingerprint} for fe in fes)
 
 
 def hermite_kind(interpolation: str | None, slopes: bool) -> str:
@@ -1545,6 +1575,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
         **({"loss_reference_frequency": body.loss_reference_frequency}
            if body.G is not None else {}),
         **({"coordinate_name": body.coordinate_name} if body.coordinate is not None else {}),
+        **({"slope_step": body.slope_step, "slope_sources": list(body.slope_sources)}
+           if body.slopes is not None else {}),
     }
     arrays["meta"] = json_to_uint8(meta)
     save_npz_atomic(path, arrays)
@@ -1626,6 +1658,8 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
             coordinate_name=meta.get("coordinate_name", "") if version >= 3 else "",
             slopes=slopes or None,
             curvatures=curvatures or None,
+            slope_step=meta.get("slope_step"),
+            slope_sources=tuple(meta.get("slope_sources") or ()),
         )
     except DataError as exc:
         raise DataError(exc.message, file, exc.item) from None

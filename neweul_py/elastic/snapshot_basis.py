@@ -41,6 +41,7 @@ from .interpolation import (
     central_curvatures,
     central_slopes,
     hermite_kind,
+    model_sources,
     stacked_loss,
 )
 from .invariants import Invariants
@@ -304,8 +305,10 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                                   progress=progress)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
     slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
+    where = {"slope_step": float(slope_step),
+             "slope_sources": model_sources([*slope_models[0], *slope_models[1]])}
     if kind != "quintic-hermite":
-        return pb.with_(interpolation="hermite", slopes=slopes)
-    return pb.with_(interpolation="quintic-hermite", slopes=slopes,
+        return pb.with_(interpolation="hermite", slopes=slopes, **where)
+    return pb.with_(interpolation="quintic-hermite", slopes=slopes, **where,
                     curvatures=central_curvatures(side[0].stack, pb.stack, side[1].stack,
                                                   slope_step, pb.slope_keys()))

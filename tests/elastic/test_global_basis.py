@@ -331,7 +331,8 @@ def test_sample_slopes_of_static_states():
 
 def test_sample_curvatures_are_second_differences_and_beat_the_slopes_alone():
     """With ``interpolation="quintic-hermite"`` the same slope models give the curvatures
-    ``Vᵀ(X(p+δ) − 2X(p) + X(p−δ))V/δ²`` (computed here from the stored basis), and the
+    ``Vᵀ(X(p+δ) − 2X(p) + X(p−δ))V/δ²`` (computed here from the stored basis), the body
+    records the step and the models' fingerprints, and the
     quintic Hermite weights reproduce the projection of the FE matrices between samples
     better than the cubic Hermite ones (reference: ``Vᵀ X(p) V`` of the FE model at the
     midpoint, equations.md §4.2; the tension ``0.3 e^{2p}`` is not polynomial in ``p``). A
@@ -347,6 +348,8 @@ def test_sample_curvatures_are_second_differences_and_beat_the_slopes_alone():
     hb = global_parametric_body(fes, bodies, SAMPLES, parameter="p", slope_models=side,
                                 slope_step=step, interpolation="hermite")
     assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
+    assert qb.slope_step == step and [x["fingerprint"] for x in qb.slope_sources] == [
+        fe.fingerprint for fe in (*side[0], *side[1])]         # where the slopes came from
     V = qb.R
     for i, p in enumerate(SAMPLES):
         ref = V.T @ ((fe_exp(p + step).K - 2 * fe_exp(p).K + fe_exp(p - step).K) @ V) / step**2

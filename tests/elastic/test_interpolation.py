@@ -971,9 +971,12 @@ def test_sample_curvatures_weights_and_file(pbody, tmp_path):
         np.testing.assert_allclose(qb.at(p).K, ref, rtol=1e-13, atol=0)
         assert qb.weights(p, "hermite").size == 2 * k
     assert np.array_equal(qb.at(s[1]).K, pbody.K[1])
+    qb = qb.with_(slope_step=0.01, slope_sources=tuple(
+        {"file": f"m{i}.npz", "fingerprint": f"{i:064x}"} for i in range(2 * k)))
     qb.save(tmp_path / "q.npz")
     back = load_parametric_body(tmp_path / "q.npz")
     assert back.interpolation == "quintic-hermite"
+    assert back.slope_step == 0.01 and back.slope_sources == qb.slope_sources
     assert sorted(back.curvatures) == sorted(qb.curvatures)
     assert np.array_equal(back.at(0.77).K, qb.at(0.77).K)
     assert np.array_equal(back.at(0.77).invariants["Me.m0"], qb.at(0.77).invariants["Me.m0"])
@@ -1010,6 +1013,16 @@ def test_bad_sample_curvatures_are_refused(pbody):
     hb = pbody.with_(interpolation="hermite", slopes=slopes)
     with pytest.raises(DataError, match="holds no sample curvatures"):
         hb.weights(0.5, "quintic-hermite")
+    for kw, item in ((dict(slope_step=20.0), "slope_step"),
+                     (dict(slope_sources=({"file": "a"},) * 2 * pbody.n_samples),
+                      "slope_sources")):
+        with pytest.raises(DataError, match="without sample slopes") as exc:
+            pbody.with_(**kw)                    # provenance of slopes the body lacks
+        assert exc.value.item == item
+    with pytest.raises(DataError, match="must be 6 mappings") as exc:
+        hb.with_(slope_sources=({"file": "a"},))
+    with pytest.raises(DataError, match="positive number"):
+        hb.with_(slope_step=-1.0)
 
 
 def test_bad_sample_slopes_are_refused(pbody, tmp_path):
