@@ -7,7 +7,7 @@ The u–p FE models of ``neweul fem middle-ear --refine 1`` at 17 static pressur
 canal_volume_acceleration, 100 Hz–5 kHz (log), of
 
 * ``local``: Panzer et al. (2010) matrix interpolation of the local bodies in common
-  coordinates (:func:`neweul_py.elastic.interpolation.interpolate`, its default metric);
+  coordinates (:func:`neweul_py.elastic.local_interpolation.interpolate`, its default metric);
 * ``global``/``global-cubic``: one global basis of all samples, every sample's full FE model
   projected onto it (:mod:`neweul_py.elastic.global_basis`), linear / cubic-spline weights;
 * ``global-cubic-V``: the same global sample bodies, with the cubic-spline weights taken in

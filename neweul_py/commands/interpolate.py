@@ -28,8 +28,8 @@ from . import common as shared
 from . import number, values_type
 
 #: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as
-#: :mod:`neweul_py.elastic.interpolation` (kept here so that building the parser imports no
-#: elastic code; a test checks they agree).
+#: :mod:`neweul_py.elastic.interpolation` and :mod:`~neweul_py.elastic.local_interpolation`
+#: (kept here so that building the parser imports no elastic code; a test checks they agree).
 INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic", "hermite", "quintic-hermite")
 BASES: tuple[str, ...] = ("auto", "full", "kept")
 PRESSURE_WEIGHT = 1e-3
@@ -265,7 +265,8 @@ def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
     from ..elastic.global_basis import global_parametric_body
-    from ..elastic.interpolation import coordinate_table, interpolate, sample_values
+    from ..elastic.interpolation import coordinate_table, sample_values
+    from ..elastic.local_interpolation import interpolate
     from ..elastic.reduced_body import load_reduced_body
 
     shared.check_files(args.output, (".npz",), "parametric bodies")

@@ -16,14 +16,9 @@ NumPy/SciPy only; never imports the symbolic layers.
 from .craig_bampton import reduce_craig_bampton
 from .fe_io import read_fe_model, read_node_sets, read_stiffening, write_fe_model
 from .fe_model import DOF_KINDS, FE_KINDS, FEModel
-from .interpolation import (
-    ParametricBody,
-    interpolate,
-    kind_row_scale,
-    load_parametric_body,
-    save_parametric_body,
-)
+from .interpolation import ParametricBody, load_parametric_body, save_parametric_body
 from .krylov import reduce_krylov
+from .local_interpolation import interpolate, kind_row_scale
 from .modal import reduce_modal
 from .projection import project
 from .quality import (

@@ -3,7 +3,7 @@
 Local bases of neighbouring samples (e.g. the middle-ear working points 1 kPa apart) span
 different subspaces (``σ_{r+1}/σ_1 ≈ 0.7`` of their stacked bases), so bringing local
 reduced models to common coordinates (Panzer et al. 2010,
-:func:`~neweul_py.elastic.interpolation.interpolate`) leaves a large part of each sample
+:func:`~neweul_py.elastic.local_interpolation.interpolate`) leaves a large part of each sample
 outside the common subspace, and the interpolated model loses to the nearest sample. Here
 instead one basis serves every sample (Baur, Beattie, Benner & Gugercin 2011, *SIAM J. Sci.
 Comput.* 33, "Interpolatory projection methods for parameterized model reduction", §3
@@ -376,7 +376,7 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
     result is a :class:`~neweul_py.elastic.interpolation.ParametricBody` like that of the
     local method (``basis = "full"``, ``row_scaling = "none"``, ``sample_methods`` =
     ``"global"``), interpolated entrywise by :meth:`ParametricBody.at`. The samples are
-    checked as :func:`~neweul_py.elastic.interpolation.interpolate` checks them (same
+    checked as :func:`~neweul_py.elastic.local_interpolation.interpolate` checks them (same
     layout, increasing values, ``labels`` naming the bodies in errors).
 
     ``interpolation`` (the default weights of :meth:`ParametricBody.at`) is by default

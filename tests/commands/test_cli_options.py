@@ -179,13 +179,13 @@ def test_cli_choices_agree_with_the_api():
     from neweul_py.analysis.sweep_tasks import STATS, TASKS
     from neweul_py.commands import SWEEP_STATS, SWEEP_TASKS
     from neweul_py.commands import interpolate as cmd
-    from neweul_py.elastic import interpolation
+    from neweul_py.elastic import interpolation, local_interpolation
 
     assert SIMULATE_METHODS == METHODS
     assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
     assert cmd.INTERPOLATIONS == interpolation.INTERPOLATIONS
     assert cmd.BASES == interpolation.BASES
-    assert cmd.PRESSURE_WEIGHT == interpolation.PRESSURE_WEIGHT
+    assert cmd.PRESSURE_WEIGHT == local_interpolation.PRESSURE_WEIGHT
     from neweul_py.commands import compare_frf
     from neweul_py.elastic import quality
 

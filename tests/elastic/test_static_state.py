@@ -18,7 +18,8 @@ from fe_builders import piston_duct
 from scipy.optimize import brentq
 
 from neweul_py.elastic import ReducedBody
-from neweul_py.elastic.interpolation import ParametricBody, interpolate, load_parametric_body
+from neweul_py.elastic.interpolation import ParametricBody, load_parametric_body
+from neweul_py.elastic.local_interpolation import interpolate
 from neweul_py.elastic.projection import build_reduced_body
 from neweul_py.elastic.static_state import (
     StaticDeflection,

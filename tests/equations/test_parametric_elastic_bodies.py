@@ -18,8 +18,9 @@ from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
 from neweul_py.elastic import reduce_modal, save_reduced_body
-from neweul_py.elastic.interpolation import interpolate, save_parametric_body
+from neweul_py.elastic.interpolation import save_parametric_body
 from neweul_py.elastic.invariants import attach_invariants
+from neweul_py.elastic.local_interpolation import interpolate
 from neweul_py.errors import DescriptionError
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
