@@ -6,9 +6,8 @@
 -o pbody.npz``: local reduced bodies → parametric body (``docs/equations.md`` §4;
 ``--coordinate``: cubic weights in the coordinate ``XI`` of the curve instead of in the
 parameter, §4.1; ``--slope-models``: the FE models at every sample value ∓ ``D`` give the
-samples' slopes, and the weights are Hermite, §4.2 — with ``--interpolation
-quintic-hermite`` the same models also give the samples' curvatures, quintic Hermite
-weights).
+samples' slopes and curvatures, and the weights are quintic Hermite, §4.2 —
+``--interpolation hermite``: the slopes alone, cubic Hermite weights).
 
 ``--method global`` (default): one global basis of all samples, every sample's FE model
 projected onto it (:mod:`neweul_py.elastic.global_basis`); the FE models are the files the

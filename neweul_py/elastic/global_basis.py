@@ -67,6 +67,7 @@ from .interpolation import (
     central_curvatures,
     central_slopes,
     check_samples,
+    checked_slope_step,
     hermite_kind,
     model_sources,
     sample_values,
@@ -307,7 +308,7 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
     if len(minus) != k or len(plus) != k:
         raise DataError(f"the slopes need one FE model on each side of each of the {k} "
                         f"samples, got {len(minus)} and {len(plus)}", None, "slopes")
-    central_slopes(None, None, step, ())          # the step, before any projection
+    checked_slope_step(step)                      # the step, before any projection
     if (gb[0].static is not None) != (statics is not None):
         raise DataError("the samples carry static states: their slopes need the static "
                         "states of the slope models (slope_statics; an FE model does not "

@@ -53,6 +53,7 @@ __all__ = [
     "central_curvatures",
     "central_slopes",
     "check_samples",
+    "checked_slope_step",
     "coordinate_table",
     "hermite_kind",
     "is_parametric_body_file",
@@ -397,7 +398,7 @@ class ParametricBody:
             raise DataError("a slope step or slope sources without sample slopes", None,
                             "slope_step" if self.slope_step is not None else "slope_sources")
         if self.slope_step is not None:
-            object.__setattr__(self, "slope_step", _slope_step(self.slope_step))
+            object.__setattr__(self, "slope_step", checked_slope_step(self.slope_step))
         if sources and (len(sources) != 2 * self.samples.size
                         or not all(isinstance(x, Mapping) for x in sources)):
             raise DataError(f"must be {2 * self.samples.size} mappings (the models at every "
@@ -790,7 +791,7 @@ def hermite_kind(interpolation: str | None, slopes: bool) -> str:
     return interpolation
 
 
-def _slope_step(step: Any) -> float:
+def checked_slope_step(step: Any) -> float:
     """The step of the models next to the samples, a positive finite number."""
     try:
         step = float(step)
@@ -815,7 +816,7 @@ def central_slopes(minus: Any, plus: Any, step: float, keys: Sequence[str]
     DataError
         A step that is not a positive finite number.
     """
-    step = _slope_step(step)
+    step = checked_slope_step(step)
     return {key: (plus(key) - minus(key)) / (2.0 * step)
             * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
 
@@ -832,7 +833,7 @@ def central_curvatures(minus: Any, centre: Any, plus: Any, step: float,
     DataError
         A step that is not a positive finite number.
     """
-    step = _slope_step(step)
+    step = checked_slope_step(step)
     return {key: (plus(key) - 2.0 * centre(key) + minus(key)) / step**2
             * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
 

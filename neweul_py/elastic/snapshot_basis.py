@@ -40,6 +40,7 @@ from .interpolation import (
     ParametricBody,
     central_curvatures,
     central_slopes,
+    checked_slope_step,
     hermite_kind,
     model_sources,
     stacked_loss,
@@ -260,7 +261,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         raise DataError("slope models go with a slope step, and with their static states "
                         "exactly when the samples carry static states", None, "slopes")
     if slope_models is not None:
-        central_slopes(None, None, slope_step, ())      # the step, before any projection
+        checked_slope_step(slope_step)                  # the step, before any projection
         if any(len(m) != s.size for m in slope_models):
             raise DataError(f"one slope model on each side of each of the {s.size} samples, "
                             f"got {[len(m) for m in slope_models]}", None, "slopes")

@@ -358,7 +358,6 @@ def tied_static_equilibrium(body: Any, node_ids: np.ndarray, k: float,
         best = min(best, step)
         if step <= tol * scale or (step <= FLOOR_RTOL * scale and stalls >= FLOOR_STALLS):
             break                   # converged, or the round-off floor reached
-
     else:
         raise SolverError(f"the tied static problem did not converge in {max_iter} Newton "
                           "steps", residual=float(np.abs(res).max()))
