@@ -55,7 +55,7 @@ from neweul_py.elastic import interpolate, read_fe_model, reduce_modal
 from neweul_py.elastic.global_basis import global_parametric_body
 from neweul_py.elastic.interpolation import coordinate_table
 from neweul_py.elastic.quality import frf_full, frf_reduced
-from neweul_py.elastic.reduced_body import ReducedBody
+from neweul_py.elastic.reduced_body import load_reduced_body, save_reduced_body
 
 INPUT = "canal_volume_acceleration"
 #: Step of the slope models [Pa] (central differences; 5, 20 and 50 Pa give the same table
@@ -112,11 +112,11 @@ def main() -> None:
     for p, fe in zip(samples, fes, strict=True):
         path = d / f"body{args.modes}_dp{int(p):+06d}.npz"
         if path.exists():
-            bodies.append(ReducedBody.load(path))
+            bodies.append(load_reduced_body(path))
             continue
         b = reduce_modal(fe, modes=args.modes, static_correction=True, store_bases=True)
         b = b.with_(parameters={"dp": float(p)})
-        b.save(path)
+        save_reduced_body(b, path)
         bodies.append(b)
     t_red = time.perf_counter() - t0
     t0 = time.perf_counter()

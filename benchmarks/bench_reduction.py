@@ -167,7 +167,8 @@ def work_pymor(grid, out: Path) -> dict:
 
 
 def work_frf(grid, bodies: list[str], full_points: int) -> dict:
-    from neweul_py.elastic import ReducedBody, frf_full, frf_reduced, relative_error
+    from neweul_py.elastic import frf_full, frf_reduced, relative_error
+    from neweul_py.elastic.reduced_body import load_reduced_body
 
     fe = build_model(*grid)
     f = np.linspace(F_MAX / N_FREQ, F_MAX, N_FREQ)
@@ -180,7 +181,7 @@ def work_frf(grid, bodies: list[str], full_points: int) -> dict:
             A = z["K"][None] + 1j * w * z["D"][None] - w**2 * z["M"][None]
             H = z["C"] @ np.linalg.solve(A, np.broadcast_to(z["B"], (f.size, *z["B"].shape)))
         else:
-            body = ReducedBody.load(path)
+            body = load_reduced_body(path)
             t0 = time.perf_counter()
             H = frf_reduced(body, f)
         res[path] = {"time_s": time.perf_counter() - t0, "H": H}

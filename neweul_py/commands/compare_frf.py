@@ -116,8 +116,9 @@ def summary(cmp: FRFComparison, what: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Compare and report."""
-    from ..elastic import ReducedBody, read_fe_model
+    from ..elastic import read_fe_model
     from ..elastic.quality import check_source, compare_frf
+    from ..elastic.reduced_body import load_reduced_body
 
     common.split_output(args)
     if not args.response or len(args.response) != 1 or len(args.input) != 1:
@@ -127,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     common.check_files(args.output, (".csv",), "comparisons", args.plot)
     f = frequency_grid(args.grid, args.log)
     fe = read_fe_model(args.model)
-    body = ReducedBody.load(args.body)
+    body = load_reduced_body(args.body)
     check_source(fe, body, args.body)  # a body reduced from another model: refuse
     with Tracker("full FRF", unit="freq", quiet=args.quiet) as track:  # a bar on a terminal
         track.say(f"full FRF of {fe.name} ({fe.n_dofs} DOFs) at {f.size} frequencies")

@@ -264,7 +264,7 @@ def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
     from ..elastic.global_basis import global_parametric_body
-    from ..elastic.interpolation import coordinate_table, sample_values
+    from ..elastic.interpolation import coordinate_table, sample_values, save_parametric_body
     from ..elastic.local_interpolation import interpolate
     from ..elastic.reduced_body import load_reduced_body
 
@@ -323,7 +323,7 @@ def run(args: argparse.Namespace) -> int:
     if table is not None:
         pb = pb.with_(interpolation=pb.interpolation if pb.slopes is not None else "cubic",
                       coordinate=table, coordinate_name=curve[1])
-    pb.save(args.output)
+    save_parametric_body(pb, args.output)
     lo, hi = pb.range
     sv = pb.singular_values
     if args.method == "global":     # the POD energies of the kept directions, nothing cut

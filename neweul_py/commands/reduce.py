@@ -250,6 +250,7 @@ def run(args: argparse.Namespace) -> int:
     from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
     from ..elastic.eigen import frequencies_hz
     from ..elastic.quality import right_half_plane_poles
+    from ..elastic.reduced_body import save_reduced_body
     from ..fem.working_point_file import static_loads
 
     if args.points is not None:
@@ -291,7 +292,7 @@ def run(args: argparse.Namespace) -> int:
         _progress(note)
     if not args.store_bases:
         body = body.with_(V=None, W=None, full_dof_kind=None)
-    body.save(args.output)
+    save_reduced_body(body, args.output)
     st = stability(body)
     side = "two-sided" if args.two_sided else "one-sided"
     print(f"{args.output}: {args.method} ({side}), order {body.order} from {fe.n_dofs} DOFs, "

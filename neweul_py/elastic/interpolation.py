@@ -29,7 +29,7 @@ from ..errors import DataError
 from ..ffrf.parametric import HERMITE_ORDERS, coordinate_problem, ffrf_weights, weight_polynomials
 from ._io import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 from .fe_model import loss_reference
-from .reduced_body import ReducedBody, json_normal
+from .reduced_body import INVARIANT_PREFIX, ReducedBody, json_normal
 from .static_state import (
     STATIC_KEYS,
     STATIC_PREFIX,
@@ -74,7 +74,7 @@ PARAMETRIC_BODY_VERSION = 2
 COORDINATE_VERSION = 3
 SLOPES_VERSION = 4
 CURVATURES_VERSION = 5
-_READABLE_VERSIONS = (1, 2, 3, 4, 5)
+READABLE_VERSIONS = (1, 2, 3, 4, 5)
 #: Weight functions of :meth:`ParametricBody.at`.
 INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)
 #: Rows of the bases that determine the common subspace (:mod:`.local_interpolation`).
@@ -83,12 +83,13 @@ BASES = ("auto", "full", "kept")
 KIND_GROUPS = {"ux": "translation", "uy": "translation", "uz": "translation",
                "rx": "rotation", "ry": "rotation", "rz": "rotation", "p": "pressure"}
 GROUP_ORDER = ("translation", "rotation", "pressure")
-_INV_PREFIX = "invariants/"
-_SLOPE_PREFIX = "slope/"
-_CURVATURE_PREFIX = "curvature/"
-_ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
-           "V_kept", "W_kept", "T", "L", "R", "singular_values", "svd_weights")
-_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G", "coordinate")
+SLOPE_PREFIX = "slope/"
+CURVATURE_PREFIX = "curvature/"
+PARAMETRIC_ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node",
+                     "dof_kind", "V_kept", "W_kept", "T", "L", "R", "singular_values",
+                     "svd_weights")
+PARAMETRIC_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G",
+                       "coordinate")
 #: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
 STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
 #: Floating-point invariants that are one value for all samples (checked when the body is
@@ -348,7 +349,7 @@ class ParametricBody:
     def slope_keys(self) -> tuple[str, ...]:
         """The keys :attr:`slopes` must hold (every interpolated stack of this body)."""
         keys = [*STACKED, *(key for key in ("G", "V", "W") if self[key] is not None)]
-        keys += [_INV_PREFIX + n for n, a in (self.invariants or {}).items()
+        keys += [INVARIANT_PREFIX + n for n, a in (self.invariants or {}).items()
                  if a.dtype.kind == "f"]
         if self.static is not None:
             keys += [STATIC_PREFIX + key for key in STATIC_KEYS]
@@ -356,8 +357,8 @@ class ParametricBody:
 
     def stack(self, key: str) -> np.ndarray:
         """The sample stack (k, …) of a :meth:`slope_keys` key."""
-        if key.startswith(_INV_PREFIX):
-            return self.invariants[key[len(_INV_PREFIX):]]
+        if key.startswith(INVARIANT_PREFIX):
+            return self.invariants[key[len(INVARIANT_PREFIX):]]
         if key.startswith(STATIC_PREFIX):
             return self.static[key[len(STATIC_PREFIX):]]
         return self[key]
@@ -382,11 +383,11 @@ class ParametricBody:
                 set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
                      else PARAMETRIC_BODY_VERSION)      # versions 4, 5 mean "has them"
             return
-        set_(self, "slopes", self._checked_derivatives(self.slopes, _SLOPE_PREFIX, "slope"))
+        set_(self, "slopes", self._checked_derivatives(self.slopes, SLOPE_PREFIX, "slope"))
         if self.curvatures is None:
             set_(self, "format_version", SLOPES_VERSION)
             return
-        set_(self, "curvatures", self._checked_derivatives(self.curvatures, _CURVATURE_PREFIX,
+        set_(self, "curvatures", self._checked_derivatives(self.curvatures, CURVATURE_PREFIX,
                                                            "curvature"))
         set_(self, "format_version", CURVATURES_VERSION)
 
@@ -442,7 +443,7 @@ class ParametricBody:
             raise DataError(f"the {what} of a residual is not stored (must be zero)", None,
                             f"{prefix}{STATIC_PREFIX}residual")
         for name in CARRIED_INVARIANTS:
-            key = _INV_PREFIX + name
+            key = INVARIANT_PREFIX + name
             if key in out and np.any(out[key]):
                 raise DataError(f"the {what} of a value common to all samples is zero", None,
                                 prefix + key)
@@ -479,9 +480,9 @@ class ParametricBody:
 
     def _check_row_scaling(self, n_rows: int) -> None:
         set_ = object.__setattr__
-        if self.format_version not in _READABLE_VERSIONS:
+        if self.format_version not in READABLE_VERSIONS:
             raise DataError(f"unsupported version {self.format_version!r} (this reader: "
-                            f"{', '.join(map(str, _READABLE_VERSIONS))})", None,
+                            f"{', '.join(map(str, READABLE_VERSIONS))})", None,
                             "format_version")
         if self.row_scaling not in ("none", "kind", "given"):
             raise DataError(f"must be 'none', 'kind' or 'given', got {self.row_scaling!r}",
@@ -714,7 +715,7 @@ class ParametricBody:
             inv = {}
             for name, a in self.invariants.items():
                 mixed = a.dtype.kind == "f" and name not in CARRIED_INVARIANTS
-                inv[name] = mix(_INV_PREFIX + name) if mixed else a[0].copy()
+                inv[name] = mix(INVARIANT_PREFIX + name) if mixed else a[0].copy()
         hit = np.flatnonzero(self.samples == float(p))
         if hit.size:
             source = dict(self.sample_sources[hit[0]])
@@ -746,21 +747,13 @@ class ParametricBody:
         )
 
     # ------------------------------------------------------------------ file I/O
-    def save(self, path: str | os.PathLike) -> None:
-        """Write to ``path`` (``.npz``, atomically; ``docs/reduced-body-format.md``)."""
-        save_parametric_body(self, path)
-
-    @classmethod
-    def load(cls, path: str | os.PathLike) -> ParametricBody:
-        """Read a file written by :meth:`save`."""
-        return load_parametric_body(path)
 
 
 def bodies_stack(bodies: Sequence[ReducedBody], key: str) -> np.ndarray:
     """The (k, …) stack over reduced bodies of a :meth:`ParametricBody.slope_keys` key
     (``M`` …, ``invariants/<name>``, ``static/<key>``)."""
-    if key.startswith(_INV_PREFIX):
-        return np.stack([np.asarray(b.invariants[key[len(_INV_PREFIX):]]) for b in bodies])
+    if key.startswith(INVARIANT_PREFIX):
+        return np.stack([np.asarray(b.invariants[key[len(INVARIANT_PREFIX):]]) for b in bodies])
     if key.startswith(STATIC_PREFIX):
         return np.stack([b.static[key[len(STATIC_PREFIX):]] for b in bodies])
     return np.stack([b[key] for b in bodies])
@@ -1014,19 +1007,19 @@ def coordinate_table(samples: Sequence[float], sigma: Sequence[float], xi: Seque
 # ---------------------------------------------------------------------- file format
 def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
-    arrays = {key: body[key] for key in _ARRAYS}
-    for key in _OPTIONAL:
+    arrays = {key: body[key] for key in PARAMETRIC_ARRAYS}
+    for key in PARAMETRIC_OPTIONAL:
         if body[key] is not None:
             arrays[key] = body[key]
     names = list(body.invariants or {})
     for name in names:
-        arrays[_INV_PREFIX + name] = body.invariants[name]
+        arrays[INVARIANT_PREFIX + name] = body.invariants[name]
     if body.static is not None:
         arrays.update(body.static.to_arrays())
     for key, a in (body.slopes or {}).items():
-        arrays[_SLOPE_PREFIX + key] = a
+        arrays[SLOPE_PREFIX + key] = a
     for key, a in (body.curvatures or {}).items():
-        arrays[_CURVATURE_PREFIX + key] = a
+        arrays[CURVATURE_PREFIX + key] = a
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": body.format_version,
@@ -1072,44 +1065,44 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     meta = json_from_uint8(data["meta"], file)
     if not isinstance(meta, dict) or meta.get("format") != PARAMETRIC_BODY_FORMAT:
         got = meta.get("format") if isinstance(meta, dict) else None
-        hint = " (a single reduced body: use ReducedBody.load)" if got == "neweul-reduced-body" \
+        hint = " (a single reduced body: use load_reduced_body)" if got == "neweul-reduced-body" \
             else ""
         raise DataError(f"\"format\" must be {PARAMETRIC_BODY_FORMAT!r}, got {got!r}{hint}",
                         file, "meta")
     version = meta.get("version")
-    if version not in _READABLE_VERSIONS:
+    if version not in READABLE_VERSIONS:
         raise DataError(f"unsupported version {version!r} (this reader: "
-                        f"{', '.join(map(str, _READABLE_VERSIONS))})", file, "meta")
+                        f"{', '.join(map(str, READABLE_VERSIONS))})", file, "meta")
     extra = [key for key in ("row_scale", "left_row_scale", "full_dof_kind") if key in data]
     if version == 1 and extra:
         raise DataError(f"a version-1 file holds no {extra}", file, extra[0])
     if version < COORDINATE_VERSION and "coordinate" in data:
         raise DataError(f"a version-{version} file holds no interpolation coordinate", file,
                         "coordinate")
-    slopes = {key[len(_SLOPE_PREFIX):]: a for key, a in data.items()
-              if key.startswith(_SLOPE_PREFIX)}
+    slopes = {key[len(SLOPE_PREFIX):]: a for key, a in data.items()
+              if key.startswith(SLOPE_PREFIX)}
     if version < SLOPES_VERSION and slopes:
         raise DataError(f"a version-{version} file holds no sample slopes", file,
-                        _SLOPE_PREFIX + next(iter(slopes)))
-    curvatures = {key[len(_CURVATURE_PREFIX):]: a for key, a in data.items()
-                  if key.startswith(_CURVATURE_PREFIX)}
+                        SLOPE_PREFIX + next(iter(slopes)))
+    curvatures = {key[len(CURVATURE_PREFIX):]: a for key, a in data.items()
+                  if key.startswith(CURVATURE_PREFIX)}
     if version < CURVATURES_VERSION and curvatures:
         raise DataError(f"a version-{version} file holds no sample curvatures", file,
-                        _CURVATURE_PREFIX + next(iter(curvatures)))
-    missing = [key for key in _ARRAYS if key not in data]
+                        CURVATURE_PREFIX + next(iter(curvatures)))
+    missing = [key for key in PARAMETRIC_ARRAYS if key not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
     names = meta.get("invariants")
     invariants = None
     if names is not None:
-        absent = [n for n in names if _INV_PREFIX + n not in data]
+        absent = [n for n in names if INVARIANT_PREFIX + n not in data]
         if absent:
             raise DataError(f"missing invariant arrays {absent}", file, "invariants")
-        invariants = {n: data[_INV_PREFIX + n] for n in names}
+        invariants = {n: data[INVARIANT_PREFIX + n] for n in names}
     try:
         return ParametricBody(
-            **{key: data[key] for key in _ARRAYS},
-            **{key: data.get(key) for key in _OPTIONAL},
+            **{key: data[key] for key in PARAMETRIC_ARRAYS},
+            **{key: data.get(key) for key in PARAMETRIC_OPTIONAL},
             parameter=meta.get("parameter", ""),
             interpolation=meta.get("interpolation", "linear"),
             basis=meta.get("basis", ""),

@@ -31,13 +31,13 @@ __all__ = [
 
 REDUCED_BODY_FORMAT = "neweul-reduced-body"
 REDUCED_BODY_VERSION = 1
-_INV_PREFIX = "invariants/"
-_ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind", "V_kept",
+INVARIANT_PREFIX = "invariants/"
+REDUCED_ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind", "V_kept",
            "W_kept")
 #: Invariants that are the body's own projected matrices (``Me = Wᵀ M V`` …): a file stores them
 #: once, as the matrix (metadata ``invariants_shared``).
 SHARED_INVARIANTS = {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D", "Le.m0": "G"}
-_OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind", "G")
+REDUCED_OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind", "G")
 
 
 def json_normal(obj: Any, item: str) -> Any:
@@ -265,21 +265,13 @@ class ReducedBody:
         return dataclasses.replace(self, **changes)
 
     # ------------------------------------------------------------------ file I/O
-    def save(self, path: str | os.PathLike) -> None:
-        """Write the body to ``path`` (``.npz``, atomically; see the format document)."""
-        save_reduced_body(self, path)
-
-    @classmethod
-    def load(cls, path: str | os.PathLike) -> ReducedBody:
-        """Read a body written by :meth:`save`."""
-        return load_reduced_body(path)
 
 
 def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
     """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
-    arrays = {key: body[key] for key in _ARRAYS}
+    arrays = {key: body[key] for key in REDUCED_ARRAYS}
     arrays["dof_kind"] = body.dof_kind.astype("U2")
-    for key in _OPTIONAL:
+    for key in REDUCED_OPTIONAL:
         if body[key] is not None:
             arrays[key] = body[key]
     names = list(body.invariants or {})
@@ -290,7 +282,7 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
                                                                         body[own]):
             shared[name] = own      # the projected matrix itself: stored once
             continue
-        arrays[_INV_PREFIX + name] = body.invariants[name]
+        arrays[INVARIANT_PREFIX + name] = body.invariants[name]
     if body.static is not None:
         arrays.update(body.static.to_arrays())
     meta = {
@@ -312,7 +304,7 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
 
 
 #: Documented types of the metadata fields (docs/reduced-body-format.md): key → (check, what).
-_META_FIELDS: dict[str, tuple[Any, str]] = {
+META_FIELDS: dict[str, tuple[Any, str]] = {
     "method": (lambda v: isinstance(v, str), "a string"),
     "settings": (lambda v: v is None or isinstance(v, dict), "an object"),
     "source": (lambda v: v is None or isinstance(v, dict), "an object"),
@@ -333,9 +325,9 @@ _META_FIELDS: dict[str, tuple[Any, str]] = {
 
 def check_metadata(meta: Mapping[str, Any], file: str | None = None) -> None:
     """Check the metadata of a reduced-body file field by field against the documented
-    types (:data:`_META_FIELDS`), so that a wrong type is one :class:`DataError` naming the
+    types (:data:`META_FIELDS`), so that a wrong type is one :class:`DataError` naming the
     field, never a ``TypeError`` deep inside the reader."""
-    for key, (ok, what) in _META_FIELDS.items():
+    for key, (ok, what) in META_FIELDS.items():
         if key in meta and not ok(meta[key]):
             raise DataError(f"must be {what}, got {type(meta[key]).__name__} "
                             f"{str(meta[key])[:60]!r}", file, f"meta.{key}")
@@ -356,7 +348,7 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
     if meta.get("version") != REDUCED_BODY_VERSION:
         raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
                         f"{REDUCED_BODY_VERSION})", file, "meta")
-    missing = [k for k in _ARRAYS if k not in data]
+    missing = [k for k in REDUCED_ARRAYS if k not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
     check_metadata(meta, file)
@@ -368,15 +360,15 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
                 SHARED_INVARIANTS.get(k) != v or v not in data for k, v in shared.items()):
             raise DataError("invariants_shared must map Me.m0/Ke.m0/De.m0/Le.m0 to M/K/D/G",
                             file, "meta")
-        absent = [n for n in names if _INV_PREFIX + n not in data and n not in shared]
+        absent = [n for n in names if INVARIANT_PREFIX + n not in data and n not in shared]
         if absent:
             raise DataError(f"missing invariant arrays {absent}", file, "invariants")
-        invariants = {n: data[shared[n]] if n in shared else data[_INV_PREFIX + n]
+        invariants = {n: data[shared[n]] if n in shared else data[INVARIANT_PREFIX + n]
                       for n in names}
     try:
         return ReducedBody(
-            **{key: data[key] for key in _ARRAYS},
-            **{key: data.get(key) for key in _OPTIONAL},
+            **{key: data[key] for key in REDUCED_ARRAYS},
+            **{key: data.get(key) for key in REDUCED_OPTIONAL},
             input_names=tuple(meta.get("input_names", ())),
             output_names=tuple(meta.get("output_names", ())),
             method=str(meta.get("method", "")),

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from neweul_py.cli import main
-from neweul_py.elastic import ReducedBody
+from neweul_py.elastic.reduced_body import load_reduced_body, save_reduced_body
 from neweul_py.fem.working_point_file import read_static
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
@@ -37,7 +37,7 @@ def test_reduce_writes_the_static_state_of_the_working_point(working_point, caps
     out = d / "b.npz"
     assert main(["reduce", str(fe_file), "--modes", "20", "--static-correction", "-o",
                  str(out)]) == 0
-    body = ReducedBody.load(out)
+    body = load_reduced_body(out)
     st, fe_st = body.static, read_static(fe_file)
     assert body.V is None                       # bases used for the projection, not stored
     ids = [int(n) for n in body.nodes[:, 0]]
@@ -65,7 +65,7 @@ def test_body_info_of_a_body_without_static_state(tmp_path, capsys):
     """A body reduced from a plain FE model says it has none (reference: the file)."""
     from neweul_py.elastic import reduce_modal
 
-    reduce_modal(piston_duct(30), modes=3).save(tmp_path / "p.npz")
+    save_reduced_body(reduce_modal(piston_duct(30), modes=3), tmp_path / "p.npz")
     assert main(["body-info", str(tmp_path / "p.npz")]) == 0
     assert "no static state" in capsys.readouterr().out
     assert main(["body-info", str(tmp_path / "p.npz"), "--at", "p=1"]) == 1

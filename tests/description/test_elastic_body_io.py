@@ -22,6 +22,7 @@ from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
 from neweul_py.elastic import reduce_modal, write_fe_model
 from neweul_py.elastic.invariants import attach_invariants
+from neweul_py.elastic.reduced_body import save_reduced_body
 from neweul_py.errors import DescriptionError
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "elastic_up_body"
@@ -69,7 +70,7 @@ def duct(tmp_path_factory):
     body = attach_invariants(reduce_modal(fe, modes=16, two_sided=True, keep_nodes=[1],
                                           static_correction=True, store_bases=True),
                            fe, nodes=[1])
-    body.save(tmp / "body.npz")
+    save_reduced_body(body, tmp / "body.npz")
     return tmp, fe, body
 
 

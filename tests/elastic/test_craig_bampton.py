@@ -19,6 +19,7 @@ from neweul_py.cli import main
 from neweul_py.elastic import write_fe_model
 from neweul_py.elastic.craig_bampton import craig_bampton_bases, reduce_craig_bampton
 from neweul_py.elastic.invariants import attach_invariants, body_invariants
+from neweul_py.elastic.reduced_body import load_reduced_body
 from neweul_py.errors import DataError
 from neweul_py.fem.beam import BeamSection, beam_model
 from neweul_py.fem.solid import solid_box
@@ -124,9 +125,8 @@ def test_cli_craig_bampton_invariants(tmp_path, capsys):
     assert main(["reduce", str(path), "--method", "craig-bampton", "--interface", "root",
                  "--modes", "5", "--skip-rigid", "--invariants", "-o", str(out)]) == 0
     assert "craig-bampton" in capsys.readouterr().out
-    from neweul_py.elastic import ReducedBody
 
-    body = ReducedBody.load(out)
+    body = load_reduced_body(out)
     ref = reduce_craig_bampton(s.fe, s.node_sets["root"], 5, skip_rigid=True)
     np.testing.assert_allclose(body.K, ref.K, atol=1e-10 * abs(ref.K).max())
     nc = body.settings["constraint_modes"]
@@ -172,9 +172,8 @@ def test_cli_clamped_interface(tmp_path):
     out = tmp_path / "b.npz"
     assert main(["reduce", str(path), "--method", "craig-bampton", "--interface", "root",
                  "--modes", "3", "--clamped-interface", "-o", str(out)]) == 0
-    from neweul_py.elastic import ReducedBody
 
-    body = ReducedBody.load(out)
+    body = load_reduced_body(out)
     ref = reduce_craig_bampton(s.fe, s.node_sets["root"], 3, constraint_modes=False)
     assert body.order == 3 and body.settings["clamped_interface"]
     np.testing.assert_allclose(body.K, ref.K, rtol=1e-10)

@@ -18,7 +18,7 @@ from beam_fe import beam
 from fe_builders import piston_duct, random_up, twin
 
 from neweul_py.cli import main
-from neweul_py.elastic import ReducedBody, reduce_modal, write_fe_model
+from neweul_py.elastic import reduce_modal, write_fe_model
 from neweul_py.elastic.eigen import (
     ShiftInvert,
     default_shift,
@@ -30,6 +30,7 @@ from neweul_py.elastic.eigen import (
 from neweul_py.elastic.invariants import body_invariants, compute_invariants
 from neweul_py.elastic.modal import _pair, _select, modal_bases
 from neweul_py.elastic.quality import reduced_eigenvalues
+from neweul_py.elastic.reduced_body import load_reduced_body
 from neweul_py.errors import DataError
 
 N_EL = 20
@@ -262,12 +263,12 @@ def test_cli_modes_and_band_from_zero_on_a_free_beam(tmp_path, capsys, free_beam
     assert main(["reduce", str(model), "--modes", "8", "-o", str(out)]) == 0
     text = capsys.readouterr().out
     assert "retained frequencies [Hz]: 0 …" in text
-    _check_against_dense(ReducedBody.load(out).eigenvalues, dense, 8)
+    _check_against_dense(load_reduced_body(out).eigenvalues, dense, 8)
     f3 = _analytic_elastic_hz(b, 3)
     assert main(["reduce", str(model), "--band", f"0:{0.5 * (f3[1] + f3[2])}",
                  "-o", str(out)]) == 0
     capsys.readouterr()
-    _check_against_dense(ReducedBody.load(out).eigenvalues, dense, 8)
+    _check_against_dense(load_reduced_body(out).eigenvalues, dense, 8)
 
 
 def test_cli_floating_body_needs_skip_rigid(tmp_path, capsys, free_beam):
@@ -285,7 +286,7 @@ def test_cli_floating_body_needs_skip_rigid(tmp_path, capsys, free_beam):
     assert main(["reduce", str(model), "--modes", "4", "--skip-rigid", "--invariants",
                  "-o", str(out)]) == 0
     capsys.readouterr()
-    body = ReducedBody.load(out)
+    body = load_reduced_body(out)
     hz = np.sqrt(np.asarray(body.eigenvalues).real) / (2 * np.pi)
     assert hz.min() > 0.0
     np.testing.assert_allclose(np.sort(hz), _analytic_elastic_hz(b, 4), rtol=1e-3)

@@ -27,6 +27,7 @@ from neweul_py.elastic import (
     write_fe_model,
 )
 from neweul_py.elastic.global_basis import energy_metric, global_parametric_body
+from neweul_py.elastic.interpolation import load_parametric_body
 from neweul_py.elastic.invariants import attach_invariants, compute_invariants
 from neweul_py.elastic.quality import frf_full
 from neweul_py.errors import DataError
@@ -126,7 +127,7 @@ def test_cli_interpolate_global_and_frf_body(tmp_path, capsys):
     assert main(["interpolate", *paths, "--parameter", "p", "--values", "0,0.2,0.4",
                  "-o", str(out)]) == 0
     assert "global basis" in capsys.readouterr().out
-    pb = ParametricBody.load(out)
+    pb = load_parametric_body(out)
     csv = tmp_path / "frf.csv"
     assert main(["frf-body", str(out), "--at", "p=0.1", "--input", "force", "--response",
                  "umbo", "--response", "probe", "--f", "50:4000:120", "-o", str(csv)]) == 0
@@ -251,13 +252,13 @@ def test_cli_interpolate_with_slope_models(tmp_path, capsys):
     assert main([*base, "--slope-models", *slopes, "--slope-step", str(STEP),
                  "-o", str(out)]) == 0
     assert "slopes and curvatures (quintic Hermite)" in capsys.readouterr().out
-    pb = ParametricBody.load(out)
+    pb = load_parametric_body(out)
     assert pb.interpolation == "quintic-hermite"           # the default with slope models
     cubic = tmp_path / "pbc.npz"
     assert main([*base, "--slope-models", *slopes, "--slope-step", str(STEP),
                  "--interpolation", "hermite", "-o", str(cubic)]) == 0
     assert "slopes (Hermite)" in capsys.readouterr().out
-    assert ParametricBody.load(cubic).interpolation == "hermite"
+    assert load_parametric_body(cubic).interpolation == "hermite"
     ref = pb.R.T @ ((fe_exp(0.2 + STEP).K - fe_exp(0.2 - STEP).K) @ pb.R) / (2 * STEP)
     np.testing.assert_allclose(pb.slopes["K"][1], ref, rtol=0, atol=1e-9 * np.abs(ref).max())
     bad = tmp_path / "bad.npz"

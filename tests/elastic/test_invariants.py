@@ -25,6 +25,7 @@ from neweul_py.elastic.invariants import (
     skew,
     stress_stiffening,
 )
+from neweul_py.elastic.reduced_body import save_reduced_body
 from neweul_py.elastic.sid import read_sid, write_sid
 from neweul_py.errors import DataError
 
@@ -568,7 +569,7 @@ def test_reduced_body_slot(tmp_path):
         rb = reduce_modal(fe, modes=8 if fe is b.fe else 4, store_bases=True, **kw)
         assert body_invariants(rb) is None
         rb = attach_invariants(rb, fe)
-        rb.save(tmp_path / "body.npz")
+        save_reduced_body(rb, tmp_path / "body.npz")
         inv = body_invariants(load_reduced_body(tmp_path / "body.npz"))
         np.testing.assert_allclose(inv.Me.m0, rb.M, atol=1e-12 * np.abs(rb.M).max())
         np.testing.assert_allclose(inv.Ke.m0, rb.K, atol=1e-12 * np.abs(rb.K).max())
@@ -601,7 +602,8 @@ def test_bad_invariants_files_name_the_file(tmp_path):
         assert exc.value.file == str(path) and exc.value.item == item
     fe = piston_duct(20)
     rb = attach_invariants(reduce_modal(fe, modes=4, store_bases=True), fe)
-    rb.with_(invariants={**rb.invariants, "Ke.m0": np.eye(3)}).save(tmp_path / "body.npz")
+    save_reduced_body(rb.with_(invariants={**rb.invariants, "Ke.m0": np.eye(3)}),
+                      tmp_path / "body.npz")
     with pytest.raises(DataError, match="size 3×3") as exc:
         read_elastic_data(tmp_path / "body.npz")
     assert exc.value.file == str(tmp_path / "body.npz") and exc.value.item == "Ke"

@@ -20,10 +20,11 @@ from neweul_py.analysis import linearize
 from neweul_py.analysis.frf import frequency_response
 from neweul_py.analysis.protocol import load_module
 from neweul_py.cli import main
-from neweul_py.elastic import ReducedBody, read_fe_model, write_fe_model
+from neweul_py.elastic import read_fe_model, write_fe_model
 from neweul_py.elastic.interpolation import stacked_loss
 from neweul_py.elastic.modal import reduce_modal
 from neweul_py.elastic.quality import frf_full, frf_reduced
+from neweul_py.elastic.reduced_body import load_reduced_body
 from neweul_py.elastic.snapshot_basis import basis_parametric_body
 from neweul_py.errors import DataError, NeweulError
 
@@ -71,7 +72,7 @@ def test_reduced_body_projects_g_like_k(reduced: Path) -> None:
     """Reference: the two-sided projection ``Wᵀ G V`` with the body's stored bases; ``D``
     stays the projection of the FE model's own ``D`` (= ``G_r/ω_ref`` here), the invariants
     carry ``Le.m0`` and ``loss.f_ref`` (stored once, as the body's ``G``)."""
-    body = ReducedBody.load(reduced / "body.npz")
+    body = load_reduced_body(reduced / "body.npz")
     fe = read_fe_model(reduced / "duct.npz")
     assert body.loss_reference_frequency == F_REF
     w_ref = 2 * np.pi * F_REF
@@ -93,11 +94,11 @@ def test_reduced_body_frf_against_the_unreduced_fe_model_with_k_plus_ig(
     reduction has on the lossless model against its own unreduced FE model; the FE-side
     solvers (direct, checked sweep) equal the reference, the viscous form does not."""
     fe = read_fe_model(reduced / "duct.npz")
-    body = ReducedBody.load(reduced / "body.npz")
+    body = load_reduced_body(reduced / "body.npz")
     write_fe_model(_make_fe().piston_duct(), tmp_path / "plain.npz")
     assert main(["reduce", str(tmp_path / "plain.npz"), "--two-sided", "--modes", "12",
                  "--keep-nodes", "1", "-o", str(tmp_path / "plain_body.npz")]) == 0
-    plain, plain_body = read_fe_model(tmp_path / "plain.npz"), ReducedBody.load(
+    plain, plain_body = read_fe_model(tmp_path / "plain.npz"), load_reduced_body(
         tmp_path / "plain_body.npz")
     f = np.linspace(20.0, 900.0, 23)
     w = 2 * np.pi * f
@@ -176,7 +177,7 @@ def test_compare_frf_and_frf_body_commands_use_the_loss_form(reduced: Path, caps
                  "x_piston", "--f", "20:400:5", "-o", str(out)]) == 0
     data = np.genfromtxt(out, delimiter=",", names=True)
     H = data["x_piston_real"] + 1j * data["x_piston_imag"]
-    body = ReducedBody.load(reduced / "body.npz")
+    body = load_reduced_body(reduced / "body.npz")
     assert np.allclose(H, frf_reduced(body, data["frequency_hz"], "force", "x_piston")[:, 0, 0],
                        rtol=1e-12)
 
@@ -200,7 +201,7 @@ def test_parametric_body_interpolates_g(reduced: Path) -> None:
 
 def test_samples_with_different_loss_reference_frequencies_are_refused(reduced: Path) -> None:
     """Reference: one reference frequency per body (and per model): the error names the key."""
-    body = ReducedBody.load(reduced / "body.npz")
+    body = load_reduced_body(reduced / "body.npz")
     other = body.with_(loss_reference_frequency=500.0)
     with pytest.raises(DataError) as exc:
         stacked_loss([body, other])

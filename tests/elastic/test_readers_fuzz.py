@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 from neweul_py.elastic import read_fe_model, reduce_modal, write_fe_model
 from neweul_py.elastic.reader import read_elastic_data
-from neweul_py.elastic.reduced_body import load_reduced_body
+from neweul_py.elastic.reduced_body import load_reduced_body, save_reduced_body
 
 SID = Path(__file__).resolve().parents[1] / "data" / "beam.SID_FEM"
 
@@ -34,7 +34,7 @@ def files(tmp_path_factory):
     fe = piston_duct(12, damping=1.0)
     body = reduce_modal(fe, modes=4, store_bases=True).with_(
         parameters={"t": 1.0}, invariants={"m": np.array(1.5)})
-    body.save(d / "body.npz")
+    save_reduced_body(body, d / "body.npz")
     write_fe_model(fe, d / "fe.npz")
     write_fe_model(fe, d / "fe.json")
     manifest = json.loads((d / "fe.json").read_text())

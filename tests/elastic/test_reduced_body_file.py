@@ -14,6 +14,7 @@ from fe_builders import piston_duct
 
 from neweul_py.elastic import ReducedBody, reduce_krylov, reduce_modal
 from neweul_py.elastic._io import json_to_uint8
+from neweul_py.elastic.reduced_body import load_reduced_body, save_reduced_body
 from neweul_py.errors import DataError
 
 
@@ -46,15 +47,15 @@ def _assert_same(a: ReducedBody, b: ReducedBody) -> None:
 
 def test_round_trip_is_exact(body, tmp_path):
     path = tmp_path / "b.npz"
-    body.save(path)
-    _assert_same(body, ReducedBody.load(path))
+    save_reduced_body(body, path)
+    _assert_same(body, load_reduced_body(path))
 
 
 def test_round_trip_without_optional_fields(tmp_path):
     b = reduce_krylov(piston_duct(40), points=[2j * np.pi * 200], order=2)
     assert b.V is None and b.invariants is None and b.eigenvalues is None
-    b.save(tmp_path / "k.npz")
-    _assert_same(b, ReducedBody.load(tmp_path / "k.npz"))
+    save_reduced_body(b, tmp_path / "k.npz")
+    _assert_same(b, load_reduced_body(tmp_path / "k.npz"))
 
 
 def test_full_dof_kind_is_stored_with_the_full_bases(body, tmp_path):
@@ -69,12 +70,12 @@ def test_full_dof_kind_is_stored_with_the_full_bases(body, tmp_path):
     assert reduce_modal(fe, modes=4).full_dof_kind is None
     assert reduce_krylov(fe, points=[2j * np.pi * 200], order=2).full_dof_kind is None
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     data = dict(np.load(path))
     assert data["full_dof_kind"].dtype == np.dtype("<U2")
     del data["full_dof_kind"]
     np.savez(path, **data)
-    old = ReducedBody.load(path)
+    old = load_reduced_body(path)
     assert old.full_dof_kind is None and np.array_equal(old.V, body.V)
 
 
@@ -92,7 +93,7 @@ def test_bad_full_dof_kind_is_refused(body, kinds, text):
 
 def test_file_has_no_pickles_and_json_metadata(body, tmp_path):
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(z["meta"].tobytes().decode())
         assert all(z[k].dtype != object for k in z.files)
@@ -102,7 +103,7 @@ def test_file_has_no_pickles_and_json_metadata(body, tmp_path):
 
 def test_interrupted_write_keeps_the_old_file(body, tmp_path, monkeypatch):
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     before = path.read_bytes()
 
     def boom(*args, **kwargs):
@@ -110,7 +111,7 @@ def test_interrupted_write_keeps_the_old_file(body, tmp_path, monkeypatch):
 
     monkeypatch.setattr(np, "savez", boom)
     with pytest.raises(KeyboardInterrupt):
-        body.with_(method="other").save(path)
+        save_reduced_body(body.with_(method="other"), path)
     assert path.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == ["b.npz"]
 
@@ -130,7 +131,7 @@ def _rewrite(path, **changes):
 ])
 def test_bad_files_are_rejected(body, tmp_path, change, item, text):
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     with np.load(path) as z:
         meta = json.loads(z["meta"].tobytes().decode())
     changes = change(meta)
@@ -138,32 +139,32 @@ def test_bad_files_are_rejected(body, tmp_path, change, item, text):
         changes = {"K": np.full_like(body.K, np.nan)}
     _rewrite(path, **changes)
     with pytest.raises(DataError, match=text) as exc:
-        ReducedBody.load(path)
+        load_reduced_body(path)
     assert exc.value.file == str(path) and exc.value.item == item
 
 
 def test_missing_array_and_not_an_npz(body, tmp_path):
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     data = dict(np.load(path))
     del data["C"]
     np.savez(path, **data)
     with pytest.raises(DataError, match="missing arrays") as exc:
-        ReducedBody.load(path)
+        load_reduced_body(path)
     assert exc.value.item == "C"
     path.write_text("hello")
     with pytest.raises(DataError, match="npz"):
-        ReducedBody.load(path)
+        load_reduced_body(path)
     with pytest.raises(DataError, match="not found"):
-        ReducedBody.load(tmp_path / "none.npz")
+        load_reduced_body(tmp_path / "none.npz")
 
 
 def test_object_arrays_are_refused(body, tmp_path):
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     _rewrite(path, B=np.array([None, 1], dtype=object))
     with pytest.raises(DataError, match="unreadable array"):
-        ReducedBody.load(path)
+        load_reduced_body(path)
     with pytest.raises(DataError, match="object arrays"):
         body.with_(invariants={"x": np.array([None], dtype=object)})
 
@@ -178,11 +179,11 @@ def test_projected_matrices_are_stored_once_with_the_invariants(tmp_path):
     body = attach_invariants(reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1],
                                           store_bases=True), fe, nodes=[1])
     path = tmp_path / "b.npz"
-    body.save(path)
+    save_reduced_body(body, path)
     with np.load(path) as data:
         assert not any(k in data for k in ("invariants/Me.m0", "invariants/Ke.m0"))
         meta = json.loads(data["meta"].tobytes().decode())
     assert meta["invariants_shared"] == {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D"}
-    back = ReducedBody.load(path)
+    back = load_reduced_body(path)
     for name, arr in body.invariants.items():
         np.testing.assert_array_equal(back.invariants[name], arr)

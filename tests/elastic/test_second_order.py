@@ -26,7 +26,7 @@ from neweul_py.elastic.invariants import (
     body_invariants,
     compute_invariants,
 )
-from neweul_py.elastic.reduced_body import ReducedBody
+from neweul_py.elastic.reduced_body import load_reduced_body
 from neweul_py.elastic.second_order import second_order_field, with_second_order
 from neweul_py.errors import DataError
 from neweul_py.fem.beam import BeamSection, beam_model
@@ -276,7 +276,7 @@ def test_fe_file_responses_reach_the_body(tmp_path) -> None:
                  "-o", str(fe_path)]) == 0
     assert main(["reduce", str(fe_path), "--method", "craig-bampton", "--interface", "root",
                  "--modes", "3", "--skip-rigid", "--stiffening", "-o", str(out)]) == 0
-    inv = body_invariants(ReducedBody.load(out))
+    inv = body_invariants(load_reduced_body(out))
     assert inv.quadratic is not None and inv.quadratic.A.shape[1:] == (3, 3)
     data = dict(np.load(fe_path, allow_pickle=False))
     data["UG.wzz"] = data["UG.wzz"][:-1]
