@@ -121,14 +121,15 @@ LOAD_CASES = ("ax", "ay", "az", "alphax", "alphay", "alphaz",
 OMEGA_PRODUCTS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
 _TAYLORS = TAYLOR_NAMES
 
-_EPS = np.zeros((3, 3, 3))
-_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
-_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
+#: The permutation (Levi-Civita) symbol ``ε_ijk``.
+LEVI_CIVITA = np.zeros((3, 3, 3))
+LEVI_CIVITA[0, 1, 2] = LEVI_CIVITA[1, 2, 0] = LEVI_CIVITA[2, 0, 1] = 1.0
+LEVI_CIVITA[0, 2, 1] = LEVI_CIVITA[2, 1, 0] = LEVI_CIVITA[1, 0, 2] = -1.0
 
 
 def skew(v: np.ndarray) -> np.ndarray:
     """``ṽ`` with ``ṽ b = v × b``, vectorized: (..., 3) → (..., 3, 3)."""
-    return -np.einsum("ijk,...k->...ij", _EPS, np.asarray(v, dtype=np.float64))
+    return -np.einsum("ijk,...k->...ij", LEVI_CIVITA, np.asarray(v, dtype=np.float64))
 
 
 def omega_products(omega: np.ndarray) -> np.ndarray:
@@ -141,18 +142,6 @@ def _omega_q_coefficients(Q: np.ndarray) -> np.ndarray:
     """A quadratic form ``Σ_ab Q[..., a, b] ω_a ω_b`` as coefficients of ω_q: (..., 6)."""
     cols = [Q[..., a, a] if a == b else Q[..., a, b] + Q[..., b, a] for a, b in OMEGA_PRODUCTS]
     return np.stack(cols, axis=-1)
-
-
-def _centrifugal_matrix(c: int) -> np.ndarray:
-    """``B_c``: the coefficient of ω_q[c] in ``ω̃ω̃ = ωωᵀ − ωᵀω I``."""
-    a, b = OMEGA_PRODUCTS[c]
-    B = np.zeros((3, 3))
-    if a == b:
-        B -= np.eye(3)
-        B[a, a] += 1.0
-    else:
-        B[a, b] = B[b, a] = 1.0
-    return B
 
 
 # ------------------------------------------------------------------------ data model
@@ -749,7 +738,7 @@ class _Dofs:
         eye = np.broadcast_to(np.eye(3), (nn, 3, 3))
         Tt = self.scatter(eye)
         # T_r[:, b] translational = e_b × x: (e_b × x)_a = ε_abk x_k
-        tr = np.einsum("abk,ik->iba", _EPS, self.xyz)
+        tr = np.einsum("abk,ik->iba", LEVI_CIVITA, self.xyz)
         Tr = self.scatter(tr) + self.scatter(eye, "rot")
         return Tt, Tr
 
@@ -761,7 +750,7 @@ def _cross_pair(dofs: _Dofs, F: np.ndarray, MtF: np.ndarray, G: np.ndarray,
     mtf, mg = dofs.gather(MtF), dofs.gather(MG)
     pair = (np.tensordot(mtf, g, axes=([0], [0])).transpose(0, 2, 1, 3)
             - np.tensordot(mg, f, axes=([0], [0])).transpose(2, 0, 1, 3))
-    return 0.5 * np.einsum("abc,pkac->pkb", _EPS, pair)
+    return 0.5 * np.einsum("abc,pkac->pkb", LEVI_CIVITA, pair)
 
 
 def _cross_fields(dofs: _Dofs, G: np.ndarray) -> list[np.ndarray]:
@@ -995,8 +984,8 @@ def compute_invariants(
     S = Tr.T @ MTt                            # S[b, a] = ε_abk md_k
     md0 = np.zeros(3)
     for k in range(3):
-        vals = [_EPS[a, b, k] * S[b, a] for a in range(3) for b in range(3)
-                if _EPS[a, b, k] != 0 and present[a]]
+        vals = [LEVI_CIVITA[a, b, k] * S[b, a] for a in range(3) for b in range(3)
+                if LEVI_CIVITA[a, b, k] != 0 and present[a]]
         md0[k] = np.mean(vals) if vals else 0.0
     J0 = Tr.T @ MTr
     J0 = 0.5 * (J0 + J0.T)
