@@ -29,9 +29,9 @@ def run(nx: int, modes: int, method: str = "Radau", rtol: float = 1e-6, h: float
         rho_inf: float = 0.9, backend: str = "numpy") -> dict:
     from neweul_py.analysis import load_generated, simulate
     from neweul_py.api import generate
-    from neweul_py.elastic.craig_bampton import reduce_craig_bampton
-    from neweul_py.elastic.invariants import attach_invariants
-    from neweul_py.elastic.reduced_body import save_reduced_body
+    from neweul_py.elastic.io.body_files import save_reduced_body
+    from neweul_py.elastic.reductors.craig_bampton import reduce_craig_bampton
+    from neweul_py.elastic.reductors.invariants import attach_invariants
     from neweul_py.fem.solid import SolidMaterial, solid_box
 
     t0 = time.perf_counter()

@@ -2,7 +2,7 @@
 """Elastic bodies in generated modules (issue 6): cost as the number of modes grows.
 
 Model: a rigid double pendulum (two links, planar hinges about z, gravity) carrying on its second
-link an elastic cantilever (``tests/elastic/beam_fe.py``, 3-D Euler–Bernoulli, 40 elements,
+link an elastic cantilever (``tests/support/beam_fe.py``, 3-D Euler–Bernoulli, 40 elements,
 clamped modes, invariants with centrifugal stiffening) with ``nq`` = 10, 50, 200 modes and one
 node frame at the tip, where a spring–damper ties it to the ground. The rigid part alone is the
 same description without the elastic body (the tip spring then acts on the link).
@@ -44,14 +44,14 @@ import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests" / "elastic"))
+sys.path.insert(0, str(ROOT / "tests" / "support"))
 
 from beam_fe import DOUBLE_PENDULUM as RIGID  # noqa: E402
 from beam_fe import beam  # noqa: E402
 
 from neweul_py.analysis import load_generated  # noqa: E402
 from neweul_py.api import generate  # noqa: E402
-from neweul_py.elastic.invariants import compute_invariants, stress_stiffening  # noqa: E402
+from neweul_py.elastic.reductors.invariants import compute_invariants, stress_stiffening  # noqa: E402
 from neweul_py.equations.elastic_expanded import MAX_EXPANDED_MODES  # noqa: E402
 
 ELASTIC = """

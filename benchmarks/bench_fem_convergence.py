@@ -27,14 +27,11 @@ from scipy.optimize import brentq
 from neweul_py.fem.acoustic import acoustic_matrices
 from neweul_py.fem.coupling import assemble_up, coupling_matrix
 from neweul_py.fem.mesh import box_tets, cone_membrane, extrude_tets
-from neweul_py.fem.middle_ear import (
-    build_middle_ear,
-    solve_static,
-    static_summary,
-    working_point_model,
-)
 from neweul_py.fem.nonlinear import NewtonOptions, load_path
 from neweul_py.fem.shell import ShellMaterial, ShellStructure
+from neweul_py.middle_ear.model import build_middle_ear
+from neweul_py.middle_ear.static import solve_static, static_summary
+from neweul_py.middle_ear.working_point import working_point_model
 
 C_AIR, RHO = 343.0, 1.2
 

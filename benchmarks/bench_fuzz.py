@@ -2,7 +2,8 @@
 
 Mutated descriptions (loaded; a share also derived, generated, imported and evaluated),
 reduced-body files, FE models (``.npz`` and Matrix Market) and SID files, with the mutators of
-tests/fuzz_inputs.py; then SIGKILLs at random moments of an atomic directory write. Prints, per
+tests/support/fuzz_inputs.py; then SIGKILLs at random moments of an atomic directory write.
+Prints, per
 kind, how many cases ran, how many gave a result, a NeweulError, another exception (a bug) or a
 hang (no answer within ``--hang`` s), and the directory states after the kills.
 
@@ -33,7 +34,7 @@ import traceback
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tests" / "elastic")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tests" / "support")]
 
 import fuzz_inputs as fz  # noqa: E402
 import numpy as np  # noqa: E402
@@ -133,8 +134,8 @@ def _generate(text: str, name: str) -> None:
 
 def data_files(tally: Tally, n: int, rng: random.Random, work: Path) -> None:
     from neweul_py.elastic import read_fe_model, reduce_modal, write_fe_model
-    from neweul_py.elastic.reader import read_elastic_data
-    from neweul_py.elastic.reduced_body import load_reduced_body
+    from neweul_py.elastic.io.body_files import load_reduced_body
+    from neweul_py.elastic.io.reader import read_elastic_data
 
     fe = piston_duct(12, damping=1.0)
     reduce_modal(fe, modes=4, store_bases=True).with_(
@@ -166,7 +167,7 @@ def data_files(tally: Tally, n: int, rng: random.Random, work: Path) -> None:
 
 _WRITER = """
 import sys, time
-from neweul_py.fem.output import write_directory_atomically
+from neweul_py.middle_ear.output import write_directory_atomically
 def fill(tmp):
     for k in range(40):
         (tmp / f"part{k}.bin").write_bytes(b"x" * 200_000)

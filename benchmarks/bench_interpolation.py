@@ -7,9 +7,11 @@ The u–p FE models of ``neweul fem middle-ear --refine 1`` at 17 static pressur
 canal_volume_acceleration, 100 Hz–5 kHz (log), of
 
 * ``local``: Panzer et al. (2010) matrix interpolation of the local bodies in common
-  coordinates (:func:`neweul_py.elastic.local_interpolation.interpolate`, its default metric);
+  coordinates (:func:`neweul_py.elastic.parametric.local_interpolation.interpolate`, its default
+  metric);
 * ``global``/``global-cubic``: one global basis of all samples, every sample's full FE model
-  projected onto it (:mod:`neweul_py.elastic.global_basis`), linear / cubic-spline weights;
+  projected onto it (:mod:`neweul_py.elastic.parametric.global_basis`), linear / cubic-spline
+  weights;
 * ``global-cubic-V``: the same global sample bodies, with the cubic-spline weights taken in
   the TM's static volume displacement ``V(Δp)`` (the work conjugate of the static pressure,
   ``docs/equations.md`` §4.1) instead of in ``Δp``: ``w_i(Δp) = S_i(V(Δp))``, ``S_i`` the
@@ -30,7 +32,7 @@ canal_volume_acceleration, 100 Hz–5 kHz (log), of
   (equidistant: both are "the nearest sample")
 
 is compared with the unreduced FE model linearized at the midpoint (checked sweep,
-:func:`neweul_py.elastic.quality.frf_full`: relative error ≤ 1e-6 at held-out full solves).
+:func:`neweul_py.elastic.quality.measures.frf_full`: relative error ≤ 1e-6 at held-out full solves).
 Printed per midpoint and method: median and max over frequency of the relative error
 ``|H_r − H| / |H|`` of each output. Acceptance: global median ≤ 1 %, max ≤ 5 % and below both
 neighbours' median and max at every midpoint.
@@ -52,10 +54,10 @@ from pathlib import Path
 import numpy as np
 
 from neweul_py.elastic import interpolate, read_fe_model, reduce_modal
-from neweul_py.elastic.global_basis import global_parametric_body
-from neweul_py.elastic.interpolation import coordinate_table
-from neweul_py.elastic.quality import frf_full, frf_reduced
-from neweul_py.elastic.reduced_body import load_reduced_body, save_reduced_body
+from neweul_py.elastic.io.body_files import load_reduced_body, save_reduced_body
+from neweul_py.elastic.parametric.global_basis import global_parametric_body
+from neweul_py.elastic.parametric.samples import coordinate_table
+from neweul_py.elastic.quality.measures import frf_full, frf_reduced
 
 INPUT = "canal_volume_acceleration"
 #: Step of the slope models [Pa] (central differences; 5, 20 and 50 Pa give the same table

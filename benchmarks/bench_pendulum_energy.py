@@ -31,8 +31,8 @@ sys.path.insert(0, str(ROOT))
 
 from neweul_py.analysis import load_generated, simulate  # noqa: E402
 from neweul_py.api import generate  # noqa: E402
-from neweul_py.elastic.invariants import compute_invariants  # noqa: E402
-from neweul_py.elastic.second_order import with_second_order  # noqa: E402
+from neweul_py.elastic.reductors.invariants import compute_invariants  # noqa: E402
+from neweul_py.elastic.reductors.second_order import with_second_order  # noqa: E402
 from neweul_py.errors import NeweulError  # noqa: E402
 from neweul_py.fem.beam import BeamSection, beam_model  # noqa: E402
 

@@ -168,7 +168,7 @@ def work_pymor(grid, out: Path) -> dict:
 
 def work_frf(grid, bodies: list[str], full_points: int) -> dict:
     from neweul_py.elastic import frf_full, frf_reduced, relative_error
-    from neweul_py.elastic.reduced_body import load_reduced_body
+    from neweul_py.elastic.io.body_files import load_reduced_body
 
     fe = build_model(*grid)
     f = np.linspace(F_MAX / N_FREQ, F_MAX, N_FREQ)

@@ -71,9 +71,9 @@ def _check_form(form: str) -> None:
 
 
 def read_elastic_data(path: Any, *args: Any, **kwargs: Any) -> Any:
-    """:func:`neweul_py.elastic.reader.read_elastic_data`, imported at the first elastic body
+    """:func:`neweul_py.elastic.io.reader.read_elastic_data`, imported at the first elastic body
     (the elastic layer pulls in ``scipy.sparse``, ≈ 0.3 s, which rigid models never need)."""
-    from .elastic.reader import read_elastic_data as read
+    from .elastic.io.reader import read_elastic_data as read
 
     return read(path, *args, **kwargs)
 
@@ -83,7 +83,7 @@ def load_description(path: str | os.PathLike[str], *, elastic_reader: Any = None
 
     Unlike :func:`neweul_py.description.load_description` (which, by layering, does not know
     the elastic layer), ``data`` files of ``elastic_bodies`` are read by default with
-    :func:`neweul_py.elastic.reader.read_elastic_data` (SID text or reduced-body ``.npz``).
+    :func:`neweul_py.elastic.io.reader.read_elastic_data` (SID text or reduced-body ``.npz``).
 
     Parameters
     ----------

@@ -10,7 +10,7 @@ One command, with progress on stderr (:class:`neweul_py.progress.Tracker`):
 
 1. **FE sweep** ``neweul fem middle-ear --pressures -4000:4000:9`` into ``DATA/fem`` (skipped
    when it is there with the same refinement and working points);
-2. **basis**: a snapshot global basis (:mod:`neweul_py.elastic.snapshot_basis`): full FE
+2. **basis**: a snapshot global basis (:mod:`neweul_py.elastic.parametric.snapshot_basis`): full FE
    responses of every working point at 20 Hz and 10 frequencies 100 Hz–8 kHz to the canal
    sound source and to the six rigid motions of the malleus seen through the TM–manubrium
    springs (36 933 N/m in all, equal per manubrium node), and the adjoint responses of the
@@ -55,13 +55,17 @@ import scipy.sparse as sps
 
 from neweul_py.atomic import atomic_write
 from neweul_py.elastic import read_fe_model
-from neweul_py.elastic.interpolation import save_parametric_body
-from neweul_py.elastic.projection import build_reduced_body
-from neweul_py.elastic.snapshot_basis import basis_parametric_body, check_same_mesh, snapshot_basis
+from neweul_py.elastic.io.body_files import save_parametric_body
+from neweul_py.elastic.io.working_point import read_static
+from neweul_py.elastic.parametric.snapshot_basis import (
+    basis_parametric_body,
+    check_same_mesh,
+    snapshot_basis,
+)
+from neweul_py.elastic.reductors.projection import build_reduced_body
 from neweul_py.errors import DataError, NeweulError
-from neweul_py.fem.ear_transfer import LumpedChain
-from neweul_py.fem.middle_ear import MiddleEarParameters
-from neweul_py.fem.working_point_file import read_static
+from neweul_py.middle_ear.parameters import MiddleEarParameters
+from neweul_py.middle_ear.transfer import LumpedChain
 from neweul_py.progress import QUIET_HELP, Tracker
 
 HERE = Path(__file__).resolve().parent
@@ -161,7 +165,7 @@ def volume_coordinate(where: dict[float, Path], curve: Path, points) -> np.ndarr
     """The (2, n) volume-coordinate table of a body of the working points ``points``
     (docs/equations.md §4.1): the static curve ``curve`` and the exact swept volume of every
     known working point (``static.csv`` of each directory in ``where``)."""
-    from neweul_py.elastic.interpolation import coordinate_table
+    from neweul_py.elastic.parametric.samples import coordinate_table
 
     table = swept_volumes([curve, *sorted({d / "static.csv" for d in where.values()})])
     sig = np.array(sorted(table))
@@ -225,7 +229,7 @@ def indicator(body, ref, phi: np.ndarray, k_node: float) -> float:
     pressure, umbo) over :data:`INDICATOR_HZ`, with the manubrium free and held by the
     TM–manubrium springs ``k_node`` at the node rows ``phi`` (the two ends of what a chain
     does): the interpolation error indicator of :func:`refine`."""
-    from neweul_py.elastic.quality import frf_reduced
+    from neweul_py.elastic.quality.measures import frf_reduced
 
     err = 0.0
     for k in (0.0, k_node):
@@ -458,7 +462,7 @@ def build(args: argparse.Namespace, track: Tracker) -> None:
 
 def node_rows(body) -> np.ndarray:
     """Rows of ``ux, uy, uz`` of the kept (manubrium) nodes in ``V_kept``."""
-    from neweul_py.elastic.static_state import node_rows as rows
+    from neweul_py.elastic.bodies.static import node_rows as rows
 
     return rows(body.nodes, body.dof_node, body.dof_kind).ravel()
 

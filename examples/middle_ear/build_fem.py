@@ -16,7 +16,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from neweul_py.fem.middle_ear import MiddleEarParameters, parse_pressures, pressure_sweep
+from neweul_py.middle_ear.parameters import MiddleEarParameters
+from neweul_py.middle_ear.sweep import parse_pressures, pressure_sweep
 
 HERE = Path(__file__).resolve().parent
 

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from neweul_py.elastic import read_fe_model
-from neweul_py.elastic.projection import build_reduced_body
-from neweul_py.elastic.quality import frf_full, frf_reduced
+from neweul_py.elastic.quality.measures import frf_full, frf_reduced
+from neweul_py.elastic.reductors.projection import build_reduced_body
 
 HERE = Path(__file__).resolve().parent
 

@@ -18,18 +18,12 @@ import argparse
 
 import numpy as np
 
-from neweul_py.fem.ear_transfer import chain_transfer, umbo_transfer
-from neweul_py.fem.middle_ear import (
-    MiddleEarParameters,
-    build_middle_ear,
-    hysteretic_damping,
-    parse_pressures,
-    solve_static,
-    static_data,
-    static_summary,
-    support_at,
-    working_point_model,
-)
+from neweul_py.middle_ear.model import build_middle_ear
+from neweul_py.middle_ear.parameters import MiddleEarParameters
+from neweul_py.middle_ear.static import solve_static, static_summary, support_at
+from neweul_py.middle_ear.sweep import parse_pressures
+from neweul_py.middle_ear.transfer import chain_transfer, umbo_transfer
+from neweul_py.middle_ear.working_point import hysteretic_damping, static_data, working_point_model
 
 LOW = np.geomspace(100.0, 1000.0, 7)
 

@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from neweul_py.fem.ear_parameters import MiddleEarParameters
-from neweul_py.fem.ear_sweep import pressure_sweep
+from neweul_py.middle_ear.parameters import MiddleEarParameters
+from neweul_py.middle_ear.sweep import pressure_sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import chain_factor as cf

@@ -22,11 +22,12 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sps
 
-from neweul_py.elastic.fe_io import read_fe_model
-from neweul_py.fem.ear_transfer import umbo_transfer
-from neweul_py.fem.middle_ear import MiddleEarParameters, build_middle_ear
-from neweul_py.fem.ossicular_chain import condensed_support
-from neweul_py.fem.working_point_file import read_loss, read_static
+from neweul_py.elastic.io.fe_files import read_fe_model
+from neweul_py.elastic.io.working_point import read_loss, read_static
+from neweul_py.middle_ear.chain import condensed_support
+from neweul_py.middle_ear.model import build_middle_ear
+from neweul_py.middle_ear.parameters import MiddleEarParameters
+from neweul_py.middle_ear.transfer import umbo_transfer
 
 HERE = Path(__file__).resolve().parent
 FREQS = np.array([100, 200, 500, 800, 1000, 1500, 2000, 3000, 4000, 6000], dtype=float)
@@ -60,7 +61,7 @@ def main() -> None:
         curves[wp["dp_Pa"]] = np.array(h)
         print(f"  {wp['dp_Pa']:+7.0f} " + " ".join(f"{v:7.3f}" for v in h))
     if args.plot:
-        from neweul_py.fem.plots import require_matplotlib
+        from neweul_py.middle_ear.plots import require_matplotlib
 
         plt = require_matplotlib()
         fig, ax = plt.subplots(figsize=(6, 4))

@@ -15,7 +15,7 @@ compared with the first (max relative error below 2 kHz and 2–5 kHz):
 * ``nearest`` — the nearest sample's body (no interpolation, wrong working point).
 
 The chain is attached to the reduced models exactly as to the FE model
-(:func:`neweul_py.fem.ear_coupled.coupled_frf`), through the node rows ``Φ_n`` of the basis;
+(:func:`neweul_py.middle_ear.coupled.coupled_frf`), through the node rows ``Φ_n`` of the basis;
 the generated module equals this hand assembly to 4e-9 (``validate_embs.py``).
 """
 
@@ -32,7 +32,7 @@ import validate_embs as ve
 
 from neweul_py.analysis.linearize import linearize
 from neweul_py.elastic import read_fe_model
-from neweul_py.elastic.interpolation import load_parametric_body
+from neweul_py.elastic.io.body_files import load_parametric_body
 
 
 def chain_matrices(chain_mod, dp: float) -> tuple[dict[str, np.ndarray], list[str], list[str]]:

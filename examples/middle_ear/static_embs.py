@@ -9,7 +9,7 @@ For each working point of the body and each extra Δp (whose FE static solution 
 (node displacements and interface forces at the manubrium, static outputs, mixed by the
 body's weights between samples); the malleus is tied to the manubrium nodes by the
 TM–manubrium springs and held by the chain's static characteristic; the static problem
-(:func:`neweul_py.elastic.static_state.tied_static_equilibrium`,
+(:func:`neweul_py.elastic.quality.static_equilibrium.tied_static_equilibrium`,
 docs/equations-middle-ear.md §5) is solved and its umbo displacement and swept volume are
 compared with the FE static solution (``static.csv``). Two characteristics: the closed form
 ``F(s)`` of the FE static solution (§2) and the ``chain_stiffening`` table of
@@ -31,10 +31,10 @@ from scipy.interpolate import CubicSpline
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import validate_embs as ve
 
-from neweul_py.elastic.interpolation import load_parametric_body
-from neweul_py.elastic.static_state import tied_static_equilibrium
-from neweul_py.fem.middle_ear import MiddleEarParameters
-from neweul_py.fem.working_point_file import read_static
+from neweul_py.elastic.io.body_files import load_parametric_body
+from neweul_py.elastic.io.working_point import read_static
+from neweul_py.elastic.quality.static_equilibrium import tied_static_equilibrium
+from neweul_py.middle_ear.parameters import MiddleEarParameters
 
 HERE = Path(__file__).resolve().parent
 

@@ -10,7 +10,8 @@ At Δp = 0 the chain of the build (``middle_ear.yaml`` without the TM body,
 :func:`validate_embs.chain_description`) is coupled to the *unreduced* FE model
 (:func:`validate_embs.reference_frf`, loss factors as ``K + iG``), so that no reduction error
 enters. ``--tm NAME=VALUE[,NAME=VALUE]`` rebuilds the FE model of Δp = 0 with other
-:class:`~neweul_py.fem.middle_ear.MiddleEarParameters` (same refinement; a parameter that moves
+:class:`~neweul_py.middle_ear.parameters.MiddleEarParameters` (same refinement; a parameter that
+moves
 the manubrium nodes off the build's, such as ``manubrium_reach``, is refused by the chain
 coupling); ``--chain NAME=VALUE`` or ``NAME=xFACTOR`` changes a parameter of the chain module
 (``k_tm_node``, the ligaments, …). Printed per variant: the stapes velocity per probe pressure
@@ -30,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from neweul_py.commands import number as cli_number
-from neweul_py.fem.ear_sweep import pressure_sweep
-from neweul_py.fem.middle_ear import MiddleEarParameters
+from neweul_py.middle_ear.parameters import MiddleEarParameters
+from neweul_py.middle_ear.sweep import pressure_sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from validate_embs import (

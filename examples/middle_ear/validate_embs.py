@@ -11,7 +11,7 @@ FE model of that working point (``neweul fem middle-ear``; between samples, e.g.
 the FE model linearized *there*) coupled directly with the **same** chain: the description
 with the TM body removed and each node frame ``tm.mK`` replaced by a frame on three free
 translations, generated and linearized, its matrices attached to the FE DOFs of the manubrium nodes
-(:func:`neweul_py.fem.ear_coupled.coupled_frf`). Both use the loss factors as ``K + iG``
+(:func:`neweul_py.middle_ear.coupled.coupled_frf`). Both use the loss factors as ``K + iG``
 (the body's ``Le``, the FE model's ``G``, the chain's ``loss_factor``: docs/equations.md
 §1.1; ``--damping viscous``: both the viscous equivalent ``D``).
 Printed: max relative error of the umbo velocity (TM node 1) and of the stapes velocity per
@@ -33,8 +33,8 @@ from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
 from neweul_py.elastic import read_fe_model
-from neweul_py.elastic.frf_sweep import frequency_form
-from neweul_py.fem.ear_coupled import coupled_frf
+from neweul_py.elastic.quality.frf_sweep import frequency_form
+from neweul_py.middle_ear.coupled import coupled_frf
 
 HERE = Path(__file__).resolve().parent
 DESCRIPTION = HERE / "middle_ear.yaml"

@@ -62,8 +62,11 @@ def run(args: argparse.Namespace) -> int:
     """Print the summary (one block per working point with a static state)."""
     import numpy as np
 
-    from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
-    from ..elastic.reduced_body import load_reduced_body
+    from ..elastic.io.body_files import (
+        is_parametric_body_file,
+        load_parametric_body,
+        load_reduced_body,
+    )
     from .frf_body import body_at
 
     parametric = is_parametric_body_file(args.body)

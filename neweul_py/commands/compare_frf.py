@@ -11,14 +11,15 @@ from ..progress import QUIET_HELP, Tracker
 from . import Range, range_type
 from . import common as common
 
-#: ``--full-method`` choices; the same as :data:`neweul_py.elastic.quality.FRF_METHODS` (kept
+#: ``--full-method`` choices; the same as :data:`neweul_py.elastic.quality.measures.FRF_METHODS`
+#: (kept
 #: here so that building the parser imports no elastic code; a test checks they agree).
 FRF_METHODS: tuple[str, ...] = ("auto", "sweep", "direct")
 
 if TYPE_CHECKING:
     import numpy as np
 
-    from ..elastic.quality import FRFComparison
+    from ..elastic.quality.measures import FRFComparison
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -117,8 +118,8 @@ def summary(cmp: FRFComparison, what: str) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     """Compare and report."""
     from ..elastic import read_fe_model
-    from ..elastic.quality import check_source, compare_frf
-    from ..elastic.reduced_body import load_reduced_body
+    from ..elastic.io.body_files import load_reduced_body
+    from ..elastic.quality.measures import check_source, compare_frf
 
     common.split_output(args)
     if not args.response or len(args.response) != 1 or len(args.input) != 1:

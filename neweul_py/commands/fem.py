@@ -64,7 +64,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
-    from ..fem.middle_ear import pressure_sweep
+    from ..middle_ear.sweep import pressure_sweep
 
     with Tracker("FE sweep", unit="point", quiet=args.quiet) as track:  # a bar on a terminal
         result = pressure_sweep(
@@ -159,7 +159,7 @@ def _register_beams(sub: argparse._SubParsersAction) -> None:
 
 
 def _write(model, args: argparse.Namespace) -> int:
-    from ..elastic.fe_io import write_fe_model
+    from ..elastic.io.fe_files import write_fe_model
 
     stiffening = responses = None
     if args.stiffening:

@@ -19,8 +19,8 @@ from .compare_frf import add_body_frf_arguments, frequency_grid
 if TYPE_CHECKING:
     import numpy as np
 
-    from ..elastic.interpolation import ParametricBody
-    from ..elastic.reduced_body import ReducedBody
+    from ..elastic.bodies.parametric import ParametricBody
+    from ..elastic.bodies.reduced import ReducedBody
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -41,8 +41,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def load_body(path: str, at: tuple[str, float] | None) -> ReducedBody:
     """A reduced body, or a parametric body evaluated at ``at`` (refused without it)."""
-    from ..elastic.interpolation import is_parametric_body_file, load_parametric_body
-    from ..elastic.reduced_body import load_reduced_body
+    from ..elastic.io.body_files import (
+        is_parametric_body_file,
+        load_parametric_body,
+        load_reduced_body,
+    )
 
     if is_parametric_body_file(path):
         return body_at(load_parametric_body(path), path, at)
@@ -108,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     magnitude, phase_deg, and in_band when the body records its retained band)."""
     import numpy as np
 
-    from ..elastic.quality import frf_reduced, retained_band_hz
+    from ..elastic.quality.measures import frf_reduced, retained_band_hz
 
     common.split_output(args)
     if not args.response or len(args.input) != 1:

@@ -10,7 +10,8 @@ samples' slopes and curvatures, and the weights are quintic Hermite, §4.2 —
 ``--interpolation hermite``: the slopes alone, cubic Hermite weights).
 
 ``--method global`` (default): one global basis of all samples, every sample's FE model
-projected onto it (:mod:`neweul_py.elastic.global_basis`); the FE models are the files the
+projected onto it (:mod:`neweul_py.elastic.parametric.global_basis`); the FE models are the files
+the
 bodies record as their source (``--models`` to give them), checked against the bodies'
 fingerprints. ``--method local``: Panzer et al. (2010) common coordinates of the local
 bodies alone (no FE model needed)."""
@@ -27,7 +28,8 @@ from . import common as shared
 from . import number, values_type
 
 #: ``--interpolation`` and ``--basis`` choices and the default ``--pressure-weight``; the same as
-#: :mod:`neweul_py.elastic.interpolation` and :mod:`~neweul_py.elastic.local_interpolation`
+#: :mod:`neweul_py.elastic.bodies.parametric` and
+#: :mod:`~neweul_py.elastic.parametric.local_interpolation`
 #: (kept here so that building the parser imports no elastic code; a test checks they agree).
 INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic", "hermite", "quintic-hermite")
 BASES: tuple[str, ...] = ("auto", "full", "kept")
@@ -121,7 +123,7 @@ def _progress(msg: str) -> None:
 def _models(args: argparse.Namespace, bodies: list) -> list:
     """The FE model of every body (``--models`` or the recorded source), checked."""
     from ..elastic import read_fe_model
-    from ..elastic.quality import check_source
+    from ..elastic.quality.measures import check_source
     from ..errors import DataError
 
     if args.models is not None and len(args.models) != len(bodies):
@@ -215,8 +217,8 @@ def _slope_models(files: list[str], bodies: list, values, step: float
     pressure difference (``static_dp``): one that is not its sample value ∓ ``step`` (files
     swapped, or of another step) is a :class:`DataError` naming it."""
     from ..elastic import read_fe_model
+    from ..elastic.io.working_point import read_static, static_loads
     from ..errors import DataError
-    from ..fem.working_point_file import read_static, static_loads
 
     fes, states = [], []
     need = bodies[0].static is not None
@@ -244,10 +246,10 @@ def _slope_models(files: list[str], bodies: list, values, step: float
 def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
     """The samples' own FE static states (their working-point files: ``--models`` or the
     files the bodies record), for the curvatures of their static states — projected like
-    the slope models' (:func:`~neweul_py.elastic.global_basis.global_slopes`); a file
+    the slope models' (:func:`~neweul_py.elastic.parametric.global_basis.global_slopes`); a file
     without one is a :class:`DataError` naming it."""
+    from ..elastic.io.working_point import static_loads
     from ..errors import DataError
-    from ..fem.working_point_file import static_loads
 
     out = []
     for i, body in enumerate(bodies):
@@ -263,10 +265,10 @@ def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
 
 def run(args: argparse.Namespace) -> int:
     """Read the bodies, interpolate, write; print a summary."""
-    from ..elastic.global_basis import global_parametric_body
-    from ..elastic.interpolation import coordinate_table, sample_values, save_parametric_body
-    from ..elastic.local_interpolation import interpolate
-    from ..elastic.reduced_body import load_reduced_body
+    from ..elastic.io.body_files import load_reduced_body, save_parametric_body
+    from ..elastic.parametric.global_basis import global_parametric_body
+    from ..elastic.parametric.local_interpolation import interpolate
+    from ..elastic.parametric.samples import coordinate_table, sample_values
 
     shared.check_files(args.output, (".npz",), "parametric bodies")
     shared.refuse_overwrite(args.output, {"BODY": args.bodies, "--models": args.models,

@@ -135,9 +135,9 @@ def _check_interface_options(args: argparse.Namespace) -> None:
 
 
 def _reduce_craig_bampton(args: argparse.Namespace, fe, common: dict):
-    from ..elastic.craig_bampton import reduce_craig_bampton
-    from ..elastic.fe_io import read_node_sets
-    from ..elastic.interface import parse_node_set
+    from ..elastic.io.fe_files import read_node_sets
+    from ..elastic.reductors.craig_bampton import reduce_craig_bampton
+    from ..elastic.reductors.interface import parse_node_set
 
     nodes = parse_node_set(args.interface, fe, read_node_sets(args.model), "interface")
     common = {k: v for k, v in common.items() if k != "static_correction"}
@@ -147,10 +147,10 @@ def _reduce_craig_bampton(args: argparse.Namespace, fe, common: dict):
 
 def _interface_invariants(args: argparse.Namespace, body, fe):
     """Invariants with stiffening (``--stiffening``) and averaged frames (``--interface-frame``)."""
-    from ..elastic.fe_io import read_node_sets
-    from ..elastic.interface import add_interface_frames, parse_node_set
-    from ..elastic.invariants import attach_invariants
-    from ..elastic.stiffening import attach_stiffening, load_responses, load_stiffening
+    from ..elastic.io.fe_files import read_node_sets
+    from ..elastic.reductors.interface import add_interface_frames, parse_node_set
+    from ..elastic.reductors.invariants import attach_invariants
+    from ..elastic.reductors.stiffening import attach_stiffening, load_responses, load_stiffening
 
     if args.stiffening:
         body = attach_stiffening(body, fe, load_stiffening(args.model, fe), args.model,
@@ -202,10 +202,10 @@ def check_rigid_motion(fe, body, output: str, skip_rigid: bool, fixed_frame: boo
     """Refuse a floating-frame body whose elastic coordinates repeat the reference frame's
     rigid motion (the body mass matrix of equations.md §2 would be singular); returns a
     note for the summary. Only the structural rigid fields count
-    (:mod:`neweul_py.elastic.rigid_check`): λ = 0 air modes (constant pressure in a closed
+    (:mod:`neweul_py.elastic.quality.rigid_motion`): λ = 0 air modes (constant pressure in a closed
     cavity) are no rigid motion, a supported FE model (the TM clamped at the annulus) has
     none, and a body on a fixed frame (``--fixed-frame``) needs no check."""
-    from ..elastic.rigid_check import free_rigid_fields, repeated_rigid_fields
+    from ..elastic.quality.rigid_motion import free_rigid_fields, repeated_rigid_fields
 
     if fixed_frame:
         return "fixed frame: no rigid-motion check"
@@ -229,11 +229,12 @@ def _with_static(body, fe, path: str):
     §5): static coordinates of ``static_x``, node displacements, the static interface forces
     at the kept nodes among ``static_manubrium_node_id`` and the outputs ``C x_s``; ``q_s``
     is the projection of ``x_s`` on ``span V`` in the energy metric of the model
-    (:func:`~neweul_py.elastic.global_basis.energy_metric`: displacements and pressures in
+    (:func:`~neweul_py.elastic.parametric.global_basis.energy_metric`: displacements and pressures
+    in
     one unit-consistent norm)."""
-    from ..elastic.global_basis import energy_metric
-    from ..elastic.static_state import static_deflection
-    from ..fem.working_point_file import static_loads
+    from ..elastic.io.working_point import static_loads
+    from ..elastic.parametric.global_basis import energy_metric
+    from ..elastic.reductors.static_state import static_deflection
 
     loads = static_loads(path, {int(n) for n in body.nodes[:, 0]})
     every = static_loads(path)["node_force"]
@@ -248,10 +249,10 @@ def _with_static(body, fe, path: str):
 def run(args: argparse.Namespace) -> int:
     """Read, reduce, write; print a summary (order, frequencies, stability)."""
     from ..elastic import read_fe_model, reduce_krylov, reduce_modal, stability
-    from ..elastic.eigen import frequencies_hz
-    from ..elastic.quality import right_half_plane_poles
-    from ..elastic.reduced_body import save_reduced_body
-    from ..fem.working_point_file import static_loads
+    from ..elastic.io.body_files import save_reduced_body
+    from ..elastic.io.working_point import static_loads
+    from ..elastic.quality.measures import right_half_plane_poles
+    from ..elastic.reductors.eigen import frequencies_hz
 
     if args.points is not None:
         args.points = args.points.values()

@@ -20,16 +20,16 @@ elastic_bodies:
 ```
 
 The body's own FE inputs and outputs (reduced-body and parametric files, the ``io.*`` arrays of
-:func:`neweul_py.elastic.reader.read_elastic_data`): an input becomes one generalized force
+:func:`neweul_py.elastic.io.reader.read_elastic_data`): an input becomes one generalized force
 ``(Wᵀb)_k · EXPR`` on every elastic coordinate ``NAME_qk``, an output the expression
 ``Σ_k (C V)_k NAME_qk``. A parametric body's modal loads and output rows must be the same at
-every sample (a global basis, ``neweul_py.elastic.global_basis``, has them so when the FE
+every sample (a global basis, ``neweul_py.elastic.parametric.global_basis``, has them so when the FE
 inputs and outputs do not move with the schedule); otherwise the key is refused.
 
 Unlisted modes start at 0. The values go into the generated module's ``INITIAL_STATE``.
 
 The data are read by a reader function that the caller passes in (layering: ``description``
-imports only ``model``): :func:`neweul_py.elastic.reader.read_elastic_data`, which
+imports only ``model``): :func:`neweul_py.elastic.io.reader.read_elastic_data`, which
 :mod:`neweul_py.api` passes, returns the flat NumPy arrays (never symbolic). Errors in the data
 file name the key path and the file (and, for SID syntax errors, the line).
 """
@@ -112,7 +112,7 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
         base, reader = _CONTEXT.get() or (Path.cwd(), None)
         if reader is None:
             raise ModelError("elastic bodies need a data reader: load the description with "
-                             "elastic_reader=neweul_py.elastic.reader.read_elastic_data (as "
+                             "elastic_reader=neweul_py.elastic.io.reader.read_elastic_data (as "
                              "neweul_py.api does)", item)
         file = Path(data_file) if os.path.isabs(data_file) else base / data_file
         try:
@@ -145,7 +145,7 @@ def _io_array(body: ElasticBody, key: str, item: str) -> Any:
             raise ModelError(f"the body's {'modal loads' if key == 'io.B' else 'output rows'} "
                              f"differ between sample 1 and sample {i}: they would need "
                              "scheduled coefficients (use a global basis, "
-                             "neweul_py.elastic.global_basis)", item)
+                             "neweul_py.elastic.parametric.global_basis)", item)
     return first
 
 

@@ -303,7 +303,7 @@ def load_description_text(
         Shown in error messages; ``data`` files of elastic bodies are relative to it.
     elastic_reader
         ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies`` (issue 6),
-        e.g. :func:`neweul_py.elastic.reader.read_elastic_data`; the description layer does
+        e.g. :func:`neweul_py.elastic.io.reader.read_elastic_data`; the description layer does
         not import the elastic layer itself.
 
     Returns

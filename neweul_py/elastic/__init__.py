@@ -1,27 +1,31 @@
-"""Elastic bodies: FE models in, two-sided second-order model reduction out (DESIGN.md).
+"""Elastic bodies: FE models in, two-sided second-order reduced bodies out.
 
-NumPy/SciPy only; never imports the symbolic layers.
+NumPy/SciPy only; never imports the symbolic layers (``docs/architecture.md``). Rooms by role:
 
-* :class:`FEModel`, :func:`read_fe_model`, :func:`write_fe_model` – FE data and files;
-* :func:`reduce_modal`, :func:`reduce_krylov`, :func:`reduce_craig_bampton` – reductors
-  (functions model → reduced model), sharing :func:`project`;
-* :mod:`~neweul_py.elastic.interface` – node sets and averaged (RBE3-like) interface frames;
-  :mod:`~neweul_py.elastic.stiffening` – geometric stiffness from FE files, spin stiffness;
-* :class:`ReducedBody` – the reduced body and its file format (``docs/reduced-body-format.md``);
-* :func:`interpolate`, :class:`ParametricBody` – parametric reduction by matrix interpolation
-  of local reduced bodies (``docs/equations.md`` §4);
-* :mod:`~neweul_py.elastic.quality` – FRFs, errors, eigenvalue comparison, stability.
+* :mod:`~neweul_py.elastic.fe_model` – :class:`FEModel`, the full-order model (sparse ``M``,
+  ``D``, ``K``, nodes, DOF map, inputs, outputs);
+* :mod:`~neweul_py.elastic.bodies` – :class:`ReducedBody`, :class:`ParametricBody`, the
+  floating-frame invariants and static states: plain, validated, immutable data;
+* :mod:`~neweul_py.elastic.reductors` – :func:`reduce_modal`, :func:`reduce_krylov`,
+  :func:`reduce_craig_bampton` sharing one :func:`project`; invariants, interfaces, stiffening;
+* :mod:`~neweul_py.elastic.parametric` – parametric bodies by matrix interpolation
+  (:func:`interpolate`, the global basis; ``docs/equations.md`` §4);
+* :mod:`~neweul_py.elastic.io` – FE files, body files (``docs/reduced-body-format.md``), SID;
+* :mod:`~neweul_py.elastic.quality.measures` – FRFs, errors, eigenvalue comparison, stability.
 """
 
-from .craig_bampton import reduce_craig_bampton
-from .fe_io import read_fe_model, read_node_sets, read_stiffening, write_fe_model
+from .bodies.parametric import ParametricBody
+from .bodies.reduced import ReducedBody
 from .fe_model import DOF_KINDS, FE_KINDS, FEModel
-from .interpolation import ParametricBody, load_parametric_body, save_parametric_body
-from .krylov import reduce_krylov
-from .local_interpolation import interpolate, kind_row_scale
-from .modal import reduce_modal
-from .projection import project
-from .quality import (
+from .io.body_files import (
+    load_parametric_body,
+    load_reduced_body,
+    save_parametric_body,
+    save_reduced_body,
+)
+from .io.fe_files import read_fe_model, read_node_sets, read_stiffening, write_fe_model
+from .parametric.local_interpolation import interpolate, kind_row_scale
+from .quality.measures import (
     check_source,
     compare_eigenvalues,
     compare_frf,
@@ -31,7 +35,10 @@ from .quality import (
     relative_error,
     stability,
 )
-from .reduced_body import ReducedBody, load_reduced_body, save_reduced_body
+from .reductors.craig_bampton import reduce_craig_bampton
+from .reductors.krylov import reduce_krylov
+from .reductors.modal import reduce_modal
+from .reductors.projection import project
 
 __all__ = [
     "DOF_KINDS",

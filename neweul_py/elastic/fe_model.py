@@ -11,7 +11,7 @@ Structure kinds (``kind``):
 
 The container validates on construction (shapes, finiteness, DOF map, declared symmetry,
 the block structure of Eq. (2)) and never changes afterwards; :meth:`FEModel.with_` makes a
-changed copy. Readers and writers live in :mod:`neweul_py.elastic.fe_io`.
+changed copy. Readers and writers live in :mod:`neweul_py.elastic.io.fe_files`.
 """
 
 from __future__ import annotations
@@ -328,7 +328,8 @@ class FEModel:
 
         Matrices enter in canonical CSR form (explicit zeros dropped, indices sorted), so the
         same model read from a manifest or an ``.npz`` has the same fingerprint. A reduced
-        body records it in ``source["fingerprint"]``; :func:`~.quality.check_source` compares.
+        body records it in ``source["fingerprint"]``;
+        :func:`~neweul_py.elastic.quality.measures.check_source` compares.
         """
         h = hashlib.sha256(b"neweul-fe-fingerprint-1")
 

@@ -6,7 +6,7 @@ An elastic body's equations, in the components of its reference frame K::
     [ m̃d     J     Crvᵀ ] [ α ] + [ ω̃ J ω + Σ_k Gr_k q̇_k ω       ] + [ 0              ] = h
     [ Ct     Cr    Me   ] [ q̈ ]   [ Oe(q) ω_q + Σ_k Ge_k q̇_k ω    ]   [ Ke q + De q̇ + kσ ]
 
-(conventions of :mod:`neweul_py.elastic.invariants`). The reference frame moves like a rigid
+(conventions of :mod:`neweul_py.elastic.bodies.invariants`). The reference frame moves like a rigid
 body: ``a = J_T ÿ + ā``, ``α = J_R ÿ + ᾱ`` (frame components, equations.md §1) and
 ``q̈ = E ÿ`` with ``E`` selecting the body's own coordinates. Stacking ``J_b = [J_T; J_R; E]``
 and premultiplying the rigid rows by ``[J_T; J_R]ᵀ`` and the elastic rows by ``Eᵀ``::

@@ -26,7 +26,7 @@ DOFs, else none: particles).
 
 Stress stiffening (Wallrapp 1994): :meth:`BeamModel.geometric_stiffness` is ``K_G`` of the
 element axial forces ``N_e = EA (u₂ − u₁)/h`` of a displacement ``u``, the function that
-:func:`neweul_py.elastic.invariants.stress_stiffening` needs; :meth:`BeamModel.stiffening`
+:func:`neweul_py.elastic.reductors.invariants.stress_stiffening` needs; :meth:`BeamModel.stiffening`
 runs that procedure with the root clamped.
 """
 
@@ -39,8 +39,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sps
 
+from ..elastic.bodies.invariants import LOAD_CASES
 from ..elastic.fe_model import FEModel
-from ..elastic.invariants import LOAD_CASES, inertia_responses, stress_stiffening
+from ..elastic.reductors.invariants import inertia_responses, stress_stiffening
 from ..errors import ModelError
 from .assembly import assemble_matrix
 
@@ -258,7 +259,7 @@ class BeamModel:
                    cases: Sequence[str] = LOAD_CASES) -> dict[str, sps.csr_matrix]:
         """``K_G,c`` of the 12 unit inertia load cases with the root (or ``support``) fixed.
 
-        Calls :func:`neweul_py.elastic.invariants.stress_stiffening` with
+        Calls :func:`neweul_py.elastic.reductors.invariants.stress_stiffening` with
         :meth:`geometric_stiffness`; the result goes to ``compute_invariants(…,
         geometric_stiffness=…)`` or into an FE file (``write_fe_model(…, stiffening=…)``).
         """
@@ -268,7 +269,7 @@ class BeamModel:
     def stiffening_responses(self, support: Sequence[int] | None = None,
                              cases: Sequence[str] = LOAD_CASES) -> dict[str, np.ndarray]:
         """The static responses ``u_c`` of the same load cases and support as
-        :meth:`stiffening` (:func:`neweul_py.elastic.invariants.inertia_responses`): the
+        :meth:`stiffening` (:func:`neweul_py.elastic.reductors.invariants.inertia_responses`): the
         span of the body's second-order field (``docs/equations.md`` §2.3)."""
         fixed = self.node_dofs(0) if support is None else np.asarray(support)
         return inertia_responses(self.fe, fixed, cases)

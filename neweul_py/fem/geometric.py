@@ -12,7 +12,8 @@ the membrane tangent of :meth:`~neweul_py.fem.shell.ShellStructure.membrane`,
 (linear BST) contributes no stress stiffness in this Föppl–von Kármán split.
 :func:`shell_model` is the linear FE model of the shell at its reference configuration
 (membrane tangent at ``u = 0`` plus bending, consistent mass), ready for
-:func:`~neweul_py.elastic.invariants.stress_stiffening` with :func:`shell_geometric_stiffness`.
+:func:`~neweul_py.elastic.reductors.invariants.stress_stiffening` with
+:func:`shell_geometric_stiffness`.
 """
 
 from __future__ import annotations
@@ -22,8 +23,9 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.sparse as sps
 
+from ..elastic.bodies.invariants import LOAD_CASES
 from ..elastic.fe_model import FEModel
-from ..elastic.invariants import LOAD_CASES, stress_stiffening
+from ..elastic.reductors.invariants import stress_stiffening
 from .assembly import assemble_matrix, node_dofs
 from .shell import ShellStructure, plane_stress
 
@@ -62,5 +64,5 @@ def shell_stiffening(shell: ShellStructure, fe: FEModel, support: Sequence[int],
                      cases: Sequence[str] = LOAD_CASES) -> dict[str, sps.csr_matrix]:
     """``K_G,c`` of the unit inertia load cases of the shell model ``fe`` (from
     :func:`shell_model`) held at the DOFs ``support``
-    (:func:`~neweul_py.elastic.invariants.stress_stiffening`)."""
+    (:func:`~neweul_py.elastic.reductors.invariants.stress_stiffening`)."""
     return stress_stiffening(fe, lambda u: shell_geometric_stiffness(shell, u), support, cases)

@@ -21,7 +21,7 @@ of the linear stress ``σ(u)`` of a displacement ``u`` (the second variation of
 ``∫ σ : E_NL dV`` with the Green–Lagrange strain's quadratic part
 ``E_NL = ½ ∇uᵀ∇u``; Bathe, *Finite Element Procedures*, 1996, §6.2.3; Zienkiewicz & Taylor,
 *The Finite Element Method*, vol. 2, ch. 6), the function that
-:func:`neweul_py.elastic.invariants.stress_stiffening` needs.
+:func:`neweul_py.elastic.reductors.invariants.stress_stiffening` needs.
 """
 
 from __future__ import annotations
@@ -33,8 +33,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sps
 
+from ..elastic.bodies.invariants import LOAD_CASES
 from ..elastic.fe_model import FEModel
-from ..elastic.invariants import LOAD_CASES, inertia_responses, stress_stiffening
+from ..elastic.reductors.invariants import inertia_responses, stress_stiffening
 from ..errors import ModelError
 
 __all__ = ["SOLID_ELEMENTS", "SolidMaterial", "SolidModel", "solid_box"]
@@ -139,14 +140,14 @@ class SolidModel:
     def stiffening(self, support: Sequence[int] | None = None,
                    cases: Sequence[str] = LOAD_CASES) -> dict[str, sps.csr_matrix]:
         """``K_G,c`` of the 12 unit inertia load cases, the root face (or ``support``) fixed
-        (:func:`neweul_py.elastic.invariants.stress_stiffening`)."""
+        (:func:`neweul_py.elastic.reductors.invariants.stress_stiffening`)."""
         fixed = self.fe.dofs_of_nodes(self.node_sets["root"]) if support is None else support
         return stress_stiffening(self.fe, self.geometric_stiffness, fixed, cases)
 
     def stiffening_responses(self, support: Sequence[int] | None = None,
                              cases: Sequence[str] = LOAD_CASES) -> dict[str, np.ndarray]:
         """The static responses ``u_c`` of the same load cases and support as
-        :meth:`stiffening` (:func:`neweul_py.elastic.invariants.inertia_responses`): the
+        :meth:`stiffening` (:func:`neweul_py.elastic.reductors.invariants.inertia_responses`): the
         span of the body's second-order field (``docs/equations.md`` §2.3)."""
         fixed = self.fe.dofs_of_nodes(self.node_sets["root"]) if support is None else support
         return inertia_responses(self.fe, fixed, cases)

@@ -23,7 +23,7 @@ truncation (``J`` linear, ``Gr`` constant), whose missing terms make a flexible 
 energy and blow up with enough modes.
 
 These functions are plain NumPy on arrays and are the **only** implementation of the body
-equations: :mod:`neweul_py.elastic.invariants` evaluates bodies with them and the generated
+equations: :mod:`neweul_py.elastic.bodies.invariants` evaluates bodies with them and the generated
 modules embed their source verbatim (:mod:`neweul_py.codegen.elastic`). They accept complex
 arrays (the generated Jacobians use the complex step). Names start with ``ffrf_`` because the
 embedded copies share the generated module's namespace.

@@ -1,7 +1,8 @@
 """The schema of the floating-frame invariants: one place for names, shapes and orders.
 
 Every layer that stores, validates or evaluates elastic-body data reads it from here:
-``elastic/`` writes the flat arrays (:meth:`neweul_py.elastic.invariants.Invariants.to_flat`),
+``elastic/`` writes the flat arrays
+(:meth:`neweul_py.elastic.bodies.invariants.Invariants.to_flat`),
 ``model/`` validates them (:func:`check_flat`), ``codegen/`` embeds the arrays the kernel
 needs (:data:`KERNEL_ARRAYS`) and the kernel (:mod:`neweul_py.ffrf.body`) evaluates them.
 The conventions are those of ``docs/equations.md`` §2 (SID conventions, Wallrapp 1994);

@@ -4,7 +4,7 @@ An elastic body sits on a reference frame of the system (which moves like a rigi
 brings its elastic coordinates ``NAME_q1 … NAME_q<nq>`` and its node frames ``NAME.label``.
 Its invariants (``m``, ``md``, ``J``, ``Ct``, ``Cr``, ``Me``, ``Gr``, ``Ge``, ``Oe``, ``Ke``,
 ``De`` … with their first-order terms, the node ``origin``, ``Φ``, ``Ψ``, ``AP``) are kept as
-*numeric arrays* — the flat form of :class:`neweul_py.elastic.invariants.Invariants`
+*numeric arrays* — the flat form of :class:`neweul_py.elastic.bodies.invariants.Invariants`
 (``Invariants.to_flat``) — and never become symbolic expressions: the generated module does
 matrix products with them (DESIGN.md, "Recursive / semi-symbolic").
 
@@ -17,7 +17,7 @@ so force elements, outputs, constraints and child frames use them like any frame
 generated module maps node coordinates to modes numerically (:meth:`ElasticBody.node_frames`).
 
 This module imports nothing outside ``model`` but the NumPy-only :mod:`neweul_py.ffrf.schema`
-that checks the arrays (read by :func:`neweul_py.elastic.reader.read_elastic_data`, called by
+that checks the arrays (read by :func:`neweul_py.elastic.io.reader.read_elastic_data`, called by
 the description layer). NumPy and that schema are imported where an elastic body is made or
 read, not with the module: a rigid model (``neweul generate`` of a chain) never imports NumPy.
 """
@@ -70,7 +70,7 @@ class ElasticBody:
     frame
         The reference frame (a frame of the system; ``ISYS`` for a body fixed to the ground).
     data
-        Flat invariants (:meth:`neweul_py.elastic.invariants.Invariants.to_flat`), read-only
+        Flat invariants (:meth:`neweul_py.elastic.bodies.invariants.Invariants.to_flat`), read-only
         NumPy arrays.
     nodes
         ``(label, node_id)`` pairs: the node frames the model uses.

@@ -104,7 +104,7 @@ def test_forged_array_header_is_refused(tmp_path):
     path.write_bytes(_npz({"K.npy": header.getvalue() + b"\0" * 64}))
     with pytest.raises(DataError, match="claims"):
         check_npz(path)
-    from neweul_py.elastic._io import load_npz
+    from neweul_py.elastic.io.npz import load_npz
 
     with pytest.raises(DataError, match="claims"):
         load_npz(path)

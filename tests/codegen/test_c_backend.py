@@ -274,8 +274,8 @@ def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
     load, an input and an output at the node; the constant ``Mee`` solved by block
     elimination, ``Mee(q)`` of the second-order field by the dense LU."""
     from neweul_py.api import load_description
-    from neweul_py.elastic.invariants import compute_invariants
-    from neweul_py.elastic.second_order import with_second_order
+    from neweul_py.elastic.reductors.invariants import compute_invariants
+    from neweul_py.elastic.reductors.second_order import with_second_order
     from neweul_py.fem.beam import BeamSection, beam_model
 
     b = beam_model(1.0, 8, BeamSection(E=50.0, G=20.0, A=1.0, Iy=1.0, Iz=1.0), planar=True)
@@ -404,11 +404,11 @@ def test_constraint_reaction_jacobian_as_the_numpy_module(name, tmp_path):
     from neweul_py.analysis import protocol as proto
 
     if name == "two-sided node":
-        sys.path.insert(0, str(ROOT / "tests" / "elastic"))
+        sys.path.insert(0, str(ROOT / "tests" / "support"))
         from fe_builders import piston_duct
 
         from neweul_py.elastic import reduce_modal, save_reduced_body
-        from neweul_py.elastic.invariants import attach_invariants
+        from neweul_py.elastic.reductors.invariants import attach_invariants
 
         fe = piston_duct(n_el=40)
         host = reduce_modal(fe, modes=5, two_sided=True, keep_nodes=[1], store_bases=True,

@@ -105,7 +105,7 @@ def test_elastic_node_cloud_moves_with_the_modes(tmp_path: Path) -> None:
     """Reference: the SID file's node positions and mode shapes (x_P + Φ_P q, rotated by the
     hub angle R_z(a)), and the symbolic node frame ``beam.tip`` (the kinematic outputs and
     the pose of the node frame)."""
-    from neweul_py.elastic.reader import read_elastic_data
+    from neweul_py.elastic.io.reader import read_elastic_data
 
     shutil.copy(ROOT / "tests" / "data" / "beam.SID_FEM", tmp_path / "beam.SID_FEM")
     (tmp_path / "m.yaml").write_text(ELASTIC)

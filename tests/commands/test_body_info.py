@@ -7,18 +7,13 @@ Reference: the FE static solution of ``neweul fem middle-ear`` (refine 0, one wo
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from fe_builders import piston_duct
 
 from neweul_py.cli import main
-from neweul_py.elastic.reduced_body import load_reduced_body, save_reduced_body
-from neweul_py.fem.working_point_file import read_static
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from fe_builders import piston_duct
+from neweul_py.elastic.io.body_files import load_reduced_body, save_reduced_body
+from neweul_py.elastic.io.working_point import read_static
 
 
 @pytest.fixture(scope="module")

@@ -179,7 +179,8 @@ def test_cli_choices_agree_with_the_api():
     from neweul_py.analysis.sweep_tasks import STATS, TASKS
     from neweul_py.commands import SWEEP_STATS, SWEEP_TASKS
     from neweul_py.commands import interpolate as cmd
-    from neweul_py.elastic import interpolation, local_interpolation
+    from neweul_py.elastic.bodies import parametric as interpolation
+    from neweul_py.elastic.parametric import local_interpolation
 
     assert SIMULATE_METHODS == METHODS
     assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
@@ -187,7 +188,7 @@ def test_cli_choices_agree_with_the_api():
     assert cmd.BASES == interpolation.BASES
     assert cmd.PRESSURE_WEIGHT == local_interpolation.PRESSURE_WEIGHT
     from neweul_py.commands import compare_frf
-    from neweul_py.elastic import quality
+    from neweul_py.elastic.quality import measures as quality
 
     assert compare_frf.FRF_METHODS == quality.FRF_METHODS
 

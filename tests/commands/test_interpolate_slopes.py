@@ -11,9 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from neweul_py.cli import main
-from neweul_py.elastic.interpolation import load_parametric_body
-from neweul_py.elastic.reduced_body import load_reduced_body
-from neweul_py.fem.working_point_file import read_static
+from neweul_py.elastic.io.body_files import load_parametric_body, load_reduced_body
+from neweul_py.elastic.io.working_point import read_static
 
 STEP = 20.0
 SAMPLES = (-1000, 0, 1000)

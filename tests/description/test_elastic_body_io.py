@@ -21,8 +21,8 @@ from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
 from neweul_py.elastic import reduce_modal, write_fe_model
-from neweul_py.elastic.invariants import attach_invariants
-from neweul_py.elastic.reduced_body import save_reduced_body
+from neweul_py.elastic.io.body_files import save_reduced_body
+from neweul_py.elastic.reductors.invariants import attach_invariants
 from neweul_py.errors import DescriptionError
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "elastic_up_body"

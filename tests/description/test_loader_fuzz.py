@@ -1,6 +1,6 @@
 """Fuzzing the description pipeline (issue 12, "a fuzzing suite in the tests").
 
-Mutated shipped descriptions (tests/fuzz_inputs.py) are loaded, derived, generated, imported
+Mutated shipped descriptions (tests/support/fuzz_inputs.py) are loaded, derived, generated, imported
 and evaluated. Property: a NeweulError with one line, or a result — never another exception.
 Reference: the error hierarchy of neweul_py/errors.py. Bounded in CI (``max_examples``);
 ``NEWEUL_FUZZ_LONG=1`` runs 20× longer, benchmarks/bench_fuzz.py ≥ 10 000 cases.

@@ -18,7 +18,7 @@ from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.analysis.modes import modes
 from neweul_py.api import generate
-from neweul_py.elastic.sid import read_sid
+from neweul_py.elastic.io.sid import read_sid
 from neweul_py.errors import DescriptionError, SolverError
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -202,14 +202,12 @@ SOUTHWELL_1 = 1.1932  # first flapwise Southwell coefficient of a uniform cantil
 
 
 def _spinning_module(tmp_path: Path, stiffening: bool, omega_factor: float = 0.3):
-    """Cantilever (tests/elastic/beam_fe.py, 20 elements, 8 clamped modes) on a hub turning
+    """Cantilever (tests/support/beam_fe.py, 20 elements, 8 clamped modes) on a hub turning
     at a constant rate Ω about z (frame rotation ``Om*t``)."""
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from beam_fe import beam
 
-    from neweul_py.elastic.invariants import compute_invariants, stress_stiffening
+    from neweul_py.elastic.reductors.invariants import compute_invariants, stress_stiffening
 
     b = beam(20)
     lam, V = b.clamped_modes(8)
@@ -252,7 +250,7 @@ def test_spinning_cantilever_southwell(tmp_path: Path, stiffening: bool) -> None
 
 def _up_module(tmp_path: Path, fe, two_sided: bool, m2: float, k2: float, d2: float):
     from neweul_py.elastic import reduce_modal, save_reduced_body
-    from neweul_py.elastic.invariants import attach_invariants
+    from neweul_py.elastic.reductors.invariants import attach_invariants
 
     body = reduce_modal(fe, modes=12, two_sided=two_sided, keep_nodes=[1], store_bases=True)
     body = attach_invariants(body, fe, nodes=[1])
@@ -280,17 +278,14 @@ forces:
 
 
 def test_up_coupled_body_with_spring_and_mass_matches_unreduced_fe(tmp_path: Path) -> None:
-    """u–p coupled piston–duct (Eq. (2), unsymmetric; tests/elastic/fe_builders.py) fixed to
+    """u–p coupled piston–duct (Eq. (2), unsymmetric; tests/support/fe_builders.py) fixed to
     the ground, its piston node tied by a spring–damper (bushing) to a rigid mass: the FRF
     force on the mass → mass displacement of the generated model equals that of the unreduced
     FE model with the same spring and mass assembled directly, below the cut-off (12 modes,
     ≈ 2 kHz; compared at 20–900 Hz). Two-sided data (node loads with ``W``) are accurate,
     one-sided (Galerkin) data of the unsymmetric model are not."""
-    import sys
 
     import scipy.sparse as sps
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from fe_builders import piston_duct
 
     fe = piston_duct(n_el=100)
@@ -325,22 +320,20 @@ def test_up_coupled_body_with_spring_and_mass_matches_unreduced_fe(tmp_path: Pat
 
 def _pendulum(tmp_path: Path, modes: int, *, E: float = 3.0e4, lumped: bool = False,
               inertia: str = "consistent", tag: str = "", stiffening: bool | str = False):
-    """A cantilever (tests/elastic/beam_fe.py, 20 elements) hinged at its root (coordinate
+    """A cantilever (tests/support/beam_fe.py, 20 elements) hinged at its root (coordinate
     ``a`` about z), in-plane bending modes only, one-sided invariants, gravity along −y;
     optionally with the geometric stiffening of all 12 inertia load cases, as the
     second-order field (``True``/``"field"``) or its first-order terms (``"first"``)."""
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from beam_fe import beam
 
-    from neweul_py.elastic.invariants import (
-        LOAD_CASES,
+    from neweul_py.elastic.bodies.invariants import LOAD_CASES
+    from neweul_py.elastic.reductors.invariants import (
         compute_invariants,
         inertia_responses,
         stress_stiffening,
     )
-    from neweul_py.elastic.second_order import with_second_order
+    from neweul_py.elastic.reductors.second_order import with_second_order
 
     b = beam(20, E=E, lumped=lumped, rotary=lumped)
     _lam, V = b.clamped_modes(60)
@@ -462,19 +455,17 @@ def _krb_tips(tmp_path: Path, t_end: float, n_out: int, tags=("stiff", "bare"),
               Ws: float = 6.0, modes: int = 3, n_el: int = 10) -> dict:
     """Chordwise tip deflection of the generated KRB model (10 beam elements, three in-plane
     bending modes) with and without the geometric stiffening terms."""
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from beam_fe import beam
 
     from neweul_py.analysis import simulate
-    from neweul_py.elastic.invariants import (
-        LOAD_CASES,
+    from neweul_py.elastic.bodies.invariants import LOAD_CASES
+    from neweul_py.elastic.reductors.invariants import (
         compute_invariants,
         inertia_responses,
         stress_stiffening,
     )
-    from neweul_py.elastic.second_order import with_second_order
+    from neweul_py.elastic.reductors.second_order import with_second_order
 
     b = beam(n_el, length=10.0, E=7e10, G=2.7e10, rho=3000.0, A=4e-4, Iy=8e-7, Iz=2e-7)
     lam, V = b.clamped_modes(30)
@@ -507,9 +498,7 @@ outputs:
 
 
 def _krb_reference(t: np.ndarray, n_el: int, Ws: float = 6.0) -> np.ndarray:
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from rotating_beam_reference import spin_up_tip
 
     return spin_up_tip(lambda tt: _krb_theta(tt, Ws), float(t[-1]), t, n_el=n_el)
@@ -523,7 +512,7 @@ def test_kane_ryan_banerjee_spin_up(tmp_path: Path) -> None:
 
     Reference: no digitizable published numbers were found in the sources available here,
     so the histories are compared with an independent unreduced nonlinear model
-    (``tests/elastic/rotating_beam_reference.py``: own planar FE, 10 elements, von Kármán
+    (``tests/support/rotating_beam_reference.py``: own planar FE, 10 elements, von Kármán
     strain in the rotating frame, all DOFs, Radau; 10 → 20 elements changes the extremum by
     0.1 %): minimum −0.575 m at t ≈ 6.8 s, ≈ 0 at t = T. This is the shape of the published
     curve (dip to about −0.5…−0.6 m near 7 s, back to ≈ 0 at 15 s). With the geometric
@@ -547,7 +536,7 @@ def test_kane_ryan_banerjee_spin_up(tmp_path: Path) -> None:
 def test_kane_ryan_banerjee_spin_up_other_speeds(tmp_path: Path, Ws: float) -> None:
     """The spin-up at Ωs = 4, 6 and 10 rad/s (below and well above the first bending
     frequency 3.8 rad/s) against the unreduced nonlinear reference
-    (tests/elastic/rotating_beam_reference.py, 10 elements, von Kármán strain), with the
+    (tests/support/rotating_beam_reference.py, 10 elements, von Kármán strain), with the
     second-order displacement field of the stiffened body (equations.md §2.3): the extremum
     and the whole history within 0.5 % (here 0.03 %, 0.06 %, 0.10 % at the extremum,
     ≤ 0.12 % overall). The first-order stiffening terms leave 0.61 % at 10 rad/s (tip
@@ -598,12 +587,11 @@ outputs:
 
 
 def _flex_chain(tmp_path: Path, two_sided: bool = False, form: str = "auto"):
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from beam_fe import beam
 
-    from neweul_py.elastic.invariants import LOAD_CASES, compute_invariants, stress_stiffening
+    from neweul_py.elastic.bodies.invariants import LOAD_CASES
+    from neweul_py.elastic.reductors.invariants import compute_invariants, stress_stiffening
 
     b = beam(20, E=2.0e4)
     _lam, V = b.clamped_modes(4)
@@ -666,7 +654,7 @@ def test_cached_module_follows_the_data_file(beam_dir: Path) -> None:
     """``api.generated_module`` keys its cache on the elastic data too: changing the data
     file (here: fewer modes in a rewritten invariants file) gives a fresh module."""
     from neweul_py.api import generated_module
-    from neweul_py.elastic.reader import read_elastic_data
+    from neweul_py.elastic.io.reader import read_elastic_data
 
     np.savez(beam_dir / "beam.npz", **read_elastic_data(beam_dir / "beam.SID_FEM", 4))
     desc = _write(beam_dir, CLAMPED.replace("beam.SID_FEM", "beam.npz"))
@@ -682,17 +670,16 @@ def test_cached_module_follows_the_data_file(beam_dir: Path) -> None:
 def test_pendulum_splice_equals_the_body_equations(tmp_path: Path, two_sided: bool) -> None:
     """A body on a hinge (frame ``R_z(a)`` at the origin: ``J_T = 0``, ``J_R = e_z``,
     ``ā = ᾱ = 0``, ``ω = ȧ e_z``): the generated ``M`` and ``q − k`` equal the §2 body equations
-    assembled by :class:`neweul_py.elastic.invariants.Invariants` (``mass_matrix``,
+    assembled by :class:`neweul_py.elastic.bodies.invariants.Invariants` (``mass_matrix``,
     ``velocity_terms``, ``elastic_forces``) premultiplied by ``J_bᵀ`` written out here — with
     stiffening, damping, gravity, one- and two-sided data. This checks the splice (frame
     kinematics, ``J_b``, gravity); the body equations themselves are checked against Newton's
     law of the mass points in tests/ffrf/test_body.py."""
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
     from beam_fe import beam
 
-    from neweul_py.elastic.invariants import LOAD_CASES, compute_invariants, stress_stiffening
+    from neweul_py.elastic.bodies.invariants import LOAD_CASES
+    from neweul_py.elastic.reductors.invariants import compute_invariants, stress_stiffening
 
     b = beam(12, E=3.0e4)
     _lam, V = b.clamped_modes(4)

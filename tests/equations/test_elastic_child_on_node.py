@@ -10,18 +10,13 @@ path through the code (symbolic rigid-body equations mapped by ``S_W``, ``S_V``)
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from beam_fe import beam
+from fe_builders import piston_duct
 
 from neweul_py.analysis import load_generated
 from neweul_py.api import generate
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from beam_fe import beam
-from fe_builders import piston_duct
 
 HOST = """
 name: {name}
@@ -40,7 +35,7 @@ elastic_bodies:
 def pair(tmp_path_factory):
     """(rigid-child module, elastic-child module, host body, child mass)."""
     from neweul_py.elastic import reduce_modal, save_reduced_body
-    from neweul_py.elastic.invariants import attach_invariants, compute_invariants
+    from neweul_py.elastic.reductors.invariants import attach_invariants, compute_invariants
     from neweul_py.model import ElasticBody
 
     tmp = tmp_path_factory.mktemp("child_on_node")
@@ -64,7 +59,7 @@ def pair(tmp_path_factory):
     for name, text in (("rigid", rigid), ("elastic", elastic)):
         (tmp / f"{name}.yaml").write_text(text)
         mods.append(load_generated(generate(tmp / f"{name}.yaml", tmp / "gen")))
-    from neweul_py.elastic.reader import read_elastic_data
+    from neweul_py.elastic.io.reader import read_elastic_data
 
     duct = ElasticBody("duct", "ISYS", read_elastic_data(tmp / "duct.npz", None), (("p", 1),))
     return (*mods, duct, m)

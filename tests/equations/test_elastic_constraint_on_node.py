@@ -6,19 +6,18 @@
 Reference (independent path through the code): the same rigid point mass ``B`` hung on the
 node frame as a child (``frame: duct.piston``, no constraint) instead of a free point mass
 ``(bx, by, bz)`` tied to the node by a ``coincide`` constraint. The u–p piston–duct host
-(Eq. (2), tests/elastic/fe_builders.py) has ``W_P ≠ Φ_P`` at the piston node, so the test can
+(Eq. (2), tests/support/fe_builders.py) has ``W_P ≠ Φ_P`` at the piston node, so the test can
 tell ``G_s S_W`` from ``G_s S_V``; the multipliers are the force the node exerts on ``B``,
 ``λ = m_B (a_B − g)``, with ``a_B`` the node acceleration of the reference.
 """
 
 from __future__ import annotations
 
-import sys
 import types
-from pathlib import Path
 
 import numpy as np
 import pytest
+from fe_builders import piston_duct
 
 from neweul_py.analysis import load_generated
 from neweul_py.analysis.dae import consistent_initial_state, simulate_constrained
@@ -27,9 +26,6 @@ from neweul_py.analysis.linearize import linearize
 from neweul_py.analysis.modes import modes
 from neweul_py.analysis.simulate import simulate
 from neweul_py.api import generate
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from fe_builders import piston_duct
 
 MB, GRAV = 0.03, 9.81
 MODEL = """
@@ -64,7 +60,7 @@ def models(tmp_path_factory):
     """tag → (constrained module, rigid-child reference module) for a two- and a one-sided
     host."""
     from neweul_py.elastic import reduce_modal, save_reduced_body
-    from neweul_py.elastic.invariants import attach_invariants
+    from neweul_py.elastic.reductors.invariants import attach_invariants
 
     tmp = tmp_path_factory.mktemp("constraint_on_node")
     fe = piston_duct(n_el=40)

@@ -11,19 +11,16 @@ projected on the same modes with the base motion assembled directly (relative co
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from beam_fe import beam
 
 from neweul_py.analysis import load_generated
 from neweul_py.analysis.frf import frequency_response
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from beam_fe import beam
 
 
 def _generate(tmp_path: Path, text: str):
@@ -33,9 +30,10 @@ def _generate(tmp_path: Path, text: str):
 
 
 def _beam_data(tmp_path: Path, stiffening: bool = False):
-    """Cantilever (tests/elastic/beam_fe.py, 20 elements) with its first 4 clamped modes; the
+    """Cantilever (tests/support/beam_fe.py, 20 elements) with its first 4 clamped modes; the
     invariants with a node frame at the tip (node 21)."""
-    from neweul_py.elastic.invariants import LOAD_CASES, compute_invariants, stress_stiffening
+    from neweul_py.elastic.bodies.invariants import LOAD_CASES
+    from neweul_py.elastic.reductors.invariants import compute_invariants, stress_stiffening
 
     b = beam(20)
     lam, V = b.clamped_modes(4)

@@ -8,23 +8,20 @@ the samples.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from fe_builders import piston_duct
 
 from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
 from neweul_py.elastic import reduce_modal, save_reduced_body
-from neweul_py.elastic.interpolation import save_parametric_body
-from neweul_py.elastic.invariants import attach_invariants
-from neweul_py.elastic.local_interpolation import interpolate
+from neweul_py.elastic.io.body_files import save_parametric_body
+from neweul_py.elastic.parametric.local_interpolation import interpolate
+from neweul_py.elastic.reductors.invariants import attach_invariants
 from neweul_py.errors import DescriptionError
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "elastic"))
-from fe_builders import piston_duct
 
 SPEEDS = (300.0, 343.0, 390.0)
 

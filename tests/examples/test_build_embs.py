@@ -77,7 +77,7 @@ def test_the_build_writes_a_body_with_its_static_state_and_a_checked_description
     solution's (``static.csv``)."""
     import numpy as np
 
-    from neweul_py.elastic.interpolation import load_parametric_body
+    from neweul_py.elastic.io.body_files import load_parametric_body
 
     data = tmp_path / "d"
     shutil.copytree(sweep, data)
@@ -114,7 +114,7 @@ def test_refined_body_between_samples_against_the_fe_model_linearized_there(tmp_
     import midpoint_error as me
     import validate_embs as ve
 
-    from neweul_py.elastic.interpolation import load_parametric_body
+    from neweul_py.elastic.io.body_files import load_parametric_body
 
     data = tmp_path / "d"
     res = build(data, "--no-generate")

@@ -5,7 +5,7 @@ module → FRF.
 
 References: the unreduced FE model of the working point (at a sample and, between samples, the
 FE model linearized there) coupled directly with the same chain
-(``validate_embs.reference_frf``, ``neweul_py.fem.ear_coupled.coupled_frf``); for the physics,
+(``validate_embs.reference_frf``, ``neweul_py.middle_ear.coupled.coupled_frf``); for the physics,
 published temporal-bone measurements (docs/middle-ear-measurements.md §1–2: the ASTM F2504 /
 Rosowski et al. 2007 normal stapes band, Gyo & Goode 1987, Murakami et al. 1997).
 """
@@ -253,16 +253,17 @@ def test_stapes_loses_less_than_the_umbo(study) -> None:
 def test_static_equilibrium_of_the_body_and_chain_is_the_fe_static_state(built) -> None:
     """The body carries each working point's static state (``static/*``); with the static
     interface forces and the chain's static characteristic the reduced static problem
-    (:func:`~neweul_py.elastic.static_state.tied_static_equilibrium`, malleus tied to the
+    (:func:`~neweul_py.elastic.quality.static_equilibrium.tied_static_equilibrium`, malleus tied to
+    the
     manubrium nodes) gives the FE static umbo displacement and swept volume (reference: the
     FE static solution, ``static.csv`` of ``neweul fem middle-ear``, and at 2500 Pa the FE
     model built there): with the closed-form characteristic ≤ 1e-9 at the samples and
     ≤ 5e-3 between them (the static state mixed by the body's weights; measured 3.0e-3 at
     2500 Pa, refine 0, 1-kPa samples); with the
     ``ossicles.yaml`` table ≤ 3 % (the table's own error: 7 mN at −55 µm)."""
-    from neweul_py.elastic.interpolation import load_parametric_body
-    from neweul_py.elastic.static_state import tied_static_equilibrium
-    from neweul_py.fem.working_point_file import read_static
+    from neweul_py.elastic.io.body_files import load_parametric_body
+    from neweul_py.elastic.io.working_point import read_static
+    from neweul_py.elastic.quality.static_equilibrium import tied_static_equilibrium
 
     data, _, _ = built
     pb = load_parametric_body(data / "embs" / "tm_air.npz")

@@ -6,7 +6,7 @@ Timoshenko cantilever tip deflection ``PL³/(3EI) + PL/(κGA)`` (exact for the i
 element); the closed-form Timoshenko frequency equation of a simply supported beam
 (Timoshenko 1921: ``(κGAk² − ρAω²)(EIk² + κGA − ρIω²) = (κGAk)²``, ``k = nπ/L``); Euler's
 pinned column load ``π²EI/L²`` and Engesser's shear-flexible ``P_E/(1 + P_E/κGA)``; and the
-former test-helper beam (tests/elastic/beam_fe.py at 262ed33, its closed-form element matrices).
+former test-helper beam (tests/support/beam_fe.py at 262ed33, its closed-form element matrices).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import scipy.linalg as sla
 
 from neweul_py.cli import main
 from neweul_py.elastic import read_fe_model
-from neweul_py.elastic.fe_io import read_node_sets, read_stiffening
+from neweul_py.elastic.io.fe_files import read_node_sets, read_stiffening
 from neweul_py.errors import ModelError
 from neweul_py.fem.beam import BeamSection, beam_model
 

@@ -14,7 +14,7 @@ import pytest
 
 from neweul_py.errors import ModelError
 from neweul_py.fem.mesh import cone_membrane, manubrium_section
-from neweul_py.fem.middle_ear import MiddleEarParameters
+from neweul_py.middle_ear.parameters import MiddleEarParameters
 
 
 def _planar(mesh):

@@ -15,8 +15,8 @@ import scipy.sparse.linalg as spla
 
 from neweul_py.cli import main
 from neweul_py.elastic import read_fe_model
-from neweul_py.elastic.fe_io import read_node_sets
-from neweul_py.elastic.interface import rigid_body_fields
+from neweul_py.elastic.io.fe_files import read_node_sets
+from neweul_py.elastic.reductors.interface import rigid_body_fields
 from neweul_py.errors import ModelError
 from neweul_py.fem.solid import SolidMaterial, solid_box
 

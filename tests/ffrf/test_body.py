@@ -13,7 +13,7 @@ import pytest
 import scipy.sparse as sps
 
 from neweul_py.elastic.fe_model import FEModel
-from neweul_py.elastic.invariants import compute_invariants
+from neweul_py.elastic.reductors.invariants import compute_invariants
 from neweul_py.ffrf import (
     ffrf_body_mass,
     ffrf_kinetic_energy,

@@ -227,7 +227,7 @@ def test_slope_working_form_is_the_linear_part() -> None:
     import scipy.sparse as sps
 
     from neweul_py.elastic.fe_model import FEModel
-    from neweul_py.elastic.invariants import compute_invariants
+    from neweul_py.elastic.reductors.invariants import compute_invariants
     from neweul_py.ffrf.body import ffrf_prepare
     from neweul_py.ffrf.parametric import ffrf_slope_prepared
 

@@ -1,0 +1,189 @@
+"""Reduced-body file (issue 3 item 3): exact round trip, atomic writes, bad files rejected.
+
+Reference: the in-memory body; every array must come back bit for bit (``array_equal``,
+same dtype) and the metadata unchanged (docs/reduced-body-format.md).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from fe_builders import piston_duct
+
+from neweul_py.elastic import ReducedBody, reduce_krylov, reduce_modal
+from neweul_py.elastic.io.body_files import load_reduced_body, save_reduced_body
+from neweul_py.elastic.io.npz import json_to_uint8
+from neweul_py.errors import DataError
+
+
+@pytest.fixture(scope="module")
+def body():
+    fe = piston_duct(60, damping=2.0)
+    inv = {"m": np.array(1.5), "Ct": np.arange(12.0).reshape(6, 2) / 7, "Oe1": np.ones((6, 6, 3)),
+           "node_ids": np.array([1, 61], dtype=np.int64)}
+    return reduce_modal(fe, modes=6, static_correction=True, store_bases=True).with_(
+        invariants=inv, parameters={"tension": 60.0, "thickness": 1e-4})
+
+
+def _assert_same(a: ReducedBody, b: ReducedBody) -> None:
+    for key in ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind",
+                "V_kept", "W_kept", "V", "W", "eigenvalues", "full_dof_kind"):
+        x, y = getattr(a, key), getattr(b, key)
+        assert (x is None) == (y is None), key
+        if x is not None:
+            assert x.dtype == y.dtype and np.array_equal(x, y), key
+    for key in ("input_names", "output_names", "method", "settings", "source", "parameters",
+                "format_version"):
+        assert getattr(a, key) == getattr(b, key), key
+    assert (a.invariants is None) == (b.invariants is None)
+    if a.invariants is not None:
+        assert list(a.invariants) == list(b.invariants)
+        for k in a.invariants:
+            assert a.invariants[k].dtype == b.invariants[k].dtype
+            assert np.array_equal(a.invariants[k], b.invariants[k])
+
+
+def test_round_trip_is_exact(body, tmp_path):
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    _assert_same(body, load_reduced_body(path))
+
+
+def test_round_trip_without_optional_fields(tmp_path):
+    b = reduce_krylov(piston_duct(40), points=[2j * np.pi * 200], order=2)
+    assert b.V is None and b.invariants is None and b.eigenvalues is None
+    save_reduced_body(b, tmp_path / "k.npz")
+    _assert_same(b, load_reduced_body(tmp_path / "k.npz"))
+
+
+def test_full_dof_kind_is_stored_with_the_full_bases(body, tmp_path):
+    """The reductors record the DOF kind of every row of V, W whenever they store them (the
+    FE model's DOF map is the reference); without full bases there is none; a file written
+    before the field existed (no ``full_dof_kind`` array) still loads, with ``None``."""
+    fe = piston_duct(60, damping=2.0)
+    assert body.full_dof_kind.dtype == np.dtype("<U2")
+    assert np.array_equal(body.full_dof_kind, fe.dof_kind) and body.V.shape[0] == fe.n_dofs
+    kr = reduce_krylov(fe, points=[2j * np.pi * 200], order=2, store_bases=True)
+    assert np.array_equal(kr.full_dof_kind, fe.dof_kind)
+    assert reduce_modal(fe, modes=4).full_dof_kind is None
+    assert reduce_krylov(fe, points=[2j * np.pi * 200], order=2).full_dof_kind is None
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    data = dict(np.load(path))
+    assert data["full_dof_kind"].dtype == np.dtype("<U2")
+    del data["full_dof_kind"]
+    np.savez(path, **data)
+    old = load_reduced_body(path)
+    assert old.full_dof_kind is None and np.array_equal(old.V, body.V)
+
+
+@pytest.mark.parametrize("kinds,text", [
+    (np.array(["ux"] + ["p"] * 60), "61 DOF kinds for the 62 rows of V"),
+    (np.array(["ux"] + ["q"] * 61), "unknown DOF kinds"),
+    (np.array(["p"] + ["ux"] * 61), "kinds of the kept DOFs differ"),
+    (np.arange(62.0), "1-D array of DOF kinds"),
+])
+def test_bad_full_dof_kind_is_refused(body, kinds, text):
+    with pytest.raises(DataError, match=text) as exc:
+        body.with_(full_dof_kind=kinds)
+    assert exc.value.item == "full_dof_kind"
+
+
+def test_file_has_no_pickles_and_json_metadata(body, tmp_path):
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    with np.load(path, allow_pickle=False) as z:
+        meta = json.loads(z["meta"].tobytes().decode())
+        assert all(z[k].dtype != object for k in z.files)
+    assert meta["format"] == "neweul-reduced-body" and meta["version"] == 1
+    assert meta["invariants"] == ["m", "Ct", "Oe1", "node_ids"]
+
+
+def test_interrupted_write_keeps_the_old_file(body, tmp_path, monkeypatch):
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    before = path.read_bytes()
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "savez", boom)
+    with pytest.raises(KeyboardInterrupt):
+        save_reduced_body(body.with_(method="other"), path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["b.npz"]
+
+
+def _rewrite(path, **changes):
+    data = dict(np.load(path))
+    data.update(changes)
+    np.savez(path, **data)
+
+
+@pytest.mark.parametrize("change,item,text", [
+    (lambda d: {"meta": json_to_uint8({**d, "format": "x"})}, "meta", "format"),
+    (lambda d: {"meta": json_to_uint8({**d, "version": 9})}, "meta", "version"),
+    (lambda d: {"meta": np.frombuffer(b"{oops", np.uint8)}, "meta", "JSON"),
+    (lambda d: {"D": np.zeros((9, 9))}, "D", "must be"),
+    (lambda d: {"K": np.full((9, 9), np.nan)}, "K", "NaN"),
+])
+def test_bad_files_are_rejected(body, tmp_path, change, item, text):
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    with np.load(path) as z:
+        meta = json.loads(z["meta"].tobytes().decode())
+    changes = change(meta)
+    if item == "K":  # right shape, bad values
+        changes = {"K": np.full_like(body.K, np.nan)}
+    _rewrite(path, **changes)
+    with pytest.raises(DataError, match=text) as exc:
+        load_reduced_body(path)
+    assert exc.value.file == str(path) and exc.value.item == item
+
+
+def test_missing_array_and_not_an_npz(body, tmp_path):
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    data = dict(np.load(path))
+    del data["C"]
+    np.savez(path, **data)
+    with pytest.raises(DataError, match="missing arrays") as exc:
+        load_reduced_body(path)
+    assert exc.value.item == "C"
+    path.write_text("hello")
+    with pytest.raises(DataError, match="npz"):
+        load_reduced_body(path)
+    with pytest.raises(DataError, match="not found"):
+        load_reduced_body(tmp_path / "none.npz")
+
+
+def test_object_arrays_are_refused(body, tmp_path):
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    _rewrite(path, B=np.array([None, 1], dtype=object))
+    with pytest.raises(DataError, match="unreadable array"):
+        load_reduced_body(path)
+    with pytest.raises(DataError, match="object arrays"):
+        body.with_(invariants={"x": np.array([None], dtype=object)})
+
+
+def test_projected_matrices_are_stored_once_with_the_invariants(tmp_path):
+    """A body with invariants stores Me, Ke, De (= Wᵀ M V, Wᵀ K V, Wᵀ D V) once, as the body's
+    own M, K, D (metadata ``invariants_shared``), and reads them back bit for bit
+    (reference: the body before saving)."""
+    from neweul_py.elastic.reductors.invariants import attach_invariants
+
+    fe = piston_duct(n_el=40, damping=0.3)
+    body = attach_invariants(reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1],
+                                          store_bases=True), fe, nodes=[1])
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    with np.load(path) as data:
+        assert not any(k in data for k in ("invariants/Me.m0", "invariants/Ke.m0"))
+        meta = json.loads(data["meta"].tobytes().decode())
+    assert meta["invariants_shared"] == {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D"}
+    back = load_reduced_body(path)
+    for name, arr in body.invariants.items():
+        np.testing.assert_array_equal(back.invariants[name], arr)

@@ -1,0 +1,162 @@
+"""The snapshot global basis and its parametric body
+(neweul_py/elastic/parametric/snapshot_basis.py).
+
+References: the unreduced u–p piston–duct FE models (``fe_builders.piston_duct``, three
+sound speeds, damped piston) solved directly; the entrywise interpolation property (the body
+between samples is the projection of the interpolated FE matrices); the rigid mass of the
+piston (the structure's only DOF).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as spla
+from fe_builders import piston_duct
+
+from neweul_py.elastic.bodies.invariants import Invariants
+from neweul_py.elastic.parametric.snapshot_basis import basis_parametric_body, snapshot_basis
+from neweul_py.elastic.quality.measures import second_order_poles
+from neweul_py.errors import DataError
+
+SPEEDS = (300.0, 343.0, 390.0)
+F_SNAP = np.geomspace(20.0, 900.0, 8)
+
+
+@pytest.fixture(scope="module")
+def family():
+    fes = [piston_duct(n_el=80, c=c, damping=3.0) for c in SPEEDS]
+    loads = [fe.B("force") for fe in fes]
+    V, energy = snapshot_basis(fes, loads, F_SNAP)
+    body = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
+                                 energy=energy)
+    return fes, V, body
+
+
+def _full(fe, f):
+    b = fe.B("force")[:, 0].astype(complex)
+    return np.array([spla.spsolve((fe.K + 2j * np.pi * fi * fe.D
+                                   - (2 * np.pi * fi) ** 2 * fe.M).tocsc(), b)[0] for fi in f])
+
+
+def _reduced(body, f):
+    return np.array([(body.C[body.output_names.index("x_piston")] @ np.linalg.solve(
+        body.K + 2j * np.pi * fi * body.D - (2 * np.pi * fi) ** 2 * body.M, body.B[:, 0]))
+        for fi in f])
+
+
+def test_the_basis_is_block_diagonal_and_energy_orthonormal(family) -> None:
+    """Each column lives on the u rows or on the p rows only, and ``VᵀḠV = I``."""
+    from neweul_py.elastic.parametric.global_basis import energy_metric
+
+    fes, V, _ = family
+    is_p = fes[0].dof_kind == "p"
+    on_p, on_u = np.any(V[is_p] != 0, axis=0), np.any(V[~is_p] != 0, axis=0)
+    assert not np.any(on_p & on_u)
+    G = energy_metric(fes)
+    assert np.allclose(V.T @ (G @ V), np.eye(V.shape[1]), atol=1e-8)
+
+
+@pytest.mark.parametrize("i", [0, 1, 2])
+def test_samples_match_the_full_models(family, i: int) -> None:
+    """At every sample, 20–900 Hz: the piston response of the order-10 body against the full
+    model (measured: median ≤ 7e-7, max ≤ 1.6e-3 near the antiresonances)."""
+    fes, _V, body = family
+    f = np.linspace(20.0, 900.0, 31)
+    ref = _full(fes[i], f)
+    err = np.abs(_reduced(body.at(SPEEDS[i]), f) - ref) / np.abs(ref)
+    assert np.median(err) < 1e-5
+    assert err.max() < 5e-3
+
+
+@pytest.mark.parametrize("c", [310.0, 320.0, 370.0])
+def test_between_samples_the_body_is_stable(family, c: float) -> None:
+    """Between samples no right-half-plane pole (the block-diagonal Galerkin projection of
+    the interpolated u–p matrices keeps the passive structure; global_basis.py)."""
+    _fes, _V, body = family
+    b = body.at(c)
+    s = second_order_poles(b.M, b.D, b.K)
+    assert s.real.max() <= 1e-9 * np.abs(s).max()
+
+
+def test_fixed_frame_invariants(family) -> None:
+    """The invariants hold the body's own M, K, D, the piston mass as the rigid mass, and
+    zero frame couplings; they pass the schema check."""
+    _fes, _V, body = family
+    flat = {k: v[1] if v.dtype.kind == "f" else v[0] for k, v in body.invariants.items()}
+    inv = Invariants.from_flat(flat)
+    assert np.allclose(inv.Me.m0, body.M[1]) and np.allclose(inv.Ke.m0, body.K[1])
+    assert inv.m == pytest.approx(0.05)
+    assert not np.any(inv.Ct.m0) and not np.any(inv.Ge.m0)
+
+
+def test_bad_input() -> None:
+    """Non-positive snapshot frequencies, mismatched loads: one DataError each."""
+    fe = piston_duct(n_el=10)
+    with pytest.raises(DataError, match="positive"):
+        snapshot_basis([fe], [fe.B("force")], [0.0, 10.0])
+    with pytest.raises(DataError, match="load sets"):
+        snapshot_basis([fe, fe], [fe.B("force")], [10.0])
+
+
+def test_samples_on_different_meshes_are_one_error(family) -> None:
+    """A sample with other nodes or DOFs than the first (another mesh): one DataError naming
+    it, before anything is projected (reference: the two FE models' DOF counts)."""
+    fes, V, _ = family
+    other = piston_duct(n_el=60, c=SPEEDS[1], damping=3.0)
+    with pytest.raises(DataError, match=r"sample at 343 .*other nodes or DOFs"):
+        basis_parametric_body([fes[0], other, fes[2]], V, SPEEDS, parameter="c",
+                              keep_nodes=[1])
+
+
+def test_sample_slopes_with_static_states(family) -> None:
+    """With the FE models at every sound speed ∓ 0.5 m/s and static states (a static
+    displacement ``x_s(c) = (c/343)² a``), the body carries the central differences of the
+    projected matrices and of the static coordinates — computed here from ``V`` and the
+    energy metric of the samples — and Hermite weights; with quintic Hermite weights also
+    the second differences with the samples (``x_s`` quadratic in ``c``: its curvature
+    exact); bad slope input is one DataError."""
+    from neweul_py.elastic.parametric.global_basis import energy_metric
+
+    fes, V, _body = family
+    step = 0.5
+    near = [[piston_duct(n_el=80, c=c + sign * step, damping=3.0) for c in SPEEDS]
+            for sign in (-1, 1)]
+    a = np.random.default_rng(3).standard_normal(fes[0].n_dofs) * 1e-7
+    x_s = lambda c: (c / 343.0) ** 2 * a  # noqa: E731
+    static = [{"x": x_s(c)} for c in SPEEDS]
+    side = tuple([{"x": x_s(c + sign * step)} for c in SPEEDS] for sign in (-1, 1))
+    hb = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                               slope_models=tuple(near), slope_step=step, slope_static=side,
+                               interpolation="hermite")
+    assert hb.interpolation == "hermite"
+    G = energy_metric(fes)
+    for i, c in enumerate(SPEEDS):
+        dK = V.T @ ((near[1][i].K - near[0][i].K) @ V) / (2 * step)
+        np.testing.assert_allclose(hb.slopes["K"][i], dK, rtol=0, atol=1e-9 * abs(dK).max())
+        dq = V.T @ (G @ (x_s(c + step) - x_s(c - step))) / (2 * step)    # V is G-orthonormal
+        np.testing.assert_allclose(hb.slopes["static/q"][i], dq, rtol=1e-6,
+                                   atol=1e-9 * abs(dq).max())
+    qb = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                               slope_models=tuple(near), slope_step=step, slope_static=side)
+    with pytest.raises(DataError, match="give Hermite weights"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                              slope_models=tuple(near), slope_step=step, slope_static=side,
+                              interpolation="cubic")
+    assert qb.interpolation == "quintic-hermite" and qb.format_version == 5
+    for i, c in enumerate(SPEEDS):   # second differences of the same projections
+        d2K = V.T @ ((near[1][i].K - 2 * fes[i].K + near[0][i].K) @ V) / step**2
+        np.testing.assert_allclose(qb.curvatures["K"][i], d2K, rtol=0,
+                                   atol=1e-6 * abs(d2K).max())
+        d2q = V.T @ (G @ (x_s(c + step) - 2 * x_s(c) + x_s(c - step))) / step**2
+        np.testing.assert_allclose(qb.curvatures["static/q"][i], d2q, rtol=1e-6,
+                                   atol=1e-9 * abs(d2q).max())
+    with pytest.raises(DataError, match="slope models go with a slope step"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1], static=static,
+                              slope_models=tuple(near), slope_step=step)
+    with pytest.raises(DataError, match="positive number"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
+                              slope_models=tuple(near), slope_step=-1.0)
+    with pytest.raises(DataError, match="one slope model on each side"):
+        basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
+                              slope_models=(near[0][:2], near[1]), slope_step=step)
