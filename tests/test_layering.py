@@ -1,9 +1,10 @@
-"""The map of DESIGN.md, checked on the source: layering, no import circles, no private names
-across modules.
+"""The map of docs/architecture.md, checked on the source: layering, no import circles, no
+private names across modules.
 
-Reference: the rules of DESIGN.md ("Who may import whom", "No import circles, not even through
-imports inside functions; no private names used across modules"). Every ``import`` statement
-of the package is read with :mod:`ast`, including those inside functions.
+Reference: the layer rules of docs/architecture.md ("Imports run one way", "No import
+circles, not even through an import inside a function; no private names imported across
+modules"). Every ``import`` statement of the package is read with :mod:`ast`, including those
+inside functions.
 """
 
 from __future__ import annotations
@@ -68,13 +69,60 @@ def _graph() -> dict[str, set[str]]:
 
 def test_numeric_layers_never_import_the_symbolic_layers() -> None:
     """elastic/, fem/, analysis/ and ffrf/ import none of description, model, kinematics,
-    equations, codegen (DESIGN.md)."""
+    equations, codegen (docs/architecture.md)."""
     bad = []
     for layer in NUMERIC:
         for path in (PKG / layer).rglob("*.py"):
             for target, _names, line in _imports(path):
                 parts = target.split(".")
                 if len(parts) > 1 and parts[0] == "neweul_py" and parts[1] in SYMBOLIC:
+                    bad.append(f"{path.relative_to(PKG)}:{line} imports {target}")
+    assert not bad, "\n".join(bad)
+
+
+#: The rooms of elastic/ from the ground up: a room imports only rooms below it (or itself).
+ELASTIC_ROOMS = ("fe_model", "bodies", "io", "reductors", ("parametric", "quality"))
+#: Layers of the library that may not import an application built on them.
+LIBRARY = ("description", "model", "kinematics", "equations", "codegen", "analysis",
+           "elastic", "fem", "ffrf")
+
+
+def _room(target: str) -> int | None:
+    """Floor of an ``elastic`` module in :data:`ELASTIC_ROOMS` (``None`` outside elastic/)."""
+    parts = target.split(".")
+    if parts[:2] != ["neweul_py", "elastic"] or len(parts) < 3:
+        return None
+    for floor, rooms in enumerate(ELASTIC_ROOMS):
+        if parts[2] in ((rooms,) if isinstance(rooms, str) else rooms):
+            return floor
+    return None
+
+
+def test_elastic_rooms_import_downwards() -> None:
+    """Inside elastic/: fe_model ← bodies ← io ← reductors ← parametric, quality
+    (docs/architecture.md); a room never imports one on its own floor or above, but itself."""
+    bad = []
+    for path in (PKG / "elastic").rglob("*.py"):
+        me = _module_name(path)
+        mine = _room(me)
+        if mine is None:
+            continue
+        for target, _names, line in _imports(path):
+            there = _room(target)
+            same_room = target.split(".")[:3] == me.split(".")[:3]
+            if there is not None and there >= mine and not same_room:
+                bad.append(f"{path.relative_to(PKG)}:{line} imports {target}")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_library_never_imports_its_applications() -> None:
+    """No layer of the library imports ``neweul_py.middle_ear`` (docs/architecture.md: the
+    application is built on fem/ and elastic/, never imported by them)."""
+    bad = []
+    for layer in LIBRARY:
+        for path in (PKG / layer).rglob("*.py"):
+            for target, _names, line in _imports(path):
+                if target.startswith("neweul_py.middle_ear"):
                     bad.append(f"{path.relative_to(PKG)}:{line} imports {target}")
     assert not bad, "\n".join(bad)
 
