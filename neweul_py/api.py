@@ -30,6 +30,7 @@ __all__ = [
     "FORMS",
     "cache_dir",
     "derive",
+    "export_fmu",
     "generate",
     "generated_module",
     "load_description",
@@ -44,6 +45,9 @@ Backend = Literal["numpy", "c"]
 #: Backends of generated modules: the NumPy module, or the compiled one (codegen/c_module.py,
 #: a C library behind the same protocol, falling back to its NumPy twin).
 BACKENDS: tuple[str, ...] = ("numpy", "c")
+
+#: FMU kinds of :func:`export_fmu` (= :data:`neweul_py.codegen.fmu_model.KINDS`).
+FMU_KINDS: tuple[str, ...] = ("me", "cs", "both")
 
 #: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
 _GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic",
@@ -542,3 +546,135 @@ def simulate_description(
 
     module = load_description_module(description_path, form, cache, backend)
     return simulate(module, t_end, p=p, **kwargs)
+
+
+def _check_fmu_target(out: str | os.PathLike[str], kind: str) -> Path:
+    """The FMU's path, refused unless it ends in ``.fmu`` and names no directory."""
+    out = Path(out)
+    if out.suffix != ".fmu":
+        raise NeweulError(f"{out}: an FMU is written to a file ending in .fmu")
+    if out.is_dir():
+        raise NeweulError(f"{out}: is a directory, not an FMU file")
+    if kind not in FMU_KINDS:
+        raise NeweulError(f"unknown FMU kind {kind!r}; kinds are: {', '.join(FMU_KINDS)}")
+    return out
+
+
+def export_fmu(
+    description_path: str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    kind: str = "both",
+    *,
+    form: Form = "auto",
+    independent: Sequence[str] | None = None,
+    cache: str | os.PathLike[str] | None = None,
+    progress: StagedProgress = None,
+) -> Path:
+    """Export a description as an FMI 2.0 FMU (docs/fmu-export.md).
+
+    Everything that would make the export fail is checked before any derivation: the path
+    (``.fmu``), the kind, a C compiler and this platform, inputs without a numeric default and
+    parametric elastic bodies (:func:`neweul_py.codegen.fmu_model.export_problems`).
+
+    Parameters
+    ----------
+    description_path
+        The YAML description.
+    out
+        The ``.fmu`` file (written atomically: an existing file stays as it was on any error).
+    kind
+        ``"me"`` (model exchange), ``"cs"`` (co-simulation) or ``"both"``.
+    form
+        Form of the equations (as :func:`generate`).
+    independent
+        Models with constraints: the coordinates that are the FMU's states (default: the first
+        ones the constraints leave free, as :func:`neweul_py.analysis.simulate` keeps them).
+    cache
+        The module cache (:func:`generated_module`).
+    progress
+        A staged hook (:func:`generate`; then the ``"FMU"`` stage).
+
+    Returns
+    -------
+    Path
+        The FMU written.
+
+    Raises
+    ------
+    DescriptionError
+        An input without a numeric default, a parametric elastic body (naming its key).
+    NeweulError
+        A path that is not ``.fmu``, no compiler, an unsupported platform, constraints whose
+        reactions differ from their Jacobian (two-sided elastic node frames), no regular
+        partition of the coordinates.
+
+    Examples
+    --------
+    >>> export_fmu("examples/double_pendulum.yaml", "double_pendulum.fmu")  # doctest: +SKIP
+    PosixPath('double_pendulum.fmu')
+    """
+    import numpy as np
+
+    from . import __version__
+    from .codegen.fmu import binary_platform, find_compiler, write_fmu
+    from .codegen.fmu_model import KINDS, export_problems, fmu_model
+    from .description import load_description_text
+
+    out = _check_fmu_target(out, kind)
+    _check_form(form)
+    find_compiler()
+    binary_platform()
+    raw = _read(description_path)
+    system = load_description_text(raw, os.fspath(description_path),
+                                   elastic_reader=read_elastic_data)
+    problems = export_problems(system)
+    if problems:
+        key, message = problems[0]
+        raise DescriptionError(f"cannot export an FMU: {message}", key,
+                               os.fspath(description_path))
+    entry = _cached_source(description_path, form, cache, progress)
+    module = entry.module if entry.module is not None else import_verified(entry.path,
+                                                                            entry.source)
+    constants = {k: getattr(module, k) for k in dir(module) if k.isupper()}
+    p0 = module.default_parameters()
+    x0, dependent = np.asarray(module.INITIAL_STATE, dtype=float), ()
+    if module.CONSTRAINTS:
+        x0, dependent = _consistent_start(module, independent)
+    elif independent is not None:
+        raise NeweulError(f"independent coordinates apply to models with constraints; "
+                          f"{module.MODEL_NAME} has none")
+    model = fmu_model(system, constants, x0, module.default_inputs(0.0, p0), dependent)
+    return write_fmu(entry.equations(), model, out, KINDS[kind],
+                     tool=f"neweul-py {__version__}", progress=progress)
+
+
+def _consistent_start(module: Any, independent: Sequence[str] | None) -> tuple[Any, tuple]:
+    """The consistent start state of a constrained module and its dependent coordinates
+    (the partition of :func:`neweul_py.analysis.dae.consistent_initial_state`)."""
+    import numpy as np
+
+    from .analysis.dae import consistent_initial_state, default_partition
+    from .analysis.protocol import partition
+
+    p0 = module.default_parameters()
+    y, yd = consistent_initial_state(module, p=p0, independent=independent)
+    g = np.asarray(module.constraint_jacobian(0.0, y, p0), dtype=float)
+    names = list(module.COORDINATES)
+    if independent is not None:
+        dep = partition(g, names, independent)[1]
+    else:
+        dep = default_partition(g)
+        if dep is None:
+            raise NeweulError(
+                "the constraints " + ", ".join(module.CONSTRAINTS) + " leave no "
+                "well-conditioned set of dependent coordinates at the start: name the FMU's "
+                "states with --independent")
+    reaction = getattr(module, "constraint_reaction_jacobian", None)
+    if callable(reaction) and not np.array_equal(
+            np.asarray(reaction(0.0, y, p0), dtype=float), g):
+        raise NeweulError(
+            "cannot export an FMU: the reactions of the constraints "
+            + ", ".join(module.CONSTRAINTS) + " act through the left basis of a two-sided "
+            "elastic body (G_R differs from G), which the FMU's augmented system does not "
+            "hold")
+    return np.concatenate([y, yd]), tuple(int(j) for j in dep)

@@ -34,6 +34,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "interpolate",
     "fem",
     "sweep", "compare",
+    "export",
 )
 
 

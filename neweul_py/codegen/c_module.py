@@ -42,8 +42,8 @@ from .c_templates import C_DOPRI5, C_LU, C_SUPPORT_DECLARATIONS
 from .cse import Block, free_symbols
 from .writer import program_blocks
 
-__all__ = ["c_module_path", "core_declarations", "jacobian_declarations", "render_c_sources",
-           "render_c_wrapper", "write_c_module"]
+__all__ = ["c_module_path", "compiled_program", "core_declarations", "jacobian_declarations",
+           "render_c_sources", "render_c_wrapper", "write_c_module"]
 
 _IN = "    "
 
@@ -404,6 +404,25 @@ def render_c_wrapper(
     return header + runtime + "\n# ---- module settings\n" + settings + "\n" + template
 
 
+def compiled_program(equations: Any, *, cse: bool = True, progress: StagedProgress = None
+                     ) -> tuple[Any, dict[str, Block]]:
+    """The equations the C backend compiles and their programs (:func:`render_c_sources`).
+
+    Elastic bodies are expanded into closed expressions first
+    (:func:`~neweul_py.equations.elastic_expanded.expanded_equations`), so the equations
+    returned are in the independent coordinates (the module's ``COORDINATES``).
+
+    Raises
+    ------
+    GenerationError
+        Parametric elastic bodies, too many elastic coordinates, unprintable expressions.
+    """
+    if getattr(equations, "elastic", None) is not None:
+        # the kernel's terms as closed expressions (equations/elastic_expanded.py)
+        equations = expanded_equations(equations)
+    return equations, program_blocks(equations, cse=cse, progress=progress)
+
+
 def write_c_module(
     equations: Any, numpy_path: str | os.PathLike[str], *, cse: bool = True,
     progress: StagedProgress = None,
@@ -432,10 +451,7 @@ def write_c_module(
         expressions.
     """
     system = equations.system
-    if getattr(equations, "elastic", None) is not None:
-        # the kernel's terms as closed expressions (equations/elastic_expanded.py)
-        equations = expanded_equations(equations)
-    blocks = program_blocks(equations, cse=cse, progress=progress)
+    equations, blocks = compiled_program(equations, cse=cse, progress=progress)
     core, jac = render_c_sources(equations, blocks, system.name)
     numpy_path = Path(numpy_path)
     wrapper = c_module_path(numpy_path)

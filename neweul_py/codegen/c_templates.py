@@ -16,7 +16,7 @@ one shared library, no linking against anything but ``libm``).
 
 from __future__ import annotations
 
-__all__ = ["C_DOPRI5", "C_LU", "C_SUPPORT_DECLARATIONS"]
+__all__ = ["C_DOPRI5", "C_DOPRI5_TABLEAU", "C_LU", "C_SUPPORT_DECLARATIONS"]
 
 #: Declarations (cffi ``cdef``) of the support functions.
 C_SUPPORT_DECLARATIONS = """
@@ -82,7 +82,7 @@ __attribute__((always_inline)) static inline void nw_lu_solve(int n, const doubl
 }
 """
 
-C_DOPRI5 = r"""
+C_DOPRI5_TABLEAU = r"""
 /* ---- Dormand-Prince 5(4) with the step control and dense output of scipy's RK45 */
 static const double NW_C[6] = {0.0, 0.2, 0.3, 0.8, 0.8888888888888888, 1.0};
 static const double NW_A[6][5] = {
@@ -114,7 +114,10 @@ static double nw_rms(int n, const double *v, const double *scale)
     return sqrt(s / n);
 }
 
-/* returns 0: reached t_end; 1: step size too small; 2: singular mass matrix;
+"""
+
+#: The loop of :data:`C_DOPRI5` (after the tableau).
+_C_DOPRI5_LOOP = r"""/* returns 0: reached t_end; 1: step size too small; 2: singular mass matrix;
    3: non-finite state */
 int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double *p,
                         const double *u, double rtol, double atol, double max_step,
@@ -224,3 +227,6 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
     return 0;
 }
 """
+
+#: The whole integrator: :data:`C_DOPRI5_TABLEAU` and the loop ``nw_integrate_dopri5``.
+C_DOPRI5 = C_DOPRI5_TABLEAU + _C_DOPRI5_LOOP
