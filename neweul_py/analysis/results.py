@@ -94,6 +94,10 @@ class ResultDisplay:
         """One line describing the result (its ``repr``)."""
         raise NotImplementedError
 
+    def column_units(self) -> dict[str, str]:
+        """Unit of each column where known (shown in the notebook tables' headers)."""
+        return {}
+
     def to_dataframe(self) -> Any:
         """The table as a :class:`pandas.DataFrame` (pandas is optional: a clear error when it
         is missing)."""
@@ -113,6 +117,8 @@ class ResultDisplay:
         idx = list(range(nrows)) if nrows <= _PREVIEW_ROWS else [
             *range(half), *range(nrows - half, nrows)]
         rows = [[_cell(np.asarray(cols[n])[i]) for n in names] for i in idx]
+        units = self.column_units()
+        names = [f"{n} [{units[n]}]" if units.get(n) else n for n in names]
         return names, rows, nrows > _PREVIEW_ROWS, more_cols
 
     def _repr_markdown_(self) -> str:
@@ -244,6 +250,10 @@ class SimulationResult(ResultDisplay):
     def columns(self) -> dict[str, np.ndarray]:
         """Column name → values (the CSV columns)."""
         return dict(zip(self.names, self.table.T, strict=True))
+
+    def column_units(self) -> dict[str, str]:
+        """Column name → unit (those known, :attr:`units`)."""
+        return {n: u for n, u in zip(self.names, self.units, strict=True) if u != "-"}
 
     def summary(self) -> str:
         """One line: model, times, sizes, integrator."""

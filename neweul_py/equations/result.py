@@ -13,12 +13,13 @@ import sympy as sp
 
 from ..model import System
 from .constraints import ConstraintEquations
+from .display import equations_latex, equations_summary
 from .poses import FramePoses
 
 __all__ = ["Equations"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Equations:
     """Symbolic equations of motion ``M(y, t) ÿ = q(y, ẏ, u, t) − k(y, ẏ, t)`` (equations.md §1).
 
@@ -97,6 +98,14 @@ class Equations:
     def n(self) -> int:
         """Number of generalized coordinates."""
         return len(self.coordinates)
+
+    def __repr__(self) -> str:
+        return f"<Equations of {equations_summary(self)}>"
+
+    def _repr_latex_(self) -> str:
+        """``M``, ``q − k`` and the intermediates they use, for notebooks
+        (:func:`~neweul_py.equations.display.equations_latex`)."""
+        return equations_latex(self)
 
     @property
     def is_closed_form(self) -> bool:

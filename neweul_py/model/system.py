@@ -12,6 +12,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from .constraints import CoincidenceConstraint, Constraint, ExpressionConstraint
+from .display import system_html, system_markdown
 from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
     Coordinate,
@@ -186,6 +187,13 @@ class System:
     @property
     def parameter_defaults(self) -> dict[sp.Symbol, float]:
         return {p.symbol: p.default for p in self.parameters}
+
+    def _repr_html_(self) -> str:
+        """The model at a glance in notebooks (:mod:`~neweul_py.model.display`)."""
+        return system_html(self)
+
+    def _repr_markdown_(self) -> str:
+        return system_markdown(self)
 
     def fingerprint(self) -> str:
         """A SHA-256 of a canonical text of the whole model: equal models, equal fingerprints.

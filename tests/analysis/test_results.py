@@ -60,6 +60,9 @@ def test_to_dataframe_and_display(result):
     long = simulate(load_generated(GENERATED / "pendulum.py"), 1.0, n_out=5000)
     assert len(long._repr_html_()) < 4000 and "<table>" in long._repr_html_()
     assert long._repr_markdown_().count("\n") < 20
+    # the headers carry the units of the CSV sidecar (read_units)
+    assert "<th>phi [rad]</th>" in long._repr_html_()
+    assert "| t [s] | phi [rad] | d_phi [rad/s] |" in long._repr_markdown_()
 
 
 def test_to_dataframe_without_pandas_is_one_clear_error(result, monkeypatch):
