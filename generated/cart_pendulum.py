@@ -30,6 +30,7 @@ PARAMETERS = {
 }
 INPUTS = ['F']
 INPUT_RATES = {}
+INPUT_UNITS = ['N']
 OUTPUTS = ['tip_x', 'spring_force']
 OUTPUT_UNITS = ['m', '']
 CONSTRAINTS = []

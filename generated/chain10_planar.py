@@ -24,6 +24,7 @@ PARAMETERS = {
 }
 INPUTS = []
 INPUT_RATES = {}
+INPUT_UNITS = []
 OUTPUTS = ['tip_x', 'tip_z']
 OUTPUT_UNITS = ['m', 'm']
 CONSTRAINTS = []

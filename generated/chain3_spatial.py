@@ -25,6 +25,7 @@ PARAMETERS = {
 }
 INPUTS = []
 INPUT_RATES = {}
+INPUT_UNITS = []
 OUTPUTS = ['tip_x', 'tip_y', 'tip_z']
 OUTPUT_UNITS = ['m', 'm', 'm']
 CONSTRAINTS = []

@@ -26,6 +26,7 @@ PARAMETERS = {
 }
 INPUTS = []
 INPUT_RATES = {}
+INPUT_UNITS = []
 OUTPUTS = ['tip_x', 'tip_z', 'z_rod1', 'z_rod2']
 OUTPUT_UNITS = ['m', 'm', 'm', 'm']
 CONSTRAINTS = []

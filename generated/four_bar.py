@@ -32,8 +32,9 @@ PARAMETERS = {
 }
 INPUTS = ['Md']
 INPUT_RATES = {}
+INPUT_UNITS = ['N m']
 OUTPUTS = ['rocker_spring_force', 'rocker_angle', 'coupler_tip_z']
-OUTPUT_UNITS = ['', '', 'm']
+OUTPUT_UNITS = ['N m', 'rad', 'm']
 CONSTRAINTS = ['joint_x', 'joint_z']
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 6

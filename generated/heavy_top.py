@@ -26,6 +26,7 @@ PARAMETERS = {
 }
 INPUTS = []
 INPUT_RATES = {}
+INPUT_UNITS = []
 OUTPUTS = ['x_cm', 'y_cm', 'z_cm']
 OUTPUT_UNITS = ['m', 'm', 'm']
 CONSTRAINTS = []

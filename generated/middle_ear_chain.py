@@ -43,8 +43,9 @@ PARAMETERS = {
 }
 INPUTS = ['p_ec']
 INPUT_RATES = {}
+INPUT_UNITS = ['']
 OUTPUTS = ['stapes_velocity', 'umbo_velocity']
-OUTPUT_UNITS = ['', '']
+OUTPUT_UNITS = ['m/s', 'm/s']
 CONSTRAINTS = []
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 8

@@ -24,6 +24,7 @@ PARAMETERS = {
 }
 INPUTS = []
 INPUT_RATES = {}
+INPUT_UNITS = []
 OUTPUTS = ['x_bob', 'z_bob']
 OUTPUT_UNITS = ['m', 'm']
 CONSTRAINTS = []

@@ -33,8 +33,9 @@ PARAMETERS = {
 }
 INPUTS = ['zr', 'd_zr', 'dd_zr']
 INPUT_RATES = {'zr': ['d_zr', 'dd_zr']}
+INPUT_UNITS = ['m', 'm/s', 'm/s²']
 OUTPUTS = ['tire_force', 'suspension_force', 'body_height', 'body_velocity', 'tire_deflection']
-OUTPUT_UNITS = ['', '', '', '', '']
+OUTPUT_UNITS = ['N', 'N', 'm', 'm/s', 'm']
 CONSTRAINTS = []
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 4

@@ -31,8 +31,9 @@ PARAMETERS = {
 }
 INPUTS = ['T']
 INPUT_RATES = {}
+INPUT_UNITS = ['N m']
 OUTPUTS = ['slider_spring_force', 'slider_pos', 'crank_speed']
-OUTPUT_UNITS = ['', '', '']
+OUTPUT_UNITS = ['', 'm', 'rad/s']
 CONSTRAINTS = ['pin_x', 'pin_z', 'slide_x', 'slide_z']
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 10

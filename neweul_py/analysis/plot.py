@@ -180,8 +180,9 @@ def result_figure(result: SimulationResult) -> Any:
 
 
 def signal_units(module: Any) -> dict[str, str]:
-    """Units of what a frequency response may output: the model outputs (``OUTPUT_UNITS``),
-    coordinates (``COORDINATE_UNITS``) and their first and second time derivatives."""
+    """Units of what a frequency response may output — the model outputs (``OUTPUT_UNITS``),
+    coordinates (``COORDINATE_UNITS``) and their first and second time derivatives — and of
+    its inputs (``INPUT_UNITS``; names are unique across these kinds)."""
     units: dict[str, str] = {}
     coordinate_units = list(getattr(module, "COORDINATE_UNITS", ()) or ())
     for name, unit in zip(module.COORDINATES, coordinate_units, strict=False):
@@ -192,14 +193,21 @@ def signal_units(module: Any) -> dict[str, str]:
     for name, unit in zip(module.OUTPUTS, getattr(module, "OUTPUT_UNITS", ()) or (),
                           strict=False):
         units[name] = "" if unit in ("", "-") else unit
+    for name, unit in zip(module.INPUTS, getattr(module, "INPUT_UNITS", ()) or (),
+                          strict=False):
+        units[name] = "" if unit in ("", "-") else unit
     return units
 
 
 def _ratio_unit(output_unit: str, input_unit: str) -> str:
     out = output_unit if output_unit not in ("", "-") else "1"
     inp = input_unit if input_unit not in ("", "-") else ""
+    if inp and out == inp:
+        return "1"
     if not inp:
         return "" if out == "1" else out
+    if " " in inp or "/" in inp:
+        inp = f"({inp})"
     return f"{out}/{inp}" if out != "1" else f"1/{inp}"
 
 

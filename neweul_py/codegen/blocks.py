@@ -15,7 +15,20 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..errors import GenerationError
-from ..model import Frame, KinematicOutput, System, input_rate_name
+from ..model import (
+    ExpressionOutput,
+    ForceOutput,
+    Frame,
+    GeneralizedForce,
+    KinematicOutput,
+    PointForce,
+    RotationalSpringDamper,
+    SpringDamper,
+    System,
+    Torque,
+    input_rate_name,
+    symbol,
+)
 from .cse import Assignment, Block, CseMethod, eliminate, free_symbols, prune
 from .derivatives import jacobian
 from .printer import FastPrinter, NamePool
@@ -221,9 +234,8 @@ def sparse(J: sp.ImmutableMatrix) -> dict[tuple[int, int], sp.Expr]:
     }
 
 
-def units(system: System) -> tuple[list[str], list[str]]:
-    """Best-effort SI units of coordinates (rad for rotation angles, m for translations) and
-    of kinematic outputs; ``""`` where unknown."""
+def _coordinate_units(system: System) -> list[str]:
+    """``rad`` for coordinates used only as rotation angles, ``m`` only in translations."""
     rot: set[sp.Symbol] = set()
     trans: set[sp.Symbol] = set()
     frame: Frame
@@ -236,13 +248,100 @@ def units(system: System) -> tuple[list[str], list[str]]:
         s = c.symbol
         cu.append("rad" if s in rot and s not in trans else "m" if s in trans and s not in rot
                   else "")
+    return cu
+
+
+def _expression_unit(expr: sp.Expr, known: dict[sp.Symbol, str]) -> str:
+    """The unit of ``c·s`` or a sum of such terms of one unit (``zw − zr``), ``""`` else."""
+    terms = sp.Add.make_args(sp.sympify(expr))
+    found = set()
+    for term in terms:
+        factors = [f for f in sp.Mul.make_args(term) if not f.is_Number]
+        if len(factors) != 1 or factors[0] not in known:
+            return ""
+        found.add(known[factors[0]])
+    return found.pop() if len(found) == 1 else ""
+
+
+def units(system: System) -> tuple[list[str], list[str]]:
+    """Best-effort SI units of coordinates (rad for rotation angles, m for translations) and
+    of outputs (kinematic outputs ``m``, ``m/s``; forces reported by force elements ``N``,
+    torques ``N m``; an expression that is a coordinate, a velocity or an input, times a
+    number, or a sum of such terms of one unit); ``""`` where unknown."""
+    cu = _coordinate_units(system)
+    known: dict[sp.Symbol, str] = {}
+    for c, unit in zip(system.coordinates, cu, strict=True):
+        if unit:
+            known[c.symbol], known[c.velocity_symbol] = unit, f"{unit}/s"
+    for name, unit in input_units(system).items():
+        if unit:
+            known[symbol(name)] = unit
+    forces = {el.name: el for el in system.forces}
     ou = []
     for o in system.outputs:
         if isinstance(o, KinematicOutput):
             ou.append("m" if o.quantity == "position" else "m/s")
+        elif isinstance(o, ForceOutput):
+            ou.append(_force_unit(o, forces.get(o.force)))
+        elif isinstance(o, ExpressionOutput):
+            ou.append(_expression_unit(o.expr, known))
         else:
             ou.append("")
     return cu, ou
+
+
+def _force_unit(output: ForceOutput, element: object) -> str:
+    if output.component in ("fx", "fy", "fz"):
+        return "N"
+    if output.component in ("mx", "my", "mz"):
+        return "N m"
+    if isinstance(element, SpringDamper):
+        return "N"
+    if isinstance(element, RotationalSpringDamper):
+        return "N m"
+    return ""
+
+
+def input_units(system: System) -> dict[str, str]:
+    """Best-effort SI unit of each input and of its rates ``d_<u>``, ``dd_<u>`` (``/s``,
+    ``/s²``), by where the input enters: alone in frame translations ``m``, rotation angles
+    ``rad``; as a component of force vectors or a generalized force on a translation ``N``; of
+    torque vectors or a generalized force on an angle ``N m``. ``""`` where it enters
+    elsewhere (in expressions, force laws) or in more than one kind of place."""
+    seen: dict[sp.Symbol, set[str]] = {}
+
+    def mark(expr: sp.Expr, unit: str) -> None:
+        expr = sp.sympify(expr)
+        for s in expr.free_symbols:
+            seen.setdefault(s, set()).add(unit if expr == s else "?")
+
+    coordinate_units = dict(zip((c.name for c in system.coordinates),
+                                _coordinate_units(system), strict=True))
+    for frame in system.frames:
+        for _axis, angle in frame.rotation:
+            mark(angle, "rad")
+        for e in frame.translation:
+            mark(e, "m")
+    for el in system.forces:
+        if isinstance(el, PointForce | Torque):
+            for e in el.vector:
+                mark(e, "N" if isinstance(el, PointForce) else "N m")
+        elif isinstance(el, GeneralizedForce):
+            mark(el.value, {"m": "N", "rad": "N m"}.get(
+                coordinate_units.get(el.coordinate, ""), "?"))
+        else:
+            for e in vars(el).values():
+                if isinstance(e, sp.Basic):
+                    mark(e, "?")
+    out: dict[str, str] = {}
+    orders = system.input_rate_orders
+    for i in system.inputs:
+        found = seen.get(i.symbol, set())
+        unit = next(iter(found)) if len(found) == 1 and "?" not in found else ""
+        out[i.name] = unit
+        for k in range(1, orders[i.name] + 1):
+            out[input_rate_name(i.name, k)] = f"{unit}/s{'²' if k == 2 else ''}" if unit else ""
+    return out
 
 
 def input_rates(system: System) -> dict[str, list[str]]:

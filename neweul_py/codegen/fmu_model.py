@@ -13,8 +13,8 @@ Modelica Association, 2024; docs/fmu-export.md) of a generated model exposes
 
 with value references in this order, which the fixed C text ``fmi2/neweul_fmi2.c`` reads
 through the macros of ``model.h`` (:func:`model_header`). Units are the SI units the model
-knows (coordinates and kinematic outputs as in the generated module, inputs by where they
-enter, forces reported by force elements); descriptions say what each variable is.
+knows (``COORDINATE_UNITS``, ``INPUT_UNITS``, ``OUTPUT_UNITS`` of the generated module,
+:func:`.blocks.units`); descriptions say what each variable is.
 """
 
 from __future__ import annotations
@@ -29,19 +29,13 @@ import sympy as sp
 from ..model import (
     ExpressionOutput,
     ForceOutput,
-    GeneralizedForce,
     KinematicOutput,
-    PointForce,
-    RotationalSpringDamper,
-    SpringDamper,
     System,
-    Torque,
     time,
 )
-from .blocks import units as model_units
 from .c_templates import C_DOPRI5_TABLEAU, C_LU
 
-__all__ = ["KINDS", "FmuModel", "FmuVariable", "export_problems", "fmu_model",
+__all__ = ["KINDS", "FmuModel", "FmuVariable", "export_problems", "fmi_unit", "fmu_model",
            "model_description", "model_header"]
 
 #: FMU kinds of ``neweul export --kind``: model exchange, co-simulation, or one FMU with both.
@@ -186,70 +180,27 @@ def export_problems(system: System) -> list[tuple[str, str]]:
     return problems
 
 
-def _input_units(system: System) -> dict[str, str]:
-    """SI unit of each input by where it enters: only in frame translations ``m``, only in
-    rotation angles ``rad``, only as a component of force vectors or as a generalized force on a
-    translation ``N``, of torque vectors or as a generalized force on an angle ``N.m``; else
-    unknown."""
-    seen: dict[sp.Symbol, set[str]] = {}
-    coordinate_units = dict(zip((c.name for c in system.coordinates), model_units(system)[0],
-                                strict=True))
-
-    def mark(expr, unit: str) -> None:
-        expr = sp.sympify(expr)
-        for s in expr.free_symbols:
-            seen.setdefault(s, set()).add(unit if expr == s else "?")
-
-    for f in system.frames:
-        for _axis, angle in f.rotation:
-            mark(angle, "rad")
-        for e in f.translation:
-            mark(e, "m")
-    for el in system.forces:
-        if isinstance(el, PointForce):
-            for e in el.vector:
-                mark(e, "N")
-        elif isinstance(el, Torque):
-            for e in el.vector:
-                mark(e, "N.m")
-        elif isinstance(el, GeneralizedForce):
-            mark(el.value, {"m": "N", "rad": "N.m"}.get(coordinate_units.get(el.coordinate, ""),
-                                                      "?"))
-        elif isinstance(el, SpringDamper | RotationalSpringDamper):
-            for e in vars(el).values():
-                if isinstance(e, sp.Basic):
-                    mark(e, "?")
-    out = {}
-    for i in system.inputs:
-        units = seen.get(i.symbol, set())
-        out[i.name] = next(iter(units)) if len(units) == 1 and "?" not in units else ""
-    return out
-
-
-def _output_descriptions(system: System) -> dict[str, tuple[str, str]]:
-    """``name → (unit, description)`` of the description's outputs (units of force reports)."""
-    forces = {el.name: el for el in system.forces}
+def _output_descriptions(system: System) -> dict[str, str]:
+    """``name → description`` of the description's outputs."""
     out = {}
     for o in system.outputs:
         if isinstance(o, KinematicOutput):
             point = ", ".join(str(c) for c in o.point)
-            out[o.name] = ("", f"{o.quantity} of the point [{point}] of frame {o.frame}, "
-                               f"{o.component} component in {o.in_frame}")
+            out[o.name] = (f"{o.quantity} of the point [{point}] of frame {o.frame}, "
+                           f"{o.component} component in {o.in_frame}")
         elif isinstance(o, ExpressionOutput):
-            out[o.name] = ("", f"expression {o.expr}")
+            out[o.name] = f"expression {o.expr}"
         elif isinstance(o, ForceOutput):
-            element = forces.get(o.force)
-            unit = ""
-            if o.component in ("fx", "fy", "fz"):
-                unit = "N"
-            elif o.component in ("mx", "my", "mz"):
-                unit = "N.m"
-            elif isinstance(element, SpringDamper):
-                unit = "N"
-            elif isinstance(element, RotationalSpringDamper):
-                unit = "N.m"
-            out[o.name] = (unit, f"{o.component} of the force element {o.force}")
+            out[o.name] = f"{o.component} of the force element {o.force}"
     return out
+
+
+def fmi_unit(unit: str) -> str:
+    """A unit of the generated module as an FMI unit name (``N m`` → ``N.m``, ``m/s²`` →
+    ``m/s2``); ``""`` for units :data:`_BASE` does not know."""
+    name = unit.replace(" ", ".").replace("²", "2")
+    base, _, per = name.partition("/")
+    return name if base in _BASE and per in ("", "s", "s2") else ""
 
 
 def fmu_model(system: System, constants: Mapping[str, object], x0: Sequence[float],
@@ -259,10 +210,11 @@ def fmu_model(system: System, constants: Mapping[str, object], x0: Sequence[floa
     Parameters
     ----------
     system
-        The model (input units, output descriptions).
+        The model (the descriptions of its outputs).
     constants
         The generated module's protocol constants (``MODEL_NAME``, ``DESCRIPTION``,
-        ``PARAMETERS``, ``INPUTS``, ``INPUT_RATES``, ``COORDINATES``, ``COORDINATE_UNITS``,
+        ``PARAMETERS``, ``INPUTS``, ``INPUT_RATES``, ``INPUT_UNITS``, ``COORDINATES``,
+        ``COORDINATE_UNITS``,
         ``OUTPUTS``, ``OUTPUT_UNITS``, ``CONSTRAINTS``).
     x0
         The start state ``[y, ẏ]`` (consistent with the constraints).
@@ -277,19 +229,17 @@ def fmu_model(system: System, constants: Mapping[str, object], x0: Sequence[floa
     dep = set(dependent)
     rates = {r: (base, k + 1) for base, rs in dict(constants.get("INPUT_RATES") or {}).items()
              for k, r in enumerate(rs)}
-    iunits = _input_units(system)
+    iunits = list(constants.get("INPUT_UNITS") or [""] * len(constants["INPUTS"]))
     inputs = []
-    for name, start in zip(constants["INPUTS"], input_start, strict=True):
+    for name, start, unit in zip(constants["INPUTS"], input_start, iunits, strict=True):
         if name in rates:
             base, order = rates[name]
-            unit = iunits.get(base, "")
-            for _ in range(order):
-                unit = _rate_unit(unit)
             what = ("time derivative" if order == 1 else "second time derivative")
             text = f"{what} of the input {base} (kinematic excitation; keep it consistent)"
         else:
-            unit, text = iunits.get(name, ""), "input"
-        inputs.append(FmuVariable(name, "input", "continuous", None, float(start), unit, text))
+            text = "input"
+        inputs.append(FmuVariable(name, "input", "continuous", None, float(start),
+                                  fmi_unit(unit), text))
     coords, vels = [], []
     constraints = ", ".join(constants.get("CONSTRAINTS") or [])
     for j, name in enumerate(names):
@@ -297,17 +247,17 @@ def fmu_model(system: System, constants: Mapping[str, object], x0: Sequence[floa
         role = ("generalized coordinate" if state else
                 f"generalized coordinate, dependent (from the constraints {constraints})")
         initial, start = ("exact", float(x0[j])) if state else ("calculated", None)
-        coords.append(FmuVariable(name, "local", "continuous", initial, start, cunits[j], role))
+        coords.append(FmuVariable(name, "local", "continuous", initial, start,
+                                  fmi_unit(cunits[j]), role))
         vstart = float(x0[n + j]) if state else None
         vels.append(FmuVariable(f"d_{name}", "local", "continuous", initial, vstart,
-                                _rate_unit(cunits[j]), f"time derivative of {name}"))
+                                _rate_unit(fmi_unit(cunits[j])), f"time derivative of {name}"))
     descr = _output_descriptions(system)
     ounits = list(constants.get("OUTPUT_UNITS") or [""] * len(constants["OUTPUTS"]))
     outputs = []
     for name, unit in zip(constants["OUTPUTS"], ounits, strict=True):
-        u2, text = descr.get(name, ("", "output"))
         outputs.append(FmuVariable(name, "output", "continuous", "calculated", None,
-                                   unit or u2, text))
+                                   fmi_unit(unit), descr.get(name, "output")))
     params = tuple((str(k), float(v)) for k, v in dict(constants["PARAMETERS"]).items())
     return FmuModel(
         name=str(constants["MODEL_NAME"]), description=str(constants.get("DESCRIPTION", "")),

@@ -31,6 +31,7 @@ from .blocks import (
     checked,
     function,
     input_rates,
+    input_units,
     inputs_prologue,
     mass_fill,
     matrix_fill,
@@ -375,6 +376,7 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
         + ("\n}" if pdef else "}"),
         "INPUTS": repr([str(s) for s in u]),
         "INPUT_RATES": repr(input_rates(system)),
+        "INPUT_UNITS": repr([input_units(system).get(str(s), "") for s in u]),
         "OUTPUTS": repr(names_out),
         "OUTPUT_UNITS": repr(ou),
         "CONSTRAINTS": constraint_constant(tuple(ce.names) if ce is not None else ()

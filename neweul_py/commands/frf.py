@@ -57,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         print(f"frequency response: {fr.save(args.output)}")
     if args.plot:
-        fr.plot(args.plot, log_frequency=args.log, output_units=signal_units(module))
+        units = signal_units(module)
+        fr.plot(args.plot, log_frequency=args.log, output_units=units, input_units=units)
         print(f"Bode plot: {args.plot}")
     if not args.output and not args.plot:
         print(f"{'frequency_hz':>14}  {'magnitude':>14}  {'phase_deg':>10}  output/input")

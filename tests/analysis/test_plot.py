@@ -111,3 +111,31 @@ def test_compare_frf_plot_honours_log_and_units(tmp_path, log) -> None:
                                input="p_ec", unit="m/Pa", log_frequency=log)
     assert path.stat().st_size > 1000
     save_figure(fig, tmp_path / "again.png")
+
+
+@pytest.mark.parametrize(("model", "words", "label"), [
+    ("quarter_car", ["--input", "zr", "--response", "tire_force"], "|tire_force/zr| [N/m]"),
+    ("quarter_car", ["--input", "zr", "--response", "body_height"], "|body_height/zr| [1]"),
+    ("four_bar", ["--input", "Md", "--response", "coupler_tip_z"], "|coupler_tip_z/Md| [m/(N m)]"),
+])
+def test_cli_bode_magnitude_carries_output_per_input_units(tmp_path, monkeypatch, model, words,
+                                                          label) -> None:
+    """``neweul frf --plot``: the magnitude's unit is the output's per the input's, from the
+    module's ``OUTPUT_UNITS`` (a spring's reported force: N) and ``INPUT_UNITS`` (a road
+    height moving a frame: m; a generalized torque on an angle: N m); equal units cancel."""
+    import importlib
+    from pathlib import Path
+
+    from neweul_py.cli import main
+
+    frf_module = importlib.import_module("neweul_py.analysis.frf")
+
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
+    shown = []
+    monkeypatch.setattr(frf_module, "save_figure",
+                        lambda fig, path, dpi=120: shown.append(fig) or Path(path))
+    examples = Path(__file__).resolve().parents[2] / "examples"
+    assert main(["frf", str(examples / f"{model}.yaml"), *words, "--f", "1:30:5", "--plot",
+                 str(tmp_path / "bode.png")]) == 0
+    [fig] = shown
+    assert fig.axes[0].get_ylabel() == label

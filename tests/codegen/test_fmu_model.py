@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+from neweul_py.codegen.blocks import input_units, units
 from neweul_py.codegen.fmu_model import (
     export_problems,
     fmu_model,
@@ -45,12 +46,15 @@ outputs:
 
 
 def _constants(system):
+    inputs = ["F", "z", "M", "d_z", "dd_z"]
     return {
         "MODEL_NAME": system.name, "DESCRIPTION": "", "PARAMETERS": {
             p.name: p.default for p in system.parameters},
-        "INPUTS": ["F", "z", "M", "d_z", "dd_z"], "INPUT_RATES": {"z": ["d_z", "dd_z"]},
-        "COORDINATES": ["x", "phi"], "COORDINATE_UNITS": ["m", "rad"],
-        "OUTPUTS": ["spring_force", "tip"], "OUTPUT_UNITS": ["", "m"], "CONSTRAINTS": [],
+        "INPUTS": inputs, "INPUT_RATES": {"z": ["d_z", "dd_z"]},
+        "INPUT_UNITS": [input_units(system)[n] for n in inputs],
+        "COORDINATES": ["x", "phi"], "COORDINATE_UNITS": units(system)[0],
+        "OUTPUTS": ["spring_force", "tip"], "OUTPUT_UNITS": units(system)[1],
+        "CONSTRAINTS": [],
     }
 
 
@@ -69,9 +73,10 @@ def test_input_defaults_and_parametric_bodies():
 
 
 def test_units_and_descriptions_of_the_variables():
-    """Input units by where the input enters (a frame translation, a force vector, a
-    generalized force on an angle) and their rates; a spring's reported force in N; every
-    unit defined in UnitDefinitions by its SI base units."""
+    """Input units by where the input enters (codegen.blocks.input_units: a frame
+    translation, a force vector, a generalized force on an angle) and their rates; a spring's
+    reported force in N (codegen.blocks.units); as FMI unit names, each defined in
+    UnitDefinitions by its SI base units."""
     system = load_description_text(DRIVEN, "driven.yaml")
     model = fmu_model(system, _constants(system), [0.1, 0.2, 0.0, 0.0],
                       [2.0, 0.0, 0.5, 0.0, 0.0])
