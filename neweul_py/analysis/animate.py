@@ -7,11 +7,15 @@ Each picture shows, at one time of a :class:`~neweul_py.analysis.SimulationResul
   origin to its center of mass;
 - each rigid body as the homogeneous box or ellipsoid of its mass and inertia
   (:mod:`.scene`), point masses as dots;
-- each elastic body as the cloud of the nodes of its data, moved by its elastic coordinates.
+- each elastic body as the cloud of the nodes of its data, moved by its elastic coordinates,
+  its deformation magnified by a deformation scale (``scale``, ``"auto"``: the largest
+  displacement a tenth of the body, :func:`.scene.deformation_scale`) and each node coloured
+  by its true displacement (colour bar in m).
 
 The poses come from the module's ``frame_poses`` (docs/generated-module-protocol.md). The
-result is subsampled to at most ``frames`` pictures at ``fps`` pictures per simulated second
-(real time when not capped), so that writing stays quick.
+result is subsampled to at most ``frames`` pictures shown at ``fps`` pictures per second;
+``speed`` simulated seconds pass per second of the animation (1: real time; 0.01: a 50 ms
+run lasts 5 s, slow motion), so there are ``1 + span·fps/speed`` pictures unless capped.
 
 Examples
 --------
@@ -37,7 +41,8 @@ from .protocol import load_module
 from .results import SimulationResult
 from .scene import SHAPES, Scene, build_scene
 
-__all__ = ["ANIMATION_SUFFIXES", "animate", "animation_frames", "check_animation_path"]
+__all__ = ["ANIMATION_SUFFIXES", "animate", "animation_frames", "check_animation_path",
+           "draw_scene", "scene_title"]
 
 #: File types of animations: GIF (Pillow, comes with matplotlib) and MP4 (needs ffmpeg).
 ANIMATION_SUFFIXES = (".gif", ".mp4")
@@ -68,21 +73,39 @@ def check_animation_path(path: str | os.PathLike[str]) -> Path:
     return path
 
 
-def animation_frames(t: np.ndarray, fps: float, frames: int) -> np.ndarray:
-    """Rows of ``t`` to show: ``min(frames, len(t), 1 + round((t_end − t_start)·fps))``
-    pictures, equally spaced in the rows (at least one)."""
+def animation_frames(t: np.ndarray, fps: float, frames: int, speed: float = 1.0
+                     ) -> np.ndarray:
+    """Rows of ``t`` to show: ``min(frames, len(t), 1 + round((t_end − t_start)·fps/speed))``
+    pictures, equally spaced in the rows (at least one); ``speed`` is simulated seconds per
+    second of the animation."""
     t = np.asarray(t, dtype=float)
     if not fps > 0 or frames < 1:
         raise NeweulError(f"fps must be positive and frames at least 1 (got {fps}, {frames})")
+    if not (np.isfinite(speed) and speed > 0):
+        raise NeweulError(f"speed must be a positive number, got {speed}")
     if t.size == 0:
         raise NeweulError("the result holds no time steps to animate")
     span = float(t[-1] - t[0])
-    count = int(min(frames, t.size, 1 + round(span * fps)))
+    count = int(min(frames, t.size, 1 + round(span * fps / speed)))
     return np.unique(np.round(np.linspace(0, t.size - 1, max(count, 1))).astype(int))
 
 
-def _draw(fig: Any, scene: Scene, title: str) -> tuple[Any, Callable[[int], None]]:
-    """The artists of the first picture and the function that moves them to picture ``k``."""
+def scene_title(name: str, scene: Scene, speed: float) -> str:
+    """The picture's title: the model on the first line; the deformation scale (elastic
+    bodies) and the speed on the second."""
+    parts = []
+    if scene.clouds and scene.deformation_scale != 1.0:
+        parts.append(f"deformation ×{scene.deformation_scale:.3g}")
+    if speed != 1.0:
+        parts.append(f"{speed:g}× speed" + (" (slow motion)" if speed < 1 else ""))
+    return "\n".join(p for p in (name, ", ".join(parts)) if p)
+
+
+def draw_scene(fig: Any, scene: Scene, title: str) -> tuple[Any, Callable[[int], None]]:
+    """Draw the first picture of ``scene`` into ``fig``; returns its 3-D axes and the function
+    that moves every artist to picture ``k``."""
+    # (Path3DCollection has no public setter of its 3-D offsets: ``_offsets3d`` is what
+    # matplotlib's own scatter animations assign)
     from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
     ax = fig.add_subplot(projection="3d")
@@ -97,7 +120,7 @@ def _draw(fig: Any, scene: Scene, title: str) -> tuple[Any, Callable[[int], None
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
-    ax.set_title(title)
+    ax.set_title(title, fontsize="medium")
     triad = 0.08 * scene.size
     where = {name: i for i, name in enumerate(scene.frames)}
     parents = np.array([where.get(p, -1) for p in scene.parents], dtype=int)
@@ -134,10 +157,17 @@ def _draw(fig: Any, scene: Scene, title: str) -> tuple[Any, Callable[[int], None
         solids.append(poly)
     points = [k for k, m in enumerate(scene.meshes) if m is None]
     (dots,) = ax.plot([], [], [], "o", color="k", markersize=6, linestyle="")
-    clouds = [ax.plot([], [], [], ".", markersize=3, linestyle="", label=name)[0]
-              for name, _ in scene.clouds]
+    # nodes coloured by their true displacement, one colour scale for all elastic bodies
+    from matplotlib.colors import Normalize
+
+    top = max((float(d.max(initial=0.0)) for d in scene.displacements), default=0.0)
+    norm = Normalize(0.0, top if top > 0 else 1.0)
+    clouds = [ax.scatter(cloud[0, :, 0], cloud[0, :, 1], cloud[0, :, 2], s=6, c=disp[0],
+                         cmap="viridis", norm=norm, depthshade=False, label=name)
+              for (name, cloud), disp in zip(scene.clouds, scene.displacements, strict=True)]
     if clouds:
-        ax.legend(loc="upper right", fontsize="small", frameon=False)
+        bar = fig.colorbar(clouds[0], ax=ax, shrink=0.6, pad=0.08)
+        bar.set_label("elastic displacement |d| [m]")
     clock = ax.text2D(0.02, 0.95, "", transform=ax.transAxes)
 
     def update(k: int) -> None:
@@ -149,8 +179,10 @@ def _draw(fig: Any, scene: Scene, title: str) -> tuple[Any, Callable[[int], None
                 poly.set_verts(mesh[k])
         c = scene.centers[k, points] if points else np.zeros((0, 3))
         dots.set_data_3d(c[:, 0], c[:, 1], c[:, 2])
-        for art, (_, cloud) in zip(clouds, scene.clouds, strict=True):
-            art.set_data_3d(cloud[k, :, 0], cloud[k, :, 1], cloud[k, :, 2])
+        for art, (_, cloud), disp in zip(clouds, scene.clouds, scene.displacements,
+                                         strict=True):
+            art._offsets3d = (cloud[k, :, 0], cloud[k, :, 1], cloud[k, :, 2])
+            art.set_array(disp[k])
         clock.set_text(f"t = {scene.t[k]:.3f} s")
 
     return ax, update
@@ -164,6 +196,8 @@ def animate(
     fps: float = 20.0,
     frames: int = 150,
     shape: str = "box",
+    speed: float = 1.0,
+    scale: float | str = "auto",
     p: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     u: Callable[[float], Any] | Mapping[str, float] | Sequence[float] | None = None,
     dpi: int = 80,
@@ -181,11 +215,17 @@ def animate(
     path
         ``.gif`` (matplotlib's PillowWriter) or ``.mp4`` (FFMpegWriter; needs ffmpeg).
     fps
-        Pictures per second of the animation and per simulated second.
+        Pictures per second of the animation.
     frames
         At most this many pictures (:func:`animation_frames`).
     shape
         Rigid bodies as ``"box"`` or ``"ellipsoid"`` of their mass and inertia.
+    speed
+        Simulated seconds per second of the animation (below 1: slow motion).
+    scale
+        Deformation scale of elastic bodies: a factor, or ``"auto"`` (the largest
+        displacement a tenth of its body, :func:`~neweul_py.analysis.scene.deformation_scale`;
+        1 for rigid models).
     p, u
         Parameters (default: ``result.parameters``) and inputs (as in ``simulate``; they
         matter where frames move with inputs).
@@ -209,12 +249,13 @@ def animate(
     if shape not in SHAPES:
         raise NeweulError(f"unknown body shape {shape!r}; shapes: {', '.join(SHAPES)}")
     mod = load_module(module)
-    index = animation_frames(result.t, fps, int(frames))
-    scene = build_scene(mod, result, index, p=p, u=u, shape=shape)
+    index = animation_frames(result.t, fps, int(frames), speed)
+    scene = build_scene(mod, result, index, p=p, u=u, shape=shape, scale=scale)
     from matplotlib import animation
 
-    fig = new_figure(figsize=(size, size), dpi=dpi)
-    _ax, update = _draw(fig, scene, result.model_name or str(getattr(mod, "MODEL_NAME", "")))
+    fig = new_figure(figsize=(size, size), dpi=dpi, layout="constrained")
+    name = result.model_name or str(getattr(mod, "MODEL_NAME", ""))
+    _ax, update = draw_scene(fig, scene, scene_title(name, scene, speed))
     count = scene.t.size
     writer: Any = (animation.PillowWriter(fps=fps) if path.suffix.lower() == ".gif"
                    else animation.FFMpegWriter(fps=fps))

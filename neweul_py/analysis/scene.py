@@ -12,10 +12,18 @@ and an ellipsoid of semi-axes ``c_i`` has ``λ_1 = m (c_2² + c_3²)/5``, so
 ``c_i = √(5 (λ_j + λ_k − λ_i) / (2 m))`` (Gross et al., *Engineering Mechanics 3*, Table 3.2).
 Dimensions below :data:`MIN_SIZE` of the scene (thin rods, point masses) are drawn at that
 size, so every body stays visible.
+
+Elastic bodies are their node clouds. Their deformation — the nodes' displacement
+``d = r(q) − r(0)`` from where the same rigid motion puts the undeformed body (its elastic
+coordinates set to zero) — is usually micrometres on a body of centimetres, so it can be drawn
+magnified: ``r(0) + s d`` with a deformation scale ``s`` (:func:`deformation_scale`; ``"auto"``
+makes the largest displacement shown :data:`AUTO_DEFORMATION` of the body's size). The true
+``|d|`` is kept for colouring the nodes.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -26,13 +34,56 @@ from ..errors import NeweulError
 from .protocol import resolve_inputs, resolve_parameters
 from .results import SimulationResult
 
-__all__ = ["MIN_SIZE", "SHAPES", "Scene", "box_mesh", "build_scene", "ellipsoid_mesh",
+__all__ = ["AUTO_DEFORMATION", "MIN_SIZE", "SHAPES", "Scene", "box_mesh", "build_scene",
+           "deformation_scale", "elastic_coordinates", "ellipsoid_mesh",
            "equivalent_dimensions"]
 
 #: Body shapes: ``box`` or ``ellipsoid`` of equal mass and inertia.
 SHAPES = ("box", "ellipsoid")
 #: Smallest drawn body dimension (edge or diameter), as a fraction of the scene's size.
 MIN_SIZE = 0.04
+#: The largest elastic displacement drawn with the scale ``"auto"``, as a fraction of the size
+#: of its body's undeformed node cloud.
+AUTO_DEFORMATION = 0.1
+
+
+def deformation_scale(scale: float | str, displacement: float, size: float) -> float:
+    """The factor ``s`` of the drawn deformation ``r(0) + s d``.
+
+    Parameters
+    ----------
+    scale
+        A positive number, or ``"auto"``: ``AUTO_DEFORMATION · size / displacement`` where
+        the deformation is smaller than that, else 1 (never shrunk).
+    displacement
+        The largest ``|d|`` over the nodes and times shown.
+    size
+        The size of the undeformed body (its node cloud's largest extent).
+
+    Raises
+    ------
+    NeweulError
+        Neither ``"auto"`` nor a positive finite number.
+    """
+    if isinstance(scale, str):
+        if scale != "auto":
+            raise NeweulError(f"deformation scale must be 'auto' or a positive number, "
+                              f"got {scale!r}")
+        if not displacement > 0 or not size > 0:
+            return 1.0
+        return max(1.0, AUTO_DEFORMATION * size / displacement)
+    value = float(scale)
+    if not (np.isfinite(value) and value > 0):
+        raise NeweulError(f"deformation scale must be 'auto' or a positive number, got {scale!r}")
+    return value
+
+
+def elastic_coordinates(module: Any, body: str) -> list[int]:
+    """Indices in ``COORDINATES`` of the elastic coordinates of ``body``: ``body_q<k>`` and
+    the coordinates of its FE inputs, ``body_q<k>_<input>``
+    (docs/generated-module-protocol.md)."""
+    pattern = re.compile(rf"{re.escape(body)}_q\d+(_\w+)?")
+    return [j for j, c in enumerate(module.COORDINATES) if pattern.fullmatch(c)]
 
 
 def equivalent_dimensions(mass: float, inertia: np.ndarray, shape: str = "box"
@@ -98,7 +149,12 @@ class Scene:
     meshes
         Per rigid body its polygons (nf, k, 4, 3), or ``None`` for a point mass.
     clouds
-        Per elastic body its names and node positions (nf, nk, 3).
+        Per elastic body its names and node positions (nf, nk, 3), the deformation drawn
+        ``deformation_scale`` times (module docstring).
+    displacements
+        Per elastic body the true ``|d|`` of its nodes (nf, nk) [m].
+    deformation_scale
+        The factor ``s`` the clouds' deformation is drawn with (1: true positions).
     center, size
         Middle and edge of a cube holding everything (the plot's limits).
     """
@@ -115,6 +171,8 @@ class Scene:
     clouds: tuple[tuple[str, np.ndarray], ...]
     center: np.ndarray
     size: float
+    displacements: tuple[np.ndarray, ...] = ()
+    deformation_scale: float = 1.0
 
 
 def _check(module: Any, result: SimulationResult) -> None:
@@ -137,6 +195,7 @@ def build_scene(
     p: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     u: Callable[[float], Any] | Mapping[str, float] | Sequence[float] | None = None,
     shape: str = "box",
+    scale: float | str = 1.0,
 ) -> Scene:
     """The scene of ``result`` (a simulation of ``module``) at the samples ``index``.
 
@@ -154,6 +213,9 @@ def build_scene(
         The inputs as in :func:`~neweul_py.analysis.simulate` (frames driven by inputs).
     shape
         ``"box"`` or ``"ellipsoid"`` (:data:`SHAPES`).
+    scale
+        Deformation scale of the elastic bodies' clouds: a positive factor, or ``"auto"``
+        (:func:`deformation_scale`, the largest displacement of any body shown).
 
     Raises
     ------
@@ -178,7 +240,10 @@ def build_scene(
     elastic = [b for b in info if b.get("kind") == "elastic"]
     has_nodes = elastic and callable(getattr(module, "node_positions", None))
     ufun = u if callable(u) else (lambda _t: u)
-    origins, rotations, clouds = [], [], []
+    origins, rotations, clouds, rests = [], [], [], []
+    rigid_only = np.ones(x.shape[1])      # x with the elastic coordinates set to zero
+    for b in elastic if has_nodes else ():
+        rigid_only[elastic_coordinates(module, b["name"])] = 0.0
     for ti, xi in zip(t, x, strict=True):
         ui = ufun(ti)
         ui = resolve_inputs(module, ti, pv, None if ui is None else ui)
@@ -188,6 +253,8 @@ def build_scene(
         if has_nodes:
             clouds.append([np.asarray(c, dtype=float) for c in module.node_positions(ti, xi, pv,
                                                                                     ui)])
+            rests.append([np.asarray(c, dtype=float) for c in module.node_positions(
+                ti, xi * rigid_only, pv, ui)])
     origins_a = np.array(origins).reshape(t.size, len(frames), 3)
     rotations_a = np.array(rotations).reshape(t.size, len(frames), 3, 3)
     # poses with ISYS appended as the last row, so that index −1 means ISYS
@@ -201,8 +268,22 @@ def build_scene(
     fi = np.array(body_frames, dtype=int)
     centers = (r_all[:, fi] + np.einsum("tbij,bj->tbi", s_all[:, fi], com)
                if rigid else np.zeros((t.size, 0, 3)))
-    node_sets = tuple((b["name"], np.array([c[k] for c in clouds]))
-                      for k, b in enumerate(elastic)) if has_nodes else ()
+    node_sets: tuple[tuple[str, np.ndarray], ...] = ()
+    displacements: tuple[np.ndarray, ...] = ()
+    factor = 1.0
+    if has_nodes:
+        deformed = [np.array([c[k] for c in clouds]) for k in range(len(elastic))]
+        rest = [np.array([c[k] for c in rests]) for k in range(len(elastic))]
+        moved = [d - r for d, r in zip(deformed, rest, strict=True)]
+        displacements = tuple(np.linalg.norm(m, axis=-1) for m in moved)
+        largest = max((float(d.max(initial=0.0)) for d in displacements), default=0.0)
+        extent = max((float(np.ptp(r[0], axis=0).max(initial=0.0)) if r.size else 0.0
+                      for r in rest), default=0.0)
+        factor = deformation_scale(scale, largest, extent)
+        node_sets = tuple((b["name"], r + factor * m)
+                          for b, r, m in zip(elastic, rest, moved, strict=True))
+    else:
+        deformation_scale(scale, 0.0, 0.0)       # (the argument is checked all the same)
     points = [origins_a.reshape(-1, 3), centers.reshape(-1, 3), np.zeros((1, 3)),
               *(c.reshape(-1, 3) for _, c in node_sets)]
     allp = np.vstack(points)
@@ -227,4 +308,4 @@ def build_scene(
                  origins=origins_a, rotations=rotations_a,
                  bodies=tuple(b["name"] for b in rigid), body_frames=body_frames,
                  centers=centers, meshes=tuple(meshes), clouds=node_sets, center=center,
-                 size=size)
+                 size=size, displacements=displacements, deformation_scale=factor)

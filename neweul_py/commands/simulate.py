@@ -1,6 +1,7 @@
 """``neweul simulate FILE --t-end T [--method M] [--step H] [--rho-inf R] [--rtol R]
 [--atol A] [--n-out N] [--independent NAME ...] [-o results.csv|.npz] [--plot fig.png]
-[--animate movie.gif|.mp4 [--fps F] [--frames N] [--body-shape box|ellipsoid]]``."""
+[--animate movie.gif|.mp4 [--fps F] [--speed S] [--scale auto|FACTOR] [--frames N]
+[--body-shape box|ellipsoid]]``."""
 
 from __future__ import annotations
 
@@ -77,15 +78,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         ".mp4 with ffmpeg; matplotlib)")
     parser.add_argument("--fps", type=functools.partial(number, option="--fps", positive=True,
                                                         maximum=240.0),
-                        default=20.0, help="pictures per second of the animation and per "
-                        "simulated second (default 20)")
+                        default=20.0, help="pictures per second of the animation (default 20)")
+    parser.add_argument("--speed", type=functools.partial(number, option="--speed",
+                                                          positive=True),
+                        default=1.0, metavar="S", help="simulated seconds per second of the "
+                        "animation (default 1, real time; 0.01: a 50 ms run lasts 5 s)")
+    parser.add_argument("--scale", type=deformation_scale_type, default="auto",
+                        metavar="auto|FACTOR", help="deformation scale of elastic bodies: auto "
+                        "(default: the largest displacement drawn a tenth of the body) or a "
+                        "factor (1: true size)")
     parser.add_argument("--frames", type=count("--frames"), default=150, metavar="N",
                         help="at most N pictures (default 150; longer runs play faster than "
-                        "real time)")
+                        "--speed)")
     parser.add_argument("--body-shape", choices=BODY_SHAPES, default="box",
                         help="rigid bodies as the box or ellipsoid of their mass and inertia")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
+
+
+def deformation_scale_type(text: str) -> str | float:
+    """``--scale``: ``auto`` or a positive number (an argparse type)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    return number(text, "--scale", positive=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -120,7 +135,8 @@ def run(args: argparse.Namespace) -> int:
 
         with Tracker("animate", unit="picture", quiet=args.quiet) as track:
             movie = animate(result, module, args.animate, fps=args.fps, frames=args.frames,
-                            shape=args.body_shape, u=u, progress=track)
+                            shape=args.body_shape, speed=args.speed, scale=args.scale, u=u,
+                            progress=track)
         print(f"animation: {movie}")
     if not args.output and not args.plot and not args.animate:
         final = ", ".join(f"{n} = {v:.6g}" for n, v in zip(result.names[1:],

@@ -165,3 +165,93 @@ def test_elastic_body_is_its_node_cloud(tmp_path: Path) -> None:
         np.testing.assert_allclose(cloud[k], mod.node_positions(res.t[k], x, p)[0])
     with Image.open(animate(res, mod, tmp_path / "beam.gif", fps=20, dpi=30, size=3)) as im:
         assert im.n_frames == 5
+
+
+def test_speed_slows_the_animation_down(tmp_path: Path) -> None:
+    """Reference: the rule 1 + round(span·fps/speed) pictures — a 50 ms run at 20 pictures per
+    second and 0.01× speed lasts 5 s, 101 pictures (13 at real time with the old fps cap of
+    240); the GIF written by the CLI has the count of the rule, and its title says so."""
+    t = np.linspace(0.0, 0.05, 501)
+    assert animation_frames(t, 20.0, 1000, speed=0.01).size == 101
+    assert animation_frames(t, 240.0, 1000).size == 13
+    assert animation_frames(t, 20.0, 1000, speed=0.5).size == 3
+    with pytest.raises(NeweulError, match="speed"):
+        animation_frames(t, 20.0, 10, speed=0.0)
+    out = tmp_path / "slow.gif"
+    assert main(["simulate", str(GENERATED / "pendulum.py"), "--t-end", "0.05", "--n-out",
+                 "201", "--animate", str(out), "--fps", "10", "--speed", "0.01", "-q"]) == 0
+    with Image.open(out) as im:
+        assert im.n_frames == 51
+    for bad in (["--speed", "-1"], ["--scale", "big"], ["--scale", "0"]):
+        with pytest.raises(SystemExit) as info:
+            main(["simulate", str(GENERATED / "pendulum.py"), "--t-end", "0.05", "--animate",
+                  str(out), *bad])
+        assert info.value.code == 2
+
+
+def _hub_beam(tmp_path: Path):
+    from neweul_py.api import generate
+
+    shutil.copy(ROOT / "tests" / "data" / "beam.SID_FEM", tmp_path / "beam.SID_FEM")
+    (tmp_path / "m.yaml").write_text(ELASTIC.replace(
+        "inertia: sid}", "inertia: sid, initial: [0.002, -0.001]}"))
+    mod = load_generated(generate(tmp_path / "m.yaml", tmp_path / "gen"))
+    return mod, simulate(mod, 0.05, n_out=11)
+
+
+def test_deformation_scale_magnifies_the_displacement(tmp_path: Path) -> None:
+    """Reference: the module's node_positions at the simulated state and with the elastic
+    coordinates set to zero (the undeformed body in the same rigid motion): the cloud drawn
+    is r(0) + s (r(q) − r(0)); ``auto`` makes the largest drawn displacement a tenth of the
+    undeformed cloud's extent; the colours are the true |r(q) − r(0)|."""
+    mod, res = _hub_beam(tmp_path)
+    p = mod.default_parameters()
+    idx = np.arange(res.t.size)
+    rest, true = [], []
+    for k in idx:
+        x = np.concatenate([res.y[k], res.yd[k]])
+        true.append(mod.node_positions(res.t[k], x, p)[0])
+        x[[mod.COORDINATES.index("beam_q1"), mod.COORDINATES.index("beam_q2")]] = 0.0
+        rest.append(mod.node_positions(res.t[k], x, p)[0])
+    rest, true = np.array(rest), np.array(true)
+    moved = np.linalg.norm(true - rest, axis=-1)
+    assert moved.max() > 0
+    seven = build_scene(mod, res, idx, scale=7.0)
+    np.testing.assert_allclose(seven.clouds[0][1], rest + 7.0 * (true - rest), atol=1e-14)
+    np.testing.assert_allclose(seven.displacements[0], moved, atol=1e-15)
+    auto = build_scene(mod, res, idx, scale="auto")
+    extent = np.ptp(rest[0], axis=0).max()
+    drawn = np.linalg.norm(auto.clouds[0][1] - rest, axis=-1)
+    np.testing.assert_allclose(drawn.max(), 0.1 * extent, rtol=1e-12)
+    assert auto.deformation_scale == pytest.approx(0.1 * extent / moved.max())
+    np.testing.assert_allclose(build_scene(mod, res, idx).clouds[0][1], true, atol=1e-15)
+    for bad in (0.0, -2.0, "big"):
+        with pytest.raises(NeweulError, match="deformation scale"):
+            build_scene(mod, res, idx, scale=bad)
+
+
+def test_nodes_are_coloured_by_displacement_with_a_labelled_bar(tmp_path: Path) -> None:
+    """Artist-level: the node scatter's colour values are the true displacements of each
+    picture, the colour bar says what and in which unit, the title gives the deformation
+    scale and the speed, and every text stays inside the picture."""
+    from neweul_py.analysis.animate import draw_scene, scene_title
+    from neweul_py.analysis.plot import new_figure
+
+    mod, res = _hub_beam(tmp_path)
+    scene = build_scene(mod, res, np.arange(res.t.size), scale="auto")
+    fig = new_figure(figsize=(5, 5), dpi=80, layout="constrained")
+    ax, update = draw_scene(fig, scene, scene_title("hub_beam", scene, 0.01))
+    [cloud] = ax.collections[-1:]
+    np.testing.assert_allclose(cloud.get_array(), scene.displacements[0][0])
+    update(5)
+    np.testing.assert_allclose(cloud.get_array(), scene.displacements[0][5])
+    bar = fig.axes[-1]
+    assert bar.get_ylabel() == "elastic displacement |d| [m]"
+    title = ax.get_title()
+    assert title.startswith("hub_beam\ndeformation ×") and "0.01× speed (slow motion)" in title
+    assert [ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()] == ["x [m]", "y [m]", "z [m]"]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for text in (ax.title, bar.yaxis.label):
+        box = text.get_window_extent(renderer)
+        assert box.x0 >= 0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height
