@@ -84,6 +84,8 @@ class Comparison(ResultDisplay):
         Ours and the reference on ``x``, per signal (for the plot).
     result, reference : str
         Where the two came from.
+    units : dict of str → str
+        Unit of each signal where either side knows it (the result's first).
     """
 
     kind: str
@@ -92,6 +94,7 @@ class Comparison(ResultDisplay):
     values: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     result: str = ""
     reference: str = ""
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -355,4 +358,4 @@ def compare(
     if not errors:
         raise NeweulError("nothing to compare")
     return Comparison(kind=a.kind, errors=tuple(errors), x=x, values=values, result=a.source,
-                      reference=b.source)
+                      reference=b.source, units={**b.units, **a.units})

@@ -61,6 +61,11 @@ class Table:
     coordinates : tuple of str
     source : str
         File name or object description (for messages).
+    x_name : str
+        The abscissa's column name.
+    units : dict of str → str
+        Unit of each signal where known (a ``[unit]`` suffix of a CSV header, the units
+        sidecar of our CSV files, the units of a result object).
     """
 
     kind: str
@@ -70,10 +75,30 @@ class Table:
     coordinates: tuple[str, ...] = ()
     source: str = ""
     x_name: str = field(default="")
+    units: dict[str, str] = field(default_factory=dict)
 
 
 def _clean(name: str) -> str:
     return _UNIT_SUFFIX.sub("", name.strip())
+
+
+def _suffix_unit(name: str) -> str:
+    """The unit of a ``name [unit]`` or ``name (unit)`` header, ``""`` without one."""
+    m = _UNIT_SUFFIX.search(name.strip())
+    return m.group(0).strip()[1:-1].strip() if m else ""
+
+
+def _csv_units(path: Path, raw_header: list[str]) -> dict[str, str]:
+    """Units of the columns: the ``[unit]`` suffixes, else our units sidecar."""
+    from .results import read_units
+
+    try:
+        side = read_units(path)
+    except DataError:
+        side = {}
+    units = {k: v for k, v in side.items() if v and v != "-"}
+    units.update({_clean(h): _suffix_unit(h) for h in raw_header if _suffix_unit(h)})
+    return units
 
 
 def _numbers(rows: list[list[str]], names: list[str], path: str, first_line: int,
@@ -162,9 +187,11 @@ def _read_csv(path: Path) -> Table:
     _check_abscissa(x, x_name, src, first)
     if not cols:
         raise DataError(f"no signal columns besides {x_name!r}", file=src)
+    units = _csv_units(path, lines[0][1])
     if x_name.lower() in _FREQUENCY_NAMES:
         return Table("frequency", x, _frequency_signals(cols), source=src, x_name=x_name)
-    return Table("time", x, cols, source=src, x_name=x_name)
+    return Table("time", x, cols, source=src, x_name=x_name,
+                 units={k: v for k, v in units.items() if k in cols})
 
 
 def _read_npz(path: Path) -> Table:
@@ -230,7 +257,7 @@ def as_table(obj: Any, source: str = "") -> Table:
         names = obj.names
         return Table("time", np.asarray(obj.t, dtype=float),
                      {n: obj.table[:, k] for k, n in enumerate(names) if k},
-                     source=src, x_name="t")
+                     source=src, x_name="t", units=obj.column_units())
     if isinstance(obj, FrequencyResponse):
         single = len(obj.outputs) == 1 and len(obj.inputs) == 1
         sig = {("H" if single else f"{o}__{u}"): obj.H[:, i, j]

@@ -8,7 +8,7 @@ viscous``."""
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
@@ -85,25 +85,32 @@ def _table(f: np.ndarray, H: np.ndarray, outputs: list[str], in_band: np.ndarray
     return ",".join(names), np.column_stack(cols)
 
 
-def _plot(f: np.ndarray, H: np.ndarray, outputs: list[str], inp: str, path: str,
-          log: bool) -> None:
+def body_frf_figure(f: np.ndarray, H: np.ndarray, outputs: list[str], inp: str,
+                    log: bool) -> Any:
+    """The Bode plot of a body's FRF (Agg canvas, not saved): one magnitude axis per response
+    — the FE outputs of a body may be displacements, pressures, volumes (m, Pa, m³) and the
+    body file does not record which, so no two share an axis — and one phase axis [deg] for
+    all; a constrained layout keeps every label inside the figure."""
     import numpy as np
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(7, 6))
-    FigureCanvasAgg(fig)
-    ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    for j, o in enumerate(outputs):
-        ax1.loglog(f, np.abs(H[:, j]), label=o) if log else ax1.semilogy(f, np.abs(H[:, j]),
-                                                                          label=o)
-        ax2.plot(f, np.degrees(np.unwrap(np.angle(H[:, j]))), label=o)
-    ax1.set_ylabel(f"|H| (output / {inp})")
-    ax1.legend()
-    ax2.set_ylabel("phase [deg]")
-    ax2.set_xlabel("frequency [Hz]")
-    fig.tight_layout()
-    fig.savefig(path)
+    from ..analysis.plot import new_figure
+
+    fig = new_figure(figsize=(7.5, 1.9 * (len(outputs) + 1) + 0.6), layout="constrained")
+    axes = fig.subplots(len(outputs) + 1, 1, sharex=True, squeeze=False)[:, 0]
+    for j, (ax, o) in enumerate(zip(axes, outputs, strict=False)):
+        ax.plot(f, np.abs(H[:, j]), color=f"C{j}")
+        ax.set_yscale("log")
+        ax.set_ylabel(f"|{o}/{inp}|\n(SI units of the FE data)", fontsize="small")
+        axes[-1].plot(f, np.degrees(np.unwrap(np.angle(H[:, j]))), color=f"C{j}", label=o)
+    axes[-1].set_ylabel("phase [deg]")
+    axes[-1].set_xlabel("frequency f [Hz]")
+    if len(outputs) > 1:
+        axes[-1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+        if log:
+            ax.set_xscale("log")
+    return fig
 
 
 def run(args: argparse.Namespace) -> int:
@@ -141,6 +148,8 @@ def run(args: argparse.Namespace) -> int:
         atomic_write(args.output, write)
         print(f"table: {args.output}")
     if args.plot:
-        _plot(f, H, args.response, args.input, args.plot, args.log)
+        from ..analysis.plot import save_figure
+
+        save_figure(body_frf_figure(f, H, args.response, args.input, args.log), args.plot)
         print(f"plot: {args.plot}")
     return 0

@@ -143,3 +143,42 @@ def test_cli_reports_a_bad_reference_in_one_line(tmp_path, capsys):
     assert main(["compare", str(ours), str(tmp_path / "bad.csv")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("neweul compare: error:") and "bad.csv" in err[0]
+
+
+def test_overlay_plot_has_units_and_an_error_curve(tmp_path):
+    """Artist-level: the overlay's y label carries the unit (from our CSV's units sidecar, or a
+    ``[unit]`` header of another tool's CSV), the error axis beside it plots |a − b| in the
+    same unit with the tolerance line, frequency responses get magnitude, phase and relative
+    error, and every label stays inside the figure."""
+    pytest.importorskip("matplotlib")
+    from neweul_py.analysis.compare_plot import comparison_figure
+
+    res = simulate(GENERATED / "pendulum.py", 3.0, x0={"phi": 1e-3}, n_out=601, rtol=1e-10,
+                   atol=1e-14)
+    ours = res.save(tmp_path / "ours.csv")
+    ref = _pendulum_linear(np.linspace(0.0, 3.0, 151))
+    path = tmp_path / "other.csv"
+    np.savetxt(path, np.column_stack(list(ref.values())), delimiter=",", comments="",
+               header="time [s],phi [rad],d_phi [rad/s]")
+    cmp = compare(ours, path, rtol=1e-4, atol=0.0)
+    assert cmp.units["phi"] == "rad" and cmp.units["d_phi"] == "rad/s"
+    fig = comparison_figure(cmp)
+    fig.canvas.draw()
+    labels = [[ax.get_ylabel() for ax in row] for row in np.reshape(fig.axes, (-1, 2))]
+    assert sorted(labels) == [["d_phi [rad/s]", "|Δd_phi| [rad/s]"], ["phi [rad]", "|Δphi| [rad]"]]
+    error_axis = next(ax for ax in fig.axes if ax.get_ylabel() == "|Δphi| [rad]")
+    curve, tolerance = error_axis.get_lines()
+    a, b = cmp.values["phi"]
+    np.testing.assert_allclose(curve.get_ydata(), np.maximum(np.abs(a.real - b.real),
+                                                            curve.get_ydata().min()))
+    assert tolerance.get_ydata()[0] == pytest.approx(1e-4 * np.abs(b).max())
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        box = ax.yaxis.label.get_window_extent(renderer)
+        assert box.x0 >= 0 and box.x1 <= fig.bbox.width
+    mod = load_generated(CHAIN)
+    fr = frequency_response(linearize(mod), np.geomspace(100, 5000, 40))
+    freq = comparison_figure(compare(fr, fr))
+    name = "stapes_velocity__p_ec"
+    assert [ax.get_ylabel() for ax in freq.axes[:3]] == [
+        f"|{name}|", "phase [deg]", f"|Δ{name}| / |{name}_ref|"]
