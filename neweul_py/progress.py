@@ -14,9 +14,13 @@ Two kinds of hooks reach this module, and a :class:`Tracker` serves as both:
 
 Call sites in counted loops use :func:`report`, which advances a tracker's bar (with an
 estimate of the remaining time) and hands plain message hooks their message, so a user's
-``print`` still works as a hook. Bars are drawn only when stderr is a terminal; messages are
-printed (one line each) unless the tracker is ``quiet``. Library code never creates a tracker
-itself: the CLI (or the user) passes one in, so the Python API stays silent by default.
+``print`` still works as a hook. Bars are drawn only when stderr is a terminal; elsewhere (a
+log file, a pipe, CI) a tracker prints one line at most every :data:`LOG_INTERVAL` seconds
+with the stage, how far it is and an estimate of the time left (linear in the stage's
+progress), so long work is never silent in a log and short work prints nothing. Messages are
+printed (one line each) and all of it is silenced when the tracker is ``quiet``. Library code
+never creates a tracker itself: the CLI (or the user) passes one in, so the Python API stays
+silent by default.
 
 Examples
 --------
@@ -28,11 +32,12 @@ Examples
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Callable
 from typing import IO, Any
 
-__all__ = ["QUIET_HELP", "CountedProgress", "MessageProgress", "StagedProgress", "Steps",
-           "Tracker", "interactive", "report"]
+__all__ = ["LOG_INTERVAL", "QUIET_HELP", "CountedProgress", "MessageProgress", "StagedProgress",
+           "Steps", "Tracker", "interactive", "report"]
 
 #: A hook receiving short messages of long steps (``elastic.projection.Progress``).
 MessageProgress = Callable[[str], None] | None
@@ -43,7 +48,18 @@ CountedProgress = Callable[[float, float], None] | None
 StagedProgress = Callable[[str, float, int], None] | None
 
 #: Help text of the ``--quiet`` option of the commands that report progress.
-QUIET_HELP = "no progress bars or progress messages on stderr"
+QUIET_HELP = "no progress bars, progress lines or progress messages on stderr"
+
+#: Seconds between two progress lines when stderr is not a terminal.
+LOG_INTERVAL = 5.0
+
+
+def _clock_text(seconds: float) -> str:
+    """``m:ss`` (``h:mm:ss`` from an hour on)."""
+    s = round(max(seconds, 0.0))
+    h, m = divmod(s, 3600)
+    m, s = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
 def interactive(stream: IO[str] | None = None) -> bool:
@@ -70,6 +86,10 @@ class Tracker:
         Where to write (default: ``sys.stderr``); bars only when it is a terminal.
     bar
         Draw a bar (``None``: when ``stream`` is a terminal and not ``quiet``).
+    interval
+        Seconds between progress lines without a bar (default :data:`LOG_INTERVAL`).
+    clock
+        The clock of those lines (:func:`time.monotonic`).
 
     Notes
     -----
@@ -86,6 +106,8 @@ class Tracker:
         quiet: bool = False,
         stream: IO[str] | None = None,
         bar: bool | None = None,
+        interval: float | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.desc = desc
         self.unit = unit
@@ -93,6 +115,10 @@ class Tracker:
         self._stream = stream
         self._bar_enabled = (not quiet and interactive(stream)) if bar is None else bool(bar)
         self._bar: Any = None
+        self._interval = LOG_INTERVAL if interval is None else float(interval)
+        self._clock = clock
+        self._last_line = clock()          # nothing in the first interval: short work is quiet
+        self._stage_start: float | None = None
 
     @property
     def stream(self) -> IO[str]:
@@ -118,6 +144,7 @@ class Tracker:
         if name != self.desc:
             self.close()
             self.desc = name
+            self._stage_start = None
         self.advance(float(done), float(total))
 
     def say(self, message: str) -> None:
@@ -133,9 +160,11 @@ class Tracker:
 
     def advance(self, done: float, total: float, message: str = "") -> None:
         """Move the bar to ``done`` of ``total`` (with ``message`` beside it); without a bar
-        (not a terminal) only the message is printed."""
+        (not a terminal) the message is printed, and a progress line every
+        :data:`LOG_INTERVAL` seconds (:meth:`log_line`)."""
         if not self._bar_enabled:
             self.say(message)
+            self.log_line(done, total)
             return
         if self._bar is None:
             from tqdm import tqdm
@@ -150,6 +179,25 @@ class Tracker:
         step = min(done, total) - bar.n
         if step > 0:
             bar.update(step)
+
+    def log_line(self, done: float, total: float) -> None:
+        """Print ``stage: done/total unit (p %), m:ss elapsed, about m:ss left`` when the
+        interval since the last line has passed (unless quiet); the estimate assumes the rest
+        of the stage goes at the pace of its part done."""
+        now = self._clock()
+        if self._stage_start is None:
+            self._stage_start = now
+        if self.quiet or now - self._last_line < self._interval:
+            return
+        self._last_line = now
+        frac = min(max(done / total, 0.0), 1.0) if total > 0 else 0.0
+        elapsed = now - self._stage_start
+        unit = f" {self.unit}" if self.unit not in ("", "it") else ""
+        line = (f"{self.desc or 'progress'}: {done:.4g}/{total:.4g}{unit} ({100 * frac:.0f} %), "
+                f"{_clock_text(elapsed)} elapsed")
+        if 0 < frac < 1:
+            line += f", about {_clock_text(elapsed * (1 - frac) / frac)} left"
+        print(line, file=self.stream, flush=True)
 
     def close(self) -> None:
         """Remove the bar (if one was drawn)."""

@@ -146,3 +146,55 @@ def test_compiled_backend_reports_its_blocks(tmp_path):
     c_calls = [c for c in calls if c[0] == "C code"]
     assert [c[1] for c in c_calls if float(c[1]).is_integer()] == list(range(1, 8))
     assert {c[2] for c in c_calls} == {7}
+
+
+def test_off_a_terminal_a_line_every_interval_with_the_stage_and_an_estimate():
+    """Reference: a clock stepped by hand — no line within the first interval (short work is
+    quiet), then one line per interval naming the stage, how far it is and the time left at
+    the pace so far (10 of 40 steps in 20 s: 1:00 left); quiet prints nothing."""
+    now = [0.0]
+    buf = io.StringIO()
+    track = Tracker(stream=buf, interval=5.0, clock=lambda: now[0])
+    track("equations", 1, 40)
+    now[0] = 4.0
+    track("equations", 2, 40)
+    assert buf.getvalue() == ""
+    now[0] = 20.0
+    track("equations", 10, 40)
+    now[0] = 21.0
+    track("equations", 11, 40)            # within the interval of the last line: nothing
+    now[0] = 30.0
+    track("code generation", 1, 4)        # a new stage: its own clock starts now
+    now[0] = 36.0
+    track("code generation", 2, 4)
+    assert buf.getvalue().splitlines() == [
+        "equations: 10/40 (25 %), 0:20 elapsed, about 1:00 left",
+        "code generation: 1/4 (25 %), 0:00 elapsed, about 0:00 left",
+        "code generation: 2/4 (50 %), 0:06 elapsed, about 0:06 left",
+    ]
+    quiet = io.StringIO()
+    silent = Tracker(stream=quiet, quiet=True, interval=0.0, clock=lambda: now[0])
+    silent("equations", 1, 2)
+    silent(1.0, 2.0)
+    assert quiet.getvalue() == ""
+    timed = io.StringIO()
+    Tracker("simulate", unit="s", stream=timed, interval=0.0)(2.5, 10.0)
+    assert timed.getvalue().startswith("simulate: 2.5/10 s (25 %), 0:00 elapsed, about ")
+
+
+def test_cli_derivation_in_a_log_reports_its_stages(tmp_path, capsys, monkeypatch):
+    """`neweul generate` off a terminal (capsys) with the interval at zero: a line per report
+    naming the stages of the derivation; `-q` silences them."""
+    from neweul_py import progress
+    from neweul_py.equations import clear_cache
+
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 0.0)
+    desc = _chain(tmp_path, 3)
+    clear_cache()
+    assert main(["generate", str(desc), "-o", str(tmp_path / "a"), "--no-cache"]) == 0
+    err = capsys.readouterr().err
+    for stage in ("kinematics:", "equations:", "code generation:"):
+        assert any(line.startswith(stage) and "elapsed" in line for line in err.splitlines())
+    clear_cache()
+    assert main(["generate", str(desc), "-o", str(tmp_path / "b"), "-q", "--no-cache"]) == 0
+    assert capsys.readouterr().err == ""
