@@ -16,7 +16,17 @@ from .errors import (
     SolverError,
 )
 
-__version__ = "0.1.0"
+
+def _installed_version() -> str:
+    """The version of the installed distribution (its metadata, set from pyproject.toml);
+    ``0+unknown`` when the package runs from a tree that was never installed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("neweul-py")
+    except PackageNotFoundError:
+        return "0+unknown"
+
 
 if TYPE_CHECKING:
     from .api import load_description
@@ -29,6 +39,9 @@ _LAZY = {"SystemBuilder": ".description", "load_description": ".api"}
 
 
 def __getattr__(name: str) -> Any:
+    if name == "__version__":  # read once, when asked: importlib.metadata costs ~50 ms
+        value = globals()["__version__"] = _installed_version()
+        return value
     if name in _LAZY:
         import importlib
 

@@ -84,10 +84,20 @@ class NeweulArgumentParser(argparse.ArgumentParser):
         return super().parse_known_args(attach_negative_values(args), namespace)
 
 
-def _version() -> str:
-    from . import __version__
+class _VersionAction(argparse.Action):
+    """``--version``: print ``neweul <version of the installed package>`` and exit (the
+    metadata is read only then, so that other commands start without it)."""
 
-    return f"neweul {__version__}"
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=default,
+                         help=help or "show the version (from the package metadata) and exit")
+
+    def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[override]
+        from . import __version__
+
+        print(f"neweul {__version__}")
+        parser.exit()
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -104,7 +114,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         description="Equations of motion of elastic multibody systems: generate, simulate, "
         "analyse, reduce.",
     )
-    parser.add_argument("--version", action="version", version=_version())
+    parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     module = None if command is None else command.replace("-", "_")
     for name in (module,) if module in COMMAND_MODULES else COMMAND_MODULES:

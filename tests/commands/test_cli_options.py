@@ -321,3 +321,12 @@ def test_negative_loss_factor_is_refused_like_a_negative_mass(capsys, tmp_path):
     code, _, err = _run(capsys, "frf", str(desc), "--input", "F", "--response", "x",
                         "--f", "1,2", "-p", "eta=0.1")
     assert code == 0, err
+
+
+def test_version_is_the_installed_distributions():
+    """Reference: the package metadata (importlib.metadata), which pyproject.toml sets."""
+    from importlib.metadata import version
+
+    import neweul_py
+
+    assert neweul_py.__version__ == version("neweul-py")
