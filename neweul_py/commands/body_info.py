@@ -1,10 +1,15 @@
 """``neweul body-info BODY.npz [--at NAME=VALUE]``: what a reduced or parametric body file
-holds — order, kept nodes, inputs, outputs, samples — and the static state it is linearized
-about (docs/equations-middle-ear.md §5): per working point the residual of the static
-coordinates, the static displacement of every node frame, the static interface forces and
-the static outputs. A user attaching parts to the body's node frames needs exactly these:
-where the nodes are in the deflected state, which forces the attached parts must carry
-there, and how well the basis holds the state."""
+holds — order, projection, kept nodes, inputs, outputs, samples, the bytes of each part — and
+the static state it is linearized about (docs/equations-middle-ear.md §5): per working point
+the residual of the static coordinates, the static displacement of every node frame, the
+static interface forces and the static outputs. A user attaching parts to the body's node
+frames needs exactly these: where the nodes are in the deflected state, which forces the
+attached parts must carry there, and how well the basis holds the state.
+
+The projection is stated from the data, not only from what the file claims: one-sided
+(Galerkin, ``W = V``) when the node rows of the left and right bases are equal, two-sided
+(Petrov–Galerkin) otherwise, with the method that made the basis (modal, Krylov,
+Craig–Bampton, snapshot, interpolated)."""
 
 from __future__ import annotations
 
@@ -19,6 +24,12 @@ if TYPE_CHECKING:
 
 #: Node lines shown per state: every node with an interface force, then others up to this.
 SHOWN = 12
+#: Parts of a body file by the prefix or name of its arrays (the first that matches).
+PARTS = (("slopes", ("slope/",)), ("curvatures", ("curvature/",)),
+         ("invariants", ("invariants/",)), ("static state", ("static/",)),
+         ("matrices M, D, K, G", ("M", "D", "K", "G")), ("inputs and outputs B, C", ("B", "C")),
+         ("node rows V_kept, W_kept", ("V_kept", "W_kept")),
+         ("bases R, V, W, T, L", ("R", "V", "W", "T", "L")))
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,6 +69,49 @@ def _state(label: str, nodes: np.ndarray, st, outputs: tuple[str, ...]) -> list[
     return lines
 
 
+def _parts(path: str) -> list[str]:
+    """Bytes of the body file by part (:data:`PARTS`), as stored, and the compact layout's
+    counts (docs/reduced-body-format.md)."""
+    import json
+    import zipfile
+
+    import numpy as np
+
+    sizes: dict[str, int] = {}
+    with zipfile.ZipFile(path) as z:
+        members = {i.filename[:-4]: i.file_size for i in z.infolist()
+                   if i.filename.endswith(".npy")}
+        meta = json.loads(np.load(path, allow_pickle=False)["meta"].tobytes())
+    for key, size in members.items():
+        part = next((name for name, keys in PARTS
+                     if any(key.startswith(k) if k.endswith("/") else key == k for k in keys)),
+                    "other")
+        sizes[part] = sizes.get(part, 0) + size
+    layout = meta.get("layout") or {}
+    total = sum(members.values())
+    lines = [f"  file: {total / 1e6:.2f} MB in {len(members)} arrays (version "
+             f"{meta.get('version')}"
+             + (f"; not stored: {len(layout.get('zero', {}))} zero, "
+                f"{len(layout.get('same', {}))} repeated; {len(layout.get('constant', []))} "
+                "constant over the samples stored once" if layout else "") + ")"]
+    lines += [f"    {name}: {size / 1e6:.2f} MB" for name, size in
+              sorted(sizes.items(), key=lambda kv: -kv[1]) if size]
+    return lines
+
+
+def _projection(body) -> str:
+    """One-sided or two-sided, from the node rows of the bases, and the method."""
+    import numpy as np
+
+    one = bool(np.array_equal(body.V_kept, body.W_kept))
+    kind = ("one-sided (Galerkin, W = V)" if one else
+            "two-sided (Petrov-Galerkin, W != V)")
+    claim = "" if one != bool(body.two_sided) else (
+        " — the file claims " + ("two" if body.two_sided else "one") + "-sided")
+    methods = getattr(body, "sample_methods", None) or (body.method,)
+    return f"  projection: {kind}; basis: {', '.join(sorted(set(methods))) or '-'}{claim}"
+
+
 def run(args: argparse.Namespace) -> int:
     """Print the summary (one block per working point with a static state)."""
     import numpy as np
@@ -81,8 +135,10 @@ def run(args: argparse.Namespace) -> int:
              f"{shape.order}, {shape.nodes.shape[0]} kept nodes "
              f"({', '.join(str(int(n)) for n in shape.nodes[:SHOWN, 0])}"
              f"{' …' if shape.nodes.shape[0] > SHOWN else ''})",
+             _projection(shape),
              f"  inputs: {', '.join(shape.input_names) or '-'}",
-             f"  outputs: {', '.join(shape.output_names) or '-'}"]
+             f"  outputs: {', '.join(shape.output_names) or '-'}",
+             *_parts(args.body)]
     if pb is not None:
         lines.append(f"  {pb.n_samples} samples of {pb.parameter} in [{pb.range[0]:g}, "
                      f"{pb.range[1]:g}] ({pb.interpolation} weights"

@@ -64,3 +64,36 @@ def test_body_info_of_a_body_without_static_state(tmp_path, capsys):
     assert main(["body-info", str(tmp_path / "p.npz")]) == 0
     assert "no static state" in capsys.readouterr().out
     assert main(["body-info", str(tmp_path / "p.npz"), "--at", "p=1"]) == 1
+
+
+def test_body_info_states_the_projection_from_the_data_and_the_bytes_by_part(tmp_path, capsys):
+    """One-sided or two-sided from the node rows of the bases (reference: ``W_kept`` equal to
+    ``V_kept`` or not), whatever the file claims; the bytes by part add up to the stored
+    arrays (reference: the zip members of the file)."""
+    import re
+    import zipfile
+
+    import numpy as np
+
+    from neweul_py.elastic import reduce_modal
+
+    fe = piston_duct(30)
+    for two_sided, words in ((True, "two-sided (Petrov-Galerkin"),
+                             (False, "one-sided (Galerkin, W = V)")):
+        body = reduce_modal(fe, modes=3, two_sided=two_sided, store_bases=True)
+        assert np.array_equal(body.V_kept, body.W_kept) != two_sided
+        path = tmp_path / f"b{two_sided}.npz"
+        save_reduced_body(body, path)
+        assert main(["body-info", str(path)]) == 0
+        out = capsys.readouterr().out
+        assert words in out and "basis: modal" in out and "claims" not in out
+        with zipfile.ZipFile(path) as z:
+            total = sum(i.file_size for i in z.infolist() if i.filename != "meta.npy")
+        parts = [float(x) for x in re.findall(r"^    [^:]+: ([\d.]+) MB$", out, re.M)]
+        assert abs(sum(parts) - total / 1e6) <= 0.01 * len(parts) + 1e-9
+    lying = reduce_modal(fe, modes=3, two_sided=False).with_(
+        settings={"two_sided": True, "modes": 3})
+    save_reduced_body(lying, tmp_path / "lying.npz")
+    assert main(["body-info", str(tmp_path / "lying.npz")]) == 0
+    assert "one-sided (Galerkin, W = V); basis: modal — the file claims two-sided" in (
+        capsys.readouterr().out)

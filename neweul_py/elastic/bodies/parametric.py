@@ -33,6 +33,7 @@ from .static import STATIC_KEYS, STATIC_PREFIX, StaticDeflection, residual_bound
 __all__ = [
     "BASES",
     "CARRIED_INVARIANTS",
+    "COMPACT_VERSION",
     "COORDINATE_VERSION",
     "CURVATURES_VERSION",
     "CURVATURE_PREFIX",
@@ -59,7 +60,9 @@ PARAMETRIC_BODY_VERSION = 2
 COORDINATE_VERSION = 3
 SLOPES_VERSION = 4
 CURVATURES_VERSION = 5
-READABLE_VERSIONS = (1, 2, 3, 4, 5)
+#: Version 6 (the compact layout of docs/reduced-body-format.md) holds every optional group.
+COMPACT_VERSION = 6
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6)
 #: Weight functions of :meth:`ParametricBody.at`.
 INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)
 #: Rows of the bases that determine the common subspace

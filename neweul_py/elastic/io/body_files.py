@@ -18,6 +18,7 @@ import numpy as np
 
 from ...errors import DataError
 from ..bodies.parametric import (
+    COMPACT_VERSION,
     COORDINATE_VERSION,
     CURVATURE_PREFIX,
     CURVATURES_VERSION,
@@ -33,6 +34,7 @@ from ..bodies.reduced import (
     ReducedBody,
 )
 from ..bodies.static import STATIC_KEYS, STATIC_PREFIX, StaticDeflection
+from .layout import pack, unpack
 from .npz import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 
 __all__ = [
@@ -54,34 +56,30 @@ __all__ = [
 
 
 REDUCED_BODY_FORMAT = "neweul-reduced-body"
+#: The version this writer writes (2: the compact layout); the reader reads 1 and 2.
+REDUCED_FILE_VERSION = 2
+REDUCED_READABLE = (1, 2)
 REDUCED_ARRAYS = ("M", "D", "K", "B", "C", "nodes", "kept_dofs", "dof_node", "dof_kind", "V_kept",
            "W_kept")
 REDUCED_OPTIONAL = ("V", "W", "eigenvalues", "full_dof_kind", "G")
 
-    # ------------------------------------------------------------------ file I/O
-
-
 def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
-    """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
+    """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically, in the
+    compact layout (:mod:`~neweul_py.elastic.io.layout`: no zero array, no array twice)."""
     arrays = {key: body[key] for key in REDUCED_ARRAYS}
     arrays["dof_kind"] = body.dof_kind.astype("U2")
     for key in REDUCED_OPTIONAL:
         if body[key] is not None:
             arrays[key] = body[key]
     names = list(body.invariants or {})
-    shared = {}
     for name in names:
-        own = SHARED_INVARIANTS.get(name)
-        if own is not None and body[own] is not None and np.array_equal(body.invariants[name],
-                                                                        body[own]):
-            shared[name] = own      # the projected matrix itself: stored once
-            continue
         arrays[INVARIANT_PREFIX + name] = body.invariants[name]
     if body.static is not None:
         arrays.update(body.static.to_arrays())
+    stored, layout = pack(arrays, frozenset(), 1)
     meta = {
         "format": REDUCED_BODY_FORMAT,
-        "version": body.format_version,
+        "version": REDUCED_FILE_VERSION,
         "method": body.method,
         "settings": body.settings,
         "input_names": list(body.input_names),
@@ -89,12 +87,12 @@ def save_reduced_body(body: ReducedBody, path: str | os.PathLike) -> None:
         "source": body.source,
         "parameters": body.parameters,
         "invariants": names if body.invariants is not None else None,
-        "invariants_shared": shared,
+        "layout": layout,
         **({"loss_reference_frequency": body.loss_reference_frequency}
            if body.G is not None else {}),
     }
-    arrays["meta"] = json_to_uint8(meta)
-    save_npz_atomic(path, arrays)
+    stored["meta"] = json_to_uint8(meta)
+    save_npz_atomic(path, stored)
 
 
 #: Documented types of the metadata fields (docs/reduced-body-format.md): key → (check, what).
@@ -139,9 +137,11 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
     meta = json_from_uint8(data["meta"], file)
     if not isinstance(meta, dict) or meta.get("format") != REDUCED_BODY_FORMAT:
         raise DataError(f"\"format\" must be {REDUCED_BODY_FORMAT!r}", file, "meta")
-    if meta.get("version") != REDUCED_BODY_VERSION:
+    if meta.get("version") not in REDUCED_READABLE:
         raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
-                        f"{REDUCED_BODY_VERSION})", file, "meta")
+                        f"{', '.join(map(str, REDUCED_READABLE))})", file, "meta")
+    if meta["version"] >= 2:
+        data = unpack(data, meta.get("layout"), 1, file)
     missing = [k for k in REDUCED_ARRAYS if k not in data]
     if missing:
         raise DataError(f"missing arrays {missing}", file, missing[0])
@@ -171,7 +171,7 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
             parameters=meta.get("parameters"),
             invariants=invariants,
             static=static_from_arrays(data, file),
-            format_version=int(meta["version"]),
+            format_version=REDUCED_BODY_VERSION,
             loss_reference_frequency=meta.get("loss_reference_frequency"),
         )
     except DataError as exc:
@@ -183,11 +183,20 @@ PARAMETRIC_ARRAYS = ("samples", "M", "D", "K", "B", "C", "nodes", "kept_dofs", "
                      "svd_weights")
 PARAMETRIC_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind", "G",
                        "coordinate")
+#: Arrays of a parametric body that are not stacked over the samples.
+UNSTACKED = frozenset({"samples", "nodes", "kept_dofs", "dof_node", "dof_kind", "R",
+                       "singular_values", "svd_weights", "row_scale", "left_row_scale",
+                       "full_dof_kind", "coordinate"})
+#: The version this writer writes (6: the compact layout, every optional group); the reader
+#: reads 1 to 6.
+PARAMETRIC_FILE_VERSION = COMPACT_VERSION
 
 
 # ---------------------------------------------------------------------- file format
 def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
-    """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically."""
+    """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically, in the
+    compact layout (:mod:`~neweul_py.elastic.io.layout`: what does not vary over the samples
+    once, no zero array — the slopes of what does not vary —, no array twice)."""
     arrays = {key: body[key] for key in PARAMETRIC_ARRAYS}
     for key in PARAMETRIC_OPTIONAL:
         if body[key] is not None:
@@ -201,29 +210,32 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
         arrays[SLOPE_PREFIX + key] = a
     for key, a in (body.curvatures or {}).items():
         arrays[CURVATURE_PREFIX + key] = a
+    stacked = frozenset(key for key in arrays if key not in UNSTACKED)
+    stored, layout = pack(arrays, stacked, body.n_samples)
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
-        "version": body.format_version,
+        "version": PARAMETRIC_FILE_VERSION,
         "parameter": body.parameter,
         "interpolation": body.interpolation,
         "basis": body.basis,
         "two_sided": body.two_sided,
-        **({"row_scaling": body.row_scaling, "pressure_weight": body.pressure_weight}
-           if body.format_version >= 2 else {}),
+        "row_scaling": body.row_scaling,
+        "pressure_weight": body.pressure_weight,
         "input_names": list(body.input_names),
         "output_names": list(body.output_names),
         "sample_sources": list(body.sample_sources),
         "sample_methods": list(body.sample_methods),
         "sample_settings": list(body.sample_settings),
         "invariants": names if body.invariants is not None else None,
+        "layout": layout,
         **({"loss_reference_frequency": body.loss_reference_frequency}
            if body.G is not None else {}),
         **({"coordinate_name": body.coordinate_name} if body.coordinate is not None else {}),
         **({"slope_step": body.slope_step, "slope_sources": list(body.slope_sources)}
            if body.slopes is not None else {}),
     }
-    arrays["meta"] = json_to_uint8(meta)
-    save_npz_atomic(path, arrays)
+    stored["meta"] = json_to_uint8(meta)
+    save_npz_atomic(path, stored)
 
 
 def is_parametric_body_file(path: str | os.PathLike) -> bool:
@@ -254,6 +266,10 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     if version not in READABLE_VERSIONS:
         raise DataError(f"unsupported version {version!r} (this reader: "
                         f"{', '.join(map(str, READABLE_VERSIONS))})", file, "meta")
+    if version >= COMPACT_VERSION:
+        samples = data.get("samples")
+        k = int(samples.size) if isinstance(samples, np.ndarray) and samples.ndim == 1 else 0
+        data = unpack(data, meta.get("layout"), k, file)
     extra = [key for key in ("row_scale", "left_row_scale", "full_dof_kind") if key in data]
     if version == 1 and extra:
         raise DataError(f"a version-1 file holds no {extra}", file, extra[0])

@@ -139,7 +139,8 @@ def build_reduced_body(
     already ``G/ω_ref``: nothing is added, so nothing is counted twice).
 
     ``keep_nodes`` (node ids) selects the rows of ``V`` that are stored (all DOFs of those
-    nodes); by default the nodes carrying an input or output DOF.
+    nodes); by default the nodes carrying an input or output DOF. ``settings`` gains
+    ``two_sided`` — whether ``W`` differs from ``V`` — unless the caller states it.
     """
     red = project(V, W, {"M": fe.M, "D": fe.D, "K": fe.K, "G": fe.G}, B=fe.B(), C=fe.C())
     nodes = fe.io_nodes() if keep_nodes is None else np.unique(np.asarray(keep_nodes,
@@ -154,7 +155,8 @@ def build_reduced_body(
         dof_kind=fe.dof_kind[dofs], V_kept=V[dofs], W_kept=W[dofs],
         V=V if store_bases else None, W=W if store_bases else None,
         full_dof_kind=fe.dof_kind if store_bases else None,
-        method=method, settings=dict(settings),
+        method=method,
+        settings={"two_sided": not (W is V or np.array_equal(W, V)), **dict(settings)},
         eigenvalues=eigenvalues, G=red["G"],
         loss_reference_frequency=fe.loss_reference_frequency,
         source={"name": fe.name, "file": fe.source, "kind": fe.kind, "n_dofs": fe.n_dofs,

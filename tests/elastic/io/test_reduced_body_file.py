@@ -10,6 +10,7 @@ import json
 
 import numpy as np
 import pytest
+from body_arrays import explicit_arrays
 from fe_builders import piston_duct
 
 from neweul_py.elastic import ReducedBody, reduce_krylov, reduce_modal
@@ -71,7 +72,7 @@ def test_full_dof_kind_is_stored_with_the_full_bases(body, tmp_path):
     assert reduce_krylov(fe, points=[2j * np.pi * 200], order=2).full_dof_kind is None
     path = tmp_path / "b.npz"
     save_reduced_body(body, path)
-    data = dict(np.load(path))
+    data = explicit_arrays(path)
     assert data["full_dof_kind"].dtype == np.dtype("<U2")
     del data["full_dof_kind"]
     np.savez(path, **data)
@@ -97,7 +98,7 @@ def test_file_has_no_pickles_and_json_metadata(body, tmp_path):
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(z["meta"].tobytes().decode())
         assert all(z[k].dtype != object for k in z.files)
-    assert meta["format"] == "neweul-reduced-body" and meta["version"] == 1
+    assert meta["format"] == "neweul-reduced-body" and meta["version"] == 2
     assert meta["invariants"] == ["m", "Ct", "Oe1", "node_ids"]
 
 
@@ -117,7 +118,7 @@ def test_interrupted_write_keeps_the_old_file(body, tmp_path, monkeypatch):
 
 
 def _rewrite(path, **changes):
-    data = dict(np.load(path))
+    data = explicit_arrays(path)
     data.update(changes)
     np.savez(path, **data)
 
@@ -132,8 +133,7 @@ def _rewrite(path, **changes):
 def test_bad_files_are_rejected(body, tmp_path, change, item, text):
     path = tmp_path / "b.npz"
     save_reduced_body(body, path)
-    with np.load(path) as z:
-        meta = json.loads(z["meta"].tobytes().decode())
+    meta = json.loads(explicit_arrays(path)["meta"].tobytes().decode())
     changes = change(meta)
     if item == "K":  # right shape, bad values
         changes = {"K": np.full_like(body.K, np.nan)}
@@ -146,7 +146,7 @@ def test_bad_files_are_rejected(body, tmp_path, change, item, text):
 def test_missing_array_and_not_an_npz(body, tmp_path):
     path = tmp_path / "b.npz"
     save_reduced_body(body, path)
-    data = dict(np.load(path))
+    data = explicit_arrays(path)
     del data["C"]
     np.savez(path, **data)
     with pytest.raises(DataError, match="missing arrays") as exc:
@@ -171,8 +171,9 @@ def test_object_arrays_are_refused(body, tmp_path):
 
 def test_projected_matrices_are_stored_once_with_the_invariants(tmp_path):
     """A body with invariants stores Me, Ke, De (= Wᵀ M V, Wᵀ K V, Wᵀ D V) once, as the body's
-    own M, K, D (metadata ``invariants_shared``), and reads them back bit for bit
-    (reference: the body before saving)."""
+    own M, K, D (the compact layout's ``same``), and reads them back bit for bit (reference:
+    the body before saving); the same body in the explicit layout of version 1 reads back
+    equal."""
     from neweul_py.elastic.reductors.invariants import attach_invariants
 
     fe = piston_duct(n_el=40, damping=0.3)
@@ -183,7 +184,15 @@ def test_projected_matrices_are_stored_once_with_the_invariants(tmp_path):
     with np.load(path) as data:
         assert not any(k in data for k in ("invariants/Me.m0", "invariants/Ke.m0"))
         meta = json.loads(data["meta"].tobytes().decode())
-    assert meta["invariants_shared"] == {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D"}
+    same = meta["layout"]["same"]
+    assert {k: same[k] for k in ("invariants/Me.m0", "invariants/Ke.m0", "invariants/De.m0")
+            } == {"invariants/Me.m0": "M", "invariants/Ke.m0": "K", "invariants/De.m0": "D"}
     back = load_reduced_body(path)
     for name, arr in body.invariants.items():
         np.testing.assert_array_equal(back.invariants[name], arr)
+    data = explicit_arrays(path)
+    data["meta"] = json_to_uint8({**json.loads(data["meta"].tobytes().decode()), "version": 1})
+    np.savez(tmp_path / "v1.npz", **data)
+    old = load_reduced_body(tmp_path / "v1.npz")
+    for name, arr in body.invariants.items():
+        np.testing.assert_array_equal(old.invariants[name], arr)

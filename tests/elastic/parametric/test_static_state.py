@@ -14,6 +14,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from body_arrays import explicit_arrays
 from fe_builders import piston_duct
 from scipy.optimize import brentq
 
@@ -126,8 +127,8 @@ def test_bad_static_groups_are_one_error_naming_the_array(tmp_path):
     with pytest.raises(DataError, match="static"):
         b.with_(static={"q": st.q})
     save_reduced_body(b, tmp_path / "b.npz")
-    with np.load(tmp_path / "b.npz") as z:
-        arrays = {k: z[k] for k in z.files if k != "static/residual"}
+    arrays = explicit_arrays(tmp_path / "b.npz")
+    del arrays["static/residual"]
     np.savez(tmp_path / "cut.npz", **arrays)
     with pytest.raises(DataError, match="static/residual") as err:
         load_reduced_body(tmp_path / "cut.npz")
