@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Per-call cost of a parametric elastic body on a fixed frame (issue 14 item 2).
+"""Per-call cost of a parametric elastic body on a fixed frame.
 
-Model: the middle-ear EMBS (``examples/middle_ear/middle_ear.yaml``: the parametric TM + air
-u–p body, order 308 at refine 1, 9 samples in ``dp``, cubic weights, on ISYS; the ossicles;
-7 TM–manubrium bushings), built by ``examples/middle_ear/build_embs.py`` into ``--dir``.
+Model: the middle-ear EMBS of ``neweul middle-ear build --dir DATA`` (the parametric TM + air
+u–p body on ISYS, its samples in ``dp``; the ossicles; one TM–manubrium bushing per manubrium
+node).
 
 Ours: the generated module's ``rhs`` and ``rhs_jacobian`` at a ``dp`` between two samples.
 Peer, in the same run: the same **linear** system ``M(σ) ÿ + D(σ) ẏ + K(σ) y = B u`` assembled
@@ -19,8 +19,8 @@ Usage (BLAS single-threaded, as on the shared machine)::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_parametric.py --dir DATA [--module PATH]
 
-``--module``: time an already generated module of the description (e.g. one made with an
-older kernel, for before/after); otherwise the module is generated into ``DATA/embs/bench``.
+``--module``: time another generated module of the description (e.g. one made with an older
+kernel, for before/after); otherwise the build's own module.
 """
 
 from __future__ import annotations
@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import timeit
 from pathlib import Path
 
@@ -37,25 +36,13 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "examples" / "middle_ear"))
-
 from neweul_py.analysis import load_generated  # noqa: E402
-from neweul_py.api import generate  # noqa: E402
 from neweul_py.ffrf.parametric import weight_coefficients  # noqa: E402
 
 
 def _module(data: Path, module: Path | None):
-    if module is not None:
-        return load_generated(module)
-    import validate_embs
-
-    man = json.loads((data / "fem" / "sweep.json").read_text())["interface_nodes"]["manubrium"]
-    desc = data / "embs" / "bench_middle_ear.yaml"
-    desc.write_text(validate_embs.retarget_description(
-        validate_embs.DESCRIPTION.read_text(), [int(i) for i in man], data,
-        str(data / "embs" / "tm_air.npz")))
-    return load_generated(generate(desc, data / "embs" / "bench"))
+    record = json.loads((data / "build.json").read_text())
+    return load_generated(module if module is not None else data / record["module"])
 
 
 def _params(mod, dp: float) -> np.ndarray:
@@ -120,13 +107,13 @@ def _per_call(fn, repeat: int = 5) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dir", type=Path, required=True, help="data of build_embs.py")
+    ap.add_argument("--dir", type=Path, required=True, help="a build of neweul middle-ear build")
     ap.add_argument("--module", type=Path, default=None, help="an already generated module")
     ap.add_argument("--dp", type=float, default=500.0, help="dp between samples [Pa]")
     args = ap.parse_args()
     mod = _module(args.dir, args.module)
-    samples = np.array(json.loads((args.dir / "embs" / "build.json").read_text())
-                       ["pressures_Pa"], dtype=float)
+    samples = np.array(json.loads((args.dir / "build.json").read_text())["samples_Pa"],
+                       dtype=float)
     peer = Peer(mod, samples)
     n = peer.n
     p = _params(mod, args.dp)

@@ -33,6 +33,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "body_info",
     "interpolate",
     "fem",
+    "middle_ear",
     "sweep", "compare",
     "export",
 )

@@ -1,12 +1,12 @@
 """Where the EMBS error between working points comes from: the basis or the interpolation.
 
-Run from the repository root after ``build_embs.py`` (README.md, "Validation")::
+Run from the repository root after ``neweul middle-ear build --dir DATA``::
 
     python examples/middle_ear/midpoint_error.py --dir DATA [--pressures -3500,-1500,500,2500]
 
-For each Δp between the samples, the same chain (``validate_embs.chain_description``, linearized
-at Δp) is attached to four TM + air models and the umbo and stapes velocity per probe pressure
-compared with the first (max relative error below 2 kHz and 2–5 kHz):
+For each Δp between the samples, the same chain (the build's description without the TM body,
+linearized at Δp) is attached to four TM + air models and the umbo and stapes velocity per
+probe pressure compared with the first (max relative error below 2 kHz and 2–5 kHz):
 
 * ``full`` — the unreduced FE model linearized at Δp (the reference of ``validate_embs.py``);
 * ``projected`` — that FE model projected on the body's basis ``V`` (``Vᵀ X V``), no
@@ -22,22 +22,21 @@ the generated module equals this hand assembly to 4e-9 (``validate_embs.py``).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import validate_embs as ve
-
 from neweul_py.analysis.linearize import linearize
 from neweul_py.elastic import read_fe_model
 from neweul_py.elastic.io.body_files import load_parametric_body
+from neweul_py.middle_ear import validation
+from neweul_py.middle_ear.embs import PROBE_MASS, parameters_at
+from neweul_py.middle_ear.study import build_record, transfer
 
 
 def chain_matrices(chain_mod, dp: float) -> tuple[dict[str, np.ndarray], list[str], list[str]]:
     """The chain's M, D, K in the order ``[own; node translations]``, with the probe mass off."""
-    lin = linearize(chain_mod, p=ve.parameters_at(chain_mod, dp))
+    lin = linearize(chain_mod, p=parameters_at(chain_mod, dp))
     names = list(lin.coordinates)
     node = [n for n in names if n.startswith("n") and n[1:].split("_")[0].isdigit()]
     own = [n for n in names if n not in node]
@@ -45,7 +44,7 @@ def chain_matrices(chain_mod, dp: float) -> tuple[dict[str, np.ndarray], list[st
     chain = {k: getattr(lin, a)[np.ix_(order, order)] for k, a in
              (("M", "M0"), ("D", "P"), ("K", "Q"))}
     k = np.arange(len(own), len(names))
-    chain["M"][k, k] -= ve.PROBE_MASS
+    chain["M"][k, k] -= PROBE_MASS
     return chain, own, node
 
 
@@ -105,35 +104,35 @@ def body_parts(body, node: list[str]):
 
 
 def as_transfer(h: dict[str, np.ndarray], f: np.ndarray) -> dict[str, np.ndarray]:
-    return ve.transfer({"umbo_uz": h["umbo_uz"], "p_probe": h["probe_pressure"],
-                        "stapes_velocity": h["stapes_velocity"]}, f)
+    return transfer({"umbo_uz": h["umbo_uz"], "p_probe": h["probe_pressure"],
+                     "stapes_velocity": h["stapes_velocity"],
+                     "umbo_velocity_z": h["umbo_velocity_z"]}, f)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pressures", default="-3500,-1500,500,2500")
     ap.add_argument("--nf", type=int, default=40)
-    ap.add_argument("--dir", type=Path, default=ve.HERE / "data")
-    ap.add_argument("--body", type=Path, default=None, help="parametric body (default "
-                    "DIR/embs/tm_air.npz)")
+    ap.add_argument("--dir", type=Path, required=True, help="a build of neweul middle-ear build")
     args = ap.parse_args()
+    pressures = [float(v) for v in args.pressures.split(",")]
+    record = build_record(args.dir, *pressures)
     f = np.geomspace(100.0, 5000.0, args.nf)
     low = f < 2000
-    gen = args.dir / "embs" / "generated"
-    chain_file = args.dir / "embs" / "middle_ear_chain.yaml"
-    chain_file.write_text(ve.chain_description(ve.DESCRIPTION.read_text(), args.dir))
-    chain_mod = ve.load_generated(ve.generate(chain_file, gen))
-    pb = load_parametric_body(args.body or args.dir / "embs" / "tm_air.npz")
+    chain_mod = validation.chain_module(args.dir / "middle_ear.yaml", args.dir / "fem",
+                                        args.dir / "validation")
+    pb = load_parametric_body(args.dir / record["body"])
     V = pb.R
     print("max relative error against the unreduced FE model + chain, umbo / stapes "
           "velocity per probe pressure")
     print(f"{'dp [Pa]':>8} {'model':>13} {'umbo <2k':>9} {'umbo 2-5k':>9} {'stap <2k':>9} "
           f"{'stap 2-5k':>9}")
-    for dp in (float(v) for v in args.pressures.split(",")):
+    for dp in pressures:
         chain, own, node = chain_matrices(chain_mod, dp)
-        fe = read_fe_model(ve.fe_model_at(dp, args.dir))
-        ref = ve.transfer(ve.reference_frf(chain_mod, ve.fe_model_at(dp, args.dir), dp, f,
-                                            "viscous"), f)   # the body's viscous D
+        path = validation.fe_model_at(dp, args.dir, int(record["refine"]))
+        fe = read_fe_model(path)
+        ref = transfer(validation.reference_frf(chain_mod, path, dp, f, "viscous"),
+                       f)   # the body's viscous D
         near = pb.samples[int(np.argmin(np.abs(pb.samples - dp)))]
         models = {"projected": projected(fe, V, node),
                   "interpolated": body_parts(pb.at(dp), node),

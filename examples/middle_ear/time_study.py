@@ -1,15 +1,15 @@
 """Time study of the middle-ear EMBS (issue 13 item 6): a tone under a slow Δp ramp.
 
-Run from the repository root after ``build_embs.py`` (README.md, "Time study")::
+Run from the repository root after ``neweul middle-ear build --dir DATA``::
 
     python examples/middle_ear/time_study.py --dir DATA [--out DIR] [--t-ramp 0.35]
         [--dp-peak 2000] [--f-tone 1000] [--steps-per-period 40] [--check-only]
 
 A tone ``Q = Q_amp sin(2π f t)`` in the canal while the static pressure difference goes
 ``Δp(t) = dp + dp_ramp sin²(π t / t_ramp)``: 0 → +2000 Pa → 0 in 350 ms (a middle-ear pressure
-of −2 kPa and back, swallow-like). The module is generated from a copy of ``middle_ear.yaml``
-(retargeted to the data's mesh) in which every ``dp`` — the body's schedule and the chain's
-ligament factor φ(dp) — is ``Δp(t)``; ``dp_ramp = 0`` gives the frozen module at ``dp``.
+of −2 kPa and back, swallow-like). The module is generated from a copy of the build's
+``middle_ear.yaml`` in which every ``dp`` — the body's schedule and the chain's ligament
+factor φ(dp) — is ``Δp(t)``; ``dp_ramp = 0`` gives the frozen module at ``dp``.
 
 Frozen-parameter equations (docs/equations-middle-ear.md §7): the body is the interpolated
 ``X(σ(t))``; the time derivatives of the weights (``Ẋ = X′ σ̇``) and the motion of the static
@@ -37,21 +37,18 @@ from __future__ import annotations
 import argparse
 import csv
 import re
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from neweul_py.analysis import frf, load_generated, simulate
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
+from neweul_py.middle_ear.study import build_record
 from neweul_py.progress import Tracker
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from chain_factor import retarget
-from validate_embs import DESCRIPTION, HERE, require_build
 
 #: The swallow-like bump 0 → 1 → 0 over 0 ≤ t ≤ t_ramp (no piecewise(): the chain factor
 #: compares dp in its own piecewise(), and comparisons may not contain one).
@@ -60,13 +57,13 @@ RAMP = "sin(pi*t/t_ramp)**2"
 OUTPUTS = ("umbo_velocity_z", "stapes_velocity", "p_probe")
 
 
-def ramp_description(data: Path, gen: Path) -> str:
-    """``middle_ear.yaml`` on the mesh of ``data`` (:func:`chain_factor.retarget`: its
-    manubrium nodes, body file and the chain's φ(Δp) table, found with modules generated in
-    ``gen``) with every ``dp`` below ``coordinates:`` replaced by
-    ``dp + dp_ramp*sin²(πt/t_ramp)`` and the parameters ``dp_ramp`` [Pa] and ``t_ramp`` [s]
-    added."""
-    text = retarget(DESCRIPTION.read_text(), data, gen)
+def ramp_description(data: Path) -> str:
+    """The build's ``middle_ear.yaml`` (its body named by absolute path) with every ``dp``
+    below ``coordinates:`` replaced by ``dp + dp_ramp*sin²(πt/t_ramp)`` and the parameters
+    ``dp_ramp`` [Pa] and ``t_ramp`` [s] added."""
+    text = (data / "middle_ear.yaml").read_text()
+    body = yaml.safe_load(text)["elastic_bodies"]["tm"]["data"]
+    text = text.replace(f"data: {body}", f"data: {(data / body).resolve()}", 1)
     head, body = text.split("\ncoordinates:", 1)
     body = re.sub(r"\bdp\b", f"(dp + dp_ramp*{RAMP})", body)
     if "\nparameters:\n" not in head:
@@ -80,7 +77,7 @@ def ramp_module(data: Path, out: Path):
     """The generated ramp module (progress on stderr; cached by content in ``out/cache``)."""
     out.mkdir(parents=True, exist_ok=True)
     desc = out / "middle_ear_ramp.yaml"
-    text = ramp_description(data, out / "generated_chain_factor")
+    text = ramp_description(data)
     if not desc.exists() or desc.read_text() != text:
         desc.write_text(text)
     with Tracker("generate") as track:
@@ -224,8 +221,8 @@ def plot(path: Path, run: Run, env: dict[str, np.ndarray], qs_dp: np.ndarray,
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dir", type=Path, default=HERE / "data",
-                    help="the build of build_embs.py (read only; default examples/middle_ear/data)")
+    ap.add_argument("--dir", type=Path, required=True,
+                    help="a build of neweul middle-ear build (read only)")
     ap.add_argument("--out", type=Path, default=None,
                     help="traces, tables, generated module (default DIR/time_study)")
     ap.add_argument("--plot", type=Path, default=None,
@@ -248,7 +245,7 @@ def main() -> None:
     ap.add_argument("--check-only", action="store_true",
                     help="only the check at constant dp against the FRF (seconds)")
     args = ap.parse_args()
-    require_build(args.dir, 0.0, args.dp_peak)
+    build_record(args.dir, 0.0, args.dp_peak)
     out = args.out or args.dir / "time_study"
     args.plot = args.plot or out / "embs_ramp.png"
     f, spp = args.f_tone, args.steps_per_period

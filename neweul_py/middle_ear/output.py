@@ -101,8 +101,9 @@ def _fmt(value: object) -> object:
     return value
 
 
-def check_output_dir(out_dir: str | os.PathLike) -> Path:
-    """Refuse an output path that is a file or a non-empty directory of other data.
+def check_output_dir(out_dir: str | os.PathLike, manifest: str = MANIFEST) -> Path:
+    """Refuse an output path that is a file or a non-empty directory of other data (one that
+    holds no ``manifest``).
 
     Raises
     ------
@@ -113,9 +114,9 @@ def check_output_dir(out_dir: str | os.PathLike) -> Path:
     if out.exists():
         if not out.is_dir():
             raise DataError("output path exists and is not a directory", str(out))
-        if any(out.iterdir()) and not (out / MANIFEST).is_file():
+        if any(out.iterdir()) and not (out / manifest).is_file():
             raise DataError(
-                f"output directory is not empty and holds no {MANIFEST} (not overwriting)",
+                f"output directory is not empty and holds no {manifest} (not overwriting)",
                 str(out),
             )
     return out
@@ -154,13 +155,13 @@ def _locked(parent: Path) -> Iterator[None]:
         os.close(fd)  # releases the lock
 
 
-def _recover_and_clean(out: Path, parent: Path) -> None:
+def _recover_and_clean(out: Path, parent: Path, manifest: str) -> None:
     """Heal a run killed between the two renames of the fallback (``DIR`` missing, its old
     content under ``.DIR.*.old``) and remove the temporaries of killed runs."""
     stale = sorted(parent.glob(f".{out.name}.*.old")) + sorted(parent.glob(f".{out.name}.*.tmp"))
     if not out.exists():
         for old in stale:
-            if old.suffix == ".old" and (old / MANIFEST).is_file():
+            if old.suffix == ".old" and (old / manifest).is_file():
                 os.rename(old, out)
                 stale.remove(old)
                 break
@@ -170,13 +171,15 @@ def _recover_and_clean(out: Path, parent: Path) -> None:
 
 
 def write_directory_atomically(
-    out_dir: str | os.PathLike, fill: Callable[[Path], Mapping[str, Any]]
+    out_dir: str | os.PathLike, fill: Callable[[Path], Mapping[str, Any]],
+    manifest: str = MANIFEST,
 ) -> Path:
     """Create ``out_dir`` with the content ``fill(tmp)`` writes into a temporary directory.
 
-    ``fill`` returns the manifest (written last as :data:`MANIFEST`). An existing ``out_dir``
-    is replaced only if it is empty or a previous sweep output (it holds :data:`MANIFEST`); it
-    is replaced in one atomic exchange (see the module docstring).
+    ``fill`` returns the manifest (written last as ``manifest``, default :data:`MANIFEST`).
+    An existing ``out_dir`` is replaced only if it is empty or a previous output of the same
+    kind (it holds ``manifest``); it is replaced in one atomic exchange (see the module
+    docstring).
 
     Raises
     ------
@@ -187,16 +190,16 @@ def write_directory_atomically(
     parent = out.parent if str(out.parent) else Path(".")
     parent.mkdir(parents=True, exist_ok=True)
     with _locked(parent):
-        _recover_and_clean(out, parent)
-        out = check_output_dir(out)
+        _recover_and_clean(out, parent, manifest)
+        out = check_output_dir(out, manifest)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary dir
         try:
-            manifest = fill(tmp)
-            with open(tmp / MANIFEST, "w") as fh:
-                json.dump(manifest, fh, indent=2, sort_keys=False)
+            record = fill(tmp)
+            with open(tmp / manifest, "w") as fh:
+                json.dump(record, fh, indent=2, sort_keys=False)
                 fh.write("\n")
                 fh.flush()
                 os.fsync(fh.fileno())

@@ -9,11 +9,12 @@ amplitude of the last simulated period must be ``|H(f)| |Q|`` to 1 %.
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from neweul_py.middle_ear.build import BuildOptions, build
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "middle_ear"
 sys.path.insert(0, str(EXAMPLE))
@@ -22,10 +23,9 @@ import time_study  # noqa: E402
 
 @pytest.fixture(scope="module")
 def ramp_module(tmp_path_factory):
-    data = tmp_path_factory.mktemp("me0_time")
-    subprocess.run([sys.executable, str(EXAMPLE / "build_embs.py"), "--refine", "0",
-                    "--dir", str(data)], check=True)
-    return time_study.ramp_module(data, data / "time_study")
+    data = tmp_path_factory.mktemp("me0_time") / "build"
+    build(data, BuildOptions(refine=0, generate=False))
+    return time_study.ramp_module(data, data.parent / "time_study")
 
 
 @pytest.mark.slow

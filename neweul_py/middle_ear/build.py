@@ -1,0 +1,358 @@
+"""``neweul middle-ear build``: the middle-ear EMBS from nothing, in one directory.
+
+The steps (docs/equations-middle-ear.md; each reported to ``progress``):
+
+1. **FE sweep**: the working points of the TM + air model over the static pressure difference
+   (:func:`~neweul_py.middle_ear.sweep.pressure_sweep`, with its static curve when the body's
+   weights are taken in the TM's volume displacement) into ``DIR/fem``;
+2. **basis**: one basis of the FE models of all working points (:func:`reduction_basis`);
+3. **refinement**: working points are added where the interpolated body misses the FE model
+   projected there (:func:`~neweul_py.middle_ear.sampling.refine`; FE models in
+   ``DIR/fem_refine``);
+4. **body**: every working point's FE model projected on the basis, with its static state
+   and the slopes and curvatures from the FE models next to it (``DIR/fem_slopes``) →
+   ``DIR/embs/tm_air.npz`` (a parametric body, docs/reduced-body-format.md);
+5. **description**: the template retargeted to the body, its manubrium nodes and the chain's
+   stiffening factor (:func:`~neweul_py.middle_ear.embs.retarget`) → ``DIR/middle_ear.yaml``;
+6. **module**: generated into ``DIR/generated``.
+
+The directory is written atomically
+(:func:`~neweul_py.middle_ear.output.write_directory_atomically`): a build interrupted at any
+point leaves the previous complete directory or none. The FE
+working points of a previous build in ``DIR`` with the same refinement are reused (linked, not
+solved again). ``DIR/build.json`` records the settings and the result; it is written last.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..api import generate
+from ..atomic import atomic_write
+from ..description.loader import load_description_text
+from ..elastic.bodies.static import node_rows
+from ..elastic.io.body_files import save_parametric_body
+from ..elastic.io.fe_files import read_fe_model
+from ..elastic.io.reader import read_elastic_data
+from ..elastic.io.working_point import read_static
+from ..elastic.parametric.snapshot_basis import (
+    basis_parametric_body,
+    check_same_mesh,
+    snapshot_basis,
+)
+from ..elastic.reductors.projection import build_reduced_body
+from ..errors import NeweulError
+from .embs import model_path, retarget, template
+from .output import write_directory_atomically
+from .parameters import MiddleEarParameters
+from .sampling import (
+    MIN_INTERVAL,
+    interface_loads,
+    refine,
+    static_states,
+    volume_coordinate,
+)
+from .sweep import pressure_sweep
+from .transfer import LumpedChain
+
+__all__ = ["BUILD_RECORD", "BuildOptions", "build"]
+
+#: The record of a build (written last: a directory holding it is complete).
+BUILD_RECORD = "build.json"
+#: Frequencies of the snapshots of the reduction basis [Hz].
+SNAPSHOT_HZ = np.r_[20.0, np.geomspace(100.0, 8000.0, 10)]
+#: Step of the static curve of the volume coordinate [Pa].
+CURVE_STEP = 100.0
+#: The sweep directories of a build.
+SWEEPS = ("fem", "fem_refine", "fem_slopes")
+
+Progress = Callable[..., None]
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    """Settings of a middle-ear build (the options of ``neweul middle-ear build``).
+
+    Parameters
+    ----------
+    refine
+        Mesh refinement of the FE model (0 coarse … 3).
+    pressures
+        Working points of the FE sweep [Pa], at least two, increasing.
+    rtol
+        Relative POD energy cut of the snapshot basis.
+    order
+        Cap on the number of basis directions (``None``: all the cut keeps).
+    tol
+        Refinement tolerance of the interpolation indicator (0: no refinement).
+    coordinate
+        ``"volume"`` (the weights in the TM's static volume displacement, docs/equations.md
+        §4.1) or ``"dp"``.
+    slope_step
+        The samples' slopes and curvatures from the FE models at every working point ∓ this
+        [Pa] (Hermite weights, §4.2); 0: cubic weights through the values alone.
+    interpolation
+        ``"quintic-hermite"`` (slopes and curvatures) or ``"hermite"`` (slopes).
+    generate
+        Generate the module (``DIR/generated``).
+    """
+
+    refine: int = 1
+    pressures: tuple[float, ...] = tuple(np.linspace(-4000.0, 4000.0, 9).tolist())
+    rtol: float = 1e-8
+    order: int | None = None
+    tol: float = 3e-4
+    coordinate: str = "volume"
+    slope_step: float = 20.0
+    interpolation: str = "quintic-hermite"
+    generate: bool = True
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.pressures, dtype=float)
+        if p.size < 2 or not np.all(np.isfinite(p)) or np.any(np.diff(p) <= 0):
+            raise NeweulError(f"pressures: at least two increasing, finite values, got "
+                              f"{list(self.pressures)}")
+        if self.refine not in (0, 1, 2, 3):
+            raise NeweulError(f"refine: 0, 1, 2 or 3, got {self.refine!r}")
+        step = self.slope_step
+        if not (np.isfinite(step) and 0 <= step < MIN_INTERVAL / 2 and step == round(step)):
+            raise NeweulError(f"slope step {step:g}: a whole number of pascals in [0, "
+                              f"{MIN_INTERVAL / 2:g})")
+        if self.coordinate not in ("volume", "dp"):
+            raise NeweulError(f"coordinate: 'volume' or 'dp', got {self.coordinate!r}")
+        if self.interpolation not in ("quintic-hermite", "hermite"):
+            raise NeweulError(f"interpolation: 'quintic-hermite' or 'hermite', got "
+                              f"{self.interpolation!r}")
+        if not (np.isfinite(self.tol) and self.tol >= 0):
+            raise NeweulError(f"tol: a number ≥ 0, got {self.tol!r}")
+        if not (np.isfinite(self.rtol) and 0 < self.rtol < 1):
+            raise NeweulError(f"rtol: in (0, 1), got {self.rtol!r}")
+        if self.order is not None and self.order < 1:
+            raise NeweulError(f"order: a positive number of directions, got {self.order!r}")
+
+
+def _quiet(*_args: Any, **_kwargs: Any) -> None:
+    """A progress hook that says nothing."""
+
+
+class _Sweeps:
+    """The FE working points of a build: where each is, loaded once, built when missing."""
+
+    def __init__(self, root: Path, options: BuildOptions, progress: Progress) -> None:
+        self.root, self.options, self.progress = root, options, progress
+        self.where: dict[float, Path] = {}
+        self.models: dict[float, Any] = {}
+        for name in SWEEPS:
+            record = root / name / "sweep.json"
+            if record.is_file():
+                for wp in json.loads(record.read_text())["working_points"]:
+                    if (root / name / wp["file"]).is_file():
+                        self.where.setdefault(float(wp["dp_Pa"]), root / name)
+
+    def solve(self, name: str, pressures: Sequence[float], curve: bool = False) -> None:
+        """Solve the working points ``pressures`` (with those already in ``name``) into the
+        sweep directory ``name`` (atomically)."""
+        d = self.root / name
+        known = sorted(p for p, w in self.where.items() if w == d)
+        todo = sorted({*known, *(float(p) for p in pressures)})
+        self.progress(f"FE models at {', '.join(f'{p:+.0f}' for p in pressures)} Pa")
+        pressure_sweep(todo, refine=self.options.refine, out_dir=str(d), progress=self.progress,
+                       static_curve=CURVE_STEP if curve else None)
+        self.where.update({float(p): d for p in todo})
+
+    def need(self, name: str, pressures: Sequence[float]) -> None:
+        """The working points ``pressures``, solved into ``name`` where they are missing."""
+        new = [float(p) for p in pressures if float(p) not in self.where]
+        if new:
+            self.solve(name, new)
+
+    def model(self, p: float) -> Any:
+        if p not in self.models:
+            self.models[p] = read_fe_model(model_path(self.where[p], p))
+        return self.models[p]
+
+
+def _reuse(old: Path, tmp: Path, refine: int) -> None:
+    """Link the FE sweeps and the basis cache of a previous build ``old`` of the same
+    refinement into ``tmp`` (hard links: no copy, and the old directory stays intact)."""
+    record = old / BUILD_RECORD
+    if not record.is_file() or json.loads(record.read_text()).get("refine") != refine:
+        return
+    for name in (*SWEEPS, "embs"):
+        src = old / name
+        if not src.is_dir():
+            continue
+        for path in src.rglob("*"):
+            if path.is_dir() or path.is_symlink() or (name == "embs" and
+                                                      not path.name.startswith("basis")):
+                continue
+            dst = tmp / path.relative_to(old)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                os.link(path, dst)
+            except OSError:
+                shutil.copy2(path, dst)
+
+
+def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
+                    options: BuildOptions, progress: Progress) -> tuple[np.ndarray, np.ndarray]:
+    """The reduction basis of the TM + air body and the energies of its directions: a
+    snapshot basis (:func:`~neweul_py.elastic.parametric.snapshot_basis.snapshot_basis`) of
+    full FE responses of every working point at :data:`SNAPSHOT_HZ` to the canal source and
+    the six rigid malleus motions seen through the TM–manubrium springs, and the adjoint
+    responses of the probe pressure, the umbo and the malleus loads, POD-compressed per u/p
+    block in the energy norms (cached in ``cache``; extended by the missing frequencies)."""
+    Kx, F, Cadj = interface_loads(fes[0], umbo, k_attach)
+    done, prior = np.zeros(0), None
+    if cache.is_file():
+        with np.load(cache) as z:
+            V, energy, done = z["V"], z["energy"], z["freqs"]
+        prior = V
+    todo = np.array([f for f in SNAPSHOT_HZ if not np.any(np.isclose(f, done))])
+    if todo.size:
+        n = len(fes)
+
+        def say(m: str) -> None:
+            if "snapshots: sample" in m:
+                progress("basis", int(m.split()[2]), n)
+            else:
+                progress(m)
+
+        V, energy = snapshot_basis(fes, [F] * n, todo, Kx, rtol=options.rtol, prior=prior,
+                                   adjoint=[Cadj] * n, progress=say)
+        freqs = np.union1d(done, todo)
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(cache, lambda fh: np.savez(fh, V=V, energy=energy, freqs=freqs))
+    return V[:, :options.order], energy[:options.order]
+
+
+def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any]:
+    """Build into the temporary directory ``tmp`` (the steps of the module docstring)."""
+    t0 = time.perf_counter()
+    sweeps = _Sweeps(tmp, options, progress)
+    pressures = [float(p) for p in options.pressures]
+    volume = options.coordinate == "volume"
+    fem = tmp / "fem"
+    progress(f"1/6 FE sweep (refine {options.refine})")
+    record = fem / "sweep.json"
+    if not (record.is_file() and all(p in sweeps.where for p in pressures)
+            and (not volume or (fem / "static_curve.csv").is_file())):
+        sweeps.solve("fem", pressures, curve=volume)
+    sweep = json.loads(record.read_text())
+    params = MiddleEarParameters(**sweep["parameters"])
+    manubrium = [int(i) for i in sweep["interface_nodes"]["manubrium"]]
+    umbo = int(sweep["interface_nodes"]["umbo"])
+    fes = [sweeps.model(p) for p in pressures]
+    check_same_mesh(fes, pressures)
+    progress("2/6 reduction basis")
+    V, energy = reduction_basis(fes, umbo, params.k_tm_manubrium,
+                                tmp / "embs" / f"basis_r{options.refine}_{options.rtol:g}.npz",
+                                options, progress)
+    step = float(options.slope_step)
+
+    def slope_keywords(pts: list[float], static: bool) -> dict[str, Any]:
+        if step <= 0:
+            return {}
+        side = [[p + sign * step for p in pts] for sign in (-1.0, 1.0)]
+        sweeps.need("fem_slopes", side[0] + side[1])
+        return {"slope_models": tuple([sweeps.model(p) for p in ps] for ps in side),
+                "slope_step": step,
+                "slope_static": tuple(static_states(sweeps.where, ps, manubrium)
+                                      for ps in side) if static else None}
+
+    def body_of(points: Sequence[float], static: bool = False) -> Any:
+        pts = [float(p) for p in points]
+        models = [sweeps.model(p) for p in pts]
+        check_same_mesh(models, pts)
+        if len(pts) == 1:
+            return build_reduced_body(models[0], V, V, "snapshot", {}, keep_nodes=manubrium)
+        pb = basis_parametric_body(
+            models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
+            static=static_states(sweeps.where, pts, manubrium) if static else None,
+            interpolation=options.interpolation if step > 0 else "cubic",
+            **slope_keywords(pts, static))
+        if not volume:
+            return pb
+        return pb.with_(coordinate=volume_coordinate(sweeps.where, fem / "static_curve.csv",
+                                                     pts),
+                        coordinate_name="volume_displacement_m3")
+
+    samples = np.array(pressures)
+    if options.tol > 0:
+        progress(f"3/6 refinement (tol {options.tol:g})")
+        b0 = body_of(pressures[:1])
+        rows = node_rows(b0.nodes, b0.dof_node, b0.dof_kind).ravel()
+        samples = refine(pressures, body_of, options.tol, b0.V_kept[rows],
+                         params.k_tm_manubrium / len(manubrium),
+                         lambda pts: sweeps.need("fem_refine", pts), progress)
+    progress(f"4/6 parametric body ({samples.size} working points)")
+    body = body_of(samples, static=True)
+    save_parametric_body(body, tmp / "embs" / "tm_air.npz")
+    progress("5/6 description")
+    text = retarget(template(), fem, manubrium, tmp / "embs" / "tm_air.npz",
+                    tmp / "embs" / "chain_factor", where=tmp)
+    desc = tmp / "middle_ear.yaml"
+    load_description_text(text, str(desc), elastic_reader=read_elastic_data)  # then write
+    atomic_write(desc, text)
+    if options.generate:
+        progress("6/6 generated module")
+        generate(desc, tmp / "generated", progress=progress)
+    tangent = [float(read_static(model_path(sweeps.where[p], p))["chain_tangent"][2, 2])
+               for p in samples]
+    chain = LumpedChain()
+    return {
+        "format": "neweul-middle-ear-build", "version": 1,
+        **dataclasses.asdict(options),
+        "pressures": pressures, "order": int(V.shape[1]), "samples_Pa": samples.tolist(),
+        "snapshot_Hz": SNAPSHOT_HZ.tolist(), "manubrium": manubrium, "umbo": umbo,
+        "body": "embs/tm_air.npz", "description": "middle_ear.yaml",
+        "module": "generated/middle_ear.py" if options.generate else None,
+        "interpolation_used": body.interpolation,
+        "static_residual": body.static.residual.tolist(),
+        "chain_tangent_N_per_m": tangent,
+        "ligament_factor": [chain.ligament_factor(k) for k in tangent],
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+
+
+def build(directory: str | os.PathLike, options: BuildOptions | None = None,
+          progress: Progress = _quiet) -> dict[str, Any]:
+    """Build the middle-ear EMBS into ``directory`` (module docstring) and return its record.
+
+    Parameters
+    ----------
+    directory
+        The build directory: new, empty, or a previous build (replaced atomically; its FE
+        working points of the same refinement are reused).
+    options
+        :class:`BuildOptions` (default: refine 1, −4000…4000 Pa in 9 working points).
+    progress
+        ``progress(message)`` and ``progress(stage, done, total)`` (a
+        :class:`~neweul_py.progress.Tracker` fits).
+
+    Raises
+    ------
+    NeweulError
+        Bad options, a directory that holds other data, an unconverged static state, samples
+        on different meshes, a description node that is not in the body: one error, and the
+        previous directory is left as it was.
+    """
+    options = options or BuildOptions()
+    out = Path(directory)
+
+    def fill(tmp: Path) -> dict[str, Any]:
+        _reuse(out, tmp, options.refine)
+        return _fill(tmp, options, progress)
+
+    write_directory_atomically(out, fill, manifest=BUILD_RECORD)
+    return json.loads((out / BUILD_RECORD).read_text())

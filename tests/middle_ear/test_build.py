@@ -1,0 +1,111 @@
+"""``neweul middle-ear build``: the EMBS from nothing, atomically, and its bad input.
+
+References: the FE sweep's own static solution (``static.csv``) for the body's static
+outputs, the description loader for the retargeted description, and the files on disk after a
+failed run (the previous complete build, untouched).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from neweul_py.api import load_description
+from neweul_py.cli import main
+from neweul_py.elastic.io.body_files import load_parametric_body
+from neweul_py.errors import NeweulError
+from neweul_py.middle_ear.build import BuildOptions, build
+
+#: A small build: refine 0, three working points, no refinement, slopes from ±20 Pa.
+SMALL = BuildOptions(refine=0, pressures=(-1000.0, 0.0, 1000.0), tol=0.0, generate=False)
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory) -> Path:
+    """One small build (seconds of CPU: a 1 332-DOF FE model at 9 working points)."""
+    out = tmp_path_factory.mktemp("me") / "build"
+    build(out, SMALL)
+    return out
+
+
+def test_the_build_holds_a_body_with_its_static_state_and_a_checked_description(small):
+    """The body carries the static state of every sample: its static umbo output is the FE
+    static solution's (``static.csv``, 12 digits); the description is loaded and names its
+    body relative to itself (a moved build still loads); no module with ``generate=False``."""
+    record = json.loads((small / "build.json").read_text())
+    assert record["samples_Pa"] == [-1000.0, 0.0, 1000.0] and record["module"] is None
+    pb = load_parametric_body(small / record["body"])
+    rows = np.genfromtxt(small / "fem" / "static.csv", delimiter=",", names=True)
+    umbo = pb.static.outputs[:, list(pb.output_names).index("umbo_uz")]
+    np.testing.assert_allclose(umbo, rows["umbo_uz_m"], rtol=1e-10, atol=1e-18)
+    assert pb.interpolation == "quintic-hermite" and pb.slopes is not None
+    desc = small / "middle_ear.yaml"
+    assert yaml.safe_load(desc.read_text())["elastic_bodies"]["tm"]["data"] == "embs/tm_air.npz"
+    assert not (small / "generated").exists()
+
+
+def test_a_moved_build_still_loads(small, tmp_path):
+    """The build directory moved as a whole: its description still finds the body."""
+    moved = tmp_path / "moved"
+    shutil.copytree(small, moved)
+    assert "tm" in {b.name for b in load_description(moved / "middle_ear.yaml").elastic_bodies}
+
+
+def test_a_failed_build_leaves_the_previous_one(small, tmp_path):
+    """A working point beyond the model's validity (200 kPa: the static solution leaves the
+    air space) stops the build with one error; the previous complete build is untouched and
+    no temporary directory is left."""
+    out = tmp_path / "b"
+    shutil.copytree(small, out)
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
+    with pytest.raises(NeweulError):
+        build(out, BuildOptions(refine=0, pressures=(-1000.0, 0.0, 200000.0), tol=0.0,
+                                generate=False))
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
+    assert [p.name for p in tmp_path.iterdir()] == ["b"]
+
+
+def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
+    """A second build of the same refinement solves no FE model again (its working points
+    are linked from the previous build)."""
+    out = tmp_path / "b"
+    shutil.copytree(small, out)
+    import neweul_py.middle_ear.build as b
+
+    def no_sweep(*args, **kwargs):
+        raise AssertionError("an FE model was solved again")
+
+    monkeypatch.setattr(b, "pressure_sweep", no_sweep)
+    build(out, SMALL)
+    assert json.loads((out / "build.json").read_text())["samples_Pa"] == [-1000.0, 0.0, 1000.0]
+
+
+@pytest.mark.parametrize(("args", "where"), [
+    (["--pressures=1000,0"], "pressures"),
+    (["--refine", "7"], "--refine"),
+    (["--slope-step", "20.5"], "slope step"),
+])
+def test_bad_options_are_one_error_and_write_nothing(args, where, tmp_path, capsys):
+    """Decreasing working points, a refinement beyond the cap, a slope step that is no whole
+    number of pascals: exit code ≠ 0, one line naming the option, no directory."""
+    try:
+        code = main(["middle-ear", "build", "--dir", str(tmp_path / "x"), "-q", *args])
+    except SystemExit as exc:          # argparse: a usage error
+        code = exc.code
+    assert code != 0
+    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert where in err[-1]
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_directory_of_other_data_is_refused(tmp_path):
+    """A non-empty directory that is not a build is never replaced."""
+    (tmp_path / "mine.txt").write_text("data")
+    with pytest.raises(NeweulError, match=r"build\.json"):
+        build(tmp_path, SMALL)
+    assert (tmp_path / "mine.txt").read_text() == "data"
