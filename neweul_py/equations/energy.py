@@ -17,8 +17,8 @@ from __future__ import annotations
 import sympy as sp
 
 from ..kinematics import Kinematics
-from ..kinematics.algebra import dot, mat_vec, sub
 from ..model import INERTIAL, RotationalSpringDamper, SpringDamper, System, as_expr, symbol
+from ..model.algebra import dot, mat_vec, sub
 from ..model.canonical import add, mul
 
 __all__ = ["energies"]

@@ -21,7 +21,6 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..kinematics import Kinematics
-from ..kinematics.algebra import ZERO, Vec3, add, cross, dot, is_zero, mat_vec, scale, sub, total
 from ..model import (
     AXES,
     ELONGATION,
@@ -35,6 +34,7 @@ from ..model import (
     Torque,
     characteristic_force,
 )
+from ..model.algebra import ZERO, Vec3, add, cross, dot, is_zero, mat_vec, scale, sub, total
 
 __all__ = [
     "LossTerms",
@@ -193,10 +193,10 @@ def rotational_spring_damper(
     name = fe.name
     if fe.coordinate is not None:
         c = index[fe.coordinate]
-        dang, _ = kin._partials(fe.angle)
+        dang, _ = kin.partials(fe.angle)
         ds = [sp.Integer(int(j == c)) - dang[j] for j in range(kin.n)]
         s = ws.let(kin.coordinates[c] - fe.angle, f"el_{name}")
-        sd = ws.let(kin.velocities[c] - kin._bar_rate(fe.angle), f"sd_{name}")
+        sd = ws.let(kin.velocities[c] - kin.bar_rate(fe.angle), f"sd_{name}")
     else:
         a = AXES.index(fe.axis)
         b, cc = (a + 1) % 3, (a + 2) % 3
@@ -205,7 +205,7 @@ def rotational_spring_damper(
         w_rel, jr = _relative_angular(kin, fe.frame_a, fe.frame_b, name)
         s = ws.let(sp.atan2(R[cc][b] - R[b][cc], R[b][b] + R[cc][cc]) - fe.angle, f"el_{name}")
         ds = [col[a] for col in jr]
-        sd = ws.let(w_rel[a] - kin._bar_rate(fe.angle), f"sd_{name}")
+        sd = ws.let(w_rel[a] - kin.bar_rate(fe.angle), f"sd_{name}")
     law = _law(fe, s, sd)
     if not is_zero(fe.loss_factor):
         kt = ws.let(fe.loss_factor * _tangent(fe, s, sd), f"kl_{name}")

@@ -29,7 +29,19 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..kinematics import Kinematics, absolute_kinematics
-from ..kinematics.algebra import (
+from ..model import (
+    AXES,
+    INERTIAL,
+    ExpressionOutput,
+    ForceOutput,
+    GeneralizedForce,
+    KinematicOutput,
+    PointForce,
+    RigidBody,
+    System,
+    Torque,
+)
+from ..model.algebra import (
     ZERO,
     ZERO3,
     Vec3,
@@ -42,18 +54,6 @@ from ..kinematics.algebra import (
     sub,
     total,
     vec_is_zero,
-)
-from ..model import (
-    AXES,
-    INERTIAL,
-    ExpressionOutput,
-    ForceOutput,
-    GeneralizedForce,
-    KinematicOutput,
-    PointForce,
-    RigidBody,
-    System,
-    Torque,
 )
 from ..progress import StagedProgress, Steps
 from .constraints import check_constraints, derive_constraints
