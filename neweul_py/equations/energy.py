@@ -17,8 +17,8 @@ from __future__ import annotations
 import sympy as sp
 
 from ..kinematics import Kinematics
-from ..model import INERTIAL, RotationalSpringDamper, SpringDamper, System, as_expr, symbol
-from ..model.algebra import dot, mat_vec, sub
+from ..model import INERTIAL, System, as_expr
+from ..model.algebra import dot, mat_vec
 from ..model.canonical import add, mul
 
 __all__ = ["energies"]
@@ -47,19 +47,13 @@ def _kinetic_and_gravity(kin: Kinematics, system: System) -> tuple[sp.Expr, sp.E
 
 
 def _springs(kin: Kinematics, system: System) -> sp.Expr:
+    """``Σ enabled·V`` of the force elements that have a potential
+    (:meth:`~neweul_py.model.ForceElement.potential`)."""
     terms: list[sp.Expr] = []
     for fe in system.forces:
-        if isinstance(fe, SpringDamper) and fe.spring_force is None:
-            ra = kin.point_position(fe.frame_a, tuple(fe.point_a), INERTIAL)
-            rb = kin.point_position(fe.frame_b, tuple(fe.point_b), INERTIAL)
-            d = sub(rb, ra)
-            s = sp.sqrt(dot(d, d)) - fe.length
-        elif (isinstance(fe, RotationalSpringDamper) and fe.spring_force is None
-              and fe.coordinate is not None):
-            s = symbol(fe.coordinate) - fe.angle
-        else:
-            continue
-        terms.append(fe.enabled * fe.stiffness * s**2 / 2)
+        potential = fe.potential(kin)
+        if potential is not None:
+            terms.append(fe.enabled * potential)
     return sp.Add(*terms)
 
 

@@ -34,7 +34,7 @@ import sympy as sp
 from mpmath.libmp import prec_to_dps
 from sympy.core.logic import fuzzy_and
 
-from .force_elements import TableCurve
+from .forces.characteristic import TableCurve
 
 __all__ = ["Abs", "Heaviside", "Max", "Min", "Sign", "SignalTable", "Step", "piecewise", "sign"]
 

@@ -17,25 +17,25 @@ from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
     Coordinate,
     ExpressionOutput,
-    ForceElement,
+    ForceOutput,
     Frame,
-    GeneralizedForce,
     Input,
     KinematicOutput,
     Output,
     Parameter,
-    PointForce,
     RigidBody,
-    SpringDamper,
-    Torque,
 )
-from .force_elements import (
+from .forces import (
     ELONGATION,
     ELONGATION_RATE,
     FORCE_COMPONENTS,
     Bushing,
-    ForceOutput,
+    ForceElement,
+    GeneralizedForce,
+    PointForce,
     RotationalSpringDamper,
+    SpringDamper,
+    Torque,
 )
 from .symbols import INERTIAL, check_name, input_rate_name, symbol, time, velocity_name
 

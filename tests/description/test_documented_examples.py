@@ -17,8 +17,8 @@ from neweul_py.model import (
     ForceOutput,
     RotationalSpringDamper,
     SpringDamper,
+    TableCurve,
 )
-from neweul_py.model.force_elements import TableCurve
 
 HEADER = """\
 name: documented

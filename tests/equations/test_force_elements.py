@@ -1,7 +1,7 @@
 """Force elements (bushings, rotational spring–dampers, tables) against hand-derived forces
 and potentials.
 
-References (all written here, independently of ``equations/force_elements.py``):
+References (all written here, independently of the elements' loads in ``model/forces/``):
 - bushing, translation: generalized forces ``−∂V/∂y − (∂Δr/∂y)ᵀ D Δṙ`` with the potential
   ``V = ½ Δrᵀ K Δr`` of the relative displacement ``Δr = S_Aᵀ (r_PB − r_PA)`` differentiated by
   sympy, ``Δṙ = (∂Δr/∂y) ẏ``;

@@ -1,12 +1,9 @@
-"""Force elements of issue 4 and their characteristics: bushings, rotational spring–dampers,
-nonlinear (expression or table) characteristics, and outputs that report an element's force.
+"""Characteristics of spring–dampers: force laws in the elongation and its rate, and tables.
 
-Characteristics
----------------
 A spring–damper's force law is written in the *local* variables ``s`` (elongation: distance
 minus free length, or angle minus rest angle) and ``sd`` (its rate). In model expressions they
-are the symbols :data:`ELONGATION` and :data:`ELONGATION_RATE`; the equations layer replaces
-them by the element's kinematics. ``stiffness`` and ``damping`` are *coefficients*
+are the symbols :data:`ELONGATION` and :data:`ELONGATION_RATE`; the element's loads replace
+them by its kinematics. ``stiffness`` and ``damping`` are *coefficients*
 (force ``stiffness·s + damping·sd``) and may depend on ``s`` and ``sd``; a *table* is a
 characteristic curve (force over ``s``, or over ``sd``) and replaces the product
 (:func:`table_characteristic`).
@@ -15,14 +12,12 @@ characteristic curve (force over ``s``, or over ``sd``) and replaces the product
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, Protocol
 
 import sympy as sp
 
-from ..errors import ModelError
-from .elements import AXES, ForceElement, Output
-from .symbols import as_expr
+from ...errors import ModelError
+from ..symbols import as_expr
 
 if TYPE_CHECKING:
     import numpy as np
@@ -30,13 +25,13 @@ if TYPE_CHECKING:
 __all__ = [
     "ELONGATION",
     "ELONGATION_RATE",
-    "FORCE_COMPONENTS",
-    "Bushing",
-    "ForceOutput",
-    "RotationalSpringDamper",
+    "Characteristic",
     "TableCurve",
     "characteristic_force",
+    "force_law",
+    "has_linear_spring",
     "table_characteristic",
+    "tangent_stiffness",
 ]
 
 #: The elongation ``s`` of a spring–damper characteristic.
@@ -44,18 +39,7 @@ ELONGATION = sp.Symbol("_elongation", real=True)
 #: Its rate ``sd``.
 ELONGATION_RATE = sp.Symbol("_elongation_rate", real=True)
 
-_ONE = sp.Integer(1)
-_ZERO = sp.Integer(0)
-Axis = Literal["x", "y", "z"]
 Interpolation = Literal["linear", "spline"]
-
-
-def _zero3() -> sp.ImmutableMatrix:
-    return sp.ImmutableMatrix.zeros(3, 1)
-
-
-def _zero33() -> sp.ImmutableMatrix:
-    return sp.ImmutableMatrix.zeros(3, 3)
 
 
 # ----------------------------------------------------------------------------- tables
@@ -246,114 +230,33 @@ def characteristic_force(
     return k_part + d_part
 
 
-# ----------------------------------------------------------------------------- elements
-@dataclass(frozen=True)
-class Bushing(ForceElement):
-    """A linear 6-DOF spring–damper (bushing) between ``point_a`` of ``frame_a`` and
-    ``point_b`` of ``frame_b``.
+class Characteristic(Protocol):
+    """What an element with a characteristic holds (:class:`~neweul_py.model.SpringDamper`,
+    :class:`~neweul_py.model.RotationalSpringDamper`)."""
 
-    With ``Δr`` the position of B's point relative to A's point and ``θ`` the small-rotation
-    measure of ``R = S_Aᵀ S_B`` (``θ = ½ vex(R − Rᵀ)``), both in frame A's components, and
-    ``ω_rel`` the angular velocity of B relative to A (A components), the element acts on B
-    with the force and torque (A components)
-
-    ``f = −(K_t Δr + D_t Δṙ)``, ``l = −(K_r θ + D_r ω_rel)``
-
-    (``Δṙ`` the derivative of ``Δr`` as seen in A); reactions act on A. The translational
-    part is derived from its potential ``½ Δrᵀ K_t Δr`` exactly (generalized force
-    ``−(∂Δr/∂y)ᵀ (K_t Δr + D_t Δṙ)``); the rotational part is the small-rotation law. It is at
-    rest where the two points coincide and the frames are parallel.
-
-    ``loss_factor`` η ≥ 0 (parameters only): hysteretic damping ``K(1 + iη)`` on both
-    stiffness matrices in the frequency domain; in the time domain the viscous equivalent
-    ``(η/ω_ref) K_t``, ``(η/ω_ref) K_r`` is added to ``D_t``, ``D_r`` (equations.md §1.1).
-    """
-
-    name: str
-    frame_a: str
-    frame_b: str
-    stiffness: sp.ImmutableMatrix = field(default_factory=_zero33)
-    damping: sp.ImmutableMatrix = field(default_factory=_zero33)
-    rotational_stiffness: sp.ImmutableMatrix = field(default_factory=_zero33)
-    rotational_damping: sp.ImmutableMatrix = field(default_factory=_zero33)
-    point_a: sp.ImmutableMatrix = field(default_factory=_zero3)
-    point_b: sp.ImmutableMatrix = field(default_factory=_zero3)
-    enabled: sp.Expr = _ONE
-    loss_factor: sp.Expr = _ZERO
-
-    def __post_init__(self) -> None:
-        for attr in ("stiffness", "damping", "rotational_stiffness", "rotational_damping"):
-            m = getattr(self, attr)
-            if not isinstance(m, sp.MatrixBase) or m.shape != (3, 3):
-                raise ModelError(
-                    f"expected a 3×3 matrix, got {getattr(m, 'shape', type(m).__name__)}",
-                    f"forces.{self.name}.{attr}",
-                )
+    @property
+    def stiffness(self) -> sp.Expr: ...
+    @property
+    def damping(self) -> sp.Expr: ...
+    @property
+    def spring_force(self) -> sp.Expr | None: ...
+    @property
+    def damper_force(self) -> sp.Expr | None: ...
 
 
-@dataclass(frozen=True)
-class RotationalSpringDamper(ForceElement):
-    """A rotational spring–damper, either on a generalized ``coordinate`` (generalized force
-    ``−F(s, sd)`` with ``s = coordinate − angle``, ``sd`` its rate) or between ``frame_a`` and
-    ``frame_b`` about ``axis`` (x, y or z of frame A; ``s`` = relative rotation angle about it
-    minus ``angle``, ``atan2`` of the relative rotation matrix, ``sd = ω_rel · axis``), with the
-    torque ``−F(s, sd)`` about the axis acting on B and its reaction on A.
-
-    ``F`` is :func:`characteristic_force` of ``stiffness``, ``damping`` and the optional table
-    curves; ``loss_factor`` as for :class:`~neweul_py.model.SpringDamper` (on ``∂F/∂s``).
-    """
-
-    name: str
-    stiffness: sp.Expr = _ZERO
-    damping: sp.Expr = _ZERO
-    angle: sp.Expr = _ZERO
-    coordinate: str | None = None
-    frame_a: str | None = None
-    frame_b: str | None = None
-    axis: Axis = "z"
-    spring_force: sp.Expr | None = None
-    damper_force: sp.Expr | None = None
-    enabled: sp.Expr = _ONE
-    loss_factor: sp.Expr = _ZERO
-
-    def __post_init__(self) -> None:
-        path = f"forces.{self.name}"
-        on_coordinate = self.coordinate is not None
-        on_frames = self.frame_a is not None or self.frame_b is not None
-        if on_coordinate == on_frames:
-            raise ModelError(
-                "a rotational spring–damper acts either on a 'coordinate' or 'between' two "
-                "frames (exactly one of them)",
-                path,
-            )
-        if on_frames and (self.frame_a is None or self.frame_b is None):
-            raise ModelError("'between' needs two frames", f"{path}.between")
-        if self.axis not in AXES:
-            raise ModelError(f"axis must be one of x, y, z, not {self.axis!r}", f"{path}.axis")
+def force_law(c: Characteristic, s: sp.Expr, sd: sp.Expr) -> sp.Expr:
+    """``F(s, sd)`` of the characteristic with the element's kinematics substituted."""
+    law = characteristic_force(c.stiffness, c.damping, c.spring_force, c.damper_force)
+    return law.xreplace({ELONGATION: s, ELONGATION_RATE: sd})
 
 
-#: Components an output may take of each kind of force element (see :class:`ForceOutput`).
-FORCE_COMPONENTS: dict[str, tuple[str, ...]] = {
-    "PointForce": ("fx", "fy", "fz"),
-    "Torque": ("mx", "my", "mz"),
-    "GeneralizedForce": ("force",),
-    "SpringDamper": ("force",),
-    "RotationalSpringDamper": ("force",),
-    "Bushing": ("fx", "fy", "fz", "mx", "my", "mz"),
-}
+def tangent_stiffness(c: Characteristic, s: sp.Expr, sd: sp.Expr) -> sp.Expr:
+    """The tangent stiffness ``∂F_spring/∂s`` of the characteristic (its spring part: the
+    table curve or ``stiffness·s``), with the kinematics substituted."""
+    spring = characteristic_force(c.stiffness, sp.Integer(0), c.spring_force, None)
+    return sp.diff(spring, ELONGATION).xreplace({ELONGATION: s, ELONGATION_RATE: sd})
 
 
-@dataclass(frozen=True)
-class ForceOutput(Output):
-    """An output reporting what force element ``force`` exerts (times its ``enabled`` factor).
-
-    ``component``: ``force`` for scalar elements (a spring–damper's tensile force, a
-    rotational spring–damper's torque ``F(s, sd)``, a generalized force's value);
-    ``fx fy fz`` / ``mx my mz`` for vector elements: a ``force``/``torque`` element's vector in
-    its ``in`` frame, a bushing's force and torque on its second frame in the first frame's
-    components.
-    """
-
-    name: str
-    force: str
-    component: str = "force"
+def has_linear_spring(c: Characteristic) -> bool:
+    """Whether the spring part is ``stiffness·s`` (no table)."""
+    return c.spring_force is None
