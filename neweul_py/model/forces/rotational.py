@@ -67,9 +67,7 @@ class RotationalSpringDamper(ForceElement):
         on_frames = self.frame_a is not None or self.frame_b is not None
         if on_coordinate == on_frames:
             raise ModelError(
-                "a rotational spring–damper acts either on a 'coordinate' or 'between' two "
-                "frames (exactly one of them)",
-                path,
+                "a rotational spring–damper needs exactly one of 'coordinate' or 'between'", path
             )
         if on_frames and (self.frame_a is None or self.frame_b is None):
             raise ModelError("'between' needs two frames", f"{path}.between")
