@@ -3,13 +3,16 @@
 ```
 T   = Σ_i ½ m_i v_ci·v_ci + ½ ω_iᵀ I_i ω_i          (v_c = J_T,c ẏ + v̄_c, body components)
 V_g = −Σ_i m_i g·r_ci                              (r_c: center of mass, ISYS)
-V_s = Σ_springs ∫₀^s F(σ, 0) dσ                    (conservative part of the characteristic)
+V_s = Σ_elements enabled·V                          (each element's potential)
 ```
-``V_s`` covers point-to-point and rotational spring–dampers whose spring law is linear
-(``stiffness·s``): ``½ k s²`` with ``s = ℓ − length`` or ``s = coordinate − angle``. Tabulated
-characteristics, bushings and applied forces are left out (their potential is not formed),
-so the sum of the energies is conserved only when such elements do no work. Elastic bodies
-add their own terms in the generated module (:func:`neweul_py.ffrf.splice.ffrf_energy`).
+``V_s`` sums the potentials the force elements form
+(:meth:`~neweul_py.model.ForceElement.potential`): ``½ k s²`` of point-to-point spring–dampers
+and of rotational spring–dampers on a coordinate whose spring law is linear with a constant
+``stiffness`` (``s = ℓ − length`` or ``s = coordinate − angle``). Tables, coefficients that
+depend on ``s`` or ``sd``, rotational spring–dampers between frames, bushings and applied
+forces are left out (their potential is not formed), so the sum of the energies is conserved
+only when such elements do no work. Elastic bodies add their own terms in the generated module
+(:func:`neweul_py.ffrf.splice.ffrf_energy`).
 """
 
 from __future__ import annotations

@@ -258,5 +258,7 @@ def tangent_stiffness(c: Characteristic, s: sp.Expr, sd: sp.Expr) -> sp.Expr:
 
 
 def has_linear_spring(c: Characteristic) -> bool:
-    """Whether the spring part is ``stiffness·s`` (no table)."""
-    return c.spring_force is None
+    """Whether the spring part is ``stiffness·s`` with a constant coefficient: no table, no
+    ``s`` or ``sd`` in ``stiffness`` (then its potential is ``½ stiffness·s²``)."""
+    return c.spring_force is None and not (
+        {ELONGATION, ELONGATION_RATE} & c.stiffness.free_symbols)
