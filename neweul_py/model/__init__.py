@@ -30,11 +30,11 @@ from .forces import (
     PointForce,
     RotationalSpringDamper,
     SpringDamper,
-    TableCurve,
     Torque,
     characteristic_force,
     table_characteristic,
 )
+from .functions import TableCurve
 from .symbols import (
     INERTIAL,
     RESERVED_NAMES,

@@ -14,7 +14,6 @@ from .bushing import Bushing
 from .characteristic import (
     ELONGATION,
     ELONGATION_RATE,
-    TableCurve,
     characteristic_force,
     table_characteristic,
 )
@@ -39,7 +38,6 @@ __all__ = [
     "PointForce",
     "RotationalSpringDamper",
     "SpringDamper",
-    "TableCurve",
     "Torque",
     "ValueKind",
     "characteristic_force",
