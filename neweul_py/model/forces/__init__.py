@@ -17,6 +17,7 @@ from .characteristic import (
     characteristic_force,
     table_characteristic,
 )
+from .contact import PlaneContact
 from .loads import KinematicsView, Loads
 from .rotational import RotationalSpringDamper
 from .spring_damper import SpringDamper
@@ -35,6 +36,7 @@ __all__ = [
     "Key",
     "KinematicsView",
     "Loads",
+    "PlaneContact",
     "PointForce",
     "RotationalSpringDamper",
     "SpringDamper",
@@ -52,6 +54,7 @@ FORCE_ELEMENTS: tuple[type[ForceElement], ...] = (
     SpringDamper,
     RotationalSpringDamper,
     Bushing,
+    PlaneContact,
 )
 #: The element of each description ``type``.
 FORCE_TYPES: Mapping[str, type[ForceElement]] = {e.type_name: e for e in FORCE_ELEMENTS}
