@@ -1,20 +1,15 @@
-"""The force element classes (``neweul_py/model/forces/``): each one's schema fits its fields,
-and the kinematics offer what the elements' loads use.
+"""The schema of every force element (``neweul_py/model/forces/base.py``) fits its class.
 
-References: the dataclass fields of each element (``dataclasses.fields``) and the members
-declared by the protocol ``KinematicsView``, looked up on real kinematics.
+Reference: the dataclass fields of each element (``dataclasses.fields``).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import inspect
 
 import pytest
 
-from neweul_py.kinematics import absolute_kinematics
-from neweul_py.model import FORCE_ELEMENTS, FORCE_TYPES, Coordinate, Frame, System, symbol
-from neweul_py.model.forces.loads import KinematicsView
+from neweul_py.model import FORCE_ELEMENTS, FORCE_TYPES
 
 
 @pytest.mark.parametrize("element", FORCE_ELEMENTS, ids=lambda e: e.__name__)
@@ -36,15 +31,3 @@ def test_every_key_fills_fields_and_every_field_without_default_has_a_required_k
 def test_type_names_are_unique() -> None:
     """One element class per description ``type``."""
     assert len(FORCE_TYPES) == len(FORCE_ELEMENTS)
-
-
-def test_kinematics_offer_every_member_of_the_protocol() -> None:
-    """Every attribute and method the loads may use exists on real kinematics."""
-    system = System("k", coordinates=(Coordinate("a"),),
-                    frames=(Frame("f", rotation=(("z", symbol("a")),)),))
-    kin = absolute_kinematics(system)
-    members = {n for n, _ in inspect.getmembers(KinematicsView) if not n.startswith("_")}
-    members |= set(KinematicsView.__annotations__)
-    assert members
-    missing = sorted(m for m in members if not hasattr(kin, m))
-    assert not missing, missing
