@@ -43,13 +43,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 
 from ..errors import NeweulError, SolverError
 from .integrators import CompiledSolution
+from .module import GeneratedModel
 
 __all__ = ["GeneralizedAlpha", "coefficients", "integrate_generalized_alpha"]
 
@@ -115,7 +115,7 @@ def _hermite(t0: float, t1: float, p0: np.ndarray, d0: np.ndarray, p1: np.ndarra
 class _Problem:
     """The module with fixed ``p`` and inputs: accelerations and the Newton matrix."""
 
-    def __init__(self, module: ModuleType, p: np.ndarray, uf: Callable[[float], Any],
+    def __init__(self, module: GeneratedModel, p: np.ndarray, uf: Callable[[float], Any],
                  n: int) -> None:
         self.module, self.p, self.uf, self.n = module, p, uf, n
         self.nfev = 0
@@ -174,7 +174,7 @@ def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
 
 
 def integrate_generalized_alpha(
-    module: ModuleType,
+    module: GeneratedModel,
     t_span: tuple[float, float],
     x0: np.ndarray,
     p: np.ndarray,
