@@ -38,10 +38,12 @@ import numpy as np
 
 from ..errors import NeweulError, SolverError
 from . import protocol as proto
+from .integrators import Run
 from .module import GeneratedModel, ModelLike, as_model
 from .results import SimulationResult
 
 __all__ = [
+    "ConstrainedDAE",
     "ConstrainedSimulation",
     "consistent_initial_state",
     "default_partition",
@@ -527,3 +529,25 @@ def simulate_constrained(
         drift=drift,
     )
 
+
+class ConstrainedDAE:
+    """Models with ``CONSTRAINTS`` in :func:`~neweul_py.analysis.simulate`: the index-1 DAE
+    with drift control (:func:`simulate_constrained`), stepped by the SciPy ``method``; the
+    multipliers become ``lambda_<name>`` outputs."""
+
+    per_state_atol = False
+
+    def __init__(self, method: str) -> None:
+        self.method = method
+
+    def check(self, model: GeneratedModel, run: Run) -> None:
+        """Every SciPy method steps the DAE."""
+
+    def simulate(self, model: GeneratedModel, run: Run) -> SimulationResult:
+        n = model.n
+        return simulate_constrained(
+            model, run.t_end, t_start=run.t_start, n_out=run.n_out, t_eval=run.t_eval,
+            y0=run.x0[:n], yd0=run.x0[n:2 * n], p=run.p, u=run.u,  # type: ignore[arg-type]
+            method=self.method, rtol=run.rtol, atol=run.atol,  # type: ignore[arg-type]
+            independent=run.independent, progress=run.progress,
+        ).result
