@@ -1,5 +1,6 @@
-"""Analysis layer (see DESIGN.md): works on generated modules through the protocol of
-docs/generated-module-protocol.md; never imports sympy or the symbolic layers.
+"""Analysis layer: works on generated modules through the protocol of
+docs/generated-module-protocol.md, seen as a typed :class:`GeneratedModel`; never imports sympy
+or the symbolic layers.
 
 Everything a script or notebook needs is importable from here::
 
@@ -23,7 +24,7 @@ from .equilibrium import EquilibriumResult, equilibrium
 from .frf import FrequencyResponse, frequency_response, frequency_vector, frf
 from .linearize import LinearModel, linearize
 from .modes import ModalResult, modes
-from .module import check_protocol, load_generated
+from .module import GeneratedModel, as_model, check_protocol, load_generated
 from .plot import plot_result
 from .results import SimulationResult, load_npz, read_units
 from .simulate import METHODS, simulate
@@ -36,11 +37,13 @@ __all__ = [
     "ConstrainedSimulation",
     "EquilibriumResult",
     "FrequencyResponse",
+    "GeneratedModel",
     "LinearModel",
     "ModalResult",
     "SimulationResult",
     "SweepResult",
     "animate",
+    "as_model",
     "check_protocol",
     "compare",
     "consistent_initial_state",

@@ -36,8 +36,8 @@ import numpy as np
 from ..atomic import atomic_write
 from ..errors import NeweulError
 from ..progress import report
+from .module import as_model
 from .plot import new_figure
-from .protocol import load_module
 from .results import SimulationResult
 from .scene import SHAPES, Scene, build_scene
 
@@ -248,13 +248,13 @@ def animate(
     path = check_animation_path(path)
     if shape not in SHAPES:
         raise NeweulError(f"unknown body shape {shape!r}; shapes: {', '.join(SHAPES)}")
-    mod = load_module(module)
+    mod = as_model(module)
     index = animation_frames(result.t, fps, int(frames), speed)
     scene = build_scene(mod, result, index, p=p, u=u, shape=shape, scale=scale)
     from matplotlib import animation
 
     fig = new_figure(figsize=(size, size), dpi=dpi, layout="constrained")
-    name = result.model_name or str(getattr(mod, "MODEL_NAME", ""))
+    name = result.model_name or mod.MODEL_NAME
     _ax, update = draw_scene(fig, scene, scene_title(name, scene, speed))
     count = scene.t.size
     writer: Any = (animation.PillowWriter(fps=fps) if path.suffix.lower() == ".gif"

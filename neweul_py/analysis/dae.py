@@ -38,9 +38,12 @@ import numpy as np
 
 from ..errors import NeweulError, SolverError
 from . import protocol as proto
+from .integrators import Run
+from .module import GeneratedModel, ModelLike, as_model
 from .results import SimulationResult
 
 __all__ = [
+    "ConstrainedDAE",
     "ConstrainedSimulation",
     "consistent_initial_state",
     "default_partition",
@@ -109,15 +112,15 @@ class ConstrainedSimulation:
 
 
 class _Constraints:
-    """Constraint evaluation for one module, parameter vector and (optional) partition."""
+    """Constraint evaluation for one model, parameter vector and (optional) partition."""
 
-    def __init__(self, module: Any, p: np.ndarray) -> None:
+    def __init__(self, module: GeneratedModel, p: np.ndarray) -> None:
         self.module = module
         self.p = p
-        self.names = list(getattr(module, "CONSTRAINTS", []) or [])
+        self.names = list(module.CONSTRAINTS)
         self.nc = len(self.names)
-        self.n = len(module.COORDINATES)
-        self.separate_reactions = callable(getattr(module, "constraint_reaction_jacobian", None))
+        self.n = module.n
+        self.separate_reactions = module.separate_reactions
         self.rheonomic = bool(self.nc) and self._probe_rheonomic()
 
     def _probe_rheonomic(self) -> bool:
@@ -148,7 +151,7 @@ class _Constraints:
         return proto.constraint_time_derivative(self.module, t, y, self.p)
 
 
-def _metric(module: Any, t: float, y: np.ndarray, p: np.ndarray) -> np.ndarray | None:
+def _metric(module: GeneratedModel, t: float, y: np.ndarray, p: np.ndarray) -> np.ndarray | None:
     """``M⁻¹`` when ``M`` is well conditioned (kinetic metric of the projection), else None."""
     m = np.asarray(module.mass_matrix(t, y, p), dtype=float)
     if np.linalg.cond(m) > 1e12:
@@ -209,8 +212,8 @@ def _check_rank(con: _Constraints, t: float, y: np.ndarray, where: str = "initia
         raise NeweulError(f"redundant constraints at the {where}: " + "; ".join(redundant))
 
 
-def _check_regular(module: Any, con: _Constraints, t: float, y: np.ndarray, p: np.ndarray,
-                   where: str, dep: np.ndarray | None = None) -> None:
+def _check_regular(module: GeneratedModel, con: _Constraints, t: float, y: np.ndarray,
+                   p: np.ndarray, where: str, dep: np.ndarray | None = None) -> None:
     """Name the cause of a singular augmented matrix: redundant constraints, or coordinates
     without inertia in the motions the constraints allow.
 
@@ -243,7 +246,7 @@ def _check_regular(module: Any, con: _Constraints, t: float, y: np.ndarray, p: n
 
 
 def consistent_initial_state(
-    module: Any,
+    module: ModelLike,
     y0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     yd0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     p: proto.ParameterLike = None,
@@ -257,7 +260,7 @@ def consistent_initial_state(
     Parameters
     ----------
     module
-        A generated module with ``CONSTRAINTS``.
+        A generated model (or module, or its path) with ``CONSTRAINTS``.
     y0, yd0
         Guesses: vectors, or mappings name → value over the module's ``INITIAL_STATE``.
     p
@@ -287,8 +290,8 @@ def consistent_initial_state(
     SolverError
         Constraints that cannot be satisfied (inconsistent), with their residuals.
     """
-    module = proto.load_module(module)
-    names = proto.coordinate_names(module)
+    module = as_model(module)
+    names = list(module.COORDINATES)
     n = len(names)
     pv = proto.resolve_parameters(module, p)
     x_init = np.asarray(module.INITIAL_STATE, dtype=float)
@@ -344,7 +347,7 @@ def default_partition(g_jac: np.ndarray, max_cond: float = 1e8) -> np.ndarray | 
 
 
 def simulate_constrained(
-    module: Any,
+    module: ModelLike,
     t_end: float,
     *,
     t_start: float = 0.0,
@@ -401,14 +404,14 @@ def simulate_constrained(
     ConstrainedSimulation
         Time, coordinates, velocities, outputs, multipliers ``λ`` and constraint residuals.
     """
-    module = proto.load_module(module)
-    names = proto.coordinate_names(module)
+    module = as_model(module)
+    names = list(module.COORDINATES)
     n = len(names)
-    if int(getattr(module, "STATE_SIZE", 2 * n)) != 2 * n:
+    if not module.first_order_state:
         raise NeweulError("simulate_constrained: states beyond [y, ẏ] are not supported yet")
     pv = proto.resolve_parameters(module, p)
     ufun = proto.input_function(module, pv, u)
-    out_names = tuple(getattr(module, "OUTPUTS", []) or [])
+    out_names = tuple(module.OUTPUTS)
     con = _Constraints(module, pv)
     times = (
         np.asarray(t_eval, dtype=float)
@@ -507,13 +510,12 @@ def simulate_constrained(
         outputs=np.hstack([outs, lams]),
         coordinates=tuple(names),
         output_names=(*out_names, *(f"lambda_{c}" for c in con.names)),
-        coordinate_units=tuple(getattr(module, "COORDINATE_UNITS", ())),
-        output_units=(
-            (*module.OUTPUT_UNITS, *([""] * con.nc)) if hasattr(module, "OUTPUT_UNITS") else ()
-        ),
-        model_name=str(getattr(module, "MODEL_NAME", "")),
+        coordinate_units=tuple(module.COORDINATE_UNITS),
+        output_units=((*module.OUTPUT_UNITS, *([""] * con.nc))  # none given: none here
+                      if module.OUTPUT_UNITS or not module.OUTPUTS else ()),
+        model_name=module.MODEL_NAME,
         parameters=dict(zip(module.PARAMETERS, map(float, pv), strict=True)),
-        source_hash=str(getattr(module, "SOURCE_HASH", "")),
+        source_hash=module.SOURCE_HASH,
         method=method,
         message="constrained: projection at output times",
         nfev=nfev,
@@ -526,3 +528,26 @@ def simulate_constrained(
         velocity_residual=vel_res,
         drift=drift,
     )
+
+
+class ConstrainedDAE:
+    """Models with ``CONSTRAINTS`` in :func:`~neweul_py.analysis.simulate`: the index-1 DAE
+    with drift control (:func:`simulate_constrained`), stepped by the SciPy ``method``; the
+    multipliers become ``lambda_<name>`` outputs."""
+
+    per_state_atol = False
+
+    def __init__(self, method: str) -> None:
+        self.method = method
+
+    def check(self, model: GeneratedModel, run: Run) -> None:
+        """Every SciPy method steps the DAE."""
+
+    def simulate(self, model: GeneratedModel, run: Run) -> SimulationResult:
+        n = model.n
+        return simulate_constrained(
+            model, run.t_end, t_start=run.t_start, n_out=run.n_out, t_eval=run.t_eval,
+            y0=run.x0[:n], yd0=run.x0[n:2 * n], p=run.p, u=run.u,  # type: ignore[arg-type]
+            method=self.method, rtol=run.rtol, atol=run.atol,  # type: ignore[arg-type]
+            independent=run.independent, progress=run.progress,
+        ).result

@@ -27,13 +27,13 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import SolverError
 from . import protocol as proto
+from .module import GeneratedModel, ModelLike, as_model
 from .results import ResultDisplay, check_output_path
 
 __all__ = ["SUFFIXES", "EquilibriumResult", "equilibrium"]
@@ -175,13 +175,13 @@ class _Problem:
     """The equilibrium equations ``R(y, λ) = [F(y) + G_Rᵀλ; g(y)] = 0`` on the free coordinates,
     their Jacobian and the kinetic metric, for one module, time, parameter and input vector."""
 
-    def __init__(self, module: Any, t: float, pv: np.ndarray, uv: np.ndarray,
+    def __init__(self, module: GeneratedModel, t: float, pv: np.ndarray, uv: np.ndarray,
                  names: list[str], cnames: list[str], free: np.ndarray) -> None:
         self.module, self.t, self.pv, self.uv = module, t, pv, uv
         self.names, self.cnames, self.free = names, cnames, free
         self.n, self.nc, self.nf = len(names), len(cnames), free.size
         self.zero = np.zeros(self.n)
-        self.separate_reactions = callable(getattr(module, "constraint_reaction_jacobian", None))
+        self.separate_reactions = module.separate_reactions
 
     def force(self, y: np.ndarray) -> np.ndarray:
         return np.asarray(self.module.force_vector(self.t, y, self.zero, self.pv, self.uv),
@@ -425,7 +425,7 @@ def _continuation(prob: _Problem, y: np.ndarray, *, xtol: float, maxiter: int,
 
 
 def equilibrium(
-    module: Any,
+    module: ModelLike,
     p: proto.ParameterLike = None,
     u: Mapping[str, float] | Sequence[float] | None = None,
     y0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
@@ -494,10 +494,10 @@ def equilibrium(
     >>> eq = equilibrium(mod, p={"k": 20.0})                         # doctest: +SKIP
     >>> print(eq.table())                                            # doctest: +SKIP
     """
-    module = proto.load_module(module)
-    names = proto.coordinate_names(module)
+    module = as_model(module)
+    names = list(module.COORDINATES)
     n = len(names)
-    cnames = list(getattr(module, "CONSTRAINTS", []) or [])
+    cnames = list(module.CONSTRAINTS)
     pv = proto.resolve_parameters(module, p)
     uv = proto.resolve_inputs(module, t, pv, u)
     y_init = np.asarray(module.INITIAL_STATE, dtype=float)[:n].copy()

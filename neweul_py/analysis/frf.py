@@ -370,7 +370,7 @@ def frequency_response(
     if method not in _METHODS:
         raise NeweulError(f"unknown frequency-response method {method!r}; valid: solve, "
                           "hessenberg, eig")
-    rates = dict(getattr(lin, "input_rates", ()) or ())
+    rates = dict(lin.input_rates)
     rate_of = {r: nm for nm, rs in rates.items() for r in rs}
     valid = [nm for nm in lin.inputs if nm not in rate_of]
     in_names = _as_names(inputs, valid)

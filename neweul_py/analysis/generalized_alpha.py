@@ -43,15 +43,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 
 from ..errors import NeweulError, SolverError
-from .integrators import CompiledSolution
+from .integrators import FirstOrder, Run, Solution
+from .module import GeneratedModel
 
-__all__ = ["GeneralizedAlpha", "coefficients", "integrate_generalized_alpha"]
+__all__ = ["GeneralizedAlpha", "GeneralizedAlphaSteps", "coefficients",
+           "integrate_generalized_alpha"]
 
 #: Newton iterations per step before the iteration matrix is rebuilt (and then the step fails).
 MAX_ITERATIONS = 8
@@ -115,7 +116,7 @@ def _hermite(t0: float, t1: float, p0: np.ndarray, d0: np.ndarray, p1: np.ndarra
 class _Problem:
     """The module with fixed ``p`` and inputs: accelerations and the Newton matrix."""
 
-    def __init__(self, module: ModuleType, p: np.ndarray, uf: Callable[[float], Any],
+    def __init__(self, module: GeneratedModel, p: np.ndarray, uf: Callable[[float], Any],
                  n: int) -> None:
         self.module, self.p, self.uf, self.n = module, p, uf, n
         self.nfev = 0
@@ -174,7 +175,7 @@ def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
 
 
 def integrate_generalized_alpha(
-    module: ModuleType,
+    module: GeneratedModel,
     t_span: tuple[float, float],
     x0: np.ndarray,
     p: np.ndarray,
@@ -187,14 +188,14 @@ def integrate_generalized_alpha(
     atol: float | np.ndarray,
     names: list[str],
     progress: Callable[[float, float], None] | None = None,
-) -> CompiledSolution:
+) -> Solution:
     """Integrate the module from ``x0`` over ``t_span`` with generalized-α steps of (at most)
     ``h``.
 
     Parameters
     ----------
     module
-        A generated module (``rhs``, ``mass_matrix``, ``force_jacobians``,
+        A generated model (``rhs``, ``mass_matrix``, ``force_jacobians``,
         ``mass_matrix_times_derivative``).
     t_span
         ``(t_start, t_end)``; the span is divided into ``ceil(span / h)`` equal steps.
@@ -219,7 +220,7 @@ def integrate_generalized_alpha(
 
     Returns
     -------
-    CompiledSolution
+    Solution
         The states at ``times`` (``y`` of shape (2n, len(times))) and the number of
         ``rhs`` evaluations as ``nfev``.
 
@@ -274,8 +275,29 @@ def integrate_generalized_alpha(
         y, v, ydd = y_new, v_new, x_new
         if progress is not None and i % report == 0:
             progress(tn - t0, t1 - t0)
-    sol = CompiledSolution(times, out.T, True,
-                           "The solver successfully reached the end of the integration "
-                           "interval.", prob.nfev)
-    sol.njev = prob.njev  # type: ignore[attr-defined]
-    return sol
+    return Solution(times, out.T, True,
+                    "The solver successfully reached the end of the integration interval.",
+                    prob.nfev, prob.njev)
+
+
+class GeneralizedAlphaSteps(FirstOrder):
+    """``method="generalized-alpha"`` of :func:`~neweul_py.analysis.simulate`: fixed steps
+    ``h`` of :func:`integrate_generalized_alpha` (unconstrained models)."""
+
+    method = "generalized-alpha"
+
+    def check(self, model: GeneratedModel, run: Run) -> None:
+        if run.h is None:
+            raise NeweulError("method 'generalized-alpha' needs the step h "
+                              "(neweul simulate --step)")
+        if model.has_constraints:
+            raise NeweulError("method 'generalized-alpha' integrates unconstrained models; "
+                              "models with constraints use the DAE integrators (RK45, …)")
+
+    def solve(self, model: GeneratedModel, run: Run, uf: Callable[[float], Any],
+              times: np.ndarray, last: Any) -> Solution:
+        return integrate_generalized_alpha(
+            model, (run.t_start, run.t_end), run.x0, run.p, uf, times,
+            h=float(run.h),  # type: ignore[arg-type]
+            rho_inf=run.rho_inf, rtol=run.rtol, atol=run.atol, names=model.state_names,
+            progress=run.progress)

@@ -42,6 +42,8 @@ from ..atomic import atomic_savez
 from ..errors import NeweulError
 from ..ffrf.loss_form import DAMPING_FORMS, loss_form
 from . import protocol as proto
+from .equilibrium import EquilibriumResult
+from .module import GeneratedModel, ModelLike, as_model
 from .results import check_output_path
 
 __all__ = ["DAMPING_FORMS", "LinearModel", "linearize"]
@@ -309,7 +311,7 @@ class LinearModel:
 
 
 def linearize(
-    module: Any,
+    module: ModelLike,
     y0: Any = None,
     yd0: Any = None,
     u0: Any = None,
@@ -353,15 +355,15 @@ def linearize(
     >>> lin = linearize(mod, equilibrium(mod))                       # doctest: +SKIP
     >>> a, b, c, d = lin.to_first_order()                            # doctest: +SKIP
     """
-    module = proto.load_module(module)
-    names = proto.coordinate_names(module)
+    module = as_model(module)
+    names = list(module.COORDINATES)
     n = len(names)
-    if int(getattr(module, "STATE_SIZE", 2 * n)) != 2 * n:
+    if not module.first_order_state:
         raise NeweulError(
             f"linearize: state size {module.STATE_SIZE} != 2 × {n} coordinates; first-order "
             "states beyond [y, ẏ] are not supported yet"
         )
-    if y0 is not None and hasattr(y0, "y") and hasattr(y0, "residual"):  # EquilibriumResult
+    if isinstance(y0, EquilibriumResult):
         eq = y0
         y0 = eq.y
         p = eq.p if p is None else p
@@ -372,9 +374,9 @@ def linearize(
     y = proto.override_vector(y_init, names, y0, "coordinate")
     yd = proto.override_vector(np.zeros(n), names, yd0, "coordinate")
     u = proto.resolve_inputs(module, t, pv, u0)
-    inputs = tuple(getattr(module, "INPUTS", []) or [])
-    outputs = tuple(getattr(module, "OUTPUTS", []) or [])
-    cnames = tuple(getattr(module, "CONSTRAINTS", []) or [])
+    inputs = tuple(module.INPUTS)
+    outputs = tuple(module.OUTPUTS)
+    cnames = tuple(module.CONSTRAINTS)
 
     m0 = np.asarray(module.mass_matrix(t, y, pv), dtype=float)
     force = np.asarray(module.force_vector(t, y, yd, pv, u), dtype=float)
@@ -401,7 +403,7 @@ def linearize(
         q_mat = q_mat + np.asarray(module.mass_matrix_times_derivative(t, y, pv, ydd0))
     nt = left.T
     g_loss, f_ref = None, None
-    if callable(getattr(module, "loss_matrix", None)):
+    if module.loss_matrix is not None:
         g_loss = nt @ np.asarray(module.loss_matrix(t, x0, pv, u), dtype=float) @ basis
         f_ref = float(module.LOSS_REFERENCE_FREQUENCY)
     two = np.zeros((2 * n, 2 * indep.size))
@@ -428,7 +430,7 @@ def linearize(
         constraints=cnames,
         input_rates=tuple(
             (name, tuple(rates))
-            for name, rates in sorted((getattr(module, "INPUT_RATES", None) or {}).items())
+            for name, rates in sorted(module.INPUT_RATES.items())
         ),
         G=g_loss,
         loss_reference_frequency=f_ref,
@@ -436,7 +438,7 @@ def linearize(
 
 
 def _manifold(
-    module: Any,
+    module: GeneratedModel,
     t: float,
     y: np.ndarray,
     yd: np.ndarray,
@@ -453,7 +455,7 @@ def _manifold(
         Independent coordinate indices, ``N``, ``N_R``, ``ÿ0`` and ``λ0`` of the augmented
         system, and ``∂(G_Rᵀλ0)/∂y``.
     """
-    names = proto.coordinate_names(module)
+    names = list(module.COORDINATES)
     cnames = list(module.CONSTRAINTS)
     if np.any(yd):
         raise NeweulError(
@@ -476,7 +478,7 @@ def _manifold(
     indep, dep = proto.partition(g_jac, names, independent)
     basis = proto.partition_basis(g_jac, indep, dep)
     g_r = g_jac
-    if callable(getattr(module, "constraint_reaction_jacobian", None)):
+    if module.separate_reactions:
         g_r = proto.constraint_reaction_jacobian(module, t, y, pv)
     left = proto.reaction_free_basis(g_r, g_jac, indep, dep, basis)
     proto.check_mass_matrix(m0, names, basis, left)

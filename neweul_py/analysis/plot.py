@@ -18,6 +18,7 @@ import numpy as np
 
 from ..atomic import atomic_write
 from ..errors import NeweulError
+from .module import ModelLike, as_model
 from .results import SimulationResult
 
 __all__ = [
@@ -179,22 +180,20 @@ def result_figure(result: SimulationResult) -> Any:
     return fig
 
 
-def signal_units(module: Any) -> dict[str, str]:
+def signal_units(module: ModelLike) -> dict[str, str]:
     """Units of what a frequency response may output — the model outputs (``OUTPUT_UNITS``),
     coordinates (``COORDINATE_UNITS``) and their first and second time derivatives — and of
     its inputs (``INPUT_UNITS``; names are unique across these kinds)."""
+    module = as_model(module)
     units: dict[str, str] = {}
-    coordinate_units = list(getattr(module, "COORDINATE_UNITS", ()) or ())
-    for name, unit in zip(module.COORDINATES, coordinate_units, strict=False):
+    for name, unit in zip(module.COORDINATES, module.COORDINATE_UNITS, strict=False):
         unit = "" if unit in ("", "-") else unit
         units[name] = unit
         units[f"d_{name}"] = f"{unit}/s" if unit else "1/s"
         units[f"dd_{name}"] = f"{unit}/s²" if unit else "1/s²"
-    for name, unit in zip(module.OUTPUTS, getattr(module, "OUTPUT_UNITS", ()) or (),
-                          strict=False):
+    for name, unit in zip(module.OUTPUTS, module.OUTPUT_UNITS, strict=False):
         units[name] = "" if unit in ("", "-") else unit
-    for name, unit in zip(module.INPUTS, getattr(module, "INPUT_UNITS", ()) or (),
-                          strict=False):
+    for name, unit in zip(module.INPUTS, module.INPUT_UNITS, strict=False):
         units[name] = "" if unit in ("", "-") else unit
     return units
 

@@ -1,26 +1,23 @@
-"""Small private helpers shared by the analysis tools.
+"""Small helpers shared by the analysis tools.
 
-Everything here works on a *generated module* through the protocol of
-``docs/generated-module-protocol.md`` (duck-typed: any object with the protocol's attributes will
-do) and on plain NumPy arrays. Nothing here knows about sympy or the symbolic layers.
+Everything here works on a generated model (:class:`~neweul_py.analysis.module.GeneratedModel`,
+the protocol of ``docs/generated-module-protocol.md``) and on plain NumPy arrays. Nothing here
+knows about sympy or the symbolic layers.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from ..errors import ModelError, NeweulError
-from .module import load_generated
+from .module import GeneratedModel
 
 __all__ = [
     "ParameterLike",
     "constraint_reaction_jacobian",
-    "coordinate_names",
-    "load_module",
     "name_index",
     "null_space",
     "override_vector",
@@ -31,45 +28,6 @@ __all__ = [
 ]
 
 ParameterLike = Mapping[str, float] | Sequence[float] | np.ndarray | None
-
-_REQUIRED = ("COORDINATES", "PARAMETERS", "mass_matrix", "force_vector")
-
-
-def load_module(module: Any) -> Any:
-    """Return a generated module, importing it first when given a path.
-
-    Parameters
-    ----------
-    module
-        An imported generated module (or any object implementing the protocol), or the path of a
-        generated ``.py`` file (imported and checked by
-        :func:`neweul_py.analysis.module.load_generated`).
-
-    Returns
-    -------
-    object
-        The module object.
-    """
-    if isinstance(module, str | os.PathLike):
-        return load_generated(module)
-    missing = [a for a in _REQUIRED if not hasattr(module, a)]
-    if missing:
-        what = getattr(module, "__name__", type(module).__name__)
-        raise NeweulError(
-            f"{what} is not a generated module (missing {', '.join(missing)}; "
-            "see docs/generated-module-protocol.md)"
-        )
-    return module
-
-
-def coordinate_names(module: Any) -> list[str]:
-    """The coordinate names of ``module`` as a list."""
-    return list(module.COORDINATES)
-
-
-def _constants(module: Any, attr: str) -> list[str]:
-    return list(getattr(module, attr, []) or [])
-
 
 def name_index(names: Sequence[str], name: str, kind: str) -> int:
     """Position of ``name`` in ``names``; else a :class:`NeweulError` listing the valid names."""
@@ -103,50 +61,44 @@ def override_vector(
     return arr
 
 
-def resolve_parameters(module: Any, p: ParameterLike = None) -> np.ndarray:
-    """The parameter vector ``p`` (ordered as ``module.PARAMETERS``).
+def resolve_parameters(model: GeneratedModel, p: ParameterLike = None) -> np.ndarray:
+    """The parameter vector ``p`` (ordered as ``PARAMETERS``).
 
     ``None`` gives the defaults; a mapping overrides defaults by name (unknown names are an error
     listing the valid ones); a sequence must have one entry per parameter.
     """
-    names = list(module.PARAMETERS)
-    if hasattr(module, "default_parameters"):
-        default = np.asarray(module.default_parameters(), dtype=float).reshape(-1).copy()
-        if default.size != len(names):
-            raise NeweulError(
-                f"{getattr(module, 'MODEL_NAME', 'module')}: default_parameters returns "
-                f"{default.size} value(s) for {len(names)} PARAMETERS; the generated module is "
-                "inconsistent (regenerate it)"
-            )
-    else:
-        default = np.array([module.PARAMETERS[k] for k in names], dtype=float)
+    names = list(model.PARAMETERS)
+    default = np.asarray(model.default_parameters(), dtype=float).reshape(-1).copy()
+    if default.size != len(names):
+        raise NeweulError(
+            f"{model.MODEL_NAME}: default_parameters returns {default.size} value(s) for "
+            f"{len(names)} PARAMETERS; the generated module is inconsistent (regenerate it)"
+        )
     return override_vector(default, names, p, "parameter")
 
 
 def resolve_inputs(
-    module: Any, t: float, p: np.ndarray, u: Mapping[str, float] | Sequence[float] | None
+    model: GeneratedModel, t: float, p: np.ndarray,
+    u: Mapping[str, float] | Sequence[float] | None,
 ) -> np.ndarray:
     """The input vector ``u`` at time ``t``.
 
     ``None`` gives ``default_inputs(t, p)``; a mapping overrides the default excitation by name;
     a sequence must have one entry per input.
     """
-    names = _constants(module, "INPUTS")
-    if hasattr(module, "default_inputs"):
-        base = np.asarray(module.default_inputs(t, p), dtype=float).reshape(-1).copy()
-        if base.size != len(names):
-            raise NeweulError(
-                f"{getattr(module, 'MODEL_NAME', 'module')}: default_inputs returns {base.size} "
-                f"value(s) for the {len(names)} INPUTS ({', '.join(names)}); the generated "
-                "module is inconsistent (regenerate it)"
-            )
-    else:
-        base = np.zeros(len(names))
+    names = list(model.INPUTS)
+    base = np.asarray(model.default_inputs(t, p), dtype=float).reshape(-1).copy()
+    if base.size != len(names):
+        raise NeweulError(
+            f"{model.MODEL_NAME}: default_inputs returns {base.size} value(s) for the "
+            f"{len(names)} INPUTS ({', '.join(names)}); the generated module is inconsistent "
+            "(regenerate it)"
+        )
     return override_vector(base, names, u, "input")
 
 
 def input_function(
-    module: Any,
+    model: GeneratedModel,
     p: np.ndarray,
     u: Callable[[float], Any] | Mapping[str, float] | Sequence[float] | None,
 ) -> Callable[[float], np.ndarray]:
@@ -154,8 +106,8 @@ def input_function(
     if callable(u):
         return lambda t: np.asarray(u(t), dtype=float).reshape(-1)
     if u is None:
-        return lambda t: resolve_inputs(module, t, p, None)
-    fixed = resolve_inputs(module, 0.0, p, u)
+        return lambda t: resolve_inputs(model, t, p, None)
+    fixed = resolve_inputs(model, 0.0, p, u)
     return lambda t: fixed
 
 
@@ -278,7 +230,7 @@ def equilibrated(a: np.ndarray, sweeps: int = 30) -> np.ndarray:
     return a
 
 
-def constraint_reaction_jacobian(module: Any, t: float, y: np.ndarray,
+def constraint_reaction_jacobian(model: GeneratedModel, t: float, y: np.ndarray,
                                  p: np.ndarray) -> np.ndarray:
     """``G_R`` (nc, n) of the constraint reactions ``G_Rᵀ λ``: the module's
     ``constraint_reaction_jacobian`` where it has one, else ``G = constraint_jacobian``.
@@ -289,14 +241,12 @@ def constraint_reaction_jacobian(module: Any, t: float, y: np.ndarray,
     docs/generated-module-protocol.md). Modules without the function (rigid models, modules
     written before it existed) have ``G_R = G``.
     """
-    fn = getattr(module, "constraint_reaction_jacobian", None)
-    if fn is None:
-        fn = module.constraint_jacobian
+    fn = model.constraint_reaction_jacobian or model.constraint_jacobian
     return np.asarray(fn(t, y, p), dtype=float).reshape(-1, y.size)
 
 
 def constraint_force_jacobian(
-    module: Any, t: float, y: np.ndarray, p: np.ndarray, lam: np.ndarray
+    model: GeneratedModel, t: float, y: np.ndarray, p: np.ndarray, lam: np.ndarray
 ) -> np.ndarray:
     """``∂(G_R(y)ᵀ λ)/∂y`` at fixed ``λ`` (equations.md §1), by central differences of the
     analytic reaction Jacobian ``G_R`` (:func:`constraint_reaction_jacobian`; ``G`` for
@@ -313,24 +263,24 @@ def constraint_force_jacobian(
         ym = y.copy()
         yp[j] += h
         ym[j] -= h
-        gp = constraint_reaction_jacobian(module, t, yp, p)
-        gm = constraint_reaction_jacobian(module, t, ym, p)
+        gp = constraint_reaction_jacobian(model, t, yp, p)
+        gm = constraint_reaction_jacobian(model, t, ym, p)
         out[:, j] = (gp - gm).T @ lam / (2 * h)
     return out
 
 
-def constraint_time_derivative(module: Any, t: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+def constraint_time_derivative(model: GeneratedModel, t: float, y: np.ndarray,
+                               p: np.ndarray) -> np.ndarray:
     """``∂g/∂t`` at ``(t, y)``.
 
-    Uses ``module.constraint_time_derivative`` when the module provides it; otherwise a central
+    Uses the module's ``constraint_time_derivative`` when it has one; otherwise a central
     difference of ``constraints`` in ``t`` (exactly zero for scleronomic constraints).
     """
-    fn = getattr(module, "constraint_time_derivative", None)
-    if fn is not None:
-        return np.asarray(fn(t, y, p), dtype=float)
+    if model.constraint_time_derivative is not None:
+        return np.asarray(model.constraint_time_derivative(t, y, p), dtype=float)
     h = 1e-5 * max(1.0, abs(t))
-    gp = np.asarray(module.constraints(t + h, y, p), dtype=float)
-    gm = np.asarray(module.constraints(t - h, y, p), dtype=float)
+    gp = np.asarray(model.constraints(t + h, y, p), dtype=float)
+    gm = np.asarray(model.constraints(t - h, y, p), dtype=float)
     return (gp - gm) / (2 * h)
 
 

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import NeweulError
+from .module import GeneratedModel, ModelLike, as_model
 from .protocol import resolve_inputs, resolve_parameters
 from .results import SimulationResult
 
@@ -175,9 +176,9 @@ class Scene:
     deformation_scale: float = 1.0
 
 
-def _check(module: Any, result: SimulationResult) -> None:
-    what = getattr(module, "MODEL_NAME", "the module")
-    if not callable(getattr(module, "frame_poses", None)) or not hasattr(module, "FRAMES"):
+def _check(module: GeneratedModel, result: SimulationResult) -> None:
+    what = module.MODEL_NAME
+    if not module.has_poses:
         raise NeweulError(
             f"{what}: the generated module has no frame_poses (it was generated before "
             "animations were supported); regenerate it with `neweul generate`")
@@ -188,7 +189,7 @@ def _check(module: Any, result: SimulationResult) -> None:
 
 
 def build_scene(
-    module: Any,
+    module: ModelLike,
     result: SimulationResult,
     index: Sequence[int] | np.ndarray,
     *,
@@ -202,7 +203,7 @@ def build_scene(
     Parameters
     ----------
     module
-        The generated module (with ``frame_poses``).
+        The generated model (or module, or its path) with ``frame_poses``.
     result
         Its simulation.
     index
@@ -225,6 +226,7 @@ def build_scene(
     """
     if shape not in SHAPES:
         raise NeweulError(f"unknown body shape {shape!r}; shapes: {', '.join(SHAPES)}")
+    module = as_model(module)
     _check(module, result)
     pv = resolve_parameters(module, result.parameters if p is None else p)
     index = np.asarray(index, dtype=int)
@@ -235,10 +237,9 @@ def build_scene(
         raise NeweulError(f"the result holds {x.shape[1]} states, the module {n_state}")
     frames = tuple(module.FRAMES)
     where = {name: i for i, name in enumerate(frames)}
-    info = list(getattr(module, "BODIES", []))
-    rigid = [b for b in info if b.get("kind") == "rigid"]
-    elastic = [b for b in info if b.get("kind") == "elastic"]
-    has_nodes = elastic and callable(getattr(module, "node_positions", None))
+    rigid = [b for b in module.BODIES if b.get("kind") == "rigid"]
+    elastic = [b for b in module.BODIES if b.get("kind") == "elastic"]
+    has_nodes = elastic and module.has_node_positions
     ufun = u if callable(u) else (lambda _t: u)
     origins, rotations, clouds, rests = [], [], [], []
     rigid_only = np.ones(x.shape[1])      # x with the elastic coordinates set to zero
@@ -304,7 +305,7 @@ def build_scene(
         f = fi[k]
         meshes.append(r_all[:, f, None, None, :]
                       + np.einsum("tij,kvj->tkvi", s_all[:, f], local))
-    return Scene(t=t, frames=frames, parents=tuple(getattr(module, "FRAME_PARENTS", ())),
+    return Scene(t=t, frames=frames, parents=tuple(module.FRAME_PARENTS),
                  origins=origins_a, rotations=rotations_a,
                  bodies=tuple(b["name"] for b in rigid), body_frames=body_frames,
                  centers=centers, meshes=tuple(meshes), clouds=node_sets, center=center,

@@ -21,14 +21,13 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
-from .module import load_generated
+from .module import GeneratedModel, ModelLike, as_model
 from .results import ResultDisplay, check_output_path, require_pandas
 from .sweep_tasks import STATS, TASKS, run_cases
 
@@ -217,18 +216,18 @@ def connect(
     return Client(cluster), cluster
 
 
-def _source(module: ModuleType | str | os.PathLike[str]) -> tuple[str, ModuleType]:
-    path = getattr(module, "__file__", None) if isinstance(module, ModuleType) else module
-    if path is None:
+def _source(module: ModelLike) -> tuple[str, GeneratedModel]:
+    mod = as_model(module)
+    if not mod.path:
         raise NeweulError("sweep: the module has no file to ship to the workers")
-    mod = module if isinstance(module, ModuleType) else load_generated(path)
     try:
-        return Path(path).read_text(encoding="utf-8"), mod
+        return Path(mod.path).read_text(encoding="utf-8"), mod
     except OSError as exc:
-        raise NeweulError(f"{path}: cannot read the generated module ({exc.strerror})") from None
+        raise NeweulError(f"{mod.path}: cannot read the generated module ({exc.strerror})"
+                          ) from None
 
 
-def _check(mod: ModuleType, cases: Sequence[Mapping[str, float]], task: Any,
+def _check(mod: GeneratedModel, cases: Sequence[Mapping[str, float]], task: Any,
            options: Mapping[str, Any]) -> list[str]:
     if not cases:
         raise NeweulError("sweep: no cases (give --param NAME=VALUES or --cases FILE)")
@@ -263,7 +262,7 @@ def _table(cases: Sequence[Mapping[str, float]], params: Sequence[str],
 
 
 def sweep(
-    module: ModuleType | str | os.PathLike[str],
+    module: ModelLike,
     cases: Sequence[Mapping[str, float]],
     task: str | Callable[..., Mapping[str, float]] = "simulate",
     *,

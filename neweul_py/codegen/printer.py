@@ -26,7 +26,7 @@ derivatives (:mod:`neweul_py.model.functions`, :mod:`.derivatives`) produce exac
 - ``Abs``: ``abs`` / C ``fabs``; ``sign``: ``0 at 0, else ±1`` (``copysign``);
 - ``Heaviside(x, 1)`` (always with ``H0 = 1``: the language's ``step``/``heaviside``, 1 for
   ``x >= 0``, its derivatives' weights): ``(1.0 if x >= 0 else 0.0)``;
-- ``TableCurve`` of :mod:`neweul_py.model.force_elements` (tabulated characteristics: a chain
+- ``TableCurve`` of :mod:`neweul_py.model.functions` (tabulated characteristics: a chain
   of comparisons, see its ``_pythoncode``) and its subclass ``SignalTable`` of
   :mod:`neweul_py.model.functions` (tabulated input signals of ``t``, up to 10 000 pieces: a
   balanced tree of comparisons); both expose ``pieces()`` and their knots ``args[1]``.

@@ -34,7 +34,6 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import sympy as sp
@@ -42,11 +41,7 @@ import sympy as sp
 from ..errors import ModelError
 from ..model import (
     AXES,
-    ELONGATION,
-    ELONGATION_RATE,
-    FORCE_COMPONENTS,
     INERTIAL,
-    Bushing,
     CoincidenceConstraint,
     Constraint,
     Coordinate,
@@ -56,304 +51,37 @@ from ..model import (
     ForceElement,
     ForceOutput,
     Frame,
-    GeneralizedForce,
     Input,
     KinematicOutput,
     Output,
     Parameter,
-    PointForce,
     RigidBody,
-    RotationalSpringDamper,
-    SpringDamper,
     System,
-    Torque,
     check_name,
     input_rate_name,
     symbol,
-    table_characteristic,
     time,
     velocity_name,
 )
-from .expressions import ExpressionError, as_expression, parse_expression
+from .force_keys import check_value, force_schema, force_type, given_values, parse_value
+from .values import (
+    KIND_WORDS,
+    Names,
+    check_frame_name,
+    check_inertia,
+    check_points,
+    check_vector,
+    constant_number,
+    is_sequence,
+    parse_points,
+    two_frames,
+    type_name,
+)
 
-__all__ = ["SCOPES", "SystemBuilder"]
-
-#: The scopes of expressions: which kinds of names each may use.
-SCOPES: Mapping[str, tuple[str, ...]] = {
-    "constant": ("parameter",),
-    "excitation": ("parameter", "time"),
-    "kinematic": ("parameter", "coordinate", "input", "time"),
-    "dynamic": ("parameter", "coordinate", "input", "time", "velocity", "input_rate"),
-}
-
-_KIND_WORDS = {
-    "parameter": "a parameter",
-    "coordinate": "a coordinate",
-    "velocity": "a velocity",
-    "input": "an input",
-    "input_rate": "a time derivative of an input",
-    "time": "the time",
-    "frame": "a frame",
-    "body": "a body",
-    "elastic_body": "an elastic body",
-    "force": "a force element",
-    "output": "an output",
-}
+__all__ = ["SystemBuilder"]
 
 
-# ----------------------------------------------------------------------------- values
-def _is_sequence(value: object) -> bool:
-    return isinstance(value, Sequence) and not isinstance(value, str | bytes)
-
-
-def _type_name(value: object) -> str:
-    return f"{type(value).__name__} {value!r}"
-
-
-def constant_number(value: object, key_path: str, what: str = "value") -> float:
-    """A finite number from an ``int``, ``float`` or a constant expression string (``"2*pi"``).
-
-    YAML reads ``1e-3`` (without a dot) as a string, so numeric strings must be accepted.
-
-    Raises
-    ------
-    ModelError
-        For anything else (``bool``, NaN, inf, names, lists…), naming ``what`` and the value.
-    """
-    if isinstance(value, bool):
-        raise ModelError(f"{what} must be a number, got {_type_name(value)}", key_path)
-    if isinstance(value, int | float):
-        if not math.isfinite(value):
-            raise ModelError(f"{what} must be a finite number, got {value!r}", key_path)
-        return float(value)
-    if isinstance(value, sp.Basic) and value.is_number:
-        try:
-            result = float(value)
-        except (TypeError, ValueError):
-            raise ModelError(f"{what} must be a real number, got {value}", key_path) from None
-    elif isinstance(value, str):
-        try:
-            expr = parse_expression(value, {})
-        except ExpressionError as exc:
-            raise ModelError(
-                f"{what} must be a number (or a constant expression such as 2*pi), got "
-                f"{value!r} ({exc.reason})",
-                key_path,
-            ) from None
-        result = float(expr)
-    else:
-        raise ModelError(f"{what} must be a number, got {_type_name(value)}", key_path)
-    if not math.isfinite(result):
-        raise ModelError(f"{what} must be a finite number, got {value!r}", key_path)
-    return result
-
-
-def _check_vector(value: object, key_path: str, length: int = 3) -> None:
-    """Check the shape of a vector given as a sequence or a sympy matrix."""
-    if isinstance(value, sp.MatrixBase):
-        if value.shape not in ((length, 1), (1, length)):
-            raise ModelError(
-                f"expected a vector of {length} expressions, got a matrix of shape {value.shape}",
-                key_path,
-            )
-        return
-    if not _is_sequence(value):
-        raise ModelError(
-            f"expected a list of {length} expressions, got {_type_name(value)}", key_path
-        )
-    if len(value) != length:
-        raise ModelError(
-            f"expected a list of {length} expressions, got {len(value)}", key_path
-        )
-
-
-def _check_inertia(value: object, key_path: str) -> None:
-    if isinstance(value, Mapping):
-        unknown = sorted(str(k) for k in value if k != "diag")
-        if unknown:
-            raise ModelError(
-                f"unknown key {unknown[0]!r}; inertia is a 3×3 list of lists or "
-                "{diag: [Ixx, Iyy, Izz]}",
-                f"{key_path}.{unknown[0]}",
-            )
-        if "diag" not in value:
-            raise ModelError("missing key 'diag'", key_path)
-        _check_vector(value["diag"], f"{key_path}.diag")
-        return
-    if isinstance(value, sp.MatrixBase):
-        if value.shape != (3, 3):
-            raise ModelError(f"expected a 3×3 matrix, got shape {value.shape}", key_path)
-        return
-    if not _is_sequence(value) or len(value) != 3:
-        raise ModelError(
-            "expected a 3×3 list of lists or {diag: [Ixx, Iyy, Izz]}, got "
-            + (f"{len(value)} rows" if _is_sequence(value) else _type_name(value)),
-            key_path,
-        )
-    for i, row in enumerate(value):
-        _check_vector(row, f"{key_path}[{i}]")
-
-
-def _check_frame_name(value: object, key_path: str) -> str:
-    if not isinstance(value, str):
-        raise ModelError(f"expected a frame name, got {_type_name(value)}", key_path)
-    return value
-
-
-def _check_matrix33(value: object, key_path: str) -> None:
-    """A bushing matrix: one value, ``{diag: [a, b, c]}`` or a 3×3 list of lists."""
-    if isinstance(value, int | float | str | sp.Expr) and not isinstance(value, bool):
-        return
-    _check_inertia(value, key_path)
-
-
-# ----------------------------------------------------------------------------- names
-@dataclass(frozen=True)
-class _Names:
-    """All names of the model, and the parsing of values in a scope."""
-
-    symbols: Mapping[str, sp.Symbol]  # every name that stands for a symbol
-    kinds: Mapping[str, str]  # every name of the model → its kind
-    #: Expression strings parsed so far, ``(text, scope) → expression`` (a description
-    #: repeats the same few: ``m``, ``-l``, ``m*l**2/12`` … once per body); failures are not
-    #: kept (their error names the key path).
-    parsed: dict[tuple[str, str], sp.Expr] = dataclasses.field(
-        default_factory=dict, compare=False, repr=False)
-
-    def namespace(self, scope: str) -> dict[str, sp.Symbol]:
-        kinds = SCOPES[scope]
-        return {n: s for n, s in self.symbols.items() if self.kinds[n] in kinds}
-
-    def expr(self, value: object, scope: str, key_path: str) -> sp.Expr:
-        if isinstance(value, str):
-            hit = self.parsed.get((value, scope))
-            if hit is None:
-                hit = self.parsed[value, scope] = self._parse(value, scope, key_path)
-            return hit
-        return self._parse(value, scope, key_path)
-
-    def _parse(self, value: object, scope: str, key_path: str) -> sp.Expr:
-        namespace = self.namespace(scope)
-        if isinstance(value, sp.Basic) and not isinstance(value, sp.MatrixBase):
-            # Symbols created by a user with other assumptions stand for the model's symbols.
-            swap = {
-                s: namespace[s.name]
-                for s in value.free_symbols
-                if isinstance(s, sp.Symbol) and s.name in namespace and s != namespace[s.name]
-            }
-            return value.xreplace(swap) if swap else value
-        unavailable = {n: _KIND_WORDS[k] for n, k in self.kinds.items() if n not in namespace}
-        return as_expression(value, namespace, key_path=key_path, unavailable=unavailable)
-
-    def vector(self, value: object, scope: str, key_path: str) -> sp.ImmutableMatrix:
-        if isinstance(value, sp.MatrixBase):
-            value = list(value)
-        return sp.ImmutableMatrix(
-            [self.expr(v, scope, f"{key_path}[{i}]") for i, v in enumerate(value)]
-        )
-
-    def inertia(self, value: object, key_path: str) -> sp.ImmutableMatrix:
-        if isinstance(value, Mapping):
-            diag = list(self.vector(value["diag"], "constant", f"{key_path}.diag"))
-            k = len(diag)  # = sp.diag(*diag), without the general block-diagonal builder
-            return sp.ImmutableMatrix(k, k, [diag[i] if i == j else sp.S.Zero
-                                             for i in range(k) for j in range(k)])
-        if isinstance(value, sp.MatrixBase):
-            value = value.tolist()
-        return sp.ImmutableMatrix(
-            [
-                [self.expr(v, "constant", f"{key_path}[{i}][{j}]") for j, v in enumerate(row)]
-                for i, row in enumerate(value)
-            ]
-        )
-
-
-_Make = Callable[[_Names], Any]
-
-
-def _enabled(n: _Names, enabled: object, path: str) -> sp.Expr:
-    """The on/off factor of a force element (parameters only; default 1)."""
-    if enabled is None:
-        return sp.Integer(1)
-    return n.expr(enabled, "constant", f"{path}.enabled")
-
-
-def _loss_factor(n: _Names, value: object, path: str) -> sp.Expr:
-    """The loss factor η of an element with a stiffness (parameters only; default 0). A
-    number must be finite and ≥ 0 here; an expression is checked at the parameter defaults
-    when the system is built."""
-    if value is None or (isinstance(value, int | float) and not isinstance(value, bool)
-                         and value == 0):
-        return sp.Integer(0)
-    key = f"{path}.loss_factor"
-    if isinstance(value, float | int) and not isinstance(value, bool) and not (
-            math.isfinite(value) and value >= 0):
-        raise ModelError(f"a loss factor is a finite number ≥ 0, got {value!r}", key)
-    return n.expr(value, "constant", key)
-
-
-def _points(n: _Names, points: object, path: str) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
-    if points is None:
-        return sp.ImmutableMatrix.zeros(3, 1), sp.ImmutableMatrix.zeros(3, 1)
-    pa, pb = (n.vector(p, "kinematic", f"{path}.points[{i}]")
-              for i, p in enumerate(points))  # type: ignore[arg-type]
-    return pa, pb
-
-
-def _matrix33(n: _Names, value: object, key_path: str) -> sp.ImmutableMatrix:
-    if isinstance(value, Mapping):
-        diag = n.vector(value["diag"], "dynamic", f"{key_path}.diag")
-        return sp.ImmutableMatrix(sp.diag(*diag))
-    if isinstance(value, int | float | str | sp.Expr):
-        return sp.ImmutableMatrix(sp.eye(3) * n.expr(value, "dynamic", key_path))
-    if isinstance(value, sp.MatrixBase):
-        value = value.tolist()
-    return sp.ImmutableMatrix(
-        [
-            [n.expr(v, "dynamic", f"{key_path}[{i}][{j}]") for j, v in enumerate(row)]
-            for i, row in enumerate(value)  # type: ignore[arg-type]
-        ]
-    )
-
-
-_TABLE_KEYS = ("table", "interpolation")
-
-
-def _characteristic(
-    n: _Names, value: object, variable: sp.Symbol, key_path: str
-) -> tuple[sp.Expr, sp.Expr | None]:
-    """A stiffness or damping: ``(coefficient, None)`` for an expression (which may use the
-    local names ``s`` and ``sd``), ``(0, curve)`` for a table ``{table:, interpolation:}``."""
-    if isinstance(value, Mapping):
-        unknown = [str(k) for k in value if k not in _TABLE_KEYS]
-        if unknown:
-            raise ModelError(
-                f"unknown key {unknown[0]!r}; a characteristic table has the keys "
-                f"{', '.join(_TABLE_KEYS)}",
-                f"{key_path}.{unknown[0]}",
-            )
-        if "table" not in value:
-            raise ModelError("a characteristic table needs the key 'table'", key_path)
-        rows = value["table"]
-        if not _is_sequence(rows):
-            raise ModelError(f"expected a list of [value, force] pairs, got {_type_name(rows)}",
-                             f"{key_path}.table")
-        numbers = []
-        for i, row in enumerate(rows):
-            if not _is_sequence(row) or len(row) != 2:
-                raise ModelError(f"expected a pair [value, force], got {row!r}",
-                                 f"{key_path}.table[{i}]")
-            numbers.append([constant_number(v, f"{key_path}.table[{i}][{j}]")
-                            for j, v in enumerate(row)])
-        curve = table_characteristic(
-            numbers, value.get("interpolation", "linear"), variable, f"{key_path}.table"
-        )
-        return sp.Integer(0), curve
-    if isinstance(value, sp.Basic) and not isinstance(value, sp.MatrixBase):
-        return value, None
-    namespace = {**n.namespace("dynamic"), "s": ELONGATION, "sd": ELONGATION_RATE}
-    unavailable = {k: _KIND_WORDS[v] for k, v in n.kinds.items() if k not in namespace}
-    return as_expression(value, namespace, key_path=key_path, unavailable=unavailable), None
+_Make = Callable[[Names], Any]
 
 
 # ----------------------------------------------------------------------------- builder
@@ -376,7 +104,7 @@ class SystemBuilder:
 
     def __init__(self, name: str, description: str = "") -> None:
         if not isinstance(description, str):
-            raise ModelError(f"expected text, got {_type_name(description)}", "description")
+            raise ModelError(f"expected text, got {type_name(description)}", "description")
         self._name = name
         self._description = description
         self._kinds: dict[str, str] = {}
@@ -391,7 +119,7 @@ class SystemBuilder:
         self._constraint_names: set[str] = set()
         self._gravity: _Make | None = None
         self._loss_reference: float | None = None
-        self._elastic: list[Callable[[_Names], ElasticBody]] = []
+        self._elastic: list[Callable[[Names], ElasticBody]] = []
 
     # -------------------------------------------------------------- helpers
     def _declare(self, group: str, kind: str, name: object) -> str:
@@ -401,7 +129,7 @@ class SystemBuilder:
             raise ModelError(why, path)
         assert isinstance(name, str)
         if name in self._kinds:
-            raise ModelError(f"name {name!r} is already used by {_KIND_WORDS[self._kinds[name]]}",
+            raise ModelError(f"name {name!r} is already used by {KIND_WORDS[self._kinds[name]]}",
                              path)
         self._kinds[name] = kind
         return path
@@ -447,7 +175,7 @@ class SystemBuilder:
             if rate in self._kinds:
                 raise ModelError(
                     f"the input's time derivative {rate!r} is already used by "
-                    f"{_KIND_WORDS[self._kinds[rate]]}",
+                    f"{KIND_WORDS[self._kinds[rate]]}",
                     path,
                 )
             self._kinds[rate] = "input_rate"
@@ -467,7 +195,7 @@ class SystemBuilder:
 
     def gravity(self, vector: object) -> None:
         """Set the gravitational acceleration (ISYS components, parameters allowed)."""
-        _check_vector(vector, "gravity")
+        check_vector(vector, "gravity")
         self._gravity = lambda n: n.vector(vector, "constant", "gravity")
 
     def frame(
@@ -493,18 +221,18 @@ class SystemBuilder:
             (child components → parent components).
         """
         path = self._declare("frames", "frame", name)
-        _check_frame_name(parent, f"{path}.parent")
+        check_frame_name(parent, f"{path}.parent")
         if translation is not None:
-            _check_vector(translation, f"{path}.translation")
+            check_vector(translation, f"{path}.translation")
         rotation = [] if rotation is None else rotation
-        if not _is_sequence(rotation):
+        if not is_sequence(rotation):
             raise ModelError(
-                f"expected a list of [axis, angle] pairs, got {_type_name(rotation)}",
+                f"expected a list of [axis, angle] pairs, got {type_name(rotation)}",
                 f"{path}.rotation",
             )
         for i, pair in enumerate(rotation):
             item = f"{path}.rotation[{i}]"
-            if not _is_sequence(pair) or len(pair) != 2:
+            if not is_sequence(pair) or len(pair) != 2:
                 hint = (
                     "; a single rotation is written [[axis, angle]]"
                     if isinstance(pair, str) and pair in AXES
@@ -514,7 +242,7 @@ class SystemBuilder:
             if pair[0] not in AXES:
                 raise ModelError(f"axis must be one of x, y, z, not {pair[0]!r}", f"{item}[0]")
 
-        def make(n: _Names) -> Frame:
+        def make(n: Names) -> Frame:
             return Frame(
                 name,
                 parent,
@@ -565,7 +293,7 @@ class SystemBuilder:
                 given = [0.0] * body.nq
             if isinstance(given, str | bytes) or not isinstance(given, Sequence):
                 raise ModelError(f"expected a list of {body.nq} numbers (one per mode), got "
-                                 f"{_type_name(given)}", f"{path}.{key}")
+                                 f"{type_name(given)}", f"{path}.{key}")
             if len(given) != body.nq:
                 raise ModelError(f"expected {body.nq} values (one per mode), got {len(given)}",
                                  f"{path}.{key}")
@@ -578,7 +306,7 @@ class SystemBuilder:
         for frame in body.node_frames():
             if frame.name in self._kinds:
                 raise ModelError(f"name {frame.name!r} is already used by "
-                                 f"{_KIND_WORDS[self._kinds[frame.name]]}", path)
+                                 f"{KIND_WORDS[self._kinds[frame.name]]}", path)
             self._kinds[frame.name] = "frame"
             self._frames.append(lambda n, frame=frame: frame)
         if schedule is None:
@@ -602,13 +330,13 @@ class SystemBuilder:
         parameters only.
         """
         path = self._declare("bodies", "body", name)
-        _check_frame_name(frame, f"{path}.frame")
+        check_frame_name(frame, f"{path}.frame")
         if center_of_mass is not None:
-            _check_vector(center_of_mass, f"{path}.center_of_mass")
+            check_vector(center_of_mass, f"{path}.center_of_mass")
         if inertia is not None:
-            _check_inertia(inertia, f"{path}.inertia")
+            check_inertia(inertia, f"{path}.inertia")
 
-        def make(n: _Names) -> RigidBody:
+        def make(n: Names) -> RigidBody:
             com = (
                 n.vector(center_of_mass, "constant", f"{path}.center_of_mass")
                 if center_of_mass is not None
@@ -624,101 +352,64 @@ class SystemBuilder:
         self._bodies.append(make)
 
     # -------------------------------------------------------------- forces
-    def force(
-        self,
-        name: str,
-        frame: str,
-        vector: object,
-        point: object = None,
-        in_: str = INERTIAL,
-        *,
-        enabled: object = None,
-        report: bool = False,
-    ) -> None:
-        """Add a force ``vector`` (components of frame ``in_``) at ``point`` of ``frame``.
+    def force_element(self, name: str, spec: Mapping[str, Any]) -> None:
+        """Add a force element from its description mapping ``{type: TYPE, key: value, …}``
+        (docs/description-format.md): the element class of ``TYPE`` lists its keys
+        (:attr:`~neweul_py.model.ForceElement.keys`). Every element also has ``enabled`` (a
+        parameter factor, 1 on, 0 off) and ``report`` (add outputs of what it exerts,
+        :meth:`force_output`).
 
-        ``enabled`` (all force elements): a parameter (or expression of parameters) that
-        multiplies the element's action, 1 = on, 0 = off. ``report`` (all force elements): add
-        outputs of what the element exerts (:meth:`force_output`), here ``<name>_fx`` … ``_fz``.
+        Shapes, frame and coordinate names are checked here; expression strings are parsed in
+        :meth:`build`.
         """
+        item = f"forces.{name}"
+        element = force_type(spec, item)
+        spec = force_schema(element).check(spec, item, f"a {element.type_name!r} force element")
         path = self._declare("forces", "force", name)
-        self._report(name, report, path, "PointForce")
-        _check_frame_name(frame, f"{path}.frame")
-        _check_frame_name(in_, f"{path}.in")
-        _check_vector(vector, f"{path}.vector")
-        if point is not None:
-            _check_vector(point, f"{path}.point")
+        self._report(name, spec.get("report", False), path, element)
+        given = given_values(element, spec)
+        for key, value in given.items():
+            check_value(key, value, f"{path}.{key.name}")
 
-        def make(n: _Names) -> PointForce:
-            p = (
-                n.vector(point, "kinematic", f"{path}.point")
-                if point is not None
-                else sp.ImmutableMatrix.zeros(3, 1)
-            )
-            return PointForce(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), p, in_,
-                              enabled=_enabled(n, enabled, path))
+        def make(n: Names) -> ForceElement:
+            fields: dict[str, object] = {}
+            for key, value in given.items():
+                fields.update(parse_value(n, key, value, f"{path}.{key.name}"))
+            return element(name=name, **fields)  # type: ignore[call-arg]
 
         self._forces.append(make)
 
-    def torque(
-        self,
-        name: str,
-        frame: str,
-        vector: object,
-        in_: str = INERTIAL,
-        *,
-        enabled: object = None,
-        report: bool = False,
-    ) -> None:
+    def force(self, name: str, frame: str, vector: object, point: object = None,
+              in_: str = INERTIAL, *, enabled: object = None, report: bool = False) -> None:
+        """Add a force ``vector`` (components of frame ``in_``) at ``point`` of ``frame``
+        (:class:`~neweul_py.model.PointForce`; reports ``<name>_fx`` … ``_fz``).
+
+        ``enabled`` (all force elements): a parameter (or expression of parameters) that
+        multiplies the element's action, 1 = on, 0 = off. ``report`` (all force elements): add
+        outputs of what the element exerts (:meth:`force_output`).
+        """
+        self.force_element(name, _spec("force", frame=frame, vector=vector, point=point,
+                                       enabled=enabled, report=report, **{"in": in_}))
+
+    def torque(self, name: str, frame: str, vector: object, in_: str = INERTIAL, *,
+               enabled: object = None, report: bool = False) -> None:
         """Add a torque ``vector`` (components of frame ``in_``) acting on ``frame``
-        (``enabled``, ``report``: see :meth:`force`; reports ``<name>_mx`` … ``_mz``)."""
-        path = self._declare("forces", "force", name)
-        self._report(name, report, path, "Torque")
-        _check_frame_name(frame, f"{path}.frame")
-        _check_frame_name(in_, f"{path}.in")
-        _check_vector(vector, f"{path}.vector")
-        self._forces.append(
-            lambda n: Torque(name, frame, n.vector(vector, "dynamic", f"{path}.vector"), in_,
-                             enabled=_enabled(n, enabled, path))
-        )
+        (:class:`~neweul_py.model.Torque`; reports ``<name>_mx`` … ``_mz``)."""
+        self.force_element(name, _spec("torque", frame=frame, vector=vector, enabled=enabled,
+                                       report=report, **{"in": in_}))
 
-    def generalized_force(
-        self,
-        name: str,
-        coordinate: str,
-        value: object,
-        *,
-        enabled: object = None,
-        report: bool = False,
-    ) -> None:
-        """Add a generalized force ``value`` acting directly on ``coordinate`` (``enabled``,
-        ``report``: see :meth:`force`; reports ``<name>_force``)."""
-        path = self._declare("forces", "force", name)
-        self._report(name, report, path, "GeneralizedForce")
-        if not isinstance(coordinate, str):
-            raise ModelError(
-                f"expected a coordinate name, got {_type_name(coordinate)}", f"{path}.coordinate"
-            )
-        self._forces.append(
-            lambda n: GeneralizedForce(name, coordinate,
-                                       n.expr(value, "dynamic", f"{path}.value"),
-                                       enabled=_enabled(n, enabled, path))
-        )
+    def generalized_force(self, name: str, coordinate: str, value: object, *,
+                          enabled: object = None, report: bool = False) -> None:
+        """Add a generalized force ``value`` acting directly on ``coordinate``
+        (:class:`~neweul_py.model.GeneralizedForce`; reports ``<name>_force``)."""
+        self.force_element(name, _spec("generalized", coordinate=coordinate, value=value,
+                                       enabled=enabled, report=report))
 
-    def spring_damper(
-        self,
-        name: str,
-        between: Sequence[str],
-        points: Sequence[object] | None = None,
-        *,
-        stiffness: object,
-        damping: object = 0,
-        length: object = 0,
-        loss_factor: object = 0,
-        enabled: object = None,
-        report: bool = False,
-    ) -> None:
-        """Add a point-to-point spring–damper.
+    def spring_damper(self, name: str, between: Sequence[str],
+                      points: Sequence[object] | None = None, *, stiffness: object,
+                      damping: object = 0, length: object = 0, loss_factor: object = 0,
+                      enabled: object = None, report: bool = False) -> None:
+        """Add a point-to-point spring–damper (:class:`~neweul_py.model.SpringDamper`).
 
         ``between = [frameA, frameB]``, ``points = [pA, pB]`` (each in its frame's components,
         default origins); tensile force ``stiffness·s + damping·sd`` with the elongation
@@ -727,118 +418,35 @@ class SystemBuilder:
         mean the elongation and its rate), or tables ``{"table": [[s0, F0], …],
         "interpolation": "linear" | "spline"}`` giving the spring force over ``s`` (the damper
         force over ``sd``) directly (:func:`~neweul_py.model.table_characteristic`).
-        ``enabled``, ``report``: see :meth:`force` (reports ``<name>_force``, the tensile force).
-        ``loss_factor`` (parameters only, ≥ 0): hysteretic damping on the spring's tangent
-        stiffness (docs/equations.md §1.1).
+        Reports ``<name>_force``, the tensile force. ``loss_factor`` (parameters only, ≥ 0):
+        hysteretic damping on the spring's tangent stiffness (docs/equations.md §1.1).
         """
-        path = self._declare("forces", "force", name)
-        self._report(name, report, path, "SpringDamper")
-        if not _is_sequence(between) or len(between) != 2:
-            raise ModelError(
-                f"expected two frame names [frameA, frameB], got {between!r}", f"{path}.between"
-            )
-        for i, f in enumerate(between):
-            _check_frame_name(f, f"{path}.between[{i}]")
-        if points is not None:
-            if not _is_sequence(points) or len(points) != 2:
-                raise ModelError(
-                    f"expected two points [pointA, pointB], got {points!r}", f"{path}.points"
-                )
-            for i, p in enumerate(points):
-                _check_vector(p, f"{path}.points[{i}]")
-
-        def make(n: _Names) -> SpringDamper:
-            pa, pb = (
-                (n.vector(p, "kinematic", f"{path}.points[{i}]") for i, p in enumerate(points))
-                if points is not None
-                else (sp.ImmutableMatrix.zeros(3, 1), sp.ImmutableMatrix.zeros(3, 1))
-            )
-            k, k_curve = _characteristic(n, stiffness, ELONGATION, f"{path}.stiffness")
-            d, d_curve = _characteristic(n, damping, ELONGATION_RATE, f"{path}.damping")
-            return SpringDamper(
-                name,
-                between[0],
-                between[1],
-                stiffness=k,
-                damping=d,
-                length=n.expr(length, "dynamic", f"{path}.length"),
-                point_a=pa,
-                point_b=pb,
-                spring_force=k_curve,
-                damper_force=d_curve,
-                enabled=_enabled(n, enabled, path),
-                loss_factor=_loss_factor(n, loss_factor, path),
-            )
-
-        self._forces.append(make)
+        self.force_element(name, _spec(
+            "spring_damper", between=between, points=points, stiffness=stiffness,
+            damping=damping, length=length, loss_factor=loss_factor, enabled=enabled,
+            report=report))
 
     def rotational_spring_damper(
-        self,
-        name: str,
-        *,
-        coordinate: str | None = None,
-        between: Sequence[str] | None = None,
-        axis: str = "z",
-        stiffness: object = 0,
-        damping: object = 0,
-        angle: object = 0,
-        loss_factor: object = 0,
-        enabled: object = None,
-        report: bool = False,
+        self, name: str, *, coordinate: str | None = None, between: Sequence[str] | None = None,
+        axis: str = "z", stiffness: object = 0, damping: object = 0, angle: object = 0,
+        loss_factor: object = 0, enabled: object = None, report: bool = False,
     ) -> None:
         """Add a rotational spring–damper on a ``coordinate`` or ``between`` two frames about
-        ``axis`` (x, y, z of the first frame).
+        ``axis`` (x, y, z of the first frame; :class:`~neweul_py.model.RotationalSpringDamper`).
 
         The elongation ``s`` is the coordinate (or the relative rotation angle about the axis)
         minus ``angle``; ``stiffness``/``damping`` as in :meth:`spring_damper`. Reports
         ``<name>_force`` (the restoring torque ``F(s, sd)``).
         """
-        path = self._declare("forces", "force", name)
-        self._report(name, report, path, "RotationalSpringDamper")
-        if (coordinate is None) == (between is None):
-            raise ModelError(
-                "a rotational spring–damper needs exactly one of 'coordinate' or 'between'", path
-            )
-        if coordinate is not None and not isinstance(coordinate, str):
-            raise ModelError(
-                f"expected a coordinate name, got {_type_name(coordinate)}", f"{path}.coordinate"
-            )
-        frames = self._two_frames(between, f"{path}.between") if between is not None else None
-        if axis not in AXES:
-            raise ModelError(f"axis must be one of x, y, z, not {axis!r}", f"{path}.axis")
-
-        def make(n: _Names) -> RotationalSpringDamper:
-            k, k_curve = _characteristic(n, stiffness, ELONGATION, f"{path}.stiffness")
-            d, d_curve = _characteristic(n, damping, ELONGATION_RATE, f"{path}.damping")
-            return RotationalSpringDamper(
-                name,
-                stiffness=k,
-                damping=d,
-                angle=n.expr(angle, "dynamic", f"{path}.angle"),
-                coordinate=coordinate,
-                frame_a=frames[0] if frames else None,
-                frame_b=frames[1] if frames else None,
-                axis=axis,  # type: ignore[arg-type]
-                spring_force=k_curve,
-                damper_force=d_curve,
-                enabled=_enabled(n, enabled, path),
-                loss_factor=_loss_factor(n, loss_factor, path),
-            )
-
-        self._forces.append(make)
+        self.force_element(name, _spec(
+            "rotational_spring_damper", coordinate=coordinate, between=between, axis=axis,
+            stiffness=stiffness, damping=damping, angle=angle, loss_factor=loss_factor,
+            enabled=enabled, report=report))
 
     def bushing(
-        self,
-        name: str,
-        between: Sequence[str],
-        points: Sequence[object] | None = None,
-        *,
-        stiffness: object = 0,
-        damping: object = 0,
-        rotational_stiffness: object = 0,
-        rotational_damping: object = 0,
-        loss_factor: object = 0,
-        enabled: object = None,
+        self, name: str, between: Sequence[str], points: Sequence[object] | None = None, *,
+        stiffness: object = 0, damping: object = 0, rotational_stiffness: object = 0,
+        rotational_damping: object = 0, loss_factor: object = 0, enabled: object = None,
         report: bool = False,
     ) -> None:
         """Add a linear 6-DOF bushing between ``points`` (offsets, default origins) of two
@@ -850,61 +458,27 @@ class SystemBuilder:
         (parameters only, ≥ 0): hysteretic damping on both stiffness matrices
         (docs/equations.md §1.1).
         """
-        path = self._declare("forces", "force", name)
-        self._report(name, report, path, "Bushing")
-        frames = self._two_frames(between, f"{path}.between")
-        self._check_points(points, path)
-        specs = {
-            "stiffness": stiffness,
-            "damping": damping,
-            "rotational_stiffness": rotational_stiffness,
-            "rotational_damping": rotational_damping,
-        }
-        for key, value in specs.items():
-            _check_matrix33(value, f"{path}.{key}")
+        self.force_element(name, _spec(
+            "bushing", between=between, points=points, stiffness=stiffness, damping=damping,
+            rotational_stiffness=rotational_stiffness, rotational_damping=rotational_damping,
+            loss_factor=loss_factor, enabled=enabled, report=report))
 
-        def make(n: _Names) -> Bushing:
-            pa, pb = _points(n, points, path)
-            mats = {k: _matrix33(n, v, f"{path}.{k}") for k, v in specs.items()}
-            return Bushing(
-                name, frames[0], frames[1], **mats, point_a=pa, point_b=pb,
-                enabled=_enabled(n, enabled, path),
-                loss_factor=_loss_factor(n, loss_factor, path),
-            )
-
-        self._forces.append(make)
-
-    def _two_frames(self, between: object, key_path: str) -> tuple[str, str]:
-        if not _is_sequence(between) or len(between) != 2:  # type: ignore[arg-type]
-            raise ModelError(f"expected two frame names [frameA, frameB], got {between!r}",
-                             key_path)
-        a, b = between  # type: ignore[misc]
-        return _check_frame_name(a, f"{key_path}[0]"), _check_frame_name(b, f"{key_path}[1]")
-
-    @staticmethod
-    def _check_points(points: object, path: str) -> None:
-        if points is not None:
-            if not _is_sequence(points) or len(points) != 2:  # type: ignore[arg-type]
-                raise ModelError(
-                    f"expected two points [pointA, pointB], got {points!r}", f"{path}.points"
-                )
-            for i, p in enumerate(points):  # type: ignore[arg-type]
-                _check_vector(p, f"{path}.points[{i}]")
-
-    def _report(self, force: str, report: object, path: str, kind: str) -> None:
-        """Declare the outputs a force element of type ``kind`` reports when ``report`` is
-        true: ``<force>_force`` for scalar elements, ``<force>_<component>`` otherwise."""
+    def _report(self, force: str, report: object, path: str,
+                element: type[ForceElement]) -> None:
+        """Declare the outputs a force element reports when ``report`` is true:
+        ``<force>_<component>`` for each of its components (``<force>_force`` for scalar
+        elements)."""
         if report is None or report is False:
             return
         if report is not True:
-            raise ModelError(f"report must be true or false, got {_type_name(report)}",
+            raise ModelError(f"report must be true or false, got {type_name(report)}",
                              f"{path}.report")
-        for component in FORCE_COMPONENTS[kind]:
+        for component in element.components:
             out = f"{force}_{component}"
             if out in self._kinds:
                 raise ModelError(
                     f"cannot report output {out!r}: the name is already used by "
-                    f"{_KIND_WORDS[self._kinds[out]]}",
+                    f"{KIND_WORDS[self._kinds[out]]}",
                     f"{path}.report",
                 )
             self.force_output(out, force, component)
@@ -916,7 +490,7 @@ class SystemBuilder:
         :class:`~neweul_py.model.ForceOutput`."""
         self._declare("outputs", "output", name)
         if not isinstance(force, str):
-            raise ModelError(f"expected a force element name, got {_type_name(force)}",
+            raise ModelError(f"expected a force element name, got {type_name(force)}",
                              f"outputs.{name}.force")
         self._outputs.append(lambda n: ForceOutput(name, force, component))
 
@@ -927,7 +501,7 @@ class SystemBuilder:
         path = f"constraints.{name}"
         self._declare_constraint(name, path)
 
-        def make(n: _Names) -> ExpressionConstraint:
+        def make(n: Names) -> ExpressionConstraint:
             if isinstance(expr, str) and expr.count("=") == 1:
                 lhs, rhs = expr.split("=")
                 value = n.expr(lhs, "kinematic", path) - n.expr(rhs, "kinematic", path)
@@ -950,19 +524,19 @@ class SystemBuilder:
         ``<name>_<component>``."""
         path = f"constraints.{name}"
         self._declare_constraint(name, path)
-        fa, fb = self._two_frames(frames, f"{path}.coincide")
-        self._check_points(points, path)
-        _check_frame_name(in_, f"{path}.in")
-        if not _is_sequence(components):
+        fa, fb = two_frames(frames, f"{path}.coincide")
+        check_points(points, f"{path}.points")
+        check_frame_name(in_, f"{path}.in")
+        if not is_sequence(components):
             raise ModelError(f"expected a list of components (x, y, z), got "
-                             f"{_type_name(components)}", f"{path}.components")
+                             f"{type_name(components)}", f"{path}.components")
         for i, c in enumerate(components):
             if c not in AXES:
                 raise ModelError(f"component must be one of x, y, z, not {c!r}",
                                  f"{path}.components[{i}]")
 
-        def make(n: _Names) -> CoincidenceConstraint:
-            pa, pb = _points(n, points, path)
+        def make(n: Names) -> CoincidenceConstraint:
+            pa, pb = parse_points(n, points, f"{path}.points")
             return CoincidenceConstraint(name, fa, fb, pa, pb, tuple(components), in_)
 
         self._constraints.append(make)
@@ -997,16 +571,16 @@ class SystemBuilder:
             raise ModelError(
                 f"quantity must be 'position' or 'velocity', not {quantity!r}", path
             )
-        _check_frame_name(frame, f"{path}.{quantity}")
-        _check_frame_name(in_, f"{path}.in")
+        check_frame_name(frame, f"{path}.{quantity}")
+        check_frame_name(in_, f"{path}.in")
         if component not in AXES:
             raise ModelError(
                 f"component must be one of x, y, z, not {component!r}", f"{path}.component"
             )
         if point is not None:
-            _check_vector(point, f"{path}.point")
+            check_vector(point, f"{path}.point")
 
-        def make(n: _Names) -> KinematicOutput:
+        def make(n: Names) -> KinematicOutput:
             p = (
                 n.vector(point, "kinematic", f"{path}.point")
                 if point is not None
@@ -1017,10 +591,10 @@ class SystemBuilder:
         self._outputs.append(make)
 
     # -------------------------------------------------------------- build
-    def _names(self) -> _Names:
+    def _names(self) -> Names:
         symbols = {n: symbol(n) for n, k in self._kinds.items() if k in _SYMBOL_KINDS}
         symbols["t"] = time
-        return _Names(symbols, {**self._kinds, "t": "time"})
+        return Names(symbols, {**self._kinds, "t": "time"})
 
     def build(self) -> System:
         """Parse every expression with the names of its scope and return the validated system.
@@ -1058,3 +632,8 @@ class SystemBuilder:
 
 
 _SYMBOL_KINDS = frozenset({"parameter", "coordinate", "velocity", "input", "input_rate"})
+
+
+def _spec(type_: str, **values: object) -> dict[str, object]:
+    """A force element's description mapping from keyword arguments (``None``: not given)."""
+    return {"type": type_, **{k: v for k, v in values.items() if v is not None}}

@@ -1,9 +1,10 @@
 """Load a YAML description file into a validated :class:`~neweul_py.model.System`.
 
-The key schema lives in the tables :data:`SECTIONS`, :data:`FORCE_TYPES` and the ``Schema``
-constants below; a later section (``constraints``, ``elastic_bodies``) or force type is one
-more table row and one small function. Every error is a :class:`DescriptionError` naming the
-file, the key path and the line.
+The key schema lives in the table :data:`SECTIONS` and the ``Schema`` constants below; a
+later section (``constraints``, ``elastic_bodies``) is one more table row and one small
+function. The keys of each force ``type`` are its element class's
+(:attr:`~neweul_py.model.ForceElement.keys`, read by :mod:`.force_keys`). Every error is a
+:class:`DescriptionError` naming the file, the key path and the line.
 """
 
 from __future__ import annotations
@@ -16,14 +17,14 @@ from typing import Any
 
 from ..errors import DescriptionError, ModelError
 from ..model import INERTIAL, System
-from .builder import SystemBuilder, constant_number
+from .builder import SystemBuilder
 from .elastic import base_directory, description_directory, load_elastic_bodies
 from .schema import Schema, section_items
 from .signals import load_table_input
+from .values import constant_number
 from .yaml_tree import YamlTree, read_yaml
 
 __all__ = [
-    "FORCE_TYPES",
     "SECTIONS",
     "Schema",
     "description_hash",
@@ -96,107 +97,9 @@ def _bodies(b: SystemBuilder, section: Any, path: str) -> None:
         b.body(name, spec["frame"], spec["mass"], spec.get("center_of_mass"), spec.get("inertia"))
 
 
-@dataclass(frozen=True)
-class ForceType:
-    """The keys of one force ``type`` and how to add it to a builder."""
-
-    schema: Schema
-    add: Callable[[SystemBuilder, str, dict[str, Any]], None]
-
-
-#: Keys every force element may have: an on/off factor and whether it reports its force.
-SWITCHES = ("enabled", "report")
-
-
-def _switches(s: dict[str, Any]) -> dict[str, Any]:
-    return {"enabled": s.get("enabled"), "report": s.get("report", False)}
-
-
-FORCE_TYPES: Mapping[str, ForceType] = {
-    "force": ForceType(
-        Schema(required=("type", "frame", "vector"), optional=("point", "in", *SWITCHES)),
-        lambda b, n, s: b.force(n, s["frame"], s["vector"], s.get("point"), s.get("in", INERTIAL),
-                                **_switches(s)),
-    ),
-    "torque": ForceType(
-        Schema(required=("type", "frame", "vector"), optional=("in", *SWITCHES)),
-        lambda b, n, s: b.torque(n, s["frame"], s["vector"], s.get("in", INERTIAL),
-                                 **_switches(s)),
-    ),
-    "generalized": ForceType(
-        Schema(required=("type", "coordinate", "value"), optional=SWITCHES),
-        lambda b, n, s: b.generalized_force(n, s["coordinate"], s["value"], **_switches(s)),
-    ),
-    "spring_damper": ForceType(
-        Schema(
-            required=("type", "between", "stiffness"),
-            optional=("points", "damping", "length", "loss_factor", *SWITCHES),
-        ),
-        lambda b, n, s: b.spring_damper(
-            n,
-            s["between"],
-            s.get("points"),
-            stiffness=s["stiffness"],
-            damping=s.get("damping", 0),
-            length=s.get("length", 0),
-            loss_factor=s.get("loss_factor", 0),
-            **_switches(s),
-        ),
-    ),
-    "rotational_spring_damper": ForceType(
-        Schema(
-            required=("type",),
-            optional=("coordinate", "between", "axis", "stiffness", "damping", "angle",
-                      "loss_factor", *SWITCHES),
-        ),
-        lambda b, n, s: b.rotational_spring_damper(
-            n,
-            coordinate=s.get("coordinate"),
-            between=s.get("between"),
-            axis=s.get("axis", "z"),
-            stiffness=s.get("stiffness", 0),
-            damping=s.get("damping", 0),
-            angle=s.get("angle", 0),
-            loss_factor=s.get("loss_factor", 0),
-            **_switches(s),
-        ),
-    ),
-    "bushing": ForceType(
-        Schema(
-            required=("type", "between"),
-            optional=("points", "stiffness", "damping", "rotational_stiffness",
-                      "rotational_damping", "loss_factor", *SWITCHES),
-        ),
-        lambda b, n, s: b.bushing(
-            n,
-            s["between"],
-            s.get("points"),
-            stiffness=s.get("stiffness", 0),
-            damping=s.get("damping", 0),
-            rotational_stiffness=s.get("rotational_stiffness", 0),
-            rotational_damping=s.get("rotational_damping", 0),
-            loss_factor=s.get("loss_factor", 0),
-            **_switches(s),
-        ),
-    ),
-}
-
-
 def _forces(b: SystemBuilder, section: Any, path: str) -> None:
     for name, spec in section_items(section, path, "force definitions"):
-        item = f"{path}.{name}"
-        if not isinstance(spec, dict) or "type" not in spec:
-            raise ModelError(
-                f"a force needs a 'type', one of: {', '.join(FORCE_TYPES)}", item
-            )
-        kind = spec["type"]
-        if not isinstance(kind, str) or kind not in FORCE_TYPES:
-            raise ModelError(
-                f"unknown force type {kind!r}; types are: {', '.join(FORCE_TYPES)}",
-                f"{item}.type",
-            )
-        force_type = FORCE_TYPES[kind]
-        force_type.add(b, name, force_type.schema.check(spec, item, f"a {kind!r} force element"))
+        b.force_element(name, spec)
 
 
 KINEMATIC_OUTPUT = Schema(optional=("position", "velocity", "point", "in", "component"))

@@ -28,8 +28,7 @@ from typing import TYPE_CHECKING
 import sympy as sp
 
 from ..errors import ModelError
-from ..model import time
-from ..model.force_elements import TableCurve
+from ..model import TableCurve, time
 from ..model.functions import SignalTable
 
 if TYPE_CHECKING:

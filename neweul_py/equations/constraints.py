@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..errors import ModelError
-from ..kinematics.algebra import ZERO3, Mat3, Vec3, add, mat_mul, mat_t_vec, mat_vec
 from ..kinematics.rotations import IDENTITY, rotation_product
 from ..model import (
     AXES,
@@ -33,6 +32,7 @@ from ..model import (
     symbol,
     time,
 )
+from ..model.algebra import ZERO3, Mat3, Vec3, add, mat_mul, mat_t_vec, mat_vec
 
 __all__ = ["ConstraintEquations", "check_constraints", "dependent_rows", "derive_constraints"]
 

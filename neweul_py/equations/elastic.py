@@ -41,7 +41,7 @@ import sympy as sp
 
 from ..ffrf import frame_stiffening
 from ..kinematics import absolute_kinematics
-from ..model import INERTIAL, ElasticBody, GeneralizedForce, System
+from ..model import INERTIAL, ElasticBody, System
 from ..model.system import iter_expressions
 
 __all__ = ["ElasticEquations", "ElasticSplice", "elastic_equations", "elastic_splices",
@@ -281,14 +281,14 @@ class ElasticEquations:
 
 
 def used_elastic_coordinates(system: System, elastic_q: set[str]) -> set[str]:
-    """The elastic coordinates that the symbolic part itself uses: targets of generalized
-    forces (modal loads such as the body's own FE inputs, ``W_jᵀ b``) and coordinates or
-    velocities named in any expression (outputs such as ``C V q``). They join the active
-    coordinates of the symbolic part, whose rows and columns for them hold only these terms
-    (the splice adds the body's own equations); without this a generalized force on an
-    elastic coordinate would be dropped."""
-    used = {f.coordinate for f in system.forces
-            if isinstance(f, GeneralizedForce) and f.coordinate in elastic_q}
+    """The elastic coordinates that the symbolic part itself uses: the coordinates force
+    elements act on (generalized forces: modal loads such as the body's own FE inputs,
+    ``W_jᵀ b``; rotational spring–dampers on a coordinate) and coordinates or velocities named
+    in any expression (outputs such as ``C V q``). They join the active coordinates of the
+    symbolic part, whose rows and columns for them hold only these terms (the splice adds the
+    body's own equations); without this a force on an elastic coordinate would be dropped."""
+    used = {name for f in system.forces for key in type(f).keys if key.kind == "coordinate"
+            for _, name in f.entries(key) if name in elastic_q}
     by_symbol = {}
     for c in system.coordinates:
         if c.name in elastic_q:

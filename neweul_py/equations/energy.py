@@ -3,13 +3,16 @@
 ```
 T   = Σ_i ½ m_i v_ci·v_ci + ½ ω_iᵀ I_i ω_i          (v_c = J_T,c ẏ + v̄_c, body components)
 V_g = −Σ_i m_i g·r_ci                              (r_c: center of mass, ISYS)
-V_s = Σ_springs ∫₀^s F(σ, 0) dσ                    (conservative part of the characteristic)
+V_s = Σ_elements enabled·V                          (each element's potential)
 ```
-``V_s`` covers point-to-point and rotational spring–dampers whose spring law is linear
-(``stiffness·s``): ``½ k s²`` with ``s = ℓ − length`` or ``s = coordinate − angle``. Tabulated
-characteristics, bushings and applied forces are left out (their potential is not formed),
-so the sum of the energies is conserved only when such elements do no work. Elastic bodies
-add their own terms in the generated module (:func:`neweul_py.ffrf.splice.ffrf_energy`).
+``V_s`` sums the potentials the force elements form
+(:meth:`~neweul_py.model.ForceElement.potential`): ``½ k s²`` of point-to-point spring–dampers
+and of rotational spring–dampers on a coordinate whose spring law is linear with a constant
+``stiffness`` (``s = ℓ − length`` or ``s = coordinate − angle``). Tables, coefficients that
+depend on ``s`` or ``sd``, rotational spring–dampers between frames, bushings and applied
+forces are left out (their potential is not formed), so the sum of the energies is conserved
+only when such elements do no work. Elastic bodies add their own terms in the generated module
+(:func:`neweul_py.ffrf.splice.ffrf_energy`).
 """
 
 from __future__ import annotations
@@ -17,8 +20,8 @@ from __future__ import annotations
 import sympy as sp
 
 from ..kinematics import Kinematics
-from ..kinematics.algebra import dot, mat_vec, sub
-from ..model import INERTIAL, RotationalSpringDamper, SpringDamper, System, as_expr, symbol
+from ..model import INERTIAL, System, as_expr
+from ..model.algebra import dot, mat_vec
 from ..model.canonical import add, mul
 
 __all__ = ["energies"]
@@ -47,19 +50,13 @@ def _kinetic_and_gravity(kin: Kinematics, system: System) -> tuple[sp.Expr, sp.E
 
 
 def _springs(kin: Kinematics, system: System) -> sp.Expr:
+    """``Σ enabled·V`` of the force elements that have a potential
+    (:meth:`~neweul_py.model.ForceElement.potential`)."""
     terms: list[sp.Expr] = []
     for fe in system.forces:
-        if isinstance(fe, SpringDamper) and fe.spring_force is None:
-            ra = kin.point_position(fe.frame_a, tuple(fe.point_a), INERTIAL)
-            rb = kin.point_position(fe.frame_b, tuple(fe.point_b), INERTIAL)
-            d = sub(rb, ra)
-            s = sp.sqrt(dot(d, d)) - fe.length
-        elif (isinstance(fe, RotationalSpringDamper) and fe.spring_force is None
-              and fe.coordinate is not None):
-            s = symbol(fe.coordinate) - fe.angle
-        else:
-            continue
-        terms.append(fe.enabled * fe.stiffness * s**2 / 2)
+        potential = fe.potential(kin)
+        if potential is not None:
+            terms.append(fe.enabled * potential)
     return sp.Add(*terms)
 
 

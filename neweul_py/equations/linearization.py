@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..kinematics import Workspace
-from ..kinematics.algebra import ZERO, is_zero, total
 from ..model import as_expr
+from ..model.algebra import ZERO, is_zero, total
 from .result import Equations
 
 __all__ = [

@@ -27,9 +27,17 @@ from typing import TYPE_CHECKING, Literal
 
 import sympy as sp
 
-from ..errors import ModelError
 from ..kinematics import Kinematics, absolute_kinematics
-from ..kinematics.algebra import (
+from ..model import (
+    AXES,
+    INERTIAL,
+    ExpressionOutput,
+    ForceOutput,
+    KinematicOutput,
+    RigidBody,
+    System,
+)
+from ..model.algebra import (
     ZERO,
     ZERO3,
     Vec3,
@@ -42,18 +50,6 @@ from ..kinematics.algebra import (
     sub,
     total,
     vec_is_zero,
-)
-from ..model import (
-    AXES,
-    INERTIAL,
-    ExpressionOutput,
-    ForceOutput,
-    GeneralizedForce,
-    KinematicOutput,
-    PointForce,
-    RigidBody,
-    System,
-    Torque,
 )
 from ..progress import StagedProgress, Steps
 from .constraints import check_constraints, derive_constraints
@@ -183,29 +179,13 @@ def _derive(system: System, form: str, progress: StagedProgress = None) -> Equat
         for body in system.bodies:
             _body(kin, body, mass_terms, force_terms)
             step()
-    index = {c.name: j for j, c in enumerate(system.coordinates)}
-
-    def base(kin: Kinematics, fe: object, terms: list[list[sp.Expr]], path: str) -> None:
-        if isinstance(fe, PointForce):
-            _point_force(kin, fe, terms, path)
-        elif isinstance(fe, Torque):
-            l_k = kin.express(tuple(fe.vector), fe.in_frame, fe.frame)
-            jr = kin.frames[fe.frame].JR
-            for j in range(n):
-                terms[j].append(dot(jr[j], l_k))
-        elif isinstance(fe, GeneralizedForce):
-            terms[index[fe.coordinate]].append(fe.value)
-        else:  # pragma: no cover - System validation rejects other types
-            raise ModelError(f"unsupported force element {type(fe).__name__}", path)
-
-    # spring–dampers, bushings, rotational elements, the enabled factor and the reported
-    # forces: equations/force_elements.py (issue 4)
+    # every element derives its own loads (model/forces); equations/force_elements.py adds
+    # them with the element's enabled factor
     reported = {}
     loss: dict[tuple[int, int], list[sp.Expr]] = {}
     omega_ref = sp.Float(2 * math.pi * system.loss_reference_frequency)
     for fe in system.forces:
-        reported[fe.name] = apply_force_element(kin, fe, force_terms, index,
-                                                f"forces.{fe.name}", base, loss, omega_ref)
+        reported[fe.name] = apply_force_element(kin, fe, force_terms, loss, omega_ref)
         step()
     outputs = [_output(kin, out, reported) for out in system.outputs]
     energy = energies(kin, system)
@@ -422,16 +402,6 @@ def _transpose_jacobian(
             )
             acc.setdefault(fk.parent, []).append((f_parent, n_parent))
     return out
-
-
-def _point_force(
-    kin: Kinematics, fe: PointForce, force_terms: list[list[sp.Expr]], path: str
-) -> None:
-    """``q += J_Pᵀ f`` with ``f`` and ``J_P`` in the components of the frame of action."""
-    f_k = kin.express(tuple(fe.vector), fe.in_frame, fe.frame)
-    pk = kin.point(fe.frame, tuple(fe.point), f"{path}.point")
-    for j in range(kin.n):
-        force_terms[j].append(dot(pk.J[j], f_k))
 
 
 def _output(kin: Kinematics, out: object, reported: dict[str, dict[str, sp.Expr]]) -> sp.Expr:

@@ -35,9 +35,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from ..model import INERTIAL, Frame, System, as_expr, input_rate_name, symbol, time
-from ..model.canonical import mul
-from ..progress import StagedProgress, Steps
-from .algebra import (
+from ..model.algebra import (
     ZERO,
     ZERO3,
     Mat3,
@@ -52,6 +50,8 @@ from .algebra import (
     total,
     vec_is_zero,
 )
+from ..model.canonical import mul
+from ..progress import StagedProgress, Steps
 from .rotations import IDENTITY, rotation_axes, rotation_product
 from .workspace import Workspace
 
@@ -132,6 +132,7 @@ class Kinematics:
         self.coordinates = system.coordinate_symbols
         self.velocities = system.velocity_symbols
         self.n = len(self.coordinates)
+        self._index = {c.name: j for j, c in enumerate(system.coordinates)}
         self._inputs = frozenset(u.symbol for u in system.inputs)
         # explicit time dependence through inputs: u → d_u → dd_u (→ not available)
         self._input_rates: dict[sp.Symbol, sp.Symbol | None] = {}
@@ -158,6 +159,10 @@ class Kinematics:
         """The ordered intermediate assignments emitted so far (empty in closed form)."""
         return tuple(self.workspace.assignments)
 
+    def coordinate_index(self, name: str) -> int:
+        """The position ``j`` of the coordinate ``name`` in ``y``."""
+        return self._index[name]
+
     def _check_no_inputs(self, exprs: Sequence[sp.Expr], where: str) -> None:
         """Inputs may appear in kinematics (kinematic excitation); their derivatives, which
         only force laws and outputs may use, must not."""
@@ -172,7 +177,7 @@ class Kinematics:
                     where,
                 )
 
-    def _partials(self, expr: sp.Expr) -> tuple[list[sp.Expr], sp.Expr]:
+    def partials(self, expr: sp.Expr) -> tuple[list[sp.Expr], sp.Expr]:
         """``∂expr/∂y_j`` for all j and the explicit time derivative ``∂expr/∂t``, through
         inputs by the chain rule (zeros where expr does not depend)."""
         free = expr.free_symbols
@@ -196,9 +201,9 @@ class Kinematics:
         terms = [mul(d, v) for d, v in zip(dy, self.velocities, strict=True) if not is_zero(d)]
         return total([*terms, dt])
 
-    def _bar_rate(self, expr: sp.Expr) -> sp.Expr:
+    def bar_rate(self, expr: sp.Expr) -> sp.Expr:
         """Time derivative without ÿ terms: ``Σ_j ∂expr/∂y_j ẏ_j + ∂expr/∂t``."""
-        dy, dt = self._partials(expr)
+        dy, dt = self.partials(expr)
         return self._rate(dy, dt)
 
     # ------------------------------------------------------------------ recursion
@@ -214,19 +219,19 @@ class Kinematics:
         # -- relative kinematics, model-level expressions (small; differentiated directly)
         A = rotation_product(rotation)
         axes = rotation_axes(rotation)
-        dphi = [self._partials(angle) for _, angle in rotation]
+        dphi = [self.partials(angle) for _, angle in rotation]
         JR_rel = [
             add(*(scale(dphi[i][0][j], axes[i]) for i in range(len(rotation))))
             for j in range(n)
         ]
         wbar_rel = add(*(scale(dphi[i][1], axes[i]) for i in range(len(rotation))))
         w_rel = add(*(scale(v, JR_rel[j]) for j, v in enumerate(self.velocities)), wbar_rel)
-        wdot_rel = tuple(self._bar_rate(x) for x in w_rel)
-        dr = [self._partials(x) for x in translation]
+        wdot_rel = tuple(self.bar_rate(x) for x in w_rel)
+        dr = [self.partials(x) for x in translation]
         dr_dy = [tuple(dr[i][0][j] for i in range(3)) for j in range(n)]
         dr_dt = tuple(dr[i][1] for i in range(3))
         rdot = tuple(self._rate(dr[i][0], dr[i][1]) for i in range(3))
-        rddot = tuple(self._bar_rate(x) for x in rdot)
+        rddot = tuple(self.bar_rate(x) for x in rdot)
 
         if ws.recursive:
             # name cos/sin of the joint angles once, and use the names in everything relative
@@ -368,7 +373,7 @@ class Kinematics:
         p: Vec3 = tuple(point)  # type: ignore[assignment]
         self._check_no_inputs(p, where or f"frames.{frame}")
         fk = self.frames[frame]
-        d = [self._partials(x) for x in p]
+        d = [self.partials(x) for x in p]
         ws = self.workspace
         if vec_is_zero(p):
             return PointKinematics(frame, fk.JT, fk.vbar)

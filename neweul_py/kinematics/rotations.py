@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from .algebra import ZERO, Mat3, Vec3, add, mat_mul, mat_t_vec, scale
+from ..model.algebra import ZERO, Mat3, Vec3, add, mat_mul, mat_t_vec, scale
 
 __all__ = [
     "IDENTITY",

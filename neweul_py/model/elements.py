@@ -19,23 +19,18 @@ __all__ = [
     "AXES",
     "Coordinate",
     "ExpressionOutput",
-    "ForceElement",
+    "ForceOutput",
     "Frame",
-    "GeneralizedForce",
     "Input",
     "KinematicOutput",
     "Output",
     "Parameter",
-    "PointForce",
     "RigidBody",
-    "SpringDamper",
-    "Torque",
     "vector3",
 ]
 
 AXES = ("x", "y", "z")
 _ZERO = sp.Integer(0)  # immutable: safe as a dataclass default
-_ONE = sp.Integer(1)
 Axis = Literal["x", "y", "z"]
 
 
@@ -155,85 +150,6 @@ class RigidBody:
                     )
 
 
-class ForceElement:
-    """Marker base class of all force elements (each subclass is a frozen dataclass).
-
-    Every element has an ``enabled`` factor (an expression of parameters, default 1) that
-    multiplies everything it exerts: a parameter set to 0 switches the element off.
-    """
-
-    name: str
-    enabled: sp.Expr = _ONE
-
-
-@dataclass(frozen=True)
-class PointForce(ForceElement):
-    """A force ``vector`` (components of frame ``in_frame``) acting at ``point`` of ``frame``."""
-
-    name: str
-    frame: str
-    vector: sp.ImmutableMatrix
-    point: sp.ImmutableMatrix = field(default_factory=_zero3)
-    in_frame: str = INERTIAL
-    enabled: sp.Expr = _ONE
-
-
-@dataclass(frozen=True)
-class Torque(ForceElement):
-    """A torque ``vector`` (components of frame ``in_frame``) acting on ``frame``."""
-
-    name: str
-    frame: str
-    vector: sp.ImmutableMatrix
-    in_frame: str = INERTIAL
-    enabled: sp.Expr = _ONE
-
-
-@dataclass(frozen=True)
-class GeneralizedForce(ForceElement):
-    """A generalized force ``value`` acting directly on ``coordinate`` (adds to ``q``)."""
-
-    name: str
-    coordinate: str
-    value: sp.Expr
-    enabled: sp.Expr = _ONE
-
-
-@dataclass(frozen=True)
-class SpringDamper(ForceElement):
-    """A linear point-to-point spring–damper between ``point_a`` of ``frame_a`` and
-    ``point_b`` of ``frame_b`` (points in their frames' components).
-
-    Its tensile force is ``stiffness (s − length) + damping ṡ`` with ``s`` the distance of the
-    points; it pulls the points together when positive.
-
-    Nonlinear characteristics (issue 4): ``stiffness`` and ``damping`` may use the elongation
-    :data:`~neweul_py.model.ELONGATION` (``s − length``) and its rate
-    :data:`~neweul_py.model.ELONGATION_RATE`; ``spring_force`` / ``damper_force``, when given,
-    are characteristic curves (tables, :func:`~neweul_py.model.table_characteristic`) that
-    replace ``stiffness·(s − length)`` / ``damping·ṡ``
-    (:func:`~neweul_py.model.characteristic_force`).
-
-    ``loss_factor`` η ≥ 0 (parameters only): hysteretic damping ``K(1 + iη)`` in the
-    frequency domain on the spring's tangent stiffness ``∂F/∂s``; in the time domain its
-    viscous equivalent ``(η/ω_ref) ∂F/∂s`` acts on ``ṡ`` (equations.md §1.1, ``ω_ref`` from the
-    model's ``loss_reference_frequency``).
-    """
-
-    name: str
-    frame_a: str
-    frame_b: str
-    stiffness: sp.Expr
-    damping: sp.Expr = _ZERO
-    length: sp.Expr = _ZERO
-    point_a: sp.ImmutableMatrix = field(default_factory=_zero3)
-    point_b: sp.ImmutableMatrix = field(default_factory=_zero3)
-    spring_force: sp.Expr | None = None
-    damper_force: sp.Expr | None = None
-    enabled: sp.Expr = _ONE
-    loss_factor: sp.Expr = _ZERO
-
-
 class Output:
     """Marker base class of outputs."""
 
@@ -271,3 +187,19 @@ class KinematicOutput(Output):
                 f"component must be one of x, y, z, not {self.component!r}",
                 f"outputs.{self.name}.component",
             )
+
+
+@dataclass(frozen=True)
+class ForceOutput(Output):
+    """An output reporting what force element ``force`` exerts (times its ``enabled`` factor).
+
+    ``component``: one of the element's :attr:`~neweul_py.model.ForceElement.components` —
+    ``force`` for scalar elements (a spring–damper's tensile force, a rotational
+    spring–damper's torque ``F(s, sd)``, a generalized force's value); ``fx fy fz`` /
+    ``mx my mz`` for vector elements: a ``force``/``torque`` element's vector in its ``in``
+    frame, a bushing's force and torque on its second frame in the first frame's components.
+    """
+
+    name: str
+    force: str
+    component: str = "force"

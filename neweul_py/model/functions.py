@@ -22,7 +22,10 @@ language           node                derivative
 =================  ==================  =================================================
 
 So the derivative at a corner is a one-sided value (of the branch that holds there), never a
-distribution. Conditions of a ``Piecewise`` are sympy relationals (``StrictLessThan``,
+distribution. :class:`TableCurve` is a piecewise polynomial of one argument (tabulated
+characteristics of force elements and, as :class:`SignalTable`, input signals).
+
+Conditions of a ``Piecewise`` are sympy relationals (``StrictLessThan``,
 ``LessThan``, ``StrictGreaterThan``, ``GreaterThan``) joined by ``And``/``Or``; they never contain
 a ``Piecewise`` (the parser refuses that: sympy folds such conditions with a logic
 simplification of exponential cost); the last condition is ``True``.
@@ -34,9 +37,10 @@ import sympy as sp
 from mpmath.libmp import prec_to_dps
 from sympy.core.logic import fuzzy_and
 
-from .force_elements import TableCurve
+from .symbols import as_expr
 
-__all__ = ["Abs", "Heaviside", "Max", "Min", "Sign", "SignalTable", "Step", "piecewise", "sign"]
+__all__ = ["Abs", "Heaviside", "Max", "Min", "Sign", "SignalTable", "Step", "TableCurve",
+           "piecewise", "sign"]
 
 
 # The subclasses keep the names of their sympy bases: sympy's printers skip the print method
@@ -157,6 +161,75 @@ def piecewise(*args: sp.Basic) -> sp.Expr:
     return sp.Piecewise(*pairs, (args[-1], sp.true))
 
 
+
+
+class TableCurve(sp.Expr):
+    """A piecewise-polynomial characteristic curve ``F(v)`` of a table, as one sympy node.
+
+    ``TableCurve(v, knots, shifts, coefficients)``: piece ``i`` is
+    ``Σ_k coefficients[i][k] (v − shifts[i])^k``; piece ``i < m`` holds for ``v < knots[i]``
+    (and not for the earlier ones), the last piece above the last knot. The node has the single
+    argument ``v`` as far as differentiation and common-subexpression elimination see it, so
+    derivatives (``F′(v) v′``, again a ``TableCurve``) and generated code grow linearly with
+    the table. Generated code evaluates it as a chain of comparisons (``_pythoncode``).
+    """
+
+    is_commutative = True
+    is_real = True
+
+    def __new__(cls, v: object, knots: object, shifts: object, coefficients: object) -> TableCurve:
+        return sp.Expr.__new__(cls, as_expr(v), sp.Tuple(*knots), sp.Tuple(*shifts),
+                               sp.Tuple(*(sp.Tuple(*c) for c in coefficients)))
+
+    @property
+    def variable(self) -> sp.Expr:
+        return self.args[0]
+
+    def pieces(self) -> list[tuple[float, list[float]]]:
+        """``(shift, coefficients)`` of every piece, in order."""
+        return [(float(x0), [float(c) for c in cs]) for x0, cs in zip(self.args[2], self.args[3],
+                                                                     strict=True)]
+
+    def derivative(self) -> TableCurve:
+        """``F′`` as a table curve of the same variable."""
+        _, knots, shifts, coeffs = self.args
+        d = [[k * c for k, c in enumerate(cs) if k > 0] or [sp.Float(0)] for cs in coeffs]
+        return TableCurve(self.variable, knots, shifts, d)
+
+    def _eval_derivative(self, x: sp.Symbol) -> sp.Expr:
+        dv = self.variable.diff(x)
+        return sp.S.Zero if dv == 0 else self.derivative() * dv
+
+    def evaluate(self, value: float) -> float:
+        """``F(value)`` numerically (tests, checks)."""
+        knots = [float(k) for k in self.args[1]]
+        i = next((j for j, k in enumerate(knots) if value < k), len(knots))
+        shift, cs = self.pieces()[i]
+        w = value - shift
+        return sum(c * w**k for k, c in enumerate(cs))
+
+    def _pythoncode(self, printer: object) -> str:
+        """``(P0 if (_ncg_tab := v) < k1 else P1 if _ncg_tab < k2 else … else Pm)``."""
+        v = printer._print(self.variable)  # type: ignore[attr-defined]
+        name = "_ncg_tab"
+
+        def poly(shift: float, cs: list[float]) -> str:
+            w = f"({name} - {shift!r})" if shift != 0 else name
+            out = repr(cs[-1])
+            for c in cs[-2::-1]:
+                out = f"{c!r} + {w}*({out})"
+            return f"({out})"
+
+        pieces = [poly(x0, cs) for x0, cs in self.pieces()]
+        knots = [float(k) for k in self.args[1]]
+        if not knots:
+            return f"(({name} := {v}), {pieces[0]})[1]"
+        chain = f"{pieces[0]} if ({name} := {v}) < {knots[0]!r}"
+        for piece, knot in zip(pieces[1:], knots[1:], strict=False):
+            chain += f" else {piece} if {name} < {knot!r}"
+        return f"({chain} else {pieces[-1]})"
+
+    _numpycode = _pythoncode
 
 
 class SignalTable(TableCurve):

@@ -17,34 +17,25 @@ from .elastic import ElasticBody, is_node_frame_name
 from .elements import (
     Coordinate,
     ExpressionOutput,
-    ForceElement,
+    ForceOutput,
     Frame,
-    GeneralizedForce,
     Input,
     KinematicOutput,
     Output,
     Parameter,
-    PointForce,
     RigidBody,
-    SpringDamper,
-    Torque,
 )
-from .force_elements import (
+from .forces import (
     ELONGATION,
     ELONGATION_RATE,
-    FORCE_COMPONENTS,
-    Bushing,
-    ForceOutput,
-    RotationalSpringDamper,
+    ForceElement,
 )
 from .symbols import INERTIAL, check_name, input_rate_name, symbol, time, velocity_name
 
-__all__ = ["DEFAULT_LOSS_REFERENCE_FREQUENCY", "LOSS_ELEMENTS", "System"]
+__all__ = ["DEFAULT_LOSS_REFERENCE_FREQUENCY", "System"]
 
 #: The default ``loss_reference_frequency`` [Hz].
 DEFAULT_LOSS_REFERENCE_FREQUENCY = 1000.0
-#: The force elements that may have a ``loss_factor`` (those with a stiffness).
-LOSS_ELEMENTS = ("SpringDamper", "RotationalSpringDamper", "Bushing")
 
 
 @dataclass(frozen=True)
@@ -210,9 +201,60 @@ def _canonical(system: System) -> tuple:
     )
 
 
+@dataclass(frozen=True)
+class _Names:
+    """The names of a system by what may use them (docs/description-format.md, Expressions)."""
+
+    scopes: Mapping[str, Mapping[str, sp.Symbol]]  # constant, excitation, kinematic, dynamic
+    frames: frozenset[str]
+    coordinates: frozenset[str]
+    defaults: Mapping[sp.Symbol, float]
+
+    def need_frame(self, name: str, path: str) -> None:
+        if name not in self.frames:
+            raise ModelError(
+                f"unknown frame {name!r}; frames are: {', '.join(sorted(self.frames))}", path
+            )
+
+    def need_coordinate(self, name: str, path: str) -> None:
+        if name not in self.coordinates:
+            raise ModelError(
+                f"unknown coordinate {name!r}; coordinates are: "
+                f"{', '.join(sorted(self.coordinates)) or '(none)'}",
+                path,
+            )
+
+    def at_defaults(self, expr: sp.Basic) -> object:
+        """:func:`_numeric` at the parameter defaults."""
+        return _numeric(expr, self.defaults)
+
+
 def _validate(s: System) -> None:
     if check_name(s.name) is not None:
         raise ModelError(f"model name: {check_name(s.name)}", "name")
+    seen = _unique_names(s)
+    for fe in s.forces:
+        if not isinstance(fe, ForceElement):
+            raise ModelError(f"not a force element: {fe!r}", f"forces.{fe.name}")
+    _validate_numbers(s)
+    names = _names(s, seen)
+    _check_symbols(s.gravity, names.scopes["constant"], "gravity")
+    for u in s.inputs:
+        _check_symbols(u.default, names.scopes["excitation"], f"inputs.{u.name}")
+    _validate_losses(s, names.scopes["constant"])
+    _validate_elastic(s, set(names.frames), seen)
+    _validate_frames(s, names.scopes["kinematic"])
+    for b in s.bodies:
+        _validate_body(b, names)
+    for fe in s.forces:
+        _validate_force(fe, names)
+    for out in s.outputs:
+        _validate_output(s, out, names)
+    _validate_constraints(s, names)
+
+
+def _unique_names(s: System) -> dict[str, str]:
+    """Every item's name valid and used once; returns name → group."""
     seen: dict[str, str] = {}
     groups = (
         ("parameters", s.parameters),
@@ -234,24 +276,31 @@ def _validate(s: System) -> None:
             if item.name in seen:
                 raise ModelError(f"name {item.name!r} is already used in {seen[item.name]}", path)
             seen[item.name] = group
+    return seen
 
+
+def _finite(v: object) -> bool:
+    return not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)
+
+
+def _validate_numbers(s: System) -> None:
+    """Parameter defaults and initial values are finite numbers."""
     for p in s.parameters:
-        if (
-            isinstance(p.default, bool)
-            or not isinstance(p.default, int | float)
-            or not math.isfinite(p.default)
-        ):
+        if not _finite(p.default):
             raise ModelError(
                 f"default must be a finite number, got {p.default!r}", f"parameters.{p.name}"
             )
     for c in s.coordinates:
         for attr in ("initial", "velocity"):
             v = getattr(c, attr)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            if not _finite(v):
                 raise ModelError(
                     f"{attr} value must be a finite number, got {v!r}", f"coordinates.{c.name}"
                 )
 
+
+def _names(s: System, seen: Mapping[str, str]) -> _Names:
+    """The names of each scope; the names of input rates are reserved."""
     par = {p.name: p.symbol for p in s.parameters}
     crd = {c.name: c.symbol for c in s.coordinates}
     vel = {velocity_name(c.name): c.velocity_symbol for c in s.coordinates}
@@ -269,142 +318,98 @@ def _validate(s: System) -> None:
                 f"{name.split('_', 1)[1]!r}",
                 f"{seen[name]}.{name}",
             )
-    constant = par
     kinematic = {**par, **crd, **inp, **tt}
-    dynamic = {**kinematic, **vel, **rates}
-    local = {"s": ELONGATION, "sd": ELONGATION_RATE}
+    scopes = {
+        "constant": par,
+        "excitation": {**par, **tt},
+        "kinematic": kinematic,
+        "dynamic": {**kinematic, **vel, **rates},
+    }
+    return _Names(scopes, frozenset({INERTIAL, *s.frame_map}), frozenset(crd),
+                  {p.symbol: p.default for p in s.parameters})
 
-    _check_symbols(s.gravity, constant, "gravity")
-    for u in s.inputs:
-        _check_symbols(u.default, {**par, **tt}, f"inputs.{u.name}")
 
-    frames = {INERTIAL, *s.frame_map}
-    _validate_losses(s, constant)
-    _validate_elastic(s, frames, seen)
-    _validate_frames(s, kinematic)
+def _validate_body(b: RigidBody, names: _Names) -> None:
+    path = f"bodies.{b.name}"
+    constant = names.scopes["constant"]
+    names.need_frame(b.frame, f"{path}.frame")
+    _check_symbols(b.mass, constant, f"{path}.mass")
+    _check_symbols(b.center_of_mass, constant, f"{path}.center_of_mass")
+    _check_symbols(b.inertia, constant, f"{path}.inertia")
+    mass = names.at_defaults(b.mass)
+    if mass is not None and mass < 0:  # type: ignore[operator]
+        raise ModelError(f"mass must not be negative (it is {mass:g})", f"{path}.mass")
+    inertia = names.at_defaults(b.inertia)
+    if inertia is not None:
+        _check_inertia(inertia, f"{path}.inertia")  # type: ignore[arg-type]
 
-    def need_frame(name: str, path: str) -> None:
-        if name not in frames:
-            raise ModelError(
-                f"unknown frame {name!r}; frames are: {', '.join(sorted(frames))}", path
-            )
 
-    defaults = {p.symbol: p.default for p in s.parameters}
-    for b in s.bodies:
-        path = f"bodies.{b.name}"
-        need_frame(b.frame, f"{path}.frame")
-        _check_symbols(b.mass, constant, f"{path}.mass")
-        _check_symbols(b.center_of_mass, constant, f"{path}.center_of_mass")
-        _check_symbols(b.inertia, constant, f"{path}.inertia")
-        mass = _numeric(b.mass, defaults)
-        if mass is not None and mass < 0:
-            raise ModelError(f"mass must not be negative (it is {mass:g})", f"{path}.mass")
-        inertia = _numeric(b.inertia, defaults)
-        if inertia is not None:
-            _check_inertia(inertia, f"{path}.inertia")
+#: The local names of a characteristic's expressions (docs/description-format.md).
+_LOCAL = {"s": ELONGATION, "sd": ELONGATION_RATE}
 
-    coordinates = set(crd)
-    for fe in s.forces:
-        path = f"forces.{fe.name}"
-        if isinstance(fe, PointForce):
-            need_frame(fe.frame, f"{path}.frame")
-            need_frame(fe.in_frame, f"{path}.in")
-            _check_symbols(fe.point, kinematic, f"{path}.point")
-            _check_symbols(fe.vector, dynamic, f"{path}.vector")
-        elif isinstance(fe, Torque):
-            need_frame(fe.frame, f"{path}.frame")
-            need_frame(fe.in_frame, f"{path}.in")
-            _check_symbols(fe.vector, dynamic, f"{path}.vector")
-        elif isinstance(fe, GeneralizedForce):
-            if fe.coordinate not in coordinates:
-                raise ModelError(
-                    f"unknown coordinate {fe.coordinate!r}; coordinates are: "
-                    f"{', '.join(sorted(coordinates)) or '(none)'}",
-                    f"{path}.coordinate",
-                )
-            _check_symbols(fe.value, dynamic, f"{path}.value")
-        elif isinstance(fe, SpringDamper):
-            need_frame(fe.frame_a, f"{path}.between[0]")
-            need_frame(fe.frame_b, f"{path}.between[1]")
-            _check_symbols(fe.point_a, kinematic, f"{path}.points[0]")
-            _check_symbols(fe.point_b, kinematic, f"{path}.points[1]")
-            _check_symbols(fe.length, dynamic, f"{path}.length")
-            length = _numeric(fe.length, defaults)
-            if length is not None and length < 0:
-                raise ModelError(
-                    f"the rest length is a distance and must not be negative (it is {length:g})",
-                    f"{path}.length",
-                )
-            for attr in ("stiffness", "damping"):
-                _check_symbols(getattr(fe, attr), {**dynamic, **local}, f"{path}.{attr}")
-            _check_curves(fe, path)
-        elif isinstance(fe, RotationalSpringDamper):
-            if fe.coordinate is not None:
-                if fe.coordinate not in coordinates:
-                    raise ModelError(
-                        f"unknown coordinate {fe.coordinate!r}; coordinates are: "
-                        f"{', '.join(sorted(coordinates)) or '(none)'}",
-                        f"{path}.coordinate",
-                    )
-            else:
-                need_frame(fe.frame_a or "", f"{path}.between[0]")
-                need_frame(fe.frame_b or "", f"{path}.between[1]")
-            _check_symbols(fe.angle, dynamic, f"{path}.angle")
-            for attr in ("stiffness", "damping"):
-                _check_symbols(getattr(fe, attr), {**dynamic, **local}, f"{path}.{attr}")
-            _check_curves(fe, path)
-        elif isinstance(fe, Bushing):
-            need_frame(fe.frame_a, f"{path}.between[0]")
-            need_frame(fe.frame_b, f"{path}.between[1]")
-            _check_symbols(fe.point_a, kinematic, f"{path}.points[0]")
-            _check_symbols(fe.point_b, kinematic, f"{path}.points[1]")
-            for attr in ("stiffness", "damping", "rotational_stiffness", "rotational_damping"):
-                _check_symbols(getattr(fe, attr), dynamic, f"{path}.{attr}")
-        elif not isinstance(fe, ForceElement):
-            raise ModelError(f"not a force element: {fe!r}", path)
-        _check_symbols(getattr(fe, "enabled", sp.Integer(1)), constant, f"{path}.enabled")
 
-    for out in s.outputs:
-        path = f"outputs.{out.name}"
-        if isinstance(out, ExpressionOutput):
-            _check_symbols(out.expr, dynamic, path)
-        elif isinstance(out, KinematicOutput):
-            need_frame(out.frame, f"{path}.{out.quantity}")
-            need_frame(out.in_frame, f"{path}.in")
-            _check_symbols(out.point, kinematic, f"{path}.point")
-        elif isinstance(out, ForceOutput):
-            _check_force_output(s, out, path)
-        else:
-            raise ModelError(f"not an output: {out!r}", path)
+def _validate_force(fe: ForceElement, names: _Names) -> None:
+    """A force element by its schema (:attr:`ForceElement.keys`): the frames and coordinates
+    it names exist, its expressions use the names of their scopes (a characteristic's
+    coefficients also ``s`` and ``sd``, its table curve only its own variable); loss factors
+    are checked by :func:`_validate_losses`."""
+    keys = type(fe).schema()
+    for key in keys:
+        for where, name in fe.entries(key):
+            if name is None:
+                continue
+            if key.kind in ("frame", "frames"):
+                names.need_frame(name, where)  # type: ignore[arg-type]
+            elif key.kind == "coordinate":
+                names.need_coordinate(name, where)  # type: ignore[arg-type]
+    for key in keys:
+        if key.scope is None or key.kind == "loss_factor":
+            continue
+        allowed = names.scopes[key.scope]
+        if key.kind == "characteristic":
+            (where, coefficient), (_, curve) = fe.entries(key)
+            _check_symbols(coefficient, {**allowed, **_LOCAL}, where)
+            if curve is not None:
+                _check_symbols(curve, {key.variable: _LOCAL[key.variable]}, where)
+            continue
+        for where, value in fe.entries(key):
+            _check_symbols(value, allowed, where)
+    fe.check(names.at_defaults)
 
-    names: dict[str, str] = {}
+
+def _validate_output(s: System, out: Output, names: _Names) -> None:
+    path = f"outputs.{out.name}"
+    if isinstance(out, ExpressionOutput):
+        _check_symbols(out.expr, names.scopes["dynamic"], path)
+    elif isinstance(out, KinematicOutput):
+        names.need_frame(out.frame, f"{path}.{out.quantity}")
+        names.need_frame(out.in_frame, f"{path}.in")
+        _check_symbols(out.point, names.scopes["kinematic"], f"{path}.point")
+    elif isinstance(out, ForceOutput):
+        _check_force_output(s, out, path)
+    else:
+        raise ModelError(f"not an output: {out!r}", path)
+
+
+def _validate_constraints(s: System, names: _Names) -> None:
+    kinematic = names.scopes["kinematic"]
+    used: dict[str, str] = {}
     for con in s.constraints:
         path = f"constraints.{con.name}"
         if isinstance(con, ExpressionConstraint):
             _check_symbols(con.expr, kinematic, path)
         elif isinstance(con, CoincidenceConstraint):
-            need_frame(con.frame_a, f"{path}.coincide[0]")
-            need_frame(con.frame_b, f"{path}.coincide[1]")
-            need_frame(con.in_frame, f"{path}.in")
+            names.need_frame(con.frame_a, f"{path}.coincide[0]")
+            names.need_frame(con.frame_b, f"{path}.coincide[1]")
+            names.need_frame(con.in_frame, f"{path}.in")
             _check_symbols(con.point_a, kinematic, f"{path}.points[0]")
             _check_symbols(con.point_b, kinematic, f"{path}.points[1]")
         else:
             raise ModelError(f"not a constraint: {con!r}", path)
         for n in con.names:
-            if n in names:
-                raise ModelError(f"constraint name {n!r} is already used by {names[n]}", path)
-            names[n] = path
-
-
-def _check_curves(fe: object, path: str) -> None:
-    """Table curves are functions of their own variable only (``s`` resp. ``sd``)."""
-    for attr, var, key in (
-        ("spring_force", ELONGATION, "stiffness"),
-        ("damper_force", ELONGATION_RATE, "damping"),
-    ):
-        curve = getattr(fe, attr)
-        if curve is not None:
-            _check_symbols(curve, {"s" if var is ELONGATION else "sd": var}, f"{path}.{key}")
+            if n in used:
+                raise ModelError(f"constraint name {n!r} is already used by {used[n]}", path)
+            used[n] = path
 
 
 def _check_force_output(s: System, out: ForceOutput, path: str) -> None:
@@ -415,12 +420,12 @@ def _check_force_output(s: System, out: ForceOutput, path: str) -> None:
             f"{', '.join(sorted(forces)) or '(none)'}",
             f"{path}.force",
         )
-    kind = type(forces[out.force]).__name__
-    valid = FORCE_COMPONENTS.get(kind, ())
+    kind = type(forces[out.force])
+    valid = kind.components
     if out.component not in valid:
         raise ModelError(
-            f"a {kind} element reports the component(s) {', '.join(valid) or '(none)'}, not "
-            f"{out.component!r}",
+            f"a {kind.__name__} element reports the component(s) {', '.join(valid) or '(none)'}, "
+            f"not {out.component!r}",
             f"{path}.component",
         )
 
@@ -435,7 +440,9 @@ def _input_rate_orders(s: System) -> dict[str, int]:
     for f in s.frames:
         kinematic.append(f.translation)
         kinematic.extend(a for _, a in f.rotation)
-    for item in (*s.forces, *s.outputs, *s.constraints):
+    for fe in s.forces:
+        kinematic.extend(v for _, v, key in fe.expressions() if key.scope == "kinematic")
+    for item in (*s.outputs, *s.constraints):
         for attr in ("point", "point_a", "point_b", "expr"):
             value = getattr(item, attr, None)
             if isinstance(value, sp.Basic) and (attr != "expr" or isinstance(item, Constraint)):
@@ -472,18 +479,16 @@ def _validate_losses(s: System, constant: Mapping[str, sp.Symbol]) -> None:
     object.__setattr__(s, "loss_reference_frequency", float(f))
     defaults = {p.symbol: p.default for p in s.parameters}
     for fe in s.forces:
-        eta = getattr(fe, "loss_factor", None)
-        if eta is None or eta == 0:
-            continue
-        path = f"forces.{fe.name}.loss_factor"
-        if type(fe).__name__ not in LOSS_ELEMENTS:
-            raise ModelError(f"only {', '.join(LOSS_ELEMENTS)} have a loss factor", path)
-        _check_symbols(eta, constant, path)
-        value = _numeric(eta, defaults)
-        if value is None or not math.isfinite(value) or value < 0:
-            got = eta if value is None else value
-            raise ModelError(f"a loss factor is a finite number ≥ 0, got {got} at the "
-                             "parameter defaults", path)
+        for where, eta in (e for k in type(fe).keys if k.kind == "loss_factor"
+                           for e in fe.entries(k)):
+            if eta == 0:
+                continue
+            _check_symbols(eta, constant, where)
+            value = _numeric(eta, defaults)  # type: ignore[arg-type]
+            if value is None or not math.isfinite(value) or value < 0:  # type: ignore[arg-type]
+                got = eta if value is None else value
+                raise ModelError(f"a loss factor is a finite number ≥ 0, got {got} at the "
+                                 "parameter defaults", where)
     if not s.elastic_bodies:
         return
     from ..ffrf.schema import loss_reference_frequency  # NumPy: elastic models only

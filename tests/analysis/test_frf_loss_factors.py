@@ -13,7 +13,7 @@ from neweul_py import api
 from neweul_py.analysis import linearize
 from neweul_py.analysis.frf import frequency_response
 from neweul_py.analysis.linearize import LinearModel
-from neweul_py.analysis.protocol import load_module
+from neweul_py.analysis.module import as_model
 from neweul_py.cli import main
 from neweul_py.errors import NeweulError
 
@@ -84,12 +84,12 @@ outputs: {tip_x: {position: tip, in: ISYS, component: x}}
 
 @pytest.fixture(scope="module")
 def sdof(tmp_path_factory: pytest.TempPathFactory):
-    return load_module(api.generate(SDOF, tmp_path_factory.mktemp("sdof")))
+    return as_model(api.generate(SDOF, tmp_path_factory.mktemp("sdof")))
 
 
 @pytest.fixture(scope="module")
 def chain(tmp_path_factory: pytest.TempPathFactory):
-    return load_module(api.generate(CHAIN, tmp_path_factory.mktemp("chain")))
+    return as_model(api.generate(CHAIN, tmp_path_factory.mktemp("chain")))
 
 
 def test_single_dof_loss_factor_matches_closed_form(sdof) -> None:

@@ -185,3 +185,25 @@ def test_independent_needs_constraints():
     with pytest.raises(NeweulError, match="independent coordinates apply to models with "
                                           "constraints; pendulum has none"):
         simulate(_module("pendulum"), 1.0, independent=["phi"])
+
+
+@pytest.mark.parametrize(("name", "method", "kind"), [
+    ("pendulum", "RK45", "SolveIVP"),
+    ("pendulum", "Radau", "SolveIVP"),
+    ("pendulum", "generalized-alpha", "GeneralizedAlphaSteps"),
+    ("pendulum", "c-dopri5", "CompiledLoop"),
+    ("slider_crank", "DOP853", "ConstrainedDAE"),
+])
+def test_the_method_and_the_model_pick_the_integrator(name, method, kind):
+    """The table of docs/analysis.md: a SciPy method steps the DAE of a model with
+    constraints, the ODE otherwise; the other methods have their own integrator."""
+    from neweul_py.analysis.simulate import integrator
+
+    strategy = integrator(method, _module(name))
+    assert type(strategy).__name__ == kind and strategy.method == method
+
+
+def test_an_unknown_option_is_a_type_error_naming_it():
+    """Like any Python function: the misspelt keyword and the valid ones are named."""
+    with pytest.raises(TypeError, match=r"'rtoll'.*rtol"):
+        simulate(_module("pendulum"), 1.0, rtoll=1e-8)

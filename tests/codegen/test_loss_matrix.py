@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from neweul_py.analysis.protocol import load_module
+from neweul_py.analysis.module import as_model
 from neweul_py.api import generate
 from neweul_py.cli import main
 
@@ -30,9 +30,9 @@ def _pair(source, directory: Path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")      # a fallback to NumPy would make the test vacuous
         cpath = generate(source, directory, backend="c")
-    c = load_module(cpath)
+    c = as_model(cpath)
     assert c.BACKEND == "c"
-    return load_module(cpath.with_name(cpath.name.replace("_c.py", ".py"))), c
+    return as_model(cpath.with_name(cpath.name.replace("_c.py", ".py"))), c
 
 
 @needs_cc
@@ -84,5 +84,5 @@ def test_compiled_elastic_loss_matrix_equals_the_splice(tmp_path: Path,
 def test_models_without_loss_factors_have_no_loss_matrix(tmp_path: Path) -> None:
     """Reference: the generated-module protocol (docs/generated-module-protocol.md):
     ``loss_matrix`` and ``LOSS_REFERENCE_FREQUENCY`` only where the model has loss factors."""
-    mod = load_module(generate(ROOT / "examples" / "pendulum.yaml", tmp_path))
+    mod = as_model(generate(ROOT / "examples" / "pendulum.yaml", tmp_path)).module
     assert not hasattr(mod, "loss_matrix") and not hasattr(mod, "LOSS_REFERENCE_FREQUENCY")

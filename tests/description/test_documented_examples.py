@@ -15,15 +15,16 @@ from neweul_py.model import (
     CoincidenceConstraint,
     ExpressionConstraint,
     ForceOutput,
+    PlaneContact,
     RotationalSpringDamper,
     SpringDamper,
+    TableCurve,
 )
-from neweul_py.model.force_elements import TableCurve
 
 HEADER = """\
 name: documented
 parameters: {k: 100, c: 1, kx: 1, ky: 2, kz: 3, d: 0.1, s1: 0.1, l0: 0.5, use_stop: 1,
-             r: 0.1, l: 0.3}
+             r: 0.1, l: 0.3, lam: 5}
 coordinates: {phi: 0.3, theta: -0.1, xs: 0.39, x: 0.6}
 frames:
   frameA: {}
@@ -33,6 +34,7 @@ frames:
   cart: {translation: [x, 0, 0]}
   crank: {rotation: [[y, -phi]]}
   rod: {translation: [xs, 0, 0], rotation: [[y, -theta]]}
+  ball: {translation: [0, 0, x]}
 """
 
 
@@ -45,7 +47,7 @@ def test_the_documented_issue4_example_loads() -> None:
     kinds = {f.name: type(f) for f in s.forces}
     assert kinds == {"bush": Bushing, "hinge": RotationalSpringDamper,
                      "hinge2": RotationalSpringDamper, "progressive": SpringDamper,
-                     "stop": SpringDamper}
+                     "stop": SpringDamper, "ground": PlaneContact}
     stop = next(f for f in s.forces if f.name == "stop")
     assert isinstance(stop.spring_force, TableCurve) and stop.enabled == sp.Symbol(
         "use_stop", real=True)

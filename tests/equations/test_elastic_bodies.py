@@ -88,7 +88,7 @@ forces:
   tip: {{type: bushing, between: [ISYS, beam.tip], points: [{at}, [0, 0, 0]], stiffness: k}}
 """
     mod = _generate(beam_dir, text)
-    source = Path(mod.__file__).read_text()
+    source = Path(mod.path).read_text()
     assert "'fixed': True" in source and "'Oe.m1'" not in source and "'Gr.m0'" not in source
     Me, De, Ke, Ct, ks = (sid[k].m0 for k in ("Me", "De", "Ke", "Ct", "ksigma"))
     ks = ks[:, 0]

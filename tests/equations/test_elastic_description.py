@@ -78,3 +78,26 @@ def test_bad_initial_elastic_state(beam_dir: Path, extra: str, key: str, words: 
         neweul_py.load_description(_desc(beam_dir, extra))
     assert info.value.key_path == key
     assert words in str(info.value)
+
+
+@pytest.mark.filterwarnings("ignore:.*second-order inertia terms")
+def test_a_spring_on_an_elastic_coordinate_acts_like_its_generalized_force(
+        beam_dir: Path) -> None:
+    """A rotational spring–damper on ``beam_q1`` gives the right-hand side of the generalized
+    force ``−k beam_q1`` (the reference) and adds its potential ``½ k beam_q1²``."""
+    modules = {}
+    for kind, force in (("generalized", "{type: generalized, coordinate: beam_q1, "
+                                         "value: -k*beam_q1}"),
+                        ("spring", "{type: rotational_spring_damper, coordinate: beam_q1, "
+                                   "stiffness: k}")):
+        path = beam_dir / f"{kind}.yaml"
+        path.write_text(CLAMPED.format(extra="parameters: {k: 1000}\nforces:\n  extra: "
+                                       + force).replace("clamped_beam", f"clamped_{kind}"))
+        modules[kind] = load_generated(generate(path, beam_dir / kind))
+    x = np.zeros(modules["spring"].STATE_SIZE)
+    x[0], x[4] = 0.01, 0.3
+    p = modules["spring"].default_parameters()
+    np.testing.assert_allclose(modules["spring"].rhs(0.0, x, p),
+                               modules["generalized"].rhs(0.0, x, p), rtol=1e-12, atol=1e-12)
+    springs = modules["spring"].energy(0.0, x, p)[2]
+    assert springs == pytest.approx(0.5 * 1000 * 0.01**2, rel=1e-12)

@@ -1,7 +1,7 @@
 """Force elements (bushings, rotational spring–dampers, tables) against hand-derived forces
 and potentials.
 
-References (all written here, independently of ``equations/force_elements.py``):
+References (all written here, independently of the elements' loads in ``model/forces/``):
 - bushing, translation: generalized forces ``−∂V/∂y − (∂Δr/∂y)ᵀ D Δṙ`` with the potential
   ``V = ½ Δrᵀ K Δr`` of the relative displacement ``Δr = S_Aᵀ (r_PB − r_PA)`` differentiated by
   sympy, ``Δṙ = (∂Δr/∂y) ẏ``;
@@ -391,3 +391,37 @@ def test_linear_zero_length_spring_is_regular_at_zero(tmp_path):
     for x in (0.0, 0.2):
         f = module.force_vector(0.0, np.array([x]), np.array([0.0]), p)
         assert np.allclose(f, [-100.0 * x])
+
+
+# ---------------------------------------------------------------- potentials
+PROGRESSIVE = """
+name: progressive
+parameters: {m: 1, k: 100, s1: 0.1, c: 0.5, l0: 0.2, k2: 30}
+coordinates: {x: 0.3, phi: 0.1}
+frames:
+  cart: {translation: [x, 0, 0]}
+  arm: {parent: cart, rotation: [[z, phi]]}
+bodies:
+  b: {frame: arm, mass: m, inertia: {diag: [1, 1, 1]}}
+forces:
+  progressive: {type: spring_damper, between: [ISYS, cart], stiffness: k*(1 + (s/s1)**2),
+                damping: c*abs(sd), length: l0}
+  linear: {type: spring_damper, between: [ISYS, cart], stiffness: k2, length: l0}
+  hinge: {type: rotational_spring_damper, coordinate: phi, stiffness: k2*(1 + s**2)}
+"""
+
+
+def test_springs_with_coefficients_of_s_have_no_potential_and_generate() -> None:
+    """Only the spring with a constant stiffness forms a potential: the energy's springs
+    entry is ``½ k2 (|x| − l0)²`` (closed form), free of the local symbols ``s``, ``sd``; the
+    generated module renders (a potential ``½ k(s) s²`` carried ``s`` into the code)."""
+    from neweul_py.codegen import render_module
+
+    system = load_description_text(PROGRESSIVE)
+    eq = newton_euler(system)
+    springs = eq.energy[2]
+    x, phi = symbol("x"), symbol("phi")
+    assert springs.free_symbols <= {x, phi, *system.parameter_symbols}
+    value = springs.subs({x: 0.35, phi: 0.4, **system.parameter_defaults})
+    assert float(value) == pytest.approx(0.5 * 30 * (0.35 - 0.2) ** 2, rel=1e-14)
+    assert "def energy(" in render_module(eq, "0" * 64)

@@ -67,7 +67,7 @@ def _body(F: dict, q, qd, w, consistent: bool, stiff: bool):
 
 def _reference_rhs(mod, F: dict, x: np.ndarray, consistent: bool, stiff: bool) -> np.ndarray:
     """``[ẏ, M⁻¹ (q − k)]`` assembled directly (module docstring)."""
-    S = mod._FFRF
+    S = mod.module._FFRF
     n, ns = S["n"], S["ns"]
     y, yd = x[:n], x[n:]
     SV, SW = S["SV"], S["SW"]
@@ -114,7 +114,7 @@ def test_rhs_and_jacobian_equal_the_direct_assembly(tmp_path: Path, beam_data, n
     (tmp_path / "flex.yaml").write_text(DOUBLE_PENDULUM.format(
         name="flex", extra=BEAM.format(tip=tip, inertia=inertia), tip="beam.tip"))
     mod = load_generated(generate(tmp_path / "flex.yaml", tmp_path / "gen"))
-    S = mod._FFRF
+    S = mod.module._FFRF
     assert (S["block"] is not None) == (nq >= 24)
     (body,) = S["bodies"]
     consistent, stiff = inertia == "consistent", body["consistent_stiffening"]

@@ -18,7 +18,7 @@ import scipy.sparse.linalg as spla
 from neweul_py import api
 from neweul_py.analysis import linearize
 from neweul_py.analysis.frf import frequency_response
-from neweul_py.analysis.protocol import load_module
+from neweul_py.analysis.module import as_model
 from neweul_py.cli import main
 from neweul_py.elastic import read_fe_model, write_fe_model
 from neweul_py.elastic.io.body_files import load_reduced_body
@@ -137,7 +137,7 @@ def test_embs_with_a_lossy_body_and_a_lossy_bushing(reduced: Path, tmp_path: Pat
                         "    damping: {diag: [d2, 0, 0]}\n    loss_factor: eta2\n")
     assert "loss_factor: eta2" in text
     (tmp_path / "model.yaml").write_text(text)
-    mod = load_module(api.generate(tmp_path / "model.yaml", tmp_path / "gen"))
+    mod = as_model(api.generate(tmp_path / "model.yaml", tmp_path / "gen"))
     fe = read_fe_model(tmp_path / "duct.npz")
     n = fe.n_dofs
     M = sps.block_diag([fe.M, sps.csr_matrix([[M2]])]).tolil()

@@ -4,6 +4,9 @@ sympy's ``Matrix`` arithmetic is general but slow and builds ``0*x`` terms that 
 at the end; the kinematics of long chains is mostly sparse (planar chains, single-axis joints), so
 these helpers skip exact zeros and build each entry with one ``Add`` of the nonzero products.
 Vectors are ``tuple[Expr, Expr, Expr]``, matrices tuples of three row tuples.
+
+The kinematics, the equations and the loads of the force elements
+(:mod:`neweul_py.model.forces`) all build their expressions with these helpers.
 """
 
 from __future__ import annotations
@@ -12,9 +15,9 @@ from collections.abc import Iterable, Sequence
 
 import sympy as sp
 
-from ..model import as_expr
-from ..model.canonical import add as _add
-from ..model.canonical import mul as _mul2
+from .canonical import add as _add
+from .canonical import mul as _mul2
+from .symbols import as_expr
 
 __all__ = [
     "ZERO",
