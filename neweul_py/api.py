@@ -15,7 +15,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
 
-from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
+from .cache import (
+    cache_dir,
+    import_verified,
+    trusted_dir,
+    trusted_entry,
+    verified_bytes,
+    write_cached,
+)
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
@@ -256,15 +263,45 @@ def _generate_cached(description_path: str | os.PathLike[str], out_dir: str | os
 
     _check_form(form)
     raw = _read(description_path)
-    source = verified_bytes(_cache_entry(raw, description_path, form, cache))
-    name = None
+    path = _cache_entry(raw, description_path, form, cache)
+    source = verified_bytes(path)
+    name = data = None
     if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(raw):
         name = _constant_of(source, "MODEL_NAME")
-    if not isinstance(name, str):
+        data = _cached_data(path, source)
+    if not isinstance(name, str) or data is False:
         entry = _cached_source(description_path, form, cache)
         source, name = entry.source, (entry.module.MODEL_NAME if entry.module is not None
                                       else entry.equations().system.name)
+        data = _cached_data(entry.path, source)
+        if data is False:
+            raise NeweulError(f"{path}: the data file of the cached module does not verify")
+    if data is not None:        # the data file first: the module names it (codegen/module.py)
+        atomic_write(Path(out_dir) / data[0], data[1])
     return atomic_write(Path(out_dir) / f"{name}.py", source)
+
+
+def _data_file_of(source: bytes) -> tuple[str, str] | None:
+    """The data file a module text names (``_DATA_FILE``, ``_DATA_SHA256``), or ``None``."""
+    name, digest = _constant_of(source, "_DATA_FILE"), _constant_of(source, "_DATA_SHA256")
+    if not isinstance(name, str) or not isinstance(digest, str):
+        return None
+    return name, digest
+
+
+def _cached_data(path: Path, source: bytes) -> tuple[str, bytes] | bool | None:
+    """The name and verified bytes of the data file of the cached module ``path``
+    (``source``: its verified text), ``None`` when it names none, ``False`` when the data file
+    is missing or does not verify (:func:`~neweul_py.cache.verified_bytes`)."""
+    named = _data_file_of(source)
+    if named is None:
+        return None
+    if Path(named[0]).name != named[0]:
+        return False
+    content = verified_bytes(path.parent / named[0])
+    if content is None or _sha256(content) != named[1]:
+        return False
+    return named[0], content
 
 
 def _check_backend(backend: str) -> None:
@@ -444,21 +481,27 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
         return _derive_text(raw, description_path, form, progress)
 
     source = verified_bytes(path)
-    if source is not None:
+    named = None if source is None else _data_file_of(source)
+    if source is not None and (named is None or (
+            Path(named[0]).name == named[0]
+            and trusted_entry(path.parent / named[0], named[1]))):
         # here, not above: a miss derives and writes without the analysis layer (NumPy)
         from .analysis.module import check_protocol
 
-        try:
+        try:    # (a module with elastic bodies hashes its data file as it maps it)
             module = import_verified(path, source)
             check_protocol(module, str(path))
             if module.SOURCE_HASH == _sha256(raw):
                 return _Entry(path, source, module, derive_now)
         except NeweulError:
             pass  # a damaged cache entry is regenerated
-    from .codegen import render_module
+    from .codegen.module import render_files
 
     equations = derive_now()
-    source = render_module(equations, _sha256(raw), progress=progress).encode("utf-8")
+    files = render_files(equations, _sha256(raw), progress=progress)
+    if files.data is not None:          # the data file first, with its sidecar like the module
+        write_cached(path.parent / files.data.name, files.data.content)
+    source = files.text.encode("utf-8")
     write_cached(path, source)
     return _Entry(path, source, None, derive_now, equations)
 

@@ -27,7 +27,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import GenerationError
-from ..ffrf import ffrf_add_force, ffrf_add_mass, ffrf_system, ffrf_terms
+from ..ffrf import ffrf_add_force, ffrf_add_mass, ffrf_bodies, ffrf_system, ffrf_terms
 from ..ffrf.body import ffrf_loss_matrix
 from .constraints import ConstraintEquations
 from .result import Equations
@@ -167,7 +167,7 @@ def expanded_equations(eq: Equations) -> Equations:
         entries.append({**s.body.data, "name": s.body.name, "first": index[s.first],
                         "kin": offset, "inertia": s.body.inertia,
                         "fixed": s.elastic_rows_only})
-    S = ffrf_system(entries, len(active), SV, SW, 0, {}, None)
+    S = ffrf_system(ffrf_bodies(entries), len(active), SV, SW, 0, {}, None)
     # the frame kinematics as intermediates: the kernel multiplies them by the body's numbers,
     # and a number times a sum would be distributed into every term (sympy), so each elastic
     # row got its own copy of the monomials of ā − g, ω² … (20 modes: 9 products of three
