@@ -313,9 +313,8 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
                   progress: StagedProgress = None, cached: bool = False) -> Path:
     """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
     compiled module next to it (written from ``equations()`` unless present, and loaded once,
-    which builds its library). Models the C backend cannot compile (parametric elastic
-    bodies, bodies of more than ``MAX_EXPANDED_MODES`` modes) keep the NumPy module, with one
-    warning.
+    which builds its library). A model the C backend cannot print keeps the NumPy module,
+    with one warning.
 
     ``cached``: ``path`` is a cache entry. The compiled module's files (wrapper, core and
     Jacobian C sources) then carry SHA-256 sidecars like the NumPy entry (:mod:`.cache`); a

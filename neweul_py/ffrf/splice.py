@@ -42,6 +42,7 @@ from .parametric import (
     ffrf_mix,
     ffrf_slope_prepared,
     ffrf_stack,
+    ffrf_unmix,
     ffrf_weights,
 )
 
@@ -157,10 +158,14 @@ def ffrf_system(bodies, ns, SV, SW, nhidden, rigid, default_inputs, schedule=Non
             rows[:, b["first"]:b["first"] + b["nq"]] = b["Me"]
             b["Mee_rows"] = rows
     npar = sum("mixing" in b for b in bodies)
-    try:                                      # the small dense solve without numpy's set-up
-        from scipy.linalg.lapack import dgesv as gesv
-    except ImportError:                       # NumPy only
-        gesv = None
+    gesv = None
+    # the small dense solve without numpy's set-up (above 64 coordinates numpy's set-up is
+    # negligible, and importing scipy.linalg would cost 0.4 s of the module's import)
+    if SV.shape[1] <= 64:
+        try:
+            from scipy.linalg.lapack import dgesv as gesv
+        except ImportError:                   # NumPy only
+            gesv = None
     pattern = None if mass_pattern is None else tuple(
         np.asarray(v, dtype=np.intp).ravel() for v in mass_pattern)
     return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
@@ -239,7 +244,8 @@ def ffrf_index(k):
 
 def ffrf_dense_solve(S, M, f):
     """``M⁻¹ f`` by the dense LU with partial pivoting: LAPACK's ``dgesv`` through SciPy
-    when it is installed (``S["gesv"]``; 22×22: a third of ``numpy.linalg.solve``'s time,
+    when it is installed and ``n ≤ 64`` (``S["gesv"]``; 22×22: a third of
+    ``numpy.linalg.solve``'s time,
     whose set-up dominates small systems), else — and for complex or singular systems —
     ``numpy.linalg.solve`` (its ``LinAlgError``)."""
     gesv = S["gesv"]
@@ -789,7 +795,7 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_system,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_system,
                     ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
