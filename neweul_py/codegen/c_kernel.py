@@ -81,6 +81,11 @@ __attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
 """
 
 
+#: The printed functions are loops over arrays: compiled with gcc's -O3 (vectorized; the
+#: libraries build with -O1, and other compilers ignore the attribute).
+_O3 = '__attribute__((optimize("O3"))) '
+
+
 def _double(v: float) -> str:
     r = repr(float(v))
     return r if r not in ("inf", "-inf", "nan") else {"inf": "INFINITY", "-inf": "(-INFINITY)",
@@ -223,12 +228,16 @@ class KernelPrinter:
             self._done_low.add(n.id)
 
     def function(self, signature: str, params: Sequence[tuple[str, TArray]],
-                 outputs: Sequence[tuple[str, TArray]], before: Sequence[str] = ()
-                 ) -> list[str]:
-        """A ``static void`` C function ``signature`` computing ``outputs`` (each copied to
-        the pointer named first in its pair) from the level-2 leaves ``params`` (pointer
-        names); its level-0 and level-1 nodes must have been emitted
-        (:meth:`bind_lines`, :meth:`schedule_function`). ``before``: lines at its top."""
+                 outputs: Sequence[tuple[str, TArray]], direct: bool = False) -> list[str]:
+        """A ``static void`` C function ``signature`` computing ``outputs`` (into the pointer
+        named first in each pair) from the level-2 leaves ``params`` (pointer names); its
+        level-0 and level-1 nodes must have been emitted (:meth:`bind_lines`,
+        :meth:`schedule_function`).
+
+        An assignment to a part of an array whose base nothing reads afterwards writes into
+        the base's buffer, and one that adds to that part (``x[e] += v``) adds in place.
+        ``direct``: the outputs' pointers never alias the arguments, and an output computed
+        in a buffer of its own is computed in the output's memory instead of copied there."""
         for name, t in params:
             self.params[t.node.id] = name
         outs = [t.node for _n, t in outputs]
@@ -239,36 +248,108 @@ class KernelPrinter:
             raise GenerationError(f"{signature}: schedule-level values not computed")
         calls = [n for n in nodes if self.level[n.id] == 2 and self._materialized(n)]
         last: dict[int, int] = {}             # storage id → the last node reading it
+        readers: dict[int, int] = {}          # node id → how many nodes read it
         for n in calls:
             for a in n.args:
-                s = self.graph.storage_view(a)[0]
-                last[s.id] = max(last.get(s.id, -1), n.id)
+                st = self.graph.storage_view(a)[0]
+                last[st.id] = max(last.get(st.id, -1), n.id)
+                readers[a.id] = readers.get(a.id, 0) + 1
         for n in outs:
             last[self.graph.storage_view(n)[0].id] = len(self.graph.nodes)
-        local: dict[int, str] = {}
-        body: list[str] = [*before]
-        fname = signature.split("(")[0].split()[-1]
+            readers[n.id] = readers.get(n.id, 0) + 2
+        ids = {n.id for n in calls}
+        alias: dict[int, int] = {}            # update → the node whose buffer it writes
+        fused: dict[int, tuple[str, Node, int]] = {}   # update → (+= or -=, added, its node)
         for n in calls:
-            alias = None
-            if n.op == "update":
-                base = n.args[0]
-                # the update is the last reader of its base (the values it adds were read
-                # into their own buffer first): it writes into the base's buffer
-                if (base.id in local and last.get(base.id) == n.id
-                        and self.graph.storage_view(n.args[1])[0].id != base.id):
-                    alias = local[base.id]
-            if alias is None:
-                name = f"{fname}_t{n.id}"
-                self.static.append(f"static {self._ctype(n)} {name}[{max(n.size, 1)}];")
+            if n.op != "update":
+                continue
+            base, value = n.args
+            # the update is the last reader of its base (the values it assigns were read
+            # into their own buffer first): it writes into the base's buffer
+            if (base.id in ids and last.get(base.id) == n.id
+                    and self.graph.storage_view(value)[0].id != base.id):
+                alias[n.id] = base.id
+                add = self._in_place(n, value, readers)
+                if add is not None:
+                    fused[n.id] = add
+        skipped = {fused[u][2] for u in fused}
+        root: dict[int, int] = {}
+        for n in calls:
+            root[n.id] = root[alias[n.id]] if n.id in alias else n.id
+        fname = signature.split("(")[0].split()[-1]
+        names: dict[int, str] = {}
+        if direct:                            # outputs computed where they are wanted
+            for target, t in outputs:
+                r = root.get(t.node.id)
+                if r is not None and r not in names and t.node.id in ids:
+                    names[r] = target
+        local: dict[int, str] = {}
+        body: list[str] = []
+        for n in calls:
+            if n.id in skipped:
+                continue
+            r = root[n.id]
+            if r not in names:
+                names[r] = f"{fname}_t{r}"
+                self.static.append(f"static {self._ctype(n)} {names[r]}[{max(n.size, 1)}];")
+            local[n.id] = names[r]
+            if n.id in fused:
+                sign, added, _v = fused[n.id]
+                body += self._add_region(n, names[r], sign, added, local)
             else:
-                name = alias
-            local[n.id] = name
-            body += self._compute(n, name, local, {n.args[0].id} if alias else set())
+                body += self._compute(n, names[r], local,
+                                      {n.args[0].id} if n.id in alias else set())
         for (target, _t), n in zip(outputs, outs, strict=True):
+            if local.get(n.id) == target:
+                continue
             idx = [f"i{a}" for a in range(len(n.shape))]
             body += _loops(n.shape, [f"{target}[{_affine(0, _contiguous(n.shape), idx)}] = "
                                      f"{self.access(n, idx, local)};"])
-        return [f"static void {signature}", "{", *body, "}", ""]
+        return [f"{_O3}static void {signature}", "{", *body, "}", ""]
+
+    def _region(self, n: Node) -> tuple[int, tuple[int, ...], tuple[int, ...]] | None:
+        """``(offset, strides, shape)`` of the part of its (contiguous) base an update
+        assigns, or ``None`` with fancy indices."""
+        basic, fancy = n.params
+        if fancy:
+            return None
+        strides = _contiguous(n.shape)
+        offset, out_strides, shape, axis = 0, [], [], 0
+        for b in basic:
+            if b is None:
+                return None
+            if isinstance(b, int):
+                offset += b * strides[axis]
+            else:
+                start, stop, step = b
+                offset += start * strides[axis]
+                out_strides.append(step * strides[axis])
+                shape.append(len(range(start, stop, step)))
+            axis += 1
+        return offset, tuple(out_strides), tuple(shape)
+
+    def _in_place(self, n: Node, value: Node, readers: dict[int, int]
+                  ) -> tuple[str, Node, int] | None:
+        """``x[part] += v`` (or ``-=``): the assigned values are the base's part plus or minus
+        ``v`` and read by nothing else — ``("+", v, id)``, else ``None``."""
+        if value.op != "ew" or value.params[0] not in ("add", "sub") or readers.get(
+                value.id, 0) != 1 or value.cplx != n.cplx:
+            return None
+        region = self._region(n)
+        part, added = value.args
+        if region is None or part.shape != value.shape:
+            return None
+        storage, offset, strides = self.graph.storage_view(part)
+        if storage.id != n.args[0].id or (offset, strides, part.shape) != region:
+            return None
+        return ("+" if value.params[0] == "add" else "-"), added, value.id
+
+    def _add_region(self, n: Node, out: str, sign: str, added: Node, local: dict[int, str]
+                    ) -> list[str]:
+        offset, strides, shape = self._region(n)
+        idx = [f"i{a}" for a in range(len(shape))]
+        return _loops(shape, [f"{out}[{_affine(offset, strides, idx)}] {sign}= "
+                              f"{self._operand(added, shape, idx, local)};"])
 
     def schedule_function(self, signature: str, params: Sequence[tuple[str, TArray]],
                           outputs: Sequence[TArray]) -> list[str]:
@@ -281,7 +362,7 @@ class KernelPrinter:
         self._emit_low(nodes, 0, self.bound)
         body: list[str] = []
         self._emit_low(nodes, 1, body)
-        return [f"static void {signature}", "{", *body, "}", ""]
+        return [f"{_O3}static void {signature}", "{", *body, "}", ""]
 
     def pointer(self, t: TArray) -> str:
         """A C pointer expression to the values of ``t`` when they are contiguous in a

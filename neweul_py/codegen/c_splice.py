@@ -57,6 +57,7 @@ from ..ffrf.parametric import ffrf_unmix
 from ..ffrf.splice import (
     ffrf_add_force,
     ffrf_add_mass,
+    ffrf_block_constant,
     ffrf_fixed_force_jacobians,
     ffrf_index,
     ffrf_moving,
@@ -116,6 +117,7 @@ class _Trace:
     cplx: dict[str, Any] | None           # context mixed with the complex weights
     dsv: list[TArray]                     # ∂S_V/∂σ_k
     elastic: list[int]                    # the elastic coordinates (E)
+    block_sigma: bool                     # M[E, E] depends on the schedule alone
 
 
 def _restore(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndarray]) -> Any:
@@ -132,12 +134,42 @@ def _restore(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndarray]
     return tree
 
 
+class _Mixed:
+    """The mixed values ``w B`` of a parametric body's stack as :func:`~neweul_py.ffrf.
+    parametric.ffrf_unmix` reads them (``flat[i:j]``, ``flat[i]``), one product per entry of
+    the layout, so that the C code mixes only the entries the kernel uses. An entry that
+    does not vary (equal in every sample, zero slopes and curvatures: ``constant``) is the
+    first sample's (the value weights sum to one), or zero with the weights' derivative."""
+
+    def __init__(self, w: TArray, B: TArray, constant: np.ndarray, derivative: bool) -> None:
+        self.w, self.B, self.constant, self.derivative = w, B, constant, derivative
+
+    def __getitem__(self, key: Any) -> TArray:
+        i, j = (key.start, key.stop) if isinstance(key, slice) else (key, key + 1)
+        if self.constant[i:j].all():
+            block = self.B[0, i:j] if not self.derivative else TArray(
+                self.B.graph, self.B.graph.zeros((j - i,)))
+        else:
+            block = np.dot(self.w, self.B[:, i:j])
+        return block if isinstance(key, slice) else block[0]
+
+
+def _constant_columns(stack: np.ndarray, blocks: int) -> np.ndarray:
+    """The columns of a stack (rows ``X_1, X_1′(, X_1″), X_2 …``: ``blocks`` per sample) whose
+    value rows are all equal and whose derivative rows are zero."""
+    values, derivatives = stack[::blocks], np.delete(stack, np.s_[::blocks], axis=0)
+    same = np.all(values == values[0], axis=0)
+    return same & (~np.any(derivatives, axis=0) if derivatives.size else True)
+
+
 def _context(g: Graph, bodies: list[dict], SV0: TArray, SW0: TArray, same: bool,
              weights: list[TArray] | None, n: int, ns: int,
-             pattern: tuple[list[int], list[int]]) -> dict[str, Any]:
+             pattern: tuple[list[int], list[int]], constant: list[np.ndarray],
+             derivative: bool = False) -> dict[str, Any]:
     """The splice context the traced kernel runs in, assembled as
     :func:`~neweul_py.ffrf.splice.ffrf_system` and, mixed at ``weights`` (one traced
-    vector per parametric body), :func:`~neweul_py.ffrf.splice.ffrf_mixed` assemble it."""
+    vector per parametric body; ``constant``: its stack's columns that do not vary,
+    :class:`_Mixed`), :func:`~neweul_py.ffrf.splice.ffrf_mixed` assemble it."""
     out, SV, SW, k = [], SV0, SW0, 0
     for b in bodies:
         if "mixing" not in b:
@@ -149,8 +181,9 @@ def _context(g: Graph, bodies: list[dict], SV0: TArray, SW0: TArray, same: bool,
             out.append(bb)
             continue
         w = weights[k]
+        mixed = ffrf_unmix(b["mixing"], _Mixed(w, b["mixing"]["stack"], constant[k],
+                                               derivative))
         k += 1
-        mixed = ffrf_unmix(b["mixing"], np.dot(w, b["mixing"]["stack"]))
         mixed.update(name=b["name"], first=b["first"], kin=b["kin"])
         SV, SW = SV.astype(np.result_type(SV, w)), SW.astype(np.result_type(SW, w))
         SV[b["rows"]] += mixed.pop("_sv")
@@ -195,21 +228,48 @@ def _trace(equations: Any) -> tuple[_Trace, Any]:
     w = [g.leaf(f"w{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
     dw = [g.leaf(f"dw{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
     wc = [g.leaf(f"wc{k}", (p["cols"],), 1, cplx=True) for k, p in enumerate(parametric)]
-    real = _context(g, bodies, tree["SV"], tree["SW"], same, w, n, ns, mass_pattern)
-    cplx = (_context(g, bodies, tree["SV"], tree["SW"], same, wc, n, ns, mass_pattern)
-            if parametric else None)
+    constant = [_constant_columns(data.arrays[raw["mixing"]["stack"]["@"]], blocks)
+                for raw, blocks in zip([r for r in skeleton["bodies"] if "mixing" in r],
+                                       [1 + bool(s.body.slopes) + bool(s.body.curvatures)
+                                        for s in el.splices if s.body.parametric],
+                                       strict=True)]
+    real = _context(g, bodies, tree["SV"], tree["SW"], same, w, n, ns, mass_pattern,
+                    constant)
+    cplx = (_context(g, bodies, tree["SV"], tree["SW"], same, wc, n, ns, mass_pattern,
+                     constant) if parametric else None)
     dsv = []
     for k, p in enumerate(parametric):               # ∂S_V/∂σ_k: the node rows mixed by w′
         b = next(b for b in bodies if b.get("name") == p["name"] and "mixing" in b)
-        d = ffrf_unmix(b["mixing"], np.dot(dw[k], b["mixing"]["stack"]))["_sv"]
+        d = ffrf_unmix(b["mixing"], _Mixed(dw[k], b["mixing"]["stack"], constant[k],
+                                           True))["_sv"]
         m = TArray(g, g.zeros((ns, n)))
         m[p["rows"]] = d
         dsv.append(m)
     fixed = any("fixed" in b for b in bodies)
     moving = any("fixed" not in b for b in bodies)
     elastic = sorted(j for b in bodies for j in range(b["first"], b["first"] + b["nq"]))
+    block_sigma = ffrf_block_constant(
+        [{k: v for k, v in b.items() if not isinstance(v, TArray)} for b in bodies], ns,
+        *_node_structure(skeleton, data.arrays, parametric), mass_pattern,
+        np.asarray(_kin, dtype=np.intp))
     return _Trace(g, n, ns, nh, nu, parametric, fixed, moving, real, cplx, dsv,
-                  elastic), data
+                  elastic, block_sigma), data
+
+
+def _node_structure(skeleton: dict, arrays: dict[str, np.ndarray],
+                    parametric: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
+    """The nonzero structure of ``S_V``, ``S_W`` at every schedule: the base maps and the
+    node rows of every parametric body in any sample."""
+    SV = arrays[skeleton["SV"]["@"]] != 0
+    SW = arrays[skeleton["SW"]["@"]] != 0
+    for raw in (r for r in skeleton["bodies"] if "mixing" in r):
+        stack = arrays[raw["mixing"]["stack"]["@"]]
+        rows = np.asarray(arrays[raw["rows"]["@"]])
+        for path, i, j, shape in raw["mixing"]["layout"]:
+            target = {("_sv",): SV, ("_sw",): SW}.get(tuple(path))
+            if target is not None:
+                target[rows] |= np.any(stack[:, i:j] != 0, axis=0).reshape(shape)
+    return SV, SW
 
 
 def _kernels(t: _Trace) -> dict[str, tuple[list, list]]:
@@ -335,6 +395,7 @@ static int nw_bound;
 static double nw_w[NW_NW + 1], nw_dw[NW_NW + 1];
 static double complex nw_wc[NW_NW + 1];
 static int nw_have_w;
+static long nw_wversion;   /* counts the changes of the weights (and of the bound data) */
 """
 
 SPLICE_C = r"""
@@ -376,6 +437,7 @@ NW_WEIGHTS
         memcpy(nw_dw, dw, sizeof dw);
         nw_k_sigma();
         nw_have_w = 1;
+        ++nw_wversion;
     }
 #else
     (void)t; (void)y; (void)p; (void)u;
@@ -430,6 +492,7 @@ int nw_bind(int count, const double *const *data, const long *sizes)
 NW_BIND
     nw_bound = 1;
     nw_have_w = 0;
+    ++nw_wversion;
     return 0;
 }
 """
@@ -440,17 +503,23 @@ static const int nw_E[NW_NE] = {NW_ETABLE};
 static const int nw_R[NW_NR + 1] = {NW_RTABLE};
 static double nw_Dkey[NW_NE * NW_NE], nw_Dlu[NW_NE * NW_NE];
 static int nw_Dpiv[NW_NE], nw_Dok;
+static long nw_Dversion = -1;
 
-static int nw_esolve(const double *M, double *b, int m)
+__attribute__((optimize("O3"))) static int nw_esolve(const double *M, double *b, int m)
 {
     static double D[NW_NE * NW_NE], z[NW_NE * 2 * NW_N];
-    for (int i = 0; i < NW_NE; ++i)
-        for (int j = 0; j < NW_NE; ++j) D[i * NW_NE + j] = M[nw_E[i] * NW_N + nw_E[j]];
-    if (!nw_Dok || memcmp(D, nw_Dkey, sizeof D)) {         /* factor D = M[E,E] when changed */
-        memcpy(nw_Dkey, D, sizeof D);
-        memcpy(nw_Dlu, D, sizeof D);
-        nw_Dok = !nw_lu(NW_NE, nw_Dlu, nw_Dpiv);
-        if (!nw_Dok) return 1;
+    /* factor D = M[E,E] when it changed: with NW_DSIGMA it is blockdiag(Me(sigma)) by
+       construction (ffrf_block_constant) and changes with the weights alone; else compared */
+    if (!(NW_DSIGMA && nw_Dok && nw_Dversion == nw_wversion)) {
+        for (int i = 0; i < NW_NE; ++i)
+            for (int j = 0; j < NW_NE; ++j) D[i * NW_NE + j] = M[nw_E[i] * NW_N + nw_E[j]];
+        if (!nw_Dok || memcmp(D, nw_Dkey, sizeof D)) {
+            memcpy(nw_Dkey, D, sizeof D);
+            memcpy(nw_Dlu, D, sizeof D);
+            nw_Dok = !nw_lu(NW_NE, nw_Dlu, nw_Dpiv);
+            if (!nw_Dok) return 1;
+        }
+        nw_Dversion = nw_wversion;
     }
     for (int i = 0; i < NW_NE; ++i)
         for (int c = 0; c < m; ++c) z[i * m + c] = b[nw_E[i] * m + c];
@@ -654,9 +723,15 @@ static void nw_sigma_terms(double t, const double *y, const double *yd, const do
         nw_s_mass_matrix_times_derivative(t, ys, p, as, u, mm);
     }
     for (int k = 0; k < NW_NPB; ++k) {
+        static double complex last[NW_NW];
+        static int have;
         for (int i = 0; i < NW_NW; ++i) nw_wc[i] = nw_w[i];
         for (int i = nw_woff[k]; i < nw_woff[k + 1]; ++i) nw_wc[i] += I * NW_H * nw_dw[i];
-        nw_k_sigma_c();
+        if (!have || memcmp(last, nw_wc, sizeof last)) {   /* mixed once per weights */
+            nw_k_sigma_c();
+            memcpy(last, nw_wc, sizeof last);
+            have = 1;
+        }
         nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, y, 1, dys);
         nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, yd, 1, dyds);
         for (int i = 0; i < NW_NH; ++i) {           /* dkin = Cs[:, :ns] dys + Cs[:, ns:2ns] dyds */
@@ -862,7 +937,7 @@ def _defines(t: _Trace, nd: int, ny: int, nc: int) -> list[str]:
         f"#define NW_NC {nc}", f"#define NW_NPB {npb}",
         f"#define NW_NW {sum(p['cols'] for p in t.parametric)}", f"#define NW_ND {nd}",
         f"#define NW_NE {len(t.elastic)}", f"#define NW_NR {len(R)}",
-        f"#define NW_MOVING {int(t.moving)}",
+        f"#define NW_MOVING {int(t.moving)}", f"#define NW_DSIGMA {int(t.block_sigma)}",
     ]
 
 
@@ -904,7 +979,8 @@ def _library(t: _Trace, kernels: dict[str, tuple[list, list]], which: tuple[str,
                          for c, p in params)
         outs = ", ".join(f"{'double complex' if o.node.cplx else 'double'} *{c}"
                          for c, o in outputs)
-        body += pr.function(f"{name}({args}, {outs})", params, outputs)
+        body += pr.function(f"{name}({args}, {outs})", params, outputs,
+                            direct=name == "nw_k_dyn")
     sv, sw = pr.pointer(t.real["SV"]), pr.pointer(t.real["SW"])
     sv0 = f"nw_D[{index['_splice/SV']}]"
     macros = [f"#define NW_SV {sv}", f"#define NW_SW {sw}", f"#define NW_SV0 {sv0}"]

@@ -123,7 +123,7 @@ class Graph:
             if np.any(a.imag):
                 raise TraceError("complex constants enter only as scalar factors")
             a = a.real                        # a unit matrix of a complex step's dtype
-        a = np.ascontiguousarray(a, dtype=np.float64)
+        a = np.array(a, dtype=np.float64, order="C")        # (0-d arrays stay 0-d)
         return self.node("const", (), a.shape, False, (a.tobytes(),))
 
     def zeros(self, shape: Sequence[int], cplx: bool = False) -> Node:

@@ -198,27 +198,15 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern, max_condition):
     ones): else ``{"R", "E"}`` (index arrays), ``"r"``, ``"e"`` (the same or slices,
     :func:`ffrf_index`), ``"ix"`` (the index tuples of the blocks ``RR``, ``RE``, ``ER``)
     and ``"Dinv"``."""
-    if pattern is None or kin_pattern is None or not bodies:
-        return None
-    if any("quad" in b or "mixing" in b for b in bodies):
+    if any("mixing" in b for b in bodies):
         return None
     n = SV.shape[1]
-    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies])
+    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies]) \
+        if bodies else np.zeros(0, dtype=np.intp)
     R = np.setdiff1d(np.arange(n), E)
-    if R.size and E.size < 24:
+    if (R.size and E.size < 24) or not ffrf_block_constant(bodies, ns, SV, SW, pattern,
+                                                          kin_pattern):
         return None
-    rv = np.flatnonzero(np.any(SV[:, E], axis=1))
-    rw = np.flatnonzero(np.any(SW[:, E], axis=1))
-    if np.intersect1d(pattern[0], rw).size and np.intersect1d(pattern[1], rv).size:
-        return None
-    size = max(int(kin_pattern.max(initial=-1)) + 1, *(b["kin"] + 6 * ns + 16 for b in bodies))
-    nonzero = np.zeros(size, dtype=bool)
-    nonzero[kin_pattern] = True
-    touched = np.union1d(rv, rw)
-    for b in bodies:
-        cols = nonzero[b["kin"]:b["kin"] + 6 * ns].reshape(6, ns).any(axis=0)
-        if "fixed" not in b and np.any(cols[touched]):
-            return None
     D = np.zeros((E.size, E.size))
     k = 0
     for b in bodies:
@@ -232,6 +220,33 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern, max_condition):
     else:
         ix = (np.ix_(R, R), np.ix_(R, E), np.ix_(E, R))
     return {"R": R, "E": E, "Dinv": np.linalg.inv(D), "ix": ix, "r": rs, "e": es}
+
+
+def ffrf_block_constant(bodies, ns, SV, SW, pattern, kin_pattern):
+    """Whether the block ``D = M[E, E]`` of the elastic coordinates is ``blockdiag(Me)`` by
+    construction (:func:`ffrf_block`): no mass of the symbolic part on the node coordinates
+    (``pattern``), no moving body's frame moving with them (``kin_pattern``), no
+    second-order field. ``S_V``, ``S_W``: their nonzero structure (for parametric bodies
+    that of every sample's node rows). A parametric body's ``Me(σ)`` then changes with the
+    schedule alone (the compiled backend keeps its factorization while ``σ`` stays)."""
+    if pattern is None or kin_pattern is None or not bodies:
+        return False
+    if any("quad" in b for b in bodies):
+        return False
+    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies])
+    rv = np.flatnonzero(np.any(SV[:, E], axis=1))
+    rw = np.flatnonzero(np.any(SW[:, E], axis=1))
+    if np.intersect1d(pattern[0], rw).size and np.intersect1d(pattern[1], rv).size:
+        return False
+    size = max(int(kin_pattern.max(initial=-1)) + 1, *(b["kin"] + 6 * ns + 16 for b in bodies))
+    nonzero = np.zeros(size, dtype=bool)
+    nonzero[kin_pattern] = True
+    touched = np.union1d(rv, rw)
+    for b in bodies:
+        cols = nonzero[b["kin"]:b["kin"] + 6 * ns].reshape(6, ns).any(axis=0)
+        if "fixed" not in b and np.any(cols[touched]):
+            return False
+    return True
 
 
 def ffrf_index(k):
@@ -796,7 +811,8 @@ PROTOCOL = {
 
 #: The functions a generated module embeds after the kernel's (in this order).
 SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_system,
-                    ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
+                    ffrf_index, ffrf_mass_maps, ffrf_block_constant, ffrf_block,
+                    ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_dynamics,
