@@ -63,12 +63,25 @@ __attribute__((optimize("O3"))) static void nw_gemv(int m, int k, const double *
 __attribute__((optimize("O3"))) static void nw_vecmat(int k, int n, const double *restrict x,
     long sx, const double *restrict B, long sb, long sn, double *restrict y)
 {
+    int nz[4], m = 0, i = 0;
     for (int j = 0; j < n; ++j) y[j] = 0.0;
-    for (int i = 0; i < k; ++i) {
-        const double xi = x[i * sx], *b = B + i * sb;
-        if (xi == 0.0) continue;
-        if (sn == 1) for (int j = 0; j < n; ++j) y[j] += xi * b[j];
-        else for (int j = 0; j < n; ++j) y[j] += xi * b[j * sn];
+    while (i < k) {             /* the nonzero rows four at a time: y is passed once per four */
+        for (m = 0; i < k && m < 4; ++i)
+            if (x[i * sx] != 0.0) nz[m++] = i;
+        if (m == 4 && sn == 1) {
+            const double x0 = x[nz[0] * sx], x1 = x[nz[1] * sx], x2 = x[nz[2] * sx],
+                         x3 = x[nz[3] * sx];
+            const double *b0 = B + nz[0] * sb, *b1 = B + nz[1] * sb, *b2 = B + nz[2] * sb,
+                         *b3 = B + nz[3] * sb;
+            for (int j = 0; j < n; ++j)
+                y[j] += (x0 * b0[j] + x1 * b1[j]) + (x2 * b2[j] + x3 * b3[j]);
+            continue;
+        }
+        for (int r = 0; r < m; ++r) {
+            const double xi = x[nz[r] * sx], *b = B + nz[r] * sb;
+            if (sn == 1) for (int j = 0; j < n; ++j) y[j] += xi * b[j];
+            else for (int j = 0; j < n; ++j) y[j] += xi * b[j * sn];
+        }
     }
 }
 

@@ -29,12 +29,17 @@ The C sources of a model with elastic bodies are made of three parts:
    ``Ke``, ``De`` of bodies on fixed frames, and the schedule's dependence through ``∂σ/∂y``,
    ``∂σ/∂u`` and the complex step in ``σ`` (as ``ffrf_sigma_terms``).
 
-**The solve** (:data:`ESOLVE_C`): block elimination of the elastic coordinates ``E``; the LU
-factorization of ``D = M[E, E]`` is kept while ``D`` is unchanged (compared entry by entry:
-a body on a fixed frame and a parametric body at constant ``σ`` factor once), and the rest
-``R`` through the Schur complement ``S = M[R,R] − M[R,E] D⁻¹ M[E,R]`` (Golub & Van Loan,
-*Matrix Computations*, §3.2.10), whose products are skipped when ``M[E, R]`` is zero (a
-body on a fixed frame coupled through force elements).
+**The solve** (:data:`ESOLVE_C`): block elimination of the elastic coordinates ``E`` with the
+rest ``R`` through the Schur complement ``S = M[R,R] − M[R,E] D⁻¹ M[E,R]`` (Golub & Van Loan,
+*Matrix Computations*, §3.2.10; its products are skipped when ``M[E, R]`` is zero: a body on
+a fixed frame coupled through force elements). The LU factorization of ``D = M[E, E]`` is
+kept: while ``D`` is unchanged it is used as it is (a body on a fixed frame, a parametric
+body at constant ``σ``: one factorization; when ``D`` is ``blockdiag(Me(σ))`` by
+construction, :func:`~neweul_py.ffrf.splice.ffrf_block_constant`, it is not even compared),
+and when ``D`` changed (``σ`` moved) the old factors serve as the preconditioner of
+iterative refinement against the new ``D`` (Higham, *Accuracy and Stability of Numerical
+Algorithms*, ch. 12) while it converges fast; a slow first contraction, or many right-hand
+sides, factors the new ``D``.
 
 **Binding** (docs/generated-module-protocol.md, "Compiled modules"): ``nw_bind(count, data,
 sizes)`` takes the pointers of every float64 array of the module's data file in the order of
@@ -501,29 +506,87 @@ NW_BIND
 ESOLVE_C = r"""
 static const int nw_E[NW_NE] = {NW_ETABLE};
 static const int nw_R[NW_NR + 1] = {NW_RTABLE};
-static double nw_Dkey[NW_NE * NW_NE], nw_Dlu[NW_NE * NW_NE];
-static int nw_Dpiv[NW_NE], nw_Dok;
+static double nw_Dcur[NW_NE * NW_NE], nw_Dlu[NW_NE * NW_NE];
+static int nw_Dpiv[NW_NE], nw_Dok, nw_Dfresh;
 static long nw_Dversion = -1;
+
+/* factor the current D = M[E,E] (nw_Dfresh: the factors are of it) */
+__attribute__((optimize("O3"))) static int nw_dfactor(void)
+{
+    memcpy(nw_Dlu, nw_Dcur, sizeof nw_Dlu);
+    nw_Dok = nw_Dfresh = !nw_lu(NW_NE, nw_Dlu, nw_Dpiv);
+    return !nw_Dok;
+}
+
+/* D = M[E,E] when it may have changed: with NW_DSIGMA it is blockdiag(Me(sigma)) by
+   construction (ffrf_block_constant) and changes with the weights alone; else compared */
+static int nw_dupdate(const double *M)
+{
+    static double D[NW_NE * NW_NE];
+    if (NW_DSIGMA && nw_Dok && nw_Dversion == nw_wversion) return 0;
+    for (int i = 0; i < NW_NE; ++i)
+        for (int j = 0; j < NW_NE; ++j) D[i * NW_NE + j] = M[nw_E[i] * NW_N + nw_E[j]];
+    nw_Dversion = nw_wversion;
+    if (nw_Dok && !memcmp(D, nw_Dcur, sizeof D)) return 0;
+    memcpy(nw_Dcur, D, sizeof D);
+    nw_Dfresh = 0;
+    return nw_Dok ? 0 : nw_dfactor();
+}
+
+/* z = D^-1 z for m columns (NE x m, row-major). The factors of an earlier D are kept while
+   iterative refinement against the current D converges fast (Higham, Accuracy and Stability
+   of Numerical Algorithms, ch. 12: fixed-precision refinement with a stale factorization, a
+   stationary iteration with contraction |I - LU^-1 D|): each step costs two products of
+   order NE^2 instead of a factorization of order NE^3. The refinement stops at the round-off
+   floor (corrections below 4 eps |z| or no longer halving); a first contraction above 1/4, six
+   steps, or more than four columns factor the current D instead. */
+__attribute__((optimize("O3"))) static int nw_dsolve(double *z, int m)
+{
+    static double b[NW_NE * 4], r[NW_NE * 4];
+    if (!nw_Dfresh && m <= 4) {
+        double prev = 0.0;
+        memcpy(b, z, (size_t)NW_NE * m * sizeof(double));
+        nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, z);
+        for (int it = 0; it < 6; ++it) {
+            double dmax = 0.0, xmax = 0.0;
+            for (int i = 0; i < NW_NE; ++i) {
+                const double *row = nw_Dcur + (long)i * NW_NE;
+                for (int c = 0; c < m; ++c) {
+                    double s0 = b[i * m + c], s1 = 0.0;
+                    int j = 0;
+                    for (; j + 2 <= NW_NE; j += 2) {
+                        s0 -= row[j] * z[j * m + c];
+                        s1 -= row[j + 1] * z[(j + 1) * m + c];
+                    }
+                    for (; j < NW_NE; ++j) s0 -= row[j] * z[j * m + c];
+                    r[i * m + c] = s0 + s1;
+                }
+            }
+            nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, r);
+            for (int i = 0; i < NW_NE * m; ++i) {
+                z[i] += r[i];
+                dmax = fmax(dmax, fabs(r[i]));
+                xmax = fmax(xmax, fabs(z[i]));
+            }
+            if (dmax <= 4.0 * DBL_EPSILON * xmax) return 0;            /* converged */
+            if (it == 1 && dmax > 0.25 * prev) break;                 /* factors too old */
+            if (it > 1 && dmax > 0.5 * prev) return 0;                /* round-off floor */
+            prev = dmax;
+        }
+        memcpy(z, b, (size_t)NW_NE * m * sizeof(double));
+    }
+    if (!nw_Dfresh && nw_dfactor()) return 1;
+    nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, z);
+    return 0;
+}
 
 __attribute__((optimize("O3"))) static int nw_esolve(const double *M, double *b, int m)
 {
-    static double D[NW_NE * NW_NE], z[NW_NE * 2 * NW_N];
-    /* factor D = M[E,E] when it changed: with NW_DSIGMA it is blockdiag(Me(sigma)) by
-       construction (ffrf_block_constant) and changes with the weights alone; else compared */
-    if (!(NW_DSIGMA && nw_Dok && nw_Dversion == nw_wversion)) {
-        for (int i = 0; i < NW_NE; ++i)
-            for (int j = 0; j < NW_NE; ++j) D[i * NW_NE + j] = M[nw_E[i] * NW_N + nw_E[j]];
-        if (!nw_Dok || memcmp(D, nw_Dkey, sizeof D)) {
-            memcpy(nw_Dkey, D, sizeof D);
-            memcpy(nw_Dlu, D, sizeof D);
-            nw_Dok = !nw_lu(NW_NE, nw_Dlu, nw_Dpiv);
-            if (!nw_Dok) return 1;
-        }
-        nw_Dversion = nw_wversion;
-    }
+    static double z[NW_NE * 2 * NW_N];
+    if (nw_dupdate(M)) return 1;
     for (int i = 0; i < NW_NE; ++i)
         for (int c = 0; c < m; ++c) z[i * m + c] = b[nw_E[i] * m + c];
-    nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, z);              /* z = D^-1 b_E */
+    if (nw_dsolve(z, m)) return 1;                              /* z = D^-1 b_E */
 #if NW_NR
     static double X[NW_NE * NW_NR], S[NW_NR * NW_NR], g[NW_NR * 2 * NW_N];
     int piv[NW_NR], coupled = 0;
@@ -532,7 +595,7 @@ __attribute__((optimize("O3"))) static int nw_esolve(const double *M, double *b,
             X[i * NW_NR + r] = M[nw_E[i] * NW_N + nw_R[r]];
             coupled |= X[i * NW_NR + r] != 0.0;
         }
-    if (coupled) nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, NW_NR, X);   /* X = D^-1 M[E,R] */
+    if (coupled && nw_dsolve(X, NW_NR)) return 1;              /* X = D^-1 M[E,R] */
     for (int r = 0; r < NW_NR; ++r) {
         const double *row = M + nw_R[r] * NW_N;
         for (int q = 0; q < NW_NR; ++q) {                       /* S = M[R,R] - M[R,E] X */
@@ -1044,7 +1107,8 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
 
     def head(what: str) -> list[str]:
         return [f"/* {what} of the model {model_name!r} in C: generated by neweul-py, do not "
-                "edit. */", "#include <complex.h>", "#include <math.h>", "#include <string.h>",
+                "edit. */", "#include <complex.h>", "#include <float.h>", "#include <math.h>",
+                "#include <string.h>",
                 f"#define NW_N {n}", f"#define NW_NU {nu}", f"#define NW_STATE_SIZE {2 * n}",
                 "#define NW_DEFAULT_INPUTS double nw_ub[NW_NU + 1]; "
                 "if (!u) { nw_s_default_inputs(t, p, nw_ub); u = nw_ub; }",
