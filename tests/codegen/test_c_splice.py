@@ -196,3 +196,69 @@ def test_kept_factorization_follows_the_schedule(bodies) -> None:
     for cs in (343.0, 343.01, 343.02, 301.0, 389.5, 343.02, 343.02, 343.03):
         p[ics] = cs
         _same(mc.rhs(0.0, x, p), mnp.rhs(0.0, x, p), f"rhs at cs = {cs}")
+
+
+@pytest.mark.slow
+def test_body_of_hundreds_of_modes_in_c_equals_the_numpy_module(tmp_path) -> None:
+    """A spring chain of 260 DOFs whose stiffness and mass change with ``s``, reduced to 200
+    modes at 4 samples with quintic Hermite weights, on ISYS with a mass on a spring at its
+    free end, scheduled by ``s0 + 0.1 sin(t)``: the compiled module's M, q − k, rhs, their
+    Jacobians and the outputs equal the NumPy module's to 1e-12 of their largest entry
+    (reference: the NumPy module) along a few schedule values."""
+    from fe_builders import spring_chain
+
+    from neweul_py.elastic.parametric.snapshot_basis import basis_parametric_body
+
+    n = 260
+
+    def fe(s: float):
+        return spring_chain(n, k=1.0e4 * (1 + s), m=0.1 * (1 + 0.2 * s), damping=1e-4)
+
+    values, step = np.linspace(0.0, 1.0, 4), 0.01
+    fes = [fe(s) for s in values]
+    V = reduce_modal(fes[0], modes=200, store_bases=True).V
+    body = basis_parametric_body(fes, V, values, parameter="s", keep_nodes=[n],
+                                 interpolation="quintic-hermite",
+                                 slope_models=([fe(s - step) for s in values],
+                                               [fe(s + step) for s in values]),
+                                 slope_step=step)
+    save_parametric_body(body, tmp_path / "chain.npz")
+    (tmp_path / "chain.yaml").write_text(f"""
+name: chain
+parameters: {{s0: 0.4, m2: 0.5, k2: 2.0e3}}
+coordinates: {{z: {{}}}}
+inputs: {{F: 0}}
+frames:
+  carrier: {{translation: [z, 0, 0]}}
+elastic_bodies:
+  chain: {{frame: ISYS, data: chain.npz, nodes: {{tip: {n}}}, inertia: sid,
+          schedule: s0 + 0.1*sin(t)}}
+bodies:
+  mass: {{frame: carrier, mass: m2}}
+forces:
+  link: {{type: bushing, between: [chain.tip, carrier], stiffness: {{diag: [k2, 0, 0]}}}}
+  push: {{type: force, frame: chain.tip, vector: [F, 0, 0], in: ISYS}}
+outputs:
+  x_mass: {{position: carrier, in: ISYS, component: x}}
+""")
+    eq = newton_euler(load_description(tmp_path / "chain.yaml"))
+    npath = generate_module(eq, "h", tmp_path / "gen" / "chain.py")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc = load_generated(write_c_module(eq, npath))
+    mnp = load_generated(npath)
+    assert mc.BACKEND == "c" and mnp.STATE_SIZE == 2 * 201
+    nn, p = mnp.STATE_SIZE // 2, mnp.default_parameters()
+    rng = np.random.default_rng(2)
+    for t in (0.0, 0.3, 0.31, 2.0):
+        x = 1e-3 * rng.normal(size=2 * nn)
+        u = rng.normal(size=1)
+        _same(mc.mass_matrix(t, x[:nn], p, u), mnp.mass_matrix(t, x[:nn], p, u), "M")
+        _same(mc.force_vector(t, x[:nn], x[nn:], p, u),
+              mnp.force_vector(t, x[:nn], x[nn:], p, u), "q - k")
+        _same(mc.rhs(t, x, p, u), mnp.rhs(t, x, p, u), "rhs")
+        for got, ref in zip(mc.force_jacobians(t, x[:nn], x[nn:], p, u),
+                            mnp.force_jacobians(t, x[:nn], x[nn:], p, u), strict=True):
+            _same(got, ref, "force Jacobians")
+        _same(mc.rhs_jacobian(t, x, p, u), mnp.rhs_jacobian(t, x, p, u), "rhs_jacobian")
+        _same(mc.outputs(t, x, p, u), mnp.outputs(t, x, p, u), "outputs")
