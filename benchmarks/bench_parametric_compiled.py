@@ -15,7 +15,8 @@ Measured in one run (BLAS single-threaded):
 
 1. **Data by reference** — the sizes of the data file and of the module, and ``import +
    first rhs`` of the NumPy module and of the compiled module (library built before), each in
-   a fresh Python process (median of 3).
+   a fresh Python process (median of 3), with Python's bytecode cache and compiling the
+   module's source (the module cache imports verified bytes, which are always compiled).
 2. **Per call**, NumPy module and compiled module: ``rhs`` at a constant schedule (the
    Newton iterations of an implicit step), ``rhs`` with the schedule moving at every call,
    ``rhs_jacobian``, and the Newton matrix of generalized-α (``force_jacobians``,
@@ -36,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -135,14 +137,22 @@ print(time.perf_counter() - t0)
 """
 
 
-def import_first_rhs(path: Path) -> float:
-    """Median of three fresh processes: import the module and evaluate one rhs [s]."""
+def import_first_rhs(path: Path, bytecode: bool) -> float:
+    """Median of three fresh processes: import the module and evaluate one rhs [s];
+    ``bytecode``: with Python's bytecode cache (written by a first import), else compiling
+    the module's source every time (``PYTHONDONTWRITEBYTECODE``, or a module imported from
+    verified bytes, as the module cache does)."""
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    if not bytecode:
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
+        shutil.rmtree(path.parent / "__pycache__", ignore_errors=True)
     times = []
-    for _ in range(3):
+    for _ in range(4 if bytecode else 3):
         out = subprocess.run([sys.executable, "-c", _IMPORT.format(path=str(path))],
-                             capture_output=True, text=True, check=True)
+                             capture_output=True, text=True, check=True, env=env)
         times.append(float(out.stdout.split()[-1]))
-    return float(np.median(times))
+    return float(np.median(times[1:] if bytecode else times))
 
 
 def _per_call(fn, repeat: int = 5) -> float:
@@ -231,9 +241,11 @@ def main() -> None:
         for f in (data, npath, wrapper, wrapper.with_suffix(".c"),
                   wrapper.with_name(wrapper.stem + "_jac.c")):
             print(f"| {f.name} | {f.stat().st_size / 1e6:.3f} MB |")
-        print("\n| module | import + first rhs |\n|---|---|")
+        print("\n| module | import + first rhs (bytecode cached) | (source compiled) |\n"
+              "|---|---|---|")
         for key, path in (("NumPy", npath), ("compiled", wrapper)):
-            print(f"| {key} | {import_first_rhs(path):.2f} s |")
+            print(f"| {key} | {import_first_rhs(path, True):.2f} s | "
+                  f"{import_first_rhs(path, False):.2f} s |")
         print("\n| per call | NumPy [ms] | C [ms] | NumPy / C |\n|---|---|---|---|")
         for name, a, b in per_call(mods, n):
             print(f"| {name} | {1e3 * a:.3f} | {1e3 * b:.3f} | {a / b:.1f} |")

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The middle-ear Δp-ramp time study, NumPy module against compiled module, in one run.
 
-Model: the middle-ear EMBS of ``examples/middle_ear/build_embs.py`` (the parametric TM + air
+Model: the middle-ear EMBS of ``neweul middle-ear build`` (the parametric TM + air
 u–p body on ISYS, quintic Hermite weights in the static volume displacement, the ossicles
 through node frames), retargeted and ramped by ``examples/middle_ear/time_study.py``
 (``Δp(t) = dp_ramp sin²(π t / t_ramp)``, a tone ``Q = Q_amp sin 2π f t`` in the canal).
@@ -13,7 +13,7 @@ Measured in one run (BLAS single-threaded): the sizes of the data file and the m
 the ratio NumPy / compiled and the largest difference of the umbo velocity relative to its
 largest value. Nothing is asserted.
 
-Usage (after ``build_embs.py --dir DATA``)::
+Usage (after ``neweul middle-ear build --dir DATA``)::
 
     python benchmarks/bench_time_study.py --dir DATA [--t-ramp 0.02] [--steps-per-period 100]
 """
@@ -53,7 +53,7 @@ def _modules(data: Path, out: Path):
 
     out.mkdir(parents=True, exist_ok=True)
     desc = out / "middle_ear_ramp.yaml"
-    desc.write_text(ramp_description(data, out / "generated_chain_factor"))
+    desc.write_text(ramp_description(data))
     t0 = time.perf_counter()
     eq = newton_euler(load_description(desc))
     npath = generate_module(eq, description_hash(desc.read_bytes()),
@@ -76,11 +76,12 @@ def main() -> None:
     from time_study import parameters, tone
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dir", type=Path, required=True, help="the build of build_embs.py")
+    ap.add_argument("--dir", type=Path, required=True, help="a build of neweul middle-ear build")
     ap.add_argument("--out", type=Path, default=None, help="modules (default DIR/bench_c)")
     ap.add_argument("--t-ramp", type=float, default=0.02, help="ramp duration [s]")
     ap.add_argument("--dp-peak", type=float, default=2000.0)
     ap.add_argument("--f-tone", type=float, default=1000.0)
+    ap.add_argument("--q-amp", type=float, default=1e-5, help="tone amplitude [m^3/s^2]")
     ap.add_argument("--steps-per-period", type=int, default=100)
     args = ap.parse_args()
     mnp, mc, npath, wrapper, g_np, g_c = _modules(args.dir, args.out or args.dir / "bench_c")
@@ -91,9 +92,11 @@ def main() -> None:
     for f in (*npath.parent.glob("middle_ear_ramp.*.npz"), npath, wrapper,
               wrapper.with_suffix(".c"), wrapper.with_name(wrapper.stem + "_jac.c")):
         print(f"| {f.name} | {f.stat().st_size / 1e6:.3f} MB |")
-    print("\n| module | import + first rhs |\n|---|---|")
+    print("\n| module | import + first rhs (bytecode cached) | (source compiled) |\n"
+          "|---|---|---|")
     for key, path in (("NumPy", npath), ("compiled", wrapper)):
-        print(f"| {key} | {import_first_rhs(path):.2f} s |")
+        print(f"| {key} | {import_first_rhs(path, True):.2f} s | "
+              f"{import_first_rhs(path, False):.2f} s |")
     x = 1e-12 * np.random.default_rng(1).standard_normal(2 * n)
     print("\n| per call | NumPy [ms] | C [ms] | NumPy / C |\n|---|---|---|---|")
     for name, moving in (("rhs, constant Δp", False), ("rhs, Δp moving", True)):
@@ -110,7 +113,8 @@ def main() -> None:
         print(f"| {name} | {1e3 * got[0]:.3f} | {1e3 * got[1]:.3f} | {got[0] / got[1]:.1f} |")
     runs = []
     for m in (mnp, mc):
-        p = parameters(m, dp=0.0, dp_ramp=args.dp_peak, t_ramp=args.t_ramp, f_tone=args.f_tone)
+        p = parameters(m, dp=0.0, dp_ramp=args.dp_peak, t_ramp=args.t_ramp, f_tone=args.f_tone,
+                       Q_amp=args.q_amp)
         runs.append(tone(m, p, args.t_ramp, args.f_tone, args.steps_per_period, 0.5))
     a, b = runs
     key = "umbo_velocity_z"

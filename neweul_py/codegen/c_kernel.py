@@ -39,7 +39,8 @@ __all__ = ["C_DOT", "KernelPrinter"]
 #: Products of the printed kernels (real operands; the strides are in elements).
 C_DOT = r"""
 /* ---- products of the traced kernel (codegen/c_kernel.py): y = A x, y = x B, C = A B with
-   strides; four partial sums; a zero entry of x is skipped (weights of mixed samples) */
+   strides; four partial sums; a zero entry of x (weights of mixed samples) and a zero row of
+   A are skipped */
 __attribute__((optimize("O3"))) static void nw_gemv(int m, int k, const double *restrict A,
     long sa, long sk, const double *restrict x, long sx, double *restrict y)
 {
@@ -89,7 +90,12 @@ __attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
     const double *restrict A, long sa, long sk, const double *restrict B, long sb, long sn,
     double *restrict C)
 {
-    for (int i = 0; i < m; ++i) nw_vecmat(k, n, A + i * sa, sk, B, sb, sn, C + i * n);
+    for (int i = 0; i < m; ++i) {      /* a zero row of A (S_W^T of rigid coordinates): zeros */
+        int nz = 0;
+        for (int j = 0; j < k && !nz; ++j) nz = A[i * sa + j * sk] != 0.0;
+        if (nz) nw_vecmat(k, n, A + i * sa, sk, B, sb, sn, C + i * n);
+        else memset(C + i * n, 0, (size_t)n * sizeof(double));
+    }
 }
 """
 
@@ -513,6 +519,9 @@ class KernelPrinter:
         pb = f"{self._storage_name(sb, local)} + {ob}" if ob else self._storage_name(sb, local)
         if real and sa.op != "zeros" and sb.op != "zeros":
             if len(a.shape) == 2 and len(b.shape) == 1:
+                if ta[0] == 1 and ta[1] != 1:     # Aᵀ x of a row-major A: its rows, scaled
+                    return [f"    nw_vecmat({a.shape[1]}, {a.shape[0]}, {pb}, {tb[0]}, {pa}, "
+                            f"{ta[1]}, 1, {out});"]
                 return [f"    nw_gemv({a.shape[0]}, {a.shape[1]}, {pa}, {ta[0]}, {ta[1]}, "
                         f"{pb}, {tb[0]}, {out});"]
             if len(a.shape) == 1 and len(b.shape) == 2:
