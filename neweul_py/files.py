@@ -30,6 +30,7 @@ __all__ = [
     "MAX_NPZ_BYTES",
     "check_npz",
     "check_regular_file",
+    "not_own",
     "read_checked",
 ]
 
@@ -113,29 +114,53 @@ def check_regular_file(
     return Path(file)
 
 
+def not_own(st: os.stat_result) -> str | None:
+    """Why a file or directory with status ``st`` could have been written by someone other
+    than the current user (``None``: it could not): owned by another user, or writable by
+    group or others."""
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return f"owned by another user (uid {st.st_uid})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
+    return None
+
+
 def read_checked(
     path: str | os.PathLike[str],
     what: str = "data file",
     max_bytes: int | None = None,
     error: type[NeweulError] = DataError,
+    *,
+    own: bool = False,
 ) -> bytes:
     """The bytes of a regular file, checked (as :func:`check_regular_file`) on the open file
     descriptor they are read from, so that the file cannot be swapped between check and read.
 
     The file is opened non-blocking (a FIFO does not wait for a writer) and read up to the
-    cap only.
+    cap only. With ``own`` (files of the cache) it must moreover not be a symbolic link, and
+    belong to the current user with no write permission for group or others
+    (:func:`not_own`).
     """
     file = os.fspath(path)
     cap = MAX_DATA_BYTES if max_bytes is None else max_bytes
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+    if own:
+        flags |= getattr(os, "O_NOFOLLOW", 0)
     try:
-        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        fd = os.open(file, flags)
     except FileNotFoundError:
         raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
     except (OSError, ValueError) as exc:
+        if own and os.path.islink(file):
+            raise _error(error, f"the {what} is a symbolic link", file) from None
         raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
                      file) from None
     try:
-        _check_stat(os.fstat(fd), file, what, cap, error)
+        st = os.fstat(fd)
+        _check_stat(st, file, what, cap, error)
+        why = not_own(st) if own else None
+        if why is not None:
+            raise _error(error, f"the {what} is {why}", file)
         chunks, total = [], 0
         while True:
             chunk = os.read(fd, min(1 << 24, cap + 1 - total))
