@@ -10,7 +10,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
@@ -312,8 +312,29 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
         return wrapper
     from .analysis.module import load_generated
 
-    load_generated(wrapper)  # builds (or verifies) the library now; warns on fallback
+    _compiled(lambda: load_generated(wrapper))  # builds (or verifies) the library now
     return wrapper
+
+
+def _compiled(load: Callable[[], ModuleType]) -> ModuleType:
+    """The compiled module ``load()`` imports, which must run its C library: asked for
+    ``backend="c"``, a module that fell back to its NumPy twin (no cffi, no compiler, an
+    untrusted library cache …) is one error naming why, never a warning and the NumPy
+    module. Other warnings of the import (a rebuilt library) are passed on."""
+    import sys
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        module = load()
+    if getattr(module, "BACKEND", "c") != "c":
+        sys.modules.pop(module.__name__, None)      # a later call tries the library again
+        why = getattr(module, "BACKEND_ERROR", "") or getattr(module, "BACKEND_NOTE", "")
+        raise NeweulError(f"the compiled backend (backend 'c') is unavailable for the model "
+                          f"{module.MODEL_NAME!r}: {why}; the NumPy backend needs none of it")
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return module
 
 
 def _compiled_files(wrapper: Path) -> tuple[Path, Path, Path]:
@@ -339,7 +360,7 @@ def _load_cached_wrapper(wrapper: str | os.PathLike[str]) -> ModuleType:
     if source is None:
         raise NeweulError(f"{wrapper}: the compiled module in the cache does not verify "
                           "against its recorded SHA-256")
-    module = import_verified(wrapper, source)
+    module = _compiled(lambda: import_verified(wrapper, source))
     check_protocol(module, str(wrapper))
     return module
 

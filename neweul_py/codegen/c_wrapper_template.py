@@ -50,11 +50,13 @@ try:
 except BackendUnavailable as _exc:
     _ffi = _lib = None
     BACKEND = "numpy"
+    BACKEND_ERROR = str(_exc)
     BACKEND_NOTE = (f"model {_MODEL_NAME!r}: compiled backend unavailable ({_exc}); using the "
                     f"NumPy module {_TWIN_FILE}")
     _warnings.warn(BACKEND_NOTE, RuntimeWarning, stacklevel=2)
 else:
     BACKEND = "c"
+    BACKEND_ERROR = ""
     BACKEND_NOTE = _note
     if _note not in ("", "built"):
         _warnings.warn(f"model {_MODEL_NAME!r}: {_note}", RuntimeWarning, stacklevel=2)

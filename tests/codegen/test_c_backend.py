@@ -440,3 +440,39 @@ def test_constraint_reaction_jacobian_as_the_numpy_module(name, tmp_path):
         if own:
             G = mc.constraint_jacobian(0.0, y, p)
             assert np.abs(G - ref).max() > 1e-3 * np.abs(ref).max()
+
+
+@pytest.mark.parametrize("failure", ["no cffi", "untrusted cache"])
+def test_asking_for_the_compiled_backend_never_falls_back(failure, tmp_path, monkeypatch,
+                                                          capsys, fresh_modules):
+    """Reference: the documented contract of ``backend="c"`` — the API and ``--backend c``
+    stop with one error naming why (no cffi; a library cache writable by others) instead of
+    warning and running the NumPy module; the generated module on its own still falls back
+    (BACKEND, BACKEND_ERROR say why)."""
+    from neweul_py import api
+    from neweul_py.cli import main
+
+    desc = ROOT / "examples" / "pendulum.yaml"
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
+    if failure == "no cffi":
+        monkeypatch.setitem(sys.modules, "cffi", None)
+        why = "cffi is not installed"
+    else:
+        wrapper = api.generated_module(desc, backend="c")
+        shutil.rmtree(wrapper.parent / "__neweul_c__")
+        for d in (wrapper.parent / "__neweul_c__", tmp_path / "gen" / "__neweul_c__"):
+            d.mkdir(parents=True)
+            os.chmod(d, 0o777)
+        sys.modules.pop(next(k for k, m in sys.modules.items()
+                             if getattr(m, "__file__", None) == str(wrapper)))
+        why = "writable by group or others"
+    with pytest.raises(NeweulError, match=why):
+        api.load_description_module(desc, backend="c")
+    with pytest.raises(NeweulError, match=why):
+        api.generate(desc, tmp_path / "gen", backend="c")
+    assert main(["simulate", str(desc), "--t-end", "0.1", "--backend", "c"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and why in err and "error" in err
+    with pytest.warns(RuntimeWarning, match=why):
+        mc = _fresh(tmp_path / "gen" / "pendulum_c.py")
+    assert mc.BACKEND == "numpy" and why in mc.BACKEND_ERROR
