@@ -71,6 +71,7 @@ CAPS: dict[str, int] = {
     "--points": 1_000,          # Krylov expansion points
     "--max-steps": 10**9,       # integrator steps of simulate
     "--frames": 10_000,         # pictures of simulate --animate (≈ 0.1 s each)
+    "--workers": 256,           # processes of sweep's local cluster (analysis.sweep.MAX_WORKERS)
 }
 
 

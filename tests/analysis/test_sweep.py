@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from neweul_py.analysis import load_generated, simulate
-from neweul_py.analysis.sweep import SweepResult, sweep
+from neweul_py.analysis.sweep import SweepResult, connect, sweep
 from neweul_py.analysis.sweep_cases import grid, parse_parameter, product, read_cases
 from neweul_py.cli import main
 from neweul_py.errors import DataError, NeweulError
@@ -120,6 +120,10 @@ def test_bad_sweeps_are_one_clear_error(tmp_path):
         sweep(PENDULUM, [{"m": 1.0}], "simulate")
     with pytest.raises(NeweulError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9"):
         sweep(PENDULUM, [{"m": 1.0}], "modes", scheduler="tcp://127.0.0.1:9", timeout=0.5)
+    with pytest.raises(NeweulError, match="workers must be between 1 and 256"):
+        sweep(PENDULUM, [{"m": 1.0}], "modes", workers=100_000)
+    with pytest.raises(NeweulError, match="chunk_size must be a whole number ≥ 1"):
+        sweep(PENDULUM, [{"m": 1.0}], "modes", chunk_size=0)
 
 
 def test_cli_sweep_on_a_running_scheduler(client, capsys, tmp_path):
@@ -134,3 +138,38 @@ def test_cli_sweep_on_a_running_scheduler(client, capsys, tmp_path):
                 client=client)
     data = np.genfromtxt(out, names=True, delimiter=",")
     np.testing.assert_allclose(data["phi1"], ref.data["phi1"], atol=1e-12)
+
+
+def test_local_cluster_admits_only_its_own_credentials():
+    """Reference: Dask's TLS security with temporary credentials
+    (``distributed.security.Security.temporary``): the local cluster of a sweep listens on
+    ``tls://`` on a free port, without a dashboard; a client without credentials, with other
+    temporary credentials or over plain TCP cannot connect (so it cannot submit work); the
+    sweep's own client can. A second cluster started meanwhile gets another port."""
+    import operator
+
+    from distributed.security import Security
+
+    client, cluster = connect(workers=1, processes=False)
+    other = None
+    try:
+        address = cluster.scheduler_address
+        assert address.startswith("tls://127.0.0.1:") and not address.endswith(":8786")
+        http = cluster.scheduler.http_server     # no dashboard, a free port, health only
+        assert http.address == "127.0.0.1" and http.port != 8787
+        assert [r.target.__name__ for r in
+                cluster.scheduler.http_application.wildcard_router.rules] == ["HealthHandler"]
+        with pytest.raises(TypeError, match="TLS expects"):
+            distributed.Client(address, timeout="2s")
+        with pytest.raises(OSError, match="certificate"):
+            distributed.Client(address, timeout="2s", security=Security.temporary())
+        with pytest.raises(OSError):
+            distributed.Client(address.replace("tls://", "tcp://"), timeout="2s")
+        assert client.submit(operator.add, 1, 2).result() == 3
+        other = connect(workers=1, processes=False)
+        assert other[1].scheduler_address != address
+    finally:
+        for c, k in (other or (None, None), (client, cluster)):
+            if c is not None:
+                c.close()
+                k.close()

@@ -60,6 +60,13 @@ def _run(capsys, *argv: str) -> tuple[int, str, str]:
          "argument --band: HIGH: 1e+300 is out of range"),
         (["interpolate", "a.npz", "b.npz", "--parameter", "p", "--values", "1,nan", "-o",
           "p.npz"], "--values"),
+        (["sweep", TWO, "--param", "m1=1", "--workers", "100000"],
+         f"--workers: 100000 exceeds the cap of {CAPS['--workers']}"),
+        (["sweep", TWO, "--param", "m1=1", "--workers", "0"], "--workers: must be at least 1"),
+        (["sweep", TWO, "--param", "m1=1", "--chunk-size", "0"],
+         "--chunk-size: must be at least 1"),
+        (["sweep", TWO, "--param", "m1=1", "--timeout", "-1"], "--timeout: must be positive"),
+        (["sweep", TWO, "--param", "m1=1", "--n-modes", "0"], "--n-modes: must be at least 1"),
     ],
 )
 def test_bad_numbers_are_refused_by_the_parser(capsys, argv, message):
@@ -183,6 +190,9 @@ def test_cli_choices_agree_with_the_api():
     from neweul_py.elastic.parametric import local_interpolation
 
     assert SIMULATE_METHODS == METHODS
+    from neweul_py.analysis.sweep import MAX_WORKERS
+
+    assert CAPS["--workers"] == MAX_WORKERS
     assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
     assert cmd.INTERPOLATIONS == interpolation.INTERPOLATIONS
     assert cmd.BASES == interpolation.BASES
