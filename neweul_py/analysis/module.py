@@ -19,8 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import NeweulError
+from ..files import read_checked
 
 __all__ = [
+    "MAX_MODULE_BYTES",
     "SUPPORTED_PROTOCOL_VERSIONS",
     "GeneratedModel",
     "ModelLike",
@@ -28,6 +30,9 @@ __all__ = [
     "check_protocol",
     "load_generated",
 ]
+
+#: Largest generated module read (bytes; a module of a big model is a few MB).
+MAX_MODULE_BYTES = 512 * 2**20
 
 #: Protocol versions this package can read.
 SUPPORTED_PROTOCOL_VERSIONS = (1,)
@@ -314,7 +319,8 @@ def load_generated(path: str | os.PathLike[str]) -> GeneratedModel:
     Raises
     ------
     NeweulError
-        If the file is missing, cannot be imported, or does not implement the protocol.
+        If the file is missing, not a regular file, larger than :data:`MAX_MODULE_BYTES`,
+        cannot be imported, or does not implement the protocol.
 
     Examples
     --------
@@ -322,10 +328,7 @@ def load_generated(path: str | os.PathLike[str]) -> GeneratedModel:
     >>> mod.rhs(0.0, mod.INITIAL_STATE, mod.default_parameters())  # doctest: +SKIP
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise NeweulError(f"{path}: cannot read generated module ({exc.strerror})") from None
+    raw = read_checked(path, "generated module", MAX_MODULE_BYTES, NeweulError)
     digest = hashlib.sha256(raw).hexdigest()[:16]
     stem = "".join(c if c.isalnum() else "_" for c in path.stem)
     name = f"neweul_generated_{stem}_{digest}"

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
+from ..files import load_npz as read_npz
 
 __all__ = [
     "SUFFIXES",
@@ -318,11 +319,7 @@ def _strings(arr: np.ndarray) -> tuple[str, ...]:
 
 def load_npz(path: str | os.PathLike[str]) -> SimulationResult:
     """Read a result written by :meth:`SimulationResult.to_npz` (no pickles allowed)."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            d = {k: data[k] for k in data.files}
-    except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read results: {exc}", file=str(path)) from None
+    d = read_npz(path, "results file")
     try:
         names: Sequence[str] = _strings(d["parameter_names"])
         return SimulationResult(

@@ -34,7 +34,8 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
-from .module import GeneratedModel, ModelLike, as_model
+from ..files import load_npz, read_checked
+from .module import MAX_MODULE_BYTES, GeneratedModel, ModelLike, as_model
 from .results import ResultDisplay, check_output_path, require_pandas
 from .sweep_tasks import STATS, TASKS, run_cases
 
@@ -163,13 +164,13 @@ class SweepResult(ResultDisplay):
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SweepResult:
         """Read a ``.npz`` written by :meth:`to_npz`."""
+        f = load_npz(path, "sweep table")
         try:
-            with np.load(path, allow_pickle=False) as f:
-                names = [str(n) for n in f["columns"]]
-                return cls(data={n: f[f"column_{n}"] for n in names},
-                           parameters=tuple(str(p) for p in f["parameters"]),
-                           task=str(f["task"]), model_name=str(f["model_name"]))
-        except (OSError, ValueError, KeyError) as exc:
+            names = [str(n) for n in f["columns"]]
+            return cls(data={n: f[f"column_{n}"] for n in names},
+                       parameters=tuple(str(p) for p in f["parameters"]),
+                       task=str(f["task"]), model_name=str(f["model_name"]))
+        except (ValueError, KeyError) as exc:
             raise DataError(f"cannot read a sweep table: {exc}", file=str(path)) from None
 
 
@@ -259,11 +260,11 @@ def _source(module: ModelLike) -> tuple[str, GeneratedModel]:
     mod = as_model(module)
     if not mod.path:
         raise NeweulError("sweep: the module has no file to ship to the workers")
+    raw = read_checked(mod.path, "generated module", MAX_MODULE_BYTES, NeweulError)
     try:
-        return Path(mod.path).read_text(encoding="utf-8"), mod
-    except OSError as exc:
-        raise NeweulError(f"{mod.path}: cannot read the generated module ({exc.strerror})"
-                          ) from None
+        return raw.decode("utf-8"), mod
+    except UnicodeDecodeError:
+        raise NeweulError(f"{mod.path}: the generated module is not UTF-8 text") from None
 
 
 def _check(mod: GeneratedModel, cases: Sequence[Mapping[str, float]], task: Any,

@@ -3,6 +3,7 @@ sweep_tasks.py; neweul_py/sweep.py; ``neweul sweep``)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -173,3 +174,43 @@ def test_local_cluster_admits_only_its_own_credentials():
             if c is not None:
                 c.close()
                 k.close()
+
+
+@pytest.mark.parametrize("target", ["/dev/zero", "fifo", "directory", "latin-1"])
+def test_cases_file_is_checked_before_it_is_read(tmp_path, capsys, target):
+    """``--cases /dev/zero`` grew to 13.8 GB and ``--cases FIFO`` hung: the file must be a
+    regular UTF-8 file of at most 64 MiB (docs/limits.md); one error line, exit 1, no cluster
+    started. Reference: POSIX file types."""
+    if target == "fifo":
+        path = tmp_path / "cases.csv"
+        os.mkfifo(path)
+    elif target == "directory":
+        path = tmp_path
+    elif target == "latin-1":
+        path = tmp_path / "cases.csv"
+        path.write_bytes("m,l\n1,2\n# \u00e9\n".encode("latin-1"))
+    else:
+        path = Path(target)
+    with pytest.raises(DataError):
+        read_cases(path)
+    code = main(["sweep", str(PENDULUM), "--cases", str(path), "--task", "modes"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1 and str(path) in err
+
+
+def test_case_counts_are_capped_before_anything_is_allocated(tmp_path):
+    """A grid of 10¹² cases (two ranges of 10⁶ values) or a range of 10¹² values was built in
+    memory; the number of cases is capped (docs/limits.md) before any list is made."""
+    from neweul_py.analysis.sweep_cases import MAX_CASES, parse_values
+
+    with pytest.raises(NeweulError, match=f"cap of {MAX_CASES}"):
+        parse_values("0:1:1000000000000", "m")
+    big = np.zeros(1_000_000)
+    with pytest.raises(NeweulError, match=f"1000000000000 cases, more than the cap of {MAX_CASES}"):
+        grid({"m": big, "l": big})
+    with pytest.raises(NeweulError, match="cases, more than the cap"):
+        product([{"m": 1.0}] * 1000, [{"l": 1.0}] * 10_000)
+    rows = "m\n" + "1\n" * (MAX_CASES + 1)
+    (tmp_path / "many.csv").write_text(rows)
+    with pytest.raises(DataError, match=f"more than the cap of {MAX_CASES} cases"):
+        read_cases(tmp_path / "many.csv")

@@ -340,3 +340,37 @@ def test_version_is_the_installed_distributions():
     import neweul_py
 
     assert neweul_py.__version__ == version("neweul-py")
+
+
+@pytest.mark.parametrize("kind", ["fifo", "/dev/zero", "directory"])
+@pytest.mark.parametrize("command", ["interpolate --coordinate", "sweep --cases",
+                                     "compare RESULT", "compare REFERENCE", "simulate FILE.py"])
+def test_files_named_on_the_command_line_are_checked_before_reading(capsys, tmp_path, kind,
+                                                                     command):
+    """``interpolate --coordinate FIFO:…`` and ``sweep --cases FIFO`` hung, ``--cases
+    /dev/zero`` filled memory: every file a command reads is checked to be a regular file
+    first (docs/limits.md). Reference: POSIX file types; one error line, exit 1."""
+    if kind == "fifo":
+        path = tmp_path / "special.csv"
+        os.mkfifo(path)
+    else:
+        path = tmp_path if kind == "directory" else Path(kind)
+    good = str(FIXTURES / "two_mass.py")
+    table = tmp_path / "table.csv"
+    table.write_text("t,x\n0,0\n1,1\n")
+    argv = {
+        "interpolate --coordinate": ["interpolate", "a.npz", "b.npz", "--parameter", "p",
+                                     "--coordinate", f"{path}:p:xi", "-o", "p.npz"],
+        "sweep --cases": ["sweep", good, "--cases", str(path), "--task", "equilibrium"],
+        "compare RESULT": ["compare", str(path), str(table)],
+        "compare REFERENCE": ["compare", str(table), str(path)],
+        "simulate FILE.py": ["simulate", str(path), "--t-end", "1"],
+    }[command]
+    if command == "simulate FILE.py" and kind == "fifo":
+        os.rename(path, tmp_path / "special.py")
+        argv[1] = str(tmp_path / "special.py")
+    code, _, err = _run(capsys, *argv)
+    assert code == 1, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert {"fifo": "FIFO", "/dev/zero": "character device", "directory": "directory"}[kind] \
+        in err
