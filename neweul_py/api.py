@@ -390,8 +390,11 @@ def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> 
     """
     import yaml
 
-    try:
-        tree = yaml.safe_load(raw)
+    from .yaml_shape import check_shape
+
+    try:   # libyaml's parser where PyYAML has it (30× the pure-Python one), safe either way
+        check_shape(raw, os.fspath(description_path))   # too deep or too big: one error now
+        tree = yaml.load(raw, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
     except (yaml.YAMLError, RecursionError, ValueError, MemoryError):
         return []  # the loader reports the error when the module is generated
     if not isinstance(tree, dict):

@@ -43,7 +43,15 @@ def description_hash(text: bytes | str) -> str:
 _Loader = Callable[[SystemBuilder, Any, str], None]
 
 
+#: Most parameters of a description (docs/limits.md): each is a symbol that is validated,
+#: fingerprinted, printed and passed in ``p``; 200 000 of them took over a minute.
+MAX_PARAMETERS = 10_000
+
+
 def _parameters(b: SystemBuilder, section: Any, path: str) -> None:
+    if isinstance(section, dict) and len(section) > MAX_PARAMETERS:
+        raise ModelError(f"{len(section)} parameters, more than the cap of {MAX_PARAMETERS} "
+                         "(docs/limits.md)", path)
     for name, default in section_items(section, path, "name: default value"):
         b.parameter(name, default)
 

@@ -374,3 +374,24 @@ def test_files_named_on_the_command_line_are_checked_before_reading(capsys, tmp_
     assert err.count("\n") == 1 and "Traceback" not in err
     assert {"fifo": "FIFO", "/dev/zero": "character device", "directory": "directory"}[kind] \
         in err
+
+
+@pytest.mark.parametrize("what", ["200 000 parameters", "20 000 terms"])
+def test_huge_descriptions_are_one_error(capsys, tmp_path, what):
+    """A description of 200 000 parameters or one expression of 20 000 terms (≈ 200 kB) ran
+    for minutes; each is beyond a documented cap (docs/limits.md) and refused with one line,
+    exit 1, nothing written. Reference: the counts written into the file."""
+    body = "coordinates: {x: 0.1}\nframes: {f: {translation: [x, 0, 0]}}\n"
+    if what.endswith("parameters"):
+        text = ("name: many\nparameters:\n" + "".join(f"  p{i}: 1\n" for i in range(200_000))
+                + body + "bodies: {b: {frame: f, mass: p0}}\n")
+        message = "YAML nodes"
+    else:
+        terms = " + ".join(f"sin({k}*x)" for k in range(1, 20_001))
+        text = ("name: long\nparameters: {m: 1}\n" + body + "bodies: {b: {frame: f, mass: m}}\n"
+                f"forces: {{push: {{type: generalized, coordinate: x, value: '{terms}'}}}}\n")
+        message = "more than the cap of"
+    (tmp_path / "big.yaml").write_text(text)
+    code, _, err = _run(capsys, "generate", str(tmp_path / "big.yaml"), "-o", "gen")
+    assert code == 1 and err.count("\n") == 1 and message in err
+    assert not (tmp_path / "gen").exists()

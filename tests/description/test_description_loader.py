@@ -371,11 +371,43 @@ frames:
 
 def test_description_imports_only_model_and_errors() -> None:
     """Layering rule of DESIGN.md: description imports model (and the shared errors,
-    ffrf kernel and file checks of neweul_py/files.py) only."""
+    ffrf kernel, file checks of neweul_py/files.py and YAML shape of yaml_shape.py) only."""
     import re
 
     import neweul_py.description as pkg
 
     for path in pathlib.Path(pkg.__file__).parent.glob("*.py"):
         for layer in re.findall(r"^\s*from \.\.(\w+)", path.read_text(), re.MULTILINE):
-            assert layer in ("model", "errors", "ffrf", "files"), f"{path.name} imports {layer}"
+            assert layer in ("model", "errors", "ffrf", "files", "yaml_shape"), \
+                f"{path.name} imports {layer}"
+
+
+def test_description_size_is_capped_before_anything_is_built() -> None:
+    """200 000 parameters took over a minute (every parameter is a sympy symbol, validated,
+    fingerprinted and printed): a description has at most MAX_PARAMETERS parameters and
+    MAX_NODES YAML nodes (docs/limits.md), counted from the parser's events before the tree
+    is built. Reference: the counts written into the text."""
+    from neweul_py.description.loader import MAX_PARAMETERS
+    from neweul_py.description.yaml_tree import MAX_NODES
+
+    head = "name: many\ncoordinates: {x: 0}\nparameters:\n"
+    text = head + "".join(f"  p{i}: 1\n" for i in range(MAX_PARAMETERS + 1))
+    with pytest.raises(DescriptionError, match=f"{MAX_PARAMETERS + 1} parameters, more than "
+                       f"the cap of {MAX_PARAMETERS}") as info:
+        load_description_text(text, "many.yaml")
+    assert info.value.key_path == "parameters" and info.value.line == 3
+    text = head + "  m: 1\nbig: [" + ", ".join(["0"] * MAX_NODES) + "]\n"
+    with pytest.raises(DescriptionError, match=f"more than the cap of {MAX_NODES}"):
+        load_description_text(text, "nodes.yaml")
+
+
+@pytest.mark.parametrize("where", ["parameters: {m: NUMBER}", "parameters:\n  m: -NUMBER",
+                                   "gravity: [0, 0, NUMBER]"])
+def test_integer_of_5000_digits_is_one_error(where: str) -> None:
+    """Python refuses to convert an integer of more than 4300 digits (a ValueError from
+    PyYAML's constructor reached the user): one DescriptionError naming the place."""
+    text = ("name: big\ncoordinates: {y: 0}\n" + where.replace("NUMBER", "9" * 5000)
+            + "\n")
+    with pytest.raises(DescriptionError, match="5000 digits") as info:
+        load_description_text(text, "big.yaml")
+    assert info.value.line == 3 + where.count("\n")

@@ -452,3 +452,21 @@ def test_description_reproducers_name_file_key_and_line(value, line, key, messag
     assert "\n" not in shown
     system = load_description_text(text.replace(value, "'351**-1e-10'"), "model.yaml")
     assert system.parameters[0].default == pytest.approx(351.0**-1e-10)
+
+
+def test_expression_size_is_capped() -> None:
+    """One expression of 20 000 terms ran for minutes (sympy builds every function call with
+    its assumptions, ~2.5 ms each); the documented caps (docs/limits.md) refuse it at once,
+    and an expression within them parses. Reference: the counts of the text itself."""
+    from neweul_py.description.expressions import MAX_CALLS, MAX_LENGTH, MAX_TOKENS
+
+    a = sp.Symbol("a")
+    ns = {"a": a}
+    with pytest.raises(ExpressionError, match=f"characters, more than the cap of {MAX_LENGTH}"):
+        parse_expression("a" + " " * MAX_LENGTH, ns)
+    with pytest.raises(ExpressionError, match=f"tokens, more than the cap of {MAX_TOKENS}"):
+        parse_expression("+".join(["a"] * (MAX_TOKENS // 2 + 1)), ns)
+    with pytest.raises(ExpressionError, match=f"function calls, more than the cap of {MAX_CALLS}"):
+        parse_expression("+".join(["sin(a)"] * (MAX_CALLS + 1)), ns)
+    assert parse_expression("+".join(["a"] * (MAX_TOKENS // 2)), ns) == (MAX_TOKENS // 2) * a
+    assert parse_expression("+".join([f"sin({k}*a)" for k in range(1, 11)]), ns).count(sp.sin) == 10
