@@ -182,3 +182,16 @@ def test_overlay_plot_has_units_and_an_error_curve(tmp_path):
     name = "stapes_velocity__p_ec"
     assert [ax.get_ylabel() for ax in freq.axes[:3]] == [
         f"|{name}|", "phase [deg]", f"|Δ{name}| / |{name}_ref|"]
+
+
+def test_a_reference_that_is_not_utf8_is_one_clear_error(tmp_path, capsys):
+    """A CSV saved as Latin-1 (``t [°C]`` in its header) raised UnicodeDecodeError; it is one
+    DataError naming the file, the byte, its offset and line. Reference: the bytes written."""
+    ours = simulate(GENERATED / "pendulum.py", 1.0, n_out=11).save(tmp_path / "a.csv")
+    bad = tmp_path / "latin1.csv"
+    bad.write_bytes("t,phi [\u00b0]\n0,1\n0.1,2\n".encode("latin-1"))
+    with pytest.raises(DataError, match=r"not UTF-8 text \(byte 0xb0 at offset 7, line 1\)"):
+        compare(ours, bad)
+    assert main(["compare", str(ours), str(bad)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "latin1.csv" in err[0] and "not UTF-8" in err[0]
