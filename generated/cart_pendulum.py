@@ -28,6 +28,9 @@ PARAMETERS = {
     'Omega': 4.0,
     'g': 9.81,
 }
+PARAMETER_RANGES = {
+    'l0': (0.0, None),
+}
 INPUTS = ['F']
 INPUT_RATES = {}
 INPUT_UNITS = ['N']

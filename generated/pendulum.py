@@ -22,6 +22,9 @@ PARAMETERS = {
     'l': 0.5,
     'g': 9.81,
 }
+PARAMETER_RANGES = {
+    'l': (0.0, None),
+}
 INPUTS = []
 INPUT_RATES = {}
 INPUT_UNITS = []
@@ -30,7 +33,7 @@ OUTPUT_UNITS = ['m', 'm']
 CONSTRAINTS = []
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 2
-SOURCE_HASH = 'e5fac1de1fdf196e05db99e22023f30483d9cae27571e66b1389d2f2f4fc2d00'
+SOURCE_HASH = 'e3ec860879818fb374f630e1fabe2bd978e5137e0ee86a0d4f56113be77ddcaf'
 MASS_MATRIX_SYMMETRIC = True
 FRAMES = ['rod']
 FRAME_PARENTS = ['ISYS']

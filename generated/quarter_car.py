@@ -31,6 +31,10 @@ PARAMETERS = {
     'L': 5.0,
     'g': 9.81,
 }
+PARAMETER_RANGES = {
+    'ls': (0.0, None),
+    'lt': (0.0, None),
+}
 INPUTS = ['zr', 'd_zr', 'dd_zr']
 INPUT_RATES = {'zr': ['d_zr', 'dd_zr']}
 INPUT_UNITS = ['m', 'm/s', 'm/s²']

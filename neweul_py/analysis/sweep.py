@@ -35,7 +35,9 @@ import numpy as np
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
 from ..files import load_npz, read_checked
+from .admissible import check_parameters, describe_values
 from .module import MAX_MODULE_BYTES, GeneratedModel, ModelLike, as_model
+from .protocol import resolve_parameters
 from .results import ResultDisplay, check_output_path, require_pandas
 from .sweep_tasks import STATS, TASKS, run_cases
 
@@ -285,6 +287,11 @@ def _check(mod: GeneratedModel, cases: Sequence[Mapping[str, float]], task: Any,
     bad = [s for s in options.get("stats", ()) if s not in STATS]
     if bad:
         raise NeweulError(f"unknown statistics {', '.join(bad)}; valid: {', '.join(STATS)}")
+    # the one parameter check of every command (simulate -p …): no case runs a model its
+    # description would refuse
+    for k, case in enumerate(cases):
+        p = resolve_parameters(mod, case)
+        check_parameters(mod, p, f"sweep case {k} ({describe_values(list(case), case.values())})")
     return names
 
 

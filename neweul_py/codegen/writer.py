@@ -353,6 +353,18 @@ def _body_list(system: System) -> str:
     return "[" + "".join(rows) + ("\n]" if rows else "]")
 
 
+def _parameter_ranges(system: System) -> dict[str, str]:
+    """``PARAMETER_RANGES`` — ``name: (minimum, maximum)`` of the parameters with an
+    admissible range (:attr:`~neweul_py.model.System.parameter_ranges`), in the order of
+    ``PARAMETERS`` — or nothing for a model without any (its module stays as it was)."""
+    ranges = system.parameter_ranges
+    if not ranges:
+        return {}
+    rows = [f"\n    {p.name!r}: {tuple(ranges[p.name])!r}," for p in system.parameters
+            if p.name in ranges]
+    return {"PARAMETER_RANGES": "{" + "".join(rows) + "\n}"}
+
+
 def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
                ) -> dict[str, str]:
     system: System = eq.system
@@ -374,6 +386,7 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
         "INITIAL_STATE": repr(x0),
         "PARAMETERS": "{" + "".join(f"\n    {k!r}: {v!r}," for k, v in pdef.items())
         + ("\n}" if pdef else "}"),
+        **_parameter_ranges(system),
         "INPUTS": repr([str(s) for s in u]),
         "INPUT_RATES": repr(input_rates(system)),
         "INPUT_UNITS": repr([input_units(system).get(str(s), "") for s in u]),

@@ -135,13 +135,19 @@ class SystemBuilder:
         return path
 
     # -------------------------------------------------------------- symbols
-    def parameter(self, name: str, default: float | str) -> sp.Symbol:
-        """Add a parameter with a numeric default; return its symbol.
+    def parameter(self, name: str, default: float | str, minimum: float | str | None = None,
+                  maximum: float | str | None = None) -> sp.Symbol:
+        """Add a parameter with a numeric default (and optionally the inclusive range of the
+        values the model admits: a length ``minimum=0``); return its symbol.
 
-        ``default`` is a number or a constant expression string (``"2*pi"``, ``"1e-3"``).
+        ``default``, ``minimum`` and ``maximum`` are numbers or constant expression strings
+        (``"2*pi"``, ``"1e-3"``).
         """
         path = self._declare("parameters", "parameter", name)
-        self._parameters.append(Parameter(name, constant_number(default, path, "default")))
+        bounds = [None if v is None else constant_number(v, f"{path}.{key}", key)
+                  for v, key in ((minimum, "min"), (maximum, "max"))]
+        self._parameters.append(Parameter(name, constant_number(default, path, "default"),
+                                          *bounds))
         return symbol(name)
 
     def coordinate(

@@ -48,12 +48,20 @@ _Loader = Callable[[SystemBuilder, Any, str], None]
 MAX_PARAMETERS = 10_000
 
 
+PARAMETER = Schema(required=("value",), optional=("min", "max"))
+
+
 def _parameters(b: SystemBuilder, section: Any, path: str) -> None:
     if isinstance(section, dict) and len(section) > MAX_PARAMETERS:
         raise ModelError(f"{len(section)} parameters, more than the cap of {MAX_PARAMETERS} "
                          "(docs/limits.md)", path)
-    for name, default in section_items(section, path, "name: default value"):
-        b.parameter(name, default)
+    for name, spec in section_items(section, path, "name: default value"):
+        if isinstance(spec, dict):  # {value: V, min: A, max: B}
+            item = f"{path}.{name}"
+            spec = PARAMETER.check(spec, item, "a parameter")
+            b.parameter(name, spec["value"], spec.get("min"), spec.get("max"))
+        else:
+            b.parameter(name, spec)
 
 
 COORDINATE = Schema(optional=("initial", "velocity"))

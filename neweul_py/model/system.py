@@ -186,6 +186,24 @@ class System:
     def _repr_markdown_(self) -> str:
         return system_markdown(self)
 
+    @cached_property
+    def parameter_ranges(self) -> dict[str, tuple[float | None, float | None]]:
+        """``name → (minimum, maximum)`` (inclusive, ``None``: unbounded) of the parameters
+        with an admissible range: their own, and at least 0 for a parameter that is by itself
+        what a force element refuses to be negative at the defaults (a spring's rest length,
+        :meth:`~neweul_py.model.forces.ForceElement.nonnegative`): a new value must obey the
+        same rule."""
+        ranges = {p.name: (p.minimum, p.maximum) for p in self.parameters
+                  if p.minimum is not None or p.maximum is not None}
+        names = {p.symbol: p.name for p in self.parameters}
+        for fe in self.forces:
+            for expr in fe.nonnegative():
+                name = names.get(expr)
+                if name is not None:
+                    lo, hi = ranges.get(name, (None, None))
+                    ranges[name] = (0.0 if lo is None else max(lo, 0.0), hi)
+        return ranges
+
     def fingerprint(self) -> str:
         """A SHA-256 of a canonical text of the whole model: equal models, equal fingerprints.
 

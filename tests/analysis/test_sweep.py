@@ -4,6 +4,7 @@ sweep_tasks.py; neweul_py/sweep.py; ``neweul sweep``)."""
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -96,8 +97,8 @@ def test_simulate_sweep_equals_a_plain_loop(client, monkeypatch):
 
 
 def _failing_task(module, p):
-    """A user task whose integration fails for l < 0 (a negative pendulum length)."""
-    if p["l"] < 0:
+    """A user task whose integration fails for l < 0.75 (a stand-in for a diverging run)."""
+    if p["l"] < 0.75:
         raise FloatingPointError("integration diverged")
     return {"twice_l": 2 * p["l"]}
 
@@ -105,7 +106,7 @@ def _failing_task(module, p):
 def test_failing_user_task_is_recorded_and_progress_counts_cases(client):
     """Reference: the task's own arithmetic and the case count."""
     seen: list[tuple[float, float]] = []
-    res = sweep(PENDULUM, grid({"l": [-1.0, 1.0, 2.0]}), _failing_task, client=client,
+    res = sweep(PENDULUM, grid({"l": [0.5, 1.0, 2.0]}), _failing_task, client=client,
                 chunk_size=1, progress=lambda d, t: seen.append((d, t)))
     assert list(res.ok) == [False, True, True]
     assert res.failures == [(0, "FloatingPointError: integration diverged")]
@@ -214,3 +215,35 @@ def test_case_counts_are_capped_before_anything_is_allocated(tmp_path):
     (tmp_path / "many.csv").write_text(rows)
     with pytest.raises(DataError, match=f"more than the cap of {MAX_CASES} cases"):
         read_cases(tmp_path / "many.csv")
+
+
+@pytest.mark.parametrize(("param", "message"), [
+    ("m=-1:1:3", r"sweep case 0 \(m = -1\) the mass matrix .* negative mass or inertia"),
+    ("l=-1,1", r"sweep case 0 \(l = -1\): l = -1 is outside its range ≥ 0"),
+    ("m=1e300", r"m = 1e\+300 is out of range"),
+])
+def test_cases_are_checked_like_simulate_parameters(capsys, tmp_path, param, message):
+    """``sweep --param m=-1:1:3`` ran m = -1 while ``simulate -p m=-1`` refuses it: every case
+    goes through the one parameter check of simulate (analysis.admissible) before any
+    cluster starts — exit 1, one line naming the case. Reference: the same values given to
+    ``neweul simulate -p``, and the pendulum description's range of l."""
+    from neweul_py.analysis.admissible import check_parameters
+
+    desc = str(Path(__file__).resolve().parents[2] / "examples" / "pendulum.yaml")
+    code = main(["sweep", desc, "--param", param, "--task", "modes"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1
+    assert re.search(message, err), err
+    name, value = param.split("=")[0], param.split("=")[1].split(":")[0].split(",")[0]
+    try:                              # the same value through simulate: refused too
+        code = main(["simulate", desc, "--t-end", "0.1", "-p", f"{name}={value}"])
+    except SystemExit as exc:         # argparse (exit 2): 1e300 is out of range for -p
+        code = exc.code
+    err = capsys.readouterr().err
+    if value == "1e300":              # argparse's check of -p numbers: a usage error
+        assert code == 2 and "m: 1e+300 is out of range" in err
+    else:
+        assert code == 1 and f"{name} = -1" in err
+    mod = load_generated(PENDULUM)
+    with pytest.raises(NeweulError):
+        check_parameters(mod, np.array([-1.0, 0.5, 9.81]))

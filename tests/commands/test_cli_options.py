@@ -91,6 +91,19 @@ def test_negative_mass_is_refused_like_in_a_description(capsys):
     assert code == 1 and "not positive semidefinite" in err
 
 
+@pytest.mark.parametrize("command", ["simulate", "equilibrium", "modes"])
+def test_a_value_outside_a_parameters_range_is_refused(capsys, command):
+    """``-p l=-1`` of the pendulum (a length, ``l: {value: 0.5, min: 0}``) was accepted; every
+    command checks -p against the description's ranges (PARAMETER_RANGES). Reference: the
+    range in examples/pendulum.yaml."""
+    extra = ["--t-end", "1"] if command == "simulate" else []
+    code, _, err = _run(capsys, command, str(EXAMPLES / "pendulum.yaml"), *extra, "-p", "l=-1")
+    assert code == 1 and err.count("\n") == 1
+    assert "l = -1 is outside its range ≥ 0" in err
+    code, _, err = _run(capsys, command, str(EXAMPLES / "pendulum.yaml"), *extra, "-p", "l=0.7")
+    assert code == 0, err
+
+
 def test_stiff_parameters_give_an_error_not_a_hang(capsys):
     """``-p ks=1e12`` (or 1e308) made RK45 take ~10⁸ steps: the fastest eigenvalue of the
     Jacobian at the start bounds the explicit steps needed (T |λ| / 3) against --max-steps."""
@@ -190,9 +203,11 @@ def test_cli_choices_agree_with_the_api():
     from neweul_py.elastic.parametric import local_interpolation
 
     assert SIMULATE_METHODS == METHODS
+    from neweul_py.analysis.admissible import MAX_MAGNITUDE
     from neweul_py.analysis.sweep import MAX_WORKERS
+    from neweul_py.commands import MAX_MAGNITUDE as CLI_MAGNITUDE
 
-    assert CAPS["--workers"] == MAX_WORKERS
+    assert CAPS["--workers"] == MAX_WORKERS and CLI_MAGNITUDE == MAX_MAGNITUDE
     assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
     assert cmd.INTERPOLATIONS == interpolation.INTERPOLATIONS
     assert cmd.BASES == interpolation.BASES

@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import pathlib
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -411,3 +412,25 @@ def test_integer_of_5000_digits_is_one_error(where: str) -> None:
     with pytest.raises(DescriptionError, match="5000 digits") as info:
         load_description_text(text, "big.yaml")
     assert info.value.line == 3 + where.count("\n")
+
+
+def test_parameter_ranges() -> None:
+    """``name: {value: V, min: A, max: B}`` gives a parameter with an admissible range (both
+    bounds optional, inclusive; constants allowed as for values); a default outside it, an
+    unknown key or a missing value is one error with the key path and line. Reference: the
+    ranges written in the text."""
+    text = ("name: ranged\ncoordinates: {x: 0}\nparameters:\n  l: {value: 0.5, min: 0}\n"
+            "  g: {value: 9.81, min: 9, max: 10}\n  a: {value: 1, max: 2*pi}\n  m: 1\n")
+    s = load_description_text(text, "r.yaml")
+    assert s.parameter_ranges == {"l": (0.0, None), "g": (9.0, 10.0),
+                                  "a": (None, pytest.approx(2 * np.pi))}
+    assert [p.default for p in s.parameters] == [0.5, 9.81, 1.0, 1.0]
+    for bad, message, line in (
+            ("  l: {value: -1, min: 0}\n", r"parameters.l: the default -1 is outside its "
+                                           r"range ≥ 0", 4),
+            ("  l: {value: 1, minimum: 0}\n", "unknown key 'minimum'", 4),
+            ("  l: {min: 0}\n", "missing the key 'value'", 4),
+            ("  l: {value: 1, min: x}\n", "parameters.l.min", 4)):
+        with pytest.raises(DescriptionError, match=message) as info:
+            load_description_text("name: r\ncoordinates: {x: 0}\nparameters:\n" + bad, "r.yaml")
+        assert info.value.line == line

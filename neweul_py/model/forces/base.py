@@ -155,6 +155,12 @@ class ForceElement:
         defaults (a float, or ``None`` when it is not constant); raise
         :class:`~neweul_py.errors.ModelError`. None by default."""
 
+    def nonnegative(self) -> tuple[sp.Expr, ...]:
+        """The expressions that :meth:`check` refuses to be negative at the defaults (a rest
+        length): a parameter that is one of them by itself admits no negative value either
+        (:attr:`~neweul_py.model.System.parameter_ranges`). None by default."""
+        return ()
+
     def loads(self, kin: KinematicsView, omega_ref: sp.Expr | float) -> Loads:
         """What the element exerts, before its ``enabled`` factor
         (:class:`~neweul_py.model.forces.loads.Loads`).
