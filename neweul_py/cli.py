@@ -5,6 +5,11 @@ Each sub-command lives in its own module under :mod:`neweul_py.commands` and exp
 arguments, returning an exit code). The CLI catches :class:`~neweul_py.errors.NeweulError` and
 :class:`OSError` (a file that cannot be written: disk full, permissions) and prints one line; any
 other exception is a bug and keeps its traceback.
+
+Exit codes (docs/cli.md), the same for every command: 0 success; 1 an error of the input or the
+model; 2 a malformed command line (argparse); 3 a check that ran and failed
+(:data:`neweul_py.commands.EXIT_CHECK_FAILED`: ``compare`` beyond its tolerances, ``sweep`` with
+failed cases); 130 an interrupt.
 """
 
 from __future__ import annotations

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "CAPS",
+    "EXIT_CHECK_FAILED",
     "FORMS",
     "MAX_MAGNITUDE",
     "SIMULATE_METHODS",
@@ -55,6 +56,11 @@ SIMULATE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "
 #: :data:`neweul_py.analysis.sweep_tasks.TASKS` and ``STATS`` (a test checks they agree).
 SWEEP_TASKS: tuple[str, ...] = ("simulate", "equilibrium", "modes", "frf")
 SWEEP_STATS: tuple[str, ...] = ("final", "max", "min", "rms")
+
+#: Exit code of a command whose check ran and failed (``compare`` beyond its tolerances,
+#: ``sweep`` with failed cases): 0 success, 1 an error of the input or the model, 2 a malformed
+#: command line (argparse), 3 this (docs/cli.md).
+EXIT_CHECK_FAILED = 3
 
 #: Largest magnitude of a number given on the command line (parameters, inputs, coordinates,
 #: frequencies …): products of two such numbers stay finite in double precision.

@@ -9,7 +9,17 @@ import sys
 
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
-from . import CAPS, FORMS, SIMULATE_METHODS, SWEEP_STATS, SWEEP_TASKS, count, number, range_type
+from . import (
+    CAPS,
+    EXIT_CHECK_FAILED,
+    FORMS,
+    SIMULATE_METHODS,
+    SWEEP_STATS,
+    SWEEP_TASKS,
+    count,
+    number,
+    range_type,
+)
 from .common import refuse_overwrite
 
 #: Failures listed on stderr (the table holds all of them).
@@ -25,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--param values, times the rows of --cases — on a Dask cluster (a local one with "
         "--workers processes unless --scheduler names one). The generated module is shipped "
         "to each worker once; a failing case is recorded in the table (ok = 0, error) and the "
-        "sweep goes on.",
+        "sweep goes on; the exit code is then 3 (unless --allow-failures).",
     )
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
     parser.add_argument("--form", choices=FORMS, default="auto",
@@ -81,6 +91,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       help="seconds to wait for --scheduler (default 5)")
     parser.add_argument("-o", "--out", metavar="TABLE",
                         help="write the table: .csv, .parquet (pyarrow) or .npz")
+    parser.add_argument("--allow-failures", action="store_true",
+                        help="exit 0 although some cases failed (default: exit 3, the "
+                        "failures are in the table's error column either way)")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
 
@@ -144,4 +157,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"table: {res.save(args.out)}")
     elif res.ok.size <= 50:
         print(res.to_text())
-    return 0 if res.ok.any() else 1
+    return 0 if not bad or args.allow_failures else EXIT_CHECK_FAILED
