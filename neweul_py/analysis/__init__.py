@@ -17,19 +17,45 @@ Everything a script or notebook needs is importable from here::
 ``repr`` with a notebook display.
 """
 
-from .animate import animate
-from .compare import Comparison, compare
-from .dae import ConstrainedSimulation, consistent_initial_state, simulate_constrained
-from .equilibrium import EquilibriumResult, equilibrium
-from .frf import FrequencyResponse, frequency_response, frequency_vector, frf
-from .linearize import LinearModel, linearize
-from .modes import ModalResult, modes
-from .module import GeneratedModel, as_model, check_protocol, load_generated
-from .plot import plot_result
-from .results import SimulationResult, load_npz, read_units
-from .simulate import METHODS, simulate
-from .sweep import SweepResult, sweep
-from .sweep_cases import grid, read_cases
+import importlib
+from typing import Any
+
+#: Where each public name lives: imported at its first use (PEP 562), so that ``neweul
+#: simulate`` of a cached model imports the integrator, not the FRF, linearization, animation
+#: or scipy.optimize code (docs/cli.md, start-up).
+_EXPORTS: dict[str, str] = {
+    "animate": "animate",
+    "Comparison": "compare", "compare": "compare",
+    "ConstrainedSimulation": "dae", "consistent_initial_state": "dae",
+    "simulate_constrained": "dae",
+    "EquilibriumResult": "equilibrium", "equilibrium": "equilibrium",
+    "FrequencyResponse": "frf", "frequency_response": "frf", "frequency_vector": "frf",
+    "frf": "frf",
+    "LinearModel": "linearize", "linearize": "linearize",
+    "ModalResult": "modes", "modes": "modes",
+    "GeneratedModel": "module", "as_model": "module", "check_protocol": "module",
+    "load_generated": "module",
+    "plot_result": "plot",
+    "SimulationResult": "results", "load_npz": "results", "read_units": "results",
+    "METHODS": "simulate", "simulate": "simulate",
+    "SweepResult": "sweep", "sweep": "sweep",
+    "grid": "sweep_cases", "read_cases": "sweep_cases",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """The public name ``name``, from its module (imported now)."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value          # the next lookup is a plain attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
 
 __all__ = [
     "METHODS",

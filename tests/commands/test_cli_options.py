@@ -243,7 +243,10 @@ def test_help_imports_no_heavy_module():
 
 def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
     """``neweul simulate FILE.yaml`` on a cache hit loads the verified module and integrates:
-    scipy.integrate yes (the command needs it), sympy and matplotlib no."""
+    scipy.integrate yes (the command needs it; SciPy's own __init__ imports scipy.optimize and
+    scipy.special with it); sympy, matplotlib and the analysis code simulate does not use
+    (frequency response, linearization, modes, equilibrium, animation, sweeps, plots: PEP 562
+    exports of neweul_py.analysis) no."""
     desc = str(EXAMPLES / "pendulum.yaml")
     code = (f"import os, sys\nos.environ['NEWEUL_CACHE'] = {str(tmp_path / 'c')!r}\n"
             "from neweul_py.cli import main\n"
@@ -256,6 +259,9 @@ def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
                                                      "neweul_py.codegen",
                                                      "neweul_py.equations",
                                                      "neweul_py.description"))) == []
+    unused = {f"neweul_py.analysis.{m}" for m in ("frf", "linearize", "modes", "equilibrium",
+                                                    "animate", "sweep", "plot", "compare")}
+    assert sorted(loaded & unused) == []
 
 
 def test_generate_of_a_rigid_model_imports_no_numpy(tmp_path):
