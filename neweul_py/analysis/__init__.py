@@ -18,6 +18,8 @@ Everything a script or notebook needs is importable from here::
 """
 
 import importlib
+import sys
+import types
 from typing import Any
 
 #: Where each public name lives: imported at its first use (PEP 562), so that ``neweul
@@ -41,6 +43,20 @@ _EXPORTS: dict[str, str] = {
     "SweepResult": "sweep", "sweep": "sweep",
     "grid": "sweep_cases", "read_cases": "sweep_cases",
 }
+
+
+class _Package(types.ModuleType):
+    """This package's module type: eight submodules share their name with the function they
+    export (``linearize``, ``modes``, ``simulate`` …). Importing such a submodule binds its
+    name on the package to the submodule; the package keeps the function there instead, as
+    ``from .linearize import linearize`` did (``neweul_py.analysis.linearize`` is the
+    function, the module is ``sys.modules["neweul_py.analysis.linearize"]``)."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if (isinstance(value, types.ModuleType) and _EXPORTS.get(name) == name
+                and value.__name__ == f"{__name__}.{name}"):
+            value = getattr(value, name)
+        super().__setattr__(name, value)
 
 
 def __getattr__(name: str) -> Any:
@@ -89,3 +105,5 @@ __all__ = [
     "simulate_constrained",
     "sweep",
 ]
+
+sys.modules[__name__].__class__ = _Package

@@ -146,6 +146,25 @@ def mutate_lines(lines: list[str], rng: random.Random) -> list[str]:
     return lines
 
 
+def mutate_bytes(data: bytes, rng: random.Random) -> bytes:
+    """A copy of a text file's bytes with 1–3 byte-level edits: bytes that are not UTF-8 (a
+    Latin-1 ``é``, a lone continuation byte), a NUL, a byte-order mark, a very long field, a
+    cut in the middle, CR line ends, a quote that never closes."""
+    data = bytearray(data)
+    inserts = [b"\xe9", b"\x80", b"\x00", b"\xef\xbb\xbf", b"9" * 5000, b",", b"\r\n",
+               b'"', b"\n\n\n", b"#", b"1e400", b"nan"]
+    for _ in range(rng.randint(1, 3)):
+        i = rng.randrange(len(data) + 1)
+        op = rng.randint(0, 2)
+        if op == 0:
+            data[i:i] = rng.choice(inserts)
+        elif op == 1:
+            del data[i:i + rng.randint(1, 8)]
+        else:
+            data = data[:i]
+    return bytes(data)
+
+
 def mutate_npz(arrays: dict[str, np.ndarray], rng: random.Random,
                meta_key: str = "meta") -> dict[str, np.ndarray]:
     """A copy of an ``.npz``'s arrays with 1–3 edits to the JSON metadata (a field replaced by
