@@ -15,7 +15,7 @@ import pytest
 
 from neweul_py.cli import COMMAND_MODULES, main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PENDULUM = str(ROOT / "examples" / "pendulum.yaml")
 GENERATED = ROOT / "generated"
 COMMANDS = [m.replace("_", "-") for m in COMMAND_MODULES]
@@ -64,6 +64,8 @@ BAD_INPUT = {
     "fem": ["fem", "beam", "--stiffening", "-o", "beam.json"],
     "sweep": ["sweep", "missing.yaml", "--param", "m=1,2", "--task", "equilibrium"],
     "compare": ["compare", "missing.csv", "other.csv"],
+    "middle-ear": ["middle-ear", "build", "--dir", "x", "-q", "--pressures=1000,0"],
+    "export": ["export", "missing.yaml", "--fmu", "model.fmu"],
 }
 
 
@@ -87,10 +89,11 @@ SUCCESS = {
     "body-info": ["body-info", "body.npz"],
     "sweep": ["sweep", PENDULUM, "--param", "l=0.5,1", "--task", "modes", "--workers", "1"],
 }
-#: Their success (exit 0) is tested with the FE models they need: tests/elastic/
-#: test_cli_reduce.py (compare-frf, frf-body), test_interpolation.py (interpolate), and
-#: below (compare).
-SUCCESS_ELSEWHERE = ("compare-frf", "frf-body", "interpolate", "compare")
+#: Their success (exit 0) is tested with the FE models and tools they need: compare-frf,
+#: frf-body and interpolate in tests/elastic, middle-ear in tests/middle_ear, export in
+#: tests/commands/test_export.py, compare below.
+SUCCESS_ELSEWHERE = ("compare-frf", "frf-body", "interpolate", "middle-ear", "export",
+                     "compare")
 
 
 def test_success_exits_0(capsys):
