@@ -114,11 +114,12 @@ class GeneratedModel:
     ``CONSTRAINTS`` …) and functions (``rhs``, ``mass_matrix`` …) of the module, so
     ``model.rhs(t, x, p)`` calls the module's ``rhs``. Optional constants are filled in
     (``COORDINATE_UNITS``, ``OUTPUT_UNITS``, ``INPUT_UNITS``, ``FRAMES``, ``BODIES`` …: empty
-    lists, ``INPUT_RATES``: ``{}``, ``BACKEND``: ``"numpy"``, ``LOSS_REFERENCE_FREQUENCY``:
-    ``None``); optional functions are ``None`` where the module has none. What the model can do
-    is asked of the properties (:attr:`has_constraints`, :attr:`compiled` …), never of the
-    module. Create it with :func:`load_generated` (a path) or :func:`as_model` (a path, a
-    module or any object with the protocol's names).
+    lists, ``INPUT_RATES``, ``PARAMETER_RANGES``: ``{}``, ``BACKEND``: ``"numpy"``,
+    ``BACKEND_ERROR``: ``""``, ``LOSS_REFERENCE_FREQUENCY``: ``None``); optional functions
+    are ``None`` where the module has none. What the model can do is asked of the properties
+    (:attr:`has_constraints`, :attr:`compiled` …), never of the module. Create it with
+    :func:`load_generated` (a path) or :func:`as_model` (a path, a module or any object with the
+    protocol's names).
     """
 
     module: Any
@@ -131,6 +132,7 @@ class GeneratedModel:
     COORDINATE_UNITS: list[str]
     INITIAL_STATE: list[float]
     PARAMETERS: dict[str, float]
+    PARAMETER_RANGES: dict[str, tuple[float | None, float | None]]
     INPUTS: list[str]
     INPUT_UNITS: list[str]
     INPUT_RATES: dict[str, list[str]]
@@ -147,6 +149,7 @@ class GeneratedModel:
     BODIES: list[dict[str, Any]]
     BACKEND: str
     BACKEND_NOTE: str
+    BACKEND_ERROR: str
     # functions
     default_parameters: Function
     default_inputs: Function
@@ -200,6 +203,8 @@ class GeneratedModel:
             BODIES=list(optional("BODIES", ())),
             BACKEND=str(optional("BACKEND", "numpy")),
             BACKEND_NOTE=str(optional("BACKEND_NOTE", "")),
+            BACKEND_ERROR=str(optional("BACKEND_ERROR", "")),
+            PARAMETER_RANGES=dict(optional("PARAMETER_RANGES", {})),
             **values,
             **{name: function(name) for name in _OPTIONAL_FUNCTIONS},
         )
