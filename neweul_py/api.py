@@ -316,9 +316,10 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
     return wrapper
 
 
-def _compiled(load: Callable[[], ModuleType]) -> ModuleType:
-    """The compiled module ``load()`` imports, which must run its C library: asked for
-    ``backend="c"``, a module that fell back to its NumPy twin (no cffi, no compiler, an
+def _compiled(load: Callable[[], Any]) -> Any:
+    """The compiled module ``load()`` imports (or its typed view,
+    :class:`~neweul_py.analysis.module.GeneratedModel`), which must run its C library: asked
+    for ``backend="c"``, a module that fell back to its NumPy twin (no cffi, no compiler, an
     untrusted library cache …) is one error naming why, never a warning and the NumPy
     module. Other warnings of the import (a rebuilt library) are passed on."""
     import sys
@@ -328,7 +329,8 @@ def _compiled(load: Callable[[], ModuleType]) -> ModuleType:
         warnings.simplefilter("always")
         module = load()
     if getattr(module, "BACKEND", "c") != "c":
-        sys.modules.pop(module.__name__, None)      # a later call tries the library again
+        imported = getattr(module, "module", module)   # the module behind a typed view
+        sys.modules.pop(imported.__name__, None)       # a later call tries the library again
         why = getattr(module, "BACKEND_ERROR", "") or getattr(module, "BACKEND_NOTE", "")
         raise NeweulError(f"the compiled backend (backend 'c') is unavailable for the model "
                           f"{module.MODEL_NAME!r}: {why}; the NumPy backend needs none of it")
