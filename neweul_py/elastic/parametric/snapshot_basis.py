@@ -33,7 +33,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
 from ...errors import DataError
 from ..bodies.invariants import Invariants
@@ -41,6 +40,7 @@ from ..bodies.parametric import ParametricBody, checked_slope_step
 from ..bodies.reduced import ReducedBody
 from ..bodies.static import StaticDeflection
 from ..fe_model import FEModel
+from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, build_reduced_body
 from ..reductors.static_state import static_deflection
 from .global_basis import energy_metric, g_orthonormal
@@ -104,11 +104,11 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
         D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
         for w in 2 * np.pi * f:
-            lu = spla.splu(sps.csc_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
+            lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
             X = lu.solve(np.asarray(F, dtype=complex))
             snaps += [X.real, X.imag]
             if adjoint is not None:
-                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), trans="T")
+                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), transpose=True)
                 snaps += [Y.real, Y.imag]
         _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
     S = np.hstack(snaps if prior is None else [np.asarray(prior, dtype=float), *snaps])
