@@ -263,6 +263,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
                                 tmp / "embs" / f"basis_r{options.refine}_{options.rtol:g}.npz",
                                 options, progress)
     step = float(options.slope_step)
+    projections: dict[str, Any] = {}        # each FE model projected on V once
 
     def slope_keywords(pts: list[float], static: bool) -> dict[str, Any]:
         if step <= 0:
@@ -284,7 +285,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
             models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
             static=static_states(sweeps.where, pts, manubrium) if static else None,
             interpolation=options.interpolation if step > 0 else "cubic",
-            **slope_keywords(pts, static))
+            projections=projections, **slope_keywords(pts, static))
         if not volume:
             return pb
         return pb.with_(coordinate=volume_coordinate(sweeps.where, fem / "static_curve.csv",
