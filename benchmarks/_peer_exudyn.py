@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Peer side of bench_compiled.py (d): a Hex20 flexible pendulum in Exudyn.
 
-Runs in the peer venv (``/work/venvs/peers``: exudyn, scikit-fem; never a dependency of
+Runs in a separate peer venv (exudyn, scikit-fem; never a dependency of
 neweul-py). The body is a block ``L × a × a`` (L = 1 m, a = 0.05 m, aluminium: E = 70 GPa,
 ν = 0.3, ρ = 2700 kg/m³) meshed by scikit-fem with ``ElementHexS2`` (20-node serendipity hex,
 ``nx × 2 × 2`` elements), linear elasticity M and K assembled there and handed to Exudyn's

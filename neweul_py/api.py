@@ -7,7 +7,9 @@ hands the module to ``analysis``.
 
 from __future__ import annotations
 
+import atexit
 import functools
+import gc
 import hashlib
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -52,6 +54,18 @@ FMU_KINDS: tuple[str, ...] = ("me", "cs", "both")
 #: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
 _GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic",
                        "ffrf")
+
+
+@functools.cache
+def _skip_collection_at_exit() -> None:
+    """Once a process has derived equations, exempt its objects from the collector at exit
+    (``atexit`` → :func:`gc.freeze`, as the ``neweul`` console script does): the
+    interpreter's shutdown otherwise collects and frees sympy's classes, functions and
+    caches one by one, ≈ 0.25 s CPU of the whole Hex20 pendulum benchmark process (1.36 →
+    1.12 s; ``benchmarks/bench_hex_pendulum_process.py``), memory the operating system takes
+    back anyway. Objects are still freed by reference counting; only reference cycles still
+    alive at exit are left unfinalized (close files explicitly)."""
+    atexit.register(gc.freeze)
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:
@@ -131,6 +145,7 @@ def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: For
     from .description import load_description_text
     from .equations import newton_euler
 
+    _skip_collection_at_exit()
     system = load_description_text(raw, os.fspath(description_path),
                                    elastic_reader=read_elastic_data)
     if not system.coordinates and not system.elastic_bodies:
@@ -208,6 +223,7 @@ def generate(
     if isinstance(source, System):
         from .equations import newton_euler
 
+        _skip_collection_at_exit()
         _check_form(form)
         equations = newton_euler(source, form=form, progress=progress)
         source_hash = source.fingerprint()
