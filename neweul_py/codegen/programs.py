@@ -18,8 +18,13 @@ from typing import Any
 
 import sympy as sp
 
+from ..equations.jacobians import (
+    Program,
+    force_jacobians,
+    mass_matrix_times_derivative,
+    output_jacobians,
+)
 from ..model import as_expr
-from ..model.canonical import add, mul
 from .blocks import derivative_block, mass_entries
 from .cse import Assignment, Block, CseMethod, eliminate, hoist_constant_factors
 
@@ -90,8 +95,7 @@ def dynamics_programs(eq: Any, inter: Sequence[Assignment], method: CseMethod,
                       d_method: CseMethod) -> DynamicsPrograms:
     """The :class:`DynamicsPrograms` of ``eq`` (``inter``: its intermediates as expressions)."""
     def compute() -> DynamicsPrograms:
-        y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
-        n = len(y)
+        n = len(eq.coordinates)
         M = sp.ImmutableMatrix(eq.mass_matrix) if n else sp.ImmutableMatrix.zeros(0, 0)
         fvec = sp.ImmutableMatrix(eq.force_vector) if n else sp.ImmutableMatrix.zeros(0, 1)
         m_values, m_where = mass_entries(M)
@@ -104,10 +108,11 @@ def dynamics_programs(eq: Any, inter: Sequence[Assignment], method: CseMethod,
             for i, j in places:
                 m_full[i, j] = value
         f_red = program.finals[nm:nm + n]
-        fj = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+        fj = derivative_block(force_jacobians(eq, Program(program.assignments, f_red)),
+                              d_method)
         a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
-        ma = [add(*(mul(m_full[i, j], a_syms[j]) for j in range(n))) for i in range(n)]
-        mj = derivative_block(program.assignments, ma, y, d_method)
+        mj = derivative_block(mass_matrix_times_derivative(
+            eq, a_syms, Program(program.assignments, tuple(m_full))), d_method)
         return DynamicsPrograms(program, m_where, m_full, fj, mj)
 
     return _remembered(eq, ("dynamics", method, d_method), compute)
@@ -125,10 +130,9 @@ def output_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatr
                     method: CseMethod, d_method: CseMethod) -> OutputPrograms:
     """The :class:`OutputPrograms` of ``eq`` for the outputs ``outs``."""
     def compute() -> OutputPrograms:
-        y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
         prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
-        return OutputPrograms(prog, derivative_block(prog.assignments, prog.finals,
-                                                     (*y, *yd, *u), d_method))
+        return OutputPrograms(prog, derivative_block(
+            output_jacobians(eq, Program(prog.assignments, prog.finals)), d_method))
 
     return _remembered(eq, ("outputs", method, d_method, tuple(outs)), compute)
 

@@ -4,8 +4,9 @@ A generated module is *composed* of named parts (:class:`ModuleParts`): the docs
 imports, the protocol constants and one source block per function. :func:`module_parts`
 renders the symbolic equations into such parts (every function straight-line code from
 :func:`.cse.eliminate`; scalars are Python floats with ``_math`` functions, arrays are
-assembled once with NumPy; Jacobians from symbolic derivatives,
-:func:`.derivatives.jacobian`, never finite differences), and :func:`compose` joins parts into
+assembled once with NumPy; Jacobians are the symbolic derivatives that
+:mod:`neweul_py.equations.jacobians` takes through the CSE'd program, never finite
+differences), and :func:`compose` joins parts into
 the module text. Writers of richer modules (elastic bodies, :mod:`.elastic`) select,
 rename and add parts — they never edit rendered text.
 

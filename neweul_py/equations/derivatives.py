@@ -7,17 +7,17 @@ assignments)::
     dz_k/dv_j = ∂e_k/∂v_j + Σ_{i<k} ∂e_k/∂z_i · dz_i/dv_j
     dE/dv_j   = ∂E/∂v_j   + Σ_i     ∂E/∂z_i   · dz_i/dv_j
 
-Each non-trivial ``dz_k/dv_j`` becomes a new intermediate, so the derivative code grows like the
-code it differentiates instead of exploding, and nothing is ever substituted back. The module
-writer differentiates the *CSE'd* program (common subexpressions are intermediates too), which
-keeps even closed-form Jacobians small. Partial derivatives are taken structurally (sum,
-product and chain rule over sympy's tree, ``fdiff`` for functions) — much faster than
-``sympy.diff`` on large sums; a ``Piecewise`` is differentiated branch by branch under the same
-conditions (the one-sided derivative at a switching point). The description language's
-non-smooth functions (:mod:`neweul_py.model.functions`) have finite derivatives of their own;
-distributional derivatives of sympy's own ``sign``, ``Heaviside``, ``Abs`` (``DiracDelta``, from
-models built in Python) are replaced by zero: the generated Jacobians are the derivatives almost
-everywhere.
+Each non-trivial ``dz_k/dv_j`` becomes a new intermediate, so the derivative code grows like
+the code it differentiates instead of exploding, and nothing is ever substituted back. Code
+generation asks for the derivatives of its *CSE'd* program (:mod:`.jacobians`; common
+subexpressions are intermediates too), which keeps even closed-form Jacobians small. Partial
+derivatives are taken structurally (sum, product and chain rule over sympy's tree, ``fdiff``
+for functions) — much faster than ``sympy.diff`` on large sums; a ``Piecewise`` is
+differentiated branch by branch under the same conditions (the one-sided derivative at a
+switching point). The description language's non-smooth functions
+(:mod:`neweul_py.model.functions`) have finite derivatives of their own; distributional
+derivatives of sympy's own ``sign``, ``Heaviside``, ``Abs`` (``DiracDelta``, from models built
+in Python) are replaced by zero: the generated Jacobians are the derivatives almost everywhere.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 import sympy as sp
 
 from ..model import as_expr
-from .cse import Assignment, free_symbols, numbered_symbols, prune
+from ..model.program import Assignment, free_symbols, numbered_symbols, prune
 
 __all__ = ["gradient", "jacobian"]
 
