@@ -11,6 +11,7 @@ import functools
 import hashlib
 import os
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
@@ -19,6 +20,7 @@ from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, writ
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
+from .yaml_tree import YamlTree, read_description
 
 if TYPE_CHECKING:
     import numpy as np
@@ -121,31 +123,44 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto",
         The :class:`~neweul_py.equations.Equations` and the SHA-256 of the file's bytes.
     """
     _check_form(form)
+    source = _parsed(description_path)
+    return _derive_tree(source.tree, form, progress), _sha256(source.raw)
+
+
+@dataclass(frozen=True)
+class _Parsed:
+    """A description's bytes and their YAML tree, read and parsed once (for the cache key,
+    which needs the data files it names, and for the derivation alike)."""
+
+    raw: bytes
+    tree: YamlTree
+
+
+def _parsed(description_path: str | os.PathLike[str]) -> _Parsed:
+    """Read and parse the description at ``description_path``."""
     raw = _read(description_path)
-    return _derive_text(raw, description_path, form, progress), _sha256(raw)
+    return _Parsed(raw, read_description(raw, os.fspath(description_path)))
 
 
-def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form,
-                 progress: StagedProgress = None) -> Any:
-    """The equations of a description's bytes (errors name ``description_path``)."""
-    from .description import load_description_text
+def _derive_tree(tree: YamlTree, form: Form, progress: StagedProgress = None) -> Any:
+    """The equations of a parsed description (errors name the tree's file)."""
+    from .description import load_description_tree
     from .equations import newton_euler
 
-    system = load_description_text(raw, os.fspath(description_path),
-                                   elastic_reader=read_elastic_data)
+    system = load_description_tree(tree, elastic_reader=read_elastic_data)
     if not system.coordinates and not system.elastic_bodies:
         raise DescriptionError(
             "the model has no coordinates to derive equations for: list its generalized "
             "coordinates under 'coordinates' (or add an elastic body)",
             "coordinates",
-            os.fspath(description_path),
+            tree.file,
         )
     try:
         return newton_euler(system, form=form, progress=progress)
     except DescriptionError:
         raise
     except ModelError as exc:  # found while deriving (e.g. coinciding spring points)
-        raise DescriptionError(exc.message, exc.key_path, os.fspath(description_path)) from None
+        raise DescriptionError(exc.message, exc.key_path, tree.file) from None
 
 
 def generate(
@@ -216,7 +231,7 @@ def generate(
 
         _check_form(form)
         raw = source.encode("utf-8")
-        equations = _derive_text(raw, "<description text>", form, progress)
+        equations = _derive_tree(read_description(raw, "<description text>"), form, progress)
         source_hash = description_hash(raw)
     elif isinstance(source, str | os.PathLike):
         equations, source_hash = derive(source, form, progress)
@@ -255,13 +270,13 @@ def _generate_cached(description_path: str | os.PathLike[str], out_dir: str | os
     from .atomic import atomic_write
 
     _check_form(form)
-    raw = _read(description_path)
-    source = verified_bytes(_cache_entry(raw, description_path, form, cache))
+    parsed = _parsed(description_path)
+    source = verified_bytes(_cache_entry(parsed, description_path, form, cache))
     name = None
-    if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(raw):
+    if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(parsed.raw):
         name = _constant_of(source, "MODEL_NAME")
     if not isinstance(name, str):
-        entry = _cached_source(description_path, form, cache)
+        entry = _cached_source(description_path, form, cache, parsed=parsed)
         source, name = entry.source, (entry.module.MODEL_NAME if entry.module is not None
                                       else entry.equations().system.name)
     return atomic_write(Path(out_dir) / f"{name}.py", source)
@@ -381,7 +396,7 @@ def _generator_fingerprint() -> str:
     return h.hexdigest()
 
 
-def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
+def _data_fingerprints(data: Any, description_path: str | os.PathLike[str]) -> list[str]:
     """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``,
     ``inputs.*.table``, relative to the description), so that a cached module is regenerated
     when its data change.
@@ -389,16 +404,9 @@ def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> 
     Each file is checked to be a regular file of sane size before it is read
     (:func:`neweul_py.files.read_checked`): ``data: /dev/zero`` or a FIFO is one clear error.
     A missing file is left to the loader, which reports it with its key path and line.
+    ``data``: the parsed description (:attr:`neweul_py.yaml_tree.YamlTree.data`).
     """
-    import yaml
-
-    from .yaml_shape import check_shape
-
-    try:   # libyaml's parser where PyYAML has it (30× the pure-Python one), safe either way
-        check_shape(raw, os.fspath(description_path))   # too deep or too big: one error now
-        tree = yaml.load(raw, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
-    except (yaml.YAMLError, RecursionError, ValueError, MemoryError):
-        return []  # the loader reports the error when the module is generated
+    tree = data
     if not isinstance(tree, dict):
         return []
     base = Path(description_path).parent
@@ -431,11 +439,11 @@ def _file_fingerprints(entries: dict, section: str, key: str, base: Path,
     return out
 
 
-def _cache_entry(raw: bytes, description_path: str | os.PathLike[str], form: str,
+def _cache_entry(parsed: _Parsed, description_path: str | os.PathLike[str], form: str,
                  cache: str | os.PathLike[str] | None) -> Path:
     """Path of the cached module of a description (in a trusted directory)."""
-    material = [_sha256(raw), form, _generator_fingerprint(),
-                *_data_fingerprints(raw, description_path)]
+    material = [_sha256(parsed.raw), form, _generator_fingerprint(),
+                *_data_fingerprints(parsed.tree.data, description_path)]
     key = hashlib.sha256("\n".join(material).encode()).hexdigest()
     directory = trusted_dir(cache)
     stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
@@ -460,14 +468,16 @@ class _Entry:
 
 def _cached_source(description_path: str | os.PathLike[str], form: Form,
                    cache: str | os.PathLike[str] | None,
-                   progress: StagedProgress = None) -> _Entry:
-    """The cache entry of a description, with its verified source and (on a hit) module."""
+                   progress: StagedProgress = None, parsed: _Parsed | None = None) -> _Entry:
+    """The cache entry of a description, with its verified source and (on a hit) module
+    (``parsed``: the description already read and parsed)."""
     _check_form(form)
-    raw = _read(description_path)
-    path = _cache_entry(raw, description_path, form, cache)
+    parsed = parsed or _parsed(description_path)
+    raw = parsed.raw
+    path = _cache_entry(parsed, description_path, form, cache)
 
     def derive_now() -> Any:
-        return _derive_text(raw, description_path, form, progress)
+        return _derive_tree(parsed.tree, form, progress)
 
     source = verified_bytes(path)
     if source is not None:

@@ -17,12 +17,12 @@ from typing import Any
 
 from ..errors import DescriptionError, ModelError
 from ..model import INERTIAL, System
+from ..yaml_tree import YamlTree, read_description
 from .builder import SystemBuilder
 from .elastic import base_directory, description_directory, load_elastic_bodies
 from .schema import Schema, section_items
 from .signals import load_table_input
 from .values import constant_number
-from .yaml_tree import YamlTree, read_yaml
 
 __all__ = [
     "SECTIONS",
@@ -30,6 +30,7 @@ __all__ = [
     "description_hash",
     "load_description",
     "load_description_text",
+    "load_description_tree",
 ]
 
 
@@ -221,7 +222,7 @@ def load_description_text(
     filename
         Shown in error messages; ``data`` files of elastic bodies are relative to it.
     elastic_reader
-        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies`` (issue 6),
+        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies``,
         e.g. :func:`neweul_py.elastic.io.reader.read_elastic_data`; the description layer does
         not import the elastic layer itself.
 
@@ -237,12 +238,15 @@ def load_description_text(
         keys, wrong shapes, bad expressions, unknown names or frames, frame cycles,
         unphysical masses and inertias.
     """
-    if isinstance(text, bytes):
-        try:
-            text = text.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise DescriptionError(f"not UTF-8 text ({exc.reason})", "", filename) from None
-    tree: YamlTree = read_yaml(text, filename)
+    return load_description_tree(read_description(text, filename),
+                                 elastic_reader=elastic_reader)
+
+
+def load_description_tree(tree: YamlTree, *, elastic_reader: Any = None) -> System:
+    """Load a description already parsed by :func:`neweul_py.yaml_tree.read_description`
+    (its ``file`` names it in errors; ``elastic_reader`` as in :func:`load_description_text`).
+    """
+    filename = tree.file
     try:
         with base_directory(filename, elastic_reader):
             return _build(tree.data)
