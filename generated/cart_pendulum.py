@@ -303,3 +303,252 @@ def body_properties(p):
     _c0 = (1/12)*mp*l*l
     v = _np.array((mc, mp, 0, 0, 0, 0, 0, -(1/2)*l, 0, 0, 0, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _e0 = Omega*t
+    Up = _np.zeros((1, 9))
+    Up[0, 6] = _math.sin(_e0)
+    Up[0, 7] = F0*t*_math.cos(_e0)
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    d_x, d_phi = _np.asarray(yd, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _k1 = -k
+    _k2 = -d
+    _k3 = _c0
+    _k4 = -mp
+    _c1 = g_*mp
+    _e0 = -_c0
+    _d0 = _e0*g_
+    _d1 = (-_c1)*(1/2)
+    _d2 = _e0*mp
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _c4 = l0 + x_
+    _c5 = abs(_c4)
+    _d3 = ((0.0 if _c4 == 0 else _math.copysign(1, _c4)))
+    _e1 = 1/_c5
+    _c6 = _c4*_e1
+    _d4 = _e1 + (_c4*(-1/(_c5*_c5)))*_d3
+    _e2 = d_phi*d_phi
+    _e3 = _c2*_c3
+    _e4 = _c3*_k4
+    _e5 = _c5 - l0
+    fp = _np.zeros((2, 9))
+    fp[0, 1] = (_c3*(_c2*g_ + _k3*_e2))*-1 + _e3*g_
+    fp[0, 2] = (_e4*_e2)*(1/2)
+    fp[0, 3] = (_c6*_e5)*-1
+    fp[0, 4] = (_c6*(_c6*d_x))*-1
+    fp[0, 5] = (_c6*_k1)*_d3 + (_k1*_e5 + _c6*_k2*d_x + _c6*(_k2*d_x))*_d4 + _c6*(_k1*-1)
+    fp[0, 8] = _e3*mp + _e4*_c2
+    fp[1, 1] = _c3*_d0
+    fp[1, 2] = _c3*_d1
+    fp[1, 8] = _c3*_d2
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _d0 = -_c0
+    _d1 = (-mp)*(1/2)
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _e0 = _c2*_a1
+    _e1 = _c2*_a0
+    dMa = _np.zeros((2, 9))
+    dMa[0, 0] = _a0
+    dMa[0, 1] = _e0*_d0 + _a0*(_c2*_c2 + _c3*_c3)
+    dMa[0, 2] = _e0*_d1
+    dMa[1, 1] = _e1*_d0 + (1/3)*_a1*l*l
+    dMa[1, 2] = _e1*_d1 + ((1/3)*_a1*mp)*(2*l)
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((4, 9))
+    y = x[:2]
+    yd = x[2:4]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[2:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    _o0 = _math.sin(phi)
+    Op = _np.zeros((2, 9))
+    Op[0, 2] = _o0*-1
+    Op[1, 3] = -x_
+    Op[1, 4] = -d_x
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    d_x, d_phi = _np.asarray(yd, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dyd0, _dyd1 = _np.asarray(dyd, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _s0 = (1/2)*_dp2
+    _k1 = -k
+    _s1 = -_dp3
+    _k2 = -d
+    _s2 = -_dp4
+    _k3 = _c0
+    _k4 = -mp
+    _s3 = -_dp1
+    _c1 = g_*mp
+    _s4 = mp*_dp8 + g_*_dp1
+    _k5 = _c1
+    _k6 = -_c0*_c1
+    _s5 = (-_c1)*_s0 + (-_c0)*_s4
+    _t0 = _math.cos(phi)
+    _e0 = _t0
+    _t1 = _math.sin(phi)
+    _s6 = (-_t1)*_dy1
+    _c2 = _e0
+    _e1 = _t1
+    _s7 = _t0*_dy1
+    _d0 = -_e1
+    _s8 = -_s7
+    _c3 = _e1
+    _d1 = _e0
+    _c4 = l0 + x_
+    _s9 = _dp5 + _dy0
+    _c5 = abs(_c4)
+    _t2 = ((0.0 if _c4 == 0 else _math.copysign(1, _c4)))
+    _s10 = _t2*_s9
+    _d2 = _t2
+    _e2 = 1/_c5
+    _t3 = -1/(_c5*_c5)
+    _s11 = _t3*_s10
+    _c6 = _c4*_e2
+    _s12 = _e2*_s9 + _c4*_s11
+    _d3 = _e2 + (_c4*_t3)*_d2
+    _s13 = (_d2*_t3)*_s9 + (_d2*(_c4*(--2/_c5**3)))*_s10 + _s11
+    _e3 = _c3*_k4
+    _s14 = _k4*_s7 + _c3*_s3
+    _t4 = _k2*d_x
+    _t5 = _c5 - l0
+    _t6 = _c6*d_x
+    _t7 = _c6*_k2
+    _t8 = _t7 + _t7
+    _t9 = d_phi*d_phi
+    _t10 = _c2*g_ + _k3*_t9
+    _t11 = 2*d_phi
+    _t12 = _k3*_t11
+    dfy = _np.zeros((2, 2))
+    dfy[0, 0] = (_d3*_k1)*_s10 + (_d2*_k1 + _d3*(_t4 + _t4))*_s12 + (_k1*_t5 + _c6*_k2*d_x + _c6*_t4)*_s13 + (_d2*_c6 + _d3*_t5)*_s1 + (_d3*(_t6 + _t6))*_s2 + (_d3*_t8)*_dyd0 + (_d3*(_k1*-1))*_dp5
+    dfy[0, 1] = (_d1*(_k5 + _k4*g_))*_s6 + (_d0*_k5)*_s7 + (_c3*_k5 + _e3*g_)*_s8 + (_c2*_k5 + _k4*_t10)*_s6 + (_d0*g_)*_s14 + (_d1*(_k4*_t9))*_s0 + (_d1*_t10)*_s3 + (_d0*_c3 + _d1*_c2)*_s4 + (_d1*(_k4*_t12))*_dyd1 + (_d0*_e3 + _d1*(_k4*_c2))*_dp8
+    dfy[1, 1] = _k6*_s6 + _d1*_s5
+    dfyd = _np.zeros((2, 2))
+    dfyd[0, 0] = _t8*_s12 + (_c6*_c6)*_s2
+    dfyd[0, 1] = _t12*_s14 + (_e3*_t11)*_s0 + (_e3*(_k3*2))*_dyd1
+    dfu = _np.zeros((2, 1))
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _s0 = (1/2)*_dp2
+    _k0 = -_c0*mp
+    _s1 = (-mp)*_s0 + (-_c0)*_dp1
+    _t0 = _math.cos(phi)
+    _c2 = _t0
+    _t1 = _math.sin(phi)
+    _s2 = (-_t1)*_dy1
+    _c3 = _t1
+    _s3 = _t0*_dy1
+    _t2 = _k0*_s2 + _c2*_s1
+    dM = _np.empty((2, 2))
+    dM[0, 0] = (mp*(2*_c2))*_s2 + (mp*(2*_c3))*_s3 + _dp0 + (_c2*_c2 + _c3*_c3)*_dp1
+    dM[0, 1] = _t2
+    dM[1, 0] = _t2
+    dM[1, 1] = (((1/3)*mp)*(2*l))*_dp2 + ((1/3)*l*l)*_dp1
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _s0 = (1/2)*_dp2
+    _k0 = -_c0*mp
+    _s1 = (-mp)*_s0 + (-_c0)*_dp1
+    _t0 = _math.cos(phi)
+    _e0 = _t0
+    _t1 = _math.sin(phi)
+    _s2 = (-_t1)*_dy1
+    _c2 = _e0
+    _e1 = _t1
+    _s3 = _t0*_dy1
+    _d0 = -_e1
+    _s4 = -_s3
+    _c3 = _e1
+    _d1 = _e0
+    _t2 = _a0*(mp*2)
+    _t3 = 2*_c2
+    _t4 = 2*_c3
+    ddMa = _np.zeros((2, 2))
+    ddMa[0, 1] = (_d0*_t2)*_s2 + (_d1*_t2)*_s3 + (_a0*(mp*_t3) + _k0*_a1)*_s4 + (_a0*(mp*_t4))*_s2 + (_d0*_a1)*_s1 + (_d0*(_a0*_t3) + _d1*(_a0*_t4))*_dp1
+    ddMa[1, 1] = (_k0*_a0)*_s4 + (_d0*_a0)*_s1
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dyd0, _dyd1 = _np.asarray(dx, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = _math.sin(phi)
+    _e0 = _t0
+    _t1 = _math.cos(phi)
+    _s0 = _t1*_dy1
+    _o0 = _e0
+    _e1 = _t1
+    _s1 = (-_t0)*_dy1
+    _d0 = _e1
+    _e2 = _o0*x_
+    _s2 = x_*_s0 + _o0*_dy0
+    _t2 = 2*_e1
+    _t3 = -_e0
+    dC = _np.zeros((2, 4))
+    dC[0, 0] = _t2*_s1 + (_o0 + _o0)*_s0
+    dC[0, 1] = (-l + _e2 + _e2)*_s1 + (x_*(_t2*-1))*_s0 + (x_*(_t3*2))*_s1 + (_d0*(1 + 1))*_s2 + (_d0*-1)*_dp2 + (_t2*_t3)*_dy0
+    dC[1, 0] = -_dp3
+    dC[1, 2] = -_dp4
+    dD = _np.zeros((2, 1))
+    return dC, dD

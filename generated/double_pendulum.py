@@ -375,3 +375,403 @@ def body_properties(p):
     _c1 = (1/12)*m2*l2*l2
     v = _np.array((m1, m2, 0, 0, -(1/2)*l1, 0, 0, -(1/2)*l2, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0), dtype=_np.float64)
     return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.empty((0, 5))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _d0 = m2*(1/2)
+    _k3 = -g_
+    _k4 = -m2
+    _k5 = _c1
+    _k6 = l1*m2
+    _d1 = -(1/2)*g_*l1
+    _d2 = -(1/2)*g_*m1
+    _d3 = -(1/2)*l1*m1
+    _k8 = _c2
+    _c3 = _math.cos(phi2)
+    _c4 = -_c1 + _c3*_k0
+    _d4 = _c3*-1
+    _d5 = -(1/2)
+    _c7 = _math.sin(phi2)
+    _c8 = _math.cos(phi1)
+    _c9 = _c7*_k3
+    _d6 = _c7*-1
+    _c10 = _math.sin(phi1)
+    _c11 = d_phi1*d_phi1
+    _c12 = _c8*_c9 + _c10*_c3*_k3 + _c11*_c7*_k0
+    _d7 = (_c11*_c7)*-1
+    _d8 = _c8*_d6 + (_c10*_c3)*-1
+    _e0 = (d_phi1 + d_phi2)**2
+    _e1 = _c7*(_c10*_c9 + _k5*_e0 + _c11*_c3*l1 + _c3*_c8*g_)
+    _e2 = _c4*_k4
+    _e3 = _c12*_k4
+    _e4 = _c7*_k6
+    fp = _np.zeros((2, 5))
+    fp[0, 0] = _c10*_d1
+    fp[0, 1] = (_c12*_c4)*-1 + _e1*l1
+    fp[0, 2] = _e2*_d7 + _e3*_d4 + _e1*m2 + _c10*_d2 + _e4*(_c11*_c3)
+    fp[0, 3] = _e3*_d5 + (_e4*_e0)*(1/2)
+    fp[0, 4] = _e2*_d8 + (_e4*_c10)*_d6 + _c10*_d3 + _e4*(_c3*_c8)
+    fp[1, 1] = _c12*_c1
+    fp[1, 2] = _k8*_d7
+    fp[1, 3] = _c12*_d0
+    fp[1, 4] = _k8*_d8
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _c0 = l1*l1
+    _d0 = 2*l1
+    _d1 = m2*_d0
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _d2 = m2*(1/2)
+    _k2 = -_c2
+    _e0 = -_c1
+    _d3 = _e0
+    _d4 = -_d2
+    _c3 = _math.cos(phi2)
+    _c4 = _e0 + _c3*_k0
+    _d5 = _c3*-1
+    _d6 = -(1/2)
+    _d7 = l2*l2
+    _d8 = m2*(2*l2)
+    _d9 = (1/12)*_d7
+    _d10 = (1/12)*_d8
+    _c7 = _math.sin(phi2)
+    _e1 = _a0 + _a1
+    _e2 = _a0*_c7*_c7
+    _e3 = _a1*_c4
+    _e4 = _a0*(m2*(2*_c4)) + _a1*_k2
+    _e5 = (1/3)*_a1
+    _e6 = _a0*_c4
+    _e7 = _a0*_k2
+    dMa = _np.zeros((2, 5))
+    dMa[0, 0] = _a0*((1/3)*_c0)
+    dMa[0, 1] = _e1*_d9 + _e2*_c0 + _e3*_d3 + _a0*_c4*_c4
+    dMa[0, 2] = (_a0*((1/3)*m1))*_d0 + _e4*_d5 + _e2*_d1
+    dMa[0, 3] = _e4*_d6 + _e1*_d10 + _e3*_d4
+    dMa[1, 1] = _e5*_d7 + _a0*_d9 + _e6*_d3
+    dMa[1, 2] = _e7*_d5
+    dMa[1, 3] = _e7*_d6 + _e5*_d8 + _a0*_d10 + _e6*_d4
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    J = _np.zeros((4, 5))
+    y = x[:2]
+    yd = x[2:4]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[2:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
+    _o0 = _math.sin(phi2)
+    _d0 = _o0*_o0
+    _o2 = _math.cos(phi2)
+    _e0 = -_o2
+    _d1 = _e0
+    _d2 = -_d0 + _o2*_d1
+    _d3 = _o2*-1
+    _o6 = _math.sin(phi1)
+    _d4 = _o0*_o2
+    _d5 = _o0*_d1 + _d4
+    _d6 = _o0*-1
+    _o9 = _math.cos(phi1)
+    _d7 = _e0
+    _e1 = -_o6
+    _e2 = _o9*_o2 + _e1*_o0
+    Op = _np.zeros((4, 5))
+    Op[0, 2] = _o6*_d2 + _o9*_d5
+    Op[0, 3] = _o6*_d3 + _o9*_d6
+    Op[1, 2] = _o9*_d2 + _e1*_d5
+    Op[1, 3] = _o9*_d3 + _e1*_d6
+    Op[2, 2] = -(1/2)*_o9
+    Op[3, 2] = (_o9*-1)*_d0 + _e2*_d7 + _e1*_d4
+    Op[3, 3] = _e2*(-1/2)
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dyd0, _dyd1 = _np.asarray(dyd, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _s0 = -_dp2
+    _c1 = (1/2)*l2
+    _s1 = (1/2)*_dp3
+    _c2 = _c1*m2
+    _s2 = m2*_s1 + _c1*_dp1
+    _k3 = -g_
+    _s3 = -_dp4
+    _k4 = -m2
+    _s4 = -_dp1
+    _k5 = _c1
+    _k6 = l1*m2
+    _s5 = m2*_dp2 + l1*_dp1
+    _k7 = -(1/2)*g_*l1*m1
+    _s6 = (-(1/2)*l1*m1)*_dp4 + (-(1/2)*g_*m1)*_dp2 + (-(1/2)*g_*l1)*_dp0
+    _k8 = _c2
+    _t0 = _math.cos(phi2)
+    _e0 = _t0
+    _t1 = _math.sin(phi2)
+    _s7 = (-_t1)*_dy1
+    _c3 = _e0
+    _e1 = _t1
+    _s8 = _t0*_dy1
+    _d0 = -_e1
+    _s9 = -_s8
+    _c4 = -_c1 + _c3*_k0
+    _s10 = -_s1 + _k0*_s7 + _c3*_s0
+    _d1 = _k0*_d0
+    _s11 = _k0*_s9 + _d0*_s0
+    _c7 = _e1
+    _d2 = _e0
+    _t2 = _math.cos(phi1)
+    _e2 = _t2
+    _t3 = _math.sin(phi1)
+    _s12 = (-_t3)*_dy0
+    _c8 = _e2
+    _e3 = _t3
+    _s13 = _t2*_dy0
+    _d3 = -_e3
+    _s14 = -_s13
+    _c9 = _c7*_k3
+    _s15 = _k3*_s8 + _c7*_s3
+    _d4 = _k3*_d2
+    _s16 = _k3*_s7 + _d2*_s3
+    _c10 = _e3
+    _d5 = _e2
+    _c11 = d_phi1*d_phi1
+    _t4 = 2*d_phi1
+    _s17 = _t4*_dyd0
+    _e4 = _t4
+    _s18 = 2*_dyd0
+    _d6 = _e4
+    _c12 = _c8*_c9 + _c10*_c3*_k3 + _c11*_c7*_k0
+    _t5 = _c3*_k3
+    _t6 = _c7*_k0
+    _t7 = _c10*_k3
+    _t8 = _c11*_k0
+    _s19 = _t5*_s13 + _t6*_s17 + _t7*_s7 + _t8*_s8 + _c9*_s12 + _c8*_s15 + (_c11*_c7)*_s0 + (_c10*_c3)*_s3
+    _d7 = _t5*_d5 + _c9*_d3
+    _s20 = (_d5*_k3)*_s7 + _d3*_s15 + _c9*_s14 + _t5*_s12 + (_d5*_c3)*_s3
+    _d8 = _t7*_d0 + _t8*_d2 + _c8*_d4
+    _s21 = (_d0*_k3)*_s13 + (_d2*_k0)*_s17 + _d4*_s12 + _t7*_s9 + _t8*_s7 + _c8*_s16 + (_d2*_c11)*_s0 + (_d0*_c10)*_s3
+    _d9 = _t6*_d6
+    _s22 = (_d6*_k0)*_s8 + _t6*_s18 + (_d6*_c7)*_s0
+    _e5 = _c7*_k6
+    _s23 = _k6*_s8 + _c7*_s5
+    _e6 = _c4*_k4
+    _s24 = _k4*_s10 + _c4*_s4
+    _t9 = 2*d_phi2
+    _t10 = _e4 + _t9
+    _s25 = (_e5*_k5)*_s18 + (_k5*_t10)*_s23 + (_e5*_t10)*_s1 + (_e5*(_k5*2))*_dyd1
+    _t11 = _e5*g_
+    _t12 = _c3*g_
+    _t13 = _e5*_c3
+    _t14 = _e5*l1
+    _t15 = _c3*l1
+    _t16 = _c11*l1 + _c8*g_
+    _t17 = (d_phi1 + d_phi2)**2
+    _t18 = _c10*_c9 + _k5*_t17 + _c11*_c3*l1 + _c3*_c8*g_
+    _t19 = _d2*(_k6*(_k5*(_t4 + _t9)))
+    dfy = _np.empty((2, 2))
+    dfy[0, 0] = (_d3*_t11)*_s7 + (_d5*_e5)*_s15 + (_e5*_t12)*_s14 + (_k7 + _e5*_c9)*_s12 + _e6*_s20 + (_d5*_c9 + _d3*_t12)*_s23 + _d7*_s24 + _d5*_s6 + (_d3*_t13)*_dp4
+    dfy[0, 1] = (_d2*(_k6*_c9) + _d4*_e5)*_s13 + (_d0*_t14 + _d2*(_k6*_t15))*_s17 + (_d1*_k4)*_s19 + (_d2*(_k6*_t16))*_s7 + (_d0*_t11 + _d2*(_k6*_t12))*_s12 + (_d2*(_k6*_c10))*_s15 + (_e5*_t16)*_s9 + (_c12*_k4)*_s11 + (_k6*_t18)*_s7 + (_e5*_c10)*_s16 + _e6*_s21 + (_d0*_t16 + _d4*_c10)*_s23 + _d8*_s24 + (_d1*_c12)*_s4 + (_d2*(_k6*_t17))*_s1 + (_d2*_t18)*_s5 + _t19*_dyd0 + _t19*_dyd1 + (_d0*(_e5*_c8) + _d2*(_k6*(_c3*_c8)))*_dp4 + (_d0*(_e5*_c11) + _d2*(_k6*(_c11*_c3)))*_dp2
+    dfy[1, 0] = _k8*_s20 + _d7*_s2
+    dfy[1, 1] = _k8*_s21 + _d8*_s2
+    dfyd = _np.zeros((2, 2))
+    dfyd[0, 0] = (_d6*_t14)*_s7 + (_e5*_t15)*_s18 + _e6*_s22 + (_d6*_t15)*_s23 + _d9*_s24 + _s25 + (_d6*_t13)*_dp2
+    dfyd[0, 1] = _s25
+    dfyd[1, 0] = _k8*_s22 + _d9*_s2
+    dfu = _np.empty((2, 0))
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _s0 = -_dp2
+    _c0 = l1*l1
+    _s1 = (2*l1)*_dp2
+    _k1 = _c0*m2
+    _s2 = m2*_s1 + _c0*_dp1
+    _c1 = (1/2)*l2
+    _s3 = (1/2)*_dp3
+    _c2 = _c1*m2
+    _s4 = m2*_s3 + _c1*_dp1
+    _k2 = -_c2
+    _s5 = -_s4
+    _t0 = _math.cos(phi2)
+    _c3 = _t0
+    _t1 = _math.sin(phi2)
+    _s6 = (-_t1)*_dy1
+    _c4 = -_c1 + _c3*_k0
+    _s7 = -_s3 + _k0*_s6 + _c3*_s0
+    _s8 = (m2*(2*l2))*_dp3 + l2*l2*_dp1
+    _s9 = (1/12)*_s8
+    _c7 = _t1
+    _s10 = _t0*_dy1
+    _t2 = _k2*_s7 + _s9 + _c4*_s5
+    dM = _np.empty((2, 2))
+    dM[0, 0] = ((1/3)*m1)*_s1 + (m2*(2*_c4))*_s7 + _s9 + (_k1*(2*_c7))*_s10 + _c7*_c7*_s2 + ((1/3)*_c0)*_dp0 + _c4*_c4*_dp1
+    dM[0, 1] = _t2
+    dM[1, 0] = _t2
+    dM[1, 1] = (1/3)*_s8
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _s0 = -_dp2
+    _c0 = l1*l1
+    _s1 = (2*l1)*_dp2
+    _k1 = _c0*m2
+    _s2 = m2*_s1 + _c0*_dp1
+    _c1 = (1/2)*l2
+    _s3 = (1/2)*_dp3
+    _c2 = _c1*m2
+    _s4 = m2*_s3 + _c1*_dp1
+    _k2 = -_c2
+    _s5 = -_s4
+    _t0 = _math.cos(phi2)
+    _e0 = _t0
+    _t1 = _math.sin(phi2)
+    _s6 = (-_t1)*_dy1
+    _c3 = _e0
+    _e1 = _t1
+    _s7 = _t0*_dy1
+    _d0 = -_e1
+    _s8 = -_s7
+    _c4 = -_c1 + _c3*_k0
+    _s9 = -_s3 + _k0*_s6 + _c3*_s0
+    _d1 = _k0*_d0
+    _s10 = _k0*_s8 + _d0*_s0
+    _c7 = _e1
+    _d2 = _e0
+    _t2 = 2*_c4
+    _t3 = 2*_c7
+    ddMa = _np.zeros((2, 2))
+    ddMa[0, 1] = (_d1*(_a0*(m2*2)))*_s9 + (_d2*(_a0*(_k1*2)))*_s7 + (_a0*(m2*_t2) + _a1*_k2)*_s10 + (_a0*(_k1*_t3))*_s6 + (_d2*(_a0*_t3))*_s2 + (_d1*_a1)*_s5 + (_d1*(_a0*_t2))*_dp1
+    ddMa[1, 1] = (_a0*_k2)*_s10 + (_d1*_a0)*_s5
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dyd0, _dyd1 = _np.asarray(dx, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = _math.sin(phi2)
+    _e0 = _t0
+    _t1 = _math.cos(phi2)
+    _s0 = _t1*_dy1
+    _o0 = _e0
+    _e1 = _t1
+    _s1 = (-_t0)*_dy1
+    _d0 = _e1
+    _t2 = _o0*_o0
+    _o1 = l1*_t2
+    _t3 = 2*_o0
+    _t4 = l1*_t3
+    _s2 = _t4*_s0 + _t2*_dp2
+    _d1 = _t4*_d0
+    _s3 = _t4*_s1 + (_d0*(l1*2))*_s0 + (_d0*_t3)*_dp2
+    _o2 = _e1
+    _d2 = -_e0
+    _s4 = -_s0
+    _o3 = _o2*l1
+    _s5 = l1*_s1 + _o2*_dp2
+    _d3 = l1*_d2
+    _s6 = l1*_s4 + _d2*_dp2
+    _e2 = -_o3
+    _s7 = -_s5
+    _o4 = _e2 - l2
+    _s8 = _s7 - _dp3
+    _e3 = -_d3
+    _s9 = -_s6
+    _d4 = _e3
+    _e4 = -_o1
+    _s10 = -_s2
+    _o5 = _e4 + _o2*_o4
+    _t5 = _o4*_s1
+    _s11 = _s10 + _t5 + _o2*_s8
+    _d5 = -_d1 + _o4*_d2 + _o2*_d4
+    _s12 = -_s3 + _o4*_s4 + _o2*_s9 + _d4*_s1 + _d2*_s8
+    _t6 = _math.sin(phi1)
+    _e5 = _t6
+    _t7 = _math.cos(phi1)
+    _s13 = _t7*_dy0
+    _o6 = _e5
+    _e6 = _t7
+    _s14 = (-_t6)*_dy0
+    _d6 = _e6
+    _o7 = _o0*_o3
+    _s15 = _o3*_s0 + _o0*_s5
+    _d7 = _o3*_d0 + _o0*_d3
+    _s16 = _o3*_s1 + _o0*_s6 + _d3*_s0 + _d0*_s5
+    _o8 = _o7 + _o0*_o4
+    _s17 = _o4*_s0 + _o0*_s8 + _s15
+    _d8 = _o4*_d0 + _o0*_d4 + _d7
+    _s18 = _t5 + _o0*_s9 + _s16 + _d4*_s0 + _d0*_s8
+    _o9 = _e6
+    _d9 = -_e5
+    _t8 = -_s13
+    _s19 = _t8
+    _o10 = _e2 - (1/2)*l2
+    _s20 = _s7 - (1/2)*_dp3
+    _d10 = _e3
+    _e7 = -_o6
+    _s21 = _t8
+    _t9 = _d6*-1
+    dC = _np.zeros((4, 4))
+    dC[0, 0] = _o5*_s14 + _o8*_s19 + _d6*_s11 + _d9*_s17
+    dC[0, 1] = _o6*_s12 + _o9*_s18 + _d5*_s13 + _d8*_s14
+    dC[1, 0] = (-_o8)*_s14 + _o5*_s19 + _d9*_s11 + _t9*_s17
+    dC[1, 1] = _o9*_s12 + _e7*_s18 + _d8*_s21 + _d5*_s14
+    dC[2, 0] = (-(1/2)*l1)*_s19 + (_d9*(-1/2))*_dp2
+    dC[3, 0] = (-(_o7 + _o0*_o10))*_s14 + (_e4 + _o10*_o2)*_s19 + _d9*_s10 + (_d6*(-_o10))*_s0 + (_d6*(-_o0) + _d9*_o2)*_s20 + (_d9*_o10)*_s1 + _t9*_s15
+    dC[3, 1] = (_e7*_o10)*_s1 + (_o9*-1)*_s3 + (_o9*_o2 + _e7*_o0)*_s9 + (_o9*_o10)*_s4 + _e7*_s16 + (_d0*_o10 + _d10*_o0 + _d7)*_s21 + (_d10*_e7)*_s0 + (_d0*_e7 + _d2*_o9)*_s20 + (_d10*_o9)*_s1 + (_d1*-1 + _d10*_o2 + _d2*_o10)*_s14
+    dD = _np.empty((4, 0))
+    return dC, dD

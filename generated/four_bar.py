@@ -417,3 +417,379 @@ def body_properties(p):
     _c2 = (1/12)*mc*c*c
     v = _np.array((ma, mb, mc, (1/2)*a_, 0, 0, (1/2)*b, 0, 0, (1/2)*c, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c2, 0, 0, 0, _c2), dtype=_np.float64)
     return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.zeros((1, 11))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _d0 = mb*(1/2)
+    _k3 = -g_
+    _e0 = -mb
+    _k4 = _e0
+    _e1 = -_c1
+    _k5 = _e1
+    _d1 = -(1/2)
+    _e2 = -a_
+    _k6 = _e2
+    _k7 = -a_*mb
+    _d2 = _e0
+    _d3 = _e2
+    _c3 = (1/2)*g_
+    _d4 = -_c3*ma
+    _d5 = -_c3*a_
+    _d6 = (-a_*ma)*(1/2)
+    _k9 = -_c2
+    _d7 = -_d0
+    _d8 = _e1
+    _k10 = -kr
+    _d9 = -_c3*mc
+    _d10 = -_c3*c
+    _d11 = (-c*mc)*(1/2)
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _c8 = _math.sin(phi2)
+    _c9 = d_phi1*d_phi1
+    _c10 = _math.cos(phi1)
+    _c11 = _c10*g_
+    _c12 = _math.sin(phi1)
+    _c13 = _c11*_c4 + _c12*_c8*_k3 + _c8*_c9*a_
+    _d12 = _c8*_c9
+    _d13 = _c4*_c10 + (_c12*_c8)*-1
+    _e3 = _c5*_k4
+    _e4 = _c13*_k4
+    _e5 = _c8*_k7
+    _e6 = (-d_phi1 - d_phi2)**2
+    _e7 = _c8*(_c11*_c8 + _k5*_e6 + _c12*_c4*g_ + _c4*_c9*_k6)
+    _e8 = _math.cos(phi3)
+    fp = _np.zeros((3, 11))
+    fp[0, 0] = _e3*_d12 + _e4*_c4 + (_e5*(_c4*_c9))*-1 + _e7*_d2 + _c10*_d4
+    fp[0, 1] = _e4*(1/2) + (_e5*_e6)*_d1
+    fp[0, 4] = _c10*_d5
+    fp[0, 5] = (_c13*_c5)*-1 + _e7*_d3
+    fp[0, 9] = d_phi1*-1
+    fp[0, 10] = (_e5*_c8)*_c10 + _e3*_d13 + _c10*_d6 + _e5*(_c12*_c4)
+    fp[1, 0] = _k9*_d12
+    fp[1, 1] = _c13*_d7
+    fp[1, 5] = _c13*_d8
+    fp[1, 10] = _k9*_d13
+    fp[2, 2] = _e8*_d9
+    fp[2, 6] = _e8*_d10
+    fp[2, 7] = (phi3 - phi30)*-1
+    fp[2, 8] = _k10*-1
+    fp[2, 9] = d_phi3*-1
+    fp[2, 10] = _e8*_d11
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = a_*a_
+    _d0 = 2*a_
+    _d1 = mb*_d0
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _d2 = mb*(1/2)
+    _k1 = _c2
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _d3 = mb*(2*b)
+    _d4 = b*b
+    _d5 = (1/12)*_d3
+    _d6 = (1/12)*_d4
+    _c8 = _math.sin(phi2)
+    _e0 = _a0*(mb*(2*_c5)) + _a1*_k1
+    _e1 = _a0*_c8*_c8
+    _e2 = _a0 + _a1
+    _e3 = _a1*_c5
+    _e4 = _a0*_k1
+    _e5 = (1/3)*_a1
+    _e6 = _a0*_c5
+    dMa = _np.zeros((3, 11))
+    dMa[0, 0] = (_a0*((1/3)*ma))*_d0 + _e0*_c4 + _e1*_d1
+    dMa[0, 1] = _e0*(1/2) + _e2*_d5 + _e3*_d2
+    dMa[0, 4] = _a0*((1/3)*_c0)
+    dMa[0, 5] = _e2*_d6 + _e1*_c0 + _e3*_c1 + _a0*_c5*_c5
+    dMa[1, 0] = _e4*_c4
+    dMa[1, 1] = _e4*(1/2) + _e5*_d3 + _a0*_d5 + _e6*_d2
+    dMa[1, 5] = _e5*_d4 + _a0*_d6 + _e6*_c1
+    dMa[2, 2] = ((1/3)*_a2*mc)*(2*c)
+    dMa[2, 6] = (1/3)*_a2*c*c
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((6, 11))
+    y = x[:3]
+    yd = x[3:6]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[3:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _o0 = _math.sin(phi2)
+    _o1 = _math.cos(phi2)
+    _e0 = _math.cos(phi1)
+    _e1 = _math.sin(phi1)
+    _e2 = _e0*_o0 + _e1*_o1
+    Op = _np.zeros((3, 11))
+    Op[0, 7] = phi3 - phi30
+    Op[0, 8] = kr*-1
+    Op[0, 9] = d_phi3
+    Op[2, 0] = (_e0*(-_o0))*_o1 + _e2*_o1 + _e1*_o0*_o0
+    Op[2, 1] = _e2
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dyd0, _dyd1, _dyd2 = _np.asarray(dyd, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _c1 = (1/2)*b
+    _s0 = (1/2)*_dp1
+    _c2 = _c1*mb
+    _s1 = mb*_s0 + _c1*_dp5
+    _s2 = -_dp9
+    _k3 = -g_
+    _s3 = -_dp10
+    _t0 = -mb
+    _k4 = _t0
+    _s4 = -_dp5
+    _k5 = -_c1
+    _s5 = -_s0
+    _t1 = -a_
+    _k6 = _t1
+    _s6 = -_dp0
+    _k7 = -a_*mb
+    _s7 = _t0*_dp0 + _t1*_dp5
+    _c3 = (1/2)*g_
+    _s8 = (1/2)*_dp10
+    _k8 = -_c3*a_*ma
+    _s9 = (-a_*ma)*_s8 + (-_c3*ma)*_dp0 + (-_c3*a_)*_dp4
+    _k9 = -_c2
+    _s10 = -_s1
+    _s11 = -_dp7
+    _k11 = -_c3*c*mc
+    _s12 = (-c*mc)*_s8 + (-_c3*mc)*_dp2 + (-_c3*c)*_dp6
+    _t2 = _math.cos(phi2)
+    _e0 = _t2
+    _t3 = _math.sin(phi2)
+    _s13 = (-_t3)*_dy1
+    _c4 = _e0
+    _e1 = _t3
+    _s14 = _t2*_dy1
+    _d0 = -_e1
+    _s15 = -_s14
+    _c5 = _c1 + _c4*a_
+    _s16 = _s0 + a_*_s13 + _c4*_dp0
+    _d1 = a_*_d0
+    _s17 = a_*_s15 + _d0*_dp0
+    _c8 = _e1
+    _d2 = _e0
+    _c9 = d_phi1*d_phi1
+    _t4 = 2*d_phi1
+    _s18 = _t4*_dyd0
+    _d3 = _t4
+    _s19 = 2*_dyd0
+    _t5 = _math.cos(phi1)
+    _e2 = _t5
+    _t6 = _math.sin(phi1)
+    _s20 = (-_t6)*_dy0
+    _c10 = _e2
+    _e3 = _t6
+    _s21 = _t5*_dy0
+    _d4 = -_e3
+    _s22 = -_s21
+    _c11 = _c10*g_
+    _s23 = g_*_s20 + _c10*_dp10
+    _d5 = g_*_d4
+    _s24 = g_*_s22 + _d4*_dp10
+    _c12 = _e3
+    _d6 = _e2
+    _c13 = _c11*_c4 + _c12*_c8*_k3 + _c8*_c9*a_
+    _t7 = _c8*_k3
+    _t8 = _c12*_k3 + _c9*a_
+    _t9 = _c8*a_
+    _s25 = _c4*_s23 + _t7*_s21 + _c11*_s13 + _t8*_s14 + _t9*_s18 + (_c12*_c8)*_s3 + (_c8*_c9)*_dp0
+    _d7 = _c4*_d5 + _t7*_d6
+    _s26 = _d5*_s13 + (_d6*_k3)*_s14 + _c4*_s24 + _t7*_s20 + (_d6*_c8)*_s3
+    _d8 = _c11*_d0 + _t8*_d2
+    _s27 = _d0*_s23 + (_d2*_k3)*_s21 + (_d2*a_)*_s18 + _c11*_s15 + _t8*_s13 + (_d2*_c12)*_s3 + (_d2*_c9)*_dp0
+    _d9 = _t9*_d3
+    _s28 = (_d3*a_)*_s14 + _t9*_s19 + (_d3*_c8)*_dp0
+    _e4 = _c8*_k7
+    _s29 = _k7*_s14 + _c8*_s7
+    _e5 = _c5*_k4
+    _s30 = _k4*_s16 + _c5*_s4
+    _t10 = (-2*d_phi1 - 2*d_phi2)*-1
+    _t11 = _k5*_t10
+    _t12 = _e4*(_k5*(--2))
+    _s31 = _t11*_s29 + (_e4*_t10)*_s5 + _t12*_dyd0 + _t12*_dyd1
+    _t13 = _e4*g_
+    _t14 = _c4*g_
+    _t15 = _e4*_c4
+    _t16 = _c12*g_ + _c9*_k6
+    _t17 = _e4*_k6
+    _t18 = _c4*_k6
+    _t19 = (-d_phi1 - d_phi2)**2
+    _t20 = _c11*_c8 + _k5*_t19 + _c12*_c4*g_ + _c4*_c9*_k6
+    _t21 = _d2*(_k7*_t11)
+    dfy = _np.zeros((3, 3))
+    dfy[0, 0] = (_d6*_t13)*_s13 + (_d5*_e4)*_s14 + _k8*_s22 + (_e4*_c8)*_s24 + (_e4*_t14)*_s20 + _e5*_s26 + (_d5*_c8 + _d6*_t14)*_s29 + _d7*_s30 + _d4*_s9 + (_d6*_t15)*_dp10
+    dfy[0, 1] = (_d2*(_k7*_c8 + _e4))*_s23 + (_d0*_t13 + _d2*(_k7*_t14))*_s21 + (_d1*_k4)*_s25 + (_d2*(_k7*_t16))*_s13 + (_d2*(_k7*_c11))*_s14 + (_d0*_t17 + _d2*(_k7*_t18))*_s18 + (_e4*_t16)*_s15 + (_c13*_k4)*_s17 + (_k7*_t20 + _e4*_c11)*_s13 + _e5*_s27 + (_d0*_t16 + _d2*_c11)*_s29 + _d8*_s30 + (_d1*_c13)*_s4 + (_d2*(_k7*_t19))*_s5 + (_d0*(_e4*_c9) + _d2*(_k7*(_c4*_c9)))*_s6 + (_d2*_t20)*_s7 + _t21*_dyd0 + _t21*_dyd1 + (_d0*(_e4*_c12) + _d2*(_k7*(_c12*_c4)))*_dp10
+    dfy[1, 0] = _k9*_s26 + _d7*_s10
+    dfy[1, 1] = _k9*_s27 + _d8*_s10
+    dfy[2, 2] = _s11 + (-_math.sin(phi3))*_s12 + (_k11*(-_math.cos(phi3)))*_dy2
+    dfyd = _np.zeros((3, 3))
+    dfyd[0, 0] = (_d3*_t17)*_s13 + (_e4*_t18)*_s19 + _e5*_s28 + (_d3*_t18)*_s29 + _d9*_s30 + _s31 + _s2 + (_d3*_t15)*_s6
+    dfyd[0, 1] = _s31
+    dfyd[1, 0] = _k9*_s28 + _d9*_s10
+    dfyd[2, 2] = _s2
+    dfu = _np.zeros((3, 1))
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _c0 = a_*a_
+    _s0 = (2*a_)*_dp0
+    _k0 = _c0*mb
+    _s1 = mb*_s0 + _c0*_dp5
+    _c1 = (1/2)*b
+    _s2 = (1/2)*_dp1
+    _c2 = _c1*mb
+    _s3 = mb*_s2 + _c1*_dp5
+    _k1 = _c2
+    _t0 = _math.cos(phi2)
+    _c4 = _t0
+    _t1 = _math.sin(phi2)
+    _s4 = (-_t1)*_dy1
+    _c5 = _c1 + _c4*a_
+    _s5 = _s2 + a_*_s4 + _c4*_dp0
+    _s6 = (mb*(2*b))*_dp1 + b*b*_dp5
+    _s7 = (1/12)*_s6
+    _c8 = _t1
+    _s8 = _t0*_dy1
+    _t2 = _k1*_s5 + _s7 + _c5*_s3
+    dM = _np.zeros((3, 3))
+    dM[0, 0] = ((1/3)*ma)*_s0 + (mb*(2*_c5))*_s5 + _s7 + (_k0*(2*_c8))*_s8 + _c8*_c8*_s1 + ((1/3)*_c0)*_dp4 + _c5*_c5*_dp5
+    dM[0, 1] = _t2
+    dM[1, 0] = _t2
+    dM[1, 1] = (1/3)*_s6
+    dM[2, 2] = (((1/3)*mc)*(2*c))*_dp2 + ((1/3)*c*c)*_dp6
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _c0 = a_*a_
+    _s0 = (2*a_)*_dp0
+    _k0 = _c0*mb
+    _s1 = mb*_s0 + _c0*_dp5
+    _c1 = (1/2)*b
+    _s2 = (1/2)*_dp1
+    _c2 = _c1*mb
+    _s3 = mb*_s2 + _c1*_dp5
+    _k1 = _c2
+    _t0 = _math.cos(phi2)
+    _e0 = _t0
+    _t1 = _math.sin(phi2)
+    _s4 = (-_t1)*_dy1
+    _c4 = _e0
+    _e1 = _t1
+    _s5 = _t0*_dy1
+    _d0 = -_e1
+    _s6 = -_s5
+    _c5 = _c1 + _c4*a_
+    _s7 = _s2 + a_*_s4 + _c4*_dp0
+    _d1 = a_*_d0
+    _s8 = a_*_s6 + _d0*_dp0
+    _c8 = _e1
+    _d2 = _e0
+    _t2 = 2*_c5
+    _t3 = 2*_c8
+    ddMa = _np.zeros((3, 3))
+    ddMa[0, 1] = (_d1*(_a0*(mb*2)))*_s7 + (_d2*(_a0*(_k0*2)))*_s5 + (_a0*(mb*_t2) + _a1*_k1)*_s8 + (_a0*(_k0*_t3))*_s4 + (_d2*(_a0*_t3))*_s1 + (_d1*_a1)*_s3 + (_d1*(_a0*_t2))*_dp5
+    ddMa[1, 1] = (_a0*_k1)*_s8 + (_d1*_a0)*_s3
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2, _dyd0, _dyd1, _dyd2 = _np.asarray(dx, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = _math.sin(phi2)
+    _e0 = _t0
+    _t1 = _math.cos(phi2)
+    _s0 = _t1*_dy1
+    _o0 = _e0
+    _e1 = _t1
+    _s1 = (-_t0)*_dy1
+    _d0 = _e1
+    _o1 = _e1
+    _d1 = -_e0
+    _s2 = -_s0
+    _o2 = _o1*a_
+    _s3 = a_*_s1 + _o1*_dp0
+    _d2 = a_*_d1
+    _s4 = a_*_s2 + _d1*_dp0
+    _o3 = _o2 + b
+    _s5 = _s3 + _dp1
+    _t2 = _math.sin(phi1)
+    _e2 = _t2
+    _t3 = _math.cos(phi1)
+    _s6 = _t3*_dy0
+    _e3 = _t3
+    _s7 = (-_t2)*_dy0
+    _t4 = _o0*_o0
+    _t5 = -_e2
+    _t6 = _o3 - _o2
+    _t7 = 2*_o0
+    _t8 = a_*_t7
+    _t9 = -_o0
+    _t10 = _e3*-1
+    dC = _np.zeros((3, 6))
+    dC[0, 2] = _dp7
+    dC[0, 5] = _dp9
+    dC[2, 0] = ((_o0*_o3 - _o0*_o2)*-1)*_s6 + (_o1*_o3 + a_*_t4)*_s7 + (_t5*_t6 + _e3*_t8)*_s0 + (_e3*_o3)*_s1 + (_t5*_t9)*_s3 + (_t5*_o0 + _e3*_o1)*_s5 + (_e3*_t4)*_dp0
+    dC[2, 1] = (_e3*_t6 + _e2*_t8)*_s1 + (_e2*_o3)*_s2 + (_e3*_t9 + _e3*_o0 + _e2*_o1)*_s4 + (_d0*_t8 + _d1*_o3 + _d2*_o1)*_s6 + (_d0*_t6 + _d2*_t9 + _d2*_o0)*_s7 + (_d0*(_e2*(a_*2)) + _d2*_t10 + _d2*_e3)*_s0 + (_d2*_e2)*_s1 + (_d0*_t10)*_s3 + (_d0*_e3 + _d1*_e2)*_s5 + (_d0*(_e2*_t7))*_dp0
+    dD = _np.zeros((3, 1))
+    return dC, dD

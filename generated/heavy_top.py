@@ -466,3 +466,566 @@ def body_properties(p):
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((m, 0, 0, s, A, 0, 0, 0, A, 0, 0, 0, C_), dtype=_np.float64)
     return v[:1], v[1:4].reshape(1, 3), v[4:].reshape(1, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.empty((0, 5))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _e0 = -s
+    _k3 = _e0
+    _c0 = m*s
+    _k4 = _c0
+    _k5 = -_c0
+    _d0 = _e0
+    _d1 = -m
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c4 = _math.cos(gamma_)
+    _c7 = _math.sin(gamma_)
+    _c12 = _c7*d_beta
+    _c13 = _c2*d_alpha
+    _c14 = _c12 + _c13*_c4
+    _c15 = _c1*d_alpha
+    _c16 = _c12*_c15 - _c14*d_gamma
+    _c17 = _c15 + d_gamma
+    _c18 = _c14*_c17
+    _e1 = _c16 + _c18
+    _d2 = _e1
+    _d3 = _c18*-1
+    _c20 = _c2*_c7
+    _c21 = _c4*d_beta - _c13*_c7
+    _c22 = _c21*d_gamma - _c15*_c4*d_beta
+    _c23 = _c17*_c21
+    _d4 = _c22 + _c23*-1
+    _c25 = _c2*_c4
+    _c26 = _math.sin(alpha)
+    _c27 = _c1*_math.cos(alpha)
+    _e2 = _c26*_c4 + _c27*_c7
+    _e3 = _c22*_k3 + _c23*s + g_*_e2
+    _d5 = _e3*s
+    _d6 = (_k4*_c22)*-1 + _e3*m + _k4*_c23
+    _d7 = _k4*_e2
+    _e4 = _c26*_c7 - _c27*_c4
+    _c29 = _c16*s + _c18*s + g_*_e4
+    _d8 = _e1
+    _d9 = _e4
+    _d10 = d_beta*-1
+    _e5 = _c20*_c29
+    _e6 = _c20*_k4
+    _e7 = -_c25
+    _e8 = _c29*_c4
+    _e9 = _c4*_k5
+    _e10 = -_c4
+    _e11 = -_c7
+    fp = _np.zeros((3, 5))
+    fp[0, 0] = _c25*_d5 + _e5*s
+    fp[0, 1] = _c25*_d6 + _e6*_d8 + _e5*m
+    fp[0, 2] = _c20*_d2 + _e7*_d4
+    fp[0, 3] = _c20*_d3 + _e7*_c23 + (_c15*_c2)*_d10
+    fp[0, 4] = _c25*_d7 + _e6*_d9
+    fp[1, 0] = _c7*_d5 + _e8*_d0
+    fp[1, 1] = _c7*_d6 + _e9*_d8 + _e8*_d1
+    fp[1, 2] = _e10*_d2 + _e11*_d4
+    fp[1, 3] = _e10*_d3 + _e11*_c23
+    fp[1, 4] = _c7*_d7 + _e9*_d9
+    fp[2, 3] = _c13*_d10
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _d0 = s*s
+    _d1 = m*(2*s)
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c3 = _c2*_c2
+    _c4 = _math.cos(gamma_)
+    _c5 = _c4*_c4
+    _c7 = _math.sin(gamma_)
+    _c8 = _c7*_c7
+    _d2 = _c5*_d0
+    _d3 = _c5*_d1
+    _d4 = _c8*_d0
+    _d5 = _c8*_d1
+    _e0 = _a0*_c3
+    dMa = _np.zeros((3, 5))
+    dMa[0, 0] = _e0*_d2 + _e0*_d4
+    dMa[0, 1] = _e0*_d3 + _e0*_d5
+    dMa[0, 2] = _e0*_c5 + _e0*_c8
+    dMa[0, 3] = _a0*_c1*_c1 + _c1*_a2
+    dMa[1, 0] = _a1*_d2 + _a1*_d4
+    dMa[1, 1] = _a1*_d3 + _a1*_d5
+    dMa[1, 2] = _a1*_c5 + _a1*_c8
+    dMa[2, 3] = _a2 + _c1*_a0
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    J = _np.zeros((6, 5))
+    y = x[:3]
+    yd = x[3:6]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[3:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    _d0 = _math.cos(beta)
+    Op = _np.zeros((3, 5))
+    Op[0, 1] = _math.sin(beta)
+    Op[1, 1] = (-_math.sin(alpha))*_d0
+    Op[2, 1] = _math.cos(alpha)*_d0
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dyd0, _dyd1, _dyd2 = _np.asarray(dyd, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _k1 = -C_
+    _s0 = -_dp3
+    _k2 = -A
+    _s1 = -_dp2
+    _k3 = -s
+    _s2 = -_dp1
+    _c0 = m*s
+    _s3 = s*_dp0 + m*_dp1
+    _k4 = _c0
+    _k5 = -_c0
+    _s4 = -_s3
+    _t0 = _math.sin(beta)
+    _e0 = _t0
+    _t1 = _math.cos(beta)
+    _s5 = _t1*_dy1
+    _c1 = _e0
+    _e1 = _t1
+    _s6 = (-_t0)*_dy1
+    _d0 = _e1
+    _c2 = _e1
+    _d1 = -_e0
+    _s7 = -_s5
+    _t2 = _math.cos(gamma_)
+    _e2 = _t2
+    _t3 = _math.sin(gamma_)
+    _s8 = (-_t3)*_dy2
+    _c4 = _e2
+    _e3 = _t3
+    _s9 = _t2*_dy2
+    _d2 = -_e3
+    _t4 = -_s9
+    _s10 = _t4
+    _c7 = _e3
+    _d3 = _e2
+    _c12 = _c7*d_beta
+    _s11 = d_beta*_s9 + _c7*_dyd1
+    _d4 = d_beta*_d3
+    _t5 = d_beta*_s8
+    _s12 = _t5 + _d3*_dyd1
+    _c13 = _c2*d_alpha
+    _t6 = d_alpha*_s6
+    _s13 = _t6 + _c2*_dyd0
+    _d5 = d_alpha*_d1
+    _s14 = d_alpha*_s7 + _d1*_dyd0
+    _c14 = _c12 + _c13*_c4
+    _s15 = _s11 + _c4*_s13 + _c13*_s8
+    _d6 = _c4*_d5
+    _s16 = _d5*_s8 + _c4*_s14
+    _d7 = _d4 + _c13*_d2
+    _s17 = _d2*_s13 + _c13*_s10 + _s12
+    _d8 = _c4*_c2
+    _t7 = _c2*_s8
+    _t8 = _c4*_s6 + _t7
+    _s18 = _t8
+    _c15 = _c1*d_alpha
+    _s19 = d_alpha*_s5 + _c1*_dyd0
+    _d9 = d_alpha*_d0
+    _s20 = _t6 + _d0*_dyd0
+    _c16 = _c12*_c15 - _c14*d_gamma
+    _t9 = -d_gamma
+    _t10 = -_c14
+    _s21 = _c15*_s11 + _t9*_s15 + _c12*_s19 + _t10*_dyd2
+    _e4 = _t9
+    _s22 = -_dyd2
+    _d10 = _e4*_d6 + _c12*_d9
+    _s23 = _d9*_s11 + _e4*_s16 + _c12*_s20 + _d6*_s22
+    _d11 = _c15*_d4 + _e4*_d7
+    _s24 = _d4*_s19 + _c15*_s12 + _e4*_s17 + _d7*_s22
+    _d12 = _e4*_d8 + _c12*_c1
+    _s25 = _c12*_s5 + _c1*_s11 + _e4*_s18 + _d8*_s22
+    _d13 = _c15*_c7 + _e4*_c7
+    _s26 = _c7*_s19 + (_c15 + _e4)*_s9 + _c7*_s22
+    _d14 = _t10
+    _s27 = -_s15
+    _c17 = _c15 + d_gamma
+    _s28 = _s19 + _dyd2
+    _c18 = _c14*_c17
+    _s29 = _c17*_s15 + _c14*_s28
+    _d15 = _c17*_d6 + _c14*_d9
+    _s30 = _d9*_s15 + _d6*_s28 + _c17*_s16 + _c14*_s20
+    _d16 = _c17*_d7
+    _s31 = _d7*_s28 + _c17*_s17
+    _d17 = _c17*_d8 + _c14*_c1
+    _s32 = _c14*_s5 + _c1*_s15 + _d8*_s28 + _c17*_s18
+    _d18 = _c17*_c7
+    _s33 = _c7*_s28 + _c17*_s9
+    _c19 = _c16*A + _c18*_k1 + _c18*A
+    _t11 = _c16 + _c18
+    _t12 = _k1 + A
+    _s34 = _t11*_dp2 + A*_s21 + _t12*_s29 + _c18*_s0
+    _e5 = _t12
+    _s35 = _dp2 + _s0
+    _d19 = A*_d10 + _e5*_d15
+    _s36 = _d10*_dp2 + A*_s23 + _e5*_s30 + _d15*_s35
+    _d20 = A*_d11 + _e5*_d16
+    _s37 = _d11*_dp2 + A*_s24 + _e5*_s31 + _d16*_s35
+    _d21 = A*_d12 + _e5*_d17
+    _s38 = _d12*_dp2 + A*_s25 + _e5*_s32 + _d17*_s35
+    _d22 = A*_d13 + _e5*_d18
+    _s39 = _d13*_dp2 + A*_s26 + _e5*_s33 + _d18*_s35
+    _d23 = A*_d14 + _e5*_c14
+    _s40 = _d14*_dp2 + _e5*_s15 + A*_s27 + _c14*_s35
+    _c20 = _c2*_c7
+    _s41 = _c7*_s6 + _c2*_s9
+    _d24 = _c7*_d1
+    _s42 = _d1*_s9 + _c7*_s7
+    _d25 = _c2*_d3
+    _s43 = _d3*_s6 + _t7
+    _c21 = _c4*d_beta - _c13*_c7
+    _t13 = -_c7
+    _t14 = -_c13
+    _s44 = _t13*_s13 + _t5 + _t14*_s9 + _c4*_dyd1
+    _e6 = _t13
+    _s45 = _t4
+    _d26 = _e6*_d5
+    _s46 = _e6*_s14 + _d5*_s45
+    _d27 = d_beta*_d2 + _t14*_d3
+    _s47 = (_d3*-1)*_s13 + d_beta*_s10 + _t14*_s8 + _d2*_dyd1
+    _d28 = _e6*_c2
+    _s48 = _e6*_s6 + _c2*_s45
+    _c22 = _c21*d_gamma - _c15*_c4*d_beta
+    _t15 = -_c4*d_beta
+    _t16 = -_c15*d_beta
+    _t17 = -_c15*_c4
+    _s49 = _t15*_s19 + d_gamma*_s44 + _t16*_s8 + _t17*_dyd1 + _c21*_dyd2
+    _e7 = _t15
+    _t18 = -d_beta
+    _t19 = -_c4
+    _s50 = _t18*_s8 + _t19*_dyd1
+    _d29 = _e7*_d9 + d_gamma*_d26
+    _s51 = d_gamma*_s46 + _e7*_s20 + _d9*_s50 + _d26*_dyd2
+    _d30 = d_gamma*_d27 + _t16*_d2
+    _t20 = -_c15
+    _s52 = (_d2*_t18)*_s19 + _t16*_s10 + d_gamma*_s47 + (_d2*_t20)*_dyd1 + _d27*_dyd2
+    _d31 = _e7*_c1 + d_gamma*_d28
+    _s53 = _e7*_s5 + d_gamma*_s48 + _c1*_s50 + _d28*_dyd2
+    _d32 = d_gamma*_c4 + _t17
+    _s54 = _t19*_s19 + (d_gamma + _t20)*_s8 + _c4*_dyd2
+    _c23 = _c17*_c21
+    _s55 = _c21*_s28 + _c17*_s44
+    _d33 = _c21*_d9 + _c17*_d26
+    _s56 = _d26*_s28 + _d9*_s44 + _c17*_s46 + _c21*_s20
+    _d34 = _c17*_d27
+    _s57 = _d27*_s28 + _c17*_s47
+    _d35 = _c21*_c1 + _c17*_d28
+    _s58 = _c21*_s5 + _d28*_s28 + _c1*_s44 + _c17*_s48
+    _d36 = _c17*_c4
+    _s59 = _c4*_s28 + _c17*_s8
+    _c24 = _c22*A + _c23*_k2 + _c23*C_
+    _t21 = _k2 + C_
+    _s60 = _c22*_dp2 + _c23*_dp3 + A*_s49 + _t21*_s55 + _c23*_s1
+    _e8 = _t21
+    _s61 = _dp3 + _s1
+    _d37 = A*_d29 + _e8*_d33
+    _s62 = _d29*_dp2 + A*_s51 + _e8*_s56 + _d33*_s61
+    _d38 = A*_d30 + _e8*_d34
+    _s63 = _d30*_dp2 + A*_s52 + _e8*_s57 + _d34*_s61
+    _d39 = A*_d31 + _e8*_d35
+    _s64 = _d31*_dp2 + A*_s53 + _e8*_s58 + _d35*_s61
+    _d40 = A*_d32 + _e8*_d36
+    _s65 = _d32*_dp2 + A*_s54 + _e8*_s59 + _d36*_s61
+    _d41 = A*_c21 + _e8*_c21
+    _s66 = _c21*_dp2 + (A + _e8)*_s44 + _c21*_s61
+    _c25 = _c2*_c4
+    _s67 = _t8
+    _d42 = _c4*_d1
+    _s68 = _d1*_s8 + _c4*_s7
+    _d43 = _c2*_d2
+    _s69 = _d2*_s6 + _c2*_s10
+    _t22 = _math.sin(alpha)
+    _e9 = _t22
+    _t23 = _math.cos(alpha)
+    _s70 = _t23*_dy0
+    _c26 = _e9
+    _e10 = _t23
+    _s71 = (-_t22)*_dy0
+    _d44 = _e10
+    _c27 = _c1*_e10
+    _s72 = _e10*_s5 + _c1*_s71
+    _t24 = -_e9
+    _d45 = _c1*_t24
+    _s73 = _t24*_s5 + (_c1*-1)*_s70
+    _d46 = _e10*_d0
+    _s74 = _e10*_s6 + _d0*_s71
+    _t25 = _c26*_c4 + _c27*_c7
+    _t26 = _c22*_k3 + _c23*s + g_*_t25
+    _c28 = _k4*_t26
+    _t27 = _k4*_k3
+    _t28 = _k4*s
+    _t29 = g_*_c4
+    _t30 = _k4*_t29
+    _t31 = g_*_c7
+    _t32 = g_*_c26
+    _t33 = g_*_c27
+    _t34 = _k4*_t33
+    _s75 = _t27*_s49 + _t28*_s55 + _t30*_s70 + (_k4*_t31)*_s72 + (_k4*_t32)*_s8 + _t34*_s9 + (_k4*_c22)*_s2 + _t26*_s3 + (_k4*_t25)*_dp4 + (_k4*_c23)*_dp1
+    _e11 = _t31
+    _s76 = g_*_s9 + _c7*_dp4
+    _e12 = _k4*_e11
+    _s77 = _k4*_s76 + _e11*_s3
+    _d47 = _t30*_d44 + _e12*_d45
+    _t35 = _k4*g_
+    _s78 = (_d44*_t35)*_s8 + _t30*_s71 + _e12*_s73 + _d45*_s77 + (_d44*_t29)*_s3 + (_d44*(_k4*_c4))*_dp4
+    _e13 = _t27
+    _s79 = _k4*_s2 + _k3*_s3
+    _e14 = _t28
+    _s80 = s*_s3 + _k4*_dp1
+    _d48 = _e13*_d29 + _e14*_d33 + _e12*_d46
+    _s81 = _e13*_s51 + _e14*_s56 + _e12*_s74 + _d46*_s77 + _d29*_s79 + _d33*_s80
+    _e15 = _t32
+    _s82 = g_*_s70 + _c26*_dp4
+    _t36 = _k4*_e15
+    _d49 = _e13*_d30 + _e14*_d34 + _t36*_d2 + _t34*_d3
+    _s83 = (_d3*_t35)*_s72 + _t36*_s10 + _t34*_s8 + _e13*_s52 + _e14*_s57 + _d30*_s79 + _d34*_s80 + (_d2*_k4)*_s82 + (_d2*_e15 + _d3*_t33)*_s3 + (_d3*(_k4*_c27))*_dp4
+    _d50 = _e13*_d31 + _e14*_d35
+    _s84 = _e13*_s53 + _e14*_s58 + _d31*_s79 + _d35*_s80
+    _d51 = _e13*_d32 + _e14*_d36
+    _s85 = _e13*_s54 + _e14*_s59 + _d32*_s79 + _d36*_s80
+    _d52 = _e13*_c21 + _e14*_c21
+    _s86 = (_e13 + _e14)*_s44 + _c21*_s79 + _c21*_s80
+    _t37 = _c26*_c7 - _c27*_c4
+    _c29 = _c16*s + _c18*s + g_*_t37
+    _t38 = -_c27
+    _t39 = g_*_t38
+    _s87 = s*_s21 + s*_s29 + _t31*_s70 + (g_*_t19)*_s72 + _t39*_s8 + _t32*_s9 + _t37*_dp4 + _t11*_dp1
+    _e16 = _t19
+    _s88 = -_s8
+    _e17 = g_*_e16
+    _s89 = g_*_s88 + _e16*_dp4
+    _d53 = _e11*_d44 + _e17*_d45
+    _s90 = _e11*_s71 + _e17*_s73 + _d44*_s76 + _d45*_s89
+    _d54 = s*_d10 + s*_d15 + _e17*_d46
+    _s91 = s*_s23 + s*_s30 + _e17*_s74 + _d46*_s89 + (_d10 + _d15)*_dp1
+    _d55 = s*_d11 + s*_d16 + _t39*_d2 + _e15*_d3
+    _s92 = (_d2*(g_*-1))*_s72 + s*_s24 + s*_s31 + _t39*_s10 + _e15*_s8 + _d3*_s82 + (_d2*_t38)*_dp4 + (_d11 + _d16)*_dp1
+    _d56 = s*_d12 + s*_d17
+    _s93 = s*_s25 + s*_s32 + (_d12 + _d17)*_dp1
+    _d57 = s*_d13 + s*_d18
+    _s94 = s*_s26 + s*_s33 + (_d13 + _d18)*_dp1
+    _d58 = s*_d14 + s*_c14
+    _s95 = s*_s15 + s*_s27 + (_d14 + _c14)*_dp1
+    _c30 = _k1*d_beta
+    _s96 = d_beta*_s0 + _k1*_dyd1
+    _e18 = _c20*_k4
+    _s97 = _k4*_s41 + _c20*_s3
+    _e19 = _c2*_c30
+    _t40 = _c30*_s6 + _c2*_s96
+    _s98 = _t40
+    _e20 = _c19 + _c29*_k4
+    _s99 = _s34 + _k4*_s87 + _c29*_s3
+    _e21 = -_c25
+    _s100 = -_s67
+    _e22 = _c28 - _c24
+    _s101 = -_s60 + _s75
+    _e23 = _c4*_k5
+    _s102 = _k5*_s8 + _c4*_s4
+    dfy = _np.zeros((3, 3))
+    dfy[0, 0] = _d47*_s67 + _c25*_s78 + _e18*_s90 + _d53*_s97
+    dfy[0, 1] = (_d1*_c30)*_s19 + _d19*_s41 + _d48*_s67 + (_d1*_c15)*_s96 + (_c15*_c30)*_s7 + _c20*_s36 + _e20*_s42 + _e21*_s62 + _e22*_s68 + _c25*_s81 + _e18*_s91 + _e19*_s20 + _d54*_s97 + _d9*_s98 + _d24*_s99 + _d37*_s100 + _d42*_s101
+    dfy[0, 2] = _d20*_s41 + _d49*_s67 + _c20*_s37 + _e20*_s43 + _e21*_s63 + _e22*_s69 + _c25*_s83 + _e18*_s92 + _d55*_s97 + _d25*_s99 + _d38*_s100 + _d43*_s101
+    dfy[1, 0] = _d47*_s9 + _c7*_s78 + _e23*_s90 + _d53*_s102
+    dfy[1, 1] = _d48*_s9 + _e16*_s36 + _e6*_s62 + _c7*_s81 + _e23*_s91 + _d19*_s88 + _d54*_s102 + _d37*_s45
+    dfy[1, 2] = (_d2*-1)*_s34 + (_d2*_k5)*_s87 + _d49*_s9 + (-_c19 + _c29*_k5)*_s10 + _e16*_s37 + _e22*_s8 + _e6*_s63 + _c7*_s83 + _e23*_s92 + _d20*_s88 + _d3*_s101 + _d55*_s102 + _d38*_s45 + (_d2*_c29)*_s4
+    dfy[2, 1] = _d5*_s96 + _c30*_s14
+    dfyd = _np.zeros((3, 3))
+    dfyd[0, 0] = _e19*_s5 + _d21*_s41 + _d50*_s67 + _c20*_s38 + _e21*_s64 + _c25*_s84 + _e18*_s93 + _d56*_s97 + _c1*_s98 + _d39*_s100
+    dfyd[0, 1] = (_k1*_c2)*_s19 + (_k1*_c15)*_s6 + _d22*_s41 + _d51*_s67 + _c20*_s39 + _e21*_s65 + _c25*_s85 + _e18*_s94 + _d57*_s97 + _d40*_s100 + (_c15*_c2)*_s0
+    dfyd[0, 2] = _d23*_s41 + _d52*_s67 + _c20*_s40 + _e21*_s66 + _c25*_s86 + _e18*_s95 + _d58*_s97 + _d41*_s100
+    dfyd[1, 0] = _d50*_s9 + _e16*_s38 + _e6*_s64 + _c7*_s84 + _e23*_s93 + _d21*_s88 + _d56*_s102 + _d39*_s45
+    dfyd[1, 1] = _d51*_s9 + _e16*_s39 + _e6*_s65 + _c7*_s85 + _e23*_s94 + _d22*_s88 + _d57*_s102 + _d40*_s45
+    dfyd[1, 2] = _d52*_s9 + _e16*_s40 + _e6*_s66 + _c7*_s86 + _e23*_s95 + _d23*_s88 + _d58*_s102 + _d41*_s45
+    dfyd[2, 0] = _t40
+    dfyd[2, 1] = _k1*_s13 + _c13*_s0
+    dfu = _np.empty((3, 0))
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = s*s
+    _k0 = m*_t0
+    _s0 = _t0*_dp0 + (m*(2*s))*_dp1
+    _t1 = _math.sin(beta)
+    _c1 = _t1
+    _t2 = _math.cos(beta)
+    _s1 = _t2*_dy1
+    _c2 = _t2
+    _s2 = (-_t1)*_dy1
+    _c3 = _c2*_c2
+    _s3 = (2*_c2)*_s2
+    _t3 = _math.cos(gamma_)
+    _c4 = _t3
+    _t4 = _math.sin(gamma_)
+    _s4 = (-_t4)*_dy2
+    _c5 = _c4*_c4
+    _s5 = (2*_c4)*_s4
+    _c6 = _c5*A
+    _s6 = _c5*_dp2 + A*_s5
+    _c7 = _t4
+    _s7 = _t3*_dy2
+    _c8 = _c7*_c7
+    _s8 = (2*_c7)*_s7
+    _c9 = _c8*A
+    _s9 = _c8*_dp2 + A*_s8
+    _c10 = _c5*_k0
+    _s10 = _k0*_s5 + _c5*_s0
+    _c11 = _c8*_k0
+    _s11 = _k0*_s8 + _c8*_s0
+    _t5 = _c1*_dp3 + C_*_s1
+    dM = _np.zeros((3, 3))
+    dM[0, 0] = _c1*_c1*_dp3 + (C_*(2*_c1))*_s1 + _c3*_s10 + _c3*_s11 + (_c10 + _c11 + _c6 + _c9)*_s3 + _c3*_s6 + _c3*_s9
+    dM[0, 2] = _t5
+    dM[1, 1] = _s10 + _s11 + _s6 + _s9
+    dM[2, 0] = _t5
+    dM[2, 2] = _dp3
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = s*s
+    _k0 = m*_t0
+    _s0 = _t0*_dp0 + (m*(2*s))*_dp1
+    _t1 = _math.sin(beta)
+    _e0 = _t1
+    _t2 = _math.cos(beta)
+    _s1 = _t2*_dy1
+    _c1 = _e0
+    _e1 = _t2
+    _s2 = (-_t1)*_dy1
+    _d0 = _e1
+    _c2 = _e1
+    _d1 = -_e0
+    _s3 = -_s1
+    _c3 = _c2*_c2
+    _t3 = 2*_c2
+    _s4 = _t3*_s2
+    _d2 = _t3*_d1
+    _s5 = (_d1*2)*_s2 + _t3*_s3
+    _t4 = _math.cos(gamma_)
+    _e2 = _t4
+    _t5 = _math.sin(gamma_)
+    _s6 = (-_t5)*_dy2
+    _c4 = _e2
+    _e3 = _t5
+    _s7 = _t4*_dy2
+    _d3 = -_e3
+    _s8 = -_s7
+    _c5 = _c4*_c4
+    _t6 = 2*_c4
+    _s9 = _t6*_s6
+    _d4 = _t6*_d3
+    _s10 = (_d3*2)*_s6 + _t6*_s8
+    _c6 = _c5*A
+    _s11 = _c5*_dp2 + A*_s9
+    _d5 = A*_d4
+    _s12 = _d4*_dp2 + A*_s10
+    _c7 = _e3
+    _d6 = _e2
+    _c8 = _c7*_c7
+    _t7 = 2*_c7
+    _s13 = _t7*_s7
+    _d7 = _t7*_d6
+    _s14 = (_d6*2)*_s7 + _t7*_s6
+    _c9 = _c8*A
+    _s15 = _c8*_dp2 + A*_s13
+    _d8 = A*_d7
+    _s16 = _d7*_dp2 + A*_s14
+    _c10 = _c5*_k0
+    _s17 = _k0*_s9 + _c5*_s0
+    _d9 = _k0*_d4
+    _s18 = _k0*_s10 + _d4*_s0
+    _c11 = _c8*_k0
+    _s19 = _k0*_s13 + _c8*_s0
+    _d10 = _k0*_d7
+    _s20 = _k0*_s14 + _d7*_s0
+    _e4 = _a0*_c3
+    _s21 = _a0*_s4
+    _t8 = 2*_c1
+    _t9 = _d2*_a0
+    ddMa = _np.zeros((3, 3))
+    ddMa[0, 1] = (_d0*(_a0*_t8 + _a2))*_dp3 + (_d0*(_a0*(C_*2)))*_s1 + _t9*_s17 + _t9*_s19 + _t9*_s11 + _t9*_s15 + (_a0*(C_*_t8) + C_*_a2)*_s2 + (_a0*(_c10 + _c11 + _c6 + _c9))*_s5
+    ddMa[0, 2] = _e4*_s20 + _e4*_s12 + _e4*_s16 + _e4*_s18 + (_d9 + _d10 + _d5 + _d8)*_s21
+    ddMa[1, 2] = _a1*_s20 + _a1*_s12 + _a1*_s16 + _a1*_s18
+    ddMa[2, 1] = (_d0*_a0)*_dp3 + (C_*_a0)*_s2
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2, _dyd0, _dyd1, _dyd2 = _np.asarray(dx, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = _math.cos(beta)
+    _e0 = s*_t0
+    _t1 = -_math.sin(beta)
+    _t2 = s*_t1
+    _s0 = _t2*_dy1 + _t0*_dp1
+    _o0 = _e0
+    _d0 = _t2
+    _s1 = (s*(-_t0))*_dy1 + _t1*_dp1
+    _t3 = _math.cos(alpha)
+    _e1 = _t3
+    _t4 = -_math.sin(alpha)
+    _s2 = _t4*_dy0
+    _e2 = _t4
+    _s3 = (-_t3)*_dy0
+    dC = _np.zeros((3, 6))
+    dC[0, 1] = _s0
+    dC[1, 0] = (-_o0)*_s2 + (_e1*-1)*_s0
+    dC[1, 1] = _e2*_s1 + _d0*_s3
+    dC[2, 0] = _o0*_s3 + _e2*_s0
+    dC[2, 1] = _e1*_s1 + _d0*_s2
+    dD = _np.empty((3, 0))
+    return dC, dD

@@ -203,3 +203,104 @@ def body_properties(p):
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((m, 0, 0, -l, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:1], v[1:4].reshape(1, 3), v[4:].reshape(1, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.empty((0, 3))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi, = _np.asarray(y, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _d0 = -g_*l
+    _d1 = -g_*m
+    _d2 = -l*m
+    _e0 = _math.sin(phi)
+    fp = _np.empty((1, 3))
+    fp[0, 0] = _e0*_d0
+    fp[0, 1] = _e0*_d1
+    fp[0, 2] = _e0*_d2
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, = _np.asarray(a, dtype=_np.float64).tolist()
+    dMa = _np.zeros((1, 3))
+    dMa[0, 0] = _a0*l*l
+    dMa[0, 1] = (_a0*m)*(2*l)
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    J = _np.zeros((2, 3))
+    y = x[:1]
+    yd = x[1:2]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[1:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    Op = _np.zeros((2, 3))
+    Op[0, 1] = -_math.sin(phi)
+    Op[1, 1] = -_math.cos(phi)
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    phi, = _np.asarray(y, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _k0 = -g_*l*m
+    _s0 = (-l*m)*_dp2 + (-g_*m)*_dp1 + (-g_*l)*_dp0
+    dfy = _np.empty((1, 1))
+    dfy[0, 0] = _math.cos(phi)*_s0 + (_k0*(-_math.sin(phi)))*_dy0
+    dfyd = _np.zeros((1, 1))
+    dfu = _np.empty((1, 0))
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2 = _np.asarray(dp, dtype=_np.float64).tolist()
+    dM = _np.empty((1, 1))
+    dM[0, 0] = (m*(2*l))*_dp1 + l*l*_dp0
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    ddMa = _np.zeros((1, 1))
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dyd0 = _np.asarray(dx, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _e0 = -l
+    _s0 = -_dp1
+    _t0 = _math.cos(phi)
+    _t1 = -_math.sin(phi)
+    dC = _np.zeros((2, 2))
+    dC[0, 0] = _t0*_s0 + (_e0*_t1)*_dy0
+    dC[1, 0] = _t1*_s0 + (_e0*(-_t0))*_dy0
+    dD = _np.empty((2, 0))
+    return dC, dD

@@ -353,3 +353,335 @@ def body_properties(p):
     mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((mw, mb, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _e0 = 2*v
+    _e1 = 1/L
+    _e2 = (_math.pi)*t
+    _e3 = _e1*_e2
+    _e4 = _e0*_e3
+    _e5 = _math.sin(_e4)
+    _e6 = _math.cos(_e4)
+    _e7 = 2*_e3
+    _e8 = _e6*_e7
+    _e9 = 1/(L*L)
+    _e10 = -_e9
+    _e11 = _e0*_e10*_e2
+    _e12 = _e11*_e6
+    _e13 = (_math.pi)*_e6
+    _e14 = _e1*_e13
+    _e15 = _e0*A
+    _e16 = (_math.pi)*_e1*_e15
+    _e17 = -_e5
+    _e18 = (_math.pi)**2
+    _e19 = _e18*v*v
+    _e20 = 4*_e5*_e9
+    _e21 = 4*_e19*A
+    _e22 = -_e21*_e9
+    Up = _np.zeros((3, 12))
+    Up[0, 8] = _e5
+    Up[0, 9] = _e8*A
+    Up[0, 10] = _e12*A
+    Up[1, 8] = _e0*_e14
+    Up[1, 9] = 2*_e14*A + _e16*_e17*_e7
+    Up[1, 10] = _e10*_e13*_e15 + _e11*_e16*_e17
+    Up[2, 8] = -_e19*_e20
+    Up[2, 9] = _e22*_e8 - _e0*_e18*_e20*A
+    Up[2, 10] = _e12*_e22 + 2*_e21*_e5/L**3
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    zw, zb = _np.asarray(y, dtype=_np.float64).tolist()
+    d_zw, d_zb = _np.asarray(yd, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _k1 = -kt
+    _k3 = -ks
+    _c0 = -zw
+    _c1 = _c0 + zb
+    _c2 = abs(_c1)
+    _c3 = _c1/_c2
+    _d0 = (_c3*(_c2 - ls))*-1
+    _d1 = (_c3*(_c3*d_zb - _c3*d_zw))*-1
+    _d2 = _c3*(_k3*-1)
+    _c5 = _c0 + zr
+    _c6 = abs(_c5)
+    _c7 = 1/_c6
+    _c8 = -_c5
+    _e0 = -g_
+    _e1 = _c7*_c8
+    fp = _np.zeros((2, 12))
+    fp[0, 1] = _e0
+    fp[0, 2] = -_d0
+    fp[0, 3] = -_d1
+    fp[0, 4] = (_e1*(_c6 - lt))*-1
+    fp[0, 5] = (_e1*(_c7*_c8*d_zw - _c7*_c8*d_zr))*-1
+    fp[0, 6] = -_d2
+    fp[0, 7] = _e1*(_k1*-1)
+    fp[0, 11] = -mw
+    fp[1, 0] = _e0
+    fp[1, 2] = _d0
+    fp[1, 3] = _d1
+    fp[1, 6] = _d2
+    fp[1, 11] = -mb
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    dMa = _np.zeros((2, 12))
+    dMa[0, 1] = _a0
+    dMa[1, 0] = _a1
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((4, 12))
+    y = x[:2]
+    yd = x[2:4]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[2:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _o0 = -zw
+    _o1 = _o0 + zr
+    _o2 = abs(_o1)
+    _o3 = 1/_o2
+    _o4 = -_o1
+    _o5 = _o0 + zb
+    _o6 = abs(_o5)
+    _o7 = _o5/_o6
+    Op = _np.zeros((5, 12))
+    Op[0, 4] = _o2 - lt
+    Op[0, 5] = _o3*_o4*d_zw - _o3*_o4*d_zr
+    Op[0, 7] = kt*-1
+    Op[1, 2] = _o6 - ls
+    Op[1, 3] = _o7*d_zb - _o7*d_zw
+    Op[1, 6] = ks*-1
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    zw, zb = _np.asarray(y, dtype=_np.float64).tolist()
+    d_zw, d_zb = _np.asarray(yd, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dyd0, _dyd1 = _np.asarray(dyd, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10, _dp11 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _du0, _du1, _du2 = (_np.zeros(3) if du is None else _np.asarray(du, dtype=_np.float64)).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _k0 = -ct
+    _s0 = -_dp5
+    _k1 = -kt
+    _s1 = -_dp4
+    _k2 = -cs
+    _s2 = -_dp3
+    _k3 = -ks
+    _s3 = -_dp2
+    _c0 = -zw
+    _s4 = -_dy0
+    _c1 = _c0 + zb
+    _s5 = _s4 + _dy1
+    _c2 = abs(_c1)
+    _t0 = ((0.0 if _c1 == 0 else _math.copysign(1, _c1)))
+    _s6 = _t0*_s5
+    _e0 = _t0
+    _d0 = _e0*-1
+    _d1 = _e0
+    _e1 = 1/_c2
+    _t1 = -1/(_c2*_c2)
+    _s7 = _t1*_s6
+    _c3 = _c1*_e1
+    _s8 = _e1*_s5 + _c1*_s7
+    _e2 = _c1*_t1
+    _s9 = _t1*_s5 + (_c1*(--2/_c2**3))*_s6
+    _d2 = _e1*-1 + _e2*_d0
+    _s10 = -_s7 + _d0*_s9
+    _d3 = _e1 + _e2*_d1
+    _s11 = _s7 + _d1*_s9
+    _s12 = _k3*_s8 + _c3*_s3
+    _t2 = _c3*d_zb - _c3*d_zw
+    _t3 = _c2 - ls
+    _t4 = d_zb - d_zw
+    _t5 = _k2*_t4
+    _e4 = _k2*_t2 + _k3*_t3 + _c3*_t5
+    _t6 = _k2*_c3 + _c3*_k2
+    _t7 = -_c3
+    _t8 = _k2*_t7 + _c3*(_k2*-1)
+    _s13 = _k3*_s6 + (_t5 + _t5)*_s8 + (_t2 + _c3*_t4)*_s2 + _t3*_s3 + _t6*_dyd1 + _t8*_dyd0 + (_k3*-1)*_dp6
+    _s14 = _e4*_s10 + _d0*_s12 + _d2*_s13
+    _s15 = _e4*_s11 + _d1*_s12 + _d3*_s13
+    _s16 = _t8*_s8 + (_c3*_t7)*_s2
+    _s17 = _t6*_s8 + (_c3*_c3)*_s2
+    _c5 = _c0 + zr
+    _s18 = _s4 + _du0
+    _c6 = abs(_c5)
+    _t9 = ((0.0 if _c5 == 0 else _math.copysign(1, _c5)))
+    _s19 = _t9*_s18
+    _e5 = _t9
+    _d8 = _e5*-1
+    _d9 = _e5
+    _c7 = 1/_c6
+    _t10 = -1/(_c6*_c6)
+    _s20 = _t10*_s19
+    _e6 = _t10
+    _s21 = (--2/_c6**3)*_s19
+    _d10 = _e6*_d8
+    _s22 = _d8*_s21
+    _d11 = _e6*_d9
+    _s23 = _d9*_s21
+    _c8 = -_c5
+    _s24 = -_s18
+    _d12 = --1
+    _t11 = _c7*_c8
+    _e7 = _t11
+    _s25 = _c8*_s20 + _c7*_s24
+    _s26 = _k1*_s25 + _e7*_s1
+    _t12 = _c7*_c8*d_zw - _c7*_c8*d_zr
+    _t13 = _c6 - lt
+    _e9 = _k0*_t12 + _k1*_t13
+    _t14 = _c8*d_zw - _c8*d_zr
+    _t15 = _k0*_t14
+    _t16 = _c7*d_zw - _c7*d_zr
+    _t17 = _k0*_t16
+    _t18 = -_c7*_c8
+    _t19 = _k0*_t18
+    _s27 = _k1*_s19 + _t15*_s20 + _t17*_s24 + _t12*_s0 + _t13*_s1 + _t19*_du1 + (_k0*_t11)*_dyd0 + (_k1*-1)*_dp7
+    _e10 = _c8*_e9 + _e7*_t15
+    _t20 = _e9 + _e7*(_k0*(d_zw - d_zr))
+    _t21 = _e7*(_k0*(-_c8))
+    _s28 = _t20*_s24 + _t15*_s25 + _c8*_s27 + (_e7*_t14)*_s0 + _t21*_du1 + (_e7*(_k0*_c8))*_dyd0
+    _t22 = _e7*(_k0*(-_c7))
+    _s29 = _t20*_s20 + _t17*_s25 + _c7*_s27 + (_e7*_t16)*_s0 + _t22*_du1 + (_e7*(_k0*_c7))*_dyd0
+    dfy = _np.empty((2, 2))
+    dfy[0, 0] = _e10*_s22 - _s14 + _d10*_s28 + _d12*_s29 + _d8*_s26
+    dfy[0, 1] = -_s15
+    dfy[1, 0] = _s14
+    dfy[1, 1] = _s15
+    dfyd = _np.empty((2, 2))
+    dfyd[0, 0] = -_s16 + (_k0*_e7 + _e7*_k0)*_s25 + (_e7*_e7)*_s0
+    dfyd[0, 1] = -_s17
+    dfyd[1, 0] = _s16
+    dfyd[1, 1] = _s17
+    dfu = _np.zeros((2, 3))
+    dfu[0, 0] = _e10*_s23 + _d11*_s28 - _s29 + _d9*_s26
+    dfu[0, 1] = _t21*_s20 + _t22*_s24 + _t19*_s25 + (_e7*_t18)*_s0
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10, _dp11 = _np.asarray(dp, dtype=_np.float64).tolist()
+    dM = _np.zeros((2, 2))
+    dM[0, 0] = _dp1
+    dM[1, 1] = _dp0
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    ddMa = _np.zeros((2, 2))
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dyd0, _dyd1 = _np.asarray(dx, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9, _dp10, _dp11 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _du0, _du1, _du2 = (_np.zeros(3) if du is None else _np.asarray(du, dtype=_np.float64)).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _o0 = -zw
+    _s0 = -_dy0
+    _o1 = _o0 + zr
+    _s1 = _s0 + _du0
+    _o2 = abs(_o1)
+    _t0 = ((0.0 if _o1 == 0 else _math.copysign(1, _o1)))
+    _s2 = _t0*_s1
+    _e0 = _t0
+    _d0 = _e0*-1
+    _d1 = _e0
+    _o3 = 1/_o2
+    _t1 = -1/(_o2*_o2)
+    _s3 = _t1*_s2
+    _e1 = _t1
+    _s4 = (--2/_o2**3)*_s2
+    _d2 = _e1*_d0
+    _s5 = _d0*_s4
+    _d3 = _e1*_d1
+    _s6 = _d1*_s4
+    _o4 = -_o1
+    _s7 = -_s1
+    _d4 = --1
+    _o5 = _o0 + zb
+    _s8 = _s0 + _dy1
+    _o6 = abs(_o5)
+    _t2 = ((0.0 if _o5 == 0 else _math.copysign(1, _o5)))
+    _s9 = _t2*_s8
+    _e2 = _t2
+    _d5 = _e2*-1
+    _d6 = _e2
+    _e3 = 1/_o6
+    _t3 = -1/(_o6*_o6)
+    _s10 = _t3*_s9
+    _o7 = _o5*_e3
+    _s11 = _o5*_s10 + _e3*_s8
+    _e4 = _o5*_t3
+    _s12 = _t3*_s8 + (_o5*(--2/_o6**3))*_s9
+    _d7 = _e3*-1 + _e4*_d5
+    _s13 = -_s10 + _d5*_s12
+    _d8 = _e3 + _e4*_d6
+    _s14 = _s10 + _d6*_s12
+    _t4 = _o4*d_zw - _o4*d_zr
+    _e5 = ct*_t4
+    _t5 = ct*(d_zw - d_zr)
+    _t6 = ct*(-_o4)
+    _t7 = ct*_o4
+    _s15 = _t5*_s7 + _t4*_dp5 + _t6*_du1 + _t7*_dyd0
+    _t8 = ct*(-_o3)
+    _t9 = ct*_o3
+    _s16 = _t5*_s3 + (_o3*d_zw - _o3*d_zr)*_dp5 + _t8*_du1 + _t9*_dyd0
+    _t10 = d_zb - d_zw
+    _e7 = cs*_t10
+    _t11 = cs*-1
+    _s17 = _t10*_dp3 + cs*_dyd1 + _t11*_dyd0
+    dC = _np.zeros((5, 4))
+    dC[0, 0] = _e5*_s5 + _d2*_s15 + _d4*_s16 + _d0*_dp4
+    dC[0, 2] = _t7*_s3 + _t9*_s7 + (_o3*_o4)*_dp5
+    dC[1, 0] = _e7*_s13 + _d7*_s17 + _d5*_dp2
+    dC[1, 1] = _e7*_s14 + _d8*_s17 + _d6*_dp2
+    dC[1, 2] = _t11*_s11 + (-_o7)*_dp3
+    dC[1, 3] = cs*_s11 + _o7*_dp3
+    dD = _np.zeros((5, 3))
+    dD[0, 0] = _e5*_s6 + _d3*_s15 - _s16 + _d1*_dp4
+    dD[0, 1] = _t6*_s3 + _t8*_s7 + (-_o3*_o4)*_dp5
+    return dC, dD

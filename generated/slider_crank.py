@@ -296,3 +296,179 @@ def body_properties(p):
     _c1 = (1/12)*mr*l*l
     v = _np.array((mc, mr, ms, (1/2)*r, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.zeros((1, 10))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(yd, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _d0 = -(1/2)*g_*mc
+    _d1 = -(1/2)*g_*r
+    _d2 = -(1/2)*mc*r
+    _d3 = -g_
+    _d4 = -mr
+    _k4 = -ks
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    _e0 = _math.cos(phi)
+    _e1 = _c0 + _c1
+    fp = _np.zeros((5, 10))
+    fp[0, 0] = _e0*_d0
+    fp[0, 2] = _e0*_d1
+    fp[0, 8] = d_phi*-1
+    fp[0, 9] = _e0*_d2
+    fp[2, 3] = _e1*_d3
+    fp[2, 9] = _e1*_d4
+    fp[4, 5] = (s - s0)*-1
+    fp[4, 6] = _k4*-1
+    fp[4, 7] = d_s*-1
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2, _a3, _a4 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    _d0 = _c0 + _c1
+    dMa = _np.zeros((5, 10))
+    dMa[0, 0] = ((1/3)*_a0*mc)*(2*r)
+    dMa[0, 2] = (1/3)*_a0*r*r
+    dMa[1, 3] = _a1*_d0
+    dMa[2, 3] = _a2*_d0
+    dMa[3, 1] = ((1/12)*_a3*mr)*(2*l)
+    dMa[3, 3] = (1/12)*_a3*l*l
+    dMa[4, 4] = _a4
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((10, 10))
+    y = x[:5]
+    yd = x[5:10]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[5:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi, xr, zr, theta, s, d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(x, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    Op = _np.zeros((3, 10))
+    Op[0, 5] = -(s - s0)
+    Op[0, 6] = (-ks)*-1
+    Op[0, 7] = -d_s
+    return Op
+
+
+def force_jacobians_directional(t, y, yd, p, dy, dyd, dp, u=None, du=None):
+    """Derivatives of ``force_jacobians`` along ``(δy, δẏ, δp, δu)`` (``du=None``: 0), analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2, _dy3, _dy4 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _s0 = -_dp8
+    _k1 = -(1/2)*g_*mc*r
+    _s1 = (-(1/2)*mc*r)*_dp9 + (-(1/2)*g_*r)*_dp2 + (-(1/2)*g_*mc)*_dp0
+    _k2 = -g_*mr
+    _s2 = (-mr)*_dp9 + (-g_)*_dp3
+    _s3 = -_dp7
+    _s4 = -_dp5
+    _t0 = _math.cos(theta)
+    _e0 = _t0
+    _t1 = _math.sin(theta)
+    _s5 = (-_t1)*_dy3
+    _e1 = _t1
+    _s6 = _t0*_dy3
+    _t2 = 2*_e0
+    _t3 = -_e1
+    _d0 = _t2*_t3
+    _s7 = (_t3*2)*_s5 + (_t2*-1)*_s6
+    _t4 = 2*_e1
+    _d1 = _t4*_e0
+    _s8 = _t4*_s5 + (_e0*2)*_s6
+    dfy = _np.zeros((5, 5))
+    dfy[0, 0] = (-_math.sin(phi))*_s1 + (_k1*(-_math.cos(phi)))*_dy0
+    dfy[2, 3] = _k2*_s7 + _k2*_s8 + (_d0 + _d1)*_s2
+    dfy[4, 4] = _s4
+    dfyd = _np.zeros((5, 5))
+    dfyd[0, 0] = _s0
+    dfyd[4, 4] = _s3
+    dfu = _np.zeros((5, 1))
+    return dfy, dfyd, dfu
+
+
+def mass_matrix_directional(t, y, p, dy, dp, u=None, du=None):
+    """Derivative of ``M`` along ``(δy, δp, δu)`` (n, n), analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2, _dy3, _dy4 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = _math.cos(theta)
+    _c0 = _t0*_t0
+    _t1 = _math.sin(theta)
+    _s0 = ((2*_t0)*(-_t1))*_dy3
+    _c1 = _t1*_t1
+    _s1 = ((2*_t1)*_t0)*_dy3
+    _s2 = mr*_s0 + mr*_s1 + (_c0 + _c1)*_dp3
+    dM = _np.zeros((5, 5))
+    dM[0, 0] = ((1/3)*r*r)*_dp2 + (((1/3)*mc)*(2*r))*_dp0
+    dM[1, 1] = _s2
+    dM[2, 2] = _s2
+    dM[3, 3] = (((1/12)*mr)*(2*l))*_dp1 + ((1/12)*l*l)*_dp3
+    dM[4, 4] = _dp4
+    return dM
+
+
+def mass_matrix_times_derivative_directional(t, y, p, a, dy, dp, u=None, du=None):
+    """Derivative of ``∂(M(y) a)/∂y`` (fixed ``a``) along ``(δy, δp, δu)`` (n, n), analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2, _a3, _a4 = _np.asarray(a, dtype=_np.float64).tolist()
+    _dy0, _dy1, _dy2, _dy3, _dy4 = _np.asarray(dy, dtype=_np.float64).tolist()
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9 = _np.asarray(dp, dtype=_np.float64).tolist()
+    _t0 = _math.cos(theta)
+    _e0 = _t0
+    _t1 = _math.sin(theta)
+    _s0 = (-_t1)*_dy3
+    _e1 = _t1
+    _s1 = _t0*_dy3
+    _t2 = 2*_e0
+    _t3 = -_e1
+    _d0 = _t2*_t3
+    _s2 = (_t3*2)*_s0 + (_t2*-1)*_s1
+    _t4 = 2*_e1
+    _d1 = _t4*_e0
+    _s3 = _t4*_s0 + (_e0*2)*_s1
+    _s4 = mr*_s2 + mr*_s3 + (_d0 + _d1)*_dp3
+    ddMa = _np.zeros((5, 5))
+    ddMa[1, 3] = _a1*_s4
+    ddMa[2, 3] = _a2*_s4
+    return ddMa
+
+
+def output_jacobians_directional(t, x, p, dx, dp, u=None, du=None):
+    """Derivatives of ``output_jacobians`` along ``(δx, δp, δu)``, analytic."""
+    _dp0, _dp1, _dp2, _dp3, _dp4, _dp5, _dp6, _dp7, _dp8, _dp9 = _np.asarray(dp, dtype=_np.float64).tolist()
+    dC = _np.zeros((3, 10))
+    dC[0, 4] = -_dp5
+    dC[0, 9] = -_dp7
+    dD = _np.zeros((3, 1))
+    return dC, dD

@@ -46,6 +46,7 @@ __all__ = [
     "mass_fill",
     "matrix_fill",
     "prologue",
+    "second_derivative_block",
     "sparse",
     "subblock",
     "units",
@@ -117,6 +118,15 @@ def derivative_block(derivatives: Derivatives, method: CseMethod
     joined matrix in the block's symbols."""
     J = derivatives.joined
     block = eliminate(derivatives.intermediates, list(J), prefix="_ncg_e", method=method)
+    return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
+
+
+def second_derivative_block(derivatives: Derivatives, method: CseMethod
+                            ) -> tuple[Block, sp.ImmutableMatrix]:
+    """:func:`derivative_block` of directional (second) derivatives, taken through a printed
+    first-derivative block: their common subexpressions get names of their own (``_ncg_t``)."""
+    J = derivatives.joined
+    block = eliminate(derivatives.intermediates, list(J), prefix="_ncg_t", method=method)
     return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
 
 

@@ -9,13 +9,24 @@ common-subexpression-eliminated program it prints instead (:mod:`neweul_py.codeg
 so that the derivatives reuse its subexpressions, and prints what comes back. Code generation
 derives nothing itself.
 
-=========================================  ====================================================
-function                                   matrices
-=========================================  ====================================================
-:func:`force_jacobians`                    ``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ``, ``∂(q−k)/∂u``
-:func:`mass_matrix_times_derivative`       ``∂(M(y) a)/∂y`` for a vector of symbols ``a``
-:func:`output_jacobians`                   ``∂out/∂[y, ẏ]``, ``∂out/∂u``
-=========================================  ====================================================
+===========================================  ==================================================
+function                                     matrices
+===========================================  ==================================================
+:func:`force_jacobians`                      ``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ``, ``∂(q−k)/∂u``
+:func:`mass_matrix_times_derivative`         ``∂(M(y) a)/∂y`` for a vector of symbols ``a``
+:func:`output_jacobians`                     ``∂out/∂[y, ẏ]``, ``∂out/∂u``
+:func:`force_parameter_jacobian`             ``∂(q−k)/∂p``
+:func:`mass_matrix_parameter_derivative`     ``∂(M(y) a)/∂p``
+:func:`output_parameter_jacobian`            ``∂out/∂p``
+:func:`input_parameter_jacobian`             ``∂u₀/∂p`` of the default excitation
+:func:`directional`                          ``d/dε`` of any of these (or of ``M``, ``G``)
+                                             along a :class:`Direction` ``(δy, δẏ, δp, δu)``
+===========================================  ==================================================
+
+The directional derivatives are the second derivatives that the parameter derivatives of the
+linearized matrices need (docs/sensitivity.md): ``dQ/dp_j`` is the derivative of ``−∂(q−k)/∂y
++ ∂(M ÿ0)/∂y`` along ``(δy = dy0/dp_j, δp = e_j, …)``; one seeded column each keeps the code
+as long as the first derivatives' instead of ``np`` times as long.
 
 Distributional derivatives (``DiracDelta`` from ``sign``, ``Heaviside``, ``Abs′``) are taken
 as zero: the Jacobians are the derivatives almost everywhere.
@@ -23,7 +34,7 @@ as zero: the Jacobians are the derivatives almost everywhere.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,18 +43,28 @@ import sympy as sp
 from ..model import as_expr
 from ..model.canonical import add, mul
 from ..model.program import Assignment
-from .derivatives import jacobian
+from .derivatives import directional_derivative, jacobian
 
 __all__ = [
+    "SECOND_PREFIX",
     "Derivatives",
+    "Direction",
     "Program",
+    "directional",
     "force_jacobians",
+    "force_parameter_jacobian",
+    "input_parameter_jacobian",
+    "mass_matrix_parameter_derivative",
     "mass_matrix_times_derivative",
     "output_jacobians",
+    "output_parameter_jacobian",
 ]
 
 #: Name prefix of the derivative intermediates made here.
 PREFIX = "_ncg_d"
+#: Name prefix of the intermediates of directional (second) derivatives, which are taken
+#: through programs holding first-derivative intermediates.
+SECOND_PREFIX = "_ncg_s"
 
 
 @dataclass(frozen=True)
@@ -169,3 +190,105 @@ def output_jacobians(equations: Any, program: Program | None = None) -> Derivati
                 tuple(equations.inputs))
     program = _program(program, equations.intermediates, list(equations.outputs))
     return _through(program, (*y, *yd, *u), (len(y) + len(yd), len(u)))
+
+
+def force_parameter_jacobian(equations: Any, program: Program | None = None) -> Derivatives:
+    """``∂(q−k)/∂p`` (n × np) at fixed ``y``, ``ẏ``, ``u`` (``program``: as in
+    :func:`force_jacobians`)."""
+    p = tuple(equations.parameters)
+    program = _program(program, equations.intermediates, list(equations.force_vector))
+    return _through(program, p, (len(p),))
+
+
+def mass_matrix_parameter_derivative(equations: Any, a: Sequence[sp.Symbol],
+                                     program: Program | None = None) -> Derivatives:
+    """``∂(M(y) a)/∂p`` (n × np) for a vector of symbols ``a`` (``program``: as in
+    :func:`mass_matrix_times_derivative`)."""
+    n, p = len(equations.coordinates), tuple(equations.parameters)
+    if len(a) != n:
+        raise ValueError(f"a must have {n} entries, got {len(a)}")
+    program = _program(program, equations.intermediates, list(equations.mass_matrix))
+    m = program.values
+    ma = tuple(add(*(mul(m[i * n + j], a[j]) for j in range(n))) for i in range(n))
+    return _through(Program(program.assignments, ma), p, (len(p),))
+
+
+def output_parameter_jacobian(equations: Any, program: Program | None = None) -> Derivatives:
+    """``∂out/∂p`` (ny × np) at fixed state and inputs (``program``: as in
+    :func:`output_jacobians`)."""
+    p = tuple(equations.parameters)
+    program = _program(program, equations.intermediates, list(equations.outputs))
+    return _through(program, p, (len(p),))
+
+
+def input_parameter_jacobian(equations: Any) -> Derivatives:
+    """``∂u₀/∂p`` (nu × np) of the default excitation ``u₀(t, p)`` (``System.input_defaults``:
+    the inputs and the time derivatives that kinematic excitation adds)."""
+    p = tuple(equations.parameters)
+    values = tuple(as_expr(e) for e in equations.system.input_defaults)
+    return _through(Program((), values), p, (len(p),))
+
+
+@dataclass(frozen=True)
+class Direction:
+    """The rates ``(δy, δẏ, δp, δu)`` of a directional derivative, as symbols.
+
+    Attributes
+    ----------
+    dy, dyd, dp, du
+        One symbol per coordinate, velocity, parameter and input (``_ncg_dy0`` …): the
+        arguments of the generated directional functions.
+    """
+
+    dy: tuple[sp.Symbol, ...]
+    dyd: tuple[sp.Symbol, ...]
+    dp: tuple[sp.Symbol, ...]
+    du: tuple[sp.Symbol, ...]
+
+    @classmethod
+    def of(cls, equations: Any) -> Direction:
+        """The direction symbols of ``equations``' symbol groups."""
+        def group(name: str, size: int) -> tuple[sp.Symbol, ...]:
+            return tuple(sp.Symbol(f"_ncg_{name}{i}", real=True) for i in range(size))
+
+        return cls(group("dy", len(equations.coordinates)),
+                   group("dyd", len(equations.velocities)),
+                   group("dp", len(equations.parameters)), group("du", len(equations.inputs)))
+
+    def rates(self, equations: Any) -> Mapping[sp.Symbol, sp.Symbol]:
+        """Base symbol → its rate."""
+        pairs = [(equations.coordinates, self.dy), (equations.velocities, self.dyd),
+                 (equations.parameters, self.dp), (equations.inputs, self.du)]
+        return {s: d for group, rates in pairs for s, d in zip(group, rates, strict=True)}
+
+
+def directional(equations: Any, direction: Direction, program: Program,
+                shape: tuple[int, int] | None = None) -> Derivatives:
+    """``d/dε`` of the values of ``program`` along ``direction`` (equations.md §1 with the
+    parameter derivatives of docs/sensitivity.md): the second derivatives of the linearized
+    matrices when ``program`` holds a first derivative (:func:`force_jacobians`,
+    :func:`mass_matrix_times_derivative`, :func:`output_jacobians` as
+    :attr:`Derivatives.intermediates` and :attr:`Derivatives.joined`), or ``dM`` when it holds
+    ``M``.
+
+    Parameters
+    ----------
+    equations
+        An :class:`~neweul_py.equations.Equations` (its symbol groups).
+    direction
+        The rates, :meth:`Direction.of`.
+    program
+        The values to differentiate and their assignments (whose names must not begin with
+        :data:`SECOND_PREFIX`).
+    shape
+        The shape of the one matrix returned (default: a column).
+
+    Returns
+    -------
+    Derivatives
+        One matrix: the directional derivative of the values, reshaped row-major.
+    """
+    inter, d = directional_derivative(program.values, direction.rates(equations),
+                                      program.assignments, prefix=SECOND_PREFIX)
+    rows, cols = shape or (len(program.values), 1)
+    return Derivatives(tuple(inter), (sp.ImmutableMatrix(rows, cols, list(d)),))
