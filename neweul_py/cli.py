@@ -32,6 +32,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "linearize",
     "modes",
     "frf",
+    "sensitivity",
+    "identify",
     "reduce",
     "compare_frf",
     "frf_body",

@@ -1,0 +1,622 @@
+"""Parameter sensitivities of equilibria, linear models, modes and frequency responses
+(docs/sensitivity.md).
+
+Everything here works on a generated module through its analytic parameter derivatives
+(docs/generated-module-protocol.md, "Parameter derivatives"):
+
+- **equilibrium** ``F(y, p) = (q − k)(y, 0, p, u₀(p)) = 0``: by the implicit function theorem
+  ``dy₀/dp = −F_y⁻¹ F_p`` with ``F_p = ∂(q−k)/∂p + ∂(q−k)/∂u · ∂u₀/∂p`` (§1 of the page);
+- **linear model** ``(M0, P, Q, B, C, D, G)``: total derivatives along
+  ``(δy = dy₀/dp_j, δp = e_j, δu = ∂u₀/∂p_j)`` from the module's directional functions,
+  ``dQ = −d(∂f/∂y) + d(∂(M a)/∂y)|_{a=ÿ₀} + ∂(M dÿ₀)/∂y`` (§2);
+- **modes** of the pencil ``Ã x = λ E x``: ``dλ = wᴴ (dÃ − λ dE) v / (wᴴ E v)`` with the left
+  and right eigenvectors ``w``, ``v`` (§3);
+- **frequency response** ``H = C_ω Z⁻¹ B + D``: ``dH = dC_ω X + C_ω Z⁻¹ (dB − dZ X) + dD``,
+  ``X = Z⁻¹ B`` (§4), reported as ``∂ln|H|/∂ln p = Re(p dH/H)`` and
+  ``∂φ/∂ln p = Im(p dH/H)``.
+
+Modules without the directional functions (elastic bodies) and constrained modules get the
+linear model's derivatives as central differences of the analytic linearization (relative step
+:data:`RELATIVE_STEP`, the equilibrium solved again at each point); the result says so
+(``method``). Forward sensitivities of simulations are in :mod:`.sensitivity_time`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..atomic import atomic_write
+from ..errors import NeweulError
+from . import protocol as proto
+from .equilibrium import EquilibriumResult, equilibrium
+from .frf import frequency_response
+from .linearize import LinearModel, linearize
+from .modes import ModalResult, modes
+from .results import ResultDisplay, check_output_path
+
+__all__ = [
+    "ANALYTIC",
+    "DIFFERENCES",
+    "RELATIVE_STEP",
+    "EquilibriumSensitivity",
+    "FrequencyResponseSensitivity",
+    "LinearModelDerivative",
+    "ModalSensitivity",
+    "equilibrium_sensitivity",
+    "frequency_response_sensitivity",
+    "linear_model_derivatives",
+    "modal_sensitivity",
+    "parameter_indices",
+]
+
+#: ``method`` of results from the module's analytic derivatives.
+ANALYTIC = "analytic"
+#: ``method`` of results whose linear-model derivatives are central differences.
+DIFFERENCES = "central differences of the analytic linearization"
+#: Relative step of those differences.
+RELATIVE_STEP = 1e-6
+
+#: The module functions the analytic linear-model derivatives need.
+_DIRECTIONAL = ("force_jacobians_directional", "mass_matrix_directional",
+                "mass_matrix_times_derivative_directional", "output_jacobians_directional")
+
+
+def parameter_indices(module: Any, wrt: str | Sequence[str] | None,
+                      p: np.ndarray | None = None) -> list[int]:
+    """Positions in ``PARAMETERS`` of the names ``wrt`` (``None``: every parameter).
+
+    Raises
+    ------
+    NeweulError
+        For a name the model lacks (listing the valid ones), a repeated name, or (with ``p``)
+        a parameter whose value is 0 (log sensitivities need a nonzero value).
+    """
+    names = list(module.PARAMETERS)
+    chosen = names if wrt is None else [wrt] if isinstance(wrt, str) else list(wrt)
+    if not chosen:
+        raise NeweulError("no parameters to differentiate with respect to (--wrt NAME)")
+    idx = [proto.name_index(names, nm, "parameter") for nm in chosen]
+    if len(set(idx)) < len(idx):
+        raise NeweulError(f"a parameter is named twice: {', '.join(chosen)}")
+    if p is not None:
+        zero = [names[i] for i in idx if p[i] == 0.0]
+        if zero:
+            raise NeweulError(f"parameter(s) {', '.join(zero)} are 0: sensitivities per ln p "
+                              "need nonzero values (set one with -p NAME=VALUE)")
+    return idx
+
+
+def _input_parameter_jacobian(module: Any, t: float, p: np.ndarray,
+                              fixed_inputs: Sequence[int]) -> np.ndarray:
+    """``∂u₀/∂p`` (nu, np) of the default excitation, zero in the rows of inputs held fixed."""
+    nu = len(getattr(module, "INPUTS", []) or [])
+    fn = getattr(module, "default_inputs_parameter_jacobian", None)
+    if not nu or fn is None:
+        return np.zeros((nu, p.size))
+    U = np.array(fn(t, p), dtype=float).reshape(nu, p.size)
+    U[list(fixed_inputs)] = 0.0
+    return U
+
+
+def _fixed_inputs(module: Any, u: Any) -> list[int]:
+    """Indices of the inputs that ``u`` (as given to linearize/equilibrium) holds."""
+    names = list(getattr(module, "INPUTS", []) or [])
+    if u is None:
+        return []
+    if isinstance(u, Mapping):
+        return [proto.name_index(names, k, "input") for k in u]
+    return list(range(len(names)))
+
+
+def _require(module: Any, names: Sequence[str]) -> None:
+    missing = [nm for nm in names if not callable(getattr(module, nm, None))]
+    if missing:
+        raise NeweulError(f"{getattr(module, 'MODEL_NAME', 'the module')} has no "
+                          f"{', '.join(missing)}: regenerate it (parameter derivatives, "
+                          "docs/sensitivity.md)")
+
+
+# ----------------------------------------------------------------------------- equilibrium
+@dataclass(frozen=True, repr=False)
+class EquilibriumSensitivity(ResultDisplay):
+    """``dy₀/dp`` of a static equilibrium.
+
+    Attributes
+    ----------
+    equilibrium : EquilibriumResult
+    parameters : tuple of str
+        The parameters differentiated with respect to (columns).
+    values : ndarray (k,)
+        Their values.
+    dy_dp : ndarray (n, k)
+        ``dy₀/dp`` (zero rows for coordinates held fixed).
+    """
+
+    equilibrium: EquilibriumResult
+    parameters: tuple[str, ...]
+    values: np.ndarray
+    dy_dp: np.ndarray
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """``coordinate``, its value and ``dY_dlog_NAME`` (= p ∂y/∂p) per parameter."""
+        cols: dict[str, np.ndarray] = {
+            "coordinate": np.array(self.equilibrium.coordinates, dtype=str),
+            "value": np.asarray(self.equilibrium.y, dtype=float)}
+        for j, nm in enumerate(self.parameters):
+            cols[f"dvalue_dlog_{nm}"] = self.values[j] * self.dy_dp[:, j]
+        return cols
+
+    def summary(self) -> str:
+        return (f"EquilibriumSensitivity({len(self.equilibrium.coordinates)} coordinates, "
+                f"parameters {', '.join(self.parameters)})")
+
+
+def equilibrium_sensitivity(module: Any, eq: EquilibriumResult,
+                            wrt: str | Sequence[str] | None = None, *,
+                            fixed: Sequence[str] = (), u: Any = None) -> EquilibriumSensitivity:
+    """``dy₀/dp = −F_y⁻¹ F_p`` at the equilibrium ``eq`` (docs/sensitivity.md §1).
+
+    Parameters
+    ----------
+    module
+        The generated module ``eq`` was found for.
+    eq
+        The equilibrium (:func:`~neweul_py.analysis.equilibrium.equilibrium`).
+    wrt
+        Parameter names (default: all).
+    fixed
+        Coordinates held fixed in the equilibrium search (their rows are zero).
+    u
+        The inputs given to the equilibrium search (held: their default's dependence on the
+        parameters is not chained in), ``None`` for the default excitation.
+
+    Raises
+    ------
+    NeweulError
+        For constrained modules (not covered analytically: see
+        :func:`linear_model_derivatives`, which differentiates them numerically) and names the
+        model lacks.
+    SolverError
+        When the stiffness ``F_y`` is singular (the equilibrium is not isolated).
+    """
+    module = proto.load_module(module)
+    _require(module, ("force_parameter_jacobian",))
+    if list(getattr(module, "CONSTRAINTS", []) or []):
+        raise NeweulError("equilibrium sensitivities of constrained models are not covered "
+                          "analytically (docs/sensitivity.md)")
+    idx = parameter_indices(module, wrt)
+    names = proto.coordinate_names(module)
+    n = len(names)
+    free = [i for i in range(n) if names[i] not in set(fixed)]
+    for nm in fixed:
+        proto.name_index(names, nm, "coordinate")
+    y, p, uv, t = eq.y, eq.p, eq.u, eq.t
+    zero = np.zeros(n)
+    fy, _fyd, fu = (np.asarray(a, dtype=float)
+                    for a in module.force_jacobians(t, y, zero, p, uv))
+    fp = np.asarray(module.force_parameter_jacobian(t, y, zero, p, uv), dtype=float)
+    Fp = fp + fu.reshape(n, -1) @ _input_parameter_jacobian(module, t, p,
+                                                            _fixed_inputs(module, u))
+    dy = np.zeros((n, len(idx)))
+    if free:
+        K = fy[np.ix_(free, free)]
+        if np.linalg.cond(K) > 1e13:
+            from ..errors import SolverError
+
+            raise SolverError("equilibrium sensitivity: the stiffness ∂F/∂y is singular at the "
+                              "equilibrium (not isolated: hold a coordinate with fixed)",
+                              last_iterate=y.copy(), residual=eq.residual, names=names)
+        dy[free] = -np.linalg.solve(K, Fp[np.ix_(free, idx)])
+    return EquilibriumSensitivity(eq, tuple(list(module.PARAMETERS)[i] for i in idx),
+                                  p[idx].copy(), dy)
+
+
+# ----------------------------------------------------------------------------- linear model
+@dataclass(frozen=True)
+class LinearModelDerivative:
+    """``d/dp_j`` of the matrices of a :class:`~neweul_py.analysis.linearize.LinearModel`
+    (total: the operating point moves with the parameter where it is an equilibrium).
+
+    Attributes
+    ----------
+    parameter : str
+    value : float
+        The parameter's value.
+    M0, P, Q, B, C, D : ndarray
+        The derivatives of the matrices of the same names.
+    G : ndarray or None
+        Of the hysteretic matrix (``None`` when the model has none).
+    """
+
+    parameter: str
+    value: float
+    M0: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    G: np.ndarray | None = None
+
+    def as_linear_model(self, lin: LinearModel) -> LinearModel:
+        """``lin`` with these matrices (its names and basis): the linear pieces of
+        :meth:`LinearModel.dynamic_stiffness` and :meth:`LinearModel.output_rows` applied to
+        the derivatives (the basis rows of coordinates do not change with ``p``)."""
+        return replace(lin, M0=self.M0, P=self.P, Q=self.Q, B=self.B, C=self.C, D=self.D,
+                       G=self.G, basis=np.zeros_like(lin.basis))
+
+
+def _analytic(module: Any) -> bool:
+    return (all(callable(getattr(module, nm, None)) for nm in _DIRECTIONAL)
+            and not list(getattr(module, "CONSTRAINTS", []) or []))
+
+
+def linear_model_derivatives(
+    module: Any, lin: LinearModel, wrt: str | Sequence[str] | None = None, *,
+    equilibrium_point: bool = True, fixed: Sequence[str] = (), u: Any = None,
+    start: Any = None,
+) -> tuple[list[LinearModelDerivative], str]:
+    """The derivatives of ``lin``'s matrices with respect to each parameter of ``wrt``
+    (docs/sensitivity.md §2).
+
+    Parameters
+    ----------
+    module
+        The generated module ``lin`` linearizes.
+    lin
+        The linear model (:func:`~neweul_py.analysis.linearize.linearize`).
+    wrt
+        Parameter names (default: all).
+    equilibrium_point
+        ``lin`` is about a static equilibrium, which moves with the parameters (``dy₀/dp``,
+        :func:`equilibrium_sensitivity`); ``False``: about a fixed state (the initial one).
+    fixed, u, start
+        As given to the equilibrium search (coordinates held, inputs held, start); ``u`` and
+        ``start`` are used again by the central differences.
+
+    Returns
+    -------
+    derivatives, method
+        One :class:`LinearModelDerivative` per parameter and :data:`ANALYTIC` or
+        :data:`DIFFERENCES` (modules without the directional functions — elastic bodies — and
+        constrained modules).
+    """
+    module = proto.load_module(module)
+    idx = parameter_indices(module, wrt)
+    names = list(module.PARAMETERS)
+    if not _analytic(module):
+        return [_difference(module, lin, names[i], equilibrium_point, fixed, u, start)
+                for i in idx], DIFFERENCES
+    n = len(lin.all_coordinates)
+    t, y, yd, p, uv = lin.t, lin.y0, lin.yd0, lin.p, lin.u0
+    if equilibrium_point:
+        eq = EquilibriumResult(y, np.zeros(0), 0.0, 0, lin.all_coordinates, (), p, uv, t)
+        dy0 = equilibrium_sensitivity(module, eq, [names[i] for i in idx], fixed=fixed,
+                                      u=u).dy_dp
+    else:
+        dy0 = np.zeros((n, len(idx)))
+    U = _input_parameter_jacobian(module, t, p, _fixed_inputs(module, u))
+    M = np.asarray(module.mass_matrix(t, y, p, uv), dtype=float)
+    f = np.asarray(module.force_vector(t, y, yd, p, uv), dtype=float)
+    fy, fyd, fu = (np.asarray(a, dtype=float) for a in module.force_jacobians(t, y, yd, p, uv))
+    fu = fu.reshape(n, -1)
+    fp = np.asarray(module.force_parameter_jacobian(t, y, yd, p, uv), dtype=float)
+    ydd = np.linalg.solve(M, f)
+    x0 = np.concatenate([y, yd])
+    has_loss = lin.G is not None and callable(getattr(module, "loss_matrix_directional", None))
+    out = []
+    for col, i in enumerate(idx):
+        dy, dyd, du = dy0[:, col], np.zeros(n), U[:, i]
+        dp = np.zeros(p.size)
+        dp[i] = 1.0
+        dM = np.asarray(module.mass_matrix_directional(t, y, p, dy, dp, uv, du), dtype=float)
+        dfy, dfyd, dfu = (np.asarray(a, dtype=float) for a in
+                          module.force_jacobians_directional(t, y, yd, p, dy, dyd, dp, uv, du))
+        df = fy @ dy + fyd @ dyd + fp[:, i] + fu @ du
+        dydd = np.linalg.solve(M, df - dM @ ydd)
+        dQ = -dfy
+        if np.any(ydd):
+            dQ = dQ + np.asarray(module.mass_matrix_times_derivative_directional(
+                t, y, p, ydd, dy, dp, uv, du), dtype=float)
+        if np.any(dydd):
+            dQ = dQ + np.asarray(module.mass_matrix_times_derivative(t, y, p, dydd, uv),
+                                 dtype=float)
+        if lin.C.shape[0]:
+            dC, dD = (np.asarray(a, dtype=float) for a in module.output_jacobians_directional(
+                t, x0, p, np.concatenate([dy, dyd]), dp, uv, du))
+        else:
+            dC, dD = np.zeros_like(lin.C), np.zeros_like(lin.D)
+        dG = None
+        if has_loss:
+            dG = np.asarray(module.loss_matrix_directional(
+                t, x0, p, np.concatenate([dy, dyd]), dp, uv, du), dtype=float)
+        out.append(LinearModelDerivative(names[i], float(p[i]), dM, -dfyd, dQ,
+                                         dfu.reshape(lin.B.shape), dC.reshape(lin.C.shape),
+                                         dD.reshape(lin.D.shape), dG))
+    return out, ANALYTIC
+
+
+def _difference(module: Any, lin: LinearModel, name: str, equilibrium_point: bool,
+                fixed: Sequence[str], u: Any, start: Any) -> LinearModelDerivative:
+    """Central differences of the analytic linearization in ``name`` (relative step
+    :data:`RELATIVE_STEP`), the operating point found again on each side."""
+    k = list(module.PARAMETERS).index(name)
+    value = float(lin.p[k])
+    h = RELATIVE_STEP * (abs(value) or 1.0)
+    sides = []
+    for sign in (1.0, -1.0):
+        p = lin.p.copy()
+        p[k] = value + sign * h
+        if equilibrium_point:
+            eq = equilibrium(module, p=p, u=u, y0=lin.y0 if start is None else start,
+                             t=lin.t, fixed=fixed)
+            sides.append(linearize(module, eq, p=p, u0=eq.u,
+                                   independent=list(lin.coordinates)
+                                   if lin.constraints else None))
+        else:
+            sides.append(linearize(module, lin.y0, lin.yd0, None if u is None else lin.u0,
+                                   p, lin.t,
+                                   independent=list(lin.coordinates)
+                                   if lin.constraints else None))
+    a, b = sides
+
+    def d(x: np.ndarray | None, z: np.ndarray | None) -> np.ndarray | None:
+        return None if x is None or z is None else (x - z) / (2 * h)
+
+    return LinearModelDerivative(name, value, d(a.M0, b.M0), d(a.P, b.P), d(a.Q, b.Q),
+                                 d(a.B, b.B), d(a.C, b.C), d(a.D, b.D), d(a.G, b.G))
+
+
+# ----------------------------------------------------------------------------- modes
+@dataclass(frozen=True, repr=False)
+class ModalSensitivity(ResultDisplay):
+    """Derivatives of the oscillating modes' frequencies and damping ratios.
+
+    Attributes
+    ----------
+    modes : ModalResult
+    parameters : tuple of str
+    values : ndarray (k,)
+    deigenvalue : ndarray (m, k) complex
+        ``dλ/dp`` of each mode of ``modes`` (rows) and parameter.
+    method : str
+        :data:`ANALYTIC` or :data:`DIFFERENCES` (of the linear model's matrices).
+    """
+
+    modes: ModalResult
+    parameters: tuple[str, ...]
+    values: np.ndarray
+    deigenvalue: np.ndarray
+    method: str = ANALYTIC
+
+    @property
+    def dlogf_dlogp(self) -> np.ndarray:
+        """``∂ln f/∂ln p`` (m, k) of the natural frequencies ``f = |λ|/2π``."""
+        lam = self.modes.eigenvalues[:, None]
+        mag = np.where(np.abs(lam) > 0, np.abs(lam), np.nan)
+        return (np.conj(lam) * self.deigenvalue).real / mag**2 * self.values[None, :]
+
+    @property
+    def dzeta_dlogp(self) -> np.ndarray:
+        """``∂ζ/∂ln p`` (m, k) of the damping ratios ``ζ = −Re λ/|λ|``."""
+        lam = self.modes.eigenvalues[:, None]
+        mag = np.where(np.abs(lam) > 0, np.abs(lam), np.nan)
+        dmag = (np.conj(lam) * self.deigenvalue).real / mag
+        dzeta = -(self.deigenvalue.real * mag - lam.real * dmag) / mag**2
+        return dzeta * self.values[None, :]
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """One row per oscillating mode: ``frequency_hz``, ``damping_ratio`` and per parameter
+        ``dlogf_dlog_NAME``, ``dzeta_dlog_NAME``."""
+        keep = self.modes.oscillating
+        cols = {"mode": np.arange(1, int(keep.sum()) + 1),
+                "frequency_hz": self.modes.frequency_hz[keep],
+                "damping_ratio": self.modes.damping_ratio[keep]}
+        f, z = self.dlogf_dlogp[keep], self.dzeta_dlogp[keep]
+        for j, nm in enumerate(self.parameters):
+            cols[f"dlogf_dlog_{nm}"] = f[:, j]
+            cols[f"dzeta_dlog_{nm}"] = z[:, j]
+        return cols
+
+    def summary(self) -> str:
+        return (f"ModalSensitivity({int(self.modes.oscillating.sum())} oscillating modes, "
+                f"parameters {', '.join(self.parameters)}; {self.method})")
+
+    def to_csv(self, path: str | os.PathLike[str]) -> Path:
+        """Write :meth:`columns` as CSV, atomically."""
+        return atomic_write(check_output_path(path, (".csv",), "sensitivities"),
+                            _csv(self.columns()))
+
+
+def modal_sensitivity(lin: LinearModel, derivatives: Sequence[LinearModelDerivative], *,
+                      undamped: bool = False, method: str = ANALYTIC,
+                      zero_tol: float = 1e-7) -> ModalSensitivity:
+    """``dλ/dp = wᴴ (dÃ − λ dE) v / (wᴴ E v)`` for every mode of ``lin``
+    (docs/sensitivity.md §3), with ``Ã = [[0, I], [−Q, −P]]``, ``E = diag(I, M0)``.
+
+    Parameters
+    ----------
+    lin
+        The linear model.
+    derivatives
+        Its matrices' derivatives (:func:`linear_model_derivatives`).
+    undamped
+        The modes of the undamped pencil (``P = 0``), as
+        :func:`~neweul_py.analysis.modes.modes`.
+    method, zero_tol
+        Recorded in the result; as :func:`~neweul_py.analysis.modes.modes`.
+    """
+    import scipy.linalg as sla
+
+    base = replace(lin, P=np.zeros_like(lin.P)) if undamped else lin
+    result = modes(base, zero_tol=zero_tol, undamped=undamped)
+    a, e = base.first_order_pencil()
+    lam, left, right = sla.eig(a, e, left=True, right=True)
+    finite = np.isfinite(lam)
+    lam, left, right = lam[finite], left[:, finite], right[:, finite]
+    m = lin.n
+    dlam = np.zeros((result.eigenvalues.size, len(derivatives)), dtype=complex)
+    for r, target in enumerate(result.eigenvalues):
+        k = int(np.argmin(np.abs(lam - target)))
+        v, w = right[:, k], left[:, k]
+        norm = np.conj(w) @ e @ v
+        for j, d in enumerate(derivatives):
+            da = np.zeros_like(a)
+            da[m:, :m] = -d.Q
+            if not undamped:
+                da[m:, m:] = -d.P
+            de = np.zeros_like(e)
+            de[m:, m:] = d.M0
+            dlam[r, j] = (np.conj(w) @ (da - target * de) @ v) / norm
+    return ModalSensitivity(result, tuple(d.parameter for d in derivatives),
+                            np.array([d.value for d in derivatives]), dlam, method)
+
+
+# ----------------------------------------------------------------------------- frequency response
+@dataclass(frozen=True, repr=False)
+class FrequencyResponseSensitivity(ResultDisplay):
+    """A frequency response and its derivatives with respect to parameters.
+
+    Attributes
+    ----------
+    frequency_hz : ndarray (nf,)
+    H : ndarray (nf, ny, nu) complex
+    dH : ndarray (k, nf, ny, nu) complex
+        ``∂H/∂p`` per parameter.
+    outputs, inputs, parameters : tuple of str
+    values : ndarray (k,)
+    method : str
+        :data:`ANALYTIC` or :data:`DIFFERENCES`.
+    """
+
+    frequency_hz: np.ndarray
+    H: np.ndarray
+    dH: np.ndarray
+    outputs: tuple[str, ...]
+    inputs: tuple[str, ...]
+    parameters: tuple[str, ...]
+    values: np.ndarray
+    method: str = ANALYTIC
+
+    @property
+    def relative(self) -> np.ndarray:
+        """``p ∂H/∂p / H`` (k, nf, ny, nu): real part ``∂ln|H|/∂ln p``, imaginary part
+        ``∂φ/∂ln p`` [rad]."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.values[:, None, None, None] * self.dH / self.H[None]
+
+    @property
+    def dlogmag_dlogp(self) -> np.ndarray:
+        """``∂ln|H|/∂ln p`` (k, nf, ny, nu)."""
+        return self.relative.real
+
+    @property
+    def dphase_deg_dlogp(self) -> np.ndarray:
+        """``∂φ/∂ln p`` in degrees (k, nf, ny, nu)."""
+        return np.degrees(self.relative.imag)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """``frequency_hz``, then per parameter ``dlogmag_dlog_NAME`` and
+        ``dphase_deg_dlog_NAME`` (suffixed ``__OUTPUT__INPUT`` with several pairs)."""
+        single = len(self.outputs) == 1 and len(self.inputs) == 1
+        cols = {"frequency_hz": np.asarray(self.frequency_hz, dtype=float)}
+        mag, ph = self.dlogmag_dlogp, self.dphase_deg_dlogp
+        for i, o in enumerate(self.outputs):
+            for j, u in enumerate(self.inputs):
+                sfx = "" if single else f"__{o}__{u}"
+                for k, nm in enumerate(self.parameters):
+                    cols[f"dlogmag_dlog_{nm}{sfx}"] = mag[k, :, i, j]
+                    cols[f"dphase_deg_dlog_{nm}{sfx}"] = ph[k, :, i, j]
+        return cols
+
+    def summary(self) -> str:
+        f = np.asarray(self.frequency_hz)
+        span = f"{f.min():g} … {f.max():g} Hz" if f.size else "no frequencies"
+        return (f"FrequencyResponseSensitivity({f.size} frequencies, {span}; parameters "
+                f"{', '.join(self.parameters)}; {self.method})")
+
+    def to_csv(self, path: str | os.PathLike[str]) -> Path:
+        """Write :meth:`columns` as CSV, atomically."""
+        return atomic_write(check_output_path(path, (".csv",), "sensitivities"),
+                            _csv(self.columns()))
+
+
+def frequency_response_sensitivity(
+    lin: LinearModel, derivatives: Sequence[LinearModelDerivative],
+    f: Sequence[float] | np.ndarray, inputs: str | Sequence[str] | None = None,
+    outputs: str | Sequence[str] | None = None, *, damping: str = "loss",
+    method: str = ANALYTIC,
+) -> FrequencyResponseSensitivity:
+    """``H`` and ``∂H/∂p`` for each derivative of ``lin`` (docs/sensitivity.md §4).
+
+    ``H = C_ω Z⁻¹ B + D`` is linear in ``B``, ``C``, ``D`` and its derivative is
+    ``dH = dC_ω X + C_ω Z⁻¹ (dB − dZ X) + dD`` with ``X = Z⁻¹ B``; both are evaluated by
+    :func:`~neweul_py.analysis.frf.frequency_response` on linear models whose matrices are
+    chosen so that its result is each term (the rates of kinematic excitation, the loss form
+    and the output rows are handled there, once).
+
+    Parameters
+    ----------
+    lin, derivatives
+        The linear model and its matrices' derivatives (:func:`linear_model_derivatives`).
+    f, inputs, outputs, damping
+        As :func:`~neweul_py.analysis.frf.frequency_response`.
+    method
+        Recorded in the result.
+    """
+    base = frequency_response(lin, f, inputs, outputs, damping=damping)
+    w = 2 * np.pi * np.asarray(base.frequency_hz, dtype=float)
+    dH = np.empty((len(derivatives), *base.H.shape), dtype=complex)
+    for k, d in enumerate(derivatives):
+        dlin = d.as_linear_model(lin)
+        # dC_ω X + dD: the output rows of the derivative applied to the solution of lin
+        part_c = frequency_response(replace(lin, C=dlin.C, D=dlin.D, basis=dlin.basis), f,
+                                    base.inputs, base.outputs, damping=damping).H
+        # C_ω Z⁻¹ dB (D = 0): the solution with the input matrix dB
+        part_b = frequency_response(replace(lin, B=d.B, D=np.zeros_like(lin.D)), f,
+                                    base.inputs, base.outputs, damping=damping).H
+        # −C_ω Z⁻¹ dZ X: the solution with the inputs dZ X, one frequency at a time
+        part_z = _stiffness_term(lin, dlin, w, base, damping)
+        dH[k] = part_c + part_b - part_z
+    return FrequencyResponseSensitivity(
+        base.frequency_hz, base.H, dH, base.outputs, base.inputs,
+        tuple(d.parameter for d in derivatives), np.array([d.value for d in derivatives]),
+        method)
+
+
+def _stiffness_term(lin: LinearModel, dlin: LinearModel, w: np.ndarray, base: Any,
+                    damping: str) -> np.ndarray:
+    """``C_ω Z⁻¹ dZ X`` (nf, ny, nu), ``X = Z⁻¹ B(ω)`` the coordinates' response (with the
+    rates of kinematic excitation folded in, as :func:`frequency_response` does)."""
+    coords = list(lin.all_coordinates)
+    X = frequency_response(replace(lin, C=np.zeros_like(lin.C), D=np.zeros_like(lin.D)),
+                           base.frequency_hz, base.inputs, coords, damping=damping).H
+    # X in the full coordinates; the equations are in the minimal ones (lin.basis)
+    Xm = np.linalg.lstsq(lin.basis, X.reshape(len(w), len(coords), -1).transpose(1, 0, 2)
+                         .reshape(len(coords), -1), rcond=None)[0]
+    Xm = Xm.reshape(lin.n, len(w), -1).transpose(1, 0, 2)           # (nf, m, nu)
+    dZ = dlin.dynamic_stiffness(w, damping if dlin.G is not None else "viscous")
+    rhs = dZ @ Xm                                                    # (nf, m, nu)
+    Z = lin.dynamic_stiffness(w, damping)
+    sol = np.linalg.solve(Z, rhs)
+    cy, cyd, cydd, _d = lin.output_rows(base.outputs)
+    ww = w[:, None, None]
+    return (cy + 1j * ww * cyd - ww**2 * cydd) @ sol
+
+
+def _csv(cols: dict[str, np.ndarray]) -> str:
+    buf = io.StringIO()
+    wr = csv.writer(buf, lineterminator="\n")
+    wr.writerow(list(cols))
+    for row in zip(*cols.values(), strict=True):
+        wr.writerow([repr(float(v)) if isinstance(v, float | np.floating) else str(v)
+                     for v in row])
+    return buf.getvalue()
