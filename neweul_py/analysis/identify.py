@@ -342,11 +342,15 @@ def _statistics(problem: FitProblem, theta: np.ndarray, r: np.ndarray, J: np.nda
         combo = " ".join(f"{v[j]:+.2f}·d{'ln ' if problem.log[j] else ''}{names[j]}"
                          for j in involved)
         ratio = S[i] / top if top else 0.0
+        if len(involved) == 1:
+            why = ("the data do not determine it: the residuals do not change with it "
+                   f"(singular value ratio {ratio:.1e})")
+        else:
+            why = ("the data do not determine it: the residuals do not change along "
+                   f"{combo} (singular value ratio {ratio:.1e}), only a combination of "
+                   f"{', '.join(names[q] for q in involved)} is determined")
         for j in involved:
-            undetermined.setdefault(
-                names[j], "the data do not determine it: the residuals do not change along "
-                f"{combo} (singular value ratio {ratio:.1e}), only a combination of "
-                f"{', '.join(names[q] for q in involved)} is determined")
+            undetermined.setdefault(names[j], why)
     keep = [i for i in range(k) if i not in null]
     s2 = 2.0 * 0.5 * float(r @ r) / (m - k) if m > k else np.nan
     cov = (Vt[keep].T / S[keep] ** 2) @ Vt[keep] * s2
