@@ -248,19 +248,27 @@ def _problem(module: Any, data: Any, bounds: Sequence[Bound], task: str,
         m = data.t.size * len(data.columns)
     else:
         raise NeweulError(f"unknown task {task!r}; tasks are: frf, simulate")
-    if m < len(bounds):
-        raise NeweulError(f"{m} residuals cannot determine {len(bounds)} parameters")
+    if m <= len(bounds):
+        raise NeweulError(f"{m} residuals cannot determine {len(bounds)} parameters and "
+                          "their standard errors (more data points are needed)")
     pv = proto.resolve_parameters(module, p)
     return FitProblem(tuple(b.name for b in bounds), tuple(b.log for b in bounds),
                       np.array([b.theta(b.lo) for b in bounds]),
                       np.array([b.theta(b.hi) for b in bounds]), pv, data, options)
 
 
-def _starts(bounds: Sequence[Bound], problem: FitProblem, n: int, seed: int) -> np.ndarray:
-    """``n`` starts in ``θ``: the given starts (else the middle of the bounds in ``θ``), then
-    a Latin hypercube in the bounds."""
-    first = np.array([b.theta(b.start) if b.start is not None else 0.5 * (lo + hi)
-                      for b, lo, hi in zip(bounds, problem.lower, problem.upper, strict=True)])
+def _starts(module: Any, bounds: Sequence[Bound], problem: FitProblem, n: int,
+            seed: int) -> np.ndarray:
+    """``n`` starts in ``θ``: the given starts (else the model's values where they are inside
+    the bounds, else the middle of the bounds in ``θ``), then a Latin hypercube in the
+    bounds."""
+    names = list(module.PARAMETERS)
+    first = []
+    for b, lo, hi in zip(bounds, problem.lower, problem.upper, strict=True):
+        value = problem.p[names.index(b.name)]
+        start = b.start if b.start is not None else value if b.lo <= value <= b.hi else None
+        first.append(b.theta(start) if start is not None else 0.5 * (lo + hi))
+    first = np.array(first)
     if n <= 1:
         return first[None, :]
     from scipy.stats import qmc
@@ -424,7 +432,9 @@ def identify(
     method, rtol, atol
         ``simulate``: the integrator of the state and its sensitivities.
     starts, seed
-        Number of starts (the given one, then a Latin hypercube in the bounds, seeded).
+        Number of starts: the given ones (else the values of ``p`` where they are inside the
+        bounds, else the middle of the bounds), then a Latin hypercube in the bounds
+        (seeded).
     workers, scheduler, client
         Run the starts on Dask: a local cluster of ``workers`` processes (free ports, no
         dashboard), a scheduler's address, or a ``dask.distributed.Client`` (left open; the
@@ -463,7 +473,7 @@ def identify(
                "phase_weight": float(phase_weight), "t_end": t_end, "method": method,
                "rtol": rtol, "atol": atol}
     problem = _problem(module, data, bounds, task, p, options)
-    runs = _run_starts(module, problem, _starts(bounds, problem, int(starts), seed),
+    runs = _run_starts(module, problem, _starts(module, bounds, problem, int(starts), seed),
                        int(max_nfev), float(tolerance), int(workers), scheduler, client)
     good = [r for r in runs if "error" not in r]
     if not good:

@@ -574,6 +574,7 @@ def frequency_response_sensitivity(
     """
     base = frequency_response(lin, f, inputs, outputs, damping=damping)
     w = 2 * np.pi * np.asarray(base.frequency_hz, dtype=float)
+    X = _coordinate_response(lin, base, damping)
     dH = np.empty((len(derivatives), *base.H.shape), dtype=complex)
     for k, d in enumerate(derivatives):
         dlin = d.as_linear_model(lin)
@@ -584,7 +585,7 @@ def frequency_response_sensitivity(
         part_b = frequency_response(replace(lin, B=d.B, D=np.zeros_like(lin.D)), f,
                                     base.inputs, base.outputs, damping=damping).H
         # −C_ω Z⁻¹ dZ X: the solution with the inputs dZ X, one frequency at a time
-        part_z = _stiffness_term(lin, dlin, w, base, damping)
+        part_z = _stiffness_term(lin, dlin, w, X, base.outputs, damping)
         dH[k] = part_c + part_b - part_z
     return FrequencyResponseSensitivity(
         base.frequency_hz, base.H, dH, base.outputs, base.inputs,
@@ -592,22 +593,26 @@ def frequency_response_sensitivity(
         method)
 
 
-def _stiffness_term(lin: LinearModel, dlin: LinearModel, w: np.ndarray, base: Any,
-                    damping: str) -> np.ndarray:
-    """``C_ω Z⁻¹ dZ X`` (nf, ny, nu), ``X = Z⁻¹ B(ω)`` the coordinates' response (with the
-    rates of kinematic excitation folded in, as :func:`frequency_response` does)."""
+def _coordinate_response(lin: LinearModel, base: Any, damping: str) -> np.ndarray:
+    """``X = Z⁻¹ B(ω)`` (nf, m, nu) in the minimal coordinates, with the rates of kinematic
+    excitation folded in as :func:`frequency_response` does."""
     coords = list(lin.all_coordinates)
+    nf = len(base.frequency_hz)
     X = frequency_response(replace(lin, C=np.zeros_like(lin.C), D=np.zeros_like(lin.D)),
                            base.frequency_hz, base.inputs, coords, damping=damping).H
     # X in the full coordinates; the equations are in the minimal ones (lin.basis)
-    Xm = np.linalg.lstsq(lin.basis, X.reshape(len(w), len(coords), -1).transpose(1, 0, 2)
-                         .reshape(len(coords), -1), rcond=None)[0]
-    Xm = Xm.reshape(lin.n, len(w), -1).transpose(1, 0, 2)           # (nf, m, nu)
+    Xm = np.linalg.lstsq(lin.basis, X.transpose(1, 0, 2).reshape(len(coords), -1),
+                         rcond=None)[0]
+    return Xm.reshape(lin.n, nf, -1).transpose(1, 0, 2)
+
+
+def _stiffness_term(lin: LinearModel, dlin: LinearModel, w: np.ndarray, X: np.ndarray,
+                    outputs: Sequence[str], damping: str) -> np.ndarray:
+    """``C_ω Z⁻¹ dZ X`` (nf, ny, nu) for the coordinates' response ``X``
+    (:func:`_coordinate_response`)."""
     dZ = dlin.dynamic_stiffness(w, damping if dlin.G is not None else "viscous")
-    rhs = dZ @ Xm                                                    # (nf, m, nu)
-    Z = lin.dynamic_stiffness(w, damping)
-    sol = np.linalg.solve(Z, rhs)
-    cy, cyd, cydd, _d = lin.output_rows(base.outputs)
+    sol = np.linalg.solve(lin.dynamic_stiffness(w, damping), dZ @ X)
+    cy, cyd, cydd, _d = lin.output_rows(outputs)
     ww = w[:, None, None]
     return (cy + 1j * ww * cyd - ww**2 * cydd) @ sol
 
