@@ -61,7 +61,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="starts: the given one, then a Latin hypercube in the bounds")
     parser.add_argument("--seed", type=count("--seed", minimum=0, cap=2**32 - 1), default=0,
                         help="seed of the starts (default 0)")
-    parser.add_argument("--workers", type=count("--workers", minimum=0, cap=1024), default=0,
+    parser.add_argument("--workers", type=count("--workers", minimum=0, cap=256), default=0,
                         metavar="W", help="run the starts on a local Dask cluster of W "
                         "processes (the sweep extra; default 0: in this process)")
     parser.add_argument("--scheduler", metavar="ADDR", help="run the starts on this Dask "
