@@ -170,6 +170,7 @@ def generate(
     backend: Backend = "numpy",
     progress: StagedProgress = None,
     cache: bool | str | os.PathLike[str] = False,
+    sensitivities: bool = False,
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
@@ -199,6 +200,10 @@ def generate(
         deriving and storing it there on a miss. The module written is byte for byte the one
         derivation would write (the key covers the description, its data files, the form and
         the generator's source); a hit imports neither sympy nor the symbolic layers.
+    sensitivities
+        Also the directional second derivatives of the parameter sensitivities of linear
+        models (docs/sensitivity.md §1; rigid models). The first parameter derivatives are in
+        every module.
 
     Returns
     -------
@@ -217,7 +222,8 @@ def generate(
     is_text = isinstance(source, str) and "\n" in source
     if (isinstance(source, str | os.PathLike) and not is_text and cache is not False
             and backend == "numpy"):
-        return _generate_cached(source, out_dir, form, None if cache is True else cache)
+        return _generate_cached(source, out_dir, form, None if cache is True else cache,
+                                sensitivities)
     from .model import System
 
     if isinstance(source, System):
@@ -243,7 +249,7 @@ def generate(
     from .codegen import generate_module
 
     path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py",
-                           progress=progress)
+                           sensitivities=sensitivities, progress=progress)
     return _with_backend(path, backend, lambda: equations, rebuild=True, progress=progress)
 
 
@@ -264,19 +270,21 @@ def _constant_of(source: bytes, name: str) -> Any:
 
 
 def _generate_cached(description_path: str | os.PathLike[str], out_dir: str | os.PathLike[str],
-                     form: Form, cache: str | os.PathLike[str] | None) -> Path:
+                     form: Form, cache: str | os.PathLike[str] | None,
+                     sensitivities: bool = False) -> Path:
     """:func:`generate` through the content-hash cache: a verified hit is copied to
     ``out_dir`` without importing sympy or the analysis package; a miss derives and stores."""
     from .atomic import atomic_write
 
     _check_form(form)
     parsed = _parsed(description_path)
-    source = verified_bytes(_cache_entry(parsed, description_path, form, cache))
+    source = verified_bytes(_cache_entry(parsed, description_path, form, cache, sensitivities))
     name = None
     if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(parsed.raw):
         name = _constant_of(source, "MODEL_NAME")
     if not isinstance(name, str):
-        entry = _cached_source(description_path, form, cache, parsed=parsed)
+        entry = _cached_source(description_path, form, cache, parsed=parsed,
+                               sensitivities=sensitivities)
         source, name = entry.source, (entry.module.MODEL_NAME if entry.module is not None
                                       else entry.equations().system.name)
     return atomic_write(Path(out_dir) / f"{name}.py", source)
@@ -440,10 +448,10 @@ def _file_fingerprints(entries: dict, section: str, key: str, base: Path,
 
 
 def _cache_entry(parsed: _Parsed, description_path: str | os.PathLike[str], form: str,
-                 cache: str | os.PathLike[str] | None) -> Path:
+                 cache: str | os.PathLike[str] | None, sensitivities: bool = False) -> Path:
     """Path of the cached module of a description (in a trusted directory)."""
-    material = [_sha256(parsed.raw), form, _generator_fingerprint(),
-                *_data_fingerprints(parsed.tree.data, description_path)]
+    material = [_sha256(parsed.raw), form, *(["sensitivities"] if sensitivities else []),
+                _generator_fingerprint(), *_data_fingerprints(parsed.tree.data, description_path)]
     key = hashlib.sha256("\n".join(material).encode()).hexdigest()
     directory = trusted_dir(cache)
     stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
@@ -468,13 +476,15 @@ class _Entry:
 
 def _cached_source(description_path: str | os.PathLike[str], form: Form,
                    cache: str | os.PathLike[str] | None,
-                   progress: StagedProgress = None, parsed: _Parsed | None = None) -> _Entry:
+                   progress: StagedProgress = None, parsed: _Parsed | None = None,
+                   sensitivities: bool = False) -> _Entry:
     """The cache entry of a description, with its verified source and (on a hit) module
-    (``parsed``: the description already read and parsed)."""
+    (``parsed``: the description already read and parsed; ``sensitivities``: as
+    :func:`generate`)."""
     _check_form(form)
     parsed = parsed or _parsed(description_path)
     raw = parsed.raw
-    path = _cache_entry(parsed, description_path, form, cache)
+    path = _cache_entry(parsed, description_path, form, cache, sensitivities)
 
     def derive_now() -> Any:
         return _derive_tree(parsed.tree, form, progress)
@@ -494,7 +504,8 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
     from .codegen import render_module
 
     equations = derive_now()
-    source = render_module(equations, _sha256(raw), progress=progress).encode("utf-8")
+    source = render_module(equations, _sha256(raw), sensitivities=sensitivities,
+                           progress=progress).encode("utf-8")
     write_cached(path, source)
     return _Entry(path, source, None, derive_now, equations)
 
@@ -504,6 +515,7 @@ def generated_module(
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
     backend: Backend = "numpy",
+    sensitivities: bool = False,
 ) -> Path:
     """The generated module of a description, from the cache or freshly generated into it.
 
@@ -512,7 +524,8 @@ def generated_module(
     anything. A cached module is trusted only after its bytes match the SHA-256 recorded when
     it was written (:mod:`neweul_py.cache`); a mismatch regenerates it with one
     :class:`~neweul_py.cache.CacheWarning`. Prefer :func:`load_description_module`, which
-    imports the verified bytes themselves rather than the path.
+    imports the verified bytes themselves rather than the path. ``sensitivities``: as
+    :func:`generate` (a cache entry of its own).
 
     Raises
     ------
@@ -520,7 +533,7 @@ def generated_module(
         The cache directory is owned by another user or writable by others, or not writable.
     """
     _check_backend(backend)
-    entry = _cached_source(description_path, form, cache)
+    entry = _cached_source(description_path, form, cache, sensitivities=sensitivities)
     return _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh,
                          cached=True)
 
@@ -531,9 +544,10 @@ def load_description_module(
     cache: str | os.PathLike[str] | None = None,
     backend: Backend = "numpy",
     progress: StagedProgress = None,
+    sensitivities: bool = False,
 ) -> ModuleType:
     """The generated module of a description (``progress``: the derivation's on a cache
-    miss, as in :func:`generate`). The NumPy module is imported from the verified
+    miss, ``sensitivities``: as in :func:`generate`). The NumPy module is imported from the verified
     bytes of its cache entry (:func:`generated_module`), so that the file cannot change
     between check and import; the compiled one (``backend="c"``) is loaded through its
     wrapper, imported from its verified bytes as well (:func:`_load_cached_wrapper`), whose
@@ -547,7 +561,8 @@ def load_description_module(
     from .analysis.module import check_protocol
 
     _check_backend(backend)
-    entry = _cached_source(description_path, form, cache, progress)
+    entry = _cached_source(description_path, form, cache, progress,
+                           sensitivities=sensitivities)
     if backend != "numpy":
         wrapper = _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh,
                                 cached=True)

@@ -9,7 +9,8 @@ First derivatives (at fixed inputs ``u``; ``u=None`` holds the default excitatio
 ``∂rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` and ``output_parameter_jacobian`` ``∂out/∂p``.
 
 Directional derivatives along ``(δy, δẏ, δp, δu)`` (the second derivatives that the parameter
-derivatives of the linearized matrices need): ``force_jacobians_directional``,
+derivatives of the linearized matrices need; in modules generated with sensitivities,
+:func:`.module.render_module`): ``force_jacobians_directional``,
 ``mass_matrix_directional``, ``mass_matrix_times_derivative_directional``,
 ``output_jacobians_directional`` and, with loss factors, ``loss_matrix_directional``.
 """
@@ -73,7 +74,7 @@ def _fill(ctx: Context, J: sp.ImmutableMatrix, splits: Sequence[tuple[str, int, 
 
 
 def parameter_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix, method: CseMethod,
-                        d_method: CseMethod, prefix: str = "", directional: bool = True
+                        d_method: CseMethod, prefix: str = "", directional: bool = False
                         ) -> dict[str, tuple[str, ...]]:
     """Source lines of the parameter-derivative functions, by protocol name.
 
@@ -90,7 +91,7 @@ def parameter_functions(ctx: Context, eq: Any, outs: sp.ImmutableMatrix, method:
     prefix
         Prefix of the function names (``"_rigid_"`` inside modules with elastic bodies).
     directional
-        Also the directional (second) derivatives.
+        Also the directional (second) derivatives (modules generated with sensitivities).
     """
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, nu, npar = len(y), len(u), len(p)

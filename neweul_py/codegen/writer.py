@@ -471,7 +471,7 @@ def _schedule_functions(ctx: Context, schedules: Sequence[sp.Expr],
 def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: str = "",
                  allow_empty: bool = False, schedules: Sequence[sp.Expr] = (),
                  schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None,
-                 rhs_parts: int | None = None, directional: bool = True,
+                 rhs_parts: int | None = None, directional: bool = False,
                  schedule_parameter_jacobian: sp.ImmutableMatrix | None = None,
                  progress: StagedProgress = None) -> ModuleParts:
     """The parts of the generated module of (the symbolic part of) ``equations``.
@@ -501,8 +501,8 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         with ``M`` and ``q − k`` from one program (:func:`_rhs_parts`; the splice of
         elastic bodies, whose frame kinematics are those outputs).
     directional
-        Also the directional (second) derivatives of :mod:`.parameters` (the splice of
-        elastic bodies does not use them).
+        Also the directional (second) derivatives of :mod:`.parameters` (``neweul generate
+        --sensitivities``; the splice of elastic bodies does not use them).
     progress
         ``progress("code generation", done, total)`` after each block (CSE, derivatives,
         printing of one function; :mod:`neweul_py.progress`).

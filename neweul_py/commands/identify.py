@@ -105,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
             raise NeweulError("--t-end does not apply to --task frf")
     elif args.t_end is None:
         raise NeweulError("--task simulate needs --t-end T")
+    args.sensitivities = args.task == "frf"     # a description: with second derivatives
     module = common.load_model(args)
     fit = identify(
         module, args.data, bounds, args.task, input=args.input,

@@ -49,8 +49,8 @@ def oscillators(tmp_path_factory):
     (tmp / "pair.yaml").write_text(OSCILLATOR.format(stiffness="k1*k2"))
     (tmp / "one.yaml").write_text(OSCILLATOR.format(stiffness="k1").replace("k1: 20.0",
                                                                             "k1: 800.0"))
-    return (load_generated(generate(tmp / "pair.yaml", tmp / "a")),
-            load_generated(generate(tmp / "one.yaml", tmp / "b")))
+    return (load_generated(generate(tmp / "pair.yaml", tmp / "a", sensitivities=True)),
+            load_generated(generate(tmp / "one.yaml", tmp / "b", sensitivities=True)))
 
 
 def _noisy_frf(mod, noise: float, seed: int = 4) -> FrequencyData:

@@ -61,26 +61,32 @@ outputs:
 
 
 @pytest.fixture(scope="module")
-def oscillator(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("osc")
+def models(tmp_path_factory):
+    """The modules of the test descriptions and of two examples, generated with the
+    directional derivatives (``sensitivities=True``)."""
+    tmp = tmp_path_factory.mktemp("sens")
     (tmp / "osc.yaml").write_text(OSCILLATOR)
-    return load_generated(generate(tmp / "osc.yaml", tmp))
-
-
-@pytest.fixture(scope="module")
-def preloaded(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("pre")
     (tmp / "pre.yaml").write_text(PRELOADED)
-    return load_generated(generate(tmp / "pre.yaml", tmp))
+    paths = {"oscillator": tmp / "osc.yaml", "preloaded": tmp / "pre.yaml",
+             "pendulum": ROOT / "examples" / "pendulum.yaml",
+             "quarter_car": ROOT / "examples" / "quarter_car.yaml"}
+    return {k: load_generated(generate(v, tmp / k, sensitivities=True))
+            for k, v in paths.items()}
 
 
-def _pendulum():
-    return load_generated(ROOT / "generated" / "pendulum.py")
+@pytest.fixture
+def oscillator(models):
+    return models["oscillator"]
 
 
-def test_pendulum_frequency_scales_with_root_of_g_over_l() -> None:
+@pytest.fixture
+def preloaded(models):
+    return models["preloaded"]
+
+
+def test_pendulum_frequency_scales_with_root_of_g_over_l(models) -> None:
     """Closed form: f = √(g/l)/2π, so ∂ln f/∂ln l = −½, ∂ln f/∂ln g = ½, ∂ln f/∂ln m = 0."""
-    mod = _pendulum()
+    mod = models["pendulum"]
     lin = linearize(mod, equilibrium(mod))
     ders, method = sens.linear_model_derivatives(mod, lin)
     res = sens.modal_sensitivity(lin, ders)
@@ -137,15 +143,15 @@ def _frf_difference(mod, name: str, f, inputs, outputs, h: float = 1e-6):
 @pytest.mark.parametrize(("name", "inputs", "outputs"),
                          [("preloaded", "M", ["phi", "x_bob", "d_phi"]),
                           ("quarter_car", "zr", ["body_height", "tire_force"])])
-def test_frf_sensitivity_equals_central_differences(preloaded, name, inputs, outputs) -> None:
+def test_frf_sensitivity_equals_central_differences(models, name, inputs, outputs) -> None:
     """Through the moving equilibrium (preloaded pendulum: T, l, m change φ₀ and with it the
     stiffness and C) and through the rates of a kinematic excitation (quarter car, input
     zr with d_zr): ∂H/∂p equals central differences of the frequency response (relative step
     1e-6, the equilibrium solved again)."""
-    mod = preloaded if name == "preloaded" else load_generated(ROOT / "generated" /
-                                                               f"{name}.py")
+    mod = models[name]
     lin = linearize(mod, equilibrium(mod))
-    ders, _ = sens.linear_model_derivatives(mod, lin)
+    ders, method = sens.linear_model_derivatives(mod, lin)
+    assert method == sens.ANALYTIC
     f = np.geomspace(0.3, 30.0, 9)
     res = sens.frequency_response_sensitivity(lin, ders, f, inputs, outputs)
     for j, nm in enumerate(res.parameters):
@@ -154,11 +160,11 @@ def test_frf_sensitivity_equals_central_differences(preloaded, name, inputs, out
         np.testing.assert_allclose(res.dH[j], ref, rtol=0, atol=2e-6 * scale, err_msg=nm)
 
 
-def test_modal_sensitivity_equals_central_differences() -> None:
+def test_modal_sensitivity_equals_central_differences(models) -> None:
     """Damped modes of the quarter car: dλ/dp from the left and right eigenvectors equals
     central differences of the eigenvalues (relative step 1e-4: the eigenvalues' round-off
     of ~1e-13·|λ| would dominate smaller steps)."""
-    mod = load_generated(ROOT / "generated" / "quarter_car.py")
+    mod = models["quarter_car"]
     lin = linearize(mod, equilibrium(mod))
     ders, _ = sens.linear_model_derivatives(mod, lin, ["mb", "ks", "cs", "kt"])
     res = sens.modal_sensitivity(lin, ders)
@@ -176,8 +182,9 @@ def test_modal_sensitivity_equals_central_differences() -> None:
 
 
 def test_differences_fallback_equals_the_analytic_derivatives(preloaded) -> None:
-    """A module without the directional functions (as modules with elastic bodies) gets the
-    linear model's derivatives as central differences; they equal the analytic ones."""
+    """A module without the directional functions (generated without sensitivities, or with
+    elastic bodies) gets the linear model's derivatives as central differences; they equal
+    the analytic ones."""
     mod = preloaded
     lin = linearize(mod, equilibrium(mod))
     analytic, _ = sens.linear_model_derivatives(mod, lin)

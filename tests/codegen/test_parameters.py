@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from neweul_py.analysis.module import load_generated
+from neweul_py.api import generate
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Shipped modules: a pendulum, inputs with rates and default excitation, a closed loop,
@@ -74,11 +75,32 @@ def test_first_parameter_derivatives_equal_central_differences(name: str) -> Non
            _difference(lambda q: mod.outputs(t, x, q, u), p), f"{name}: ∂out/∂p")
 
 
+@pytest.fixture(scope="module")
+def with_sensitivities(tmp_path_factory):
+    """The examples generated with the directional derivatives (``sensitivities=True``)."""
+    tmp = tmp_path_factory.mktemp("sens")
+    return {name: load_generated(generate(ROOT / "examples" / f"{name}.yaml", tmp,
+                                          sensitivities=True)) for name in MODULES}
+
+
+def test_sensitivities_only_append_the_directional_functions(with_sensitivities) -> None:
+    """The module generated with sensitivities is the shipped one followed by the directional
+    functions (reference: the shipped text, byte for byte)."""
+    for name, mod in with_sensitivities.items():
+        shipped = (ROOT / "generated" / f"{name}.py").read_text()
+        text = Path(mod.__file__).read_text()
+        head = shipped.rstrip("\n") + "\n\n\ndef force_jacobians_directional("
+        assert text.startswith(head), name
+        assert not hasattr(load_generated(ROOT / "generated" / f"{name}.py"),
+                           "force_jacobians_directional")
+
+
 @pytest.mark.parametrize("name", MODULES)
-def test_directional_derivatives_equal_central_differences(name: str) -> None:
+def test_directional_derivatives_equal_central_differences(with_sensitivities,
+                                                           name: str) -> None:
     """The derivatives of ``force_jacobians``, ``M``, ``∂(M a)/∂y``, ``output_jacobians``
     (and ``loss_matrix``) along a random ``(δy, δẏ, δp, δu)``."""
-    mod = load_generated(ROOT / "generated" / f"{name}.py")
+    mod = with_sensitivities[name]
     rng, t, x, p, u = _point(mod, 5)
     n, nu = len(mod.COORDINATES), len(mod.INPUTS)
     y, yd, a = x[:n], x[n:], rng.standard_normal(n)
@@ -105,9 +127,9 @@ def test_directional_derivatives_equal_central_differences(name: str) -> None:
                f"{name}: dG")
 
 
-def test_directional_rates_default_to_zero_inputs() -> None:
+def test_directional_rates_default_to_zero_inputs(with_sensitivities) -> None:
     """``du=None`` is the direction without input rates (reference: ``du = 0``)."""
-    mod = load_generated(ROOT / "generated" / "quarter_car.py")
+    mod = with_sensitivities["quarter_car"]
     rng, t, x, p, u = _point(mod)
     n = len(mod.COORDINATES)
     dy, dyd, dp = rng.standard_normal(n), rng.standard_normal(n), 0.1 * p

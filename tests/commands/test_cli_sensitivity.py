@@ -16,12 +16,12 @@ import pytest
 from neweul_py.analysis import sensitivity as sens
 from neweul_py.analysis.equilibrium import equilibrium
 from neweul_py.analysis.linearize import linearize
-from neweul_py.analysis.module import load_generated
+from neweul_py.api import load_description_module
 from neweul_py.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-QUARTER_CAR = str(ROOT / "generated" / "quarter_car.py")
-PENDULUM = str(ROOT / "generated" / "pendulum.py")
+QUARTER_CAR = str(ROOT / "examples" / "quarter_car.yaml")
+PENDULUM = str(ROOT / "examples" / "pendulum.yaml")
 
 
 def _read(path: Path) -> dict[str, np.ndarray]:
@@ -31,21 +31,36 @@ def _read(path: Path) -> dict[str, np.ndarray]:
 
 
 def test_frf_task_writes_log_sensitivities(tmp_path, capsys) -> None:
-    """The columns frequency_hz, dlogmag_dlog_NAME, dphase_deg_dlog_NAME equal the API's."""
+    """The columns frequency_hz, dlogmag_dlog_NAME, dphase_deg_dlog_NAME equal the API's on
+    the module generated with sensitivities (the analytic path: no note on stderr)."""
     out = tmp_path / "s.csv"
     assert main(["sensitivity", QUARTER_CAR, "--task", "frf", "--input", "zr", "--response",
                  "body_height", "--f", "1:20:5", "--wrt", "ks", "--wrt", "mb", "-o",
                  str(out)]) == 0
+    assert "note" not in capsys.readouterr().err
     cols = _read(out)
     assert list(cols) == ["frequency_hz", "dlogmag_dlog_ks", "dphase_deg_dlog_ks",
                           "dlogmag_dlog_mb", "dphase_deg_dlog_mb"]
-    mod = load_generated(QUARTER_CAR)
+    mod = load_description_module(QUARTER_CAR, sensitivities=True)
     lin = linearize(mod, equilibrium(mod))
-    ders, _ = sens.linear_model_derivatives(mod, lin, ["ks", "mb"])
+    ders, method = sens.linear_model_derivatives(mod, lin, ["ks", "mb"])
+    assert method == sens.ANALYTIC
     ref = sens.frequency_response_sensitivity(lin, ders, np.linspace(1, 20, 5), "zr",
                                               "body_height").columns()
     for name, values in cols.items():
         np.testing.assert_allclose(values, ref[name], rtol=1e-14, atol=1e-300)
+
+
+def test_a_module_without_second_derivatives_gets_differences_and_a_note(capsys) -> None:
+    """A generated module of the default kind (no directional functions): the linear
+    model's derivatives are central differences, said on stderr; the pendulum's closed form
+    still holds to 1e-6."""
+    assert main(["sensitivity", str(ROOT / "generated" / "pendulum.py"), "--task", "modes",
+                 "--wrt", "l"]) == 0
+    captured = capsys.readouterr()
+    assert "central differences" in captured.err
+    value = float(captured.out.splitlines()[2].split()[-2])
+    assert value == pytest.approx(-0.5, abs=1e-6)
 
 
 def test_modes_task_prints_the_pendulum_closed_form(capsys) -> None:
