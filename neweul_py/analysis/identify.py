@@ -30,6 +30,7 @@ from ..errors import NeweulError, SolverError
 from . import protocol as proto
 from .identify_data import FrequencyData, TimeData, read_frequency_data, read_time_data
 from .identify_model import FitProblem, Residuals, column_index
+from .module import GeneratedModel, ModelLike, as_model
 from .results import check_output_path
 
 __all__ = ["MAX_CORRELATION", "NULL_COMPONENT", "RCOND", "Bound", "FitResult", "fit_start",
@@ -214,7 +215,7 @@ class FitResult:
         return save_figure(fig, path)
 
 
-def _problem(module: Any, data: Any, bounds: Sequence[Bound], task: str,
+def _problem(module: GeneratedModel, data: Any, bounds: Sequence[Bound], task: str,
              p: proto.ParameterLike, options: dict[str, Any]) -> FitProblem:
     """Check the bounds and the data against the module; the :class:`FitProblem`."""
     names = list(module.PARAMETERS)
@@ -230,7 +231,7 @@ def _problem(module: Any, data: Any, bounds: Sequence[Bound], task: str,
         if not isinstance(data, FrequencyData):
             raise NeweulError("--task frf fits a frequency response (frequency_hz, magnitude, "
                               "phase_deg, as neweul frf -o writes it)")
-        proto.name_index(list(getattr(module, "INPUTS", []) or []), data.input, "input")
+        proto.name_index(list(module.INPUTS), data.input, "input")
         valid = [*module.OUTPUTS, *module.COORDINATES,
                  *(f"{d}_{c}" for d in ("d", "dd") for c in module.COORDINATES)]
         proto.name_index(valid, data.response, "response")
@@ -257,7 +258,7 @@ def _problem(module: Any, data: Any, bounds: Sequence[Bound], task: str,
                       np.array([b.theta(b.hi) for b in bounds]), pv, data, options)
 
 
-def _starts(module: Any, bounds: Sequence[Bound], problem: FitProblem, n: int,
+def _starts(module: GeneratedModel, bounds: Sequence[Bound], problem: FitProblem, n: int,
             seed: int) -> np.ndarray:
     """``n`` starts in ``θ``: the given starts (else the model's values where they are inside
     the bounds, else the middle of the bounds in ``θ``), then a Latin hypercube in the
@@ -278,7 +279,7 @@ def _starts(module: Any, bounds: Sequence[Bound], problem: FitProblem, n: int,
     return np.vstack([first, rest])
 
 
-def fit_start(module: Any, problem: FitProblem, theta0: np.ndarray, max_nfev: int,
+def fit_start(module: GeneratedModel, problem: FitProblem, theta0: np.ndarray, max_nfev: int,
               tolerance: float) -> dict[str, Any]:
     """One least-squares run from ``theta0``: ``theta``, ``cost``, ``njev``, ``nfev``,
     ``status``, ``message`` (or ``error``: its one-line message, the run failed)."""
@@ -306,15 +307,15 @@ def fit_on_worker(source: str, problem: FitProblem, theta0: np.ndarray, max_nfev
     return fit_start(module_from_source(source), problem, theta0, max_nfev, tolerance)
 
 
-def _run_starts(module: Any, problem: FitProblem, starts: np.ndarray, max_nfev: int,
+def _run_starts(module: GeneratedModel, problem: FitProblem, starts: np.ndarray, max_nfev: int,
                 tolerance: float, workers: int, scheduler: str | None, client: Any
                 ) -> list[dict[str, Any]]:
     if len(starts) == 1 or (workers <= 0 and not scheduler and client is None):
         return [fit_start(module, problem, s, max_nfev, tolerance) for s in starts]
     from .sweep import connect
 
-    path = getattr(module, "__file__", None)
-    if path is None:
+    path = module.path
+    if not path:
         raise NeweulError("identify: the module has no file to ship to the Dask workers")
     source = Path(path).read_text(encoding="utf-8")
     own = client is None
@@ -388,7 +389,7 @@ def _statistics(problem: FitProblem, theta: np.ndarray, r: np.ndarray, J: np.nda
 
 
 def identify(
-    module: Any, data: Any, bounds: Sequence[Bound | str], task: str = "frf", *,
+    module: ModelLike, data: Any, bounds: Sequence[Bound | str], task: str = "frf", *,
     input: str | None = None, response: str | None = None,
     columns: Sequence[str] | None = None, t_end: float | None = None,
     p: proto.ParameterLike = None, u: Mapping[str, float] | None = None,
@@ -455,7 +456,7 @@ def identify(
     SolverError
         When no start could evaluate the model.
     """
-    module = proto.load_module(module)
+    module = as_model(module)
     bounds = [b if isinstance(b, Bound) else Bound.parse(b) for b in bounds]
     if isinstance(data, str | os.PathLike):
         data = (read_frequency_data(data, response, input) if task == "frf"
@@ -517,5 +518,5 @@ def identify(
                                                                  strict=True)},
         at_bounds=at_bounds, starts=summary,
         residual_rms=float(np.sqrt(np.mean(r**2))) if r.size else 0.0, n_residuals=int(r.size),
-        model_name=str(getattr(module, "MODEL_NAME", "")),
-        data_file=getattr(data, "file", ""), curve=curve_out)
+        model_name=str(module.MODEL_NAME),
+        data_file=data.file, curve=curve_out)

@@ -24,6 +24,7 @@ from . import protocol as proto
 from .equilibrium import equilibrium
 from .identify_data import FrequencyData, TimeData
 from .linearize import linearize
+from .module import GeneratedModel
 from .sensitivity import frequency_response_sensitivity, linear_model_derivatives
 from .sensitivity_time import simulate_sensitivity
 
@@ -59,7 +60,7 @@ class FitProblem:
     data: FrequencyData | TimeData
     options: dict[str, Any] = field(default_factory=dict)
 
-    def parameters(self, module: Any, theta: np.ndarray) -> np.ndarray:
+    def parameters(self, module: GeneratedModel, theta: np.ndarray) -> np.ndarray:
         """The full parameter vector at ``θ``."""
         p = self.p.copy()
         idx = [list(module.PARAMETERS).index(n) for n in self.names]
@@ -76,7 +77,7 @@ class Residuals:
     """The residuals and Jacobian of a :class:`FitProblem` at ``θ``, evaluated together and
     kept for the last ``θ`` (least squares asks for both at one point)."""
 
-    def __init__(self, module: Any, problem: FitProblem) -> None:
+    def __init__(self, module: GeneratedModel, problem: FitProblem) -> None:
         self.module = module
         self.problem = problem
         self._last: tuple[bytes, np.ndarray, np.ndarray, Any] | None = None
@@ -157,7 +158,7 @@ class Residuals:
         return np.concatenate(rs), np.vstack(Js), curve
 
 
-def column_index(module: Any, names: Sequence[str]) -> dict[str, int]:
+def column_index(module: GeneratedModel, names: Sequence[str]) -> dict[str, int]:
     """Column of each signal name in ``[y, ẏ, outputs]`` (coordinates, ``d_<coordinate>``,
     outputs; one error listing the valid names otherwise)."""
     coords = list(module.COORDINATES)

@@ -40,6 +40,7 @@ from .equilibrium import EquilibriumResult, equilibrium
 from .frf import frequency_response
 from .linearize import LinearModel, linearize
 from .modes import ModalResult, modes
+from .module import GeneratedModel, ModelLike, as_model
 from .results import ResultDisplay, check_output_path
 
 __all__ = [
@@ -52,9 +53,12 @@ __all__ = [
     "ModalSensitivity",
     "equilibrium_sensitivity",
     "frequency_response_sensitivity",
+    "held_inputs",
+    "input_parameter_jacobian",
     "linear_model_derivatives",
     "modal_sensitivity",
     "parameter_indices",
+    "require_parameter_derivatives",
 ]
 
 #: ``method`` of results from the module's analytic derivatives.
@@ -64,12 +68,7 @@ DIFFERENCES = "central differences of the analytic linearization"
 #: Relative step of those differences.
 RELATIVE_STEP = 1e-6
 
-#: The module functions the analytic linear-model derivatives need.
-_DIRECTIONAL = ("force_jacobians_directional", "mass_matrix_directional",
-                "mass_matrix_times_derivative_directional", "output_jacobians_directional")
-
-
-def parameter_indices(module: Any, wrt: str | Sequence[str] | None,
+def parameter_indices(module: ModelLike, wrt: str | Sequence[str] | None,
                       p: np.ndarray | None = None) -> list[int]:
     """Positions in ``PARAMETERS`` of the names ``wrt`` (``None``: every parameter).
 
@@ -94,21 +93,22 @@ def parameter_indices(module: Any, wrt: str | Sequence[str] | None,
     return idx
 
 
-def _input_parameter_jacobian(module: Any, t: float, p: np.ndarray,
-                              fixed_inputs: Sequence[int]) -> np.ndarray:
-    """``∂u₀/∂p`` (nu, np) of the default excitation, zero in the rows of inputs held fixed."""
-    nu = len(getattr(module, "INPUTS", []) or [])
-    fn = getattr(module, "default_inputs_parameter_jacobian", None)
-    if not nu or fn is None:
-        return np.zeros((nu, p.size))
-    U = np.array(fn(t, p), dtype=float).reshape(nu, p.size)
-    U[list(fixed_inputs)] = 0.0
+def input_parameter_jacobian(model: GeneratedModel, t: float, p: np.ndarray,
+                             held: Sequence[int] = ()) -> np.ndarray:
+    """``∂u₀/∂p`` (nu, np) of the default excitation, zero in the rows of the inputs
+    ``held`` (:func:`held_inputs`)."""
+    nu = len(model.INPUTS)
+    if not nu:
+        return np.zeros((0, p.size))
+    U = np.array(model.default_inputs_parameter_jacobian(t, p), dtype=float).reshape(nu, -1)
+    U[list(held)] = 0.0
     return U
 
 
-def _fixed_inputs(module: Any, u: Any) -> list[int]:
-    """Indices of the inputs that ``u`` (as given to linearize/equilibrium) holds."""
-    names = list(getattr(module, "INPUTS", []) or [])
+def held_inputs(model: GeneratedModel, u: Any) -> list[int]:
+    """Indices of the inputs that ``u`` (as given to linearize, equilibrium or simulate)
+    holds: none for ``None``, the named ones of a mapping, all of a vector."""
+    names = list(model.INPUTS)
     if u is None:
         return []
     if isinstance(u, Mapping):
@@ -116,12 +116,11 @@ def _fixed_inputs(module: Any, u: Any) -> list[int]:
     return list(range(len(names)))
 
 
-def _require(module: Any, names: Sequence[str]) -> None:
-    missing = [nm for nm in names if not callable(getattr(module, nm, None))]
-    if missing:
-        raise NeweulError(f"{getattr(module, 'MODEL_NAME', 'the module')} has no "
-                          f"{', '.join(missing)}: regenerate it (parameter derivatives, "
-                          "docs/sensitivity.md)")
+def require_parameter_derivatives(model: GeneratedModel) -> None:
+    """One error for a module generated before the parameter derivatives existed."""
+    if not model.has_parameter_derivatives:
+        raise NeweulError(f"{model.MODEL_NAME}: the module has no parameter derivatives "
+                          "(rhs_parameter_jacobian …): regenerate it (docs/sensitivity.md)")
 
 
 # ----------------------------------------------------------------------------- equilibrium
@@ -159,7 +158,7 @@ class EquilibriumSensitivity(ResultDisplay):
                 f"parameters {', '.join(self.parameters)})")
 
 
-def equilibrium_sensitivity(module: Any, eq: EquilibriumResult,
+def equilibrium_sensitivity(module: ModelLike, eq: EquilibriumResult,
                             wrt: str | Sequence[str] | None = None, *,
                             fixed: Sequence[str] = (), u: Any = None) -> EquilibriumSensitivity:
     """``dy₀/dp = −F_y⁻¹ F_p`` at the equilibrium ``eq`` (docs/sensitivity.md §1).
@@ -187,13 +186,13 @@ def equilibrium_sensitivity(module: Any, eq: EquilibriumResult,
     SolverError
         When the stiffness ``F_y`` is singular (the equilibrium is not isolated).
     """
-    module = proto.load_module(module)
-    _require(module, ("force_parameter_jacobian",))
-    if list(getattr(module, "CONSTRAINTS", []) or []):
+    module = as_model(module)
+    require_parameter_derivatives(module)
+    if module.has_constraints:
         raise NeweulError("equilibrium sensitivities of constrained models are not covered "
                           "analytically (docs/sensitivity.md)")
     idx = parameter_indices(module, wrt)
-    names = proto.coordinate_names(module)
+    names = list(module.COORDINATES)
     n = len(names)
     free = [i for i in range(n) if names[i] not in set(fixed)]
     for nm in fixed:
@@ -203,8 +202,8 @@ def equilibrium_sensitivity(module: Any, eq: EquilibriumResult,
     fy, _fyd, fu = (np.asarray(a, dtype=float)
                     for a in module.force_jacobians(t, y, zero, p, uv))
     fp = np.asarray(module.force_parameter_jacobian(t, y, zero, p, uv), dtype=float)
-    Fp = fp + fu.reshape(n, -1) @ _input_parameter_jacobian(module, t, p,
-                                                            _fixed_inputs(module, u))
+    Fp = fp + fu.reshape(n, -1) @ input_parameter_jacobian(module, t, p,
+                                                           held_inputs(module, u))
     dy = np.zeros((n, len(idx)))
     if free:
         K = fy[np.ix_(free, free)]
@@ -254,13 +253,8 @@ class LinearModelDerivative:
                        G=self.G, basis=np.zeros_like(lin.basis))
 
 
-def _analytic(module: Any) -> bool:
-    return (all(callable(getattr(module, nm, None)) for nm in _DIRECTIONAL)
-            and not list(getattr(module, "CONSTRAINTS", []) or []))
-
-
 def linear_model_derivatives(
-    module: Any, lin: LinearModel, wrt: str | Sequence[str] | None = None, *,
+    module: ModelLike, lin: LinearModel, wrt: str | Sequence[str] | None = None, *,
     equilibrium_point: bool = True, fixed: Sequence[str] = (), u: Any = None,
     start: Any = None,
 ) -> tuple[list[LinearModelDerivative], str]:
@@ -289,10 +283,11 @@ def linear_model_derivatives(
         :data:`DIFFERENCES` (modules without the directional functions — elastic bodies — and
         constrained modules).
     """
-    module = proto.load_module(module)
+    module = as_model(module)
+    require_parameter_derivatives(module)
     idx = parameter_indices(module, wrt)
     names = list(module.PARAMETERS)
-    if not _analytic(module):
+    if not module.has_directional_derivatives or module.has_constraints:
         return [_difference(module, lin, names[i], equilibrium_point, fixed, u, start)
                 for i in idx], DIFFERENCES
     n = len(lin.all_coordinates)
@@ -303,7 +298,7 @@ def linear_model_derivatives(
                                       u=u).dy_dp
     else:
         dy0 = np.zeros((n, len(idx)))
-    U = _input_parameter_jacobian(module, t, p, _fixed_inputs(module, u))
+    U = input_parameter_jacobian(module, t, p, held_inputs(module, u))
     M = np.asarray(module.mass_matrix(t, y, p, uv), dtype=float)
     f = np.asarray(module.force_vector(t, y, yd, p, uv), dtype=float)
     fy, fyd, fu = (np.asarray(a, dtype=float) for a in module.force_jacobians(t, y, yd, p, uv))
@@ -311,7 +306,7 @@ def linear_model_derivatives(
     fp = np.asarray(module.force_parameter_jacobian(t, y, yd, p, uv), dtype=float)
     ydd = np.linalg.solve(M, f)
     x0 = np.concatenate([y, yd])
-    has_loss = lin.G is not None and callable(getattr(module, "loss_matrix_directional", None))
+    has_loss = lin.G is not None and module.loss_matrix_directional is not None
     out = []
     for col, i in enumerate(idx):
         dy, dyd, du = dy0[:, col], np.zeros(n), U[:, i]
@@ -344,7 +339,7 @@ def linear_model_derivatives(
     return out, ANALYTIC
 
 
-def _difference(module: Any, lin: LinearModel, name: str, equilibrium_point: bool,
+def _difference(module: GeneratedModel, lin: LinearModel, name: str, equilibrium_point: bool,
                 fixed: Sequence[str], u: Any, start: Any) -> LinearModelDerivative:
     """Central differences of the analytic linearization in ``name`` (relative step
     :data:`RELATIVE_STEP`), the operating point found again on each side."""

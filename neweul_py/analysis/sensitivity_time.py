@@ -30,8 +30,14 @@ import numpy as np
 from ..atomic import atomic_write
 from ..errors import NeweulError, SolverError
 from . import protocol as proto
+from .module import GeneratedModel, ModelLike, as_model
 from .results import ResultDisplay, SimulationResult, check_output_path
-from .sensitivity import parameter_indices
+from .sensitivity import (
+    held_inputs,
+    input_parameter_jacobian,
+    parameter_indices,
+    require_parameter_derivatives,
+)
 
 __all__ = ["METHODS", "SimulationSensitivity", "simulate_sensitivity"]
 
@@ -91,7 +97,7 @@ class SimulationSensitivity(ResultDisplay):
 
 
 def simulate_sensitivity(
-    module: Any, t_end: float, wrt: str | Sequence[str] | None = None, *,
+    module: ModelLike, t_end: float, wrt: str | Sequence[str] | None = None, *,
     t_start: float = 0.0, p: proto.ParameterLike = None,
     u: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
     x0: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
@@ -126,15 +132,11 @@ def simulate_sensitivity(
     SolverError
         When the integration fails.
     """
-    module = proto.load_module(module)
-    if list(getattr(module, "CONSTRAINTS", []) or []):
+    module = as_model(module)
+    if module.has_constraints:
         raise NeweulError("forward sensitivities of simulations are not covered for models "
                           "with constraints (docs/sensitivity.md)")
-    for nm in ("rhs_parameter_jacobian", "output_parameter_jacobian",
-               "default_inputs_parameter_jacobian"):
-        if not callable(getattr(module, nm, None)):
-            raise NeweulError(f"{getattr(module, 'MODEL_NAME', 'the module')} has no {nm}: "
-                              "regenerate it (parameter derivatives, docs/sensitivity.md)")
+    require_parameter_derivatives(module)
     if method not in METHODS:
         raise NeweulError(f"unknown method {method!r}; methods are: {', '.join(METHODS)}")
     t_start, t_end = float(t_start), float(t_end)
@@ -142,13 +144,13 @@ def simulate_sensitivity(
         raise NeweulError(f"t_end ({t_end:g}) must be a finite time after t_start ({t_start:g})")
     pv = proto.resolve_parameters(module, p)
     idx = parameter_indices(module, wrt)
-    names = proto.coordinate_names(module)
+    names = list(module.COORDINATES)
     n, k = len(names), len(idx)
     nx = 2 * n
     state = [*names, *(f"d_{c}" for c in names)]
     x_init = proto.override_vector(np.asarray(module.INITIAL_STATE, dtype=float)[:nx].copy(),
                                    state, x0, "state")
-    held = _held_inputs(module, u)
+    held = held_inputs(module, u)
     if t_eval is None:
         if int(n_out) < 2:
             raise NeweulError("n_out must be at least 2")
@@ -166,7 +168,7 @@ def simulate_sensitivity(
         """``∂f/∂p`` (nx, k): at fixed inputs, plus the chain through the default
         excitation."""
         Jp = np.asarray(module.rhs_parameter_jacobian(t, x, pv, uu), dtype=float)[:, idx]
-        U = _input_rates(module, t, pv, held)[:, idx]
+        U = input_parameter_jacobian(module, t, pv, held)[:, idx]
         if np.any(U):
             Jp = Jp + _rhs_input_derivative(module, t, x, pv, uu, U)
         return Jp
@@ -211,8 +213,8 @@ def simulate_sensitivity(
     result = SimulationResult(
         t=times, y=x[:, :n].copy(), yd=x[:, n:].copy(), outputs=outs,
         coordinates=tuple(names), output_names=tuple(module.OUTPUTS),
-        coordinate_units=tuple(getattr(module, "COORDINATE_UNITS", ())),
-        output_units=tuple(getattr(module, "OUTPUT_UNITS", ())),
+        coordinate_units=tuple(module.COORDINATE_UNITS),
+        output_units=tuple(module.OUTPUT_UNITS),
         model_name=module.MODEL_NAME,
         parameters=dict(zip(module.PARAMETERS, map(float, pv), strict=True)),
         source_hash=module.SOURCE_HASH, method=method, message=str(sol.message),
@@ -221,27 +223,8 @@ def simulate_sensitivity(
                                  pv[idx].copy(), S, douts)
 
 
-def _held_inputs(module: Any, u: Any) -> list[int]:
-    names = list(getattr(module, "INPUTS", []) or [])
-    if u is None:
-        return []
-    if isinstance(u, Mapping):
-        return [proto.name_index(names, key, "input") for key in u]
-    return list(range(len(names)))
-
-
-def _input_rates(module: Any, t: float, p: np.ndarray, held: Sequence[int]) -> np.ndarray:
-    """``∂u₀/∂p`` (nu, np), zero in the rows of held inputs."""
-    nu = len(getattr(module, "INPUTS", []) or [])
-    if not nu:
-        return np.zeros((0, p.size))
-    U = np.array(module.default_inputs_parameter_jacobian(t, p), dtype=float).reshape(nu, -1)
-    U[list(held)] = 0.0
-    return U
-
-
-def _rhs_input_derivative(module: Any, t: float, x: np.ndarray, p: np.ndarray, u: np.ndarray,
-                          U: np.ndarray) -> np.ndarray:
+def _rhs_input_derivative(module: GeneratedModel, t: float, x: np.ndarray, p: np.ndarray,
+                          u: np.ndarray, U: np.ndarray) -> np.ndarray:
     """``∂rhs/∂u · U`` (nx, k) = ``[0; M⁻¹(∂(q−k)/∂u U − ∂(M ÿ)/∂u U)]``; the last term from
     ``mass_matrix_directional`` where the module has it (modules with elastic bodies do not:
     their mass matrix is taken as independent of the inputs)."""
@@ -250,8 +233,8 @@ def _rhs_input_derivative(module: Any, t: float, x: np.ndarray, p: np.ndarray, u
     M = np.asarray(module.mass_matrix(t, y, p, u), dtype=float)
     fu = np.asarray(module.force_jacobians(t, y, yd, p, u)[2], dtype=float).reshape(n, -1)
     rhs = fu @ U
-    directional = getattr(module, "mass_matrix_directional", None)
-    if callable(directional):
+    directional = module.mass_matrix_directional
+    if directional is not None:
         ydd = np.linalg.solve(M, np.asarray(module.force_vector(t, y, yd, p, u), dtype=float))
         zero, zp = np.zeros(n), np.zeros(p.size)
         rhs = rhs - np.column_stack([np.asarray(directional(t, y, p, zero, zp, u, U[:, j]))
@@ -261,7 +244,7 @@ def _rhs_input_derivative(module: Any, t: float, x: np.ndarray, p: np.ndarray, u
     return out
 
 
-def _outputs(module: Any, times: np.ndarray, x: np.ndarray, S: np.ndarray, p: np.ndarray,
+def _outputs(module: GeneratedModel, times: np.ndarray, x: np.ndarray, S: np.ndarray, p: np.ndarray,
              idx: Sequence[int], inputs: Any, held: Sequence[int]
              ) -> tuple[np.ndarray, np.ndarray]:
     """The outputs and ``∂out/∂p`` at the output times (the module evaluates one state per
@@ -276,6 +259,6 @@ def _outputs(module: Any, times: np.ndarray, x: np.ndarray, S: np.ndarray, p: np
         outs[i] = module.outputs(t, x[i], p, uu)
         C, D = (np.asarray(a, dtype=float) for a in module.output_jacobians(t, x[i], p, uu))
         Op = np.asarray(module.output_parameter_jacobian(t, x[i], p, uu), dtype=float)[:, idx]
-        U = _input_rates(module, t, p, held)[:, idx]
+        U = input_parameter_jacobian(module, t, p, held)[:, idx]
         douts[i] = C @ S[i] + Op + (D.reshape(ny, -1) @ U if U.size else 0.0)
     return outs, douts

@@ -85,7 +85,9 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     common.check_files(args.output, (".csv",), "sensitivities")
     args.sensitivities = args.task != "simulate"    # a description: with second derivatives
-    module = common.load_model(args)
+    from ..analysis.module import as_model
+
+    module = as_model(common.load_model(args))
     p = common.parameters(args)
     if args.task == "simulate":
         from ..analysis.protocol import resolve_parameters
