@@ -46,7 +46,8 @@ _EXPORTS: dict[str, str] = {
     "grid": "sweep_cases", "read_cases": "sweep_cases",
     "Bound": "identify", "FitResult": "identify", "identify": "identify",
     "equilibrium_sensitivity": "sensitivity", "linear_model_derivatives": "sensitivity",
-    "frequency_response_sensitivity": "sensitivity", "modal_sensitivity": "sensitivity",
+    "frequency_response_sensitivity": "sensitivity_response",
+    "modal_sensitivity": "sensitivity_response",
     "simulate_sensitivity": "sensitivity_time",
 }
 

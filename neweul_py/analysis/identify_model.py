@@ -25,7 +25,8 @@ from .equilibrium import equilibrium
 from .identify_data import FrequencyData, TimeData
 from .linearize import linearize
 from .module import GeneratedModel
-from .sensitivity import frequency_response_sensitivity, linear_model_derivatives
+from .sensitivity import linear_model_derivatives
+from .sensitivity_response import frequency_response_sensitivity
 from .sensitivity_time import simulate_sensitivity
 
 __all__ = ["FitProblem", "Residuals", "column_index"]

@@ -81,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..analysis import sensitivity as sens
+    from ..analysis import sensitivity_response as response
 
     _check(args)
     common.check_files(args.output, (".csv",), "sensitivities")
@@ -114,9 +115,9 @@ def run(args: argparse.Namespace) -> int:
                   "(the module has no directional derivatives, or constraints)",
                   file=sys.stderr)
         if args.task == "modes":
-            res = sens.modal_sensitivity(lin, ders, undamped=args.undamped, method=method)
+            res = response.modal_sensitivity(lin, ders, undamped=args.undamped, method=method)
         else:
-            res = sens.frequency_response_sensitivity(
+            res = response.frequency_response_sensitivity(
                 lin, ders, np.asarray(args.f.values(args.log)), args.input, args.response,
                 damping=args.damping, method=method)
     cols = res.columns()
