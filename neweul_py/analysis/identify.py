@@ -224,6 +224,13 @@ def _problem(module: GeneratedModel, data: Any, bounds: Sequence[Bound], task: s
     for b in bounds:
         proto.name_index(names, b.name, "parameter")
         b.check()
+    for b in bounds:
+        lo, hi = module.PARAMETER_RANGES.get(b.name, (None, None))
+        if (lo is not None and b.lo < lo) or (hi is not None and b.hi > hi):
+            admissible = ("≥ " + f"{lo:g}" if hi is None else "≤ " + f"{hi:g}" if lo is None
+                          else f"{lo:g} … {hi:g}")
+            raise NeweulError(f"--param {b.name}: the bounds {b.lo:g} … {b.hi:g} leave its "
+                              f"range {admissible} (the description's)")
     if len({b.name for b in bounds}) < len(bounds):
         raise NeweulError("a parameter is fitted twice: "
                           + ", ".join(b.name for b in bounds))
@@ -451,8 +458,9 @@ def identify(
     Raises
     ------
     NeweulError, DataError
-        For parameters the model lacks, bounds with ``LO ≥ HI``, a start outside them, data
-        of the other task or with missing, non-finite or non-monotone columns.
+        For parameters the model lacks, bounds with ``LO ≥ HI`` or beyond the parameter's
+        declared range (``PARAMETER_RANGES``), a start outside them, data of the other task or
+        with missing, non-finite or non-monotone columns.
     SolverError
         When no start could evaluate the model.
     """

@@ -141,6 +141,16 @@ def test_bad_bounds_are_one_error(oscillators, bound, message) -> None:
         identify(mod, _noisy_frf(mod, 0.0), [bound], "frf")
 
 
+def test_bounds_beyond_a_declared_range_are_one_error(tmp_path) -> None:
+    """A parameter declared ``{value: 2, min: 0.5}``: bounds below 0.5 are refused naming the
+    range (reference: the range written in the description)."""
+    (tmp_path / "r.yaml").write_text(OSCILLATOR.format(stiffness="k1").replace(
+        "m: 2.0", "m: {value: 2.0, min: 0.5}"))
+    mod = load_generated(generate(tmp_path / "r.yaml", tmp_path))
+    with pytest.raises(NeweulError, match=r"--param m: the bounds 0\.1 … 5 leave its range ≥ 0\.5"):
+        identify(mod, _noisy_frf(mod, 0.0), ["m=0.1:5"], "frf")
+
+
 def test_a_fit_that_stops_early_says_so(oscillators) -> None:
     """Two model evaluations cannot reach the optimum: ``converged`` is False."""
     mod = oscillators[1]
