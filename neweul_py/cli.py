@@ -33,6 +33,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "linearize",
     "modes",
     "frf",
+    "sensitivity",
+    "identify",
     "reduce",
     "compare_frf",
     "frf_body",

@@ -13,7 +13,9 @@ Everything a script or notebook needs is importable from here::
 → :class:`FrequencyResponse`; ``sweep`` runs any of them over parameter cases on Dask →
 :class:`SweepResult`; ``compare(result, reference)`` judges a result against a reference →
 :class:`Comparison`; ``animate(result, module, "movie.gif")`` draws the simulated model in
-3-D. Every result has ``to_dataframe()``, ``save(path)`` and a short
+3-D; the parameter sensitivities (``frequency_response_sensitivity``, ``modal_sensitivity``,
+``simulate_sensitivity`` …, docs/sensitivity.md) and ``identify`` → :class:`FitResult` fit
+parameters to measurements. Every result has ``to_dataframe()``, ``save(path)`` and a short
 ``repr`` with a notebook display.
 """
 
@@ -42,6 +44,11 @@ _EXPORTS: dict[str, str] = {
     "METHODS": "simulate", "simulate": "simulate",
     "SweepResult": "sweep", "sweep": "sweep",
     "grid": "sweep_cases", "read_cases": "sweep_cases",
+    "Bound": "identify", "FitResult": "identify", "identify": "identify",
+    "equilibrium_sensitivity": "sensitivity", "linear_model_derivatives": "sensitivity",
+    "frequency_response_sensitivity": "sensitivity_response",
+    "modal_sensitivity": "sensitivity_response",
+    "simulate_sensitivity": "sensitivity_time",
 }
 
 
@@ -75,9 +82,11 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "METHODS",
+    "Bound",
     "Comparison",
     "ConstrainedSimulation",
     "EquilibriumResult",
+    "FitResult",
     "FrequencyResponse",
     "GeneratedModel",
     "LinearModel",
@@ -90,19 +99,25 @@ __all__ = [
     "compare",
     "consistent_initial_state",
     "equilibrium",
+    "equilibrium_sensitivity",
     "frequency_response",
+    "frequency_response_sensitivity",
     "frequency_vector",
     "frf",
     "grid",
+    "identify",
+    "linear_model_derivatives",
     "linearize",
     "load_generated",
     "load_npz",
+    "modal_sensitivity",
     "modes",
     "plot_result",
     "read_cases",
     "read_units",
     "simulate",
     "simulate_constrained",
+    "simulate_sensitivity",
     "sweep",
 ]
 

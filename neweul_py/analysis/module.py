@@ -173,6 +173,17 @@ class GeneratedModel:
     body_properties: Function | None = None
     node_positions: Function | None = None
     integrate_dopri5: Function | None = None
+    # parameter derivatives (docs/sensitivity.md)
+    default_inputs_parameter_jacobian: Function | None = None
+    force_parameter_jacobian: Function | None = None
+    mass_matrix_parameter_derivative: Function | None = None
+    rhs_parameter_jacobian: Function | None = None
+    output_parameter_jacobian: Function | None = None
+    force_jacobians_directional: Function | None = None
+    mass_matrix_directional: Function | None = None
+    mass_matrix_times_derivative_directional: Function | None = None
+    output_jacobians_directional: Function | None = None
+    loss_matrix_directional: Function | None = None
 
     @classmethod
     def of(cls, module: Any, path: str = "") -> GeneratedModel:
@@ -277,6 +288,24 @@ class GeneratedModel:
     def has_node_positions(self) -> bool:
         return self.node_positions is not None
 
+    @property
+    def has_parameter_derivatives(self) -> bool:
+        """The first parameter derivatives (``rhs_parameter_jacobian`` …): in every module
+        generated since they exist."""
+        return None not in (self.default_inputs_parameter_jacobian, self.force_parameter_jacobian,
+                            self.mass_matrix_parameter_derivative, self.rhs_parameter_jacobian,
+                            self.output_parameter_jacobian)
+
+    @property
+    def has_directional_derivatives(self) -> bool:
+        """The directional second derivatives of the linear models' sensitivities (rigid
+        modules generated with sensitivities; ``loss_matrix_directional`` where there are
+        loss factors)."""
+        return None not in (self.force_jacobians_directional, self.mass_matrix_directional,
+                            self.mass_matrix_times_derivative_directional,
+                            self.output_jacobians_directional) and (
+            self.loss_matrix is None or self.loss_matrix_directional is not None)
+
 
 #: A generated model, a generated module (or any object with the protocol's names) or the
 #: path of a generated ``.py`` file.
@@ -284,7 +313,12 @@ ModelLike = GeneratedModel | Any
 
 _OPTIONAL_FUNCTIONS = ("constraint_reaction_jacobian", "constraint_time_derivative", "energy",
                        "loss_matrix", "frame_poses", "body_properties", "node_positions",
-                       "integrate_dopri5")
+                       "integrate_dopri5", "default_inputs_parameter_jacobian",
+                       "force_parameter_jacobian", "mass_matrix_parameter_derivative",
+                       "rhs_parameter_jacobian", "output_parameter_jacobian",
+                       "force_jacobians_directional", "mass_matrix_directional",
+                       "mass_matrix_times_derivative_directional",
+                       "output_jacobians_directional", "loss_matrix_directional")
 
 
 def as_model(module: ModelLike) -> GeneratedModel:

@@ -226,6 +226,9 @@ def jacobian_declarations(loss: bool = False) -> str:
         f"int nw_rhs_jacobian({_X_ARGS});",
         f"int nw_output_jacobians({_X_ARGS});",
         *([f"int nw_loss_matrix({_X_ARGS});"] if loss else []),
+        f"int nw_force_parameter_jacobian({_YYD_ARGS});",
+        f"int nw_mass_matrix_parameter_derivative({_MMTD_ARGS});",
+        f"int nw_output_parameter_jacobian({_X_ARGS});",
     ]) + "\n"
 
 
@@ -279,7 +282,8 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     The *core* (``<name>_c.c``: ``M``, ``q − k``, ``rhs`` with its linear solve, outputs,
     constraints, default inputs and the Dormand–Prince loop) is what simulations need and
     builds at import; the *derivatives* (``<name>_c_jac.c``: ``force_jacobians``,
-    ``∂(M a)/∂y``, ``rhs_jacobian``, ``output_jacobians``, with private copies of ``M`` and
+    ``∂(M a)/∂y``, ``rhs_jacobian``, ``output_jacobians``, the parameter derivatives
+    ``∂(q−k)/∂p``, ``∂(M a)/∂p``, ``∂out/∂p``, with private copies of ``M`` and
     ``q − k``) are the larger part of the program (chain N = 10: 70 % of it) and are built on
     their first use.
     """
@@ -361,6 +365,14 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
         b = blocks["loss_matrix"]
         jac += _function(f"nw_loss_matrix({_X_ARGS})", [
             *_x_prologue(g, b), *_body(g, b, "out", "the loss matrix", dots)], _big(b))
+    # the parameter derivatives (docs/sensitivity.md)
+    for name, args, what in (("force_parameter_jacobian", _YYD_ARGS, "∂(q−k)/∂p"),
+                             ("mass_matrix_parameter_derivative", _MMTD_ARGS, "∂(M a)/∂p"),
+                             ("output_parameter_jacobian", _X_ARGS, "∂out/∂p")):
+        b = blocks[name]
+        head = _x_prologue(g, b) if args == _X_ARGS else []
+        jac += _function(f"nw_{name}({args})", [*head, *_body(g, b, "out", what, dots)],
+                         _big(b))
     # nw_rows (the products of the rows) right after the declarations of each file
     core[len(core_head):len(core_head)] = dots.helper()
     jac[len(jac_head):len(jac_head)] = dots.helper()

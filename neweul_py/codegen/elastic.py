@@ -59,7 +59,8 @@ __all__ = ["elastic_module_parts"]
 _RIGID_USED = ("rhs_parts", "mass_matrix", "force_vector", "force_jacobians",
                "mass_matrix_times_derivative", "outputs", "output_jacobians", "energy",
                "constraints", "constraint_jacobian", "constraint_time_derivative",
-               "constraint_gamma")
+               "constraint_gamma", "force_parameter_jacobian",
+               "mass_matrix_parameter_derivative", "output_parameter_jacobian")
 
 
 def _arrays(data: Any, indent: str, keys: tuple[str, ...]) -> list[str]:
@@ -237,7 +238,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     )
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
                          schedules=el.schedules, schedule_jacobians=el.schedule_jacobians,
-                         rhs_parts=len(names), progress=progress)
+                         schedule_parameter_jacobian=el.schedule_parameter_jacobian,
+                         rhs_parts=len(names), directional=False, progress=progress)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
@@ -273,12 +275,13 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                                 [true_index[s.first] for s in el.splices])
                  if equations.poses else ()))
 
-    functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs")}
+    functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs",
+                                                  "default_inputs_parameter_jacobian")}
     used = (*_RIGID_USED, *(("loss_matrix",) if "loss_matrix" in rigid.functions else ()))
     functions.update({f"_rigid_{k}": rigid.functions[k] for k in used})
     if el.schedules:
-        functions["_rigid_schedule"] = rigid.functions["schedule"]
-        functions["_rigid_schedule_jacobians"] = rigid.functions["schedule_jacobians"]
+        for name in ("schedule", "schedule_jacobians", "schedule_parameter_jacobian"):
+            functions[f"_rigid_{name}"] = rigid.functions[name]
     for fn in (*KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
         functions[fn.__name__] = kernel_source(fn)
     rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in used)
@@ -288,7 +291,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         "                    default_inputs, _PARTS,",
         f"                    {'_rigid_schedule' if el.schedules else 'None'},",
         f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'},",
-        f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r})")
+        f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r},",
+        f"                    {'_rigid_schedule_parameter_jacobian' if el.schedules else 'None'})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
     if "loss_matrix" in rigid.functions or any(

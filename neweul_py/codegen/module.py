@@ -21,7 +21,7 @@ __all__ = ["generate_module", "render_module"]
 
 
 def render_module(equations: Any, source_hash: str, *, cse: bool = True,
-                  progress: StagedProgress = None) -> str:
+                  sensitivities: bool = False, progress: StagedProgress = None) -> str:
     """The complete source text of the generated module.
 
     Parameters
@@ -32,6 +32,10 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True,
         SHA-256 (hex) of the description the equations came from; stored as ``SOURCE_HASH``.
     cse
         Eliminate common subexpressions (default). Off only for debugging.
+    sensitivities
+        Also the directional (second) derivatives of the parameter sensitivities of linear
+        models (docs/sensitivity.md §1; rigid models: about as long again as the rest of the
+        module). The first parameter derivatives are in every module.
     progress
         ``progress("code generation", done, total)`` after each block
         (:mod:`neweul_py.progress`).
@@ -47,14 +51,16 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True,
         from .elastic import elastic_module_parts
 
         return compose(elastic_module_parts(equations, source_hash, cse=cse, progress=progress))
-    return compose(module_parts(equations, source_hash, cse=cse, progress=progress))
+    return compose(module_parts(equations, source_hash, cse=cse, directional=sensitivities,
+                                progress=progress))
 
 
 def generate_module(
     equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True,
-    progress: StagedProgress = None,
+    sensitivities: bool = False, progress: StagedProgress = None,
 ) -> Path:
-    """Render the module for ``equations`` and write it atomically to ``path``.
+    """Render the module for ``equations`` and write it atomically to ``path``
+    (``sensitivities``: as :func:`render_module`).
 
     Returns
     -------
@@ -66,5 +72,6 @@ def generate_module(
     >>> generate_module(newton_euler(load_description("examples/pendulum.yaml")),
     ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
     """
-    text = render_module(equations, source_hash, cse=cse, progress=progress)
+    text = render_module(equations, source_hash, cse=cse, sensitivities=sensitivities,
+                         progress=progress)
     return atomic_write(path, text)

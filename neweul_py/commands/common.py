@@ -168,7 +168,9 @@ def load_model(args: argparse.Namespace) -> Any:
         with Tracker(quiet=getattr(args, "quiet", False)) as track:  # bars of a derivation
             module = load_description_module(args.file, args.form,
                                              backend=getattr(args, "backend", "numpy"),
-                                             progress=track)
+                                             progress=track,
+                                             sensitivities=getattr(args, "sensitivities",
+                                                                   False))
     check_overrides(module, args)
     return module
 

@@ -72,6 +72,10 @@ def _calls(mod, t, x, p, u, a):
         "constraint_jacobian": mod.constraint_jacobian(t, y, p, u),
         "constraint_time_derivative": mod.constraint_time_derivative(t, y, p, u),
         "constraint_gamma": mod.constraint_gamma(t, y, yd, p, u),
+        "force_parameter_jacobian": mod.force_parameter_jacobian(t, y, yd, p, u),
+        "mass_matrix_parameter_derivative": mod.mass_matrix_parameter_derivative(t, y, p, a, u),
+        "rhs_parameter_jacobian": mod.rhs_parameter_jacobian(t, x, p, u),
+        "output_parameter_jacobian": mod.output_parameter_jacobian(t, x, p, u),
     }
 
 

@@ -372,14 +372,15 @@ frames:
 
 def test_description_imports_only_model_and_errors() -> None:
     """Layering rule of DESIGN.md: description imports model (and the shared errors,
-    ffrf kernel, file checks of neweul_py/files.py and YAML shape of yaml_shape.py) only."""
+    ffrf kernel, file checks of neweul_py/files.py, the YAML shape of yaml_shape.py and the YAML
+    reader of neweul_py/yaml_tree.py) only."""
     import re
 
     import neweul_py.description as pkg
 
     for path in pathlib.Path(pkg.__file__).parent.glob("*.py"):
         for layer in re.findall(r"^\s*from \.\.(\w+)", path.read_text(), re.MULTILINE):
-            assert layer in ("model", "errors", "ffrf", "files", "yaml_shape"), \
+            assert layer in ("model", "errors", "ffrf", "files", "yaml_shape", "yaml_tree"), \
                 f"{path.name} imports {layer}"
 
 
@@ -389,7 +390,7 @@ def test_description_size_is_capped_before_anything_is_built() -> None:
     MAX_NODES YAML nodes (docs/limits.md), counted from the parser's events before the tree
     is built. Reference: the counts written into the text."""
     from neweul_py.description.loader import MAX_PARAMETERS
-    from neweul_py.description.yaml_tree import MAX_NODES
+    from neweul_py.yaml_tree import MAX_NODES
 
     head = "name: many\ncoordinates: {x: 0}\nparameters:\n"
     text = head + "".join(f"  p{i}: 1\n" for i in range(MAX_PARAMETERS + 1))

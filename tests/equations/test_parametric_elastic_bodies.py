@@ -323,3 +323,29 @@ def test_schedule_of_a_coordinate_without_inputs_enters_the_jacobian(parametric)
     n = len(mod.COORDINATES)
     assert not np.allclose(mod.mass_matrix(0.0, x[:n], p),
                            mod.mass_matrix(0.0, x[:n] + 5e-3, p))
+
+
+@pytest.mark.parametrize("c", [321.5, 370.0])
+def test_parameter_derivatives_through_the_schedule(parametric, c: float) -> None:
+    """A body scheduled by the parameter ``cs``: ``∂(q−k)/∂p``, ``∂(M a)/∂p``, ``∂rhs/∂p``
+    (through ``∂σ/∂p`` and the mixed samples) equal central differences of the module's own
+    functions between the samples (step 1e-4 of each parameter; at a sample the weights have a
+    kink)."""
+    tmp, _pb = parametric
+    (tmp / "dp.yaml").write_text(_description("duct.npz", "cs", c))
+    mod = load_generated(generate(tmp / "dp.yaml", tmp / "gen_dp"))
+    rng = np.random.default_rng(2)
+    n = len(mod.COORDINATES)
+    p = mod.default_parameters()
+    x = np.asarray(mod.INITIAL_STATE) + 0.1 * rng.normal(size=2 * n)
+    y, yd, a, u = x[:n], x[n:], rng.normal(size=n), np.array([0.3])
+    k = list(mod.PARAMETERS).index("cs")
+    for got, f in ((mod.force_parameter_jacobian(0.0, y, yd, p, u),
+                    lambda q: mod.force_vector(0.0, y, yd, q, u)),
+                   (mod.mass_matrix_parameter_derivative(0.0, y, p, a, u),
+                    lambda q: mod.mass_matrix(0.0, y, q, u) @ a),
+                   (mod.rhs_parameter_jacobian(0.0, x, p, u), lambda q: mod.rhs(0.0, x, q, u))):
+        ref = np.column_stack([(f(p + e) - f(p - e)) / (2 * e[j])
+                               for j, e in enumerate(np.diag(1e-4 * p))])
+        assert np.any(got[:, k])
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6 * np.max(np.abs(ref)))

@@ -14,10 +14,10 @@ from typing import Any
 import yaml
 from yaml.constructor import SafeConstructor
 
-from ..errors import DescriptionError
-from ..yaml_shape import MAX_DEPTH, MAX_NODES, check_shape
+from .errors import DescriptionError
+from .yaml_shape import MAX_DEPTH, MAX_NODES, check_shape
 
-__all__ = ["MAX_DEPTH", "MAX_NODES", "YamlTree", "check_shape", "read_yaml"]
+__all__ = ["MAX_DEPTH", "MAX_NODES", "YamlTree", "check_shape", "read_description", "read_yaml"]
 
 _MAX_NODES = 1_000_000  # guards against alias bombs ("billion laughs")
 #: The safe loader with libyaml's C parser when PyYAML has it (the same resolver and the same
@@ -196,3 +196,21 @@ def read_yaml(text: str, file: str = "<description>") -> YamlTree:
         raise DescriptionError(f"the document is nested more than {MAX_DEPTH} levels deep",
                                "", file) from None
     return YamlTree(data, walker.lines, file)
+
+
+def read_description(text: str | bytes, file: str = "<description>") -> YamlTree:
+    """Parse a description's text (bytes are decoded as UTF-8) into a :class:`YamlTree`, once:
+    the loader (:func:`neweul_py.description.load_description_tree`) and the module cache
+    (:mod:`neweul_py.api`, which needs the data files a description names) share the tree.
+
+    Raises
+    ------
+    DescriptionError
+        For text that is not UTF-8 and everything :func:`read_yaml` refuses.
+    """
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise DescriptionError(f"not UTF-8 text ({exc.reason})", "", file) from None
+    return read_yaml(text, file)
