@@ -6,8 +6,8 @@ renders the symbolic equations into such parts (every function straight-line cod
 :func:`.cse.eliminate`; scalars are Python floats with ``_math`` functions, arrays are
 assembled once with NumPy; Jacobians from symbolic derivatives,
 :func:`.derivatives.jacobian`, never finite differences), and :func:`compose` joins parts into
-the module text. Writers of richer modules (elastic bodies, :mod:`.elastic`) select,
-rename and add parts — they never edit rendered text.
+the module text. Writers of richer modules (elastic bodies,
+:mod:`~neweul_py.codegen.elastic`) select, rename and add parts — they never edit rendered text.
 
 The text depends only on the equations and the source hash — no timestamps, no hash-ordered
 iteration — so regeneration is byte-identical (docs/generated-module-protocol.md).
@@ -272,7 +272,7 @@ def _rhs_parts(ctx: Context, eq: Any, outs: sp.ImmutableMatrix, method: CseMetho
     from one CSE'd program (:func:`.programs.rhs_parts_program`), and the number of values
     it packs. The splice of elastic bodies calls it once per ``rhs`` instead of
     ``outputs``, ``mass_matrix`` and ``force_vector`` (with ``outs`` the hidden frame
-    kinematics, :mod:`.elastic`)."""
+    kinematics, :mod:`~neweul_py.codegen.elastic`)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, ny = len(y), outs.shape[0]
     prog, where = rhs_parts_program(eq, ctx.intermediates, outs, method)
@@ -578,7 +578,7 @@ def program_blocks(equations: Any, *, cse: bool = True,
     ``output_jacobians`` (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
     ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc) and, for models with loss
     factors, ``loss_matrix`` (n·n, equations.md §1.1). Rigid models only (elastic
-    bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
+    bodies are spliced in numerically by :mod:`~neweul_py.codegen.elastic`). The NumPy module's own
     ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
     (:mod:`.packing`); the blocks here keep M's entries. ``progress``: a staged hook,
     ``("C code", done, 7)`` after each block.

@@ -1,5 +1,5 @@
-"""``neweul compare RESULT REFERENCE [--signals NAME ...] [--rtol X|NAME=X ...]
-[--atol X|NAME=X ...] [--mac MIN] [--plot FIG] [-o errors.csv]``: exit code 0 when every signal is
+"""``neweul compare RESULT REFERENCE [--signals NAME …] [--rtol X|NAME=X …]
+[--atol X|NAME=X …] [--mac MIN] [--plot FIG] [-o errors.csv]``: exit code 0 when every signal is
 within its tolerance, 1 otherwise (for test suites and CI)."""
 
 from __future__ import annotations
