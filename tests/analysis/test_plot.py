@@ -8,8 +8,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("matplotlib")
-
 from neweul_py.analysis.frf import FrequencyResponse
 from neweul_py.analysis.plot import (
     frf_comparison_figure,
