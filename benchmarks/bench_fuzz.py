@@ -1,4 +1,5 @@
-"""Long fuzzing run of the inputs of issue 12 (the CI suite runs a bounded sample of the same).
+"""Long fuzzing run of the inputs: descriptions, body and FE files, SID files, atomic writes
+(the test suite runs a bounded sample of the same).
 
 Mutated descriptions (loaded; a share also derived, generated, imported and evaluated),
 reduced-body files, FE models (``.npz`` and Matrix Market) and SID files, with the mutators of

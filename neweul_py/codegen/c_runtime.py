@@ -5,7 +5,7 @@ written by :mod:`.c_module`, so a compiled module stays importable on its own (s
 library, NumPy, cffi and a C compiler; no neweul-py, no sympy). It is a normal module as well,
 so that it is linted and tested once.
 
-Safety rules (issue 14): the library is built from the bytes of the C source whose SHA-256 the
+Safety rules: the library is built from the bytes of the C source whose SHA-256 the
 module records (fed to the compiler on stdin, so a file changed after the check is never
 compiled); the SHA-256 of the library bytes is recorded next to it at build time; a library is
 loaded only from bytes whose hash matches that record and whose record names the source hash,

@@ -522,7 +522,7 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
             "The parameter vector ``p`` of the defaults (ordered as ``PARAMETERS``).",
             ["return _np.array(_P0, dtype=_np.float64)"]),
     }
-    # the input vector: inputs, then the time derivatives kinematic excitation needs (issue 4)
+    # the input vector: inputs, then the time derivatives kinematic excitation needs
     u_defaults = [as_expr(e) for e in system.input_defaults]
     b = checked(ctx, eliminate((), u_defaults, method=method), (*p, time), "the default inputs")
     body = prologue(ctx, b, [(p, _P_SRC)]) + assignments(ctx, b) + vector(ctx, "u", b.finals)

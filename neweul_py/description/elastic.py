@@ -1,4 +1,4 @@
-"""The ``elastic_bodies`` section of a description (issue 6, equations.md §2).
+"""The ``elastic_bodies`` section of a description (docs/description-format.md; equations.md §2).
 
 An example::
 

@@ -205,7 +205,7 @@ def load_description_text(
     filename
         Shown in error messages; ``data`` files of elastic bodies are relative to it.
     elastic_reader
-        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies`` (issue 6),
+        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies``,
         e.g. :func:`neweul_py.elastic.io.reader.read_elastic_data`; the description layer does
         not import the elastic layer itself.
 

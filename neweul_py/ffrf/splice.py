@@ -355,7 +355,7 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
     """``∂(q − k)/∂σ`` (n, k) — or ``∂(M a)/∂σ`` with ``a`` — of a mixed context: the
     complex step of the mixed bodies, ``S_V(σ)``, ``S_W(σ)`` in each ``σ_k``, with the
     symbolic part's analytic Jacobians for its arguments ``y_s = S_V(σ) y`` (module
-    docstring, item 3)."""
+    docstring, step 3)."""
     sigma, h, ns = S["sigma"], S["step"], S["ns"]
     ys, yds = S["SV"] @ y, S["SV"] @ yd
     rig = S["rigid"]

@@ -1,5 +1,5 @@
-"""The YAML description loader: a good file gives the expected System; every bad input of
-issue 2 gives one DescriptionError naming the file, the key path and the right line."""
+"""The YAML description loader: a good file gives the expected System; every bad input gives
+one DescriptionError naming the file, the key path and the right line."""
 
 from __future__ import annotations
 
@@ -368,7 +368,7 @@ frames:
 
 
 def test_description_imports_only_model_and_errors() -> None:
-    """Layering rule of DESIGN.md: description imports model (and the shared errors,
+    """Layering rule of docs/architecture.md: description imports model (and the shared errors,
     ffrf kernel and file checks of neweul_py/files.py) only."""
     import re
 

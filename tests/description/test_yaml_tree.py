@@ -1,7 +1,7 @@
-"""Limits of the YAML reader (neweul_py/description/yaml_tree.py; issue 12 item 8).
+"""Limits of the YAML reader (neweul_py/description/yaml_tree.py).
 
-References: the reproducers of issue 12 — each used to end in a RecursionError, an
-OverflowError or a TypeError traceback; IEEE 754 doubles end at 2¹⁰²⁴ ≈ 1.8e308.
+References: inputs that once ended in a RecursionError, an OverflowError or a TypeError
+traceback; IEEE 754 doubles end at 2¹⁰²⁴ ≈ 1.8e308.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Elastic bodies in the equations of motion (issue 6, ``docs/equations.md`` §2).
+"""Elastic bodies in the equations of motion (``docs/equations.md`` §2).
 
 References: the eigenfrequencies printed in the SID file's mode names (the FE code that wrote
 it), closed-form Southwell stiffening, and unreduced FE models assembled directly in the tests.

@@ -175,7 +175,7 @@ def test_stapes_volume_displacement_at_low_frequency_matches_kringlebotn_gunders
 @pytest.mark.slow
 def test_stapes_velocity_has_its_largest_peak_in_the_normal_band(study) -> None:
     """The same band for the largest peak (ASTM F2504 / Rosowski et al. 2007: one broad peak
-    at 0.6–1.5 kHz). Measured with the off-centre umbo (session 19): refine 0 0.270 mm/s/Pa
+    at 0.6–1.5 kHz). Measured with the off-centre umbo: refine 0 0.270 mm/s/Pa
     at 1.43 kHz (the next peak 0.152 at 2.23 kHz, 5.0 dB below), refine 1 0.259 at 1.45 kHz
     (7.4 dB above the next); it stays the largest with the TM modulus ×1.2 and the cochlear
     load ×1.5, which made the centred cone's TM mode the largest (its margin was 1.1 dB;

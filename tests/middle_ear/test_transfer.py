@@ -81,8 +81,8 @@ def test_stapes_transfer_function_at_rest_in_the_normal_band(sweep):
     ear-canal pressure (the largest below 2 kHz) lies between 0.6 and 1.5 kHz (ASTM F2504 /
     Rosowski et al. 2007) at 0.03–0.3 mm/s/Pa (Aibara et al. 2001: ≈ 0.1–0.3; band widened
     by −10 dB), and the phase leads at 200 Hz (Chien et al. 2009: +0.2 cycle at 0.3 kHz).
-    Not pinned (open, issue 13): a second, sharper resonance near 2.5 kHz that measured ears
-    lack, and the fast fall above 5 kHz."""
+    Not pinned (the lumped chain does not reach it): a second, sharper resonance near
+    2.5 kHz that measured ears lack, and the fast fall above 5 kHz."""
     me, states = sweep
     s = states[0.0]
     fe = working_point_model(me, s)
