@@ -6,8 +6,8 @@ Build (from the repository root, warnings as errors)::
 
 The Markdown pages are read by MyST (through myst-nb), the API reference is generated from the
 numpydoc docstrings (autodoc, napoleon, autosummary), and the example scripts of the gallery
-(jupytext percent scripts in ``examples/notebooks/``, reached through the ``docs/examples``
-link) are executed by the build, their figures included.
+(jupytext percent scripts in ``examples/notebooks/``, reached through the link
+``docs/examples`` that this file makes) are executed by the build, their figures included.
 """
 
 from __future__ import annotations
@@ -15,6 +15,12 @@ from __future__ import annotations
 import os
 from importlib.metadata import version as _version
 from pathlib import Path
+
+# The example notebooks live in ``examples/notebooks``; Sphinx reads sources below ``docs``
+# only, so the build reaches them through the link ``docs/examples`` (made here, not tracked).
+_EXAMPLES = Path(__file__).resolve().parent / "examples"
+if not _EXAMPLES.exists():
+    _EXAMPLES.symlink_to(Path("..") / "examples", target_is_directory=True)
 
 # The notebooks' kernels start with matplotlib's inline backend, as a Jupyter user's does after
 # ``%matplotlib inline``: a cell ending in a Figure (``result_figure``, ``response.plot()``)
