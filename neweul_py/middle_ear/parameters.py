@@ -1,6 +1,6 @@
 """Physical and geometric data of the middle-ear FE model (SI units) and its validity limits.
 
-Every value with its source: ``examples/middle_ear/README.md`` and
+Every value with its source: ``docs/middle-ear-data.md`` and
 ``docs/middle-ear-measurements.md``.
 """
 
@@ -31,7 +31,7 @@ MAX_DISPLACEMENT_FRACTION = 0.5
 
 @dataclass(frozen=True)
 class MiddleEarParameters:
-    """Physical and geometric data (SI units); sources in ``examples/middle_ear/README.md``.
+    """Physical and geometric data (SI units); sources in ``docs/middle-ear-data.md``.
 
     Parameters
     ----------

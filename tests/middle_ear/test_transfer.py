@@ -3,7 +3,7 @@ published temporal-bone numbers (docs/middle-ear-measurements.md).
 
 Sign convention: Δp = p_canal − p_cavity; Δp > 0 is a *negative* middle-ear pressure.
 Refinement 0 (1 332 DOFs) keeps the tests fast; at refine 1 the same trends were measured
-(examples/middle_ear/README.md, table: +1/+2/+3 kPa −4.4/−9.0/−13.1 dB).
+(the lumped chain at +1/+2/+3 kPa: −4.4/−9.0/−13.1 dB).
 """
 
 from __future__ import annotations
