@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Peer side of bench_compiled.py: the N-link planar chain in sympy.physics.mechanics/PyDy.
 
-Runs in the peer venv (``/work/venvs/peers``: pydy, cython; never a dependency of neweul-py)
+Runs in a separate peer environment (pydy, cython; never a dependency of neweul-py)
 or, for ``kane``, in any Python with sympy. One job per process, JSON on the last line:
 
 * ``kane N`` — ``KanesMethod.kanes_equations`` of the chain (the whole-process peer of

@@ -8,8 +8,8 @@ the generated module (and of its data file), and the time a fresh interpreter ta
 the module and evaluate its first right-hand side. Each figure is printed next to its target
 and as a ratio to it::
 
-    python benchmarks/bench_middle_ear_scale.py --dir /tmp/me_r1 --refine 1
-    python benchmarks/bench_middle_ear_scale.py --dir /tmp/me_r2 --refine 2 --no-generate
+    python benchmarks/bench_middle_ear_scale.py --dir me_r1 --refine 1
+    python benchmarks/bench_middle_ear_scale.py --dir me_r2 --refine 2 --no-generate
 
 ``--keep`` reuses a finished build in DIR (only the sizes and the start-up are measured).
 Targets (of the refine-1 flagship): build ≤ 90 s CPU, data directory ≤ 60 MB, module ≤ 2 MB,

@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 Form = Literal["auto", "closed", "recursive"]
-#: Forms of the equations (DESIGN.md: closed form or recursive/semi-symbolic).
+#: Forms of the equations: closed form or recursive (semi-symbolic), ``docs/architecture.md``.
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
 Backend = Literal["numpy", "c"]
 #: Backends of generated modules: the NumPy module, or the compiled one (codegen/c_module.py,

@@ -1,12 +1,20 @@
 """Shared test configuration: the reference builders of ``tests/support`` are importable by name
-(``from fe_builders import piston_duct``) from every test directory."""
+(``from fe_builders import piston_duct``) from every test directory, and BLAS runs one thread.
 
-from __future__ import annotations
+The tests' matrices are small: BLAS threads only add work. On a machine whose cores are shared
+(the development machine, CI), idle OpenBLAS threads spin: the refine-0 middle-ear build and the
+measured-ear sweep took 77 s of CPU with the default threads and 6 s with one. Set before NumPy
+is first imported; the command-line tests' subprocesses inherit it. An explicit setting wins.
+"""
 
+import os
 import sys
 from pathlib import Path
 
 import pytest
+
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
 
 SUPPORT = Path(__file__).resolve().parent / "support"
 if str(SUPPORT) not in sys.path:

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import io
-import shutil
 import warnings
 from pathlib import Path
 
 import numpy as np
-import pytest
+from compiler import needs_c_compiler
 
 from neweul_py.analysis import simulate
 from neweul_py.cli import main
@@ -131,8 +130,7 @@ def test_derivation_bars_on_a_terminal_only(tmp_path, capsys):
         assert capsys.readouterr().err == ""
 
 
-@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                    reason="no C compiler")
+@needs_c_compiler
 def test_compiled_backend_reports_its_blocks(tmp_path):
     """Reference: the seven blocks of the C sources (codegen.writer.program_blocks)."""
     from neweul_py.api import generate

@@ -3,7 +3,7 @@
 The generated module's *source text* is shipped to every worker once (``client.scatter(...,
 broadcast=True)``) and imported there (:func:`~neweul_py.analysis.sweep_tasks.module_from_source`);
 the cases travel as small parameter mappings, in chunks, so a sweep changes numbers, never code
-(DESIGN.md). Results come back as one tidy table, one row per case: ``case``, the swept
+(``docs/analysis.md``). Results come back as one tidy table, one row per case: ``case``, the swept
 parameters, ``ok``, ``error`` and the task's values; a failing case is recorded with its
 message and never aborts the sweep.
 

@@ -1,7 +1,7 @@
 """The cases of a parameter sweep: value lists and ranges, grids, and CSV files of cases.
 
 A *case* is a mapping parameter name → value; a sweep runs one task per case with the
-parameter vector changed, never the code (DESIGN.md: parameters are numbers).
+parameter vector changed, never the code: parameters are numbers of the generated module.
 """
 
 from __future__ import annotations

@@ -1,10 +1,10 @@
 """Rendering and writing a generated module (docs/generated-module-protocol.md).
 
 :func:`render_module` picks the composition — the plain module of :mod:`.writer`, or with
-elastic bodies the composed module of :mod:`.elastic` — and :func:`generate_module` writes the
-text atomically: rendered completely first (so an invalid model raises before anything
-touches the disk), written to a temporary file beside the target, flushed, ``fsync``-ed and
-moved over the target with :func:`os.replace`.
+elastic bodies the composed module of :mod:`~neweul_py.codegen.elastic` — and
+:func:`generate_module` writes the text atomically: rendered completely first (so an invalid
+model raises before anything touches the disk), written to a temporary file beside the target,
+flushed, ``fsync``-ed and moved over the target with :func:`os.replace`.
 """
 
 from __future__ import annotations

@@ -151,8 +151,8 @@ def rhs_parts_program(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMa
     (:func:`mass_factor_values`) or, in closed form, M's unique entries; returned with the
     positions of those entries (:func:`.blocks.mass_entries`; ``None`` in the factored form).
     The splice of elastic bodies needs all three at one state in every ``rhs`` call
-    (their frame kinematics are hidden outputs, :mod:`.elastic`): one program computes the
-    subexpressions they share (rotations, Jacobian rows, velocities) once."""
+    (their frame kinematics are hidden outputs, :mod:`~neweul_py.codegen.elastic`): one program
+    computes the subexpressions they share (rotations, Jacobian rows, velocities) once."""
     def compute() -> tuple[Block, list[list[tuple[int, int]]] | None]:
         n = len(eq.coordinates)
         fvec = sp.ImmutableMatrix(eq.force_vector) if n else sp.ImmutableMatrix.zeros(0, 1)

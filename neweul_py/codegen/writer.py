@@ -7,7 +7,7 @@ renders the symbolic equations into such parts (every function straight-line cod
 assembled once with NumPy; Jacobians are the symbolic derivatives that
 :mod:`neweul_py.equations.jacobians` takes through the CSE'd program, never finite
 differences), and :func:`compose` joins parts into
-the module text. Writers of richer modules (elastic bodies, :mod:`.elastic`) select,
+the module text. Writers of richer modules (elastic bodies, :mod:`~neweul_py.codegen.elastic`) select,
 rename and add parts — they never edit rendered text.
 
 The text depends only on the equations and the source hash — no timestamps, no hash-ordered
@@ -275,7 +275,7 @@ def _rhs_parts(ctx: Context, eq: Any, outs: sp.ImmutableMatrix, method: CseMetho
     from one CSE'd program (:func:`.programs.rhs_parts_program`), and the number of values
     it packs. The splice of elastic bodies calls it once per ``rhs`` instead of
     ``outputs``, ``mass_matrix`` and ``force_vector`` (with ``outs`` the hidden frame
-    kinematics, :mod:`.elastic`)."""
+    kinematics, :mod:`~neweul_py.codegen.elastic`)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, ny = len(y), outs.shape[0]
     prog, where = rhs_parts_program(eq, ctx.intermediates, outs, method)
@@ -620,7 +620,7 @@ def program_blocks(equations: Any, *, cse: bool = True,
     equations.md §1.1), and the parameter derivatives ``force_parameter_jacobian`` (n × np),
     ``mass_matrix_parameter_derivative`` (n × np, in the symbols ``a``) and
     ``output_parameter_jacobian`` (ny × np, docs/sensitivity.md). Rigid models only (elastic bodies
-    are spliced in numerically by :mod:`.elastic`). The NumPy module's own ``mass_matrix`` and
+    are spliced in numerically by :mod:`~neweul_py.codegen.elastic`). The NumPy module's own ``mass_matrix`` and
     ``rhs`` evaluate ``Equations.mass_factors`` when given (:mod:`.packing`); the blocks here keep
     M's entries. ``progress``: a staged hook, ``("C code", done, 7)`` after each block.
     """

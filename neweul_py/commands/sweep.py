@@ -1,4 +1,4 @@
-"""``neweul sweep FILE --param NAME=VALUES ... [--cases CASES.csv] --task simulate|equilibrium|
+"""``neweul sweep FILE --param NAME=VALUES … [--cases CASES.csv] --task simulate|equilibrium|
 modes|frf [task options] [--scheduler ADDRESS | --workers N] [-o table.csv|.parquet|.npz]``."""
 
 from __future__ import annotations

@@ -16,14 +16,14 @@ Every value may be a number, an expression string of the description language or
 expression. Strings are parsed in :meth:`SystemBuilder.build`, when every name is known, so
 items may be declared in any order. Each value is parsed with the names allowed in its place:
 
-============================================  ==========================================
-place                                         allowed names
-============================================  ==========================================
-masses, centers of mass, inertias, gravity    parameters
-input defaults                                parameters, ``t``
-frame translations/rotations, points          parameters, coordinates, inputs, ``t``
-force vectors, force laws, expression outputs all of the above and velocities ``d_<coord>``
-============================================  ==========================================
+=============================================  ==========================================
+place                                          allowed names
+=============================================  ==========================================
+masses, centers of mass, inertias, gravity     parameters
+input defaults                                 parameters, ``t``
+frame translations/rotations, points           parameters, coordinates, inputs, ``t``
+force vectors, force laws, expression outputs  all of the above and velocities ``d_<coord>``
+=============================================  ==========================================
 
 Every error is a :class:`~neweul_py.errors.ModelError` carrying the key path of the
 description file layout (``bodies.malleus.inertia[1][2]``).

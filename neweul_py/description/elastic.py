@@ -1,23 +1,23 @@
-"""The ``elastic_bodies`` section of a description (equations.md §2).
+"""The ``elastic_bodies`` section of a description (docs/description-format.md; equations.md §2).
 
-```yaml
-elastic_bodies:
-  beam:
-    frame: hub                 # reference frame (ISYS: fixed to the ground)
-    data: beam.SID_FEM         # SID text file or reduced-body .npz, relative to this file
-    nodes: {tip: 1793, root: 1860}   # node frames beam.tip, beam.root
-    modes: 4                   # optional: the first 4 modes, or a list of mode numbers
-    initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
-    velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
-    inertia: consistent        # optional: consistent (default, needs J.m2) | sid
-    schedule: dp               # parametric bodies (neweul interpolate): the scheduling
-                               # variable, an expression of parameters, inputs, t and
-                               # coordinates of the rigid part
-    inputs: {canal_volume_acceleration: Q}   # optional: the body's own FE inputs, driven
-                               # by an expression (of inputs, parameters, t, …)
-    outputs: {probe_pressure: p_probe}      # optional: the body's own FE outputs as
-                               # description outputs (C V q)
-```
+An example::
+
+    elastic_bodies:
+      beam:
+        frame: hub                 # reference frame (ISYS: fixed to the ground)
+        data: beam.SID_FEM         # SID text file or reduced-body .npz, relative to this file
+        nodes: {tip: 1793, root: 1860}   # node frames beam.tip, beam.root
+        modes: 4                   # optional: the first 4 modes, or a list of mode numbers
+        initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
+        velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
+        inertia: consistent        # optional: consistent (default, needs J.m2) | sid
+        schedule: dp               # parametric bodies (neweul interpolate): the scheduling
+                                   # variable, an expression of parameters, inputs, t and
+                                   # coordinates of the rigid part
+        inputs: {canal_volume_acceleration: Q}   # optional: the body's own FE inputs, driven
+                                   # by an expression (of inputs, parameters, t, …)
+        outputs: {probe_pressure: p_probe}      # optional: the body's own FE outputs as
+                                   # description outputs (C V q)
 
 The body's own FE inputs and outputs (reduced-body and parametric files, the ``io.*`` arrays of
 :func:`neweul_py.elastic.io.reader.read_elastic_data`): an input becomes one generalized force

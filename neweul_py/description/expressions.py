@@ -4,7 +4,7 @@ A tokenizer and a recursive-descent (precedence-climbing) parser that build symp
 directly from tokens. User text is never handed to ``eval``, ``exec``, sympy's string parser or
 Python's ``ast``: the only things that can come out of a string are numbers (converted by this
 module from digits it has validated), the symbols of a caller-supplied namespace, ``pi`` and the
-fixed list of functions of :mod:`.functions`.
+fixed list of functions of :mod:`~neweul_py.description.functions`.
 
 Grammar (lowest precedence first)::
 

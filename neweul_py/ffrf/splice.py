@@ -94,7 +94,8 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         One dict per elastic body: ``name``, ``first`` (index of its first coordinate in
         ``y``), ``kin`` (offset of its frame kinematics in the hidden outputs), ``inertia``
         and its flat arrays (packed or plain); a parametric body has ``samples`` (one such
-        dict of arrays per sample), ``values`` and ``coeff`` (:mod:`.parametric`) instead.
+        dict of arrays per sample), ``values`` and ``coeff``
+        (:mod:`~neweul_py.ffrf.parametric`) instead.
     ns
         Number of symbolic coordinates ``y_s`` that appear in the symbolic part.
     sv, sw
@@ -305,7 +306,7 @@ def ffrf_at(S, t, p, x=None, u=None):
     """The context at time ``t``, parameters ``p``, coordinates ``x`` (``y`` or the state)
     and inputs ``u``: parametric bodies mixed at their scheduling values ``σ`` and ``S_V(σ)``,
     ``S_W(σ)`` (frozen-parameter equations: the weights' time derivatives are not taken,
-    :mod:`.parametric`; their dependence on ``y`` and ``u`` enters the Jacobians,
+    :mod:`~neweul_py.ffrf.parametric`; their dependence on ``y`` and ``u`` enters the Jacobians,
     :func:`ffrf_sigma_terms`); ``S`` itself without parametric bodies.
 
     The last mixed context is remembered (``S["memo"]``, one entry keyed by the bytes of
@@ -358,7 +359,7 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
     """``∂(q − k)/∂σ`` (n, k) — or ``∂(M a)/∂σ`` with ``a`` — of a mixed context: the
     complex step of the mixed bodies, ``S_V(σ)``, ``S_W(σ)`` in each ``σ_k``, with the
     symbolic part's analytic Jacobians for its arguments ``y_s = S_V(σ) y`` (module
-    docstring, item 3)."""
+    docstring, step 3)."""
     sigma, h, ns = S["sigma"], S["step"], S["ns"]
     ys, yds = S["SV"] @ y, S["SV"] @ yd
     rig = S["rigid"]

@@ -56,9 +56,9 @@ class System:
     description
         Free text.
     constraints
-        Holonomic constraints ``g(y, t) = 0`` closing kinematic loops (issue 4).
+        Holonomic constraints ``g(y, t) = 0`` closing kinematic loops.
     elastic_bodies
-        Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`, issue 6); their
+        Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`); their
         coordinates, the dependent coordinates of their node frames and the node frames
         (``NAME.label``) are in ``coordinates`` and ``frames``.
     loss_reference_frequency

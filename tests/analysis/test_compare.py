@@ -105,7 +105,6 @@ def test_modes_matched_by_mac_whatever_their_order(tmp_path):
 def test_equilibria_and_the_overlay_plot(tmp_path):
     """Reference: the equilibrium of the double pendulum (hanging: both angles 0) and itself
     from its CSV file."""
-    pytest.importorskip("matplotlib")
     eq = equilibrium(load_generated(GENERATED / "double_pendulum.py"))
     path = eq.save(tmp_path / "eq.csv")
     cmp = compare(eq, path)
@@ -150,7 +149,6 @@ def test_overlay_plot_has_units_and_an_error_curve(tmp_path):
     ``[unit]`` header of another tool's CSV), the error axis beside it plots |a − b| in the
     same unit with the tolerance line, frequency responses get magnitude, phase and relative
     error, and every label stays inside the figure."""
-    pytest.importorskip("matplotlib")
     from neweul_py.analysis.compare_plot import comparison_figure
 
     res = simulate(GENERATED / "pendulum.py", 3.0, x0={"phi": 1e-3}, n_out=601, rtol=1e-10,

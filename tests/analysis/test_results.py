@@ -41,7 +41,7 @@ def test_csv_format(result, tmp_path):
 def test_csv_opens_in_pandas_and_numpy_without_options(result, tmp_path):
     """Reference: the readers themselves (pandas.read_csv, numpy.genfromtxt(names=True)) give
     the column names and the exact values of the result."""
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
     path = result.to_csv(tmp_path / "out.csv")
     frame = pd.read_csv(path)
     assert list(frame.columns) == result.names
@@ -53,7 +53,6 @@ def test_csv_opens_in_pandas_and_numpy_without_options(result, tmp_path):
 
 def test_to_dataframe_and_display(result):
     """Reference: the result's own arrays; the display stays short (head and tail only)."""
-    pytest.importorskip("pandas")
     frame = result.to_dataframe()
     np.testing.assert_array_equal(frame["d_phi"].to_numpy(), result.yd[:, 0])
     assert len(repr(result)) < 200 and "pendulum" in repr(result)
@@ -123,7 +122,6 @@ def test_column_lookup(result):
 
 
 def test_plot_writes_png(result, tmp_path):
-    pytest.importorskip("matplotlib")
     from neweul_py.analysis.plot import plot_result
 
     path = plot_result(result, tmp_path / "fig.png")
@@ -180,7 +178,8 @@ def test_every_result_csv_has_the_same_names_in_pandas_and_genfromtxt(tmp_path):
     """Reference: the readers themselves — the names pandas reads equal those genfromtxt keeps
     (no mangled characters) for modes, frequency responses and equilibria; the display of each
     result is one short line."""
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
+
     from neweul_py.analysis import equilibrium, frequency_response, linearize, modes
 
     mod = load_generated(GENERATED / "middle_ear_chain.py")

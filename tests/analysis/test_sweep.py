@@ -7,6 +7,7 @@ import os
 import re
 from pathlib import Path
 
+import distributed
 import numpy as np
 import pytest
 
@@ -16,7 +17,6 @@ from neweul_py.analysis.sweep_cases import grid, parse_parameter, product, read_
 from neweul_py.cli import main
 from neweul_py.errors import DataError, NeweulError
 
-distributed = pytest.importorskip("distributed")
 GENERATED = Path(__file__).resolve().parents[2] / "generated"
 PENDULUM = GENERATED / "pendulum.py"
 
@@ -62,7 +62,7 @@ def test_modes_sweep_matches_closed_form_and_records_singular_cases(client, tmp_
     f_ref = np.sqrt(g / res.data["l"][3:]) / (2 * np.pi)
     np.testing.assert_allclose(res.data["f1_hz"][3:], f_ref,
                                rtol=1e-10)
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
     path = res.save(tmp_path / "modes.csv")
     frame = pd.read_csv(path)
     assert list(frame["ok"]) == [0, 0, 0, 1, 1, 1] and len(frame) == 6

@@ -1,5 +1,5 @@
 """The trusted cache (neweul_py/cache.py, api.generated_module): nothing is imported from it
-before its bytes match the SHA-256 recorded when it was written (issue 12 item 1).
+before its bytes match the SHA-256 recorded when it was written.
 
 References: the shipped ``generated/pendulum.py`` (the module a cache hit must equal byte for
 byte), POSIX file modes and owners, and a marker file that tampered code would create.
@@ -81,9 +81,9 @@ def test_entry_or_digest_of_another_user_is_never_imported(tmp_path, what):
 
 
 def test_appended_line_never_runs_and_is_regenerated(tmp_path, capsys):
-    """The reproducer of issue 12: a line appended to a cached module ran on the next
-    simulate. Now the digest mismatch is seen before the import: the marker file is never
-    created, the module is regenerated (equal to the shipped one) with one warning."""
+    """A line appended to a cached module must not run on the next simulate: the digest
+    mismatch is seen before the import, the marker file is never created, and the module is
+    regenerated (equal to the shipped one) with one warning."""
     path = api.generated_module(PENDULUM)
     marker = tmp_path / "ran"
     with open(path, "a") as fh:
@@ -238,7 +238,7 @@ def test_a_tampered_compiled_module_in_the_cache_is_rewritten_not_run(tmp_path, 
     """The compiled module of a cache entry (wrapper ``_c.py`` and its C sources) carries
     digests like the NumPy entry: a wrapper with an injected line is not executed (the marker
     file stays absent) but rewritten with one CacheWarning, and an edited C source is rebuilt
-    instead of falling back to NumPy on every later run (found by a fresh-clone audit)."""
+    instead of falling back to NumPy on every later run."""
     marker = tmp_path / "ran"
     api.load_description_module(PENDULUM, backend="c")
     cache = Path(os.environ["NEWEUL_CACHE"])

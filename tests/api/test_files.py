@@ -1,4 +1,4 @@
-"""Files validated before use (neweul_py/files.py; issue 12 items 3 and 7).
+"""Files validated before use (neweul_py/files.py).
 
 References: POSIX file types (``/dev/zero`` is a character device, ``mkfifo`` makes a FIFO), the
 zip format (declared member sizes bound what the reader returns) and the ``.npy`` header.
@@ -63,8 +63,8 @@ def test_size_cap(tmp_path):
 
 @pytest.mark.parametrize("target", ["/dev/zero", "fifo"])
 def test_elastic_data_file_of_a_description(tmp_path, capsys, fifo, target):
-    """The reproducer of issue 12 item 3: ``simulate`` fingerprinted ``data: /dev/zero``
-    with read_bytes() (filling memory) and hung on a FIFO; now one error line."""
+    """``simulate`` of a description whose ``data:`` is ``/dev/zero`` (reading it whole would fill
+    memory) or a FIFO (would hang): one error line."""
     data = "/dev/zero" if target == "/dev/zero" else str(fifo)
     src = tmp_path / "m.yaml"
     src.write_text("name: m\ncoordinates: {x: 0}\nframes: {f: {parent: ISYS, translation: "

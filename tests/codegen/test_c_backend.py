@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from compiler import needs_c_compiler
 
 from neweul_py.analysis.module import as_model, load_generated
 from neweul_py.codegen import generate_module
@@ -29,8 +30,7 @@ from neweul_py.errors import GenerationError, NeweulError
 ROOT = Path(__file__).resolve().parents[2]
 _COUNTER = itertools.count()
 EXAMPLES = sorted(p.stem for p in (ROOT / "examples").glob("*.yaml"))
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = needs_c_compiler
 
 
 def _fresh(path: Path):

@@ -1,8 +1,8 @@
-"""One consistent command line (issue 11 item 7) whose numbers are checked like a
-description's (issue 12 items 5 and 7), and which starts fast (issue 14 item 4).
+"""One consistent command line whose numbers are checked like a
+description's, and which starts fast.
 
-References: the reproducers of issue 12 (each must end in one clear error line, never a hang
-or a traceback), the option table of docs/cli.md, the caps of docs/limits.md, and
+References: option values that once hung or wrote NaN rows (each must end in one clear error line,
+never a hang or a traceback), the option table of docs/cli.md, the caps of docs/limits.md, and
 ``sys.modules`` of a fresh interpreter for the imports of ``--help``.
 """
 
@@ -70,7 +70,7 @@ def _run(capsys, *argv: str) -> tuple[int, str, str]:
     ],
 )
 def test_bad_numbers_are_refused_by_the_parser(capsys, argv, message):
-    """Each of the reproducers of issue 12 item 5/7 (they hung or wrote NaN rows) is refused
+    """Each option value that once hung or wrote NaN rows is refused
     before anything is read or computed: argparse's usage line and one error line, exit 2."""
     argv = [str(EXAMPLES / "pendulum.yaml") if a == "pendulum" else a for a in argv]
     code, _, err = _run(capsys, *argv)
@@ -231,7 +231,7 @@ HEAVY = ("sympy", "matplotlib", "scipy.integrate", "neweul_py.codegen", "neweul_
 
 def test_help_imports_no_heavy_module():
     """``neweul --help`` (building the whole parser) imports no sympy, matplotlib,
-    scipy.integrate, analysis or elastic code (issue 14 item 4)."""
+    scipy.integrate, analysis or elastic code."""
     loaded = _modules_after(
         "import sys\nfrom neweul_py.cli import main\n"
         "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
@@ -267,8 +267,8 @@ def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
 def test_generate_of_a_rigid_model_imports_no_numpy(tmp_path):
     """``neweul generate`` of rigid examples (a chain, a spatial chain, inputs and springs)
     derives and prints with sympy alone: a fresh process has no NumPy, SciPy, skfem,
-    matplotlib, elastic or floating-frame code in ``sys.modules`` afterwards (issue 14 item
-    4: the cold ``generate`` pays for no import it does not need), with the cache off or
+    matplotlib, elastic or floating-frame code in ``sys.modules`` afterwards (the cold
+    ``generate`` pays for no import it does not need), with the cache off or
     missing."""
     files = [str(EXAMPLES / f"{name}.yaml")
              for name in ("pendulum", "chain3_spatial", "quarter_car", "cart_pendulum")]

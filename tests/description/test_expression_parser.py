@@ -175,7 +175,8 @@ def test_malicious_text_has_no_side_effect(tmp_path: pathlib.Path, monkeypatch) 
 
 
 def test_parser_source_never_evaluates_text() -> None:
-    """The parser must not contain any of the evaluating entry points (DESIGN.md, Formats)."""
+    """The parser must not contain any of the evaluating entry points
+    (docs/description-format.md, "Expressions")."""
     import neweul_py.description as pkg
 
     forbidden = ["ev" + "al(", "ex" + "ec(", "sympi" + "fy(", "parse_" + "expr(", "import ast"]
@@ -395,7 +396,7 @@ def test_parsing_a_long_sum_is_linear() -> None:
     ],
 )
 def test_out_of_range_constants_and_misplaced_conditions_are_refused(text, message) -> None:
-    """Issue 12 reproducers (bounded constants) and the piecewise grammar's errors: one line."""
+    """Constants out of range (they once hung) and the piecewise grammar's errors: one line."""
     with pytest.raises(ExpressionError, match=message) as info:
         parse(text)
     assert "\n" not in str(info.value)
@@ -439,7 +440,7 @@ def test_piecewise_grammar() -> None:
     ],
 )
 def test_description_reproducers_name_file_key_and_line(value, line, key, message) -> None:
-    """Issue 12 reproducers inside a description: one DescriptionError line with the file, the
+    """Constants out of range inside a description: one DescriptionError line with the file, the
     line and the key path (and ``351**-1e-10``, which hung generation, is just a number)."""
     from neweul_py.description import load_description_text
     from neweul_py.errors import DescriptionError

@@ -91,7 +91,7 @@ BAD = [
 
 @pytest.mark.parametrize(("rows", "where", "message"), BAD)
 def test_bad_signal_files_name_file_line_and_column(tmp_path, rows, where, message) -> None:
-    """Issue 11 (bad input): non-monotonic time, NaN, a missing column — one line each."""
+    """Bad signal files: non-monotonic time, NaN, a missing column — one line each."""
     _write_csv(tmp_path / "signal.csv", rows)
     desc = tmp_path / "tabled.yaml"
     desc.write_text(DESCRIPTION.format(interp="linear"))

@@ -267,16 +267,18 @@ def test_schedule_outside_the_samples_from_the_command_line_names_the_range(para
 
 
 def _readme_scheduled_block() -> str:
-    """The README's YAML block of a scheduled body (the one with ``schedule:``)."""
-    text = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    """The YAML block of a scheduled body (the one with ``schedule:``) of the how-to guide
+    ``docs/howto/parametric-body.md``."""
+    page = Path(__file__).resolve().parents[2] / "docs" / "howto" / "parametric-body.md"
+    text = page.read_text(encoding="utf-8")
     blocks = [b.split("```", 1)[0] for b in text.split("```yaml\n")[1:]]
     found = [b for b in blocks if "schedule:" in b]
-    assert len(found) == 1, "the README holds one YAML block with a scheduled body"
+    assert len(found) == 1, "the guide holds one YAML block with a scheduled body"
     return found[0]
 
 
 def test_scheduled_body_alone_without_inputs_or_coordinates(parametric) -> None:
-    """The README's block — a scheduled body on ISYS, no ``inputs:``, no rigid coordinates
+    """The guide's block — a scheduled body on ISYS, no ``inputs:``, no rigid coordinates
     (``∂σ/∂y``, ``∂σ/∂u`` are empty; generate raised SymPy's "X must be a row or a column
     matrix") — generates a module whose mass matrix and ``rhs_jacobian`` at ``cs = 321.5``
     (between samples) are those of the model with ``ParametricBody.at(321.5)`` as a fixed

@@ -141,10 +141,9 @@ def test_dense_solve_through_lapack_equals_numpy_and_falls_back() -> None:
     solution through SciPy's ``dgesv`` for real systems (one and several right-hand sides),
     the same with ``gesv = None`` (NumPy only) and for complex right-hand sides, and raises
     its ``LinAlgError`` for a singular matrix."""
-    from neweul_py.ffrf.splice import ffrf_dense_solve
-
-    pytest.importorskip("scipy")
     from scipy.linalg.lapack import dgesv
+
+    from neweul_py.ffrf.splice import ffrf_dense_solve
 
     rng = np.random.default_rng(5)
     M = rng.standard_normal((22, 22)) + 22 * np.eye(22)

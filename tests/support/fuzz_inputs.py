@@ -1,11 +1,11 @@
 """Mutators of user inputs for the fuzzing tests (tests/*/test_*fuzz*) and benchmarks/bench_fuzz.py.
 
 Each mutator takes a :class:`random.Random` (hypothesis draws it with ``st.randoms()``, the
-benchmark seeds its own) and returns a mutated copy of a valid input: a description (as a YAML
-tree or as text), the lines of a text data file (SID, Matrix Market), the arrays and metadata
-of an ``.npz`` file, or a command line. The property every consumer checks is the one of
-issue 12: a :class:`~neweul_py.errors.NeweulError` with one line, or a result — never another
-exception, a hang or a partial file (:func:`outcome`).
+benchmark seeds its own) and returns a mutated copy of a valid input: a description (as a YAML tree
+or as text), the lines of a text data file (SID, Matrix Market), the arrays and metadata of an
+``.npz`` file, or a command line. The property every consumer checks: a
+:class:`~neweul_py.errors.NeweulError` with one line, or a result — never another exception, a hang
+or a partial file (:func:`outcome`).
 """
 
 from __future__ import annotations

@@ -276,7 +276,7 @@ def second_order_poles(M: np.ndarray, D: np.ndarray | None, K: np.ndarray) -> np
     (QZ; a singular ``M`` gives infinite eigenvalues, which are dropped). Reduced u–p bodies
     span many decades (structural rows in strain-energy units, pressure rows in acoustic
     ones): there QZ on the unscaled pencil returned right-half-plane poles of round-off
-    (Re s = 2.8e4 at |s| = 3e6 on the string–cavity test model) where the scaled standard
+    (``Re s = 2.8e4`` at ``|s| = 3e6`` on the string–cavity test model) where the scaled standard
     form gives −3e-9, as the energy argument of the u–p form requires.
     """
     M, K = np.asarray(M, dtype=np.float64), np.asarray(K, dtype=np.float64)

@@ -1,4 +1,4 @@
-"""Reduced-body file (issue 3 item 3): exact round trip, atomic writes, bad files rejected.
+"""Reduced-body file: exact round trip, atomic writes, bad files rejected.
 
 Reference: the in-memory body; every array must come back bit for bit (``array_equal``,
 same dtype) and the metadata unchanged (docs/reduced-body-format.md).
