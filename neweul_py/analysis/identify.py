@@ -1,5 +1,5 @@
 """Parameter identification: bounded nonlinear least squares with the analytic sensitivities
-as Jacobian (docs/sensitivity.md §6, docs/howto-identify.md).
+as Jacobian (docs/sensitivity.md §6, docs/howto/identify.md).
 
 :func:`identify` fits parameters of a generated module to a measured frequency response or
 time history (:mod:`.identify_data`) with :func:`scipy.optimize.least_squares` (trust-region

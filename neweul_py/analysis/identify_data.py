@@ -1,4 +1,4 @@
-"""Measured data for parameter identification (docs/howto-identify.md): a frequency response
+"""Measured data for parameter identification (docs/howto/identify.md): a frequency response
 as ``neweul frf -o`` writes it, or a time history as ``neweul simulate -o`` writes it.
 
 Every problem is one :class:`~neweul_py.errors.DataError` naming the file and the column (and

@@ -1,6 +1,7 @@
-"""Parameter sensitivities of modes and frequency responses (docs/sensitivity.md §4–5), from
-the derivatives of the linear model (:func:`~neweul_py.analysis.sensitivity.
-linear_model_derivatives`):
+"""Parameter sensitivities of modes and frequency responses (docs/sensitivity.md §4–5).
+
+From the derivatives of the linear model
+(:func:`~neweul_py.analysis.sensitivity.linear_model_derivatives`):
 
 - **modes** of the pencil ``Ã x = λ E x``: ``dλ = wᴴ (dÃ − λ dE) v / (wᴴ E v)`` with the left
   and right eigenvectors ``w``, ``v``;

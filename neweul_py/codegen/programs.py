@@ -242,8 +242,9 @@ class DirectionalPrograms:
 
 def directional_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatrix,
                          method: CseMethod, d_method: CseMethod) -> DirectionalPrograms:
-    """The :class:`DirectionalPrograms` of ``eq``: :func:`~neweul_py.equations.jacobians.
-    directional` through the printed (CSE'd) first derivatives."""
+    """The :class:`DirectionalPrograms` of ``eq``: directional derivatives
+    (:func:`~neweul_py.equations.jacobians.directional`) through the printed (CSE'd) first
+    derivatives."""
     def compute() -> DirectionalPrograms:
         n, nu = len(eq.coordinates), len(eq.inputs)
         d = Direction.of(eq)

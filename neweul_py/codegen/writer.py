@@ -6,9 +6,9 @@ renders the symbolic equations into such parts (every function straight-line cod
 :func:`.cse.eliminate`; scalars are Python floats with ``_math`` functions, arrays are
 assembled once with NumPy; Jacobians are the symbolic derivatives that
 :mod:`neweul_py.equations.jacobians` takes through the CSE'd program, never finite
-differences), and :func:`compose` joins parts into
-the module text. Writers of richer modules (elastic bodies, :mod:`~neweul_py.codegen.elastic`) select,
-rename and add parts — they never edit rendered text.
+differences), and :func:`compose` joins parts into the module text. Writers of richer modules
+(elastic bodies, :mod:`~neweul_py.codegen.elastic`) select, rename and add parts — they never
+edit rendered text.
 
 The text depends only on the equations and the source hash — no timestamps, no hash-ordered
 iteration — so regeneration is byte-identical (docs/generated-module-protocol.md).
@@ -619,10 +619,11 @@ def program_blocks(equations: Any, *, cse: bool = True,
     (nc), ``constraint_gamma`` (nc), for models with loss factors, ``loss_matrix`` (n·n,
     equations.md §1.1), and the parameter derivatives ``force_parameter_jacobian`` (n × np),
     ``mass_matrix_parameter_derivative`` (n × np, in the symbols ``a``) and
-    ``output_parameter_jacobian`` (ny × np, docs/sensitivity.md). Rigid models only (elastic bodies
-    are spliced in numerically by :mod:`~neweul_py.codegen.elastic`). The NumPy module's own ``mass_matrix`` and
-    ``rhs`` evaluate ``Equations.mass_factors`` when given (:mod:`.packing`); the blocks here keep
-    M's entries. ``progress``: a staged hook, ``("C code", done, 7)`` after each block.
+    ``output_parameter_jacobian`` (ny × np, docs/sensitivity.md). Rigid models only (elastic
+    bodies are spliced in numerically by :mod:`~neweul_py.codegen.elastic`). The NumPy module's
+    own ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
+    (:mod:`.packing`); the blocks here keep M's entries. ``progress``: a staged hook,
+    ``("C code", done, 7)`` after each block.
     """
     step = Steps(progress, "C code", 7)
     eq = equations

@@ -1,5 +1,5 @@
 """``neweul identify FILE --data DATA.csv --task frf|simulate --param NAME=LO:HI[:START] …
-[-o FIT.json] [--plot FIG]``: fit parameters to measured data (docs/howto-identify.md)."""
+[-o FIT.json] [--plot FIG]``: fit parameters to measured data (docs/howto/identify.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``neweul identify`` (commands/identify.py, docs/cli.md, docs/howto-identify.md).
+"""``neweul identify`` (commands/identify.py, docs/cli.md, docs/howto/identify.md).
 
 References: the data are the model's own frequency response (``neweul frf -o``) and
 simulation (``neweul simulate -o``) at known parameters, which the fit must give back; a
@@ -101,7 +101,7 @@ def test_a_fit_that_does_not_converge_is_reported(measured, capsys) -> None:
 
 
 def test_the_howto_runs_and_prints_what_it_shows(tmp_path) -> None:
-    """docs/howto-identify.md: every ``bash`` and ``python`` block runs as shown (in a copy of
+    """docs/howto/identify.md: every ``bash`` and ``python`` block runs as shown (in a copy of
     the examples), and the estimates it quotes are the ones printed."""
     import os
     import re
@@ -110,7 +110,7 @@ def test_the_howto_runs_and_prints_what_it_shows(tmp_path) -> None:
     import sys
 
     root = Path(__file__).resolve().parents[2]
-    text = (root / "docs" / "howto-identify.md").read_text()
+    text = (root / "docs" / "howto" / "identify.md").read_text()
     shutil.copytree(root / "examples", tmp_path / "examples",
                     ignore=shutil.ignore_patterns("middle_ear", "elastic_up_body"))
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
