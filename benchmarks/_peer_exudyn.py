@@ -1,16 +1,15 @@
 #!/usr/bin/env python3
 """Peer side of bench_compiled.py (d): a Hex20 flexible pendulum in Exudyn.
 
-Runs in the peer venv (``/work/venvs/peers``: exudyn, scikit-fem; never a dependency of
-neweul-py). The body is a block ``L × a × a`` (L = 1 m, a = 0.05 m, aluminium: E = 70 GPa,
-ν = 0.3, ρ = 2700 kg/m³) meshed by scikit-fem with ``ElementHexS2`` (20-node serendipity hex,
-``nx × 2 × 2`` elements), linear elasticity M and K assembled there and handed to Exudyn's
-``FEMinterface``; Hurty–Craig–Bampton modes with one RBE2 interface at the hinge end (its rigid
-motion excluded: the floating frame), ``ObjectFFRFreducedOrder`` with ``--modes`` eigenmodes,
-hinged at x = 0 about the y axis by a ``GenericJoint`` on a ``MarkerSuperElementRigid``,
-gravity −z, released horizontally from rest, 1 s of generalized-α with h = 1e-3 (Exudyn's
-default implicit solver). Prints JSON on the last line: mesh and mode times, the wall time of
-``SolveDynamic`` and the tip displacement at t = 1 s.
+Runs in a separate peer environment (exudyn, scikit-fem; never a dependency of neweul-py). The body
+is a block ``L × a × a`` (L = 1 m, a = 0.05 m, aluminium: E = 70 GPa, ν = 0.3, ρ = 2700 kg/m³)
+meshed by scikit-fem with ``ElementHexS2`` (20-node serendipity hex, ``nx × 2 × 2`` elements),
+linear elasticity M and K assembled there and handed to Exudyn's ``FEMinterface``;
+Hurty–Craig–Bampton modes with one RBE2 interface at the hinge end (its rigid motion excluded: the
+floating frame), ``ObjectFFRFreducedOrder`` with ``--modes`` eigenmodes, hinged at x = 0 about the y
+axis by a ``GenericJoint`` on a ``MarkerSuperElementRigid``, gravity −z, released horizontally from
+rest, 1 s of generalized-α with h = 1e-3 (Exudyn's default implicit solver). Prints JSON on the last
+line: mesh and mode times, the wall time of ``SolveDynamic`` and the tip displacement at t = 1 s.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Peer side of bench_compiled.py: the N-link planar chain in sympy.physics.mechanics/PyDy.
 
-Runs in the peer venv (``/work/venvs/peers``: pydy, cython; never a dependency of neweul-py)
+Runs in a separate peer environment (pydy, cython; never a dependency of neweul-py)
 or, for ``kane``, in any Python with sympy. One job per process, JSON on the last line:
 
 * ``kane N`` — ``KanesMethod.kanes_equations`` of the chain (the whole-process peer of
@@ -87,6 +87,14 @@ def cpu_total() -> float:
     return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
 
 
+def _fresh(rhs, p):
+    """``f(t, x)`` for ``solve_ivp`` returning a new array per call: PyDy's generated function
+    writes every result into one buffer it returns again and again, and RK45 keeps the
+    derivatives of a step's stages (``K[i] = f(...)``), which would all be that one array —
+    the last stage's — and make the steps wrong."""
+    return lambda t, x: rhs(x, t, p).copy()
+
+
 def pydy(n: int, solver: str) -> dict:
     import numpy as np
     import sympy as sp
@@ -106,8 +114,7 @@ def pydy(n: int, solver: str) -> dict:
     x0[0] = 0.5
     per_call = best_per_call(lambda: rhs(x0, 0.0, p))
     t3, c3 = time.perf_counter(), time.process_time()
-    sol = solve_ivp(lambda t, x: rhs(x, t, p), (0.0, 10.0), x0, method="RK45", rtol=1e-8,
-                    atol=1e-8)
+    sol = solve_ivp(_fresh(rhs, p), (0.0, 10.0), x0, method="RK45", rtol=1e-8, atol=1e-8)
     t4, c4 = time.perf_counter(), time.process_time()
     return {"derive": t1 - t0, "codegen_compile": t2 - t1, "codegen_cpu": c2 - c1,
             "rhs": per_call,
@@ -130,8 +137,7 @@ def e2e(n: int, solver: str) -> dict:
     p = np.array([1.0, 0.5, 9.81])
     x0 = np.zeros(2 * n)
     x0[0] = 0.5
-    sol = solve_ivp(lambda t, x: rhs(x, t, p), (0.0, 10.0), x0, method="RK45", rtol=1e-8,
-                    atol=1e-8)
+    sol = solve_ivp(_fresh(rhs, p), (0.0, 10.0), x0, method="RK45", rtol=1e-8, atol=1e-8)
     return {"nfev": int(sol.nfev)}
 
 

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Compiled backend (issue 14): neweul-py's C module against PyDy, KanesMethod and NumPy.
+"""Compiled backend: neweul-py's C module against PyDy, KanesMethod and NumPy.
 
-All figures of one run come from fresh processes started by this script, ours in this Python
-(the project environment), PyDy's in the peer venv (``--peer-python``, default
-``/work/venvs/peers/bin/python`` with pydy + cython; never a dependency of neweul-py):
+All figures of one run come from fresh processes started by this script, ours in this Python (the
+project environment), PyDy's in a peer environment (``--peer-python PATH``, or the environment
+variable ``NEWEUL_PEER_PYTHON``: a Python with pydy + cython; never a dependency of neweul-py):
 
 (a) planar chain N = 10 (examples/make_chain.py): rhs per call of the compiled module, the
     NumPy module, ``lambdify([M, F], cse=True)`` + ``numpy.linalg.solve`` of KanesMethod's
@@ -234,7 +234,8 @@ def _whole_process(kane_runs: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--worker", nargs="+", help=argparse.SUPPRESS)
-    parser.add_argument("--peer-python", default="/work/venvs/peers/bin/python")
+    parser.add_argument("--peer-python", default=os.environ.get("NEWEUL_PEER_PYTHON", ""),
+                        help="Python of the peer environment (pydy, cython, exudyn)")
     parser.add_argument("--skip-peers", action="store_true")
     parser.add_argument("-n", type=int, default=10, help="chain length of (a) (default 10)")
     parser.add_argument("--only", choices=("all", "generate"), default="all",
@@ -252,7 +253,7 @@ def main() -> None:
         _whole_process(args.kane_runs)
         return
     n = args.n
-    peer = not args.skip_peers and Path(args.peer_python).exists()
+    peer = not args.skip_peers and bool(args.peer_python) and Path(args.peer_python).exists()
     print(f"Python {sys.version.split()[0]}; one fresh process per job; "
           f"load average {os.getloadavg()[0]:.1f}\n")
     with tempfile.TemporaryDirectory() as tmp:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Elastic bodies in generated modules (issue 6): cost as the number of modes grows.
+"""Elastic bodies in generated modules: cost as the number of modes grows.
 
 Model: a rigid double pendulum (two links, planar hinges about z, gravity) carrying on its second
 link an elastic cantilever (``tests/support/beam_fe.py``, 3-D Euler–Bernoulli, 40 elements,

@@ -1,11 +1,12 @@
-"""Long fuzzing run of the inputs of issue 12 (the CI suite runs a bounded sample of the same).
+"""Long fuzzing run of every reader (the default test suite runs a bounded sample of the same).
 
-Mutated descriptions (loaded; a share also derived, generated, imported and evaluated),
-reduced-body files, FE models (``.npz`` and Matrix Market) and SID files, with the mutators of
-tests/support/fuzz_inputs.py; then SIGKILLs at random moments of an atomic directory write.
-Prints, per
-kind, how many cases ran, how many gave a result, a NeweulError, another exception (a bug) or a
-hang (no answer within ``--hang`` s), and the directory states after the kills.
+Mutated descriptions (loaded; a share also derived, generated, imported and evaluated: ``rhs``,
+``outputs``, ``rhs_jacobian``), reduced-body files, FE models (``.npz`` and Matrix Market), SID
+files, tables (sweep cases, CSV results of any tool) and result files read back, with the
+mutators of tests/support/fuzz_inputs.py; then SIGKILLs at random moments of an atomic directory
+write. Prints, per kind, how many cases ran, how many gave a result, a NeweulError, another
+exception (a bug) or a hang (no answer within ``--hang`` s), and the directory states after the
+kills.
 
 There is no peer to compare with: the figure is the count of exceptions outside the error
 hierarchy (goal 0 in ≥ 10 000 cases).
@@ -13,7 +14,7 @@ hierarchy (goal 0 in ≥ 10 000 cases).
 Usage::
 
     python benchmarks/bench_fuzz.py [--descriptions 6000] [--generate 600] [--data 4000]
-                                     [--kills 20] [--seed 0]
+                                     [--tables 2000] [--kills 20] [--seed 0]
 """
 
 from __future__ import annotations
@@ -125,11 +126,13 @@ def _generate(text: str, name: str) -> None:
     check_protocol(module)
     x0 = np.asarray(module.INITIAL_STATE, dtype=float)
     p = module.default_parameters()
+    u = module.default_inputs(0.0, p)
     with np.errstate(all="ignore"):
-        try:
-            module.rhs(0.0, x0, p, module.default_inputs(0.0, p))
-        except (ArithmeticError, np.linalg.LinAlgError):
-            pass  # the analysis layer reports these as SolverError
+        for evaluate in (module.rhs, module.outputs, module.rhs_jacobian):
+            try:
+                evaluate(0.0, x0, p, u)
+            except (ArithmeticError, np.linalg.LinAlgError):
+                pass  # the analysis layer reports these as SolverError
 
 
 def data_files(tally: Tally, n: int, rng: random.Random, work: Path) -> None:
@@ -163,6 +166,47 @@ def data_files(tally: Tally, n: int, rng: random.Random, work: Path) -> None:
         else:
             (work / "b.SID_FEM").write_text("\n".join(fz.mutate_lines(sid, rng)) + "\n")
             tally.run("SID file", lambda: read_elastic_data(work / "b.SID_FEM"))
+
+
+def tables(tally: Tally, n: int, rng: random.Random, work: Path) -> None:
+    """Mutated tables (sweep cases, the CSV and .npz results compare reads) and result files
+    read back (simulation results, modes, frequency responses, linear models, sweep tables):
+    the readers of tests/analysis/test_results_fuzz.py."""
+    from neweul_py.analysis import frequency_response, linearize, load_generated, modes
+    from neweul_py.analysis.compare_io import read_table
+    from neweul_py.analysis.frf import FrequencyResponse
+    from neweul_py.analysis.linearize import LinearModel
+    from neweul_py.analysis.modes import ModalResult
+    from neweul_py.analysis.results import load_npz
+    from neweul_py.analysis.simulate import simulate
+    from neweul_py.analysis.sweep_cases import read_cases
+
+    module = load_generated(ROOT / "generated" / "quarter_car.py")
+    res, lin = simulate(module, 0.2, n_out=21), linearize(module)
+    (work / "cases.csv").write_text("ms,ks\n# mass and stiffness\n250,16000\n300,18000\n")
+    csv = {"cases": (work / "cases.csv", read_cases),
+           "compare table": (res.save(work / "result.csv"), read_table)}
+    npz = {"results": (res.save(work / "result.npz"), load_npz),
+           "modes": (modes(lin).save(work / "modes.npz"), ModalResult.load),
+           "frf": (frequency_response(lin, [1.0, 2.0]).save(work / "frf.npz"),
+                   FrequencyResponse.load),
+           "linear model": (lin.save(work / "lin.npz"), LinearModel.load)}
+    for i in range(n):
+        if i % 2:
+            kind = rng.choice(sorted(csv))
+            path, reader = csv[kind]
+            raw = path.read_bytes()
+            data = (fz.mutate_bytes(raw, rng) if rng.random() < 0.5 else
+                    "\n".join(fz.mutate_lines(raw.decode().splitlines(), rng)).encode())
+            (work / "t.csv").write_bytes(data)
+            tally.run(f"table ({kind})", functools.partial(reader, work / "t.csv"))
+        else:
+            kind = rng.choice(sorted(npz))
+            path, reader = npz[kind]
+            with np.load(path) as f:
+                arrays = {k: f[k] for k in f.files}
+            np.savez(work / "t.npz", **fz.mutate_npz(arrays, rng, meta_key="__none__"))
+            tally.run(f"result file ({kind})", functools.partial(reader, work / "t.npz"))
 
 
 _WRITER = """
@@ -208,6 +252,7 @@ def main() -> int:
     ap.add_argument("--descriptions", type=int, default=6000)
     ap.add_argument("--generate", type=int, default=600)
     ap.add_argument("--data", type=int, default=4000)
+    ap.add_argument("--tables", type=int, default=2000)
     ap.add_argument("--kills", type=int, default=20)
     ap.add_argument("--hang", type=float, default=10.0, help="seconds until a case hangs")
     ap.add_argument("--seed", type=int, default=0)
@@ -220,6 +265,7 @@ def main() -> int:
     try:
         descriptions(tally, args.descriptions, args.generate, rng)
         data_files(tally, args.data, rng, work)
+        tables(tally, args.tables, rng, work)
         bad = tally.report()
         print(f"{time.perf_counter() - t0:.0f} s")
         if args.kills:

@@ -1,4 +1,4 @@
-"""Benchmark: parametric middle-ear body between working points (issue 13 item 4).
+"""Benchmark: parametric middle-ear body between working points.
 
 The u–p FE models of ``neweul fem middle-ear --refine 1`` at 17 static pressures
 (−4000:4000:17 Pa) give 9 samples (every 1000 Pa) and the 8 midpoints (±500, ±1500, ±2500,
@@ -37,7 +37,7 @@ Printed per midpoint and method: median and max over frequency of the relative e
 ``|H_r − H| / |H|`` of each output. Acceptance: global median ≤ 1 %, max ≤ 5 % and below both
 neighbours' median and max at every midpoint.
 
-Run: ``python benchmarks/bench_interpolation.py [--dir /tmp/me17] [--modes 30]`` (builds the
+Run: ``python benchmarks/bench_interpolation.py [--dir DIR] [--modes 30]`` (builds the
 FE sweep with its static curve into ``--dir`` when it is missing; caches reductions and full
 FRFs there).
 """
@@ -48,6 +48,7 @@ import argparse
 import csv
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -81,7 +82,8 @@ def static_curve(d: Path) -> tuple[np.ndarray, np.ndarray]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--dir", default="/tmp/neweul-bench-interp", type=Path)
+    ap.add_argument("--dir", default=Path(tempfile.gettempdir()) / "neweul-bench-interp",
+                    type=Path)
     ap.add_argument("--modes", type=int, default=30)
     ap.add_argument("--nf", type=int, default=100)
     ap.add_argument("--slope-step", type=float, default=SLOPE_STEP,

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Expression-parser benchmarks (issue 12): linear-time sums, bounded constants, and a long fuzz.
+"""Expression-parser benchmarks: linear-time sums, bounded constants, and a long fuzz.
 
 Measured in one run:
 

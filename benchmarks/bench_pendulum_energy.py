@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Energy of the free flexible pendulum vs mode count and stiffening form (issue 10).
+"""Energy of the free flexible pendulum vs mode count and stiffening form.
 
 Model: the public planar Euler–Bernoulli beam (``neweul_py.fem.beam_model``, 20 elements,
 L = 1, EI = 3 N m², ρA = 1) hinged at its root (coordinate ``a`` about z), gravity along −y,

@@ -1,4 +1,4 @@
-"""Benchmark: reduction of a ≥ 100 000-DOF u–p coupled model (issue 3 item 7).
+"""Benchmark: reduction of a ≥ 100 000-DOF u–p coupled model.
 
 Model: a rigid-walled air-filled tube (3-D, trilinear hexahedra on a structured grid, written
 exactly as Kronecker sums of 1-D linear-element matrices) closed at x = 0 by a tensioned

@@ -170,13 +170,13 @@ def _ops_ours(n: int) -> dict:
     import sympy as sp
     from make_chain import chain_description
 
+    from neweul_py.codegen.blocks import mass_entries
     from neweul_py.codegen.cse import eliminate
-    from neweul_py.codegen.writer import _mass_entries
     from neweul_py.description import load_description_text
     from neweul_py.equations import newton_euler
 
     eq = newton_euler(load_description_text(chain_description(n)), form="auto")
-    values, _ = _mass_entries(eq.mass_matrix)
+    values, _ = mass_entries(eq.mass_matrix)
     method = "tree" if eq.intermediates else "full"
     block = eliminate(eq.intermediates, [*values, *eq.force_vector], method=method)
     ops = sum(sp.count_ops(e) for _, e in block.assignments) + sum(

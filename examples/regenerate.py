@@ -33,7 +33,7 @@ DESCRIPTIONS: tuple[str, ...] = (
     "heavy_top.yaml",
     "chain3_spatial.yaml",
     "chain10_planar.yaml",
-    # issue 4: force elements, kinematic loops, kinematic excitation
+    # force elements, kinematic loops, kinematic excitation
     "slider_crank.yaml",
     "four_bar.yaml",
     "quarter_car.yaml",

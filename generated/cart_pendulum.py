@@ -28,6 +28,9 @@ PARAMETERS = {
     'Omega': 4.0,
     'g': 9.81,
 }
+PARAMETER_RANGES = {
+    'l0': (0.0, None),
+}
 INPUTS = ['F']
 INPUT_RATES = {}
 INPUT_UNITS = ['N']
@@ -300,3 +303,101 @@ def body_properties(p):
     _c0 = (1/12)*mp*l*l
     v = _np.array((mc, mp, 0, 0, 0, 0, 0, -(1/2)*l, 0, 0, 0, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _e0 = Omega*t
+    Up = _np.zeros((1, 9))
+    Up[0, 6] = _math.sin(_e0)
+    Up[0, 7] = F0*t*_math.cos(_e0)
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    d_x, d_phi = _np.asarray(yd, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _k1 = -k
+    _k2 = -d
+    _k3 = _c0
+    _k4 = -mp
+    _c1 = g_*mp
+    _e0 = -_c0
+    _d0 = _e0*g_
+    _d1 = (-_c1)*(1/2)
+    _d2 = _e0*mp
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _c4 = l0 + x_
+    _c5 = abs(_c4)
+    _d3 = ((0.0 if _c4 == 0 else _math.copysign(1, _c4)))
+    _e1 = 1/_c5
+    _c6 = _c4*_e1
+    _d4 = _e1 + (_c4*(-1/(_c5*_c5)))*_d3
+    _e2 = d_phi*d_phi
+    _e3 = _c2*_c3
+    _e4 = _c3*_k4
+    _e5 = _c5 - l0
+    fp = _np.zeros((2, 9))
+    fp[0, 1] = (_c3*(_c2*g_ + _k3*_e2))*-1 + _e3*g_
+    fp[0, 2] = (_e4*_e2)*(1/2)
+    fp[0, 3] = (_c6*_e5)*-1
+    fp[0, 4] = (_c6*(_c6*d_x))*-1
+    fp[0, 5] = (_c6*_k1)*_d3 + (_k1*_e5 + _c6*_k2*d_x + _c6*(_k2*d_x))*_d4 + _c6*(_k1*-1)
+    fp[0, 8] = _e3*mp + _e4*_c2
+    fp[1, 1] = _c3*_d0
+    fp[1, 2] = _c3*_d1
+    fp[1, 8] = _c3*_d2
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    x_, phi = _np.asarray(y, dtype=_np.float64).tolist()
+    mc, mp, l, k, d, l0, F0, Omega, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = (1/2)*l
+    _d0 = -_c0
+    _d1 = (-mp)*(1/2)
+    _c2 = _math.cos(phi)
+    _c3 = _math.sin(phi)
+    _e0 = _c2*_a1
+    _e1 = _c2*_a0
+    dMa = _np.zeros((2, 9))
+    dMa[0, 0] = _a0
+    dMa[0, 1] = _e0*_d0 + _a0*(_c2*_c2 + _c3*_c3)
+    dMa[0, 2] = _e0*_d1
+    dMa[1, 1] = _e1*_d0 + (1/3)*_a1*l*l
+    dMa[1, 2] = _e1*_d1 + ((1/3)*_a1*mp)*(2*l)
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((4, 9))
+    y = x[:2]
+    yd = x[2:4]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[2:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    x_, phi, d_x, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    _o0 = _math.sin(phi)
+    Op = _np.zeros((2, 9))
+    Op[0, 2] = _o0*-1
+    Op[1, 3] = -x_
+    Op[1, 4] = -d_x
+    return Op

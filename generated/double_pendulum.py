@@ -375,3 +375,143 @@ def body_properties(p):
     _c1 = (1/12)*m2*l2*l2
     v = _np.array((m1, m2, 0, 0, -(1/2)*l1, 0, 0, -(1/2)*l2, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0), dtype=_np.float64)
     return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.empty((0, 5))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi1, d_phi2 = _np.asarray(yd, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _d0 = m2*(1/2)
+    _k3 = -g_
+    _k4 = -m2
+    _k5 = _c1
+    _k6 = l1*m2
+    _d1 = -(1/2)*g_*l1
+    _d2 = -(1/2)*g_*m1
+    _d3 = -(1/2)*l1*m1
+    _k8 = _c2
+    _c3 = _math.cos(phi2)
+    _c4 = -_c1 + _c3*_k0
+    _d4 = _c3*-1
+    _d5 = -(1/2)
+    _c7 = _math.sin(phi2)
+    _c8 = _math.cos(phi1)
+    _c9 = _c7*_k3
+    _d6 = _c7*-1
+    _c10 = _math.sin(phi1)
+    _c11 = d_phi1*d_phi1
+    _c12 = _c8*_c9 + _c10*_c3*_k3 + _c11*_c7*_k0
+    _d7 = (_c11*_c7)*-1
+    _d8 = _c8*_d6 + (_c10*_c3)*-1
+    _e0 = (d_phi1 + d_phi2)**2
+    _e1 = _c7*(_c10*_c9 + _k5*_e0 + _c11*_c3*l1 + _c3*_c8*g_)
+    _e2 = _c4*_k4
+    _e3 = _c12*_k4
+    _e4 = _c7*_k6
+    fp = _np.zeros((2, 5))
+    fp[0, 0] = _c10*_d1
+    fp[0, 1] = (_c12*_c4)*-1 + _e1*l1
+    fp[0, 2] = _e2*_d7 + _e3*_d4 + _e1*m2 + _c10*_d2 + _e4*(_c11*_c3)
+    fp[0, 3] = _e3*_d5 + (_e4*_e0)*(1/2)
+    fp[0, 4] = _e2*_d8 + (_e4*_c10)*_d6 + _c10*_d3 + _e4*(_c3*_c8)
+    fp[1, 1] = _c12*_c1
+    fp[1, 2] = _k8*_d7
+    fp[1, 3] = _c12*_d0
+    fp[1, 4] = _k8*_d8
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    phi1, phi2 = _np.asarray(y, dtype=_np.float64).tolist()
+    m1, m2, l1, l2, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    _k0 = -l1
+    _c0 = l1*l1
+    _d0 = 2*l1
+    _d1 = m2*_d0
+    _c1 = (1/2)*l2
+    _c2 = _c1*m2
+    _d2 = m2*(1/2)
+    _k2 = -_c2
+    _e0 = -_c1
+    _d3 = _e0
+    _d4 = -_d2
+    _c3 = _math.cos(phi2)
+    _c4 = _e0 + _c3*_k0
+    _d5 = _c3*-1
+    _d6 = -(1/2)
+    _d7 = l2*l2
+    _d8 = m2*(2*l2)
+    _d9 = (1/12)*_d7
+    _d10 = (1/12)*_d8
+    _c7 = _math.sin(phi2)
+    _e1 = _a0 + _a1
+    _e2 = _a0*_c7*_c7
+    _e3 = _a1*_c4
+    _e4 = _a0*(m2*(2*_c4)) + _a1*_k2
+    _e5 = (1/3)*_a1
+    _e6 = _a0*_c4
+    _e7 = _a0*_k2
+    dMa = _np.zeros((2, 5))
+    dMa[0, 0] = _a0*((1/3)*_c0)
+    dMa[0, 1] = _e1*_d9 + _e2*_c0 + _e3*_d3 + _a0*_c4*_c4
+    dMa[0, 2] = (_a0*((1/3)*m1))*_d0 + _e4*_d5 + _e2*_d1
+    dMa[0, 3] = _e4*_d6 + _e1*_d10 + _e3*_d4
+    dMa[1, 1] = _e5*_d7 + _a0*_d9 + _e6*_d3
+    dMa[1, 2] = _e7*_d5
+    dMa[1, 3] = _e7*_d6 + _e5*_d8 + _a0*_d10 + _e6*_d4
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    J = _np.zeros((4, 5))
+    y = x[:2]
+    yd = x[2:4]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[2:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi1, phi2, d_phi1, d_phi2 = _np.asarray(x, dtype=_np.float64).tolist()
+    _o0 = _math.sin(phi2)
+    _d0 = _o0*_o0
+    _o2 = _math.cos(phi2)
+    _e0 = -_o2
+    _d1 = _e0
+    _d2 = -_d0 + _o2*_d1
+    _d3 = _o2*-1
+    _o6 = _math.sin(phi1)
+    _d4 = _o0*_o2
+    _d5 = _o0*_d1 + _d4
+    _d6 = _o0*-1
+    _o9 = _math.cos(phi1)
+    _d7 = _e0
+    _e1 = -_o6
+    _e2 = _o9*_o2 + _e1*_o0
+    Op = _np.zeros((4, 5))
+    Op[0, 2] = _o6*_d2 + _o9*_d5
+    Op[0, 3] = _o6*_d3 + _o9*_d6
+    Op[1, 2] = _o9*_d2 + _e1*_d5
+    Op[1, 3] = _o9*_d3 + _e1*_d6
+    Op[2, 2] = -(1/2)*_o9
+    Op[3, 2] = (_o9*-1)*_d0 + _e2*_d7 + _e1*_d4
+    Op[3, 3] = _e2*(-1/2)
+    return Op

@@ -417,3 +417,148 @@ def body_properties(p):
     _c2 = (1/12)*mc*c*c
     v = _np.array((ma, mb, mc, (1/2)*a_, 0, 0, (1/2)*b, 0, 0, (1/2)*c, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, _c2, 0, 0, 0, _c2), dtype=_np.float64)
     return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.zeros((1, 11))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi1, d_phi2, d_phi3 = _np.asarray(yd, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _d0 = mb*(1/2)
+    _k3 = -g_
+    _e0 = -mb
+    _k4 = _e0
+    _e1 = -_c1
+    _k5 = _e1
+    _d1 = -(1/2)
+    _e2 = -a_
+    _k6 = _e2
+    _k7 = -a_*mb
+    _d2 = _e0
+    _d3 = _e2
+    _c3 = (1/2)*g_
+    _d4 = -_c3*ma
+    _d5 = -_c3*a_
+    _d6 = (-a_*ma)*(1/2)
+    _k9 = -_c2
+    _d7 = -_d0
+    _d8 = _e1
+    _k10 = -kr
+    _d9 = -_c3*mc
+    _d10 = -_c3*c
+    _d11 = (-c*mc)*(1/2)
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _c8 = _math.sin(phi2)
+    _c9 = d_phi1*d_phi1
+    _c10 = _math.cos(phi1)
+    _c11 = _c10*g_
+    _c12 = _math.sin(phi1)
+    _c13 = _c11*_c4 + _c12*_c8*_k3 + _c8*_c9*a_
+    _d12 = _c8*_c9
+    _d13 = _c4*_c10 + (_c12*_c8)*-1
+    _e3 = _c5*_k4
+    _e4 = _c13*_k4
+    _e5 = _c8*_k7
+    _e6 = (-d_phi1 - d_phi2)**2
+    _e7 = _c8*(_c11*_c8 + _k5*_e6 + _c12*_c4*g_ + _c4*_c9*_k6)
+    _e8 = _math.cos(phi3)
+    fp = _np.zeros((3, 11))
+    fp[0, 0] = _e3*_d12 + _e4*_c4 + (_e5*(_c4*_c9))*-1 + _e7*_d2 + _c10*_d4
+    fp[0, 1] = _e4*(1/2) + (_e5*_e6)*_d1
+    fp[0, 4] = _c10*_d5
+    fp[0, 5] = (_c13*_c5)*-1 + _e7*_d3
+    fp[0, 9] = d_phi1*-1
+    fp[0, 10] = (_e5*_c8)*_c10 + _e3*_d13 + _c10*_d6 + _e5*(_c12*_c4)
+    fp[1, 0] = _k9*_d12
+    fp[1, 1] = _c13*_d7
+    fp[1, 5] = _c13*_d8
+    fp[1, 10] = _k9*_d13
+    fp[2, 2] = _e8*_d9
+    fp[2, 6] = _e8*_d10
+    fp[2, 7] = (phi3 - phi30)*-1
+    fp[2, 8] = _k10*-1
+    fp[2, 9] = d_phi3*-1
+    fp[2, 10] = _e8*_d11
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    phi1, phi2, phi3 = _np.asarray(y, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = a_*a_
+    _d0 = 2*a_
+    _d1 = mb*_d0
+    _c1 = (1/2)*b
+    _c2 = _c1*mb
+    _d2 = mb*(1/2)
+    _k1 = _c2
+    _c4 = _math.cos(phi2)
+    _c5 = _c1 + _c4*a_
+    _d3 = mb*(2*b)
+    _d4 = b*b
+    _d5 = (1/12)*_d3
+    _d6 = (1/12)*_d4
+    _c8 = _math.sin(phi2)
+    _e0 = _a0*(mb*(2*_c5)) + _a1*_k1
+    _e1 = _a0*_c8*_c8
+    _e2 = _a0 + _a1
+    _e3 = _a1*_c5
+    _e4 = _a0*_k1
+    _e5 = (1/3)*_a1
+    _e6 = _a0*_c5
+    dMa = _np.zeros((3, 11))
+    dMa[0, 0] = (_a0*((1/3)*ma))*_d0 + _e0*_c4 + _e1*_d1
+    dMa[0, 1] = _e0*(1/2) + _e2*_d5 + _e3*_d2
+    dMa[0, 4] = _a0*((1/3)*_c0)
+    dMa[0, 5] = _e2*_d6 + _e1*_c0 + _e3*_c1 + _a0*_c5*_c5
+    dMa[1, 0] = _e4*_c4
+    dMa[1, 1] = _e4*(1/2) + _e5*_d3 + _a0*_d5 + _e6*_d2
+    dMa[1, 5] = _e5*_d4 + _a0*_d6 + _e6*_c1
+    dMa[2, 2] = ((1/3)*_a2*mc)*(2*c)
+    dMa[2, 6] = (1/3)*_a2*c*c
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((6, 11))
+    y = x[:3]
+    yd = x[3:6]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[3:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi1, phi2, phi3, d_phi1, d_phi2, d_phi3 = _np.asarray(x, dtype=_np.float64).tolist()
+    a_, b, c, d, ma, mb, mc, kr, phi30, cb, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _o0 = _math.sin(phi2)
+    _o1 = _math.cos(phi2)
+    _e0 = _math.cos(phi1)
+    _e1 = _math.sin(phi1)
+    _e2 = _e0*_o0 + _e1*_o1
+    Op = _np.zeros((3, 11))
+    Op[0, 7] = phi3 - phi30
+    Op[0, 8] = kr*-1
+    Op[0, 9] = d_phi3
+    Op[2, 0] = (_e0*(-_o0))*_o1 + _e2*_o1 + _e1*_o0*_o0
+    Op[2, 1] = _e2
+    return Op

@@ -466,3 +466,131 @@ def body_properties(p):
     m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((m, 0, 0, s, A, 0, 0, 0, A, 0, 0, 0, C_), dtype=_np.float64)
     return v[:1], v[1:4].reshape(1, 3), v[4:].reshape(1, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.empty((0, 5))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    d_alpha, d_beta, d_gamma = _np.asarray(yd, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _e0 = -s
+    _k3 = _e0
+    _c0 = m*s
+    _k4 = _c0
+    _k5 = -_c0
+    _d0 = _e0
+    _d1 = -m
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c4 = _math.cos(gamma_)
+    _c7 = _math.sin(gamma_)
+    _c12 = _c7*d_beta
+    _c13 = _c2*d_alpha
+    _c14 = _c12 + _c13*_c4
+    _c15 = _c1*d_alpha
+    _c16 = _c12*_c15 - _c14*d_gamma
+    _c17 = _c15 + d_gamma
+    _c18 = _c14*_c17
+    _e1 = _c16 + _c18
+    _d2 = _e1
+    _d3 = _c18*-1
+    _c20 = _c2*_c7
+    _c21 = _c4*d_beta - _c13*_c7
+    _c22 = _c21*d_gamma - _c15*_c4*d_beta
+    _c23 = _c17*_c21
+    _d4 = _c22 + _c23*-1
+    _c25 = _c2*_c4
+    _c26 = _math.sin(alpha)
+    _c27 = _c1*_math.cos(alpha)
+    _e2 = _c26*_c4 + _c27*_c7
+    _e3 = _c22*_k3 + _c23*s + g_*_e2
+    _d5 = _e3*s
+    _d6 = (_k4*_c22)*-1 + _e3*m + _k4*_c23
+    _d7 = _k4*_e2
+    _e4 = _c26*_c7 - _c27*_c4
+    _c29 = _c16*s + _c18*s + g_*_e4
+    _d8 = _e1
+    _d9 = _e4
+    _d10 = d_beta*-1
+    _e5 = _c20*_c29
+    _e6 = _c20*_k4
+    _e7 = -_c25
+    _e8 = _c29*_c4
+    _e9 = _c4*_k5
+    _e10 = -_c4
+    _e11 = -_c7
+    fp = _np.zeros((3, 5))
+    fp[0, 0] = _c25*_d5 + _e5*s
+    fp[0, 1] = _c25*_d6 + _e6*_d8 + _e5*m
+    fp[0, 2] = _c20*_d2 + _e7*_d4
+    fp[0, 3] = _c20*_d3 + _e7*_c23 + (_c15*_c2)*_d10
+    fp[0, 4] = _c25*_d7 + _e6*_d9
+    fp[1, 0] = _c7*_d5 + _e8*_d0
+    fp[1, 1] = _c7*_d6 + _e9*_d8 + _e8*_d1
+    fp[1, 2] = _e10*_d2 + _e11*_d4
+    fp[1, 3] = _e10*_d3 + _e11*_c23
+    fp[1, 4] = _c7*_d7 + _e9*_d9
+    fp[2, 3] = _c13*_d10
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    alpha, beta, gamma_ = _np.asarray(y, dtype=_np.float64).tolist()
+    m, s, A, C_, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2 = _np.asarray(a, dtype=_np.float64).tolist()
+    _d0 = s*s
+    _d1 = m*(2*s)
+    _c1 = _math.sin(beta)
+    _c2 = _math.cos(beta)
+    _c3 = _c2*_c2
+    _c4 = _math.cos(gamma_)
+    _c5 = _c4*_c4
+    _c7 = _math.sin(gamma_)
+    _c8 = _c7*_c7
+    _d2 = _c5*_d0
+    _d3 = _c5*_d1
+    _d4 = _c8*_d0
+    _d5 = _c8*_d1
+    _e0 = _a0*_c3
+    dMa = _np.zeros((3, 5))
+    dMa[0, 0] = _e0*_d2 + _e0*_d4
+    dMa[0, 1] = _e0*_d3 + _e0*_d5
+    dMa[0, 2] = _e0*_c5 + _e0*_c8
+    dMa[0, 3] = _a0*_c1*_c1 + _c1*_a2
+    dMa[1, 0] = _a1*_d2 + _a1*_d4
+    dMa[1, 1] = _a1*_d3 + _a1*_d5
+    dMa[1, 2] = _a1*_c5 + _a1*_c8
+    dMa[2, 3] = _a2 + _c1*_a0
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    J = _np.zeros((6, 5))
+    y = x[:3]
+    yd = x[3:6]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[3:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    alpha, beta, gamma_, d_alpha, d_beta, d_gamma = _np.asarray(x, dtype=_np.float64).tolist()
+    _d0 = _math.cos(beta)
+    Op = _np.zeros((3, 5))
+    Op[0, 1] = _math.sin(beta)
+    Op[1, 1] = (-_math.sin(alpha))*_d0
+    Op[2, 1] = _math.cos(alpha)*_d0
+    return Op

@@ -304,3 +304,87 @@ def body_properties(p):
     m_tm, m_malleus, m_incus, m_stapes, k_tm_annulus, k_tm_manubrium, k_malleus_ligaments, k_incudomalleolar_joint, k_incus_ligament, k_incudostapedial_joint, k_annular_ligament, A_tm, c_00, c_01, c_02, c_03, c_11, c_12, c_13, c_22, c_23, c_33 = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((m_tm, m_malleus, m_incus, m_stapes, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:4], v[4:16].reshape(4, 3), v[16:].reshape(4, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.zeros((1, 22))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    x_tm, x_malleus, x_incus, x_stapes = _np.asarray(y, dtype=_np.float64).tolist()
+    d_x_tm, d_x_malleus, d_x_incus, d_x_stapes = _np.asarray(yd, dtype=_np.float64).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    p_ec, = _np.asarray(u, dtype=_np.float64).tolist()
+    _c0 = x_malleus - x_tm
+    _c1 = x_incus - x_malleus
+    _c2 = x_stapes - x_incus
+    _e0 = d_x_tm*-1
+    _e1 = d_x_malleus*-1
+    _e2 = d_x_incus*-1
+    _e3 = d_x_stapes*-1
+    fp = _np.zeros((4, 22))
+    fp[0, 4] = x_tm*-1
+    fp[0, 5] = _c0
+    fp[0, 11] = p_ec
+    fp[0, 12] = _e0
+    fp[0, 13] = _e1
+    fp[0, 14] = _e2
+    fp[0, 15] = _e3
+    fp[1, 5] = _c0*-1
+    fp[1, 6] = x_malleus*-1
+    fp[1, 7] = _c1
+    fp[1, 13] = _e0
+    fp[1, 16] = _e1
+    fp[1, 17] = _e2
+    fp[1, 18] = _e3
+    fp[2, 7] = _c1*-1
+    fp[2, 8] = x_incus*-1
+    fp[2, 9] = _c2
+    fp[2, 14] = _e0
+    fp[2, 17] = _e1
+    fp[2, 19] = _e2
+    fp[2, 20] = _e3
+    fp[3, 9] = _c2*-1
+    fp[3, 10] = x_stapes*-1
+    fp[3, 15] = _e0
+    fp[3, 18] = _e1
+    fp[3, 20] = _e2
+    fp[3, 21] = _e3
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    _a0, _a1, _a2, _a3 = _np.asarray(a, dtype=_np.float64).tolist()
+    dMa = _np.zeros((4, 22))
+    dMa[0, 0] = _a0
+    dMa[1, 1] = _a1
+    dMa[2, 2] = _a2
+    dMa[3, 3] = _a3
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((8, 22))
+    y = x[:4]
+    yd = x[4:8]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[4:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    Op = _np.zeros((2, 22))
+    return Op

@@ -22,6 +22,9 @@ PARAMETERS = {
     'l': 0.5,
     'g': 9.81,
 }
+PARAMETER_RANGES = {
+    'l': (0.0, None),
+}
 INPUTS = []
 INPUT_RATES = {}
 INPUT_UNITS = []
@@ -30,7 +33,7 @@ OUTPUT_UNITS = ['m', 'm']
 CONSTRAINTS = []
 ENERGY = ['kinetic', 'gravity', 'springs', 'strain']
 STATE_SIZE = 2
-SOURCE_HASH = 'e5fac1de1fdf196e05db99e22023f30483d9cae27571e66b1389d2f2f4fc2d00'
+SOURCE_HASH = 'e3ec860879818fb374f630e1fabe2bd978e5137e0ee86a0d4f56113be77ddcaf'
 MASS_MATRIX_SYMMETRIC = True
 FRAMES = ['rod']
 FRAME_PARENTS = ['ISYS']
@@ -200,3 +203,57 @@ def body_properties(p):
     m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((m, 0, 0, -l, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:1], v[1:4].reshape(1, 3), v[4:].reshape(1, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.empty((0, 3))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi, = _np.asarray(y, dtype=_np.float64).tolist()
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _d0 = -g_*l
+    _d1 = -g_*m
+    _d2 = -l*m
+    _e0 = _math.sin(phi)
+    fp = _np.empty((1, 3))
+    fp[0, 0] = _e0*_d0
+    fp[0, 1] = _e0*_d1
+    fp[0, 2] = _e0*_d2
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    m, l, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, = _np.asarray(a, dtype=_np.float64).tolist()
+    dMa = _np.zeros((1, 3))
+    dMa[0, 0] = _a0*l*l
+    dMa[0, 1] = (_a0*m)*(2*l)
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    J = _np.zeros((2, 3))
+    y = x[:1]
+    yd = x[1:2]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[1:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi, d_phi = _np.asarray(x, dtype=_np.float64).tolist()
+    Op = _np.zeros((2, 3))
+    Op[0, 1] = -_math.sin(phi)
+    Op[1, 1] = -_math.cos(phi)
+    return Op

@@ -31,6 +31,10 @@ PARAMETERS = {
     'L': 5.0,
     'g': 9.81,
 }
+PARAMETER_RANGES = {
+    'ls': (0.0, None),
+    'lt': (0.0, None),
+}
 INPUTS = ['zr', 'd_zr', 'dd_zr']
 INPUT_RATES = {'zr': ['d_zr', 'dd_zr']}
 INPUT_UNITS = ['m', 'm/s', 'm/s²']
@@ -349,3 +353,132 @@ def body_properties(p):
     mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
     v = _np.array((mw, mb, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:2], v[2:8].reshape(2, 3), v[8:].reshape(2, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _e0 = 2*v
+    _e1 = 1/L
+    _e2 = (_math.pi)*t
+    _e3 = _e1*_e2
+    _e4 = _e0*_e3
+    _e5 = _math.sin(_e4)
+    _e6 = _math.cos(_e4)
+    _e7 = 2*_e3
+    _e8 = _e6*_e7
+    _e9 = 1/(L*L)
+    _e10 = -_e9
+    _e11 = _e0*_e10*_e2
+    _e12 = _e11*_e6
+    _e13 = (_math.pi)*_e6
+    _e14 = _e1*_e13
+    _e15 = _e0*A
+    _e16 = (_math.pi)*_e1*_e15
+    _e17 = -_e5
+    _e18 = (_math.pi)**2
+    _e19 = _e18*v*v
+    _e20 = 4*_e5*_e9
+    _e21 = 4*_e19*A
+    _e22 = -_e21*_e9
+    Up = _np.zeros((3, 12))
+    Up[0, 8] = _e5
+    Up[0, 9] = _e8*A
+    Up[0, 10] = _e12*A
+    Up[1, 8] = _e0*_e14
+    Up[1, 9] = 2*_e14*A + _e16*_e17*_e7
+    Up[1, 10] = _e10*_e13*_e15 + _e11*_e16*_e17
+    Up[2, 8] = -_e19*_e20
+    Up[2, 9] = _e22*_e8 - _e0*_e18*_e20*A
+    Up[2, 10] = _e12*_e22 + 2*_e21*_e5/L**3
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    zw, zb = _np.asarray(y, dtype=_np.float64).tolist()
+    d_zw, d_zb = _np.asarray(yd, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _k1 = -kt
+    _k3 = -ks
+    _c0 = -zw
+    _c1 = _c0 + zb
+    _c2 = abs(_c1)
+    _c3 = _c1/_c2
+    _d0 = (_c3*(_c2 - ls))*-1
+    _d1 = (_c3*(_c3*d_zb - _c3*d_zw))*-1
+    _d2 = _c3*(_k3*-1)
+    _c5 = _c0 + zr
+    _c6 = abs(_c5)
+    _c7 = 1/_c6
+    _c8 = -_c5
+    _e0 = -g_
+    _e1 = _c7*_c8
+    fp = _np.zeros((2, 12))
+    fp[0, 1] = _e0
+    fp[0, 2] = -_d0
+    fp[0, 3] = -_d1
+    fp[0, 4] = (_e1*(_c6 - lt))*-1
+    fp[0, 5] = (_e1*(_c7*_c8*d_zw - _c7*_c8*d_zr))*-1
+    fp[0, 6] = -_d2
+    fp[0, 7] = _e1*(_k1*-1)
+    fp[0, 11] = -mw
+    fp[1, 0] = _e0
+    fp[1, 2] = _d0
+    fp[1, 3] = _d1
+    fp[1, 6] = _d2
+    fp[1, 11] = -mb
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    _a0, _a1 = _np.asarray(a, dtype=_np.float64).tolist()
+    dMa = _np.zeros((2, 12))
+    dMa[0, 1] = _a0
+    dMa[1, 0] = _a1
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((4, 12))
+    y = x[:2]
+    yd = x[2:4]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[2:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    zw, zb, d_zw, d_zb = _np.asarray(x, dtype=_np.float64).tolist()
+    mb, mw, ks, cs, kt, ct, ls, lt, A, v, L, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    if u is None:
+        u = default_inputs(t, p)
+    zr, d_zr, dd_zr = _np.asarray(u, dtype=_np.float64).tolist()
+    _o0 = -zw
+    _o1 = _o0 + zr
+    _o2 = abs(_o1)
+    _o3 = 1/_o2
+    _o4 = -_o1
+    _o5 = _o0 + zb
+    _o6 = abs(_o5)
+    _o7 = _o5/_o6
+    Op = _np.zeros((5, 12))
+    Op[0, 4] = _o2 - lt
+    Op[0, 5] = _o3*_o4*d_zw - _o3*_o4*d_zr
+    Op[0, 7] = kt*-1
+    Op[1, 2] = _o6 - ls
+    Op[1, 3] = _o7*d_zb - _o7*d_zw
+    Op[1, 6] = ks*-1
+    return Op

@@ -296,3 +296,83 @@ def body_properties(p):
     _c1 = (1/12)*mr*l*l
     v = _np.array((mc, mr, ms, (1/2)*r, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, _c0, 0, 0, 0, _c0, 0, 0, 0, 0, _c1, 0, 0, 0, _c1, 0, 0, 0, 0, 0, 0, 0, 0, 0), dtype=_np.float64)
     return v[:3], v[3:12].reshape(3, 3), v[12:].reshape(3, 3, 3)
+
+
+def default_inputs_parameter_jacobian(t, p):
+    """``∂u₀/∂p`` (nu, np) of the default excitation, analytic."""
+    Up = _np.zeros((1, 10))
+    return Up
+
+
+def force_parameter_jacobian(t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(yd, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _d0 = -(1/2)*g_*mc
+    _d1 = -(1/2)*g_*r
+    _d2 = -(1/2)*mc*r
+    _d3 = -g_
+    _d4 = -mr
+    _k4 = -ks
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    _e0 = _math.cos(phi)
+    _e1 = _c0 + _c1
+    fp = _np.zeros((5, 10))
+    fp[0, 0] = _e0*_d0
+    fp[0, 2] = _e0*_d1
+    fp[0, 8] = d_phi*-1
+    fp[0, 9] = _e0*_d2
+    fp[2, 3] = _e1*_d3
+    fp[2, 9] = _e1*_d4
+    fp[4, 5] = (s - s0)*-1
+    fp[4, 6] = _k4*-1
+    fp[4, 7] = d_s*-1
+    return fp
+
+
+def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+    phi, xr, zr, theta, s = _np.asarray(y, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    _a0, _a1, _a2, _a3, _a4 = _np.asarray(a, dtype=_np.float64).tolist()
+    _c0 = _math.cos(theta)**2
+    _c1 = _math.sin(theta)**2
+    _d0 = _c0 + _c1
+    dMa = _np.zeros((5, 10))
+    dMa[0, 0] = ((1/3)*_a0*mc)*(2*r)
+    dMa[0, 2] = (1/3)*_a0*r*r
+    dMa[1, 3] = _a1*_d0
+    dMa[2, 3] = _a2*_d0
+    dMa[3, 1] = ((1/12)*_a3*mr)*(2*l)
+    dMa[3, 3] = (1/12)*_a3*l*l
+    dMa[4, 4] = _a4
+    return dMa
+
+
+def rhs_parameter_jacobian(t, x, p, u=None):
+    """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``, analytic."""
+    x = _np.asarray(x, dtype=_np.float64)
+    if u is None:
+        u = default_inputs(t, p)
+    J = _np.zeros((10, 10))
+    y = x[:5]
+    yd = x[5:10]
+    M = mass_matrix(t, y, p, u)
+    ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+    fp = force_parameter_jacobian(t, y, yd, p, u)
+    dMa = mass_matrix_parameter_derivative(t, y, p, ydd, u)
+    J[5:, :] = _np.linalg.solve(M, fp - dMa)
+    return J
+
+
+def output_parameter_jacobian(t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+    phi, xr, zr, theta, s, d_phi, d_xr, d_zr, d_theta, d_s = _np.asarray(x, dtype=_np.float64).tolist()
+    r, l, mc, mr, ms, ks, s0, ds, cc, g_ = _np.asarray(p, dtype=_np.float64).tolist()
+    Op = _np.zeros((3, 10))
+    Op[0, 5] = -(s - s0)
+    Op[0, 6] = (-ks)*-1
+    Op[0, 7] = -d_s
+    return Op

@@ -1,8 +1,8 @@
 """neweul-py: symbolic-to-numeric equations of motion for elastic multibody systems.
 
-The pipeline runs one way: description → model → kinematics → equations → codegen →
-generated module → analysis (see DESIGN.md). ``elastic`` and ``fem`` are numeric libraries
-(NumPy/SciPy only) that produce reduced elastic-body data.
+The pipeline runs one way: description → model → kinematics → equations → codegen → generated module
+→ analysis (``docs/architecture.md``). ``elastic`` and ``fem`` are numeric libraries (NumPy/SciPy
+only) that produce reduced elastic-body data.
 """
 
 from typing import TYPE_CHECKING, Any
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from .description import SystemBuilder
 
 #: Names re-exported lazily from the symbolic layers, so that ``import neweul_py.analysis``
-#: (NumPy/SciPy only, DESIGN.md) does not import sympy through this package.
+#: (NumPy/SciPy only, ``docs/architecture.md``) does not import sympy through this package.
 #: ``load_description`` comes from ``api``, which reads elastic-body data files by default.
 _LAZY = {"SystemBuilder": ".description", "load_description": ".api"}
 

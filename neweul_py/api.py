@@ -7,10 +7,13 @@ hands the module to ``analysis``.
 
 from __future__ import annotations
 
+import atexit
 import functools
+import gc
 import hashlib
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
@@ -26,6 +29,7 @@ from .cache import (
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
+from .yaml_tree import YamlTree, read_description
 
 if TYPE_CHECKING:
     import numpy as np
@@ -46,7 +50,7 @@ __all__ = [
 ]
 
 Form = Literal["auto", "closed", "recursive"]
-#: Forms of the equations (DESIGN.md: closed form or recursive/semi-symbolic).
+#: Forms of the equations: closed form or recursive (semi-symbolic), ``docs/architecture.md``.
 FORMS: tuple[str, ...] = ("auto", "closed", "recursive")
 Backend = Literal["numpy", "c"]
 #: Backends of generated modules: the NumPy module, or the compiled one (codegen/c_module.py,
@@ -59,6 +63,18 @@ FMU_KINDS: tuple[str, ...] = ("me", "cs", "both")
 #: Packages whose source determines a generated module (``elastic`` reads elastic-body data).
 _GENERATOR_PACKAGES = ("model", "description", "kinematics", "equations", "codegen", "elastic",
                        "ffrf")
+
+
+@functools.cache
+def _skip_collection_at_exit() -> None:
+    """Once a process has derived equations, exempt its objects from the collector at exit
+    (``atexit`` → :func:`gc.freeze`, as the ``neweul`` console script does): the
+    interpreter's shutdown otherwise collects and frees sympy's classes, functions and
+    caches one by one, ≈ 0.25 s CPU of the whole Hex20 pendulum benchmark process (1.36 →
+    1.12 s; ``benchmarks/bench_hex_pendulum_process.py``), memory the operating system takes
+    back anyway. Objects are still freed by reference counting; only reference cycles still
+    alive at exit are left unfinalized (close files explicitly)."""
+    atexit.register(gc.freeze)
 
 
 def _read(path: str | os.PathLike[str]) -> bytes:
@@ -128,31 +144,45 @@ def derive(description_path: str | os.PathLike[str], form: Form = "auto",
         The :class:`~neweul_py.equations.Equations` and the SHA-256 of the file's bytes.
     """
     _check_form(form)
+    source = _parsed(description_path)
+    return _derive_tree(source.tree, form, progress), _sha256(source.raw)
+
+
+@dataclass(frozen=True)
+class _Parsed:
+    """A description's bytes and their YAML tree, read and parsed once (for the cache key,
+    which needs the data files it names, and for the derivation alike)."""
+
+    raw: bytes
+    tree: YamlTree
+
+
+def _parsed(description_path: str | os.PathLike[str]) -> _Parsed:
+    """Read and parse the description at ``description_path``."""
     raw = _read(description_path)
-    return _derive_text(raw, description_path, form, progress), _sha256(raw)
+    return _Parsed(raw, read_description(raw, os.fspath(description_path)))
 
 
-def _derive_text(raw: bytes, description_path: str | os.PathLike[str], form: Form,
-                 progress: StagedProgress = None) -> Any:
-    """The equations of a description's bytes (errors name ``description_path``)."""
-    from .description import load_description_text
+def _derive_tree(tree: YamlTree, form: Form, progress: StagedProgress = None) -> Any:
+    """The equations of a parsed description (errors name the tree's file)."""
+    from .description import load_description_tree
     from .equations import newton_euler
 
-    system = load_description_text(raw, os.fspath(description_path),
-                                   elastic_reader=read_elastic_data)
+    _skip_collection_at_exit()
+    system = load_description_tree(tree, elastic_reader=read_elastic_data)
     if not system.coordinates and not system.elastic_bodies:
         raise DescriptionError(
             "the model has no coordinates to derive equations for: list its generalized "
             "coordinates under 'coordinates' (or add an elastic body)",
             "coordinates",
-            os.fspath(description_path),
+            tree.file,
         )
     try:
         return newton_euler(system, form=form, progress=progress)
     except DescriptionError:
         raise
     except ModelError as exc:  # found while deriving (e.g. coinciding spring points)
-        raise DescriptionError(exc.message, exc.key_path, os.fspath(description_path)) from None
+        raise DescriptionError(exc.message, exc.key_path, tree.file) from None
 
 
 def generate(
@@ -162,6 +192,7 @@ def generate(
     backend: Backend = "numpy",
     progress: StagedProgress = None,
     cache: bool | str | os.PathLike[str] = False,
+    sensitivities: bool = False,
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
@@ -191,6 +222,10 @@ def generate(
         deriving and storing it there on a miss. The module written is byte for byte the one
         derivation would write (the key covers the description, its data files, the form and
         the generator's source); a hit imports neither sympy nor the symbolic layers.
+    sensitivities
+        Also the directional second derivatives of the parameter sensitivities of linear
+        models (docs/sensitivity.md §1; rigid models). The first parameter derivatives are in
+        every module.
 
     Returns
     -------
@@ -209,12 +244,14 @@ def generate(
     is_text = isinstance(source, str) and "\n" in source
     if (isinstance(source, str | os.PathLike) and not is_text and cache is not False
             and backend == "numpy"):
-        return _generate_cached(source, out_dir, form, None if cache is True else cache)
+        return _generate_cached(source, out_dir, form, None if cache is True else cache,
+                                sensitivities)
     from .model import System
 
     if isinstance(source, System):
         from .equations import newton_euler
 
+        _skip_collection_at_exit()
         _check_form(form)
         equations = newton_euler(source, form=form, progress=progress)
         source_hash = source.fingerprint()
@@ -223,7 +260,7 @@ def generate(
 
         _check_form(form)
         raw = source.encode("utf-8")
-        equations = _derive_text(raw, "<description text>", form, progress)
+        equations = _derive_tree(read_description(raw, "<description text>"), form, progress)
         source_hash = description_hash(raw)
     elif isinstance(source, str | os.PathLike):
         equations, source_hash = derive(source, form, progress)
@@ -235,7 +272,7 @@ def generate(
     from .codegen import generate_module
 
     path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py",
-                           progress=progress)
+                           sensitivities=sensitivities, progress=progress)
     return _with_backend(path, backend, lambda: equations, rebuild=True, progress=progress)
 
 
@@ -256,21 +293,24 @@ def _constant_of(source: bytes, name: str) -> Any:
 
 
 def _generate_cached(description_path: str | os.PathLike[str], out_dir: str | os.PathLike[str],
-                     form: Form, cache: str | os.PathLike[str] | None) -> Path:
+                     form: Form, cache: str | os.PathLike[str] | None,
+                     sensitivities: bool = False) -> Path:
     """:func:`generate` through the content-hash cache: a verified hit is copied to
     ``out_dir`` without importing sympy or the analysis package; a miss derives and stores."""
     from .atomic import atomic_write
 
     _check_form(form)
-    raw = _read(description_path)
-    path = _cache_entry(raw, description_path, form, cache)
+    parsed = _parsed(description_path)
+    raw = parsed.raw
+    path = _cache_entry(parsed, description_path, form, cache, sensitivities)
     source = verified_bytes(path)
     name = data = None
     if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(raw):
         name = _constant_of(source, "MODEL_NAME")
         data = _cached_data(path, source)
     if not isinstance(name, str) or data is False:
-        entry = _cached_source(description_path, form, cache)
+        entry = _cached_source(description_path, form, cache, parsed=parsed,
+                               sensitivities=sensitivities)
         source, name = entry.source, (entry.module.MODEL_NAME if entry.module is not None
                                       else entry.equations().system.name)
         data = _cached_data(entry.path, source)
@@ -348,8 +388,31 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
         return wrapper
     from .analysis.module import load_generated
 
-    load_generated(wrapper)  # builds (or verifies) the library now; warns on fallback
+    _compiled(lambda: load_generated(wrapper))  # builds (or verifies) the library now
     return wrapper
+
+
+def _compiled(load: Callable[[], Any]) -> Any:
+    """The compiled module ``load()`` imports (or its typed view,
+    :class:`~neweul_py.analysis.module.GeneratedModel`), which must run its C library: asked
+    for ``backend="c"``, a module that fell back to its NumPy twin (no cffi, no compiler, an
+    untrusted library cache …) is one error naming why, never a warning and the NumPy
+    module. Other warnings of the import (a rebuilt library) are passed on."""
+    import sys
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        module = load()
+    if getattr(module, "BACKEND", "c") != "c":
+        imported = getattr(module, "module", module)   # the module behind a typed view
+        sys.modules.pop(imported.__name__, None)       # a later call tries the library again
+        why = getattr(module, "BACKEND_ERROR", "") or getattr(module, "BACKEND_NOTE", "")
+        raise NeweulError(f"the compiled backend (backend 'c') is unavailable for the model "
+                          f"{module.MODEL_NAME!r}: {why}; the NumPy backend needs none of it")
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return module
 
 
 def _compiled_files(wrapper: Path) -> tuple[Path, Path, Path]:
@@ -375,7 +438,7 @@ def _load_cached_wrapper(wrapper: str | os.PathLike[str]) -> ModuleType:
     if source is None:
         raise NeweulError(f"{wrapper}: the compiled module in the cache does not verify "
                           "against its recorded SHA-256")
-    module = import_verified(wrapper, source)
+    module = _compiled(lambda: import_verified(wrapper, source))
     check_protocol(module, str(wrapper))
     return module
 
@@ -394,7 +457,7 @@ def _generator_fingerprint() -> str:
     return h.hexdigest()
 
 
-def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> list[str]:
+def _data_fingerprints(data: Any, description_path: str | os.PathLike[str]) -> list[str]:
     """SHA-256 of each data file the description refers to (``elastic_bodies.*.data``,
     ``inputs.*.table``, relative to the description), so that a cached module is regenerated
     when its data change.
@@ -402,13 +465,9 @@ def _data_fingerprints(raw: bytes, description_path: str | os.PathLike[str]) -> 
     Each file is checked to be a regular file of sane size before it is read
     (:func:`neweul_py.files.read_checked`): ``data: /dev/zero`` or a FIFO is one clear error.
     A missing file is left to the loader, which reports it with its key path and line.
+    ``data``: the parsed description (:attr:`neweul_py.yaml_tree.YamlTree.data`).
     """
-    import yaml
-
-    try:
-        tree = yaml.safe_load(raw)
-    except (yaml.YAMLError, RecursionError, ValueError, MemoryError):
-        return []  # the loader reports the error when the module is generated
+    tree = data
     if not isinstance(tree, dict):
         return []
     base = Path(description_path).parent
@@ -441,11 +500,11 @@ def _file_fingerprints(entries: dict, section: str, key: str, base: Path,
     return out
 
 
-def _cache_entry(raw: bytes, description_path: str | os.PathLike[str], form: str,
-                 cache: str | os.PathLike[str] | None) -> Path:
+def _cache_entry(parsed: _Parsed, description_path: str | os.PathLike[str], form: str,
+                 cache: str | os.PathLike[str] | None, sensitivities: bool = False) -> Path:
     """Path of the cached module of a description (in a trusted directory)."""
-    material = [_sha256(raw), form, _generator_fingerprint(),
-                *_data_fingerprints(raw, description_path)]
+    material = [_sha256(parsed.raw), form, *(["sensitivities"] if sensitivities else []),
+                _generator_fingerprint(), *_data_fingerprints(parsed.tree.data, description_path)]
     key = hashlib.sha256("\n".join(material).encode()).hexdigest()
     directory = trusted_dir(cache)
     stem = "".join(c if c.isalnum() or c == "_" else "_" for c in Path(description_path).stem)
@@ -470,14 +529,18 @@ class _Entry:
 
 def _cached_source(description_path: str | os.PathLike[str], form: Form,
                    cache: str | os.PathLike[str] | None,
-                   progress: StagedProgress = None) -> _Entry:
-    """The cache entry of a description, with its verified source and (on a hit) module."""
+                   progress: StagedProgress = None, parsed: _Parsed | None = None,
+                   sensitivities: bool = False) -> _Entry:
+    """The cache entry of a description, with its verified source and (on a hit) module
+    (``parsed``: the description already read and parsed; ``sensitivities``: as
+    :func:`generate`)."""
     _check_form(form)
-    raw = _read(description_path)
-    path = _cache_entry(raw, description_path, form, cache)
+    parsed = parsed or _parsed(description_path)
+    raw = parsed.raw
+    path = _cache_entry(parsed, description_path, form, cache, sensitivities)
 
     def derive_now() -> Any:
-        return _derive_text(raw, description_path, form, progress)
+        return _derive_tree(parsed.tree, form, progress)
 
     source = verified_bytes(path)
     named = None if source is None else _data_file_of(source)
@@ -497,7 +560,8 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
     from .codegen.module import render_files
 
     equations = derive_now()
-    files = render_files(equations, _sha256(raw), progress=progress)
+    files = render_files(equations, _sha256(raw), sensitivities=sensitivities,
+                         progress=progress)
     if files.data is not None:          # the data file first, with its sidecar like the module
         write_cached(path.parent / files.data.name, files.data.content)
     source = files.text.encode("utf-8")
@@ -510,6 +574,7 @@ def generated_module(
     form: Form = "auto",
     cache: str | os.PathLike[str] | None = None,
     backend: Backend = "numpy",
+    sensitivities: bool = False,
 ) -> Path:
     """The generated module of a description, from the cache or freshly generated into it.
 
@@ -518,7 +583,8 @@ def generated_module(
     anything. A cached module is trusted only after its bytes match the SHA-256 recorded when
     it was written (:mod:`neweul_py.cache`); a mismatch regenerates it with one
     :class:`~neweul_py.cache.CacheWarning`. Prefer :func:`load_description_module`, which
-    imports the verified bytes themselves rather than the path.
+    imports the verified bytes themselves rather than the path. ``sensitivities``: as
+    :func:`generate` (a cache entry of its own).
 
     Raises
     ------
@@ -526,7 +592,7 @@ def generated_module(
         The cache directory is owned by another user or writable by others, or not writable.
     """
     _check_backend(backend)
-    entry = _cached_source(description_path, form, cache)
+    entry = _cached_source(description_path, form, cache, sensitivities=sensitivities)
     return _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh,
                          cached=True)
 
@@ -537,9 +603,10 @@ def load_description_module(
     cache: str | os.PathLike[str] | None = None,
     backend: Backend = "numpy",
     progress: StagedProgress = None,
+    sensitivities: bool = False,
 ) -> ModuleType:
     """The generated module of a description (``progress``: the derivation's on a cache
-    miss, as in :func:`generate`). The NumPy module is imported from the verified
+    miss, ``sensitivities``: as in :func:`generate`). The NumPy module is imported from the verified
     bytes of its cache entry (:func:`generated_module`), so that the file cannot change
     between check and import; the compiled one (``backend="c"``) is loaded through its
     wrapper, imported from its verified bytes as well (:func:`_load_cached_wrapper`), whose
@@ -553,7 +620,8 @@ def load_description_module(
     from .analysis.module import check_protocol
 
     _check_backend(backend)
-    entry = _cached_source(description_path, form, cache, progress)
+    entry = _cached_source(description_path, form, cache, progress,
+                           sensitivities=sensitivities)
     if backend != "numpy":
         wrapper = _with_backend(entry.path, backend, entry.equations, rebuild=entry.fresh,
                                 cached=True)

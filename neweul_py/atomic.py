@@ -20,7 +20,8 @@ __all__ = ["atomic_savez", "atomic_write"]
 
 
 def atomic_write(
-    path: str | os.PathLike[str], content: bytes | str | Callable[[IO[bytes]], object]
+    path: str | os.PathLike[str], content: bytes | str | Callable[[IO[bytes]], object],
+    mode: int = 0o644,
 ) -> Path:
     """Write ``content`` to ``path`` atomically and return the path.
 
@@ -44,6 +45,7 @@ def atomic_write(
     except OSError as exc:
         raise NeweulError(f"{path}: cannot write ({exc.strerror})") from None
     try:
+        os.fchmod(fd, mode)
         with os.fdopen(fd, "wb") as fh:
             if callable(content):
                 content(fh)
@@ -51,7 +53,6 @@ def atomic_write(
                 fh.write(content.encode("utf-8") if isinstance(content, str) else content)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
         try:

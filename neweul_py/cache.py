@@ -8,9 +8,12 @@ imports or loads *those bytes* (never the path again, so the file cannot change 
 use). A missing sidecar, a mismatch, a file owned by another user or writable by group or others
 yields ``None`` (and one :class:`CacheWarning`), and the caller regenerates the entry.
 
-The cache directory (:func:`cache_dir`) is created with mode 0700; a directory owned by another
-user or writable by group or others is refused (:func:`trusted_dir` raises), because whoever can
-write there could replace both a file and its sidecar.
+The cache directory (:func:`cache_dir`, and any parent it creates) is made with mode 0700 and
+its files with mode 0600, whatever the umask; a directory owned by another user or writable by
+group or others is refused (:func:`trusted_dir` raises), because whoever can write there could
+replace both a file and its sidecar. A file or sidecar that is a symbolic link, owned by another
+user or writable by group or others is never read (:func:`neweul_py.files.read_checked` with
+``own=True``: checked on the descriptor it is read from).
 """
 
 from __future__ import annotations
@@ -26,8 +29,8 @@ from pathlib import Path
 from types import ModuleType
 
 from .atomic import atomic_write
-from .errors import NeweulError
-from .files import read_checked
+from .errors import DataError, NeweulError
+from .files import not_own, read_checked
 
 __all__ = [
     "SIDECAR_SUFFIX",
@@ -70,13 +73,20 @@ def cache_dir() -> Path:
     return Path(base) / "neweul-py"
 
 
-def _unsafe(st: os.stat_result) -> str | None:
-    """Why a file or directory with this status cannot be trusted (None: it can)."""
-    if hasattr(os, "getuid") and st.st_uid != os.getuid():
-        return f"owned by another user (uid {st.st_uid})"
-    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
-        return f"writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
-    return None
+def _private_parents(path: Path) -> None:
+    """Create ``path`` and its missing parents with mode 0700 whatever the umask
+    (``Path.mkdir(parents=True)`` makes the parents with the umask's mode, 0777 under 000)."""
+    missing = []
+    for p in (path, *path.parents):
+        if os.path.lexists(p):
+            break
+        missing.append(p)
+    for p in reversed(missing):
+        try:
+            os.mkdir(p, 0o700)
+        except FileExistsError:
+            continue
+        os.chmod(p, 0o700)
 
 
 def trusted_dir(directory: str | os.PathLike[str] | None = None) -> Path:
@@ -91,13 +101,13 @@ def trusted_dir(directory: str | os.PathLike[str] | None = None) -> Path:
     """
     path = Path(directory) if directory is not None else cache_dir()
     try:
-        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        _private_parents(path)
         st = os.stat(path)  # follows a symbolic link: the target is what gets written
     except OSError as exc:
         raise CacheError(f"cannot create the cache directory {path}: {exc.strerror}") from None
     if not stat.S_ISDIR(st.st_mode):
         raise CacheError(f"the cache {path} is not a directory")
-    why = _unsafe(st)
+    why = not_own(st)
     if why is not None:
         raise CacheError(
             f"refusing the cache directory {path}: it is {why}; anyone who can write there "
@@ -121,24 +131,23 @@ def verified_bytes(path: str | os.PathLike[str], expected_sha256: str | None = N
     writable by others, not a regular file). Load or import the returned bytes, never the path.
     """
     path = Path(path)
-    if not path.exists():
+    if not os.path.lexists(path):
         return None
     if expected_sha256 is None:
         side = path.with_name(path.name + SIDECAR_SUFFIX)
         try:
-            expected_sha256 = read_checked(side, "cache sidecar", 200).decode("ascii").strip()
-        except (NeweulError, UnicodeDecodeError):
+            expected_sha256 = read_checked(side, "digest", 200, own=True).decode("ascii").strip()
+        except DataError as exc:
+            _warn(f"cache entry {path} has no readable digest of its own ({exc.message}); "
+                  "regenerating it")
+            return None
+        except UnicodeDecodeError:
             _warn(f"cache entry {path} has no readable digest; regenerating it")
             return None
     try:
-        st = os.lstat(path)
-        raw = read_checked(path, "cached file", _MAX_CACHED_BYTES)
-    except (OSError, NeweulError) as exc:
-        _warn(f"cache entry {path} is unreadable ({exc}); regenerating it")
-        return None
-    why = "a symbolic link" if stat.S_ISLNK(st.st_mode) else _unsafe(st)
-    if why is not None:
-        _warn(f"cache entry {path} is {why}; regenerating it")
+        raw = read_checked(path, "cached file", _MAX_CACHED_BYTES, own=True)
+    except DataError as exc:
+        _warn(f"cache entry {path} cannot be trusted ({exc.message}); regenerating it")
         return None
     if sha256_hex(raw) != expected_sha256:
         _warn(f"cache entry {path} does not match its recorded SHA-256 (modified or damaged); "
@@ -159,11 +168,11 @@ def trusted_entry(path: str | os.PathLike[str], expected_sha256: str) -> bool:
     side = path.with_name(path.name + SIDECAR_SUFFIX)
     try:
         st = os.lstat(path)
-        recorded = read_checked(side, "cache sidecar", 200).decode("ascii").strip()
+        recorded = read_checked(side, "digest", 200, own=True).decode("ascii").strip()
     except (OSError, NeweulError, UnicodeDecodeError):
-        _warn(f"cache entry {path} has no readable digest; regenerating it")
+        _warn(f"cache entry {path} has no readable digest of its own; regenerating it")
         return False
-    why = "not a regular file" if not stat.S_ISREG(st.st_mode) else _unsafe(st)
+    why = "not a regular file" if not stat.S_ISREG(st.st_mode) else not_own(st)
     if why is None and recorded != expected_sha256:
         why = "recorded with another SHA-256 than its module names"
     if why is not None:
@@ -186,10 +195,8 @@ def write_cached(path: str | os.PathLike[str], data: bytes | str) -> str:
     raw = data.encode("utf-8") if isinstance(data, str) else data
     digest = sha256_hex(raw)
     try:
-        atomic_write(path.with_name(path.name + SIDECAR_SUFFIX), digest + "\n")
-        atomic_write(path, raw)
-        for p in (path, path.with_name(path.name + SIDECAR_SUFFIX)):
-            os.chmod(p, 0o600)
+        atomic_write(path.with_name(path.name + SIDECAR_SUFFIX), digest + "\n", mode=0o600)
+        atomic_write(path, raw, mode=0o600)
     except (NeweulError, OSError) as exc:
         raise CacheError(f"cannot write to the cache {path.parent}: "
                          f"{getattr(exc, 'strerror', None) or exc}") from None

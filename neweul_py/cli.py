@@ -5,6 +5,11 @@ Each sub-command lives in its own module under :mod:`neweul_py.commands` and exp
 arguments, returning an exit code). The CLI catches :class:`~neweul_py.errors.NeweulError` and
 :class:`OSError` (a file that cannot be written: disk full, permissions) and prints one line; any
 other exception is a bug and keeps its traceback.
+
+Exit codes (docs/cli.md), the same for every command: 0 success; 1 an error of the input or the
+model; 2 a malformed command line (argparse); 3 a check that ran and failed
+(:data:`neweul_py.commands.EXIT_CHECK_FAILED`: ``compare`` beyond its tolerances, ``sweep`` with
+failed cases); 130 an interrupt.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib
+import os
 import re
 import sys
 import warnings
@@ -27,6 +33,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "linearize",
     "modes",
     "frf",
+    "sensitivity",
+    "identify",
     "reduce",
     "compare_frf",
     "frf_body",
@@ -135,9 +143,21 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 GC_THRESHOLDS = (200_000, 10, 10)
 
 
+#: Thread counts of the BLAS libraries for a CLI process, unless the environment sets them:
+#: the commands' linear algebra is sparse factorizations (SuperLU calls BLAS on small
+#: supernodes), ARPACK and small dense matrices, where threads only wait for each other. On a
+#: shared 2-core machine OpenBLAS's spinning threads made ``neweul compare-frf`` of the
+#: refine-1 middle ear (200 frequencies) take more than 400 s instead of 9 s CPU.
+BLAS_THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``neweul`` console script (``argv`` None: ``sys.argv``, and the
-    process ends when this returns, see :func:`_before_exit`)."""
+    process ends when this returns, see :func:`_before_exit`). BLAS runs single-threaded
+    (:data:`BLAS_THREADS`) unless the environment says otherwise; it takes effect when NumPy
+    is not imported yet, as in the console script."""
+    for name, value in BLAS_THREADS.items():
+        os.environ.setdefault(name, value)
     words = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(words[0] if words else None)
     args = parser.parse_args(words)

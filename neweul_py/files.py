@@ -12,7 +12,12 @@ Caps (docs/limits.md); each can be raised with an environment variable for big m
 
 * :data:`MAX_DESCRIPTION_BYTES` — 16 MiB (``NEWEUL_MAX_DESCRIPTION_BYTES``);
 * :data:`MAX_DATA_BYTES` — 4 GiB per data file (``NEWEUL_MAX_DATA_BYTES``);
-* :data:`MAX_NPZ_BYTES` — 8 GiB decompressed per ``.npz`` (``NEWEUL_MAX_NPZ_BYTES``).
+* :data:`MAX_NPZ_BYTES` — 8 GiB decompressed per ``.npz`` (``NEWEUL_MAX_NPZ_BYTES``);
+* :data:`MAX_NPZ_RATIO` — compression ratio 100 of a deflated ``.npz`` member of more than
+  64 MiB (``NEWEUL_MAX_NPZ_RATIO``).
+
+:func:`load_npz` and :func:`read_text` are the readers of ``.npz`` archives and text files
+that do all of it on one open descriptor.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import os
 import stat
 import zipfile
 from pathlib import Path
+from typing import IO, Any
 
 from .errors import DataError, NeweulError
 
@@ -28,9 +34,14 @@ __all__ = [
     "MAX_DATA_BYTES",
     "MAX_DESCRIPTION_BYTES",
     "MAX_NPZ_BYTES",
+    "MAX_NPZ_RATIO",
+    "NPZ_RATIO_FLOOR",
     "check_npz",
     "check_regular_file",
+    "load_npz",
+    "not_own",
     "read_checked",
+    "read_text",
 ]
 
 
@@ -48,6 +59,12 @@ MAX_DESCRIPTION_BYTES = _cap("NEWEUL_MAX_DESCRIPTION_BYTES", 16 * 2**20)
 MAX_DATA_BYTES = _cap("NEWEUL_MAX_DATA_BYTES", 4 * 2**30)
 #: Largest total decompressed size of the members of one ``.npz`` (bytes).
 MAX_NPZ_BYTES = _cap("NEWEUL_MAX_NPZ_BYTES", 8 * 2**30)
+#: Largest compression ratio (declared size / compressed size) of a deflated ``.npz`` member
+#: larger than :data:`NPZ_RATIO_FLOOR` (zeros deflate about 1000:1, measured data and FE
+#: matrices a few to 20:1; the files neweul-py writes are not compressed).
+MAX_NPZ_RATIO = _cap("NEWEUL_MAX_NPZ_RATIO", 100)
+#: Members declaring at most this many bytes may have any compression ratio.
+NPZ_RATIO_FLOOR = 64 * 2**20
 
 _KINDS = (
     (stat.S_ISDIR, "a directory"),
@@ -113,29 +130,59 @@ def check_regular_file(
     return Path(file)
 
 
+def not_own(st: os.stat_result) -> str | None:
+    """Why a file or directory with status ``st`` could have been written by someone other
+    than the current user (``None``: it could not): owned by another user, or writable by
+    group or others."""
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return f"owned by another user (uid {st.st_uid})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
+    return None
+
+
+def _open(file: str, what: str, error: type[NeweulError], own: bool = False) -> int:
+    """A read-only descriptor of ``file``, opened non-blocking (a FIFO does not wait for a
+    writer); with ``own`` a symbolic link is refused."""
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+    if own:
+        flags |= getattr(os, "O_NOFOLLOW", 0)
+    try:
+        return os.open(file, flags)
+    except FileNotFoundError:
+        raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
+    except (OSError, ValueError) as exc:
+        if own and os.path.islink(file):
+            raise _error(error, f"the {what} is a symbolic link", file) from None
+        raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
+                     file) from None
+
+
 def read_checked(
     path: str | os.PathLike[str],
     what: str = "data file",
     max_bytes: int | None = None,
     error: type[NeweulError] = DataError,
+    *,
+    own: bool = False,
 ) -> bytes:
     """The bytes of a regular file, checked (as :func:`check_regular_file`) on the open file
     descriptor they are read from, so that the file cannot be swapped between check and read.
 
     The file is opened non-blocking (a FIFO does not wait for a writer) and read up to the
-    cap only.
+    cap only. With ``own`` (files of the cache) it must moreover not be a symbolic link, and
+    belong to the current user with no write permission for group or others
+    (:func:`not_own`).
     """
     file = os.fspath(path)
     cap = MAX_DATA_BYTES if max_bytes is None else max_bytes
+    fd = _open(file, what, error, own)
     try:
-        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
-    except FileNotFoundError:
-        raise _error(error, f"cannot read {what}: file not found (no such file)", file) from None
-    except (OSError, ValueError) as exc:
-        raise _error(error, f"cannot read the {what} ({getattr(exc, 'strerror', None) or exc})",
-                     file) from None
-    try:
-        _check_stat(os.fstat(fd), file, what, cap, error)
+        st = os.fstat(fd)
+        _check_stat(st, file, what, cap, error)
+        why = not_own(st) if own else None
+        if why is not None:
+            raise _error(error, f"the {what} is {why}", file)
         chunks, total = [], 0
         while True:
             chunk = os.read(fd, min(1 << 24, cap + 1 - total))
@@ -153,13 +200,25 @@ def read_checked(
         os.close(fd)
 
 
-def check_npz(path: str | os.PathLike[str], max_bytes: int | None = None) -> None:
+def check_npz(path: str | os.PathLike[str] | IO[bytes], max_bytes: int | None = None,
+              file: str | None = None) -> None:
     """Refuse an ``.npz`` whose members would decompress to more than ``max_bytes`` in total
-    (default :data:`MAX_NPZ_BYTES`) or whose ``.npy`` headers claim more data than their member
-    holds — a zip bomb or a forged header is refused before any array is allocated.
+    (default :data:`MAX_NPZ_BYTES`), a deflated member of more than :data:`NPZ_RATIO_FLOOR`
+    bytes declared at more than :data:`MAX_NPZ_RATIO` times its compressed size, or ``.npy``
+    headers that claim more data than their member holds — a zip bomb or a forged header is
+    refused from the zip directory and the array headers, before any array is inflated.
 
     The zip reader never returns more than a member's declared size, so bounding the declared
     sizes bounds the work.
+
+    Parameters
+    ----------
+    path
+        The file, or a binary file object open on it (read from its start).
+    max_bytes
+        Cap of the total declared size.
+    file
+        The name for the messages (default: ``path``).
 
     Raises
     ------
@@ -168,15 +227,24 @@ def check_npz(path: str | os.PathLike[str], max_bytes: int | None = None) -> Non
     """
     import numpy as np
 
-    file = os.fspath(path)
+    file = file or (os.fspath(path) if isinstance(path, str | os.PathLike) else "<npz>")
     cap = MAX_NPZ_BYTES if max_bytes is None else max_bytes
     try:
-        with zipfile.ZipFile(file) as zf:
+        with zipfile.ZipFile(path) as zf:
             infos = zf.infolist()
             total = sum(i.file_size for i in infos)
             if total > cap:
                 raise DataError(f"the archive declares {total} bytes of decompressed data, "
                                 f"more than the cap of {cap} (docs/limits.md)", file)
+            for info in infos:
+                if (info.compress_type != zipfile.ZIP_STORED
+                        and info.file_size > NPZ_RATIO_FLOOR
+                        and info.file_size > MAX_NPZ_RATIO * max(info.compress_size, 1)):
+                    raise DataError(
+                        f"the member {info.filename} declares {info.file_size} bytes in "
+                        f"{info.compress_size} compressed (compression ratio "
+                        f"{info.file_size / max(info.compress_size, 1):.0f}, more than the cap "
+                        f"of {MAX_NPZ_RATIO}: a zip bomb; docs/limits.md)", file)
             for info in infos:
                 if not info.filename.endswith(".npy"):
                     continue
@@ -200,3 +268,68 @@ def check_npz(path: str | os.PathLike[str], max_bytes: int | None = None) -> Non
     except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError,
             NotImplementedError, RuntimeError, OverflowError) as exc:
         raise DataError(f"not a readable .npz file ({exc})", file) from None
+
+
+#: The first bytes of a zip archive (local file header, empty archive).
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")
+
+
+def load_npz(path: str | os.PathLike[str], what: str = "file",
+             max_bytes: int | None = None) -> dict[str, Any]:
+    """Every array of an ``.npz`` file, loaded without pickles, after the checks of
+    :func:`check_regular_file` and :func:`check_npz` — all on the one open file descriptor
+    the arrays are then read from.
+
+    Raises
+    ------
+    DataError
+        Naming the file: not a regular file, larger than ``max_bytes`` (default
+        :data:`MAX_DATA_BYTES`), not a zip archive, a zip bomb or a forged header, an object
+        array (which would need pickles), or a damaged archive.
+    """
+    import numpy as np
+
+    file = os.fspath(path)
+    cap = MAX_DATA_BYTES if max_bytes is None else max_bytes
+    fd = _open(file, what, DataError)
+    try:
+        _check_stat(os.fstat(fd), file, what, cap, DataError)
+        with os.fdopen(fd, "rb") as fh:
+            fd = -1                          # closed with fh
+            if fh.read(4) not in _ZIP_MAGIC:  # np.load would try .npy or pickle
+                raise DataError("not a valid .npz file (not a zip archive)", file)
+            fh.seek(0)
+            check_npz(fh, file=file)
+            fh.seek(0)
+            with np.load(fh, allow_pickle=False) as data:
+                return {key: data[key] for key in data.files}
+    except DataError:
+        raise
+    except (zipfile.BadZipFile, OSError, EOFError, MemoryError) as exc:
+        raise DataError(f"not a readable .npz file ({exc})", file) from None
+    except ValueError as exc:  # object arrays refuse to load without pickles
+        raise DataError(f"unreadable array ({exc})", file) from None
+    finally:
+        if fd >= 0:
+            os.close(fd)
+
+
+def read_text(path: str | os.PathLike[str], what: str = "file",
+              max_bytes: int | None = None, error: type[NeweulError] = DataError) -> str:
+    """The UTF-8 text of a regular file (:func:`read_checked`; a leading byte-order mark is
+    dropped).
+
+    Raises
+    ------
+    NeweulError
+        ``error``: as :func:`read_checked`, or the bytes are not UTF-8 (naming the first
+        offending byte, its offset and line).
+    """
+    raw = read_checked(path, what, max_bytes, error)
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise _error(error, f"the {what} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at "
+                     f"offset {exc.start}, line {line}); save it as UTF-8", os.fspath(path)
+                     ) from None

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import io
-import shutil
 import warnings
 from pathlib import Path
 
 import numpy as np
-import pytest
+from compiler import needs_c_compiler
 
 from neweul_py.analysis import simulate
 from neweul_py.cli import main
@@ -88,8 +87,9 @@ def _chain(tmp_path: Path, n: int = 8) -> Path:
 
 def test_derivation_hook_counts_rise_per_stage_to_their_totals(tmp_path):
     """Reference: the model itself — 8 frames in the kinematics; 8 bodies, 16 mass-matrix
-    columns (recursive form) and one closing step in the equations; the 12 blocks of the module
-    (11, and the poses) — and the unchanged module without a hook (byte for byte)."""
+    columns (recursive form) and one closing step in the equations; the 13 blocks of the module
+    (11, the poses and the parameter derivatives) — and the unchanged module without a hook
+    (byte for byte)."""
     from neweul_py.api import generate
     from neweul_py.equations import clear_cache
 
@@ -100,12 +100,12 @@ def test_derivation_hook_counts_rise_per_stage_to_their_totals(tmp_path):
     stages = list(dict.fromkeys(c[0] for c in calls))
     assert stages == ["kinematics", "equations", "code generation"]
     totals = {s: {c[2] for c in calls if c[0] == s} for s in stages}
-    assert totals == {"kinematics": {8}, "equations": {8 + 16 + 1}, "code generation": {12}}
+    assert totals == {"kinematics": {8}, "equations": {8 + 16 + 1}, "code generation": {13}}
     for s in stages:
         done = [c[1] for c in calls if c[0] == s]
         assert np.all(np.diff(done) > 0) and done[-1] == totals[s].pop()
     whole = [c[1] for c in calls if c[0] == "code generation" and float(c[1]).is_integer()]
-    assert whole == list(range(1, 13))  # every block, with fractions inside long ones
+    assert whole == list(range(1, 14))  # every block, with fractions inside long ones
     clear_cache()
     plain = generate(desc, tmp_path / "b")
     assert hooked.read_bytes() == plain.read_bytes()
@@ -130,8 +130,7 @@ def test_derivation_bars_on_a_terminal_only(tmp_path, capsys):
         assert capsys.readouterr().err == ""
 
 
-@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                    reason="no C compiler")
+@needs_c_compiler
 def test_compiled_backend_reports_its_blocks(tmp_path):
     """Reference: the seven blocks of the C sources (codegen.writer.program_blocks)."""
     from neweul_py.api import generate

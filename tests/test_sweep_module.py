@@ -5,9 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pytest
-
-pytest.importorskip("distributed")
 
 from neweul_py.sweep import grid, sweep
 

@@ -1,4 +1,4 @@
-"""Time study of the middle-ear EMBS (issue 13 item 6): a tone under a slow Δp ramp.
+"""Time study of the middle-ear EMBS: a tone under a slow Δp ramp.
 
 Run from the repository root after ``neweul middle-ear build --dir DATA``::
 

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, NeweulError
+from ..files import load_npz, read_text
 
 __all__ = ["KINDS", "Table", "as_table", "read_table"]
 
@@ -154,10 +155,7 @@ def _frequency_signals(cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 def _read_csv(path: Path) -> Table:
     src = str(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except OSError as exc:
-        raise DataError(f"cannot read: {exc.strerror}", file=src) from None
+    text = read_text(path, "table")
     lines = [(k + 1, r) for k, r in enumerate(csv.reader(text.splitlines()))
              if r and not r[0].lstrip().startswith("#") and any(c.strip() for c in r)]
     if len(lines) < 2:
@@ -195,15 +193,12 @@ def _read_csv(path: Path) -> Table:
 
 
 def _read_npz(path: Path) -> Table:
-    try:
-        with np.load(path, allow_pickle=False) as f:
-            keys = set(f.files)
-    except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read: {exc}", file=str(path)) from None
+    arrays = load_npz(path, "result file")
+    keys = set(arrays)
     if {"t", "y", "names"} <= keys:
-        from .results import load_npz
+        from .results import load_npz as load_results
 
-        return as_table(load_npz(path), str(path))
+        return as_table(load_results(path), str(path))
     if {"H", "frequency_hz"} <= keys:
         from .frf import FrequencyResponse
 
@@ -212,10 +207,13 @@ def _read_npz(path: Path) -> Table:
         from .modes import ModalResult
 
         return as_table(ModalResult.load(path), str(path))
-    if {"y", "lambda_", "coordinates"} <= keys:
-        with np.load(path, allow_pickle=False) as f:
+    if {"y", "lambda_", "coordinates", "constraints"} <= keys:
+        f = arrays
+        try:
             names = [*map(str, f["coordinates"]), *(f"lambda_{c}" for c in f["constraints"])]
             values = np.concatenate([f["y"], f["lambda_"]])
+        except (ValueError, TypeError) as exc:
+            raise DataError(f"cannot read an equilibrium: {exc}", file=str(path)) from None
         return Table("equilibrium", np.zeros(0),
                      {n: np.array([v]) for n, v in zip(names, values, strict=True)},
                      source=str(path))
@@ -233,8 +231,6 @@ def read_table(path: str | os.PathLike[str]) -> Table:
         a first column that does not increase strictly, an unknown ``.npz``.
     """
     path = Path(path)
-    if not path.is_file():
-        raise DataError("no such file", file=str(path))
     return _read_npz(path) if path.suffix.lower() == ".npz" else _read_csv(path)
 
 

@@ -442,18 +442,26 @@ def simulate_constrained(
             c = c - 2 * alpha * (gj @ ydv + con.g_t(t, yv)) - beta**2 * con.g(t, yv)
         return proto.augmented_solve(m, gj, force, c, con.reaction(t, yv, gj))
 
+    state_names = [*names, *(f"d_{c}" for c in names)]
+
+    def singular(t: float, x: np.ndarray) -> SolverError:
+        """What is singular at ``(t, x)``: the diagnosis of :func:`_check_regular` (massless
+        motions, redundant constraints) or, failing one, the augmented matrix itself."""
+        try:
+            _check_regular(module, con, t, x[:n], pv, f"state at t = {t:.6g}", dep)
+            why = "the augmented matrix [M −G_Rᵀ; G 0] is singular"
+        except NeweulError as exc:
+            why = str(exc)
+        return SolverError(f"the constrained system is singular at t = {t:.6g}: {why}",
+                           last_iterate=x.copy(), names=state_names)
+
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
         nonlocal nfev
         nfev += 1
         try:
             ydd, _ = accelerations(t, x[:n], x[n:])
         except np.linalg.LinAlgError:
-            _check_regular(module, con, t, x[:n], pv, f"state at t = {t:.6g}", dep)
-            raise SolverError(
-                f"singular augmented system at t = {t:.6g}",
-                last_iterate=x.copy(),
-                names=[*names, *(f"d_{c}" for c in names)],
-            ) from None
+            raise singular(t, x) from None
         return np.concatenate([x[n:], ydd])
 
     nt = times.size
@@ -467,7 +475,10 @@ def simulate_constrained(
 
     def record(k: int, t: float, yv: np.ndarray, ydv: np.ndarray) -> None:
         ys[k], yds[k] = yv, ydv
-        _, lams[k] = accelerations(t, yv, ydv)
+        try:
+            _, lams[k] = accelerations(t, yv, ydv)
+        except np.linalg.LinAlgError:
+            raise singular(t, np.concatenate([yv, ydv])) from None
         if out_names:
             outs[k] = module.outputs(t, np.concatenate([yv, ydv]), pv, ufun(t))
         if con.nc:
@@ -495,9 +506,13 @@ def simulate_constrained(
         y, yd = sol.y[:n, -1], sol.y[n:, -1]
         if con.nc:
             drift[k] = np.abs(con.g(t1, y)).max()
-            winv = _metric(module, t1, y, pv)
-            y = _project_position(con, t1, y, dep, winv, projection_tol * (1 + np.abs(y).max()))
-            yd = _project_velocity(con, t1, y, yd, dep, winv)
+            try:
+                winv = _metric(module, t1, y, pv)
+                y = _project_position(con, t1, y, dep, winv,
+                                      projection_tol * (1 + np.abs(y).max()))
+                yd = _project_velocity(con, t1, y, yd, dep, winv)
+            except np.linalg.LinAlgError:
+                raise singular(t1, np.concatenate([y, yd])) from None
         x = np.concatenate([y, yd])
         record(k, t1, y, yd)
         if progress is not None:

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
+from ..files import load_npz
 from . import protocol as proto
 from .linearize import DAMPING_FORMS, LinearModel, linearize
 from .plot import check_plot_path, new_figure, plot_bode, save_figure
@@ -143,15 +144,15 @@ class FrequencyResponse(ResultDisplay):
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> FrequencyResponse:
         """Read a ``.npz`` written by :meth:`to_npz`."""
+        f = load_npz(path, "frequency response file")
         try:
-            with np.load(path, allow_pickle=False) as f:
-                return cls(
-                    frequency_hz=f["frequency_hz"],
-                    H=f["H"],
-                    outputs=tuple(str(s) for s in f["outputs"]),
-                    inputs=tuple(str(s) for s in f["inputs"]),
-                )
-        except (OSError, ValueError, KeyError) as exc:
+            return cls(
+                frequency_hz=f["frequency_hz"],
+                H=f["H"],
+                outputs=tuple(str(s) for s in f["outputs"]),
+                inputs=tuple(str(s) for s in f["inputs"]),
+            )
+        except (ValueError, KeyError) as exc:
             raise DataError(f"cannot read a frequency response: {exc}", file=str(path)) from None
 
     def plot(

@@ -174,6 +174,30 @@ def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
     return None, theta
 
 
+#: Default cap of the number of steps of one run (docs/limits.md).
+MAX_STEPS = 10**9
+
+
+def step_count(span: float, h: float, max_steps: int = MAX_STEPS) -> int:
+    """The number of equal steps of at most ``h`` over ``span``: ``ceil(span / h)``.
+
+    Raises
+    ------
+    NeweulError
+        ``h`` is not a positive number, or the count exceeds ``max_steps`` (checked before
+        any step: ``h = 1e-300`` would take 10³⁰⁰ of them).
+    """
+    if not (isinstance(h, int | float) and np.isfinite(h) and h > 0):
+        raise NeweulError(f"the step h must be a positive number, got {h!r}")
+    ratio = span / h * (1 - 1e-12)
+    if not ratio <= max_steps:            # also inf, when span / h overflows
+        raise NeweulError(
+            f"generalized-alpha with the step h = {h:g} takes {ratio:.4g} steps for "
+            f"{span:g} s, more than max_steps = {max_steps} (docs/limits.md): use a larger "
+            "step")
+    return max(1, math.ceil(ratio))
+
+
 def integrate_generalized_alpha(
     module: GeneratedModel,
     t_span: tuple[float, float],
@@ -188,6 +212,7 @@ def integrate_generalized_alpha(
     atol: float | np.ndarray,
     names: list[str],
     progress: Callable[[float, float], None] | None = None,
+    max_steps: int = MAX_STEPS,
 ) -> Solution:
     """Integrate the module from ``x0`` over ``t_span`` with generalized-α steps of (at most)
     ``h``.
@@ -217,6 +242,8 @@ def integrate_generalized_alpha(
         State names for error messages.
     progress
         ``progress(done, total)`` hook, called about 200 times.
+    max_steps
+        Largest number of steps (:func:`step_count`).
 
     Returns
     -------
@@ -231,9 +258,7 @@ def integrate_generalized_alpha(
         (with the last state reached).
     """
     t0, t1 = t_span
-    if not (np.isfinite(h) and h > 0):
-        raise NeweulError(f"the step h must be a positive number, got {h!r}")
-    steps = max(1, int(np.ceil((t1 - t0) / h * (1 - 1e-12))))
+    steps = step_count(t1 - t0, h, max_steps)
     h = (t1 - t0) / steps
     c = coefficients(rho_inf, h)
     n = x0.size // 2
@@ -293,6 +318,7 @@ class GeneralizedAlphaSteps(FirstOrder):
         if model.has_constraints:
             raise NeweulError("method 'generalized-alpha' integrates unconstrained models; "
                               "models with constraints use the DAE integrators (RK45, …)")
+        step_count(run.t_end - run.t_start, run.h, run.max_steps)   # before the first step
 
     def solve(self, model: GeneratedModel, run: Run, uf: Callable[[float], Any],
               times: np.ndarray, last: Any) -> Solution:
@@ -300,4 +326,4 @@ class GeneralizedAlphaSteps(FirstOrder):
             model, (run.t_start, run.t_end), run.x0, run.p, uf, times,
             h=float(run.h),  # type: ignore[arg-type]
             rho_inf=run.rho_inf, rtol=run.rtol, atol=run.atol, names=model.state_names,
-            progress=run.progress)
+            progress=run.progress, max_steps=run.max_steps)

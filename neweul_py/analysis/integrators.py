@@ -84,6 +84,7 @@ class Run:
     progress: Callable[[float, float], None] | None
     h: float | None
     rho_inf: float
+    max_steps: int = 10**9
 
 
 @dataclass

@@ -39,8 +39,9 @@ from typing import Any
 import numpy as np
 
 from ..atomic import atomic_savez
-from ..errors import NeweulError
+from ..errors import DataError, NeweulError
 from ..ffrf.loss_form import DAMPING_FORMS, loss_form
+from ..files import load_npz
 from . import protocol as proto
 from .equilibrium import EquilibriumResult
 from .module import GeneratedModel, ModelLike, as_model
@@ -293,8 +294,16 @@ class LinearModel:
 
     @classmethod
     def load(cls, path: str | Path) -> LinearModel:
-        """Read a model written by :meth:`save`."""
-        with np.load(path, allow_pickle=False) as f:
+        """Read a model written by :meth:`save`.
+
+        Raises
+        ------
+        DataError
+            The file is not a regular file, not a valid ``.npz`` (:func:`neweul_py.files.load_npz`)
+            or lacks an array of the model.
+        """
+        f = load_npz(path, "linear model file")
+        try:
             names = ("coordinates", "all_coordinates", "inputs", "outputs", "constraints")
             kw: dict[str, Any] = {k: tuple(str(s) for s in f[k]) for k in names}
             for k in ("M0", "P", "Q", "B", "C", "D", "basis", "y0", "yd0", "u0", "p", "lambda0"):
@@ -307,6 +316,8 @@ class LinearModel:
                 kw["input_rates"] = tuple(
                     (str(row[0]), tuple(str(r) for r in row[1:] if r)) for row in f["input_rates"]
                 )
+        except (ValueError, TypeError, KeyError, IndexError) as exc:
+            raise DataError(f"cannot read a linear model: {exc}", file=str(path)) from None
         return cls(**kw)
 
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
+from ..files import load_npz
 from .linearize import LinearModel, linearize
 from .results import ResultDisplay, check_output_path
 
@@ -226,19 +227,19 @@ class ModalResult(ResultDisplay):
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> ModalResult:
         """Read a ``.npz`` written by :meth:`to_npz`."""
+        f = load_npz(path, "modes file")
         try:
-            with np.load(path, allow_pickle=False) as f:
-                return cls(
-                    eigenvalues=f["eigenvalues"],
-                    frequency_hz=f["frequency_hz"],
-                    damped_frequency_hz=f["damped_frequency_hz"],
-                    damping_ratio=f["damping_ratio"],
-                    kind=tuple(str(k) for k in f["kind"]),
-                    shapes=f["shapes"],
-                    coordinates=tuple(str(c) for c in f["coordinates"]),
-                    undamped=bool(f["undamped"]) if "undamped" in f.files else False,
-                )
-        except (OSError, ValueError, KeyError) as exc:
+            return cls(
+                eigenvalues=f["eigenvalues"],
+                frequency_hz=f["frequency_hz"],
+                damped_frequency_hz=f["damped_frequency_hz"],
+                damping_ratio=f["damping_ratio"],
+                kind=tuple(str(k) for k in f["kind"]),
+                shapes=f["shapes"],
+                coordinates=tuple(str(c) for c in f["coordinates"]),
+                undamped=bool(f["undamped"]) if "undamped" in f else False,
+            )
+        except (ValueError, KeyError) as exc:
             raise DataError(f"cannot read modes: {exc}", file=str(path)) from None
 
 

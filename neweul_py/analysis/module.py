@@ -19,8 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import NeweulError
+from ..files import read_checked
 
 __all__ = [
+    "MAX_MODULE_BYTES",
     "SUPPORTED_PROTOCOL_VERSIONS",
     "GeneratedModel",
     "ModelLike",
@@ -28,6 +30,9 @@ __all__ = [
     "check_protocol",
     "load_generated",
 ]
+
+#: Largest generated module read (bytes; a module of a big model is a few MB).
+MAX_MODULE_BYTES = 512 * 2**20
 
 #: Protocol versions this package can read.
 SUPPORTED_PROTOCOL_VERSIONS = (1,)
@@ -109,11 +114,12 @@ class GeneratedModel:
     ``CONSTRAINTS`` …) and functions (``rhs``, ``mass_matrix`` …) of the module, so
     ``model.rhs(t, x, p)`` calls the module's ``rhs``. Optional constants are filled in
     (``COORDINATE_UNITS``, ``OUTPUT_UNITS``, ``INPUT_UNITS``, ``FRAMES``, ``BODIES`` …: empty
-    lists, ``INPUT_RATES``: ``{}``, ``BACKEND``: ``"numpy"``, ``LOSS_REFERENCE_FREQUENCY``:
-    ``None``); optional functions are ``None`` where the module has none. What the model can do
-    is asked of the properties (:attr:`has_constraints`, :attr:`compiled` …), never of the
-    module. Create it with :func:`load_generated` (a path) or :func:`as_model` (a path, a
-    module or any object with the protocol's names).
+    lists, ``INPUT_RATES``, ``PARAMETER_RANGES``: ``{}``, ``BACKEND``: ``"numpy"``,
+    ``BACKEND_ERROR``: ``""``, ``LOSS_REFERENCE_FREQUENCY``: ``None``); optional functions
+    are ``None`` where the module has none. What the model can do is asked of the properties
+    (:attr:`has_constraints`, :attr:`compiled` …), never of the module. Create it with
+    :func:`load_generated` (a path) or :func:`as_model` (a path, a module or any object with the
+    protocol's names).
     """
 
     module: Any
@@ -126,6 +132,7 @@ class GeneratedModel:
     COORDINATE_UNITS: list[str]
     INITIAL_STATE: list[float]
     PARAMETERS: dict[str, float]
+    PARAMETER_RANGES: dict[str, tuple[float | None, float | None]]
     INPUTS: list[str]
     INPUT_UNITS: list[str]
     INPUT_RATES: dict[str, list[str]]
@@ -142,6 +149,7 @@ class GeneratedModel:
     BODIES: list[dict[str, Any]]
     BACKEND: str
     BACKEND_NOTE: str
+    BACKEND_ERROR: str
     # functions
     default_parameters: Function
     default_inputs: Function
@@ -165,6 +173,17 @@ class GeneratedModel:
     body_properties: Function | None = None
     node_positions: Function | None = None
     integrate_dopri5: Function | None = None
+    # parameter derivatives (docs/sensitivity.md)
+    default_inputs_parameter_jacobian: Function | None = None
+    force_parameter_jacobian: Function | None = None
+    mass_matrix_parameter_derivative: Function | None = None
+    rhs_parameter_jacobian: Function | None = None
+    output_parameter_jacobian: Function | None = None
+    force_jacobians_directional: Function | None = None
+    mass_matrix_directional: Function | None = None
+    mass_matrix_times_derivative_directional: Function | None = None
+    output_jacobians_directional: Function | None = None
+    loss_matrix_directional: Function | None = None
 
     @classmethod
     def of(cls, module: Any, path: str = "") -> GeneratedModel:
@@ -195,6 +214,8 @@ class GeneratedModel:
             BODIES=list(optional("BODIES", ())),
             BACKEND=str(optional("BACKEND", "numpy")),
             BACKEND_NOTE=str(optional("BACKEND_NOTE", "")),
+            BACKEND_ERROR=str(optional("BACKEND_ERROR", "")),
+            PARAMETER_RANGES=dict(optional("PARAMETER_RANGES", {})),
             **values,
             **{name: function(name) for name in _OPTIONAL_FUNCTIONS},
         )
@@ -267,6 +288,24 @@ class GeneratedModel:
     def has_node_positions(self) -> bool:
         return self.node_positions is not None
 
+    @property
+    def has_parameter_derivatives(self) -> bool:
+        """The first parameter derivatives (``rhs_parameter_jacobian`` …): in every module
+        generated since they exist."""
+        return None not in (self.default_inputs_parameter_jacobian, self.force_parameter_jacobian,
+                            self.mass_matrix_parameter_derivative, self.rhs_parameter_jacobian,
+                            self.output_parameter_jacobian)
+
+    @property
+    def has_directional_derivatives(self) -> bool:
+        """The directional second derivatives of the linear models' sensitivities (rigid
+        modules generated with sensitivities; ``loss_matrix_directional`` where there are
+        loss factors)."""
+        return None not in (self.force_jacobians_directional, self.mass_matrix_directional,
+                            self.mass_matrix_times_derivative_directional,
+                            self.output_jacobians_directional) and (
+            self.loss_matrix is None or self.loss_matrix_directional is not None)
+
 
 #: A generated model, a generated module (or any object with the protocol's names) or the
 #: path of a generated ``.py`` file.
@@ -274,7 +313,12 @@ ModelLike = GeneratedModel | Any
 
 _OPTIONAL_FUNCTIONS = ("constraint_reaction_jacobian", "constraint_time_derivative", "energy",
                        "loss_matrix", "frame_poses", "body_properties", "node_positions",
-                       "integrate_dopri5")
+                       "integrate_dopri5", "default_inputs_parameter_jacobian",
+                       "force_parameter_jacobian", "mass_matrix_parameter_derivative",
+                       "rhs_parameter_jacobian", "output_parameter_jacobian",
+                       "force_jacobians_directional", "mass_matrix_directional",
+                       "mass_matrix_times_derivative_directional",
+                       "output_jacobians_directional", "loss_matrix_directional")
 
 
 def as_model(module: ModelLike) -> GeneratedModel:
@@ -314,7 +358,8 @@ def load_generated(path: str | os.PathLike[str]) -> GeneratedModel:
     Raises
     ------
     NeweulError
-        If the file is missing, cannot be imported, or does not implement the protocol.
+        If the file is missing, not a regular file, larger than :data:`MAX_MODULE_BYTES`,
+        cannot be imported, or does not implement the protocol.
 
     Examples
     --------
@@ -322,10 +367,7 @@ def load_generated(path: str | os.PathLike[str]) -> GeneratedModel:
     >>> mod.rhs(0.0, mod.INITIAL_STATE, mod.default_parameters())  # doctest: +SKIP
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise NeweulError(f"{path}: cannot read generated module ({exc.strerror})") from None
+    raw = read_checked(path, "generated module", MAX_MODULE_BYTES, NeweulError)
     digest = hashlib.sha256(raw).hexdigest()[:16]
     stem = "".join(c if c.isalnum() else "_" for c in path.stem)
     name = f"neweul_generated_{stem}_{digest}"

@@ -111,16 +111,19 @@ def input_function(
     return lambda t: fixed
 
 
-def null_space(a: np.ndarray, rtol: float = 1e-10) -> tuple[np.ndarray, int]:
+def null_space(a: np.ndarray, rtol: float = 1e-10, scale: float = 0.0
+               ) -> tuple[np.ndarray, int]:
     """Orthonormal basis of the right null space of ``a`` and the numerical rank of ``a``.
 
-    The rank counts singular values above ``rtol`` times the largest one.
+    The rank counts singular values above ``rtol`` times the largest one, or times ``scale``
+    when that is larger (the size of the matrix ``a`` was reduced from: a 1 × 1 reduced mass
+    of 2e-83 is zero next to a mass matrix of order 1).
     """
     a = np.atleast_2d(np.asarray(a))
     if a.size == 0:
         return np.eye(a.shape[1]), 0
     _, s, vh = np.linalg.svd(a)
-    smax = s[0] if s.size else 0.0
+    smax = max(s[0] if s.size else 0.0, scale)
     rank = int(np.sum(s > rtol * smax)) if smax > 0 else 0
     return vh[rank:].conj().T, rank
 
@@ -200,11 +203,14 @@ def check_mass_matrix(m: np.ndarray, names: Sequence[str], basis: np.ndarray | N
     mr = m if basis is None else left.T @ m @ basis
     if mr.size == 0:
         return
+    scale = float(np.abs(m).max(initial=0.0)) if basis is not None else 0.0
     if scaled or not np.array_equal(m, m.T):
         # test directions of their own, or two-sided elastic data (left and right bases
         # scaled independently): rows and columns may be scaled very differently
-        mr = equilibrated(mr)
-    ns, _ = null_space(mr, rtol=1e-12)
+        mr, scale = equilibrated(mr), 0.0
+    # relative to M itself where the bases are orthonormal (Vᵀ M V of a massless motion is
+    # round-off of M's size, not zero)
+    ns, _ = null_space(mr, rtol=1e-12, scale=scale)
     if ns.shape[1]:
         motions = ns if basis is None else basis @ ns
         who = participating_names(motions, names)

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
+from ..files import load_npz as read_npz
 
 __all__ = [
     "SUFFIXES",
@@ -317,21 +318,31 @@ def _strings(arr: np.ndarray) -> tuple[str, ...]:
 
 
 def load_npz(path: str | os.PathLike[str]) -> SimulationResult:
-    """Read a result written by :meth:`SimulationResult.to_npz` (no pickles allowed)."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            d = {k: data[k] for k in data.files}
-    except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read results: {exc}", file=str(path)) from None
+    """Read a result written by :meth:`SimulationResult.to_npz` (no pickles allowed).
+
+    Raises
+    ------
+    DataError
+        The file is not a valid ``.npz`` (:func:`neweul_py.files.load_npz`), lacks an array,
+        or its arrays do not fit together (times, states and outputs of one run; one name per
+        column, one value per parameter).
+    """
+    d = read_npz(path, "results file")
     try:
         names: Sequence[str] = _strings(d["parameter_names"])
+        t = np.asarray(d["t"], dtype=float)
+        y, yd = np.asarray(d["y"], dtype=float), np.asarray(d["yd"], dtype=float)
+        outputs = np.asarray(d["outputs"], dtype=float)
+        coordinates, output_names = _strings(d["coordinates"]), _strings(d["output_names"])
+        nt = t.size
+        if (t.ndim != 1 or y.shape != (nt, len(coordinates)) or yd.shape != y.shape
+                or outputs.shape != (nt, len(output_names))):
+            raise ValueError(f"t {t.shape}, y {y.shape}, yd {yd.shape}, outputs "
+                             f"{outputs.shape} do not fit {len(coordinates)} coordinates and "
+                             f"{len(output_names)} outputs")
         return SimulationResult(
-            t=d["t"],
-            y=d["y"],
-            yd=d["yd"],
-            outputs=d["outputs"],
-            coordinates=_strings(d["coordinates"]),
-            output_names=_strings(d["output_names"]),
+            t=t, y=y, yd=yd, outputs=outputs, coordinates=coordinates,
+            output_names=output_names,
             coordinate_units=_strings(d["coordinate_units"]),
             output_units=_strings(d["output_units"]),
             model_name=str(d["model_name"]),
@@ -341,3 +352,5 @@ def load_npz(path: str | os.PathLike[str]) -> SimulationResult:
         )
     except KeyError as exc:
         raise DataError(f"missing array {exc.args[0]!r}", file=str(path)) from None
+    except (ValueError, TypeError) as exc:
+        raise DataError(f"not a simulation result: {exc}", file=str(path)) from None

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import NeweulError
 from .dae import ConstrainedDAE
-from .generalized_alpha import GeneralizedAlphaSteps
+from .generalized_alpha import MAX_STEPS, GeneralizedAlphaSteps
 from .integrators import (
     COMPILED_METHODS,
     SCIPY_METHODS,
@@ -84,6 +84,9 @@ class SimulationOptions:
     rho_inf
         Spectral radius at infinite frequency of ``method="generalized-alpha"``, in [0, 1]
         (default 0.9, Exudyn's default: light damping of the unresolved modes).
+    max_steps
+        ``method="generalized-alpha"``: the largest number of steps ``ceil(T / h)``, checked
+        before the first one (default 10⁹; docs/limits.md).
     """
 
     t_start: float = 0.0
@@ -99,6 +102,7 @@ class SimulationOptions:
     progress: Callable[[float, float], None] | None = None
     h: float | None = None
     rho_inf: float = 0.9
+    max_steps: int = MAX_STEPS
 
     @classmethod
     def of(cls, options: Mapping[str, Any]) -> SimulationOptions:
@@ -146,7 +150,7 @@ def simulate(module: ModelLike, t_end: float, *, method: str = "RK45",
         second-order form (stiff elastic bodies, unconstrained models).
     **options
         ``t_start``, ``rtol``, ``atol``, ``n_out``, ``t_eval``, ``p``, ``x0``, ``u``,
-        ``max_step``, ``independent``, ``progress``, ``h``, ``rho_inf``: see
+        ``max_step``, ``independent``, ``progress``, ``h``, ``rho_inf``, ``max_steps``: see
         :class:`SimulationOptions`.
 
     Returns
@@ -184,7 +188,7 @@ def _run(model: GeneratedModel, strategy: Integrator, t_end: float,
     run = Run(method=strategy.method, t_start=t_start, t_end=t_end, p=np.empty(0),
               x0=np.empty(0), u=o.u, rtol=float(o.rtol), atol=atol, n_out=o.n_out,
               t_eval=o.t_eval, max_step=o.max_step, independent=o.independent,
-              progress=o.progress, h=o.h, rho_inf=o.rho_inf)
+              progress=o.progress, h=o.h, rho_inf=o.rho_inf, max_steps=o.max_steps)
     strategy.check(model, run)  # before the parameters and the state are read
     return dataclasses.replace(run, p=_parameters(model, o.p), x0=_initial_state(model, o.x0))
 

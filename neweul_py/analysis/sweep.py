@@ -3,13 +3,20 @@
 The generated module's *source text* is shipped to every worker once (``client.scatter(...,
 broadcast=True)``) and imported there (:func:`~neweul_py.analysis.sweep_tasks.module_from_source`);
 the cases travel as small parameter mappings, in chunks, so a sweep changes numbers, never code
-(DESIGN.md). Results come back as one tidy table, one row per case: ``case``, the swept
+(``docs/analysis.md``). Results come back as one tidy table, one row per case: ``case``, the swept
 parameters, ``ok``, ``error`` and the task's values; a failing case is recorded with its
 message and never aborts the sweep.
 
 Without a client or scheduler address a :class:`~distributed.LocalCluster` is started (2 worker
-processes by default, one thread each) and closed afterwards; ``scheduler="tcp://host:8786"``
-connects to a running cluster (whose workers need neweul-py installed).
+processes by default, one thread each) and closed afterwards. It is authenticated: Dask's TLS
+security with temporary credentials (:meth:`distributed.security.Security.temporary`, a
+self-signed key and certificate made for this sweep and held in memory only) for the
+scheduler, the workers and the client, so a process without them cannot submit work to the
+workers; it listens on free ports of 127.0.0.1 (its HTTP server too, which serves the health
+check only: no dashboard), so that two sweeps never collide. ``scheduler="tls://host:8786"``
+connects to a running cluster instead (whose workers need neweul-py installed) with the TLS
+settings of the Dask configuration: who may submit work to that cluster is the choice of
+whoever started it.
 """
 
 from __future__ import annotations
@@ -27,11 +34,15 @@ import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
 from ..errors import DataError, NeweulError
-from .module import GeneratedModel, ModelLike, as_model
+from ..files import load_npz, read_checked
+from .admissible import check_parameters, describe_values
+from .module import MAX_MODULE_BYTES, GeneratedModel, ModelLike, as_model
+from .protocol import resolve_parameters
 from .results import ResultDisplay, check_output_path, require_pandas
 from .sweep_tasks import STATS, TASKS, run_cases
 
-__all__ = ["SUFFIXES", "SweepResult", "check_sweep_output", "connect", "sweep"]
+__all__ = ["MAX_WORKERS", "SUFFIXES", "SweepResult", "check_sweep_output", "connect",
+           "sweep"]
 
 #: Suffixes of sweep tables (:meth:`SweepResult.save`).
 SUFFIXES: tuple[str, ...] = (".csv", ".parquet", ".npz")
@@ -155,13 +166,13 @@ class SweepResult(ResultDisplay):
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SweepResult:
         """Read a ``.npz`` written by :meth:`to_npz`."""
+        f = load_npz(path, "sweep table")
         try:
-            with np.load(path, allow_pickle=False) as f:
-                names = [str(n) for n in f["columns"]]
-                return cls(data={n: f[f"column_{n}"] for n in names},
-                           parameters=tuple(str(p) for p in f["parameters"]),
-                           task=str(f["task"]), model_name=str(f["model_name"]))
-        except (OSError, ValueError, KeyError) as exc:
+            names = [str(n) for n in f["columns"]]
+            return cls(data={n: f[f"column_{n}"] for n in names},
+                       parameters=tuple(str(p) for p in f["parameters"]),
+                       task=str(f["task"]), model_name=str(f["model_name"]))
+        except (ValueError, KeyError) as exc:
             raise DataError(f"cannot read a sweep table: {exc}", file=str(path)) from None
 
 
@@ -179,52 +190,83 @@ def check_sweep_output(path: str | os.PathLike[str]) -> Path:
     return path
 
 
+#: Largest number of worker processes of a local cluster (``--workers``; docs/limits.md).
+MAX_WORKERS = 256
+
+
 def connect(
     scheduler: str | None = None, *, workers: int = 2, processes: bool = True,
     timeout: float = 5.0,
 ) -> tuple[Any, Any]:
-    """A Dask ``(client, cluster)``: connected to ``scheduler``, or a new ``LocalCluster``
-    (``cluster`` is None for a remote scheduler).
+    """A Dask ``(client, cluster)``: connected to ``scheduler``, or a new authenticated
+    ``LocalCluster`` (``cluster`` is None for a remote scheduler).
+
+    The local cluster and its client share temporary TLS credentials
+    (:meth:`distributed.security.Security.temporary`): only they can talk to its scheduler
+    and workers. It listens on free ports of 127.0.0.1, without a dashboard.
 
     Raises
     ------
     NeweulError
-        When dask.distributed is not installed, or the scheduler cannot be reached within
-        ``timeout`` seconds.
+        When dask.distributed (or, for a local cluster, cryptography) is not installed,
+        ``workers`` is not within 1 … :data:`MAX_WORKERS`, or the scheduler cannot be reached
+        within ``timeout`` seconds.
     """
     try:
         import logging
 
+        import dask
         from dask.distributed import Client, LocalCluster
     except ImportError:
         raise NeweulError(
-            "sweeps run on Dask: pip install 'dask[distributed]' (or 'neweul-py[sweep]')"
+            "sweeps run on Dask: pip install 'dask[distributed]' cryptography (or "
+            "'neweul-py[sweep]')"
         ) from None
     if scheduler:
         try:
             return Client(scheduler, timeout=f"{timeout}s"), None
-        except (OSError, TimeoutError, ValueError) as exc:
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
             why = " ".join(str(exc).split())[:160] or type(exc).__name__
             raise NeweulError(
                 f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s ({why}); "
                 "start one (`dask scheduler`) or leave out the address for a local cluster"
             ) from None
-    if workers < 1:
-        raise NeweulError(f"workers must be at least 1, got {workers}")
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
-                           dashboard_address=None, silence_logs=logging.ERROR)
-    return Client(cluster), cluster
+    if not 1 <= workers <= MAX_WORKERS:
+        raise NeweulError(f"workers must be between 1 and {MAX_WORKERS} (docs/limits.md), "
+                          f"got {workers}")
+    from distributed.security import Security
+
+    try:
+        security = Security.temporary()
+    except ImportError:
+        raise NeweulError(
+            "the local sweep cluster is authenticated with temporary TLS credentials, which "
+            "need cryptography: pip install cryptography (or 'neweul-py[sweep]')"
+        ) from None
+    # the scheduler's HTTP server (Dask starts one even without a dashboard, on port 8787
+    # unless told otherwise) on a free port of 127.0.0.1, serving the health check only
+    with dask.config.set({"distributed.scheduler.http.routes": ["distributed.http.health"]}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
+                               host="127.0.0.1", scheduler_port=0,
+                               dashboard_address="127.0.0.1:0",
+                               scheduler_kwargs={"dashboard": False}, security=security,
+                               silence_logs=logging.ERROR)
+    try:
+        return Client(cluster, security=security), cluster
+    except BaseException:
+        cluster.close()
+        raise
 
 
 def _source(module: ModelLike) -> tuple[str, GeneratedModel]:
     mod = as_model(module)
     if not mod.path:
         raise NeweulError("sweep: the module has no file to ship to the workers")
+    raw = read_checked(mod.path, "generated module", MAX_MODULE_BYTES, NeweulError)
     try:
-        return Path(mod.path).read_text(encoding="utf-8"), mod
-    except OSError as exc:
-        raise NeweulError(f"{mod.path}: cannot read the generated module ({exc.strerror})"
-                          ) from None
+        return raw.decode("utf-8"), mod
+    except UnicodeDecodeError:
+        raise NeweulError(f"{mod.path}: the generated module is not UTF-8 text") from None
 
 
 def _check(mod: GeneratedModel, cases: Sequence[Mapping[str, float]], task: Any,
@@ -245,6 +287,11 @@ def _check(mod: GeneratedModel, cases: Sequence[Mapping[str, float]], task: Any,
     bad = [s for s in options.get("stats", ()) if s not in STATS]
     if bad:
         raise NeweulError(f"unknown statistics {', '.join(bad)}; valid: {', '.join(STATS)}")
+    # the one parameter check of every command (simulate -p …): no case runs a model its
+    # description would refuse
+    for k, case in enumerate(cases):
+        p = resolve_parameters(mod, case)
+        check_parameters(mod, p, f"sweep case {k} ({describe_values(list(case), case.values())})")
     return names
 
 
@@ -318,6 +365,9 @@ def sweep(
     source, mod = _source(module)
     cases = [dict(c) for c in cases]
     params = _check(mod, cases, task, options)
+    if chunk_size is not None and (isinstance(chunk_size, bool)
+                                   or not isinstance(chunk_size, int) or chunk_size < 1):
+        raise NeweulError(f"chunk_size must be a whole number ≥ 1, got {chunk_size!r}")
     own = client is None
     cluster = None
     if own:

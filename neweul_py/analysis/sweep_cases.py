@@ -1,13 +1,14 @@
 """The cases of a parameter sweep: value lists and ranges, grids, and CSV files of cases.
 
 A *case* is a mapping parameter name → value; a sweep runs one task per case with the
-parameter vector changed, never the code (DESIGN.md: parameters are numbers).
+parameter vector changed, never the code: parameters are numbers of the generated module.
 """
 
 from __future__ import annotations
 
 import csv
 import itertools
+import math
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -15,10 +16,24 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, NeweulError
+from ..files import read_text
 
-__all__ = ["Case", "grid", "parse_parameter", "parse_values", "product", "read_cases"]
+__all__ = ["MAX_CASES", "MAX_CASES_BYTES", "Case", "grid", "parse_parameter", "parse_values",
+           "product", "read_cases"]
 
 Case = dict[str, float]
+
+#: Largest number of cases of one sweep (a grid, a cases file, or their product;
+#: docs/limits.md): a million simulations is days of work on a workstation.
+MAX_CASES = 1_000_000
+#: Largest cases file read (bytes): a million rows of a few parameters.
+MAX_CASES_BYTES = 64 * 2**20
+
+
+def _check_count(count: int, what: str) -> None:
+    if count > MAX_CASES:
+        raise NeweulError(f"{what}: {count} cases, more than the cap of {MAX_CASES} "
+                          "(docs/limits.md)")
 
 
 def parse_values(text: str, name: str = "") -> np.ndarray:
@@ -37,6 +52,9 @@ def parse_values(text: str, name: str = "") -> np.ndarray:
             k = int(count)
             if k < 1:
                 raise ValueError
+            if k > MAX_CASES:
+                raise NeweulError(f"{what}{text!r}: COUNT {k} is more than the cap of "
+                                  f"{MAX_CASES} cases (docs/limits.md)")
             values = np.linspace(float(start), float(stop), k)
         else:
             values = np.array([float(v) for v in text.split(",") if v.strip()])
@@ -68,6 +86,7 @@ def grid(values: Mapping[str, Sequence[float] | np.ndarray]) -> list[Case]:
     """
     names = list(values)
     lists = [np.asarray(values[n], dtype=float).reshape(-1) for n in names]
+    _check_count(math.prod(len(v) for v in lists), "the grid")
     return [dict(zip(names, map(float, combo), strict=True))
             for combo in itertools.product(*lists)]
 
@@ -78,6 +97,7 @@ def product(a: Sequence[Case], b: Sequence[Case]) -> list[Case]:
         return [dict(c) for c in b]
     if not b:
         return [dict(c) for c in a]
+    _check_count(len(a) * len(b), "the cases times the grid")
     return [{**x, **y} for x in a for y in b]
 
 
@@ -87,15 +107,21 @@ def read_cases(path: str | os.PathLike[str]) -> list[Case]:
     Raises
     ------
     DataError
-        Naming the file, row and column of a value that is not a finite number, or an empty
-        header/body.
+        Naming the file: not a regular UTF-8 file of at most :data:`MAX_CASES_BYTES` bytes
+        (:func:`neweul_py.files.read_text`), more than :data:`MAX_CASES` rows, the row and
+        column of a value that is not a finite number, or an empty header/body.
     """
     path = Path(path)
+    text = read_text(path, "cases file", MAX_CASES_BYTES)
+    lines = text.splitlines()
+    if len(lines) > MAX_CASES + 1 and sum(
+            1 for ln in lines if ln.strip() and not ln.startswith("#")) > MAX_CASES + 1:
+        raise DataError(f"more than the cap of {MAX_CASES} cases (docs/limits.md)",
+                        file=str(path))
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"cannot read the cases: {exc.strerror}", file=str(path)) from None
-    rows = [r for r in csv.reader(text.splitlines()) if r and not r[0].startswith("#")]
+        rows = [r for r in csv.reader(lines) if r and not r[0].startswith("#")]
+    except csv.Error as exc:
+        raise DataError(f"not a CSV table ({exc})", file=str(path)) from None
     if len(rows) < 2:
         raise DataError("expected a header row of parameter names and at least one case",
                         file=str(path))

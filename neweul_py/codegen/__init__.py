@@ -1,4 +1,4 @@
-"""Code generation: symbolic equations → standalone NumPy modules (see DESIGN.md).
+"""Code generation: symbolic equations → standalone NumPy modules (``docs/architecture.md``).
 
 :func:`generate_module` writes a module implementing the generated-module protocol
 (docs/generated-module-protocol.md) atomically and deterministically; :func:`render_module`

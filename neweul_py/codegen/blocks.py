@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from ..equations.jacobians import Derivatives
 from ..errors import GenerationError
 from ..model import (
     ExpressionOutput,
@@ -30,7 +31,6 @@ from ..model import (
     symbol,
 )
 from .cse import Assignment, Block, CseMethod, eliminate, free_symbols, prune
-from .derivatives import jacobian
 from .printer import FastPrinter, NamePool
 
 __all__ = [
@@ -46,6 +46,7 @@ __all__ = [
     "mass_fill",
     "matrix_fill",
     "prologue",
+    "second_derivative_block",
     "sparse",
     "subblock",
     "units",
@@ -110,22 +111,22 @@ def subblock(program: Block, finals: Sequence[sp.Expr]) -> Block:
     return Block(tuple(prune(program.assignments, finals)), tuple(finals))
 
 
-def derivative_block(
-    program: Sequence[Assignment],
-    exprs: Sequence[sp.Expr],
-    wrt: Sequence[sp.Symbol],
-    method: CseMethod,
-    tick: Callable[[float], None] | None = None,
-) -> tuple[Block, sp.ImmutableMatrix]:
-    """Forward-mode Jacobian of ``exprs`` through ``program``, then CSE over the result
-    (``tick``: progress of the derivative, :func:`.derivatives.jacobian`)."""
-    d_inter, J = jacobian(exprs, wrt, program, prefix="_ncg_d",
-                          tick=None if tick is None else (lambda f: tick(0.6 * f)))
-    if tick is not None:
-        tick(0.6)
-    block = eliminate(d_inter, list(J), prefix="_ncg_e", method=method)
-    if tick is not None:
-        tick(1.0)
+def derivative_block(derivatives: Derivatives, method: CseMethod
+                     ) -> tuple[Block, sp.ImmutableMatrix]:
+    """The derivatives that :mod:`neweul_py.equations.jacobians` returns, as one CSE'd block
+    (their intermediates, then the entries of the matrices side by side, row-major) and the
+    joined matrix in the block's symbols."""
+    J = derivatives.joined
+    block = eliminate(derivatives.intermediates, list(J), prefix="_ncg_e", method=method)
+    return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
+
+
+def second_derivative_block(derivatives: Derivatives, method: CseMethod
+                            ) -> tuple[Block, sp.ImmutableMatrix]:
+    """:func:`derivative_block` of directional (second) derivatives, taken through a printed
+    first-derivative block: their common subexpressions get names of their own (``_ncg_t``)."""
+    J = derivatives.joined
+    block = eliminate(derivatives.intermediates, list(J), prefix="_ncg_t", method=method)
     return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
 
 

@@ -85,15 +85,20 @@ def core_declarations() -> str:
     ]) + C_SUPPORT_DECLARATIONS
 
 
-def jacobian_declarations(loss: bool = False) -> str:
+def jacobian_declarations(loss: bool = False, parameters: bool = True) -> str:
     """cffi declarations of the derivative library (``<name>_c_jac.c``); ``loss``: with the
-    hysteretic matrix ``nw_loss_matrix`` of models with loss factors."""
+    hysteretic matrix ``nw_loss_matrix`` of models with loss factors; ``parameters``: with
+    the parameter derivatives (not in the library of a model with elastic bodies, whose
+    wrapper takes them from its NumPy twin)."""
     return "\n".join([
         f"int nw_force_jacobians({YYD_ARGS});",
         f"int nw_mass_matrix_times_derivative({MMTD_ARGS});",
         f"int nw_rhs_jacobian({X_ARGS});",
         f"int nw_output_jacobians({X_ARGS});",
         *([f"int nw_loss_matrix({X_ARGS});"] if loss else []),
+        *([f"int nw_force_parameter_jacobian({YYD_ARGS});",
+           f"int nw_mass_matrix_parameter_derivative({MMTD_ARGS});",
+           f"int nw_output_parameter_jacobian({X_ARGS});"] if parameters else []),
     ]) + "\n"
 
 
@@ -147,7 +152,8 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     The *core* (``<name>_c.c``: ``M``, ``q − k``, ``rhs`` with its linear solve, outputs,
     constraints, default inputs and the Dormand–Prince loop) is what simulations need and
     builds at import; the *derivatives* (``<name>_c_jac.c``: ``force_jacobians``,
-    ``∂(M a)/∂y``, ``rhs_jacobian``, ``output_jacobians``, with private copies of ``M`` and
+    ``∂(M a)/∂y``, ``rhs_jacobian``, ``output_jacobians``, the parameter derivatives
+    ``∂(q−k)/∂p``, ``∂(M a)/∂p``, ``∂out/∂p``, with private copies of ``M`` and
     ``q − k``) are the larger part of the program (chain N = 10: 70 % of it) and are built on
     their first use.
     """
@@ -229,6 +235,14 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
         b = blocks["loss_matrix"]
         jac += c_function(f"nw_loss_matrix({X_ARGS})", [
             *x_prologue(g, b), *c_body(g, b, "out", "the loss matrix", dots)], big(b))
+    # the parameter derivatives (docs/sensitivity.md)
+    for name, args, what in (("force_parameter_jacobian", YYD_ARGS, "∂(q−k)/∂p"),
+                             ("mass_matrix_parameter_derivative", MMTD_ARGS, "∂(M a)/∂p"),
+                             ("output_parameter_jacobian", X_ARGS, "∂out/∂p")):
+        b = blocks[name]
+        head = x_prologue(g, b) if args == X_ARGS else []
+        jac += c_function(f"nw_{name}({args})", [*head, *c_body(g, b, "out", what, dots)],
+                          big(b))
     # nw_rows (the products of the rows) right after the declarations of each file
     core[len(core_head):len(core_head)] = dots.helper()
     jac[len(jac_head):len(jac_head)] = dots.helper()
@@ -250,7 +264,7 @@ def render_c_wrapper(
     runtime = runtime.split("# ---- runtime begins\n", 1)[1]
     template = (here / "c_wrapper_template.py").read_text(encoding="utf-8")
     template = template.split("# ---- template begins\n", 1)[1]
-    cdef = (core_declarations() + jacobian_declarations(bool(sizes.get("loss")))
+    cdef = (core_declarations() + jacobian_declarations(bool(sizes.get("loss")), not data)
             + (BIND_DECLARATION if data else ""))
     core_name, core_sha = c_files["core"].split(" ")
     jac_name, jac_sha = c_files["jac"].split(" ")

@@ -5,14 +5,22 @@ written by :mod:`.c_module`, so a compiled module stays importable on its own (s
 library, NumPy, cffi and a C compiler; no neweul-py, no sympy). It is a normal module as well,
 so that it is linted and tested once.
 
-Safety rules (issue 14): the library is built from the bytes of the C source whose SHA-256 the
-module records (fed to the compiler on stdin, so a file changed after the check is never
-compiled); the SHA-256 of the library bytes is recorded next to it at build time; a library is
-loaded only from bytes whose hash matches that record and whose record names the source hash,
-and it is loaded from a private copy of exactly those bytes (no window in which the checked
-file can be replaced before ``dlopen``). A stale or foreign library is rebuilt. Without cffi or
-a compiler, on a compiler error, or with an unwritable cache :class:`BackendUnavailable`
-tells the module to fall back to its NumPy twin.
+Safety rules: the library is built from the bytes of the C source whose SHA-256 the module
+records (fed to the compiler on stdin, so a file changed after the check is never compiled); the
+SHA-256 of the library bytes is recorded next to it at build time; a library is loaded only from
+bytes whose hash matches that record and whose record names the source hash, and it is loaded
+from a private copy of exactly those bytes (no window in which the checked file can be replaced
+before ``dlopen``). A stale or foreign library is rebuilt.
+
+The cache directory ``__neweul_c__/`` is created 0700 and its files 0600 whatever the umask.
+Before anything is read from it, the directory (a symbolic link is judged by its target) must
+belong to the current user and be writable by no one else — otherwise whoever can write there
+could replace a library and its record together, and :class:`BackendUnavailable` names it and
+the remedy. A library or record that is a symbolic link, not a regular file, owned by another
+user or writable by group or others is never read: it is rebuilt in place. Without cffi or
+a compiler, on a compiler error, or with an unwritable or untrusted cache
+:class:`BackendUnavailable` tells the module to fall back to its NumPy twin (and the API and
+the CLI, asked for the compiled backend, to stop with that message).
 """
 
 # ---- runtime begins
@@ -20,6 +28,7 @@ import hashlib as _hashlib
 import importlib.util as _importlib_util
 import os as _os
 import shutil as _shutil
+import stat as _stat
 import subprocess as _subprocess
 import tempfile as _tempfile
 from pathlib import Path as _Path
@@ -56,17 +65,104 @@ def _compiler():
     return cc
 
 
+def _untrusted(st):
+    """Why a file or directory with status ``st`` could have been written by someone else
+    (``None``: only by the current user)."""
+    if hasattr(_os, "getuid") and st.st_uid != _os.getuid():
+        return f"owned by another user (uid {st.st_uid})"
+    if st.st_mode & (_stat.S_IWGRP | _stat.S_IWOTH):
+        return f"writable by group or others (mode {_stat.S_IMODE(st.st_mode):04o})"
+    return None
+
+
+def private_directory(path):
+    """``path``, created with mode 0700 if missing (whatever the umask), after checking that
+    only the current user can write to it (a symbolic link: its target).
+
+    Raises
+    ------
+    BackendUnavailable
+        It cannot be created, is not a directory, or is owned by another user or writable by
+        group or others (naming the directory and the remedy).
+    """
+    try:
+        _os.mkdir(path, 0o700)
+        _os.chmod(path, 0o700)       # mkdir's mode is narrowed by the umask, never widened
+    except FileExistsError:
+        pass
+    except OSError as exc:
+        raise BackendUnavailable(
+            f"the library cache {path} is not writable ({exc.strerror})") from None
+    try:
+        st = _os.stat(path)
+    except OSError as exc:
+        raise BackendUnavailable(f"cannot use the library cache {path} ({exc.strerror})"
+                                 ) from None
+    if not _stat.S_ISDIR(st.st_mode):
+        raise BackendUnavailable(f"the library cache {path} is not a directory")
+    why = _untrusted(st)
+    if why is not None:
+        raise BackendUnavailable(
+            f"refusing the library cache {path}: it is {why}, so anyone who can write there "
+            "could replace a library; remove it (it is made again, private to you) or make "
+            "it yours with chmod 700")
+    return path
+
+
+def _read_own(path, cap=1 << 30):
+    """The bytes of ``path`` if it is a regular file (not a symbolic link) of the current
+    user that no one else can write, read from the descriptor that was checked; else
+    ``(None, why)``."""
+    flags = (_os.O_RDONLY | getattr(_os, "O_NOFOLLOW", 0) | getattr(_os, "O_NONBLOCK", 0)
+             | getattr(_os, "O_NOCTTY", 0))
+    try:
+        fd = _os.open(path, flags)
+    except FileNotFoundError:
+        return None, "missing"
+    except OSError as exc:
+        if _os.path.islink(path):
+            return None, "a symbolic link"
+        return None, f"unreadable ({exc.strerror})"
+    try:
+        st = _os.fstat(fd)
+        if not _stat.S_ISREG(st.st_mode):
+            return None, "not a regular file"
+        why = _untrusted(st)
+        if why is not None:
+            return None, why
+        if st.st_size > cap:
+            return None, f"larger than {cap} bytes"
+        chunks = []
+        while True:
+            chunk = _os.read(fd, 1 << 20)
+            if not chunk:
+                return b"".join(chunks), None
+            chunks.append(chunk)
+    except OSError as exc:
+        return None, f"unreadable ({exc.strerror})"
+    finally:
+        _os.close(fd)
+
+
+def _private_file(directory, suffix):
+    """A new file of mode 0600 in ``directory`` (``mkstemp``), its descriptor and path."""
+    fd, tmp = _tempfile.mkstemp(suffix=suffix, dir=directory)
+    _os.fchmod(fd, 0o600)
+    return fd, tmp
+
+
 def _build(source, lib_path, record, source_sha):
-    """Compile ``source`` (bytes) to ``lib_path``; record the library's SHA-256."""
+    """Compile ``source`` (bytes) to ``lib_path`` (mode 0600, in a private directory);
+    record the library's SHA-256."""
     cc = _compiler()
     try:
-        lib_path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = _tempfile.mkstemp(suffix=".so.tmp", dir=lib_path.parent)
+        fd, tmp = _private_file(lib_path.parent, ".so.tmp")
         _os.close(fd)
     except OSError as exc:
         raise BackendUnavailable(
             f"the library cache {lib_path.parent} is not writable ({exc.strerror})"
         ) from None
+    rec_tmp = None
     try:
         try:
             proc = _subprocess.run([cc, *C_FLAGS, "-x", "c", "-", "-o", tmp, "-lm"],
@@ -77,9 +173,12 @@ def _build(source, lib_path, record, source_sha):
             lines = proc.stderr.decode(errors="replace").strip().splitlines()
             lines = [ln for ln in lines if "error" in ln] or lines
             raise BackendUnavailable(f"the C compiler {cc} failed: " + " | ".join(lines[:5]))
-        data = _Path(tmp).read_bytes()
-        rec_tmp = f"{tmp}.sha256"
-        with open(rec_tmp, "w", encoding="ascii") as fh:
+        _os.chmod(tmp, 0o600)        # the linker makes its output 0777 less the umask
+        data, why = _read_own(tmp)
+        if data is None:
+            raise BackendUnavailable(f"the library just built in {lib_path.parent} is {why}")
+        fd, rec_tmp = _private_file(lib_path.parent, ".sha256.tmp")
+        with _os.fdopen(fd, "w", encoding="ascii") as fh:
             fh.write(f"{_sha256(data)} {source_sha}\n")
             fh.flush()
             _os.fsync(fh.fileno())
@@ -91,21 +190,28 @@ def _build(source, lib_path, record, source_sha):
             f"cannot write the library to {lib_path.parent} ({exc.strerror})"
         ) from None
     finally:
-        for leftover in (tmp, f"{tmp}.sha256"):
-            if _os.path.exists(leftover):
+        for leftover in (tmp, rec_tmp):
+            if leftover is not None and _os.path.lexists(leftover):
                 _os.unlink(leftover)
 
 
 def _verified(lib_path, record, source_sha):
-    """The library bytes if they match their build record for this source, else ``None``."""
+    """``(bytes, "")`` of the library if it and its record are this user's own files and
+    match for this source, else ``(None, why)`` (``why`` empty when there is no library)."""
+    text, why_record = _read_own(record, 4096)
+    data, why_lib = _read_own(lib_path)
+    if why_lib == "missing" and why_record == "missing":
+        return None, ""
+    for name, why in (("library", why_lib), ("build record", why_record)):
+        if why is not None:
+            return None, f"the cached {name} is {why}"
     try:
-        so_sha, src_sha = record.read_text(encoding="ascii").split()
-        data = lib_path.read_bytes()
-    except (OSError, ValueError):
-        return None
+        so_sha, src_sha = text.decode("ascii").split()
+    except (UnicodeDecodeError, ValueError):
+        return None, "the build record is malformed"
     if src_sha != source_sha or _sha256(data) != so_sha:
-        return None
-    return data
+        return None, "the cached library did not match its build record (stale or foreign)"
+    return data, ""
 
 
 def _dlopen(ffi, data, directory):
@@ -148,7 +254,8 @@ def compiled_library(c_path, source_sha, cdef, cache, ffi=None):
     Raises
     ------
     BackendUnavailable
-        No cffi, no compiler, a compiler error, an unwritable cache, a changed source.
+        No cffi, no compiler, a compiler error, an unwritable or untrusted cache
+        (:func:`private_directory`), a changed source.
     """
     try:
         import cffi
@@ -162,14 +269,14 @@ def compiled_library(c_path, source_sha, cdef, cache, ffi=None):
     if _sha256(source) != source_sha:
         raise BackendUnavailable(f"{c_path} does not match this module (edited? regenerate)")
     stem = f"{c_path.stem}_{source_sha[:16]}"
+    cache = _Path(private_directory(cache))
     lib_path, record = cache / f"{stem}.so", cache / f"{stem}.sha256"
-    data = _verified(lib_path, record, source_sha)
+    data, why = _verified(lib_path, record, source_sha)
     note = ""
     if data is None:
         note = "built"
-        if lib_path.exists() or record.exists():
-            note = (f"the cached library {lib_path} did not match its build record (stale or "
-                    "foreign); it was not loaded but rebuilt from the source")
+        if why:
+            note = (f"{why} ({lib_path}); it was not loaded but rebuilt from the source")
         data = _build(source, lib_path, record, source_sha)
     if ffi is None:
         ffi = cffi.FFI()

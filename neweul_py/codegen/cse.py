@@ -1,12 +1,12 @@
 """Deterministic common-subexpression elimination over a block of generated code.
 
-A block is what one generated function computes: ordered *intermediate* assignments
-``z_k = e_k`` (from the recursive form of the equations, or from the derivatives of
-:mod:`.derivatives`) followed by final expressions. :func:`eliminate` runs ``sympy.cse`` over
-all of them at once and schedules the resulting assignments so that each comes after what it
-uses — intermediates keep their order, common subexpressions are placed just before their first
-use. Only intermediates that the final expressions need (directly or through other
-intermediates) are kept.
+A block is what one generated function computes: ordered *intermediate* assignments ``z_k =
+e_k`` (from the recursive form of the equations, or from the derivatives of
+:mod:`neweul_py.equations.jacobians`) followed by final expressions. :func:`eliminate` runs
+``sympy.cse`` over all of them at once and schedules the resulting assignments so that each
+comes after what it uses — intermediates keep their order, common subexpressions are placed
+just before their first use. Only intermediates that the final expressions need (directly or
+through other intermediates) are kept.
 
 Determinism: ``sympy.cse`` is called with ``order='none'`` and a numbered symbol generator; the
 arguments of sympy's ``Add``/``Mul`` are stored in a hash-independent canonical order, and this
@@ -24,6 +24,7 @@ import sympy as sp
 
 from ..model import as_expr
 from ..model.canonical import mul
+from ..model.program import Assignment, free_symbols, numbered_symbols, prune
 
 #: ``"full"``: ``sympy.cse`` (tree CSE plus its search for common argument subsets of Add/Mul,
 #: best for large closed-form expressions); ``"tree"``: only repeated identical subtrees
@@ -31,10 +32,8 @@ from ..model.canonical import mul
 #: intermediates); ``"none"``: no elimination.
 CseMethod = Literal["full", "tree", "none"]
 
-__all__ = ["Block", "CseMethod", "eliminate", "free_symbols", "hoist_constant_factors",
-           "numbered_symbols", "prune", "tree_cse"]
-
-Assignment = tuple[sp.Symbol, sp.Expr]
+__all__ = ["Assignment", "Block", "CseMethod", "eliminate", "free_symbols",
+           "hoist_constant_factors", "numbered_symbols", "prune", "tree_cse"]
 
 
 @dataclass(frozen=True)
@@ -43,68 +42,6 @@ class Block:
 
     assignments: tuple[Assignment, ...]
     finals: tuple[sp.Expr, ...]
-
-
-def prune(intermediates: Sequence[Assignment], finals: Sequence[sp.Expr]) -> list[Assignment]:
-    """The intermediates that ``finals`` need, directly or through other intermediates, in order."""
-    # every free symbol is collected (not only the intermediates': only theirs are looked up)
-    needed: set[sp.Symbol] = set()
-    for e in finals:
-        needed |= free_symbols(e)
-    kept: list[Assignment] = []
-    for sym, expr in reversed(intermediates):
-        if sym in needed:
-            kept.append((sym, expr))
-            needed |= free_symbols(expr)
-    kept.reverse()
-    return kept
-
-
-#: ``Basic.free_symbols`` (the union over the arguments: Add, Mul, Pow, numbers …) and
-#: ``Symbol.free_symbols`` (``{self}``); other classes (functions, Piecewise, Derivative …)
-#: define their own.
-_UNION_OF_ARGS = sp.Basic.free_symbols
-_ITSELF = sp.Symbol.free_symbols
-
-
-def _free_walk(expr: sp.Basic) -> frozenset[sp.Symbol]:
-    """``expr.free_symbols`` in one walk over the tree (sympy's property builds a set at
-    every node of it), asking each class with a rule of its own for its answer."""
-    out: set[sp.Basic] = set()
-    stack = [expr]
-    while stack:
-        e = stack.pop()
-        rule = type(e).free_symbols
-        if rule is _UNION_OF_ARGS:
-            stack.extend(e.args)
-        elif rule is _ITSELF:
-            out.add(e)
-        else:
-            out |= e.free_symbols
-    return frozenset(out)
-
-
-#: The free symbols of the expressions asked about, by identity: ``id(expr) → (expr,
-#: symbols)`` (an entry holds its expression, so its id is not reused while it lives). Keyed
-#: by identity, not equality: most expressions asked about are new (derivative and CSE
-#: programs), and hashing them — sympy's ``__hash__`` hashes every new node of a tree —
-#: cost more than the walk. Emptied when full.
-_FREE: dict[int, tuple[sp.Basic, frozenset[sp.Symbol]]] = {}
-_FREE_SIZE = 1 << 17
-
-
-def free_symbols(expr: sp.Basic) -> frozenset[sp.Symbol]:
-    """Free symbols (memoized: the same expressions are scanned by several functions)."""
-    hit = _FREE.get(id(expr))
-    if hit is not None and hit[0] is expr:
-        return hit[1]
-    if not isinstance(expr, sp.Basic):
-        return frozenset()
-    symbols = _free_walk(expr)
-    if len(_FREE) >= _FREE_SIZE:
-        _FREE.clear()
-    _FREE[id(expr)] = (expr, symbols)
-    return symbols
 
 
 def _rebuilt(expr: sp.Basic, args: tuple[sp.Basic, ...]) -> sp.Basic:
@@ -161,23 +98,6 @@ def tree_cse(
 
     reduced = [rebuild(e) for e in exprs]
     return replacements, reduced
-
-
-#: The symbols ``prefix0, prefix1, …`` made so far, per prefix (each block numbers its own
-#: from 0, so the same names recur in every function of a module and in every module).
-_NUMBERED: dict[str, list[sp.Symbol]] = {}
-
-
-def numbered_symbols(prefix: str) -> Iterator[sp.Symbol]:
-    """``Symbol(prefix0), Symbol(prefix1), …``: each made once per process and reused (equal
-    to a new ``Symbol`` of that name; making them was ~10 % of generating a module)."""
-    made = _NUMBERED.setdefault(prefix, [])
-    k = 0
-    while True:
-        if k == len(made):
-            made.append(sp.Symbol(f"{prefix}{k}"))
-        yield made[k]
-        k += 1
 
 
 def eliminate(

@@ -31,10 +31,13 @@ source, so regeneration is byte-identical.
 
 from __future__ import annotations
 
+import ast
 import dataclasses
+import functools
 import hashlib
 import inspect
 import pprint
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -99,7 +102,8 @@ def data_file_name(model: str, sha256: str) -> str:
 _RIGID_USED = ("rhs_parts", "mass_matrix", "force_vector", "force_jacobians",
                "mass_matrix_times_derivative", "outputs", "output_jacobians", "energy",
                "constraints", "constraint_jacobian", "constraint_time_derivative",
-               "constraint_gamma")
+               "constraint_gamma", "force_parameter_jacobian",
+               "mass_matrix_parameter_derivative", "output_parameter_jacobian")
 
 
 def _entry(splice: Any, first: int, offset: int) -> dict[str, Any]:
@@ -241,6 +245,26 @@ _NODE_POSITIONS = (
 )
 
 
+@functools.cache
+def _module_functions(path: str) -> dict[str, tuple[str, ...]]:
+    """Source lines of each top-level function of a module file, decorators included."""
+    text = Path(path).read_text(encoding="utf-8")
+    lines = text.splitlines()
+    out = {}
+    for node in ast.parse(text).body:
+        if isinstance(node, ast.FunctionDef):
+            start = min([node.lineno] + [d.lineno for d in node.decorator_list])
+            out[node.name] = tuple(lines[start - 1:node.end_lineno])
+    return out
+
+
+def kernel_source(fn: Any) -> tuple[str, ...]:
+    """The source lines of a top-level kernel function, as ``inspect.getsource`` gives them
+    (one parse of its module per process instead of tokenizing per function: 68 functions
+    took 0.05 s CPU, a tenth of generating an elastic module)."""
+    return _module_functions(inspect.getsourcefile(fn))[fn.__name__]
+
+
 def symbolic_part(equations: Any) -> Any:
     """The equations of the symbolic part of a model with elastic bodies: the active
     (non-elastic) coordinates, and as hidden outputs (after the model's own) the frame
@@ -299,7 +323,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     symbolic = symbolic_part(equations)
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
                          schedules=el.schedules, schedule_jacobians=el.schedule_jacobians,
-                         rhs_parts=len(names), progress=progress)
+                         schedule_parameter_jacobian=el.schedule_parameter_jacobian,
+                         rhs_parts=len(names), directional=False, progress=progress)
 
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
@@ -329,16 +354,17 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                *_literal("_DATA_OWNERS", _owners(el)),
                *_literal("_ELASTIC", skeleton))
 
-    functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs")}
+    functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs",
+                                                  "default_inputs_parameter_jacobian")}
     used = (*_RIGID_USED, *(("loss_matrix",) if "loss_matrix" in rigid.functions else ()))
     functions.update({f"_rigid_{k}": rigid.functions[k] for k in used})
     if el.schedules:
-        functions["_rigid_schedule"] = rigid.functions["schedule"]
-        functions["_rigid_schedule_jacobians"] = rigid.functions["schedule_jacobians"]
+        for name in ("schedule", "schedule_jacobians", "schedule_parameter_jacobian"):
+            functions[f"_rigid_{name}"] = rigid.functions[name]
     functions["ElasticDataError"] = tuple(
         inspect.getsource(ElasticDataError).rstrip("\n").splitlines())
     for fn in (*DATA_FUNCTIONS, *KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
-        functions[fn.__name__] = tuple(inspect.getsource(fn).rstrip("\n").splitlines())
+        functions[fn.__name__] = kernel_source(fn)
     rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in used)
     functions["_DATA"] = (
         "_DATA = ffrf_load_data(os.path.dirname(os.path.abspath(__file__)), _DATA_FILE,",
@@ -351,7 +377,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         "                    default_inputs,",
         f"                    {'_rigid_schedule' if el.schedules else 'None'},",
         f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'},",
-        f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r})")
+        f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r},",
+        f"                    {'_rigid_schedule_parameter_jacobian' if el.schedules else 'None'})")
     for name, fn in PROTOCOL.items():
         functions[name] = _wrapper(name, fn)
     if "loss_matrix" in rigid.functions or any(

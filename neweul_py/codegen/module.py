@@ -1,7 +1,7 @@
 """Rendering and writing a generated module (docs/generated-module-protocol.md).
 
 :func:`render_files` picks the composition — the plain module of :mod:`.writer`, or with
-elastic bodies the composed module of :mod:`.elastic` and its data file — and
+elastic bodies the composed module of :mod:`~neweul_py.codegen.elastic` and its data file — and
 :func:`generate_module` writes them atomically: rendered completely first (so an invalid model
 raises before anything touches the disk), each written to a temporary file beside the target,
 flushed, ``fsync``-ed and moved over the target with :func:`os.replace`; the data file first,
@@ -34,6 +34,7 @@ class GeneratedFiles:
 
 
 def render_files(equations: Any, source_hash: str, *, cse: bool = True,
+                 sensitivities: bool = False,
                  progress: StagedProgress = None) -> GeneratedFiles:
     """The source text of the generated module and its data file (``None`` without elastic
     bodies).
@@ -46,6 +47,10 @@ def render_files(equations: Any, source_hash: str, *, cse: bool = True,
         SHA-256 (hex) of the description the equations came from; stored as ``SOURCE_HASH``.
     cse
         Eliminate common subexpressions (default). Off only for debugging.
+    sensitivities
+        Also the directional (second) derivatives of the parameter sensitivities of linear
+        models (docs/sensitivity.md §1; rigid models: about as long again as the rest of the
+        module). The first parameter derivatives are in every module.
     progress
         ``progress("code generation", done, total)`` after each block
         (:mod:`neweul_py.progress`).
@@ -63,11 +68,11 @@ def render_files(equations: Any, source_hash: str, *, cse: bool = True,
         parts, data = elastic_module_parts(equations, source_hash, cse=cse, progress=progress)
         return GeneratedFiles(compose(parts), data)
     return GeneratedFiles(compose(module_parts(equations, source_hash, cse=cse,
-                                               progress=progress)))
+                                               directional=sensitivities, progress=progress)))
 
 
 def render_module(equations: Any, source_hash: str, *, cse: bool = True,
-                  progress: StagedProgress = None) -> str:
+                  sensitivities: bool = False, progress: StagedProgress = None) -> str:
     """The complete source text of the generated module (:func:`render_files`; a module
     with elastic bodies needs its data file too, which :func:`generate_module` writes).
 
@@ -76,7 +81,8 @@ def render_module(equations: Any, source_hash: str, *, cse: bool = True,
     GenerationError
         When the equations cannot be turned into code.
     """
-    return render_files(equations, source_hash, cse=cse, progress=progress).text
+    return render_files(equations, source_hash, cse=cse, sensitivities=sensitivities,
+                        progress=progress).text
 
 
 def write_files(files: GeneratedFiles, path: str | os.PathLike[str]) -> Path:
@@ -111,10 +117,11 @@ def _names(module: Path, data_name: str) -> bool:
 
 def generate_module(
     equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True,
-    progress: StagedProgress = None,
+    sensitivities: bool = False, progress: StagedProgress = None,
 ) -> Path:
     """Render the module for ``equations`` and write it atomically to ``path`` (with elastic
-    bodies also its data file, next to it: :func:`write_files`).
+    bodies also its data file, next to it: :func:`write_files`; ``sensitivities``: as
+    :func:`render_files`).
 
     Returns
     -------
@@ -126,4 +133,5 @@ def generate_module(
     >>> generate_module(newton_euler(load_description("examples/pendulum.yaml")),
     ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
     """
-    return write_files(render_files(equations, source_hash, cse=cse, progress=progress), path)
+    return write_files(render_files(equations, source_hash, cse=cse,
+                                    sensitivities=sensitivities, progress=progress), path)

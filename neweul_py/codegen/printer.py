@@ -65,8 +65,9 @@ RESERVED: frozenset[str] = frozenset(
      "constraint_gamma", "constraint_reaction_jacobian", "schedule", "schedule_jacobians",
      "Sy", "Su",
      "PROTOCOL_VERSION", "MODEL_NAME", "DESCRIPTION", "COORDINATES", "COORDINATE_UNITS",
-     "INITIAL_STATE", "PARAMETERS", "INPUTS", "INPUT_RATES", "INPUT_UNITS", "OUTPUTS",
-     "OUTPUT_UNITS", "CONSTRAINTS", "ENERGY", "STATE_SIZE", "SOURCE_HASH", "MASS_MATRIX_SYMMETRIC"}
+     "INITIAL_STATE", "PARAMETERS", "PARAMETER_RANGES", "INPUTS", "INPUT_RATES", "INPUT_UNITS",
+     "OUTPUTS", "OUTPUT_UNITS", "CONSTRAINTS", "ENERGY", "STATE_SIZE", "SOURCE_HASH",
+     "MASS_MATRIX_SYMMETRIC"}
     | set(dir(builtins))
 )
 

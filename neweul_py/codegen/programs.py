@@ -18,13 +18,25 @@ from typing import Any
 
 import sympy as sp
 
+from ..equations.jacobians import (
+    Direction,
+    Program,
+    directional,
+    force_jacobians,
+    force_parameter_jacobian,
+    input_parameter_jacobian,
+    mass_matrix_parameter_derivative,
+    mass_matrix_times_derivative,
+    output_jacobians,
+    output_parameter_jacobian,
+)
 from ..model import as_expr
-from ..model.canonical import add, mul
-from .blocks import derivative_block, mass_entries
+from .blocks import derivative_block, mass_entries, second_derivative_block
 from .cse import Assignment, Block, CseMethod, eliminate, hoist_constant_factors
 
-__all__ = ["DynamicsPrograms", "OutputPrograms", "dynamics_programs", "loss_program",
-           "mass_factor_values", "output_programs", "rhs_parts_program"]
+__all__ = ["DirectionalPrograms", "DynamicsPrograms", "OutputPrograms", "ParameterPrograms",
+           "directional_programs", "dynamics_programs", "loss_program", "mass_factor_values",
+           "mass_vector_symbols", "output_programs", "parameter_programs", "rhs_parts_program"]
 
 #: Recently computed programs: (equations, key, value), newest last.
 _RECENT: list[tuple[Any, tuple[Any, ...], Any]] = []
@@ -90,8 +102,7 @@ def dynamics_programs(eq: Any, inter: Sequence[Assignment], method: CseMethod,
                       d_method: CseMethod) -> DynamicsPrograms:
     """The :class:`DynamicsPrograms` of ``eq`` (``inter``: its intermediates as expressions)."""
     def compute() -> DynamicsPrograms:
-        y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
-        n = len(y)
+        n = len(eq.coordinates)
         M = sp.ImmutableMatrix(eq.mass_matrix) if n else sp.ImmutableMatrix.zeros(0, 0)
         fvec = sp.ImmutableMatrix(eq.force_vector) if n else sp.ImmutableMatrix.zeros(0, 1)
         m_values, m_where = mass_entries(M)
@@ -104,10 +115,11 @@ def dynamics_programs(eq: Any, inter: Sequence[Assignment], method: CseMethod,
             for i, j in places:
                 m_full[i, j] = value
         f_red = program.finals[nm:nm + n]
-        fj = derivative_block(program.assignments, f_red, (*y, *yd, *u), d_method)
+        fj = derivative_block(force_jacobians(eq, Program(program.assignments, f_red)),
+                              d_method)
         a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
-        ma = [add(*(mul(m_full[i, j], a_syms[j]) for j in range(n))) for i in range(n)]
-        mj = derivative_block(program.assignments, ma, y, d_method)
+        mj = derivative_block(mass_matrix_times_derivative(
+            eq, a_syms, Program(program.assignments, tuple(m_full))), d_method)
         return DynamicsPrograms(program, m_where, m_full, fj, mj)
 
     return _remembered(eq, ("dynamics", method, d_method), compute)
@@ -125,10 +137,9 @@ def output_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatr
                     method: CseMethod, d_method: CseMethod) -> OutputPrograms:
     """The :class:`OutputPrograms` of ``eq`` for the outputs ``outs``."""
     def compute() -> OutputPrograms:
-        y, yd, u = tuple(eq.coordinates), tuple(eq.velocities), tuple(eq.inputs)
         prog = eliminate(inter, list(outs), prefix="_ncg_o", method=method)
-        return OutputPrograms(prog, derivative_block(prog.assignments, prog.finals,
-                                                     (*y, *yd, *u), d_method))
+        return OutputPrograms(prog, derivative_block(
+            output_jacobians(eq, Program(prog.assignments, prog.finals)), d_method))
 
     return _remembered(eq, ("outputs", method, d_method, tuple(outs)), compute)
 
@@ -140,8 +151,8 @@ def rhs_parts_program(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMa
     (:func:`mass_factor_values`) or, in closed form, M's unique entries; returned with the
     positions of those entries (:func:`.blocks.mass_entries`; ``None`` in the factored form).
     The splice of elastic bodies needs all three at one state in every ``rhs`` call
-    (their frame kinematics are hidden outputs, :mod:`.elastic`): one program computes the
-    subexpressions they share (rotations, Jacobian rows, velocities) once."""
+    (their frame kinematics are hidden outputs, :mod:`~neweul_py.codegen.elastic`): one program
+    computes the subexpressions they share (rotations, Jacobian rows, velocities) once."""
     def compute() -> tuple[Block, list[list[tuple[int, int]]] | None]:
         n = len(eq.coordinates)
         fvec = sp.ImmutableMatrix(eq.force_vector) if n else sp.ImmutableMatrix.zeros(0, 1)
@@ -171,3 +182,87 @@ def loss_program(eq: Any, inter: Sequence[Assignment], method: CseMethod) -> Blo
         return eliminate(inter, [as_expr(e) for e in G], prefix="_ncg_l", method=method)
 
     return _remembered(eq, ("loss", method), compute)
+
+
+def mass_vector_symbols(n: int) -> tuple[sp.Symbol, ...]:
+    """The symbols ``a`` of ``∂(M a)/∂y`` and ``∂(M a)/∂p`` (the generated functions'
+    argument): ``Symbol(f"_ncg_a{i}", real=True)``, i < n."""
+    return tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
+
+
+@dataclass(frozen=True)
+class ParameterPrograms:
+    """The parameter Jacobians of one equations object (docs/sensitivity.md), each
+    ``(block, J)`` through the programs of :func:`dynamics_programs` and
+    :func:`output_programs`: ``inputs`` ``∂u₀/∂p`` (nu × np), ``force`` ``∂(q−k)/∂p``
+    (n × np), ``mass`` ``∂(M a)/∂p`` (n × np, in :func:`mass_vector_symbols`) and
+    ``outputs`` ``∂out/∂p`` (ny × np)."""
+
+    inputs: tuple[Block, sp.ImmutableMatrix]
+    force: tuple[Block, sp.ImmutableMatrix]
+    mass: tuple[Block, sp.ImmutableMatrix]
+    outputs: tuple[Block, sp.ImmutableMatrix]
+
+
+def parameter_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatrix,
+                       method: CseMethod, d_method: CseMethod) -> ParameterPrograms:
+    """The :class:`ParameterPrograms` of ``eq`` for the outputs ``outs``."""
+    def compute() -> ParameterPrograms:
+        n = len(eq.coordinates)
+        dp = dynamics_programs(eq, inter, method, d_method)
+        op = output_programs(eq, inter, outs, method, d_method)
+        f_red = dp.parts(n)[1]
+        return ParameterPrograms(
+            derivative_block(input_parameter_jacobian(eq), method),
+            derivative_block(force_parameter_jacobian(
+                eq, Program(dp.program.assignments, f_red)), d_method),
+            derivative_block(mass_matrix_parameter_derivative(
+                eq, mass_vector_symbols(n), Program(dp.program.assignments, tuple(dp.m_full))),
+                d_method),
+            derivative_block(output_parameter_jacobian(
+                eq, Program(op.program.assignments, op.program.finals)), d_method))
+
+    return _remembered(eq, ("parameters", method, d_method, tuple(outs)), compute)
+
+
+@dataclass(frozen=True)
+class DirectionalPrograms:
+    """Directional derivatives along :attr:`direction` ``(δy, δẏ, δp, δu)``, each
+    ``(block, J)``: of the force Jacobians ``[∂/∂y, ∂/∂ẏ, ∂/∂u](q−k)`` (n × (2n + nu)), of
+    ``M`` (n × n), of ``∂(M a)/∂y`` (n × n), of the output Jacobians (ny × (2n + nu)) and of
+    the hysteretic matrix ``G`` (n × n, ``None`` without loss factors)."""
+
+    direction: Direction
+    force_jacobians: tuple[Block, sp.ImmutableMatrix]
+    mass_matrix: tuple[Block, sp.ImmutableMatrix]
+    mass_matrix_times_derivative: tuple[Block, sp.ImmutableMatrix]
+    output_jacobians: tuple[Block, sp.ImmutableMatrix]
+    loss_matrix: tuple[Block, sp.ImmutableMatrix] | None
+
+
+def directional_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableMatrix,
+                         method: CseMethod, d_method: CseMethod) -> DirectionalPrograms:
+    """The :class:`DirectionalPrograms` of ``eq``: directional derivatives
+    (:func:`~neweul_py.equations.jacobians.directional`) through the printed (CSE'd) first
+    derivatives."""
+    def compute() -> DirectionalPrograms:
+        n, nu = len(eq.coordinates), len(eq.inputs)
+        d = Direction.of(eq)
+        dp = dynamics_programs(eq, inter, method, d_method)
+        op = output_programs(eq, inter, outs, method, d_method)
+
+        def along(block: Block, shape: tuple[int, int]) -> tuple[Block, sp.ImmutableMatrix]:
+            return second_derivative_block(
+                directional(eq, d, Program(block.assignments, tuple(block.finals)), shape),
+                d_method)
+
+        loss = loss_program(eq, inter, method)
+        return DirectionalPrograms(
+            d,
+            along(dp.force_jacobians[0], (n, 2 * n + nu)),
+            along(Block(dp.program.assignments, tuple(dp.m_full)), (n, n)),
+            along(dp.mass_derivative[0], (n, n)),
+            along(op.jacobians[0], (outs.shape[0], 2 * n + nu)),
+            None if loss is None else along(loss, (n, n)))
+
+    return _remembered(eq, ("directional", method, d_method, tuple(outs)), compute)

@@ -4,10 +4,11 @@ A generated module is *composed* of named parts (:class:`ModuleParts`): the docs
 imports, the protocol constants and one source block per function. :func:`module_parts`
 renders the symbolic equations into such parts (every function straight-line code from
 :func:`.cse.eliminate`; scalars are Python floats with ``_math`` functions, arrays are
-assembled once with NumPy; Jacobians from symbolic derivatives,
-:func:`.derivatives.jacobian`, never finite differences), and :func:`compose` joins parts into
-the module text. Writers of richer modules (elastic bodies, :mod:`.elastic`) select,
-rename and add parts — they never edit rendered text.
+assembled once with NumPy; Jacobians are the symbolic derivatives that
+:mod:`neweul_py.equations.jacobians` takes through the CSE'd program, never finite
+differences), and :func:`compose` joins parts into the module text. Writers of richer modules
+(elastic bodies, :mod:`~neweul_py.codegen.elastic`) select, rename and add parts — they never
+edit rendered text.
 
 The text depends only on the equations and the source hash — no timestamps, no hash-ordered
 iteration — so regeneration is byte-identical (docs/generated-module-protocol.md).
@@ -56,12 +57,14 @@ from .packing import (
     packed_rhs,
     solver_definition,
 )
+from .parameters import parameter_functions
 from .printer import NamePool
 from .programs import (
     dynamics_programs,
     loss_program,
     mass_factor_values,
     output_programs,
+    parameter_programs,
     rhs_parts_program,
 )
 
@@ -272,7 +275,7 @@ def _rhs_parts(ctx: Context, eq: Any, outs: sp.ImmutableMatrix, method: CseMetho
     from one CSE'd program (:func:`.programs.rhs_parts_program`), and the number of values
     it packs. The splice of elastic bodies calls it once per ``rhs`` instead of
     ``outputs``, ``mass_matrix`` and ``force_vector`` (with ``outs`` the hidden frame
-    kinematics, :mod:`.elastic`)."""
+    kinematics, :mod:`~neweul_py.codegen.elastic`)."""
     y, yd, p, u = ctx.y, ctx.yd, ctx.p, ctx.u
     n, ny = len(y), outs.shape[0]
     prog, where = rhs_parts_program(eq, ctx.intermediates, outs, method)
@@ -353,6 +356,18 @@ def _body_list(system: System) -> str:
     return "[" + "".join(rows) + ("\n]" if rows else "]")
 
 
+def _parameter_ranges(system: System) -> dict[str, str]:
+    """``PARAMETER_RANGES`` — ``name: (minimum, maximum)`` of the parameters with an
+    admissible range (:attr:`~neweul_py.model.System.parameter_ranges`), in the order of
+    ``PARAMETERS`` — or nothing for a model without any (its module stays as it was)."""
+    ranges = system.parameter_ranges
+    if not ranges:
+        return {}
+    rows = [f"\n    {p.name!r}: {tuple(ranges[p.name])!r}," for p in system.parameters
+            if p.name in ranges]
+    return {"PARAMETER_RANGES": "{" + "".join(rows) + "\n}"}
+
+
 def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
                ) -> dict[str, str]:
     system: System = eq.system
@@ -374,6 +389,7 @@ def _constants(eq: Any, source_hash: str, names_out: list[str], symmetric: bool
         "INITIAL_STATE": repr(x0),
         "PARAMETERS": "{" + "".join(f"\n    {k!r}: {v!r}," for k, v in pdef.items())
         + ("\n}" if pdef else "}"),
+        **_parameter_ranges(system),
         "INPUTS": repr([str(s) for s in u]),
         "INPUT_RATES": repr(input_rates(system)),
         "INPUT_UNITS": repr([input_units(system).get(str(s), "") for s in u]),
@@ -409,9 +425,12 @@ def _header(system: System) -> tuple[str, ...]:
 
 def _schedule_functions(ctx: Context, schedules: Sequence[sp.Expr],
                         jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None,
-                        method: CseMethod, prefix: str) -> dict[str, tuple[str, ...]]:
-    """``schedule(t, y, p, u)`` (the values ``σ`` of the parametric bodies) and
-    ``schedule_jacobians(t, y, p, u)`` (``∂σ/∂y``, ``∂σ/∂u``, from ``equations/``)."""
+                        method: CseMethod, prefix: str,
+                        parameter_jacobian: sp.ImmutableMatrix | None = None
+                        ) -> dict[str, tuple[str, ...]]:
+    """``schedule(t, y, p, u)`` (the values ``σ`` of the parametric bodies),
+    ``schedule_jacobians(t, y, p, u)`` (``∂σ/∂y``, ``∂σ/∂u``, from ``equations/``) and
+    ``schedule_parameter_jacobian(t, y, p, u)`` (``∂σ/∂p``)."""
     y, p, u = ctx.y, ctx.p, ctx.u
     src = [(y, _Y_SRC), (p, _P_SRC)]
     allowed = (*y, *p, *u, time)
@@ -436,13 +455,25 @@ def _schedule_functions(ctx: Context, schedules: Sequence[sp.Expr],
         f"{prefix}schedule_jacobians", "t, y, p, u=None",
         "``∂σ/∂y`` (k, n) and ``∂σ/∂u`` (k, nu) of the schedules, analytic.",
         [*body, "return Sy, Su"])
+    Jp = (parameter_jacobian if parameter_jacobian is not None
+          else sp.zeros(k, len(p)))
+    b = checked(ctx, eliminate((), [as_expr(e) for e in Jp], method=method), allowed,
+                "the schedules' parameter Jacobian")
+    fp = {(i // len(p), i % len(p)): e for i, e in enumerate(b.finals) if e != 0}
+    body = (prologue(ctx, b, src) + inputs_prologue(ctx, b) + assignments(ctx, b)
+            + matrix_fill(ctx, "Sp", (k, len(p)), fp))
+    out["schedule_parameter_jacobian"] = _function(
+        f"{prefix}schedule_parameter_jacobian", "t, y, p, u=None",
+        "``∂σ/∂p`` (k, np) of the schedules, analytic.", [*body, "return Sp"])
     return out
 
 
 def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: str = "",
                  allow_empty: bool = False, schedules: Sequence[sp.Expr] = (),
                  schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None,
-                 rhs_parts: int | None = None, progress: StagedProgress = None) -> ModuleParts:
+                 rhs_parts: int | None = None, directional: bool = False,
+                 schedule_parameter_jacobian: sp.ImmutableMatrix | None = None,
+                 progress: StagedProgress = None) -> ModuleParts:
     """The parts of the generated module of (the symbolic part of) ``equations``.
 
     Parameters
@@ -460,14 +491,18 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
         parts stay keyed by the protocol names).
     allow_empty
         Accept equations without coordinates (the symbolic part of an elastic-only model).
-    schedules, schedule_jacobians
+    schedules, schedule_jacobians, schedule_parameter_jacobian
         Scheduling expressions of parametric elastic bodies (parameters, inputs, ``t``,
-        coordinates) and their Jacobians: emitted as ``{prefix}schedule(t, y, p, u)`` and
-        ``{prefix}schedule_jacobians(t, y, p, u)``.
+        coordinates) and their Jacobians: emitted as ``{prefix}schedule(t, y, p, u)``,
+        ``{prefix}schedule_jacobians(t, y, p, u)`` and
+        ``{prefix}schedule_parameter_jacobian(t, y, p, u)``.
     rhs_parts
         With an index ``k``: also ``{prefix}rhs_parts(t, x, p, u)``, the outputs from ``k`` on
         with ``M`` and ``q − k`` from one program (:func:`_rhs_parts`; the splice of
         elastic bodies, whose frame kinematics are those outputs).
+    directional
+        Also the directional (second) derivatives of :mod:`.parameters` (``neweul generate
+        --sensitivities``; the splice of elastic bodies does not use them).
     progress
         ``progress("code generation", done, total)`` after each block (CSE, derivatives,
         printing of one function; :mod:`neweul_py.progress`).
@@ -514,15 +549,16 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     d_method: CseMethod = "none" if not cse or inter else "tree"
 
     has_poses = getattr(eq, "poses", None) is not None
-    # default inputs, (schedules), 6 blocks of the dynamics, 3 of the state, constraints, poses
-    step = Steps(progress, "code generation", 11 + bool(schedules) + has_poses)
+    # default inputs, (schedules), 6 blocks of the dynamics, 3 of the state, constraints, poses,
+    # parameter derivatives
+    step = Steps(progress, "code generation", 12 + bool(schedules) + has_poses)
     funcs: dict[str, tuple[str, ...]] = {
         "default_parameters": _function(
             "default_parameters", "",
             "The parameter vector ``p`` of the defaults (ordered as ``PARAMETERS``).",
             ["return _np.array(_P0, dtype=_np.float64)"]),
     }
-    # the input vector: inputs, then the time derivatives kinematic excitation needs (issue 4)
+    # the input vector: inputs, then the time derivatives kinematic excitation needs
     u_defaults = [as_expr(e) for e in system.input_defaults]
     b = checked(ctx, eliminate((), u_defaults, method=method), (*p, time), "the default inputs")
     body = prologue(ctx, b, [(p, _P_SRC)]) + assignments(ctx, b) + vector(ctx, "u", b.finals)
@@ -531,7 +567,8 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
                                         [*body, "return u"])
     step()
     if schedules:
-        funcs.update(_schedule_functions(ctx, schedules, schedule_jacobians, method, prefix))
+        funcs.update(_schedule_functions(ctx, schedules, schedule_jacobians, method, prefix,
+                                         schedule_parameter_jacobian))
         step()
     funcs.update(_dynamics(ctx, eq, method, d_method, prefix, step))
     funcs.update(_state_functions(ctx, eq, outs, energy, method, d_method, prefix, step))
@@ -548,6 +585,9 @@ def module_parts(equations: Any, source_hash: str, *, cse: bool = True, prefix: 
     if has_poses:  # poses of the frames (animations)
         funcs.update(_pose_functions(ctx, eq, method, prefix))
         step()
+    # derivatives with respect to the parameters (docs/sensitivity.md)
+    funcs.update(parameter_functions(ctx, eq, outs, method, d_method, prefix, directional))
+    step()
     pdef = tuple(float(pp.default) for pp in system.parameters)
     symmetric = bool(M == M.T)
     factors = mass_factor_values(eq)
@@ -570,16 +610,18 @@ def program_blocks(equations: Any, *, cse: bool = True,
     """The CSE'd straight-line programs of the protocol functions, for other printers.
 
     The programs of :mod:`.programs`, which :func:`module_parts` prints too (computed once when
-    both backends are generated from the same equations object). Matrices are given row-major
-    with every entry (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n
-    of ``M``, then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``,
-    ``∂/∂u``), ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}",
-    real=True)`` of the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny),
-    ``output_jacobians`` (ny × (2n + nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n),
-    ``constraint_time_derivative`` (nc), ``constraint_gamma`` (nc) and, for models with loss
-    factors, ``loss_matrix`` (n·n, equations.md §1.1). Rigid models only (elastic
-    bodies are spliced in numerically by :mod:`.elastic`). The NumPy module's own
-    ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
+    both backends are generated from the same equations object). Matrices are given row-major with
+    every entry (zeros included): ``mass_matrix`` (n·n), ``force_vector`` (n), ``rhs`` (n·n of
+    ``M``, then n of ``q − k``), ``force_jacobians`` (n × (2n + nu): ``∂/∂y``, ``∂/∂ẏ``, ``∂/∂u``),
+    ``mass_matrix_times_derivative`` (n·n, in the symbols ``Symbol(f"_ncg_a{i}", real=True)`` of
+    the vector ``a``), ``default_inputs`` (nu), ``outputs`` (ny), ``output_jacobians`` (ny × (2n +
+    nu)), ``constraints`` (nc), ``constraint_jacobian`` (nc·n), ``constraint_time_derivative``
+    (nc), ``constraint_gamma`` (nc), for models with loss factors, ``loss_matrix`` (n·n,
+    equations.md §1.1), and the parameter derivatives ``force_parameter_jacobian`` (n × np),
+    ``mass_matrix_parameter_derivative`` (n × np, in the symbols ``a``) and
+    ``output_parameter_jacobian`` (ny × np, docs/sensitivity.md). Rigid models only (elastic
+    bodies are spliced in numerically by :mod:`~neweul_py.codegen.elastic`). The NumPy module's
+    own ``mass_matrix`` and ``rhs`` evaluate ``Equations.mass_factors`` when given
     (:mod:`.packing`); the blocks here keep M's entries. ``progress``: a staged hook,
     ``("C code", done, 7)`` after each block.
     """
@@ -627,6 +669,11 @@ def program_blocks(equations: Any, *, cse: bool = True,
     loss = loss_program(eq, inter, method)
     if loss is not None:
         out["loss_matrix"] = loss
+    pp = parameter_programs(eq, inter, outs, method, d_method)
+    for name, (b, Jr) in (("force_parameter_jacobian", pp.force),
+                          ("mass_matrix_parameter_derivative", pp.mass),
+                          ("output_parameter_jacobian", pp.outputs)):
+        out[name] = Block(b.assignments, tuple(Jr))
     step()
     return out
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "CAPS",
+    "EXIT_CHECK_FAILED",
     "FORMS",
     "MAX_MAGNITUDE",
     "SIMULATE_METHODS",
@@ -56,6 +57,11 @@ SIMULATE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "RK23", "Radau", "BDF", "
 SWEEP_TASKS: tuple[str, ...] = ("simulate", "equilibrium", "modes", "frf")
 SWEEP_STATS: tuple[str, ...] = ("final", "max", "min", "rms")
 
+#: Exit code of a command whose check ran and failed (``compare`` beyond its tolerances,
+#: ``sweep`` with failed cases): 0 success, 1 an error of the input or the model, 2 a malformed
+#: command line (argparse), 3 this (docs/cli.md).
+EXIT_CHECK_FAILED = 3
+
 #: Largest magnitude of a number given on the command line (parameters, inputs, coordinates,
 #: frequencies …): products of two such numbers stay finite in double precision.
 MAX_MAGNITUDE = 1e150
@@ -71,6 +77,7 @@ CAPS: dict[str, int] = {
     "--points": 1_000,          # Krylov expansion points
     "--max-steps": 10**9,       # integrator steps of simulate
     "--frames": 10_000,         # pictures of simulate --animate (≈ 0.1 s each)
+    "--workers": 256,           # processes of sweep's local cluster (analysis.sweep.MAX_WORKERS)
 }
 
 

@@ -168,21 +168,21 @@ def load_model(args: argparse.Namespace) -> Any:
         with Tracker(quiet=getattr(args, "quiet", False)) as track:  # bars of a derivation
             module = load_description_module(args.file, args.form,
                                              backend=getattr(args, "backend", "numpy"),
-                                             progress=track)
+                                             progress=track,
+                                             sensitivities=getattr(args, "sensitivities",
+                                                                   False))
     check_overrides(module, args)
     return module
 
 
 def check_overrides(module: Any, args: argparse.Namespace) -> None:
-    """Refuse ``-p``/``-u`` values that make the model meaningless at its initial state, as a
-    description refuses them: a mass matrix that is not finite, or (symmetric models) not
-    positive semidefinite — a negative mass or inertia.
-
-    The numbers themselves were checked by :func:`neweul_py.commands.number` (finite, in
-    range); this check needs the model.
+    """Refuse ``-p``/``-u`` values that make the model meaningless, as a description refuses
+    them (:func:`neweul_py.analysis.admissible.check_parameters`: declared ranges, a mass
+    matrix at the initial state that is not finite or not positive semidefinite, a negative
+    loss factor). The numbers themselves were checked by
+    :func:`neweul_py.commands.number` (finite, in range); this check needs the model.
     """
-    import numpy as np
-
+    from ..analysis.admissible import check_parameters
     from ..analysis.protocol import resolve_inputs, resolve_parameters
 
     # simulate's -u takes expressions of t (commands/_signals.py checks those); numbers here
@@ -192,47 +192,7 @@ def check_overrides(module: Any, args: argparse.Namespace) -> None:
         return
     p = resolve_parameters(module, dict(getattr(args, "param", [])) or None)
     resolve_inputs(module, 0.0, p, dict(numeric) or None)  # names
-    x0 = np.asarray(module.INITIAL_STATE, dtype=float)
-    n = len(module.COORDINATES)
-    what = ", ".join(f"{k} = {v:g}" for k, v in given)
-    with np.errstate(all="ignore"):
-        try:
-            m = np.asarray(module.mass_matrix(0.0, x0[:n], p), dtype=float)
-        except ValueError as exc:     # e.g. a schedule value outside a body's sampled range
-            raise NeweulError(f"with {what}: {exc}") from None
-        except (ArithmeticError, np.linalg.LinAlgError):
-            m = np.full((1, 1), np.nan)
-    if not np.all(np.isfinite(m)):
-        raise NeweulError(f"with {what} the mass matrix at the initial state is not finite")
-    if getattr(module, "MASS_MATRIX_SYMMETRIC", False) and m.size:
-        lo = float(np.linalg.eigvalsh(0.5 * (m + m.T))[0])
-        scale = float(np.abs(m).max()) or 1.0
-        if lo < -1e-12 * scale:
-            raise NeweulError(
-                f"with {what} the mass matrix at the initial state is not positive "
-                f"semidefinite (smallest eigenvalue {lo:.3g}): a negative mass or inertia, "
-                "which a description refuses"
-            )
-    _check_loss_override(module, x0, p, what)
-
-
-def _check_loss_override(module: Any, x0: Any, p: Any, what: str) -> None:
-    """Symmetric models: the hysteretic matrix ``G`` at the initial state must be positive
-    semidefinite, as every ``loss_factor ≥ 0`` makes it (a negative loss factor given with
-    ``-p`` is refused like a negative mass; docs/equations.md §1.1)."""
-    import numpy as np
-
-    loss = getattr(module, "loss_matrix", None)
-    if loss is None or not getattr(module, "MASS_MATRIX_SYMMETRIC", False):
-        return
-    with np.errstate(all="ignore"):
-        g = np.asarray(loss(0.0, x0, p), dtype=float)
-    if g.size and np.all(np.isfinite(g)):
-        lo = float(np.linalg.eigvalsh(0.5 * (g + g.T))[0])
-        if lo < -1e-12 * (float(np.abs(g).max()) or 1.0):
-            raise NeweulError(f"with {what} the loss matrix G at the initial state is not "
-                              f"positive semidefinite (smallest eigenvalue {lo:.3g}): a "
-                              "negative loss factor, which a description refuses")
+    check_parameters(module, p, ", ".join(f"{k} = {v:g}" for k, v in given))
 
 
 def parameters(args: argparse.Namespace) -> dict[str, float] | None:

@@ -1,14 +1,15 @@
 """``neweul compare RESULT REFERENCE [--signals NAME ...] [--rtol X|NAME=X ...]
 [--atol X|NAME=X ...] [--mac MIN] [--plot FIG] [-o errors.csv]``: exit code 0 when every signal is
-within its tolerance, 1 otherwise (for test suites and CI)."""
+within its tolerance, 3 when the comparison ran and a signal is not (1 is an error of the input:
+a missing file, no signal in common; for test suites and CI, docs/cli.md)."""
 
 from __future__ import annotations
 
 import argparse
 import functools
 
+from . import EXIT_CHECK_FAILED, number
 from . import common as common
-from . import number
 
 
 def tolerance(text: str) -> tuple[str, float]:
@@ -32,7 +33,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "or frequency). Time histories are resampled onto common times and judged against "
         "atol + rtol·max|ref|; frequency responses pointwise as complex numbers (magnitude and "
         "phase); modes are matched by MAC and frequency. Prints a per-signal error table; the "
-        "exit code is 0 when everything passes, 1 otherwise.",
+        "exit code is 0 when everything passes, 3 when a signal is beyond its tolerance, 1 "
+        "for an error of the input (a missing or unreadable file, no signal in common).",
     )
     parser.add_argument("result", metavar="RESULT", help="our result (.csv or .npz)")
     parser.add_argument("reference", metavar="REFERENCE", help="the reference (.csv or .npz)")
@@ -54,7 +56,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Compare, print the table, write the files; 0 when all pass."""
+    """Compare, print the table, write the files; 0 when all pass, else
+    :data:`~neweul_py.cli.EXIT_CHECK_FAILED` (3)."""
     from ..analysis.compare import compare
 
     common.check_files(args.out, (".csv",), "error tables", args.plot)
@@ -71,4 +74,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"errors: {cmp.to_csv(args.out)}")
     if args.plot:
         print(f"plot: {cmp.plot(args.plot)}")
-    return 0 if cmp.passed else 1
+    return 0 if cmp.passed else EXIT_CHECK_FAILED

@@ -109,8 +109,8 @@ def summary(cmp: FRFComparison, what: str) -> list[str]:
                      f"accurate: max relative error there {err[j]:.3e} at {f[j]:g} Hz "
                      "(in_band = 0 in the table)")
     if cmp.full_checked_error is not None:
-        lines.append(f"full FRF by the checked sweep: relative error ≤ "
-                     f"{cmp.full_checked_error:.1e} at the held-out full solves "
+        lines.append(f"full FRF by the checked sweep: relative error against direct solves "
+                     f"≤ {cmp.full_checked_error:.1e} at the held-out frequencies "
                      "(--full-method direct: one LU per frequency)")
     return lines
 

@@ -1,4 +1,4 @@
-"""``neweul export FILE --fmu OUT.fmu [--kind me|cs|both] [--form F] [--independent NAME ...]
+"""``neweul export FILE --fmu OUT.fmu [--kind me|cs|both] [--form F] [--independent NAME …]
 [-q]``: an FMI 2.0 FMU of a description (docs/fmu-export.md)."""
 
 from __future__ import annotations

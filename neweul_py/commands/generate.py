@@ -1,5 +1,5 @@
 """``neweul generate FILE [-o DIR] [--form auto|closed|recursive] [--backend numpy|c]
-[-q] [--no-cache]``."""
+[--sensitivities] [-q] [--no-cache]``."""
 
 from __future__ import annotations
 
@@ -25,6 +25,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="closed-form or recursive equations (default: auto)")
     parser.add_argument("--backend", choices=BACKENDS, default="numpy",
                         help="c: also compile the module (DIR/<name>_c.py, a C library via cffi)")
+    parser.add_argument("--sensitivities", action="store_true",
+                        help="also the second derivatives of the linear models' parameter "
+                        "sensitivities (docs/sensitivity.md; rigid models)")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.add_argument("--no-cache", dest="cache", action="store_false",
                         help="derive even when the content-hash cache (the one of neweul "
@@ -39,6 +42,6 @@ def run(args: argparse.Namespace) -> int:
 
     with Tracker(quiet=args.quiet) as track:  # a bar per stage of the derivation on a terminal
         path = generate(args.file, args.out_dir, args.form, args.backend, progress=track,
-                        cache=args.cache)
+                        cache=args.cache, sensitivities=args.sensitivities)
     print(path)
     return 0

@@ -142,24 +142,31 @@ def _models(args: argparse.Namespace, bodies: list) -> list:
     return fes
 
 
+#: Largest ``--coordinate`` curve read (bytes; docs/limits.md).
+MAX_CURVE_BYTES = 64 * 2**20
+
+
 def _curve(spec: str) -> tuple[str, str, list[float], list[float]]:
     """``(file, name, σ, ξ)`` of ``--coordinate CURVE.csv:SIGMA:XI``."""
     import csv
+    import io
     import math
 
     from ..errors import DataError
+    from ..files import read_text
 
     parts = spec.rsplit(":", 2)
     if len(parts) != 3 or not all(parts):
         raise NeweulError(f"--coordinate must be CURVE.csv:SIGMA:XI, got {spec!r}")
     path, sig_col, xi_col = parts
-    try:                                  # utf-8-sig: a spreadsheet's byte-order mark
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.DictReader(fh, skipinitialspace=True)
-            header = [h.strip() for h in (reader.fieldnames or [])]
-            reader.fieldnames = header
-            rows = list(reader)
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+    # a regular UTF-8 file (a spreadsheet's byte-order mark dropped), checked before reading
+    text = read_text(path, "curve (--coordinate)", MAX_CURVE_BYTES)
+    try:
+        reader = csv.DictReader(io.StringIO(text, newline=""), skipinitialspace=True)
+        header = [h.strip() for h in (reader.fieldnames or [])]
+        reader.fieldnames = header
+        rows = list(reader)
+    except csv.Error as exc:
         raise DataError(f"cannot read the curve ({exc})", path, "coordinate") from None
     if not rows:
         raise DataError("the curve has no rows", path, "coordinate")

@@ -1,9 +1,11 @@
-"""``neweul middle-ear build|study``: the flagship application in two commands.
+"""``neweul middle-ear build|study|tympanogram|absorbance``: the flagship application.
 
 ``build --dir DIR [--refine L]`` makes the middle-ear EMBS from nothing (FE sweep → reduction
 → interpolation → description ``DIR/middle_ear.yaml`` → generated module), with progress;
 ``study --dir DIR`` writes the studies' tables and plots of a build
-(docs/equations-middle-ear.md). Both are thin layers over :mod:`neweul_py.middle_ear`.
+(docs/equations-middle-ear.md); ``tympanogram`` and ``absorbance`` give what a clinic
+measures of it (docs/middle-ear-clinical.md). All are thin layers over
+:mod:`neweul_py.middle_ear`.
 """
 
 from __future__ import annotations
@@ -13,7 +15,8 @@ import functools
 from pathlib import Path
 
 from ..progress import QUIET_HELP, Tracker
-from . import CAPS, count, number, range_type
+from . import CAPS, comma_floats, count, number, range_type
+from . import common as common
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,8 +26,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="The flagship application: the nonlinear middle ear (ossicles on the "
         "parametric TM + ear-canal + tympanic-cavity body scheduled by the static pressure "
         "difference dp).")
-    sub = parser.add_subparsers(dest="middle_ear_command", metavar="{build,study}",
-                                required=True)
+    sub = parser.add_subparsers(dest="middle_ear_command",
+                                metavar="{build,study,tympanogram,absorbance}", required=True)
     b = sub.add_parser(
         "build", help="FE sweep → reduction → parametric body → description → module",
         description="Build the middle-ear EMBS into DIR (atomically: an interrupted build leaves "
@@ -64,6 +67,42 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    default=80, help="log-spaced frequencies 100 Hz–8 kHz (default 80)")
     s.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     s.set_defaults(func=_study)
+    t = sub.add_parser(
+        "tympanogram", help="admittance vs ear-canal static pressure: Ytm, TPP, TW, Vea",
+        description="The admittance at the probe tip (the canal entrance) and at the TM against "
+        "the ear-canal static pressure, swept from +200 to -400 daPa as a tympanometer does "
+        "(dp = 10 P Pa, the cavity at ambient), with the peak compensated static admittance "
+        "Ytm (compensated at +200 daPa), the peak pressure TPP, the width TW and the "
+        "equivalent ear-canal volume Vea (ANSI S3.39, ASHA 1990).")
+    t.add_argument("--dir", type=Path, required=True, help="a build of neweul middle-ear build")
+    t.add_argument("--f", type=functools.partial(comma_floats, option="--f"), default=[226.0],
+                   metavar="HZ[,HZ...]", help="probe frequencies (default 226; e.g. 226,678,1000)")
+    t.add_argument("--pressures", type=range_type("--pressures", increasing=False),
+                   default=None, metavar="START:STOP:N",
+                   help="ear-canal pressures in daPa, in sweep order (default 200:-400:121); "
+                   "+200 must be one of them")
+    t.add_argument("--vector", action="store_true",
+                   help="compensate the complex admittance (|Y - Y(+200)|) instead of its "
+                   "magnitude")
+    t.add_argument("-o", "--output", metavar="CSV", help="write the tympanogram (.csv)")
+    t.add_argument("--plot", metavar="FIG", help="plot (.png/.pdf/.svg; matplotlib)")
+    t.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
+    t.set_defaults(func=_tympanogram)
+    a = sub.add_parser(
+        "absorbance", help="absorbance, reflectance and admittance at the probe tip vs frequency",
+        description="The impedance at the probe tip (the canal entrance), its reflectance R = "
+        "(Z - Z0)/(Z + Z0) with the canal's characteristic impedance Z0 = rho c/A (A: the "
+        "entrance's cross-section), the absorbance 1 - |R|^2 and the TM's admittance, at one "
+        "static pressure difference dp.")
+    a.add_argument("--dir", type=Path, required=True, help="a build of neweul middle-ear build")
+    a.add_argument("--dp", type=functools.partial(number, option="--dp"), required=True,
+                   metavar="PA", help="static pressure difference p_canal - p_cavity [Pa]")
+    a.add_argument("--f", type=range_type("--f", minimum=0.0), default=None,
+                   metavar="START:STOP:N", help="frequencies in Hz, log-spaced (or a comma "
+                   "list; default 100:8000:120)")
+    a.add_argument("-o", "--output", metavar="CSV", help="write the spectra (.csv)")
+    a.add_argument("--plot", metavar="FIG", help="plot (.png/.pdf/.svg; matplotlib)")
+    a.set_defaults(func=_absorbance)
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -90,4 +129,58 @@ def _study(args: argparse.Namespace) -> int:
     with Tracker("middle-ear study", quiet=args.quiet) as track:
         files = study(args.dir, out, nf=args.nf, progress=track)
     print(f"wrote {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def _tympanogram(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..errors import NeweulError
+    from ..middle_ear.clinical import (
+        COMPENSATION_DAPA,
+        DAPA,
+        SWEEP_DAPA,
+        build_model,
+        tympanogram,
+    )
+
+    common.check_files(args.output, (".csv",), "tympanograms", args.plot)
+    f = np.asarray(args.f, dtype=float)
+    if np.any(f <= 0):
+        raise NeweulError(f"--f: probe frequencies must be > 0 Hz, got {args.f}")
+    p = np.asarray(args.pressures.values() if args.pressures else SWEEP_DAPA, dtype=float)
+    if not np.any(p == COMPENSATION_DAPA):
+        raise NeweulError(f"--pressures: the sweep must include {COMPENSATION_DAPA:+g} daPa "
+                          "(the compensation and Vea pressure)")
+    mod, params = build_model(args.dir, *(DAPA * p))
+    with Tracker("middle-ear tympanogram", quiet=args.quiet) as track:
+        tg = tympanogram(mod, params, f, p, progress=track)
+    for m in tg.measures(vector=args.vector):
+        print(m.summary())
+    if args.output:
+        print(f"tympanogram: {tg.to_csv(args.output)}")
+    if args.plot:
+        print(f"plot: {tg.plot(args.plot)}")
+    return 0
+
+
+def _absorbance(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..middle_ear.clinical import build_model, immittance
+
+    common.check_files(args.output, (".csv",), "absorbance spectra", args.plot)
+    f = np.asarray(args.f.values(log=True) if args.f else np.geomspace(100.0, 8000.0, 120))
+    mod, params = build_model(args.dir, args.dp)
+    im = immittance(mod, params, args.dp, f)
+    a = im.absorbance
+    bands = [(lo, hi) for lo, hi in ((250, 500), (500, 1000), (1000, 2000), (2000, 4000),
+                                     (4000, 8000)) if np.any((f >= lo) & (f < hi))]
+    print(f"dp = {args.dp:+g} Pa, Z0 = rho c/A = {im.z0:.4g} Pa s/m^3; mean absorbance "
+          + ", ".join(f"{lo / 1e3:g}-{hi / 1e3:g} kHz {a[(f >= lo) & (f < hi)].mean():.2f}"
+                      for lo, hi in bands))
+    if args.output:
+        print(f"spectra: {im.to_csv(args.output)}")
+    if args.plot:
+        print(f"plot: {im.plot(args.plot)}")
     return 0

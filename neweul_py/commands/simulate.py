@@ -55,9 +55,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"number of equally spaced output times (default 501, at most "
                         f"{CAPS['--n-out']})")
     parser.add_argument("--max-steps", type=count("--max-steps"), default=DEFAULT_MAX_STEPS,
-                        metavar="N", help="refuse a run whose fastest time scale needs more "
-                        "explicit integrator steps than N (default "
-                        f"{DEFAULT_MAX_STEPS:.0e}; stiff models: --method Radau or BDF)")
+                        metavar="N", help="refuse a run of more than N steps: the fixed "
+                        "steps of generalized-alpha, or the explicit steps its fastest time "
+                        f"scale needs (default {DEFAULT_MAX_STEPS:.0e}; stiff models: --method "
+                        "Radau or BDF)")
     common.add_parameter_argument(parser)
     parser.add_argument("-u", "--set-input", type=input_assignment, action="append", default=[],
                         metavar="NAME=EXPR", help="drive an input by an expression of t and the "
@@ -121,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         result = simulate(module, args.t_end, method=args.method, rtol=args.rtol,
                           atol=args.atol, n_out=args.n_out, p=p, u=u,
                           independent=args.independent, progress=track, h=args.step,
-                          rho_inf=args.rho_inf)
+                          rho_inf=args.rho_inf, max_steps=args.max_steps)
     print(f"{result.model_name}: t = {result.t[0]:g} … {result.t[-1]:g} s with {result.method}, "
           f"{result.nfev} right-hand-side evaluations")
     if args.output:
@@ -146,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def check_step_count(module: Any, args: argparse.Namespace) -> None:
-    """Refuse an explicit integration that would need more than ``--max-steps`` steps.
+    """Refuse an integration that would need more than ``--max-steps`` steps: the fixed steps
+    ``ceil(T / H)`` of ``--method generalized-alpha --step H``, or an explicit method's.
 
     An explicit Runge–Kutta method is stable only for ``h |λ| ≲ 3`` (Hairer & Wanner, *Solving
     ODEs II*, §IV.2), so a run over ``T`` seconds needs at least ``T |λ_max| / 3`` steps, where
@@ -159,6 +161,14 @@ def check_step_count(module: Any, args: argparse.Namespace) -> None:
     from ..analysis.protocol import resolve_inputs, resolve_parameters
     from ..errors import NeweulError
 
+    if args.method == "generalized-alpha" and args.step is not None:
+        steps = args.t_end / args.step
+        if not steps * (1 - 1e-12) <= args.max_steps:
+            raise NeweulError(
+                f"generalized-alpha with --step {args.step:g} takes {steps:.4g} steps for "
+                f"{args.t_end:g} s, more than --max-steps {args.max_steps} (docs/limits.md): "
+                "use a larger --step (or raise --max-steps)")
+        return
     if args.method in ("Radau", "BDF", "LSODA", "generalized-alpha") or getattr(
             module, "CONSTRAINTS", None):
         return

@@ -1,4 +1,4 @@
-"""``neweul sweep FILE --param NAME=VALUES ... [--cases CASES.csv] --task simulate|equilibrium|
+"""``neweul sweep FILE --param NAME=VALUES … [--cases CASES.csv] --task simulate|equilibrium|
 modes|frf [task options] [--scheduler ADDRESS | --workers N] [-o table.csv|.parquet|.npz]``."""
 
 from __future__ import annotations
@@ -9,7 +9,17 @@ import sys
 
 from ..errors import NeweulError
 from ..progress import QUIET_HELP, Tracker
-from . import FORMS, SIMULATE_METHODS, SWEEP_STATS, SWEEP_TASKS, count, number, range_type
+from . import (
+    CAPS,
+    EXIT_CHECK_FAILED,
+    FORMS,
+    SIMULATE_METHODS,
+    SWEEP_STATS,
+    SWEEP_TASKS,
+    count,
+    number,
+    range_type,
+)
 from .common import refuse_overwrite
 
 #: Failures listed on stderr (the table holds all of them).
@@ -25,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--param values, times the rows of --cases — on a Dask cluster (a local one with "
         "--workers processes unless --scheduler names one). The generated module is shipped "
         "to each worker once; a failing case is recorded in the table (ok = 0, error) and the "
-        "sweep goes on.",
+        "sweep goes on; the exit code is then 3 (unless --allow-failures).",
     )
     parser.add_argument("file", metavar="FILE", help="YAML description or generated module .py")
     parser.add_argument("--form", choices=FORMS, default="auto",
@@ -54,25 +64,36 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     lin.add_argument("--at", choices=("equilibrium", "initial"), default="equilibrium",
                      help="operating point (default: static equilibrium)")
     lin.add_argument("--undamped", action="store_true", help="modes of the undamped pencil")
-    lin.add_argument("--n-modes", type=int, metavar="K", help="modes per row (default ≤ 6)")
+    lin.add_argument("--n-modes", type=count("--n-modes"), metavar="K",
+                     help="modes per row (default ≤ 6)")
     lin.add_argument("--f", type=range_type("--f", minimum=0.0), metavar="START:STOP:N",
                      help="frf frequencies [Hz]: START:STOP:N or a comma list")
     lin.add_argument("--log", action="store_true", help="logarithmic frequency spacing")
     lin.add_argument("--input", action="append", metavar="NAME", help="frf input (repeatable)")
     lin.add_argument("--output", action="append", metavar="NAME",
                      help="frf output (repeatable)")
-    dask = parser.add_argument_group("Dask")
+    dask = parser.add_argument_group(
+        "Dask", "Without --scheduler the sweep starts its own local cluster on free ports of "
+        "127.0.0.1, authenticated with temporary TLS credentials (Dask's "
+        "Security.temporary): no other process can submit work to its workers.")
     dask.add_argument("--scheduler", metavar="ADDRESS",
-                      help="address of a running scheduler (tcp://host:8786); default: a local "
-                      "cluster")
-    dask.add_argument("--workers", type=int, default=2, metavar="N",
-                      help="worker processes of the local cluster (default 2)")
-    dask.add_argument("--chunk-size", type=int, metavar="K",
+                      help="address of a running scheduler (tls://host:8786) to use instead of "
+                      "a local cluster; your choice: whoever can reach that scheduler can run "
+                      "code on its workers (TLS settings come from the Dask configuration)")
+    dask.add_argument("--workers", type=count("--workers"), default=2, metavar="N",
+                      help=f"worker processes of the local cluster (default 2, at most "
+                      f"{CAPS['--workers']})")
+    dask.add_argument("--chunk-size", type=count("--chunk-size"), metavar="K",
                       help="cases per Dask task (default: about 4 tasks per worker)")
-    dask.add_argument("--timeout", type=float, default=5.0, metavar="S",
+    dask.add_argument("--timeout", type=functools.partial(number, option="--timeout",
+                                                          positive=True, maximum=3600.0),
+                      default=5.0, metavar="S",
                       help="seconds to wait for --scheduler (default 5)")
     parser.add_argument("-o", "--out", metavar="TABLE",
                         help="write the table: .csv, .parquet (pyarrow) or .npz")
+    parser.add_argument("--allow-failures", action="store_true",
+                        help="exit 0 although some cases failed (default: exit 3, the "
+                        "failures are in the table's error column either way)")
     parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     parser.set_defaults(func=run)
 
@@ -136,4 +157,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"table: {res.save(args.out)}")
     elif res.ok.size <= 50:
         print(res.to_text())
-    return 0 if res.ok.any() else 1
+    return 0 if not bad or args.allow_failures else EXIT_CHECK_FAILED

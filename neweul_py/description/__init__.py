@@ -1,11 +1,17 @@
 """Description layer: the safe expression parser, the Python builder API and the YAML loader.
 
-Imports only the ``model`` layer and ``errors`` (plus sympy and PyYAML).
+Imports only the ``model`` layer, ``errors`` and the YAML reader ``yaml_tree`` (plus
+sympy and PyYAML).
 """
 
 from .builder import SystemBuilder
 from .expressions import ExpressionError, format_expression, parse_expression
-from .loader import description_hash, load_description, load_description_text
+from .loader import (
+    description_hash,
+    load_description,
+    load_description_text,
+    load_description_tree,
+)
 
 __all__ = [
     "ExpressionError",
@@ -14,5 +20,6 @@ __all__ = [
     "format_expression",
     "load_description",
     "load_description_text",
+    "load_description_tree",
     "parse_expression",
 ]

@@ -16,14 +16,14 @@ Every value may be a number, an expression string of the description language or
 expression. Strings are parsed in :meth:`SystemBuilder.build`, when every name is known, so
 items may be declared in any order. Each value is parsed with the names allowed in its place:
 
-============================================  ==========================================
-place                                         allowed names
-============================================  ==========================================
-masses, centers of mass, inertias, gravity    parameters
-input defaults                                parameters, ``t``
-frame translations/rotations, points          parameters, coordinates, inputs, ``t``
-force vectors, force laws, expression outputs all of the above and velocities ``d_<coord>``
-============================================  ==========================================
+=============================================  ==========================================
+place                                          allowed names
+=============================================  ==========================================
+masses, centers of mass, inertias, gravity     parameters
+input defaults                                 parameters, ``t``
+frame translations/rotations, points           parameters, coordinates, inputs, ``t``
+force vectors, force laws, expression outputs  all of the above and velocities ``d_<coord>``
+=============================================  ==========================================
 
 Every error is a :class:`~neweul_py.errors.ModelError` carrying the key path of the
 description file layout (``bodies.malleus.inertia[1][2]``).
@@ -135,13 +135,19 @@ class SystemBuilder:
         return path
 
     # -------------------------------------------------------------- symbols
-    def parameter(self, name: str, default: float | str) -> sp.Symbol:
-        """Add a parameter with a numeric default; return its symbol.
+    def parameter(self, name: str, default: float | str, minimum: float | str | None = None,
+                  maximum: float | str | None = None) -> sp.Symbol:
+        """Add a parameter with a numeric default (and optionally the inclusive range of the
+        values the model admits: a length ``minimum=0``); return its symbol.
 
-        ``default`` is a number or a constant expression string (``"2*pi"``, ``"1e-3"``).
+        ``default``, ``minimum`` and ``maximum`` are numbers or constant expression strings
+        (``"2*pi"``, ``"1e-3"``).
         """
         path = self._declare("parameters", "parameter", name)
-        self._parameters.append(Parameter(name, constant_number(default, path, "default")))
+        bounds = [None if v is None else constant_number(v, f"{path}.{key}", key)
+                  for v, key in ((minimum, "min"), (maximum, "max"))]
+        self._parameters.append(Parameter(name, constant_number(default, path, "default"),
+                                          *bounds))
         return symbol(name)
 
     def coordinate(

@@ -1,23 +1,23 @@
-"""The ``elastic_bodies`` section of a description (issue 6, equations.md §2).
+"""The ``elastic_bodies`` section of a description (docs/description-format.md; equations.md §2).
 
-```yaml
-elastic_bodies:
-  beam:
-    frame: hub                 # reference frame (ISYS: fixed to the ground)
-    data: beam.SID_FEM         # SID text file or reduced-body .npz, relative to this file
-    nodes: {tip: 1793, root: 1860}   # node frames beam.tip, beam.root
-    modes: 4                   # optional: the first 4 modes, or a list of mode numbers
-    initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
-    velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
-    inertia: consistent        # optional: consistent (default, needs J.m2) | sid
-    schedule: dp               # parametric bodies (neweul interpolate): the scheduling
-                               # variable, an expression of parameters, inputs, t and
-                               # coordinates of the rigid part
-    inputs: {canal_volume_acceleration: Q}   # optional: the body's own FE inputs, driven
-                               # by an expression (of inputs, parameters, t, …)
-    outputs: {probe_pressure: p_probe}      # optional: the body's own FE outputs as
-                               # description outputs (C V q)
-```
+An example::
+
+    elastic_bodies:
+      beam:
+        frame: hub                 # reference frame (ISYS: fixed to the ground)
+        data: beam.SID_FEM         # SID text file or reduced-body .npz, relative to this file
+        nodes: {tip: 1793, root: 1860}   # node frames beam.tip, beam.root
+        modes: 4                   # optional: the first 4 modes, or a list of mode numbers
+        initial: [0.01, 0, 0, 0]   # optional: initial elastic coordinates beam_q1 …, one per mode
+        velocity: {q2: 0.5}        # optional: or a mapping qK (or beam_qK): value
+        inertia: consistent        # optional: consistent (default, needs J.m2) | sid
+        schedule: dp               # parametric bodies (neweul interpolate): the scheduling
+                                   # variable, an expression of parameters, inputs, t and
+                                   # coordinates of the rigid part
+        inputs: {canal_volume_acceleration: Q}   # optional: the body's own FE inputs, driven
+                                   # by an expression (of inputs, parameters, t, …)
+        outputs: {probe_pressure: p_probe}      # optional: the body's own FE outputs as
+                                   # description outputs (C V q)
 
 The body's own FE inputs and outputs (reduced-body and parametric files, the ``io.*`` arrays of
 :func:`neweul_py.elastic.io.reader.read_elastic_data`): an input becomes one generalized force
@@ -36,11 +36,10 @@ file name the key path and the file (and, for SID syntax errors, the line).
 
 from __future__ import annotations
 
-import contextlib
 import os
 import warnings
-from collections.abc import Callable, Iterator
-from contextvars import ContextVar
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,36 +49,42 @@ from ..errors import DataError, ModelError
 from ..model import ElasticBody
 from .schema import Schema, section_items
 
-__all__ = ["base_directory", "description_directory", "load_elastic_bodies"]
+__all__ = ["DataFiles", "load_elastic_bodies"]
 
 #: ``reader(path, modes) -> dict of arrays`` (the flat invariants), may raise DataError.
 ElasticReader = Callable[[Path, Any], dict]
 
-_CONTEXT: ContextVar[tuple[Path, ElasticReader | None] | None] = ContextVar(
-    "neweul_description_elastic", default=None)
+
+@dataclass(frozen=True)
+class DataFiles:
+    """Where the data files a description names are (elastic bodies' ``data``, inputs'
+    ``table``) and how elastic bodies' data are read; passed to the section loaders that read
+    files.
+
+    Attributes
+    ----------
+    base
+        The directory relative names are resolved in: the description's, or the working
+        directory for text without a file.
+    reader
+        ``reader(path, modes) -> flat invariant arrays`` of elastic bodies (``None``: the
+        description may have none).
+    """
+
+    base: Path
+    reader: ElasticReader | None = None
+
+    @classmethod
+    def of(cls, filename: str, reader: ElasticReader | None = None) -> DataFiles:
+        """Data files relative to the description ``filename`` (``<…>``: no file)."""
+        base = (Path(filename).parent if filename and not filename.startswith("<")
+                else Path.cwd())
+        return cls(base, reader)
 
 
-@contextlib.contextmanager
-def base_directory(filename: str, reader: ElasticReader | None = None) -> Iterator[None]:
-    """Resolve the ``data`` files of elastic bodies relative to ``filename``'s directory and
-    read them with ``reader``."""
-    base = Path(filename).parent if filename and not filename.startswith("<") else Path.cwd()
-    token = _CONTEXT.set((base, reader))
-    try:
-        yield
-    finally:
-        _CONTEXT.reset(token)
-
-
-def description_directory() -> Path:
-    """The directory data files of the description being loaded are relative to (also the
-    signal tables of inputs); the working directory outside :func:`base_directory`."""
-    context = _CONTEXT.get()
-    return context[0] if context is not None else Path.cwd()
-
-
-def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
-    """Section loader: every entry becomes an :class:`ElasticBody` on the builder ``b``."""
+def load_elastic_bodies(b: Any, section: Any, path: str, files: DataFiles) -> None:
+    """Section loader: every entry becomes an :class:`ElasticBody` on the builder ``b``, its
+    data read with ``files.reader`` relative to ``files.base``."""
     schema = Schema(required=("frame", "data"),
                     optional=("nodes", "modes", "initial", "velocity", "inertia", "schedule",
                               "inputs", "outputs"))
@@ -109,7 +114,7 @@ def load_elastic_bodies(b: Any, section: Any, path: str) -> None:
         ):
             raise ModelError(f"modes must be a count or a list of mode numbers, got {modes!r}",
                              f"{item}.modes")
-        base, reader = _CONTEXT.get() or (Path.cwd(), None)
+        base, reader = files.base, files.reader
         if reader is None:
             raise ModelError("elastic bodies need a data reader: load the description with "
                              "elastic_reader=neweul_py.elastic.io.reader.read_elastic_data (as "

@@ -4,7 +4,7 @@ A tokenizer and a recursive-descent (precedence-climbing) parser that build symp
 directly from tokens. User text is never handed to ``eval``, ``exec``, sympy's string parser or
 Python's ``ast``: the only things that can come out of a string are numbers (converted by this
 module from digits it has validated), the symbols of a caller-supplied namespace, ``pi`` and the
-fixed list of functions of :mod:`.functions`.
+fixed list of functions of :mod:`~neweul_py.description.functions`.
 
 Grammar (lowest precedence first)::
 
@@ -30,6 +30,8 @@ Bounded work (every input gives a result or one :class:`ExpressionError` quickly
 - sums and products are collected and built once (``sympy.Add(*terms)``,
   ``sympy.Mul(*factors)``), so parsing is linear in the length of the text;
 - nesting (parentheses, unary signs, powers, calls) is limited to ``_MAX_DEPTH`` levels;
+- an expression has at most :data:`MAX_LENGTH` characters, :data:`MAX_TOKENS` tokens and
+  :data:`MAX_CALLS` function calls, counted before it is parsed;
 - constants stay within the range of doubles; constant powers and function values are
   evaluated with bounded work (:func:`.functions.constant_power`,
   :func:`.functions.constant_value`) — e.g. ``351**-1e-10`` is evaluated numerically, ``exp(1000)``
@@ -54,6 +56,9 @@ from .functions import FUNCTIONS, ConstantError, constant_power, constant_value,
 __all__ = [
     "CONSTANTS",
     "FUNCTIONS",
+    "MAX_CALLS",
+    "MAX_LENGTH",
+    "MAX_TOKENS",
     "ExpressionError",
     "as_expression",
     "format_expression",
@@ -102,6 +107,14 @@ def _excerpt(text: str, column: int | None, width: int = 60) -> str:
 CONSTANTS: Mapping[str, sp.Expr] = {"pi": sp.pi}
 
 _MAX_DEPTH = 100  # nesting depth of parentheses/unary operators/calls
+#: Longest expression (characters), most tokens and most function calls of one expression
+#: (docs/limits.md): ~100 times the longest of the shipped models (115 tokens). Sympy builds
+#: each function call with its assumptions (about 2.5 ms for sin(k*x)), so 20 000 of them
+#: took minutes; within these caps parsing takes a few seconds at most.
+MAX_LENGTH = 100_000
+MAX_TOKENS = 10_000
+MAX_CALLS = 1_000
+_COUNTED = re.compile(r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|([A-Za-z_]\w*)(\s*\()?|\*\*|<=|>=|\S")
 _MAX_NUMBER_LENGTH = 1000
 _MAX_EXPONENT = 1000  # of a numeric power of a non-constant base
 _MAX_ROOT, _MAX_ROOT_POWER = 12, 64  # exact rational exponents p/q: q <= 12, |p| <= 64
@@ -552,6 +565,25 @@ class _Parser:
         raise self.error(f"unknown name {name!r}; allowed names are: {allowed}", tok)
 
 
+def _check_size(text: str, key_path: str) -> None:
+    """Refuse an expression beyond :data:`MAX_LENGTH` characters, :data:`MAX_TOKENS` tokens
+    or :data:`MAX_CALLS` function calls, counted before anything is built."""
+    def fail(what: str) -> ExpressionError:
+        return ExpressionError(f"the expression has {what} (docs/limits.md)", text,
+                               key_path=key_path)
+
+    if len(text) > MAX_LENGTH:
+        raise fail(f"{len(text)} characters, more than the cap of {MAX_LENGTH}")
+    tokens = calls = 0
+    for m in _COUNTED.finditer(text):
+        tokens += 1
+        calls += m.group(2) is not None
+    if tokens > MAX_TOKENS:
+        raise fail(f"{tokens} tokens, more than the cap of {MAX_TOKENS}")
+    if calls > MAX_CALLS:
+        raise fail(f"{calls} function calls, more than the cap of {MAX_CALLS}")
+
+
 def parse_expression(
     text: str,
     namespace: Mapping[str, sp.Expr] | None = None,
@@ -593,6 +625,7 @@ def parse_expression(
     """
     if not isinstance(text, str):
         raise ExpressionError(f"expected a string, got {type(text).__name__}", repr(text))
+    _check_size(text, key_path)
     try:
         result = _Parser(text, namespace or {}, unavailable or {}).parse()
     except ExpressionError as exc:

@@ -54,10 +54,13 @@ class ConstantError(ValueError):
 def in_float_range(value: sp.Rational) -> bool:
     """Whether an exact rational is 0 or within the normal range of doubles (cheap: compares
     bit lengths first)."""
-    if value == 0:
-        return True
     p, q = abs(int(value.p)), int(value.q)
+    if p == 0:
+        return True
+    # 2^(bits-1) < |value| < 2^(bits+1): certainly in [2^-1022, FLOAT_MAX] for these bits
     bits = p.bit_length() - q.bit_length()
+    if -1021 <= bits <= 1022:
+        return True
     if bits > 1026 or bits < -1024:
         return False
     magnitude = abs(Fraction(p, q))

@@ -17,12 +17,12 @@ from typing import Any
 
 from ..errors import DescriptionError, ModelError
 from ..model import INERTIAL, System
+from ..yaml_tree import YamlTree, read_description
 from .builder import SystemBuilder
-from .elastic import base_directory, description_directory, load_elastic_bodies
+from .elastic import DataFiles, load_elastic_bodies
 from .schema import Schema, section_items
 from .signals import load_table_input
 from .values import constant_number
-from .yaml_tree import YamlTree, read_yaml
 
 __all__ = [
     "SECTIONS",
@@ -30,6 +30,7 @@ __all__ = [
     "description_hash",
     "load_description",
     "load_description_text",
+    "load_description_tree",
 ]
 
 
@@ -41,11 +42,28 @@ def description_hash(text: bytes | str) -> str:
 
 # ----------------------------------------------------------------------------- sections
 _Loader = Callable[[SystemBuilder, Any, str], None]
+_FileLoader = Callable[[SystemBuilder, Any, str, DataFiles], None]
+
+
+#: Most parameters of a description (docs/limits.md): each is a symbol that is validated,
+#: fingerprinted, printed and passed in ``p``; 200 000 of them took over a minute.
+MAX_PARAMETERS = 10_000
+
+
+PARAMETER = Schema(required=("value",), optional=("min", "max"))
 
 
 def _parameters(b: SystemBuilder, section: Any, path: str) -> None:
-    for name, default in section_items(section, path, "name: default value"):
-        b.parameter(name, default)
+    if isinstance(section, dict) and len(section) > MAX_PARAMETERS:
+        raise ModelError(f"{len(section)} parameters, more than the cap of {MAX_PARAMETERS} "
+                         "(docs/limits.md)", path)
+    for name, spec in section_items(section, path, "name: default value"):
+        if isinstance(spec, dict):  # {value: V, min: A, max: B}
+            item = f"{path}.{name}"
+            spec = PARAMETER.check(spec, item, "a parameter")
+            b.parameter(name, spec["value"], spec.get("min"), spec.get("max"))
+        else:
+            b.parameter(name, spec)
 
 
 COORDINATE = Schema(optional=("initial", "velocity"))
@@ -61,13 +79,12 @@ def _coordinates(b: SystemBuilder, section: Any, path: str) -> None:
             b.coordinate(name, constant_number(spec, item, "initial value"))
 
 
-def _inputs(b: SystemBuilder, section: Any, path: str) -> None:
+def _inputs(b: SystemBuilder, section: Any, path: str, files: DataFiles) -> None:
     for name, default in section_items(section, path, "name: expression of t and parameters"):
         if default is None:
             raise ModelError("an input needs a default excitation (e.g. 0)", f"{path}.{name}")
         if isinstance(default, dict):  # {table: signal.csv, interpolation: …}
-            default = load_table_input(str(name), default, description_directory(),
-                                       f"{path}.{name}")
+            default = load_table_input(str(name), default, files.base, f"{path}.{name}")
         b.input(name, default)
 
 
@@ -151,10 +168,12 @@ def _constraints(b: SystemBuilder, section: Any, path: str) -> None:
 @dataclass(frozen=True)
 class Section:
     """A top-level key: whether it is required and how it is loaded (``None``: by the
-    builder's constructor)."""
+    builder's constructor); ``files``: the loader reads data files and takes the
+    :class:`~neweul_py.description.elastic.DataFiles` as a fourth argument."""
 
-    load: _Loader | None
+    load: _Loader | _FileLoader | None
     required: bool = False
+    files: bool = False
 
 
 #: Top-level keys, in the order they are loaded.
@@ -165,9 +184,9 @@ SECTIONS: Mapping[str, Section] = {
     "loss_reference_frequency": Section(_loss_reference),
     "parameters": Section(_parameters),
     "coordinates": Section(_coordinates),
-    "inputs": Section(_inputs),
+    "inputs": Section(_inputs, files=True),
     "frames": Section(_frames),
-    "elastic_bodies": Section(load_elastic_bodies),
+    "elastic_bodies": Section(load_elastic_bodies, files=True),
     "bodies": Section(_bodies),
     "forces": Section(_forces),
     "outputs": Section(_outputs),
@@ -181,7 +200,7 @@ _TOP = Schema(
 
 
 # ----------------------------------------------------------------------------- loading
-def _build(data: Any) -> System:
+def _build(data: Any, files: DataFiles) -> System:
     top = _TOP.check(data, "", "a description")
     if not isinstance(top["name"], str):
         raise ModelError(f"the model name must be a string, got {top['name']!r}", "name")
@@ -189,7 +208,10 @@ def _build(data: Any) -> System:
     b = SystemBuilder(top["name"], description)
     for key, section in SECTIONS.items():
         if section.load is not None and key in top:
-            section.load(b, top[key], key)
+            if section.files:
+                section.load(b, top[key], key, files)
+            else:
+                section.load(b, top[key], key)
     return b.build()
 
 
@@ -205,7 +227,7 @@ def load_description_text(
     filename
         Shown in error messages; ``data`` files of elastic bodies are relative to it.
     elastic_reader
-        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies`` (issue 6),
+        ``reader(path, modes) -> flat invariant arrays`` for ``elastic_bodies``,
         e.g. :func:`neweul_py.elastic.io.reader.read_elastic_data`; the description layer does
         not import the elastic layer itself.
 
@@ -221,15 +243,17 @@ def load_description_text(
         keys, wrong shapes, bad expressions, unknown names or frames, frame cycles,
         unphysical masses and inertias.
     """
-    if isinstance(text, bytes):
-        try:
-            text = text.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise DescriptionError(f"not UTF-8 text ({exc.reason})", "", filename) from None
-    tree: YamlTree = read_yaml(text, filename)
+    return load_description_tree(read_description(text, filename),
+                                 elastic_reader=elastic_reader)
+
+
+def load_description_tree(tree: YamlTree, *, elastic_reader: Any = None) -> System:
+    """Load a description already parsed by :func:`neweul_py.yaml_tree.read_description`
+    (its ``file`` names it in errors; ``elastic_reader`` as in :func:`load_description_text`).
+    """
+    filename = tree.file
     try:
-        with base_directory(filename, elastic_reader):
-            return _build(tree.data)
+        return _build(tree.data, DataFiles.of(filename, elastic_reader))
     except DescriptionError:
         raise
     except ModelError as exc:

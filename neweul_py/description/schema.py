@@ -1,8 +1,8 @@
 """Key schemas of description mappings and the entries of a section (shared by the loaders).
 
-Every section loader (:mod:`.loader`, :mod:`.elastic`) checks the keys of its mappings with
-:class:`Schema`, so that an unknown or missing key is one :class:`~neweul_py.errors.ModelError`
-naming the key path.
+Every section loader (:mod:`.loader`, :mod:`~neweul_py.description.elastic`) checks the keys
+of its mappings with :class:`Schema`, so that an unknown or missing key is one
+:class:`~neweul_py.errors.ModelError` naming the key path.
 """
 
 from __future__ import annotations

@@ -1,13 +1,15 @@
-"""Equations layer: Newton–Euler equations with Jacobian matrices (equations.md §1) and their
-symbolic Jacobians for linearization.
+"""Equations layer: Newton–Euler equations with Jacobian matrices (equations.md §1) and every
+symbolic derivative of them that a generated module evaluates (:mod:`.jacobians`, by the chain
+rule of :mod:`.derivatives`).
 
 Imports ``kinematics`` and ``model`` only.
 """
 
-from .linearization import (
+from .derivatives import gradient, jacobian
+from .jacobians import (
     Derivatives,
+    Program,
     force_jacobians,
-    jacobian,
     mass_matrix_times_derivative,
     output_jacobians,
 )
@@ -20,9 +22,11 @@ __all__ = [
     "Derivatives",
     "Equations",
     "FramePoses",
+    "Program",
     "clear_cache",
     "force_jacobians",
     "frame_poses",
+    "gradient",
     "jacobian",
     "mass_matrix_times_derivative",
     "newton_euler",

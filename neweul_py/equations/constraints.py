@@ -194,11 +194,17 @@ def check_constraints(
     """
     if ce.nc == 0:
         return
-    values: dict[sp.Symbol, float] = {c.symbol: c.initial for c in system.coordinates}
-    values.update({p.symbol: p.default for p in system.parameters})
-    values[time] = 0.0
+    # sympy numbers, so that a bare symbol (an input default ``t`` or a parameter) becomes a
+    # number that evaluates like any expression
+    values: dict[sp.Symbol, sp.Expr] = {c.symbol: sp.Float(c.initial)
+                                        for c in system.coordinates}
+    values.update({p.symbol: sp.Float(p.default) for p in system.parameters})
+    values[time] = sp.Float(0.0)
     for sym, expr in zip(system.input_symbols, system.input_defaults, strict=True):
-        values[sym] = float(expr.xreplace(values).evalf())
+        try:
+            values[sym] = sp.Float(float(sp.sympify(expr).xreplace(values)))
+        except (TypeError, ValueError):
+            return  # an input not evaluable at t = 0: left to the integrator to report
 
     def num(m: sp.ImmutableMatrix) -> list[list[float]] | None:
         try:

@@ -258,6 +258,8 @@ class ElasticEquations:
     schedule_jacobians
         ``∂σ/∂y_s`` (k × active) and ``∂σ/∂u`` (k × inputs): the dependence of the
         interpolation weights on the state and the inputs, for the analytic Jacobians.
+    schedule_parameter_jacobian
+        ``∂σ/∂p`` (k × parameters), for the parameter derivatives (docs/sensitivity.md).
     active
         Indices of the symbolic coordinates that are not elastic coordinates (the node
         frames move with the dependent node coordinates, so the elastic ones appear in no
@@ -278,6 +280,7 @@ class ElasticEquations:
     hidden: tuple[sp.Expr, ...]
     offsets: tuple[int, ...]
     schedule_jacobians: tuple[sp.ImmutableMatrix, sp.ImmutableMatrix] | None = None
+    schedule_parameter_jacobian: sp.ImmutableMatrix | None = None
 
 
 def used_elastic_coordinates(system: System, elastic_q: set[str]) -> set[str]:
@@ -341,10 +344,11 @@ def elastic_equations(system: System) -> ElasticEquations | None:
         # differentiate and print (quadratic in the coordinates the symbolic part carries)
         hidden += s.expressions([] if s.elastic_rows_only else list(active))
     schedules = tuple(b.schedule for b in system.elastic_bodies if b.parametric)
-    jacobians = None
+    jacobians = parameter_jacobian = None
     if schedules:
         sigma = sp.ImmutableMatrix(schedules)
         jacobians = (schedule_jacobian(sigma, [system.coordinates[j].symbol for j in active]),
                      schedule_jacobian(sigma, [u.symbol for u in system.inputs]))
+        parameter_jacobian = schedule_jacobian(sigma, [p.symbol for p in system.parameters])
     return ElasticEquations(splices, keep, SV, SW, parts, schedules, active, tuple(hidden),
-                            tuple(offsets), jacobians)
+                            tuple(offsets), jacobians, parameter_jacobian)

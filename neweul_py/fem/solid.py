@@ -8,10 +8,18 @@ families of scikit-fem on a structured box mesh (``MeshHex``/``MeshTet.init_tens
 * ``"hex20"``: serendipity quadratic brick (``ElementHexS2``),
 * ``"tet10"``: quadratic tetrahedron (``ElementTetP2``), six tets per box cell.
 
-``K = ∫ ε(v) : σ(u) dV`` and the consistent mass ``M = ρ ∫ v·u dV`` are assembled by
-scikit-fem (vectorized over all elements; Gauss rules of the element's degree). Nodes are the
-element's DOF locations (vertices, and edge midpoints of the quadratic elements), with DOFs
-``ux, uy, uz``.
+``K = ∫ ε(v) : σ(u) dV`` and the consistent mass ``M = ρ ∫ v·u dV`` are integrated with
+the shape functions and Gauss rules of scikit-fem's *scalar* element (rule of the element's
+degree), all elements at once: with ``N_a`` the shape functions of an element and ``dV`` the
+quadrature weights times ``|det J|``, the element blocks are
+
+    K_{ai,bj} = Σ_q dV (λ ∂_i N_a ∂_j N_b + μ ∂_j N_a ∂_i N_b + μ δ_ij ∇N_a·∇N_b),
+    M_{ai,bj} = ρ δ_ij Σ_q dV N_a N_b
+
+(one batched matrix product per element set, then one sparse scatter), the same integrals
+scikit-fem's generic assembly of the vector form evaluates pair of local DOFs by pair. Nodes
+are the element's DOF locations (vertices, and edge midpoints of the quadratic elements), with
+DOFs ``ux, uy, uz``.
 
 Stress stiffening: :meth:`SolidModel.geometric_stiffness` is the initial-stress matrix
 
@@ -29,6 +37,7 @@ from __future__ import annotations
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sps
@@ -89,6 +98,52 @@ def _stress(grad_u: np.ndarray, lam: float, mu: float) -> np.ndarray:
     return lam * np.einsum("ij,...->ij...", np.eye(3), tr) + 2 * mu * eps
 
 
+def _shape_functions(basis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Values (nb, ne, nq), gradients (nb, 3, ne, nq) and weights ``dV`` (ne, nq) of the
+    scalar shape functions of a scikit-fem ``CellBasis`` at its quadrature points."""
+    values = np.stack([np.asarray(f[0].value) for f in basis.basis])
+    grads = np.stack([np.asarray(f[0].grad) for f in basis.basis])
+    return values, grads, np.asarray(basis.dx)
+
+
+def _vector_dofs(element_dofs: np.ndarray) -> np.ndarray:
+    """(ne, nb, 3) global DOFs ``3k + c`` of the local nodes ``k`` (element_dofs (nb, ne))."""
+    return 3 * element_dofs.T[:, :, None] + np.arange(3)
+
+
+def _scatter(blocks: np.ndarray, dofs: np.ndarray, n: int) -> sps.csr_matrix:
+    """Sum element blocks (ne, m, m) into an ``n × n`` CSR matrix, ``dofs`` (ne, m)."""
+    m = dofs.shape[1]
+    rows = np.broadcast_to(dofs[:, :, None], (dofs.shape[0], m, m))
+    cols = np.broadcast_to(dofs[:, None, :], (dofs.shape[0], m, m))
+    return sps.csr_matrix(sps.coo_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())),
+                                         shape=(n, n)))
+
+
+def _component_blocks(scalar: np.ndarray) -> np.ndarray:
+    """(ne, nb·3, nb·3) blocks ``S_ab δ_ij`` of scalar element matrices ``S`` (ne, nb, nb)."""
+    ne, nb, _ = scalar.shape
+    out = np.zeros((ne, nb, 3, nb, 3))
+    for c in range(3):
+        out[:, :, c, :, c] = scalar
+    return out.reshape(ne, 3 * nb, 3 * nb)
+
+
+def _elasticity_blocks(grads: np.ndarray, dx: np.ndarray, lam: float,
+                       mu: float) -> np.ndarray:
+    """(ne, nb·3, nb·3) element stiffness blocks of linear isotropic elasticity (module
+    docstring), local DOF ``3a + i``."""
+    nb, _, ne, nq = grads.shape
+    g = grads.transpose(2, 0, 1, 3).reshape(ne, 3 * nb, nq)         # [e, (a,i), q]
+    A = np.matmul(g * dx[:, None, :], g.transpose(0, 2, 1))          # Σ_q dV ∂_i N_a ∂_j N_b
+    A = A.reshape(ne, nb, 3, nb, 3)
+    lap = np.einsum("eakbk->eab", A)                                 # ∇N_a·∇N_b
+    K = lam * A + mu * A.transpose(0, 1, 4, 3, 2)
+    for c in range(3):
+        K[:, :, c, :, c] += mu * lap
+    return K.reshape(ne, 3 * nb, 3 * nb)
+
+
 @dataclass(frozen=True, eq=False)
 class SolidModel:
     """A solid FE model and the scikit-fem basis its stress stiffness is assembled on.
@@ -98,9 +153,9 @@ class SolidModel:
     fe
         The :class:`~neweul_py.elastic.fe_model.FEModel` (node ids ``first_id …``,
         DOFs ``ux, uy, uz`` node-major).
-    basis
-        The scikit-fem ``Basis`` of ``ElementVector(element)`` (DOF ``3k + c`` is component
-        ``c`` of node ``k``, the same order as ``fe``).
+    scalar_basis
+        The scikit-fem ``Basis`` of the scalar element on the mesh (its node ``k`` carries
+        the DOFs ``3k + c`` of ``fe``); every integral of the model uses its quadrature.
     material
         The :class:`SolidMaterial`.
     element
@@ -110,32 +165,51 @@ class SolidModel:
     """
 
     fe: FEModel
-    basis: object
+    scalar_basis: object
     material: SolidMaterial
     element: str
     node_sets: Mapping[str, np.ndarray] = field(default_factory=dict)
 
-    def stress(self, u: np.ndarray) -> np.ndarray:
-        """(3, 3, ne, nqp) linear stress of ``u`` at the quadrature points."""
-        lam, mu = self.material.lame
-        return _stress(np.asarray(self.basis.interpolate(np.asarray(u, float)).grad), lam, mu)
+    @cached_property
+    def basis(self):
+        """The scikit-fem ``Basis`` of ``ElementVector(element)`` on the same mesh and
+        quadrature (DOF ``3k + c`` is component ``c`` of node ``k``, the order of ``fe``),
+        built at first use, for forms beyond this module's."""
+        from skfem import ElementVector
 
-    def geometric_stiffness(self, u: np.ndarray) -> sps.csr_matrix:
-        """Initial-stress matrix ``∫ σ_ij ∂_i v_k ∂_j w_k dV`` of the linear stress of ``u``."""
-        from skfem import BilinearForm, asm
+        return self.scalar_basis.with_element(ElementVector(self.scalar_basis.elem))
 
-        lam, mu = self.material.lame
+    @cached_property
+    def _shape(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        values, grads, dx = _shape_functions(self.scalar_basis)
+        return values, grads, dx, _vector_dofs(np.asarray(self.scalar_basis.element_dofs))
 
-        @BilinearForm
-        def initial_stress(a, b, w):
-            s = _stress(w["u"].grad, lam, mu)
-            return np.einsum("ij...,ki...,kj...->...", s, a.grad, b.grad)
-
+    def _checked(self, u: np.ndarray) -> np.ndarray:
         u = np.asarray(u, dtype=np.float64)
         if u.shape != (self.fe.n_dofs,):
             raise ModelError(f"displacement has shape {u.shape}, expected "
                              f"({self.fe.n_dofs},)", "u")
-        return sps.csr_matrix(asm(initial_stress, self.basis, u=self.basis.interpolate(u)))
+        return u
+
+    def stress(self, u: np.ndarray) -> np.ndarray:
+        """(3, 3, ne, nqp) linear stress of ``u`` at the quadrature points."""
+        _, grads, _, dofs = self._shape
+        lam, mu = self.material.lame
+        grad_u = np.einsum("eac,aieq->cieq", self._checked(u)[dofs], grads)  # ∂_i u_c
+        return _stress(grad_u, lam, mu)
+
+    def geometric_stiffness(self, u: np.ndarray) -> sps.csr_matrix:
+        """Initial-stress matrix ``∫ σ_ij ∂_i v_k ∂_j w_k dV`` of the linear stress of ``u``
+        (block diagonal in the component ``k``: the scalar matrix
+        ``Σ_q dV σ_ij ∂_i N_a ∂_j N_b`` once per component)."""
+        _, grads, dx, dofs = self._shape
+        sigma = self.stress(u)
+        g = grads.transpose(2, 0, 1, 3)                                  # [e, a, i, q]
+        sg = np.einsum("ijeq,eajq->eaiq", sigma * dx, g)                 # dV σ_ij ∂_j N_a
+        nb, ne, nq = g.shape[1], g.shape[0], g.shape[3]
+        scalar = np.matmul(sg.reshape(ne, nb, 3 * nq),
+                           g.reshape(ne, nb, 3 * nq).transpose(0, 2, 1))
+        return _scatter(_component_blocks(scalar), dofs.reshape(ne, -1), self.fe.n_dofs)
 
     def stiffening(self, support: Sequence[int] | None = None,
                    cases: Sequence[str] = LOAD_CASES) -> dict[str, sps.csr_matrix]:
@@ -195,8 +269,7 @@ def solid_box(
     >>> s.fe.n_dofs, s.node_sets["root"].size
     (822, 13)
     """
-    from skfem import Basis, BilinearForm, ElementVector, asm
-    from skfem.helpers import dot
+    from skfem import Basis
 
     mat = SolidMaterial() if material is None else material
     el, mesh_type = _element(element)
@@ -209,24 +282,18 @@ def solid_box(
                          "divisions")
     o = np.asarray(origin, dtype=np.float64)
     axes = [o[i] + np.linspace(0.0, L[i], int(nd[i]) + 1) for i in range(3)]
-    mesh = mesh_type.init_tensor(*axes)
-    basis = Basis(mesh, ElementVector(el))
-    lam, mu = mat.lame
-
-    @BilinearForm
-    def elasticity(a, b, _):
-        return np.einsum("ij...,ij...->...", _stress(a.grad, lam, mu),
-                         0.5 * (b.grad + np.swapaxes(b.grad, 0, 1)))
-
-    @BilinearForm
-    def mass(a, b, _):
-        return mat.rho * dot(a, b)
-
-    K = sps.csr_matrix(asm(elasticity, basis))
-    M = sps.csr_matrix(asm(mass, basis))
+    scalar = Basis(mesh_type.init_tensor(*axes), el)
+    values, grads, dx = _shape_functions(scalar)
+    dofs = _vector_dofs(np.asarray(scalar.element_dofs))
+    ne = dofs.shape[0]
+    n = 3 * scalar.N
+    K = _scatter(_elasticity_blocks(grads, dx, *mat.lame), dofs.reshape(ne, -1), n)
+    v = values.transpose(1, 0, 2)                                        # [e, a, q]
+    mass = mat.rho * np.matmul(v * dx[:, None, :], v.transpose(0, 2, 1))  # ρ Σ_q dV N_a N_b
+    M = _scatter(_component_blocks(mass), dofs.reshape(ne, -1), n)
     K = 0.5 * (K + K.T)
     M = 0.5 * (M + M.T)
-    xyz = np.asarray(basis.doflocs)[:, 0::3].T
+    xyz = np.asarray(scalar.doflocs).T
     nn = xyz.shape[0]
     ids = int(first_id) + np.arange(nn)
     nodes = np.column_stack([ids, xyz])
@@ -236,4 +303,4 @@ def solid_box(
     tol = 1e-9 * L.max()
     sets = {"root": ids[np.abs(xyz[:, 0] - o[0]) <= tol],
             "tip": ids[np.abs(xyz[:, 0] - o[0] - L[0]) <= tol], "all": ids}
-    return SolidModel(fe, basis, mat, element, sets)
+    return SolidModel(fe, scalar, mat, element, sets)

@@ -124,7 +124,7 @@ def ffrf_bodies(data, parts=()):
 
 def ffrf_system(bodies, ns, SV, SW, nhidden, rigid, default_inputs, schedule=None,
                 schedule_jacobians=None, mass_pattern=None, kin_pattern=None,
-                max_condition=0.0):
+                max_condition=0.0, schedule_parameter_jacobian=None):
     """The splice context of a generated module.
 
     Parameters
@@ -149,6 +149,9 @@ def ffrf_system(bodies, ns, SV, SW, nhidden, rigid, default_inputs, schedule=Non
         The rows and columns of ``M_s`` and the hidden outputs not zero by construction,
         and the largest condition number of a constant elastic block that
         :func:`ffrf_block` eliminates (:data:`MAX_BLOCK_CONDITION`; 0: none).
+    schedule_parameter_jacobian
+        ``schedule_parameter_jacobian(t, y_s, p, u)``: ``∂σ/∂p`` (parameter derivatives,
+        docs/sensitivity.md).
     """
     bodies = [dict(b) for b in bodies]
     SV, SW = np.asarray(SV, dtype=np.float64), np.asarray(SW, dtype=np.float64)
@@ -173,7 +176,8 @@ def ffrf_system(bodies, ns, SV, SW, nhidden, rigid, default_inputs, schedule=Non
             "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30, "gesv": gesv,
             "parametric": npar, "memo": [None],
             "schedule": schedule, "schedule_jacobians": schedule_jacobians,
-            "pattern": pattern, "maps": ffrf_mass_maps(SV, SW, pattern),
+            "schedule_parameter_jacobian": schedule_parameter_jacobian, "pattern": pattern,
+            "maps": ffrf_mass_maps(SV, SW, pattern),
             "acc_map": np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4)))),
             "block": ffrf_block(bodies, ns, SV, SW, pattern, None if kin_pattern is None
                                 else np.asarray(kin_pattern, dtype=np.intp),
@@ -319,7 +323,7 @@ def ffrf_at(S, t, p, x=None, u=None):
     """The context at time ``t``, parameters ``p``, coordinates ``x`` (``y`` or the state)
     and inputs ``u``: parametric bodies mixed at their scheduling values ``σ`` and ``S_V(σ)``,
     ``S_W(σ)`` (frozen-parameter equations: the weights' time derivatives are not taken,
-    :mod:`.parametric`; their dependence on ``y`` and ``u`` enters the Jacobians,
+    :mod:`~neweul_py.ffrf.parametric`; their dependence on ``y`` and ``u`` enters the Jacobians,
     :func:`ffrf_sigma_terms`); ``S`` itself without parametric bodies.
 
     The last mixed context is remembered (``S["memo"]``, one entry keyed by the bytes of
@@ -372,7 +376,7 @@ def ffrf_sigma_terms(S, t, y, yd, p, u, a=None):
     """``∂(q − k)/∂σ`` (n, k) — or ``∂(M a)/∂σ`` with ``a`` — of a mixed context: the
     complex step of the mixed bodies, ``S_V(σ)``, ``S_W(σ)`` in each ``σ_k``, with the
     symbolic part's analytic Jacobians for its arguments ``y_s = S_V(σ) y`` (module
-    docstring, item 3)."""
+    docstring, step 3)."""
     sigma, h, ns = S["sigma"], S["step"], S["ns"]
     ys, yds = S["SV"] @ y, S["SV"] @ yd
     rig = S["rigid"]
@@ -688,6 +692,95 @@ def ffrf_output_jacobians(S, t, x, p, u=None):
     return C, D
 
 
+def ffrf_sigma_parameter_sensitivity(S, t, y, p, u):
+    """``∂σ/∂p`` (k, np) of a mixed context, or ``None`` when the schedules depend on no
+    parameter."""
+    if "base" not in S or S["schedule_parameter_jacobian"] is None:
+        return None
+    Sp = S["schedule_parameter_jacobian"](t, S["base"]["SV"] @ y, p, u)
+    return Sp if np.any(Sp) else None
+
+
+def ffrf_force_parameter_jacobian(S, t, y, yd, p, u=None):
+    """``∂(q−k)/∂p`` (n, np) at fixed ``u``: the symbolic part's, the elastic terms through
+    the frame kinematics (complex step along ``∂kin/∂p``, for bodies on fixed frames too:
+    their gravity may depend on parameters) and through the schedules."""
+    y = np.asarray(y, dtype=np.float64)
+    yd = np.asarray(yd, dtype=np.float64)
+    if u is None:
+        u = S["default_inputs"](t, p)
+    SV, SW, n = S["SV"], S["SW"], S["n"]
+    fp = SW.T @ S["rigid"]["force_parameter_jacobian"](t, SV @ y, SV @ yd, p, u)
+    if S["bodies"] and fp.shape[1]:           # every body: g of a fixed frame may move too
+        kin = ffrf_kin(S, t, y, yd, p, u)
+        xs = np.concatenate((SV @ y, SV @ yd))
+        Kp = S["rigid"]["output_parameter_jacobian"](t, xs, p, u)[S["nhidden"]:]
+        z = np.zeros(n)
+        used = [j for j in range(fp.shape[1]) if np.any(Kp[:, j])]
+        if used:
+            fp[:, used] += ffrf_force_directional(S, kin, y, yd, [(Kp[:, j], z, z)
+                                                                   for j in used])
+    sens = ffrf_sigma_parameter_sensitivity(S, t, y, p, u)
+    if sens is not None:
+        fp += ffrf_sigma_terms(S, t, y, yd, p, u) @ sens
+    return fp
+
+
+def ffrf_mass_matrix_parameter_derivative(S, t, y, p, a, u=None):
+    """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``."""
+    y = np.asarray(y, dtype=np.float64)
+    a = np.asarray(a, dtype=np.float64)
+    if u is None:
+        u = S["default_inputs"](t, p)
+    SV, SW, n, h = S["SV"], S["SW"], S["n"], S["step"]
+    dMa = SW.T @ S["rigid"]["mass_matrix_parameter_derivative"](t, SV @ y, p, SV @ a, u)
+    z = np.zeros(n)
+    Sm = ffrf_moving(S)
+    if Sm["bodies"] and dMa.shape[1]:
+        kin = ffrf_kin(S, t, y, z, p, u)
+        xs = np.concatenate((SV @ y, SV @ z))
+        Kp = S["rigid"]["output_parameter_jacobian"](t, xs, p, u)[S["nhidden"]:]
+        zero = np.zeros((n, n), dtype=complex)
+        for j in np.flatnonzero(np.any(Kp, axis=0)):
+            Mc = ffrf_add_mass(Sm, zero, ffrf_terms(Sm, kin + 1j * h * Kp[:, j], y, z))
+            dMa[:, j] += (Mc @ a).imag / h
+    sens = ffrf_sigma_parameter_sensitivity(S, t, y, p, u)
+    if sens is not None:
+        dMa += ffrf_sigma_terms(S, t, y, z, p, u, a) @ sens
+    return dMa
+
+
+def ffrf_rhs_parameter_jacobian(S, t, x, p, u=None):
+    """``∂rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``."""
+    x = np.asarray(x, dtype=np.float64)
+    n = S["n"]
+    M, f = ffrf_dynamics(S, t, x, p, u)
+    ydd = ffrf_solve(S, M, f)
+    fp = ffrf_force_parameter_jacobian(S, t, x[:n], x[n:2 * n], p, u)
+    dMa = ffrf_mass_matrix_parameter_derivative(S, t, x[:n], p, ydd, u)
+    J = np.zeros((2 * n, fp.shape[1]))
+    if fp.shape[1]:
+        J[n:, :] = ffrf_solve(S, M, fp - dMa)
+    return J
+
+
+def ffrf_output_parameter_jacobian(S, t, x, p, u=None):
+    """``∂out/∂p`` (ny, np) at fixed state and ``u``."""
+    x = np.asarray(x, dtype=np.float64)
+    if u is None:
+        u = S["default_inputs"](t, p)
+    n, ns, nh = S["n"], S["ns"], S["nhidden"]
+    xs = ffrf_symbolic_state(S, x)
+    Op = S["rigid"]["output_parameter_jacobian"](t, xs, p, u)[:nh].copy()
+    sens = ffrf_sigma_parameter_sensitivity(S, t, x[:n], p, u)
+    if sens is not None:                      # S_V(σ) moves with the schedule
+        Cs = S["rigid"]["output_jacobians"](t, xs, p, u)[0][:nh]
+        Os = np.stack([Cs[:, :ns] @ (d @ x[:n]) + Cs[:, ns:] @ (d @ x[n:2 * n])
+                       for d in ffrf_dsv(S)], axis=1)
+        Op += Os @ sens
+    return Op
+
+
 def ffrf_sigma_steps(S):
     """The mixed context at ``σ + i h e_k`` for each parametric body ``k`` (the complex
     step in ``σ``)."""
@@ -807,6 +900,10 @@ PROTOCOL = {
     "constraint_reaction_jacobian": ffrf_constraint_reaction_jacobian,
     "constraint_time_derivative": ffrf_constraint_time_derivative,
     "constraint_gamma": ffrf_constraint_gamma,
+    "force_parameter_jacobian": ffrf_force_parameter_jacobian,
+    "mass_matrix_parameter_derivative": ffrf_mass_matrix_parameter_derivative,
+    "rhs_parameter_jacobian": ffrf_rhs_parameter_jacobian,
+    "output_parameter_jacobian": ffrf_output_parameter_jacobian,
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
@@ -814,6 +911,7 @@ SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_system,
                     ffrf_index, ffrf_mass_maps, ffrf_block_constant, ffrf_block,
                     ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
+                    ffrf_sigma_parameter_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
                     ffrf_terms, ffrf_add_mass, ffrf_add_force, ffrf_dynamics,
                     ffrf_symbolic_mass,

@@ -18,7 +18,7 @@ with ``ω_rel = Σ_i u_i φ̇_i`` (:func:`~neweul_py.kinematics.rotations.rotati
 ``a_K = J_T,K ÿ + ā_K`` etc., all in K components.
 
 Frame kinematics may depend on coordinates and explicitly on time ``t`` (prescribed motion),
-directly or through inputs ``u(t)`` (kinematic excitation, issue 4): the explicit time
+directly or through inputs ``u(t)`` (kinematic excitation): the explicit time
 derivative is then taken by the chain rule, ``∂/∂t + Σ_u (∂/∂u) u̇ + (∂/∂u̇) ü``, with ``u̇``,
 ``ü`` the input-vector entries ``d_<u>``, ``dd_<u>`` (:attr:`~neweul_py.model.System.input_names`).
 A third derivative of an input is never needed by rigid kinematics (positions may use ``u``
@@ -416,7 +416,7 @@ def absolute_kinematics(system: System, form: Form = "closed",
         The model.
     form
         ``"closed"``: every quantity fully substituted; ``"recursive"``: intermediates emitted
-        into ``Kinematics.workspace`` (DESIGN.md, two ways to state the equations).
+        into ``Kinematics.workspace`` (``docs/architecture.md``, "Rigid bodies").
     progress
         ``progress("kinematics", done, total)`` after each frame (:mod:`neweul_py.progress`).
 

@@ -4,7 +4,7 @@ In *closed* form :meth:`Workspace.let` returns the expression itself, so results
 substituted. In *recursive* (semi-symbolic) form it assigns every non-trivial expression to a
 fresh symbol and records the ordered assignment; later expressions then refer to the symbol, so
 expressions stay small and the derivation grows about linearly with the number of bodies
-(DESIGN.md, "Two ways to state the equations").
+(``docs/architecture.md``, "Rigid bodies").
 
 Intermediate symbols are named ``_<kind>_<owner>_<index>``; the leading underscore keeps them
 apart from model names (which start with a letter). Equal expressions share one symbol.

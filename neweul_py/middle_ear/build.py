@@ -73,8 +73,10 @@ BUILD_RECORD = "build.json"
 SNAPSHOT_HZ = np.r_[20.0, np.geomspace(100.0, 8000.0, 10)]
 #: Step of the static curve of the volume coordinate [Pa].
 CURVE_STEP = 100.0
-#: The sweep directories of a build.
-SWEEPS = ("fem", "fem_refine", "fem_slopes")
+#: The sweep directories of a build: ``fem`` (the working points asked for), then one per
+#: further call of the FE sweep, named by what it holds (``fem_slopes``, ``fem_refine``, and
+#: ``fem_slopes_2`` … for later calls: a sweep directory is never solved again).
+SWEEP_GLOB = "fem*"
 
 Progress = Callable[..., None]
 
@@ -152,23 +154,25 @@ class _Sweeps:
         self.root, self.options, self.progress = root, options, progress
         self.where: dict[float, Path] = {}
         self.models: dict[float, Any] = {}
-        for name in SWEEPS:
-            record = root / name / "sweep.json"
+        for d in sorted(root.glob(SWEEP_GLOB)):
+            record = d / "sweep.json"
             if record.is_file():
                 for wp in json.loads(record.read_text())["working_points"]:
-                    if (root / name / wp["file"]).is_file():
-                        self.where.setdefault(float(wp["dp_Pa"]), root / name)
+                    if (d / wp["file"]).is_file():
+                        self.where.setdefault(float(wp["dp_Pa"]), d)
 
     def solve(self, name: str, pressures: Sequence[float], curve: bool = False) -> None:
-        """Solve the working points ``pressures`` (with those already in ``name``) into the
-        sweep directory ``name`` (atomically)."""
-        d = self.root / name
-        known = sorted(p for p, w in self.where.items() if w == d)
-        todo = sorted({*known, *(float(p) for p in pressures)})
-        self.progress(f"FE models at {', '.join(f'{p:+.0f}' for p in pressures)} Pa")
+        """Solve the working points ``pressures`` into a new sweep directory named ``name``
+        (``name_2`` … when that exists; written atomically)."""
+        d, k = self.root / name, 1
+        while (d / "sweep.json").exists():
+            k += 1
+            d = self.root / f"{name}_{k}"
+        todo = sorted({float(p) for p in pressures})
+        self.progress(f"FE models at {', '.join(f'{p:+.0f}' for p in todo)} Pa")
         pressure_sweep(todo, refine=self.options.refine, out_dir=str(d), progress=self.progress,
                        static_curve=CURVE_STEP if curve else None)
-        self.where.update({float(p): d for p in todo})
+        self.where.update({p: d for p in todo})
 
     def need(self, name: str, pressures: Sequence[float]) -> None:
         """The working points ``pressures``, solved into ``name`` where they are missing."""
@@ -188,10 +192,10 @@ def _reuse(old: Path, tmp: Path, refine: int) -> None:
     record = old / BUILD_RECORD
     if not record.is_file() or json.loads(record.read_text()).get("refine") != refine:
         return
-    for name in (*SWEEPS, "embs"):
-        src = old / name
+    for src in (*sorted(old.glob(SWEEP_GLOB)), old / "embs"):
         if not src.is_dir():
             continue
+        name = src.name
         for path in src.rglob("*"):
             if path.is_dir() or path.is_symlink() or (name == "embs" and
                                                       not path.name.startswith("basis")):
@@ -259,6 +263,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
                                 tmp / "embs" / f"basis_r{options.refine}_{options.rtol:g}.npz",
                                 options, progress)
     step = float(options.slope_step)
+    projections: dict[str, Any] = {}        # each FE model projected on V once
 
     def slope_keywords(pts: list[float], static: bool) -> dict[str, Any]:
         if step <= 0:
@@ -280,7 +285,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
             models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
             static=static_states(sweeps.where, pts, manubrium) if static else None,
             interpolation=options.interpolation if step > 0 else "cubic",
-            **slope_keywords(pts, static))
+            projections=projections, **slope_keywords(pts, static))
         if not volume:
             return pb
         return pb.with_(coordinate=volume_coordinate(sweeps.where, fem / "static_curve.csv",

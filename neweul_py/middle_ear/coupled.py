@@ -1,6 +1,6 @@
 """The unreduced FE model coupled with a linear multibody chain at its nodes (validation).
 
-The reference of the middle-ear EMBS (issue 13, item 8): the *same* ossicular chain as the
+The reference of the middle-ear EMBS: the *same* ossicular chain as the
 EMBS — its linear matrices, taken from the linearized chain model with the TM's node frames
 replaced by free translations — attached directly to the full FE model of a working point,
 as ``examples/elastic_up_body`` does for its piston. With the chain's coordinates

@@ -1,6 +1,6 @@
 """Physical and geometric data of the middle-ear FE model (SI units) and its validity limits.
 
-Every value with its source: ``examples/middle_ear/README.md`` and
+Every value with its source: ``docs/middle-ear-data.md`` and
 ``docs/middle-ear-measurements.md``.
 """
 
@@ -31,7 +31,7 @@ MAX_DISPLACEMENT_FRACTION = 0.5
 
 @dataclass(frozen=True)
 class MiddleEarParameters:
-    """Physical and geometric data (SI units); sources in ``examples/middle_ear/README.md``.
+    """Physical and geometric data (SI units); sources in ``docs/middle-ear-data.md``.
 
     Parameters
     ----------
@@ -71,8 +71,7 @@ class MiddleEarParameters:
         (rim nodes excluded): 1, the manubrium runs from the umbo to the lateral process of
         the malleus, which lies at the superior margin of the pars tensa (the malleal
         prominence; the anterior and posterior striae run from it to the tympanic spines and
-        bound the pars tensa: docs/middle-ear-measurements.md §6). It was 0.8 before session
-        19 (no source).
+        bound the pars tensa: docs/middle-ear-measurements.md §6).
     umbo_offset
         Anterior offset of the umbo from the centre of the (circular) rim, as a fraction of
         the radius: 0.16, so that the posterior-superior quadrant (the quadrants cut by the
@@ -93,13 +92,11 @@ class MiddleEarParameters:
         vestibule against the annular ligament) and lateral (the incudomalleolar joint
         yields, Hüttenbrink 1988). ``s₊`` = 120 µm: the low-frequency loss of the malleus at
         the umbo (the point Gyo & Goode measured) against their means at +1/+2/+3 kPa, on the
-        unreduced FE model with the 3-D chain at refine 1 (RMS of the z-scores 0.31; 200 µm
-        before the off-centre umbo and the manubrium to the rim of session 19, with which
-        the losses grew) (``docs/middle-ear-measurements.md`` §2;
-        examples/middle_ear/README.md, "The off-centre umbo"). The fit is shallow: with the
-        static modulus ``tm_E_static`` most of the loss is the TM's own stress stiffening.
-        ``s₋`` = 140 µm keeps the ratio ``s₋/s₊`` ≈ 8/7 of the earlier fits (lateral softer:
-        the joints glide); no measured magnitudes for Δp < 0 were available.
+        unreduced FE model with the 3-D chain at refine 1 (RMS of the z-scores 0.31;
+        ``docs/middle-ear-measurements.md`` §2, ``examples/middle_ear/README.md``). The fit is
+        shallow: with the static modulus ``tm_E_static`` most of the loss is the TM's own
+        stress stiffening. ``s₋`` = 140 µm: lateral softer than medial (the joints glide);
+        no measured magnitudes for Δp < 0 were available.
     mastoid_volume
         Air volume of the antrum and the mastoid air cells [m³] behind the aditus, a lumped
         compliance ``V_m/(ρc²)`` (0: a closed tympanic cavity). 3.5 cm³, so that the middle-ear

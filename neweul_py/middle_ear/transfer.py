@@ -10,7 +10,7 @@ Two checks of the FE data that need no multibody model (``docs/equations-middle-
   springs with a loss factor, the cochlea as a dashpot at the stapes; the ligaments to ground
   stiffen with Δp so that the chain's static stiffness at the malleus equals the tangent of
   the static characteristic at the working point. Umbo and stapes velocity per probe
-  pressure; the reference the flagship EMBS (issue 13) can be checked against.
+  pressure; the reference the flagship EMBS can be checked against.
 
 Frequency domain with loss factors: ``(K + iG − ω² M) x = B``.
 """

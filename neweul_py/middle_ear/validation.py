@@ -62,8 +62,8 @@ def chain_module(description: Path, fem: Path, gen: Path) -> Any:
 def fe_model_at(dp: float, build: Path, refine: int) -> Path:
     """The FE model of a working point: from a sweep of the build, or solved alone (between
     samples) into ``build/fem_dp<dp>``."""
-    for name in ("fem", "fem_refine", "fem_slopes"):
-        path = model_path(build / name, dp)
+    for d in sorted(build.glob("fem*")):
+        path = model_path(d, dp)
         if path.is_file():
             return path
     extra = build / f"fem_dp{dp:+06.0f}"
@@ -152,7 +152,7 @@ def static_errors(build: Path, extra: Sequence[float] = ()) -> list[tuple]:
     umbo = pb.nodes[pb.nodes[:, 0] == record["umbo"]][0, 1:4]
     out = list(pb.output_names)
     ref: dict[float, np.ndarray] = {}
-    for d in (build / "fem", build / "fem_refine"):
+    for d in sorted(build.glob("fem*")):
         if (d / "static.csv").is_file():
             for r in np.atleast_1d(np.genfromtxt(d / "static.csv", delimiter=",", names=True)):
                 ref[float(r["dp_Pa"])] = r

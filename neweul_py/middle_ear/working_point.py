@@ -138,6 +138,8 @@ def working_point_model(
         ``canal_volume_acceleration`` (a piston source at the canal entrance, per m³/s² of
         volume acceleration: ``p_ex = ρ/S ∫ N dΓ · Q̇``) and ``manubrium.<node>.u{x,y,z}``
         (forces on the interface nodes). Outputs: ``probe_pressure`` [Pa],
+        ``entrance_pressure`` [Pa] (the mean pressure over the piston at the canal entrance,
+        the work conjugate of the canal source: a clinical probe's tip),
         ``umbo_u{x,y,z}`` [m], ``tm_volume_displacement`` [m³] (linearized) and
         ``manubrium.<node>.u{x,y,z}`` [m].
     """
@@ -200,6 +202,7 @@ def working_point_model(
     outputs["probe_pressure"] = tuple(
         (int(nu + n), float(wt)) for n, wt in zip(me.probe_nodes, me.probe_weights, strict=True)
     )
+    outputs["entrance_pressure"] = tuple((int(nu + i), float(load[i] / area)) for i in nz)
     for j, kname in enumerate(kinds):
         outputs[f"umbo_{kname}"] = ((int(pos[3 * me.umbo + j]), 1.0),)
     gv = grad_v.ravel()

@@ -6,7 +6,7 @@ Its invariants (``m``, ``md``, ``J``, ``Ct``, ``Cr``, ``Me``, ``Gr``, ``Ge``, ``
 ``De`` … with their first-order terms, the node ``origin``, ``Φ``, ``Ψ``, ``AP``) are kept as
 *numeric arrays* — the flat form of :class:`neweul_py.elastic.bodies.invariants.Invariants`
 (``Invariants.to_flat``) — and never become symbolic expressions: the generated module does
-matrix products with them (DESIGN.md, "Recursive / semi-symbolic").
+matrix products with them (``docs/architecture.md``, "Elastic bodies").
 
 Only the node frames are symbolic, to first order in ``q`` (SID convention), through six
 dependent node coordinates ``[u; θ] = [Φ_P; Ψ_P] q`` each::

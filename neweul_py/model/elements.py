@@ -7,6 +7,7 @@ that need the whole model (known names, frame tree) are done by :class:`~neweul_
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -26,6 +27,7 @@ __all__ = [
     "Output",
     "Parameter",
     "RigidBody",
+    "range_text",
     "vector3",
 ]
 
@@ -53,14 +55,44 @@ def _zero3() -> sp.ImmutableMatrix:
 
 @dataclass(frozen=True)
 class Parameter:
-    """A named constant with a default value; generated code takes it in the vector ``p``."""
+    """A named constant with a default value; generated code takes it in the vector ``p``.
+
+    ``minimum`` and ``maximum`` (inclusive, ``None``: unbounded) are the values the model
+    admits — a length ``minimum=0`` — that every command checks a new value against
+    (``PARAMETER_RANGES`` of the generated module, docs/description-format.md).
+    """
 
     name: str
     default: float
+    minimum: float | None = None
+    maximum: float | None = None
+
+    def __post_init__(self) -> None:
+        path = f"parameters.{self.name}"
+        for what in ("minimum", "maximum"):
+            v = getattr(self, what)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, int | float)
+                                  or not math.isfinite(v)):
+                raise ModelError(f"the {what} must be a finite number, got {v!r}", path)
+        lo, hi = self.minimum, self.maximum
+        if lo is not None and hi is not None and lo > hi:
+            raise ModelError(f"the minimum {lo:g} is above its maximum {hi:g}", path)
+        d = self.default
+        if isinstance(d, int | float) and not isinstance(d, bool) and (
+                (lo is not None and d < lo) or (hi is not None and d > hi)):
+            raise ModelError(f"the default {d:g} is outside its range {range_text(lo, hi)}",
+                             path)
 
     @property
     def symbol(self) -> sp.Symbol:
         return symbol(self.name)
+
+
+def range_text(lo: float | None, hi: float | None) -> str:
+    """``2 … 3``, ``≥ 0``, ``≤ 1`` (inclusive bounds)."""
+    if lo is not None and hi is not None:
+        return f"{lo:g} … {hi:g}"
+    return f"≥ {lo:g}" if lo is not None else f"≤ {hi:g}"
 
 
 @dataclass(frozen=True)

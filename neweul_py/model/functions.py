@@ -8,18 +8,18 @@ build them too. They are sympy nodes *named like sympy's own* (``Min``, ``Max``,
 subclass of another name). What changes is only the derivative, so that ``sympy.diff`` — in the
 kinematics' time derivatives as in the equations' Jacobians — never produces a ``DiracDelta``:
 
-=================  ==================  =================================================
-language           node                derivative
-=================  ==================  =================================================
-``min(a, b, …)``   :class:`Min`        ``Σ w_i a_i′``, ``w_i = 1`` for the first minimal
-                                       argument, else 0 (products of steps)
-``max(a, b, …)``   :class:`Max`        likewise for the first maximal argument
-``abs(x)``         :class:`Abs`        ``x′·(2·step(x) − 1)``: ``+x′`` at ``x = 0``
-``sign(x)``        :class:`sign`       ``0``
-``heaviside(x)``,  :class:`Heaviside`  ``0``; always ``Heaviside(x, 1)``: 1 for ``x ≥ 0``
-``step(x)``                            (right-continuous), 0 below
-``piecewise(…)``   ``sympy.Piecewise`` the derivatives of the branches, same conditions
-=================  ==================  =================================================
+=================  ===================  =================================================
+language           node                 derivative
+=================  ===================  =================================================
+``min(a, b, …)``   :class:`Min`         ``Σ w_i a_i′``, ``w_i = 1`` for the first minimal
+                                        argument, else 0 (products of steps)
+``max(a, b, …)``   :class:`Max`         likewise for the first maximal argument
+``abs(x)``         :class:`Abs`         ``x′·(2·step(x) − 1)``: ``+x′`` at ``x = 0``
+``sign(x)``        :class:`sign`        ``0``
+``heaviside(x)``,  :class:`Heaviside`   ``0``; always ``Heaviside(x, 1)``: 1 for ``x ≥ 0``
+``step(x)``                             (right-continuous), 0 below
+``piecewise(…)``   ``sympy.Piecewise``  the derivatives of the branches, same conditions
+=================  ===================  =================================================
 
 So the derivative at a corner is a one-sided value (of the branch that holds there), never a
 distribution. :class:`TableCurve` is a piecewise polynomial of one argument (tabulated

@@ -74,7 +74,8 @@ def input_rate_name(name: str, order: int) -> str:
     """Name of the ``order``-th time derivative of an input: ``d_<name>`` (1), ``dd_<name>`` (2).
 
     Inputs used in kinematics (kinematic excitation) need their derivatives; the generated
-    module takes them as further entries of the input vector ``u`` (DESIGN.md, issue 4).
+    module takes them as further entries of the input vector ``u``
+    (``docs/generated-module-protocol.md``, "Inputs used as kinematic excitation").
     """
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, not {order!r}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, is_dataclass
 from functools import cached_property
 
 import sympy as sp
@@ -56,9 +56,9 @@ class System:
     description
         Free text.
     constraints
-        Holonomic constraints ``g(y, t) = 0`` closing kinematic loops (issue 4).
+        Holonomic constraints ``g(y, t) = 0`` closing kinematic loops.
     elastic_bodies
-        Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`, issue 6); their
+        Elastic bodies (:class:`~neweul_py.model.elastic.ElasticBody`); their
         coordinates, the dependent coordinates of their node frames and the node frames
         (``NAME.label``) are in ``coordinates`` and ``frames``.
     loss_reference_frequency
@@ -186,19 +186,52 @@ class System:
     def _repr_markdown_(self) -> str:
         return system_markdown(self)
 
+    @cached_property
+    def parameter_ranges(self) -> dict[str, tuple[float | None, float | None]]:
+        """``name → (minimum, maximum)`` (inclusive, ``None``: unbounded) of the parameters
+        with an admissible range: their own, and at least 0 for a parameter that is by itself
+        what a force element refuses to be negative at the defaults (a spring's rest length,
+        :meth:`~neweul_py.model.forces.ForceElement.nonnegative`): a new value must obey the
+        same rule."""
+        ranges = {p.name: (p.minimum, p.maximum) for p in self.parameters
+                  if p.minimum is not None or p.maximum is not None}
+        names = {p.symbol: p.name for p in self.parameters}
+        for fe in self.forces:
+            for expr in fe.nonnegative():
+                name = names.get(expr)
+                if name is not None:
+                    lo, hi = ranges.get(name, (None, None))
+                    ranges[name] = (0.0 if lo is None else max(lo, 0.0), hi)
+        return ranges
+
     def fingerprint(self) -> str:
         """A SHA-256 of a canonical text of the whole model: equal models, equal fingerprints.
 
         Used to cache derived results by content.
         """
-        return hashlib.sha256(sp.srepr(_canonical(self)).encode()).hexdigest()
+        return hashlib.sha256(repr(_canonical(self)).encode()).hexdigest()
 
 
 # ---------------------------------------------------------------------- validation
 def _canonical(system: System) -> tuple:
-    return tuple(
-        (f.name, repr(getattr(system, f.name))) for f in fields(system)
-    )
+    return tuple((f.name, _canonical_value(getattr(system, f.name))) for f in fields(system))
+
+
+def _canonical_value(value: object) -> object:
+    """A canonical, printable form of a model object: dataclasses field by field, sympy
+    expressions as their text with the arguments in sympy's own canonical order
+    (``order="none"``; ``str`` sorts the terms of a sum first, which took 30 s for a sum of
+    20 000 parameters), elastic bodies by their data's digest (``ElasticBody.__repr__``)."""
+    if isinstance(value, sp.Basic):
+        return sp.sstr(value, order="none")
+    if isinstance(value, tuple | list):
+        return tuple(_canonical_value(v) for v in value)
+    if isinstance(value, Mapping):
+        return tuple(sorted((repr(k), _canonical_value(v)) for k, v in value.items()))
+    if isinstance(value, ElasticBody) or not is_dataclass(value) or isinstance(value, type):
+        return repr(value)
+    return (type(value).__name__,
+            tuple((f.name, _canonical_value(getattr(value, f.name))) for f in fields(value)))
 
 
 @dataclass(frozen=True)
@@ -603,8 +636,8 @@ def _numeric(expr: sp.Basic, defaults: Mapping[sp.Symbol, float]) -> object:
     for a matrix), or None if not numeric. The defaults replace the symbols all at once
     (``xreplace``; ``subs`` orders the pairs and rebuilds the expression once per pair, and
     was most of the time of loading a description)."""
-    values = {k: sp.Float(float(v)) for k, v in defaults.items()}
-    try:
+    try:   # only the expression's own symbols (a model may have thousands of parameters)
+        values = {k: sp.Float(float(defaults[k])) for k in expr.free_symbols if k in defaults}
         value = expr.xreplace(values)
         if isinstance(value, sp.MatrixBase):
             return [[float(v) for v in row] for row in value.tolist()]

@@ -8,8 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-pytest.importorskip("matplotlib")
 from PIL import Image
 
 from neweul_py.analysis import animate, load_generated, simulate

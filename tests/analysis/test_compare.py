@@ -52,7 +52,7 @@ def test_time_history_against_a_closed_form_on_other_times(tmp_path):
                header="t,phi,d_phi")
     assert main(["compare", str(ours), str(path), "--rtol", "1e-4",
                  "--rtol", "phi=2e-2"]) == 0  # per-signal tolerance
-    assert main(["compare", str(ours), str(path), "--rtol", "1e-4"]) == 1
+    assert main(["compare", str(ours), str(path), "--rtol", "1e-4"]) == 3  # a failed check
 
 
 def test_frequency_response_is_phase_aware():
@@ -105,7 +105,6 @@ def test_modes_matched_by_mac_whatever_their_order(tmp_path):
 def test_equilibria_and_the_overlay_plot(tmp_path):
     """Reference: the equilibrium of the double pendulum (hanging: both angles 0) and itself
     from its CSV file."""
-    pytest.importorskip("matplotlib")
     eq = equilibrium(load_generated(GENERATED / "double_pendulum.py"))
     path = eq.save(tmp_path / "eq.csv")
     cmp = compare(eq, path)
@@ -150,7 +149,6 @@ def test_overlay_plot_has_units_and_an_error_curve(tmp_path):
     ``[unit]`` header of another tool's CSV), the error axis beside it plots |a − b| in the
     same unit with the tolerance line, frequency responses get magnitude, phase and relative
     error, and every label stays inside the figure."""
-    pytest.importorskip("matplotlib")
     from neweul_py.analysis.compare_plot import comparison_figure
 
     res = simulate(GENERATED / "pendulum.py", 3.0, x0={"phi": 1e-3}, n_out=601, rtol=1e-10,
@@ -182,3 +180,16 @@ def test_overlay_plot_has_units_and_an_error_curve(tmp_path):
     name = "stapes_velocity__p_ec"
     assert [ax.get_ylabel() for ax in freq.axes[:3]] == [
         f"|{name}|", "phase [deg]", f"|Δ{name}| / |{name}_ref|"]
+
+
+def test_a_reference_that_is_not_utf8_is_one_clear_error(tmp_path, capsys):
+    """A CSV saved as Latin-1 (``t [°C]`` in its header) raised UnicodeDecodeError; it is one
+    DataError naming the file, the byte, its offset and line. Reference: the bytes written."""
+    ours = simulate(GENERATED / "pendulum.py", 1.0, n_out=11).save(tmp_path / "a.csv")
+    bad = tmp_path / "latin1.csv"
+    bad.write_bytes("t,phi [\u00b0]\n0,1\n0.1,2\n".encode("latin-1"))
+    with pytest.raises(DataError, match=r"not UTF-8 text \(byte 0xb0 at offset 7, line 1\)"):
+        compare(ours, bad)
+    assert main(["compare", str(ours), str(bad)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "latin1.csv" in err[0] and "not UTF-8" in err[0]

@@ -203,3 +203,38 @@ def test_rheonomic_constraint_moving_pivot(cartesian_pendulum):
     assert np.abs(phi - ref).max() < 1e-7
     assert res.max_drift < 1e-8
     assert res.velocity_residual.max() < 1e-8
+
+
+@pytest.mark.parametrize(("model", "p", "who"), [("slider_crank", {"r": 0.0}, "phi"),
+                                                 ("four_bar", {"a": 0.0}, "phi1")])
+def test_zero_length_crank_is_named_not_a_linalg_error(model, p, who):
+    """``neweul simulate examples/slider_crank.yaml -p r=0`` gave a raw LinAlgError: the
+    crank of zero radius has no inertia and the constraints do not fix it, but its entry of
+    ``Vᵀ M V`` (V the null space of G) was 2e-83 — not zero, so the rank test relative to
+    that 1 × 1 matrix passed. The test is relative to the scale of M now. Reference: the
+    mass matrix of a crank of zero radius (its inertia m r²/3 = 0)."""
+    from pathlib import Path
+
+    from neweul_py.analysis.module import load_generated
+    from neweul_py.analysis.simulate import simulate
+
+    module = load_generated(Path(__file__).resolve().parents[2] / "generated" / f"{model}.py")
+    with pytest.raises(NeweulError, match=rf"no inertia in the motion of coordinate\(s\) {who}"):
+        simulate(module, 0.1, p=p)
+
+
+def test_singular_system_during_the_run_names_the_time(slider_crank):
+    """The mass matrix vanishes at t = 0.05 (a test double of the fixture): one SolverError
+    naming the time and what is singular, never numpy's LinAlgError — from the integrator's
+    right-hand side and from the output times. Reference: the time the double switches."""
+    base = slider_crank.mass_matrix
+    mod = variant(slider_crank,
+                  mass_matrix=lambda t, y, p: base(t, y, p) * (0.0 if t > 0.05 else 1.0))
+    with pytest.raises(SolverError, match=r"singular at t = 0\.05\d*: .*no inertia in the "
+                                          r"motion of coordinate\(s\) phi") as info:
+        simulate_constrained(mod, 0.2, n_out=5)
+    assert info.value.last_iterate is not None
+    at_end = variant(slider_crank,
+                     mass_matrix=lambda t, y, p: base(t, y, p) * (0.0 if t >= 0.1 else 1.0))
+    with pytest.raises(SolverError, match=r"singular at t = 0\.1: .*no inertia"):
+        simulate_constrained(at_end, 0.1, t_eval=[0.0, 0.05, 0.1])

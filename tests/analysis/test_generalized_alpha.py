@@ -138,6 +138,29 @@ def test_bad_arguments_are_clear_errors(oscillator) -> None:
         simulate(mod, 1.0, method="generalized-alpha", h=-0.1)
 
 
+@pytest.mark.parametrize("h", [1e-300, 1e-320, 5e-324])
+def test_step_count_is_capped_before_the_first_step(oscillator, capsys, h) -> None:
+    """``--step 1e-300`` hung (10³⁰⁰ steps) and ignored ``--max-steps``; 1e-320 overflowed the
+    step count. The count ceil(T / h) is checked against ``max_steps`` (API default 10⁹, the
+    CLI's ``--max-steps``, default 10⁶) before anything is integrated. Reference: the
+    arithmetic T / h."""
+    from neweul_py.analysis.generalized_alpha import MAX_STEPS
+    from neweul_py.cli import main
+
+    mod = oscillator(50.0, 0.4)
+    with pytest.raises(NeweulError, match=f"more than max_steps = {MAX_STEPS}"):
+        simulate(mod, 1.0, method="generalized-alpha", h=h)
+    with pytest.raises(NeweulError, match=r"2000 steps .* more than max_steps = 1000"):
+        simulate(mod, 2.0, method="generalized-alpha", h=1e-3, max_steps=1000)
+    assert simulate(mod, 1.0, method="generalized-alpha", h=1e-3, max_steps=1000).t[-1] == 1.0
+    path = str(GENERATED / "pendulum.py")
+    for extra, cap in (([], "1000000"), (["--max-steps", "10"], "10")):
+        code = main(["simulate", path, "--t-end", "1", "--method", "generalized-alpha",
+                     "--step", repr(h), "-q", *extra])
+        err = capsys.readouterr().err
+        assert code == 1 and err.count("\n") == 1 and f"--max-steps {cap}" in err
+
+
 def test_cli_step_and_rho_inf(capsys) -> None:
     """``neweul simulate --method generalized-alpha --step H --rho-inf R`` gives the final state
     of the API call with the same arguments (reference: ``simulate``); without ``--step`` it

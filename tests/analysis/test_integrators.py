@@ -3,12 +3,12 @@ against SciPy's RK45, whose step control it reproduces, and its documented limit
 
 from __future__ import annotations
 
-import shutil
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from compiler import needs_c_compiler
 from scipy.integrate import solve_ivp
 
 from neweul_py.analysis.module import load_generated
@@ -20,8 +20,7 @@ from neweul_py.equations import newton_euler
 from neweul_py.errors import NeweulError
 
 ROOT = Path(__file__).resolve().parents[2]
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = needs_c_compiler
 
 
 def _modules(name: str, directory: Path):

@@ -115,29 +115,19 @@ def test_inconsistent_operating_point(cartesian_pendulum):
         linearize(cartesian_pendulum, [0.1, -0.5])
 
 
-def _double_pendulum(cache):
+def _double_pendulum():
     from pathlib import Path
 
-    path = Path(__file__).parents[2] / "generated" / "double_pendulum.py"
     from neweul_py.analysis.module import load_generated
 
-    if path.is_file():
-        return load_generated(path)
-    try:
-        from neweul_py.api import generated_module
-    except ImportError as exc:
-        pytest.skip(f"generated/double_pendulum.py absent and neweul_py.api unavailable ({exc})")
-    desc = Path(__file__).parents[2] / "examples" / "double_pendulum.yaml"
-    if not desc.is_file():
-        pytest.skip("generated/double_pendulum.py and examples/double_pendulum.yaml are absent")
-    return load_generated(generated_module(desc, cache=cache))
+    return load_generated(Path(__file__).parents[2] / "generated" / "double_pendulum.py")
 
 
-def test_double_pendulum_hanging_against_textbook(tmp_path):
+def test_double_pendulum_hanging_against_textbook():
     """Two uniform rods, relative second angle: M = Tᵀ M_abs T, Q = Tᵀ K_abs T with
     M_abs = [[(m1/3 + m2) l1², m2 l1 l2/2], [m2 l1 l2/2, m2 l2²/3]],
     K_abs = diag((m1/2 + m2) g l1, m2 g l2/2), T = [[1, 0], [1, 1]] (absolute = T · relative)."""
-    mod = _double_pendulum(tmp_path)
+    mod = _double_pendulum()
     prm = dict(zip(mod.PARAMETERS, mod.default_parameters(), strict=True))
     m1, m2, l1, l2, g = (prm[k] for k in ("m1", "m2", "l1", "l2", "g"))
     eq = equilibrium(mod)  # from phi1 = 1.5 rad: the step limit keeps Newton in this revolution

@@ -1,4 +1,4 @@
-"""Plots a researcher would publish (issue 11 item 8): rendered with matplotlib's Agg canvas
+"""Plots a researcher would publish: rendered with matplotlib's Agg canvas
 into PNG files, then checked programmatically — every axis labelled with its unit, log axes
 where asked, one axis per unit group (a 300 rad spin does not share an axis with a 0.1 rad
 oscillation), legends outside the data area and y labels inside the figure."""
@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-pytest.importorskip("matplotlib")
 
 from neweul_py.analysis.frf import FrequencyResponse
 from neweul_py.analysis.plot import (

@@ -41,7 +41,7 @@ def test_csv_format(result, tmp_path):
 def test_csv_opens_in_pandas_and_numpy_without_options(result, tmp_path):
     """Reference: the readers themselves (pandas.read_csv, numpy.genfromtxt(names=True)) give
     the column names and the exact values of the result."""
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
     path = result.to_csv(tmp_path / "out.csv")
     frame = pd.read_csv(path)
     assert list(frame.columns) == result.names
@@ -53,7 +53,6 @@ def test_csv_opens_in_pandas_and_numpy_without_options(result, tmp_path):
 
 def test_to_dataframe_and_display(result):
     """Reference: the result's own arrays; the display stays short (head and tail only)."""
-    pytest.importorskip("pandas")
     frame = result.to_dataframe()
     np.testing.assert_array_equal(frame["d_phi"].to_numpy(), result.yd[:, 0])
     assert len(repr(result)) < 200 and "pendulum" in repr(result)
@@ -123,7 +122,6 @@ def test_column_lookup(result):
 
 
 def test_plot_writes_png(result, tmp_path):
-    pytest.importorskip("matplotlib")
     from neweul_py.analysis.plot import plot_result
 
     path = plot_result(result, tmp_path / "fig.png")
@@ -180,7 +178,8 @@ def test_every_result_csv_has_the_same_names_in_pandas_and_genfromtxt(tmp_path):
     """Reference: the readers themselves — the names pandas reads equal those genfromtxt keeps
     (no mangled characters) for modes, frequency responses and equilibria; the display of each
     result is one short line."""
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
+
     from neweul_py.analysis import equilibrium, frequency_response, linearize, modes
 
     mod = load_generated(GENERATED / "middle_ear_chain.py")
@@ -193,3 +192,55 @@ def test_every_result_csv_has_the_same_names_in_pandas_and_genfromtxt(tmp_path):
         assert list(rec.dtype.names) == names
         assert list(res.to_dataframe().columns)[: len(names)][:2] == names[:2]
         assert len(repr(res)) < 200 and "\n" not in repr(res)
+
+
+def _readers():
+    from neweul_py.analysis.compare_io import read_table
+    from neweul_py.analysis.frf import FrequencyResponse
+    from neweul_py.analysis.linearize import LinearModel
+    from neweul_py.analysis.modes import ModalResult
+    from neweul_py.analysis.sweep import SweepResult
+
+    return {"results": load_npz, "modes": ModalResult.load, "frf": FrequencyResponse.load,
+            "linear model": LinearModel.load, "sweep table": SweepResult.load,
+            "compare": read_table}
+
+
+@pytest.fixture(scope="module")
+def special_files(tmp_path_factory):
+    """A FIFO, a link to /dev/zero, a directory and a zip bomb (a few hundred kB that
+    declare 80 MiB of zeros), each named ``*.npz``; and an ``.npz`` without the arrays."""
+    import io
+    import zipfile
+
+    d = tmp_path_factory.mktemp("special")
+    os.mkfifo(d / "fifo.npz")
+    (d / "zero.npz").symlink_to("/dev/zero")
+    (d / "dir.npz").mkdir()
+    header = io.BytesIO()
+    n = 80 * 2**20 // 8
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "<f8", "fortran_order": False, "shape": (n,)})
+    with zipfile.ZipFile(d / "bomb.npz", "w", zipfile.ZIP_DEFLATED) as zf:
+        for name in ("t", "y", "names", "H", "frequency_hz", "eigenvalues", "columns", "M0"):
+            zf.writestr(f"{name}.npy", header.getvalue() + bytes(8 * n))
+    np.savez(d / "empty.npz", other=np.zeros(1))
+    return d
+
+
+@pytest.mark.parametrize("kind", ["fifo", "zero", "dir", "bomb", "empty"])
+@pytest.mark.parametrize("reader", ["results", "modes", "frf", "linear model", "sweep table",
+                                    "compare"])
+def test_every_result_reader_checks_its_file_first(special_files, reader, kind):
+    """Reference: POSIX file types and the zip directory. Every reader of a result file
+    refuses a FIFO (without blocking), a device, a directory and a zip bomb before reading
+    or inflating anything, and a file without its arrays — one DataError naming the file."""
+    from neweul_py.errors import DataError
+
+    path = special_files / f"{kind}.npz"
+    with pytest.raises(DataError) as exc:
+        _readers()[reader](path)
+    assert str(path) in str(exc.value)
+    expected = {"fifo": "FIFO", "zero": "character device", "dir": "directory",
+                "bomb": "compression ratio", "empty": ""}[kind]
+    assert expected in str(exc.value)

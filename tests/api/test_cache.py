@@ -1,5 +1,5 @@
 """The trusted cache (neweul_py/cache.py, api.generated_module): nothing is imported from it
-before its bytes match the SHA-256 recorded when it was written (issue 12 item 1).
+before its bytes match the SHA-256 recorded when it was written.
 
 References: the shipped ``generated/pendulum.py`` (the module a cache hit must equal byte for
 byte), POSIX file modes and owners, and a marker file that tampered code would create.
@@ -37,23 +37,55 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
 
 
-def test_cache_directory_is_created_private():
-    """The directory is created 0700 whatever the umask (here 000, which made it 0777)."""
+def test_cache_directory_is_created_private(tmp_path, monkeypatch):
+    """The directory, the parents it creates, and every file are private whatever the umask
+    (here 000, which made missing parents 0777)."""
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "home" / ".cache" / "neweul-py"))
     old = os.umask(0)
     try:
         path = api.generated_module(PENDULUM)
     finally:
         os.umask(old)
-    assert stat.S_IMODE(path.parent.stat().st_mode) == 0o700
+    for d in (path.parent, tmp_path / "home" / ".cache", tmp_path / "home"):
+        assert stat.S_IMODE(d.stat().st_mode) == 0o700, d
     assert path.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()
     side = path.with_name(path.name + ".sha256")
     assert side.read_text().strip() == sha256_hex(path.read_bytes())
+    assert {stat.S_IMODE(f.stat().st_mode) for f in path.parent.iterdir()} == {0o600}
+
+
+@pytest.mark.skipif(not hasattr(os, "getuid") or os.getuid() != 0,
+                    reason="changing the owner needs root")
+@pytest.mark.parametrize("what", ["module", "digest", "module link", "digest link"])
+def test_entry_or_digest_of_another_user_is_never_imported(tmp_path, what):
+    """A module and a digest that match each other but that another user wrote (or links to
+    their files) are not imported: the marker of the injected line stays absent and the
+    entry is regenerated, one warning naming why."""
+    path = api.generated_module(PENDULUM)
+    side = path.with_name(path.name + ".sha256")
+    marker = tmp_path / "ran"
+    evil = path.read_bytes() + f"\nopen({str(marker)!r}, 'w').close()\n".encode()
+    path.write_bytes(evil)
+    side.write_text(sha256_hex(evil) + "\n")
+    target = path if what.startswith("module") else side
+    if what.endswith("link"):
+        theirs = tmp_path / "theirs"
+        theirs.mkdir()
+        target.rename(theirs / target.name)
+        target.symlink_to(theirs / target.name)
+        target = theirs / target.name
+    os.chown(target, 4242, -1)
+    with pytest.warns(CacheWarning, match="another user|symbolic link"):
+        api.load_description_module(PENDULUM)
+    assert not marker.exists()
+    assert path.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()
+    assert not path.is_symlink() and not side.is_symlink()
 
 
 def test_appended_line_never_runs_and_is_regenerated(tmp_path, capsys):
-    """The reproducer of issue 12: a line appended to a cached module ran on the next
-    simulate. Now the digest mismatch is seen before the import: the marker file is never
-    created, the module is regenerated (equal to the shipped one) with one warning."""
+    """A line appended to a cached module must not run on the next simulate: the digest
+    mismatch is seen before the import, the marker file is never created, and the module is
+    regenerated (equal to the shipped one) with one warning."""
     path = api.generated_module(PENDULUM)
     marker = tmp_path / "ran"
     with open(path, "a") as fh:
@@ -204,11 +236,11 @@ def test_generate_regenerates_a_tampered_cache_entry(tmp_path):
     assert out.read_bytes() == (ROOT / "generated" / "pendulum.py").read_bytes()
 
 
-def test_a_tampered_compiled_module_in_the_cache_is_rewritten_not_run(tmp_path):
+def test_a_tampered_compiled_module_in_the_cache_is_rewritten_not_run(tmp_path, fresh_modules):
     """The compiled module of a cache entry (wrapper ``_c.py`` and its C sources) carries
     digests like the NumPy entry: a wrapper with an injected line is not executed (the marker
     file stays absent) but rewritten with one CacheWarning, and an edited C source is rebuilt
-    instead of falling back to NumPy on every later run (found by a fresh-clone audit)."""
+    instead of falling back to NumPy on every later run."""
     marker = tmp_path / "ran"
     api.load_description_module(PENDULUM, backend="c")
     cache = Path(os.environ["NEWEUL_CACHE"])

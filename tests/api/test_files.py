@@ -1,4 +1,4 @@
-"""Files validated before use (neweul_py/files.py; issue 12 items 3 and 7).
+"""Files validated before use (neweul_py/files.py).
 
 References: POSIX file types (``/dev/zero`` is a character device, ``mkfifo`` makes a FIFO), the
 zip format (declared member sizes bound what the reader returns) and the ``.npy`` header.
@@ -18,7 +18,14 @@ import pytest
 from neweul_py import api
 from neweul_py.cli import main
 from neweul_py.errors import DataError, DescriptionError
-from neweul_py.files import check_npz, check_regular_file, read_checked
+from neweul_py.files import (
+    MAX_NPZ_RATIO,
+    check_npz,
+    check_regular_file,
+    load_npz,
+    read_checked,
+    read_text,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -56,8 +63,8 @@ def test_size_cap(tmp_path):
 
 @pytest.mark.parametrize("target", ["/dev/zero", "fifo"])
 def test_elastic_data_file_of_a_description(tmp_path, capsys, fifo, target):
-    """The reproducer of issue 12 item 3: ``simulate`` fingerprinted ``data: /dev/zero``
-    with read_bytes() (filling memory) and hung on a FIFO; now one error line."""
+    """``simulate`` of a description whose ``data:`` is ``/dev/zero`` (reading it whole would fill
+    memory) or a FIFO (would hang): one error line."""
     data = "/dev/zero" if target == "/dev/zero" else str(fifo)
     src = tmp_path / "m.yaml"
     src.write_text("name: m\ncoordinates: {x: 0}\nframes: {f: {parent: ISYS, translation: "
@@ -114,3 +121,56 @@ def test_valid_npz_passes(tmp_path):
     path = tmp_path / "ok.npz"
     np.savez(path, a=np.arange(10.0), b=np.eye(3))
     check_npz(path)
+
+
+def test_zip_bomb_below_the_size_cap_is_refused_by_its_ratio(tmp_path):
+    """The bomb of a few hundred kB that inflated past 2 GB was within the 8 GiB size cap;
+    its compression ratio (declared size / compressed size, about 1000 for zeros) is not:
+    refused from the zip directory, before any member is inflated. Reference: the zip
+    directory's sizes, computed here from the bytes written."""
+    path = tmp_path / "bomb.npz"
+    header = io.BytesIO()
+    n = 80 * 2**20 // 8
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "<f8", "fortran_order": False, "shape": (n,)})
+    path.write_bytes(_npz({"a.npy": header.getvalue() + bytes(8 * n)}))
+    info = zipfile.ZipFile(path).infolist()[0]
+    assert info.file_size / info.compress_size > MAX_NPZ_RATIO
+    with pytest.raises(DataError, match="compression ratio") as exc:
+        check_npz(path)
+    assert "a.npy" in str(exc.value) and "docs/limits.md" in str(exc.value)
+    with pytest.raises(DataError, match="compression ratio"):
+        load_npz(path)
+    small = tmp_path / "small.npz"        # below the floor, any ratio is fine
+    np.savez_compressed(small, z=np.zeros(10_000))
+    assert load_npz(small)["z"].shape == (10_000,)
+
+
+def test_load_npz_checks_the_descriptor_it_reads(tmp_path, fifo):
+    """Every check on the one open file: a FIFO, /dev/zero, a file that is not a zip, a
+    pickled object array, a forged header — one DataError each; a valid file loads."""
+    with pytest.raises(DataError, match="FIFO"):
+        load_npz(fifo)
+    with pytest.raises(DataError, match="character device"):
+        load_npz("/dev/zero")
+    (tmp_path / "text.npz").write_text("not a zip")
+    with pytest.raises(DataError, match="not a zip archive"):
+        load_npz(tmp_path / "text.npz")
+    np.savez(tmp_path / "obj.npz", a=np.array([{"x": 1}], dtype=object))
+    with pytest.raises(DataError, match=r"pickle|object"):
+        load_npz(tmp_path / "obj.npz")
+    np.savez(tmp_path / "ok.npz", a=np.arange(3.0), b=np.eye(2))
+    arrays = load_npz(tmp_path / "ok.npz")
+    assert sorted(arrays) == ["a", "b"] and arrays["b"].shape == (2, 2)
+
+
+def test_read_text_names_the_first_byte_that_is_not_utf8(tmp_path, fifo):
+    """Reference: the UTF-8 decoder's error position."""
+    path = tmp_path / "latin1.csv"
+    path.write_bytes("t,phi\n0,1\n# caf\u00e9\n".encode("latin-1"))
+    with pytest.raises(DataError, match=r"not UTF-8 text \(byte 0xe9 at offset 15, line 3\)"):
+        read_text(path, "reference")
+    path.write_bytes(b"\xef\xbb\xbft,phi\n")     # a byte-order mark is dropped
+    assert read_text(path) == "t,phi\n"
+    with pytest.raises(DataError, match="FIFO"):
+        read_text(fifo)

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from compiler import needs_c_compiler
 
 from neweul_py.analysis.module import as_model, load_generated
 from neweul_py.codegen import generate_module
@@ -28,8 +29,7 @@ from neweul_py.errors import NeweulError
 ROOT = Path(__file__).resolve().parents[2]
 _COUNTER = itertools.count()
 EXAMPLES = sorted(p.stem for p in (ROOT / "examples").glob("*.yaml"))
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = needs_c_compiler
 
 
 def _fresh(path: Path):
@@ -71,6 +71,10 @@ def _calls(mod, t, x, p, u, a):
         "constraint_jacobian": mod.constraint_jacobian(t, y, p, u),
         "constraint_time_derivative": mod.constraint_time_derivative(t, y, p, u),
         "constraint_gamma": mod.constraint_gamma(t, y, yd, p, u),
+        "force_parameter_jacobian": mod.force_parameter_jacobian(t, y, yd, p, u),
+        "mass_matrix_parameter_derivative": mod.mass_matrix_parameter_derivative(t, y, p, a, u),
+        "rhs_parameter_jacobian": mod.rhs_parameter_jacobian(t, x, p, u),
+        "output_parameter_jacobian": mod.output_parameter_jacobian(t, x, p, u),
     }
 
 
@@ -435,3 +439,39 @@ def test_constraint_reaction_jacobian_as_the_numpy_module(name, tmp_path):
         if own:
             G = mc.constraint_jacobian(0.0, y, p)
             assert np.abs(G - ref).max() > 1e-3 * np.abs(ref).max()
+
+
+@pytest.mark.parametrize("failure", ["no cffi", "untrusted cache"])
+def test_asking_for_the_compiled_backend_never_falls_back(failure, tmp_path, monkeypatch,
+                                                          capsys, fresh_modules):
+    """Reference: the documented contract of ``backend="c"`` — the API and ``--backend c``
+    stop with one error naming why (no cffi; a library cache writable by others) instead of
+    warning and running the NumPy module; the generated module on its own still falls back
+    (BACKEND, BACKEND_ERROR say why)."""
+    from neweul_py import api
+    from neweul_py.cli import main
+
+    desc = ROOT / "examples" / "pendulum.yaml"
+    monkeypatch.setenv("NEWEUL_CACHE", str(tmp_path / "cache"))
+    if failure == "no cffi":
+        monkeypatch.setitem(sys.modules, "cffi", None)
+        why = "cffi is not installed"
+    else:
+        wrapper = api.generated_module(desc, backend="c")
+        shutil.rmtree(wrapper.parent / "__neweul_c__")
+        for d in (wrapper.parent / "__neweul_c__", tmp_path / "gen" / "__neweul_c__"):
+            d.mkdir(parents=True)
+            os.chmod(d, 0o777)
+        sys.modules.pop(next(k for k, m in sys.modules.items()
+                             if getattr(m, "__file__", None) == str(wrapper)))
+        why = "writable by group or others"
+    with pytest.raises(NeweulError, match=why):
+        api.load_description_module(desc, backend="c")
+    with pytest.raises(NeweulError, match=why):
+        api.generate(desc, tmp_path / "gen", backend="c")
+    assert main(["simulate", str(desc), "--t-end", "0.1", "--backend", "c"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and why in err and "error" in err
+    with pytest.warns(RuntimeWarning, match=why):
+        mc = _fresh(tmp_path / "gen" / "pendulum_c.py")
+    assert mc.BACKEND == "numpy" and why in mc.BACKEND_ERROR

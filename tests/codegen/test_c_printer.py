@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 import hashlib
-import shutil
 
 import numpy as np
 import pytest
 import sympy as sp
+from compiler import needs_c_compiler
 
 from neweul_py.codegen.c_printer import CPrinter, DotRows
 from neweul_py.codegen.c_runtime import compiled_library
 
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = needs_c_compiler
 
 
 def test_linear_combinations_print_as_table_rows_with_the_same_value(tmp_path):

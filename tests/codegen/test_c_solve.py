@@ -4,20 +4,19 @@ elimination of a constant block of the mass matrix."""
 from __future__ import annotations
 
 import hashlib
-import shutil
 import types
 
 import numpy as np
 import pytest
 import sympy as sp
+from compiler import needs_c_compiler
 
 from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_solve import c_solver, constant_block
 from neweul_py.codegen.c_templates import C_LU
 from neweul_py.ffrf import MAX_BLOCK_CONDITION
 
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = needs_c_compiler
 
 
 def _symbolic(a: np.ndarray, varying: set[int]) -> sp.ImmutableMatrix:

@@ -9,7 +9,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pytest
+from compiler import needs_c_compiler
 
 from neweul_py.analysis.module import load_generated
 from neweul_py.api import generate
@@ -129,8 +129,7 @@ def test_elastic_node_cloud_moves_with_the_modes(tmp_path: Path) -> None:
     np.testing.assert_allclose(r[1], cloud[tip], atol=1e-14)
 
 
-@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                    reason="no C compiler")
+@needs_c_compiler
 def test_compiled_module_has_the_poses_of_its_twin(tmp_path: Path) -> None:
     """Reference: the NumPy twin (the compiled wrapper delegates the functions its library
     does not implement: energy and the poses)."""

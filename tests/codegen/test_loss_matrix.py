@@ -6,13 +6,13 @@ unchanged)."""
 
 from __future__ import annotations
 
-import shutil
 import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from compiler import needs_c_compiler
 
 from neweul_py.analysis.module import as_model
 from neweul_py.api import generate
@@ -21,9 +21,6 @@ from neweul_py.cli import main
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "analysis"))
 sys.path.insert(0, str(ROOT / "tests" / "support"))
-
-needs_cc = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                              reason="no C compiler")
 
 
 def _pair(source, directory: Path):
@@ -35,7 +32,7 @@ def _pair(source, directory: Path):
     return as_model(cpath.with_name(cpath.name.replace("_c.py", ".py"))), c
 
 
-@needs_cc
+@needs_c_compiler
 def test_compiled_loss_matrix_equals_the_numpy_twin(tmp_path: Path) -> None:
     """Reference: the NumPy module of the same equations (same CSE'd program), at random
     states of a chain with bushings and a rotational spring carrying loss factors (the C
@@ -56,13 +53,13 @@ def test_compiled_loss_matrix_equals_the_numpy_twin(tmp_path: Path) -> None:
     assert mc.LOSS_REFERENCE_FREQUENCY == mnp.LOSS_REFERENCE_FREQUENCY == 200.0
 
 
-@needs_cc
+@needs_c_compiler
 def test_compiled_elastic_loss_matrix_equals_the_splice(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """Reference: the NumPy module's kernel splice (``S_Wᵀ G_s S_V`` plus the body's ``Le``)
     against the C backend's closed expansion, for the lossy piston–duct body with a lossy
     bushing at its node frame."""
-    from test_loss_factors import EXAMPLE, lossy_duct
+    from lossy_duct import EXAMPLE, lossy_duct
 
     from neweul_py.elastic import write_fe_model
 

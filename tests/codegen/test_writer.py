@@ -176,3 +176,22 @@ outputs:
         results.append((lin.Q, lin.P, lin.B, fr.magnitude, res.y))
     for a, b in zip(*results, strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+def test_parameter_ranges_constant(tmp_path):
+    """``PARAMETER_RANGES`` (protocol): the admissible ranges of the description, explicit or
+    implied by a rest length, as ``name: (minimum, maximum)`` with None unbounded; a model
+    without any has no such constant (its module is unchanged). Reference: the text."""
+    from neweul_py.description import load_description_text
+    from neweul_py.equations import newton_euler
+
+    text = ("name: ranged\nparameters:\n  k: {value: 10, min: 0, max: 1e4}\n  l0: 0.5\n"
+            "  m: 1\ncoordinates: {x: 0.6}\nframes: {f: {translation: [x, 0, 0]}}\n"
+            "bodies: {b: {frame: f, mass: m}}\nforces:\n  s: {type: spring_damper, "
+            "between: [ISYS, f], stiffness: k, length: l0}\n")
+    eq = newton_euler(load_description_text(text))
+    mod = load_generated(generate_module(eq, "h", tmp_path / "ranged.py"))
+    assert mod.PARAMETER_RANGES == {"k": (0.0, 10000.0), "l0": (0.0, None)}
+    plain = generate_module(handmade.pendulum(), "h", tmp_path / "p.py")
+    assert "PARAMETER_RANGES" not in plain.read_text()
+    assert load_generated(plain).PARAMETER_RANGES == {}     # the typed view's default

@@ -1,4 +1,4 @@
-"""Fuzzing command-line options (issue 12, "CLI options"): random option values — numbers,
+"""Fuzzing command-line options: random option values — numbers,
 ranges, lists, names, suffixes — for the analysis and reduction commands on small models.
 
 Property: exit 0 (a result), 1 (one error line) or 2 (argparse's usage and one error line),

@@ -1,8 +1,8 @@
-"""One consistent command line (issue 11 item 7) whose numbers are checked like a
-description's (issue 12 items 5 and 7), and which starts fast (issue 14 item 4).
+"""One consistent command line whose numbers are checked like a
+description's, and which starts fast.
 
-References: the reproducers of issue 12 (each must end in one clear error line, never a hang
-or a traceback), the option table of docs/cli.md, the caps of docs/limits.md, and
+References: option values that once hung or wrote NaN rows (each must end in one clear error line,
+never a hang or a traceback), the option table of docs/cli.md, the caps of docs/limits.md, and
 ``sys.modules`` of a fresh interpreter for the imports of ``--help``.
 """
 
@@ -60,10 +60,17 @@ def _run(capsys, *argv: str) -> tuple[int, str, str]:
          "argument --band: HIGH: 1e+300 is out of range"),
         (["interpolate", "a.npz", "b.npz", "--parameter", "p", "--values", "1,nan", "-o",
           "p.npz"], "--values"),
+        (["sweep", TWO, "--param", "m1=1", "--workers", "100000"],
+         f"--workers: 100000 exceeds the cap of {CAPS['--workers']}"),
+        (["sweep", TWO, "--param", "m1=1", "--workers", "0"], "--workers: must be at least 1"),
+        (["sweep", TWO, "--param", "m1=1", "--chunk-size", "0"],
+         "--chunk-size: must be at least 1"),
+        (["sweep", TWO, "--param", "m1=1", "--timeout", "-1"], "--timeout: must be positive"),
+        (["sweep", TWO, "--param", "m1=1", "--n-modes", "0"], "--n-modes: must be at least 1"),
     ],
 )
 def test_bad_numbers_are_refused_by_the_parser(capsys, argv, message):
-    """Each of the reproducers of issue 12 item 5/7 (they hung or wrote NaN rows) is refused
+    """Each option value that once hung or wrote NaN rows is refused
     before anything is read or computed: argparse's usage line and one error line, exit 2."""
     argv = [str(EXAMPLES / "pendulum.yaml") if a == "pendulum" else a for a in argv]
     code, _, err = _run(capsys, *argv)
@@ -82,6 +89,19 @@ def test_negative_mass_is_refused_like_in_a_description(capsys):
     assert "m = -1" in err and "negative mass" in err
     code, _, err = _run(capsys, "modes", TWO, "-p", "m2=-0.5", "--at", "initial")
     assert code == 1 and "not positive semidefinite" in err
+
+
+@pytest.mark.parametrize("command", ["simulate", "equilibrium", "modes"])
+def test_a_value_outside_a_parameters_range_is_refused(capsys, command):
+    """``-p l=-1`` of the pendulum (a length, ``l: {value: 0.5, min: 0}``) was accepted; every
+    command checks -p against the description's ranges (PARAMETER_RANGES). Reference: the
+    range in examples/pendulum.yaml."""
+    extra = ["--t-end", "1"] if command == "simulate" else []
+    code, _, err = _run(capsys, command, str(EXAMPLES / "pendulum.yaml"), *extra, "-p", "l=-1")
+    assert code == 1 and err.count("\n") == 1
+    assert "l = -1 is outside its range ≥ 0" in err
+    code, _, err = _run(capsys, command, str(EXAMPLES / "pendulum.yaml"), *extra, "-p", "l=0.7")
+    assert code == 0, err
 
 
 def test_stiff_parameters_give_an_error_not_a_hang(capsys):
@@ -183,6 +203,11 @@ def test_cli_choices_agree_with_the_api():
     from neweul_py.elastic.parametric import local_interpolation
 
     assert SIMULATE_METHODS == METHODS
+    from neweul_py.analysis.admissible import MAX_MAGNITUDE
+    from neweul_py.analysis.sweep import MAX_WORKERS
+    from neweul_py.commands import MAX_MAGNITUDE as CLI_MAGNITUDE
+
+    assert CAPS["--workers"] == MAX_WORKERS and CLI_MAGNITUDE == MAX_MAGNITUDE
     assert SWEEP_TASKS == tuple(TASKS) and SWEEP_STATS == STATS
     assert cmd.INTERPOLATIONS == interpolation.INTERPOLATIONS
     assert cmd.BASES == interpolation.BASES
@@ -206,7 +231,7 @@ HEAVY = ("sympy", "matplotlib", "scipy.integrate", "neweul_py.codegen", "neweul_
 
 def test_help_imports_no_heavy_module():
     """``neweul --help`` (building the whole parser) imports no sympy, matplotlib,
-    scipy.integrate, analysis or elastic code (issue 14 item 4)."""
+    scipy.integrate, analysis or elastic code."""
     loaded = _modules_after(
         "import sys\nfrom neweul_py.cli import main\n"
         "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
@@ -218,7 +243,10 @@ def test_help_imports_no_heavy_module():
 
 def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
     """``neweul simulate FILE.yaml`` on a cache hit loads the verified module and integrates:
-    scipy.integrate yes (the command needs it), sympy and matplotlib no."""
+    scipy.integrate yes (the command needs it; SciPy's own __init__ imports scipy.optimize and
+    scipy.special with it); sympy, matplotlib and the analysis code simulate does not use
+    (frequency response, linearization, modes, equilibrium, animation, sweeps, plots: PEP 562
+    exports of neweul_py.analysis) no."""
     desc = str(EXAMPLES / "pendulum.yaml")
     code = (f"import os, sys\nos.environ['NEWEUL_CACHE'] = {str(tmp_path / 'c')!r}\n"
             "from neweul_py.cli import main\n"
@@ -231,13 +259,16 @@ def test_simulate_on_a_cached_module_imports_no_sympy(tmp_path):
                                                      "neweul_py.codegen",
                                                      "neweul_py.equations",
                                                      "neweul_py.description"))) == []
+    unused = {f"neweul_py.analysis.{m}" for m in ("frf", "linearize", "modes", "equilibrium",
+                                                    "animate", "sweep", "plot", "compare")}
+    assert sorted(loaded & unused) == []
 
 
 def test_generate_of_a_rigid_model_imports_no_numpy(tmp_path):
     """``neweul generate`` of rigid examples (a chain, a spatial chain, inputs and springs)
     derives and prints with sympy alone: a fresh process has no NumPy, SciPy, skfem,
-    matplotlib, elastic or floating-frame code in ``sys.modules`` afterwards (issue 14 item
-    4: the cold ``generate`` pays for no import it does not need), with the cache off or
+    matplotlib, elastic or floating-frame code in ``sys.modules`` afterwards (the cold
+    ``generate`` pays for no import it does not need), with the cache off or
     missing."""
     files = [str(EXAMPLES / f"{name}.yaml")
              for name in ("pendulum", "chain3_spatial", "quarter_car", "cart_pendulum")]
@@ -330,3 +361,58 @@ def test_version_is_the_installed_distributions():
     import neweul_py
 
     assert neweul_py.__version__ == version("neweul-py")
+
+
+@pytest.mark.parametrize("kind", ["fifo", "/dev/zero", "directory"])
+@pytest.mark.parametrize("command", ["interpolate --coordinate", "sweep --cases",
+                                     "compare RESULT", "compare REFERENCE", "simulate FILE.py"])
+def test_files_named_on_the_command_line_are_checked_before_reading(capsys, tmp_path, kind,
+                                                                     command):
+    """``interpolate --coordinate FIFO:…`` and ``sweep --cases FIFO`` hung, ``--cases
+    /dev/zero`` filled memory: every file a command reads is checked to be a regular file
+    first (docs/limits.md). Reference: POSIX file types; one error line, exit 1."""
+    if kind == "fifo":
+        path = tmp_path / "special.csv"
+        os.mkfifo(path)
+    else:
+        path = tmp_path if kind == "directory" else Path(kind)
+    good = str(FIXTURES / "two_mass.py")
+    table = tmp_path / "table.csv"
+    table.write_text("t,x\n0,0\n1,1\n")
+    argv = {
+        "interpolate --coordinate": ["interpolate", "a.npz", "b.npz", "--parameter", "p",
+                                     "--coordinate", f"{path}:p:xi", "-o", "p.npz"],
+        "sweep --cases": ["sweep", good, "--cases", str(path), "--task", "equilibrium"],
+        "compare RESULT": ["compare", str(path), str(table)],
+        "compare REFERENCE": ["compare", str(table), str(path)],
+        "simulate FILE.py": ["simulate", str(path), "--t-end", "1"],
+    }[command]
+    if command == "simulate FILE.py" and kind == "fifo":
+        os.rename(path, tmp_path / "special.py")
+        argv[1] = str(tmp_path / "special.py")
+    code, _, err = _run(capsys, *argv)
+    assert code == 1, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert {"fifo": "FIFO", "/dev/zero": "character device", "directory": "directory"}[kind] \
+        in err
+
+
+@pytest.mark.parametrize("what", ["200 000 parameters", "20 000 terms"])
+def test_huge_descriptions_are_one_error(capsys, tmp_path, what):
+    """A description of 200 000 parameters or one expression of 20 000 terms (≈ 200 kB) ran
+    for minutes; each is beyond a documented cap (docs/limits.md) and refused with one line,
+    exit 1, nothing written. Reference: the counts written into the file."""
+    body = "coordinates: {x: 0.1}\nframes: {f: {translation: [x, 0, 0]}}\n"
+    if what.endswith("parameters"):
+        text = ("name: many\nparameters:\n" + "".join(f"  p{i}: 1\n" for i in range(200_000))
+                + body + "bodies: {b: {frame: f, mass: p0}}\n")
+        message = "YAML nodes"
+    else:
+        terms = " + ".join(f"sin({k}*x)" for k in range(1, 20_001))
+        text = ("name: long\nparameters: {m: 1}\n" + body + "bodies: {b: {frame: f, mass: m}}\n"
+                f"forces: {{push: {{type: generalized, coordinate: x, value: '{terms}'}}}}\n")
+        message = "more than the cap of"
+    (tmp_path / "big.yaml").write_text(text)
+    code, _, err = _run(capsys, "generate", str(tmp_path / "big.yaml"), "-o", "gen")
+    assert code == 1 and err.count("\n") == 1 and message in err
+    assert not (tmp_path / "gen").exists()

@@ -9,8 +9,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("matplotlib")
-
 from neweul_py.commands.frf_body import body_frf_figure
 
 

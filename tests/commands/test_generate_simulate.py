@@ -13,6 +13,8 @@ import pytest
 
 from neweul_py import api
 from neweul_py.cli import main
+from neweul_py.errors import DescriptionError
+from neweul_py.yaml_tree import read_description
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
@@ -96,7 +98,7 @@ def test_simulate_reuses_the_cache(tmp_path, monkeypatch):
     def fail(*args, **kwargs):
         raise AssertionError("regenerated although the description is unchanged")
 
-    monkeypatch.setattr(api, "_derive_text", fail)
+    monkeypatch.setattr(api, "_derive_tree", fail)
     assert api.generated_module(EXAMPLES / "pendulum.yaml") == first
 
 
@@ -105,10 +107,10 @@ def test_changed_description_is_regenerated(tmp_path):
     text = (EXAMPLES / "pendulum.yaml").read_text()
     src.write_text(text)
     first = api.generated_module(src)
-    src.write_text(text.replace("l: 0.5", "l: 0.25"))
+    src.write_text(text.replace("g: 9.81", "g: 1.62"))
     second = api.generated_module(src)
     assert first != second
-    assert "'l': 0.25" in second.read_text()
+    assert "'g': 1.62" in second.read_text()
 
 
 @pytest.mark.parametrize(
@@ -173,11 +175,37 @@ def test_cache_key_follows_referenced_data_files(tmp_path):
     src = tmp_path / "m.yaml"
     src.write_text("name: m\nelastic_bodies:\n  beam: {frame: f, data: beam.npz}\n")
     (tmp_path / "beam.npz").write_bytes(b"one")
-    first = api._data_fingerprints(src.read_bytes(), src)
+    first = api._data_fingerprints(read_description(src.read_bytes()).data, src)
     (tmp_path / "beam.npz").write_bytes(b"two")
-    second = api._data_fingerprints(src.read_bytes(), src)
+    second = api._data_fingerprints(read_description(src.read_bytes()).data, src)
     assert first != second and len(first) == 1
-    assert api._data_fingerprints(b"name: [", src) == []
+    assert api._data_fingerprints(["not", "a", "mapping"], src) == []
+
+
+def test_description_is_parsed_once_per_generation(tmp_path, monkeypatch):
+    """A cache miss reads and parses the YAML once for the cache key and the derivation
+    alike (reference: a count of the parser's calls); malformed YAML is one error with its
+    line, before any key is formed."""
+    import neweul_py.yaml_tree as yaml_tree
+
+    calls = []
+    original = yaml_tree.read_yaml
+
+    def counting(*args, **kwargs):
+        calls.append(args[1] if len(args) > 1 else kwargs.get("file"))
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(yaml_tree, "read_yaml", counting)
+    src = tmp_path / "pendulum.yaml"
+    src.write_text((EXAMPLES / "pendulum.yaml").read_text())
+    api.generated_module(src, cache=tmp_path / "cache")
+    assert calls == [str(src)]
+    calls.clear()
+    api.generate(src, tmp_path / "out", cache=tmp_path / "cache2")
+    assert calls == [str(src)]
+    src.write_text("name: [\n")
+    with pytest.raises(DescriptionError, match=r"pendulum.yaml:2.*malformed YAML"):
+        api.generated_module(src, cache=tmp_path / "cache")
 
 
 def test_negative_number_lists_are_option_values():

@@ -1,4 +1,4 @@
-"""``neweul reduce`` and ``neweul compare-frf`` (issue 3 item 5): thin over the Python API."""
+"""``neweul reduce`` and ``neweul compare-frf``: thin over the Python API."""
 
 from __future__ import annotations
 
@@ -127,7 +127,7 @@ def test_band_from_zero_hz_reports_the_zero_mode(tmp_path, capsys):
 
 
 def test_krylov_order_beyond_the_dofs_is_refused(tmp_path, capsys):
-    """``krylov --order 1e6`` looped past an exhausted basis (issue 12 item 7): the CLI caps
+    """``krylov --order 1e6`` looped past an exhausted basis: the CLI caps
     --order (docs/limits.md) and refuses more Krylov vectors than the model has DOFs.
     Reference: dim span{P_0 … P_{q−1}} ≤ n for an n-DOF model."""
     model = tmp_path / "pd.npz"

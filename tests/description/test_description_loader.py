@@ -1,11 +1,12 @@
-"""The YAML description loader: a good file gives the expected System; every bad input of
-issue 2 gives one DescriptionError naming the file, the key path and the right line."""
+"""The YAML description loader: a good file gives the expected System; every bad input gives
+one DescriptionError naming the file, the key path and the right line."""
 
 from __future__ import annotations
 
 import hashlib
 import pathlib
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -344,8 +345,6 @@ def test_non_utf8_bytes() -> None:
 def test_the_documented_example_loads() -> None:
     """Reference: the example of docs/description-format.md (keeps the doc honest)."""
     doc = pathlib.Path(__file__).parents[2] / "docs" / "description-format.md"
-    if not doc.exists():
-        pytest.skip("docs not shipped")
     text = doc.read_text().split("```yaml\n", 1)[1].split("```", 1)[0]
     s = load_description_text(text, "pendulum.yaml")
     assert [f.name for f in s.forces] == ["drive", "push", "twist", "spring"]
@@ -370,12 +369,67 @@ frames:
 
 
 def test_description_imports_only_model_and_errors() -> None:
-    """Layering rule of DESIGN.md: description imports model (and the shared errors,
-    ffrf kernel and file checks of neweul_py/files.py) only."""
+    """Layering rule of docs/architecture.md: description imports model (and the shared errors,
+    ffrf kernel, file checks of neweul_py/files.py, the YAML shape of yaml_shape.py and the YAML
+    reader of neweul_py/yaml_tree.py) only."""
     import re
 
     import neweul_py.description as pkg
 
     for path in pathlib.Path(pkg.__file__).parent.glob("*.py"):
         for layer in re.findall(r"^\s*from \.\.(\w+)", path.read_text(), re.MULTILINE):
-            assert layer in ("model", "errors", "ffrf", "files"), f"{path.name} imports {layer}"
+            assert layer in ("model", "errors", "ffrf", "files", "yaml_shape", "yaml_tree"), \
+                f"{path.name} imports {layer}"
+
+
+def test_description_size_is_capped_before_anything_is_built() -> None:
+    """200 000 parameters took over a minute (every parameter is a sympy symbol, validated,
+    fingerprinted and printed): a description has at most MAX_PARAMETERS parameters and
+    MAX_NODES YAML nodes (docs/limits.md), counted from the parser's events before the tree
+    is built. Reference: the counts written into the text."""
+    from neweul_py.description.loader import MAX_PARAMETERS
+    from neweul_py.yaml_tree import MAX_NODES
+
+    head = "name: many\ncoordinates: {x: 0}\nparameters:\n"
+    text = head + "".join(f"  p{i}: 1\n" for i in range(MAX_PARAMETERS + 1))
+    with pytest.raises(DescriptionError, match=f"{MAX_PARAMETERS + 1} parameters, more than "
+                       f"the cap of {MAX_PARAMETERS}") as info:
+        load_description_text(text, "many.yaml")
+    assert info.value.key_path == "parameters" and info.value.line == 3
+    text = head + "  m: 1\nbig: [" + ", ".join(["0"] * MAX_NODES) + "]\n"
+    with pytest.raises(DescriptionError, match=f"more than the cap of {MAX_NODES}"):
+        load_description_text(text, "nodes.yaml")
+
+
+@pytest.mark.parametrize("where", ["parameters: {m: NUMBER}", "parameters:\n  m: -NUMBER",
+                                   "gravity: [0, 0, NUMBER]"])
+def test_integer_of_5000_digits_is_one_error(where: str) -> None:
+    """Python refuses to convert an integer of more than 4300 digits (a ValueError from
+    PyYAML's constructor reached the user): one DescriptionError naming the place."""
+    text = ("name: big\ncoordinates: {y: 0}\n" + where.replace("NUMBER", "9" * 5000)
+            + "\n")
+    with pytest.raises(DescriptionError, match="5000 digits") as info:
+        load_description_text(text, "big.yaml")
+    assert info.value.line == 3 + where.count("\n")
+
+
+def test_parameter_ranges() -> None:
+    """``name: {value: V, min: A, max: B}`` gives a parameter with an admissible range (both
+    bounds optional, inclusive; constants allowed as for values); a default outside it, an
+    unknown key or a missing value is one error with the key path and line. Reference: the
+    ranges written in the text."""
+    text = ("name: ranged\ncoordinates: {x: 0}\nparameters:\n  l: {value: 0.5, min: 0}\n"
+            "  g: {value: 9.81, min: 9, max: 10}\n  a: {value: 1, max: 2*pi}\n  m: 1\n")
+    s = load_description_text(text, "r.yaml")
+    assert s.parameter_ranges == {"l": (0.0, None), "g": (9.0, 10.0),
+                                  "a": (None, pytest.approx(2 * np.pi))}
+    assert [p.default for p in s.parameters] == [0.5, 9.81, 1.0, 1.0]
+    for bad, message, line in (
+            ("  l: {value: -1, min: 0}\n", r"parameters.l: the default -1 is outside its "
+                                           r"range ≥ 0", 4),
+            ("  l: {value: 1, minimum: 0}\n", "unknown key 'minimum'", 4),
+            ("  l: {min: 0}\n", "missing the key 'value'", 4),
+            ("  l: {value: 1, min: x}\n", "parameters.l.min", 4)):
+        with pytest.raises(DescriptionError, match=message) as info:
+            load_description_text("name: r\ncoordinates: {x: 0}\nparameters:\n" + bad, "r.yaml")
+        assert info.value.line == line

@@ -175,7 +175,8 @@ def test_malicious_text_has_no_side_effect(tmp_path: pathlib.Path, monkeypatch) 
 
 
 def test_parser_source_never_evaluates_text() -> None:
-    """The parser must not contain any of the evaluating entry points (DESIGN.md, Formats)."""
+    """The parser must not contain any of the evaluating entry points
+    (docs/description-format.md, "Expressions")."""
     import neweul_py.description as pkg
 
     forbidden = ["ev" + "al(", "ex" + "ec(", "sympi" + "fy(", "parse_" + "expr(", "import ast"]
@@ -395,7 +396,7 @@ def test_parsing_a_long_sum_is_linear() -> None:
     ],
 )
 def test_out_of_range_constants_and_misplaced_conditions_are_refused(text, message) -> None:
-    """Issue 12 reproducers (bounded constants) and the piecewise grammar's errors: one line."""
+    """Constants out of range (they once hung) and the piecewise grammar's errors: one line."""
     with pytest.raises(ExpressionError, match=message) as info:
         parse(text)
     assert "\n" not in str(info.value)
@@ -439,7 +440,7 @@ def test_piecewise_grammar() -> None:
     ],
 )
 def test_description_reproducers_name_file_key_and_line(value, line, key, message) -> None:
-    """Issue 12 reproducers inside a description: one DescriptionError line with the file, the
+    """Constants out of range inside a description: one DescriptionError line with the file, the
     line and the key path (and ``351**-1e-10``, which hung generation, is just a number)."""
     from neweul_py.description import load_description_text
     from neweul_py.errors import DescriptionError
@@ -452,3 +453,21 @@ def test_description_reproducers_name_file_key_and_line(value, line, key, messag
     assert "\n" not in shown
     system = load_description_text(text.replace(value, "'351**-1e-10'"), "model.yaml")
     assert system.parameters[0].default == pytest.approx(351.0**-1e-10)
+
+
+def test_expression_size_is_capped() -> None:
+    """One expression of 20 000 terms ran for minutes (sympy builds every function call with
+    its assumptions, ~2.5 ms each); the documented caps (docs/limits.md) refuse it at once,
+    and an expression within them parses. Reference: the counts of the text itself."""
+    from neweul_py.description.expressions import MAX_CALLS, MAX_LENGTH, MAX_TOKENS
+
+    a = sp.Symbol("a")
+    ns = {"a": a}
+    with pytest.raises(ExpressionError, match=f"characters, more than the cap of {MAX_LENGTH}"):
+        parse_expression("a" + " " * MAX_LENGTH, ns)
+    with pytest.raises(ExpressionError, match=f"tokens, more than the cap of {MAX_TOKENS}"):
+        parse_expression("+".join(["a"] * (MAX_TOKENS // 2 + 1)), ns)
+    with pytest.raises(ExpressionError, match=f"function calls, more than the cap of {MAX_CALLS}"):
+        parse_expression("+".join(["sin(a)"] * (MAX_CALLS + 1)), ns)
+    assert parse_expression("+".join(["a"] * (MAX_TOKENS // 2)), ns) == (MAX_TOKENS // 2) * a
+    assert parse_expression("+".join([f"sin({k}*a)" for k in range(1, 11)]), ns).count(sp.sin) == 10

@@ -1,4 +1,4 @@
-"""Fuzzing the expression parser (issue 12): for any text, ``parse_expression`` returns a sympy
+"""Fuzzing the expression parser: for any text, ``parse_expression`` returns a sympy
 expression or raises one ``ExpressionError`` with a one-line message — never another exception
 (RecursionError, OverflowError, sympy's AttributeError …) and never a hang.
 
@@ -103,7 +103,7 @@ FUZZ = settings(max_examples=EXAMPLES, deadline=None, database=None,
 @FUZZ
 @given(token_soup())
 def test_token_soup_gives_an_expression_or_one_error_line(text: str) -> None:
-    """Property (issue 12): a sympy expression or one ExpressionError line, nothing else."""
+    """Property: a sympy expression or one ExpressionError line, nothing else."""
     _check(text)
 
 

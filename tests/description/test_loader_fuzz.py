@@ -1,4 +1,4 @@
-"""Fuzzing the description pipeline (issue 12, "a fuzzing suite in the tests").
+"""Fuzzing the description pipeline.
 
 Mutated shipped descriptions (tests/support/fuzz_inputs.py) are loaded, derived, generated, imported
 and evaluated. Property: a NeweulError with one line, or a result — never another exception.

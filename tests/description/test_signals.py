@@ -19,6 +19,7 @@ from neweul_py.description import load_description, parse_expression
 from neweul_py.description.signals import signal_function
 from neweul_py.errors import DescriptionError
 from neweul_py.model import symbol, time
+from neweul_py.yaml_tree import read_description
 
 T = np.linspace(0.0, 2.0, 41)
 U = np.sin(3 * T) + 0.2 * T
@@ -90,7 +91,7 @@ BAD = [
 
 @pytest.mark.parametrize(("rows", "where", "message"), BAD)
 def test_bad_signal_files_name_file_line_and_column(tmp_path, rows, where, message) -> None:
-    """Issue 11 (bad input): non-monotonic time, NaN, a missing column — one line each."""
+    """Bad signal files: non-monotonic time, NaN, a missing column — one line each."""
     _write_csv(tmp_path / "signal.csv", rows)
     desc = tmp_path / "tabled.yaml"
     desc.write_text(DESCRIPTION.format(interp="linear"))
@@ -120,9 +121,9 @@ def test_cache_key_follows_the_signal_file(tmp_path) -> None:
     _write_csv(tmp_path / "signal.csv")
     desc = tmp_path / "tabled.yaml"
     desc.write_text(DESCRIPTION.format(interp="linear"))
-    before = _data_fingerprints(desc.read_bytes(), desc)
+    before = _data_fingerprints(read_description(desc.read_bytes()).data, desc)
     _write_csv(tmp_path / "signal.csv", ["0,1,0", "1,2,0"])
-    assert _data_fingerprints(desc.read_bytes(), desc) != before
+    assert _data_fingerprints(read_description(desc.read_bytes()).data, desc) != before
 
 
 def test_signal_function_evaluates_the_language() -> None:

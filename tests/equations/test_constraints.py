@@ -215,3 +215,31 @@ def test_a_closed_loop_is_derived_without_numpy() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=root)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("default", ["t", "ma", "0.5*t + ma"])
+def test_constrained_model_with_an_input_of_t_or_a_bare_parameter(default, tmp_path) -> None:
+    """``sed 's/^  Md: 0 .*/  Md: t/' examples/four_bar.yaml``: the input default ``t`` (or a
+    bare parameter) evaluated at the initial state to a Python float, which has no
+    ``evalf`` (AttributeError in generate). The model derives and generates; reference: the
+    module's default input equals the description's expression, and the constraint check
+    still refuses a redundant constraint of such a model."""
+    from neweul_py.analysis.module import load_generated
+    from neweul_py.api import generate
+    from neweul_py.equations import newton_euler
+
+    text = (ROOT / "examples" / "four_bar.yaml").read_text()
+    lines = [f"  Md: {default}" if line.startswith("  Md: 0") else line
+             for line in text.splitlines()]
+    desc = tmp_path / "four_bar_t.yaml"
+    desc.write_text("\n".join(lines) + "\n")
+    module = load_generated(generate(desc, tmp_path / "gen"))
+    p = module.default_parameters()
+    ma = p[list(module.PARAMETERS).index("ma")]
+    expected = {"t": 0.7, "ma": ma, "0.5*t + ma": 0.35 + ma}[default]
+    assert module.default_inputs(0.7, p)[list(module.INPUTS).index("Md")] == pytest.approx(
+        expected, rel=1e-15)
+    redundant = BASE.replace("coordinates:", "inputs: {u: t}\ncoordinates:") + \
+        "  first: x - 0.5\n  again: 2*x - 1\n  other: z - 0.1\n"
+    with pytest.raises(ModelError, match=r"again \(redundant"):
+        newton_euler(load_description_text(redundant))

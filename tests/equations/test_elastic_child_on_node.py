@@ -1,5 +1,5 @@
-"""An elastic body hung on a node frame of a *two-sided* elastic body (issue 6,
-``docs/equations.md`` §2): its loads reach the host's elastic equations through the left
+"""An elastic body hung on a node frame of a *two-sided* elastic body
+(``docs/equations.md`` §2): its loads reach the host's elastic equations through the left
 basis, ``W_Pᵀ f``, exactly as those of a rigid body on that node (``M = S_Wᵀ M_s S_V``).
 
 Reference: the same model with a rigid body of the child's mass properties (``m``, centre

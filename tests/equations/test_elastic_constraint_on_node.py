@@ -1,4 +1,4 @@
-"""A constraint on a node frame of a *two-sided* elastic body (issue 6, ``docs/equations.md``
+"""A constraint on a node frame of a *two-sided* elastic body (``docs/equations.md``
 §1 and §2): the constraint itself moves with the right basis (``g(S_V y)``, ``G = G_s S_V``,
 ``γ``), its reactions enter the host's elastic rows through the left basis,
 ``G_Rᵀ λ = (G_s S_W)ᵀ λ`` (``constraint_reaction_jacobian``), like every other node load.

@@ -1,4 +1,4 @@
-"""Jacobians of the elastic splice (issue 6, ``docs/equations.md`` §2): the input
+"""Jacobians of the elastic splice (``docs/equations.md`` §2): the input
 Jacobian ``∂(q−k)/∂u`` of a generated module includes the elastic bodies' terms (kinematic
 excitation through the reference frame, with the rates ``d_u``, ``dd_u``), and so do
 ``∂(q−k)/∂y``, ``∂(q−k)/∂ẏ`` and ``∂(M a)/∂y``.

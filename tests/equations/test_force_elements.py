@@ -329,7 +329,7 @@ forces:
 
 
 # ---------------------------------------------------------------- zero-length springs
-# Issue 12 item 6 and the rule of docs/description-format.md. Reference: the force of a linear
+# The rule of docs/description-format.md. Reference: the force of a linear
 # spring of rest length 0, ``F e = k d``, is defined at ``d = 0`` (closed form: the generated
 # force is ``−k x``); with a rest length or damping the direction ``e = d/|d|`` is undefined
 # where the points meet.

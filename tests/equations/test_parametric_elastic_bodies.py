@@ -267,16 +267,18 @@ def test_schedule_outside_the_samples_from_the_command_line_names_the_range(para
 
 
 def _readme_scheduled_block() -> str:
-    """The README's YAML block of a scheduled body (the one with ``schedule:``)."""
-    text = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    """The YAML block of a scheduled body (the one with ``schedule:``) of the how-to guide
+    ``docs/howto/parametric-body.md``."""
+    page = Path(__file__).resolve().parents[2] / "docs" / "howto" / "parametric-body.md"
+    text = page.read_text(encoding="utf-8")
     blocks = [b.split("```", 1)[0] for b in text.split("```yaml\n")[1:]]
     found = [b for b in blocks if "schedule:" in b]
-    assert len(found) == 1, "the README holds one YAML block with a scheduled body"
+    assert len(found) == 1, "the guide holds one YAML block with a scheduled body"
     return found[0]
 
 
 def test_scheduled_body_alone_without_inputs_or_coordinates(parametric) -> None:
-    """The README's block — a scheduled body on ISYS, no ``inputs:``, no rigid coordinates
+    """The guide's block — a scheduled body on ISYS, no ``inputs:``, no rigid coordinates
     (``∂σ/∂y``, ``∂σ/∂u`` are empty; generate raised SymPy's "X must be a row or a column
     matrix") — generates a module whose mass matrix and ``rhs_jacobian`` at ``cs = 321.5``
     (between samples) are those of the model with ``ParametricBody.at(321.5)`` as a fixed
@@ -323,3 +325,29 @@ def test_schedule_of_a_coordinate_without_inputs_enters_the_jacobian(parametric)
     n = len(mod.COORDINATES)
     assert not np.allclose(mod.mass_matrix(0.0, x[:n], p),
                            mod.mass_matrix(0.0, x[:n] + 5e-3, p))
+
+
+@pytest.mark.parametrize("c", [321.5, 370.0])
+def test_parameter_derivatives_through_the_schedule(parametric, c: float) -> None:
+    """A body scheduled by the parameter ``cs``: ``∂(q−k)/∂p``, ``∂(M a)/∂p``, ``∂rhs/∂p``
+    (through ``∂σ/∂p`` and the mixed samples) equal central differences of the module's own
+    functions between the samples (step 1e-4 of each parameter; at a sample the weights have a
+    kink)."""
+    tmp, _pb = parametric
+    (tmp / "dp.yaml").write_text(_description("duct.npz", "cs", c))
+    mod = load_generated(generate(tmp / "dp.yaml", tmp / "gen_dp"))
+    rng = np.random.default_rng(2)
+    n = len(mod.COORDINATES)
+    p = mod.default_parameters()
+    x = np.asarray(mod.INITIAL_STATE) + 0.1 * rng.normal(size=2 * n)
+    y, yd, a, u = x[:n], x[n:], rng.normal(size=n), np.array([0.3])
+    k = list(mod.PARAMETERS).index("cs")
+    for got, f in ((mod.force_parameter_jacobian(0.0, y, yd, p, u),
+                    lambda q: mod.force_vector(0.0, y, yd, q, u)),
+                   (mod.mass_matrix_parameter_derivative(0.0, y, p, a, u),
+                    lambda q: mod.mass_matrix(0.0, y, q, u) @ a),
+                   (mod.rhs_parameter_jacobian(0.0, x, p, u), lambda q: mod.rhs(0.0, x, q, u))):
+        ref = np.column_stack([(f(p + e) - f(p - e)) / (2 * e[j])
+                               for j, e in enumerate(np.diag(1e-4 * p))])
+        assert np.any(got[:, k])
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6 * np.max(np.abs(ref)))

@@ -1,4 +1,4 @@
-"""Size of the recursive (semi-symbolic) form (DESIGN.md, "Two ways to state the equations").
+"""Size of the recursive (semi-symbolic) form (docs/architecture.md, "Rigid bodies").
 
 Reference: the structure of the recursion itself — every assignment and every entry of M and
 q − k has a size bounded independently of the chain length, and the total operation count of

@@ -1,4 +1,4 @@
-"""examples/elastic_up_body end to end (issue 6): FE model → ``neweul reduce --two-sided
+"""examples/elastic_up_body end to end: FE model → ``neweul reduce --two-sided
 --invariants`` → description with an elastic body, a spring and a rigid mass → ``neweul frf``,
 run in a temporary directory; the FRF equals that of the unreduced FE model with the same
 spring, damper and mass assembled directly (``make_fe.reference_frf``) below the cut-off, and

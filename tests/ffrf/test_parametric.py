@@ -131,7 +131,7 @@ def test_bad_coordinate_tables_are_refused(table, words) -> None:
 def test_crowded_or_oversized_coordinates_are_refused() -> None:
     """A coordinate whose values crowd samples together (weights of 1e299, or NaN) exceeds
     the Lebesgue bound; more knots than MAX_KNOTS, or a table of strings, is refused by
-    name (the fresh-clone audit's cases)."""
+    name."""
     from neweul_py.ffrf.parametric import MAX_KNOTS, coordinate_problem, weight_polynomials
 
     s = np.array([0.0, 1.0, 2.0])

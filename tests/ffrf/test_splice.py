@@ -141,10 +141,9 @@ def test_dense_solve_through_lapack_equals_numpy_and_falls_back() -> None:
     solution through SciPy's ``dgesv`` for real systems (one and several right-hand sides),
     the same with ``gesv = None`` (NumPy only) and for complex right-hand sides, and raises
     its ``LinAlgError`` for a singular matrix."""
-    from neweul_py.ffrf.splice import ffrf_dense_solve
-
-    pytest.importorskip("scipy")
     from scipy.linalg.lapack import dgesv
+
+    from neweul_py.ffrf.splice import ffrf_dense_solve
 
     rng = np.random.default_rng(5)
     M = rng.standard_normal((22, 22)) + 22 * np.eye(22)
@@ -158,3 +157,39 @@ def test_dense_solve_through_lapack_equals_numpy_and_falls_back() -> None:
                                np.linalg.solve(M, fc), rtol=1e-13, atol=1e-14)
     with pytest.raises(np.linalg.LinAlgError):
         ffrf_dense_solve({"gesv": dgesv}, np.zeros((3, 3)), np.ones(3))
+
+
+def test_parameter_derivatives_equal_central_differences(tmp_path: Path, beam_data) -> None:
+    """``∂(q−k)/∂p``, ``∂(M a)/∂p`` and ``∂rhs/∂p`` of a module with an elastic body whose
+    frame kinematics depend on parameters (``l`` moves its frame, ``g`` is in ``kin``)
+    equal central differences of the module's own ``force_vector``, ``mass_matrix`` and
+    ``rhs`` (step 1e-5 of each parameter; docs/sensitivity.md)."""
+    b, V, kg = beam_data
+    tip = int(b.fe.nodes[-1, 0])
+    inv = compute_invariants(b.fe, V[:, :6], nodes=[tip], geometric_stiffness=kg)
+    np.savez(tmp_path / "beam.npz", **inv.to_flat())
+    (tmp_path / "flex.yaml").write_text(DOUBLE_PENDULUM.format(
+        name="flex", extra=BEAM.format(tip=tip, inertia="consistent"), tip="beam.tip"))
+    mod = load_generated(generate(tmp_path / "flex.yaml", tmp_path / "gen"))
+    rng = np.random.default_rng(11)
+    n = len(mod.COORDINATES)
+    p = mod.default_parameters()
+    x = np.concatenate((rng.normal(0, 0.4, 2), rng.normal(0, 0.02, n - 2),
+                        rng.normal(0, 1.0, 2), rng.normal(0, 0.5, n - 2)))
+    y, yd, a = x[:n], x[n:], rng.normal(size=n)
+
+    def fd(f):
+        cols = []
+        for j in range(p.size):
+            e = np.zeros_like(p)
+            e[j] = 1e-5 * p[j]
+            cols.append((f(p + e) - f(p - e)) / (2 * e[j]))
+        return np.column_stack(cols)
+
+    for got, ref in ((mod.force_parameter_jacobian(0.0, y, yd, p),
+                      fd(lambda q: mod.force_vector(0.0, y, yd, q))),
+                     (mod.mass_matrix_parameter_derivative(0.0, y, p, a),
+                      fd(lambda q: mod.mass_matrix(0.0, y, q) @ a)),
+                     (mod.rhs_parameter_jacobian(0.0, x, p), fd(lambda q: mod.rhs(0.0, x, q)))):
+        assert np.any(got[:, list(mod.PARAMETERS).index("l")])   # through kin
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-7 * np.max(np.abs(ref)))

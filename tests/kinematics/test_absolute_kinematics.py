@@ -175,7 +175,7 @@ def test_elementary_rotation_convention() -> None:
 
 
 def test_inputs_in_frame_kinematics_excite_by_the_chain_rule() -> None:
-    """Kinematic excitation (issue 4): a frame translated by an input ``u(t)`` moves with
+    """Kinematic excitation: a frame translated by an input ``u(t)`` moves with
     ``v̄ = u̇`` and ``ā = ü`` (inputs ``d_u``, ``dd_u``), by hand."""
     u, du, ddu = symbol("u"), symbol("d_u"), symbol("dd_u")
     system = System(

@@ -175,11 +175,11 @@ def test_stapes_volume_displacement_at_low_frequency_matches_kringlebotn_gunders
 @pytest.mark.slow
 def test_stapes_velocity_has_its_largest_peak_in_the_normal_band(study) -> None:
     """The same band for the largest peak (ASTM F2504 / Rosowski et al. 2007: one broad peak
-    at 0.6–1.5 kHz). Measured with the off-centre umbo (session 19): refine 0 0.270 mm/s/Pa
+    at 0.6–1.5 kHz). Measured with the off-centre umbo: refine 0 0.270 mm/s/Pa
     at 1.43 kHz (the next peak 0.152 at 2.23 kHz, 5.0 dB below), refine 1 0.259 at 1.45 kHz
     (7.4 dB above the next); it stays the largest with the TM modulus ×1.2 and the cochlear
     load ×1.5, which made the centred cone's TM mode the largest (its margin was 1.1 dB;
-    examples/middle_ear/README.md, "The off-centre umbo"). The frequency is the tight part:
+    CHANGELOG.md). The frequency is the tight part:
     3–4 % inside the band's edge."""
     f, H = study
     k = int(np.argmax(np.abs(H[0.0]["stapes"])))
@@ -197,7 +197,7 @@ def test_stapes_velocity_falls_above_its_peak_without_a_second_resonance(study) 
     spread of bones). Measured at refine 0: 5.0 dB with the off-centre umbo and the manubrium
     to the rim (0.270 at 1.43 kHz, 0.152 at 2.23 kHz); the former centred cone with a 0.8-
     radius manubrium: 3.2 dB (refine 1: 7.3 dB against 0.9 dB;
-    examples/middle_ear/README.md, "Studies")."""
+    examples/middle_ear/README.md)."""
     f, H = study
     s = np.abs(H[0.0]["stapes"])
     main = s[(f >= 600.0) & (f <= 1600.0)].max()
@@ -238,7 +238,7 @@ def test_stapes_loses_less_than_the_umbo(study) -> None:
     manubrium tip, i.e. the malleus at the umbo: the stapes loses less at every working point.
     Against the TM node at the umbo (tied to the malleus by the TM–manubrium springs) it is
     asserted up to ±2 kPa (refine 1 holds it at every Δp since the static state has its own
-    modulus; README)."""
+    modulus; examples/middle_ear/README.md)."""
     st, um, ma = _low(study, "stapes"), _low(study, "umbo"), _low(study, "malleus")
     for dp in PRESSURES[PRESSURES != 0.0]:
         assert st[dp] > ma[dp], (dp, st[dp], ma[dp])

@@ -1,9 +1,9 @@
-"""Atomic directory outputs of ``neweul fem middle-ear -o DIR`` (neweul_py/middle_ear/output.py;
-issue 12 item 9).
+"""Atomic directory outputs of ``neweul fem middle-ear -o DIR``
+(neweul_py/middle_ear/output.py).
 
 References: the POSIX/Linux rename semantics (``renameat2(RENAME_EXCHANGE)`` swaps two paths
-in one step), the reproducers of issue 12 (a kill between two renames left no DIR; killed
-runs left hidden ``.tmp``/``.old`` directories), and repeated identical runs (same bytes).
+in one step), kills that once left no DIR (between two renames) or hidden
+``.tmp``/``.old`` directories, and repeated identical runs (same bytes).
 """
 
 from __future__ import annotations

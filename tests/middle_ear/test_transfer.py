@@ -3,7 +3,7 @@ published temporal-bone numbers (docs/middle-ear-measurements.md).
 
 Sign convention: Δp = p_canal − p_cavity; Δp > 0 is a *negative* middle-ear pressure.
 Refinement 0 (1 332 DOFs) keeps the tests fast; at refine 1 the same trends were measured
-(examples/middle_ear/README.md, table: +1/+2/+3 kPa −4.4/−9.0/−13.1 dB).
+(the lumped chain at +1/+2/+3 kPa: −4.4/−9.0/−13.1 dB).
 """
 
 from __future__ import annotations
@@ -81,8 +81,8 @@ def test_stapes_transfer_function_at_rest_in_the_normal_band(sweep):
     ear-canal pressure (the largest below 2 kHz) lies between 0.6 and 1.5 kHz (ASTM F2504 /
     Rosowski et al. 2007) at 0.03–0.3 mm/s/Pa (Aibara et al. 2001: ≈ 0.1–0.3; band widened
     by −10 dB), and the phase leads at 200 Hz (Chien et al. 2009: +0.2 cycle at 0.3 kHz).
-    Not pinned (open, issue 13): a second, sharper resonance near 2.5 kHz that measured ears
-    lack, and the fast fall above 5 kHz."""
+    Not pinned (the lumped chain does not reach it): a second, sharper resonance near
+    2.5 kHz that measured ears lack, and the fast fall above 5 kHz."""
     me, states = sweep
     s = states[0.0]
     fe = working_point_model(me, s)

@@ -9,7 +9,7 @@ import itertools
 import pytest
 import sympy as sp
 
-from neweul_py.codegen.derivatives import gradient, jacobian
+from neweul_py.equations.derivatives import gradient, jacobian
 from neweul_py.model.functions import Abs, Heaviside, Max, Min, piecewise, sign
 
 x, y, z = sp.symbols("x y z", real=True)
@@ -67,7 +67,7 @@ def test_piecewise_time_derivatives_of_the_spin_up_ramp() -> None:
 
 def test_codegen_gradient_of_piecewise_is_branchwise() -> None:
     """Reference: ``sympy.diff`` of each branch under the same condition (the structural
-    gradient of codegen/derivatives.py), also through an intermediate."""
+    gradient of equations/derivatives.py), also through an intermediate."""
     expr = sp.Piecewise((x**2 * y, x < y), (sp.sin(x), True))
     g = gradient(expr, {x, y})
     for px, py in itertools.product((0.2, 0.9), (0.5,)):

@@ -151,3 +151,26 @@ def test_frame_chain_and_topological_order():
     s = System("x", frames=(Frame("c", "b"), Frame("b", "a"), Frame("a")))
     assert [f.name for f in s.frame_chain("c")] == ["a", "b", "c"]
     assert [f.name for f in s.frames_topological] == ["a", "b", "c"]
+
+
+def test_parameter_ranges_are_checked_and_implied_by_rest_lengths():
+    """A parameter may carry an admissible range (inclusive bounds); its default must lie in
+    it. A parameter that is by itself a spring's rest length is at least 0 (the rule the
+    model applies to the rest length at the defaults). Reference: the ranges written here."""
+    from neweul_py.model import SpringDamper
+
+    s = pendulum(parameters=(Parameter("l", 1.0, minimum=0.0), Parameter("m", 2.0),
+                             Parameter("g", 9.81, minimum=9.0, maximum=10.0)))
+    assert s.parameter_ranges == {"l": (0.0, None), "g": (9.0, 10.0)}
+    with pytest.raises(ModelError, match=r"default 1 is outside its range 2 … 3") as err:
+        Parameter("l", 1.0, minimum=2.0, maximum=3.0)
+    assert err.value.key_path == "parameters.l"
+    with pytest.raises(ModelError, match="minimum 3 is above its maximum 2"):
+        Parameter("l", 2.5, minimum=3.0, maximum=2.0)
+    with pytest.raises(ModelError, match="must be a finite number"):
+        Parameter("l", 1.0, minimum=float("nan"))
+    spring = SpringDamper("s", "ISYS", "arm", length=l, stiffness=sp.Integer(1))
+    assert pendulum(forces=(spring,)).parameter_ranges == {"l": (0.0, None)}
+    ranged = pendulum(parameters=(Parameter("l", 1.0, minimum=0.5), Parameter("m", 2.0),
+                                  Parameter("g", 9.81)), forces=(spring,))
+    assert ranged.parameter_ranges == {"l": (0.5, None)}

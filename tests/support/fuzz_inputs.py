@@ -1,11 +1,11 @@
 """Mutators of user inputs for the fuzzing tests (tests/*/test_*fuzz*) and benchmarks/bench_fuzz.py.
 
 Each mutator takes a :class:`random.Random` (hypothesis draws it with ``st.randoms()``, the
-benchmark seeds its own) and returns a mutated copy of a valid input: a description (as a YAML
-tree or as text), the lines of a text data file (SID, Matrix Market), the arrays and metadata
-of an ``.npz`` file, or a command line. The property every consumer checks is the one of
-issue 12: a :class:`~neweul_py.errors.NeweulError` with one line, or a result — never another
-exception, a hang or a partial file (:func:`outcome`).
+benchmark seeds its own) and returns a mutated copy of a valid input: a description (as a YAML tree
+or as text), the lines of a text data file (SID, Matrix Market), the arrays and metadata of an
+``.npz`` file, or a command line. The property every consumer checks: a
+:class:`~neweul_py.errors.NeweulError` with one line, or a result — never another exception, a hang
+or a partial file (:func:`outcome`).
 """
 
 from __future__ import annotations
@@ -144,6 +144,25 @@ def mutate_lines(lines: list[str], rng: random.Random) -> list[str]:
         else:
             lines[i] += " 7"
     return lines
+
+
+def mutate_bytes(data: bytes, rng: random.Random) -> bytes:
+    """A copy of a text file's bytes with 1–3 byte-level edits: bytes that are not UTF-8 (a
+    Latin-1 ``é``, a lone continuation byte), a NUL, a byte-order mark, a very long field, a
+    cut in the middle, CR line ends, a quote that never closes."""
+    data = bytearray(data)
+    inserts = [b"\xe9", b"\x80", b"\x00", b"\xef\xbb\xbf", b"9" * 5000, b",", b"\r\n",
+               b'"', b"\n\n\n", b"#", b"1e400", b"nan"]
+    for _ in range(rng.randint(1, 3)):
+        i = rng.randrange(len(data) + 1)
+        op = rng.randint(0, 2)
+        if op == 0:
+            data[i:i] = rng.choice(inserts)
+        elif op == 1:
+            del data[i:i + rng.randint(1, 8)]
+        else:
+            data = data[:i]
+    return bytes(data)
 
 
 def mutate_npz(arrays: dict[str, np.ndarray], rng: random.Random,

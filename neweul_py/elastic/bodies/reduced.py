@@ -147,6 +147,10 @@ class ReducedBody:
     def _validate(self) -> None:
         set_ = object.__setattr__
         r = np.asarray(self.M).shape[0] if np.ndim(self.M) == 2 else -1
+        for key in ("M", "D", "K", "B", "C", "V_kept", "W_kept", "V", "W", "G", "nodes"):
+            if self[key] is not None and np.iscomplexobj(self[key]):   # float64 by the format
+                raise DataError("has complex entries; the format holds real float64 arrays",
+                                None, key)
         for key in ("M", "D", "K"):
             a = np.asarray(self[key], dtype=np.float64)
             if a.shape != (r, r):
@@ -163,6 +167,17 @@ class ReducedBody:
             raise DataError(f"{len(self.output_names)} output names for {self.C.shape[0]} "
                             "rows", None, "C")
         set_(self, "nodes", np.asarray(self.nodes, dtype=np.float64).reshape(-1, 4))
+        if not np.all(np.isfinite(self.nodes)):
+            raise DataError("has NaN/Inf entries", None, "nodes")
+        ids = self.nodes[:, 0]
+        if np.any(ids < 0) or np.any(ids != np.round(ids)):
+            raise DataError("node ids (first column) must be non-negative whole numbers",
+                            None, "nodes")
+        for key in ("kept_dofs", "dof_node"):
+            raw = np.asarray(self[key])
+            if raw.size and (raw.dtype.kind not in "iubf" or not np.all(np.isfinite(raw))
+                             or np.any(raw < 0) or np.any(raw != np.round(raw))):
+                raise DataError("must hold non-negative whole numbers", None, key)
         set_(self, "kept_dofs", np.asarray(self.kept_dofs, dtype=np.int64).ravel())
         nk = self.kept_dofs.size
         set_(self, "dof_node", np.asarray(self.dof_node, dtype=np.int64).ravel())
@@ -180,8 +195,12 @@ class ReducedBody:
                 if a.ndim != 2 or a.shape[1] != r:
                     raise DataError(f"must have {r} columns, got {a.shape}", None, key)
                 set_(self, key, a)
+        for key in ("V", "W"):
+            if self[key] is not None and not np.all(np.isfinite(self[key])):
+                raise DataError("has NaN/Inf entries", None, key)
         if self.eigenvalues is not None:
             set_(self, "eigenvalues", np.asarray(self.eigenvalues).ravel())
+            self._validate_eigenvalues()
         if self.full_dof_kind is not None:
             kinds = np.asarray(self.full_dof_kind)
             if kinds.ndim != 1 or kinds.dtype.kind not in "US":
@@ -227,6 +246,21 @@ class ReducedBody:
                 raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
                                 None, "static")
             self.static.check(r, self.nodes.shape[0], len(self.output_names))
+
+    def _validate_eigenvalues(self) -> None:
+        """``λ = ω²`` of the retained modes: finite, and (real spectra) not negative beyond
+        round-off (``λ < −10⁻⁸ max|λ|``: a body that is not stable on its own, or a corrupted
+        file; rigid-body modes are ``λ ≈ 0`` of either sign). Complex spectra (two-sided
+        reductions of non-symmetric models) may have complex ``λ``."""
+        lam = self.eigenvalues
+        if lam.dtype.kind not in "fc" and lam.size:
+            raise DataError(f"must be numbers, got {lam.dtype}", None, "eigenvalues")
+        if not np.all(np.isfinite(lam)):
+            raise DataError("has NaN/Inf entries", None, "eigenvalues")
+        real = lam.real if np.iscomplexobj(lam) else lam
+        if real.size and real.min() < -1e-8 * float(np.abs(lam).max()):
+            raise DataError(f"has a negative eigenvalue λ = ω² = {real.min():.6g} (the body "
+                            "is not stable on its own)", None, "eigenvalues")
 
     def _validate_loss(self, r: int) -> None:
         """``G`` (r × r, finite) and its reference frequency

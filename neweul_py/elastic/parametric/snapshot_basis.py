@@ -33,7 +33,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
 from ...errors import DataError
 from ..bodies.invariants import Invariants
@@ -41,6 +40,7 @@ from ..bodies.parametric import ParametricBody, checked_slope_step
 from ..bodies.reduced import ReducedBody
 from ..bodies.static import StaticDeflection
 from ..fe_model import FEModel
+from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, build_reduced_body
 from ..reductors.static_state import static_deflection
 from .global_basis import energy_metric, g_orthonormal
@@ -104,11 +104,11 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
         D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
         for w in 2 * np.pi * f:
-            lu = spla.splu(sps.csc_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
+            lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
             X = lu.solve(np.asarray(F, dtype=complex))
             snaps += [X.real, X.imag]
             if adjoint is not None:
-                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), trans="T")
+                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), transpose=True)
                 snaps += [Y.real, Y.imag]
         _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
     S = np.hstack(snaps if prior is None else [np.asarray(prior, dtype=float), *snaps])
@@ -221,7 +221,8 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                           slope_static: tuple[Sequence[Mapping[str, Any]],
                                               Sequence[Mapping[str, Any]]] | None = None,
                           metric: sps.spmatrix | None = None,
-                          progress: Progress = None) -> ParametricBody:
+                          progress: Progress = None,
+                          projections: dict[str, ReducedBody] | None = None) -> ParametricBody:
     """The parametric body of one Galerkin basis ``V`` for every sample (``X_i = Vᵀ X_i V``),
     with :func:`fixed_frame_invariants`; interpolated entrywise as in
     :func:`~neweul_py.elastic.parametric.global_basis.global_parametric_body`.
@@ -234,6 +235,10 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     models are projected alike; ``interpolation="hermite"``: the slopes alone; docs/
     equations.md §4.2). Without slope models the default weights are ``"cubic"``.
     ``metric``: the energy metric of the static projection (default: that of ``fes``).
+
+    ``projections``: a cache the caller keeps across calls with the same ``V`` and kept nodes
+    (FE fingerprint → projected body with its invariants), so that a model projected once —
+    a sample, or a slope model, of an earlier body of a refinement — is not projected again.
 
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.reductors.static_state.static_deflection` (``x`` — the FE
@@ -266,16 +271,20 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
     bodies, states = [], []
     for i, fe in enumerate(fes):
-        b = build_reduced_body(fe, V, V, "snapshot", {"order": int(V.shape[1])},
-                               keep_nodes=keep_nodes)
-        b = b.with_(parameters={parameter: float(s[i])})
-        bodies.append(fixed_frame_invariants(b, fe))
+        key = fe.fingerprint
+        b = None if projections is None else projections.get(key)
+        if b is None:
+            b = fixed_frame_invariants(build_reduced_body(
+                fe, V, V, "snapshot", {"order": int(V.shape[1])}, keep_nodes=keep_nodes), fe)
+            if projections is not None:
+                projections[key] = b
+        bodies.append(b.with_(parameters={parameter: float(s[i])}))
         if static is not None:
             states.append(static_deflection(b, V=V, W=V, output_rows=fe.C(), metric=G,
                                             **static[i]))
         _say(progress, f"projected sample {i + 1} of {len(fes)}")
     k, r = len(bodies), V.shape[1]
-    eye = np.broadcast_to(np.eye(r), (k, r, r)).copy()
+    eye = np.broadcast_to(np.eye(r), (k, r, r))          # read-only: one copy in memory
     inv = {name: np.stack([np.asarray(b.invariants[name]) for b in bodies])
            for name in bodies[0].invariants}
     g0 = bodies[0]
@@ -285,7 +294,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         **{key: np.stack([b[key] for b in bodies]) for key in ("M", "D", "K", "B", "C",
                                                                 "V_kept", "W_kept")},
         **stacked_loss(bodies),
-        T=eye, L=eye.copy(), R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
+        T=eye, L=eye, R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
         two_sided=False, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
         V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
@@ -299,7 +308,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     side = [basis_parametric_body(models, V, s + sign * float(slope_step), parameter=parameter,
                                   keep_nodes=keep_nodes, energy=energy, metric=G,
                                   static=None if slope_static is None else slope_static[j],
-                                  progress=progress)
+                                  progress=progress, projections=projections)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
     slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
     where = {"slope_step": float(slope_step),

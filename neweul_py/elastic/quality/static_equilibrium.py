@@ -52,7 +52,7 @@ def tied_static_equilibrium(body: Any, node_ids: np.ndarray, k: float,
     ``k`` each, and held by the restoring force ``F_c(y)`` (``restoring(y) → (F_c, K_c)``, a
     force/moment (6,) and its tangent (6, 6)). With the node displacements
     ``x_n = u_s + Φ_n q`` (static node displacements + the body's motion) and the spring
-    forces on the body ``f = −k (x_n − T y)`` (:func:`rigid_map`), the equations are
+    forces on the body ``f = −k (x_n − T y)`` (:func:`rigid_map`), the equations are::
 
         K q − Φ_Wᵀ (f − f_s) = 0        (the body about its static state, f_s its static
                                          interface forces; equilibrium at q = 0 when f = f_s)

@@ -94,6 +94,35 @@ def _characteristic(fe: FEModel, bb: np.ndarray, ii: np.ndarray, N: np.ndarray,
     return N / d, psi_r / d, psi_l / d
 
 
+def _constraint_modes(fe: FEModel, bb: np.ndarray, ii: np.ndarray, two_sided: bool,
+                      skip_rigid: bool, progress: Progress
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Right and left static constraint modes ``−K_ii⁻¹ K_ib``, ``−K_ii⁻ᵀ K_biᵀ`` and their
+    interface rows (identity, or with ``skip_rigid`` the non-rigid interface motions as
+    characteristic constraint modes): ``(Ψ_r, Ψ_l, interface rows)``."""
+    _say(progress, f"constraint modes of {bb.size} interface DOFs")
+    K = sps.csc_matrix(fe.K)
+    try:
+        lu = spla.splu(K[ii][:, ii].tocsc(), permc_spec=PERMC_SPEC)
+    except RuntimeError as exc:
+        raise DataError(f"K is singular on the interior DOFs ({exc})", fe.source,
+                        "interface") from None
+    kib = K[ii][:, bb].toarray()
+    kbi = K[bb][:, ii].toarray()
+    psi_r = -lu.solve(kib)
+    unsym = two_sided and not symmetric_pencil(fe)
+    psi_l = -lu.solve(kbi.T, trans="T") if unsym else psi_r
+    eye = np.eye(bb.size)
+    if skip_rigid:
+        Tb = rigid_body_fields(fe)[bb]
+        U, s, _ = np.linalg.svd(Tb, full_matrices=True)
+        rank = int(np.count_nonzero(s > 1e-10 * max(s.max(initial=0.0), 1e-300)))
+        eye = U[:, rank:]
+        psi_r, psi_l = psi_r @ eye, psi_l @ eye
+        eye, psi_r, psi_l = _characteristic(fe, bb, ii, eye, psi_r, psi_l, unsym)
+    return psi_r, psi_l, eye
+
+
 def craig_bampton_bases(
     fe: FEModel,
     interface: Sequence[int],
@@ -170,31 +199,11 @@ def craig_bampton_bases(
             f"still has {zero.size} zero-frequency (rigid-body or constant-pressure) "
             "mode(s), K is singular on the interior DOFs; Craig–Bampton needs an interface "
             "(or a supported model) that removes them", fe.source, "interface")
-    _say(progress, f"constraint modes of {bb.size} interface DOFs")
-    K = sps.csc_matrix(fe.K)
-    try:
-        lu = spla.splu(K[ii][:, ii].tocsc(), permc_spec=PERMC_SPEC)
-    except RuntimeError as exc:
-        raise DataError(f"K is singular on the interior DOFs ({exc})", fe.source,
-                        "interface") from None
-    kib = K[ii][:, bb].toarray()
-    kbi = K[bb][:, ii].toarray()
-    psi_r = -lu.solve(kib)
-    unsym = two_sided and not symmetric_pencil(fe)
-    psi_l = -lu.solve(kbi.T, trans="T") if unsym else psi_r
-    eye = np.eye(bb.size)
-    if not constraint_modes:
-        eye = eye[:, :0]
-        psi_r, psi_l = psi_r[:, :0], psi_l[:, :0]
-    elif skip_rigid:
-        Tb = rigid_body_fields(fe)[bb]
-        U, s, _ = np.linalg.svd(Tb, full_matrices=True)
-        rank = int(np.count_nonzero(s > 1e-10 * max(s.max(initial=0.0), 1e-300)))
-        eye = U[:, rank:]
-        psi_r, psi_l = psi_r @ eye, psi_l @ eye
-        eye = _characteristic(fe, bb, ii, eye, psi_r, psi_l, unsym)
-        psi_r, psi_l = eye[1], eye[2]
-        eye = eye[0]
+    if constraint_modes:
+        psi_r, psi_l, eye = _constraint_modes(fe, bb, ii, two_sided, skip_rigid, progress)
+    else:  # clamped interface: no static solves (the interior modes checked K_ii above)
+        psi_r = psi_l = np.zeros((ii.size, 0))
+        eye = np.zeros((bb.size, 0))
     n, nc = fe.n_dofs, eye.shape[1]
     V = np.zeros((n, nc + Vi.shape[1]))
     W = np.zeros_like(V)

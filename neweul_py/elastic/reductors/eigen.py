@@ -42,9 +42,9 @@ __all__ = [
     "up_left_null",
 ]
 
-#: Relative tolerance (of max |λ|) below which an imaginary part is numerical noise.
+#: Relative tolerance (of ``max |λ|``) below which an imaginary part is numerical noise.
 REAL_RTOL = 1e-7
-#: Relative distance (of max |λ|) within which eigenvalues form one (degenerate) cluster.
+#: Relative distance (of ``max |λ|``) within which eigenvalues form one (degenerate) cluster.
 CLUSTER_RTOL = 1e-8
 #: Relative tolerance (of the spectrum scale, e.g. ``max(|σ|, λ_max)``) within which a real
 #: eigenvalue is indistinguishable from a band edge or from zero: shift-invert eigenvalues

@@ -40,16 +40,16 @@ __all__ = [
 
 _ONE = sp.Integer(1)
 
-#: What the value of a key is.
+#: What the value of a key is:
 #:
-#: ``frame``        a frame name; ``frames``: two frame names ``[A, B]`` (``between``)
-#: ``coordinate``   a coordinate name;  ``axis``: ``x``, ``y`` or ``z``
-#: ``expression``   one expression;  ``vector``: three;  ``points``: two vectors of three
-#: ``matrix``       a 3×3 matrix: a 3×3 list, ``{diag: [a, b, c]}`` or one value (``value·I``)
-#: ``characteristic`` an expression of ``s`` and ``sd`` or a table
-#:                  ``{table: [[v, F], …], interpolation: linear|spline}`` (a curve over its
-#:                  ``variable``): fills the coefficient field and the curve field
-#: ``loss_factor``  a loss factor η ≥ 0 of parameters (docs/equations.md §1.1)
+#: * ``frame``: a frame name; ``frames``: two frame names ``[A, B]`` (``between``)
+#: * ``coordinate``: a coordinate name; ``axis``: ``x``, ``y`` or ``z``
+#: * ``expression``: one expression; ``vector``: three; ``points``: two vectors of three
+#: * ``matrix``: a 3×3 matrix: a 3×3 list, ``{diag: [a, b, c]}`` or one value (``value·I``)
+#: * ``characteristic``: an expression of ``s`` and ``sd`` or a table
+#:   ``{table: [[v, F], …], interpolation: linear|spline}`` (a curve over its ``variable``):
+#:   fills the coefficient field and the curve field
+#: * ``loss_factor``: a loss factor η ≥ 0 of parameters (docs/equations.md §1.1)
 ValueKind = Literal["frame", "frames", "coordinate", "axis", "expression", "vector", "points",
                     "matrix", "characteristic", "loss_factor"]
 #: The names an expression may use: ``constant`` parameters; ``kinematic`` also coordinates,
@@ -154,6 +154,12 @@ class ForceElement:
         """Checks beyond the schema, given the value of an expression at the parameter
         defaults (a float, or ``None`` when it is not constant); raise
         :class:`~neweul_py.errors.ModelError`. None by default."""
+
+    def nonnegative(self) -> tuple[sp.Expr, ...]:
+        """The expressions that :meth:`check` refuses to be negative at the defaults (a rest
+        length): a parameter that is one of them by itself admits no negative value either
+        (:attr:`~neweul_py.model.System.parameter_ranges`). None by default."""
+        return ()
 
     def loads(self, kin: KinematicsView, omega_ref: sp.Expr | float) -> Loads:
         """What the element exerts, before its ``enabled`` factor

@@ -31,7 +31,7 @@ def _ez() -> sp.ImmutableMatrix:
 @dataclass(frozen=True)
 class PlaneContact(ForceElement):
     """A point of ``frame_b`` against a plane fixed in ``frame_a``, pushed out of the plane
-    while it penetrates (Hunt & Crossley 1975, *J. Appl. Mech.* 42(2):440–445).
+    while it penetrates. Damping after Hunt & Crossley 1975 (*J. Appl. Mech.* 42(2):440–445).
 
     The plane passes through ``point_a`` with the outward ``normal`` ``n`` (A components,
     normalized here); ``point_b`` is the contact point of B. With ``Δr`` the position of

@@ -77,6 +77,10 @@ class SpringDamper(ForceElement):
     enabled: sp.Expr = _ONE
     loss_factor: sp.Expr = _ZERO
 
+    def nonnegative(self) -> tuple[sp.Expr, ...]:
+        """The rest length (a distance)."""
+        return (self.length,)
+
     def check(self, at_defaults: Callable[[sp.Basic], object]) -> None:
         """The rest length is a distance: not negative at the parameter defaults."""
         length = at_defaults(self.length)

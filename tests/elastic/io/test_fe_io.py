@@ -1,7 +1,7 @@
-"""Bounded reading of FE-model files (neweul_py/elastic/io/fe_files.py; issue 12 item 7).
+"""Bounded reading of FE-model files (neweul_py/elastic/io/fe_files.py).
 
 References: the Matrix Market format (header ``rows cols entries``; each entry is a line of at
-least ``"i j\\n"``), the reproducer of issue 12 (a 1e9×1e9 header with one entry ended in a
+least ``"i j\\n"``), a 1e9×1e9 header with one entry (which once ended in a
 MemoryError), and the FE model the files were written from (a valid file reads back equal).
 """
 

@@ -1,4 +1,4 @@
-"""FE-model container validation and files (issue 3 items 1 and 6: round trip, bad input).
+"""FE-model container validation and files: round trip, bad input.
 
 References: the models are built in ``fe_builders`` (1-D linear elements); a round trip must
 reproduce every array bit for bit; every bad file must raise a DataError naming the file and

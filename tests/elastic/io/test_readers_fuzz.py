@@ -1,5 +1,5 @@
-"""Fuzzing the readers of elastic data (issue 12, "mutated reduced bodies, FE files (.mtx,
-npz), SID files"): reduced-body files with metadata and arrays of the wrong type (63 of 409
+"""Fuzzing the readers of elastic data (mutated reduced bodies, FE files (.mtx, npz), SID
+files): reduced-body files with metadata and arrays of the wrong type (63 of 409
 fuzzed bodies crashed), FE models as ``.npz`` and as a manifest with Matrix Market files, and
 SID text files.
 

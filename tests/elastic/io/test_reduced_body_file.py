@@ -1,4 +1,4 @@
-"""Reduced-body file (issue 3 item 3): exact round trip, atomic writes, bad files rejected.
+"""Reduced-body file: exact round trip, atomic writes, bad files rejected.
 
 Reference: the in-memory body; every array must come back bit for bit (``array_equal``,
 same dtype) and the metadata unchanged (docs/reduced-body-format.md).
@@ -196,3 +196,35 @@ def test_projected_matrices_are_stored_once_with_the_invariants(tmp_path):
     old = load_reduced_body(tmp_path / "v1.npz")
     for name, arr in body.invariants.items():
         np.testing.assert_array_equal(old.invariants[name], arr)
+
+
+@pytest.mark.parametrize(("item", "change", "text"), [
+    ("nodes", lambda b: {"nodes": np.where(np.arange(b.nodes.size).reshape(b.nodes.shape) == 1,
+                                           np.nan, b.nodes)}, "NaN"),
+    ("nodes", lambda b: {"nodes": np.column_stack([-b.nodes[:, :1], b.nodes[:, 1:]])},
+     "non-negative whole numbers"),
+    ("nodes", lambda b: {"nodes": np.column_stack([b.nodes[:, :1] + 0.5, b.nodes[:, 1:]])},
+     "non-negative whole numbers"),
+    ("dof_node", lambda b: {"dof_node": -b.dof_node}, "non-negative"),
+    ("M", lambda b: {"M": b.M + 1e-3j * np.eye(len(b.M))}, "complex"),
+    ("V", lambda b: {"V": b.V * (1 + 0j) + 1j}, "complex"),
+    ("V", lambda b: {"V": np.where(b.V == b.V.max(), np.inf, b.V)}, "NaN/Inf"),
+    ("eigenvalues", lambda b: {"eigenvalues": np.where(np.arange(b.eigenvalues.size) == 0, -1e6,
+                                                       b.eigenvalues)}, "negative"),
+    ("eigenvalues", lambda b: {"eigenvalues": b.eigenvalues * np.nan}, "NaN/Inf"),
+])
+def test_bodies_that_cannot_be_physical_are_refused(body, tmp_path, item, change, text):
+    """A reduced body with NaN in its nodes or bases, negative or fractional node ids, complex
+    matrices or bases (float64 by the format: their imaginary part was dropped) or a negative
+    eigenvalue λ = ω² (beyond round-off: an unstable body) was loaded silently; each is one
+    DataError naming the file and the array. ``M`` need not be symmetric (two-sided and u–p
+    coupled bodies are not; docs/reduced-body-format.md), so that is no rule. Reference: the
+    documented format."""
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    _rewrite(path, **change(body))
+    with pytest.raises(DataError, match=text) as exc:
+        load_reduced_body(path)
+    assert exc.value.file == str(path) and exc.value.item == item
+    unsymmetric = body.with_(M=body.M + np.triu(np.full_like(body.M, 1e-3), 1))
+    assert not np.allclose(unsymmetric.M, unsymmetric.M.T)      # accepted, as documented

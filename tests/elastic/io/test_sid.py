@@ -330,7 +330,7 @@ def test_format_variants(tmp_path):
 
 def test_negative_or_non_finite_mass_is_refused(tmp_path):
     """A description refuses a negative mass (model/system.py); so does a SID file
-    (issue 12 item 5). Reference: the shipped beam.SID_FEM with its mass edited."""
+   . Reference: the shipped beam.SID_FEM with its mass edited."""
     text = (Path(__file__).resolve().parents[2] / "data" / "beam.SID_FEM").read_text()
     import re
 

@@ -895,7 +895,7 @@ def test_coordinate_table_snaps_the_nearest_knot_and_drops_near_duplicates():
     """A curve with knots 1e-12 below and at a sample, or a sample 1e-7 off a grid point:
     the nearest knot becomes the sample and its near-duplicates go (not a "not increasing"
     error); a non-string coordinate name and a version-3 file without a coordinate are
-    handled (the fresh-clone audit's cases)."""
+    handled."""
     sig = np.array([-1.0, -1e-12, 0.0, 1.0, 2.0])
     t = coordinate_table([0.0, 1.0, 2.0], sig, sig**3 + 3 * sig)
     np.testing.assert_array_equal(t[0], [0.0, 1.0, 2.0])

@@ -1,4 +1,4 @@
-"""Quality measures (issue 3 item 4): FRFs, errors, eigenvalues, stability.
+"""Quality measures: FRFs, errors, eigenvalues, stability.
 
 References: dense direct solves ``C (K + jωD − ω²M)⁻¹ B`` of the unreduced model; poles of
 hand-made second-order systems with known stability.

@@ -1,4 +1,4 @@
-"""Second-order Krylov reduction (issue 3 item 2): moment matching, structure, errors.
+"""Second-order Krylov reduction: moment matching, structure, errors.
 
 Reference: the moments ``C Pᵢ`` of the unreduced FE model about ``s0``, computed here with dense
 solves from the recursion ``P₀ = K̃⁻¹B``, ``Pᵢ = −K̃⁻¹(D̃ Pᵢ₋₁ + M Pᵢ₋₂)``

@@ -6,7 +6,6 @@ piston–duct u–p model."""
 
 from __future__ import annotations
 
-import importlib.util
 import shutil
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+from lossy_duct import EXAMPLE, F_REF, lossy_duct, make_fe
 
 from neweul_py import api
 from neweul_py.analysis import linearize
@@ -28,25 +28,7 @@ from neweul_py.elastic.quality.measures import frf_full, frf_reduced
 from neweul_py.elastic.reductors.modal import reduce_modal
 from neweul_py.errors import DataError, NeweulError
 
-EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "elastic_up_body"
-ETA_PISTON, ETA_AIR, F_REF = 0.05, 0.02, 300.0
 M2, K2, D2, ETA2 = 0.02, 5.0e4, 2.0, 0.1
-
-
-def _make_fe():
-    spec = importlib.util.spec_from_file_location("elastic_up_make_fe", EXAMPLE / "make_fe.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def lossy_duct(f_ref: float = F_REF):
-    """The piston–duct model with loss factors: ``G = blockdiag(η_p k_p, η_air Kf)``, and
-    ``D = G/ω_ref`` its time-domain equivalent (as the middle-ear working points)."""
-    fe = _make_fe().piston_duct()
-    G = sps.block_diag([sps.csr_matrix([[ETA_PISTON * fe.K[0, 0]]]), ETA_AIR * fe.K[1:, 1:]],
-                       format="csr")
-    return fe.with_(G=G, loss_reference_frequency=f_ref, D=G / (2 * np.pi * f_ref))
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +77,7 @@ def test_reduced_body_frf_against_the_unreduced_fe_model_with_k_plus_ig(
     solvers (direct, checked sweep) equal the reference, the viscous form does not."""
     fe = read_fe_model(reduced / "duct.npz")
     body = load_reduced_body(reduced / "body.npz")
-    write_fe_model(_make_fe().piston_duct(), tmp_path / "plain.npz")
+    write_fe_model(make_fe().piston_duct(), tmp_path / "plain.npz")
     assert main(["reduce", str(tmp_path / "plain.npz"), "--two-sided", "--modes", "12",
                  "--keep-nodes", "1", "-o", str(tmp_path / "plain_body.npz")]) == 0
     plain, plain_body = read_fe_model(tmp_path / "plain.npz"), load_reduced_body(

@@ -1,4 +1,4 @@
-"""Modal truncation, two-sided and one-sided (issue 3 items 2 and 6).
+"""Modal truncation, two-sided and one-sided.
 
 References: analytic duct resonances ``n c / 2L``; closed-form coupled frequencies of a
 spring–mass piston closing a duct (transcendental equation in ``fe_builders``); dense

@@ -14,9 +14,10 @@ from typing import Any
 import yaml
 from yaml.constructor import SafeConstructor
 
-from ..errors import DescriptionError
+from .errors import DescriptionError
+from .yaml_shape import MAX_DEPTH, MAX_NODES, check_shape
 
-__all__ = ["YamlTree", "read_yaml"]
+__all__ = ["MAX_DEPTH", "MAX_NODES", "YamlTree", "check_shape", "read_description", "read_yaml"]
 
 _MAX_NODES = 1_000_000  # guards against alias bombs ("billion laughs")
 #: The safe loader with libyaml's C parser when PyYAML has it (the same resolver and the same
@@ -75,7 +76,7 @@ class _Walker:
         if self.count > _MAX_NODES:
             raise self.error("the document is too large (alias expansion?)", path, node)
         if isinstance(node, yaml.ScalarNode):
-            value = self.constructor.construct_object(node)
+            value = self.scalar(node, path)
             if isinstance(value, int) and not isinstance(value, bool) and abs(value) > _MAX_INT:
                 raise self.error(f"the integer {node.value[:20]}… is beyond the range of a "
                                  "double-precision number", path, node)
@@ -98,6 +99,18 @@ class _Walker:
             raise self.error(f"unsupported YAML node {node.tag}", path, node)
         finally:
             self.active.discard(id(node))
+
+    def scalar(self, node: yaml.ScalarNode, path: str) -> Any:
+        """The value of a scalar (PyYAML's safe constructor); an integer of more digits than
+        Python converts (4300) is one error, like any integer beyond the range of doubles."""
+        try:
+            return self.constructor.construct_object(node)
+        except ValueError as exc:
+            digits = sum(c.isdigit() for c in node.value)
+            what = (f"the integer of {digits} digits is beyond the range of a double-precision "
+                    "number" if digits > 400 else f"the value {node.value[:20]!r} cannot be "
+                    f"read ({exc})")
+            raise self.error(what, path, node) from None
 
     def mapping(self, node: yaml.MappingNode, path: str) -> dict[str, Any]:
         if id(node) not in self.flattened:  # an aliased mapping is checked and merged once
@@ -133,7 +146,7 @@ class _Walker:
                 "a key must be a plain name, not a list or mapping", path, self.file,
                 node.start_mark.line + 1,
             )
-        key = self.constructor.construct_object(node)
+        key = self.scalar(node, path)
         if not isinstance(key, str):
             hint = (
                 " (YAML reads yes/no/on/off/true/false as booleans; quote the key)"
@@ -147,24 +160,8 @@ class _Walker:
         return key
 
 
-#: Deepest nesting of mappings and sequences in a description (docs/limits.md).
-MAX_DEPTH = 64
 #: Largest integer accepted (beyond it ``float(value)`` overflows).
 _MAX_INT = 2**1023
-
-
-def _check_depth(text: str, file: str) -> None:
-    """Refuse nesting deeper than :data:`MAX_DEPTH` from the event stream (PyYAML's parser is
-    iterative; its composer recurses once per level, and so does the walker)."""
-    depth = 0
-    for event in yaml.parse(text, Loader=_LOADER):
-        if isinstance(event, yaml.CollectionStartEvent):
-            depth += 1
-            if depth > MAX_DEPTH:
-                raise DescriptionError(f"the document is nested more than {MAX_DEPTH} levels "
-                                       "deep", "", file, event.start_mark.line + 1)
-        elif isinstance(event, yaml.CollectionEndEvent):
-            depth -= 1
 
 
 def read_yaml(text: str, file: str = "<description>") -> YamlTree:
@@ -177,7 +174,7 @@ def read_yaml(text: str, file: str = "<description>") -> YamlTree:
         recursive aliases.
     """
     try:
-        _check_depth(text, file)
+        check_shape(text, file)
         node = yaml.compose(text, Loader=_LOADER)
         if node is None:
             return YamlTree(None, {"": 1}, file)
@@ -199,3 +196,21 @@ def read_yaml(text: str, file: str = "<description>") -> YamlTree:
         raise DescriptionError(f"the document is nested more than {MAX_DEPTH} levels deep",
                                "", file) from None
     return YamlTree(data, walker.lines, file)
+
+
+def read_description(text: str | bytes, file: str = "<description>") -> YamlTree:
+    """Parse a description's text (bytes are decoded as UTF-8) into a :class:`YamlTree`, once:
+    the loader (:func:`neweul_py.description.load_description_tree`) and the module cache
+    (:mod:`neweul_py.api`, which needs the data files a description names) share the tree.
+
+    Raises
+    ------
+    DescriptionError
+        For text that is not UTF-8 and everything :func:`read_yaml` refuses.
+    """
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise DescriptionError(f"not UTF-8 text ({exc.reason})", "", file) from None
+    return read_yaml(text, file)

@@ -7,29 +7,29 @@ assignments)::
     dz_k/dv_j = ∂e_k/∂v_j + Σ_{i<k} ∂e_k/∂z_i · dz_i/dv_j
     dE/dv_j   = ∂E/∂v_j   + Σ_i     ∂E/∂z_i   · dz_i/dv_j
 
-Each non-trivial ``dz_k/dv_j`` becomes a new intermediate, so the derivative code grows like the
-code it differentiates instead of exploding, and nothing is ever substituted back. The module
-writer differentiates the *CSE'd* program (common subexpressions are intermediates too), which
-keeps even closed-form Jacobians small. Partial derivatives are taken structurally (sum,
-product and chain rule over sympy's tree, ``fdiff`` for functions) — much faster than
-``sympy.diff`` on large sums; a ``Piecewise`` is differentiated branch by branch under the same
-conditions (the one-sided derivative at a switching point). The description language's
-non-smooth functions (:mod:`neweul_py.model.functions`) have finite derivatives of their own;
-distributional derivatives of sympy's own ``sign``, ``Heaviside``, ``Abs`` (``DiracDelta``, from
-models built in Python) are replaced by zero: the generated Jacobians are the derivatives almost
-everywhere.
+Each non-trivial ``dz_k/dv_j`` becomes a new intermediate, so the derivative code grows like
+the code it differentiates instead of exploding, and nothing is ever substituted back. Code
+generation asks for the derivatives of its *CSE'd* program (:mod:`.jacobians`; common
+subexpressions are intermediates too), which keeps even closed-form Jacobians small. Partial
+derivatives are taken structurally (sum, product and chain rule over sympy's tree, ``fdiff``
+for functions) — much faster than ``sympy.diff`` on large sums; a ``Piecewise`` is
+differentiated branch by branch under the same conditions (the one-sided derivative at a
+switching point). The description language's non-smooth functions
+(:mod:`neweul_py.model.functions`) have finite derivatives of their own; distributional
+derivatives of sympy's own ``sign``, ``Heaviside``, ``Abs`` (``DiracDelta``, from models built
+in Python) are replaced by zero: the generated Jacobians are the derivatives almost everywhere.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import sympy as sp
 
 from ..model import as_expr
-from .cse import Assignment, free_symbols, numbered_symbols, prune
+from ..model.program import Assignment, free_symbols, numbered_symbols, prune
 
-__all__ = ["gradient", "jacobian"]
+__all__ = ["directional_derivative", "gradient", "jacobian"]
 
 
 _ONE, _ZERO = sp.S.One, sp.S.Zero
@@ -125,6 +125,11 @@ def _gradient_terms(expr: sp.Basic, wanted: set[sp.Symbol] | frozenset[sp.Symbol
         return out
     if isinstance(expr, sp.Piecewise):
         return _piecewise_gradient_terms(expr, wanted)
+    if isinstance(expr, sp.sign | sp.Heaviside):
+        # piecewise constant: zero almost everywhere (also where the argument is not known
+        # to be real, for which sympy leaves an unevaluated Derivative; the first
+        # derivatives of an Abs hold such a sign)
+        return {}
     if expr.is_Pow and not (free_symbols(expr.exp) & wanted):
         g = _gradient_terms(expr.base, wanted)
         factor = expr.exp * expr.base ** (expr.exp - 1)
@@ -194,13 +199,66 @@ def jacobian(
     >>> J[0, 0]
     _ncg_d0*(2*z)
     """
+    return _forward(exprs, len(wrt), {v: j for j, v in enumerate(wrt)}, {}, intermediates,
+                    prefix, tick)
+
+
+def directional_derivative(
+    exprs: Sequence[sp.Expr],
+    direction: Mapping[sp.Symbol, sp.Expr],
+    intermediates: Sequence[Assignment] = (),
+    prefix: str = "_ncg_s",
+) -> tuple[list[Assignment], sp.ImmutableMatrix]:
+    """``d/dε exprs`` along the curve on which each base symbol ``s`` of ``direction`` moves
+    with the rate ``direction[s]`` (a symbol or a number), through the intermediates: the
+    forward mode of :func:`jacobian` with one seeded column instead of one per variable.
+
+    Parameters
+    ----------
+    exprs
+        The m expressions to differentiate.
+    direction
+        Base symbol → its rate (symbols not listed stay fixed).
+    intermediates
+        Ordered assignments the expressions (and each other) may use.
+    prefix
+        Name prefix of the derivative intermediates created here (distinct from every
+        prefix in ``intermediates``).
+
+    Returns
+    -------
+    assignments, d
+        The intermediates needed (each followed by its derivative intermediate) and the
+        m×1 directional derivative.
+
+    Examples
+    --------
+    >>> x, y, dx = sp.symbols("x y dx")
+    >>> _, d = directional_derivative([x * y], {x: dx})
+    >>> d[0, 0]
+    dx*y
+    """
+    seeded = {s: {0: as_expr(d)} for s, d in direction.items() if as_expr(d) != 0}
+    return _forward(exprs, 1, {}, seeded, intermediates, prefix, None)
+
+
+def _forward(
+    exprs: Sequence[sp.Expr],
+    ncols: int,
+    index: Mapping[sp.Symbol, int],
+    seeded: Mapping[sp.Symbol, Mapping[int, sp.Expr]],
+    intermediates: Sequence[Assignment],
+    prefix: str,
+    tick: Callable[[float], None] | None,
+) -> tuple[list[Assignment], sp.ImmutableMatrix]:
+    """The forward mode: ``index`` gives the column of each variable (derivative 1), and
+    ``seeded`` the derivatives of other base symbols, by column."""
     exprs = [as_expr(e) for e in exprs]
     kept = prune(intermediates, exprs)
-    index = {v: j for j, v in enumerate(wrt)}
     names = numbered_symbols(prefix)
     # dz[z] = {j: dz/dwrt_j (a symbol or an atom)}, non-zero entries only
-    dz: dict[sp.Symbol, dict[int, sp.Expr]] = {}
-    wanted: set[sp.Symbol] = set(wrt)
+    dz: dict[sp.Symbol, dict[int, sp.Expr]] = {s: dict(d) for s, d in seeded.items()}
+    wanted: set[sp.Symbol] = set(index) | set(dz)
     out: list[Assignment] = []
 
     def total(expr: sp.Expr) -> dict[int, sp.Expr]:
@@ -237,7 +295,7 @@ def jacobian(
         dz[sym] = row
         wanted.add(sym)
 
-    J = sp.zeros(len(exprs), len(wrt))
+    J = sp.zeros(len(exprs), ncols)
     every = max(len(exprs) // 25, 1)
     for i, e in enumerate(exprs):
         if tick is not None and i % every == 0:

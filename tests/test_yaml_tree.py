@@ -1,7 +1,7 @@
-"""Limits of the YAML reader (neweul_py/description/yaml_tree.py; issue 12 item 8).
+"""Limits of the YAML reader (neweul_py/yaml_tree.py).
 
-References: the reproducers of issue 12 — each used to end in a RecursionError, an
-OverflowError or a TypeError traceback; IEEE 754 doubles end at 2¹⁰²⁴ ≈ 1.8e308.
+References: inputs that would otherwise end in a RecursionError, an OverflowError or a
+TypeError traceback; IEEE 754 doubles end at 2¹⁰²⁴ ≈ 1.8e308.
 """
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from neweul_py.description import load_description_text
-from neweul_py.description.yaml_tree import MAX_DEPTH, read_yaml
 from neweul_py.errors import DescriptionError
+from neweul_py.yaml_tree import MAX_DEPTH, read_yaml
 
-PENDULUM = (Path(__file__).resolve().parents[2] / "examples" / "pendulum.yaml").read_text()
+PENDULUM = (Path(__file__).resolve().parents[1] / "examples" / "pendulum.yaml").read_text()
 
 
 @pytest.mark.parametrize("nest", ["[" * 2000 + "]" * 2000, "{a: " * 2000 + "1" + "}" * 2000])

@@ -1,4 +1,4 @@
-"""Symbolic Jacobians through intermediates (equations.md §1, linearization), determinism
+"""Symbolic Jacobians through intermediates (equations/jacobians.py; equations.md §1), determinism
 and caching of the derivation.
 
 References: the forward-mode Jacobians of the recursive form are compared with sympy's own

@@ -1,0 +1,430 @@
+"""The middle ear as a clinic measures it: immittance at the probe and at the TM, absorbance,
+and the tympanogram with its standard measures (docs/middle-ear-clinical.md).
+
+The probe of a clinical instrument seals the ear canal; its tip carries the sound source and
+the microphone. In the model the probe tip is the canal entrance: the source is the piston of
+volume acceleration ``Q`` there and the pressure is its mean, ``p_entrance``, so that the
+probe's acoustic impedance is ``Z = p_entrance/U`` with ``U = Q/(jω)``
+(:func:`~neweul_py.analysis.acoustic.port_impedance`). The TM's admittance is its volume
+velocity per the pressure in front of it, ``Y_TM = jω V_TM/p_probe`` (the probe microphone of
+the model, 3 mm lateral of the TM rim plane).
+
+**Absorbance** at the probe: ``𝒜 = 1 − |R|²``, ``R = (Z − Z₀)/(Z + Z₀)``, ``Z₀ = ρc/A`` with
+``A`` the canal's cross-section at the entrance, ``π d²/4`` (``canal_diameter`` = 7.5 mm:
+44.2 mm², Rosowski 1993).
+
+**Tympanogram.** The admittance at a probe frequency (226 Hz; 678 and 1000 Hz) against the
+ear-canal static pressure ``P``, swept from +200 to −400 daPa as a tympanometer does. With the
+middle-ear cavity at ambient pressure ``Δp = p_canal − p_cavity = 10 P`` [Pa] for ``P`` in
+daPa. The EMBS is elastic and frozen in ``Δp`` (docs/equations-middle-ear.md §7): the sweep's
+direction, its speed and the hysteresis of living ears do not enter. The measures
+(:func:`tympanometric_measures`; ANSI S3.39-1987, ASHA 1990):
+
+* ``Vea`` — equivalent ear-canal volume: ``|Y(+200 daPa)|`` as the volume of a rigid
+  cavity of that admittance, ``|Y| ρc²/ω`` (1 mmho ≈ 1 cm³ at 226 Hz);
+* ``Ytm`` — peak compensated static acoustic admittance: the largest
+  ``Y_c(P) = |Y(P)| − |Y(+200 daPa)|`` (``vector=True``: ``|Y(P) − Y(+200 daPa)|``);
+* ``TPP`` — tympanometric peak pressure, where ``Y_c`` peaks;
+* ``TW`` — tympanometric width, the pressure interval over which ``Y_c ≥ Ytm/2``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..analysis import load_generated
+from ..analysis.acoustic import (
+    MMHO,
+    absorbance,
+    characteristic_impedance,
+    equivalent_volume,
+    port_impedance,
+    reflectance,
+    surface_admittance,
+)
+from ..analysis.linearize import linearize
+from ..analysis.plot import new_figure, save_figure
+from ..atomic import atomic_write
+from ..errors import DataError, NeweulError
+from .embs import parameters_at
+from .parameters import MiddleEarParameters
+from .study import build_record
+
+__all__ = [
+    "DAPA",
+    "PROBE_OUTPUT",
+    "TYMPANOMETRY_HZ",
+    "Immittance",
+    "Tympanogram",
+    "TympanometricMeasures",
+    "build_model",
+    "canal_impedance",
+    "immittance",
+    "tympanogram",
+    "tympanometric_measures",
+]
+
+#: Pascals per decapascal (the clinical unit of static pressure).
+DAPA = 10.0
+#: Probe-tone frequencies of tympanometry [Hz].
+TYMPANOMETRY_HZ = (226.0, 678.0, 1000.0)
+#: Ear-canal pressure of the compensation and of ``Vea`` [daPa] (ANSI S3.39; ASHA 1990).
+COMPENSATION_DAPA = 200.0
+#: The output of the pressure at the probe tip (the canal entrance).
+PROBE_OUTPUT = "p_entrance"
+#: The default sweep [daPa]: +200 → −400 in steps of 5.
+SWEEP_DAPA = np.linspace(200.0, -400.0, 121)
+
+Progress = Callable[..., None]
+
+
+def canal_impedance(params: MiddleEarParameters) -> float:
+    """``Z₀ = ρc/A`` [Pa s/m³] of the canal at the probe tip, ``A = π d²/4`` with the canal
+    diameter at the entrance (44.2 mm² for 7.5 mm)."""
+    return characteristic_impedance(params.rho_air, params.c_air,
+                                    math.pi * params.canal_diameter**2 / 4)
+
+
+@dataclass(frozen=True)
+class Immittance:
+    """Acoustic immittance of the middle-ear model at one static pressure difference.
+
+    Attributes
+    ----------
+    frequency_hz : ndarray (nf,)
+    dp : float
+        ``Δp = p_canal − p_cavity`` [Pa].
+    z_probe : ndarray (nf,) complex
+        Impedance at the probe tip, ``p_entrance/U`` [Pa s/m³].
+    y_tm : ndarray (nf,) complex
+        The TM's admittance ``jω V_TM/p_probe`` [m³/(Pa s)].
+    z0 : float
+        The canal's characteristic impedance at the probe tip [Pa s/m³].
+    """
+
+    frequency_hz: np.ndarray
+    dp: float
+    z_probe: np.ndarray
+    y_tm: np.ndarray
+    z0: float
+
+    @property
+    def y_probe(self) -> np.ndarray:
+        """Admittance at the probe tip ``1/z_probe`` [m³/(Pa s)]."""
+        return 1.0 / self.z_probe
+
+    @property
+    def reflectance(self) -> np.ndarray:
+        """Pressure reflectance at the probe tip ``(Z − Z₀)/(Z + Z₀)``."""
+        return reflectance(self.z_probe, self.z0)
+
+    @property
+    def absorbance(self) -> np.ndarray:
+        """``1 − |R|²`` at the probe tip."""
+        return absorbance(self.z_probe, self.z0)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The CSV columns (name with unit → values)."""
+        r = self.reflectance
+        return {"frequency_hz": self.frequency_hz,
+                "absorbance": self.absorbance,
+                "reflectance_mag": np.abs(r),
+                "reflectance_phase_deg": np.degrees(np.angle(r)),
+                "z_probe_re_Pa_s_per_m3": self.z_probe.real,
+                "z_probe_im_Pa_s_per_m3": self.z_probe.imag,
+                "y_probe_re_mmho": self.y_probe.real / MMHO,
+                "y_probe_im_mmho": self.y_probe.imag / MMHO,
+                "y_tm_re_mmho": self.y_tm.real / MMHO,
+                "y_tm_im_mmho": self.y_tm.imag / MMHO}
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write :meth:`columns` (atomically), a header line naming ``Δp`` and ``Z₀``."""
+        cols = self.columns()
+        lines = [f"# dp_Pa={self.dp!r} z0_Pa_s_per_m3={self.z0!r}", ",".join(cols)]
+        lines += [",".join(repr(float(v)) for v in row) for row in zip(*cols.values(),
+                                                                          strict=True)]
+        atomic_write(Path(path), "\n".join(lines) + "\n")
+        return Path(path)
+
+    def plot(self, path: str | Path) -> Path:
+        """Absorbance and ``|Y|`` at the probe and the TM against frequency (matplotlib)."""
+        f = self.frequency_hz
+        fig = new_figure(figsize=(6, 6), layout="constrained")
+        ax = fig.subplots(2, 1, sharex=True)
+        ax[0].semilogx(f, self.absorbance)
+        ax[0].set_ylim(0, 1)
+        ax[0].set_ylabel("absorbance 1 − |R|²")
+        ax[0].set_title(f"probe tip, Δp = {self.dp:+.0f} Pa, Z₀ = ρc/A = "
+                        f"{self.z0 / 1e6:.2f} MPa s/m³")
+        ax[1].loglog(f, np.abs(self.y_probe) / MMHO, label="probe tip")
+        ax[1].loglog(f, np.abs(self.y_tm) / MMHO, label="TM")
+        ax[1].set_ylabel("|Y| [mmho]")
+        ax[1].set_xlabel("frequency [Hz]")
+        ax[1].legend()
+        for a in ax:
+            a.grid(True, which="both", lw=0.3)
+        return save_figure(fig, path)
+
+
+def build_model(directory: str | Path, *dps: float) -> tuple[Any, MiddleEarParameters]:
+    """The generated EMBS of a build and the physical data of its FE sweep.
+
+    Raises
+    ------
+    DataError
+        No complete build in ``directory``, a ``Δp`` of ``dps`` outside its samples, a build
+        without a generated module, or a module without the probe-tip pressure
+        :data:`PROBE_OUTPUT`.
+    """
+    d = Path(directory)
+    info = build_record(d, *dps)
+    if not info.get("module") or not (d / info["module"]).is_file():
+        raise DataError("the build has no generated module (built with --no-generate)",
+                        str(d), "module")
+    mod = load_generated(d / info["module"])
+    if PROBE_OUTPUT not in mod.OUTPUTS:
+        raise DataError(f"the module has no output {PROBE_OUTPUT!r} (the pressure at the canal "
+                        "entrance, the probe tip): rebuild with neweul middle-ear build",
+                        str(d / info["module"]), "OUTPUTS")
+    sweep = json.loads((d / "fem" / "sweep.json").read_text())
+    return mod, MiddleEarParameters(**sweep["parameters"])
+
+
+def immittance(mod: Any, params: MiddleEarParameters, dp: float,
+               f: Sequence[float] | np.ndarray, damping: str = "loss") -> Immittance:
+    """The immittance of the EMBS ``mod`` linearized at ``dp`` (module docstring)."""
+    lin = linearize(mod, p=parameters_at(mod, dp))
+    freq = np.asarray(f, dtype=float).reshape(-1)
+    z = port_impedance(lin, freq, "Q", PROBE_OUTPUT, damping=damping)
+    y_tm = surface_admittance(lin, freq, "Q", "tm_volume", "p_probe", damping=damping)
+    return Immittance(freq, float(dp), z, y_tm, canal_impedance(params))
+
+
+@dataclass(frozen=True)
+class TympanometricMeasures:
+    """The standard measures of one tympanogram (module docstring).
+
+    Attributes
+    ----------
+    frequency_hz : float
+    peak_admittance_mmho : float
+        ``Ytm``, peak compensated static acoustic admittance.
+    peak_pressure_daPa : float
+        ``TPP``.
+    width_daPa : float
+        ``TW``; ``nan`` when the compensated curve does not fall to half its peak on both
+        sides within the sweep.
+    half_points_daPa : tuple of float
+        The pressures (negative side, positive side) where ``Y_c = Ytm/2`` (``nan`` where
+        not reached).
+    ear_canal_volume_cm3 : float
+        ``Vea``, ``|Y(+200 daPa)|`` as a volume.
+    reference_mmho : float
+        ``|Y(+200 daPa)|``.
+    compensation : str
+        ``"magnitude"`` or ``"vector"``.
+    """
+
+    frequency_hz: float
+    peak_admittance_mmho: float
+    peak_pressure_daPa: float
+    width_daPa: float
+    half_points_daPa: tuple[float, float]
+    ear_canal_volume_cm3: float
+    reference_mmho: float
+    compensation: str = "magnitude"
+
+    def summary(self) -> str:
+        """One line: ``Ytm``, ``TPP``, ``TW``, ``Vea``."""
+        tw = ("not reached on both sides" if math.isnan(self.width_daPa)
+              else f"{self.width_daPa:.0f} daPa")
+        return (f"{self.frequency_hz:g} Hz: Ytm {self.peak_admittance_mmho:.3f} mmho, "
+                f"TPP {self.peak_pressure_daPa:+.0f} daPa, TW {tw}, "
+                f"Vea {self.ear_canal_volume_cm3:.2f} cm³")
+
+
+def _crossing(p: np.ndarray, y: np.ndarray, level: float) -> float:
+    """The first pressure along ``p`` (from the peak outwards) where ``y`` falls to
+    ``level`` (linear interpolation), ``nan`` if it does not."""
+    below = np.flatnonzero(y <= level)
+    if below.size == 0:
+        return float("nan")
+    k = int(below[0])
+    if k == 0:
+        return float(p[0])
+    y0, y1 = y[k - 1], y[k]
+    return float(p[k - 1] + (level - y0) * (p[k] - p[k - 1]) / (y1 - y0))
+
+
+def tympanometric_measures(pressure_dapa: Sequence[float] | np.ndarray,
+                           admittance: Sequence[complex] | np.ndarray, frequency_hz: float,
+                           rho: float = 1.2, c: float = 343.0,
+                           compensation_dapa: float = COMPENSATION_DAPA,
+                           vector: bool = False) -> TympanometricMeasures:
+    """``Ytm``, ``TPP``, ``TW`` and ``Vea`` of a tympanogram (module docstring).
+
+    Parameters
+    ----------
+    pressure_dapa
+        Ear-canal static pressures [daPa], in any order, distinct.
+    admittance
+        The admittance at the probe [m³/(Pa s)] (complex, or its magnitude) at each pressure.
+    frequency_hz
+        The probe frequency (for ``Vea``).
+    rho, c
+        Air (for ``Vea``).
+    compensation_dapa
+        The pressure whose admittance is taken as the canal's (+200 daPa); it must be one
+        of ``pressure_dapa``.
+    vector
+        Compensate the complex admittance (``|Y − Y_ref|``) instead of its magnitude.
+
+    Raises
+    ------
+    NeweulError
+        Fewer than three pressures, repeated or non-finite values, no sample at
+        ``compensation_dapa``, or ``vector`` with magnitudes only.
+    """
+    p = np.asarray(pressure_dapa, dtype=float).reshape(-1)
+    y = np.asarray(admittance).reshape(-1)
+    if p.size < 3 or y.shape != p.shape:
+        raise NeweulError(f"tympanogram: at least three pressures with one admittance each, "
+                          f"got {p.size} pressures and {y.size} admittances")
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(y))):
+        raise NeweulError("tympanogram: pressures and admittances must be finite")
+    order = np.argsort(p)
+    p, y = p[order], y[order]
+    if np.any(np.diff(p) == 0):
+        raise NeweulError("tympanogram: repeated pressures")
+    ref = np.flatnonzero(np.isclose(p, compensation_dapa, rtol=0, atol=1e-9))
+    if ref.size == 0:
+        raise NeweulError(f"tympanogram: no admittance at the compensation pressure "
+                          f"{compensation_dapa:+g} daPa (swept {p[0]:+g} … {p[-1]:+g})")
+    if vector and not np.iscomplexobj(y):
+        raise NeweulError("tympanogram: vector compensation needs the complex admittance")
+    y_ref = y[ref[0]]
+    yc = np.abs(y - y_ref) if vector else np.abs(y) - np.abs(y_ref)
+    k = int(np.argmax(yc))
+    peak, tpp = float(yc[k]), float(p[k])
+    if 0 < k < p.size - 1:                     # parabola through the peak and its neighbours
+        x, v = p[k - 1 : k + 2], yc[k - 1 : k + 2]
+        a, b, c2 = np.polyfit(x, v, 2)
+        if a < 0:
+            tpp = float(np.clip(-b / (2 * a), x[0], x[2]))
+            peak = float(max(peak, c2 - b * b / (4 * a)))
+    lo = _crossing(p[k::-1], yc[k::-1], peak / 2)
+    hi = _crossing(p[k:], yc[k:], peak / 2)
+    vea = float(equivalent_volume(np.abs(y_ref), frequency_hz, rho, c)[0]) * 1e6
+    return TympanometricMeasures(
+        frequency_hz=float(frequency_hz), peak_admittance_mmho=peak / MMHO,
+        peak_pressure_daPa=tpp, width_daPa=hi - lo, half_points_daPa=(lo, hi),
+        ear_canal_volume_cm3=vea, reference_mmho=float(np.abs(y_ref)) / MMHO,
+        compensation="vector" if vector else "magnitude")
+
+
+@dataclass(frozen=True)
+class Tympanogram:
+    """Admittance against ear-canal static pressure at probe frequencies.
+
+    Attributes
+    ----------
+    pressure_daPa : ndarray (np,)
+        Ear-canal static pressure in sweep order (+ → −).
+    frequency_hz : ndarray (nf,)
+    y_probe : ndarray (np, nf) complex
+        Admittance at the probe tip [m³/(Pa s)].
+    y_tm : ndarray (np, nf) complex
+        The TM's admittance [m³/(Pa s)].
+    rho, c : float
+        Air.
+    """
+
+    pressure_daPa: np.ndarray
+    frequency_hz: np.ndarray
+    y_probe: np.ndarray
+    y_tm: np.ndarray
+    rho: float = 1.2
+    c: float = 343.0
+
+    def measures(self, vector: bool = False) -> list[TympanometricMeasures]:
+        """:func:`tympanometric_measures` at every frequency."""
+        return [tympanometric_measures(self.pressure_daPa, self.y_probe[:, j], f, self.rho,
+                                       self.c, vector=vector)
+                for j, f in enumerate(self.frequency_hz)]
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """CSV columns: the pressure, then per frequency ``|Y|``, ``B``, ``G`` at the probe
+        tip and ``|Y_TM|`` [mmho]."""
+        cols = {"ear_canal_pressure_daPa": self.pressure_daPa,
+                "dp_Pa": DAPA * self.pressure_daPa}
+        for j, f in enumerate(self.frequency_hz):
+            y, t = self.y_probe[:, j] / MMHO, self.y_tm[:, j] / MMHO
+            cols |= {f"Y_probe_{f:g}Hz_mmho": np.abs(y), f"B_probe_{f:g}Hz_mmho": y.imag,
+                     f"G_probe_{f:g}Hz_mmho": y.real, f"Y_tm_{f:g}Hz_mmho": np.abs(t)}
+        return cols
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write :meth:`columns` (atomically)."""
+        cols = self.columns()
+        lines = [",".join(cols)]
+        lines += [",".join(repr(float(v)) for v in row) for row in zip(*cols.values(),
+                                                                          strict=True)]
+        atomic_write(Path(path), "\n".join(lines) + "\n")
+        return Path(path)
+
+    def plot(self, path: str | Path) -> Path:
+        """``|Y|`` at the probe tip (and compensated) against pressure, one panel per
+        frequency, the measures in the legend (matplotlib)."""
+        nf = self.frequency_hz.size
+        fig = new_figure(figsize=(4.5 * nf, 3.6), layout="constrained")
+        axes = fig.subplots(1, nf, squeeze=False)
+        for ax, m, j in zip(axes[0], self.measures(), range(nf), strict=True):
+            y = np.abs(self.y_probe[:, j]) / MMHO
+            ax.plot(self.pressure_daPa, y, label="|Y| probe tip")
+            ax.plot(self.pressure_daPa, y - m.reference_mmho, label="compensated (+200 daPa)")
+            ax.plot(self.pressure_daPa, np.abs(self.y_tm[:, j]) / MMHO, ":", label="|Y_TM|")
+            if not math.isnan(m.width_daPa):
+                ax.hlines(m.peak_admittance_mmho / 2, *m.half_points_daPa, colors="k",
+                          lw=0.8, label=f"TW {m.width_daPa:.0f} daPa")
+            ax.set_title(f"{m.frequency_hz:g} Hz: Ytm {m.peak_admittance_mmho:.2f} mmho, "
+                         f"TPP {m.peak_pressure_daPa:+.0f} daPa", fontsize=9)
+            ax.set_xlabel("ear-canal pressure [daPa]")
+            ax.set_ylabel("admittance [mmho]")
+            ax.invert_xaxis()
+            ax.grid(True, lw=0.3)
+            ax.legend(fontsize=7)
+        return save_figure(fig, path)
+
+
+def tympanogram(mod: Any, params: MiddleEarParameters,
+                frequencies: Sequence[float] = (TYMPANOMETRY_HZ[0],),
+                pressures_dapa: Sequence[float] | np.ndarray = SWEEP_DAPA,
+                damping: str = "loss", progress: Progress | None = None) -> Tympanogram:
+    """The tympanogram of the EMBS ``mod``: at each ear-canal pressure (in the order given,
+    +200 → −400 daPa by default) the model linearized at ``Δp = 10 P`` and its admittance at
+    the probe tip and at the TM at ``frequencies`` (module docstring).
+
+    Raises
+    ------
+    NeweulError
+        No pressure, a non-finite one, or a frequency ≤ 0.
+    """
+    say = progress or (lambda *_a, **_k: None)
+    p = np.asarray(pressures_dapa, dtype=float).reshape(-1)
+    if p.size == 0 or not np.all(np.isfinite(p)):
+        raise NeweulError("tympanogram: the pressures must be finite, at least one")
+    f = np.asarray(frequencies, dtype=float).reshape(-1)
+    yp = np.zeros((p.size, f.size), dtype=complex)
+    yt = np.zeros_like(yp)
+    for i, pi in enumerate(p):
+        say("tympanogram", i + 1, p.size)
+        im = immittance(mod, params, DAPA * pi, f, damping)
+        yp[i], yt[i] = im.y_probe, im.y_tm
+    return Tympanogram(p, f, yp, yt, params.rho_air, params.c_air)
