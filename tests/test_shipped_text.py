@@ -119,3 +119,13 @@ def test_shipped_text_names_no_process_step_or_machine_path() -> None:
         for number, what, line in hits(text):
             problems.append(f"{path.relative_to(ROOT)}:{number}: {what}: {line[:120]}")
     assert not problems, "\n" + "\n".join(problems)
+
+
+def test_readmes_are_short() -> None:
+    """Reference: the documentation's rule that a README is a how-to with today's figures —
+    at most 150 lines (the history is in ``CHANGELOG.md``, the reference on the site)."""
+    readmes = [ROOT / "README.md", ROOT / "benchmarks" / "README.md",
+               *sorted((ROOT / "examples").glob("*/README.md")), ROOT / "examples" / "README.md"]
+    long = {str(p.relative_to(ROOT)): n for p in readmes
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 150}
+    assert not long, long
