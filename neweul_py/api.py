@@ -683,8 +683,10 @@ def export_fmu(
     """Export a description as an FMI 2.0 FMU (docs/fmu-export.md).
 
     Everything that would make the export fail is checked before any derivation: the path
-    (``.fmu``), the kind, a C compiler and this platform, inputs without a numeric default and
-    parametric elastic bodies (:func:`neweul_py.codegen.fmu_model.export_problems`).
+    (``.fmu``), the kind, a C compiler and this platform, inputs without a numeric default
+    (:func:`neweul_py.codegen.fmu_model.export_problems`). Elastic bodies (parametric ones
+    too) are compiled as the compiled backend traces them, their arrays in the FMU's
+    ``resources/``.
 
     Parameters
     ----------
@@ -712,7 +714,7 @@ def export_fmu(
     Raises
     ------
     DescriptionError
-        An input without a numeric default, a parametric elastic body (naming its key).
+        An input without a numeric default (naming its key).
     NeweulError
         A path that is not ``.fmu``, no compiler, an unsupported platform, constraints whose
         reactions differ from their Jacobian (two-sided elastic node frames), no regular

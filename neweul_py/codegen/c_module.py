@@ -32,7 +32,6 @@ from typing import Any
 import sympy as sp
 
 from ..atomic import atomic_write
-from ..equations.elastic_expanded import expanded_equations
 from ..progress import StagedProgress
 from .c_functions import (
     MMTD_ARGS,
@@ -53,7 +52,7 @@ from .c_templates import C_DOPRI5, C_LU, C_SUPPORT_DECLARATIONS
 from .cse import Block
 from .writer import program_blocks
 
-__all__ = ["c_module_path", "compiled_program", "core_declarations", "jacobian_declarations",
+__all__ = ["c_module_path", "core_declarations", "jacobian_declarations",
            "render_c_sources", "render_c_wrapper", "write_c_module"]
 
 def c_module_path(numpy_path: str | os.PathLike[str]) -> Path:
@@ -289,28 +288,6 @@ def render_c_wrapper(
         'loaded (BACKEND tells which).\n"""\n'
     )
     return header + runtime + "\n# ---- module settings\n" + settings + "\n" + template
-
-
-def compiled_program(equations: Any, *, cse: bool = True, progress: StagedProgress = None
-                     ) -> tuple[Any, dict[str, Block]]:
-    """Closed-form equations and their programs for :func:`render_c_sources` (the FMU export,
-    :mod:`.fmu`, whose C sources carry no data file).
-
-    Elastic bodies are expanded into closed expressions first
-    (:func:`~neweul_py.equations.elastic_expanded.expanded_equations`), so the equations
-    returned are in the independent coordinates (the module's ``COORDINATES``); the compiled
-    module itself (:func:`write_c_module`) traces the kernel instead and binds the data
-    (:mod:`.c_splice`).
-
-    Raises
-    ------
-    GenerationError
-        Parametric elastic bodies, too many elastic coordinates, unprintable expressions.
-    """
-    if getattr(equations, "elastic", None) is not None:
-        # the kernel's terms as closed expressions (equations/elastic_expanded.py)
-        equations = expanded_equations(equations)
-    return equations, program_blocks(equations, cse=cse, progress=progress)
 
 
 def write_c_module(

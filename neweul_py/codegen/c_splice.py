@@ -86,12 +86,16 @@ class ElasticSources:
         The keys of the float64 arrays of the data file ``nw_bind`` takes, in order.
     sizes
         ``n``, ``nu``, ``np``, ``ny``, ``nc`` for the wrapper.
+    arrays
+        Those arrays, in that order (what a host without the data file binds: the FMU,
+        :mod:`.fmu`).
     """
 
     core: str
     jac: str
     data: tuple[str, ...]
     sizes: dict[str, int]
+    arrays: tuple[np.ndarray, ...] = ()
 
 
 # ---------------------------------------------------------------------- symbolic part
@@ -306,4 +310,5 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
     if not t.elastic:
         raise GenerationError("a model with elastic bodies but no elastic coordinates")
     return ElasticSources(core.rstrip("\n") + "\n", jac.rstrip("\n") + "\n", keys, {
-        "n": n, "nu": nu, "np": len(equations.parameters), "ny": ny, "nc": nc})
+        "n": n, "nu": nu, "np": len(equations.parameters), "ny": ny, "nc": nc},
+        tuple(data_file.arrays[k] for k in keys))
