@@ -84,20 +84,18 @@ def core_declarations() -> str:
     ]) + C_SUPPORT_DECLARATIONS
 
 
-def jacobian_declarations(loss: bool = False, parameters: bool = True) -> str:
+def jacobian_declarations(loss: bool = False) -> str:
     """cffi declarations of the derivative library (``<name>_c_jac.c``); ``loss``: with the
-    hysteretic matrix ``nw_loss_matrix`` of models with loss factors; ``parameters``: with
-    the parameter derivatives (not in the library of a model with elastic bodies, whose
-    wrapper takes them from its NumPy twin)."""
+    hysteretic matrix ``nw_loss_matrix`` of models with loss factors."""
     return "\n".join([
         f"int nw_force_jacobians({YYD_ARGS});",
         f"int nw_mass_matrix_times_derivative({MMTD_ARGS});",
         f"int nw_rhs_jacobian({X_ARGS});",
         f"int nw_output_jacobians({X_ARGS});",
         *([f"int nw_loss_matrix({X_ARGS});"] if loss else []),
-        *([f"int nw_force_parameter_jacobian({YYD_ARGS});",
-           f"int nw_mass_matrix_parameter_derivative({MMTD_ARGS});",
-           f"int nw_output_parameter_jacobian({X_ARGS});"] if parameters else []),
+        f"int nw_force_parameter_jacobian({YYD_ARGS});",
+        f"int nw_mass_matrix_parameter_derivative({MMTD_ARGS});",
+        f"int nw_output_parameter_jacobian({X_ARGS});",
     ]) + "\n"
 
 
@@ -263,7 +261,7 @@ def render_c_wrapper(
     runtime = runtime.split("# ---- runtime begins\n", 1)[1]
     template = (here / "c_wrapper_template.py").read_text(encoding="utf-8")
     template = template.split("# ---- template begins\n", 1)[1]
-    cdef = (core_declarations() + jacobian_declarations(bool(sizes.get("loss")), not data)
+    cdef = (core_declarations() + jacobian_declarations(bool(sizes.get("loss")))
             + (BIND_DECLARATION if data else ""))
     core_name, core_sha = c_files["core"].split(" ")
     jac_name, jac_sha = c_files["jac"].split(" ")

@@ -64,6 +64,7 @@ from ..model import as_expr
 from .c_functions import SymbolGroups, big, c_body, c_function
 from .c_kernel import C_DOT, KernelPrinter
 from .c_printer import DotRows
+from .c_splice_parameters import PARAMETER_C
 from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SPLICE_C
 from .c_splice_trace import SpliceTrace, trace_splice, traced_kernels
 from .c_templates import C_DOPRI5, C_LU
@@ -117,6 +118,10 @@ def _symbolic_blocks(symbolic: Any, el: Any, cse: bool) -> dict[str, Block]:
         Jy, Ju = el.schedule_jacobians
         blocks["schedule_jacobians"] = eliminate((), [as_expr(e) for e in (*Jy, *Ju)],
                                                  method=method)
+        Jp = (el.schedule_parameter_jacobian if el.schedule_parameter_jacobian is not None
+              else sp.zeros(k, len(symbolic.parameters)))
+        blocks["schedule_parameter_jacobian"] = eliminate((), [as_expr(e) for e in Jp],
+                                                          method=method)
     return blocks
 
 
@@ -143,6 +148,10 @@ _SYMBOLIC = (
     ("constraint_gamma", "yyd", "γ"),
     ("schedule", "y", "the schedules"),
     ("schedule_jacobians", "y", "the schedule Jacobians"),
+    ("force_parameter_jacobian", "yyd", "the symbolic part's ∂(q−k)/∂p"),
+    ("mass_matrix_parameter_derivative", "a", "the symbolic part's ∂(M a)/∂p"),
+    ("output_parameter_jacobian", "yyd", "the symbolic part's ∂out/∂p"),
+    ("schedule_parameter_jacobian", "y", "the schedules' ∂σ/∂p"),
 )
 
 
@@ -231,7 +240,7 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
     text = [*pr.static, *macros, *body, C_LU, splice]
     if jacobian:
         fixed = ("    nw_k_fixed(fy, fyd, fy, fyd);" if "nw_k_fixed" in which else "")
-        text.append(JACOBIAN_C.replace("NW_FIXED_JACOBIANS", fixed))
+        text += [JACOBIAN_C.replace("NW_FIXED_JACOBIANS", fixed), PARAMETER_C]
     else:
         text += [CORE_C, C_DOPRI5]
     return "\n".join([*symbolic_lines, C_DOT, *text])
@@ -278,6 +287,7 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
                 "edit. */", "#include <complex.h>", "#include <float.h>", "#include <math.h>",
                 "#include <string.h>",
                 f"#define NW_N {n}", f"#define NW_NU {nu}", f"#define NW_STATE_SIZE {2 * n}",
+                f"#define NW_NP {len(equations.parameters)}",
                 "#define NW_DEFAULT_INPUTS double nw_ub[NW_NU + 1]; "
                 "if (!u) { nw_s_default_inputs(t, p, nw_ub); u = nw_ub; }",
                 *_defines(t, len(keys), ny, nc),
@@ -301,7 +311,7 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
     jac_sym = [*inputs_j, *_symbolic_functions(symbolic, blocks, tuple(
         name for name, _a, _w in _SYMBOLIC), jac_dots)]
     jac_kernels = tuple(k for k in ("nw_k_dyn", "nw_k_fixed", "nw_k_dirf", "nw_k_dirm",
-                                    "nw_k_sigf", "nw_k_sigm") if k in kernels)
+                                    "nw_k_dirp", "nw_k_sigf", "nw_k_sigm") if k in kernels)
     core = _library(t, kernels, core_kernels, list(keys), sizes,
                     [*head("Equations of motion"), *dots.helper(), *core_sym], False)
     jac = _library(t, kernels, jac_kernels, list(keys), sizes,

@@ -245,6 +245,11 @@ def traced_kernels(t: SpliceTrace) -> dict[str, tuple[list, list]]:
         Ma = np.dot(ffrf_add_mass(Sm, Mz, ffrf_terms(Sm, kc2, yc2,
                                                      TArray(g, g.zeros((n,))))), a)
         out["nw_k_dirm"] = ([("kin", kc2), ("y", yc2), ("a", a)], [("f", Ma)])
+    # the complex step along ∂kin/∂p of every body (ffrf_force_parameter_jacobian)
+    kp, yp, ydp = leaf("kin", (nh,), True), leaf("y", (n,)), leaf("yd", (n,))
+    zero = TArray(g, g.zeros((n,), True))
+    out["nw_k_dirp"] = ([("kin", kp), ("y", yp), ("yd", ydp)],
+                        [("f", ffrf_add_force(S, zero, ffrf_terms(S, kp, yp, ydp)))])
     if t.cplx is not None:                    # the complex step in σ (ffrf_sigma_terms)
         Sc = t.cplx
         kc, y3, yd3, fsc = (leaf("kin", (nh,), True), leaf("y", (n,)), leaf("yd", (n,)),

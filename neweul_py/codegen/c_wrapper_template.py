@@ -46,15 +46,12 @@ default_parameters = _twin.default_parameters
 # the reaction Jacobian G_R = G_s S_W of modules with elastic bodies — the library's
 # constraint_jacobian is G = G_s S_V, which differs from it at node frames of two-sided bodies —
 # the directional second derivatives of docs/sensitivity.md, and for modules with elastic
-# bodies the loss matrix and the parameter derivatives)
-_TWIN_OF_ELASTIC = ("loss_matrix", "force_parameter_jacobian",
-                    "mass_matrix_parameter_derivative", "rhs_parameter_jacobian",
-                    "output_parameter_jacobian")
+# bodies the loss matrix)
 for _name in ("energy", "frame_poses", "body_properties", "node_positions",
               "constraint_reaction_jacobian", "default_inputs_parameter_jacobian",
               "force_jacobians_directional", "mass_matrix_directional",
               "mass_matrix_times_derivative_directional", "output_jacobians_directional",
-              "loss_matrix_directional", *(_TWIN_OF_ELASTIC if _C_DATA else ())):
+              "loss_matrix_directional", *(("loss_matrix",) if _C_DATA else ())):
     if callable(getattr(_twin, _name, None)):
         globals()[_name] = getattr(_twin, _name)
 _BOUND = []     # the pointers bound into the libraries, kept alive with the module
@@ -284,56 +281,62 @@ else:
                                _fb("double[]", out))
             return out
 
-    if not _C_DATA:     # (modules with elastic bodies: the twin's, bound above)
-        def force_parameter_jacobian(t, y, yd, p, u=None):
-            """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
-            lib = _jac_lib()
-            if lib is None:
-                return _twin.force_parameter_jacobian(t, y, yd, p, u)
-            out = _np.empty((_N, _NP))
-            with _lock:
-                lib.nw_force_parameter_jacobian(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
-                                                _arr(p, _NP, "p"), _inputs(u),
-                                                _fb("double[]", out))
-            return out
+    def force_parameter_jacobian(t, y, yd, p, u=None):
+        """``∂(q−k)/∂p`` (n, np) at fixed ``u``, analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.force_parameter_jacobian(t, y, yd, p, u)
+        out = _np.empty((_N, _NP))
+        with _lock:
+            code = lib.nw_force_parameter_jacobian(float(t), _arr(y, _N, "y"),
+                                                   _arr(yd, _N, "yd"), _arr(p, _NP, "p"),
+                                                   _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.force_parameter_jacobian(t, y, yd, p, u))
+        return out
 
-        def mass_matrix_parameter_derivative(t, y, p, a, u=None):
-            """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
-            lib = _jac_lib()
-            if lib is None:
-                return _twin.mass_matrix_parameter_derivative(t, y, p, a, u)
-            out = _np.empty((_N, _NP))
-            with _lock:
-                lib.nw_mass_matrix_parameter_derivative(float(t), _arr(y, _N, "y"),
-                                                        _arr(p, _NP, "p"), _arr(a, _N, "a"),
-                                                        _inputs(u), _fb("double[]", out))
-            return out
+    def mass_matrix_parameter_derivative(t, y, p, a, u=None):
+        """``∂(M(y) a)/∂p`` (n, np) for a fixed vector ``a``, analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.mass_matrix_parameter_derivative(t, y, p, a, u)
+        out = _np.empty((_N, _NP))
+        with _lock:
+            code = lib.nw_mass_matrix_parameter_derivative(float(t), _arr(y, _N, "y"),
+                                                           _arr(p, _NP, "p"), _arr(a, _N, "a"),
+                                                           _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.mass_matrix_parameter_derivative(t, y, p, a, u))
+        return out
 
-        def rhs_parameter_jacobian(t, x, p, u=None):
-            """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``,
-            analytic."""
-            x = _as(x, dtype=_f8)
-            if u is None:
-                u = default_inputs(t, p)
-            y, yd = x[:_N], x[_N:_S]
-            M = mass_matrix(t, y, p, u)
-            ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
-            J = _np.zeros((_S, _NP))
-            if _NP:
-                J[_N:] = _np.linalg.solve(M, force_parameter_jacobian(t, y, yd, p, u)
-                                          - mass_matrix_parameter_derivative(t, y, p, ydd, u))
-            return J
+    def rhs_parameter_jacobian(t, x, p, u=None):
+        """``∂ rhs/∂p = [0; M⁻¹(∂(q−k)/∂p − ∂(M ÿ)/∂p)]`` (STATE_SIZE, np) at fixed ``u``,
+        analytic."""
+        x = _as(x, dtype=_f8)
+        if u is None:
+            u = default_inputs(t, p)
+        y, yd = x[:_N], x[_N:_S]
+        M = mass_matrix(t, y, p, u)
+        ydd = _np.linalg.solve(M, force_vector(t, y, yd, p, u))
+        J = _np.zeros((_S, _NP))
+        if _NP:
+            J[_N:] = _np.linalg.solve(M, force_parameter_jacobian(t, y, yd, p, u)
+                                      - mass_matrix_parameter_derivative(t, y, p, ydd, u))
+        return J
 
-        def output_parameter_jacobian(t, x, p, u=None):
-            """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
-            lib = _jac_lib()
-            if lib is None:
-                return _twin.output_parameter_jacobian(t, x, p, u)
-            out = _np.empty((_NY, _NP))
-            with _lock:
-                lib.nw_output_parameter_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"),
-                                                 _inputs(u), _fb("double[]", out))
-            return out
+    def output_parameter_jacobian(t, x, p, u=None):
+        """``∂out/∂p`` (ny, np) at fixed state and ``u``, analytic."""
+        lib = _jac_lib()
+        if lib is None:
+            return _twin.output_parameter_jacobian(t, x, p, u)
+        out = _np.empty((_NY, _NP))
+        with _lock:
+            code = lib.nw_output_parameter_jacobian(float(t), _arr(x, _S, "x"),
+                                                    _arr(p, _NP, "p"), _inputs(u),
+                                                    _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.output_parameter_jacobian(t, x, p, u))
+        return out
 
     def _positional(name, size, t, y, p, u):
         out = _np.empty(size)

@@ -114,8 +114,10 @@ def test_parametric_body_in_c_equals_the_numpy_module(bodies, frame: str, data: 
     a moving frame, with cubic, cubic Hermite and quintic Hermite weights: ``rhs``, the mass
     matrix, the forces, every Jacobian (the schedule's dependence included: the analytic
     ones of the NumPy module equal finite differences, tests/equations/
-    test_parametric_elastic_bodies.py), the outputs and their Jacobians agree to 1e-12 of
-    their largest entry at states between the samples, the schedule moving between calls."""
+    test_parametric_elastic_bodies.py), the outputs and their Jacobians, and the parameter
+    derivatives (through the schedule's ``cs`` too) agree to 1e-12 of their largest entry
+    (the output Jacobians' schedule terms and ``∂rhs/∂p``, a solve apart: 1e-10) at states
+    between the samples, the schedule moving between calls."""
     mnp, mc = _pair(bodies, frame, data, "cs + 2000*z + 5*F", f"{frame}_{data[:-4]}")
     n, p = len(mnp.COORDINATES), mnp.default_parameters()
     rng = np.random.default_rng(7)
@@ -141,6 +143,15 @@ def test_parametric_body_in_c_equals_the_numpy_module(bodies, frame: str, data: 
         # D is the schedule's term alone (3e-11 m/N): both sides take it from the complex
         # step in σ; the C library's dS_V/dσ comes from the weights' derivative instead
         _same(D, Dr, "D", rtol=1e-10)
+        # the parameter derivatives: through the schedule (cs) and the symbolic part (m2, k2)
+        _same(mc.force_parameter_jacobian(0.1, y, yd, p, u),
+              mnp.force_parameter_jacobian(0.1, y, yd, p, u), "d(q - k)/dp")
+        _same(mc.mass_matrix_parameter_derivative(0.1, y, p, a, u),
+              mnp.mass_matrix_parameter_derivative(0.1, y, p, a, u), "d(M a)/dp")
+        _same(mc.rhs_parameter_jacobian(0.1, x, p, u), mnp.rhs_parameter_jacobian(0.1, x, p, u),
+              "d rhs/dp", rtol=1e-10)
+        _same(mc.output_parameter_jacobian(0.1, x, p, u),
+              mnp.output_parameter_jacobian(0.1, x, p, u), "d out/dp", rtol=1e-10)
 
 
 def test_schedule_outside_the_samples_gives_the_numpy_modules_error(bodies) -> None:
