@@ -35,7 +35,6 @@ import argparse
 import atexit
 import json
 import os
-import resource
 import shutil
 import statistics
 import subprocess
@@ -44,22 +43,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from _processes import timed_process
+
 INPUT, OUTPUT, GRID = "canal_volume_acceleration", "umbo_uz", "100:10000:200"
-
-
-def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
-def _run(cmd: list[str], env: dict[str, str]) -> tuple[float, str]:
-    c0 = _cpu()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    cpu = _cpu() - c0
-    if proc.returncode != 0:
-        sys.stderr.write(proc.stdout + proc.stderr)
-        raise SystemExit(f"{' '.join(cmd)} failed")
-    return cpu, proc.stdout
 
 
 def _worker(model: str) -> None:
@@ -121,19 +107,20 @@ def main() -> None:
     model, body = _build(data, cli, env)
     cmd = [*cli, "compare-frf", str(model), str(body), "--input", INPUT, "--response", OUTPUT,
            "--f", GRID, "--log", "-q"]
-    _run(cmd, env)  # warm the bytecode cache; not measured
+    timed_process(cmd, env)  # warm the bytecode cache; not measured
     print(f"neweul compare-frf, refine-1 middle ear, {GRID} Hz (log); BLAS threads: "
           f"{args.blas_threads if args.blas_threads is not None else 'as the environment'}; "
           f"load average {os.getloadavg()[0]:.1f}")
     cpus = []
     for k in range(args.runs):
-        cpu, out = _run(cmd, env)
+        cpu, out = timed_process(cmd, env)
         cpus.append(cpu)
         print(f"  run {k + 1}: {cpu:6.2f} s CPU")
     print(f"  median {statistics.median(cpus):.2f} s CPU; it printed:")
     for line in out.strip().splitlines():
         print(f"    {line}")
-    cpu, out = _run([sys.executable, __file__, "--worker", str(model), "--dir", str(data)], env)
+    cpu, out = timed_process([sys.executable, __file__, "--worker", str(model), "--dir",
+                              str(data)], env)
     w = json.loads(out.strip().splitlines()[-1])
     print(f"full FRF in one process ({cpu:.1f} s CPU): sweep {w['sweep_cpu']:.2f} s CPU, "
           f"{w['factorizations']} factorizations, order {w['order']}, held-out check "

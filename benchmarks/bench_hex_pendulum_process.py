@@ -36,31 +36,21 @@ import argparse
 import atexit
 import json
 import os
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
+from _processes import timed_process
+
 HERE = Path(__file__).resolve().parent
-
-
-def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
 
 
 def _process(cmd: list[str], env: dict[str, str]) -> tuple[float, dict]:
     """CPU seconds of the whole process ``cmd`` and the JSON of its last output line."""
-    c0 = _cpu()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    cpu = _cpu() - c0
-    if proc.returncode != 0:
-        sys.stderr.write(proc.stderr)
-        raise SystemExit(f"{' '.join(cmd)} failed")
-    return cpu, json.loads(proc.stdout.strip().splitlines()[-1])
+    cpu, out = timed_process(cmd, env)
+    return cpu, json.loads(out.strip().splitlines()[-1])
 
 
 def main() -> None:

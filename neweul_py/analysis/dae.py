@@ -405,14 +405,9 @@ def simulate_constrained(
         Time, coordinates, velocities, outputs, multipliers ``λ`` and constraint residuals.
     """
     module = as_model(module)
-    names = list(module.COORDINATES)
-    n = len(names)
     if not module.first_order_state:
         raise NeweulError("simulate_constrained: states beyond [y, ẏ] are not supported yet")
     pv = proto.resolve_parameters(module, p)
-    ufun = proto.input_function(module, pv, u)
-    out_names = tuple(module.OUTPUTS)
-    con = _Constraints(module, pv)
     times = (
         np.asarray(t_eval, dtype=float)
         if t_eval is not None
@@ -423,126 +418,173 @@ def simulate_constrained(
     y, yd = consistent_initial_state(
         module, y0, yd0, pv, float(times[0]), independent=independent, tol=projection_tol
     )
-    alpha, beta = baumgarte
-    dep = None
-    if independent is not None and con.nc:
-        _, dep = proto.partition(con.jac(times[0], y), names, independent)
-    _check_regular(module, con, float(times[0]), y, pv, "initial state", dep)
-    nfev = 0
+    dae = _IndexOne(module, pv, proto.input_function(module, pv, u), baumgarte)
+    if independent is not None and dae.con.nc:
+        _, dae.dependent = proto.partition(dae.con.jac(times[0], y), dae.names, independent)
+    _check_regular(module, dae.con, float(times[0]), y, pv, "initial state", dae.dependent)
+    trajectory = _Trajectory.empty(dae, times.size)
+    trajectory.record(dae, 0, times[0], y, yd)
+    x = np.concatenate([y, yd])
+    first_step = None
+    from scipy.integrate import solve_ivp  # imported when a loop is integrated
 
-    def accelerations(t: float, yv: np.ndarray, ydv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        uv = ufun(t)
+    for k in range(1, times.size):
+        t0, t1 = float(times[k - 1]), float(times[k])
+        h0 = None if first_step is None else min(first_step, t1 - t0)
+        sol = solve_ivp(dae.rhs, (t0, t1), x, method=method, rtol=rtol, atol=atol,
+                        first_step=h0)
+        if not sol.success:
+            raise SolverError(
+                f"simulate_constrained: integration failed at t = {sol.t[-1]:.6g}: {sol.message}",
+                last_iterate=sol.y[:, -1], residual=None, names=dae.state_names,
+            )
+        if sol.t.size >= 2:
+            first_step = float(sol.t[-1] - sol.t[-2])
+        y, yd = dae.project(t1, sol.y[:dae.n, -1], sol.y[dae.n:, -1], projection_tol,
+                            trajectory.drift, k)
+        x = np.concatenate([y, yd])
+        trajectory.record(dae, k, t1, y, yd)
+        if progress is not None:
+            progress(float(t1 - times[0]), float(times[-1] - times[0]))
+    return trajectory.simulation(dae, times, method)
+
+
+class _IndexOne:
+    """The index-1 form of a constrained model at fixed parameters and inputs: accelerations
+    and multipliers from the augmented system (module docstring), the right-hand side that
+    ``solve_ivp`` steps, the projections at the output times and the diagnosis of a singular
+    system. ``dependent``: the coordinates the projections move (``None``: all, in the kinetic
+    metric)."""
+
+    def __init__(self, module: GeneratedModel, pv: np.ndarray, ufun: Callable[[float], Any],
+                 baumgarte: tuple[float, float]) -> None:
+        self.module, self.pv, self.ufun = module, pv, ufun
+        self.names = list(module.COORDINATES)
+        self.n = len(self.names)
+        self.state_names = [*self.names, *(f"d_{c}" for c in self.names)]
+        self.con = _Constraints(module, pv)
+        self.alpha, self.beta = baumgarte
+        self.dependent: np.ndarray | None = None
+        self.nfev = 0
+
+    def accelerations(self, t: float, yv: np.ndarray,
+                      ydv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``ÿ`` and ``λ`` of the augmented system at ``(t, y, ẏ)``."""
+        module, pv, con = self.module, self.pv, self.con
+        uv = self.ufun(t)
         m = np.asarray(module.mass_matrix(t, yv, pv), dtype=float)
         force = np.asarray(module.force_vector(t, yv, ydv, pv, uv), dtype=float)
         if not con.nc:
             return np.linalg.solve(m, force), np.zeros(0)
         gj = con.jac(t, yv)
         c = -np.asarray(module.constraint_gamma(t, yv, ydv, pv), dtype=float)
-        if alpha or beta:
-            c = c - 2 * alpha * (gj @ ydv + con.g_t(t, yv)) - beta**2 * con.g(t, yv)
+        if self.alpha or self.beta:
+            c = (c - 2 * self.alpha * (gj @ ydv + con.g_t(t, yv))
+                 - self.beta**2 * con.g(t, yv))
         return proto.augmented_solve(m, gj, force, c, con.reaction(t, yv, gj))
 
-    state_names = [*names, *(f"d_{c}" for c in names)]
-
-    def singular(t: float, x: np.ndarray) -> SolverError:
+    def singular(self, t: float, x: np.ndarray) -> SolverError:
         """What is singular at ``(t, x)``: the diagnosis of :func:`_check_regular` (massless
         motions, redundant constraints) or, failing one, the augmented matrix itself."""
         try:
-            _check_regular(module, con, t, x[:n], pv, f"state at t = {t:.6g}", dep)
+            _check_regular(self.module, self.con, t, x[:self.n], self.pv,
+                           f"state at t = {t:.6g}", self.dependent)
             why = "the augmented matrix [M −G_Rᵀ; G 0] is singular"
         except NeweulError as exc:
             why = str(exc)
         return SolverError(f"the constrained system is singular at t = {t:.6g}: {why}",
-                           last_iterate=x.copy(), names=state_names)
+                           last_iterate=x.copy(), names=self.state_names)
 
-    def rhs(t: float, x: np.ndarray) -> np.ndarray:
-        nonlocal nfev
-        nfev += 1
+    def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
+        """``[ẏ; ÿ]`` for ``solve_ivp``."""
+        self.nfev += 1
         try:
-            ydd, _ = accelerations(t, x[:n], x[n:])
+            ydd, _ = self.accelerations(t, x[:self.n], x[self.n:])
         except np.linalg.LinAlgError:
-            raise singular(t, x) from None
-        return np.concatenate([x[n:], ydd])
+            raise self.singular(t, x) from None
+        return np.concatenate([x[self.n:], ydd])
 
-    nt = times.size
-    ys = np.empty((nt, n))
-    yds = np.empty((nt, n))
-    lams = np.empty((nt, con.nc))
-    outs = np.empty((nt, len(out_names)))
-    pos_res = np.zeros(nt)
-    vel_res = np.zeros(nt)
-    drift = np.zeros(nt)
-
-    def record(k: int, t: float, yv: np.ndarray, ydv: np.ndarray) -> None:
-        ys[k], yds[k] = yv, ydv
+    def project(self, t: float, y: np.ndarray, yd: np.ndarray, tol: float,
+                drift: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """The state projected onto ``g = 0`` and ``ġ = 0`` (module docstring); the position
+        violation before it goes to ``drift[k]``."""
+        con = self.con
+        if not con.nc:
+            return y, yd
+        drift[k] = np.abs(con.g(t, y)).max()
         try:
-            _, lams[k] = accelerations(t, yv, ydv)
+            winv = _metric(self.module, t, y, self.pv)
+            y = _project_position(con, t, y, self.dependent, winv, tol * (1 + np.abs(y).max()))
+            yd = _project_velocity(con, t, y, yd, self.dependent, winv)
         except np.linalg.LinAlgError:
-            raise singular(t, np.concatenate([yv, ydv])) from None
-        if out_names:
-            outs[k] = module.outputs(t, np.concatenate([yv, ydv]), pv, ufun(t))
+            raise self.singular(t, np.concatenate([y, yd])) from None
+        return y, yd
+
+
+@dataclass(frozen=True)
+class _Trajectory:
+    """The states, multipliers, outputs and constraint residuals at the output times."""
+
+    y: np.ndarray
+    yd: np.ndarray
+    lambdas: np.ndarray
+    outputs: np.ndarray
+    position_residual: np.ndarray
+    velocity_residual: np.ndarray
+    drift: np.ndarray
+
+    @classmethod
+    def empty(cls, dae: _IndexOne, nt: int) -> _Trajectory:
+        """Room for ``nt`` output times."""
+        n = dae.n
+        return cls(np.empty((nt, n)), np.empty((nt, n)), np.empty((nt, dae.con.nc)),
+                   np.empty((nt, len(dae.module.OUTPUTS))), np.zeros(nt), np.zeros(nt),
+                   np.zeros(nt))
+
+    def record(self, dae: _IndexOne, k: int, t: float, yv: np.ndarray,
+               ydv: np.ndarray) -> None:
+        """Row ``k``: the state at ``t`` with its multipliers, outputs and residuals."""
+        module, con = dae.module, dae.con
+        self.y[k], self.yd[k] = yv, ydv
+        try:
+            _, self.lambdas[k] = dae.accelerations(t, yv, ydv)
+        except np.linalg.LinAlgError:
+            raise dae.singular(t, np.concatenate([yv, ydv])) from None
+        if module.OUTPUTS:
+            self.outputs[k] = module.outputs(t, np.concatenate([yv, ydv]), dae.pv, dae.ufun(t))
         if con.nc:
-            pos_res[k] = np.abs(con.g(t, yv)).max()
-            vel_res[k] = np.abs(con.jac(t, yv) @ ydv + con.g_t(t, yv)).max()
+            self.position_residual[k] = np.abs(con.g(t, yv)).max()
+            self.velocity_residual[k] = np.abs(con.jac(t, yv) @ ydv + con.g_t(t, yv)).max()
 
-    record(0, times[0], y, yd)
-    x = np.concatenate([y, yd])
-    first_step = None
-    from scipy.integrate import solve_ivp  # imported when a loop is integrated
-
-    for k in range(1, nt):
-        t0, t1 = float(times[k - 1]), float(times[k])
-        h0 = None if first_step is None else min(first_step, t1 - t0)
-        sol = solve_ivp(rhs, (t0, t1), x, method=method, rtol=rtol, atol=atol, first_step=h0)
-        if not sol.success:
-            raise SolverError(
-                f"simulate_constrained: integration failed at t = {sol.t[-1]:.6g}: {sol.message}",
-                last_iterate=sol.y[:, -1],
-                residual=None,
-                names=[*names, *(f"d_{c}" for c in names)],
-            )
-        if sol.t.size >= 2:
-            first_step = float(sol.t[-1] - sol.t[-2])
-        y, yd = sol.y[:n, -1], sol.y[n:, -1]
-        if con.nc:
-            drift[k] = np.abs(con.g(t1, y)).max()
-            try:
-                winv = _metric(module, t1, y, pv)
-                y = _project_position(con, t1, y, dep, winv,
-                                      projection_tol * (1 + np.abs(y).max()))
-                yd = _project_velocity(con, t1, y, yd, dep, winv)
-            except np.linalg.LinAlgError:
-                raise singular(t1, np.concatenate([y, yd])) from None
-        x = np.concatenate([y, yd])
-        record(k, t1, y, yd)
-        if progress is not None:
-            progress(float(t1 - times[0]), float(times[-1] - times[0]))
-
-    result = SimulationResult(
-        t=times,
-        y=ys,
-        yd=yds,
-        outputs=np.hstack([outs, lams]),
-        coordinates=tuple(names),
-        output_names=(*out_names, *(f"lambda_{c}" for c in con.names)),
-        coordinate_units=tuple(module.COORDINATE_UNITS),
-        output_units=((*module.OUTPUT_UNITS, *([""] * con.nc))  # none given: none here
-                      if module.OUTPUT_UNITS or not module.OUTPUTS else ()),
-        model_name=module.MODEL_NAME,
-        parameters=dict(zip(module.PARAMETERS, map(float, pv), strict=True)),
-        source_hash=module.SOURCE_HASH,
-        method=method,
-        message="constrained: projection at output times",
-        nfev=nfev,
-    )
-    return ConstrainedSimulation(
-        result=result,
-        lambdas=lams,
-        constraints=tuple(con.names),
-        position_residual=pos_res,
-        velocity_residual=vel_res,
-        drift=drift,
-    )
+    def simulation(self, dae: _IndexOne, times: np.ndarray,
+                   method: str) -> ConstrainedSimulation:
+        """The :class:`ConstrainedSimulation` of the recorded rows."""
+        module, con = dae.module, dae.con
+        result = SimulationResult(
+            t=times,
+            y=self.y,
+            yd=self.yd,
+            outputs=np.hstack([self.outputs, self.lambdas]),
+            coordinates=tuple(dae.names),
+            output_names=(*module.OUTPUTS, *(f"lambda_{c}" for c in con.names)),
+            coordinate_units=tuple(module.COORDINATE_UNITS),
+            output_units=((*module.OUTPUT_UNITS, *([""] * con.nc))  # none given: none here
+                          if module.OUTPUT_UNITS or not module.OUTPUTS else ()),
+            model_name=module.MODEL_NAME,
+            parameters=dict(zip(module.PARAMETERS, map(float, dae.pv), strict=True)),
+            source_hash=module.SOURCE_HASH,
+            method=method,
+            message="constrained: projection at output times",
+            nfev=dae.nfev,
+        )
+        return ConstrainedSimulation(
+            result=result,
+            lambdas=self.lambdas,
+            constraints=tuple(con.names),
+            position_residual=self.position_residual,
+            velocity_residual=self.velocity_residual,
+            drift=self.drift,
+        )
 
 
 class ConstrainedDAE:

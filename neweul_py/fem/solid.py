@@ -101,7 +101,7 @@ def _stress(grad_u: np.ndarray, lam: float, mu: float) -> np.ndarray:
 def _shape_functions(basis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Values (nb, ne, nq), gradients (nb, 3, ne, nq) and weights ``dV`` (ne, nq) of the
     scalar shape functions of a scikit-fem ``CellBasis`` at its quadrature points."""
-    values = np.stack([np.asarray(f[0].value) for f in basis.basis])
+    values = np.stack([np.asarray(f[0]) for f in basis.basis])
     grads = np.stack([np.asarray(f[0].grad) for f in basis.basis])
     return values, grads, np.asarray(basis.dx)
 
