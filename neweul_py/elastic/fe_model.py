@@ -118,11 +118,8 @@ class FEModel:
     Raises
     ------
     DataError
-        Naming ``source`` and the matrix/table at fault: wrong shapes, NaN/Inf, a DOF map
-        that does not match the matrices, unknown DOF kinds or node ids, duplicate
-        (node, kind) pairs, input/output DOF indices out of range, declared symmetry
-        violated, or (``up-coupled``) matrices without the block structure of Eq. (2):
-        ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ`` and symmetric ``Ms, Ks, Mf, Kf``.
+        Naming ``source`` and the matrix or table at fault
+        (``docs/fe-builders-and-interfaces.md``, "Checks of an FE model").
 
     Examples
     --------

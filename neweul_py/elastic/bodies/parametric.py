@@ -154,7 +154,8 @@ class ParametricBody(BodyFields):
     Raises
     ------
     DataError
-        Data that contradict the format (``docs/reduced-body-format.md``).
+        Data that contradict the format (``docs/reduced-body-format.md``, "Checks of a
+        body" and "Checks of a parametric body").
     """
 
     parameter: str

@@ -34,7 +34,6 @@ __all__ = [
     "KIND_GROUPS",
     "PARAMETRIC_BODY_VERSION",
     "READABLE_VERSIONS",
-    "ROW_SCALINGS",
     "SLOPES_VERSION",
     "SLOPE_PREFIX",
     "STACKED",
@@ -66,8 +65,6 @@ BASES = ("auto", "full", "kept")
 KIND_GROUPS = {"ux": "translation", "uy": "translation", "uz": "translation",
                "rx": "rotation", "ry": "rotation", "rz": "rotation", "p": "pressure"}
 GROUP_ORDER = ("translation", "rotation", "pressure")
-#: How the rows of the bases are scaled before the SVD.
-ROW_SCALINGS = ("none", "kind", "given")
 SLOPE_PREFIX = "slope/"
 CURVATURE_PREFIX = "curvature/"
 #: Quantities interpolated in :meth:`ParametricBody.at
@@ -162,7 +159,7 @@ def _check_row_scaling(body: Any, n_rows: int) -> None:
     if body.format_version not in READABLE_VERSIONS:
         raise DataError(f"unsupported version {body.format_version!r} (this reader: "
                         f"{', '.join(map(str, READABLE_VERSIONS))})", None, "format_version")
-    if body.row_scaling not in ROW_SCALINGS:
+    if body.row_scaling not in ("none", "kind", "given"):
         raise DataError(f"must be 'none', 'kind' or 'given', got {body.row_scaling!r}",
                         None, "row_scaling")
     if body.row_scaling == "none":

@@ -74,7 +74,8 @@ class ReducedBody(BodyFields):
     Raises
     ------
     DataError
-        Data that contradict the format (``docs/reduced-body-format.md``).
+        Data that contradict the format (``docs/reduced-body-format.md``, "Checks of a
+        body").
     """
 
     method: str = "modal"

@@ -343,11 +343,8 @@ def interpolate(
     Raises
     ------
     DataError
-        Fewer than two bodies, bodies that do not belong together (order, one/two-sided,
-        FE size/kind/density, inputs/outputs, kept DOFs and nodes, invariant sets; two
-        bodies with the same source fingerprint), bad sample values or weights, missing
-        full bases for ``basis="full"``/``store_bases``, too few kept DOFs for ``"kept"``,
-        ``row_scaling="kind"`` without the DOF kinds, a bad scaling array.
+        Bodies that are not samples of one family, or bad options
+        (``docs/reduced-body-format.md``, "Checks of a parametric body").
     SolverError
         ``T_i`` or ``W_iᵀ R`` singular (beyond ``cond_max``).
 
