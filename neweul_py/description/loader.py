@@ -239,9 +239,8 @@ def load_description_text(
     Raises
     ------
     DescriptionError
-        With file, key path and line for every problem: malformed YAML, duplicate or unknown
-        keys, wrong shapes, bad expressions, unknown names or frames, frame cycles,
-        unphysical masses and inertias.
+        With file, key path and line for every problem (``docs/description-format.md``,
+        "Errors").
     """
     return load_description_tree(read_description(text, filename),
                                  elastic_reader=elastic_reader)

@@ -57,10 +57,8 @@ def read_signal(path: Path, column: str, time_column: str | None, key_path: str
     Raises
     ------
     ModelError
-        Naming ``key_path``, the file, the line and the column: not a regular file, too large,
-        not UTF-8, no header, a missing column, a row of the wrong length, a value that is not a
-        finite number, times that do not increase strictly, fewer than 2 or more than
-        :data:`MAX_SAMPLES` samples.
+        Naming ``key_path``, the file, the line and the column, for every problem of the table
+        (``docs/description-format.md``, "Tabulated input signals").
     """
     import numpy as np
 

@@ -23,6 +23,7 @@ import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sps
@@ -118,11 +119,8 @@ class FEModel:
     Raises
     ------
     DataError
-        Naming ``source`` and the matrix/table at fault: wrong shapes, NaN/Inf, a DOF map
-        that does not match the matrices, unknown DOF kinds or node ids, duplicate
-        (node, kind) pairs, input/output DOF indices out of range, declared symmetry
-        violated, or (``up-coupled``) matrices without the block structure of Eq. (2):
-        ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ`` and symmetric ``Ms, Ks, Mf, Kf``.
+        Naming ``source`` and the matrix or table at fault
+        (``docs/fe-builders-and-interfaces.md``, "Checks of an FE model").
 
     Examples
     --------
@@ -155,95 +153,27 @@ class FEModel:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         src = self.source
-        mats = {}
-        for key in ("M", "K", "D", "G"):
-            a = getattr(self, key)
-            if a is None:
-                if key not in ("D", "G"):
-                    raise DataError("matrix is missing", src, key)
-                continue
-            try:
-                a = sps.csr_matrix(a)
-            except (TypeError, ValueError) as exc:
-                raise DataError(f"not a matrix ({exc})", src, key) from None
-            if a.dtype.kind not in "fiu":
-                raise DataError(f"matrix must be real, got dtype {a.dtype}", src, key)
-            a = a.astype(np.float64)
-            a.sum_duplicates()
-            if a.ndim != 2 or a.shape[0] != a.shape[1]:
-                raise DataError(f"matrix must be square, got shape {a.shape}", src, key)
-            if not np.all(np.isfinite(a.data)):
-                bad = int(np.count_nonzero(~np.isfinite(a.data)))
-                raise DataError(f"matrix has {bad} NaN/Inf entries", src, key)
-            mats[key] = a
-        n = mats["M"].shape[0]
-        for key, a in mats.items():
-            if a.shape != (n, n):
-                raise DataError(f"shape {a.shape} does not match M's {(n, n)}", src, key)
+        for key, a in _checked_matrices(self, src).items():
             set_(self, key, a)
-
-        nodes = np.asarray(self.nodes, dtype=np.float64)
-        if nodes.ndim != 2 or nodes.shape[1] != 4:
-            raise DataError(f"node table must be (nn, 4) id,x,y,z, got {nodes.shape}", src,
-                            "nodes")
-        if not np.all(np.isfinite(nodes)):
-            raise DataError("node table has NaN/Inf entries", src, "nodes")
-        if np.any(nodes[:, 0] != np.round(nodes[:, 0])):
-            raise DataError("node ids must be integers", src, "nodes")
-        if np.unique(nodes[:, 0]).size != nodes.shape[0]:
-            raise DataError("node ids are not unique", src, "nodes")
-        set_(self, "nodes", nodes)
-
-        dof_node = np.asarray(self.dof_node)
-        if dof_node.shape != (n,):
-            raise DataError(f"DOF map has {dof_node.size} entries but the matrices have {n} "
-                            "rows", src, "dofs")
-        if dof_node.dtype.kind == "f" and np.any(dof_node != np.round(dof_node)):
-            raise DataError("DOF node ids must be integers", src, "dofs")
-        dof_node = dof_node.astype(np.int64)
-        missing = np.setdiff1d(dof_node, nodes[:, 0].astype(np.int64))
-        if missing.size:
-            raise DataError(f"DOFs refer to node ids not in the node table: "
-                            f"{missing[:5].tolist()}", src, "dofs")
-        dof_kind = np.asarray(self.dof_kind).astype(str)
-        if dof_kind.shape != (n,):
-            raise DataError(f"DOF kinds have {dof_kind.size} entries, expected {n}", src,
-                            "dofs")
-        unknown = np.setdiff1d(dof_kind, DOF_KINDS)
-        if unknown.size:
-            raise DataError(f"unknown DOF kinds {unknown[:5].tolist()} (allowed: "
-                            f"{', '.join(DOF_KINDS)})", src, "dofs")
-        code = dof_node * len(DOF_KINDS) + np.searchsorted(np.array(DOF_KINDS),
-                                                           dof_kind, sorter=_KIND_SORTER)
-        if np.unique(code).size != n:
-            raise DataError("a (node, kind) pair occurs more than once in the DOF map", src,
-                            "dofs")
+        n = self.M.shape[0]
+        set_(self, "nodes", _checked_nodes(self.nodes, src))
+        dof_node, dof_kind = _checked_dof_map(self.dof_node, self.dof_kind, self.nodes, n, src)
         set_(self, "dof_node", dof_node)
         set_(self, "dof_kind", dof_kind)
-
         for label in ("inputs", "outputs"):
-            table = {}
-            for name, pairs in dict(getattr(self, label)).items():
-                try:
-                    arr = np.asarray(pairs, dtype=np.float64).reshape(-1, 2)
-                except (TypeError, ValueError):
-                    raise DataError("entries must be [dof_index, weight] pairs", src,
-                                    f"{label}.{name}") from None
-                if arr.shape[0] == 0:
-                    raise DataError("no DOFs", src, f"{label}.{name}")
-                if not np.all(np.isfinite(arr)):
-                    raise DataError("NaN/Inf entries", src, f"{label}.{name}")
-                idx = arr[:, 0]
-                if np.any(idx != np.round(idx)) or np.any(idx < 0) or np.any(idx >= n):
-                    raise DataError(f"DOF indices must be integers in [0, {n})", src,
-                                    f"{label}.{name}")
-                table[str(name)] = tuple((int(i), float(w)) for i, w in arr)
-            set_(self, label, table)
+            set_(self, label, _checked_dof_table(getattr(self, label), label, n, src))
+        self._check_kind()
+        set_(self, "symmetric", _checked_symmetry(self, src))
+        self._check_loss()
 
+    def _check_kind(self) -> None:
+        """The model kind against its DOF kinds; an ``up-coupled`` model's density and block
+        structure (:meth:`_check_up_blocks`)."""
+        src = self.source
         if self.kind not in FE_KINDS:
             raise DataError(f"unknown kind {self.kind!r} (allowed: {', '.join(FE_KINDS)})",
                             src, "kind")
-        is_p = dof_kind == "p"
+        is_p = self.dof_kind == "p"
         if self.kind == "structural" and is_p.any():
             raise DataError("a structural model has pressure DOFs", src, "dofs")
         if self.kind == "acoustic" and not is_p.all():
@@ -258,28 +188,8 @@ class FEModel:
             if is_p.all() or not is_p.any():
                 raise DataError("an up-coupled model needs both displacement and pressure "
                                 "DOFs", src, "dofs")
-            set_(self, "density", float(self.density))
+            object.__setattr__(self, "density", float(self.density))
             self._check_up_blocks(is_p)
-
-        if not isinstance(self.symmetric, Mapping):
-            raise DataError(f"must map matrix names to true/false, got {self.symmetric!r}",
-                            src, "symmetric")
-        sym = {}
-        for key, declared in dict(self.symmetric).items():
-            if key not in ("M", "K", "D"):
-                raise DataError(f"symmetry declared for unknown matrix {key!r}", src,
-                                "symmetric")
-            if not isinstance(declared, bool | np.bool_):  # "no" would be truthy
-                raise DataError(f"must be true or false, got {declared!r}", src,
-                                f"symmetric.{key}")
-            sym[key] = bool(declared)
-        for key, declared in sym.items():
-            a = getattr(self, key)
-            if declared and a is not None and asymmetry(a) > SYMMETRY_RTOL:
-                raise DataError(f"declared symmetric but max|A−Aᵀ|/max|A| = "
-                                f"{asymmetry(a):.3g}", src, key)
-        set_(self, "symmetric", sym)
-        self._check_loss()
 
     def _check_loss(self) -> None:
         """``G`` and ``loss_reference_frequency``: :func:`loss_reference`."""
@@ -412,3 +322,124 @@ class FEModel:
 
 
 _KIND_SORTER = np.argsort(np.array(DOF_KINDS))
+
+
+def _checked_matrices(fe: FEModel, src: str | None) -> dict[str, sps.csr_matrix]:
+    """``M``, ``K`` and the optional ``D``, ``G`` as real, finite, square float64 CSR
+    matrices of one size."""
+    mats = {}
+    for key in ("M", "K", "D", "G"):
+        a = getattr(fe, key)
+        if a is None:
+            if key not in ("D", "G"):
+                raise DataError("matrix is missing", src, key)
+            continue
+        try:
+            a = sps.csr_matrix(a)
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"not a matrix ({exc})", src, key) from None
+        if a.dtype.kind not in "fiu":
+            raise DataError(f"matrix must be real, got dtype {a.dtype}", src, key)
+        a = a.astype(np.float64)
+        a.sum_duplicates()
+        if a.ndim != 2 or a.shape[0] != a.shape[1]:
+            raise DataError(f"matrix must be square, got shape {a.shape}", src, key)
+        if not np.all(np.isfinite(a.data)):
+            bad = int(np.count_nonzero(~np.isfinite(a.data)))
+            raise DataError(f"matrix has {bad} NaN/Inf entries", src, key)
+        mats[key] = a
+    n = mats["M"].shape[0]
+    for key, a in mats.items():
+        if a.shape != (n, n):
+            raise DataError(f"shape {a.shape} does not match M's {(n, n)}", src, key)
+    return mats
+
+
+def _checked_nodes(nodes: Any, src: str | None) -> np.ndarray:
+    """The node table: (nn, 4) ``id, x, y, z``, finite, unique integer ids."""
+    nodes = np.asarray(nodes, dtype=np.float64)
+    if nodes.ndim != 2 or nodes.shape[1] != 4:
+        raise DataError(f"node table must be (nn, 4) id,x,y,z, got {nodes.shape}", src,
+                        "nodes")
+    if not np.all(np.isfinite(nodes)):
+        raise DataError("node table has NaN/Inf entries", src, "nodes")
+    if np.any(nodes[:, 0] != np.round(nodes[:, 0])):
+        raise DataError("node ids must be integers", src, "nodes")
+    if np.unique(nodes[:, 0]).size != nodes.shape[0]:
+        raise DataError("node ids are not unique", src, "nodes")
+    return nodes
+
+
+def _checked_dof_map(dof_node: Any, dof_kind: Any, nodes: np.ndarray, n: int,
+                     src: str | None) -> tuple[np.ndarray, np.ndarray]:
+    """The DOF map: a node of the table and a kind of :data:`DOF_KINDS` for each of the
+    ``n`` DOFs, each (node, kind) pair once."""
+    dof_node = np.asarray(dof_node)
+    if dof_node.shape != (n,):
+        raise DataError(f"DOF map has {dof_node.size} entries but the matrices have {n} "
+                        "rows", src, "dofs")
+    if dof_node.dtype.kind == "f" and np.any(dof_node != np.round(dof_node)):
+        raise DataError("DOF node ids must be integers", src, "dofs")
+    dof_node = dof_node.astype(np.int64)
+    missing = np.setdiff1d(dof_node, nodes[:, 0].astype(np.int64))
+    if missing.size:
+        raise DataError(f"DOFs refer to node ids not in the node table: "
+                        f"{missing[:5].tolist()}", src, "dofs")
+    dof_kind = np.asarray(dof_kind).astype(str)
+    if dof_kind.shape != (n,):
+        raise DataError(f"DOF kinds have {dof_kind.size} entries, expected {n}", src, "dofs")
+    unknown = np.setdiff1d(dof_kind, DOF_KINDS)
+    if unknown.size:
+        raise DataError(f"unknown DOF kinds {unknown[:5].tolist()} (allowed: "
+                        f"{', '.join(DOF_KINDS)})", src, "dofs")
+    code = dof_node * len(DOF_KINDS) + np.searchsorted(np.array(DOF_KINDS), dof_kind,
+                                                       sorter=_KIND_SORTER)
+    if np.unique(code).size != n:
+        raise DataError("a (node, kind) pair occurs more than once in the DOF map", src,
+                        "dofs")
+    return dof_node, dof_kind
+
+
+def _checked_dof_table(table: Mapping[str, Any], label: str, n: int, src: str | None
+                       ) -> dict[str, tuple[tuple[int, float], ...]]:
+    """Inputs or outputs: name → ((dof_index, weight), …), at least one finite pair each,
+    indices in ``[0, n)``."""
+    out = {}
+    for name, pairs in dict(table).items():
+        try:
+            arr = np.asarray(pairs, dtype=np.float64).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise DataError("entries must be [dof_index, weight] pairs", src,
+                            f"{label}.{name}") from None
+        if arr.shape[0] == 0:
+            raise DataError("no DOFs", src, f"{label}.{name}")
+        if not np.all(np.isfinite(arr)):
+            raise DataError("NaN/Inf entries", src, f"{label}.{name}")
+        idx = arr[:, 0]
+        if np.any(idx != np.round(idx)) or np.any(idx < 0) or np.any(idx >= n):
+            raise DataError(f"DOF indices must be integers in [0, {n})", src,
+                            f"{label}.{name}")
+        out[str(name)] = tuple((int(i), float(w)) for i, w in arr)
+    return out
+
+
+def _checked_symmetry(fe: FEModel, src: str | None) -> dict[str, bool]:
+    """The declared symmetries: ``M``, ``K``, ``D`` → a bool, and a declared-symmetric
+    matrix within :data:`SYMMETRY_RTOL`."""
+    if not isinstance(fe.symmetric, Mapping):
+        raise DataError(f"must map matrix names to true/false, got {fe.symmetric!r}", src,
+                        "symmetric")
+    sym = {}
+    for key, declared in dict(fe.symmetric).items():
+        if key not in ("M", "K", "D"):
+            raise DataError(f"symmetry declared for unknown matrix {key!r}", src, "symmetric")
+        if not isinstance(declared, bool | np.bool_):  # "no" would be truthy
+            raise DataError(f"must be true or false, got {declared!r}", src,
+                            f"symmetric.{key}")
+        sym[key] = bool(declared)
+    for key, declared in sym.items():
+        a = getattr(fe, key)
+        if declared and a is not None and asymmetry(a) > SYMMETRY_RTOL:
+            raise DataError(f"declared symmetric but max|A−Aᵀ|/max|A| = {asymmetry(a):.3g}",
+                            src, key)
+    return sym

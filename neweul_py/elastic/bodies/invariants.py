@@ -193,6 +193,19 @@ class QuadraticField:
     body: Invariants
     A: np.ndarray
 
+    def __post_init__(self) -> None:
+        """``A`` (ny, nq, nq) finite and the extended body of ``nq + ny`` coordinates."""
+        if not isinstance(self.body, Invariants):
+            raise DataError(f"must be Invariants, got {type(self.body).__name__}",
+                            item="quad")
+        A = np.asarray(self.A, dtype=np.float64)
+        if A.ndim != 3 or A.shape[1] != A.shape[2] or not np.all(np.isfinite(A)):
+            raise DataError(f"must be finite (ny, nq, nq), got shape {A.shape}", item="quad.A")
+        if self.body.nq != A.shape[0] + A.shape[1]:
+            raise DataError(f"{A.shape[0]} quadratic and {A.shape[1]} elastic coordinates for "
+                            f"an extended body of {self.body.nq}", item="quad.A")
+        object.__setattr__(self, "A", A)
+
     def transformed(self, R: np.ndarray) -> QuadraticField:
         """After ``q = R q̃``: ``z = diag(R, I) z̃``, ``A_j → Rᵀ A_j R``."""
         ny = self.A.shape[0]
@@ -325,6 +338,9 @@ class Invariants:
                 raise DataError(f"shape {j2.shape}, expected ({nq}, {nq}, 3, 3)", item="J.m2")
             j2.setflags(write=False)
             set_(self, "J2", j2)
+        if self.quadratic is not None and self.quadratic.A.shape[1] != nq:
+            raise DataError(f"a second-order field of {self.quadratic.A.shape[1]} elastic "
+                            f"coordinates, the body has {nq}", item="quad.A")
         names = tuple(self.names) or tuple(f"q{i + 1}" for i in range(nq))
         if len(names) != nq:
             raise DataError(f"{len(names)} names for {nq} elastic coordinates", item="names")

@@ -17,7 +17,6 @@ central differences of the slopes and curvatures, the coordinate table — and t
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -25,9 +24,26 @@ from typing import Any
 import numpy as np
 
 from ...errors import DataError
-from ...ffrf.parametric import HERMITE_ORDERS, coordinate_problem, ffrf_weights, weight_polynomials
-from ..fe_model import loss_reference
-from .reduced import INVARIANT_PREFIX, ReducedBody, json_normal
+from ...ffrf.parametric import HERMITE_ORDERS, ffrf_weights, weight_polynomials
+from .fields import CARRIED_INVARIANTS, BodyFields
+from .parametric_format import (
+    BASES,
+    COMPACT_VERSION,
+    COORDINATE_VERSION,
+    CURVATURE_PREFIX,
+    CURVATURES_VERSION,
+    GROUP_ORDER,
+    INTERPOLATIONS,
+    KIND_GROUPS,
+    PARAMETRIC_BODY_VERSION,
+    READABLE_VERSIONS,
+    SLOPE_PREFIX,
+    SLOPES_VERSION,
+    STACKED,
+    checked_slope_step,
+    validate_parametric,
+)
+from .reduced import INVARIANT_PREFIX, ReducedBody
 from .static import STATIC_KEYS, STATIC_PREFIX, StaticDeflection, residual_bound
 
 __all__ = [
@@ -50,55 +66,17 @@ __all__ = [
 ]
 
 
-#: Version 2 added the row scaling (``row_scaling``, ``row_scale``) and ``full_dof_kind``;
-#: version-1 files are read with ``row_scaling = "none"``. Version 3 is written only for a
-#: body with an interpolation coordinate (``coordinate``), so that older readers refuse it
-#: instead of weighting in the parameter itself.
-#: Version 4 is written only for a body with sample slopes (``slopes``, Hermite weights),
-#: version 5 only for one with sample curvatures too (``curvatures``, quintic Hermite).
-PARAMETRIC_BODY_VERSION = 2
-COORDINATE_VERSION = 3
-SLOPES_VERSION = 4
-CURVATURES_VERSION = 5
-#: Version 6 (the compact layout of docs/reduced-body-format.md) holds every optional group.
-COMPACT_VERSION = 6
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6)
-#: Weight functions of :meth:`ParametricBody.at`.
-INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)
-#: Rows of the bases that determine the common subspace
-#: (:mod:`~neweul_py.elastic.parametric.local_interpolation`).
-BASES = ("auto", "full", "kept")
-#: DOF kind → group sharing one row-scaling factor, in the order of normalization.
-KIND_GROUPS = {"ux": "translation", "uy": "translation", "uz": "translation",
-               "rx": "rotation", "ry": "rotation", "rz": "rotation", "p": "pressure"}
-GROUP_ORDER = ("translation", "rotation", "pressure")
-SLOPE_PREFIX = "slope/"
-CURVATURE_PREFIX = "curvature/"
-#: Quantities interpolated in :meth:`ParametricBody.at` (stacked over the samples).
-STACKED = ("M", "D", "K", "B", "C", "V_kept", "W_kept")
-#: Floating-point invariants that are one value for all samples (checked when the body is
-#: built, their slopes zero): :meth:`ParametricBody.at` carries them, it does not mix them
-#: (weights that sum to one only to round-off would turn 1000 Hz into 1000.0000000000001).
-CARRIED_INVARIANTS = ("loss.f_ref",)
-
-
-def _floats(a: Any, key: str, ndim: int) -> np.ndarray:
-    arr = np.asarray(a, dtype=np.float64)
-    if arr.ndim != ndim:
-        raise DataError(f"must have {ndim} dimensions, got shape {arr.shape}", None, key)
-    if not np.all(np.isfinite(arr)):
-        raise DataError("has NaN/Inf entries", None, key)
-    return arr
-
-
-@dataclass(frozen=True, eq=False)
-class ParametricBody:
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ParametricBody(BodyFields):
     """A parametric elastic body: local reduced models at samples, in common coordinates.
 
     Built by :func:`interpolate` (``docs/equations.md`` §4); :meth:`at` gives the
     :class:`~neweul_py.elastic.bodies.reduced.ReducedBody` at a parameter value. ``k`` =
-    number of samples, ``r`` = order, ``nk`` = kept DOFs. All stacked arrays have the
-    sample as their first axis.
+    number of samples, ``r`` = order, ``nk`` = kept DOFs. Plain immutable data: the fields
+    of :class:`~neweul_py.elastic.bodies.fields.BodyFields`, stacked over the samples (the
+    sample their first axis) where they vary, and those below, checked on construction by
+    :func:`~neweul_py.elastic.bodies.parametric_format.validate_parametric` (keyword
+    arguments only).
 
     Parameters
     ----------
@@ -106,17 +84,6 @@ class ParametricBody:
         Name of the parameter (e.g. ``"pressure"``).
     samples
         (k,) strictly increasing sample values ``p_1 < … < p_k``.
-    M, D, K
-        (k, r, r) transformed local matrices ``X̃_i = L_i X_r,i T_i⁻¹``.
-    B, C
-        (k, r, n_in) ``B̃_i = L_i B_r,i`` and (k, n_out, r) ``C̃_i = C_r,i T_i⁻¹``.
-    input_names, output_names
-        Names of the columns of ``B`` and rows of ``C`` (common to all samples).
-    nodes, kept_dofs, dof_node, dof_kind
-        The kept nodes and DOFs (common to all samples), as in ``ReducedBody``.
-    V_kept, W_kept
-        (k, nk, r) transformed basis rows ``V_kept T_i⁻¹`` (node ``Φ``, ``Ψ``) and
-        ``W_kept L_iᵀ`` (modal loads).
     T, L
         (k, r, r) right and left transformations ``T_i = Rᵀ S V_i``,
         ``L_i = (W_iᵀ S_W R)⁻¹``; the local coordinates map to the common ones as
@@ -134,22 +101,12 @@ class ParametricBody:
         ``"full"`` or ``"kept"`` (module docstring).
     two_sided
         Petrov–Galerkin (``True``) or Galerkin data.
-    V, W
-        Optional (k, n, r) transformed full bases ``V_i T_i⁻¹``, ``W_i L_iᵀ``.
     row_scaling, row_scale, left_row_scale, pressure_weight
         How the rows were scaled before the SVD (module docstring): ``"none"``
         (``row_scale`` is ``None``, ``S = S_W = I``), ``"kind"`` or ``"given"`` (an array
         passed to :func:`interpolate`), with ``row_scale`` = the diagonal of ``S`` and
         ``left_row_scale`` that of ``S_W`` (``None``: ``S_W = S``), one positive factor per
         row of ``R``; ``pressure_weight`` of a ``"kind"`` scaling (``None`` otherwise).
-    full_dof_kind
-        Optional (n,) DOF kinds of the FE rows (of ``R`` for ``basis="full"``, of ``V``,
-        ``W``), when the sample bodies carry them.
-    invariants
-        Optional flat invariants (:meth:`Invariants.to_flat` names) of the transformed
-        samples, each stacked to (k, …); entries that are not floating point (format tag,
-        names, node ids, flags) and :data:`CARRIED_INVARIANTS` (``loss.f_ref``) are equal
-        for all samples.
     interpolation
         Default weight function of :meth:`at`: ``"linear"``, ``"cubic"``, ``"hermite"``
         (with :attr:`slopes`, and only then) or ``"quintic-hermite"`` (with :attr:`slopes`
@@ -162,15 +119,6 @@ class ParametricBody:
         ``tm_volume_displacement``) says what ``ξ`` is.
     sample_sources, sample_methods, sample_settings
         Per sample: the ``source``, ``method`` and ``settings`` of the local body.
-    G, loss_reference_frequency
-        Optional (k, r, r) transformed hysteretic matrices ``G̃_i = L_i G_r,i T_i⁻¹`` of
-        ``K + iG`` (loss factors, ``docs/equations.md`` §1.1), interpolated like ``K``,
-        and their common reference frequency [Hz].
-    static
-        Optional static states of the samples
-        (:class:`~neweul_py.elastic.bodies.static.StaticDeflection`, stacked; ``q`` in the
-        common coordinates), mixed by :meth:`at` with the same weights (the residual: the
-        largest of the samples mixed).
     slopes
         Optional sample slopes ``dX/dσ`` at every sample (``docs/equations.md`` §4.2), the
         data of ``hermite`` weights (present exactly when :attr:`interpolation` is
@@ -189,23 +137,29 @@ class ParametricBody:
         Where the slopes came from (optional, with :attr:`slopes` only): the step ``δ`` of
         the models next to the samples and their sources (``file``, ``fingerprint``),
         ``2k`` of them, every sample's ``σ_i − δ`` model, then every ``σ_i + δ`` one.
+    **fields
+        The :class:`~neweul_py.elastic.bodies.fields.BodyFields` of the samples in the
+        common coordinates: (k, r, r) ``X̃_i = L_i X_r,i T_i⁻¹`` for ``M``, ``D``, ``K``
+        and ``G`` (interpolated like ``K``, one reference frequency), (k, r, n_in)
+        ``B̃_i = L_i B_r,i``, (k, n_out, r) ``C̃_i = C_r,i T_i⁻¹``, (k, nk, r)
+        ``V_kept T_i⁻¹`` and ``W_kept L_iᵀ``, optional (k, n, r) ``V_i T_i⁻¹`` and
+        ``W_i L_iᵀ`` (stored together); the names, kept nodes and DOFs and
+        ``full_dof_kind`` (the FE rows of ``R`` for ``basis="full"``, of ``V``, ``W``) common
+        to all samples; the invariants of the transformed samples stacked to (k, …), those
+        that are not floating point (format tag, names, node ids, flags) and
+        :data:`CARRIED_INVARIANTS` (``loss.f_ref``) equal for all samples; the static
+        states stacked (``q`` in the common coordinates), mixed by :meth:`at` with the same
+        weights (the residual: the largest of the samples mixed).
+
+    Raises
+    ------
+    DataError
+        Data that contradict the format (``docs/reduced-body-format.md``, "Checks of a
+        body" and "Checks of a parametric body").
     """
 
     parameter: str
     samples: np.ndarray
-    M: np.ndarray
-    D: np.ndarray
-    K: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    input_names: tuple[str, ...]
-    output_names: tuple[str, ...]
-    nodes: np.ndarray
-    kept_dofs: np.ndarray
-    dof_node: np.ndarray
-    dof_kind: np.ndarray
-    V_kept: np.ndarray
-    W_kept: np.ndarray
     T: np.ndarray
     L: np.ndarray
     R: np.ndarray
@@ -213,22 +167,15 @@ class ParametricBody:
     svd_weights: np.ndarray
     basis: str = "full"
     two_sided: bool = True
-    V: np.ndarray | None = None
-    W: np.ndarray | None = None
     row_scaling: str = "none"
     row_scale: np.ndarray | None = None
     left_row_scale: np.ndarray | None = None
     pressure_weight: float | None = None
-    full_dof_kind: np.ndarray | None = None
-    invariants: Mapping[str, np.ndarray] | None = None
     interpolation: str = "linear"
     sample_sources: tuple[Mapping[str, Any], ...] = ()
     sample_methods: tuple[str, ...] = ()
     sample_settings: tuple[Mapping[str, Any], ...] = ()
-    static: StaticDeflection | None = None
     format_version: int = PARAMETRIC_BODY_VERSION
-    G: np.ndarray | None = None
-    loss_reference_frequency: float | None = None
     coordinate: np.ndarray | None = None
     coordinate_name: str = ""
     slopes: Mapping[str, np.ndarray] | None = None
@@ -237,99 +184,7 @@ class ParametricBody:
     slope_sources: tuple[Mapping[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
-        set_ = object.__setattr__
-        set_(self, "parameter", str(self.parameter))
-        if not self.parameter:
-            raise DataError("the parameter needs a name", None, "parameter")
-        s = _floats(self.samples, "samples", 1)
-        if s.size < 2:
-            raise DataError(f"need at least 2 samples, got {s.size}", None, "samples")
-        if np.any(np.diff(s) <= 0):
-            raise DataError(f"samples must be strictly increasing, got {s.tolist()}", None,
-                            "samples")
-        set_(self, "samples", s)
-        k = s.size
-        M = _floats(self.M, "M", 3)
-        r = M.shape[1]
-        want = {"M": (k, r, r), "D": (k, r, r), "K": (k, r, r), "T": (k, r, r),
-                "L": (k, r, r)}
-        for key, shape in want.items():
-            a = _floats(self[key], key, 3)
-            if a.shape != shape:
-                raise DataError(f"must be {shape}, got {a.shape}", None, key)
-            set_(self, key, a)
-        set_(self, "input_names", tuple(str(x) for x in self.input_names))
-        set_(self, "output_names", tuple(str(x) for x in self.output_names))
-        for key, shape in (("B", (k, r, len(self.input_names))),
-                           ("C", (k, len(self.output_names), r))):
-            a = _floats(self[key], key, 3)
-            if a.shape != shape:
-                raise DataError(f"must be {shape} (samples, inputs/outputs by name), got "
-                                f"{a.shape}", None, key)
-            set_(self, key, a)
-        set_(self, "nodes", _floats(np.asarray(self.nodes, dtype=np.float64).reshape(-1, 4),
-                                    "nodes", 2))
-        set_(self, "kept_dofs", np.asarray(self.kept_dofs, dtype=np.int64).ravel())
-        nk = self.kept_dofs.size
-        set_(self, "dof_node", np.asarray(self.dof_node, dtype=np.int64).ravel())
-        set_(self, "dof_kind", np.asarray(self.dof_kind).astype("U2").ravel())
-        if self.dof_node.size != nk or self.dof_kind.size != nk:
-            raise DataError("dof_node/dof_kind must match kept_dofs", None, "kept_dofs")
-        for key in ("V_kept", "W_kept"):
-            a = _floats(self[key], key, 3)
-            if a.shape != (k, nk, r):
-                raise DataError(f"must be {(k, nk, r)}, got {a.shape}", None, key)
-            set_(self, key, a)
-        for key in ("V", "W"):
-            if self[key] is not None:
-                a = _floats(self[key], key, 3)
-                if a.shape[0] != k or a.shape[2] != r:
-                    raise DataError(f"must be (k={k}, n, r={r}), got {a.shape}", None, key)
-                set_(self, key, a)
-        if (self.V is None) != (self.W is None):
-            raise DataError("V and W are stored together or not at all", None, "V")
-        Rm = _floats(self.R, "R", 2)
-        if Rm.shape[1] != r:
-            raise DataError(f"must have {r} columns, got {Rm.shape}", None, "R")
-        set_(self, "R", Rm)
-        set_(self, "singular_values", _floats(self.singular_values, "singular_values", 1))
-        w = _floats(self.svd_weights, "svd_weights", 1)
-        if w.shape != (k,):
-            raise DataError(f"must have {k} entries, got {w.shape}", None, "svd_weights")
-        set_(self, "svd_weights", w)
-        if self.basis not in BASES[1:]:
-            raise DataError(f"must be one of {BASES[1:]}, got {self.basis!r}", None, "basis")
-        if self.interpolation not in INTERPOLATIONS:
-            raise DataError(f"must be one of {INTERPOLATIONS}, got {self.interpolation!r}",
-                            None, "interpolation")
-        self._check_coordinate()
-        set_(self, "two_sided", bool(self.two_sided))
-        self._check_row_scaling(Rm.shape[0])
-        for key, default in (("sample_sources", {}), ("sample_settings", {}),
-                             ("sample_methods", "")):
-            vals = tuple(self[key]) or (default,) * k
-            if len(vals) != k:
-                raise DataError(f"{len(vals)} entries for {k} samples", None, key)
-            if key == "sample_methods":
-                vals = tuple(str(v) for v in vals)
-            else:
-                vals = tuple(json_normal(dict(v), key) for v in vals)
-            set_(self, key, vals)
-        if self.invariants is not None:
-            set_(self, "invariants", _check_stacked(self.invariants, k))
-        f = loss_reference(self.G, self.loss_reference_frequency, self.D, None)
-        if self.G is not None:
-            g = _floats(self.G, "G", 3)
-            if g.shape != (k, r, r):
-                raise DataError(f"must be {(k, r, r)}, got {g.shape}", None, "G")
-            set_(self, "G", g)
-            set_(self, "loss_reference_frequency", f)
-        if self.static is not None:
-            if not isinstance(self.static, StaticDeflection):
-                raise DataError(f"must be a StaticDeflection, got {type(self.static).__name__}",
-                                None, "static")
-            self.static.check(r, self.nodes.shape[0], len(self.output_names), k)
-        self._check_slopes()
+        validate_parametric(self)
 
     def slope_keys(self) -> tuple[str, ...]:
         """The keys :attr:`slopes` must hold (every interpolated stack of this body)."""
@@ -348,175 +203,6 @@ class ParametricBody:
             return self.static[key[len(STATIC_PREFIX):]]
         return self[key]
 
-    def _check_slopes(self) -> None:
-        set_ = object.__setattr__
-        need = HERMITE_ORDERS.get(self.interpolation, 0)
-        have = (self.slopes is not None) + (self.curvatures is not None)
-        if self.curvatures is not None and self.slopes is None:
-            raise DataError("sample curvatures (curvature/*) without sample slopes (slope/*)",
-                            None, "interpolation")
-        if need != have:
-            given = {0: "no sample slopes", 1: "sample slopes (slope/*)",
-                     2: "sample slopes and curvatures (slope/*, curvature/*)"}[have]
-            raise DataError(f"Hermite weights and their data come together (hermite: the "
-                            f"sample slopes; quintic-hermite: the slopes and curvatures): "
-                            f"interpolation {self.interpolation!r} with {given}", None,
-                            "interpolation")
-        self._check_slope_provenance()
-        if self.slopes is None:
-            if self.format_version in (SLOPES_VERSION, CURVATURES_VERSION):
-                set_(self, "format_version", COORDINATE_VERSION if self.coordinate is not None
-                     else PARAMETRIC_BODY_VERSION)      # versions 4, 5 mean "has them"
-            return
-        set_(self, "slopes", self._checked_derivatives(self.slopes, SLOPE_PREFIX, "slope"))
-        if self.curvatures is None:
-            set_(self, "format_version", SLOPES_VERSION)
-            return
-        set_(self, "curvatures", self._checked_derivatives(self.curvatures, CURVATURE_PREFIX,
-                                                           "curvature"))
-        set_(self, "format_version", CURVATURES_VERSION)
-
-    def _check_slope_provenance(self) -> None:
-        """``slope_step``: a positive finite number or ``None``; ``slope_sources``: none or
-        ``2k`` mappings; both only with slopes."""
-        sources = tuple(self.slope_sources or ())
-        if self.slopes is None and (self.slope_step is not None or sources):
-            raise DataError("a slope step or slope sources without sample slopes", None,
-                            "slope_step" if self.slope_step is not None else "slope_sources")
-        if self.slope_step is not None:
-            object.__setattr__(self, "slope_step", checked_slope_step(self.slope_step))
-        if sources and (len(sources) != 2 * self.samples.size
-                        or not all(isinstance(x, Mapping) for x in sources)):
-            raise DataError(f"must be {2 * self.samples.size} mappings (the models at every "
-                            f"sample − step, then + step), got {len(sources)}", None,
-                            "slope_sources")
-        object.__setattr__(self, "slope_sources", tuple(dict(x) for x in sources))
-
-    def _checked_derivatives(self, given: Any, prefix: str, what: str
-                             ) -> dict[str, np.ndarray]:
-        """The sample slopes or curvatures, checked: a mapping of every
-        :meth:`slope_keys` key to a finite real array of its stack's shape, zero for the
-        static residual and for the values common to all samples."""
-        if not isinstance(given, Mapping):
-            raise DataError(f"must be a mapping key → (k, …) array, got "
-                            f"{type(given).__name__}", None, prefix.rstrip("/") + "s")
-        want = self.slope_keys()
-        extra = sorted(set(given) - set(want))
-        missing = [key for key in want if key not in given]
-        if extra or missing:
-            def keys(names: list[str]) -> list[str]:
-                return [prefix + name for name in names]
-
-            raise DataError(f"must hold the {what} of every interpolated stack "
-                            f"({len(want)} for this body, ParametricBody.slope_keys)"
-                            + (f"; missing {keys(missing)}" if missing else "")
-                            + (f"; unknown {keys(extra)}" if extra else ""), None,
-                            prefix + (missing or extra)[0])
-        out = {}
-        for key in want:
-            a = np.asarray(given[key])
-            shape = self.stack(key).shape
-            if a.dtype.kind not in "fi" or a.shape != shape:
-                raise DataError(f"must be real of shape {shape}, got {a.dtype} {a.shape}",
-                                None, prefix + key)
-            a = a.astype(np.float64)
-            if not np.all(np.isfinite(a)):
-                raise DataError("holds a value that is not a finite number", None,
-                                prefix + key)
-            out[key] = a
-        if self.static is not None and np.any(out[STATIC_PREFIX + "residual"]):
-            raise DataError(f"the {what} of a residual is not stored (must be zero)", None,
-                            f"{prefix}{STATIC_PREFIX}residual")
-        for name in CARRIED_INVARIANTS:
-            key = INVARIANT_PREFIX + name
-            if key in out and np.any(out[key]):
-                raise DataError(f"the {what} of a value common to all samples is zero", None,
-                                prefix + key)
-        return out
-
-    def _check_coordinate(self) -> None:
-        set_ = object.__setattr__
-        if not isinstance(self.coordinate_name, str):
-            raise DataError(f"must be a string, got {self.coordinate_name!r}", None,
-                            "coordinate_name")
-        if self.coordinate is None:
-            if self.coordinate_name:
-                raise DataError("a coordinate name without a coordinate table", None,
-                                "coordinate_name")
-            if self.format_version == COORDINATE_VERSION:   # version 3 means "has one"
-                set_(self, "format_version", PARAMETRIC_BODY_VERSION)
-            return
-        why = coordinate_problem(self.samples, self.coordinate)
-        if why is not None:
-            raise DataError(why, None, "coordinate")
-        if self.interpolation not in ("cubic", *HERMITE_ORDERS):
-            raise DataError("an interpolation coordinate needs cubic or Hermite weights, got "
-                            f"{self.interpolation!r}", None, "coordinate")
-        if not self.coordinate_name:
-            raise DataError("an interpolation coordinate needs a name (what ξ is)", None,
-                            "coordinate_name")
-        set_(self, "coordinate", np.array(self.coordinate, dtype=np.float64))
-        try:
-            weight_polynomials(self.samples, self.interpolation, self.coordinate)
-        except ValueError as exc:
-            raise DataError(str(exc), None, "coordinate") from None
-        if self.format_version < COORDINATE_VERSION:
-            set_(self, "format_version", COORDINATE_VERSION)
-
-    def _check_row_scaling(self, n_rows: int) -> None:
-        set_ = object.__setattr__
-        if self.format_version not in READABLE_VERSIONS:
-            raise DataError(f"unsupported version {self.format_version!r} (this reader: "
-                            f"{', '.join(map(str, READABLE_VERSIONS))})", None,
-                            "format_version")
-        if self.row_scaling not in ("none", "kind", "given"):
-            raise DataError(f"must be 'none', 'kind' or 'given', got {self.row_scaling!r}",
-                            None, "row_scaling")
-        if self.row_scaling == "none":
-            if self.row_scale is not None or self.left_row_scale is not None:
-                raise DataError("row_scaling 'none' stores no row_scale", None, "row_scale")
-        else:
-            if self.row_scale is None:
-                raise DataError(f"row_scaling {self.row_scaling!r} needs row_scale", None,
-                                "row_scale")
-            for key in ("row_scale", "left_row_scale"):
-                if self[key] is None:
-                    continue
-                sc = _floats(self[key], key, 1)
-                if sc.shape != (n_rows,) or np.any(sc <= 0):
-                    raise DataError(f"must be {n_rows} positive factors (one per row of R), "
-                                    f"got shape {sc.shape}", None, key)
-                set_(self, key, sc)
-        if self.pressure_weight is not None:
-            pw = float(self.pressure_weight)
-            if self.row_scaling != "kind" or not (np.isfinite(pw) and pw > 0):
-                raise DataError(f"a positive pressure weight of a 'kind' scaling, got {pw!r} "
-                                f"with row_scaling {self.row_scaling!r}", None,
-                                "pressure_weight")
-            set_(self, "pressure_weight", pw)
-        if self.full_dof_kind is not None:
-            kinds = np.asarray(self.full_dof_kind)
-            if kinds.ndim != 1 or kinds.dtype.kind not in "US":
-                raise DataError("must be a 1-D array of DOF kinds", None, "full_dof_kind")
-            kinds = kinds.astype("U2")
-            unknown = sorted(set(np.unique(kinds).tolist()) - set(KIND_GROUPS))
-            if unknown:
-                raise DataError(f"unknown DOF kinds {unknown}", None, "full_dof_kind")
-            rows = [a.shape[1] for a in (self.V, self.W) if a is not None]
-            if self.basis == "full":
-                rows.append(n_rows)
-            if any(m != kinds.size for m in rows):
-                raise DataError(f"{kinds.size} DOF kinds for FE arrays of {rows} rows", None,
-                                "full_dof_kind")
-            set_(self, "full_dof_kind", kinds)
-        if self.format_version == 1 and (self.row_scaling != "none"
-                                         or self.full_dof_kind is not None
-                                         or self.pressure_weight is not None):
-            raise DataError("format version 1 holds no row scaling or full_dof_kind", None,
-                            "format_version")
-
-    def __getitem__(self, key: str) -> Any:
-        return getattr(self, key)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -575,10 +261,6 @@ class ParametricBody:
     def range(self) -> tuple[float, float]:
         """The sampled parameter range ``(p_1, p_k)``; :meth:`at` refuses values outside."""
         return float(self.samples[0]), float(self.samples[-1])
-
-    def with_(self, **changes: Any) -> ParametricBody:
-        """A validated copy with some fields changed."""
-        return dataclasses.replace(self, **changes)
 
     # ------------------------------------------------------------------ evaluation
     def weights(self, p: float, interpolation: str | None = None) -> np.ndarray:
@@ -730,44 +412,3 @@ class ParametricBody:
                 **{key: mix(STATIC_PREFIX + key) for key in STATIC_KEYS if key != "residual"},
                 residual=residual_bound(self.static.residual, w)),
         )
-
-
-def checked_slope_step(step: Any) -> float:
-    """The step of the models next to the samples, a positive finite number."""
-    try:
-        step = float(step)
-    except (TypeError, ValueError):
-        raise DataError(f"the slope step must be a number, got {step!r}", None,
-                        "slope_step") from None
-    if not (np.isfinite(step) and step > 0):
-        raise DataError(f"the slope step must be a positive number, got {step!r}", None,
-                        "slope_step")
-    return step
-
-
-def _check_stacked(inv: Mapping[str, np.ndarray], k: int) -> dict[str, np.ndarray]:
-    out = {}
-    for name, v in inv.items():
-        a = np.asarray(v)
-        item = f"invariants.{name}"
-        if a.dtype == object:
-            raise DataError("object arrays cannot be stored", None, item)
-        if a.ndim < 1 or a.shape[0] != k:
-            raise DataError(f"must be stacked over the {k} samples, got shape {a.shape}",
-                            None, item)
-        if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
-            raise DataError("has NaN/Inf entries", None, item)
-        if a.dtype.kind != "f" or name in CARRIED_INVARIANTS:
-            _check_constant(a, item)
-        out[str(name)] = a
-    return out
-
-
-def _check_constant(a: np.ndarray, item: str) -> None:
-    """A stacked invariant that must be one value for all samples (not interpolated): a
-    :class:`DataError` naming the first sample that differs from sample 1."""
-    for i in range(1, a.shape[0]):
-        if not np.array_equal(a[0], a[i]):
-            got = f" ({a[i].tolist()!r} vs {a[0].tolist()!r})" if a[0].size == 1 else ""
-            raise DataError(f"sample {i + 1} differs from sample 1{got}: one value for all "
-                            "samples (it is carried, not interpolated)", None, item)

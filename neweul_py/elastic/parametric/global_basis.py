@@ -300,10 +300,8 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
     Raises
     ------
     DataError
-        A count that is not one model per sample, a step that is not a positive number,
-        models on another mesh, samples with static states without ``statics`` (an FE
-        model does not carry its static state), ``statics`` for samples without one, or
-        curvatures of static states without ``sample_statics``.
+        Models, step or static states that do not fit the samples
+        (``docs/reduced-body-format.md``, "Checks of a parametric body").
     """
     k = len(gb)
     if len(minus) != k or len(plus) != k:

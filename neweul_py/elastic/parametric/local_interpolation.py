@@ -343,11 +343,8 @@ def interpolate(
     Raises
     ------
     DataError
-        Fewer than two bodies, bodies that do not belong together (order, one/two-sided,
-        FE size/kind/density, inputs/outputs, kept DOFs and nodes, invariant sets; two
-        bodies with the same source fingerprint), bad sample values or weights, missing
-        full bases for ``basis="full"``/``store_bases``, too few kept DOFs for ``"kept"``,
-        ``row_scaling="kind"`` without the DOF kinds, a bad scaling array.
+        Bodies that are not samples of one family, or bad options
+        (``docs/reduced-body-format.md``, "Checks of a parametric body").
     SolverError
         ``T_i`` or ``W_iᵀ R`` singular (beyond ``cond_max``).
 
@@ -365,51 +362,10 @@ def interpolate(
     >>> pb.at(0.25).K                                              # doctest: +SKIP
     """
     bodies = list(bodies)
-    if len(bodies) < 2:
-        raise DataError(f"need at least 2 sample bodies, got {len(bodies)}", None, "bodies")
-    if not all(isinstance(b, ReducedBody) for b in bodies):
-        raise DataError("bodies must be ReducedBody objects", None, "bodies")
-    if basis not in BASES:
-        raise DataError(f"must be one of {', '.join(BASES)}, got {basis!r}", None, "basis")
-    if interpolation not in INTERPOLATIONS:
-        raise DataError(f"must be one of {', '.join(INTERPOLATIONS)}, got {interpolation!r}",
-                        None, "interpolation")
-    s = sample_values(bodies, samples, str(parameter))
-    check_samples(bodies, labels)
+    s, w = _checked_samples(bodies, samples, str(parameter), basis, interpolation, weights,
+                            labels)
     k, r, two = len(bodies), bodies[0].order, bodies[0].two_sided
-    w = np.ones(k) if weights is None else np.asarray(weights, dtype=np.float64).ravel()
-    if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.any():
-        raise DataError(f"need {k} finite non-negative weights, not all zero; got "
-                        f"{np.asarray(weights).tolist()}", None, "weights")
-
-    def has_full(b: ReducedBody) -> bool:
-        return b.V is not None and (not two or b.W is not None)
-
-    full = all(has_full(b) for b in bodies)
-    if basis == "auto":
-        basis = "full" if full else "kept"
-    if (basis == "full" or store_bases) and not full:
-        missing = [i + 1 for i, b in enumerate(bodies) if not has_full(b)]
-        raise DataError(f"bodies {missing} hold no full bases V{', W' if two else ''} "
-                        "(reduce with store_bases=True / --store-bases)", None, "V")
-    if basis == "full":
-        shapes = {b.V.shape for b in bodies}
-        if len(shapes) > 1:
-            raise DataError(f"full bases of different shapes {sorted(shapes)}", None, "V")
-        Vs = [b.V for b in bodies]
-        Ws = [b.W if two else b.V for b in bodies]
-        kinds = bodies[0].full_dof_kind
-        if any(b.full_dof_kind is None for b in bodies):
-            kinds = None
-    else:
-        nk = bodies[0].kept_dofs.size
-        if nk < r:
-            raise DataError(f"the {nk} kept DOFs cannot determine {r} common coordinates "
-                            "(basis='kept' needs at least r kept DOFs): reduce with "
-                            "store_bases=True or keep more nodes", None, "V_kept")
-        Vs = [b.V_kept for b in bodies]
-        Ws = [b.W_kept for b in bodies]
-        kinds = bodies[0].dof_kind
+    basis, Vs, Ws, kinds = _sample_bases(bodies, basis, store_bases)
     full_kinds = bodies[0].full_dof_kind if all(
         b.full_dof_kind is not None for b in bodies) else None
     scaling, scale, left = _row_scaling(row_scaling, kinds, Vs, Ws if two else None, basis,
@@ -444,40 +400,11 @@ def interpolate(
                       min_cosine, 0) if two else Tinv.T)
         report(progress, f"sample {i + 1}/{k} ({parameter} = {s[i]:g}): cond T = "
                f"{np.linalg.cond(T):.3g}", i + 1, k)
-        out["T"].append(T)
-        out["L"].append(L)
-        for key in ("M", "D", "K"):
-            out[key].append(L @ b[key] @ Tinv)
-        if b.G is not None:
-            out.setdefault("G", []).append(L @ b.G @ Tinv)
-        out["B"].append(L @ b.B)
-        out["C"].append(b.C @ Tinv)
-        out["V_kept"].append(b.V_kept @ Tinv)
-        out["W_kept"].append(b.W_kept @ L.T)
-        if store_bases:
-            out["V"].append(b.V @ Tinv)
-            out["W"].append((b.W if two else b.V) @ L.T)
+        _transform_sample(b, T, Tinv, L, two, store_bases, out)
         if b.invariants is not None:
             invs.append(_transform_invariants(b, Tinv, L, two, i))
-    static = None
-    if any(b.static is not None for b in bodies):
-        if not all(b.static is not None for b in bodies):
-            raise DataError("some samples carry a static state and some do not: "
-                            + ", ".join(body_label(labels, i) for i, b in enumerate(bodies)
-                                        if b.static is None) + " lack it", None, "static")
-        static = StaticDeflection.stack([b.static.transformed(T) for b, T in
-                                         zip(bodies, out["T"], strict=True)])
-    inv = None
-    if invs:
-        keys = list(invs[0])
-        if any(list(x) != keys for x in invs[1:]):
-            raise DataError("the transformed invariants of the samples have different "
-                            "arrays (order-1 terms in some samples only?)", None, "invariants")
-        try:
-            inv = {key: np.stack([x[key] for x in invs]) for key in keys}
-        except ValueError as exc:
-            raise DataError(f"invariants of different shapes ({exc})", None,
-                            "invariants") from None
+    static = _stacked_static(bodies, out["T"], labels)
+    inv = _stacked_invariants(invs)
     return ParametricBody(
         parameter=str(parameter), samples=s,
         **{key: np.stack(out[key]) for key in (*STACKED, "T", "L")},
@@ -498,6 +425,112 @@ def interpolate(
         sample_methods=tuple(b.method for b in bodies),
         sample_settings=tuple(b.settings for b in bodies),
     )
+
+
+def _checked_samples(bodies: list[ReducedBody], samples: Sequence[float] | None,
+                     parameter: str, basis: str, interpolation: str,
+                     weights: Sequence[float] | None, labels: Sequence[str] | None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The options of :func:`interpolate` and the bodies as samples of one family; the
+    sample values and the SVD weights."""
+    if len(bodies) < 2:
+        raise DataError(f"need at least 2 sample bodies, got {len(bodies)}", None, "bodies")
+    if not all(isinstance(b, ReducedBody) for b in bodies):
+        raise DataError("bodies must be ReducedBody objects", None, "bodies")
+    if basis not in BASES:
+        raise DataError(f"must be one of {', '.join(BASES)}, got {basis!r}", None, "basis")
+    if interpolation not in INTERPOLATIONS:
+        raise DataError(f"must be one of {', '.join(INTERPOLATIONS)}, got {interpolation!r}",
+                        None, "interpolation")
+    s = sample_values(bodies, samples, parameter)
+    check_samples(bodies, labels)
+    k = len(bodies)
+    w = np.ones(k) if weights is None else np.asarray(weights, dtype=np.float64).ravel()
+    if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.any():
+        raise DataError(f"need {k} finite non-negative weights, not all zero; got "
+                        f"{np.asarray(weights).tolist()}", None, "weights")
+    return s, w
+
+
+def _sample_bases(bodies: list[ReducedBody], basis: str, store_bases: bool
+                  ) -> tuple[str, list[np.ndarray], list[np.ndarray], np.ndarray | None]:
+    """The basis rows that determine ``R`` (``"auto"`` resolved): the basis, the right and
+    left bases of the samples and the DOF kinds of their rows (``None`` if unknown)."""
+    two, r = bodies[0].two_sided, bodies[0].order
+
+    def has_full(b: ReducedBody) -> bool:
+        return b.V is not None and (not two or b.W is not None)
+
+    full = all(has_full(b) for b in bodies)
+    if basis == "auto":
+        basis = "full" if full else "kept"
+    if (basis == "full" or store_bases) and not full:
+        missing = [i + 1 for i, b in enumerate(bodies) if not has_full(b)]
+        raise DataError(f"bodies {missing} hold no full bases V{', W' if two else ''} "
+                        "(reduce with store_bases=True / --store-bases)", None, "V")
+    if basis == "kept":
+        nk = bodies[0].kept_dofs.size
+        if nk < r:
+            raise DataError(f"the {nk} kept DOFs cannot determine {r} common coordinates "
+                            "(basis='kept' needs at least r kept DOFs): reduce with "
+                            "store_bases=True or keep more nodes", None, "V_kept")
+        return (basis, [b.V_kept for b in bodies], [b.W_kept for b in bodies],
+                bodies[0].dof_kind)
+    shapes = {b.V.shape for b in bodies}
+    if len(shapes) > 1:
+        raise DataError(f"full bases of different shapes {sorted(shapes)}", None, "V")
+    kinds = bodies[0].full_dof_kind
+    if any(b.full_dof_kind is None for b in bodies):
+        kinds = None
+    return basis, [b.V for b in bodies], [b.W if two else b.V for b in bodies], kinds
+
+
+def _transform_sample(b: ReducedBody, T: np.ndarray, Tinv: np.ndarray, L: np.ndarray,
+                      two: bool, store_bases: bool, out: dict[str, list[np.ndarray]]
+                      ) -> None:
+    """Append the sample's ``X̃ = L X T⁻¹``, ``B̃ = L B``, ``C̃ = C T⁻¹`` and transformed
+    basis rows (§4, steps 2–4) to the stacks ``out``."""
+    out["T"].append(T)
+    out["L"].append(L)
+    for key in ("M", "D", "K"):
+        out[key].append(L @ b[key] @ Tinv)
+    if b.G is not None:
+        out.setdefault("G", []).append(L @ b.G @ Tinv)
+    out["B"].append(L @ b.B)
+    out["C"].append(b.C @ Tinv)
+    out["V_kept"].append(b.V_kept @ Tinv)
+    out["W_kept"].append(b.W_kept @ L.T)
+    if store_bases:
+        out["V"].append(b.V @ Tinv)
+        out["W"].append((b.W if two else b.V) @ L.T)
+
+
+def _stacked_static(bodies: list[ReducedBody], Ts: list[np.ndarray],
+                    labels: Sequence[str] | None) -> StaticDeflection | None:
+    """The samples' static states in the common coordinates, stacked (all or none)."""
+    if all(b.static is None for b in bodies):
+        return None
+    if not all(b.static is not None for b in bodies):
+        raise DataError("some samples carry a static state and some do not: "
+                        + ", ".join(body_label(labels, i) for i, b in enumerate(bodies)
+                                    if b.static is None) + " lack it", None, "static")
+    return StaticDeflection.stack([b.static.transformed(T) for b, T in
+                                   zip(bodies, Ts, strict=True)])
+
+
+def _stacked_invariants(invs: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray] | None:
+    """The transformed invariants of the samples, stacked (``None`` without any)."""
+    if not invs:
+        return None
+    keys = list(invs[0])
+    if any(list(x) != keys for x in invs[1:]):
+        raise DataError("the transformed invariants of the samples have different "
+                        "arrays (order-1 terms in some samples only?)", None, "invariants")
+    try:
+        return {key: np.stack([x[key] for x in invs]) for key in keys}
+    except ValueError as exc:
+        raise DataError(f"invariants of different shapes ({exc})", None,
+                        "invariants") from None
 
 
 def _row_scaling(option: Any, kinds: np.ndarray | None, Vs: Sequence[np.ndarray],

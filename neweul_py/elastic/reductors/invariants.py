@@ -316,23 +316,9 @@ def compute_invariants(
     n = dofs.n
     M = sps.csr_matrix(fe.M)
     Mt = sps.csr_matrix(M.T)
-    V = np.asarray(V, dtype=np.float64)
-    if V.ndim != 2 or V.shape[0] != n:
-        raise DataError(f"V has shape {V.shape}, expected ({n}, nq)", fe.source, "V")
+    V, W, two_sided = _checked_bases(V, W, n, fe.source)
     nq = V.shape[1]
-    two_sided = W is not None
-    W = V if W is None else np.asarray(W, dtype=np.float64)
-    if W.shape != V.shape:
-        raise DataError(f"W has shape {W.shape}, V has {V.shape}", fe.source, "W")
-    for key, X in (("V", V), ("W", W)):
-        if not np.all(np.isfinite(X)):
-            raise DataError("not finite", fe.source, key)
-    KG = {}
-    for case, A in (geometric_stiffness or {}).items():
-        if case not in LOAD_CASES:
-            raise DataError(f"unknown load case {case!r} (one of {', '.join(LOAD_CASES)})",
-                            fe.source, "geometric_stiffness")
-        KG[case] = _as_operator(A, n, f"geometric_stiffness.{case}")
+    KG = _checked_stiffening(geometric_stiffness, n, fe.source)
 
     Tt, Tr = dofs.rigid_fields()
     MTt, MTr = M @ Tt, M @ Tr                 # fields multiplied by M
@@ -341,17 +327,7 @@ def compute_invariants(
     MtW = MtV if not two_sided else Mt @ W
 
     # --- mass, first moment, inertia (exact rigid fields)
-    m3 = Tt.T @ MTt
-    present = dofs.trans.max(axis=0) >= 0
-    m = float(np.mean(np.diag(m3)[present])) if present.any() else 0.0
-    S = Tr.T @ MTt                            # S[b, a] = ε_abk md_k
-    md0 = np.zeros(3)
-    for k in range(3):
-        vals = [LEVI_CIVITA[a, b, k] * S[b, a] for a in range(3) for b in range(3)
-                if LEVI_CIVITA[a, b, k] != 0 and present[a]]
-        md0[k] = np.mean(vals) if vals else 0.0
-    J0 = Tr.T @ MTr
-    J0 = 0.5 * (J0 + J0.T)
+    m, md0, J0 = _rigid_moments(dofs, Tt, Tr, MTt, MTr)
     md1 = MtTt.T @ V                          # ∫ Φ dm (3, nq), V
 
     # --- one-cross-product integrals
@@ -369,27 +345,8 @@ def compute_invariants(
     Oe1 = -_omega_q_coefficients(Q)                    # (nq, nq, 6)
     C2 = Q if not two_sided else _cross_cross(dofs, V, mpv)
 
-    # --- geometric stiffening (elastic rows)
-    Ct1 = np.zeros((nq, nq, 3))
-    Cr1 = Cr_kin.copy()
-    for a in range(3):
-        if (A := KG.get(LOAD_CASES[a])) is not None:
-            Ct1[:, :, a] += W.T @ (A @ V)
-        if (A := KG.get(LOAD_CASES[3 + a])) is not None:
-            Cr1[:, :, a] += W.T @ (A @ V)
-    C2g = np.zeros((nq, nq, 3, 3))
-    for c, (a, b) in enumerate(OMEGA_PRODUCTS):
-        if (A := KG.get(LOAD_CASES[6 + c])) is not None:
-            Oe1[:, :, c] += W.T @ (A @ V)
-            # the same stiffening as a centrifugal potential −½ ωᵀ J_G(q) ω in the inertia
-            # tensor (equations.md §2.1), so that the rotational rows carry its reaction
-            kv = V.T @ (A @ V)
-            kv = 0.5 * (kv + kv.T)
-            if a == b:
-                C2g[:, :, a, a] -= kv
-            else:
-                C2g[:, :, a, b] -= 0.5 * kv
-                C2g[:, :, b, a] -= 0.5 * kv
+    # --- geometric stiffening (elastic rows; Oe¹ in place)
+    Ct1, Cr1, C2g = _stiffening_terms(KG, V, W, Cr_kin, Oe1)
 
     K = sps.csr_matrix(fe.K)
     Ke = W.T @ (K @ V)
@@ -422,6 +379,82 @@ def compute_invariants(
         J2=0.5 * (C2 + C2.transpose(1, 0, 3, 2)) + C2g,
         Le=Le, loss_f_ref=None if Le is None else fe.loss_reference_frequency,
     )
+
+
+def _checked_bases(V: np.ndarray, W: np.ndarray | None, n: int, source: str | None
+                   ) -> tuple[np.ndarray, np.ndarray, bool]:
+    """``V`` (n, nq) and ``W`` (``V`` for one-sided data), finite; and whether two-sided."""
+    V = np.asarray(V, dtype=np.float64)
+    if V.ndim != 2 or V.shape[0] != n:
+        raise DataError(f"V has shape {V.shape}, expected ({n}, nq)", source, "V")
+    two_sided = W is not None
+    W = V if W is None else np.asarray(W, dtype=np.float64)
+    if W.shape != V.shape:
+        raise DataError(f"W has shape {W.shape}, V has {V.shape}", source, "W")
+    for key, X in (("V", V), ("W", W)):
+        if not np.all(np.isfinite(X)):
+            raise DataError("not finite", source, key)
+    return V, W, two_sided
+
+
+def _checked_stiffening(geometric_stiffness: Mapping[str, object] | None, n: int,
+                        source: str | None) -> dict[str, object]:
+    """Load case → n×n operator ``K_G,c``; an unknown load case is a :class:`DataError`."""
+    KG = {}
+    for case, A in (geometric_stiffness or {}).items():
+        if case not in LOAD_CASES:
+            raise DataError(f"unknown load case {case!r} (one of {', '.join(LOAD_CASES)})",
+                            source, "geometric_stiffness")
+        KG[case] = _as_operator(A, n, f"geometric_stiffness.{case}")
+    return KG
+
+
+def _rigid_moments(dofs: _Dofs, Tt: np.ndarray, Tr: np.ndarray, MTt: np.ndarray,
+                   MTr: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass ``m``, first moment ``md⁰`` and inertia ``J⁰`` from the exact rigid fields (the
+    mean over the directions present in a planar model)."""
+    m3 = Tt.T @ MTt
+    present = dofs.trans.max(axis=0) >= 0
+    m = float(np.mean(np.diag(m3)[present])) if present.any() else 0.0
+    S = Tr.T @ MTt                            # S[b, a] = ε_abk md_k
+    md0 = np.zeros(3)
+    for k in range(3):
+        vals = [LEVI_CIVITA[a, b, k] * S[b, a] for a in range(3) for b in range(3)
+                if LEVI_CIVITA[a, b, k] != 0 and present[a]]
+        md0[k] = np.mean(vals) if vals else 0.0
+    J0 = Tr.T @ MTr
+    J0 = 0.5 * (J0 + J0.T)
+    return m, md0, J0
+
+
+def _stiffening_terms(KG: Mapping[str, object], V: np.ndarray, W: np.ndarray,
+                      Cr_kin: np.ndarray, Oe1: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Geometric stiffening of the elastic rows (module docstring): ``Ct¹``, ``Cr¹`` (the
+    kinematic ``Cr_kin`` plus stiffening), ``Oe¹`` updated in place, and the same
+    ω-stiffening as the centrifugal potential ``C2g`` of the inertia tensor."""
+    nq = V.shape[1]
+    Ct1 = np.zeros((nq, nq, 3))
+    Cr1 = Cr_kin.copy()
+    for a in range(3):
+        if (A := KG.get(LOAD_CASES[a])) is not None:
+            Ct1[:, :, a] += W.T @ (A @ V)
+        if (A := KG.get(LOAD_CASES[3 + a])) is not None:
+            Cr1[:, :, a] += W.T @ (A @ V)
+    C2g = np.zeros((nq, nq, 3, 3))
+    for c, (a, b) in enumerate(OMEGA_PRODUCTS):
+        if (A := KG.get(LOAD_CASES[6 + c])) is not None:
+            Oe1[:, :, c] += W.T @ (A @ V)
+            # the same stiffening as a centrifugal potential −½ ωᵀ J_G(q) ω in the inertia
+            # tensor (equations.md §2.1), so that the rotational rows carry its reaction
+            kv = V.T @ (A @ V)
+            kv = 0.5 * (kv + kv.T)
+            if a == b:
+                C2g[:, :, a, a] -= kv
+            else:
+                C2g[:, :, a, b] -= 0.5 * kv
+                C2g[:, :, b, a] -= 0.5 * kv
+    return Ct1, Cr1, C2g
 
 
 def _node_frames(dofs: _Dofs, V: np.ndarray, W: np.ndarray | None, ids: Sequence[int],

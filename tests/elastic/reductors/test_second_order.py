@@ -334,3 +334,19 @@ def test_parametric_mixing_mixes_the_field() -> None:
     first = ffrf_mix(ffrf_stack([one, two]), np.array([1.0, 0.0]))
     np.testing.assert_allclose(ffrf_body_mass(first, q), ffrf_body_mass(one, q), rtol=1e-14,
                                atol=1e-14)
+
+
+def test_a_second_order_field_must_fit_its_body():
+    """``A`` (ny, nq, nq) and the extended body of ``nq + ny`` coordinates (equations.md
+    §2.3): a field of another size is one DataError naming ``quad.A``."""
+    *_, A, inv, _ = _cloud()
+    q = inv.quadratic
+    with pytest.raises(DataError, match="extended body") as exc:
+        QuadraticField(q.body, A[:1])
+    assert exc.value.item == "quad.A"
+    with pytest.raises(DataError, match="finite"):
+        QuadraticField(q.body, A[:, :, :2])
+    other = _cloud(nq=2)[5].quadratic            # a field of 2 elastic coordinates
+    with pytest.raises(DataError, match="second-order field") as exc:
+        replace(inv, quadratic=other)
+    assert exc.value.item == "quad.A"
