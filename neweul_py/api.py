@@ -18,7 +18,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Literal
 
-from .cache import cache_dir, import_verified, trusted_dir, verified_bytes, write_cached
+from .cache import (
+    cache_dir,
+    import_verified,
+    trusted_dir,
+    trusted_entry,
+    verified_bytes,
+    write_cached,
+)
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
@@ -294,16 +301,47 @@ def _generate_cached(description_path: str | os.PathLike[str], out_dir: str | os
 
     _check_form(form)
     parsed = _parsed(description_path)
-    source = verified_bytes(_cache_entry(parsed, description_path, form, cache, sensitivities))
-    name = None
-    if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(parsed.raw):
+    raw = parsed.raw
+    path = _cache_entry(parsed, description_path, form, cache, sensitivities)
+    source = verified_bytes(path)
+    name = data = None
+    if source is not None and _constant_of(source, "SOURCE_HASH") == _sha256(raw):
         name = _constant_of(source, "MODEL_NAME")
-    if not isinstance(name, str):
+        data = _cached_data(path, source)
+    if not isinstance(name, str) or data is False:
         entry = _cached_source(description_path, form, cache, parsed=parsed,
                                sensitivities=sensitivities)
         source, name = entry.source, (entry.module.MODEL_NAME if entry.module is not None
                                       else entry.equations().system.name)
+        data = _cached_data(entry.path, source)
+        if data is False:
+            raise NeweulError(f"{path}: the data file of the cached module does not verify")
+    if data is not None:        # the data file first: the module names it (codegen/module.py)
+        atomic_write(Path(out_dir) / data[0], data[1])
     return atomic_write(Path(out_dir) / f"{name}.py", source)
+
+
+def _data_file_of(source: bytes) -> tuple[str, str] | None:
+    """The data file a module text names (``_DATA_FILE``, ``_DATA_SHA256``), or ``None``."""
+    name, digest = _constant_of(source, "_DATA_FILE"), _constant_of(source, "_DATA_SHA256")
+    if not isinstance(name, str) or not isinstance(digest, str):
+        return None
+    return name, digest
+
+
+def _cached_data(path: Path, source: bytes) -> tuple[str, bytes] | bool | None:
+    """The name and verified bytes of the data file of the cached module ``path``
+    (``source``: its verified text), ``None`` when it names none, ``False`` when the data file
+    is missing or does not verify (:func:`~neweul_py.cache.verified_bytes`)."""
+    named = _data_file_of(source)
+    if named is None:
+        return None
+    if Path(named[0]).name != named[0]:
+        return False
+    content = verified_bytes(path.parent / named[0])
+    if content is None or _sha256(content) != named[1]:
+        return False
+    return named[0], content
 
 
 def _check_backend(backend: str) -> None:
@@ -315,9 +353,8 @@ def _with_backend(path: Path, backend: str, equations: Any, rebuild: bool = Fals
                   progress: StagedProgress = None, cached: bool = False) -> Path:
     """The module of ``backend`` for the NumPy module ``path``: ``path`` itself, or the
     compiled module next to it (written from ``equations()`` unless present, and loaded once,
-    which builds its library). Models the C backend cannot compile (parametric elastic
-    bodies, bodies of more than ``MAX_EXPANDED_MODES`` modes) keep the NumPy module, with one
-    warning.
+    which builds its library). A model the C backend cannot print keeps the NumPy module,
+    with one warning.
 
     ``cached``: ``path`` is a cache entry. The compiled module's files (wrapper, core and
     Jacobian C sources) then carry SHA-256 sidecars like the NumPy entry (:mod:`.cache`); a
@@ -506,22 +543,28 @@ def _cached_source(description_path: str | os.PathLike[str], form: Form,
         return _derive_tree(parsed.tree, form, progress)
 
     source = verified_bytes(path)
-    if source is not None:
+    named = None if source is None else _data_file_of(source)
+    if source is not None and (named is None or (
+            Path(named[0]).name == named[0]
+            and trusted_entry(path.parent / named[0], named[1]))):
         # here, not above: a miss derives and writes without the analysis layer (NumPy)
         from .analysis.module import check_protocol
 
-        try:
+        try:    # (a module with elastic bodies hashes its data file as it maps it)
             module = import_verified(path, source)
             check_protocol(module, str(path))
             if module.SOURCE_HASH == _sha256(raw):
                 return _Entry(path, source, module, derive_now)
         except NeweulError:
             pass  # a damaged cache entry is regenerated
-    from .codegen import render_module
+    from .codegen.module import render_files
 
     equations = derive_now()
-    source = render_module(equations, _sha256(raw), sensitivities=sensitivities,
-                           progress=progress).encode("utf-8")
+    files = render_files(equations, _sha256(raw), sensitivities=sensitivities,
+                         progress=progress)
+    if files.data is not None:          # the data file first, with its sidecar like the module
+        write_cached(path.parent / files.data.name, files.data.content)
+    source = files.text.encode("utf-8")
     write_cached(path, source)
     return _Entry(path, source, None, derive_now, equations)
 
@@ -640,8 +683,10 @@ def export_fmu(
     """Export a description as an FMI 2.0 FMU (docs/fmu-export.md).
 
     Everything that would make the export fail is checked before any derivation: the path
-    (``.fmu``), the kind, a C compiler and this platform, inputs without a numeric default and
-    parametric elastic bodies (:func:`neweul_py.codegen.fmu_model.export_problems`).
+    (``.fmu``), the kind, a C compiler and this platform, inputs without a numeric default
+    (:func:`neweul_py.codegen.fmu_model.export_problems`). Elastic bodies (parametric ones
+    too) are compiled as the compiled backend traces them, their arrays in the FMU's
+    ``resources/``.
 
     Parameters
     ----------
@@ -669,7 +714,7 @@ def export_fmu(
     Raises
     ------
     DescriptionError
-        An input without a numeric default, a parametric elastic body (naming its key).
+        An input without a numeric default (naming its key).
     NeweulError
         A path that is not ``.fmu``, no compiler, an unsupported platform, constraints whose
         reactions differ from their Jacobian (two-sided elastic node frames), no regular

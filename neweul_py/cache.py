@@ -40,6 +40,7 @@ __all__ = [
     "import_verified",
     "sha256_hex",
     "trusted_dir",
+    "trusted_entry",
     "verified_bytes",
     "write_cached",
 ]
@@ -153,6 +154,31 @@ def verified_bytes(path: str | os.PathLike[str], expected_sha256: str | None = N
               "regenerating it")
         return None
     return raw
+
+
+def trusted_entry(path: str | os.PathLike[str], expected_sha256: str) -> bool:
+    """Whether the cached file ``path`` may be handed to a reader that checks its bytes
+    itself: a regular file of this user, writable by nobody else, whose sidecar records
+    ``expected_sha256``. Its bytes are *not* read here: the data file of a generated module
+    is hashed by the module as it maps it (:func:`neweul_py.ffrf.data_file.ffrf_load_data`),
+    once. ``False`` (with one :class:`CacheWarning` when the file exists) otherwise."""
+    path = Path(path)
+    if not os.path.lexists(path):
+        return False
+    side = path.with_name(path.name + SIDECAR_SUFFIX)
+    try:
+        st = os.lstat(path)
+        recorded = read_checked(side, "digest", 200, own=True).decode("ascii").strip()
+    except (OSError, NeweulError, UnicodeDecodeError):
+        _warn(f"cache entry {path} has no readable digest of its own; regenerating it")
+        return False
+    why = "not a regular file" if not stat.S_ISREG(st.st_mode) else not_own(st)
+    if why is None and recorded != expected_sha256:
+        why = "recorded with another SHA-256 than its module names"
+    if why is not None:
+        _warn(f"cache entry {path} is {why}; regenerating it")
+        return False
+    return True
 
 
 def write_cached(path: str | os.PathLike[str], data: bytes | str) -> str:

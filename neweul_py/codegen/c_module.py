@@ -32,21 +32,28 @@ from typing import Any
 import sympy as sp
 
 from ..atomic import atomic_write
-from ..equations.elastic_expanded import expanded_equations
-from ..errors import GenerationError
-from ..model import time
 from ..progress import StagedProgress
-from .c_printer import CPrinter, DotRows
+from .c_functions import (
+    MMTD_ARGS,
+    X_ARGS,
+    X_PROLOGUE,
+    Y_ARGS,
+    YYD_ARGS,
+    SymbolGroups,
+    big,
+    c_body,
+    c_function,
+    x_prologue,
+)
+from .c_printer import DotRows
 from .c_solve import c_solver, constant_block
+from .c_splice import render_elastic_sources
 from .c_templates import C_DOPRI5, C_LU, C_SUPPORT_DECLARATIONS
-from .cse import Block, free_symbols
+from .cse import Block
 from .writer import program_blocks
 
-__all__ = ["c_module_path", "compiled_program", "core_declarations", "jacobian_declarations",
+__all__ = ["c_module_path", "core_declarations", "jacobian_declarations",
            "render_c_sources", "render_c_wrapper", "write_c_module"]
-
-_IN = "    "
-
 
 def c_module_path(numpy_path: str | os.PathLike[str]) -> Path:
     """``<dir>/<name>_c.py`` for the NumPy module ``<dir>/<name>.py``."""
@@ -54,166 +61,26 @@ def c_module_path(numpy_path: str | os.PathLike[str]) -> Path:
     return p.with_name(f"{p.stem}_c.py")
 
 
-class _Groups:
-    """The symbol groups of the equations and their C names (array elements, ``t``)."""
-
-    def __init__(self, equations: Any) -> None:
-        self.y = tuple(equations.coordinates)
-        self.yd = tuple(equations.velocities)
-        self.p = tuple(equations.parameters)
-        self.u = tuple(equations.inputs)
-        self.a = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(len(self.y)))
-        self.names: dict[sp.Symbol, str] = {time: "t"}
-        for group, arr in ((self.y, "y"), (self.yd, "yd"), (self.p, "p"), (self.u, "u"),
-                           (self.a, "a")):
-            for i, s in enumerate(group):
-                self.names[s] = f"{arr}[{i}]"
+_MF_SIGNATURE = f"nw_mf({YYD_ARGS}, int full)"
 
 
-def _uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
-    gs = set(group)
-    return any(free_symbols(e) & gs for _, e in block.assignments) or any(
-        free_symbols(e) & gs for e in block.finals
-    )
-
-
-def _body(g: _Groups, block: Block, target: str, what: str,
-          dots: DotRows | None = None, optional: frozenset[int] = frozenset()) -> list[str]:
-    """Statements computing ``block``: locals ``w<k>`` (those the finals read, directly or
-    through other locals), then ``target[i] = final_i``
-    (zeros by ``memset``; repeated finals — symmetric mass entries — computed once); long
-    linear combinations of ``y``, ``yd``, ``a`` as rows of ``dots``, one product per array
-    at the top (:meth:`.c_printer.DotRows.batch`). The finals ``optional`` are written only
-    ``if (full)`` (a flag of the function: the constant block that the block elimination of
-    ``rhs`` never reads, :mod:`.c_solve`)."""
-    names = dict(g.names)
-    assignments, finals = block.assignments, block.finals
-    for k, (s, _) in enumerate(assignments):
-        names[s] = f"w{k}"
-    pr = CPrinter(names, dots, _scaled_locals(g, assignments) if dots else None)
-    lines: list[str] = []
-    if g.u and _uses(block, g.u):
-        lines.append("NW_DEFAULT_INPUTS;")
-    try:
-        printed = []                          # (local, its line, the locals it reads)
-        for k, (s, e) in enumerate(assignments):
-            pr.used = set()
-            printed.append((s, f"const double w{k} = {pr.doprint_expr(e)};", pr.used))
-        pr.used = set()
-        finals_at = len(lines)
-        if any(f == 0 for f in finals):
-            lines.append(f"memset({target}, 0, {len(finals)} * sizeof(double));")
-        constant = _constant_runs(finals)
-        for i, run in constant.items():
-            cond = "if (full) " if optional.issuperset(range(i, i + len(run))) else ""
-            lines.append(f"{cond}{{ static const double c[{len(run)}] = "
-                         f"{{{', '.join(pr.doprint_expr(v) for v in run)}}};")
-            lines.append(f"  memcpy({target} + {i}, c, sizeof c); }}")
-        skip = {i + k for i, run in constant.items() for k in range(len(run))}
-        first: dict[sp.Basic, int] = {}
-        for i, f in enumerate(finals):
-            if f == 0 or i in skip:
-                continue
-            if i in optional:                 # (never the source of a copy)
-                lines.append(f"if (full) {target}[{i}] = {pr.doprint_expr(f)};")
-                continue
-            if not f.is_Atom and f in first:
-                lines.append(f"{target}[{i}] = {target}[{first[f]}];")
-                continue
-            first.setdefault(f, i)
-            lines.append(f"{target}[{i}] = {pr.doprint_expr(f)};")
-    except GenerationError as exc:
-        raise GenerationError(f"{what}: {exc}") from None
-    # only the locals something reads: a shared term c·q_k that every row reads as the
-    # number c times q_k (DotRows) would be an unused variable of the C text
-    needed = pr.used
-    for s, _line, reads in reversed(printed):
-        if s in needed:
-            needed |= reads
-    lines[finals_at:finals_at] = [line for s, line, _reads in printed if s in needed]
-    return dots.batch(lines) if dots is not None else lines
-
-
-#: Shortest run of consecutive numeric finals copied from a table (constant ``Mee`` rows).
-MIN_RUN = 8
-
-
-def _constant_runs(finals: Sequence[sp.Basic]) -> dict[int, list[sp.Basic]]:
-    """Start → values of the runs of at least :data:`MIN_RUN` consecutive nonzero numbers."""
-    runs: dict[int, list[sp.Basic]] = {}
-    start = None
-    for i, f in enumerate([*finals, sp.S.Zero]):
-        if f.is_Number and f != 0:
-            start = i if start is None else start
-            continue
-        if start is not None and i - start >= MIN_RUN:
-            runs[start] = list(finals[start:i])
-        start = None
-    return runs
-
-
-def _scaled_locals(g: _Groups, assignments: Sequence[tuple[sp.Symbol, sp.Expr]]
-                       ) -> dict[sp.Symbol, tuple[sp.Number, sp.Symbol]]:
-    """Locals ``w = c·v`` with ``v`` a parameter (hoisted constant factors, codegen/cse.py)
-    or an element of ``y``, ``ẏ``, ``a`` (the CSE's shared terms ``w_i = c_i q_i``): within
-    a sum ``Σ c_i w ẏ_i`` or ``Σ_i w_i`` the printer reads them as ``c·v``, so that the sum
-    is one linear combination of ``ẏ`` or ``q`` again (:class:`.c_printer.DotRows`; the
-    shared terms' sums as rows were slower than adding the products while each row was its
-    own dot product, 1.19 → 1.48 µs, and are faster since the rows of a function are one
-    product). Substituting the locals into the expressions instead took seconds for long
-    rigid chains."""
-    params = set(g.p) | set(g.y) | set(g.yd) | set(g.a)
-    return {s: e.args for s, e in assignments
-            if e.is_Mul and len(e.args) == 2 and e.args[0].is_Number and e.args[1] in params}
-
-
-#: Derivative functions with more locals than this are compiled without optimization
-#: (``optimize("O0")``): gcc's optimizing passes grow faster than linearly with the size of a
-#: function (chain N = 10: 5.8 s → 1.7 s of compile time; the Jacobian 10 → 16 µs, still
-#: 30× faster than the NumPy module's).
-BIG_FUNCTION = 1000
-
-
-def _function(signature: str, body: Sequence[str], quick: bool = False,
-              static: bool = False) -> list[str]:
-    attr = "__attribute__((optimize(\"O0\"))) " if quick else ""
-    attr += "static " if static else ""
-    return [f"{attr}int {signature}", "{", *(_IN + b for b in body), _IN + "return 0;", "}",
-            ""]
-
-
-def _big(block: Block) -> bool:
-    return len(block.assignments) > BIG_FUNCTION
-
-
-_Y_ARGS = "double t, const double *y, const double *p, const double *u, double *out"
-_YYD_ARGS = ("double t, const double *y, const double *yd, const double *p, const double *u, "
-             "double *out")
-_X_ARGS = "double t, const double *x, const double *p, const double *u, double *out"
-_X_PROLOGUE = ["const double *y = x;", "const double *yd = x + NW_N;"]
-
-
-def _x_prologue(g: _Groups, block: Block) -> list[str]:
-    """The lines of :data:`_X_PROLOGUE` that ``block`` reads (no unused variables)."""
-    return [line for line, group in zip(_X_PROLOGUE, (g.y, g.yd), strict=True)
-            if _uses(block, group)]
-_MF_SIGNATURE = f"nw_mf({_YYD_ARGS}, int full)"
-_MMTD_ARGS = ("double t, const double *y, const double *p, const double *a, const double *u, "
-              "double *out")
+#: The cffi declaration of the binding of the data file's arrays (models with elastic bodies,
+#: :mod:`.c_splice`).
+BIND_DECLARATION = "int nw_bind(int count, const double *const *data, const long *sizes);\n"
 
 
 def core_declarations() -> str:
     """cffi declarations of the core library (``<name>_c.c``)."""
     return "\n".join([
         "int nw_default_inputs(double t, const double *p, double *out);",
-        f"int nw_mass_matrix({_Y_ARGS});",
-        f"int nw_force_vector({_YYD_ARGS});",
-        f"int nw_rhs({_X_ARGS});",
-        f"int nw_outputs({_X_ARGS});",
-        f"int nw_constraints({_Y_ARGS});",
-        f"int nw_constraint_jacobian({_Y_ARGS});",
-        f"int nw_constraint_time_derivative({_Y_ARGS});",
-        f"int nw_constraint_gamma({_YYD_ARGS});",
+        f"int nw_mass_matrix({Y_ARGS});",
+        f"int nw_force_vector({YYD_ARGS});",
+        f"int nw_rhs({X_ARGS});",
+        f"int nw_outputs({X_ARGS});",
+        f"int nw_constraints({Y_ARGS});",
+        f"int nw_constraint_jacobian({Y_ARGS});",
+        f"int nw_constraint_time_derivative({Y_ARGS});",
+        f"int nw_constraint_gamma({YYD_ARGS});",
     ]) + C_SUPPORT_DECLARATIONS
 
 
@@ -221,14 +88,14 @@ def jacobian_declarations(loss: bool = False) -> str:
     """cffi declarations of the derivative library (``<name>_c_jac.c``); ``loss``: with the
     hysteretic matrix ``nw_loss_matrix`` of models with loss factors."""
     return "\n".join([
-        f"int nw_force_jacobians({_YYD_ARGS});",
-        f"int nw_mass_matrix_times_derivative({_MMTD_ARGS});",
-        f"int nw_rhs_jacobian({_X_ARGS});",
-        f"int nw_output_jacobians({_X_ARGS});",
-        *([f"int nw_loss_matrix({_X_ARGS});"] if loss else []),
-        f"int nw_force_parameter_jacobian({_YYD_ARGS});",
-        f"int nw_mass_matrix_parameter_derivative({_MMTD_ARGS});",
-        f"int nw_output_parameter_jacobian({_X_ARGS});",
+        f"int nw_force_jacobians({YYD_ARGS});",
+        f"int nw_mass_matrix_times_derivative({MMTD_ARGS});",
+        f"int nw_rhs_jacobian({X_ARGS});",
+        f"int nw_output_jacobians({X_ARGS});",
+        *([f"int nw_loss_matrix({X_ARGS});"] if loss else []),
+        f"int nw_force_parameter_jacobian({YYD_ARGS});",
+        f"int nw_mass_matrix_parameter_derivative({MMTD_ARGS});",
+        f"int nw_output_parameter_jacobian({X_ARGS});",
     ]) + "\n"
 
 
@@ -287,7 +154,7 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     ``q − k``) are the larger part of the program (chain N = 10: 70 % of it) and are built on
     their first use.
     """
-    g = _Groups(equations)
+    g = SymbolGroups(equations)
     n, nu = len(g.y), len(g.u)
     lu_protos = ["static int nw_lu(int n, double *a, int *piv);",
                  "static void nw_lu_solve(int n, const double *lu, const int *piv, int m, "
@@ -305,74 +172,74 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
     # entries unread)
     dots = DotRows(n)  # the rows of both files
     mf = [
-        *_function(_MF_SIGNATURE,
-                   _body(g, blocks["rhs"], "out", "the right-hand side", dots, unread),
+        *c_function(_MF_SIGNATURE,
+                   c_body(g, blocks["rhs"], "out", "the right-hand side", dots, unread),
                    static=True),
-        *_function(f"nw_mass_matrix({_Y_ARGS})", [
+        *c_function(f"nw_mass_matrix({Y_ARGS})", [
             "double yd[NW_N] = {0}, mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf, 1);",
             "memcpy(out, mf, NW_N * NW_N * sizeof(double));"]),
-        *_function(f"nw_force_vector({_YYD_ARGS})", [
+        *c_function(f"nw_force_vector({YYD_ARGS})", [
             "double mf[NW_N * NW_N + NW_N];", "nw_mf(t, y, yd, p, u, mf, 0);",
             "memcpy(out, mf + NW_N * NW_N, NW_N * sizeof(double));"]),
     ]
-    inputs = _body(g, blocks["default_inputs"], "out", "the default inputs", dots)
+    inputs = c_body(g, blocks["default_inputs"], "out", "the default inputs", dots)
 
     core_head = _head(model_name, "Equations of motion", n, nu, [
         core_declarations(), f"static int {_MF_SIGNATURE};", *lu_protos,
         "static int nw_solve1(double *a, double *b);"])
     core = list(core_head)
-    core += _function("nw_default_inputs(double t, const double *p, double *out)", inputs)
+    core += c_function("nw_default_inputs(double t, const double *p, double *out)", inputs)
     core += mf
-    core += _function(f"nw_rhs({_X_ARGS})", [
-        *_X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];",
+    core += c_function(f"nw_rhs({X_ARGS})", [
+        *X_PROLOGUE, "double mf[NW_N * NW_N + NW_N];",
         "nw_mf(t, y, yd, p, u, mf, 0);",
         "if (nw_solve1(mf, mf + NW_N * NW_N)) return 1;",
         "memcpy(out, yd, NW_N * sizeof(double));",
         "memcpy(out + NW_N, mf + NW_N * NW_N, NW_N * sizeof(double));",
     ])
-    core += _function(f"nw_outputs({_X_ARGS})",
-                      [*_x_prologue(g, blocks["outputs"]),
-                       *_body(g, blocks["outputs"], "out", "the outputs", dots)])
-    for name, args in (("constraints", _Y_ARGS), ("constraint_jacobian", _Y_ARGS),
-                       ("constraint_time_derivative", _Y_ARGS),
-                       ("constraint_gamma", _YYD_ARGS)):
-        core += _function(f"nw_{name}({args})",
-                          _body(g, blocks[name], "out", name.replace("_", " "), dots))
+    core += c_function(f"nw_outputs({X_ARGS})",
+                      [*x_prologue(g, blocks["outputs"]),
+                       *c_body(g, blocks["outputs"], "out", "the outputs", dots)])
+    for name, args in (("constraints", Y_ARGS), ("constraint_jacobian", Y_ARGS),
+                       ("constraint_time_derivative", Y_ARGS),
+                       ("constraint_gamma", YYD_ARGS)):
+        core += c_function(f"nw_{name}({args})",
+                          c_body(g, blocks[name], "out", name.replace("_", " "), dots))
     core += [C_LU, solve, C_DOPRI5]
 
     jac_head = _head(model_name, "Derivatives of the equations of motion", n, nu, [
         jacobian_declarations("loss_matrix" in blocks),
         "static int nw_default_inputs(double t, const double *p, double *out);",
         f"static int {_MF_SIGNATURE};",
-        f"static int nw_mass_matrix({_Y_ARGS});",
-        f"static int nw_force_vector({_YYD_ARGS});", *lu_protos])
+        f"static int nw_mass_matrix({Y_ARGS});",
+        f"static int nw_force_vector({YYD_ARGS});", *lu_protos])
     jac = list(jac_head)
-    jac += _function("nw_default_inputs(double t, const double *p, double *out)", inputs,
+    jac += c_function("nw_default_inputs(double t, const double *p, double *out)", inputs,
                      static=True)
     jac += [line.replace("int nw_mass_matrix(", "static int nw_mass_matrix(")
             .replace("int nw_force_vector(", "static int nw_force_vector(") for line in mf]
     b = blocks["force_jacobians"]
-    jac += _function(f"nw_force_jacobians({_YYD_ARGS})",
-                     _body(g, b, "out", "the force Jacobians", dots), _big(b))
+    jac += c_function(f"nw_force_jacobians({YYD_ARGS})",
+                     c_body(g, b, "out", "the force Jacobians", dots), big(b))
     b = blocks["mass_matrix_times_derivative"]
-    jac += _function(f"nw_mass_matrix_times_derivative({_MMTD_ARGS})",
-                     _body(g, b, "out", "∂(M a)/∂y", dots), _big(b))
+    jac += c_function(f"nw_mass_matrix_times_derivative({MMTD_ARGS})",
+                     c_body(g, b, "out", "∂(M a)/∂y", dots), big(b))
     jac += [C_LU, solve_factored, _RHS_JACOBIAN]   # (nw_fac before its use)
     b = blocks["output_jacobians"]
-    jac += _function(f"nw_output_jacobians({_X_ARGS})", [
-        *_x_prologue(g, b), *_body(g, b, "out", "the output Jacobians", dots)], _big(b))
+    jac += c_function(f"nw_output_jacobians({X_ARGS})", [
+        *x_prologue(g, b), *c_body(g, b, "out", "the output Jacobians", dots)], big(b))
     if "loss_matrix" in blocks:       # the hysteretic matrix G (equations.md §1.1)
         b = blocks["loss_matrix"]
-        jac += _function(f"nw_loss_matrix({_X_ARGS})", [
-            *_x_prologue(g, b), *_body(g, b, "out", "the loss matrix", dots)], _big(b))
+        jac += c_function(f"nw_loss_matrix({X_ARGS})", [
+            *x_prologue(g, b), *c_body(g, b, "out", "the loss matrix", dots)], big(b))
     # the parameter derivatives (docs/sensitivity.md)
-    for name, args, what in (("force_parameter_jacobian", _YYD_ARGS, "∂(q−k)/∂p"),
-                             ("mass_matrix_parameter_derivative", _MMTD_ARGS, "∂(M a)/∂p"),
-                             ("output_parameter_jacobian", _X_ARGS, "∂out/∂p")):
+    for name, args, what in (("force_parameter_jacobian", YYD_ARGS, "∂(q−k)/∂p"),
+                             ("mass_matrix_parameter_derivative", MMTD_ARGS, "∂(M a)/∂p"),
+                             ("output_parameter_jacobian", X_ARGS, "∂out/∂p")):
         b = blocks[name]
-        head = _x_prologue(g, b) if args == _X_ARGS else []
-        jac += _function(f"nw_{name}({args})", [*head, *_body(g, b, "out", what, dots)],
-                         _big(b))
+        head = x_prologue(g, b) if args == X_ARGS else []
+        jac += c_function(f"nw_{name}({args})", [*head, *c_body(g, b, "out", what, dots)],
+                          big(b))
     # nw_rows (the products of the rows) right after the declarations of each file
     core[len(core_head):len(core_head)] = dots.helper()
     jac[len(jac_head):len(jac_head)] = dots.helper()
@@ -381,17 +248,21 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
 
 def render_c_wrapper(
     model_name: str, numpy_name: str, c_files: dict[str, str], sizes: dict[str, int],
+    data: tuple[str, ...] = (),
 ) -> str:
     """The Python text of the wrapper module (see :mod:`.c_runtime` for the loading rules).
 
     ``c_files`` maps ``"core"`` and ``"jac"`` to ``(file name, SHA-256)`` pairs joined by a
-    space.
+    space; ``data``: the keys of the twin's data-file arrays the libraries are bound to
+    (``nw_bind``, models with elastic bodies).
     """
     here = Path(__file__).parent
     runtime = (here / "c_runtime.py").read_text(encoding="utf-8")
     runtime = runtime.split("# ---- runtime begins\n", 1)[1]
     template = (here / "c_wrapper_template.py").read_text(encoding="utf-8")
     template = template.split("# ---- template begins\n", 1)[1]
+    cdef = (core_declarations() + jacobian_declarations(bool(sizes.get("loss")))
+            + (BIND_DECLARATION if data else ""))
     core_name, core_sha = c_files["core"].split(" ")
     jac_name, jac_sha = c_files["jac"].split(" ")
     settings = "\n".join([
@@ -402,7 +273,8 @@ def render_c_wrapper(
         f"_C_JAC_FILE = {jac_name!r}",
         f"_C_JAC_SHA256 = {jac_sha!r}",
         *(f"_{k.upper()} = {v!r}" for k, v in sizes.items()),
-        f"_CDEF = {core_declarations() + jacobian_declarations(bool(sizes.get('loss')))!r}",
+        f"_C_DATA = {data!r}",
+        f"_CDEF = {cdef!r}",
     ])
     header = (
         f'"""Equations of motion of the model {model_name!r}, compiled: generated by '
@@ -414,25 +286,6 @@ def render_c_wrapper(
         'loaded (BACKEND tells which).\n"""\n'
     )
     return header + runtime + "\n# ---- module settings\n" + settings + "\n" + template
-
-
-def compiled_program(equations: Any, *, cse: bool = True, progress: StagedProgress = None
-                     ) -> tuple[Any, dict[str, Block]]:
-    """The equations the C backend compiles and their programs (:func:`render_c_sources`).
-
-    Elastic bodies are expanded into closed expressions first
-    (:func:`~neweul_py.equations.elastic_expanded.expanded_equations`), so the equations
-    returned are in the independent coordinates (the module's ``COORDINATES``).
-
-    Raises
-    ------
-    GenerationError
-        Parametric elastic bodies, too many elastic coordinates, unprintable expressions.
-    """
-    if getattr(equations, "elastic", None) is not None:
-        # the kernel's terms as closed expressions (equations/elastic_expanded.py)
-        equations = expanded_equations(equations)
-    return equations, program_blocks(equations, cse=cse, progress=progress)
 
 
 def write_c_module(
@@ -458,29 +311,35 @@ def write_c_module(
     Raises
     ------
     GenerationError
-        For elastic bodies that cannot be expanded (parametric, too many modes:
-        :func:`~neweul_py.equations.elastic_expanded.expanded_equations`) or unprintable
-        expressions.
+        For expressions that cannot be printed, or a kernel operation that cannot be traced
+        (:mod:`.c_splice`).
     """
     system = equations.system
-    equations, blocks = compiled_program(equations, cse=cse, progress=progress)
-    core, jac = render_c_sources(equations, blocks, system.name)
+    data: tuple[str, ...] = ()
+    if getattr(equations, "elastic", None) is not None:
+        # the kernel traced on its data, which are bound at load time (codegen/c_splice.py)
+        src = render_elastic_sources(equations, system.name, cse=cse)
+        core, jac, data = src.core, src.jac, src.data
+        sizes = {**src.sizes, "loss": 0}
+    else:
+        blocks = program_blocks(equations, cse=cse, progress=progress)
+        core, jac = render_c_sources(equations, blocks, system.name)
+        ce = getattr(equations, "constraints", None)
+        sizes = {
+            "n": len(equations.coordinates),
+            "nu": len(equations.inputs),
+            "np": len(equations.parameters),
+            "ny": len(equations.outputs),
+            "nc": 0 if ce is None else int(ce.nc),
+            "loss": int("loss_matrix" in blocks),
+        }
     numpy_path = Path(numpy_path)
     wrapper = c_module_path(numpy_path)
     c_path = wrapper.with_suffix(".c")
     jac_path = wrapper.with_name(f"{wrapper.stem}_jac.c")
     files = {"core": f"{c_path.name} {hashlib.sha256(core.encode()).hexdigest()}",
              "jac": f"{jac_path.name} {hashlib.sha256(jac.encode()).hexdigest()}"}
-    ce = getattr(equations, "constraints", None)
-    sizes = {
-        "n": len(equations.coordinates),
-        "nu": len(equations.inputs),
-        "np": len(equations.parameters),
-        "ny": len(equations.outputs),
-        "nc": 0 if ce is None else int(ce.nc),
-        "loss": int("loss_matrix" in blocks),
-    }
-    py = render_c_wrapper(system.name, numpy_path.name, files, sizes)
+    py = render_c_wrapper(system.name, numpy_path.name, files, sizes, data)
     atomic_write(c_path, core)
     atomic_write(jac_path, jac)
     return atomic_write(wrapper, py)

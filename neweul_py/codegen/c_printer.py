@@ -92,9 +92,9 @@ class DotRows:
     A sum with at least :attr:`least` terms ``c_i · v[i] · r`` (``c_i`` numbers, ``v`` one of
     the state-sized arrays ``y``, ``ẏ``, ``a`` of length ``n``, the same factor ``r``) prints as
     ``r*nw_dot(NW_T + k, v)`` (``k``: the row's offset, :meth:`offset`) instead of as many
-    multiplications by literals. The expanded terms of elastic bodies (``Ke q``, ``ω² Kσ q``,
-    ``Ct¹ q`` …, equations/elastic_expanded.py) are such sums; as straight-line code they are
-    tens of kB of instructions that are fetched anew at every call from Python.
+    multiplications by literals. Long linear combinations of coordinates (the closed forms of
+    spring chains, for one) are such sums; as straight-line code they are tens of kB of
+    instructions that are fetched anew at every call from Python.
 
     :meth:`batch` then turns the rows one function uses into one matrix–vector product per
     array at its top — a column-major table over the columns in use, read by the loop

@@ -55,10 +55,32 @@ __attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *pi
     return 0;
 }
 
-/* solve A X = B for m right-hand sides; b is row-major n x m, overwritten by X */
+/* solve A X = B for m right-hand sides; b is row-major n x m, overwritten by X (one
+   right-hand side: dot products along the rows of the factors, two partial sums) */
 __attribute__((always_inline)) static inline void nw_lu_solve(int n, const double *lu,
                                                               const int *piv, int m, double *b)
 {
+    if (m == 1) {
+        for (int k = 0; k < n; ++k)
+            if (piv[k] != k) { double s = b[k]; b[k] = b[piv[k]]; b[piv[k]] = s; }
+        for (int i = 1; i < n; ++i) {
+            const double *r = lu + (long)i * n;
+            double s0 = 0.0, s1 = 0.0;
+            int k = 0;
+            for (; k + 2 <= i; k += 2) { s0 += r[k] * b[k]; s1 += r[k + 1] * b[k + 1]; }
+            for (; k < i; ++k) s0 += r[k] * b[k];
+            b[i] -= s0 + s1;
+        }
+        for (int i = n - 1; i >= 0; --i) {
+            const double *r = lu + (long)i * n;
+            double s0 = 0.0, s1 = 0.0;
+            int k = i + 1;
+            for (; k + 2 <= n; k += 2) { s0 += r[k] * b[k]; s1 += r[k + 1] * b[k + 1]; }
+            for (; k < n; ++k) s0 += r[k] * b[k];
+            b[i] = (b[i] - (s0 + s1)) * (1.0 / r[i]);
+        }
+        return;
+    }
     for (int k = 0; k < n; ++k)
         if (piv[k] != k)
             for (int j = 0; j < m; ++j) {

@@ -14,6 +14,11 @@ fresh arrays; ``u=None`` is passed as ``NULL``: the library evaluates the defaul
 itself. A singular mass matrix raises ``numpy.linalg.LinAlgError`` like ``numpy.linalg.solve``.
 The derivative library is built (or verified) at the first call of a Jacobian function; if it
 cannot be had, those functions fall back to the twin's, with one warning.
+
+Models with elastic bodies (``_C_DATA`` not empty): each library is bound to the arrays of
+the twin's data file (``nw_bind``, the twin's ``_DATA`` by the keys of ``_C_DATA``, no
+copies) right after loading; a schedule outside the sampled range (the library's code 3) is
+reported by calling the twin, whose message names the body, the value and the range.
 """
 
 from pathlib import Path as _Path
@@ -22,6 +27,7 @@ from .c_runtime import BackendUnavailable, compiled_library, load_twin
 
 _MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _CDEF = ""
 _N = _NU = _NP = _NY = _NC = _LOSS = 0
+_C_DATA: tuple = ()
 
 # ---- template begins
 import threading as _threading  # noqa: E402
@@ -39,18 +45,36 @@ default_parameters = _twin.default_parameters
 # protocol functions the library does not implement: the twin's (energy, poses of the frames,
 # the reaction Jacobian G_R = G_s S_W of modules with elastic bodies — the library's
 # constraint_jacobian is G = G_s S_V, which differs from it at node frames of two-sided bodies —
-# and the directional second derivatives of docs/sensitivity.md)
+# the directional second derivatives of docs/sensitivity.md, and for modules with elastic
+# bodies the loss matrix)
 for _name in ("energy", "frame_poses", "body_properties", "node_positions",
               "constraint_reaction_jacobian", "default_inputs_parameter_jacobian",
               "force_jacobians_directional", "mass_matrix_directional",
               "mass_matrix_times_derivative_directional", "output_jacobians_directional",
-              "loss_matrix_directional"):
+              "loss_matrix_directional", *(("loss_matrix",) if _C_DATA else ())):
     if callable(getattr(_twin, _name, None)):
         globals()[_name] = getattr(_twin, _name)
+_BOUND = []     # the pointers bound into the libraries, kept alive with the module
+
+
+def _bind(ffi, lib):
+    """Bind ``lib`` to the twin's data-file arrays ``_C_DATA`` (models with elastic bodies)."""
+    if not _C_DATA:
+        return lib
+    arrays = [_twin._DATA[k] for k in _C_DATA]
+    views = [ffi.from_buffer("double[]", a) for a in arrays]
+    pointers = ffi.new("const double *[]", [ffi.cast("const double *", v) for v in views])
+    sizes = ffi.new("long[]", [int(a.size) for a in arrays])
+    if lib.nw_bind(len(arrays), pointers, sizes):
+        raise BackendUnavailable("the library does not accept the data file's arrays")
+    _BOUND.append((arrays, views, pointers, sizes))
+    return lib
+
 
 try:
     _ffi, _lib, _note = compiled_library(_HERE / _C_FILE, _C_SHA256, _CDEF,
                                          _HERE / "__neweul_c__")
+    _bind(_ffi, _lib)
 except BackendUnavailable as _exc:
     _ffi = _lib = None
     BACKEND = "numpy"
@@ -88,6 +112,9 @@ if _lib is None:
 else:
     _fb = _ffi.from_buffer
     _NULL = _ffi.NULL
+    # the libraries of models with elastic bodies keep state between calls (the mixed samples,
+    # the factorization of the elastic block) and release the GIL: one call at a time
+    _lock = _threading.Lock()
     _as = _np.ascontiguousarray
     _f8 = _np.float64
 
@@ -100,24 +127,41 @@ else:
     def _inputs(u):
         return _NULL if u is None else _arr(u, _NU, "u")
 
+    def _failed(code, twin_call):
+        """A call of the library returned ``code``: 1 — a singular mass matrix; 3 — a schedule
+        outside its samples (the twin raises its ``ValueError`` naming the body and range)."""
+        if code == 1:
+            raise _np.linalg.LinAlgError("Singular matrix")
+        if code == 3:
+            twin_call()
+            raise ValueError(f"model {_MODEL_NAME!r}: a schedule outside the sampled range")
+        raise RuntimeError(f"model {_MODEL_NAME!r}: the compiled library failed ({code})")
+
     def default_inputs(t, p):
         """The default excitation ``u(t)`` of the description."""
         out = _np.empty(_NU)
-        _lib.nw_default_inputs(float(t), _arr(p, _NP, "p"), _fb("double[]", out))
+        with _lock:
+            _lib.nw_default_inputs(float(t), _arr(p, _NP, "p"), _fb("double[]", out))
         return out
 
     def mass_matrix(t, y, p, u=None):
         """Mass matrix ``M(y, t)``, shape (n, n)."""
         out = _np.empty((_N, _N))
-        _lib.nw_mass_matrix(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"), _inputs(u),
-                            _fb("double[]", out))
+        with _lock:
+            code = _lib.nw_mass_matrix(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"), _inputs(u),
+                                       _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.mass_matrix(t, y, p, u))
         return out
 
     def force_vector(t, y, yd, p, u=None):
         """Generalized forces ``q − k``, shape (n,)."""
         out = _np.empty(_N)
-        _lib.nw_force_vector(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
-                             _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        with _lock:
+            code = _lib.nw_force_vector(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+                                        _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.force_vector(t, y, yd, p, u))
         return out
 
     # rhs is the hot path of every integrator: its arguments are copied into one buffer
@@ -127,7 +171,7 @@ else:
     _rx, _ro, _rp = _rbuf[:_S], _rbuf[_S:2 * _S], _rbuf[2 * _S:]
     _rxp = _fb("double[]", _rbuf)
     _rop, _rpp = _rxp + _S, _rxp + 2 * _S
-    _rlock = _threading.Lock()
+    _rlock = _lock
     _nw_rhs = _lib.nw_rhs
 
     def rhs(t, x, p, u=None):
@@ -141,9 +185,10 @@ else:
         with _rlock:
             _rx[...] = x
             _rp[...] = p
-            if _nw_rhs(float(t), _rxp, _rpp, up, _rop):
-                raise _np.linalg.LinAlgError("Singular matrix")
-            return _ro.copy()
+            code = _nw_rhs(float(t), _rxp, _rpp, up, _rop)
+            if not code:
+                return _ro.copy()
+        _failed(code, lambda: _twin.rhs(t, x, p, u))
 
     _jac = []
 
@@ -153,6 +198,7 @@ else:
             try:
                 _, lib, note = compiled_library(_HERE / _C_JAC_FILE, _C_JAC_SHA256, _CDEF,
                                                 _HERE / "__neweul_c__", ffi=_ffi)
+                _bind(_ffi, lib)
             except BackendUnavailable as exc:
                 lib, note = None, (f"compiled derivatives unavailable ({exc}); using those of "
                                    f"the NumPy module {_TWIN_FILE}")
@@ -167,8 +213,11 @@ else:
         if lib is None:
             return _twin.force_jacobians(t, y, yd, p, u)
         out = _np.empty((_N, 2 * _N + _NU))
-        lib.nw_force_jacobians(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
-                                _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        with _lock:
+            code = lib.nw_force_jacobians(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+                                          _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.force_jacobians(t, y, yd, p, u))
         return out[:, :_N], out[:, _N:2 * _N], out[:, 2 * _N:]
 
     def mass_matrix_times_derivative(t, y, p, a, u=None):
@@ -177,9 +226,12 @@ else:
         if lib is None:
             return _twin.mass_matrix_times_derivative(t, y, p, a, u)
         out = _np.empty((_N, _N))
-        lib.nw_mass_matrix_times_derivative(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"),
-                                             _arr(a, _N, "a"), _inputs(u),
-                                             _fb("double[]", out))
+        with _lock:
+            code = lib.nw_mass_matrix_times_derivative(float(t), _arr(y, _N, "y"),
+                                                       _arr(p, _NP, "p"), _arr(a, _N, "a"),
+                                                       _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.mass_matrix_times_derivative(t, y, p, a, u))
         return out
 
     def rhs_jacobian(t, x, p, u=None):
@@ -188,16 +240,21 @@ else:
         if lib is None:
             return _twin.rhs_jacobian(t, x, p, u)
         out = _np.empty((_S, _S))
-        if lib.nw_rhs_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
-                                _fb("double[]", out)):
-            raise _np.linalg.LinAlgError("Singular matrix")
+        with _lock:
+            code = lib.nw_rhs_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+                                       _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.rhs_jacobian(t, x, p, u))
         return out
 
     def outputs(t, x, p, u=None):
         """The outputs, ordered as ``OUTPUTS``."""
         out = _np.empty(_NY)
-        _lib.nw_outputs(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
-                        _fb("double[]", out))
+        with _lock:
+            code = _lib.nw_outputs(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
+                                   _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.outputs(t, x, p, u))
         return out
 
     def output_jacobians(t, x, p, u=None):
@@ -206,8 +263,11 @@ else:
         if lib is None:
             return _twin.output_jacobians(t, x, p, u)
         out = _np.empty((_NY, _S + _NU))
-        lib.nw_output_jacobians(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"), _inputs(u),
-                                 _fb("double[]", out))
+        with _lock:
+            code = lib.nw_output_jacobians(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"),
+                                           _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.output_jacobians(t, x, p, u))
         return out[:, :_S], out[:, _S:]
 
     if _LOSS:
@@ -227,8 +287,12 @@ else:
         if lib is None:
             return _twin.force_parameter_jacobian(t, y, yd, p, u)
         out = _np.empty((_N, _NP))
-        lib.nw_force_parameter_jacobian(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
-                                        _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        with _lock:
+            code = lib.nw_force_parameter_jacobian(float(t), _arr(y, _N, "y"),
+                                                   _arr(yd, _N, "yd"), _arr(p, _NP, "p"),
+                                                   _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.force_parameter_jacobian(t, y, yd, p, u))
         return out
 
     def mass_matrix_parameter_derivative(t, y, p, a, u=None):
@@ -237,9 +301,12 @@ else:
         if lib is None:
             return _twin.mass_matrix_parameter_derivative(t, y, p, a, u)
         out = _np.empty((_N, _NP))
-        lib.nw_mass_matrix_parameter_derivative(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"),
-                                                _arr(a, _N, "a"), _inputs(u),
-                                                _fb("double[]", out))
+        with _lock:
+            code = lib.nw_mass_matrix_parameter_derivative(float(t), _arr(y, _N, "y"),
+                                                           _arr(p, _NP, "p"), _arr(a, _N, "a"),
+                                                           _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.mass_matrix_parameter_derivative(t, y, p, a, u))
         return out
 
     def rhs_parameter_jacobian(t, x, p, u=None):
@@ -263,32 +330,43 @@ else:
         if lib is None:
             return _twin.output_parameter_jacobian(t, x, p, u)
         out = _np.empty((_NY, _NP))
-        lib.nw_output_parameter_jacobian(float(t), _arr(x, _S, "x"), _arr(p, _NP, "p"),
-                                         _inputs(u), _fb("double[]", out))
+        with _lock:
+            code = lib.nw_output_parameter_jacobian(float(t), _arr(x, _S, "x"),
+                                                    _arr(p, _NP, "p"), _inputs(u),
+                                                    _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.output_parameter_jacobian(t, x, p, u))
         return out
 
-    def _positional(fn, size, t, y, p, u):
+    def _positional(name, size, t, y, p, u):
         out = _np.empty(size)
-        fn(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        with _lock:
+            code = getattr(_lib, f"nw_{name}")(float(t), _arr(y, _N, "y"), _arr(p, _NP, "p"),
+                                                _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: getattr(_twin, name)(t, y, p, u))
         return out
 
     def constraints(t, y, p, u=None):
         """Holonomic constraints ``g(y, t)``, ordered as ``CONSTRAINTS``."""
-        return _positional(_lib.nw_constraints, _NC, t, y, p, u)
+        return _positional("constraints", _NC, t, y, p, u)
 
     def constraint_jacobian(t, y, p, u=None):
         """``G = ∂g/∂y``, shape (nc, n), analytic."""
-        return _positional(_lib.nw_constraint_jacobian, (_NC, _N), t, y, p, u)
+        return _positional("constraint_jacobian", (_NC, _N), t, y, p, u)
 
     def constraint_time_derivative(t, y, p, u=None):
         """``∂g/∂t`` (explicit time dependence, through inputs), shape (nc,)."""
-        return _positional(_lib.nw_constraint_time_derivative, _NC, t, y, p, u)
+        return _positional("constraint_time_derivative", _NC, t, y, p, u)
 
     def constraint_gamma(t, y, yd, p, u=None):
         """``γ`` with ``G ÿ + γ = 0``, shape (nc,)."""
         out = _np.empty(_NC)
-        _lib.nw_constraint_gamma(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
-                                 _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        with _lock:
+            code = _lib.nw_constraint_gamma(float(t), _arr(y, _N, "y"), _arr(yd, _N, "yd"),
+                                            _arr(p, _NP, "p"), _inputs(u), _fb("double[]", out))
+        if code:
+            _failed(code, lambda: _twin.constraint_gamma(t, y, yd, p, u))
         return out
 
     def integrate_dopri5(t_start, t_end, x0, p, t_eval, u=None, rtol=1e-6, atol=1e-9,
@@ -306,8 +384,9 @@ else:
         x_eval = _np.full((te.size, _S), _np.nan)
         nfev = _ffi.new("long *")
         reached = _ffi.new("double *")
-        status = _lib.nw_integrate_dopri5(
-            float(t_start), float(t_end), _arr(x0, _S, "x0"), _arr(p, _NP, "p"), _inputs(u),
-            float(rtol), float(atol), float(max_step), te.size, _fb("double[]", te),
-            _fb("double[]", x_eval), nfev, reached)
+        with _lock:
+            status = _lib.nw_integrate_dopri5(
+                float(t_start), float(t_end), _arr(x0, _S, "x0"), _arr(p, _NP, "p"),
+                _inputs(u), float(rtol), float(atol), float(max_step), te.size,
+                _fb("double[]", te), _fb("double[]", x_eval), nfev, reached)
         return x_eval, int(nfev[0]), int(status), float(reached[0])

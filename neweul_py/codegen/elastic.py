@@ -12,18 +12,21 @@ The module of a model with elastic bodies is put together from
    :data:`neweul_py.ffrf.splice.SPLICE_FUNCTIONS` (their splice into ``M``, ``q − k``, the
    Jacobians, outputs, energies and constraints), so that the generated code runs the same
    functions as the package and stays importable with NumPy alone;
-3. the numeric data: per body its flat invariant arrays
-   (:data:`~neweul_py.ffrf.schema.KERNEL_ARRAYS`, base64 of the zlib-compressed
-   little-endian float64 bytes, ``ffrf_pack``), the node-coordinate maps ``S_V``, ``S_W``
-   and ``_MASS_PATTERN``: the rows and columns of the symbolic part's mass matrix that are
-   not zero by construction (so that ``S_Wᵀ M_s S_V`` needs no search for them per call) and
-   ``_KIN_PATTERN``, the hidden outputs not zero by construction (together they show whether
-   the elastic block of ``M`` is constant, :func:`~neweul_py.ffrf.splice.ffrf_block`);
+3. the data, **by reference**: the prepared bodies of
+   :func:`~neweul_py.ffrf.splice.ffrf_bodies` (for a parametric body its stacked samples),
+   the node-coordinate maps ``S_V``, ``S_W`` and the node clouds go to the data file
+   (:class:`DataFile`, :mod:`neweul_py.ffrf.data_file`); the module holds their skeleton
+   ``_ELASTIC`` (arrays replaced by references), the file's name, SHA-256 and schema, and
+   loads and checks it at import. ``_MASS_PATTERN`` lists the rows and columns of the
+   symbolic part's mass matrix that are not zero by construction (so that ``S_Wᵀ M_s S_V``
+   needs no search for them per call) and ``_KIN_PATTERN`` the hidden outputs not zero by
+   construction (together they show whether the elastic block of ``M`` is constant,
+   :func:`~neweul_py.ffrf.splice.ffrf_block`);
 4. one-line protocol functions that call the splice with the module's context ``_FFRF``.
 
 Nothing is derived here and no rendered text is edited: parts are selected, renamed and
-added. The text depends only on the equations, the arrays and the kernel's source, so
-regeneration is byte-identical.
+added. The text and the data file depend only on the equations, the arrays and the kernel's
+source, so regeneration is byte-identical.
 """
 
 from __future__ import annotations
@@ -31,7 +34,9 @@ from __future__ import annotations
 import ast
 import dataclasses
 import functools
+import hashlib
 import inspect
+import pprint
 from pathlib import Path
 from typing import Any
 
@@ -45,15 +50,53 @@ from ..ffrf import (
     MAX_BLOCK_CONDITION,
     PROTOCOL,
     SPLICE_FUNCTIONS,
-    ffrf_pack,
+    ffrf_bodies,
+    ffrf_cloud,
 )
 from ..ffrf.body import ffrf_loss_matrix
+from ..ffrf.data_file import (
+    DATA_FUNCTIONS,
+    ArrayStore,
+    ElasticDataError,
+    data_file_bytes,
+    ffrf_split,
+    schema_of,
+)
 from ..ffrf.parametric import weight_polynomials
 from ..progress import StagedProgress
 from .blocks import units
 from .writer import ModuleParts, module_parts
 
-__all__ = ["elastic_module_parts"]
+__all__ = ["DataFile", "data_file_name", "elastic_module_parts"]
+
+
+@dataclasses.dataclass(frozen=True)
+class DataFile:
+    """The data file of a module with elastic bodies (:mod:`neweul_py.ffrf.data_file`).
+
+    Attributes
+    ----------
+    name
+        Its file name, next to the module (:func:`data_file_name`).
+    content
+        Its bytes.
+    sha256
+        Their SHA-256 (hex), recorded in the module.
+    arrays
+        The arrays it holds, by key (the same as reading ``content`` gives).
+    """
+
+    name: str
+    content: bytes
+    sha256: str
+    arrays: dict[str, np.ndarray] = dataclasses.field(repr=False)
+
+
+def data_file_name(model: str, sha256: str) -> str:
+    """``<model>.<first 16 hex digits of its SHA-256>.npz``: a regenerated module with other
+    data names another file, so the module and the data it was generated with stay a pair
+    until the new module replaces the old one."""
+    return f"{model}.{sha256[:16]}.npz"
 
 #: Functions of the symbolic part that the splice calls (the others are not emitted).
 _RIGID_USED = ("rhs_parts", "mass_matrix", "force_vector", "force_jacobians",
@@ -63,49 +106,37 @@ _RIGID_USED = ("rhs_parts", "mass_matrix", "force_vector", "force_jacobians",
                "mass_matrix_parameter_derivative", "output_parameter_jacobian")
 
 
-def _arrays(data: Any, indent: str, keys: tuple[str, ...]) -> list[str]:
-    """``key: packed array`` lines of the kernel arrays of one flat data set."""
-    lines = [f"{indent}'m': {float(data['m'])!r},",
-             f"{indent}'two_sided': {bool(data['two_sided'])!r},"]
-    for key in keys:
-        arr = data.get(key)
-        if arr is not None:
-            lines.append(f"{indent}{key!r}: {ffrf_pack(arr)!r},")
-    return lines
-
-
-def _body_entry(splice: Any, first: int, offset: int) -> list[str]:
-    """Source lines of one body's entry of ``_ELASTIC_DATA`` (per sample for parametric
-    bodies, with the sample values and the weight polynomials)."""
+def _entry(splice: Any, first: int, offset: int) -> dict[str, Any]:
+    """One body's entry for :func:`~neweul_py.ffrf.splice.ffrf_bodies`: its flat kernel
+    arrays (per data set for parametric bodies, with the sample values and the weight
+    polynomials)."""
     b = splice.body
-    lines = ["    {", f"        'name': {b.name!r},", f"        'first': {first},",
-             f"        'kin': {offset},", f"        'inertia': {b.inertia!r},"]
+    entry: dict[str, Any] = {"name": b.name, "first": first, "kin": offset,
+                             "inertia": b.inertia}
     datasets = b.datasets
     # order-1/2 parts that are zero in every sample are left out (absent means zero)
     keys = tuple(k for k in KERNEL_ARRAYS if not k.endswith((".m1", ".m2"))
                  or any(k in d and np.any(d[k]) for d in datasets))
     if splice.elastic_rows_only:
         # a frame that never moves and no stiffening: the elastic rows alone (§2.2)
-        lines.append("        'fixed': True,")
+        entry["fixed"] = True
         keys = FIXED_ARRAYS
+
+    def flat(d: Any) -> dict[str, Any]:
+        out = {"m": float(d["m"]), "two_sided": bool(d["two_sided"])}
+        out.update({k: np.asarray(d[k], dtype=np.float64) for k in keys if d.get(k) is not None})
+        return out
+
     if not b.parametric:
-        return [*lines, *_arrays(b.data, "        ", keys), "    },"]
+        entry.update(flat(b.data))
+        return entry
     breaks, coeff = weight_polynomials(np.asarray(b.sample_values, dtype=np.float64),
                                        b.interpolation, b.coordinate)
-    lines += [f"        'values': {ffrf_pack(breaks)!r},",
-              f"        'coeff': {ffrf_pack(coeff)!r},",
-              "        'samples': ("]
-    for d in b.samples:
-        lines += ["            {", *_arrays(d, "                ", keys), "            },"]
-    lines.append("        ),")
+    entry.update(values=breaks, coeff=coeff, samples=[flat(d) for d in b.samples])
     for what in ("slopes", "curvatures"):   # Hermite weights: the samples' derivatives (§4.2)
         if getattr(b, what):
-            lines.append(f"        '{what}': (")
-            for d in getattr(b, what):
-                lines += ["            {", *_arrays(d, "                ", keys),
-                          "            },"]
-            lines.append("        ),")
-    return [*lines, "    },"]
+            entry[what] = [flat(d) for d in getattr(b, what)]
+    return entry
 
 
 def _symmetric(splices: tuple[Any, ...]) -> bool:
@@ -143,29 +174,63 @@ def _wrapper(name: str, splice_fn: Any) -> tuple[str, ...]:
             f"    return {splice_fn.__name__}(ffrf_at(_FFRF, t, p, {state}, u), {call})")
 
 
-def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[str]:
-    """``_NODES``: per elastic body the node positions and translations ``Φ`` of its data
-    (``nodes.origin.m0``, ``nodes.phi``; per sample for parametric bodies), its reference
-    frame's index in ``FRAMES`` (−1: ISYS) and its elastic coordinates."""
-    lines = ["_NODES = ("]
-    k = 0
+def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[dict[str, Any]]:
+    """Per elastic body the entry of ``node_positions`` (:func:`~neweul_py.ffrf.splice.
+    ffrf_node_positions`): its node cloud (:func:`~neweul_py.ffrf.splice.ffrf_cloud`; per
+    data set for parametric bodies), its reference frame's index in ``FRAMES`` (−1: ISYS),
+    its elastic coordinates and, for a parametric body, the index of its schedule."""
+    out, k = [], 0
     for s, first in zip(el.splices, firsts, strict=True):
         b = s.body
-        lines += ["    {", f"        'name': {b.name!r},",
-                  f"        'frame': {frames.index(b.frame) if b.frame in frames else -1},",
-                  f"        'first': {first},", f"        'nq': {b.nq},"]
-        datasets = b.datasets             # the slopes' clouds follow the samples' (§4.2)
-        clouds = [f"{{'origin': {ffrf_pack(d['nodes.origin.m0'][:, :, 0])!r}, "
-                  f"'phi': {ffrf_pack(d['nodes.phi'])!r}}}" for d in datasets]
+        entry = {"name": b.name, "frame": frames.index(b.frame) if b.frame in frames else -1,
+                 "first": first, "nq": b.nq}
         if b.parametric:
             values, coeff = weight_polynomials(np.asarray(b.sample_values, dtype=np.float64),
                                                b.interpolation, b.coordinate)
-            lines += [f"        'k': {k},", f"        'values': {ffrf_pack(values)!r},",
-                      f"        'coeff': {ffrf_pack(coeff)!r},"]
+            entry.update(k=k, cloud=ffrf_cloud(b.datasets, values, coeff))
             k += 1
-        lines += ["        'samples': (", *(f"            {c}," for c in clouds), "        ),",
-                  "    },"]
-    return [*lines, ")"]
+        else:
+            entry["cloud"] = ffrf_cloud(b.datasets)
+        out.append(entry)
+    return out
+
+
+def _literal(name: str, value: Any) -> tuple[str, ...]:
+    """``name = value`` as source lines (``pprint``: deterministic, dict order kept)."""
+    return tuple(f"{name} = {pprint.pformat(value, width=96, sort_dicts=False)}".splitlines())
+
+
+def _owners(el: Any) -> dict[str, str]:
+    """What the first component of a data file key names, in the module's error messages."""
+    names = ", ".join(repr(s.body.name) for s in el.splices)
+    every = f"elastic bod{'ies' if len(el.splices) > 1 else 'y'} {names}"
+    return {"": every, "_splice": f"the node maps of the {every}",
+            **{s.body.name: f"elastic body {s.body.name!r}" for s in el.splices}}
+
+
+def elastic_data(equations: Any, a_idx: list[int], true_index: dict[int, int]
+                 ) -> tuple[dict[str, Any], DataFile]:
+    """The skeletons of the prepared bodies, the node maps and the node clouds
+    (:func:`~neweul_py.ffrf.data_file.ffrf_split`) and the data file holding their arrays."""
+    el = equations.elastic
+    store = ArrayStore()
+    entries = [_entry(s, true_index[s.first], off)
+               for s, off in zip(el.splices, el.offsets, strict=True)]
+    parts = [(v[:, a_idx], w[:, a_idx]) for v, w in el.parts]
+    bodies = ffrf_bodies(entries, parts)
+    skeleton: dict[str, Any] = {
+        "bodies": [ffrf_split(b, b["name"], store) for b in bodies],
+        "SV": ffrf_split(np.asarray(el.SV[a_idx], dtype=np.float64), "_splice/SV", store),
+        "SW": ffrf_split(np.asarray(el.SW[a_idx], dtype=np.float64), "_splice/SW", store),
+    }
+    if equations.poses:
+        clouds = _node_clouds(el, list(equations.poses.frames),
+                              [true_index[s.first] for s in el.splices])
+        skeleton["nodes"] = [ffrf_split(c, f"{c['name']}/nodes", store) for c in clouds]
+    content = data_file_bytes(store.arrays)
+    digest = hashlib.sha256(content).hexdigest()
+    name = data_file_name(equations.system.name, digest)
+    return skeleton, DataFile(name, content, digest, store.arrays)
 
 
 #: ``node_positions`` of a module with elastic bodies: the node clouds of ``_NODES``, moved by
@@ -176,7 +241,7 @@ _NODE_POSITIONS = (
     'in ISYS."""',
     "    x = _np.asarray(x, dtype=_np.float64)",
     "    r, R = frame_poses(t, x, p, u)",
-    "    return ffrf_node_positions(_FFRF, _NODES, r, R, t, x, p, u)",
+    "    return ffrf_node_positions(_FFRF, _ELASTIC['nodes'], r, R, t, x, p, u)",
 )
 
 
@@ -200,28 +265,18 @@ def kernel_source(fn: Any) -> tuple[str, ...]:
     return _module_functions(inspect.getsourcefile(fn))[fn.__name__]
 
 
-def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
-                         progress: StagedProgress = None) -> ModuleParts:
-    """The parts of the module of a system with elastic bodies (module docstring).
-
-    Parameters
-    ----------
-    equations
-        :class:`~neweul_py.equations.Equations` with ``elastic`` set.
-    source_hash
-        SHA-256 of the description.
-    cse, progress
-        Passed to :func:`.writer.module_parts`.
-    """
+def symbolic_part(equations: Any) -> Any:
+    """The equations of the symbolic part of a model with elastic bodies: the active
+    (non-elastic) coordinates, and as hidden outputs (after the model's own) the frame
+    kinematics of every body (:meth:`~neweul_py.equations.elastic.ElasticSplice.expressions`)."""
     el = equations.elastic
-    system = equations.system
     a_idx = list(el.active)
     names = list(equations.output_names)
     hidden = [f"_elastic_{i}" for i in range(len(el.hidden))]
     ce = equations.constraints
     if ce is not None:
         ce = dataclasses.replace(ce, G=ce.G[:, a_idx])
-    symbolic = dataclasses.replace(
+    return dataclasses.replace(
         equations,
         coordinates=tuple(equations.coordinates[j] for j in a_idx),
         velocities=tuple(equations.velocities[j] for j in a_idx),
@@ -236,6 +291,36 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         loss_matrix=None if equations.loss_matrix is None
         else equations.loss_matrix[a_idx, a_idx],
     )
+
+
+def patterns(symbolic: Any, hidden: Any) -> tuple[tuple[list[int], list[int]], list[int]]:
+    """The rows and columns of the symbolic part's mass matrix that are not zero by
+    construction, and the hidden outputs (frame kinematics) that are not."""
+    Ms = symbolic.mass_matrix
+    mass = ([i for i in range(Ms.rows) if any(e != 0 for e in Ms.row(i))],
+            [j for j in range(Ms.cols) if any(e != 0 for e in Ms.col(j))])
+    return mass, [i for i, e in enumerate(hidden) if e != 0]
+
+
+def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
+                         progress: StagedProgress = None) -> tuple[ModuleParts, DataFile]:
+    """The parts of the module of a system with elastic bodies (module docstring) and its
+    data file.
+
+    Parameters
+    ----------
+    equations
+        :class:`~neweul_py.equations.Equations` with ``elastic`` set.
+    source_hash
+        SHA-256 of the description.
+    cse, progress
+        Passed to :func:`.writer.module_parts`.
+    """
+    el = equations.elastic
+    system = equations.system
+    a_idx = list(el.active)
+    names = list(equations.output_names)
+    symbolic = symbolic_part(equations)
     rigid = module_parts(symbolic, source_hash, cse=cse, prefix="_rigid_", allow_empty=True,
                          schedules=el.schedules, schedule_jacobians=el.schedule_jacobians,
                          schedule_parameter_jacobian=el.schedule_parameter_jacobian,
@@ -257,23 +342,17 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                                    and _symmetric(el.splices)
                                    and bool(np.array_equal(el.SV, el.SW))),
     )
-    data = ["_ELASTIC_DATA = ("]
-    for s, off in zip(el.splices, el.offsets, strict=True):
-        data += _body_entry(s, true_index[s.first], off)
-    data.append(")")
-    parts = ", ".join(f"({ffrf_pack(v[:, a_idx])!r}, {ffrf_pack(w[:, a_idx])!r})"
-                      for v, w in el.parts)
-    Ms = symbolic.mass_matrix
-    pattern = ([i for i in range(Ms.rows) if any(e != 0 for e in Ms.row(i))],
-               [j for j in range(Ms.cols) if any(e != 0 for e in Ms.col(j))])
+    skeleton, data = elastic_data(equations, a_idx, true_index)
+    mass_pattern, kin_pattern = patterns(symbolic, el.hidden)
     private = (*rigid.private, f"_NS = {len(a_idx)}",
-               f"_MASS_PATTERN = ({pattern[0]!r}, {pattern[1]!r})",
-               f"_KIN_PATTERN = {[i for i, e in enumerate(el.hidden) if e != 0]!r}",
-               f"_SV = {ffrf_pack(el.SV[a_idx])!r}", f"_SW = {ffrf_pack(el.SW[a_idx])!r}",
-               f"_PARTS = ({parts}{',' if len(el.parts) == 1 else ''})", *data,
-               *(_node_clouds(el, list(equations.poses.frames),
-                                [true_index[s.first] for s in el.splices])
-                 if equations.poses else ()))
+               f"_MASS_PATTERN = ({mass_pattern[0]!r}, {mass_pattern[1]!r})",
+               f"_KIN_PATTERN = {kin_pattern!r}",
+               "# the elastic arrays are in the data file next to this module, checked at import",
+               f"_DATA_FILE = {data.name!r}",
+               f"_DATA_SHA256 = {data.sha256!r}",
+               *_literal("_DATA_SCHEMA", schema_of(data.arrays)),
+               *_literal("_DATA_OWNERS", _owners(el)),
+               *_literal("_ELASTIC", skeleton))
 
     functions = {k: rigid.functions[k] for k in ("default_parameters", "default_inputs",
                                                   "default_inputs_parameter_jacobian")}
@@ -282,13 +361,20 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     if el.schedules:
         for name in ("schedule", "schedule_jacobians", "schedule_parameter_jacobian"):
             functions[f"_rigid_{name}"] = rigid.functions[name]
-    for fn in (*KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
+    functions["ElasticDataError"] = tuple(
+        inspect.getsource(ElasticDataError).rstrip("\n").splitlines())
+    for fn in (*DATA_FUNCTIONS, *KERNEL_FUNCTIONS, *SPLICE_FUNCTIONS):
         functions[fn.__name__] = kernel_source(fn)
     rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in used)
+    functions["_DATA"] = (
+        "_DATA = ffrf_load_data(os.path.dirname(os.path.abspath(__file__)), _DATA_FILE,",
+        "                       _DATA_SHA256, _DATA_SCHEMA, _DATA_OWNERS)",
+        "_ELASTIC = ffrf_restore(_ELASTIC, _DATA)")
     functions["_FFRF"] = (
-        "_FFRF = ffrf_system(_ELASTIC_DATA, _NS, _SV, _SW, len(OUTPUTS),",
+        "_FFRF = ffrf_system(_ELASTIC['bodies'], _NS, _ELASTIC['SV'], _ELASTIC['SW'],",
+        "                    len(OUTPUTS),",
         f"                    {{{rigid_map}}},",
-        "                    default_inputs, _PARTS,",
+        "                    default_inputs,",
         f"                    {'_rigid_schedule' if el.schedules else 'None'},",
         f"                    {'_rigid_schedule_jacobians' if el.schedules else 'None'},",
         f"                    _MASS_PATTERN, _KIN_PATTERN, {float(MAX_BLOCK_CONDITION)!r},",
@@ -315,10 +401,12 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                        for s in el.splices)
     return rigid.with_(
         docstring=(*rigid.docstring, "", f"Elastic bodies: {bodies}; the floating-frame "
-                   "kernel (neweul_py.ffrf) is embedded below."),
-        imports=("import base64", "import math as _math", "import struct as _struct",
-                 "import zlib", "", "import numpy as _np", "import numpy as np"),
+                   "kernel (neweul_py.ffrf) is embedded below,", f"their arrays are in the "
+                   f"data file {data.name} next to this module (checked at import)."),
+        imports=("import hashlib", "import math as _math", "import mmap", "import os",
+                 "import struct", "import struct as _struct", "", "import numpy as _np",
+                 "import numpy as np"),
         constants=constants,
         private=private,
         functions=functions,
-    )
+    ), data

@@ -8,6 +8,9 @@
   :func:`.c_module.render_c_sources` prints them), ``model.h``
   (:func:`.fmu_model.model_header`), the FMI layer ``neweul_fmi2.c`` and the FMI 2.0 headers
   (Modelica Association, BSD 2-clause; ``sources/LICENSE_fmi2.txt``);
+* ``resources/NAME.bin`` with elastic bodies: the float64 arrays the model's C is bound to at
+  instantiation (``nw_bind``; :class:`.fmu_model.ElasticData`), the C being the kernel traced
+  as the compiled backend traces it (:mod:`.c_splice`);
 * ``binaries/<platform>/NAME.so`` (``.dylib`` on macOS), built from ``sources/`` by the
   system C compiler (``CC``, ``cc`` or ``gcc``) with the flags of the compiled backend and
   hidden visibility for everything but the ``fmi2…`` functions.
@@ -31,12 +34,16 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..atomic import atomic_write
 from ..errors import GenerationError, NeweulError
 from ..progress import StagedProgress, Steps
-from .c_module import compiled_program, render_c_sources
+from .c_module import render_c_sources
 from .c_runtime import C_FLAGS
-from .fmu_model import FmuModel, model_description, model_header
+from .c_splice import render_elastic_sources
+from .fmu_model import ElasticData, FmuModel, model_description, model_header
+from .writer import program_blocks
 
 __all__ = ["binary_platform", "find_compiler", "write_fmu"]
 
@@ -110,6 +117,30 @@ def _zip(entries: dict[str, bytes]) -> bytes:
     return buf.getvalue()
 
 
+def _model_sources(equations: Any, model: FmuModel, progress: StagedProgress
+                   ) -> tuple[str, str, ElasticData | None]:
+    """The C sources of the model (``model.c``, ``model_jac.c``) and, with elastic bodies, the
+    data they are bound to: the kernel traced as the compiled backend traces it
+    (:func:`.c_splice.render_elastic_sources`), its arrays for ``resources/``."""
+    if getattr(equations, "elastic", None) is None:
+        blocks = program_blocks(equations, progress=progress)
+        names = [str(s) for s in equations.coordinates]
+        if names != [v.name for v in model.coordinates]:
+            raise GenerationError(f"the FMU's coordinates {[v.name for v in model.coordinates]}"
+                                  f" are not those of the compiled equations {names}")
+        core, jac = render_c_sources(equations, blocks, model.name)
+        return core, jac, None
+    src = render_elastic_sources(equations, model.name)
+    if src.sizes["n"] != len(model.coordinates):
+        raise GenerationError(f"the FMU has {len(model.coordinates)} coordinates, the compiled "
+                              f"equations {src.sizes['n']}")
+    # one binary: the derivatives' translation unit is bound under its own name
+    jac = src.jac.replace("int nw_bind(", "int nw_bind_jac(", 1)
+    content = b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in src.arrays)
+    return src.core, jac, ElasticData(f"{model.name}.bin", content,
+                                      tuple(int(a.size) for a in src.arrays))
+
+
 def write_fmu(equations: Any, model: FmuModel, path: str | os.PathLike[str],
               kinds: Sequence[str] = ("me", "cs"), *, tool: str = "neweul-py",
               progress: StagedProgress = None) -> Path:
@@ -118,8 +149,8 @@ def write_fmu(equations: Any, model: FmuModel, path: str | os.PathLike[str],
     Parameters
     ----------
     equations
-        The symbolic equations of the model (elastic bodies are expanded, as for the compiled
-        backend).
+        The symbolic equations of the model (elastic bodies are traced, as for the compiled
+        backend, their arrays go to ``resources/``).
     model
         Its variables (:func:`.fmu_model.fmu_model`), in the coordinates of the compiled
         equations.
@@ -147,19 +178,18 @@ def write_fmu(equations: Any, model: FmuModel, path: str | os.PathLike[str],
     """
     cc = find_compiler()
     folder, suffix = binary_platform()
-    compiled, blocks = compiled_program(equations, progress=progress)
-    names = [str(s) for s in compiled.coordinates]
-    if names != [v.name for v in model.coordinates]:
-        raise GenerationError(f"the FMU's coordinates {[v.name for v in model.coordinates]} "
-                              f"are not those of the compiled equations {names}")
+    core, jac, data = _model_sources(equations, model, progress)
     step = Steps(progress, "FMU", 3)
-    core, jac = render_c_sources(compiled, blocks, model.name)
     glue = (_HERE / "neweul_fmi2.c").read_text(encoding="utf-8")
     draft = model_description(model, "", kinds, (), tool)
-    guid = _guid(core, jac, glue, draft, model_header(model, "", kinds))
+    guid = _guid(core, jac, glue, draft, model_header(model, "", kinds, data),
+                 *(() if data is None else (data.content.hex(),)))
     c_files = ("model.c", "model_jac.c", "neweul_fmi2.c")
-    sources = {"model.c": core, "model_jac.c": jac, "model.h": model_header(model, guid, kinds)}
+    sources = {"model.c": core, "model_jac.c": jac,
+               "model.h": model_header(model, guid, kinds, data)}
     entries = {f"sources/{k}": v.encode() for k, v in sources.items()}
+    if data is not None:
+        entries[f"resources/{data.name}"] = data.content
     for f in _FIXED:
         entries[f"sources/{f}"] = (_HERE / f).read_bytes()
     entries["sources/LICENSE_fmi2.txt"] = (_HERE / "LICENSE.txt").read_bytes()

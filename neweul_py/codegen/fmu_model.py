@@ -24,6 +24,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+import numpy as np
 import sympy as sp
 
 from ..model import (
@@ -35,8 +36,8 @@ from ..model import (
 )
 from .c_templates import C_DOPRI5_TABLEAU, C_LU
 
-__all__ = ["KINDS", "FmuModel", "FmuVariable", "export_problems", "fmi_unit", "fmu_model",
-           "model_description", "model_header"]
+__all__ = ["KINDS", "ElasticData", "FmuModel", "FmuVariable", "export_problems", "fmi_unit",
+           "fmu_model", "model_description", "model_header"]
 
 #: FMU kinds of ``neweul export --kind``: model exchange, co-simulation, or one FMU with both.
 KINDS: dict[str, tuple[str, ...]] = {"me": ("me",), "cs": ("cs",), "both": ("me", "cs")}
@@ -71,6 +72,36 @@ class FmuVariable:
     unit: str = ""
     description: str = ""
     derivative: int | None = None
+
+
+@dataclass(frozen=True)
+class ElasticData:
+    """The elastic bodies' arrays of an FMU, in ``resources/`` (docs/fmu-export.md).
+
+    Attributes
+    ----------
+    name
+        The file name in ``resources/``.
+    content
+        The arrays as little-endian float64, one after the other, in the order the model's
+        ``nw_bind`` takes them.
+    sizes
+        The number of elements of each array.
+    """
+
+    name: str
+    content: bytes
+    sizes: tuple[int, ...]
+
+    @property
+    def checksums(self) -> tuple[int, int]:
+        """``(Σ w_i, Σ (i + 1) w_i) mod 2⁶⁴`` of the 64-bit words ``w_i`` of ``content``
+        (little-endian): the FMU refuses a file whose sums differ (a changed, shifted or
+        swapped word changes them; an integrity check, not a signature)."""
+        w = np.frombuffer(self.content, dtype="<u8").astype(np.uint64)
+        i = np.arange(1, w.size + 1, dtype=np.uint64)
+        with np.errstate(over="ignore"):
+            return int(w.sum(dtype=np.uint64)), int((w * i).sum(dtype=np.uint64))
 
 
 @dataclass(frozen=True)
@@ -158,8 +189,7 @@ def export_problems(system: System) -> list[tuple[str, str]]:
 
     * an input whose default is not a number (or an expression of parameters): an FMU's
       inputs are driven by the importer from a start value, so a default excitation in time
-      (``F0*sin(Omega*t)``, a table) would be lost without a word;
-    * parametric elastic bodies, which the compiled backend does not expand.
+      (``F0*sin(Omega*t)``, a table) would be lost without a word.
     """
     problems: list[tuple[str, str]] = []
     params = {p.symbol for p in system.parameters}
@@ -171,12 +201,6 @@ def export_problems(system: System) -> list[tuple[str, str]]:
                 f"input {i.name!r} has no numeric default (its default excitation is {default}): "
                 "an FMU's inputs start from a number and are driven by the importer; give it a "
                 f"constant default (inputs: {{{i.name}: 0}}) and drive it in the importing tool"))
-    for b in system.elastic_bodies:
-        if b.parametric:
-            problems.append((
-                f"elastic_bodies.{b.name}",
-                f"elastic body {b.name!r} is parametric (mixed at every call): the compiled "
-                "backend that FMUs are built from does not expand parametric bodies"))
     return problems
 
 
@@ -354,9 +378,12 @@ def _c_string(text: str) -> str:
     return f'"{safe}"'
 
 
-def model_header(model: FmuModel, guid: str, kinds: Sequence[str]) -> str:
+def model_header(model: FmuModel, guid: str, kinds: Sequence[str],
+                 data: ElasticData | None = None) -> str:
     """The text of ``model.h``: sizes, value-reference offsets, start values and partition of
-    the model, the dense LU and the Dormand–Prince tableau (``c_templates``)."""
+    the model, the elastic bodies' data file (``data``: its name in ``resources/``, the sizes
+    of its arrays, its checksums), the dense LU and the Dormand–Prince tableau
+    (``c_templates``)."""
     n, nu, ny = len(model.coordinates), len(model.inputs), len(model.outputs)
     npar, nc, ni = len(model.parameters), len(model.constraints), len(model.independent)
     x0 = [v.start if v.start is not None else 0.0 for v in (*model.coordinates,
@@ -386,5 +413,12 @@ def model_header(model: FmuModel, guid: str, kinds: Sequence[str]) -> str:
         _c_array("double", "nw_x0", "2 * NW_N", x0),
         _c_array("int", "nw_indep", "NW_NI + 1", model.independent),
         _c_array("int", "nw_dep", "NW_NC + 1", model.dependent),
+        f"#define NW_DATA_COUNT {0 if data is None else len(data.sizes)}",
     ]
+    if data is not None:
+        lines += [f"#define NW_DATA_FILE {_c_string(data.name)}",
+                  f"#define NW_DATA_SUM {data.checksums[0]:#018x}ULL",
+                  f"#define NW_DATA_WSUM {data.checksums[1]:#018x}ULL",
+                  f"static const long nw_data_sizes[NW_DATA_COUNT] = "
+                  f"{{{', '.join(str(int(k)) for k in data.sizes)}}};"]
     return "\n".join(lines) + "\n" + C_LU + C_DOPRI5_TABLEAU

@@ -54,7 +54,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["HERMITE_ORDERS", "PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix",
-           "ffrf_slope_form", "ffrf_slope_prepared", "ffrf_stack", "ffrf_weights",
+           "ffrf_slope_form", "ffrf_slope_prepared", "ffrf_stack", "ffrf_unmix", "ffrf_weights",
            "hermite_coefficients", "slope_step", "weight_coefficients", "weight_polynomials"]
 
 
@@ -334,6 +334,13 @@ def ffrf_mix(mixing, w):
     if nz.size and 2 * (nz[-1] + 1 - nz[0]) <= w.size:    # local weights: their rows (a view)
         B, w = B[nz[0]:nz[-1] + 1], w[nz[0]:nz[-1] + 1]
     flat = w @ B if not np.iscomplexobj(w) else (w.real @ B) + 1j * (w.imag @ B)
+    return ffrf_unmix(mixing, flat)
+
+
+def ffrf_unmix(mixing, flat):
+    """The body of the mixed values ``flat = w B`` (N,) of :func:`ffrf_stack`'s form: its
+    arrays as views into ``flat`` (by the form's ``layout``), the other entries those of
+    sample 1 (its ``template``)."""
     out = dict(mixing["template"])
     if "quad" in out:
         out["quad"] = dict(out["quad"])
@@ -386,5 +393,5 @@ def ffrf_slope_prepared(prepare, sample, slope, *args):
 
 
 #: The functions a generated module embeds for parametric bodies.
-PARAMETRIC_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, slope_step, ffrf_slope_form,
-                        ffrf_slope_prepared)
+PARAMETRIC_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, ffrf_unmix, slope_step,
+                        ffrf_slope_form, ffrf_slope_prepared)

@@ -27,9 +27,6 @@ are plain NumPy and are embedded verbatim in generated modules
 
 from __future__ import annotations
 
-import base64
-import zlib
-
 import numpy as np
 
 from .body import (
@@ -43,15 +40,14 @@ from .body import (
 )
 from .parametric import (
     ffrf_mix,
-    ffrf_slope_form,
     ffrf_slope_prepared,
     ffrf_stack,
+    ffrf_unmix,
     ffrf_weights,
-    slope_step,
 )
 
 __all__ = ["KIN_TAIL", "MAX_BLOCK_CONDITION", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force",
-           "ffrf_add_mass", "ffrf_at", "ffrf_pack", "ffrf_system", "ffrf_terms", "ffrf_unpack"]
+           "ffrf_add_mass", "ffrf_at", "ffrf_bodies", "ffrf_cloud", "ffrf_system", "ffrf_terms"]
 
 #: Largest condition number of a constant block ``D`` of ``M`` that is eliminated with its
 #: explicit inverse, in the NumPy kernel (:func:`ffrf_block`, passed by the generated module)
@@ -66,52 +62,86 @@ MAX_BLOCK_CONDITION = 1e4
 KIN_TAIL = 16
 
 
-def ffrf_pack(a):
-    """``(shape, text)``: the little-endian float64 bytes of ``a``, zlib-compressed, base64
-    (deterministic: the text depends only on the array)."""
-    arr = np.ascontiguousarray(np.asarray(a, dtype="<f8"))
-    text = base64.b64encode(zlib.compress(arr.tobytes(), 6)).decode("ascii")
-    return tuple(int(s) for s in arr.shape), text
+def ffrf_bodies(data, parts=()):
+    """The prepared bodies of a model: the kernel's working form of each body
+    (:func:`~neweul_py.ffrf.body.ffrf_prepare`), for a parametric body the mixing form of its
+    samples (:func:`~neweul_py.ffrf.parametric.ffrf_stack`). Run once, at generation: the
+    generated module reads the result from its data file (:mod:`.data_file`).
+
+    Parameters
+    ----------
+    data
+        One dict per elastic body: ``name``, ``first`` (index of its first coordinate in
+        ``y``), ``kin`` (offset of its frame kinematics in the hidden outputs), ``inertia``,
+        ``fixed`` (optional) and its flat arrays; a parametric body has ``samples`` (one such
+        dict of arrays per sample; ``slopes`` and ``curvatures`` likewise for Hermite
+        weights), ``values`` and ``coeff`` (:mod:`.parametric`) instead.
+    parts
+        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n; 2k with slopes, 3k with
+        curvatures too, the samples' then their slopes' and curvatures'): its node rows per
+        sample (stacked with the body's arrays, :func:`~neweul_py.ffrf.parametric.ffrf_stack`).
+
+    Returns
+    -------
+    list of dict
+        Per body the dict :func:`ffrf_system` takes; a parametric body's holds ``mixing``,
+        ``rows`` (its node rows in ``S_V``, ``S_W``), ``values`` and ``coeff``.
+    """
+    bodies, parts = [], list(parts)
+    for entry in data:
+        if "samples" in entry:
+            how = (entry["inertia"], entry.get("fixed", False))
+            flats = [dict(sample) for sample in entry["samples"]]
+            prepared = [ffrf_prepare(flat, *how) for flat in flats]
+            # Hermite weights: the working forms of the slopes (and curvatures) follow the
+            # samples' — the linear part of the form (§4.2)
+            blocks = 1
+            for what in ("slopes", "curvatures"):
+                if what in entry:
+                    blocks += 1
+                    prepared += [ffrf_slope_prepared(ffrf_prepare, flat, dict(d), *how)
+                                 for flat, d in zip(flats, entry[what], strict=True)]
+            sv_i, sw_i = (np.asarray(a, dtype=np.float64) for a in parts.pop(0))
+            coeff = np.asarray(entry["coeff"], dtype=np.float64)
+            if blocks > 1:            # rows X_1, X_1′(, X_1″), X_2 …: a sample's band is narrow
+                k = len(flats)
+                order = np.arange(blocks * k).reshape(blocks, k).T.ravel()
+                prepared = [prepared[i] for i in order]
+                sv_i, sw_i, coeff = sv_i[order], sw_i[order], coeff[:, :, order]
+            # its node rows per sample (the rows not zero in every sample) join the stack
+            rows = np.flatnonzero(np.any(sv_i, axis=(0, 2)) | np.any(sw_i, axis=(0, 2)))
+            # the arrays are mixed at every σ (ffrf_mixed): the body keeps sample 1's flags
+            b = {k: v for k, v in prepared[0].items() if not isinstance(v, np.ndarray)}
+            b.update(mixing=ffrf_stack(prepared, {"_sv": sv_i[:, rows], "_sw": sw_i[:, rows]}),
+                     rows=rows, values=np.asarray(entry["values"], dtype=np.float64),
+                     coeff=np.ascontiguousarray(coeff))
+        else:
+            b = ffrf_prepare(entry, entry["inertia"], entry.get("fixed", False))
+        b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
+        bodies.append(b)
+    return bodies
 
 
-def ffrf_unpack(entry):
-    """Inverse of :func:`ffrf_pack` (other values pass through)."""
-    if not isinstance(entry, tuple):
-        return entry
-    shape, text = entry
-    raw = zlib.decompress(base64.b64decode(text))
-    return np.frombuffer(raw, dtype="<f8").reshape(shape).copy()
-
-
-def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), schedule=None,
+def ffrf_system(bodies, ns, SV, SW, nhidden, rigid, default_inputs, schedule=None,
                 schedule_jacobians=None, mass_pattern=None, kin_pattern=None,
                 max_condition=0.0, schedule_parameter_jacobian=None):
     """The splice context of a generated module.
 
     Parameters
     ----------
-    data
-        One dict per elastic body: ``name``, ``first`` (index of its first coordinate in
-        ``y``), ``kin`` (offset of its frame kinematics in the hidden outputs), ``inertia``
-        and its flat arrays (packed or plain); a parametric body has ``samples`` (one such
-        dict of arrays per sample), ``values`` and ``coeff``
-        (:mod:`~neweul_py.ffrf.parametric`) instead.
+    bodies
+        The prepared bodies (:func:`ffrf_bodies`).
     ns
         Number of symbolic coordinates ``y_s`` that appear in the symbolic part.
-    sv, sw
-        ``S_V``, ``S_W`` restricted to those rows, (ns, n), packed or plain (without the
-        node rows of parametric bodies).
+    SV, SW
+        ``S_V``, ``S_W`` restricted to those rows, (ns, n) (without the node rows of
+        parametric bodies).
     nhidden
         Number of the module's own outputs (the hidden ones follow).
     rigid
         The symbolic part's functions by protocol name.
     default_inputs
         ``default_inputs(t, p)`` of the module.
-    parts
-        Per parametric body ``(S_V,i, S_W,i)`` stacks (k, ns, n; 2k with slopes, 3k with
-        curvatures too, the samples' then their slopes' and curvatures'): its node rows per
-        sample
-        (stacked with the body's arrays, :func:`~neweul_py.ffrf.parametric.ffrf_stack`).
     schedule, schedule_jacobians
         ``schedule(t, y_s, p, u)``: the scheduling values ``σ`` of the parametric bodies, in
         order, and ``schedule_jacobians(t, y_s, p, u)``: ``∂σ/∂y_s``, ``∂σ/∂u``.
@@ -123,63 +153,34 @@ def ffrf_system(data, ns, sv, sw, nhidden, rigid, default_inputs, parts=(), sche
         ``schedule_parameter_jacobian(t, y_s, p, u)``: ``∂σ/∂p`` (parameter derivatives,
         docs/sensitivity.md).
     """
-    bodies, parts = [], list(parts)
-    for entry in data:
-        if "samples" in entry:
-            how = (entry["inertia"], entry.get("fixed", False))
-            flats = [{k: ffrf_unpack(v) for k, v in sample.items()}
-                     for sample in entry["samples"]]
-            prepared = [ffrf_prepare(flat, *how) for flat in flats]
-            # Hermite weights: the working forms of the slopes (and curvatures) follow the
-            # samples' — the linear part of the form (§4.2)
-            blocks = 1
-            for what in ("slopes", "curvatures"):
-                if what in entry:
-                    blocks += 1
-                    prepared += [ffrf_slope_prepared(
-                        ffrf_prepare, flat, {k: ffrf_unpack(v) for k, v in d.items()}, *how)
-                        for flat, d in zip(flats, entry[what], strict=True)]
-            sv_i, sw_i = (ffrf_unpack(a) for a in parts.pop(0))
-            coeff = ffrf_unpack(entry["coeff"])
-            if blocks > 1:            # rows X_1, X_1′(, X_1″), X_2 …: a sample's band is narrow
-                k = len(flats)
-                order = np.arange(blocks * k).reshape(blocks, k).T.ravel()
-                prepared = [prepared[i] for i in order]
-                sv_i, sw_i, coeff = sv_i[order], sw_i[order], coeff[:, :, order]
-            # its node rows per sample (the rows not zero in every sample) join the stack
-            rows = np.flatnonzero(np.any(sv_i, axis=(0, 2)) | np.any(sw_i, axis=(0, 2)))
-            b = dict(prepared[0])
-            b.update(mixing=ffrf_stack(prepared, {"_sv": sv_i[:, rows], "_sw": sw_i[:, rows]}),
-                     rows=rows,
-                     values=ffrf_unpack(entry["values"]), coeff=coeff)
-        else:
-            b = ffrf_prepare({k: ffrf_unpack(v) for k, v in entry.items()}, entry["inertia"],
-                             entry.get("fixed", False))
-        b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
-        bodies.append(b)
-    SV, SW = ffrf_unpack(sv), ffrf_unpack(sw)
+    bodies = [dict(b) for b in bodies]
+    SV, SW = np.asarray(SV, dtype=np.float64), np.asarray(SW, dtype=np.float64)
     for b in bodies:
         if "mixing" not in b and "quad" not in b and "fixed" not in b:
             rows = np.zeros((b["nq"], SV.shape[1]))           # Mee E (ffrf_add_mass)
             rows[:, b["first"]:b["first"] + b["nq"]] = b["Me"]
             b["Mee_rows"] = rows
     npar = sum("mixing" in b for b in bodies)
-    try:                                      # the small dense solve without numpy's set-up
-        from scipy.linalg.lapack import dgesv as gesv
-    except ImportError:                       # NumPy only
-        gesv = None
+    gesv = None
+    # the small dense solve without numpy's set-up (above 64 coordinates numpy's set-up is
+    # negligible, and importing scipy.linalg would cost 0.4 s of the module's import)
+    if SV.shape[1] <= 64:
+        try:
+            from scipy.linalg.lapack import dgesv as gesv
+        except ImportError:                   # NumPy only
+            gesv = None
     pattern = None if mass_pattern is None else tuple(
-        np.asarray(ffrf_unpack(v), dtype=np.intp).ravel() for v in mass_pattern)
+        np.asarray(v, dtype=np.intp).ravel() for v in mass_pattern)
     return {"bodies": tuple(bodies), "ns": ns, "n": SV.shape[1], "SV": SV, "SW": SW,
             "same": bool(np.array_equal(SV, SW)) and not npar, "nhidden": nhidden,
             "rigid": rigid, "default_inputs": default_inputs, "step": 1e-30, "gesv": gesv,
-            "parametric": npar, "memo": [None], "clouds": [None],
+            "parametric": npar, "memo": [None],
             "schedule": schedule, "schedule_jacobians": schedule_jacobians,
             "schedule_parameter_jacobian": schedule_parameter_jacobian, "pattern": pattern,
             "maps": ffrf_mass_maps(SV, SW, pattern),
             "acc_map": np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4)))),
             "block": ffrf_block(bodies, ns, SV, SW, pattern, None if kin_pattern is None
-                                else np.asarray(ffrf_unpack(kin_pattern), dtype=np.intp),
+                                else np.asarray(kin_pattern, dtype=np.intp),
                                 max_condition)}
 
 
@@ -201,27 +202,15 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern, max_condition):
     ones): else ``{"R", "E"}`` (index arrays), ``"r"``, ``"e"`` (the same or slices,
     :func:`ffrf_index`), ``"ix"`` (the index tuples of the blocks ``RR``, ``RE``, ``ER``)
     and ``"Dinv"``."""
-    if pattern is None or kin_pattern is None or not bodies:
-        return None
-    if any("quad" in b or "mixing" in b for b in bodies):
+    if any("mixing" in b for b in bodies):
         return None
     n = SV.shape[1]
-    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies])
+    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies]) \
+        if bodies else np.zeros(0, dtype=np.intp)
     R = np.setdiff1d(np.arange(n), E)
-    if R.size and E.size < 24:
+    if (R.size and E.size < 24) or not ffrf_block_constant(bodies, ns, SV, SW, pattern,
+                                                          kin_pattern):
         return None
-    rv = np.flatnonzero(np.any(SV[:, E], axis=1))
-    rw = np.flatnonzero(np.any(SW[:, E], axis=1))
-    if np.intersect1d(pattern[0], rw).size and np.intersect1d(pattern[1], rv).size:
-        return None
-    size = max(int(kin_pattern.max(initial=-1)) + 1, *(b["kin"] + 6 * ns + 16 for b in bodies))
-    nonzero = np.zeros(size, dtype=bool)
-    nonzero[kin_pattern] = True
-    touched = np.union1d(rv, rw)
-    for b in bodies:
-        cols = nonzero[b["kin"]:b["kin"] + 6 * ns].reshape(6, ns).any(axis=0)
-        if "fixed" not in b and np.any(cols[touched]):
-            return None
     D = np.zeros((E.size, E.size))
     k = 0
     for b in bodies:
@@ -237,6 +226,33 @@ def ffrf_block(bodies, ns, SV, SW, pattern, kin_pattern, max_condition):
     return {"R": R, "E": E, "Dinv": np.linalg.inv(D), "ix": ix, "r": rs, "e": es}
 
 
+def ffrf_block_constant(bodies, ns, SV, SW, pattern, kin_pattern):
+    """Whether the block ``D = M[E, E]`` of the elastic coordinates is ``blockdiag(Me)`` by
+    construction (:func:`ffrf_block`): no mass of the symbolic part on the node coordinates
+    (``pattern``), no moving body's frame moving with them (``kin_pattern``), no
+    second-order field. ``S_V``, ``S_W``: their nonzero structure (for parametric bodies
+    that of every sample's node rows). A parametric body's ``Me(σ)`` then changes with the
+    schedule alone (the compiled backend keeps its factorization while ``σ`` stays)."""
+    if pattern is None or kin_pattern is None or not bodies:
+        return False
+    if any("quad" in b for b in bodies):
+        return False
+    E = np.concatenate([np.arange(b["first"], b["first"] + b["nq"]) for b in bodies])
+    rv = np.flatnonzero(np.any(SV[:, E], axis=1))
+    rw = np.flatnonzero(np.any(SW[:, E], axis=1))
+    if np.intersect1d(pattern[0], rw).size and np.intersect1d(pattern[1], rv).size:
+        return False
+    size = max(int(kin_pattern.max(initial=-1)) + 1, *(b["kin"] + 6 * ns + 16 for b in bodies))
+    nonzero = np.zeros(size, dtype=bool)
+    nonzero[kin_pattern] = True
+    touched = np.union1d(rv, rw)
+    for b in bodies:
+        cols = nonzero[b["kin"]:b["kin"] + 6 * ns].reshape(6, ns).any(axis=0)
+        if "fixed" not in b and np.any(cols[touched]):
+            return False
+    return True
+
+
 def ffrf_index(k):
     """The index array ``k`` as a slice when it is a contiguous ascending range (views
     instead of copies), else ``k``."""
@@ -247,7 +263,8 @@ def ffrf_index(k):
 
 def ffrf_dense_solve(S, M, f):
     """``M⁻¹ f`` by the dense LU with partial pivoting: LAPACK's ``dgesv`` through SciPy
-    when it is installed (``S["gesv"]``; 22×22: a third of ``numpy.linalg.solve``'s time,
+    when it is installed and ``n ≤ 64`` (``S["gesv"]``; 22×22: a third of
+    ``numpy.linalg.solve``'s time,
     whose set-up dominates small systems), else — and for complex or singular systems —
     ``numpy.linalg.solve`` (its ``LinAlgError``)."""
     gesv = S["gesv"]
@@ -835,18 +852,14 @@ def ffrf_constraint_gamma(S, t, y, yd, p, u=None):
 
 def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
     """Per elastic body of ``nodes`` (``first``, ``nq``, ``frame``: index into the frame
-    poses ``r`` (nF, 3), ``R`` (nF, 3, 3) or −1 for ISYS, ``samples``: the packed node data
-    ``origin`` (nk, 3), ``phi`` (nk, 3, nq) per sample, and for parametric bodies ``values``,
-    ``coeff``, ``k``): its nodes at ``x_P + Φ_P q`` in ISYS (nk, 3), mixed at the schedule.
-    The clouds are unpacked and stacked at the first call (kept in ``S["clouds"]``)."""
+    poses ``r`` (nF, 3), ``R`` (nF, 3, 3) or −1 for ISYS, ``cloud``: :func:`ffrf_cloud`, and
+    for parametric bodies ``k``, the index of its schedule): its nodes at ``x_P + Φ_P q``
+    in ISYS (nk, 3), mixed at the schedule."""
     sigma = ffrf_schedule(S, t, p, x, u) if S["parametric"] else ()
-    kept = S["clouds"][0]
-    if kept is None or kept[0] is not nodes:
-        kept = (nodes, [ffrf_clouds(b) for b in nodes])
-        S["clouds"][0] = kept
     out = []
-    for b, cloud in zip(nodes, kept[1], strict=True):
-        if "values" in b:
+    for b in nodes:
+        cloud = b["cloud"]
+        if "values" in cloud:
             cloud = ffrf_mix(cloud["mixing"], ffrf_weights(cloud["values"], cloud["coeff"],
                                                            sigma[b["k"]], b["name"]))
         q = x[b["first"]:b["first"] + b["nq"]]
@@ -856,15 +869,18 @@ def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
     return out
 
 
-def ffrf_clouds(b):
-    """The node cloud of one entry of :func:`ffrf_node_positions`: ``origin``, ``phi``
-    (unpacked), or for a parametric body the mixing form of its samples with ``values``,
-    ``coeff``."""
-    samples = [{k: ffrf_unpack(v) for k, v in c.items()} for c in b["samples"]]
-    if "values" not in b:
-        return samples[0]
-    return {"mixing": ffrf_stack(samples), "values": ffrf_unpack(b["values"]),
-            "coeff": ffrf_unpack(b["coeff"])}
+def ffrf_cloud(datasets, values=None, coeff=None):
+    """The node cloud of :func:`ffrf_node_positions`: ``origin`` (nk, 3) and ``phi``
+    (nk, 3, nq) of a body's data (``nodes.origin.m0``, ``nodes.phi``), or of a parametric
+    body (``values``, ``coeff`` of its weights) the mixing form of its data sets (samples,
+    then slopes and curvatures, the columns of its weights) with ``values``, ``coeff``.
+    Made at generation."""
+    clouds = [{"origin": np.asarray(d["nodes.origin.m0"], dtype=np.float64)[:, :, 0],
+               "phi": np.asarray(d["nodes.phi"], dtype=np.float64)} for d in datasets]
+    if values is None:
+        return clouds[0]
+    return {"mixing": ffrf_stack(clouds), "values": np.asarray(values, dtype=np.float64),
+            "coeff": np.asarray(coeff, dtype=np.float64)}
 
 
 #: The protocol functions a module with elastic bodies delegates to (protocol name → splice
@@ -891,9 +907,9 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, slope_step, ffrf_slope_form,
-                    ffrf_slope_prepared, ffrf_unpack, ffrf_system,
-                    ffrf_index, ffrf_mass_maps, ffrf_block, ffrf_dense_solve, ffrf_solve,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_system,
+                    ffrf_index, ffrf_mass_maps, ffrf_block_constant, ffrf_block,
+                    ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,
                     ffrf_sigma_parameter_sensitivity,
                     ffrf_sigma_steps, ffrf_sigma_terms, ffrf_dsv, ffrf_frame,
@@ -902,5 +918,5 @@ SPLICE_FUNCTIONS = (ffrf_weights, ffrf_stack, ffrf_mix, slope_step, ffrf_slope_f
                     ffrf_sandwich, ffrf_kin,
                     ffrf_kin_jacobians, ffrf_sparse_product,
                     ffrf_force_directional, ffrf_moving, ffrf_fixed_force_jacobians,
-                    ffrf_symbolic_state, ffrf_node_positions, ffrf_clouds,
+                    ffrf_symbolic_state, ffrf_node_positions,
                     *PROTOCOL.values())

@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import os
 import stat
+import sys
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from neweul_py import api
@@ -254,3 +256,98 @@ def test_a_tampered_compiled_module_in_the_cache_is_rewritten_not_run(tmp_path, 
     with pytest.warns(CacheWarning, match="_c.c does not match"):
         api.load_description_module(PENDULUM, backend="c")
     assert "edited" not in c_file.read_text()
+
+
+_ELASTIC = """
+name: duct_on_ground
+parameters: {m2: 0.02, k2: 1.0e5}
+coordinates: {z: {}}
+frames:
+  carrier: {translation: [z, 0, 0]}
+elastic_bodies:
+  duct: {frame: ISYS, data: duct.npz, nodes: {piston: 1}}
+bodies:
+  mass: {frame: carrier, mass: m2}
+forces:
+  link:
+    type: bushing
+    between: [duct.piston, carrier]
+    stiffness: {diag: [k2, 0, 0]}
+"""
+
+
+@pytest.fixture
+def elastic_description(tmp_path) -> Path:
+    """A piston-duct body (4 modes) with a mass on its node: a module with a data file."""
+    from fe_builders import piston_duct
+
+    from neweul_py.elastic import reduce_modal, save_reduced_body
+    from neweul_py.elastic.reductors.invariants import attach_invariants
+
+    fe = piston_duct(n_el=30)
+    body = reduce_modal(fe, modes=4, keep_nodes=[1], store_bases=True)
+    save_reduced_body(attach_invariants(body, fe, nodes=[1]), tmp_path / "duct.npz")
+    (tmp_path / "duct.yaml").write_text(_ELASTIC)
+    return tmp_path / "duct.yaml"
+
+
+def _data_files(directory: Path) -> list[Path]:
+    return sorted(directory.glob("duct_on_ground.*.npz"))
+
+
+def test_cached_data_file_carries_a_digest_like_the_module(elastic_description):
+    """The data file a module with elastic bodies names is cached next to it, private
+    (0600), with a sidecar holding the SHA-256 the module records (reference: hashlib of the
+    file's bytes)."""
+    path = api.generated_module(elastic_description)
+    (data,) = _data_files(path.parent)
+    digest = sha256_hex(data.read_bytes())
+    assert data.with_name(data.name + ".sha256").read_text().strip() == digest
+    assert f"_DATA_SHA256 = {digest!r}".encode() in path.read_bytes()
+    assert stat.S_IMODE(data.stat().st_mode) == 0o600
+
+
+def test_damaged_cached_data_file_is_regenerated_not_used(elastic_description):
+    """A byte of the cached data file changed behind its sidecar: the module refuses it at
+    import and the cache writes it again (reference: the bytes first written), so the
+    loaded module evaluates the original data."""
+    path = api.generated_module(elastic_description)
+    (data,) = _data_files(path.parent)
+    clean = data.read_bytes()
+    ref = api.load_description_module(elastic_description)
+    x, p = 1e-3 * np.arange(ref.STATE_SIZE), ref.default_parameters()
+    expected = ref.rhs(0.0, x, p)
+    for name in [n for n in sys.modules if n.startswith("neweul_generated_duct")]:
+        del sys.modules[name]
+    raw = bytearray(clean)
+    raw[-200] ^= 0x01
+    data.write_bytes(bytes(raw))
+    mod = api.load_description_module(elastic_description)
+    assert data.read_bytes() == clean
+    np.testing.assert_array_equal(mod.rhs(0.0, x, p), expected)
+
+
+def test_data_file_with_another_digest_is_not_handed_to_the_module(elastic_description):
+    """A cached data file whose sidecar records another digest than its module names (a
+    file of another entry under its name): one CacheWarning, and the entry is written again
+    (reference: the first data file's bytes)."""
+    path = api.generated_module(elastic_description)
+    (data,) = _data_files(path.parent)
+    clean = data.read_bytes()
+    side = data.with_name(data.name + ".sha256")
+    side.write_text("0" * 64 + "\n")
+    with pytest.warns(CacheWarning, match="another SHA-256"):
+        api.load_description_module(elastic_description)
+    assert side.read_text().strip() == sha256_hex(clean) and data.read_bytes() == clean
+
+
+def test_generate_through_the_cache_copies_the_data_file(elastic_description, tmp_path):
+    """``generate(cache=...)`` writes the module and its data file, on a miss and on a hit,
+    byte for byte as ``generate`` without the cache (reference: the uncached files)."""
+    plain = api.generate(elastic_description, tmp_path / "plain")
+    for out in ("miss", "hit"):
+        got = api.generate(elastic_description, tmp_path / out, cache=True)
+        assert got.read_bytes() == plain.read_bytes()
+        assert [f.name for f in _data_files(got.parent)] == [
+            f.name for f in _data_files(plain.parent)]
+        assert _data_files(got.parent)[0].read_bytes() == _data_files(plain.parent)[0].read_bytes()

@@ -8,7 +8,6 @@ import itertools
 import os
 import shutil
 import sys
-import types
 import warnings
 from pathlib import Path
 
@@ -25,7 +24,7 @@ from neweul_py.codegen.c_runtime import BackendUnavailable, compiled_library
 from neweul_py.commands import BACKENDS
 from neweul_py.description import load_description
 from neweul_py.equations import newton_euler
-from neweul_py.errors import GenerationError, NeweulError
+from neweul_py.errors import NeweulError
 
 ROOT = Path(__file__).resolve().parents[2]
 _COUNTER = itertools.count()
@@ -231,18 +230,12 @@ def test_piecewise_abs_min_max_sign_heaviside_print_as_c(tmp_path):
         np.testing.assert_allclose(out, ref(*v), rtol=1e-14, atol=1e-14)
 
 
-def test_parametric_bodies_are_refused_and_backends_agree():
-    """Reference: the documented scope (parametric elastic bodies, mixed at every call, stay
-    on the NumPy module) and api.BACKENDS, which the CLI mirrors without importing the
-    symbolic layers."""
+def test_backends_agree_and_the_compiled_module_sits_next_to_its_twin():
+    """Reference: api.BACKENDS, which the CLI mirrors without importing the symbolic layers,
+    and the documented file name ``<name>_c.py``."""
     from neweul_py.api import BACKENDS as API_BACKENDS
 
     assert BACKENDS == API_BACKENDS
-    body = types.SimpleNamespace(parametric=True, nq=2)
-    eq = types.SimpleNamespace(system=types.SimpleNamespace(name="flex"), elastic=types.
-                               SimpleNamespace(splices=(types.SimpleNamespace(body=body),)))
-    with pytest.raises(GenerationError, match="parametric"):
-        write_c_module(eq, "flex.py")
     assert c_module_path(os.path.join("gen", "flex.py")) == Path("gen", "flex_c.py")
 
 
@@ -269,14 +262,14 @@ outputs:
 @pytest.mark.parametrize("form", ["plain", "first-order stiffening", "second-order field",
                                   "fixed frame", "plain 10 modes"])
 def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
-    """Elastic bodies in C: the kernel's terms expanded into closed expressions
-    (equations/elastic_expanded.py) and compiled, against the NumPy module that embeds the
-    kernel (itself checked against Newton's law of the mass points, tests/ffrf): every
-    protocol function agrees to round-off — a hinged beam (3 modes; without stiffening, with
-    the first-order terms, with the second-order field; 10 modes, whose long linear
-    combinations print as table rows) and a body on ISYS (elastic rows only), with a node
-    load, an input and an output at the node; the constant ``Mee`` solved by block
-    elimination, ``Mee(q)`` of the second-order field by the dense LU."""
+    """Elastic bodies in C: the kernel's operations traced and printed as loops
+    (codegen/c_splice.py), the body data bound from the twin's data file, against the NumPy
+    module that runs the kernel (itself checked against Newton's law of the mass points,
+    tests/ffrf): every protocol function agrees to round-off — a hinged beam (3 modes;
+    without stiffening, with the first-order terms, with the second-order field; 10 modes)
+    and a body on ISYS (elastic rows only), with a node load, an input and an output at the
+    node. No number of the body data is printed into the C sources (reference: the entries
+    of ``Ke`` and ``Me``, none of which appears in them)."""
     from neweul_py.api import load_description
     from neweul_py.elastic.reductors.invariants import compute_invariants
     from neweul_py.elastic.reductors.second_order import with_second_order
@@ -305,10 +298,12 @@ def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
         warnings.simplefilter("error")
         mc = _fresh(write_c_module(eq, npath))
     assert mc.BACKEND == "c"
-    # a constant Mee is eliminated as a block (codegen/c_solve.py); M_ee(q) of the field not
-    c_text = (tmp_path / f"{name}_c.c").read_text()
-    assert ("#define NW_NE" in c_text) == (form != "second-order field")
-    assert ("nw_rows(" in c_text) == (nq == 10)  # Ke q … as table rows (c_printer.py)
+    c_text = (tmp_path / f"{name}_c.c").read_text() + (tmp_path / f"{name}_c_jac.c").read_text()
+    assert "int nw_bind(" in c_text
+    flat = inv.to_flat()
+    for key in ("Ke.m0", "Me.m0"):
+        values = [v for v in np.asarray(flat[key]).ravel() if v not in (0.0, 1.0, -1.0)]
+        assert values and not any(repr(float(v)) in c_text for v in values), key
     mnp = load_generated(npath)
     rng = np.random.default_rng(3)
     n = len(mnp.COORDINATES)

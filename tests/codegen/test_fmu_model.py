@@ -7,7 +7,6 @@ layout the FMI layer ``fmi2/neweul_fmi2.c`` reads.
 
 from __future__ import annotations
 
-import types
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -58,18 +57,14 @@ def _constants(system):
     }
 
 
-def test_input_defaults_and_parametric_bodies():
-    """Constant defaults (numbers, expressions of parameters) pass; a default in time or a
-    parametric elastic body is named with its key."""
+def test_input_defaults():
+    """Constant defaults (numbers, expressions of parameters) pass; a default in time is named
+    with its key (an FMU's inputs are driven by the importer)."""
     system = load_description_text(DRIVEN, "driven.yaml")
     assert export_problems(system) == []
     timed = load_description_text(DRIVEN.replace("z: 0 ", "z: 0.1*sin(t)"), "driven.yaml")
     [(key, message)] = export_problems(timed)
     assert key == "inputs.z" and "no numeric default" in message and "sin(t)" in message
-    body = types.SimpleNamespace(name="flap", parametric=True)
-    fake = types.SimpleNamespace(parameters=(), inputs=(), elastic_bodies=(body,))
-    [(key, message)] = export_problems(fake)
-    assert key == "elastic_bodies.flap" and "parametric" in message
 
 
 def test_units_and_descriptions_of_the_variables():

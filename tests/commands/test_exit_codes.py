@@ -66,6 +66,9 @@ BAD_INPUT = {
     "compare": ["compare", "missing.csv", "other.csv"],
     "middle-ear": ["middle-ear", "build", "--dir", "x", "-q", "--pressures=1000,0"],
     "export": ["export", "missing.yaml", "--fmu", "model.fmu"],
+    "sensitivity": ["sensitivity", "missing.yaml", "--task", "modes"],
+    "identify": ["identify", "missing.yaml", "--data", "missing.csv", "--task", "frf",
+                 "--param", "m"],
 }
 
 
@@ -91,9 +94,10 @@ SUCCESS = {
 }
 #: Their success (exit 0) is tested with the FE models and tools they need: compare-frf,
 #: frf-body and interpolate in tests/elastic, middle-ear in tests/middle_ear, export in
-#: tests/commands/test_export.py, compare below.
+#: tests/commands/test_export.py, sensitivity and identify in tests/commands/test_cli_*.py,
+#: compare below.
 SUCCESS_ELSEWHERE = ("compare-frf", "frf-body", "interpolate", "middle-ear", "export",
-                     "compare")
+                     "sensitivity", "identify", "compare")
 
 
 def test_success_exits_0(capsys):

@@ -16,10 +16,17 @@
    dg/dt), and the accelerations from the augmented system
        [ M  -G^T ] [ ydd    ]   [ q - k ]
        [ G    0  ] [ lambda ] = [ -gamma ]
-   (coordinate partitioning: an ODE in the independent coordinates, without drift). */
+   (coordinate partitioning: an ODE in the independent coordinates, without drift).
+
+   Elastic bodies (NW_DATA_COUNT > 0): the model's C holds their equations, the arrays are in
+   resources/NW_DATA_FILE (NW_DATA_COUNT little-endian float64 arrays of nw_data_sizes
+   elements, one after the other). The first instance reads them, checks their size and their
+   checksums NW_DATA_SUM, NW_DATA_WSUM, and binds both translation units to them (nw_bind,
+   nw_bind_jac); the instances share them (and the library's state: one call at a time). */
 
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -46,6 +53,10 @@ int nw_force_jacobians(double t, const double *y, const double *yd, const double
 int nw_rhs_jacobian(double t, const double *x, const double *p, const double *u, double *out);
 int nw_output_jacobians(double t, const double *x, const double *p, const double *u,
                         double *out);
+#if NW_DATA_COUNT > 0
+int nw_bind(int count, const double *const *data, const long *sizes);
+int nw_bind_jac(int count, const double *const *data, const long *sizes);
+#endif
 
 #define NW_S (2 * NW_N)          /* the full first-order state [y, yd] */
 #define NW_NZ (2 * NW_NI)        /* the FMU's continuous states [y_I, yd_I] */
@@ -173,20 +184,22 @@ static int nw_complete(nw_inst *c, double t, const double *ub)
     return 0;
 }
 
-/* accelerations at (t, x) with the inputs ub; returns 0, or 1 (singular) */
+/* accelerations at (t, x) with the inputs ub; returns 0, 1 (singular) or the model's code
+   (3: a schedule of a parametric elastic body outside its samples) */
 static int nw_accelerations(nw_inst *c, double t, const double *ub, double *ydd)
 {
 #if NW_NC == 0
     double f[NW_S];
-    if (nw_rhs(t, c->x, c->p, ub, f)) return 1;
+    int r;
+    if ((r = nw_rhs(t, c->x, c->p, ub, f))) return r;
     memcpy(ydd, f + NW_N, NW_N * sizeof(double));
     return 0;
 #else
     const double *y = c->x, *yd = c->x + NW_N;
     double a[NW_NA * NW_NA], m[NW_N * NW_N], gj[NW_NC * NW_N], b[NW_NA], gam[NW_NC];
-    int piv[NW_NA];
-    nw_mass_matrix(t, y, c->p, ub, m);
-    nw_force_vector(t, y, yd, c->p, ub, b);
+    int piv[NW_NA], r;
+    if ((r = nw_mass_matrix(t, y, c->p, ub, m))) return r;
+    if ((r = nw_force_vector(t, y, yd, c->p, ub, b))) return r;
     nw_constraint_jacobian(t, y, c->p, ub, gj);
     nw_constraint_gamma(t, y, yd, c->p, ub, gam);
     memset(a, 0, sizeof a);
@@ -213,10 +226,15 @@ static fmi2Status nw_update(nw_inst *c)
         if (nw_complete(c, c->t, c->ub)) return fmi2Error;
         c->consistent = 1;
     }
-    if (nw_accelerations(c, c->t, c->ub, c->ydd))
-        return nw_fail(c, "singular mass matrix (or augmented system of the constraints)");
+    int r = nw_accelerations(c, c->t, c->ub, c->ydd);
+    if (r == 3 || (r == 0 && NW_NY && nw_outputs(c->t, c->x, c->p, c->ub, c->out) == 3)) {
+        nw_log(c, fmi2Error, "logStatusError", "t = %.9g: the schedule of a parametric elastic "
+               "body left the range of its samples", c->t);
+        return nw_fail(c, "a schedule outside its samples");
+    }
+    if (r == 2) return nw_fail(c, "the elastic bodies' data are not bound");
+    if (r) return nw_fail(c, "singular mass matrix (or augmented system of the constraints)");
     c->nfev++;
-    if (NW_NY) nw_outputs(c->t, c->x, c->p, c->ub, c->out);
     for (int i = 0; i < NW_S; ++i)
         if (!isfinite(c->x[i])) return nw_fail(c, "the state is not finite");
     c->valid = 1;
@@ -522,13 +540,124 @@ static void nw_start_values(nw_inst *c)
     c->mode = NW_INSTANTIATED;
 }
 
+/* ---- the data of the elastic bodies (resources/NW_DATA_FILE) */
+#if NW_DATA_COUNT > 0
+static double *nw_data;          /* the arrays, shared by the instances */
+static int nw_data_users;
+
+/* the path of resources/NW_DATA_FILE from the resource location (a file URI: file:///dir/,
+   file://localhost/dir/, file:/dir/; %XX decoded) */
+static int nw_data_path(const char *uri, char *out, size_t size)
+{
+    const char *s = uri, *name = NW_DATA_FILE;
+    size_t n = 0, len = strlen(name);
+    if (!s) return 1;
+    if (strncmp(s, "file://", 7) == 0) {
+        s += 7;
+        if (*s != '/') {                 /* an authority: only the local host */
+            if (strncmp(s, "localhost/", 10) != 0) return 1;
+            s += 9;
+        }
+    } else if (strncmp(s, "file:", 5) == 0) {
+        s += 5;
+    }
+    for (; *s; ++s) {
+        char ch = *s;
+        if (ch == '%' && s[1] && s[2]) {
+            char hex[3] = {s[1], s[2], 0}, *end;
+            long v = strtol(hex, &end, 16);
+            if (*end) return 1;
+            ch = (char)v;
+            s += 2;
+        }
+        if (n + 2 >= size) return 1;
+        out[n++] = ch;
+    }
+    if (n == 0 || out[n - 1] != '/') out[n++] = '/';
+    if (n + len + 1 > size) return 1;
+    memcpy(out + n, name, len + 1);
+    return 0;
+}
+
+/* read, check and bind the data (first instance); 0, or 1 with a message logged */
+static int nw_load_data(nw_inst *c, const char *location)
+{
+    char path[4096];
+    long total = 0;
+    if (nw_data) { ++nw_data_users; return 0; }
+    for (int i = 0; i < NW_DATA_COUNT; ++i) total += nw_data_sizes[i];
+    if (nw_data_path(location, path, sizeof path)) {
+        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: the resource location %s is "
+               "not a local file URI (the elastic bodies' data %s are there)",
+               location ? location : "(none)", NW_DATA_FILE);
+        return 1;
+    }
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: cannot read the elastic "
+               "bodies' data %s", path);
+        return 1;
+    }
+    double *buf = (double *)malloc((size_t)(total + 1) * sizeof(double));
+    size_t got = buf ? fread(buf, sizeof(double), (size_t)total + 1, f) : 0;
+    fclose(f);
+    const uint16_t one = 1;
+    if (buf && !*(const unsigned char *)&one) {   /* a big-endian host: swap the bytes */
+        for (size_t i = 0; i < got; ++i) {
+            unsigned char *b = (unsigned char *)(buf + i), t;
+            for (int k = 0; k < 4; ++k) { t = b[k]; b[k] = b[7 - k]; b[7 - k] = t; }
+        }
+    }
+    uint64_t sum = 0, wsum = 0;                  /* the checksums of the words */
+    for (size_t i = 0; buf && i < got; ++i) {
+        uint64_t w;
+        memcpy(&w, buf + i, sizeof w);
+        sum += w;
+        wsum += (uint64_t)(i + 1) * w;
+    }
+    if (!buf || got != (size_t)total || sum != NW_DATA_SUM || wsum != NW_DATA_WSUM) {
+        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: the elastic bodies' data %s "
+               "are not those of this FMU (%s)", path, !buf ? "out of memory"
+               : got != (size_t)total ? "another size" : "other values");
+        free(buf);
+        return 1;
+    }
+    const double *arrays[NW_DATA_COUNT];
+    long off = 0;
+    for (int i = 0; i < NW_DATA_COUNT; ++i) { arrays[i] = buf + off; off += nw_data_sizes[i]; }
+    if (nw_bind(NW_DATA_COUNT, arrays, nw_data_sizes)
+        || nw_bind_jac(NW_DATA_COUNT, arrays, nw_data_sizes)) {
+        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: the model does not accept "
+               "the elastic bodies' data %s", path);
+        free(buf);
+        return 1;
+    }
+    nw_data = buf;
+    nw_data_users = 1;
+    return 0;
+}
+
+static void nw_release_data(void)
+{
+    if (nw_data && --nw_data_users == 0) { free(nw_data); nw_data = NULL; }
+}
+#else
+static int nw_load_data(nw_inst *c, const char *location)
+{
+    (void)c; (void)location;
+    return 0;
+}
+
+static void nw_release_data(void) {}
+#endif
+
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                               fmi2String fmuResourceLocation,
                               const fmi2CallbackFunctions *functions, fmi2Boolean visible,
                               fmi2Boolean loggingOn)
 {
     nw_inst probe = {0};
-    (void)fmuResourceLocation; (void)visible;
+    (void)visible;
     if (!functions || !functions->allocateMemory || !functions->freeMemory) return NULL;
     probe.cb = functions;
     probe.name = (char *)(instanceName ? instanceName : "?");
@@ -552,6 +681,11 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     c->cb = functions;
     c->type = fmuType;
     c->logging = loggingOn ? 1 : 0;
+    if (nw_load_data(c, fmuResourceLocation)) {
+        functions->freeMemory(c->name);
+        functions->freeMemory(c);
+        return NULL;
+    }
     nw_start_values(c);
     return c;
 }
@@ -562,6 +696,7 @@ void fmi2FreeInstance(fmi2Component comp)
     if (!c) return;
     c->cb->freeMemory(c->name);
     c->cb->freeMemory(c);
+    nw_release_data();
 }
 
 fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,

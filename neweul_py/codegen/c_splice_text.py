@@ -1,0 +1,627 @@
+"""Fixed C text of compiled modules with elastic bodies (:mod:`.c_splice`).
+
+The splice of the elastic bodies in the order of :mod:`neweul_py.ffrf.splice`, written once:
+the bound arrays and the weights (:data:`GLOBALS_C`); the weights of the parametric bodies by
+Horner's rule, the context at the schedule, the dynamics, the schedule's sensitivities and the
+binding (:data:`SPLICE_C`); the block solve with the kept factorization of the elastic block
+(:data:`ESOLVE_C`); the protocol functions of the core library (:data:`CORE_C`) and of the
+derivative library (:data:`JACOBIAN_C`). The body equations are not here: they are the traced
+kernel functions ``nw_k_*`` these texts call (:mod:`.c_splice_trace`, :mod:`.c_kernel`).
+The ``NW_*`` macros are defined per model by :mod:`.c_splice`.
+"""
+
+from __future__ import annotations
+
+__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "JACOBIAN_C", "SPLICE_C"]
+
+#: The splice of both libraries: binding, weights, the context at the schedule, the
+#: dynamics and the sensitivities of the schedule (mirrors neweul_py/ffrf/splice.py).
+GLOBALS_C = r"""
+/* the bound arrays of the data file and the weights of the parametric bodies */
+static const double *nw_D[NW_ND + 1];
+static int nw_bound;
+static double nw_w[NW_NW + 1], nw_dw[NW_NW + 1];
+static double complex nw_wc[NW_NW + 1];
+static int nw_have_w;
+static long nw_wversion;   /* counts the changes of the weights (and of the bound data) */
+"""
+
+SPLICE_C = r"""
+/* ---- the splice of the elastic bodies (codegen/c_splice.py; neweul_py/ffrf/splice.py) */
+
+/* the weights w (ncol) at x and their derivative: the piecewise polynomials c (nd, nb-1, ncol)
+   on the breakpoints b (ffrf_weights; Horner); 1 outside [b_0, b_{nb-1}] */
+static int nw_weights(double x, const double *b, const double *c, int nb, int nd, int ncol,
+                      double *w, double *dw)
+{
+    if (!(b[0] <= x && x <= b[nb - 1])) return 1;
+    int j = nb - 2;
+    for (int i = 0; i < nb - 1; ++i)
+        if (x < b[i + 1]) { j = i; break; }
+    const double dx = x - b[j];
+    for (int col = 0; col < ncol; ++col) {
+        double v = c[(long)j * ncol + col], d = 0.0;
+        for (int m = 1; m < nd; ++m) {
+            d = d * dx + v;
+            v = v * dx + c[((long)m * (nb - 1) + j) * ncol + col];
+        }
+        w[col] = v;
+        dw[col] = d;
+    }
+    return 0;
+}
+
+/* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at;
+   the mixed samples are kept while the weights are unchanged); 3 outside the samples */
+static int nw_at(double t, const double *y, const double *p, const double *u)
+{
+#if NW_NPB
+    double ys0[NW_NS + 1], sigma[NW_NPB], w[NW_NW], dw[NW_NW];
+    nw_gemv(NW_NS, NW_N, NW_SV0, NW_N, 1, y, 1, ys0);
+    nw_s_schedule(t, ys0, p, u, sigma);
+NW_WEIGHTS
+    if (!nw_have_w || memcmp(w, nw_w, sizeof w)) {
+        memcpy(nw_w, w, sizeof w);
+        memcpy(nw_dw, dw, sizeof dw);
+        nw_k_sigma();
+        nw_have_w = 1;
+        ++nw_wversion;
+    }
+#else
+    (void)t; (void)y; (void)p; (void)u;
+#endif
+    return 0;
+}
+
+/* (M, q - k) at the state: y_s = S_V y, the symbolic part, the bodies (ffrf_dynamics) */
+static int nw_dyn(double t, const double *y, const double *yd, const double *p,
+                  const double *u, double *M, double *f)
+{
+    static double parts[NW_NH + NW_NS * NW_NS + NW_NS + 1];
+    double ys[NW_NS + 1], yds[NW_NS + 1];
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_s_rhs_parts(t, ys, yds, p, u, parts);
+    nw_k_dyn(parts, y, yd, parts + NW_NH, parts + NW_NH + NW_NS * NW_NS, M, f);
+    return 0;
+}
+
+/* dsigma/dy (NPB x n, through y_s = S_V(0) y) and dsigma/du (ffrf_sigma_sensitivity); 0 when
+   both are zero */
+static int nw_sens(double t, const double *y, const double *p, const double *u, double *Sy,
+                   double *Su)
+{
+#if NW_NPB
+    double ys0[NW_NS + 1], J[NW_NPB * (NW_NS + NW_NU) + 1];
+    int any = 0;
+    memset(J, 0, sizeof J);
+    nw_gemv(NW_NS, NW_N, NW_SV0, NW_N, 1, y, 1, ys0);
+    nw_s_schedule_jacobians(t, ys0, p, u, J);
+    for (int i = 0; i < NW_NPB * (NW_NS + NW_NU); ++i) any |= J[i] != 0.0;
+    nw_gemm(NW_NPB, NW_N, NW_NS, J, NW_NS, 1, NW_SV0, NW_N, 1, Sy);
+    memcpy(Su, J + NW_NPB * NW_NS, NW_NPB * NW_NU * sizeof(double));
+    return any;
+#else
+    (void)t; (void)y; (void)p; (void)u; (void)Sy; (void)Su;
+    return 0;
+#endif
+}
+
+/* M x = b for m right-hand sides (b: n x m, overwritten; M kept) */
+""" + "{esolve}" + r"""
+int nw_bind(int count, const double *const *data, const long *sizes)
+{
+    static const long expect[NW_ND + 1] = {NW_SIZES};
+    if (count != NW_ND) return 1;
+    for (int i = 0; i < NW_ND; ++i)
+        if (sizes[i] != expect[i]) return 1;
+    for (int i = 0; i < NW_ND; ++i) nw_D[i] = data[i];
+NW_BIND
+    nw_bound = 1;
+    nw_have_w = 0;
+    ++nw_wversion;
+    return 0;
+}
+"""
+
+#: The block elimination of the elastic coordinates with the kept factorization of D.
+ESOLVE_C = r"""
+static const int nw_E[NW_NE] = {NW_ETABLE};
+static const int nw_R[NW_NR + 1] = {NW_RTABLE};
+static double nw_Dcur[NW_NE * NW_NE], nw_Dlu[NW_NE * NW_NE], nw_Dnorm;
+static int nw_Dpiv[NW_NE], nw_Dok, nw_Dfresh;
+static long nw_Dversion = -1;
+
+/* factor the current D = M[E,E] (nw_Dfresh: the factors are of it) */
+__attribute__((optimize("O3"))) static int nw_dfactor(void)
+{
+    memcpy(nw_Dlu, nw_Dcur, sizeof nw_Dlu);
+    nw_Dok = nw_Dfresh = !nw_lu(NW_NE, nw_Dlu, nw_Dpiv);
+    return !nw_Dok;
+}
+
+/* D = M[E,E] when it may have changed: with NW_DSIGMA it is blockdiag(Me(sigma)) by
+   construction (ffrf_block_constant) and changes with the weights alone; else compared */
+static int nw_dupdate(const double *M)
+{
+    static double D[NW_NE * NW_NE];
+    if (NW_DSIGMA && nw_Dok && nw_Dversion == nw_wversion) return 0;
+    for (int i = 0; i < NW_NE; ++i)
+        for (int j = 0; j < NW_NE; ++j) D[i * NW_NE + j] = M[nw_E[i] * NW_N + nw_E[j]];
+    nw_Dversion = nw_wversion;
+    if (nw_Dok && !memcmp(D, nw_Dcur, sizeof D)) return 0;
+    memcpy(nw_Dcur, D, sizeof D);
+    nw_Dfresh = 0;
+    nw_Dnorm = 0.0;                                       /* |D| (infinity norm) */
+    for (int i = 0; i < NW_NE; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < NW_NE; ++j) s += fabs(D[i * NW_NE + j]);
+        nw_Dnorm = fmax(nw_Dnorm, s);
+    }
+    return nw_Dok ? 0 : nw_dfactor();
+}
+
+/* z = D^-1 z for m columns (NE x m, row-major). The factors of an earlier D are kept while
+   iterative refinement against the current D reaches the backward error of a fresh
+   factorization (Higham, Accuracy and Stability of Numerical Algorithms, ch. 12:
+   fixed-precision refinement with a stale factorization, a stationary iteration with
+   contraction |I - LU^-1 D|), each step two products of order NE^2 instead of a factorization
+   of order NE^3. It stops when the normwise backward error |b - D z| / (|D| |z| + |b|) is at
+   the round-off of the residual, 4 sqrt(NE) eps, or no longer halves below 64 sqrt(NE) eps;
+   otherwise (slow contraction: the factors are too old), after six steps, or for more than
+   four columns the current D is factored. For an ill-conditioned D the corrections then stay
+   at the size cond(D) eps that a fresh factorization's solution has too. */
+__attribute__((optimize("O3"))) static int nw_dsolve(double *z, int m)
+{
+    static double b[NW_NE * 4], r[NW_NE * 4];
+    if (!nw_Dfresh && m <= 4) {
+        const double floor = 4.0 * sqrt((double)NW_NE) * DBL_EPSILON;
+        double prev = INFINITY, bmax = 0.0;
+        memcpy(b, z, (size_t)NW_NE * m * sizeof(double));
+        for (int i = 0; i < NW_NE * m; ++i) bmax = fmax(bmax, fabs(b[i]));
+        nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, z);
+        for (int it = 0; it < 6; ++it) {
+            double rmax = 0.0, xmax = 0.0;
+            for (int i = 0; i < NW_NE; ++i) {
+                const double *row = nw_Dcur + (long)i * NW_NE;
+                for (int c = 0; c < m; ++c) {
+                    double s0 = b[i * m + c], s1 = 0.0;
+                    int j = 0;
+                    for (; j + 2 <= NW_NE; j += 2) {
+                        s0 -= row[j] * z[j * m + c];
+                        s1 -= row[j + 1] * z[(j + 1) * m + c];
+                    }
+                    for (; j < NW_NE; ++j) s0 -= row[j] * z[j * m + c];
+                    r[i * m + c] = s0 + s1;
+                    rmax = fmax(rmax, fabs(r[i * m + c]));
+                }
+            }
+            for (int i = 0; i < NW_NE * m; ++i) xmax = fmax(xmax, fabs(z[i]));
+            const double eta = rmax / (nw_Dnorm * xmax + bmax + DBL_MIN);
+            if (eta <= floor) return 0;                              /* converged */
+            if (eta > 0.5 * prev) {
+                if (eta <= 16.0 * floor) return 0;                   /* the round-off floor */
+                break;                                               /* the factors too old */
+            }
+            prev = eta;
+            nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, r);
+            for (int i = 0; i < NW_NE * m; ++i) z[i] += r[i];
+        }
+        memcpy(z, b, (size_t)NW_NE * m * sizeof(double));
+    }
+    if (!nw_Dfresh && nw_dfactor()) return 1;
+    nw_lu_solve(NW_NE, nw_Dlu, nw_Dpiv, m, z);
+    return 0;
+}
+
+__attribute__((optimize("O3"))) static int nw_esolve(const double *M, double *b, int m)
+{
+    static double z[NW_NE * 2 * NW_N];
+    if (nw_dupdate(M)) return 1;
+    for (int i = 0; i < NW_NE; ++i)
+        for (int c = 0; c < m; ++c) z[i * m + c] = b[nw_E[i] * m + c];
+    if (nw_dsolve(z, m)) return 1;                              /* z = D^-1 b_E */
+#if NW_NR
+    static double X[NW_NE * NW_NR], S[NW_NR * NW_NR], g[NW_NR * 2 * NW_N];
+    int piv[NW_NR], coupled = 0;
+    for (int i = 0; i < NW_NE; ++i)
+        for (int r = 0; r < NW_NR; ++r) {
+            X[i * NW_NR + r] = M[nw_E[i] * NW_N + nw_R[r]];
+            coupled |= X[i * NW_NR + r] != 0.0;
+        }
+    if (coupled && nw_dsolve(X, NW_NR)) return 1;              /* X = D^-1 M[E,R] */
+    for (int r = 0; r < NW_NR; ++r) {
+        const double *row = M + nw_R[r] * NW_N;
+        for (int q = 0; q < NW_NR; ++q) {                       /* S = M[R,R] - M[R,E] X */
+            double s = row[nw_R[q]];
+            if (coupled) for (int e = 0; e < NW_NE; ++e) s -= row[nw_E[e]] * X[e * NW_NR + q];
+            S[r * NW_NR + q] = s;
+        }
+        for (int c = 0; c < m; ++c) {                           /* g = b_R - M[R,E] z */
+            double s = b[nw_R[r] * m + c];
+            for (int e = 0; e < NW_NE; ++e) s -= row[nw_E[e]] * z[e * m + c];
+            g[r * m + c] = s;
+        }
+    }
+    if (nw_lu(NW_NR, S, piv)) return 1;
+    nw_lu_solve(NW_NR, S, piv, m, g);                          /* x_R */
+    if (coupled)                                                /* x_E = z - X x_R */
+        for (int e = 0; e < NW_NE; ++e)
+            for (int c = 0; c < m; ++c) {
+                double s = z[e * m + c];
+                for (int r = 0; r < NW_NR; ++r) s -= X[e * NW_NR + r] * g[r * m + c];
+                z[e * m + c] = s;
+            }
+    for (int r = 0; r < NW_NR; ++r)
+        for (int c = 0; c < m; ++c) b[nw_R[r] * m + c] = g[r * m + c];
+#endif
+    for (int i = 0; i < NW_NE; ++i)
+        for (int c = 0; c < m; ++c) b[nw_E[i] * m + c] = z[i * m + c];
+    return 0;
+}
+"""
+
+#: The protocol functions of the core library.
+CORE_C = r"""
+int nw_default_inputs(double t, const double *p, double *out)
+{
+    return nw_s_default_inputs(t, p, out);
+}
+
+int nw_mass_matrix(double t, const double *y, const double *p, const double *u, double *out)
+{
+    static double f[NW_N + 1];
+    double yd[NW_N + 1] = {0};
+    if (!nw_bound) return 2;
+    return nw_dyn(t, y, yd, p, u, out, f);
+}
+
+int nw_force_vector(double t, const double *y, const double *yd, const double *p,
+                    const double *u, double *out)
+{
+    static double M[NW_N * NW_N + 1];
+    if (!nw_bound) return 2;
+    return nw_dyn(t, y, yd, p, u, M, out);
+}
+
+int nw_rhs(double t, const double *x, const double *p, const double *u, double *out)
+{
+    static double M[NW_N * NW_N + 1], f[NW_N + 1];
+    int r;
+    if (!nw_bound) return 2;
+    if ((r = nw_dyn(t, x, x + NW_N, p, u, M, f))) return r;
+    if (nw_esolve(M, f, 1)) return 1;
+    memmove(out, x + NW_N, NW_N * sizeof(double));
+    memcpy(out + NW_N, f, NW_N * sizeof(double));
+    return 0;
+}
+
+int nw_outputs(double t, const double *x, const double *p, const double *u, double *out)
+{
+    double ys[NW_NS + 1], yds[NW_NS + 1], o[NW_NY + NW_NH + 1];
+    if (!nw_bound) return 2;
+    if (nw_at(t, x, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x + NW_N, 1, yds);
+    nw_s_outputs(t, ys, yds, p, u, o);
+    memcpy(out, o, NW_NY * sizeof(double));
+    return 0;
+}
+
+int nw_constraints(double t, const double *y, const double *p, const double *u, double *out)
+{
+    double ys[NW_NS + 1];
+    if (!nw_bound) return 2;
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    return nw_s_constraints(t, ys, p, u, out);
+}
+
+int nw_constraint_time_derivative(double t, const double *y, const double *p, const double *u,
+                                  double *out)
+{
+    double ys[NW_NS + 1];
+    if (!nw_bound) return 2;
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    return nw_s_constraint_time_derivative(t, ys, p, u, out);
+}
+
+int nw_constraint_gamma(double t, const double *y, const double *yd, const double *p,
+                        const double *u, double *out)
+{
+    double ys[NW_NS + 1], yds[NW_NS + 1];
+    if (!nw_bound) return 2;
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    return nw_s_constraint_gamma(t, ys, yds, p, u, out);
+}
+
+/* G = G_s S_V (+ G_s dS_V/dsigma y dsigma/dy) (ffrf_constraint_jacobian) */
+int nw_constraint_jacobian(double t, const double *y, const double *p, const double *u,
+                           double *out)
+{
+    static double Gs[NW_NC * NW_NS + 1];
+    double ys[NW_NS + 1];
+    NW_DEFAULT_INPUTS;
+    if (!nw_bound) return 2;
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_s_constraint_jacobian(t, ys, p, u, Gs);
+    nw_gemm(NW_NC, NW_N, NW_NS, Gs, NW_NS, 1, NW_SV, NW_N, 1, out);
+#if NW_NPB
+    static double Sy[NW_NPB * NW_N + 1], Su[NW_NPB * NW_NU + 1];
+    if (NW_NC && nw_sens(t, y, p, u, Sy, Su)) {
+        double d[NW_NS + 1], v[NW_NC + 1];
+        for (int k = 0; k < NW_NPB; ++k) {
+            nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, y, 1, d);
+            nw_gemv(NW_NC, NW_NS, Gs, NW_NS, 1, d, 1, v);
+            for (int i = 0; i < NW_NC; ++i)
+                for (int j = 0; j < NW_N; ++j) out[i * NW_N + j] += v[i] * Sy[k * NW_N + j];
+        }
+    }
+#endif
+    return 0;
+}
+"""
+
+#: The derivatives (mirrors ffrf_force_jacobians, ffrf_mass_matrix_times_derivative,
+#: ffrf_rhs_jacobian, ffrf_output_jacobians and ffrf_sigma_terms).
+JACOBIAN_C = r"""
+#define NW_H 1e-30
+#define NW_NX (2 * NW_NS + NW_NU)
+
+/* kin (nh), dkin/dy = Cs[:, :ns] S_V, dkin/dyd, dkin/du (ffrf_kin_jacobians) */
+static void nw_kin_jacobians(double t, const double *ys, const double *yds, const double *p,
+                             const double *u, double *kin, double *Ky, double *Kyd, double *Ku)
+{
+    static double o[NW_NY + NW_NH + 1], C[(NW_NY + NW_NH) * NW_NX + 1];
+    nw_s_outputs(t, ys, yds, p, u, o);
+    memcpy(kin, o + NW_NY, NW_NH * sizeof(double));
+    nw_s_output_jacobians(t, ys, yds, p, u, C);
+    const double *Cs = C + NW_NY * NW_NX;
+    nw_gemm(NW_NH, NW_N, NW_NS, Cs, NW_NX, 1, NW_SV, NW_N, 1, Ky);
+    nw_gemm(NW_NH, NW_N, NW_NS, Cs + NW_NS, NW_NX, 1, NW_SV, NW_N, 1, Kyd);
+    for (int i = 0; i < NW_NH; ++i)
+        for (int k = 0; k < NW_NU; ++k) Ku[i * NW_NU + k] = Cs[i * NW_NX + 2 * NW_NS + k];
+}
+
+/* out (n x n) = S_W^T A S_V for A (ns x ns) with row stride lda */
+static void nw_sandwich(const double *A, long lda, double *out)
+{
+    static double T[NW_NS * NW_N + 1];
+    nw_gemm(NW_NS, NW_N, NW_NS, A, lda, 1, NW_SV, NW_N, 1, T);
+    nw_gemm(NW_N, NW_N, NW_NS, NW_SW, 1, NW_N, T, NW_N, 1, out);
+}
+
+#if NW_NPB
+/* d(q - k)/dsigma (n x NPB) or, with a, d(M a)/dsigma: the complex step in each sigma_k of the
+   mixed bodies and S_V, S_W with the symbolic part's Jacobians (ffrf_sigma_terms) */
+static void nw_sigma_terms(double t, const double *y, const double *yd, const double *p,
+                           const double *u, const double *a, double *out)
+{
+    static double o[NW_NY + NW_NH + 1], C[(NW_NY + NW_NH) * NW_NX + 1], fs[NW_NS + 1];
+    static double J[NW_NS * NW_NX + 1], Ms[NW_NS * NW_NS + 1], mm[NW_NS * NW_NS + 1];
+    static double complex kinc[NW_NH + 1], fsc[NW_NS + 1], f[NW_N + 1];
+    double ys[NW_NS + 1], yds[NW_NS + 1], as[NW_NS + 1], dys[NW_NS + 1], dyds[NW_NS + 1];
+    double dk[NW_NH + 1], v[NW_NS + 1], mmd[NW_NS + 1];
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_s_output_jacobians(t, ys, yds, p, u, C);
+    nw_s_outputs(t, ys, yds, p, u, o);
+    const double *Cs = C + NW_NY * NW_NX, *kin = o + NW_NY;
+    if (!a) {
+        nw_s_force_vector(t, ys, yds, p, u, fs);
+        nw_s_force_jacobians(t, ys, yds, p, u, J);
+    } else {
+        nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, a, 1, as);
+        nw_s_mass_matrix(t, ys, p, u, Ms);
+        nw_s_mass_matrix_times_derivative(t, ys, p, as, u, mm);
+    }
+    for (int k = 0; k < NW_NPB; ++k) {
+        static double complex last[NW_NW];
+        static int have;
+        for (int i = 0; i < NW_NW; ++i) nw_wc[i] = nw_w[i];
+        for (int i = nw_woff[k]; i < nw_woff[k + 1]; ++i) nw_wc[i] += I * NW_H * nw_dw[i];
+        if (!have || memcmp(last, nw_wc, sizeof last)) {   /* mixed once per weights */
+            nw_k_sigma_c();
+            memcpy(last, nw_wc, sizeof last);
+            have = 1;
+        }
+        nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, y, 1, dys);
+        nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, yd, 1, dyds);
+        for (int i = 0; i < NW_NH; ++i) {           /* dkin = Cs[:, :ns] dys + Cs[:, ns:2ns] dyds */
+            double s = 0.0;
+            for (int j = 0; j < NW_NS; ++j)
+                s += Cs[i * NW_NX + j] * dys[j] + Cs[i * NW_NX + NW_NS + j] * dyds[j];
+            dk[i] = s;
+            kinc[i] = kin[i] + I * NW_H * s;
+        }
+        if (!a) {
+            for (int i = 0; i < NW_NS; ++i) {       /* fs + ih (fys dys + fyds dyds) */
+                double s = 0.0;
+                for (int j = 0; j < NW_NS; ++j)
+                    s += J[i * NW_NX + j] * dys[j] + J[i * NW_NX + NW_NS + j] * dyds[j];
+                v[i] = s;
+                fsc[i] = fs[i] + I * NW_H * s;
+            }
+            nw_k_sigf(kinc, y, yd, fsc, f);
+        } else {
+            nw_gemv(NW_NS, NW_NS, mm, NW_NS, 1, dys, 1, mmd);
+            nw_k_sigm(kinc, y, a, Ms, mmd, f);
+        }
+        for (int i = 0; i < NW_N; ++i) out[i * NW_NPB + k] = cimag(f[i]) / NW_H;
+    }
+    (void)dk; (void)v;
+}
+#endif
+
+int nw_force_jacobians(double t, const double *y, const double *yd, const double *p,
+                       const double *u, double *out)
+{
+    static double J[NW_NS * NW_NX + 1], fy[NW_N * NW_N + 1], fyd[NW_N * NW_N + 1];
+    static double fu[NW_N * NW_NU + 1], T[NW_NS * NW_NU + 1];
+    double ys[NW_NS + 1], yds[NW_NS + 1];
+    NW_DEFAULT_INPUTS;
+    if (!nw_bound) return 2;
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_s_force_jacobians(t, ys, yds, p, u, J);
+    nw_sandwich(J, NW_NX, fy);
+    nw_sandwich(J + NW_NS, NW_NX, fyd);
+    for (int i = 0; i < NW_NS; ++i)
+        for (int k = 0; k < NW_NU; ++k) T[i * NW_NU + k] = J[i * NW_NX + 2 * NW_NS + k];
+    nw_gemm(NW_N, NW_NU, NW_NS, NW_SW, 1, NW_N, T, NW_NU, 1, fu);
+NW_FIXED_JACOBIANS
+#if NW_MOVING
+    {   /* complex steps of the bodies on moving frames (ffrf_force_directional) */
+        static double kin[NW_NH + 1], Ky[NW_NH * NW_N + 1], Kyd[NW_NH * NW_N + 1];
+        static double Ku[NW_NH * NW_NU + 1];
+        static double complex kc[NW_NH + 1], yc[NW_N + 1], ydc[NW_N + 1], fc[NW_N + 1];
+        nw_kin_jacobians(t, ys, yds, p, u, kin, Ky, Kyd, Ku);
+        for (int j = 0; j < 2 * NW_N + NW_NU; ++j) {
+            const double *K = j < NW_N ? Ky : (j < 2 * NW_N ? Kyd : Ku);
+            const int col = j < NW_N ? j : (j < 2 * NW_N ? j - NW_N : j - 2 * NW_N);
+            const int ld = j < 2 * NW_N ? NW_N : NW_NU;
+            for (int i = 0; i < NW_NH; ++i) kc[i] = kin[i] + I * NW_H * K[i * ld + col];
+            for (int i = 0; i < NW_N; ++i) { yc[i] = y[i]; ydc[i] = yd[i]; }
+            if (j < NW_N) yc[col] += I * NW_H;
+            else if (j < 2 * NW_N) ydc[col] += I * NW_H;
+            nw_k_dirf(kc, yc, ydc, fc);
+            double *target = j < NW_N ? fy : (j < 2 * NW_N ? fyd : fu);
+            const int ldt = j < 2 * NW_N ? NW_N : NW_NU;
+            for (int i = 0; i < NW_N; ++i) target[i * ldt + col] += cimag(fc[i]) / NW_H;
+        }
+    }
+#endif
+#if NW_NPB
+    {   /* the weights move with y and u */
+        static double Sy[NW_NPB * NW_N + 1], Su[NW_NPB * NW_NU + 1], Fs[NW_N * NW_NPB + 1];
+        if (nw_sens(t, y, p, u, Sy, Su)) {
+            nw_sigma_terms(t, y, yd, p, u, 0, Fs);
+            for (int i = 0; i < NW_N; ++i)
+                for (int k = 0; k < NW_NPB; ++k) {
+                    const double s = Fs[i * NW_NPB + k];
+                    for (int j = 0; j < NW_N; ++j) fy[i * NW_N + j] += s * Sy[k * NW_N + j];
+                    for (int j = 0; j < NW_NU; ++j) fu[i * NW_NU + j] += s * Su[k * NW_NU + j];
+                }
+        }
+    }
+#endif
+    for (int i = 0; i < NW_N; ++i) {
+        memcpy(out + i * (2 * NW_N + NW_NU), fy + i * NW_N, NW_N * sizeof(double));
+        memcpy(out + i * (2 * NW_N + NW_NU) + NW_N, fyd + i * NW_N, NW_N * sizeof(double));
+        memcpy(out + i * (2 * NW_N + NW_NU) + 2 * NW_N, fu + i * NW_NU, NW_NU * sizeof(double));
+    }
+    return 0;
+}
+
+int nw_mass_matrix_times_derivative(double t, const double *y, const double *p,
+                                    const double *a, const double *u, double *out)
+{
+    static double mm[NW_NS * NW_NS + 1];
+    double ys[NW_NS + 1], yds[NW_NS + 1] = {0}, as[NW_NS + 1], zero[NW_N + 1] = {0};
+    NW_DEFAULT_INPUTS;
+    if (!nw_bound) return 2;
+    if (nw_at(t, y, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, a, 1, as);
+    nw_s_mass_matrix_times_derivative(t, ys, p, as, u, mm);
+    nw_sandwich(mm, NW_NS, out);
+#if NW_MOVING
+    {   /* complex steps of the moving bodies' mass blocks times a */
+        static double kin[NW_NH + 1], Ky[NW_NH * NW_N + 1], Kyd[NW_NH * NW_N + 1];
+        static double Ku[NW_NH * NW_NU + 1];
+        static double complex kc[NW_NH + 1], yc[NW_N + 1], fc[NW_N + 1];
+        nw_kin_jacobians(t, ys, yds, p, u, kin, Ky, Kyd, Ku);
+        for (int j = 0; j < NW_N; ++j) {
+            for (int i = 0; i < NW_NH; ++i) kc[i] = kin[i] + I * NW_H * Ky[i * NW_N + j];
+            for (int i = 0; i < NW_N; ++i) yc[i] = y[i];
+            yc[j] += I * NW_H;
+            nw_k_dirm(kc, yc, a, fc);
+            for (int i = 0; i < NW_N; ++i) out[i * NW_N + j] += cimag(fc[i]) / NW_H;
+        }
+    }
+#endif
+#if NW_NPB
+    {
+        static double Sy[NW_NPB * NW_N + 1], Su[NW_NPB * NW_NU + 1], Fa[NW_N * NW_NPB + 1];
+        if (nw_sens(t, y, p, u, Sy, Su)) {
+            nw_sigma_terms(t, y, zero, p, u, a, Fa);
+            for (int i = 0; i < NW_N; ++i)
+                for (int k = 0; k < NW_NPB; ++k)
+                    for (int j = 0; j < NW_N; ++j)
+                        out[i * NW_N + j] += Fa[i * NW_NPB + k] * Sy[k * NW_N + j];
+        }
+    }
+#endif
+    (void)zero; (void)yds;
+    return 0;
+}
+
+int nw_rhs_jacobian(double t, const double *x, const double *p, const double *u, double *out)
+{
+    static double M[NW_N * NW_N + 1], f[NW_N + 1], fj[NW_N * (2 * NW_N + NW_NU) + 1];
+    static double dMa[NW_N * NW_N + 1], b[NW_N * 2 * NW_N + 1];
+    const double *y = x, *yd = x + NW_N;
+    int r;
+    NW_DEFAULT_INPUTS;
+    if (!nw_bound) return 2;
+    if ((r = nw_dyn(t, y, yd, p, u, M, f))) return r;
+    if (nw_esolve(M, f, 1)) return 1;                          /* ydd */
+    if ((r = nw_force_jacobians(t, y, yd, p, u, fj))) return r;
+    if ((r = nw_mass_matrix_times_derivative(t, y, p, f, u, dMa))) return r;
+    for (int i = 0; i < NW_N; ++i)
+        for (int j = 0; j < 2 * NW_N; ++j)
+            b[i * 2 * NW_N + j] = fj[i * (2 * NW_N + NW_NU) + j]
+                                  - (j < NW_N ? dMa[i * NW_N + j] : 0.0);
+    if (nw_esolve(M, b, 2 * NW_N)) return 1;
+    memset(out, 0, NW_STATE_SIZE * NW_STATE_SIZE * sizeof(double));
+    for (int i = 0; i < NW_N; ++i) out[i * NW_STATE_SIZE + NW_N + i] = 1.0;
+    memcpy(out + NW_N * NW_STATE_SIZE, b, NW_N * 2 * NW_N * sizeof(double));
+    return 0;
+}
+
+/* dout/dx = [Cs_y S_V, Cs_yd S_V] (+ the schedule's), dout/du (ffrf_output_jacobians) */
+int nw_output_jacobians(double t, const double *x, const double *p, const double *u,
+                        double *out)
+{
+    static double C[(NW_NY + NW_NH) * NW_NX + 1], Cy[NW_NY * NW_N + 1], Cyd[NW_NY * NW_N + 1];
+    double ys[NW_NS + 1], yds[NW_NS + 1];
+    const int ld = 2 * NW_N + NW_NU;
+    NW_DEFAULT_INPUTS;
+    if (!nw_bound) return 2;
+    if (nw_at(t, x, p, u)) return 3;
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x, 1, ys);
+    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x + NW_N, 1, yds);
+    nw_s_output_jacobians(t, ys, yds, p, u, C);
+    nw_gemm(NW_NY, NW_N, NW_NS, C, NW_NX, 1, NW_SV, NW_N, 1, Cy);
+    nw_gemm(NW_NY, NW_N, NW_NS, C + NW_NS, NW_NX, 1, NW_SV, NW_N, 1, Cyd);
+    for (int i = 0; i < NW_NY; ++i) {
+        memcpy(out + i * ld, Cy + i * NW_N, NW_N * sizeof(double));
+        memcpy(out + i * ld + NW_N, Cyd + i * NW_N, NW_N * sizeof(double));
+        for (int k = 0; k < NW_NU; ++k) out[i * ld + 2 * NW_N + k] = C[i * NW_NX + 2 * NW_NS + k];
+    }
+#if NW_NPB
+    static double Sy[NW_NPB * NW_N + 1], Su[NW_NPB * NW_NU + 1];
+    if (NW_NY && nw_sens(t, x, p, u, Sy, Su)) {
+        double d[NW_NS + 1], dd[NW_NS + 1];
+        for (int k = 0; k < NW_NPB; ++k) {
+            nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, x, 1, d);
+            nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, x + NW_N, 1, dd);
+            for (int i = 0; i < NW_NY; ++i) {
+                double s = 0.0;
+                for (int j = 0; j < NW_NS; ++j)
+                    s += C[i * NW_NX + j] * d[j] + C[i * NW_NX + NW_NS + j] * dd[j];
+                for (int j = 0; j < NW_N; ++j) out[i * ld + j] += s * Sy[k * NW_N + j];
+                for (int j = 0; j < NW_NU; ++j) out[i * ld + 2 * NW_N + j] += s * Su[k * NW_NU + j];
+            }
+        }
+    }
+#endif
+    return 0;
+}
+"""

@@ -1,0 +1,268 @@
+"""The floating-frame kernel traced on a model's data, for the compiled backend.
+
+:func:`trace_splice` runs the kernel's own functions (:mod:`neweul_py.ffrf.splice`,
+:mod:`neweul_py.ffrf.body`) once on traced arrays (:mod:`.c_trace`): the arrays of the
+module's data file (level 0), the weights of the parametric bodies (level 1: the samples are
+mixed by them, one product ``w B`` per entry of the layout that varies) and the arguments of
+a call (level 2). The context they run in — the bodies, mixed or not, ``S_V``, ``S_W`` and
+the maps of the symbolic mass — is assembled as :func:`~neweul_py.ffrf.splice.ffrf_system`
+and :func:`~neweul_py.ffrf.splice.ffrf_mixed` assemble it. :func:`traced_kernels` records
+each splice expression the C library needs (the dynamics, the constant Jacobians of fixed
+frames, the complex-step directions of moving frames, the complex step in ``σ``) as the
+outputs of one C function; :mod:`.c_kernel` prints them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from ..ffrf.parametric import ffrf_unmix
+from ..ffrf.splice import (
+    ffrf_add_force,
+    ffrf_add_mass,
+    ffrf_block_constant,
+    ffrf_fixed_force_jacobians,
+    ffrf_index,
+    ffrf_moving,
+    ffrf_symbolic_mass,
+    ffrf_terms,
+)
+from .c_trace import Graph, TArray
+from .elastic import elastic_data, patterns, symbolic_part
+
+__all__ = ["STEP", "MixedColumns", "SpliceTrace", "constant_columns", "node_structure",
+           "restore_data", "trace_splice", "traced_context", "traced_kernels"]
+
+#: The complex step of the directional derivatives (as ``S["step"]`` of the NumPy module).
+STEP = 1e-30
+
+
+@dataclasses.dataclass
+class SpliceTrace:
+    """The traced kernel of a model: graph, leaves and the outputs of each C function."""
+
+    graph: Graph
+    n: int
+    ns: int
+    nh: int
+    nu: int
+    parametric: list[dict[str, Any]]      # per parametric body: name, cols, nb, nd, keys
+    fixed: bool                           # some body on a fixed frame
+    moving: bool                          # some body on a moving frame
+    real: dict[str, Any]                  # context mixed with the real weights
+    cplx: dict[str, Any] | None           # context mixed with the complex weights
+    dsv: list[TArray]                     # ∂S_V/∂σ_k
+    elastic: list[int]                    # the elastic coordinates (E)
+    block_sigma: bool                     # M[E, E] depends on the schedule alone
+
+
+def restore_data(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndarray]) -> Any:
+    """The skeleton with float arrays as data leaves and integer arrays as values."""
+    if isinstance(tree, dict):
+        if len(tree) == 1 and "@" in tree:
+            key = tree["@"]
+            return leaves[key] if key in leaves else np.asarray(arrays[key])
+        return {k: restore_data(v, leaves, arrays) for k, v in tree.items()}
+    if isinstance(tree, list):
+        return [restore_data(v, leaves, arrays) for v in tree]
+    if isinstance(tree, tuple):
+        return tuple(restore_data(v, leaves, arrays) for v in tree)
+    return tree
+
+
+class MixedColumns:
+    """The mixed values ``w B`` of a parametric body's stack as :func:`~neweul_py.ffrf.
+    parametric.ffrf_unmix` reads them (``flat[i:j]``, ``flat[i]``), one product per entry of
+    the layout, so that the C code mixes only the entries the kernel uses. An entry that
+    does not vary (equal in every sample, zero slopes and curvatures: ``constant``) is the
+    first sample's (the value weights sum to one), or zero with the weights' derivative."""
+
+    def __init__(self, w: TArray, B: TArray, constant: np.ndarray, derivative: bool) -> None:
+        self.w, self.B, self.constant, self.derivative = w, B, constant, derivative
+
+    def __getitem__(self, key: Any) -> TArray:
+        i, j = (key.start, key.stop) if isinstance(key, slice) else (key, key + 1)
+        if self.constant[i:j].all():
+            block = self.B[0, i:j] if not self.derivative else TArray(
+                self.B.graph, self.B.graph.zeros((j - i,)))
+        else:
+            block = np.dot(self.w, self.B[:, i:j])
+        return block if isinstance(key, slice) else block[0]
+
+
+def constant_columns(stack: np.ndarray, blocks: int) -> np.ndarray:
+    """The columns of a stack (rows ``X_1, X_1′(, X_1″), X_2 …``: ``blocks`` per sample) whose
+    value rows are all equal and whose derivative rows are zero."""
+    values, derivatives = stack[::blocks], np.delete(stack, np.s_[::blocks], axis=0)
+    same = np.all(values == values[0], axis=0)
+    return same & (~np.any(derivatives, axis=0) if derivatives.size else True)
+
+
+def traced_context(g: Graph, bodies: list[dict], SV0: TArray, SW0: TArray, same: bool,
+             weights: list[TArray] | None, n: int, ns: int,
+             pattern: tuple[list[int], list[int]], constant: list[np.ndarray],
+             derivative: bool = False) -> dict[str, Any]:
+    """The splice context the traced kernel runs in, assembled as
+    :func:`~neweul_py.ffrf.splice.ffrf_system` and, mixed at ``weights`` (one traced
+    vector per parametric body; ``constant``: its stack's columns that do not vary,
+    :class:`MixedColumns`), :func:`~neweul_py.ffrf.splice.ffrf_mixed` assemble it."""
+    out, SV, SW, k = [], SV0, SW0, 0
+    for b in bodies:
+        if "mixing" not in b:
+            bb = dict(b)
+            if "quad" not in b and "fixed" not in b:      # Mee E (ffrf_add_mass)
+                rows = TArray(g, g.zeros((b["nq"], n)))
+                rows[:, b["first"]:b["first"] + b["nq"]] = b["Me"]
+                bb["Mee_rows"] = rows
+            out.append(bb)
+            continue
+        w = weights[k]
+        mixed = ffrf_unmix(b["mixing"], MixedColumns(w, b["mixing"]["stack"], constant[k],
+                                               derivative))
+        k += 1
+        mixed.update(name=b["name"], first=b["first"], kin=b["kin"])
+        SV, SW = SV.astype(np.result_type(SV, w)), SW.astype(np.result_type(SW, w))
+        SV[b["rows"]] += mixed.pop("_sv")
+        SW[b["rows"]] += mixed.pop("_sw")
+        out.append(mixed)
+    r, c = (np.asarray(v, dtype=np.intp) for v in pattern)
+    ix = (ffrf_index(r), ffrf_index(c))
+    if not (isinstance(ix[0], slice) and isinstance(ix[1], slice)):
+        ix = np.ix_(r, c)
+    maps = (ix, SW[ffrf_index(r)].T, SV[ffrf_index(c)])
+    acc_map = np.hstack((np.eye(6), np.zeros((6, 3)), -np.eye(6, 3), np.zeros((6, 4))))
+    return {"bodies": tuple(out), "n": n, "ns": ns, "SV": SV, "SW": SW,
+            "same": same and k == 0, "acc_map": acc_map, "maps": (maps, None)}
+
+
+def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
+    """Trace the kernel of ``equations`` on its data (module docstring); also returns the
+    data file (:class:`.elastic.DataFile`)."""
+    el = equations.elastic
+    a_idx = list(el.active)
+    keep = list(el.keep)
+    true_index = {j: k for k, j in enumerate(keep)}
+    skeleton, data = elastic_data(equations, a_idx, true_index)
+    symbolic = symbolic_part(equations)
+    mass_pattern, _kin = patterns(symbolic, el.hidden)
+    g = Graph()
+    leaves = {key: g.leaf(key, arr.shape, 0) for key, arr in sorted(data.arrays.items())
+              if arr.dtype.kind == "f"}
+    tree = restore_data(skeleton, leaves, data.arrays)
+    bodies = tree["bodies"]
+    n, ns, nh = len(keep), len(a_idx), len(el.hidden)
+    nu = len(equations.inputs)
+    same = skeleton["SV"] == skeleton["SW"]
+    parametric = []
+    for b, raw in zip(bodies, skeleton["bodies"], strict=True):
+        if "mixing" in b:
+            coeff = data.arrays[raw["coeff"]["@"]]
+            parametric.append({"name": b["name"], "cols": int(coeff.shape[2]),
+                               "nb": int(coeff.shape[1]) + 1, "nd": int(coeff.shape[0]),
+                               "values": raw["values"]["@"], "coeff": raw["coeff"]["@"],
+                               "rows": np.asarray(b["rows"])})
+    w = [g.leaf(f"w{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
+    dw = [g.leaf(f"dw{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
+    wc = [g.leaf(f"wc{k}", (p["cols"],), 1, cplx=True) for k, p in enumerate(parametric)]
+    constant = [constant_columns(data.arrays[raw["mixing"]["stack"]["@"]], blocks)
+                for raw, blocks in zip([r for r in skeleton["bodies"] if "mixing" in r],
+                                       [1 + bool(s.body.slopes) + bool(s.body.curvatures)
+                                        for s in el.splices if s.body.parametric],
+                                       strict=True)]
+    real = traced_context(g, bodies, tree["SV"], tree["SW"], same, w, n, ns, mass_pattern,
+                    constant)
+    cplx = (traced_context(g, bodies, tree["SV"], tree["SW"], same, wc, n, ns, mass_pattern,
+                     constant) if parametric else None)
+    dsv = []
+    for k, p in enumerate(parametric):               # ∂S_V/∂σ_k: the node rows mixed by w′
+        b = next(b for b in bodies if b.get("name") == p["name"] and "mixing" in b)
+        d = ffrf_unmix(b["mixing"], MixedColumns(dw[k], b["mixing"]["stack"], constant[k],
+                                           True))["_sv"]
+        m = TArray(g, g.zeros((ns, n)))
+        m[p["rows"]] = d
+        dsv.append(m)
+    fixed = any("fixed" in b for b in bodies)
+    moving = any("fixed" not in b for b in bodies)
+    elastic = sorted(j for b in bodies for j in range(b["first"], b["first"] + b["nq"]))
+    block_sigma = ffrf_block_constant(
+        [{k: v for k, v in b.items() if not isinstance(v, TArray)} for b in bodies], ns,
+        *node_structure(skeleton, data.arrays, parametric), mass_pattern,
+        np.asarray(_kin, dtype=np.intp))
+    return SpliceTrace(g, n, ns, nh, nu, parametric, fixed, moving, real, cplx, dsv,
+                  elastic, block_sigma), data
+
+
+def node_structure(skeleton: dict, arrays: dict[str, np.ndarray],
+                    parametric: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
+    """The nonzero structure of ``S_V``, ``S_W`` at every schedule: the base maps and the
+    node rows of every parametric body in any sample."""
+    SV = arrays[skeleton["SV"]["@"]] != 0
+    SW = arrays[skeleton["SW"]["@"]] != 0
+    for raw in (r for r in skeleton["bodies"] if "mixing" in r):
+        stack = arrays[raw["mixing"]["stack"]["@"]]
+        rows = np.asarray(arrays[raw["rows"]["@"]])
+        for path, i, j, shape in raw["mixing"]["layout"]:
+            target = {("_sv",): SV, ("_sw",): SW}.get(tuple(path))
+            if target is not None:
+                target[rows] |= np.any(stack[:, i:j] != 0, axis=0).reshape(shape)
+    return SV, SW
+
+
+def traced_kernels(t: SpliceTrace) -> dict[str, tuple[list, list]]:
+    """The traced C functions: name → (level-2 leaves ``(C name, TArray)``, outputs
+    ``(C name, TArray)``). Each is one splice expression of :mod:`neweul_py.ffrf.splice`."""
+    g, n, ns, nh = t.graph, t.n, t.ns, t.nh
+    out: dict[str, tuple[list, list]] = {}
+
+    def leaf(name: str, shape: tuple[int, ...], cplx: bool = False) -> TArray:
+        return g.leaf(f"{name}@{len(g.leaves)}", shape, 2, cplx)
+
+    # (M, q − k) of ffrf_dynamics after the symbolic part's rhs_parts
+    S = t.real
+    kin, y, yd = leaf("kin", (nh,)), leaf("y", (n,)), leaf("yd", (n,))
+    Ms, fs = leaf("Ms", (ns, ns)), leaf("fs", (ns,))
+    terms = ffrf_terms(S, kin, y, yd)
+    M = ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms)
+    f = ffrf_add_force(S, np.dot(S["SW"].T, fs), terms)
+    out["nw_k_dyn"] = ([("kin", kin), ("y", y), ("yd", yd), ("Ms", Ms), ("fs", fs)],
+                       [("M", M), ("f", f)])
+    if t.fixed:                               # the constant Ke, De of fixed frames
+        fy, fyd = leaf("fy", (n, n)), leaf("fyd", (n, n))
+        fy2, fyd2 = TArray(g, fy.node), TArray(g, fyd.node)
+        ffrf_fixed_force_jacobians(S, fy2, fyd2)
+        out["nw_k_fixed"] = ([("fy", fy), ("fyd", fyd)], [("fy_out", fy2), ("fyd_out", fyd2)])
+    if t.moving:                              # complex-step directions (moving frames)
+        Sm = ffrf_moving(S)
+        kc, yc, ydc = leaf("kin", (nh,), True), leaf("y", (n,), True), leaf("yd", (n,), True)
+        zero = TArray(g, g.zeros((n,), True))
+        fd = ffrf_add_force(Sm, zero, ffrf_terms(Sm, kc, yc, ydc))
+        out["nw_k_dirf"] = ([("kin", kc), ("y", yc), ("yd", ydc)], [("f", fd)])
+        kc2, yc2, a = leaf("kin", (nh,), True), leaf("y", (n,), True), leaf("a", (n,))
+        Mz = TArray(g, g.zeros((n, n), True))
+        Ma = np.dot(ffrf_add_mass(Sm, Mz, ffrf_terms(Sm, kc2, yc2,
+                                                     TArray(g, g.zeros((n,))))), a)
+        out["nw_k_dirm"] = ([("kin", kc2), ("y", yc2), ("a", a)], [("f", Ma)])
+    # the complex step along ∂kin/∂p of every body (ffrf_force_parameter_jacobian)
+    kp, yp, ydp = leaf("kin", (nh,), True), leaf("y", (n,)), leaf("yd", (n,))
+    zero = TArray(g, g.zeros((n,), True))
+    out["nw_k_dirp"] = ([("kin", kp), ("y", yp), ("yd", ydp)],
+                        [("f", ffrf_add_force(S, zero, ffrf_terms(S, kp, yp, ydp)))])
+    if t.cplx is not None:                    # the complex step in σ (ffrf_sigma_terms)
+        Sc = t.cplx
+        kc, y3, yd3, fsc = (leaf("kin", (nh,), True), leaf("y", (n,)), leaf("yd", (n,)),
+                            leaf("fs", (ns,), True))
+        fsig = ffrf_add_force(Sc, np.dot(Sc["SW"].T, fsc), ffrf_terms(Sc, kc, y3, yd3))
+        out["nw_k_sigf"] = ([("kin", kc), ("y", y3), ("yd", yd3), ("fs", fsc)],
+                            [("f", fsig)])
+        kc4, y4, a4, Ms4, mmd = (leaf("kin", (nh,), True), leaf("y", (n,)), leaf("a", (n,)),
+                                 leaf("Ms", (ns, ns)), leaf("mmd", (ns,)))
+        Mz = TArray(g, g.zeros((n, n), True))
+        msig = (np.dot(Sc["SW"].T, np.dot(Ms4, np.dot(Sc["SV"], a4)) + 1j * STEP * mmd)
+                + np.dot(ffrf_add_mass(Sc, Mz, ffrf_terms(Sc, kc4, y4,
+                                                          TArray(g, g.zeros((n,))))), a4))
+        out["nw_k_sigm"] = ([("kin", kc4), ("y", y4), ("a", a4), ("Ms", Ms4), ("mmd", mmd)],
+                            [("f", msig)])
+    return out

@@ -1,0 +1,275 @@
+"""Models with elastic bodies in the compiled backend (codegen/c_splice.py): parametric bodies
+in C against the NumPy module generated from the same equations.
+
+Reference: the NumPy module, which runs the floating-frame kernel (neweul_py/ffrf) and whose
+parametric bodies equal the elastic layer's interpolation (tests/equations/
+test_parametric_elastic_bodies.py); the C library traces the same kernel and must give the
+same numbers to round-off, derivatives through the schedule included.
+"""
+
+from __future__ import annotations
+
+import itertools
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fe_builders import piston_duct
+
+from neweul_py.analysis import load_generated
+from neweul_py.api import load_description
+from neweul_py.codegen import generate_module
+from neweul_py.codegen.c_module import write_c_module
+from neweul_py.elastic import reduce_modal
+from neweul_py.elastic.io.body_files import save_parametric_body
+from neweul_py.elastic.parametric.local_interpolation import interpolate
+from neweul_py.elastic.reductors.invariants import attach_invariants
+from neweul_py.equations import newton_euler
+from neweul_py.errors import NeweulError
+
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="no C compiler")
+SPEEDS = (300.0, 343.0, 390.0)
+_COUNTER = itertools.count()
+
+DESCRIPTION = """
+name: scheduled_duct
+parameters: {{cs: 343.0, m2: 0.02, k2: 1.0e5}}
+coordinates: {{z: {{}}}}
+inputs: {{F: 0}}
+frames:
+  carrier: {{translation: [z, 0, 0]}}
+elastic_bodies:
+  duct: {{frame: {frame}, data: {data}, nodes: {{piston: 1}}, schedule: {schedule}}}
+bodies:
+  mass: {{frame: carrier, mass: m2}}
+forces:
+  link:
+    type: bushing
+    between: [duct.piston, carrier]
+    stiffness: {{diag: [k2, 0, 0]}}
+  push: {{type: force, frame: carrier, vector: [F, 0, 0], in: ISYS}}
+outputs:
+  piston: {{position: duct.piston, in: ISYS, component: x}}
+"""
+
+
+@pytest.fixture(scope="module")
+def bodies(tmp_path_factory) -> Path:
+    """Two-sided u–p piston ducts at three sound speeds (6 modes), interpolated with cubic
+    weights (``duct.npz``), with sample slopes and cubic Hermite weights (``duct_h.npz``) and
+    with slopes and curvatures, quintic Hermite weights in ``ξ = c²`` (``duct_q.npz``)."""
+    tmp = tmp_path_factory.mktemp("c_splice")
+    samples = []
+    for c in SPEEDS:
+        fe = piston_duct(n_el=40, c=c)
+        body = reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1], store_bases=True)
+        samples.append(attach_invariants(body, fe, nodes=[1]))
+    pb = interpolate(samples, list(SPEEDS), parameter="c")
+    save_parametric_body(pb, tmp / "duct.npz")
+    slopes = {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
+              * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
+    hb = pb.with_(interpolation="hermite", slopes=slopes)
+    save_parametric_body(hb, tmp / "duct_h.npz")
+    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
+            for key in hb.slope_keys()}
+    knots = np.unique(np.concatenate([np.linspace(SPEEDS[0], SPEEDS[-1], 31), SPEEDS]))
+    qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
+                  coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
+    save_parametric_body(qb, tmp / "duct_q.npz")
+    return tmp
+
+
+def _pair(tmp: Path, frame: str, data: str, schedule: str, tag: str):
+    """The NumPy module and the compiled module of the description."""
+    (tmp / f"{tag}.yaml").write_text(DESCRIPTION.format(frame=frame, data=data,
+                                                        schedule=schedule))
+    eq = newton_euler(load_description(tmp / f"{tag}.yaml"))
+    npath = generate_module(eq, "h", tmp / f"gen_{tag}" / "scheduled_duct.py")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # a fallback to NumPy would make the test vacuous
+        wrapper = write_c_module(eq, npath)
+        import importlib.util
+
+        spec = importlib.util.spec_from_file_location(f"c_splice_{next(_COUNTER)}", wrapper)
+        mc = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mc)
+    assert mc.BACKEND == "c"
+    return load_generated(npath), mc
+
+
+def _same(got, ref, what: str, rtol: float = 1e-12) -> None:
+    got, ref = np.asarray(got), np.asarray(ref)
+    scale = float(np.abs(ref).max(initial=0.0))
+    assert got.shape == ref.shape, what
+    assert float(np.abs(got - ref).max(initial=0.0)) <= rtol * scale, what
+
+
+@pytest.mark.parametrize("frame", ["ISYS", "carrier"])
+@pytest.mark.parametrize("data", ["duct.npz", "duct_h.npz", "duct_q.npz"])
+def test_parametric_body_in_c_equals_the_numpy_module(bodies, frame: str, data: str) -> None:
+    """``schedule: cs + 2000 z + 5 F`` (a coordinate and an input), the body on a fixed and on
+    a moving frame, with cubic, cubic Hermite and quintic Hermite weights: ``rhs``, the mass
+    matrix, the forces, every Jacobian (the schedule's dependence included: the analytic
+    ones of the NumPy module equal finite differences, tests/equations/
+    test_parametric_elastic_bodies.py), the outputs and their Jacobians, and the parameter
+    derivatives (through the schedule's ``cs`` too) agree to 1e-12 of their largest entry
+    (the output Jacobians' schedule terms and ``∂rhs/∂p``, a solve apart: 1e-10) at states
+    between the samples, the schedule moving between calls."""
+    mnp, mc = _pair(bodies, frame, data, "cs + 2000*z + 5*F", f"{frame}_{data[:-4]}")
+    n, p = len(mnp.COORDINATES), mnp.default_parameters()
+    rng = np.random.default_rng(7)
+    for k in range(3):
+        x = 1e-4 * rng.normal(size=2 * n)
+        u = None if k == 0 else rng.normal(size=len(mnp.INPUTS))
+        a = rng.normal(size=n)
+        y, yd = x[:n], x[n:]
+        _same(mc.rhs(0.1, x, p, u), mnp.rhs(0.1, x, p, u), "rhs")
+        _same(mc.mass_matrix(0.1, y, p, u), mnp.mass_matrix(0.1, y, p, u), "M")
+        _same(mc.force_vector(0.1, y, yd, p, u), mnp.force_vector(0.1, y, yd, p, u), "q - k")
+        for got, ref, what in zip(mc.force_jacobians(0.1, y, yd, p, u),
+                                  mnp.force_jacobians(0.1, y, yd, p, u), ("fy", "fyd", "fu"),
+                                  strict=True):
+            _same(got, ref, what)
+        _same(mc.mass_matrix_times_derivative(0.1, y, p, a, u),
+              mnp.mass_matrix_times_derivative(0.1, y, p, a, u), "d(M a)/dy")
+        _same(mc.rhs_jacobian(0.1, x, p, u), mnp.rhs_jacobian(0.1, x, p, u), "rhs_jacobian")
+        _same(mc.outputs(0.1, x, p, u), mnp.outputs(0.1, x, p, u), "outputs")
+        C, D = mc.output_jacobians(0.1, x, p, u)
+        Cr, Dr = mnp.output_jacobians(0.1, x, p, u)
+        _same(C, Cr, "C")
+        # D is the schedule's term alone (3e-11 m/N): both sides take it from the complex
+        # step in σ; the C library's dS_V/dσ comes from the weights' derivative instead
+        _same(D, Dr, "D", rtol=1e-10)
+        # the parameter derivatives: through the schedule (cs) and the symbolic part (m2, k2)
+        _same(mc.force_parameter_jacobian(0.1, y, yd, p, u),
+              mnp.force_parameter_jacobian(0.1, y, yd, p, u), "d(q - k)/dp")
+        _same(mc.mass_matrix_parameter_derivative(0.1, y, p, a, u),
+              mnp.mass_matrix_parameter_derivative(0.1, y, p, a, u), "d(M a)/dp")
+        _same(mc.rhs_parameter_jacobian(0.1, x, p, u), mnp.rhs_parameter_jacobian(0.1, x, p, u),
+              "d rhs/dp", rtol=1e-10)
+        _same(mc.output_parameter_jacobian(0.1, x, p, u),
+              mnp.output_parameter_jacobian(0.1, x, p, u), "d out/dp", rtol=1e-10)
+
+
+def test_schedule_outside_the_samples_gives_the_numpy_modules_error(bodies) -> None:
+    """``cs = 500`` outside [300, 390]: the compiled module raises the NumPy module's
+    ValueError naming the body, the value and the range (reference: that message)."""
+    mnp, mc = _pair(bodies, "ISYS", "duct.npz", "cs", "range")
+    p = mnp.default_parameters()
+    p[list(mnp.PARAMETERS).index("cs")] = 500.0
+    x = np.zeros(mnp.STATE_SIZE)
+    n = mnp.STATE_SIZE // 2
+    with pytest.raises(ValueError) as ref:
+        mnp.rhs(0.0, x, p)
+    for call in (lambda: mc.rhs(0.0, x, p), lambda: mc.mass_matrix(0.0, x[:n], p),
+                 lambda: mc.rhs_jacobian(0.0, x, p), lambda: mc.outputs(0.0, x, p)):
+        with pytest.raises(ValueError) as got:
+            call()
+        assert str(got.value) == str(ref.value)
+    assert "'duct'" in str(ref.value) and "[300, 390]" in str(ref.value)
+
+
+def test_compiled_module_reads_its_data_from_the_twins_data_file(bodies) -> None:
+    """The compiled module's C sources hold none of the body's numbers, and with the twin's
+    data file changed after generation the compiled module does not load either: one error
+    naming the body and the file (reference: the NumPy module's refusal)."""
+    _pair(bodies, "ISYS", "duct.npz", "cs", "data")
+    gen = bodies / "gen_data"
+    (data,) = gen.glob("*.npz")
+    import re
+
+    numbers = set(re.findall(r"\d+\.\d*(?:e[-+]?\d+)?", "".join(
+        f.read_text() for f in gen.glob("*.c"))))
+    with np.load(data) as z:
+        stack = z["duct/mixing/stack"]
+    values = {repr(abs(float(v))) for v in stack.ravel()} - {"0.0", "1.0", "0.5", "2.0"}
+    assert len(values) > 100 and not values & numbers
+    raw = bytearray(data.read_bytes())
+    raw[-300] ^= 0x01
+    data.write_bytes(bytes(raw))
+    with pytest.raises(NeweulError) as info:
+        load_generated(gen / "scheduled_duct_c.py")
+    assert "elastic body 'duct'" in str(info.value) and data.name in str(info.value)
+
+
+def test_kept_factorization_follows_the_schedule(bodies) -> None:
+    """The compiled solve keeps the factorization of the elastic block and refines against
+    the block at the current schedule (codegen/c_splice.py): along small steps of ``cs``,
+    across a jump over the whole sampled range and back, and at a repeated value, ``rhs``
+    equals the NumPy module's (reference: its direct solve at every value)."""
+    mnp, mc = _pair(bodies, "ISYS", "duct_q.npz", "cs", "refine")
+    n, ics = len(mnp.COORDINATES), list(mnp.PARAMETERS).index("cs")
+    p = mnp.default_parameters()
+    x = 1e-4 * np.random.default_rng(11).normal(size=2 * n)
+    for cs in (343.0, 343.01, 343.02, 301.0, 389.5, 343.02, 343.02, 343.03):
+        p[ics] = cs
+        _same(mc.rhs(0.0, x, p), mnp.rhs(0.0, x, p), f"rhs at cs = {cs}")
+
+
+@pytest.mark.slow
+def test_body_of_hundreds_of_modes_in_c_equals_the_numpy_module(tmp_path) -> None:
+    """A spring chain of 260 DOFs whose stiffness and mass change with ``s``, reduced to 200
+    modes at 4 samples with quintic Hermite weights, on ISYS with a mass on a spring at its
+    free end, scheduled by ``s0 + 0.1 sin(t)``: the compiled module's M, q − k, rhs, their
+    Jacobians and the outputs equal the NumPy module's to 1e-12 of their largest entry
+    (reference: the NumPy module) along a few schedule values."""
+    from fe_builders import spring_chain
+
+    from neweul_py.elastic.parametric.snapshot_basis import basis_parametric_body
+
+    n = 260
+
+    def fe(s: float):
+        return spring_chain(n, k=1.0e4 * (1 + s), m=0.1 * (1 + 0.2 * s), damping=1e-4)
+
+    values, step = np.linspace(0.0, 1.0, 4), 0.01
+    fes = [fe(s) for s in values]
+    V = reduce_modal(fes[0], modes=200, store_bases=True).V
+    body = basis_parametric_body(fes, V, values, parameter="s", keep_nodes=[n],
+                                 interpolation="quintic-hermite",
+                                 slope_models=([fe(s - step) for s in values],
+                                               [fe(s + step) for s in values]),
+                                 slope_step=step)
+    save_parametric_body(body, tmp_path / "chain.npz")
+    (tmp_path / "chain.yaml").write_text(f"""
+name: chain
+parameters: {{s0: 0.4, m2: 0.5, k2: 2.0e3}}
+coordinates: {{z: {{}}}}
+inputs: {{F: 0}}
+frames:
+  carrier: {{translation: [z, 0, 0]}}
+elastic_bodies:
+  chain: {{frame: ISYS, data: chain.npz, nodes: {{tip: {n}}}, inertia: sid,
+          schedule: s0 + 0.1*sin(t)}}
+bodies:
+  mass: {{frame: carrier, mass: m2}}
+forces:
+  link: {{type: bushing, between: [chain.tip, carrier], stiffness: {{diag: [k2, 0, 0]}}}}
+  push: {{type: force, frame: chain.tip, vector: [F, 0, 0], in: ISYS}}
+outputs:
+  x_mass: {{position: carrier, in: ISYS, component: x}}
+""")
+    eq = newton_euler(load_description(tmp_path / "chain.yaml"))
+    npath = generate_module(eq, "h", tmp_path / "gen" / "chain.py")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc = load_generated(write_c_module(eq, npath))
+    mnp = load_generated(npath)
+    assert mc.BACKEND == "c" and mnp.STATE_SIZE == 2 * 201
+    nn, p = mnp.STATE_SIZE // 2, mnp.default_parameters()
+    rng = np.random.default_rng(2)
+    for t in (0.0, 0.3, 0.31, 2.0):
+        x = 1e-3 * rng.normal(size=2 * nn)
+        u = rng.normal(size=1)
+        _same(mc.mass_matrix(t, x[:nn], p, u), mnp.mass_matrix(t, x[:nn], p, u), "M")
+        _same(mc.force_vector(t, x[:nn], x[nn:], p, u),
+              mnp.force_vector(t, x[:nn], x[nn:], p, u), "q - k")
+        _same(mc.rhs(t, x, p, u), mnp.rhs(t, x, p, u), "rhs")
+        for got, ref in zip(mc.force_jacobians(t, x[:nn], x[nn:], p, u),
+                            mnp.force_jacobians(t, x[:nn], x[nn:], p, u), strict=True):
+            _same(got, ref, "force Jacobians")
+        _same(mc.rhs_jacobian(t, x, p, u), mnp.rhs_jacobian(t, x, p, u), "rhs_jacobian")
+        _same(mc.outputs(t, x, p, u), mnp.outputs(t, x, p, u), "outputs")
