@@ -74,11 +74,12 @@ def restore_data(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndar
 
 
 class MixedColumns:
-    """The mixed values ``w B`` of a parametric body's stack as :func:`~neweul_py.ffrf.
-    parametric.ffrf_unmix` reads them (``flat[i:j]``, ``flat[i]``), one product per entry of
-    the layout, so that the C code mixes only the entries the kernel uses. An entry that
-    does not vary (equal in every sample, zero slopes and curvatures: ``constant``) is the
-    first sample's (the value weights sum to one), or zero with the weights' derivative."""
+    """The mixed values ``w B`` of a parametric body's stack, as
+    :func:`~neweul_py.ffrf.parametric.ffrf_unmix` reads them (``flat[i:j]``, ``flat[i]``), one
+    product per entry of the layout, so that the C code mixes only the entries the kernel uses.
+    An entry that does not vary (equal in every sample, zero slopes and curvatures:
+    ``constant``) is the first sample's (the value weights sum to one), or zero with the
+    weights' derivative."""
 
     def __init__(self, w: TArray, B: TArray, constant: np.ndarray, derivative: bool) -> None:
         self.w, self.B, self.constant, self.derivative = w, B, constant, derivative

@@ -175,10 +175,11 @@ def _wrapper(name: str, splice_fn: Any) -> tuple[str, ...]:
 
 
 def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[dict[str, Any]]:
-    """Per elastic body the entry of ``node_positions`` (:func:`~neweul_py.ffrf.splice.
-    ffrf_node_positions`): its node cloud (:func:`~neweul_py.ffrf.splice.ffrf_cloud`; per
-    data set for parametric bodies), its reference frame's index in ``FRAMES`` (−1: ISYS),
-    its elastic coordinates and, for a parametric body, the index of its schedule."""
+    """Per elastic body the entry of ``node_positions``
+    (:func:`~neweul_py.ffrf.splice.ffrf_node_positions`): its node cloud
+    (:func:`~neweul_py.ffrf.splice.ffrf_cloud`; per data set for parametric bodies), its
+    reference frame's index in ``FRAMES`` (−1: ISYS), its elastic coordinates and, for a
+    parametric body, the index of its schedule."""
     out, k = [], 0
     for s, first in zip(el.splices, firsts, strict=True):
         b = s.body
