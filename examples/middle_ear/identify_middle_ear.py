@@ -5,7 +5,7 @@ gives the chain's description and the mesh's manubrium nodes)::
 
     python examples/middle_ear/identify_middle_ear.py --build DATA [--refine 0]
         [--fit all|tympanogram|gyo-goode|none] [--params NAME,...] [--evaluate NAME=VALUE ...]
-        [--out FIT.json] [--figure FIT.png]
+        [--max-nfev N] [--tolerance TOL] [--out FIT.json] [--figure FIT.png]
 
 The forward model, the calibration set and the held-out measurements are
 :mod:`neweul_py.middle_ear.calibration`; the fit is
@@ -64,6 +64,8 @@ def main(argv=None) -> int:
     ap.add_argument("--evaluate", nargs="*", default=[], metavar="NAME=VALUE",
                     help="start (or, with --fit none, evaluate) at these values")
     ap.add_argument("--max-nfev", type=int, default=30)
+    ap.add_argument("--tolerance", type=float, default=1e-3,
+                    help="ftol/xtol/gtol of the least squares")
     ap.add_argument("--out", type=Path, default=None, help="the fit and measures (JSON)")
     ap.add_argument("--figure", type=Path, default=None, help="the figure (PNG)")
     args = ap.parse_args(argv)
@@ -87,7 +89,8 @@ def main(argv=None) -> int:
             return r
 
         fit = identify_function(residuals, bounds, labels=residual_labels(keys),
-                                max_nfev=args.max_nfev, model_name="middle ear",
+                                max_nfev=args.max_nfev, tolerance=args.tolerance,
+                                model_name="middle ear",
                                 data_name=f"calibration set {args.fit}")
         print(fit)
         fitted = dataclasses.replace(base, **fit.end_point)
@@ -103,7 +106,9 @@ def main(argv=None) -> int:
     if args.out:
         args.out.write_text(json.dumps(out, indent=1, default=float) + "\n", encoding="utf-8")
     if args.figure:
-        calibration_figure(start, end, args.refine, args.figure)
+        shipped = start if not args.evaluate else evaluate(MiddleEarParameters(), chain,
+                                                            args.refine)
+        calibration_figure(shipped, end, args.refine, args.figure)
     return 0
 
 

@@ -9,7 +9,9 @@ reflective, ``θ = ln p`` for positive bounds) with a forward-difference Jacobia
 step ``h`` in ``θ`` (a relative step in ``p`` for log parameters), stepping inwards at an upper
 bound. Its standard errors, correlations and undetermined parameters are those of
 :func:`~neweul_py.analysis.identify.fit_statistics`, with the residuals' variance known
-(``s² = 1``: the residuals are in units of their standard deviations) or estimated.
+(``s² = 1``: the residuals are in units of their standard deviations) or estimated; a log
+parameter whose ``σ(ln p)`` exceeds ``max_log_sd`` is reported undetermined as well (the data
+bound it only within a factor ``e^σ``: a number with that error says nothing).
 """
 
 from __future__ import annotations
@@ -65,7 +67,8 @@ class _Cached:
 
 def identify_function(
     residuals: ResidualFunction, bounds: Sequence[Bound | str], *,
-    labels: Sequence[str] | None = None, known_variance: bool = True, step: float = 0.05,
+    labels: Sequence[str] | None = None, known_variance: bool = True,
+    max_log_sd: float | None = 1.0, step: float = 0.05,
     max_nfev: int = 60, tolerance: float = 1e-6, model_name: str = "",
     data_name: str = "",
 ) -> FitResult:
@@ -87,6 +90,10 @@ def identify_function(
     known_variance
         The residuals are already divided by their standard deviations (``s² = 1``);
         otherwise ``s²`` is estimated from the residuals at the optimum.
+    max_log_sd
+        A log parameter whose standard error of ``ln p`` exceeds this (1: the data bound it
+        only within a factor ``e`` either way) is reported undetermined, with its
+        ``σ(ln p)`` in the reason; ``None`` reports every parameter the statistics leave.
     step
         Forward-difference step in ``θ`` (0.05: 5 % of ``p`` for a log parameter).
     max_nfev, tolerance
@@ -139,6 +146,18 @@ def identify_function(
                                                        1.0 if known_variance else None)
     values = problem.values(res.x)
     end = {nm: float(v) for nm, v in zip(names, values, strict=True)}
+    if max_log_sd is not None:
+        for nm, lg in zip(names, problem.log, strict=True):
+            sd = errors.get(nm)
+            if lg and sd is not None and sd / end[nm] > max_log_sd:
+                undetermined[nm] = (f"the data bound it only within a factor "
+                                    f"{np.exp(sd / end[nm]):.3g} either way (σ(ln p) = "
+                                    f"{sd / end[nm]:.3g} > {max_log_sd:g})")
+                errors[nm] = None
+                correlation[nm] = None
+        for nm, row in correlation.items():
+            if row is not None:
+                correlation[nm] = {o: (None if o in undetermined else v) for o, v in row.items()}
     tol = 1e-6 * np.maximum(1.0, np.abs(problem.upper - problem.lower))
     at_bounds = tuple(nm for j, nm in enumerate(names)
                       if min(res.x[j] - problem.lower[j], problem.upper[j] - res.x[j]) <= tol[j])

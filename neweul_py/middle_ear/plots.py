@@ -160,14 +160,17 @@ def plot_tm_modes(me: MiddleEar, state: StaticState, path: str | Path, n: int = 
 
 def calibration_figure(start: dict, end: dict, refine: int, path: str | Path) -> Path:
     """The identified middle ear against its calibration set (docs/middle-ear-clinical.md §5):
-    the compensated 226 Hz tympanogram with the normal ``Ytm`` and ``TW`` ranges, the
-    low-frequency umbo and stapes change under static pressure with Gyo & Goode's means ± SD,
-    and the stapes velocity at Δp = 0 with the 0.6–1.5 kHz peak band; ``start`` dashed,
-    ``end`` solid (measures of :func:`~neweul_py.middle_ear.calibration.calibration_measures`).
+    the compensated 226 Hz tympanogram with the normal ``Ytm`` range, the low-frequency umbo
+    and stapes change under static pressure with Gyo & Goode's means ± SD, and the stapes
+    velocity at Δp = 0 with the 0.6–1.5 kHz peak band; ``start`` (the shipped parameters)
+    dashed, ``end`` (the fit) solid (measures of
+    :func:`~neweul_py.middle_ear.calibration.calibration_measures`).
     """
+    from matplotlib.ticker import NullFormatter
+
     plt = require_matplotlib()
     fig, (ax_t, ax_l, ax_s) = plt.subplots(1, 3, figsize=(14, 4.2), layout="constrained")
-    for m, style, name in ((start, "--", "start"), (end, "-", "fit")):
+    for m, style, name in ((start, "--", "shipped"), (end, "-", "fit")):
         ty = m["tympanogram"]
         y = np.asarray(ty["admittance_mmho"])
         ax_t.plot(ty["pressure_daPa"], y - y[0], style, color="C0",
@@ -191,6 +194,7 @@ def calibration_figure(start: dict, end: dict, refine: int, path: str | Path) ->
     ax_l.legend(fontsize=7)
     ax_s.axvspan(600.0, 1500.0, color="0.9", zorder=0, label="peak band 0.6–1.5 kHz")
     ax_s.axhspan(0.1, 0.3, color="0.95", zorder=0)
+    ax_s.xaxis.set_minor_formatter(NullFormatter())
     ax_s.set_xlabel("frequency [Hz]")
     ax_s.set_ylabel("|stapes velocity / probe pressure| [mm/s/Pa]")
     ax_s.legend(fontsize=7)

@@ -96,3 +96,20 @@ def test_bad_input_is_one_clear_error(bounds, fun, error, match):
     """Bounds, duplicates, too few or non-finite residuals: one error naming the cause."""
     with pytest.raises(error, match=match):
         identify_function(fun, bounds)
+
+
+def test_a_loosely_bound_log_parameter_is_undetermined():
+    """``(ln q − ln 7)/3``: σ(ln q) = 3 > 1 — reported undetermined with its factor
+    (e³ ≈ 20.1), while ``p`` (σ(ln p) = 0.05) keeps its value; ``max_log_sd=None`` gives
+    ``q = 7 ± 21`` (first order)."""
+    def res(v):
+        return np.array([(np.log(v["p"]) - np.log(3.0)) / 0.05,
+                         (np.log(v["q"]) - np.log(7.0)) / 3.0, 0.0])
+
+    fit = identify_function(res, ["p=0.1:100", "q=0.01:1000"], step=1e-4, tolerance=1e-12)
+    assert fit.parameters["q"] is None and "20.1" in fit.undetermined["q"]
+    assert fit.parameters["p"] == pytest.approx(3.0, rel=1e-8)
+    assert fit.correlation["p"]["q"] is None
+    loose = identify_function(res, ["p=0.1:100", "q=0.01:1000"], step=1e-4, tolerance=1e-12,
+                              max_log_sd=None)
+    assert loose.standard_errors["q"] == pytest.approx(21.0, rel=1e-4)
