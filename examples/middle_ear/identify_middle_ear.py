@@ -24,6 +24,8 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from neweul_py.analysis import Bound, identify_function
 from neweul_py.middle_ear.calibration import (
     CALIBRATION,
@@ -95,8 +97,15 @@ def main(argv=None) -> int:
         print(fit)
         fitted = dataclasses.replace(base, **fit.end_point)
         end = evaluate(fitted, chain, args.refine)
+        _, sv, vt = np.linalg.svd(np.array(fit.curve["jacobian"]), full_matrices=False)
         out["fit"] = fit.to_dict() | {"labels": fit.curve["labels"],
-                                      "residuals": fit.curve["residuals"]}
+                                      "residuals": fit.curve["residuals"],
+                                      "singular_values": sv.tolist(),
+                                      "directions": vt.tolist()}
+        print("determined combinations of ln p (singular value: direction):")
+        for s, v in zip(sv, vt, strict=True):
+            print(f"  {s:8.3f}: " + " ".join(f"{c:+.2f}·{n}" for c, n in
+                                                zip(v, fit.scale, strict=True) if abs(c) > 0.1))
         print(json.dumps({k: out["fit"][k] for k in ("parameters", "standard_errors",
                                                      "undetermined", "at_bounds", "cost",
                                                      "labels", "residuals")}, indent=1))

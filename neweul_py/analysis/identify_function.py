@@ -105,7 +105,8 @@ def identify_function(
     Returns
     -------
     FitResult
-        ``task == "function"``; ``curve`` holds ``labels`` and ``residuals`` at the optimum.
+        ``task == "function"``; ``curve`` holds ``labels``, ``residuals`` and ``jacobian``
+        (``∂r/∂θ``, rows per residual) at the optimum.
 
     Raises
     ------
@@ -163,7 +164,8 @@ def identify_function(
                       if min(res.x[j] - problem.lower[j], problem.upper[j] - res.x[j]) <= tol[j])
     start = {nm: float(v) for nm, v in zip(names, problem.values(theta0), strict=True)}
     curve: dict[str, Any] = {"labels": list(labels) if labels is not None
-                             else [f"r{i}" for i in range(r.size)], "residuals": r.tolist()}
+                             else [f"r{i}" for i in range(r.size)], "residuals": r.tolist(),
+                             "jacobian": J.tolist()}
     return FitResult(
         task="function",
         parameters={nm: (None if nm in undetermined else end[nm]) for nm in names},
