@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from neweul_py.analysis import Bound, identify_function
+from neweul_py.atomic import atomic_write
 from neweul_py.middle_ear.calibration import (
     CALIBRATION,
     FIT_BOUNDS,
@@ -74,6 +75,8 @@ def main(argv=None) -> int:
     base = MiddleEarParameters(**{k: float(v) for k, v in (a.split("=") for a in args.evaluate)})
     chain = CalibrationChain(args.build, args.build / "identify_chain")
     start = evaluate(base, chain, args.refine)
+    if start is None:
+        ap.error("the start's static states leave the model's validity (--evaluate)")
     print("start:", summary(start))
     out: dict = {"refine": args.refine, "start_parameters": dataclasses.asdict(base),
                  "start": start}
@@ -113,7 +116,7 @@ def main(argv=None) -> int:
     out |= {"parameters": dataclasses.asdict(fitted), "end": end, "held_out": held_out(end)}
     print("held out:", json.dumps(out["held_out"], indent=1))
     if args.out:
-        args.out.write_text(json.dumps(out, indent=1, default=float) + "\n", encoding="utf-8")
+        atomic_write(args.out, json.dumps(out, indent=1, default=float) + "\n")
     if args.figure:
         shipped = start if not args.evaluate else evaluate(MiddleEarParameters(), chain,
                                                             args.refine)
