@@ -14,7 +14,8 @@ Everything a script or notebook needs is importable from here::
 :class:`SweepResult`; ``compare(result, reference)`` judges a result against a reference →
 :class:`Comparison`; ``animate(result, module, "movie.gif")`` draws the simulated model in
 3-D; the parameter sensitivities (``frequency_response_sensitivity``, ``modal_sensitivity``,
-``simulate_sensitivity`` …, docs/sensitivity.md) and ``identify`` → :class:`FitResult` fit
+``simulate_sensitivity`` …, docs/sensitivity.md) and ``identify`` (``identify_function`` for a
+model given as a residual function) → :class:`FitResult` fit
 parameters to measurements. Every result has ``to_dataframe()``, ``save(path)`` and a short
 ``repr`` with a notebook display.
 """
@@ -45,6 +46,7 @@ _EXPORTS: dict[str, str] = {
     "SweepResult": "sweep", "sweep": "sweep",
     "grid": "sweep_cases", "read_cases": "sweep_cases",
     "Bound": "identify", "FitResult": "identify", "identify": "identify",
+    "identify_function": "identify_function",
     "equilibrium_sensitivity": "sensitivity", "linear_model_derivatives": "sensitivity",
     "frequency_response_sensitivity": "sensitivity_response",
     "modal_sensitivity": "sensitivity_response",
@@ -106,6 +108,7 @@ __all__ = [
     "frf",
     "grid",
     "identify",
+    "identify_function",
     "linear_model_derivatives",
     "linearize",
     "load_generated",

@@ -34,7 +34,7 @@ from .module import GeneratedModel, ModelLike, as_model
 from .results import check_output_path
 
 __all__ = ["MAX_CORRELATION", "NULL_COMPONENT", "RCOND", "Bound", "FitResult", "fit_start",
-           "identify"]
+           "fit_statistics", "identify"]
 
 #: Singular values of ``J`` below ``RCOND`` times the largest are null directions
 #: (``cond(JᵀJ) > 1e12``).
@@ -105,7 +105,7 @@ class FitResult:
     Attributes
     ----------
     task : str
-        ``"frf"`` or ``"simulate"``.
+        ``"frf"``, ``"simulate"`` or ``"function"`` (:func:`~.identify_function.identify_function`).
     parameters, standard_errors : dict of str to float or None
         The estimates and their standard errors (``None`` where undetermined).
     undetermined : dict of str to str
@@ -198,6 +198,14 @@ class FitResult:
             ax_p.set_ylabel("phase [deg]")
             ax_p.set_xlabel("frequency [Hz]")
             ax_m.legend()
+        elif self.task == "function":
+            fig = new_figure(figsize=(8, 4), layout="constrained")
+            ax = fig.subplots()
+            labels, res = c["labels"], np.asarray(c["residuals"])
+            ax.bar(np.arange(res.size), res)
+            ax.axhspan(-1.0, 1.0, color="0.9", zorder=0)
+            ax.set_xticks(np.arange(res.size), labels, rotation=45, ha="right")
+            ax.set_ylabel("residual [its standard deviation]")
         else:
             names = list(c["signals"])
             fig = new_figure(figsize=(8, 2.2 * len(names) + 1), layout="constrained")
@@ -341,9 +349,14 @@ def _run_starts(module: GeneratedModel, problem: FitProblem, starts: np.ndarray,
                 cluster.close()
 
 
-def _statistics(problem: FitProblem, theta: np.ndarray, r: np.ndarray, J: np.ndarray
-                ) -> tuple[dict, dict, dict]:
-    """Standard errors, correlations and the undetermined parameters (module docstring)."""
+def fit_statistics(problem: FitProblem, theta: np.ndarray, r: np.ndarray, J: np.ndarray,
+                   variance: float | None = None) -> tuple[dict, dict, dict]:
+    """Standard errors, correlations and the undetermined parameters (module docstring).
+
+    ``variance``: the residuals' variance ``s²`` when it is known (residuals already divided
+    by their measured standard deviations: ``1``); ``None`` estimates it as
+    ``2·cost/(m − k)``.
+    """
     names = list(problem.names)
     m, k = J.shape
     values = problem.values(theta)
@@ -368,7 +381,10 @@ def _statistics(problem: FitProblem, theta: np.ndarray, r: np.ndarray, J: np.nda
         for j in involved:
             undetermined.setdefault(names[j], why)
     keep = [i for i in range(k) if i not in null]
-    s2 = 2.0 * 0.5 * float(r @ r) / (m - k) if m > k else np.nan
+    if variance is not None:
+        s2 = float(variance)
+    else:
+        s2 = 2.0 * 0.5 * float(r @ r) / (m - k) if m > k else np.nan
     cov = (Vt[keep].T / S[keep] ** 2) @ Vt[keep] * s2
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -490,7 +506,7 @@ def identify(
     best = min(good, key=lambda r: r["cost"])
     model = Residuals(module, problem)
     r, J, curve = model.evaluate(best["theta"])
-    errors, correlation, undetermined = _statistics(problem, best["theta"], r, J)
+    errors, correlation, undetermined = fit_statistics(problem, best["theta"], r, J)
     values = problem.values(best["theta"])
     names = list(problem.names)
     end = {nm: float(v) for nm, v in zip(names, values, strict=True)}

@@ -19,7 +19,8 @@ if TYPE_CHECKING:
     from ..fem.nonlinear import StaticState
     from .model import MiddleEar
 
-__all__ = ["plot_mesh", "plot_static", "plot_tm_modes", "require_matplotlib", "tm_modes"]
+__all__ = ["calibration_figure", "plot_mesh", "plot_static", "plot_tm_modes", "require_matplotlib",
+           "tm_modes"]
 
 
 def require_matplotlib():
@@ -151,6 +152,53 @@ def plot_tm_modes(me: MiddleEar, state: StaticState, path: str | Path, n: int = 
         ax.set_yticks([])
     fig.suptitle(f"TM in vacuo with ossicular support, Δp = {state.load:+.0f} Pa")
     fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def calibration_figure(start: dict, end: dict, refine: int, path: str | Path) -> Path:
+    """The identified middle ear against its calibration set (docs/middle-ear-clinical.md §5):
+    the compensated 226 Hz tympanogram with the normal ``Ytm`` range, the low-frequency umbo
+    and stapes change under static pressure with Gyo & Goode's means ± SD, and the stapes
+    velocity at Δp = 0 with the 0.6–1.5 kHz peak band; ``start`` (the shipped parameters)
+    dashed, ``end`` (the fit) solid (measures of
+    :func:`~neweul_py.middle_ear.calibration.calibration_measures`).
+    """
+    from matplotlib.ticker import NullFormatter
+
+    plt = require_matplotlib()
+    fig, (ax_t, ax_l, ax_s) = plt.subplots(1, 3, figsize=(14, 4.2), layout="constrained")
+    for m, style, name in ((start, "--", "shipped"), (end, "-", "fit")):
+        ty = m["tympanogram"]
+        y = np.asarray(ty["admittance_mmho"])
+        ax_t.plot(ty["pressure_daPa"], y - y[0], style, color="C0",
+                  label=f"{name}: Ytm {m['ytm_mmho']:.2f} mmho, TW {m['tw']:.0f} daPa")
+        for key, color in (("umbo", "C0"), ("stapes", "C1")):
+            lo = m["loss"][key]
+            dps = sorted(lo)
+            ax_l.plot([0.0, *[d / 1e3 for d in dps]], [0.0, *[lo[d] for d in dps]], style + "o",
+                      color=color, ms=3, label=f"{key} ({name})")
+        st = m["stapes"]
+        ax_s.loglog(st["frequency_hz"], st["velocity_mm_s_Pa"], style, color="C1",
+                    label=f"{name}: peak {m['stapes_peak_hz']:.0f} Hz")
+    ax_t.axhspan(0.37, 1.66, color="0.9", zorder=0, label="normal Ytm (Margolis & Heller 1987)")
+    ax_t.set_xlabel("ear-canal pressure [daPa]")
+    ax_t.set_ylabel("compensated |Y| at 226 Hz [mmho]")
+    ax_t.legend(fontsize=7)
+    ax_l.errorbar([1, 2, 3], [-5.0, -9.2, -13.1], yerr=[1.0, 1.3, 1.8], fmt="ks", ms=4,
+                  capsize=3, label="umbo, Gyo & Goode 1987")
+    ax_l.set_xlabel("Δp = p_canal − p_cavity [kPa]")
+    ax_l.set_ylabel("mean change 100–1000 Hz [dB]")
+    ax_l.legend(fontsize=7)
+    ax_s.axvspan(600.0, 1500.0, color="0.9", zorder=0, label="peak band 0.6–1.5 kHz")
+    ax_s.axhspan(0.1, 0.3, color="0.95", zorder=0)
+    ax_s.xaxis.set_minor_formatter(NullFormatter())
+    ax_s.set_xlabel("frequency [Hz]")
+    ax_s.set_ylabel("|stapes velocity / probe pressure| [mm/s/Pa]")
+    ax_s.legend(fontsize=7)
+    fig.suptitle(f"Middle ear identified (FE refine {refine})")
     path = Path(path)
     fig.savefig(path, dpi=130)
     plt.close(fig)

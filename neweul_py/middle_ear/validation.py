@@ -45,8 +45,8 @@ from .parameters import MiddleEarParameters
 from .study import embs_frf, transfer
 from .sweep import pressure_sweep
 
-__all__ = ["chain_module", "chain_restoring", "errors", "fe_model_at", "reference_frf",
-           "static_errors"]
+__all__ = ["chain_module", "chain_restoring", "errors", "fe_model_at", "linear_chain",
+           "reference_frf", "static_errors"]
 
 
 def chain_module(description: Path, fem: Path, gen: Path) -> Any:
@@ -73,14 +73,14 @@ def fe_model_at(dp: float, build: Path, refine: int) -> Path:
     return path
 
 
-def reference_frf(chain_mod: Any, fe_path: Path, dp: float, f: np.ndarray,
-                  damping: str = "loss", p: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """The outputs of :func:`~neweul_py.middle_ear.study.embs_frf` from the FE model and the
-    chain assembled directly (``p``: the chain's parameter vector, default its defaults with
-    ``dp``)."""
-    lin = linearize(chain_mod, p=parameters_at(chain_mod, dp) if p is None else p)
+def linear_chain(chain_mod: Any, fe: Any, p: np.ndarray, damping: str = "loss"
+                 ) -> tuple[dict[str, np.ndarray], list[str], list[int]]:
+    """The chain's linear matrices for :func:`~neweul_py.middle_ear.coupled.coupled_frf`:
+    ``M``, ``D``, ``K`` (own coordinates first, then the node translations, without the node
+    frames' probe mass; ``damping="loss"``: ``K + iG`` and ``D − G/ω_ref``), the names of its
+    own coordinates and the FE DOF of each node translation in ``fe``."""
+    lin = linearize(chain_mod, p=p)
     names = list(lin.coordinates)
-    fe = frequency_form(read_fe_model(fe_path), damping)
     node = [n for n in names if n.startswith("n") and n[1:].split("_")[0].isdigit()]
     own = [n for n in names if n not in node]
     order = [names.index(n) for n in (*own, *node)]
@@ -92,6 +92,17 @@ def reference_frf(chain_mod: Any, fe_path: Path, dp: float, f: np.ndarray,
     k = np.arange(len(own), len(names))
     chain["M"][k, k] -= PROBE_MASS
     dofs = [fe.inputs[f"manubrium.{n[1:].split('_')[0]}.u{n[-1]}"][0][0] for n in node]
+    return chain, own, dofs
+
+
+def reference_frf(chain_mod: Any, fe_path: Path, dp: float, f: np.ndarray,
+                  damping: str = "loss", p: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The outputs of :func:`~neweul_py.middle_ear.study.embs_frf` from the FE model and the
+    chain assembled directly (``p``: the chain's parameter vector, default its defaults with
+    ``dp``)."""
+    fe = frequency_form(read_fe_model(fe_path), damping)
+    chain, own, dofs = linear_chain(chain_mod, fe,
+                                    parameters_at(chain_mod, dp) if p is None else p, damping)
     res = coupled_frf(fe, chain, dofs, f, "canal_volume_acceleration",
                       ["probe_pressure", "umbo_uz"], [own.index("s_z"), own.index("m_z")])
     return {"p_probe": res["probe_pressure"], "umbo_uz": res["umbo_uz"],
