@@ -20,11 +20,11 @@ the same rules, checked on the generated module alone (no sympy) by
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
 from ..errors import NeweulError
+from .module import GeneratedModel, ModelLike, as_model
 
 __all__ = ["MAX_MAGNITUDE", "check_parameters", "describe_values"]
 
@@ -44,7 +44,7 @@ def _range_text(lo: float | None, hi: float | None) -> str:
     return f"≥ {lo:g}" if lo is not None else f"≤ {hi:g}"
 
 
-def check_parameters(module: Any, p: np.ndarray, given: str = "") -> None:
+def check_parameters(module: ModelLike, p: np.ndarray, given: str = "") -> None:
     """Refuse a parameter vector ``p`` (ordered as ``module.PARAMETERS``) that the model's
     description would refuse (see the module docstring).
 
@@ -63,6 +63,7 @@ def check_parameters(module: Any, p: np.ndarray, given: str = "") -> None:
     NeweulError
         One line: what was given and which rule it breaks.
     """
+    module = as_model(module)
     names = list(module.PARAMETERS)
     p = np.asarray(p, dtype=float).reshape(-1)
     what = given or describe_values(names, p)
@@ -72,7 +73,7 @@ def check_parameters(module: Any, p: np.ndarray, given: str = "") -> None:
         if abs(v) > MAX_MAGNITUDE:
             raise NeweulError(f"with {what}: {name} = {v:g} is out of range "
                               f"(|value| ≤ {MAX_MAGNITUDE:g})")
-    for name, (lo, hi) in (getattr(module, "PARAMETER_RANGES", None) or {}).items():
+    for name, (lo, hi) in module.PARAMETER_RANGES.items():
         v = p[names.index(name)]
         if (lo is not None and v < lo) or (hi is not None and v > hi):
             raise NeweulError(f"with {what}: {name} = {v:g} is outside its range "
@@ -88,7 +89,7 @@ def check_parameters(module: Any, p: np.ndarray, given: str = "") -> None:
             m = np.full((1, 1), np.nan)
     if not np.all(np.isfinite(m)):
         raise NeweulError(f"with {what} the mass matrix at the initial state is not finite")
-    if getattr(module, "MASS_MATRIX_SYMMETRIC", False) and m.size:
+    if module.MASS_MATRIX_SYMMETRIC and m.size:
         lo = float(np.linalg.eigvalsh(0.5 * (m + m.T))[0])
         if lo < -1e-12 * (float(np.abs(m).max()) or 1.0):
             raise NeweulError(
@@ -99,11 +100,12 @@ def check_parameters(module: Any, p: np.ndarray, given: str = "") -> None:
     _check_loss_matrix(module, x0, p, what)
 
 
-def _check_loss_matrix(module: Any, x0: np.ndarray, p: np.ndarray, what: str) -> None:
+def _check_loss_matrix(module: GeneratedModel, x0: np.ndarray, p: np.ndarray,
+                       what: str) -> None:
     """Symmetric models: the hysteretic matrix ``G`` at the initial state must be positive
     semidefinite, as every ``loss_factor ≥ 0`` makes it (docs/equations.md §1.1)."""
-    loss = getattr(module, "loss_matrix", None)
-    if loss is None or not getattr(module, "MASS_MATRIX_SYMMETRIC", False):
+    loss = module.loss_matrix
+    if loss is None or not module.MASS_MATRIX_SYMMETRIC:
         return
     with np.errstate(all="ignore"):
         g = np.asarray(loss(0.0, x0, p), dtype=float)
