@@ -137,12 +137,12 @@ def _generate(text: str, name: str) -> None:
 
 def data_files(tally: Tally, n: int, rng: random.Random, work: Path) -> None:
     from neweul_py.elastic import read_fe_model, reduce_modal, write_fe_model
-    from neweul_py.elastic.io.body_files import load_reduced_body
+    from neweul_py.elastic.io.body_files import load_reduced_body, save_reduced_body
     from neweul_py.elastic.io.reader import read_elastic_data
 
     fe = piston_duct(12, damping=1.0)
-    reduce_modal(fe, modes=4, store_bases=True).with_(
-        parameters={"t": 1.0}, invariants={"m": np.array(1.5)}).save(work / "body.npz")
+    save_reduced_body(reduce_modal(fe, modes=4, store_bases=True).with_(
+        parameters={"t": 1.0}, invariants={"m": np.array(1.5)}), work / "body.npz")
     write_fe_model(fe, work / "fe.npz")
     write_fe_model(fe, work / "fe.json")
     body, fenpz = dict(np.load(work / "body.npz")), dict(np.load(work / "fe.npz"))

@@ -124,7 +124,7 @@ def peak_mb() -> float:
 
 # ---------------------------------------------------------------------- workers
 def work_ours(grid, method: str, out: Path) -> dict:
-    from neweul_py.elastic import reduce_krylov, reduce_modal
+    from neweul_py.elastic import reduce_krylov, reduce_modal, save_reduced_body
 
     t0 = time.perf_counter()
     fe = build_model(*grid)
@@ -137,7 +137,7 @@ def work_ours(grid, method: str, out: Path) -> dict:
     else:  # "krylov6": same points, 6 moments each side (r = 48)
         body = reduce_krylov(fe, points=krylov_points(), order=6)
     t_red = time.perf_counter() - t0
-    body.save(out)
+    save_reduced_body(body, out)
     return {"n_dofs": fe.n_dofs, "order": body.order, "build_s": t_build, "reduce_s": t_red,
             "peak_mb": peak_mb()}
 
