@@ -272,9 +272,9 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.reductors.static_state.static_deflection` (``x`` — the FE
     static state; ``node_force``, ``outputs``; the output rows are the FE model's and the
-    projection is ``Ḡ``-orthogonal in the energy metric of the samples, in which ``V`` is
-    orthonormal; for a two-sided pair the oblique projection ``q = (WᵀV)⁻¹Wᵀx``): the body
-    then carries it (``static/*``, docs/equations-middle-ear.md §5).
+    projection is ``Ḡ``-orthogonal in the energy metric of the samples, ``q = (VᵀḠV)⁻¹VᵀḠx``,
+    for a two-sided pair too: the best approximation of the static state in the span of
+    ``V``): the body then carries it (``static/*``, docs/equations-middle-ear.md §5).
     """
     s = np.asarray(samples, dtype=float)
     kind = hermite_kind(interpolation, slope_models is not None)
@@ -302,8 +302,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                             f"got {[len(m) for m in slope_models]}", None, "slopes")
         d = float(slope_step)
         check_same_mesh([*fes, *slope_models[0], *slope_models[1]], [*s, *(s - d), *(s + d)])
-    G = (metric if metric is not None else energy_metric(fes)) if (
-        static is not None and not two) else None
+    G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
     settings = {"order": int(V.shape[1])} | ({"two_sided": True} if two else {})
     bodies, states = [], []
     for i, fe in enumerate(fes):

@@ -33,8 +33,16 @@ The scaling decides what is kept, not what the kept vectors span.
 **Stability.** A Petrov–Galerkin projection of the u–p model keeps neither its symmetric
 blocks nor the energy of its ``(u, ψ = ∫p dt)`` form, so stability is not guaranteed at any
 order — unlike the block-diagonal Galerkin basis of
-:mod:`~neweul_py.elastic.parametric.global_basis`. Check the reduced (and the coupled) model
-with :func:`~neweul_py.elastic.quality.measures.right_half_plane_poles`.
+:mod:`~neweul_py.elastic.parametric.global_basis`. The weak spot is ``λ = 0``: the constant
+pressure of a closed air volume is a zero mode of the u–p model (right eigenvector
+``[K_s⁻¹ C p₀; p₀]``, left ``[0; p₀]``), which the frequency-response snapshots (ω > 0)
+barely see; projected obliquely it becomes ``λ_r < 0``, a real pole in the right half plane
+(on the middle ear: ``λ_r ≈ −2·10⁵ s⁻²`` at every working point, ``s ≈ +500 s⁻¹`` in the
+coupled EMBS). The zero modes of every sample (:func:`zero_mode_pairs`) are therefore kept
+first as right/left pairs (``pairs``) and the snapshots balanced in the rest: a projection
+whose ``V`` holds a right null vector of ``K_i`` reproduces ``λ = 0`` at that sample for
+any ``W``. Check the reduced (and the coupled) model with
+:func:`~neweul_py.elastic.quality.measures.right_half_plane_poles`.
 """
 
 from __future__ import annotations
@@ -47,11 +55,18 @@ import scipy.sparse as sps
 
 from ...errors import DataError
 from ..fe_model import FEModel
+from ..reductors.modal import reduce_modal
 from ..reductors.projection import Progress
 from .global_basis import energy_metric
 from .snapshot_basis import frequency_snapshots
 
-__all__ = ["TwoSidedBasis", "balanced_snapshot_basis", "balanced_truncation"]
+__all__ = ["TwoSidedBasis", "balanced_snapshot_basis", "balanced_truncation",
+           "zero_mode_pairs"]
+
+#: Modes below this frequency [Hz] count as zero modes (:func:`zero_mode_pairs`).
+ZERO_MODE_HZ = 1.0
+#: The most zero modes looked for per FE model (closed air volumes, free rigid motions).
+MAX_ZERO_MODES = 8
 
 
 @dataclass(frozen=True)
@@ -130,6 +145,7 @@ def balanced_snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                             outputs: Sequence[np.ndarray], freqs_hz: Sequence[float],
                             extra_stiffness: sps.spmatrix | None = None,
                             rtol: float = 1e-10, order: int | None = None,
+                            pairs: Sequence[tuple[np.ndarray, np.ndarray]] = (),
                             progress: Progress = None) -> TwoSidedBasis:
     """The two-sided global basis of the samples ``fes`` (module docstring).
 
@@ -150,6 +166,13 @@ def balanced_snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         with); the reduced body is the projection of the FE models themselves.
     rtol, order
         Truncation (:func:`balanced_truncation`).
+    pairs
+        Right and left columns ``(X₀, Y₀)`` (e.g. the zero modes of every sample,
+        :func:`zero_mode_pairs`) kept first, whatever the snapshots: their own balanced
+        truncation ``(V₀, W₀)`` (same ``rtol``; the zero modes of all samples share their
+        pressure part), the snapshots deflated obliquely, ``X − V₀W₀ᵀM̄X`` and
+        ``Y − W₀V₀ᵀM̄ᵀY``, and ``V = [V₀ V₁]``, ``W = [W₀ W₁]`` with ``Wᵀ M̄ V = I`` (module
+        docstring, "Stability"); their singular values are reported as the largest one.
     progress
         Called with short messages.
 
@@ -184,11 +207,39 @@ def balanced_snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
             norm = np.sqrt(np.maximum(np.einsum("ij,ij->j", equivalent, G @ equivalent), 0))
             Y.append(part[:, norm > 0] / norm[norm > 0])
     M = sum(fe.M for fe in fes) / len(fes)
-    basis = balanced_truncation(np.hstack(X), np.hstack(Y), M, rtol, order)
+    X, Y = np.hstack(X), np.hstack(Y)
+    X0 = np.hstack([np.zeros((M.shape[0], 0)), *(a for a, _ in pairs)])
+    Y0 = np.hstack([np.zeros((M.shape[0], 0)), *(b for _, b in pairs)])
+    if X0.shape != Y0.shape:
+        raise DataError(f"{X0.shape[1]} right and {Y0.shape[1]} left columns in the pairs",
+                        None, "pairs")
+    if X0.shape[1]:
+        kept = balanced_truncation(X0, Y0, M, rtol)          # Wₖᵀ M̄ Vₖ = I
+        X = X - kept.V @ (kept.W.T @ (M @ X))                # deflated: Wₖᵀ M̄ X = 0
+        Y = Y - kept.W @ (kept.V.T @ (M.T @ Y))              # Yᵀ M̄ Vₖ = 0
+    basis = balanced_truncation(X, Y, M, rtol, None if order is None else
+                                int(order) - (kept.order if X0.shape[1] else 0))
+    if X0.shape[1]:
+        basis = TwoSidedBasis(np.hstack([kept.V, basis.V]), np.hstack([kept.W, basis.W]),
+                              np.r_[np.full(kept.order, basis.singular_values[0]),
+                                    basis.singular_values])
     if progress is not None:
-        progress(f"two-sided basis: {basis.order} pairs from {sum(a.shape[1] for a in X)} "
-                 f"primal and {sum(a.shape[1] for a in Y)} adjoint snapshots")
+        progress(f"two-sided basis: {basis.order} pairs from {X.shape[1]} right and "
+                 f"{Y.shape[1]} left columns")
     return basis
+
+
+def zero_mode_pairs(fe: FEModel, f_max: float = ZERO_MODE_HZ
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The right and left eigenvectors ``(V₀, W₀)`` of the modes of ``fe`` below ``f_max``
+    [Hz] (``λ < (2π f_max)²``; at most :data:`MAX_ZERO_MODES`): the zero modes of the
+    two-sided basis (module docstring, "Stability"), two-sided modal
+    (:func:`~neweul_py.elastic.reductors.modal.reduce_modal`, ``W₀ᵀ M V₀ = I``). ``(n, 0)``
+    arrays when there is none."""
+    count = min(MAX_ZERO_MODES, fe.n_dofs - 2)
+    body = reduce_modal(fe, modes=count, two_sided=True, store_bases=True)
+    keep = np.flatnonzero(np.diag(body.K) < (2 * np.pi * f_max) ** 2)
+    return body.V[:, keep], body.W[:, keep]
 
 
 def _unit_energy(X: np.ndarray, G: sps.spmatrix) -> np.ndarray:
