@@ -29,7 +29,7 @@ sample and midpoint; the right-half-plane poles of the coupled EMBS (viscous dam
 domain) at the same points; the order, the body file size and the CPU time of the reduction
 (basis + projection + interpolation; the FE sweep, common to all, is reported alone).
 
-Run (about 25 min CPU at refine 1)::
+Run (about 12 min CPU at refine 1, the FE sweep included)::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_two_sided.py --dir DIR --refine 1
 

@@ -74,8 +74,8 @@ BUILD_RECORD = "build.json"
 SNAPSHOT_HZ = np.r_[20.0, np.geomspace(100.0, 8000.0, 10)]
 #: The reduction bases of ``neweul middle-ear build --basis`` (:func:`reduction_basis`) and
 #: their default relative cut ``rtol``: of the singular values of the balanced pairing
-#: (two-sided), of the POD energy (Galerkin). Both reach ≈ 4·10⁻⁴ at the samples
-#: (benchmarks/bench_two_sided.py).
+#: (two-sided), of the POD energy (Galerkin); accuracy of both in docs/equations-middle-ear.md,
+#: "Choice of reduction" (benchmarks/bench_two_sided.py).
 BASES = {"two-sided": 1e-10, "galerkin": 1e-8}
 #: Step of the static curve of the volume coordinate [Pa].
 CURVE_STEP = 100.0

@@ -37,9 +37,10 @@ order — unlike the block-diagonal Galerkin basis of
 pressure of a closed air volume is a zero mode of the u–p model (right eigenvector
 ``[K_s⁻¹ C p₀; p₀]``, left ``[0; p₀]``), which the frequency-response snapshots (ω > 0)
 barely see; projected obliquely it becomes ``λ_r < 0``, a real pole in the right half plane
-(on the middle ear: ``λ_r ≈ −2·10⁵ s⁻²`` at every working point, ``s ≈ +500 s⁻¹`` in the
-coupled EMBS). The zero modes of every sample (:func:`zero_mode_pairs`) are therefore kept
-first as right/left pairs (``pairs``) and the snapshots balanced in the rest: a projection
+(on the middle ear at refine 0: ``λ_r ≈ −2·10⁵ s⁻²`` at every working point, a real pole
+``s ≈ +630 s⁻¹`` of the coupled EMBS). The zero modes of every sample
+(:func:`zero_mode_pairs`) are therefore kept first as right/left pairs (``pairs``) and the
+snapshots balanced in the rest: a projection
 whose ``V`` holds a right null vector of ``K_i`` reproduces ``λ = 0`` at that sample for
 any ``W``. Check the reduced (and the coupled) model with
 :func:`~neweul_py.elastic.quality.measures.right_half_plane_poles`.
