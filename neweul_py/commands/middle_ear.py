@@ -52,9 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "(default 20; 0: cubic weights through the values alone)")
     b.add_argument("--interpolation", choices=("quintic-hermite", "hermite"),
                    default="quintic-hermite", help="Hermite weights (default quintic)")
-    b.add_argument("--basis", choices=("two-sided", "galerkin"), default="two-sided",
-                   help="two-sided (Petrov-Galerkin, W != V: balanced POD of primal and "
-                   "adjoint snapshots; the default) or galerkin (W = V)")
+    b.add_argument("--basis", choices=("galerkin", "two-sided"), default="galerkin",
+                   help="galerkin (W = V, the default) or two-sided (Petrov-Galerkin, "
+                   "W != V: balanced POD of primal and adjoint snapshots)")
     b.add_argument("--rtol", type=functools.partial(number, option="--rtol", minimum=0.0),
                    default=None, help="relative cut of the basis (default 1e-10 two-sided, "
                    "1e-8 galerkin)")

@@ -98,8 +98,8 @@ class BuildOptions:
     pressures
         Working points of the FE sweep [Pa], at least two, increasing.
     basis
-        ``"two-sided"`` (Petrov–Galerkin, ``W ≠ V``: balanced POD of the primal and adjoint
-        snapshots) or ``"galerkin"`` (``W = V``: POD of both, per u/p block);
+        ``"galerkin"`` (``W = V``: POD of the primal and adjoint snapshots, per u/p block)
+        or ``"two-sided"`` (Petrov–Galerkin, ``W ≠ V``: their balanced POD);
         :func:`reduction_basis`.
     rtol
         Relative cut of the basis: of the singular values of the balanced pairing
@@ -122,7 +122,7 @@ class BuildOptions:
 
     refine: int = 1
     pressures: tuple[float, ...] = tuple(np.linspace(-4000.0, 4000.0, 9).tolist())
-    basis: str = "two-sided"
+    basis: str = "galerkin"
     rtol: float | None = None
     order: int | None = None
     tol: float = 3e-4

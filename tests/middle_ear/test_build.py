@@ -49,17 +49,17 @@ def test_the_build_holds_a_body_with_its_static_state_and_a_checked_description(
     assert not (small / "generated").exists()
 
 
-def test_the_default_body_is_two_sided_and_says_so(small, capsys):
-    """The default basis is two-sided: the left and right node rows differ, the body file
-    and ``build.json`` record it, and ``neweul body-info`` (which states the projection from
-    the node rows, not from the claim) prints it without a contradiction."""
+def test_the_default_body_is_galerkin_and_says_so(small, capsys):
+    """The default basis is Galerkin: equal left and right node rows, ``two_sided`` false in
+    the body file and ``build.json``, and ``neweul body-info`` (which states the projection
+    from the node rows, not from the claim) prints it without a contradiction."""
     record = json.loads((small / "build.json").read_text())
     pb = load_parametric_body(small / record["body"])
-    assert record["two_sided"] is True and pb.two_sided
-    assert not np.allclose(pb.V_kept, pb.W_kept)
+    assert record["two_sided"] is False and not pb.two_sided
+    assert np.array_equal(pb.V_kept, pb.W_kept)
     assert main(["body-info", str(small / record["body"])]) == 0
     out = capsys.readouterr().out
-    assert "two-sided (Petrov-Galerkin, W != V)" in out and "claims" not in out
+    assert "one-sided (Galerkin, W = V)" in out and "claims" not in out
 
 
 def test_a_moved_build_still_loads(small, tmp_path):

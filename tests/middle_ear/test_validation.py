@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from neweul_py.cli import main
 from neweul_py.elastic.io.body_files import load_parametric_body
 from neweul_py.middle_ear.build import BuildOptions, build
 from neweul_py.middle_ear.embs import model_path
@@ -57,3 +58,20 @@ def test_the_coupled_body_matches_the_coupled_fe_model_at_its_samples(built):
     for dp in (-1000.0, -500.0, 0.0, 500.0, 1000.0):
         chain, own, node = chain_matrices(mod, dp, "viscous")
         assert coupled_poles(chain, own, node, pb.at(dp)).size == 0
+
+
+@pytest.mark.slow
+def test_a_two_sided_build_is_recorded_and_shown_as_such(built, capsys):
+    """``two_sided`` in ``build.json`` and the body file agrees with the node rows
+    (``W_kept ≠ V_kept`` exactly for the two-sided basis), and ``neweul body-info``, which
+    states the projection from the node rows, prints it without a contradiction."""
+    basis, out = built
+    record = json.loads((out / "build.json").read_text())
+    pb = load_parametric_body(out / record["body"])
+    two = basis == "two-sided"
+    assert record["two_sided"] is two and pb.two_sided is two
+    assert np.array_equal(pb.V_kept, pb.W_kept) is not two
+    assert main(["body-info", str(out / record["body"])]) == 0
+    text = capsys.readouterr().out
+    assert ("two-sided (Petrov-Galerkin, W != V)" if two else "one-sided (Galerkin, W = V)") \
+        in text and "claims" not in text
