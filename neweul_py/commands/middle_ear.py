@@ -52,6 +52,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "(default 20; 0: cubic weights through the values alone)")
     b.add_argument("--interpolation", choices=("quintic-hermite", "hermite"),
                    default="quintic-hermite", help="Hermite weights (default quintic)")
+    b.add_argument("--basis", choices=("galerkin", "two-sided"), default="galerkin",
+                   help="galerkin (W = V, the default) or two-sided (Petrov-Galerkin, "
+                   "W != V: balanced POD of primal and adjoint snapshots)")
+    b.add_argument("--rtol", type=functools.partial(number, option="--rtol", minimum=0.0),
+                   default=None, help="relative cut of the basis (default 1e-10 two-sided, "
+                   "1e-8 galerkin)")
     b.add_argument("--order", type=count("--order", cap=100_000),
                    default=None, help="cap on the number of basis directions")
     b.add_argument("--no-generate", action="store_true", help="skip the generated module")
@@ -111,6 +117,7 @@ def _build(args: argparse.Namespace) -> int:
     options = BuildOptions(
         refine=args.refine, tol=args.tol, coordinate=args.coordinate,
         slope_step=args.slope_step, interpolation=args.interpolation, order=args.order,
+        basis=args.basis, rtol=args.rtol,
         generate=not args.no_generate,
         **({"pressures": tuple(args.pressures.values())} if args.pressures else {}))
     with Tracker("middle-ear build", quiet=args.quiet) as track:

@@ -50,6 +50,7 @@ from ..elastic.parametric.snapshot_basis import (
     check_same_mesh,
     snapshot_basis,
 )
+from ..elastic.parametric.two_sided_basis import balanced_snapshot_basis, zero_mode_pairs
 from ..elastic.reductors.projection import build_reduced_body
 from ..errors import NeweulError
 from .embs import model_path, retarget, template
@@ -65,12 +66,17 @@ from .sampling import (
 from .sweep import pressure_sweep
 from .transfer import LumpedChain
 
-__all__ = ["BUILD_RECORD", "BuildOptions", "build"]
+__all__ = ["BASES", "BUILD_RECORD", "BuildOptions", "build", "reduction_basis"]
 
 #: The record of a build (written last: a directory holding it is complete).
 BUILD_RECORD = "build.json"
 #: Frequencies of the snapshots of the reduction basis [Hz].
 SNAPSHOT_HZ = np.r_[20.0, np.geomspace(100.0, 8000.0, 10)]
+#: The reduction bases of ``neweul middle-ear build --basis`` (:func:`reduction_basis`) and
+#: their default relative cut ``rtol``: of the singular values of the balanced pairing
+#: (two-sided), of the POD energy (Galerkin); accuracy of both in docs/equations-middle-ear.md,
+#: "Choice of reduction" (benchmarks/bench_two_sided.py).
+BASES = {"two-sided": 1e-10, "galerkin": 1e-8}
 #: Step of the static curve of the volume coordinate [Pa].
 CURVE_STEP = 100.0
 #: The sweep directories of a build: ``fem`` (the working points asked for), then one per
@@ -91,8 +97,13 @@ class BuildOptions:
         Mesh refinement of the FE model (0 coarse … 3).
     pressures
         Working points of the FE sweep [Pa], at least two, increasing.
+    basis
+        ``"galerkin"`` (``W = V``: POD of the primal and adjoint snapshots, per u/p block)
+        or ``"two-sided"`` (Petrov–Galerkin, ``W ≠ V``: their balanced POD);
+        :func:`reduction_basis`.
     rtol
-        Relative POD energy cut of the snapshot basis.
+        Relative cut of the basis: of the singular values of the balanced pairing
+        (two-sided) or of the POD energy (Galerkin); ``None``: that of :data:`BASES`.
     order
         Cap on the number of basis directions (``None``: all the cut keeps).
     tol
@@ -111,7 +122,8 @@ class BuildOptions:
 
     refine: int = 1
     pressures: tuple[float, ...] = tuple(np.linspace(-4000.0, 4000.0, 9).tolist())
-    rtol: float = 1e-8
+    basis: str = "galerkin"
+    rtol: float | None = None
     order: int | None = None
     tol: float = 3e-4
     coordinate: str = "volume"
@@ -130,6 +142,8 @@ class BuildOptions:
         if not (np.isfinite(step) and 0 <= step < MIN_INTERVAL / 2 and step == round(step)):
             raise NeweulError(f"slope step {step:g}: a whole number of pascals in [0, "
                               f"{MIN_INTERVAL / 2:g})")
+        if self.basis not in BASES:
+            raise NeweulError(f"basis: {' or '.join(map(repr, BASES))}, got {self.basis!r}")
         if self.coordinate not in ("volume", "dp"):
             raise NeweulError(f"coordinate: 'volume' or 'dp', got {self.coordinate!r}")
         if self.interpolation not in ("quintic-hermite", "hermite"):
@@ -137,6 +151,8 @@ class BuildOptions:
                               f"{self.interpolation!r}")
         if not (np.isfinite(self.tol) and self.tol >= 0):
             raise NeweulError(f"tol: a number ≥ 0, got {self.tol!r}")
+        if self.rtol is None:
+            object.__setattr__(self, "rtol", BASES[self.basis])
         if not (np.isfinite(self.rtol) and 0 < self.rtol < 1):
             raise NeweulError(f"rtol: in (0, 1), got {self.rtol!r}")
         if self.order is not None and self.order < 1:
@@ -209,35 +225,56 @@ def _reuse(old: Path, tmp: Path, refine: int) -> None:
 
 
 def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
-                    options: BuildOptions, progress: Progress) -> tuple[np.ndarray, np.ndarray]:
-    """The reduction basis of the TM + air body and the energies of its directions: a
-    snapshot basis (:func:`~neweul_py.elastic.parametric.snapshot_basis.snapshot_basis`) of
-    full FE responses of every working point at :data:`SNAPSHOT_HZ` to the canal source and
-    the six rigid malleus motions seen through the TM–manubrium springs, and the adjoint
-    responses of the probe pressure, the umbo and the malleus loads, POD-compressed per u/p
-    block in the energy norms (cached in ``cache``; extended by the missing frequencies)."""
+                    options: BuildOptions, progress: Progress
+                    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """The reduction bases ``V``, ``W`` of the TM + air body (``W`` ``None``: ``W = V``) and
+    the weight of each direction, from full FE responses of every working point at
+    :data:`SNAPSHOT_HZ` (:func:`~neweul_py.middle_ear.sampling.interface_loads`): primal to
+    the canal source and the six rigid malleus motions seen through the TM–manubrium
+    springs, adjoint to the probe pressure, the umbo and the malleus loads.
+
+    ``options.basis``: ``"two-sided"`` — balanced POD
+    (:func:`~neweul_py.elastic.parametric.two_sided_basis.balanced_snapshot_basis`): ``V``
+    from the primal, ``W`` from the adjoint snapshots and the zero modes of every working
+    point as right/left pairs (the constant pressures of the closed air volumes, which keep
+    ``λ = 0``), ``Wᵀ M̄ V = I``, weights ``σ²``;
+    ``"galerkin"`` — one basis of both, POD-compressed per u/p block in the energy norms
+    (:func:`~neweul_py.elastic.parametric.snapshot_basis.snapshot_basis`), weights the POD
+    energies (docs/equations-middle-ear.md, "Choice of reduction"). Cached in ``cache``;
+    a Galerkin basis is extended by the missing frequencies, a two-sided one rebuilt."""
     Kx, F, Cadj = interface_loads(fes[0], umbo, k_attach)
-    done, prior = np.zeros(0), None
+    n = len(fes)
+
+    def say(m: str) -> None:
+        if "snapshots: sample" in m:
+            progress("basis", int(m.split()[2]), n)
+        else:
+            progress(m)
+
+    done, prior, W = np.zeros(0), None, None
     if cache.is_file():
         with np.load(cache) as z:
             V, energy, done = z["V"], z["energy"], z["freqs"]
+            W = z["W"] if "W" in z.files else None
         prior = V
     todo = np.array([f for f in SNAPSHOT_HZ if not np.any(np.isclose(f, done))])
-    if todo.size:
-        n = len(fes)
-
-        def say(m: str) -> None:
-            if "snapshots: sample" in m:
-                progress("basis", int(m.split()[2]), n)
-            else:
-                progress(m)
-
+    two = options.basis == "two-sided"
+    if todo.size and two:
+        b = balanced_snapshot_basis(fes, [F] * n, [Cadj] * n, SNAPSHOT_HZ, Kx,
+                                    rtol=options.rtol, progress=say,
+                                    pairs=[zero_mode_pairs(fe) for fe in fes])
+        V, W, energy = b.V, b.W, b.singular_values[:b.order] ** 2
+        todo = SNAPSHOT_HZ
+    elif todo.size:
         V, energy = snapshot_basis(fes, [F] * n, todo, Kx, rtol=options.rtol, prior=prior,
                                    adjoint=[Cadj] * n, progress=say)
+    if todo.size:
         freqs = np.union1d(done, todo)
         cache.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(cache, lambda fh: np.savez(fh, V=V, energy=energy, freqs=freqs))
-    return V[:, :options.order], energy[:options.order]
+        atomic_write(cache, lambda fh: np.savez(fh, V=V, energy=energy, freqs=freqs,
+                                                **({"W": W} if two else {})))
+    k = options.order
+    return V[:, :k], (W[:, :k] if two else None), energy[:k]
 
 
 def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any]:
@@ -259,11 +296,12 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     fes = [sweeps.model(p) for p in pressures]
     check_same_mesh(fes, pressures)
     progress("2/6 reduction basis")
-    V, energy = reduction_basis(fes, umbo, params.k_tm_manubrium,
-                                tmp / "embs" / f"basis_r{options.refine}_{options.rtol:g}.npz",
-                                options, progress)
+    tag = "basis2" if options.basis == "two-sided" else "basis"
+    V, W, energy = reduction_basis(fes, umbo, params.k_tm_manubrium,
+                                   tmp / "embs" / f"{tag}_r{options.refine}_{options.rtol:g}.npz",
+                                   options, progress)
     step = float(options.slope_step)
-    projections: dict[str, Any] = {}        # each FE model projected on V once
+    projections: dict[str, Any] = {}        # each FE model projected on (V, W) once
 
     def slope_keywords(pts: list[float], static: bool) -> dict[str, Any]:
         if step <= 0:
@@ -280,9 +318,10 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
         models = [sweeps.model(p) for p in pts]
         check_same_mesh(models, pts)
         if len(pts) == 1:
-            return build_reduced_body(models[0], V, V, "snapshot", {}, keep_nodes=manubrium)
+            return build_reduced_body(models[0], V, V if W is None else W, "snapshot", {},
+                                      keep_nodes=manubrium)
         pb = basis_parametric_body(
-            models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy,
+            models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy, W=W,
             static=static_states(sweeps.where, pts, manubrium) if static else None,
             interpolation=options.interpolation if step > 0 else "cubic",
             projections=projections, **slope_keywords(pts, static))
@@ -318,7 +357,8 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     return {
         "format": "neweul-middle-ear-build", "version": 1,
         **dataclasses.asdict(options),
-        "pressures": pressures, "order": int(V.shape[1]), "samples_Pa": samples.tolist(),
+        "pressures": pressures, "order": int(V.shape[1]), "two_sided": W is not None,
+        "samples_Pa": samples.tolist(),
         "snapshot_Hz": SNAPSHOT_HZ.tolist(), "manubrium": manubrium, "umbo": umbo,
         "body": "embs/tm_air.npz", "description": "middle_ear.yaml",
         "module": "generated/middle_ear.py" if options.generate else None,

@@ -9,6 +9,11 @@ attached to the FE DOFs of the manubrium nodes (:func:`~neweul_py.middle_ear.cou
 Both use the loss factors as ``K + iG`` (the body's ``Le``, the FE model's ``G``, the chain's
 ``loss_factor``: docs/equations.md §1.1; ``damping="viscous"``: both the viscous equivalent).
 
+The reduced side may also be assembled by hand (:func:`body_coupled`): the body at Δp attached
+to the same linearized chain through its node rows (``u_n = Φ_n q``, node forces ``Ψ_nᵀ f``,
+``Φ``/``Ψ`` the right/left rows) — the coupled EMBS's linearization without generating a module
+per body, for comparing reductions (its poles: :func:`coupled_poles`).
+
 The static state likewise (:func:`static_errors`): the body with its static state tied to the
 malleus held by the chain's static characteristic, against the FE static solution.
 """
@@ -27,11 +32,15 @@ from scipy.interpolate import CubicSpline
 from ..analysis import load_generated
 from ..analysis.linearize import linearize
 from ..api import generate
+from ..elastic.bodies.static import node_rows
 from ..elastic.io.body_files import load_parametric_body
 from ..elastic.io.fe_files import read_fe_model
 from ..elastic.io.working_point import read_static
 from ..elastic.quality.frf_sweep import frequency_form
+from ..elastic.quality.measures import right_half_plane_poles
 from ..elastic.quality.static_equilibrium import tied_static_equilibrium
+from ..errors import DataError
+from ..ffrf.loss_form import loss_form
 from .coupled import coupled_frf
 from .embs import (
     PROBE_MASS,
@@ -45,8 +54,12 @@ from .parameters import MiddleEarParameters
 from .study import embs_frf, transfer
 from .sweep import pressure_sweep
 
-__all__ = ["chain_module", "chain_restoring", "errors", "fe_model_at", "linear_chain",
+__all__ = ["body_coupled", "body_coupled_frf", "chain_matrices", "chain_module",
+           "chain_restoring", "coupled_poles", "errors", "fe_model_at", "linear_chain",
            "reference_frf", "static_errors"]
+
+#: The canal source of the transfer functions and the body outputs they read.
+SOURCE = "canal_volume_acceleration"
 
 
 def chain_module(description: Path, fem: Path, gen: Path) -> Any:
@@ -73,13 +86,14 @@ def fe_model_at(dp: float, build: Path, refine: int) -> Path:
     return path
 
 
-def linear_chain(chain_mod: Any, fe: Any, p: np.ndarray, damping: str = "loss"
-                 ) -> tuple[dict[str, np.ndarray], list[str], list[int]]:
-    """The chain's linear matrices for :func:`~neweul_py.middle_ear.coupled.coupled_frf`:
-    ``M``, ``D``, ``K`` (own coordinates first, then the node translations, without the node
-    frames' probe mass; ``damping="loss"``: ``K + iG`` and ``D − G/ω_ref``), the names of its
-    own coordinates and the FE DOF of each node translation in ``fe``."""
-    lin = linearize(chain_mod, p=p)
+def chain_matrices(chain_mod: Any, dp: float, damping: str = "loss",
+                   p: np.ndarray | None = None
+                   ) -> tuple[dict[str, np.ndarray], list[str], list[str]]:
+    """``M``, ``D``, ``K`` of the chain alone linearized at ``dp`` (``p``: its parameter
+    vector, default its defaults with ``dp``), coordinates ``[y_c; u_n]``: its own, then the
+    node translations ``nK_a`` (without their probe masses); with ``damping="loss"`` the
+    loss factors as ``K + iG``, ``D − G/ω_ref``. Returns the matrices and both name lists."""
+    lin = linearize(chain_mod, p=parameters_at(chain_mod, dp) if p is None else p)
     names = list(lin.coordinates)
     node = [n for n in names if n.startswith("n") and n[1:].split("_")[0].isdigit()]
     own = [n for n in names if n not in node]
@@ -91,6 +105,15 @@ def linear_chain(chain_mod: Any, fe: Any, p: np.ndarray, damping: str = "loss"
     chain = {k: a[np.ix_(order, order)] for k, a in (("M", lin.M0), ("D", P), ("K", Q))}
     k = np.arange(len(own), len(names))
     chain["M"][k, k] -= PROBE_MASS
+    return chain, own, node
+
+
+def linear_chain(chain_mod: Any, fe: Any, p: np.ndarray, damping: str = "loss"
+                 ) -> tuple[dict[str, np.ndarray], list[str], list[int]]:
+    """The chain's linear matrices for :func:`~neweul_py.middle_ear.coupled.coupled_frf`:
+    ``M``, ``D``, ``K`` of :func:`chain_matrices` at the parameter vector ``p``, the names of
+    its own coordinates and the FE DOF of each node translation in ``fe``."""
+    chain, own, node = chain_matrices(chain_mod, 0.0, damping, p)
     dofs = [fe.inputs[f"manubrium.{n[1:].split('_')[0]}.u{n[-1]}"][0][0] for n in node]
     return chain, own, dofs
 
@@ -103,11 +126,70 @@ def reference_frf(chain_mod: Any, fe_path: Path, dp: float, f: np.ndarray,
     fe = frequency_form(read_fe_model(fe_path), damping)
     chain, own, dofs = linear_chain(chain_mod, fe,
                                     parameters_at(chain_mod, dp) if p is None else p, damping)
-    res = coupled_frf(fe, chain, dofs, f, "canal_volume_acceleration",
+    res = coupled_frf(fe, chain, dofs, f, SOURCE,
                       ["probe_pressure", "umbo_uz"], [own.index("s_z"), own.index("m_z")])
     return {"p_probe": res["probe_pressure"], "umbo_uz": res["umbo_uz"],
             "stapes_velocity": res[f"chain{own.index('s_z')}"],
             "umbo_velocity_z": res[f"chain{own.index('m_z')}"]}
+
+
+def body_coupled(chain: dict[str, np.ndarray], own: Sequence[str], node: Sequence[str],
+                 body: Any, damping: str = "loss") -> dict[str, np.ndarray]:
+    """The chain (:func:`chain_matrices`) with the reduced ``body`` (one working point)
+    attached at its node translations: coordinates ``[y_c; q]``, ``u_n = Φ_n q`` and the
+    node equations projected by ``Ψ_nᵀ`` (``Φ_n``, ``Ψ_n`` the body's right and left rows of
+    the node translations ``nK_a``, ``V_kept``/``W_kept``)::
+
+        X = [[X_cc, X_cn Φ], [Ψᵀ X_nc, Ψᵀ X_nn Φ + X_body]]      (X = M, D, K)
+
+    ``damping`` as in :func:`chain_matrices` (the body's ``G`` likewise). Returns ``M``,
+    ``D``, ``K`` and ``b`` (the canal source)."""
+    rows = node_rows(body.nodes, body.dof_node, body.dof_kind)
+    ids = [int(i) for i in body.nodes[:, 0]]
+    pick = [int(rows[ids.index(int(n[1:].split("_")[0])), "xyz".index(n[-1])]) for n in node]
+    if min(pick) < 0:
+        raise DataError("a chain node translation is not a kept DOF of the body", None, "nodes")
+    phi, psi = body.V_kept[pick], body.W_kept[pick]
+    K, D = body.K, body.D
+    if damping == "loss" and body.G is not None:
+        K, D = loss_form(K, D, body.G, body.loss_reference_frequency)
+    nc = len(own)
+    out = {}
+    for key, xb in (("M", body.M), ("D", D), ("K", K)):
+        x = chain[key]
+        out[key] = np.block([[x[:nc, :nc], x[:nc, nc:] @ phi],
+                             [psi.T @ x[nc:, :nc], psi.T @ x[nc:, nc:] @ phi + xb]])
+    b = np.zeros(out["M"].shape[0], dtype=complex)
+    b[nc:] = body.B[:, list(body.input_names).index(SOURCE)]
+    out["b"] = b
+    return out
+
+
+def body_coupled_frf(chain: dict[str, np.ndarray], own: Sequence[str], node: Sequence[str],
+                     body: Any, f: np.ndarray, damping: str = "loss") -> dict[str, np.ndarray]:
+    """The outputs of :func:`reference_frf` from :func:`body_coupled` (one batched solve)."""
+    sys = body_coupled(chain, own, node, body, damping)
+    w = 2 * np.pi * np.asarray(f, dtype=float)[:, None, None]
+    A = sys["K"][None] + 1j * w * sys["D"][None] - w**2 * sys["M"][None]
+    X = np.linalg.solve(A, np.broadcast_to(sys["b"], (w.shape[0], sys["b"].size))[..., None])
+    X = X[..., 0]
+    nc = len(own)
+    out = {}
+    for key, name in (("p_probe", "probe_pressure"), ("umbo_uz", "umbo_uz")):
+        out[key] = X[:, nc:] @ body.C[list(body.output_names).index(name)]
+    for key, name in (("stapes_velocity", "s_z"), ("umbo_velocity_z", "m_z")):
+        out[key] = 1j * w[:, 0, 0] * X[:, own.index(name)]
+    return out
+
+
+def coupled_poles(chain: dict[str, np.ndarray], own: Sequence[str], node: Sequence[str],
+                  body: Any) -> np.ndarray:
+    """The right-half-plane poles
+    (:func:`~neweul_py.elastic.quality.measures.right_half_plane_poles`) of the chain with
+    the body in the time domain: ``chain`` from ``chain_matrices(..., damping="viscous")``,
+    the body's viscous ``D``."""
+    sys = body_coupled(chain, own, node, body, "viscous")
+    return right_half_plane_poles(sys["M"].real, sys["D"].real, sys["K"].real)
 
 
 def errors(mod: Any, chain_mod: Any, dp: float, f: np.ndarray, fe_path: Path,

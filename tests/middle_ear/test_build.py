@@ -49,6 +49,19 @@ def test_the_build_holds_a_body_with_its_static_state_and_a_checked_description(
     assert not (small / "generated").exists()
 
 
+def test_the_default_body_is_galerkin_and_says_so(small, capsys):
+    """The default basis is Galerkin: equal left and right node rows, ``two_sided`` false in
+    the body file and ``build.json``, and ``neweul body-info`` (which states the projection
+    from the node rows, not from the claim) prints it without a contradiction."""
+    record = json.loads((small / "build.json").read_text())
+    pb = load_parametric_body(small / record["body"])
+    assert record["two_sided"] is False and not pb.two_sided
+    assert np.array_equal(pb.V_kept, pb.W_kept)
+    assert main(["body-info", str(small / record["body"])]) == 0
+    out = capsys.readouterr().out
+    assert "one-sided (Galerkin, W = V)" in out and "claims" not in out
+
+
 def test_a_moved_build_still_loads(small, tmp_path):
     """The build directory moved as a whole: its description still finds the body."""
     moved = tmp_path / "moved"
@@ -89,6 +102,8 @@ def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
     (["--pressures=1000,0"], "pressures"),
     (["--refine", "7"], "--refine"),
     (["--slope-step", "20.5"], "slope step"),
+    (["--basis", "oblique"], "--basis"),
+    (["--rtol", "2"], "rtol"),
 ])
 def test_bad_options_are_one_error_and_write_nothing(args, where, tmp_path, capsys):
     """Decreasing working points, a refinement beyond the cap, a slope step that is no whole

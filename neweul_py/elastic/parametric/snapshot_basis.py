@@ -28,7 +28,7 @@ body is the projection of the FE model itself.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -47,12 +47,51 @@ from .global_basis import energy_metric, g_orthonormal
 from .samples import central_curvatures, central_slopes, hermite_kind, model_sources, stacked_loss
 
 __all__ = ["basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
-           "snapshot_basis"]
+           "frequency_snapshots", "snapshot_basis"]
 
 
 def _say(progress: Progress, msg: str) -> None:
     if progress is not None:
         progress(msg)
+
+
+def frequency_snapshots(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
+                        freqs_hz: Sequence[float],
+                        extra_stiffness: sps.spmatrix | None = None,
+                        adjoint: Sequence[np.ndarray] | None = None,
+                        progress: Progress = None
+                        ) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
+    """The primal and adjoint frequency-response snapshots of every sample (module
+    docstring), sample by sample, frequency by frequency: ``(X_ij, Y_ij, ω_j)`` with
+
+        X_ij = A_ij⁻¹ F_i,   Y_ij = A_ij⁻ᵀ c_i,   A_ij = K_i + K_x + iω_j D_i − ω_j² M_i
+
+    (complex, one sparse LU per sample and frequency; ``Y_ij`` ``None`` without
+    ``adjoint``). Arguments as in :func:`snapshot_basis`; a count of load sets or output
+    sets that is not one per FE model, or a frequency that is not positive and finite, is a
+    :class:`DataError` before any solve.
+    """
+    if len(loads) != len(fes) or (adjoint is not None and len(adjoint) != len(fes)):
+        raise DataError(f"{len(loads)} load sets for {len(fes)} FE models", None, "loads")
+    f = np.asarray(freqs_hz, dtype=float)
+    if f.size == 0 or np.any(f <= 0) or not np.all(np.isfinite(f)):
+        raise DataError("snapshot frequencies must be positive and finite", None, "freqs")
+    return _solves(fes, loads, f, extra_stiffness, adjoint, progress)
+
+
+def _solves(fes: Sequence[FEModel], loads: Sequence[np.ndarray], f: np.ndarray,
+            extra_stiffness: sps.spmatrix | None, adjoint: Sequence[np.ndarray] | None,
+            progress: Progress) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
+    for i, (fe, F) in enumerate(zip(fes, loads, strict=True)):
+        K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
+        D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
+        for w in 2 * np.pi * f:
+            lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
+            X = lu.solve(np.asarray(F, dtype=complex))
+            Y = None if adjoint is None else lu.solve(np.asarray(adjoint[i], dtype=complex),
+                                                      transpose=True)
+            yield X, Y, float(w)
+        _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
 
 
 def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
@@ -94,23 +133,10 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
     V, energy
         (n, r) basis and the POD energy of each column.
     """
-    if len(loads) != len(fes) or (adjoint is not None and len(adjoint) != len(fes)):
-        raise DataError(f"{len(loads)} load sets for {len(fes)} FE models", None, "loads")
-    f = np.asarray(freqs_hz, dtype=float)
-    if f.size == 0 or np.any(f <= 0) or not np.all(np.isfinite(f)):
-        raise DataError("snapshot frequencies must be positive and finite", None, "freqs")
     snaps = []
-    for i, (fe, F) in enumerate(zip(fes, loads, strict=True)):
-        K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
-        D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
-        for w in 2 * np.pi * f:
-            lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
-            X = lu.solve(np.asarray(F, dtype=complex))
-            snaps += [X.real, X.imag]
-            if adjoint is not None:
-                Y = lu.solve(np.asarray(adjoint[i], dtype=complex), transpose=True)
-                snaps += [Y.real, Y.imag]
-        _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+    for X, Y, _w in frequency_snapshots(fes, loads, freqs_hz, extra_stiffness, adjoint,
+                                        progress):
+        snaps += [X.real, X.imag] + ([Y.real, Y.imag] if Y is not None else [])
     S = np.hstack(snaps if prior is None else [np.asarray(prior, dtype=float), *snaps])
     G = energy_metric(fes)
     kinds = fes[0].dof_kind
@@ -221,10 +247,13 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                           slope_static: tuple[Sequence[Mapping[str, Any]],
                                               Sequence[Mapping[str, Any]]] | None = None,
                           metric: sps.spmatrix | None = None,
+                          W: np.ndarray | None = None,
                           progress: Progress = None,
                           projections: dict[str, ReducedBody] | None = None) -> ParametricBody:
-    """The parametric body of one Galerkin basis ``V`` for every sample (``X_i = Vᵀ X_i V``),
-    with :func:`fixed_frame_invariants`; interpolated entrywise as in
+    """The parametric body of one basis pair for every sample, ``X_i = Wᵀ X_i V`` — one
+    Galerkin basis ``V`` (``W`` ``None``: ``W = V``) or a two-sided pair ``(V, W)``
+    (:func:`~neweul_py.elastic.parametric.two_sided_basis.balanced_snapshot_basis`) — with
+    :func:`fixed_frame_invariants`; interpolated entrywise as in
     :func:`~neweul_py.elastic.parametric.global_basis.global_parametric_body`.
 
     ``slope_models = (minus, plus)``: the FE models at every sample ∓ ``slope_step``
@@ -236,15 +265,16 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     equations.md §4.2). Without slope models the default weights are ``"cubic"``.
     ``metric``: the energy metric of the static projection (default: that of ``fes``).
 
-    ``projections``: a cache the caller keeps across calls with the same ``V`` and kept nodes
+    ``projections``: a cache the caller keeps across calls with the same ``V``, ``W`` and kept nodes
     (FE fingerprint → projected body with its invariants), so that a model projected once —
     a sample, or a slope model, of an earlier body of a refinement — is not projected again.
 
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.reductors.static_state.static_deflection` (``x`` — the FE
     static state; ``node_force``, ``outputs``; the output rows are the FE model's and the
-    projection is ``Ḡ``-orthogonal in the energy metric of the samples, in which ``V`` is
-    orthonormal): the body then carries it (``static/*``, docs/equations-middle-ear.md §5).
+    projection is ``Ḡ``-orthogonal in the energy metric of the samples, ``q = (VᵀḠV)⁻¹VᵀḠx``,
+    for a two-sided pair too: the best approximation of the static state in the span of
+    ``V``): the body then carries it (``static/*``, docs/equations-middle-ear.md §5).
     """
     s = np.asarray(samples, dtype=float)
     kind = hermite_kind(interpolation, slope_models is not None)
@@ -255,6 +285,10 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     if V.shape[0] != fes[0].n_dofs:
         raise DataError(f"the basis has {V.shape[0]} rows for FE models of {fes[0].n_dofs} DOFs",
                         None, "V")
+    two = W is not None
+    if two and W.shape != V.shape:
+        raise DataError(f"the left basis is {W.shape}, the right one {V.shape}", None, "W")
+    Wb = W if two else V
     if static is not None and len(static) != len(fes):
         raise DataError(f"{len(static)} static states for {len(fes)} samples", None, "static")
     if (slope_models is None) != (slope_step is None) or (
@@ -269,18 +303,19 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         d = float(slope_step)
         check_same_mesh([*fes, *slope_models[0], *slope_models[1]], [*s, *(s - d), *(s + d)])
     G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
+    settings = {"order": int(V.shape[1])} | ({"two_sided": True} if two else {})
     bodies, states = [], []
     for i, fe in enumerate(fes):
         key = fe.fingerprint
         b = None if projections is None else projections.get(key)
         if b is None:
             b = fixed_frame_invariants(build_reduced_body(
-                fe, V, V, "snapshot", {"order": int(V.shape[1])}, keep_nodes=keep_nodes), fe)
+                fe, V, Wb, "snapshot", settings, keep_nodes=keep_nodes), fe)
             if projections is not None:
                 projections[key] = b
         bodies.append(b.with_(parameters={parameter: float(s[i])}))
         if static is not None:
-            states.append(static_deflection(b, V=V, W=V, output_rows=fe.C(), metric=G,
+            states.append(static_deflection(b, V=V, W=Wb, output_rows=fe.C(), metric=G,
                                             **static[i]))
         _say(progress, f"projected sample {i + 1} of {len(fes)}")
     k, r = len(bodies), V.shape[1]
@@ -295,7 +330,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                                                                 "V_kept", "W_kept")},
         **stacked_loss(bodies),
         T=eye, L=eye, R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
-        two_sided=False, input_names=g0.input_names, output_names=g0.output_names,
+        two_sided=two, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
         V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
         interpolation=kind if slope_models is None else "cubic",
@@ -306,7 +341,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     if slope_models is None:
         return pb
     side = [basis_parametric_body(models, V, s + sign * float(slope_step), parameter=parameter,
-                                  keep_nodes=keep_nodes, energy=energy, metric=G,
+                                  keep_nodes=keep_nodes, energy=energy, metric=G, W=W,
                                   static=None if slope_static is None else slope_static[j],
                                   progress=progress, projections=projections)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
