@@ -10,9 +10,13 @@ killed at any moment) sees either the old output or the complete new one under `
 * where the exchange is not available, ``DIR`` is first renamed to ``.DIR.<random>.old``; a
   kill between the two renames is healed by the next run, which renames the old output back.
 
-Stale ``.DIR.*.tmp`` / ``.DIR.*.old`` directories of killed runs are removed by the next run; the
-runs on one parent directory are serialized by an advisory lock (``flock``) on that directory,
-so that cleaning never removes the directory of a run still writing.
+Stale ``.DIR.*.tmp`` / ``.DIR.*.old`` directories of killed runs are removed by the next run.
+A run holds an advisory lock (``flock``) on its own temporary directory while it fills it, and
+cleaning skips a temporary directory whose lock is held, so it never removes the directory of a
+run still writing; the parent directory is locked only for the short steps that look at or
+rename its entries (cleaning, creating the temporary directory, the final exchange), so that
+runs into different directories of one parent — two builds side by side — fill at the same
+time.
 """
 
 from __future__ import annotations
@@ -139,20 +143,75 @@ def _exchange(a: Path, b: Path) -> bool:
     raise OSError(err, os.strerror(err), str(b))
 
 
+#: The temporary directories this process is filling and holds the lock of (device, inode):
+#: an output written inside one of them (an FE sweep inside a build) must not wait for the
+#: lock its own run holds (``flock`` locks belong to an open file, not to the process).
+_HELD: set[tuple[int, int]] = set()
+
+
+def _key(directory: Path) -> tuple[int, int]:
+    st = os.stat(directory)
+    return st.st_dev, st.st_ino
+
+
 @contextlib.contextmanager
-def _locked(parent: Path) -> Iterator[None]:
-    """An exclusive advisory lock on ``parent`` (no lock file is left behind)."""
+def _locked(directory: Path) -> Iterator[None]:
+    """An exclusive advisory lock on ``directory``, held until the block ends (no lock file is
+    left behind); a directory this process holds already is not locked again."""
     try:
         import fcntl
     except ImportError:  # pragma: no cover - not POSIX
         yield
         return
-    fd = os.open(parent, os.O_RDONLY)
+    if _key(directory) in _HELD:
+        yield
+        return
+    fd = os.open(directory, os.O_RDONLY)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
         yield
     finally:
         os.close(fd)  # releases the lock
+
+
+def _hold(directory: Path) -> tuple[int, tuple[int, int]] | None:
+    """Take the lock of ``directory`` until :func:`_release` (``None`` without ``flock``)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        return None
+    fd = os.open(directory, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    key = _key(directory)
+    _HELD.add(key)
+    return fd, key
+
+
+def _release(held: tuple[int, tuple[int, int]] | None) -> None:
+    """Give up a lock of :func:`_hold`."""
+    if held is not None:
+        _HELD.discard(held[1])
+        os.close(held[0])
+
+
+def _in_use(directory: Path) -> bool:
+    """Whether another run holds the lock of ``directory`` (its temporary directory, which it
+    is still filling)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        return False
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)
+    return False
 
 
 def _recover_and_clean(out: Path, parent: Path, manifest: str) -> None:
@@ -166,8 +225,22 @@ def _recover_and_clean(out: Path, parent: Path, manifest: str) -> None:
                 stale.remove(old)
                 break
     for path in stale:
-        if path.is_dir() and not path.is_symlink():
+        if path.is_dir() and not path.is_symlink() and not _in_use(path):
             shutil.rmtree(path, ignore_errors=True)
+
+
+def _replace(tmp: Path, out: Path, parent: Path) -> None:
+    """Put the complete ``tmp`` in the place of ``out`` (module docstring)."""
+    if not out.exists():
+        os.rename(tmp, out)
+    elif _exchange(tmp, out):
+        shutil.rmtree(tmp, ignore_errors=True)  # tmp now holds the old output
+    else:
+        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=parent))
+        os.rmdir(old)
+        os.replace(out, old)
+        os.replace(tmp, out)  # a kill before this line is healed by the next run
+        shutil.rmtree(old, ignore_errors=True)
 
 
 def write_directory_atomically(
@@ -193,27 +266,23 @@ def write_directory_atomically(
         _recover_and_clean(out, parent, manifest)
         out = check_output_dir(out, manifest)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
+        held = _hold(tmp)  # before the parent is free: no other run may clean it away
+    try:
         umask = os.umask(0)
         os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary dir
-        try:
-            record = fill(tmp)
-            with open(tmp / manifest, "w") as fh:
-                json.dump(record, fh, indent=2, sort_keys=False)
-                fh.write("\n")
-                fh.flush()
-                os.fsync(fh.fileno())
-            if not out.exists():
-                os.rename(tmp, out)
-            elif _exchange(tmp, out):
-                shutil.rmtree(tmp, ignore_errors=True)  # tmp now holds the old output
-            else:
-                old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=parent))
-                os.rmdir(old)
-                os.replace(out, old)
-                os.replace(tmp, out)  # a kill before this line is healed by the next run
-                shutil.rmtree(old, ignore_errors=True)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
+        os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the result is ordinary
+        record = fill(tmp)
+        with open(tmp / manifest, "w") as fh:
+            json.dump(record, fh, indent=2, sort_keys=False)
+            fh.write("\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        with _locked(parent):
+            out = check_output_dir(out, manifest)
+            _replace(tmp, out, parent)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    finally:
+        _release(held)
     return out
