@@ -70,8 +70,9 @@ __all__ = ["BASES", "BUILD_RECORD", "BuildOptions", "build", "reduction_basis"]
 
 #: The record of a build (written last: a directory holding it is complete).
 BUILD_RECORD = "build.json"
-#: Frequencies of the snapshots of the reduction basis [Hz].
-SNAPSHOT_HZ = np.r_[20.0, np.geomspace(100.0, 8000.0, 10)]
+#: Frequencies of the snapshots of the reduction basis [Hz]: 20 Hz, 10 from 100 Hz to 8 kHz,
+#: and 5.5 and 6.5 kHz, where the band checked ends (docs/equations-middle-ear.md §7).
+SNAPSHOT_HZ = np.sort(np.r_[20.0, np.geomspace(100.0, 8000.0, 10), 5500.0, 6500.0])
 #: The reduction bases of ``neweul middle-ear build --basis`` (:func:`reduction_basis`) and
 #: their default relative cut ``rtol``: of the singular values of the balanced pairing
 #: (two-sided), of the POD energy (Galerkin); accuracy of both in docs/equations-middle-ear.md,
