@@ -157,3 +157,24 @@ def test_no_private_names_across_modules() -> None:
                         for n in names if n.startswith("_") and not n.startswith("__")
                         and f"{target}.{n}" not in files]
     assert not bad, "\n".join(bad)
+
+
+#: Calls that turn text into code or expressions (sympy's ``sympify``/``S`` parse strings).
+PARSING_CALLS = {"eval", "exec", "sympify", "parse_expr", "S"}
+
+
+def test_no_call_parses_text_as_code() -> None:
+    """Reference: the rule that user text reaches sympy only through the description's own
+    parser; conversions of values use ``neweul_py.model.as_expr``, which refuses strings. No
+    call of ``eval``, ``exec``, ``sympify``, ``S`` or ``parse_expr`` (bare or as an attribute)
+    anywhere in the package."""
+    found = []
+    for path in sorted(PKG.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Call):
+                f = node.func
+                name = f.id if isinstance(f, ast.Name) else f.attr if isinstance(
+                    f, ast.Attribute) else ""
+                if name in PARSING_CALLS:
+                    found.append(f"{path.relative_to(PKG.parent)}:{node.lineno}: {name}(…)")
+    assert not found, "\n" + "\n".join(found)

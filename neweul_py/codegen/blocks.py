@@ -27,6 +27,7 @@ from ..model import (
     SpringDamper,
     System,
     Torque,
+    as_expr,
     input_rate_name,
     symbol,
 )
@@ -254,7 +255,7 @@ def _coordinate_units(system: System) -> list[str]:
 
 def _expression_unit(expr: sp.Expr, known: dict[sp.Symbol, str]) -> str:
     """The unit of ``c·s`` or a sum of such terms of one unit (``zw − zr``), ``""`` else."""
-    terms = sp.Add.make_args(sp.sympify(expr))
+    terms = sp.Add.make_args(as_expr(expr))
     found = set()
     for term in terms:
         factors = [f for f in sp.Mul.make_args(term) if not f.is_Number]
@@ -312,7 +313,7 @@ def input_units(system: System) -> dict[str, str]:
     seen: dict[sp.Symbol, set[str]] = {}
 
     def mark(expr: sp.Expr, unit: str) -> None:
-        expr = sp.sympify(expr)
+        expr = as_expr(expr)
         for s in expr.free_symbols:
             seen.setdefault(s, set()).add(unit if expr == s else "?")
 

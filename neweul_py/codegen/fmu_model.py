@@ -25,13 +25,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
 
 from ..model import (
     ExpressionOutput,
     ForceOutput,
     KinematicOutput,
     System,
+    as_expr,
     time,
 )
 from .c_templates import C_DOPRI5_TABLEAU, C_LU
@@ -194,7 +194,7 @@ def export_problems(system: System) -> list[tuple[str, str]]:
     problems: list[tuple[str, str]] = []
     params = {p.symbol for p in system.parameters}
     for i in system.inputs:
-        default = sp.sympify(i.default) if not isinstance(i.default, sp.Basic) else i.default
+        default = as_expr(i.default)
         if not default.free_symbols <= params or time in default.free_symbols:
             problems.append((
                 f"inputs.{i.name}",

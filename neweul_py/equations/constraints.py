@@ -202,7 +202,7 @@ def check_constraints(
     values[time] = sp.Float(0.0)
     for sym, expr in zip(system.input_symbols, system.input_defaults, strict=True):
         try:
-            values[sym] = sp.Float(float(sp.sympify(expr).xreplace(values)))
+            values[sym] = sp.Float(float(as_expr(expr).xreplace(values)))
         except (TypeError, ValueError):
             return  # an input not evaluable at t = 0: left to the integrator to report
 
