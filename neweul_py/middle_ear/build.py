@@ -46,6 +46,7 @@ from ..elastic.io.fe_files import read_fe_model
 from ..elastic.io.reader import read_elastic_data
 from ..elastic.io.working_point import read_static
 from ..elastic.parametric.snapshot_basis import (
+    ProjectionCache,
     basis_parametric_body,
     check_same_mesh,
     snapshot_basis,
@@ -302,7 +303,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
                                    tmp / "embs" / f"{tag}_r{options.refine}_{options.rtol:g}.npz",
                                    options, progress)
     step = float(options.slope_step)
-    projections: dict[str, Any] = {}        # each FE model projected on (V, W) once
+    projections = ProjectionCache()         # each FE model projected on (V, W) once
 
     def slope_keywords(pts: list[float], static: bool) -> dict[str, Any]:
         if step <= 0:

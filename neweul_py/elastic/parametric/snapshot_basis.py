@@ -46,7 +46,7 @@ from ..reductors.static_state import static_deflection
 from .global_basis import energy_metric, g_orthonormal
 from .samples import central_curvatures, central_slopes, hermite_kind, model_sources, stacked_loss
 
-__all__ = ["basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
+__all__ = ["ProjectionCache", "basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
            "frequency_snapshots", "snapshot_basis"]
 
 
@@ -223,6 +223,22 @@ def fixed_frame_invariants(body: ReducedBody, fe: FEModel) -> ReducedBody:
     return body.with_(invariants=flat)
 
 
+class ProjectionCache:
+    """FE models projected on one basis pair: the bodies by FE fingerprint, and the first
+    model with its body as the base whose difference the others project
+    (:func:`~neweul_py.elastic.reductors.projection.build_reduced_body`)."""
+
+    def __init__(self) -> None:
+        self.bodies: dict[str, ReducedBody] = {}
+        self.base: tuple[FEModel, ReducedBody] | None = None
+
+    def add(self, fe: FEModel, body: ReducedBody) -> None:
+        """Remember ``body``, the projection of ``fe`` (the base when it is the first)."""
+        self.bodies[fe.fingerprint] = body
+        if self.base is None:
+            self.base = (fe, body)
+
+
 def check_same_mesh(fes: Sequence[FEModel], samples: Sequence[float]) -> None:
     """One :class:`DataError` naming the first sample whose nodes or DOFs differ from the
     first sample's: the samples of a parametric body share one mesh (one ``V`` for all)."""
@@ -249,7 +265,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                           metric: sps.spmatrix | None = None,
                           W: np.ndarray | None = None,
                           progress: Progress = None,
-                          projections: dict[str, ReducedBody] | None = None) -> ParametricBody:
+                          projections: ProjectionCache | None = None) -> ParametricBody:
     """The parametric body of one basis pair for every sample, ``X_i = Wᵀ X_i V`` — one
     Galerkin basis ``V`` (``W`` ``None``: ``W = V``) or a two-sided pair ``(V, W)``
     (:func:`~neweul_py.elastic.parametric.two_sided_basis.balanced_snapshot_basis`) — with
@@ -265,9 +281,10 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     equations.md §4.2). Without slope models the default weights are ``"cubic"``.
     ``metric``: the energy metric of the static projection (default: that of ``fes``).
 
-    ``projections``: a cache the caller keeps across calls with the same ``V``, ``W`` and kept nodes
-    (FE fingerprint → projected body with its invariants), so that a model projected once —
-    a sample, or a slope model, of an earlier body of a refinement — is not projected again.
+    ``projections``: a :class:`ProjectionCache` the caller keeps across calls with the same
+    ``V``, ``W`` and kept nodes, so that a model projected once — a sample, or a slope model,
+    of an earlier body of a refinement — is not projected again; the first model projected is
+    the base of the others (only their differences to it are projected).
 
     ``static`` gives per sample the static state it is linearized about, as the keyword
     arguments of :func:`~neweul_py.elastic.reductors.static_state.static_deflection` (``x`` — the FE
@@ -305,14 +322,13 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
     settings = {"order": int(V.shape[1])} | ({"two_sided": True} if two else {})
     bodies, states = [], []
+    cache = ProjectionCache() if projections is None else projections
     for i, fe in enumerate(fes):
-        key = fe.fingerprint
-        b = None if projections is None else projections.get(key)
+        b = cache.bodies.get(fe.fingerprint)
         if b is None:
             b = fixed_frame_invariants(build_reduced_body(
-                fe, V, Wb, "snapshot", settings, keep_nodes=keep_nodes), fe)
-            if projections is not None:
-                projections[key] = b
+                fe, V, Wb, "snapshot", settings, keep_nodes=keep_nodes, base=cache.base), fe)
+            cache.add(fe, b)
         bodies.append(b.with_(parameters={parameter: float(s[i])}))
         if static is not None:
             states.append(static_deflection(b, V=V, W=Wb, output_rows=fe.C(), metric=G,

@@ -30,6 +30,8 @@ def project(
     matrices: Mapping[str, sps.spmatrix | np.ndarray | None],
     B: np.ndarray | None = None,
     C: np.ndarray | None = None,
+    base: tuple[Mapping[str, sps.spmatrix | None], Mapping[str, np.ndarray | None]] | None
+    = None,
 ) -> dict[str, np.ndarray | None]:
     """Project system matrices: ``X_r = Wᵀ X V`` for each, ``B_r = Wᵀ B``, ``C_r = C V``.
 
@@ -41,6 +43,12 @@ def project(
         Name → n×n sparse or dense matrix (``None`` stays ``None``).
     B, C
         Optional (n, k) input and (l, n) output matrices.
+    base
+        ``(matrices₀, projected₀)``: the sparse matrices of another model of the same mesh
+        and their projections on the same ``(V, W)``. A sparse ``X`` is then projected as
+        ``Wᵀ X₀ V + Wᵀ (X − X₀) V`` with the difference restricted to its nonzero rows and
+        columns: the working points of a parametric body differ in a few rows (the
+        prestressed membrane), and the blocks that do not vary come out equal to the base's.
 
     Returns
     -------
@@ -62,12 +70,28 @@ def project(
     """
     out: dict[str, np.ndarray | None] = {}
     for name, x in matrices.items():
-        out[name] = None if x is None else np.asarray(W.T @ np.asarray(x @ V))
+        x0, p0 = (None, None) if base is None else (base[0].get(name), base[1].get(name))
+        if x is None:
+            out[name] = None
+        elif sps.issparse(x) and sps.issparse(x0) and p0 is not None and x0.shape == x.shape:
+            out[name] = np.asarray(p0) + _difference_projection(V, W, sps.csr_matrix(x - x0))
+        else:
+            out[name] = np.asarray(W.T @ np.asarray(x @ V))
     if B is not None:
         out["B"] = np.asarray(W.T @ B)
     if C is not None:
         out["C"] = np.asarray(C @ V)
     return out
+
+
+def _difference_projection(V: np.ndarray, W: np.ndarray, dx: sps.csr_matrix) -> np.ndarray:
+    """``Wᵀ ΔX V`` on the nonzero rows and columns of the sparse ``ΔX`` only."""
+    dx.eliminate_zeros()
+    rows, cols = np.unique(dx.nonzero()[0]), np.unique(dx.nonzero()[1])
+    if rows.size == 0:
+        return np.zeros((W.shape[1], V.shape[1]))
+    block = dx[rows][:, cols]
+    return W[rows].T @ np.asarray(block @ V[cols])
 
 
 def biorthonormalize(
@@ -130,6 +154,7 @@ def build_reduced_body(
     keep_nodes: Sequence[int] | np.ndarray | None = None,
     store_bases: bool = False,
     eigenvalues: np.ndarray | None = None,
+    base: tuple[FEModel, ReducedBody] | None = None,
 ) -> ReducedBody:
     """Project ``fe`` with ``(V, W)`` and wrap the result as a :class:`ReducedBody`.
 
@@ -141,8 +166,17 @@ def build_reduced_body(
     ``keep_nodes`` (node ids) selects the rows of ``V`` that are stored (all DOFs of those
     nodes); by default the nodes carrying an input or output DOF. ``settings`` gains
     ``two_sided`` — whether ``W`` differs from ``V`` — unless the caller states it.
+    ``base``: another FE model of the same mesh and its body projected on the same
+    ``(V, W)``; only the matrices' differences to it are projected (:func:`project`).
     """
-    red = project(V, W, {"M": fe.M, "D": fe.D, "K": fe.K, "G": fe.G}, B=fe.B(), C=fe.C())
+    names = ("M", "D", "K", "G")
+    prior = None
+    if base is not None:
+        fe0, body0 = base
+        prior = ({k: getattr(fe0, k) for k in names},
+                 {"M": body0.M, "K": body0.K, "G": body0.G,
+                  "D": body0.D if fe0.D is not None else None})
+    red = project(V, W, {k: getattr(fe, k) for k in names}, B=fe.B(), C=fe.C(), base=prior)
     nodes = fe.io_nodes() if keep_nodes is None else np.unique(np.asarray(keep_nodes,
                                                                           dtype=np.int64))
     dofs = fe.dofs_of_nodes(nodes)

@@ -384,3 +384,25 @@ def test_sample_curvatures_of_static_states_need_the_samples_own_states():
         np.testing.assert_allclose(qb.curvatures["static/q"][i], d2q, rtol=0,
                                    atol=1e-5 * np.abs(d2q).max())
     assert not np.any(qb.curvatures["static/residual"])
+
+
+def test_g_orthonormal_from_few_rows_equals_the_gram_eigen_decomposition() -> None:
+    """With fewer nonzero rows than snapshots the basis comes from an SVD; reference: the
+    eigen-decomposition of the Gram matrix ``XᵀGX`` of the unit-energy snapshots computed
+    here — the same eigenvalues, the same span, ``QᵀGQ = I``."""
+    from neweul_py.elastic.parametric.global_basis import g_orthonormal
+
+    fe = membrane_cavity(0.3)
+    G = energy_metric([fe])
+    rng = np.random.default_rng(11)
+    rows = np.flatnonzero(fe.dof_kind != "p")
+    X = np.zeros((fe.n_dofs, 3 * rows.size))
+    X[rows] = rng.standard_normal((rows.size, 8)) @ rng.standard_normal((8, X.shape[1]))
+    Q, lam = g_orthonormal(X, G, 1e-10)
+    Xu = X / np.sqrt(np.einsum("ij,ij->j", X, G @ X))
+    ref = np.sort(np.linalg.eigvalsh(Xu.T @ (G @ Xu)))[::-1]
+    assert Q.shape[1] == 8
+    assert np.allclose(lam[:8], ref[:8], rtol=1e-10)
+    assert np.abs(Q.T @ (G @ Q) - np.eye(8)).max() < 1e-10
+    P = Q @ (Q.T @ (G @ Xu))                 # G-orthogonal projection of the snapshots
+    assert np.abs(P - Xu).max() < 1e-8 * np.abs(Xu).max()
