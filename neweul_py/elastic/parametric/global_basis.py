@@ -100,6 +100,13 @@ def _say(progress: Progress, msg: str) -> None:
         progress(msg)
 
 
+#: Columns per chunk of the two-stage POD of :func:`g_orthonormal`.
+POD_CHUNK = 400
+#: Relative eigenvalue (of the chunk's largest) below which a chunk's direction is round-off
+#: of the Gram matrix and is dropped before the global POD.
+CHUNK_RTOL = 1e-14
+
+
 def energy_metric(fes: Sequence[FEModel]) -> sps.csr_matrix:
     """``G = blockdiag(K̄s, M̄f/ρ)`` on the u and p DOFs (module docstring), sparse SPD."""
     kinds = fes[0].dof_kind
@@ -134,7 +141,9 @@ def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarr
     ``X Z Λ^{-1/2}``. Only the rows where ``X`` is nonzero take part (``G`` is block-diagonal
     in the callers' u/p blocks). With fewer such rows than columns the same ``Λ`` and ``Z``
     come from the SVD of ``Lᵀ X`` (``G_rr = L Lᵀ`` from the eigen-decomposition of the
-    dense row block), which costs ``O(rows²·cols)`` instead of ``O(cols³)``.
+    dense row block), which costs ``O(rows²·cols)`` instead of ``O(cols³)``; with more rows
+    than columns, many columns are first compressed chunk by chunk
+    (:func:`_chunk_directions`).
 
     Returns
     -------
@@ -155,7 +164,9 @@ def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarr
         _, s, Zt = np.linalg.svd(Y, full_matrices=False)
         lam, U = s**2, Zt.T
     else:
-        gram = Xr.T @ (GX[:, ok] / norms[ok])
+        if Xr.shape[1] > 2 * POD_CHUNK:
+            Xr = _chunk_directions(Xr, Gr)
+        gram = Xr.T @ (Gr @ Xr)
         lam, U = np.linalg.eigh(0.5 * (gram + gram.T))
         order = np.argsort(lam)[::-1]
         lam, U = lam[order], U[:, order]
@@ -163,6 +174,21 @@ def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarr
     Q = np.zeros((X.shape[0], int(keep.sum())))
     Q[rows] = Xr @ (U[:, keep] / np.sqrt(lam[keep]))
     return Q, lam
+
+
+def _chunk_directions(X: np.ndarray, G: sps.spmatrix) -> np.ndarray:
+    """The POD directions of every :data:`POD_CHUNK` columns of ``X``, scaled by their
+    energy: ``X_c U_c`` with ``X_cᵀ G X_c = U_c Λ_c U_cᵀ``, dropping ``λ ≤`` :data:`CHUNK_RTOL`
+    ``· max λ_c``. The result has the correlation ``Σ x xᵀ`` of ``X`` up to what is
+    dropped, hence the same POD (two-stage method of snapshots), from smaller Gram matrices.
+    """
+    parts = []
+    for start in range(0, X.shape[1], POD_CHUNK):
+        Xc = X[:, start:start + POD_CHUNK]
+        gram = Xc.T @ (G @ Xc)
+        lam, U = np.linalg.eigh(0.5 * (gram + gram.T))
+        parts.append(Xc @ U[:, lam > CHUNK_RTOL * lam.max()])
+    return np.hstack(parts)
 
 
 def global_bases(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],

@@ -406,3 +406,29 @@ def test_g_orthonormal_from_few_rows_equals_the_gram_eigen_decomposition() -> No
     assert np.abs(Q.T @ (G @ Q) - np.eye(8)).max() < 1e-10
     P = Q @ (Q.T @ (G @ Xu))                 # G-orthogonal projection of the snapshots
     assert np.abs(P - Xu).max() < 1e-8 * np.abs(Xu).max()
+
+
+def test_g_orthonormal_of_many_columns_equals_the_one_stage_pod() -> None:
+    """More columns than two chunks: the two-stage POD (chunks first) keeps the eigenvalues
+    and the span of the one-stage POD computed here from the whole Gram matrix."""
+    from neweul_py.elastic.parametric.global_basis import POD_CHUNK, g_orthonormal
+
+    fe = membrane_cavity(0.3, n_x=48, n_z=24)
+    G = energy_metric([fe])
+    rng = np.random.default_rng(12)
+    rows = np.flatnonzero(fe.dof_kind == "p")
+    cols = 2 * POD_CHUNK + 37
+    assert rows.size > cols
+    X = np.zeros((fe.n_dofs, cols))
+    X[rows] = (rng.standard_normal((rows.size, 40)) * np.logspace(0, -9, 40)) @ \
+        rng.standard_normal((40, cols))
+    Q, lam = g_orthonormal(X, G, 1e-12)
+    Xu = X / np.sqrt(np.einsum("ij,ij->j", X, G @ X))
+    ref, Z = np.linalg.eigh(Xu.T @ (G @ Xu))
+    ref, Z = ref[::-1], Z[:, ::-1]
+    k = Q.shape[1]
+    assert k == int(np.sum(ref > 1e-12 * ref[0]))
+    assert np.allclose(lam[:k], ref[:k], rtol=1e-6)
+    Q_ref = Xu @ (Z[:, :k] / np.sqrt(ref[:k]))
+    P, P_ref = (B @ (B.T @ (G @ Xu)) for B in (Q, Q_ref))
+    assert np.abs(P - P_ref).max() < 1e-8 * np.abs(Xu).max()
