@@ -118,7 +118,7 @@ def derivative_block(derivatives: Derivatives, method: CseMethod
     (their intermediates, then the entries of the matrices side by side, row-major) and the
     joined matrix in the block's symbols."""
     J = derivatives.joined
-    block = eliminate(derivatives.intermediates, list(J), prefix="_ncg_e", method=method)
+    block = eliminate(derivatives.intermediates, J.flat(), prefix="_ncg_e", method=method)
     return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
 
 
@@ -127,7 +127,7 @@ def second_derivative_block(derivatives: Derivatives, method: CseMethod
     """:func:`derivative_block` of directional (second) derivatives, taken through a printed
     first-derivative block: their common subexpressions get names of their own (``_ncg_t``)."""
     J = derivatives.joined
-    block = eliminate(derivatives.intermediates, list(J), prefix="_ncg_t", method=method)
+    block = eliminate(derivatives.intermediates, J.flat(), prefix="_ncg_t", method=method)
     return block, sp.ImmutableMatrix(J.shape[0], J.shape[1], list(block.finals))
 
 
@@ -198,18 +198,19 @@ def matrix_fill(
 def mass_entries(M: sp.ImmutableMatrix) -> tuple[list[sp.Expr], list[list[tuple[int, int]]]]:
     """Unique entries of M (symmetric pairs share one) and the positions of each."""
     n = M.shape[0]
+    rows = M.tolist()                    # entries by list index: no sympy indexing per entry
     values: list[sp.Expr] = []
     where: list[list[tuple[int, int]]] = []
     for i in range(n):
         for j in range(i, n):
-            if i != j and M[i, j] == M[j, i]:
-                values.append(M[i, j])
+            if i != j and rows[i][j] == rows[j][i]:
+                values.append(rows[i][j])
                 where.append([(i, j), (j, i)])
             else:
-                values.append(M[i, j])
+                values.append(rows[i][j])
                 where.append([(i, j)])
                 if i != j:
-                    values.append(M[j, i])
+                    values.append(rows[j][i])
                     where.append([(j, i)])
     return values, where
 
@@ -231,9 +232,8 @@ def function(signature: str, doc: str, body: Sequence[str]) -> list[str]:
 
 
 def sparse(J: sp.ImmutableMatrix) -> dict[tuple[int, int], sp.Expr]:
-    return {
-        (i, j): J[i, j] for i in range(J.shape[0]) for j in range(J.shape[1]) if J[i, j] != 0
-    }
+    rows = J.tolist()
+    return {(i, j): v for i, row in enumerate(rows) for j, v in enumerate(row) if v != 0}
 
 
 def _coordinate_units(system: System) -> list[str]:

@@ -107,19 +107,20 @@ def dynamics_programs(eq: Any, inter: Sequence[Assignment], method: CseMethod,
         fvec = sp.ImmutableMatrix(eq.force_vector) if n else sp.ImmutableMatrix.zeros(0, 1)
         m_values, m_where = mass_entries(M)
         program = eliminate(*hoist_constant_factors(
-            inter, [*m_values, *fvec, *mass_factor_values(eq)], tuple(eq.parameters)),
+            inter, [*m_values, *fvec.flat(), *mass_factor_values(eq)], tuple(eq.parameters)),
             prefix="_ncg_c", method=method)
         nm = len(m_values)
-        m_full = sp.zeros(n, n)
+        rows = [[sp.S.Zero] * n for _ in range(n)]
         for value, places in zip(program.finals[:nm], m_where, strict=True):
             for i, j in places:
-                m_full[i, j] = value
+                rows[i][j] = value
+        m_full = sp.Matrix(n, n, [v for row in rows for v in row])
         f_red = program.finals[nm:nm + n]
         fj = derivative_block(force_jacobians(eq, Program(program.assignments, f_red)),
                               d_method)
         a_syms = tuple(sp.Symbol(f"_ncg_a{i}", real=True) for i in range(n))
         mj = derivative_block(mass_matrix_times_derivative(
-            eq, a_syms, Program(program.assignments, tuple(m_full))), d_method)
+            eq, a_syms, Program(program.assignments, tuple(m_full.flat()))), d_method)
         return DynamicsPrograms(program, m_where, m_full, fj, mj)
 
     return _remembered(eq, ("dynamics", method, d_method), compute)
@@ -179,7 +180,8 @@ def loss_program(eq: Any, inter: Sequence[Assignment], method: CseMethod) -> Blo
         return None
 
     def compute() -> Block:
-        return eliminate(inter, [as_expr(e) for e in G], prefix="_ncg_l", method=method)
+        entries = G.flat() if isinstance(G, sp.MatrixBase) else list(G)
+        return eliminate(inter, [as_expr(e) for e in entries], prefix="_ncg_l", method=method)
 
     return _remembered(eq, ("loss", method), compute)
 
@@ -217,7 +219,8 @@ def parameter_programs(eq: Any, inter: Sequence[Assignment], outs: sp.ImmutableM
             derivative_block(force_parameter_jacobian(
                 eq, Program(dp.program.assignments, f_red)), d_method),
             derivative_block(mass_matrix_parameter_derivative(
-                eq, mass_vector_symbols(n), Program(dp.program.assignments, tuple(dp.m_full))),
+                eq, mass_vector_symbols(n),
+                Program(dp.program.assignments, tuple(dp.m_full.flat()))),
                 d_method),
             derivative_block(output_parameter_jacobian(
                 eq, Program(op.program.assignments, op.program.finals)), d_method))
@@ -260,7 +263,7 @@ def directional_programs(eq: Any, inter: Sequence[Assignment], outs: sp.Immutabl
         return DirectionalPrograms(
             d,
             along(dp.force_jacobians[0], (n, 2 * n + nu)),
-            along(Block(dp.program.assignments, tuple(dp.m_full)), (n, n)),
+            along(Block(dp.program.assignments, tuple(dp.m_full.flat())), (n, n)),
             along(dp.mass_derivative[0], (n, n)),
             along(op.jacobians[0], (outs.shape[0], 2 * n + nu)),
             None if loss is None else along(loss, (n, n)))

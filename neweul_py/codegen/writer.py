@@ -639,9 +639,9 @@ def program_blocks(equations: Any, *, cse: bool = True,
     dp = dynamics_programs(eq, inter, method, d_method)
     program, m_full = dp.program, dp.m_full
     f_red = dp.parts(n)[1]
-    out["mass_matrix"] = subblock(program, list(m_full))
+    out["mass_matrix"] = subblock(program, m_full.flat())
     out["force_vector"] = subblock(program, f_red)
-    out["rhs"] = subblock(program, (*m_full, *f_red))
+    out["rhs"] = subblock(program, (*m_full.flat(), *f_red))
     step()
     b, Jr = dp.force_jacobians
     out["force_jacobians"] = Block(b.assignments, tuple(Jr))
