@@ -41,21 +41,16 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
 from ...errors import DataError
 from ...ffrf.loss_form import DAMPING_FORMS, loss_form
 from ..fe_model import FEModel
+from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, orthonormal_append
 
 __all__ = ["DAMPING_FORMS", "LossForm", "SweepResult", "frequency_form", "frf_direct",
            "frf_sweep", "solve_at"]
 
-#: Fill-reducing ordering for the complex factorizations of the sweep, used with SuperLU's
-#: symmetric mode: on the middle-ear u–p model at refine 2 (33 210 DOFs) minimum degree on
-#: ``Aᵀ + A`` took 9.5 s and 37·10⁶ factor entries against 23 s / 61·10⁶ for COLAMD (at
-#: refine 1 both 0.4 s); without the symmetric mode minimum degree was 3× slower.
-SWEEP_PERMC_SPEC = "MMD_AT_PLUS_A"
 #: Primal and dual moments per factorization in :func:`frf_sweep`.
 SWEEP_MOMENTS = 3
 
@@ -93,11 +88,10 @@ def _dynamic(fe: FEModel, w: float) -> sps.csc_matrix:
     return sps.csc_matrix(A, dtype=np.complex128)
 
 
-def _factor(fe: FEModel, f_hz: float):
-    """One complex sparse LU of ``K + jωD − ω²M`` at ``f_hz``."""
+def _factor(fe: FEModel, f_hz: float) -> SparseLU:
+    """One complex sparse LU of ``K + jωD − ω²M`` at ``f_hz`` (:class:`SparseLU`)."""
     try:
-        return spla.splu(_dynamic(fe, 2 * np.pi * f_hz), permc_spec=SWEEP_PERMC_SPEC,
-                         options={"SymmetricMode": True})
+        return SparseLU(_dynamic(fe, 2 * np.pi * f_hz))
     except RuntimeError:
         raise DataError(f"K + jωD − ω²M is singular at {f_hz:g} Hz (an undamped resonance?)",
                         fe.source, "K") from None
@@ -108,7 +102,7 @@ def solve_at(fe: FEModel, f_hz: float, B: np.ndarray, C: np.ndarray
     """Primal ``X = A⁻¹B`` and dual ``Y = A⁻ᵀCᵀ`` at ``f_hz`` with one complex sparse LU."""
     lu = _factor(fe, f_hz)
     X = lu.solve(B.astype(np.complex128))
-    Y = lu.solve(C.T.astype(np.complex128), trans="T")
+    Y = lu.solve(C.T.astype(np.complex128), transpose=True)
     return X, Y
 
 
@@ -172,14 +166,14 @@ def _moments(fe: FEModel, lu, f_hz: float, B: np.ndarray, C: np.ndarray,
     s = 2j * np.pi * f_hz
     A1 = 2 * s * fe.M if fe.D is None else fe.D + 2 * s * fe.M
     out = []
-    for rhs0, trans, A1t, Mt in ((B, "N", A1, fe.M), (C.T, "T", A1.T, fe.M.T)):
+    for rhs0, trans, A1t, Mt in ((B, False, A1, fe.M), (C.T, True, A1.T, fe.M.T)):
         if rhs0.shape[1] == 0:
             out.append([])
             continue
-        xs = [lu.solve(rhs0.astype(np.complex128), trans=trans)]
+        xs = [lu.solve(rhs0.astype(np.complex128), transpose=trans)]
         for j in range(1, count):
             rhs = A1t @ xs[-1] + (Mt @ xs[-2] if j >= 2 else 0.0)
-            xs.append(-lu.solve(np.asarray(rhs, dtype=np.complex128), trans=trans))
+            xs.append(-lu.solve(np.asarray(rhs, dtype=np.complex128), transpose=trans))
         out.append(xs)
     return out[0], out[1]
 

@@ -1,17 +1,13 @@
-"""The Petrov–Galerkin projection (``neweul_py.elastic.reductors.projection``) and the sparse LU
-of the reductors (``neweul_py.elastic.reductors.eigen.SparseLU``).
+"""The Petrov–Galerkin projection (``neweul_py.elastic.reductors.projection``).
 
-References: the projection ``Wᵀ X V`` computed densely here; the residual ``A x − b`` of the
-linear system (and of its transpose) the factorization solves.
+Reference: the projection ``Wᵀ X V`` computed densely here.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sps
 from fe_builders import membrane_cavity
 
-from neweul_py.elastic.reductors.eigen import SparseLU
 from neweul_py.elastic.reductors.projection import build_reduced_body, project
 
 
@@ -36,19 +32,3 @@ def test_projection_of_the_difference_to_a_base_equals_the_direct_projection() -
     same = project(V, W, {"M": fe1.M}, base=({"M": fe0.M}, {"M": b0.M}))["M"]
     if (fe1.M != fe0.M).nnz == 0:
         assert np.array_equal(same, b0.M)
-
-
-def test_sparse_lu_solves_complex_systems_and_their_transposes() -> None:
-    """``A x = b`` and ``Aᵀ y = c`` for the complex ``K + iωD − ω²M`` of a u–p model: the
-    residuals are at round-off of ``‖A‖ ‖x‖``."""
-    fe, _ = _two_models()
-    w = 2 * np.pi * 700.0
-    D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
-    A = sps.csr_matrix(fe.K + 1j * w * D - w * w * fe.M + 1e-3j * sps.eye(fe.n_dofs))
-    rng = np.random.default_rng(5)
-    b = rng.standard_normal((fe.n_dofs, 3)) + 1j * rng.standard_normal((fe.n_dofs, 3))
-    lu = SparseLU(A)
-    x, y = lu.solve(b), lu.solve(b, transpose=True)
-    scale = abs(A).max()
-    assert np.abs(A @ x - b).max() <= 1e-9 * scale * np.abs(x).max()
-    assert np.abs(A.T @ y - b).max() <= 1e-9 * scale * np.abs(y).max()
