@@ -133,13 +133,16 @@ def energy_metric(fes: Sequence[FEModel]) -> sps.csr_matrix:
     return sps.csr_matrix(Ks + 0.5 * (Mf + Mf.T) / rho)
 
 
-def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarray, np.ndarray]:
+def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float,
+                  rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """G-orthonormal basis of span X by the eigen-decomposition of ``XᵀGX`` (POD).
 
     The columns are scaled to unit energy first (the cut is a rank decision), then the
     directions with ``λ > rtol·λ_max`` of the Gram matrix ``XᵀGX = Z Λ Zᵀ`` are kept as
     ``X Z Λ^{-1/2}``. Only the rows where ``X`` is nonzero take part (``G`` is block-diagonal
-    in the callers' u/p blocks). With fewer such rows than columns the same ``Λ`` and ``Z``
+    in the callers' u/p blocks; ``rows``: the rows of ``X`` that take part, the others
+    counting as zero — a block of ``X`` without a copy of the whole). With fewer such rows
+    than columns the same ``Λ`` and ``Z``
     come from the SVD of ``Lᵀ X`` (``G_rr = L Lᵀ`` from the eigen-decomposition of the
     dense row block), which costs ``O(rows²·cols)`` instead of ``O(cols³)``; with more rows
     than columns, many columns are first compressed chunk by chunk
@@ -151,12 +154,16 @@ def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float) -> tuple[np.ndarr
         The basis (n, k) and the eigenvalues ``λ`` in decreasing order (the first ``k``
         belong to ``Q``'s columns).
     """
-    rows = np.flatnonzero(np.any(X != 0, axis=1))
+    Xr = X[rows] if rows is not None else X
+    nonzero = np.flatnonzero(np.any(Xr != 0, axis=1))
+    rows = nonzero if rows is None else np.asarray(rows)[nonzero]
     Xr = X[rows]
     Gr = sps.csr_matrix(G)[rows][:, rows]
     GX = Gr @ Xr
     norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", Xr, GX), 0.0))
     ok = norms > 0
+    if not ok.any():
+        return np.zeros((X.shape[0], 0)), np.zeros(0)
     Xr = Xr[:, ok] / norms[ok]
     if rows.size < Xr.shape[1]:
         g, Qg = np.linalg.eigh(Gr.toarray())
@@ -227,8 +234,7 @@ def global_bases(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
     for rows in blocks:
         if not rows.any():
             continue
-        part = np.where(rows[:, None], stacked, 0.0)
-        Q, lam = g_orthonormal(part, G, rank_rtol)
+        Q, lam = g_orthonormal(stacked, G, rank_rtol, rows=np.flatnonzero(rows))
         Vs.append(Q)
         energies.append(lam[:Q.shape[1]])
     V, energy = np.hstack(Vs), np.concatenate(energies)

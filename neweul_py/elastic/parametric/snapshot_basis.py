@@ -133,21 +133,30 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
     V, energy
         (n, r) basis and the POD energy of each column.
     """
-    snaps = []
+    n = fes[0].n_dofs
+    width = [np.asarray(F).reshape(n, -1).shape[1]
+             + (np.asarray(adjoint[i]).reshape(n, -1).shape[1] if adjoint is not None else 0)
+             for i, F in enumerate(loads)]
+    first = 0 if prior is None else np.asarray(prior).shape[1]
+    S = np.empty((n, first + 2 * len(freqs_hz) * sum(width)))   # filled in place: one copy
+    if prior is not None:
+        S[:, :first] = prior
+    col = first
     for X, Y, _w in frequency_snapshots(fes, loads, freqs_hz, extra_stiffness, adjoint,
                                         progress):
-        snaps += [X.real, X.imag] + ([Y.real, Y.imag] if Y is not None else [])
-    S = np.hstack(snaps if prior is None else [np.asarray(prior, dtype=float), *snaps])
+        for part in (X, Y):
+            if part is not None:
+                part = part.reshape(n, -1)
+                k = part.shape[1]
+                S[:, col:col + k], S[:, col + k:col + 2 * k] = part.real, part.imag
+                col += 2 * k
     G = energy_metric(fes)
     kinds = fes[0].dof_kind
     blocks = [kinds == "p", kinds != "p"] if fes[0].kind == "up-coupled" else [
         np.ones(kinds.size, dtype=bool)]
     Vs, energies = [], []
-    for rows in blocks:
-        part = np.where(rows[:, None], S, 0.0)
-        if not np.any(part):
-            continue
-        Q, lam = g_orthonormal(part, G, rtol)
+    for block in blocks:
+        Q, lam = g_orthonormal(S, G, rtol, rows=np.flatnonzero(block))
         Vs.append(Q)
         energies.append(lam[:Q.shape[1]])
     V, energy = np.hstack(Vs), np.concatenate(energies)
