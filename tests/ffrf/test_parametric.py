@@ -28,7 +28,7 @@ def test_one_product_equals_the_weighted_sum_of_every_array() -> None:
     samples = [_sample(rng) for _ in range(4)]
     rows = rng.standard_normal((4, 2, 5))
     mixing = ffrf_stack(samples, {"_sv": rows})
-    assert mixing["stack"].shape[0] == 4
+    assert mixing["varying"].shape[0] == 4
     band = np.r_[0.0, rng.standard_normal(2), 0.0]     # local weights: the band's rows only
     for w in (rng.standard_normal(4), rng.standard_normal(4) + 1e-30j * rng.standard_normal(4),
               band, band + 1e-30j * np.r_[0.0, 1.0, 2.0, 0.0]):

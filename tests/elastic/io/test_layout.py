@@ -68,6 +68,8 @@ def test_a_constant_stack_equal_to_another_is_stored_once():
     ({"zero": {"x": [[2, -1], "<f8"]}}, "needs [shape, float dtype]"),
     ({"zero": {"x": [[2], "<U2"]}}, "needs [shape, float dtype]"),
     ({"zero": {"x": "nonsense"}}, "needs [shape, float dtype]"),
+    ({"varying": ["M"]}, "varying array 'M', whose members"),
+    ({"varying": "M"}, "constant and varying lists of names"),
     ({"other": []}, "layout must be an object"),
     ([1, 2], "layout must be an object"),
 ])
