@@ -218,7 +218,11 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     reference = {prefix + key: (key, span ** -order) for key in arrays
                  for order, prefix in ((1, SLOPE_PREFIX), (2, CURVATURE_PREFIX))
                  if prefix + key in arrays}
-    stored, layout = pack(arrays, stacked, body.n_samples, reference)
+    # a damping that is the loss factors' at the reference frequency, D = G/ω_ref
+    scaled = ({prefix + "D": (prefix + "G", 1.0 / (2.0 * np.pi * body.loss_reference_frequency))
+               for prefix in ("", SLOPE_PREFIX, CURVATURE_PREFIX)}
+              if body.G is not None else {})
+    stored, layout = pack(arrays, stacked, body.n_samples, reference, scaled=scaled)
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": PARAMETRIC_FILE_VERSION,

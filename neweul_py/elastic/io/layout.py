@@ -1,7 +1,7 @@
 """The compact array layout of body files: what a file stores of each array.
 
 A body file (``docs/reduced-body-format.md``, "Compact layout") stores every array once and
-no array it can reconstruct. Four rules, applied by :func:`pack` and undone by
+no array it can reconstruct. Five rules, applied by :func:`pack` and undone by
 :func:`unpack`, each recorded in the file's metadata (``layout``):
 
 * ``zero`` — an all-zero floating-point array is not stored; the metadata keep its shape and
@@ -17,6 +17,9 @@ no array it can reconstruct. Four rules, applied by :func:`pack` and undone by
   of :mod:`neweul_py.ffrf.varying` (e.g. the membrane's rows of ``K``, ``D``, ``G`` and the
   coupling block of ``M`` of the middle ear, whose air blocks are the same in every
   sample);
+* ``scaled`` — a stack that is a given factor times another one (within the tolerance below)
+  is not stored; the metadata name the other and the factor (e.g. the ``D = G/ω_ref`` of a
+  body whose damping is its loss factors' at the reference frequency);
 * ``same`` — an array equal (bit for bit) to one stored before it is not stored again; the
   metadata name that array (e.g. the invariants ``Me.m0``, ``Ke.m0`` of a body, which are
   its own projected ``M``, ``K``).
@@ -26,11 +29,13 @@ deviates from the first by more than ``tolerance`` (``layout.tolerance``, defaul
 :data:`~neweul_py.ffrf.varying.VARYING_TOLERANCE` = 1e-13) times the entry's scale
 (:func:`~neweul_py.ffrf.varying.entry_scale`: for matrices the smaller of its row's and
 its column's largest magnitude over the samples); for the slopes and curvatures of a stack
-(``reference``) the scale is the values' divided by the sampled range, or its square. So
-what a file drops is bounded entry by entry: ``|X̂_s − X_s| ≤ tolerance · scale``. The other
-rules are exact.
+(``reference``) the scale is the values' divided by the sampled range, or its square.
+``scaled`` applies when the factor times the other array, as read back, is within the same
+bound. So what a file drops is bounded entry by entry: ``|X̂_s − X_s| ≤ tolerance · scale``.
+The other rules are exact.
 
-Reading gives the arrays back: a ``constant`` stack as a read-only
+Reading gives the arrays back: a ``scaled`` stack as the factor times the other, a
+``constant`` stack as a read-only
 :func:`numpy.broadcast_to` of its sample (one copy in memory, however many samples), a
 ``zero`` array a broadcast zero, a ``same`` array the array it names, a ``varying`` stack in
 full (:func:`~neweul_py.ffrf.varying.ffrf_expand`).
@@ -50,7 +55,7 @@ from ...ffrf.varying import VARYING_TOLERANCE, entry_scale, ffrf_expand, split_v
 __all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "VALUES_SUFFIX", "pack", "unpack"]
 
 #: The keys of the metadata's ``layout`` object.
-LAYOUT_KEYS = ("zero", "constant", "same", "varying", "tolerance")
+LAYOUT_KEYS = ("zero", "constant", "same", "varying", "scaled", "tolerance")
 #: The members of a ``varying`` stack besides its base (stored under its own key).
 MASK_SUFFIX = "@mask"
 VALUES_SUFFIX = "@values"
@@ -73,7 +78,9 @@ def _constant(a: np.ndarray, k: int) -> bool:
 
 def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
          reference: Mapping[str, tuple[str, float]] | None = None,
-         tol: float = VARYING_TOLERANCE) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+         tol: float = VARYING_TOLERANCE,
+         scaled: Mapping[str, tuple[str, float]] | None = None
+         ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """The arrays to store and the ``layout`` metadata of ``arrays`` (module docstring).
 
     Parameters
@@ -90,7 +97,10 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
         curvature) is ``factor`` times that of the entries of ``values key``; the others
         take their own.
     tol
-        The relative tolerance of ``constant`` and ``varying`` (``0``: exact).
+        The relative tolerance of ``constant``, ``varying`` and ``scaled`` (``0``: exact).
+    scaled
+        ``key → (other key, factor)``: candidates for ``scaled`` (``key`` is not stored when
+        ``factor`` times ``other`` as read back is ``key`` within the tolerance).
 
     Returns
     -------
@@ -101,7 +111,7 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
     """
     stored: dict[str, np.ndarray] = {}
     layout: dict[str, Any] = {"zero": {}, "constant": [], "same": {}, "varying": [],
-                              "tolerance": float(tol)}
+                              "scaled": {}, "tolerance": float(tol)}
     seen: dict[str, list[str]] = {}
     reference = reference or {}
     for key, value in arrays.items():
@@ -137,9 +147,33 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
             layout["constant"].append(key)
             a = a[0]
         stored[key] = a if a.flags.c_contiguous else a.copy(order="C")
+    for key, (other, factor) in (scaled or {}).items():
+        if key not in stored or other not in stored or other in layout["scaled"]:
+            continue
+        a = np.asarray(arrays[key])
+        approx = float(factor) * _read_back(stored, layout, other, k)
+        ref, ref_factor = reference.get(key, (key, 1.0))
+        if approx.shape == a.shape and np.all(
+                np.abs(a - approx) <= tol * ref_factor * entry_scale(np.asarray(arrays[ref]))):
+            for member in (key, key + MASK_SUFFIX, key + VALUES_SUFFIX):
+                stored.pop(member, None)
+            for rule in ("constant", "varying"):
+                if key in layout[rule]:
+                    layout[rule].remove(key)
+            layout["scaled"][key] = [other, float(factor)]
     if k == 1:                      # no samples: the layout of a reduced body (version 2)
-        del layout["varying"], layout["tolerance"]
+        del layout["varying"], layout["scaled"], layout["tolerance"]
     return stored, layout
+
+
+def _read_back(stored: dict[str, np.ndarray], layout: dict[str, Any], key: str, k: int
+               ) -> np.ndarray:
+    """The array ``key`` as :func:`unpack` gives it back from ``stored``."""
+    if key in layout["varying"]:
+        return _expanded(dict(stored), key, k, None)
+    if key in layout["constant"]:
+        return np.broadcast_to(stored[key], (k, *stored[key].shape))
+    return stored[key]
 
 
 def unpack(data: Mapping[str, np.ndarray], layout: Any, k: int, file: str | None = None
@@ -171,6 +205,16 @@ def unpack(data: Mapping[str, np.ndarray], layout: Any, k: int, file: str | None
         out[key] = np.broadcast_to(out[key], (k, *out[key].shape))
     for key in varying:
         out[key] = _expanded(out, key, k, file)
+    scaled = layout.get("scaled") or {}
+    if not isinstance(scaled, Mapping):
+        raise DataError("layout: scaled is an object", file, "meta.layout")
+    for key, spec in scaled.items():
+        try:
+            other, factor = spec
+            out[key] = float(factor) * out[other]
+        except (TypeError, ValueError, KeyError):
+            raise DataError(f"layout: the scaled array {key!r} needs [stored key, factor], got "
+                            f"{str(spec)[:60]!r}", file, key) from None
     for key, first in same.items():
         if not isinstance(first, str) or first not in out:
             raise DataError(f"layout: {key!r} is the same as {first!r}, which the file lacks",
