@@ -1,7 +1,7 @@
 """The compact array layout of body files: what a file stores of each array.
 
 A body file (``docs/reduced-body-format.md``, "Compact layout") stores every array once and
-no array it can reconstruct. Five rules, applied by :func:`pack` and undone by
+no array it can reconstruct. Six rules, applied by :func:`pack` and undone by
 :func:`unpack`, each recorded in the file's metadata (``layout``):
 
 * ``zero`` — an all-zero floating-point array is not stored; the metadata keep its shape and
@@ -20,6 +20,11 @@ no array it can reconstruct. Five rules, applied by :func:`pack` and undone by
 * ``scaled`` — a stack that is a given factor times another one (within the tolerance below)
   is not stored; the metadata name the other and the factor (e.g. the ``D = G/ω_ref`` of a
   body whose damping is its loss factors' at the reference frequency);
+* ``sparse`` (files with samples) — a floating-point matrix (or array of more axes) stored
+  as its nonzero entries
+  and ``<key>@nonzero`` (one bit per entry, :func:`numpy.packbits`) when that is smaller by
+  a tenth (e.g. the common basis ``R`` of a u–p body, whose pressure rows are zero in the
+  structural columns; the base of a ``varying`` stack); zeros read back as ``+0``;
 * ``same`` — an array equal (bit for bit) to one stored before it is not stored again; the
   metadata name that array (e.g. the invariants ``Me.m0``, ``Ke.m0`` of a body, which are
   its own projected ``M``, ``K``).
@@ -52,12 +57,14 @@ import numpy as np
 from ...errors import DataError
 from ...ffrf.varying import VARYING_TOLERANCE, entry_scale, ffrf_expand, split_varying
 
-__all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "VALUES_SUFFIX", "pack", "unpack"]
+__all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "NONZERO_SUFFIX", "VALUES_SUFFIX", "pack", "unpack"]
 
 #: The keys of the metadata's ``layout`` object.
-LAYOUT_KEYS = ("zero", "constant", "same", "varying", "scaled", "tolerance")
+LAYOUT_KEYS = ("zero", "constant", "same", "varying", "scaled", "sparse", "tolerance")
 #: The members of a ``varying`` stack besides its base (stored under its own key).
 MASK_SUFFIX = "@mask"
+#: The member of a ``sparse`` array besides its nonzero values (stored under its own key).
+NONZERO_SUFFIX = "@nonzero"
 VALUES_SUFFIX = "@values"
 
 
@@ -163,6 +170,18 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
             layout["scaled"][key] = [other, float(factor)]
     if k == 1:                      # no samples: the layout of a reduced body (version 2)
         del layout["varying"], layout["scaled"], layout["tolerance"]
+        return stored, layout
+    layout["sparse"] = {}
+    for key in list(stored):
+        a = stored[key]
+        if MASK_SUFFIX in key or VALUES_SUFFIX in key or a.dtype.kind != "f" or a.ndim < 2:
+            continue
+        nonzero = a.reshape(-1) != 0
+        mask = np.packbits(nonzero)
+        if mask.nbytes + 8 * int(nonzero.sum()) < 0.9 * a.nbytes:
+            stored[key] = np.ascontiguousarray(a.reshape(-1)[nonzero])
+            stored[key + NONZERO_SUFFIX] = mask
+            layout["sparse"][key] = list(a.shape)
     return stored, layout
 
 
@@ -198,6 +217,11 @@ def unpack(data: Mapping[str, np.ndarray], layout: Any, k: int, file: str | None
         raise DataError("layout: zero and same are objects, constant and varying lists of "
                         "names", file, "meta.layout")
     out = dict(data)
+    sparse = layout.get("sparse") or {}
+    if not isinstance(sparse, Mapping):
+        raise DataError("layout: sparse is an object", file, "meta.layout")
+    for key, shape in sparse.items():
+        out[key] = _dense(out, key, shape, file)
     for key in constant:
         if key not in out:
             raise DataError(f"layout names the constant array {key!r}, which the file lacks",
@@ -251,3 +275,23 @@ def _expanded(data: dict[str, np.ndarray], key: str, k: int, file: str | None) -
                         f"{base.shape}, {mask.dtype} {mask.shape}, {values.dtype} "
                         f"{values.shape}", file, key)
     return ffrf_expand(base, np.ones(k), index, values)
+
+
+def _dense(data: dict[str, np.ndarray], key: str, shape: Any, file: str | None) -> np.ndarray:
+    """The ``sparse`` array ``key`` of ``data`` in full; its mask member is removed."""
+    values, mask = data.get(key), data.pop(key + NONZERO_SUFFIX, None)
+    try:
+        shape = tuple(int(n) for n in shape)
+        size = int(np.prod(shape, dtype=np.int64))
+        if (values is None or mask is None or min(shape, default=0) < 0
+                or mask.dtype != np.uint8 or mask.shape != (-(-size // 8),)):
+            raise ValueError
+        index = np.flatnonzero(np.unpackbits(mask, count=size))
+        if values.dtype.kind != "f" or values.shape != index.shape:
+            raise ValueError
+    except (TypeError, ValueError):
+        raise DataError(f"the sparse array {key!r} needs its shape, its nonzero values and "
+                        f"{key + NONZERO_SUFFIX!r} (one bit per entry)", file, key) from None
+    out = np.zeros(shape, dtype=values.dtype)
+    out.reshape(-1)[index] = values
+    return out

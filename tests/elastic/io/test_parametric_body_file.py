@@ -61,12 +61,14 @@ def body() -> ParametricBody:
     for d in (slopes, curvatures):                # D = G/ω_ref, its slopes likewise
         d["D"] = d["G"] / (2 * np.pi * 1000.0)
     eye = np.repeat(np.eye(R)[None], K, axis=0)
+    basis = np.zeros((12, R))                  # u–p block-diagonal: pressure rows, columns
+    basis[:8, :NU], basis[8:, NU:] = rng.standard_normal((8, NU)), rng.standard_normal((4, NP))
     return ParametricBody(
         parameter="dp", samples=STEP * np.arange(K), **stacks, loss_reference_frequency=1000.0,
         input_names=("f",), output_names=("y",), nodes=np.array([[1.0, 0.0, 0.0, 0.0]]),
         kept_dofs=np.arange(3), dof_node=np.ones(3, dtype=int),
         dof_kind=np.array(["ux", "uy", "uz"]), T=eye, L=eye,
-        R=rng.standard_normal((12, R)), singular_values=np.ones(R), svd_weights=np.ones(K),
+        R=basis, singular_values=np.ones(R), svd_weights=np.ones(K),
         basis="full", two_sided=False, interpolation="quintic-hermite", slopes=slopes,
         curvatures=curvatures)
 
@@ -103,6 +105,7 @@ def test_read_back_within_the_documented_bound(body, tmp_path: Path) -> None:
         sizes = {i.filename[:-4]: i.file_size for i in z.infolist()}
     assert sizes["K@values"] < 8 * K * NU * R + 256        # the structural rows only
     assert np.array_equal(back.at(300.0).K[:NU], body.at(300.0).K[:NU])
+    assert meta["layout"]["sparse"]["R"] == [12, R] and np.array_equal(back.R, body.R)
 
 
 def test_body_info_counts_every_stored_byte_in_its_part(body, tmp_path: Path) -> None:
@@ -121,14 +124,19 @@ def test_body_info_counts_every_stored_byte_in_its_part(body, tmp_path: Path) ->
 
 
 def test_a_version_6_file_still_reads(body, tmp_path: Path) -> None:
-    """The same body written in the layout of version 6 (every stack in full) reads back
-    equal to the version-7 file (reference: the version-7 read-back)."""
+    """The same body written in the layout of version 6 (every stack and matrix in full)
+    reads back equal to the version-7 file (reference: the version-7 read-back)."""
     new = tmp_path / "b7.npz"
     save_parametric_body(body, new)
     seven = load_parametric_body(new)
     with np.load(new) as z:
         arrays = {k: z[k] for k in z.files}
     meta = json.loads(arrays.pop("meta").tobytes())
+    for key, shape in meta["layout"].pop("sparse").items():      # matrices in full
+        dense = np.zeros(shape)
+        dense.reshape(-1)[np.flatnonzero(np.unpackbits(arrays.pop(key + "@nonzero"),
+                                                       count=dense.size))] = arrays[key]
+        arrays[key] = dense
     for key in meta["layout"].pop("scaled"):                  # D in full
         what, _, name = key.rpartition("/")
         arrays[key] = ({"": seven.stack, "slope": seven.slopes.get,
