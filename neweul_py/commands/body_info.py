@@ -96,7 +96,11 @@ def _parts(path: str) -> list[str]:
                 f"{len(layout.get('same', {}))} repeated; {len(layout.get('constant', []))} "
                 "constant over the samples stored once"
                 + (f"; {len(layout['varying'])} stored as their varying entries"
-                   if layout.get("varying") else "") if layout else "") + ")"]
+                   if layout.get("varying") else "")
+                + (f"; {len(layout['scaled'])} as a factor of another"
+                   if layout.get("scaled") else "")
+                + (f"; {len(layout['sparse'])} as their nonzeros"
+                   if layout.get("sparse") else "") if layout else "") + ")"]
     lines += [f"    {name}: {size / 1e6:.2f} MB" for name, size in
               sorted(sizes.items(), key=lambda kv: -kv[1]) if size]
     return lines
