@@ -47,8 +47,10 @@ a slow contraction, or many right-hand sides, factors the new ``D``.
 sizes)`` takes the pointers of every float64 array of the module's data file in the order of
 their keys (``_C_DATA`` of the wrapper: the file's member order) with their sizes, checks
 count and sizes, and computes what depends on the data alone; every function returns 2
-before it. Integer arrays of the data file (the rows of node maps) are structure and are
-compiled in.
+before it. A parametric body's stack is bound in full: the wrapper expands the compact form
+of the data file (the base and the columns that vary, :mod:`neweul_py.ffrf.varying`) once,
+when it binds (``_C_EXPAND``). Integer arrays of the data file (the rows of node maps) are
+structure and are compiled in.
 """
 
 from __future__ import annotations
@@ -90,6 +92,10 @@ class ElasticSources:
     arrays
         Those arrays, in that order (what a host without the data file binds: the FMU,
         :mod:`.fmu`).
+    expand
+        The keys of ``data`` that are no member of the data file: a parametric body's
+        stack in full, ``key → the members of its compact form``
+        (:func:`~neweul_py.ffrf.varying.ffrf_expand` of them is bound).
     """
 
     core: str
@@ -97,6 +103,7 @@ class ElasticSources:
     data: tuple[str, ...]
     sizes: dict[str, int]
     arrays: tuple[np.ndarray, ...] = ()
+    expand: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------- symbolic part
@@ -271,15 +278,15 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
         symbolic expression cannot be printed.
     """
     el = equations.elastic
-    t, data_file = trace_splice(equations)
+    t, _data_file = trace_splice(equations)
     kernels = traced_kernels(t)
     symbolic = symbolic_part(equations)
     blocks = _symbolic_blocks(symbolic, el, cse)
     ny = len(equations.output_names)
     ce = getattr(equations, "constraints", None)
     nc = 0 if ce is None else int(ce.nc)
-    keys = tuple(k for k, a in sorted(data_file.arrays.items()) if a.dtype.kind == "f")
-    sizes = {k: int(data_file.arrays[k].size) for k in keys}
+    keys = tuple(k for k, a in sorted(t.bound.items()) if a.dtype.kind == "f")
+    sizes = {k: int(t.bound[k].size) for k in keys}
     n, nu = t.n, len(equations.inputs)
 
     def head(what: str) -> list[str]:
@@ -321,4 +328,4 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
         raise GenerationError("a model with elastic bodies but no elastic coordinates")
     return ElasticSources(core.rstrip("\n") + "\n", jac.rstrip("\n") + "\n", keys, {
         "n": n, "nu": nu, "np": len(equations.parameters), "ny": ny, "nc": nc},
-        tuple(data_file.arrays[k] for k in keys))
+        tuple(t.bound[k] for k in keys), {k: t.expand[k] for k in keys if k in t.expand})

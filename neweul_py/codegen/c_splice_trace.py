@@ -30,10 +30,12 @@ from ..ffrf.splice import (
     ffrf_symbolic_mass,
     ffrf_terms,
 )
+from ..ffrf.varying import ffrf_expand
 from .c_trace import Graph, TArray
 from .elastic import elastic_data, patterns, symbolic_part
 
-__all__ = ["STEP", "MixedColumns", "SpliceTrace", "constant_columns", "node_structure",
+__all__ = ["COMPACT", "STEP", "MixedColumns", "SpliceTrace", "bound_arrays",
+           "constant_columns", "node_structure",
            "restore_data", "trace_splice", "traced_context", "traced_kernels"]
 
 #: The complex step of the directional derivatives (as ``S["step"]`` of the NumPy module).
@@ -57,6 +59,51 @@ class SpliceTrace:
     dsv: list[TArray]                     # ∂S_V/∂σ_k
     elastic: list[int]                    # the elastic coordinates (E)
     block_sigma: bool                     # M[E, E] depends on the schedule alone
+    bound: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)  # nw_bind's arrays
+    expand: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)  # stacks
+
+
+#: The members of a mixing form in the data file (:func:`~neweul_py.ffrf.parametric.ffrf_stack`)
+#: that :func:`~neweul_py.ffrf.varying.ffrf_expand` takes, in its order.
+COMPACT = ("base", "base_rows", "index", "varying")
+
+
+def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
+                 ) -> tuple[Any, dict[str, np.ndarray], dict[str, tuple[str, ...]]]:
+    """The skeleton and the arrays the C library is traced on and bound to: the data file's
+    arrays, with every mixing form's stack ``B`` (k, N) in full
+    (:func:`~neweul_py.ffrf.varying.ffrf_expand` of its base and varying columns) under the
+    key ``<…>/stack`` in place of its compact members; also ``stack key → the keys of
+    ffrf_expand's arguments`` (what the wrapper expands when it binds)."""
+    expand: dict[str, tuple[str, ...]] = {}
+
+    def walk(tree: Any) -> Any:
+        if isinstance(tree, dict):
+            if "varying" in tree and "layout" in tree:          # a mixing form
+                keys = tuple(tree[name]["@"] for name in COMPACT)
+                key = keys[-1].removesuffix("/varying") + "/stack"
+                expand[key] = keys
+                return {"stack": {"@": key},
+                        **{k: walk(v) for k, v in tree.items() if k not in COMPACT}}
+            return {k: walk(v) for k, v in tree.items()}
+        if isinstance(tree, list | tuple):
+            items = [walk(v) for v in tree]
+            return items if isinstance(tree, list) else tuple(items)
+        return tree
+
+    def refs(tree: Any) -> list[str]:
+        if isinstance(tree, dict):
+            if len(tree) == 1 and "@" in tree:
+                return [tree["@"]]
+            return [r for v in tree.values() for r in refs(v)]
+        if isinstance(tree, list | tuple):
+            return [r for v in tree for r in refs(v)]
+        return []
+
+    traced = walk(skeleton)
+    out = {key: arrays[key] for key in refs(traced) if key not in expand}
+    out.update({key: ffrf_expand(*(arrays[k] for k in keys)) for key, keys in expand.items()})
+    return traced, out, expand
 
 
 def restore_data(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndarray]) -> Any:
@@ -147,12 +194,13 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
     skeleton, data = elastic_data(equations, a_idx, true_index)
+    skeleton, arrays, expand = bound_arrays(skeleton, data.arrays)
     symbolic = symbolic_part(equations)
     mass_pattern, _kin = patterns(symbolic, el.hidden)
     g = Graph()
-    leaves = {key: g.leaf(key, arr.shape, 0) for key, arr in sorted(data.arrays.items())
+    leaves = {key: g.leaf(key, arr.shape, 0) for key, arr in sorted(arrays.items())
               if arr.dtype.kind == "f"}
-    tree = restore_data(skeleton, leaves, data.arrays)
+    tree = restore_data(skeleton, leaves, arrays)
     bodies = tree["bodies"]
     n, ns, nh = len(keep), len(a_idx), len(el.hidden)
     nu = len(equations.inputs)
@@ -160,7 +208,7 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     parametric = []
     for b, raw in zip(bodies, skeleton["bodies"], strict=True):
         if "mixing" in b:
-            coeff = data.arrays[raw["coeff"]["@"]]
+            coeff = arrays[raw["coeff"]["@"]]
             parametric.append({"name": b["name"], "cols": int(coeff.shape[2]),
                                "nb": int(coeff.shape[1]) + 1, "nd": int(coeff.shape[0]),
                                "values": raw["values"]["@"], "coeff": raw["coeff"]["@"],
@@ -168,7 +216,7 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     w = [g.leaf(f"w{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
     dw = [g.leaf(f"dw{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
     wc = [g.leaf(f"wc{k}", (p["cols"],), 1, cplx=True) for k, p in enumerate(parametric)]
-    constant = [constant_columns(data.arrays[raw["mixing"]["stack"]["@"]], blocks)
+    constant = [constant_columns(arrays[raw["mixing"]["stack"]["@"]], blocks)
                 for raw, blocks in zip([r for r in skeleton["bodies"] if "mixing" in r],
                                        [1 + bool(s.body.slopes) + bool(s.body.curvatures)
                                         for s in el.splices if s.body.parametric],
@@ -190,10 +238,10 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     elastic = sorted(j for b in bodies for j in range(b["first"], b["first"] + b["nq"]))
     block_sigma = ffrf_block_constant(
         [{k: v for k, v in b.items() if not isinstance(v, TArray)} for b in bodies], ns,
-        *node_structure(skeleton, data.arrays, parametric), mass_pattern,
+        *node_structure(skeleton, arrays, parametric), mass_pattern,
         np.asarray(_kin, dtype=np.intp))
     return SpliceTrace(g, n, ns, nh, nu, parametric, fixed, moving, real, cplx, dsv,
-                  elastic, block_sigma), data
+                       elastic, block_sigma, arrays, expand), data
 
 
 def node_structure(skeleton: dict, arrays: dict[str, np.ndarray],

@@ -17,7 +17,8 @@ cannot be had, those functions fall back to the twin's, with one warning.
 
 Models with elastic bodies (``_C_DATA`` not empty): each library is bound to the arrays of
 the twin's data file (``nw_bind``, the twin's ``_DATA`` by the keys of ``_C_DATA``, no
-copies) right after loading; a schedule outside the sampled range (the library's code 3) is
+copies; a parametric body's stack, ``_C_EXPAND``, expanded once from its compact form) right
+after loading; a schedule outside the sampled range (the library's code 3) is
 reported by calling the twin, whose message names the body, the value and the range.
 """
 
@@ -28,6 +29,7 @@ from .c_runtime import BackendUnavailable, compiled_library, load_twin
 _MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _CDEF = ""
 _N = _NU = _NP = _NY = _NC = _LOSS = 0
 _C_DATA: tuple = ()
+_C_EXPAND: dict = {}
 
 # ---- template begins
 import threading as _threading  # noqa: E402
@@ -61,7 +63,8 @@ def _bind(ffi, lib):
     """Bind ``lib`` to the twin's data-file arrays ``_C_DATA`` (models with elastic bodies)."""
     if not _C_DATA:
         return lib
-    arrays = [_twin._DATA[k] for k in _C_DATA]
+    arrays = [_twin.ffrf_expand(*(_twin._DATA[j] for j in _C_EXPAND[k])) if k in _C_EXPAND
+              else _twin._DATA[k] for k in _C_DATA]
     views = [ffi.from_buffer("double[]", a) for a in arrays]
     pointers = ffi.new("const double *[]", [ffi.cast("const double *", v) for v in views])
     sizes = ffi.new("long[]", [int(a.size) for a in arrays])

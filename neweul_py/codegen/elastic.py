@@ -188,7 +188,7 @@ def _node_clouds(el: Any, frames: list[str], firsts: list[int]) -> list[dict[str
         if b.parametric:
             values, coeff = weight_polynomials(np.asarray(b.sample_values, dtype=np.float64),
                                                b.interpolation, b.coordinate)
-            entry.update(k=k, cloud=ffrf_cloud(b.datasets, values, coeff))
+            entry.update(k=k, cloud=ffrf_cloud(b.datasets, values, coeff, len(b.samples)))
             k += 1
         else:
             entry["cloud"] = ffrf_cloud(b.datasets)

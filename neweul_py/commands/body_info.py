@@ -82,7 +82,8 @@ def _parts(path: str) -> list[str]:
         members = {i.filename[:-4]: i.file_size for i in z.infolist()
                    if i.filename.endswith(".npy")}
         meta = json.loads(np.load(path, allow_pickle=False)["meta"].tobytes())
-    for key, size in members.items():
+    for member, size in members.items():
+        key = member.split("@", 1)[0]      # a varying stack's index and values: its part
         part = next((name for name, keys in PARTS
                      if any(key.startswith(k) if k.endswith("/") else key == k for k in keys)),
                     "other")
@@ -93,7 +94,13 @@ def _parts(path: str) -> list[str]:
              f"{meta.get('version')}"
              + (f"; not stored: {len(layout.get('zero', {}))} zero, "
                 f"{len(layout.get('same', {}))} repeated; {len(layout.get('constant', []))} "
-                "constant over the samples stored once" if layout else "") + ")"]
+                "constant over the samples stored once"
+                + (f"; {len(layout['varying'])} stored as their varying entries"
+                   if layout.get("varying") else "")
+                + (f"; {len(layout['scaled'])} as a factor of another"
+                   if layout.get("scaled") else "")
+                + (f"; {len(layout['sparse'])} as their nonzeros"
+                   if layout.get("sparse") else "") if layout else "") + ")"]
     lines += [f"    {name}: {size / 1e6:.2f} MB" for name, size in
               sorted(sizes.items(), key=lambda kv: -kv[1]) if size]
     return lines

@@ -5,9 +5,10 @@ et al. 2010, equations.md §4, steps 1–6) at the sample values ``s_1 < … < s
 scheduling variable ``σ``. At every evaluation the body is ``X(σ) = Σ_i w_i(σ) X_i`` for
 every stored array — the kernel's working form is linear in the arrays, so the samples are
 prepared once, their arrays stacked into one matrix ``B`` (k, N) (:func:`ffrf_stack`, one row
-per sample, every array of the body flattened into the columns), and each evaluation mixes
-them with **one** matrix product ``w B`` (:func:`ffrf_mix`; the arrays of the mixed body are
-views into that one result): no loop over samples or arrays doing arithmetic.
+per sample, every array of the body flattened into the columns) and kept as its base and the
+columns that vary over the samples (:mod:`.varying`), and each evaluation mixes them with
+**one** matrix product ``w B`` of those columns (:func:`ffrf_mix`; the arrays of the mixed
+body are views into that one result): no loop over samples or arrays doing arithmetic.
 
 The weights are the cardinal functions of the interpolation, stored as piecewise cubic
 polynomials ``w_i(σ) = Σ_m c[m, j, i] (σ − b_j)^(3−m)`` on interval ``j`` of the breakpoints
@@ -52,6 +53,8 @@ dynamics.
 from __future__ import annotations
 
 import numpy as np
+
+from .varying import VARYING_TOLERANCE, entry_scale, split_varying
 
 __all__ = ["HERMITE_ORDERS", "PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix",
            "ffrf_slope_form", "ffrf_slope_prepared", "ffrf_stack", "ffrf_unmix", "ffrf_weights",
@@ -286,54 +289,70 @@ def ffrf_weights(samples, coefficients, value, name):
     return w
 
 
-def ffrf_stack(samples, extra=None):
-    """The mixing form of prepared samples: ``{"stack": B (k, N), "layout", "template"}``.
+def ffrf_stack(samples, extra=None, orders=None, span=1.0, tol=VARYING_TOLERANCE):
+    """The mixing form of prepared samples: ``{"base", "base_rows", "index", "varying",
+    "layout", "template"}``, the stack ``B`` (k, N) of their entries stored as the entries
+    that do not vary and those that do (:func:`~neweul_py.ffrf.varying.split_varying`).
 
     Every numeric entry of the sample dicts (arrays, the mass, the arrays of a nested
     ``quad`` body of a second-order field) becomes a column block of ``B``; ``layout`` lists
     ``(path, start, stop, shape)`` per entry and ``template`` holds the rest (sizes, flags,
     slices) from sample 1. ``extra`` (optional): more arrays per sample, ``name → (k, …)``,
-    stacked after them (the node rows ``S_V,i``, ``S_W,i`` of the splice)."""
-    layout, columns, start = [], [], 0
+    stacked after them (the node rows ``S_V,i``, ``S_W,i`` of the splice). ``orders``
+    (k,), optional: per row of ``B`` 0 for a sample's values, 1 for its slopes, 2 for its
+    curvatures (default all 0); ``span``: the sampled range. A column is stored as varying
+    when a row deviates from the base (the first sample's value, zero for derivatives) by
+    more than ``tol · span^−order`` times the entry's scale
+    (:func:`~neweul_py.ffrf.varying.entry_scale` of the values of its array)."""
+    layout, columns, scales, start = [], [], [], 0
+    orders = (np.zeros(len(samples), dtype=np.int64) if orders is None
+              else np.asarray(orders, dtype=np.int64))
+    values = orders == 0
+
+    def add(path, block):
+        nonlocal start
+        shape = block.shape[1:]
+        size = int(np.prod(shape, dtype=np.int64))
+        layout.append((path, start, start + size, shape))
+        columns.append(block.reshape(block.shape[0], size))
+        scales.append(entry_scale(block[values]).reshape(size))
+        start += size
 
     def walk(path, entries):
-        nonlocal start
         for key, value in entries[0].items():
             if key == "quad":                 # the extended body of a second-order field
                 walk((*path, key), [e[key] for e in entries])
             elif isinstance(value, np.ndarray) or key == "mass":
-                block = np.stack([np.asarray(e[key], dtype=np.float64) for e in entries])
-                shape = block.shape[1:]
-                size = int(np.prod(shape, dtype=np.int64))
-                layout.append(((*path, key), start, start + size, shape))
-                columns.append(block.reshape(len(entries), size))
-                start += size
+                add((*path, key), np.stack([np.asarray(e[key], dtype=np.float64)
+                                            for e in entries]))
 
     walk((), samples)
     for key, block in (extra or {}).items():
-        block = np.asarray(block, dtype=np.float64)
-        size = int(np.prod(block.shape[1:], dtype=np.int64))
-        layout.append(((key,), start, start + size, block.shape[1:]))
-        columns.append(block.reshape(block.shape[0], size))
-        start += size
+        add((key,), np.asarray(block, dtype=np.float64))
     template = {k: v for k, v in samples[0].items()
                 if not (isinstance(v, np.ndarray) or k == "mass")}
-    return {"stack": np.ascontiguousarray(np.hstack(columns)), "layout": tuple(layout),
-            "template": template}
+    base_rows = values.astype(np.float64)
+    base, index, varying = split_varying(
+        np.hstack(columns), np.concatenate(scales), base_rows=base_rows,
+        row_scale=float(span) ** -orders.astype(np.float64), tol=tol)
+    return {"base": base, "base_rows": base_rows, "index": index, "varying": varying,
+            "layout": tuple(layout), "template": template}
 
 
 def ffrf_mix(mixing, w):
-    """``Σ_i w_i b_i``: the body of the weights ``w`` (k,) from :func:`ffrf_stack`'s form, by
-    one product ``w B`` (for complex ``w``, the complex step in ``σ``: one product each for the
-    real and the imaginary part, so ``B`` is never copied to complex; weights that vanish
-    outside a narrow band of rows — linear ones, and Hermite ones with the rows of samples and
-    slopes interleaved — use that band only, a view);
-    the arrays are views into the result, the other entries those of sample 1."""
-    B = mixing["stack"]
+    """``Σ_i w_i b_i``: the body of the weights ``w`` (k,) from :func:`ffrf_stack`'s form:
+    ``(w·r) base`` with the varying entries ``w V`` (one product; for complex ``w``, the
+    complex step in ``σ``, one product each for the real and the imaginary part, so ``V`` is
+    never copied to complex; weights that vanish outside a narrow band of rows — linear
+    ones, and Hermite ones with the rows of samples and slopes interleaved — use that band
+    only, a view); the arrays are views into the result, the other entries those of
+    sample 1."""
+    V, r = mixing["varying"], mixing["base_rows"]
     nz = np.flatnonzero(w)
     if nz.size and 2 * (nz[-1] + 1 - nz[0]) <= w.size:    # local weights: their rows (a view)
-        B, w = B[nz[0]:nz[-1] + 1], w[nz[0]:nz[-1] + 1]
-    flat = w @ B if not np.iscomplexobj(w) else (w.real @ B) + 1j * (w.imag @ B)
+        V, r, w = V[nz[0]:nz[-1] + 1], r[nz[0]:nz[-1] + 1], w[nz[0]:nz[-1] + 1]
+    flat = (w @ r) * mixing["base"]
+    flat[mixing["index"]] = w @ V if not np.iscomplexobj(w) else (w.real @ V) + 1j * (w.imag @ V)
     return ffrf_unmix(mixing, flat)
 
 

@@ -45,6 +45,7 @@ from .parametric import (
     ffrf_unmix,
     ffrf_weights,
 )
+from .varying import ffrf_expand
 
 __all__ = ["KIN_TAIL", "MAX_BLOCK_CONDITION", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force",
            "ffrf_add_mass", "ffrf_at", "ffrf_bodies", "ffrf_cloud", "ffrf_system", "ffrf_terms"]
@@ -103,18 +104,23 @@ def ffrf_bodies(data, parts=()):
                                  for flat, d in zip(flats, entry[what], strict=True)]
             sv_i, sw_i = (np.asarray(a, dtype=np.float64) for a in parts.pop(0))
             coeff = np.asarray(entry["coeff"], dtype=np.float64)
+            values = np.asarray(entry["values"], dtype=np.float64)
+            # the derivative order of every row: values, then slopes, then curvatures
+            orders = np.repeat(np.arange(blocks), len(flats))
             if blocks > 1:            # rows X_1, X_1′(, X_1″), X_2 …: a sample's band is narrow
                 k = len(flats)
                 order = np.arange(blocks * k).reshape(blocks, k).T.ravel()
                 prepared = [prepared[i] for i in order]
                 sv_i, sw_i, coeff = sv_i[order], sw_i[order], coeff[:, :, order]
+                orders = orders[order]
             # its node rows per sample (the rows not zero in every sample) join the stack
             rows = np.flatnonzero(np.any(sv_i, axis=(0, 2)) | np.any(sw_i, axis=(0, 2)))
-            # the arrays are mixed at every σ (ffrf_mixed): the body keeps sample 1's flags
+            # the arrays are mixed at every σ (ffrf_mixed): the body keeps sample 1's flags;
+            # the stack keeps what varies over the samples (tolerance per Δσ of the range)
             b = {k: v for k, v in prepared[0].items() if not isinstance(v, np.ndarray)}
-            b.update(mixing=ffrf_stack(prepared, {"_sv": sv_i[:, rows], "_sw": sw_i[:, rows]}),
-                     rows=rows, values=np.asarray(entry["values"], dtype=np.float64),
-                     coeff=np.ascontiguousarray(coeff))
+            b.update(mixing=ffrf_stack(prepared, {"_sv": sv_i[:, rows], "_sw": sw_i[:, rows]},
+                                       orders, float(values[-1] - values[0])),
+                     rows=rows, values=values, coeff=np.ascontiguousarray(coeff))
         else:
             b = ffrf_prepare(entry, entry["inertia"], entry.get("fixed", False))
         b.update(name=entry["name"], first=entry["first"], kin=entry["kin"])
@@ -869,18 +875,20 @@ def ffrf_node_positions(S, nodes, r, R, t, x, p, u=None):
     return out
 
 
-def ffrf_cloud(datasets, values=None, coeff=None):
+def ffrf_cloud(datasets, values=None, coeff=None, samples=None):
     """The node cloud of :func:`ffrf_node_positions`: ``origin`` (nk, 3) and ``phi``
     (nk, 3, nq) of a body's data (``nodes.origin.m0``, ``nodes.phi``), or of a parametric
     body (``values``, ``coeff`` of its weights) the mixing form of its data sets (samples,
-    then slopes and curvatures, the columns of its weights) with ``values``, ``coeff``.
-    Made at generation."""
+    then slopes and curvatures, the columns of its weights; ``samples``: their number,
+    default all data sets) with ``values``, ``coeff``. Made at generation."""
     clouds = [{"origin": np.asarray(d["nodes.origin.m0"], dtype=np.float64)[:, :, 0],
                "phi": np.asarray(d["nodes.phi"], dtype=np.float64)} for d in datasets]
     if values is None:
         return clouds[0]
-    return {"mixing": ffrf_stack(clouds), "values": np.asarray(values, dtype=np.float64),
-            "coeff": np.asarray(coeff, dtype=np.float64)}
+    values = np.asarray(values, dtype=np.float64)
+    orders = np.arange(len(clouds)) // (samples or len(clouds))
+    return {"mixing": ffrf_stack(clouds, None, orders, float(values[-1] - values[0])),
+            "values": values, "coeff": np.asarray(coeff, dtype=np.float64)}
 
 
 #: The protocol functions a module with elastic bodies delegates to (protocol name → splice
@@ -907,7 +915,7 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_system,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_expand, ffrf_system,
                     ffrf_index, ffrf_mass_maps, ffrf_block_constant, ffrf_block,
                     ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,

@@ -133,7 +133,7 @@ def test_module_names_its_data_file_and_regenerates_both_byte_identically(schedu
     assert data.name == f"scheduled_duct.{digest[:16]}.npz"
     assert "base64" not in text and "zlib" not in text
     with np.load(data) as z:
-        assert "duct/mixing/stack" in z.files and z["duct/mixing/stack"].shape[0] == 3
+        assert "duct/mixing/varying" in z.files and z["duct/mixing/varying"].shape[0] == 3
     first = (path.read_bytes(), data.read_bytes())
     again = generate(tmp / "model.yaml", tmp / "gen2")
     assert (again.read_bytes(), _data_file(again).read_bytes()) == first
@@ -176,7 +176,7 @@ def test_changed_data_file_is_refused_naming_body_file_and_array(scheduled, tmp_
     digests, which the changed array no longer matches)."""
     module, data = _copy(scheduled, tmp_path)
     raw = bytearray(data.read_bytes())
-    offset, _size = ffrf_members(bytes(raw))["duct/mixing/stack.npy"]
+    offset, _size = ffrf_members(bytes(raw))["duct/mixing/varying.npy"]
     header_len = int.from_bytes(raw[offset + 8 : offset + 10], "little")
     raw[offset + 10 + header_len + 3] ^= 0x40
     data.write_bytes(bytes(raw))
@@ -185,7 +185,7 @@ def test_changed_data_file_is_refused_naming_body_file_and_array(scheduled, tmp_
         "elastic body 'duct'",
         str(data),
         "changed after generation",
-        "'duct/mixing/stack'",
+        "'duct/mixing/varying'",
         "holds other values",
     )
 

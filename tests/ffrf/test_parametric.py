@@ -28,7 +28,7 @@ def test_one_product_equals_the_weighted_sum_of_every_array() -> None:
     samples = [_sample(rng) for _ in range(4)]
     rows = rng.standard_normal((4, 2, 5))
     mixing = ffrf_stack(samples, {"_sv": rows})
-    assert mixing["stack"].shape[0] == 4
+    assert mixing["varying"].shape[0] == 4
     band = np.r_[0.0, rng.standard_normal(2), 0.0]     # local weights: the band's rows only
     for w in (rng.standard_normal(4), rng.standard_normal(4) + 1e-30j * rng.standard_normal(4),
               band, band + 1e-30j * np.r_[0.0, 1.0, 2.0, 0.0]):
@@ -250,3 +250,29 @@ def test_slope_working_form_is_the_linear_part() -> None:
         np.testing.assert_allclose(got[key], plus[key] - base[key], rtol=0,
                                    atol=1e-12 * max(np.abs(plus[key]).max(), 1.0))
     assert not np.any(got["P"])
+
+
+def test_mixing_keeps_what_does_not_vary_once() -> None:
+    """Samples and their slopes interleaved (``orders`` 0, 1, …): an array equal in every
+    sample with zero slopes is kept as the base only, one that varies as its columns; the
+    mix equals ``Σ w_i X_i + Σ v_i X_i′`` for real and complex weights (reference: the
+    explicit sum)."""
+    rng = np.random.default_rng(5)
+    k = 4
+    const = rng.standard_normal((3, 3))
+    rows = []
+    for _ in range(k):
+        value = {"mass": 1.5, "Me": const, "ks": rng.standard_normal(3)}
+        slope = {"mass": 0.0, "Me": np.zeros((3, 3)), "ks": rng.standard_normal(3)}
+        rows += [value, slope]
+    orders = np.tile([0, 1], k)
+    mixing = ffrf_stack(rows, None, orders, 3.0)
+    assert mixing["index"].size == 3 and mixing["varying"].shape == (2 * k, 3)
+    assert np.array_equal(mixing["base"][1:10], const.ravel())     # after the mass
+    for w in (rng.standard_normal(2 * k), rng.standard_normal(2 * k) + 1e-30j):
+        w = w.copy()
+        w[0::2] /= w[0::2].real.sum()                   # the value weights sum to one
+        got = ffrf_mix(mixing, w)
+        for key in ("Me", "ks", "mass"):
+            ref = sum(wi * r[key] for wi, r in zip(w, rows, strict=True))
+            np.testing.assert_allclose(got[key], ref, rtol=1e-13, atol=1e-15)

@@ -40,6 +40,7 @@ from .parametric_format import (
     SLOPE_PREFIX,
     SLOPES_VERSION,
     STACKED,
+    VARYING_VERSION,
     checked_slope_step,
     validate_parametric,
 )
@@ -61,6 +62,7 @@ __all__ = [
     "SLOPES_VERSION",
     "SLOPE_PREFIX",
     "STACKED",
+    "VARYING_VERSION",
     "ParametricBody",
     "checked_slope_step",
 ]

@@ -37,6 +37,7 @@ __all__ = [
     "SLOPES_VERSION",
     "SLOPE_PREFIX",
     "STACKED",
+    "VARYING_VERSION",
     "checked_slope_step",
     "validate_parametric",
 ]
@@ -52,9 +53,11 @@ PARAMETRIC_BODY_VERSION = 2
 COORDINATE_VERSION = 3
 SLOPES_VERSION = 4
 CURVATURES_VERSION = 5
-#: Version 6 (the compact layout of docs/reduced-body-format.md) holds every optional group.
+#: Version 6 (the compact layout of docs/reduced-body-format.md) holds every optional group;
+#: version 7 adds the layout's ``varying`` rule (a stack's base and the entries that vary).
 COMPACT_VERSION = 6
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6)
+VARYING_VERSION = 7
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7)
 #: Weight functions of :meth:`ParametricBody.at
 #: <neweul_py.elastic.bodies.parametric.ParametricBody.at>`.
 INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)

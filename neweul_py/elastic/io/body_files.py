@@ -25,6 +25,7 @@ from ..bodies.parametric import (
     READABLE_VERSIONS,
     SLOPE_PREFIX,
     SLOPES_VERSION,
+    VARYING_VERSION,
     ParametricBody,
 )
 from ..bodies.reduced import (
@@ -187,16 +188,17 @@ PARAMETRIC_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind",
 UNSTACKED = frozenset({"samples", "nodes", "kept_dofs", "dof_node", "dof_kind", "R",
                        "singular_values", "svd_weights", "row_scale", "left_row_scale",
                        "full_dof_kind", "coordinate"})
-#: The version this writer writes (6: the compact layout, every optional group); the reader
-#: reads 1 to 6.
-PARAMETRIC_FILE_VERSION = COMPACT_VERSION
+#: The version this writer writes (7: the compact layout with the stacks' varying entries,
+#: every optional group); the reader reads 1 to 7.
+PARAMETRIC_FILE_VERSION = VARYING_VERSION
 
 
 # ---------------------------------------------------------------------- file format
 def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     """Write ``body`` as a versioned ``.npz`` with embedded JSON metadata, atomically, in the
     compact layout (:mod:`~neweul_py.elastic.io.layout`: what does not vary over the samples
-    once, no zero array — the slopes of what does not vary —, no array twice)."""
+    once, of a stack only the entries that vary, no zero array — the slopes of what does not
+    vary —, no array twice)."""
     arrays = {key: body[key] for key in PARAMETRIC_ARRAYS}
     for key in PARAMETRIC_OPTIONAL:
         if body[key] is not None:
@@ -211,7 +213,16 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     for key, a in (body.curvatures or {}).items():
         arrays[CURVATURE_PREFIX + key] = a
     stacked = frozenset(key for key in arrays if key not in UNSTACKED)
-    stored, layout = pack(arrays, stacked, body.n_samples)
+    # a slope's or curvature's entries are on the scale of the values over the range
+    span = float(body.samples[-1] - body.samples[0])
+    reference = {prefix + key: (key, span ** -order) for key in arrays
+                 for order, prefix in ((1, SLOPE_PREFIX), (2, CURVATURE_PREFIX))
+                 if prefix + key in arrays}
+    # a damping that is the loss factors' at the reference frequency, D = G/ω_ref
+    scaled = ({prefix + "D": (prefix + "G", 1.0 / (2.0 * np.pi * body.loss_reference_frequency))
+               for prefix in ("", SLOPE_PREFIX, CURVATURE_PREFIX)}
+              if body.G is not None else {})
+    stored, layout = pack(arrays, stacked, body.n_samples, reference, scaled=scaled)
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": PARAMETRIC_FILE_VERSION,

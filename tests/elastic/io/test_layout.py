@@ -34,12 +34,14 @@ def _arrays() -> dict[str, np.ndarray]:
 
 def test_round_trip_is_exact_and_stores_each_array_once():
     """unpack(pack(a)) equals a, dtype and shape included; zero arrays, the repeated one and
-    the samples of a constant stack are not stored."""
+    the samples of a constant stack are not stored, a matrix mostly zero as its nonzeros."""
     arrays = _arrays()
     stacked = {"M", "invariants/Me.m0", "V_kept", "W_kept", "slope/V_kept", "T"}
     stored, layout = pack(arrays, stacked, K)
-    assert set(stored) == {"M", "V_kept", "W_kept", "T", "samples", "nodes", "ids", "m"}
-    assert stored["V_kept"].shape == (5, 3) and stored["T"].shape == (3, 3)
+    assert set(stored) == {"M", "V_kept", "W_kept", "T", "T@nonzero", "samples", "nodes",
+                           "ids", "m"}
+    assert layout["sparse"] == {"T": [3, 3]} and stored["T"].tolist() == [1.0, 1.0, 1.0]
+    assert stored["V_kept"].shape == (5, 3)
     assert layout["zero"] == {"slope/V_kept": [[K, 5, 3], "<f8"]}
     assert layout["same"] == {"invariants/Me.m0": "M"}
     assert sorted(layout["constant"]) == ["T", "V_kept", "W_kept"]
@@ -68,6 +70,10 @@ def test_a_constant_stack_equal_to_another_is_stored_once():
     ({"zero": {"x": [[2, -1], "<f8"]}}, "needs [shape, float dtype]"),
     ({"zero": {"x": [[2], "<U2"]}}, "needs [shape, float dtype]"),
     ({"zero": {"x": "nonsense"}}, "needs [shape, float dtype]"),
+    ({"varying": ["M"]}, "varying array 'M', whose members"),
+    ({"sparse": {"M": [2]}}, "sparse array 'M' needs its shape"),
+    ({"sparse": {"M": "x"}}, "sparse array 'M' needs its shape"),
+    ({"varying": "M"}, "constant and varying lists of names"),
     ({"other": []}, "layout must be an object"),
     ([1, 2], "layout must be an object"),
 ])

@@ -1,0 +1,114 @@
+"""Stacks of per-sample arrays stored as one base and the entries that vary.
+
+The samples of a parametric body (its values, slopes and curvatures, docs/equations.md §4)
+differ only in a few blocks — in the middle ear the membrane's rows of ``K``, ``D``, ``G``
+and the coupling block of ``M``, while the air's blocks and most invariants are the same in
+every sample. One encoder, :func:`split_varying`, and one decoder, :func:`ffrf_expand`,
+store such a stack ``X`` (k, …) as
+
+* ``base`` (…): the entries that do not vary, from the first sample whose ``base_rows``
+  weight is not zero (zero at the entries that vary);
+* ``index`` (nv,): the flat positions of the entries that vary, increasing;
+* ``varying`` (k, nv): their values per sample,
+
+and read it back as ``X_s = r_s · base`` with ``X_s.flat[index] = varying_s``. ``r``
+(``base_rows``, default all ones) weights the base per row of the stack: a stack whose rows
+are samples, slopes and curvatures together has ``r = 1`` on the samples and ``0`` on their
+derivatives (a constant entry has zero derivatives). The body file
+(``neweul_py/elastic/io/layout.py``) and the mixing form of a generated module
+(:func:`~neweul_py.ffrf.parametric.ffrf_stack`) use this one pair.
+
+**What is dropped.** An entry is stored as varying when one sample deviates from ``r_s``
+times the base by more than ``tol · c_s · scale``; else its samples are replaced by
+``r_s · base``. ``scale`` is the entry's scale (:func:`entry_scale`: for matrices the
+smaller of the largest magnitude in its row and in its column over the samples, so that
+the round-off of an air block whose entries are ~10¹² counts as constant while the small
+entries of the membrane's rows count as varying), ``c_s`` a factor per row of the stack
+(``row_scale``; e.g. ``1/Δp`` for slopes, ``1/Δp²`` for curvatures, Δp the sampled range,
+so that a dropped slope changes the interpolant by at most ``tol`` times the entry's
+scale). The bound, for every sample ``s`` and entry ``e``::
+
+    |X̂_s[e] − X_s[e]| ≤ tol · c_s · scale[e],      tol = VARYING_TOLERANCE = 1e-13
+
+and ``tol = 0`` stores every entry that differs at all (exact). :func:`ffrf_expand` is
+embedded in generated modules (NumPy only).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["VARYING_TOLERANCE", "entry_scale", "ffrf_expand", "split_varying"]
+
+#: Default relative tolerance of :func:`split_varying` (module docstring).
+VARYING_TOLERANCE = 1e-13
+
+
+def entry_scale(stack: np.ndarray) -> np.ndarray:
+    """The scale of every entry of a stack ``(k, …)`` of samples, of the samples' shape.
+
+    For samples of two or more axes (matrices, and stacks of them) the scale of entry
+    ``[…, i, j]`` is ``min(max|X[…, i, :]|, max|X[…, :, j]|)`` over all samples and leading
+    axes (the smaller of its row's and its column's largest magnitude); for vectors and
+    scalars the largest magnitude of the stack.
+    """
+    a = np.abs(np.asarray(stack, dtype=np.float64))
+    shape = a.shape[1:]
+    if len(shape) < 2:
+        return np.full(shape, float(a.max(initial=0.0)))
+    lead = (0, *range(1, len(shape) - 1))
+    rows = a.max(axis=(*lead, a.ndim - 1))          # (n_rows,)
+    cols = a.max(axis=(*lead, a.ndim - 2))          # (n_cols,)
+    return np.broadcast_to(np.minimum(rows[:, None], cols[None, :]), shape).copy()
+
+
+def split_varying(stack: np.ndarray, scale: np.ndarray | float | None = None, *,
+                  base_rows: np.ndarray | None = None, row_scale: np.ndarray | None = None,
+                  tol: float = VARYING_TOLERANCE
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(base, index, varying)`` of a stack ``(k, …)`` (module docstring).
+
+    Parameters
+    ----------
+    stack
+        The samples, first axis.
+    scale
+        Scale of every entry (the samples' shape, or broadcastable to it); default
+        :func:`entry_scale` of the stack.
+    base_rows
+        ``r`` (k,): the weight of the base in every row; default ones.
+    row_scale
+        ``c`` (k,): the factor of the tolerance in every row; default ones.
+    tol
+        Relative tolerance (``0``: exact).
+
+    Returns
+    -------
+    tuple
+        ``base`` (the samples' shape, zero where the entries vary), ``index`` (nv,) int64
+        flat positions, ``varying`` (k, nv) float64.
+    """
+    a = np.asarray(stack, dtype=np.float64)
+    k, shape = a.shape[0], a.shape[1:]
+    flat = a.reshape(k, -1)
+    r = np.ones(k) if base_rows is None else np.asarray(base_rows, dtype=np.float64)
+    c = np.ones(k) if row_scale is None else np.asarray(row_scale, dtype=np.float64)
+    first = np.flatnonzero(r)
+    base = (flat[first[0]] / r[first[0]] if first.size else np.zeros(flat.shape[1])).copy()
+    sc = entry_scale(a) if scale is None else scale
+    allowed = tol * np.broadcast_to(np.asarray(sc, dtype=np.float64), shape).reshape(-1)
+    moving = np.zeros(flat.shape[1], dtype=bool)
+    for s in range(k):                       # row by row: no (k, N) temporary
+        moving |= np.abs(flat[s] - r[s] * base) > c[s] * allowed
+    index = np.flatnonzero(moving).astype(np.int64)
+    base[index] = 0.0
+    return base.reshape(shape), index, np.ascontiguousarray(flat[:, index])
+
+
+def ffrf_expand(base, base_rows, index, varying):
+    """The stack ``(k, …)`` of :func:`split_varying`'s ``base`` (…), ``base_rows`` (k,),
+    ``index`` (nv,) and ``varying`` (k, nv): ``r_s · base`` with the varying entries set."""
+    base = np.asarray(base)
+    out = np.multiply.outer(np.asarray(base_rows, dtype=np.float64), base.reshape(-1))
+    out[:, np.asarray(index, dtype=np.intp)] = varying
+    return out.reshape((out.shape[0], *base.shape))

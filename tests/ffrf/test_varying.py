@@ -1,0 +1,91 @@
+"""A stack of per-sample arrays as one base and the entries that vary
+(``neweul_py.ffrf.varying``).
+
+Reference: the stack itself — read back, every entry is within the documented bound
+``tol · c_s · scale`` of the written one, and exact with ``tol = 0`` — and the block structure
+the stacks are built with (which entries vary is known by construction).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from neweul_py.ffrf.varying import VARYING_TOLERANCE, entry_scale, ffrf_expand, split_varying
+
+K, NU, NP = 5, 6, 3
+
+
+def _up_stack(rng: np.random.Generator) -> np.ndarray:
+    """A u–p matrix per sample: the structural rows (small entries) vary, the pressure block
+    (entries ~1e12) varies at round-off only, the block below the structure is zero."""
+    base = np.zeros((NU + NP, NU + NP))
+    base[:NU, :] = 1e-3 * rng.standard_normal((NU, NU + NP))
+    base[NU:, NU:] = 1e12 * (2.0 + rng.standard_normal((NP, NP)))
+    stack = np.repeat(base[None], K, axis=0)
+    stack[:, :NU, :] += 1e-6 * rng.standard_normal((K, NU, NU + NP))      # the membrane
+    stack[:, NU:, NU:] *= 1.0 + 1e-16 * rng.standard_normal((K, NP, NP))  # round-off
+    return stack
+
+
+def test_round_off_of_large_entries_is_constant_small_variations_vary() -> None:
+    """The structural rows vary (stored), the pressure block's round-off does not (its
+    scale is its own row's, ~1e12), the zero block is not stored; read back within
+    ``tol · scale`` entry by entry."""
+    stack = _up_stack(np.random.default_rng(0))
+    base, index, varying = split_varying(stack)
+    expected = np.zeros((NU + NP, NU + NP), dtype=bool)
+    expected[:NU, :] = True
+    assert np.array_equal(np.sort(index), np.flatnonzero(expected))
+    assert varying.shape == (K, index.size) and base.shape == stack.shape[1:]
+    back = ffrf_expand(base, np.ones(K), index, varying)
+    bound = VARYING_TOLERANCE * entry_scale(stack)
+    assert np.all(np.abs(back - stack) <= bound)
+    assert np.array_equal(back[:, :NU], stack[:, :NU])          # what varies: bit for bit
+
+
+def test_zero_tolerance_is_exact() -> None:
+    """``tol = 0`` keeps every entry that differs at all: the round trip is bit for bit."""
+    stack = _up_stack(np.random.default_rng(1))
+    base, index, varying = split_varying(stack, tol=0.0)
+    assert np.array_equal(ffrf_expand(base, np.ones(K), index, varying), stack)
+    constant = np.repeat(stack[:1], K, axis=0)
+    base, index, varying = split_varying(constant, tol=0.0)
+    assert index.size == 0 and np.array_equal(base, stack[0])
+
+
+def test_rows_of_derivatives_have_a_zero_base_and_their_own_scale() -> None:
+    """Samples with their slopes interleaved (``base_rows`` 1, 0, …): a column whose values
+    are equal and whose slopes are zero is the base; a slope beyond ``tol · c · scale``
+    (``c = 1/Δσ``) makes its column vary; the read-back is the stack."""
+    rng = np.random.default_rng(2)
+    values = np.repeat(rng.standard_normal((1, 8)), K, axis=0)
+    slopes = np.zeros((K, 8))
+    values[:, 3] += rng.standard_normal(K)
+    slopes[:, 3] = rng.standard_normal(K)
+    slopes[:, 5] = 1e-20                       # far below 1e-13 · scale / Δσ: dropped
+    slopes[:, 6] = 1e-9                        # above it: kept
+    stack = np.empty((2 * K, 8))
+    stack[0::2], stack[1::2] = values, slopes
+    rows = np.tile([1.0, 0.0], K)
+    span = 4.0
+    scale = np.abs(values).max()
+    base, index, varying = split_varying(stack, scale, base_rows=rows,
+                                         row_scale=span ** -np.tile([0.0, 1.0], K))
+    assert index.tolist() == [3, 6]
+    back = ffrf_expand(base, rows, index, varying)
+    assert np.array_equal(back[0::2], values)
+    assert np.all(np.abs(back[1::2] - slopes) <= VARYING_TOLERANCE * scale / span)
+
+
+def test_entry_scale_is_the_smaller_of_row_and_column_maxima() -> None:
+    """Matrices: ``min(max|row|, max|column|)`` over the samples; vectors: the stack's
+    largest magnitude (reference: the definition, computed by loops)."""
+    rng = np.random.default_rng(3)
+    stack = rng.standard_normal((3, 4, 5)) * np.logspace(0, 6, 5)
+    scale = entry_scale(stack)
+    for i in range(4):
+        for j in range(5):
+            ref = min(np.abs(stack[:, i, :]).max(), np.abs(stack[:, :, j]).max())
+            assert scale[i, j] == ref
+    vec = rng.standard_normal((3, 7))
+    assert np.all(entry_scale(vec) == np.abs(vec).max())
