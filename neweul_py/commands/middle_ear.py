@@ -61,6 +61,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     b.add_argument("--order", type=count("--order", cap=100_000),
                    default=None, help="cap on the number of basis directions")
     b.add_argument("--no-generate", action="store_true", help="skip the generated module")
+    b.add_argument("--jobs", type=count("--jobs", cap=256), default=1,
+                   help="processes solving the snapshot systems of the working points "
+                   "(default 1; the same body for any number)")
     b.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     b.set_defaults(func=_build)
     s = sub.add_parser("study", help="static and dynamic studies of a build vs Δp",
@@ -117,7 +120,7 @@ def _build(args: argparse.Namespace) -> int:
     options = BuildOptions(
         refine=args.refine, tol=args.tol, coordinate=args.coordinate,
         slope_step=args.slope_step, interpolation=args.interpolation, order=args.order,
-        basis=args.basis, rtol=args.rtol,
+        basis=args.basis, rtol=args.rtol, jobs=args.jobs,
         generate=not args.no_generate,
         **({"pressures": tuple(args.pressures.values())} if args.pressures else {}))
     with Tracker("middle-ear build", quiet=args.quiet) as track:

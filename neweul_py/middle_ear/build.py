@@ -120,6 +120,9 @@ class BuildOptions:
         ``"quintic-hermite"`` (slopes and curvatures) or ``"hermite"`` (slopes).
     generate
         Generate the module (``DIR/generated``).
+    jobs
+        Processes solving the snapshot systems of the working points (the same basis for
+        any number).
     """
 
     refine: int = 1
@@ -132,6 +135,7 @@ class BuildOptions:
     slope_step: float = 20.0
     interpolation: str = "quintic-hermite"
     generate: bool = True
+    jobs: int = 1
 
     def __post_init__(self) -> None:
         p = np.asarray(self.pressures, dtype=float)
@@ -157,6 +161,8 @@ class BuildOptions:
             object.__setattr__(self, "rtol", BASES[self.basis])
         if not (np.isfinite(self.rtol) and 0 < self.rtol < 1):
             raise NeweulError(f"rtol: in (0, 1), got {self.rtol!r}")
+        if not (isinstance(self.jobs, int) and self.jobs >= 1):
+            raise NeweulError(f"jobs: a positive number of processes, got {self.jobs!r}")
         if self.order is not None and self.order < 1:
             raise NeweulError(f"order: a positive number of directions, got {self.order!r}")
 
@@ -264,12 +270,13 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
     if todo.size and two:
         b = balanced_snapshot_basis(fes, [F] * n, [Cadj] * n, SNAPSHOT_HZ, Kx,
                                     rtol=options.rtol, progress=say,
-                                    pairs=[zero_mode_pairs(fe) for fe in fes])
+                                    pairs=[zero_mode_pairs(fe) for fe in fes],
+                                    workers=options.jobs)
         V, W, energy = b.V, b.W, b.singular_values[:b.order] ** 2
         todo = SNAPSHOT_HZ
     elif todo.size:
         V, energy = snapshot_basis(fes, [F] * n, todo, Kx, rtol=options.rtol, prior=prior,
-                                   adjoint=[Cadj] * n, progress=say)
+                                   adjoint=[Cadj] * n, progress=say, workers=options.jobs)
     if todo.size:
         freqs = np.union1d(done, todo)
         cache.parent.mkdir(parents=True, exist_ok=True)

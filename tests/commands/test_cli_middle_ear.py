@@ -1,4 +1,4 @@
-"""``neweul middle-ear tympanogram|absorbance``: bad input is one clear error line, before
+"""``neweul middle-ear tympanogram|absorbance|build``: bad input is one clear error line, before
 any work and with nothing written (reference: the CLI's error contract, docs/cli.md)."""
 
 from __future__ import annotations
@@ -16,11 +16,13 @@ from neweul_py.cli import main
     (["tympanogram", "-o", "t.txt"], "t.txt"),
     (["absorbance", "--dp", "nan"], "--dp"),
     (["absorbance", "--dp", "0", "--plot", "a.xyz"], "a.xyz"),
+    (["build", "--jobs", "0"], "--jobs"),
 ])
 def test_bad_options_fail_at_once(argv, named, tmp_path, capsys):
     """A non-positive probe frequency, a sweep without +200 daPa, an output that is not CSV,
-    a non-finite Δp, a plot format matplotlib does not write: exit ≠ 0 with an error line
-    naming the option or file, before the (empty) build directory is read; nothing written."""
+    a non-finite Δp, a plot format matplotlib does not write, no build process: exit ≠ 0
+    with an error line naming the option or file, before the (empty) build directory is
+    read; nothing written."""
     (tmp_path / "build").mkdir()
     args = ["middle-ear", argv[0], "--dir", str(tmp_path / "build"), *argv[1:]]
     try:

@@ -28,7 +28,10 @@ body is the projection of the FE model itself.
 
 from __future__ import annotations
 
+import multiprocessing
+import os
 from collections.abc import Iterator, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -47,7 +50,7 @@ from .global_basis import energy_metric, g_orthonormal
 from .samples import central_curvatures, central_slopes, hermite_kind, model_sources, stacked_loss
 
 __all__ = ["ProjectionCache", "basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
-           "frequency_snapshots", "snapshot_basis"]
+           "frequency_snapshots", "sample_snapshots", "snapshot_basis"]
 
 
 def _say(progress: Progress, msg: str) -> None:
@@ -59,7 +62,7 @@ def frequency_snapshots(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                         freqs_hz: Sequence[float],
                         extra_stiffness: sps.spmatrix | None = None,
                         adjoint: Sequence[np.ndarray] | None = None,
-                        progress: Progress = None
+                        progress: Progress = None, workers: int = 1
                         ) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
     """The primal and adjoint frequency-response snapshots of every sample (module
     docstring), sample by sample, frequency by frequency: ``(X_ij, Y_ij, ω_j)`` with
@@ -69,29 +72,66 @@ def frequency_snapshots(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
     (complex, one sparse LU per sample and frequency; ``Y_ij`` ``None`` without
     ``adjoint``). Arguments as in :func:`snapshot_basis`; a count of load sets or output
     sets that is not one per FE model, or a frequency that is not positive and finite, is a
-    :class:`DataError` before any solve.
+    :class:`DataError` before any solve. ``workers > 1``: the samples are solved in that many
+    processes (one BLAS thread each), the snapshots come in the same order and are the same.
     """
     if len(loads) != len(fes) or (adjoint is not None and len(adjoint) != len(fes)):
         raise DataError(f"{len(loads)} load sets for {len(fes)} FE models", None, "loads")
     f = np.asarray(freqs_hz, dtype=float)
     if f.size == 0 or np.any(f <= 0) or not np.all(np.isfinite(f)):
         raise DataError("snapshot frequencies must be positive and finite", None, "freqs")
-    return _solves(fes, loads, f, extra_stiffness, adjoint, progress)
+    if int(workers) < 1:
+        raise DataError(f"workers: a positive number of processes, got {workers!r}", None,
+                        "workers")
+    return _solves(fes, loads, f, extra_stiffness, adjoint, progress, int(workers))
+
+
+def sample_snapshots(fe: FEModel, F: np.ndarray, adjoint: np.ndarray | None, f: np.ndarray,
+                     extra_stiffness: sps.spmatrix | None
+                     ) -> list[tuple[np.ndarray, np.ndarray | None, float]]:
+    """The snapshots ``(X_j, Y_j, ω_j)`` of one sample (:func:`frequency_snapshots`)."""
+    K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
+    D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
+    out = []
+    for w in 2 * np.pi * f:
+        lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
+        X = lu.solve(np.asarray(F, dtype=complex))
+        Y = None if adjoint is None else lu.solve(np.asarray(adjoint, dtype=complex),
+                                                  transpose=True)
+        out.append((X, Y, float(w)))
+    return out
+
+
+#: The environment of the worker processes of :func:`frequency_snapshots`: one BLAS thread.
+_WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
 def _solves(fes: Sequence[FEModel], loads: Sequence[np.ndarray], f: np.ndarray,
             extra_stiffness: sps.spmatrix | None, adjoint: Sequence[np.ndarray] | None,
-            progress: Progress) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
-    for i, (fe, F) in enumerate(zip(fes, loads, strict=True)):
-        K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
-        D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
-        for w in 2 * np.pi * f:
-            lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
-            X = lu.solve(np.asarray(F, dtype=complex))
-            Y = None if adjoint is None else lu.solve(np.asarray(adjoint[i], dtype=complex),
-                                                      transpose=True)
-            yield X, Y, float(w)
-        _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+            progress: Progress, workers: int
+            ) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
+    args = [(fe, F, None if adjoint is None else adjoint[i], f, extra_stiffness)
+            for i, (fe, F) in enumerate(zip(fes, loads, strict=True))]
+    if workers == 1 or len(fes) == 1:
+        for i, a in enumerate(args):
+            yield from sample_snapshots(*a)
+            _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+        return
+    saved = {k: os.environ.get(k) for k in _WORKER_ENV}
+    os.environ.update(_WORKER_ENV)          # the spawned workers start with one BLAS thread
+    try:
+        with ProcessPoolExecutor(max_workers=min(workers, len(fes)),
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = [pool.submit(sample_snapshots, *a) for a in args]
+            for i, future in enumerate(futures):
+                yield from future.result()
+                _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
@@ -99,7 +139,8 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                    rtol: float = 1e-8, order: int | None = None,
                    progress: Progress = None,
                    prior: np.ndarray | None = None,
-                   adjoint: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   adjoint: Sequence[np.ndarray] | None = None,
+                   workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """The G-orthonormal, u/p block-diagonal snapshot basis (module docstring).
 
     Parameters
@@ -127,6 +168,8 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         Columns of an earlier basis of the same models (e.g. the snapshots at other
         frequencies, compressed): they join the new snapshots, so a basis can be extended
         by further frequencies without solving the old ones again.
+    workers
+        Processes solving the samples (:func:`frequency_snapshots`).
 
     Returns
     -------
@@ -143,7 +186,7 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         S[:, :first] = prior
     col = first
     for X, Y, _w in frequency_snapshots(fes, loads, freqs_hz, extra_stiffness, adjoint,
-                                        progress):
+                                        progress, workers):
         for part in (X, Y):
             if part is not None:
                 part = part.reshape(n, -1)

@@ -147,7 +147,7 @@ def balanced_snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                             extra_stiffness: sps.spmatrix | None = None,
                             rtol: float = 1e-10, order: int | None = None,
                             pairs: Sequence[tuple[np.ndarray, np.ndarray]] = (),
-                            progress: Progress = None) -> TwoSidedBasis:
+                            progress: Progress = None, workers: int = 1) -> TwoSidedBasis:
     """The two-sided global basis of the samples ``fes`` (module docstring).
 
     Parameters
@@ -176,6 +176,9 @@ def balanced_snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         docstring, "Stability"); their singular values are reported as the largest one.
     progress
         Called with short messages.
+    workers
+        Processes solving the samples
+        (:func:`~neweul_py.elastic.parametric.snapshot_basis.frequency_snapshots`).
 
     Returns
     -------
@@ -198,7 +201,7 @@ def balanced_snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
     G = energy_metric(fes)
     X, Y = [], []
     for x, y, w in frequency_snapshots(fes, loads, freqs_hz, extra_stiffness, outputs,
-                                       progress):
+                                       progress, workers):
         for part in (x.real, x.imag):
             X.append(_unit_energy(part, G))
         for part in (y.real, y.imag):

@@ -160,3 +160,20 @@ def test_sample_slopes_with_static_states(family) -> None:
     with pytest.raises(DataError, match="one slope model on each side"):
         basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
                               slope_models=(near[0][:2], near[1]), slope_step=step)
+
+
+def test_snapshots_solved_in_worker_processes_are_the_same(family) -> None:
+    """Two worker processes give the snapshots of the samples in the same order and the same
+    numbers as one process (reference: the serial solves); a worker count below one is an
+    error before any solve."""
+    from neweul_py.elastic.parametric.snapshot_basis import frequency_snapshots
+
+    fes = family[0]
+    loads = [fe.B("force") for fe in fes]
+    serial = list(frequency_snapshots(fes, loads, F_SNAP[:3]))
+    parallel = list(frequency_snapshots(fes, loads, F_SNAP[:3], workers=2))
+    assert len(parallel) == len(serial) == 3 * len(fes)
+    for (x1, _, w1), (x2, _, w2) in zip(serial, parallel, strict=True):
+        assert w1 == w2 and np.array_equal(x1, x2)
+    with pytest.raises(DataError, match="workers"):
+        frequency_snapshots(fes, loads, F_SNAP, workers=0)
