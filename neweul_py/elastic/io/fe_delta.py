@@ -213,7 +213,7 @@ def merge_delta(path: str | os.PathLike, data: Mapping[str, np.ndarray],
     path = Path(path)
     file = str(path)
     name, digest, drop = _record(meta, file)
-    base = path.parent / name
+    base = Path(os.path.normpath(path.parent / name))
     raw, arrays = _read_base(base, file)
     actual = hashlib.sha256(raw).hexdigest()
     if actual != digest:
