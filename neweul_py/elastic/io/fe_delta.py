@@ -201,8 +201,8 @@ def _record(meta: Mapping[str, Any], file: str) -> tuple[str, str, list[str]]:
 def merge_delta(path: str | os.PathLike, data: Mapping[str, np.ndarray],
                 meta: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """The arrays of the delta file ``path`` (its arrays ``data``, its decoded ``meta`` with
-    the ``base`` record) merged with its base's: equal to the arrays written, bit for bit
-    (module docstring).
+    the ``base`` record) merged with its base's: equal to the arrays written, bit for bit,
+    ``meta`` without the record (module docstring) — the arrays of the complete file.
 
     Raises
     ------
@@ -237,6 +237,7 @@ def merge_delta(path: str | os.PathLike, data: Mapping[str, np.ndarray],
     for key in data:
         if key.startswith(PATCH_VAL) and PATCH_POS + key[len(PATCH_VAL):] not in data:
             raise DataError("a patch without positions", file, key)
+    arrays["meta"] = json_to_uint8({k: v for k, v in meta.items() if k != "base"})
     return arrays
 
 

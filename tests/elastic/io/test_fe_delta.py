@@ -19,7 +19,7 @@ from fe_builders import duct, piston_duct
 
 from neweul_py.elastic import FEModel, read_fe_model, write_fe_model
 from neweul_py.elastic.io.fe_delta import PATCH_POS, PATCH_VAL
-from neweul_py.elastic.io.fe_files import load_fe_arrays
+from neweul_py.elastic.io.fe_files import fe_arrays, load_fe_arrays
 from neweul_py.elastic.io.npz import json_from_uint8, json_to_uint8
 from neweul_py.elastic.io.working_point import read_loss, read_static, write_working_point
 from neweul_py.errors import DataError
@@ -66,6 +66,11 @@ def test_round_trip_is_exact_and_small(pair):
     tmp, base, other = pair
     _assert_identical(read_fe_model(tmp / "delta.npz"), other)
     _assert_identical(read_fe_model(tmp / "base.npz"), base)
+    written = fe_arrays(other)  # the arrays of the complete file, meta included
+    got = load_fe_arrays(tmp / "delta.npz")
+    assert got.keys() == written.keys() and all(
+        got[k].dtype == written[k].dtype and got[k].tobytes() == written[k].tobytes()
+        for k in got)
     with np.load(tmp / "delta.npz") as z:
         names = set(z.files)
         assert z[PATCH_VAL + "K_data"].size == 1 and z[PATCH_VAL + "M_data"].size == 1
