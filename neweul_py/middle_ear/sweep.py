@@ -167,7 +167,7 @@ def pressure_sweep(
 
         check_output_dir(out_dir)  # fail before the work, checked again when writing
         if base is not None:
-            check_base(base, Path(out_dir) / "model.npz")
+            check_base(base, Path(out_dir) / "sweep.json")
     me = build_middle_ear(params, refine, verbose=verbose)
     grid = None if static_curve is None else curve_pressures(dps, float(static_curve))
     states = solve_static(me, dps, options, progress=progress)
@@ -215,7 +215,7 @@ def _write_sweep(
         i for i in range(len(states)) if i != first]
 
     def fill(tmp):
-        files = [{}] * len(states)
+        files: list[dict | None] = [None] * len(states)
         own = None if first is None else tmp / names[first]
         for i in order:
             s, fe = states[i], models[i]
