@@ -26,7 +26,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="TM + ear canal + tympanic cavity, linearized at static pressures",
         description="Solve the nonlinear static TM problem at each static pressure difference "
         "dp = p_canal - p_cavity and write one up-coupled FE model (Eq. (2)) per working "
-        "point, the static results (static.csv) and sweep.json into DIR (atomically). A load step "
+        "point (the one nearest 0 Pa complete, the others as delta files of it: "
+        "docs/fe-file-format.md), the static results (static.csv) and sweep.json into DIR "
+        "(atomically). A load step "
         "whose static state leaves the model's validity (TM reaching an air-space wall, cone "
         "inversion, |dV| > 5 % of an air volume) stops the sweep with an error; nothing is "
         "written. Progress goes to stderr.",

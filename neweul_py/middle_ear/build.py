@@ -195,8 +195,20 @@ class _Sweeps:
         todo = sorted({float(p) for p in pressures})
         self.progress(f"FE models at {', '.join(f'{p:+.0f}' for p in todo)} Pa")
         pressure_sweep(todo, refine=self.options.refine, out_dir=str(d), progress=self.progress,
-                       static_curve=CURVE_STEP if curve else None)
+                       static_curve=CURVE_STEP if curve else None, base=self.base())
         self.where.update({p: d for p in todo})
+
+    def base(self) -> Path | None:
+        """The complete working-point file of the first sweep ``fem``, which later sweeps are
+        stored against (delta files: the shared matrices once per build); ``None`` before
+        ``fem`` exists."""
+        fem = self.root / "fem"
+        record = fem / "sweep.json"
+        if not record.is_file():
+            return None
+        sweep = json.loads(record.read_text())
+        name = sweep.get("fe_base", sweep["working_points"][0]["file"])  # older: all complete
+        return fem / name if "/" not in name and (fem / name).is_file() else None
 
     def need(self, name: str, pressures: Sequence[float]) -> None:
         """The working points ``pressures``, solved into ``name`` where they are missing."""

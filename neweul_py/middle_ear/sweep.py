@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sps
 
 from ..elastic.fe_model import FEModel
+from ..elastic.io.fe_delta import base_name, check_base
 from ..elastic.io.working_point import write_working_point
 from ..elastic.reductors.projection import Progress
 from ..errors import ModelError
@@ -90,6 +93,7 @@ def pressure_sweep(
     verbose: bool = False,
     progress: Progress = None,
     static_curve: float | None = None,
+    base: str | os.PathLike | None = None,
 ) -> SweepResult:
     """Static solutions and linearized ``up-coupled`` FE models over static pressures ``Δp``.
 
@@ -102,7 +106,9 @@ def pressure_sweep(
     out_dir
         If given, write (atomically, see :mod:`neweul_py.middle_ear.output`) ``model_dp±NNNNN.npz``
         per working point (the ``neweul-fe`` file with the optional ``static`` and ``loss``
-        groups of :mod:`neweul_py.elastic.io.working_point`), ``static.csv``,
+        groups of :mod:`neweul_py.elastic.io.working_point`; the working point nearest
+        ``Δp = 0`` complete, the others as delta files of it, or all as delta files of
+        ``base``: docs/fe-file-format.md), ``static.csv``,
         ``static_displacements.npz`` (TM node displacements per working point) and
         ``sweep.json`` (and PNGs with ``plots``).
     plots
@@ -123,6 +129,10 @@ def pressure_sweep(
         and write its :func:`static_summary` rows as ``static_curve.csv`` — the table of an
         interpolation coordinate such as the TM's static volume displacement
         (``docs/equations.md`` §4.1, ``neweul interpolate --coordinate``).
+    base
+        A complete working-point file of the same mesh in a directory next to ``out_dir``
+        (e.g. of an earlier sweep of one build): every working point is written as a delta
+        file of it, so a build stores the shared matrices once.
 
     Returns
     -------
@@ -156,6 +166,8 @@ def pressure_sweep(
         from .output import check_output_dir
 
         check_output_dir(out_dir)  # fail before the work, checked again when writing
+        if base is not None:
+            check_base(base, Path(out_dir) / "sweep.json")
     me = build_middle_ear(params, refine, verbose=verbose)
     grid = None if static_curve is None else curve_pressures(dps, float(static_curve))
     states = solve_static(me, dps, options, progress=progress)
@@ -182,27 +194,35 @@ def pressure_sweep(
         if progress is not None:
             progress(f"writing {out_dir}")
         _write_sweep(me, states, table, models, damping, groups, out_dir, plots, include_support,
-                     curve)
+                     curve, base)
     return SweepResult(
         me, tuple(states), table, tuple(models), out_dir, tuple(damping), tuple(groups), curve
     )
 
 
 def _write_sweep(
-    me, states, table, models, damping, groups, out_dir, plots, include_support, curve
+    me, states, table, models, damping, groups, out_dir, plots, include_support, curve, base
 ) -> None:
     from dataclasses import asdict
 
     from .output import write_directory_atomically, write_static_csv
 
     p = me.params
+    names = [f"model_dp{s.load:+06.0f}.npz" for s in states]
+    # the working point nearest dp = 0 is the base of the others (unless one is given)
+    first = int(np.argmin([abs(s.load) for s in states])) if base is None else None
+    order = ([first] if first is not None else []) + [
+        i for i in range(len(states)) if i != first]
 
     def fill(tmp):
-        files = []
-        for s, fe, g, grp in zip(states, models, damping, groups, strict=True):
-            name = f"model_dp{s.load:+06.0f}.npz"
-            write_working_point(fe, tmp / name, g, loss_info(p), grp)
-            files.append({"dp_Pa": s.load, "file": name, "n_dofs": fe.n_dofs})
+        files: list[dict | None] = [None] * len(states)
+        own = None if first is None else tmp / names[first]
+        for i in order:
+            s, fe = states[i], models[i]
+            # the base is read from its final place; a base of this sweep is still in tmp
+            ref = base if first is None else (None if i == first else own)
+            write_working_point(fe, tmp / names[i], damping[i], loss_info(p), groups[i], ref)
+            files[i] = {"dp_Pa": s.load, "file": names[i], "n_dofs": fe.n_dofs}
         write_static_csv(list(table), tmp / "static.csv")
         if curve:
             write_static_csv(list(curve), tmp / "static_curve.csv")
@@ -240,6 +260,8 @@ def _write_sweep(
                 "umbo": int(me.umbo) + 1,
             },
             "working_points": files,
+            "fe_base": names[first] if first is not None else base_name(
+                Path(out_dir) / "sweep.json", base),
             "static_results": "static.csv",
             **({"static_curve": "static_curve.csv (the static.csv columns on a finer grid of "
                 "static pressures)"} if curve else {}),

@@ -12,6 +12,7 @@ import numpy as np
 
 from neweul_py.cli import main
 from neweul_py.elastic.io.body_files import load_parametric_body, load_reduced_body
+from neweul_py.elastic.io.fe_files import load_fe_arrays
 from neweul_py.elastic.io.working_point import read_static
 
 STEP = 20.0
@@ -80,8 +81,8 @@ def test_slopes_of_working_points_with_static_states(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "working point at -980" in err and "wants -1020 here" in err and not bad.exists()
     bare = tmp_path / "bare.npz"
-    with np.load(slopes[0], allow_pickle=False) as z:
-        np.savez(bare, **{k: z[k] for k in z.files if not k.startswith("static_")})
+    arrays = load_fe_arrays(slopes[0])  # the complete model of a (delta) sweep file
+    np.savez(bare, **{k: v for k, v in arrays.items() if not k.startswith("static_")})
     assert main([*base, "--slope-models", str(bare), *slopes[1:], "--slope-step", "20",
                  "-o", str(bad)]) == 1
     err = capsys.readouterr().err.strip().splitlines()[-1]

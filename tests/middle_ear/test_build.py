@@ -18,6 +18,7 @@ import yaml
 from neweul_py.api import load_description
 from neweul_py.cli import main
 from neweul_py.elastic.io.body_files import load_parametric_body
+from neweul_py.elastic.io.fe_files import read_fe_model
 from neweul_py.errors import NeweulError
 from neweul_py.middle_ear.build import BuildOptions, build
 
@@ -83,9 +84,29 @@ def test_a_failed_build_leaves_the_previous_one(small, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["b"]
 
 
+def _models(build_dir: Path) -> list[Path]:
+    return sorted(build_dir.glob("fem*/model_dp*.npz"))
+
+
+def test_the_sweeps_store_one_complete_model(small):
+    """The build's sweeps hold one complete working point (the base in ``fem``, named by its
+    ``sweep.json``); every other one, in every sweep, is a delta file of it."""
+    base = json.loads((small / "fem" / "sweep.json").read_text())["fe_base"]
+    complete = []
+    for path in _models(small):
+        with np.load(path) as z:
+            record = json.loads(z["meta"].tobytes()).get("base")
+        if record is None:
+            complete.append(path)
+        else:
+            assert (path.parent / record["file"]).resolve() == (small / "fem" / base).resolve()
+    assert complete == [small / "fem" / base] and len(_models(small)) > 3
+
+
 def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
     """A second build of the same refinement solves no FE model again (its working points
-    are linked from the previous build)."""
+    are linked from the previous build, the delta files with their base: all still read, equal
+    to the previous build's)."""
     out = tmp_path / "b"
     shutil.copytree(small, out)
     import neweul_py.middle_ear.build as b
@@ -96,6 +117,11 @@ def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
     monkeypatch.setattr(b, "pressure_sweep", no_sweep)
     build(out, SMALL)
     assert json.loads((out / "build.json").read_text())["samples_Pa"] == [-1000.0, 0.0, 1000.0]
+    assert [p.relative_to(out) for p in _models(out)] == [
+        p.relative_to(small) for p in _models(small)]
+    for path in _models(out):
+        a, b = read_fe_model(path), read_fe_model(small / path.relative_to(out))
+        assert (a.K != b.K).nnz == 0 and (a.G != b.G).nnz == 0
 
 
 @pytest.mark.parametrize(("args", "where"), [

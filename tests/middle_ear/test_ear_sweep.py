@@ -54,3 +54,45 @@ def test_sweep_writes_the_static_curve(tmp_path):
         j = int(np.flatnonzero(dp == r["dp_Pa"])[0])
         assert abs(vol[j] - r["volume_displacement_m3"]) <= 1e-8 * np.abs(vol).max()
     assert "static_curve" in json.loads((out / "sweep.json").read_text())
+
+
+def _meta(path) -> dict:
+    with np.load(path) as z:
+        return json.loads(z["meta"].tobytes())
+
+
+def test_sweep_files_are_deltas_of_one_base_and_read_back_exactly(tmp_path):
+    """The working point nearest 0 Pa is stored complete, the others as delta files of it (a
+    fraction of its size), and a second sweep given that base stores every point against it
+    (``../fem/…``). Reference: the models, loss matrices and static groups the sweep computed
+    in memory — every file reads back bit for bit equal to them."""
+    from neweul_py.elastic.io.fe_files import read_fe_model
+    from neweul_py.elastic.io.working_point import read_loss, read_static
+    from neweul_py.middle_ear.sweep import pressure_sweep
+
+    def same(a, b) -> bool:
+        return (a.shape == b.shape and a.data.tobytes() == b.data.tobytes()
+                and np.array_equal(a.indices, b.indices) and np.array_equal(a.indptr, b.indptr))
+
+    fem, more = tmp_path / "fem", tmp_path / "fem_slopes"
+    first = pressure_sweep([-1000.0, 0.0, 1000.0], refine=0, out_dir=str(fem))
+    base = fem / "model_dp+00000.npz"
+    assert json.loads((fem / "sweep.json").read_text())["fe_base"] == base.name
+    second = pressure_sweep([-20.0, 20.0], refine=0, out_dir=str(more), base=base)
+    assert json.loads((more / "sweep.json").read_text())["fe_base"] == "../fem/" + base.name
+    for res, d in ((first, fem), (second, more)):
+        for s, fe, g, grp in zip(res.states, res.models, res.damping, res.static_groups,
+                                 strict=True):
+            path = d / f"model_dp{s.load:+06.0f}.npz"
+            record = _meta(path).get("base")
+            assert (record is None) == (path == base)
+            if record is not None:
+                assert (d / record["file"]).resolve() == base.resolve()
+                assert path.stat().st_size < 0.25 * base.stat().st_size
+            got = read_fe_model(path)
+            assert all(same(getattr(got, k), getattr(fe, k)) for k in ("M", "K", "D"))
+            assert same(got.G, g) and same(read_loss(path)[0], g)
+            assert got.nodes.tobytes() == fe.nodes.tobytes()
+            assert got.outputs == fe.outputs and got.inputs == fe.inputs
+            st = read_static(path)
+            assert all(np.asarray(v).tobytes() == st[k].tobytes() for k, v in grp.items())

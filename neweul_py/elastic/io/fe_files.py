@@ -22,7 +22,11 @@ and the matrix or table.
 The ``.npz`` form holds the CSR arrays ``<X>_data``, ``<X>_indices``, ``<X>_indptr``,
 ``<X>_shape`` for X in M, K (and D), ``nodes``, ``dof_node``, ``dof_kind`` (unicode) and
 ``meta`` (UTF-8 JSON as uint8: format, version, name, kind, density, symmetric, inputs,
-outputs). It is read with ``allow_pickle=False``.
+outputs). It is read with ``allow_pickle=False``. Version 2 (written now) stores indices as
+int32 where they fit, deflates the members and may be a *delta* file: only what differs from
+a complete base file, which its ``meta`` names with its SHA-256
+(:mod:`~neweul_py.elastic.io.fe_delta`; ``docs/fe-file-format.md``); the same model gives the
+same bytes. Version-1 files read; newer versions are refused.
 
 Optional groups (read by :func:`read_node_sets` and :func:`read_stiffening`; the FE model
 itself ignores them):
@@ -67,13 +71,16 @@ from ...errors import DataError
 from ...files import check_regular_file, read_checked
 from ..bodies.invariants import LOAD_CASES
 from ..fe_model import FEModel
-from .npz import atomic_write, json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
+from .fe_delta import merge_delta, write_fe_arrays
+from .npz import atomic_write, json_from_uint8, json_to_uint8, load_npz
 
-__all__ = ["FE_FORMAT", "FE_VERSION", "LOSS_KEYS", "loss_group", "read_fe_model",
-           "read_node_sets", "read_stiffening", "read_stiffening_responses", "write_fe_model"]
+__all__ = ["FE_FORMAT", "FE_VERSION", "LOSS_KEYS", "csr_arrays", "fe_arrays", "load_fe_arrays",
+           "loss_group", "read_fe_model", "read_node_sets", "read_stiffening",
+           "read_stiffening_responses", "write_fe_model"]
 
 FE_FORMAT = "neweul-fe"
-FE_VERSION = 1
+#: The version written; every version from 1 up to it reads (docs/fe-file-format.md).
+FE_VERSION = 2
 _HB_SUFFIXES = (".hb", ".rua", ".rsa", ".hb.txt")
 
 
@@ -105,7 +112,8 @@ def read_fe_model(path: str | os.PathLike) -> FEModel:
 def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "mtx", *,
                    node_sets: dict[str, Any] | None = None,
                    stiffening: dict[str, Any] | None = None,
-                   stiffening_responses: dict[str, Any] | None = None) -> None:
+                   stiffening_responses: dict[str, Any] | None = None,
+                   base: str | os.PathLike | None = None) -> None:
     """Write ``fe`` as a manifest (``.json``, with ``matrix_format`` files) or ``.npz``.
 
     Parameters
@@ -123,14 +131,20 @@ def write_fe_model(fe: FEModel, path: str | os.PathLike, matrix_format: str = "m
     node_sets, stiffening, stiffening_responses
         Optional groups (module docstring): name → node ids, load case → n×n ``K_G,c``,
         load case → (n,) static response ``u_c`` (stiffening: ``.npz`` only).
+    base
+        A complete ``.npz`` FE file in the same or a sibling directory: ``path`` is written as
+        a delta file holding only what differs from it (``.npz`` only; module
+        :mod:`~neweul_py.elastic.io.fe_delta`). Best for models of one mesh and pattern.
     """
     path = Path(path)
     if fe.G is not None and path.suffix.lower() != ".npz":
         raise DataError("the loss group (hysteretic matrix G) is written to .npz files only",
                         str(path), "G")
+    if base is not None and path.suffix.lower() != ".npz":
+        raise DataError("delta files (a base) are .npz files only", str(path), "base")
     extra = _optional_groups(fe, node_sets, stiffening, path, stiffening_responses)
     if path.suffix.lower() == ".npz":
-        _write_npz(fe, path, extra)
+        write_fe_arrays(path, fe_arrays(fe, extra), base)
     else:
         _write_manifest(fe, path, matrix_format, extra)
 
@@ -155,9 +169,13 @@ def _check_header(meta: Any, file: str) -> None:
     if meta.get("format") != FE_FORMAT:
         raise DataError(f"\"format\" must be {FE_FORMAT!r}, got {meta.get('format')!r}", file,
                         "format")
-    if meta.get("version") != FE_VERSION:
-        raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
-                        f"{FE_VERSION})", file, "version")
+    version = meta.get("version")
+    if isinstance(version, int) and not isinstance(version, bool) and version > FE_VERSION:
+        raise DataError(f"version {version} is newer than this reader (versions 1 … "
+                        f"{FE_VERSION}): update neweul-py", file, "version")
+    if not (isinstance(version, int) and 1 <= version <= FE_VERSION):
+        raise DataError(f"unsupported version {version!r} (this reader: 1 … {FE_VERSION})",
+                        file, "version")
     for key in ("inputs", "outputs", "symmetric"):
         if not isinstance(meta.get(key, {}), dict):
             raise DataError("must be an object", file, key)
@@ -487,7 +505,20 @@ def _join(cols: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------- npz
-def _write_npz(fe: FEModel, path: Path, extra: dict[str, Any] | None = None) -> None:
+def csr_arrays(prefix: str, a: sps.spmatrix) -> dict[str, np.ndarray]:
+    """``<prefix>_data``, ``_indices``, ``_indptr`` (int32 where the values fit, else int64)
+    and ``_shape`` of the CSR form of ``a``."""
+    a = sps.csr_matrix(a)
+    fits = max((*a.shape, a.nnz)) < 2**31
+    index = np.int32 if fits else np.int64
+    return {f"{prefix}_data": a.data, f"{prefix}_indices": a.indices.astype(index),
+            f"{prefix}_indptr": a.indptr.astype(index),
+            f"{prefix}_shape": np.asarray(a.shape, dtype=np.int64)}
+
+
+def fe_arrays(fe: FEModel, extra: Mapping[str, Any] | None = None) -> dict[str, np.ndarray]:
+    """The arrays of the complete ``.npz`` file of ``fe`` (module docstring) with the optional
+    groups ``extra`` (``{"meta": {…}, "arrays": {…}, "loss_meta": {…}}``)."""
     extra = extra or {}
     arrays: dict[str, np.ndarray] = {"meta": json_to_uint8({**_meta(fe),
                                                             **extra.get("meta", {})})}
@@ -497,35 +528,48 @@ def _write_npz(fe: FEModel, path: Path, extra: dict[str, Any] | None = None) -> 
                                         **extra.get("loss_meta", {})}))
     for key in ("M", "K", "D"):
         a = getattr(fe, key)
-        if a is None:
-            continue
-        arrays[f"{key}_data"] = a.data
-        arrays[f"{key}_indices"] = a.indices.astype(np.int64)
-        arrays[f"{key}_indptr"] = a.indptr.astype(np.int64)
-        arrays[f"{key}_shape"] = np.asarray(a.shape, dtype=np.int64)
+        if a is not None:
+            arrays.update(csr_arrays(key, a))
     arrays["nodes"] = fe.nodes
     arrays["dof_node"] = fe.dof_node
     arrays["dof_kind"] = fe.dof_kind.astype("U2")
-    save_npz_atomic(path, arrays)
+    return arrays
 
 
 def loss_group(G: sps.spmatrix, meta: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """The arrays of the optional loss group (:data:`LOSS_KEYS`) for ``G`` and ``meta``
     (which must hold ``f_ref_Hz``)."""
-    g = sps.csr_matrix(G)
-    return {"loss_G_data": g.data, "loss_G_indices": g.indices.astype(np.int64),
-            "loss_G_indptr": g.indptr.astype(np.int64),
-            "loss_G_shape": np.asarray(g.shape, dtype=np.int64),
-            "loss_meta": json_to_uint8(dict(meta))}
+    return {**csr_arrays("loss_G", G), "loss_meta": json_to_uint8(dict(meta))}
 
 
-def _read_npz(path: Path) -> FEModel:
+def load_fe_arrays(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` FE file after its header check; a delta file's merged with
+    its base's (:func:`~neweul_py.elastic.io.fe_delta.merge_delta`: equal to the arrays written,
+    bit for bit).
+
+    Raises
+    ------
+    DataError
+        Not an FE file of a version this reader knows; a missing or changed base.
+    """
+    path = Path(path)
     file = str(path)
     data = load_npz(path)
     if "meta" not in data:
         raise DataError("missing the \"meta\" array", file, "meta")
     meta = json_from_uint8(data["meta"], file)
     _check_header(meta, file)
+    if "base" not in meta:
+        return data
+    if meta["version"] < 2:
+        raise DataError("a delta file (\"base\") needs version 2 or later", file, "meta.base")
+    return merge_delta(path, data, meta)
+
+
+def _read_npz(path: Path) -> FEModel:
+    file = str(path)
+    data = load_fe_arrays(path)
+    meta = json_from_uint8(data["meta"], file)
     matrices = {}
     for key in ("M", "K", "D"):
         parts = [f"{key}_{s}" for s in ("data", "indices", "indptr", "shape")]
@@ -610,10 +654,7 @@ def _optional_groups(fe: FEModel, node_sets, stiffening, path: Path,
             if a.shape != (fe.n_dofs, fe.n_dofs):
                 raise DataError(f"shape {a.shape}, the model has {fe.n_dofs} DOFs", str(path),
                                 f"KG.{case}")
-            out["arrays"].update({f"KG.{case}_data": a.data,
-                                  f"KG.{case}_indices": a.indices.astype(np.int64),
-                                  f"KG.{case}_indptr": a.indptr.astype(np.int64),
-                                  f"KG.{case}_shape": np.asarray(a.shape, dtype=np.int64)})
+            out["arrays"].update(csr_arrays(f"KG.{case}", a))
     for case, u in (responses or {}).items():
         if path.suffix.lower() != ".npz":
             raise DataError("stiffening responses are written to .npz files only", str(path),
@@ -630,9 +671,7 @@ def _meta_of(path: Path) -> tuple[dict, dict[str, np.ndarray] | None]:
     """The manifest JSON, or the ``.npz`` meta JSON and its arrays."""
     file = str(path)
     if path.suffix.lower() == ".npz":
-        data = load_npz(path)
-        if "meta" not in data:
-            raise DataError("missing the \"meta\" array", file, "meta")
+        data = load_fe_arrays(path)
         meta = json_from_uint8(data["meta"], file)
     else:
         data = None

@@ -15,6 +15,9 @@ with two optional groups that readers of the format may ignore (backward compati
   ``loss_meta`` (UTF-8 JSON: the loss factors, ``f_ref`` and how ``D = G/ω_ref`` was made).
 
 An FRF should use ``K + iG − ω² M`` (``D`` ignored); a time integration uses ``D``.
+
+The working points of one mesh are best stored as delta files of one complete working point
+(``base``; :mod:`~neweul_py.elastic.io.fe_delta`): the readers here merge a delta with its base.
 """
 
 from __future__ import annotations
@@ -27,10 +30,10 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sps
 
-from ...atomic import atomic_savez
 from ...errors import DataError
 from ..fe_model import FEModel
-from .fe_files import write_fe_model
+from .fe_delta import write_fe_arrays
+from .fe_files import fe_arrays, load_fe_arrays, loss_group
 
 __all__ = [
     "read_loss",
@@ -46,43 +49,33 @@ def write_working_point(
     g: sps.spmatrix | None = None,
     loss: dict[str, Any] | None = None,
     static: dict[str, np.ndarray] | None = None,
+    base: str | os.PathLike | None = None,
 ) -> None:
-    """Write ``fe`` as a ``neweul-fe`` ``.npz`` plus the optional ``loss_*``/``static_*`` groups.
-
-    The file is written twice atomically (the format writer, then with the groups added), so a
-    reader never sees a partial file.
+    """Write ``fe`` as a ``neweul-fe`` ``.npz`` plus the optional ``loss_*``/``static_*`` groups,
+    in one atomic, deterministic write; with ``base`` (a complete FE file in the same or a
+    sibling directory) as a delta file of it.
     """
-    path = Path(path)
-    write_fe_model(fe, path)
-    if g is None and static is None:
-        return
-    with np.load(path, allow_pickle=False) as data:
-        arrays = {k: data[k] for k in data.files}
+    arrays = fe_arrays(fe)
     if g is not None:
-        g = sps.csr_matrix(g)
-        arrays["loss_G_data"] = g.data
-        arrays["loss_G_indices"] = g.indices.astype(np.int64)
-        arrays["loss_G_indptr"] = g.indptr.astype(np.int64)
-        arrays["loss_G_shape"] = np.asarray(g.shape, dtype=np.int64)
-        arrays["loss_meta"] = np.frombuffer(json.dumps(loss or {}).encode(), dtype=np.uint8)
+        arrays.update(loss_group(g, loss or {}))
     for key, value in (static or {}).items():
         arrays[f"static_{key}"] = np.asarray(value)
-    atomic_savez(path, **arrays)
+    write_fe_arrays(Path(path), arrays, base)
 
 
 def read_loss(path: str | os.PathLike) -> tuple[sps.csr_matrix, dict[str, Any]] | None:
     """``(G, loss_meta)`` of a working-point file, or ``None`` if it has no ``loss`` group."""
-    with np.load(path, allow_pickle=False) as data:
-        if "loss_G_data" not in data.files:
-            return None
-        try:
-            shape = tuple(int(s) for s in data["loss_G_shape"])
-            g = sps.csr_matrix(
-                (data["loss_G_data"], data["loss_G_indices"], data["loss_G_indptr"]), shape=shape
-            )
-            meta = json.loads(data["loss_meta"].tobytes().decode("utf-8"))
-        except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
-            raise DataError(f"inconsistent loss group ({exc})", str(path), "loss_G") from None
+    data = load_fe_arrays(path)
+    if "loss_G_data" not in data:
+        return None
+    try:
+        shape = tuple(int(s) for s in data["loss_G_shape"])
+        g = sps.csr_matrix(
+            (data["loss_G_data"], data["loss_G_indices"], data["loss_G_indptr"]), shape=shape
+        )
+        meta = json.loads(data["loss_meta"].tobytes().decode("utf-8"))
+    except (KeyError, ValueError, TypeError, UnicodeDecodeError) as exc:
+        raise DataError(f"inconsistent loss group ({exc})", str(path), "loss_G") from None
     return g, meta
 
 
@@ -103,6 +96,6 @@ def static_loads(path: str | os.PathLike, kept: set[int] | None = None
 
 def read_static(path: str | os.PathLike) -> dict[str, np.ndarray] | None:
     """The ``static`` group (keys without the ``static_`` prefix), or ``None`` if absent."""
-    with np.load(path, allow_pickle=False) as data:
-        out = {k[len("static_") :]: data[k] for k in data.files if k.startswith("static_")}
+    data = load_fe_arrays(path)
+    out = {k[len("static_") :]: v for k, v in data.items() if k.startswith("static_")}
     return out or None

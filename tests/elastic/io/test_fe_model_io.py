@@ -150,7 +150,7 @@ def test_invalid_json_names_the_line(manifest):
 
 @pytest.mark.parametrize("changes,item", [
     (dict(format="other"), "format"),
-    (dict(version=2), "version"),
+    (dict(version=3), "version"),
     (dict(matrices={"M": "<M>"}), "matrices"),
     (dict(matrices={"M": "<M>", "K": "missing.mtx"}), "K"),
     (dict(nodes=3), "nodes"),
@@ -231,7 +231,7 @@ def test_interrupted_write_leaves_nothing_partial(tmp_path, monkeypatch):
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(np, "savez", boom)
+    monkeypatch.setattr(np.lib.format, "write_array", boom)
     with pytest.raises(KeyboardInterrupt):
         write_fe_model(duct(30), target)
     assert target.read_bytes() == before
