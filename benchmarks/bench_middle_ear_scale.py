@@ -3,13 +3,15 @@
 
 Runs ``neweul middle-ear build --dir DIR --refine L`` as a child process and reports, from the
 operating system's accounting of that process (``resource.getrusage(RUSAGE_CHILDREN)``), its
-CPU time and peak memory; then the size of the build directory and of its parts, the size of
+CPU time (with that of its worker processes, ``--jobs``) and peak memory (of the largest
+process; with ``--jobs`` also the peak of the sum over the build and its workers, sampled
+from ``/proc`` every 0.2 s); then the size of the build directory and of its parts, the size of
 the generated module (and of its data file), and the time a fresh interpreter takes to import
 the module and evaluate its first right-hand side. Each figure is printed next to its target
 and as a ratio to it::
 
     python benchmarks/bench_middle_ear_scale.py --dir me_r1 --refine 1
-    python benchmarks/bench_middle_ear_scale.py --dir me_r2 --refine 2 --no-generate
+    python benchmarks/bench_middle_ear_scale.py --dir me_r2 --refine 2 --jobs 2
 
 ``--keep`` reuses a finished build in DIR (only the sizes and the start-up are measured).
 Targets (of the refine-1 flagship): build ≤ 90 s CPU, data directory ≤ 60 MB, module ≤ 2 MB,
@@ -23,6 +25,7 @@ import json
 import resource
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -39,6 +42,38 @@ x = mod.INITIAL_STATE
 mod.rhs(0.0, x, p)
 print(json.dumps({"seconds": time.perf_counter() - t0}))
 """
+
+
+def _tree_rss(pid: int) -> int:
+    """Resident bytes of process ``pid`` and its descendants (Linux ``/proc``; 0 elsewhere)."""
+    total, todo = 0, [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            with open(f"/proc/{p}/statm") as fh:
+                total += int(fh.read().split()[1]) * resource.getpagesize()
+            with open(f"/proc/{p}/task/{p}/children") as fh:
+                todo += [int(c) for c in fh.read().split()]
+        except (OSError, ValueError):
+            continue
+    return total
+
+
+def _run_sampled(cmd: list[str]) -> tuple[subprocess.CompletedProcess, int]:
+    """Run ``cmd``; its result and the peak of the summed resident memory of its tree."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    peak = [0]
+
+    def sample() -> None:
+        while proc.poll() is None:
+            peak[0] = max(peak[0], _tree_rss(proc.pid))
+            time.sleep(0.2)
+
+    watcher = threading.Thread(target=sample, daemon=True)
+    watcher.start()
+    out, err = proc.communicate()
+    watcher.join()
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err), peak[0]
 
 
 def _size(path: Path) -> int:
@@ -59,6 +94,7 @@ def main() -> None:
     ap.add_argument("--keep", action="store_true", help="measure an existing build")
     ap.add_argument("--no-generate", action="store_true", help="build without the module")
     ap.add_argument("--pressures", default=None, help="working points (START:STOP:N)")
+    ap.add_argument("--jobs", type=int, default=1, help="processes of the snapshot solves")
     args = ap.parse_args()
     cpu_target, mem_target = TARGETS.get(args.refine, (None, None))
     rows = []
@@ -67,9 +103,10 @@ def main() -> None:
                str(args.dir), "--refine", str(args.refine), "-q"]
         cmd += ["--no-generate"] if args.no_generate else []
         cmd += [f"--pressures={args.pressures}"] if args.pressures else []
+        cmd += ["--jobs", str(args.jobs)]
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         wall = time.perf_counter()
-        done = subprocess.run(cmd, capture_output=True, text=True)
+        done, tree_peak = _run_sampled(cmd)
         wall = time.perf_counter() - wall
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         if done.returncode:
@@ -77,7 +114,8 @@ def main() -> None:
         cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
         rows += [_row("build CPU time", cpu, "s", cpu_target),
                  _row("build wall time", wall, "s", None),
-                 _row("build peak memory", after.ru_maxrss / 1e6, "GB", mem_target)]
+                 _row("build peak memory", after.ru_maxrss / 1e6, "GB", mem_target),
+                 _row("  summed over its processes", tree_peak / 1e9, "GB", mem_target)]
     record = json.loads((args.dir / "build.json").read_text())
     rows.append(_row("data directory", _size(args.dir) / 1e6, "MB",
                      60.0 if args.refine == 1 else None))
