@@ -154,17 +154,24 @@ def g_orthonormal(X: np.ndarray, G: sps.spmatrix, rtol: float,
         The basis (n, k) and the eigenvalues ``λ`` in decreasing order (the first ``k``
         belong to ``Q``'s columns).
     """
-    Xr = X[rows] if rows is not None else X
-    nonzero = np.flatnonzero(np.any(Xr != 0, axis=1))
-    rows = nonzero if rows is None else np.asarray(rows)[nonzero]
+    rows = np.arange(X.shape[0]) if rows is None else np.asarray(rows)
+    nonzero = np.zeros(rows.size, dtype=bool)
+    for start in range(0, X.shape[1], POD_CHUNK):          # column chunks: no full copy
+        nonzero |= np.any(X[rows, start:start + POD_CHUNK] != 0, axis=1)
+    rows = rows[nonzero]
     Xr = X[rows]
     Gr = sps.csr_matrix(G)[rows][:, rows]
-    GX = Gr @ Xr
-    norms = np.sqrt(np.maximum(np.einsum("ij,ij->j", Xr, GX), 0.0))
+    norms = np.empty(Xr.shape[1])
+    for start in range(0, Xr.shape[1], POD_CHUNK):
+        Xc = Xr[:, start:start + POD_CHUNK]
+        norms[start:start + POD_CHUNK] = np.einsum("ij,ij->j", Xc, Gr @ Xc)
+    norms = np.sqrt(np.maximum(norms, 0.0))
     ok = norms > 0
     if not ok.any():
         return np.zeros((X.shape[0], 0)), np.zeros(0)
-    Xr = Xr[:, ok] / norms[ok]
+    if not ok.all():
+        Xr = Xr[:, ok]
+    Xr /= norms[ok]                 # a copy of the rows already: scaled in place
     if rows.size < Xr.shape[1]:
         g, Qg = np.linalg.eigh(Gr.toarray())
         Y = (Qg * np.sqrt(np.maximum(g, 0.0))).T @ Xr

@@ -123,8 +123,10 @@ def _solves(fes: Sequence[FEModel], loads: Sequence[np.ndarray], f: np.ndarray,
         with ProcessPoolExecutor(max_workers=min(workers, len(fes)),
                                  mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = [pool.submit(sample_snapshots, *a) for a in args]
-            for i, future in enumerate(futures):
-                yield from future.result()
+            for i in range(len(futures)):
+                done, futures[i] = futures[i].result(), None     # held once, then released
+                yield from done
+                del done
                 _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
     finally:
         for k, v in saved.items():
