@@ -106,8 +106,9 @@ def pressure_sweep(
     out_dir
         If given, write (atomically, see :mod:`neweul_py.middle_ear.output`) ``model_dp±NNNNN.npz``
         per working point (the ``neweul-fe`` file with the optional ``static`` and ``loss``
-        groups of :mod:`neweul_py.elastic.io.working_point`; the working point nearest
-        ``Δp = 0`` complete, the others as delta files of it, or all as delta files of
+        groups of :mod:`neweul_py.elastic.io.working_point`; of the working points whose
+        matrices store the most entries the one nearest ``Δp = 0`` complete, the others as
+        delta files of it, or all as delta files of
         ``base``: docs/fe-file-format.md), ``static.csv``,
         ``static_displacements.npz`` (TM node displacements per working point) and
         ``sweep.json`` (and PNGs with ``plots``).
@@ -209,8 +210,14 @@ def _write_sweep(
 
     p = me.params
     names = [f"model_dp{s.load:+06.0f}.npz" for s in states]
-    # the working point nearest dp = 0 is the base of the others (unless one is given)
-    first = int(np.argmin([abs(s.load) for s in states])) if base is None else None
+    # the base of the others (unless one is given): of the working points whose matrices
+    # store the most entries, the one nearest dp = 0 (at dp = 0 the membrane's stress is
+    # zero, and at refine 2 a few entries cancel exactly and are not stored: a base with
+    # another pattern would leave the others' matrices whole in their deltas)
+    stored = [sum(getattr(fe, k).nnz for k in ("M", "K", "D", "G") if getattr(fe, k, None)
+                  is not None) for fe in models]
+    first = (min(range(len(states)), key=lambda i: (-stored[i], abs(states[i].load)))
+             if base is None else None)
     order = ([first] if first is not None else []) + [
         i for i in range(len(states)) if i != first]
 
