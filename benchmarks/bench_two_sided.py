@@ -48,7 +48,7 @@ import numpy as np
 
 from neweul_py.elastic import interpolate, read_fe_model, reduce_modal
 from neweul_py.elastic.io.body_files import save_parametric_body
-from neweul_py.elastic.parametric.snapshot_basis import basis_parametric_body
+from neweul_py.elastic.parametric.snapshot_basis import ProjectionCache, basis_parametric_body
 from neweul_py.middle_ear.build import BuildOptions, reduction_basis
 from neweul_py.middle_ear.embs import model_path, retarget, template
 from neweul_py.middle_ear.parameters import MiddleEarParameters
@@ -120,7 +120,7 @@ def main() -> None:
             slope_step=STEP, slope_static=tuple(static_states(where, [p + s * STEP for p in
                                                                       SAMPLES], manubrium)
                                                 for s in (-1, 1)),
-            interpolation="quintic-hermite", projections={})
+            interpolation="quintic-hermite", projections=ProjectionCache())
         bodies[name] = pb.with_(coordinate=coord, coordinate_name="volume_displacement_m3")
         cpu[name] = time.process_time() - t0
     t0 = time.process_time()
