@@ -30,6 +30,7 @@ import json
 import os
 import shutil
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -85,6 +86,9 @@ CURVE_STEP = 100.0
 #: further call of the FE sweep, named by what it holds (``fem_slopes``, ``fem_refine``, and
 #: ``fem_slopes_2`` … for later calls: a sweep directory is never solved again).
 SWEEP_GLOB = "fem*"
+#: The FE models a build keeps in memory [bytes] (at refine 2 about 50 MB each; a refinement
+#: reads 50–60 working points, of which the body of the last step needs about 40 at once).
+MODEL_CACHE_BYTES = 1e9
 
 Progress = Callable[..., None]
 
@@ -167,6 +171,12 @@ class BuildOptions:
             raise NeweulError(f"order: a positive number of directions, got {self.order!r}")
 
 
+def _model_bytes(fe: Any) -> int:
+    """Bytes of the sparse matrices of an FE model."""
+    return sum(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes
+               for m in (fe.M, fe.K, fe.D, fe.G) if m is not None)
+
+
 def _quiet(*_args: Any, **_kwargs: Any) -> None:
     """A progress hook that says nothing."""
 
@@ -177,7 +187,7 @@ class _Sweeps:
     def __init__(self, root: Path, options: BuildOptions, progress: Progress) -> None:
         self.root, self.options, self.progress = root, options, progress
         self.where: dict[float, Path] = {}
-        self.models: dict[float, Any] = {}
+        self.models: OrderedDict[float, Any] = OrderedDict()      # least recently used first
         for d in sorted(root.glob(SWEEP_GLOB)):
             record = d / "sweep.json"
             if record.is_file():
@@ -217,9 +227,16 @@ class _Sweeps:
             self.solve(name, new)
 
     def model(self, p: float) -> Any:
-        if p not in self.models:
-            self.models[p] = read_fe_model(model_path(self.where[p], p))
-        return self.models[p]
+        """The FE model of the working point ``p``, read once and kept while the models
+        kept take less than :data:`MODEL_CACHE_BYTES` (the least recently used go first)."""
+        if p in self.models:
+            self.models.move_to_end(p)
+            return self.models[p]
+        fe = self.models[p] = read_fe_model(model_path(self.where[p], p))
+        while len(self.models) > 1 and sum(map(_model_bytes, self.models.values())) \
+                > MODEL_CACHE_BYTES:
+            self.models.popitem(last=False)
+        return fe
 
 
 def _reuse(old: Path, tmp: Path, refine: int) -> None:
