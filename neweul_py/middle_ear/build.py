@@ -380,6 +380,13 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     progress(f"4/6 parametric body ({samples.size} working points)")
     body = body_of(samples, static=True)
     save_parametric_body(body, tmp / "embs" / "tm_air.npz")
+    made = {"interpolation_used": body.interpolation,
+            "static_residual": body.static.residual.tolist()}
+    # the FE models and projections are done with: free them before the module is generated
+    del fes, body
+    sweeps.models.clear()
+    projections.bodies.clear()
+    projections.base = None
     progress("5/6 description")
     text = retarget(template(), fem, manubrium, tmp / "embs" / "tm_air.npz",
                     tmp / "embs" / "chain_factor", where=tmp)
@@ -400,8 +407,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
         "snapshot_Hz": SNAPSHOT_HZ.tolist(), "manubrium": manubrium, "umbo": umbo,
         "body": "embs/tm_air.npz", "description": "middle_ear.yaml",
         "module": "generated/middle_ear.py" if options.generate else None,
-        "interpolation_used": body.interpolation,
-        "static_residual": body.static.residual.tolist(),
+        **made,
         "chain_tangent_N_per_m": tangent,
         "ligament_factor": [chain.ligament_factor(k) for k in tangent],
         "seconds": round(time.perf_counter() - t0, 1),
