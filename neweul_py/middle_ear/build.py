@@ -89,6 +89,9 @@ SWEEP_GLOB = "fem*"
 #: The FE models a build keeps in memory [bytes] (at refine 2 about 50 MB each; a refinement
 #: reads 50–60 working points, of which the body of the last step needs about 40 at once).
 MODEL_CACHE_BYTES = 1e9
+#: … and while the reduction basis is computed (all models of refine 1, four of refine 2:
+#: beside them the snapshot matrix, 1.5 GB at refine 2, and the workers' factorizations).
+BASIS_CACHE_BYTES = 2.5e8
 
 Progress = Callable[..., None]
 
@@ -188,6 +191,7 @@ class _Sweeps:
         self.root, self.options, self.progress = root, options, progress
         self.where: dict[float, Path] = {}
         self.models: OrderedDict[float, Any] = OrderedDict()      # least recently used first
+        self.cap = MODEL_CACHE_BYTES
         for d in sorted(root.glob(SWEEP_GLOB)):
             record = d / "sweep.json"
             if record.is_file():
@@ -228,15 +232,32 @@ class _Sweeps:
 
     def model(self, p: float) -> Any:
         """The FE model of the working point ``p``, read once and kept while the models
-        kept take less than :data:`MODEL_CACHE_BYTES` (the least recently used go first)."""
+        kept take less than ``self.cap`` bytes (the least recently used go first)."""
         if p in self.models:
             self.models.move_to_end(p)
             return self.models[p]
         fe = self.models[p] = read_fe_model(model_path(self.where[p], p))
         while len(self.models) > 1 and sum(map(_model_bytes, self.models.values())) \
-                > MODEL_CACHE_BYTES:
+                > self.cap:
             self.models.popitem(last=False)
         return fe
+
+
+class _Models(Sequence[Any]):
+    """The FE models of the working points ``points``, each read through the build's cache
+    (:meth:`_Sweeps.model`) when it is indexed: a list would hold them all at once (at
+    refine 2 a body with its slope models reads about 40), this holds none."""
+
+    def __init__(self, sweeps: _Sweeps, points: Sequence[float]) -> None:
+        self.sweeps, self.points = sweeps, [float(p) for p in points]
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def __getitem__(self, i: Any) -> Any:
+        if isinstance(i, slice):
+            return _Models(self.sweeps, self.points[i])
+        return self.sweeps.model(self.points[i])
 
 
 def _reuse(old: Path, tmp: Path, refine: int) -> None:
@@ -331,13 +352,15 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     params = MiddleEarParameters(**sweep["parameters"])
     manubrium = [int(i) for i in sweep["interface_nodes"]["manubrium"]]
     umbo = int(sweep["interface_nodes"]["umbo"])
-    fes = [sweeps.model(p) for p in pressures]
+    fes = _Models(sweeps, pressures)
     check_same_mesh(fes, pressures)
     progress("2/6 reduction basis")
     tag = "basis2" if options.basis == "two-sided" else "basis"
+    sweeps.cap = BASIS_CACHE_BYTES          # the snapshot matrix and the workers need the room
     V, W, energy = reduction_basis(fes, umbo, params.k_tm_manubrium,
                                    tmp / "embs" / f"{tag}_r{options.refine}_{options.rtol:g}.npz",
                                    options, progress)
+    sweeps.cap = MODEL_CACHE_BYTES
     step = float(options.slope_step)
     projections = ProjectionCache()         # each FE model projected on (V, W) once
 
@@ -346,14 +369,14 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
             return {}
         side = [[p + sign * step for p in pts] for sign in (-1.0, 1.0)]
         sweeps.need("fem_slopes", side[0] + side[1])
-        return {"slope_models": tuple([sweeps.model(p) for p in ps] for ps in side),
+        return {"slope_models": tuple(_Models(sweeps, ps) for ps in side),
                 "slope_step": step,
                 "slope_static": tuple(static_states(sweeps.where, ps, manubrium)
                                       for ps in side) if static else None}
 
     def body_of(points: Sequence[float], static: bool = False) -> Any:
         pts = [float(p) for p in points]
-        models = [sweeps.model(p) for p in pts]
+        models = _Models(sweeps, pts)
         check_same_mesh(models, pts)
         if len(pts) == 1:
             return build_reduced_body(models[0], V, V if W is None else W, "snapshot", {},

@@ -9,7 +9,7 @@ curvatures (§4.2) and the interpolation-coordinate table (§4.1).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -47,7 +47,7 @@ def bodies_stack(bodies: Sequence[ReducedBody], key: str) -> np.ndarray:
     return np.stack([b[key] for b in bodies])
 
 
-def model_sources(fes: Sequence[Any]) -> tuple[dict[str, Any], ...]:
+def model_sources(fes: Iterable[Any]) -> tuple[dict[str, Any], ...]:
     """``{"file", "fingerprint"}`` of each FE model (the :attr:`ParametricBody.slope_sources`
     of its slope models)."""
     return tuple({"file": fe.source, "fingerprint": fe.fingerprint} for fe in fes)

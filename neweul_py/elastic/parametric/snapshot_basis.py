@@ -28,9 +28,11 @@ body is the projection of the FE model itself.
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing
 import os
-from collections.abc import Iterator, Mapping, Sequence
+from collections import deque
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
@@ -99,6 +101,7 @@ def sample_snapshots(fe: FEModel, F: np.ndarray, adjoint: np.ndarray | None, f: 
         Y = None if adjoint is None else lu.solve(np.asarray(adjoint, dtype=complex),
                                                   transpose=True)
         out.append((X, Y, float(w)))
+        del lu                          # before the next factorization, not after it
     return out
 
 
@@ -110,24 +113,32 @@ def _solves(fes: Sequence[FEModel], loads: Sequence[np.ndarray], f: np.ndarray,
             extra_stiffness: sps.spmatrix | None, adjoint: Sequence[np.ndarray] | None,
             progress: Progress, workers: int
             ) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
-    args = [(fe, F, None if adjoint is None else adjoint[i], f, extra_stiffness)
-            for i, (fe, F) in enumerate(zip(fes, loads, strict=True))]
-    if workers == 1 or len(fes) == 1:
-        for i, a in enumerate(args):
-            yield from sample_snapshots(*a)
-            _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+    """The snapshots of sample after sample; ``fes[i]`` is taken only when sample ``i`` is
+    solved or sent to a worker (a lazy sequence of models is never held whole), and at most
+    ``workers + 1`` samples are in the pool at a time."""
+    def args(i: int) -> tuple[Any, ...]:
+        return (fes[i], loads[i], None if adjoint is None else adjoint[i], f, extra_stiffness)
+
+    n = len(fes)
+    if workers == 1 or n == 1:
+        for i in range(n):
+            yield from sample_snapshots(*args(i))
+            _say(progress, f"snapshots: sample {i + 1} of {n}")
         return
     saved = {k: os.environ.get(k) for k in _WORKER_ENV}
     os.environ.update(_WORKER_ENV)          # the spawned workers start with one BLAS thread
     try:
-        with ProcessPoolExecutor(max_workers=min(workers, len(fes)),
+        with ProcessPoolExecutor(max_workers=min(workers, n),
                                  mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(sample_snapshots, *a) for a in args]
-            for i in range(len(futures)):
-                done, futures[i] = futures[i].result(), None     # held once, then released
+            pending = deque(pool.submit(sample_snapshots, *args(i))
+                            for i in range(min(workers + 1, n)))
+            for i in range(n):
+                done = pending.popleft().result()
+                if i + len(pending) + 1 < n:
+                    pending.append(pool.submit(sample_snapshots, *args(i + len(pending) + 1)))
                 yield from done
-                del done
-                _say(progress, f"snapshots: sample {i + 1} of {len(fes)}")
+                del done                                      # held once, then released
+                _say(progress, f"snapshots: sample {i + 1} of {n}")
     finally:
         for k, v in saved.items():
             if v is None:
@@ -293,11 +304,13 @@ class ProjectionCache:
             self.base = (fe, body)
 
 
-def check_same_mesh(fes: Sequence[FEModel], samples: Sequence[float]) -> None:
+def check_same_mesh(fes: Iterable[FEModel], samples: Sequence[float]) -> None:
     """One :class:`DataError` naming the first sample whose nodes or DOFs differ from the
-    first sample's: the samples of a parametric body share one mesh (one ``V`` for all)."""
-    ref = fes[0]
+    first sample's: the samples of a parametric body share one mesh (one ``V`` for all).
+    ``fes`` is iterated once (a lazy sequence of models is not held whole)."""
+    ref = None
     for fe, p in zip(fes, samples, strict=True):
+        ref = fe if ref is None else ref
         if not (fe.n_dofs == ref.n_dofs and np.array_equal(fe.dof_node, ref.dof_node)
                 and np.array_equal(fe.dof_kind, ref.dof_kind)
                 and np.array_equal(fe.nodes, ref.nodes)):
@@ -372,7 +385,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
             raise DataError(f"one slope model on each side of each of the {s.size} samples, "
                             f"got {[len(m) for m in slope_models]}", None, "slopes")
         d = float(slope_step)
-        check_same_mesh([*fes, *slope_models[0], *slope_models[1]], [*s, *(s - d), *(s + d)])
+        check_same_mesh(itertools.chain(fes, *slope_models), [*s, *(s - d), *(s + d)])
     G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
     settings = {"order": int(V.shape[1])} | ({"two_sided": True} if two else {})
     bodies, states = [], []
@@ -417,7 +430,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
     slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
     where = {"slope_step": float(slope_step),
-             "slope_sources": model_sources([*slope_models[0], *slope_models[1]])}
+             "slope_sources": model_sources(itertools.chain(*slope_models))}
     if kind != "quintic-hermite":
         return pb.with_(interpolation="hermite", slopes=slopes, **where)
     return pb.with_(interpolation="quintic-hermite", slopes=slopes, **where,

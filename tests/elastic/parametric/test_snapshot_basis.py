@@ -9,13 +9,19 @@ piston (the structure's only DOF).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 from fe_builders import piston_duct
 
 from neweul_py.elastic.bodies.invariants import Invariants
-from neweul_py.elastic.parametric.snapshot_basis import basis_parametric_body, snapshot_basis
+from neweul_py.elastic.parametric.snapshot_basis import (
+    basis_parametric_body,
+    check_same_mesh,
+    snapshot_basis,
+)
 from neweul_py.elastic.quality.measures import second_order_poles
 from neweul_py.errors import DataError
 
@@ -168,7 +174,7 @@ def test_snapshots_solved_in_worker_processes_are_the_same(family) -> None:
     error before any solve."""
     from neweul_py.elastic.parametric.snapshot_basis import frequency_snapshots
 
-    fes = family[0]
+    fes = [*family[0], *family[0][:2]]     # five samples: more than the pool takes at once
     loads = [fe.B("force") for fe in fes]
     serial = list(frequency_snapshots(fes, loads, F_SNAP[:3]))
     parallel = list(frequency_snapshots(fes, loads, F_SNAP[:3], workers=2))
@@ -177,3 +183,35 @@ def test_snapshots_solved_in_worker_processes_are_the_same(family) -> None:
         assert w1 == w2 and np.array_equal(x1, x2)
     with pytest.raises(DataError, match="workers"):
         frequency_snapshots(fes, loads, F_SNAP, workers=0)
+
+
+class _Built(Sequence):
+    """FE models made when indexed (as a build reads its working points from disk)."""
+
+    def __init__(self, speeds):
+        self.speeds, self.taken = list(speeds), []
+
+    def __len__(self):
+        return len(self.speeds)
+
+    def __getitem__(self, i):
+        c = self.speeds[i]
+        self.taken.append(i)
+        return piston_duct(n_el=80, c=c, damping=3.0)
+
+
+def test_models_given_lazily_are_taken_when_used(family) -> None:
+    """A lazy sequence of FE models gives the same basis and body as a list, each model is
+    taken when its sample is solved or projected, and the mesh check walks it once
+    (reference: the body of the list in the fixture)."""
+    fes, V, body = family
+    lazy = _Built(SPEEDS)
+    check_same_mesh(iter(lazy), SPEEDS)
+    assert lazy.taken == [0, 1, 2]
+    V2, _ = snapshot_basis(lazy, [fe.B("force") for fe in fes], F_SNAP)
+    np.testing.assert_array_equal(V2, V)
+    b2 = basis_parametric_body(_Built(SPEEDS), V, SPEEDS, parameter="c", keep_nodes=[1])
+    np.testing.assert_allclose(b2.K, body.K, rtol=0, atol=1e-12 * np.abs(body.K).max())
+    other = [fes[0], piston_duct(n_el=60, c=SPEEDS[1], damping=3.0), fes[2]]
+    with pytest.raises(DataError, match=r"sample at 343 .*other nodes or DOFs"):
+        check_same_mesh((fe for fe in other), SPEEDS)
