@@ -260,6 +260,20 @@ class _Models(Sequence[Any]):
         return self.sweeps.model(self.points[i])
 
 
+def _sources_relative(body: Any, where: Path) -> Any:
+    """``body`` with the FE files of its sample and slope sources relative to ``where`` (the
+    body file's folder): the build's temporary directory is renamed when it is complete,
+    and a build moved as a whole still names its FE models (the same bytes in any ``DIR``)."""
+    def rel(source: Any) -> dict[str, Any]:
+        out = dict(source)
+        if out.get("file"):
+            out["file"] = Path(os.path.relpath(out["file"], where)).as_posix()
+        return out
+
+    return body.with_(sample_sources=tuple(map(rel, body.sample_sources)),
+                      slope_sources=tuple(map(rel, body.slope_sources)))
+
+
 def _reuse(old: Path, tmp: Path, refine: int) -> None:
     """Link the FE sweeps and the basis cache of a previous build ``old`` of the same
     refinement into ``tmp`` (hard links: no copy, and the old directory stays intact)."""
@@ -401,7 +415,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
                          params.k_tm_manubrium / len(manubrium),
                          lambda pts: sweeps.need("fem_refine", pts), progress)
     progress(f"4/6 parametric body ({samples.size} working points)")
-    body = body_of(samples, static=True)
+    body = _sources_relative(body_of(samples, static=True), tmp / "embs")
     save_parametric_body(body, tmp / "embs" / "tm_air.npz")
     made = {"interpolation_used": body.interpolation,
             "static_residual": body.static.residual.tolist()}

@@ -70,6 +70,20 @@ def test_a_moved_build_still_loads(small, tmp_path):
     assert "tm" in {b.name for b in load_description(moved / "middle_ear.yaml").elastic_bodies}
 
 
+def test_the_body_names_its_fe_models_relative_to_itself(small):
+    """Every sample and slope source of the body names an FE file that exists relative to
+    the body file's folder and has the recorded fingerprint (reference: the FE files read
+    back), never the build's temporary directory."""
+    body_file = small / "embs" / "tm_air.npz"
+    pb = load_parametric_body(body_file)
+    sources = [*pb.sample_sources, *pb.slope_sources]
+    assert len(sources) == 3 * 3
+    for src in sources:
+        assert not Path(src["file"]).is_absolute() and ".tmp" not in src["file"]
+        fe = read_fe_model(body_file.parent / src["file"])
+        assert fe.fingerprint == src["fingerprint"]
+
+
 def test_a_failed_build_leaves_the_previous_one(small, tmp_path):
     """A working point beyond the model's validity (200 kPa: the static solution leaves the
     air space) stops the build with one error; the previous complete build is untouched and
