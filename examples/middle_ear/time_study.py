@@ -3,7 +3,8 @@
 Run from the repository root after ``neweul middle-ear build --dir DATA``::
 
     python examples/middle_ear/time_study.py --dir DATA [--out DIR] [--t-ramp 0.35]
-        [--dp-peak 2000] [--f-tone 1000] [--steps-per-period 40] [--check-only]
+        [--dp-peak 2000] [--f-tone 1000] [--steps-per-period 40] [--backend c|numpy]
+        [--check-only]
 
 A tone ``Q = Q_amp sin(2π f t)`` in the canal while the static pressure difference goes
 ``Δp(t) = dp + dp_ramp sin²(π t / t_ramp)``: 0 → +2000 Pa → 0 in 350 ms (a middle-ear pressure
@@ -17,7 +18,8 @@ state are not taken. The README states how slow the ramp is against the tone and
 
 Steps:
 
-1. generation (cached by content: a second run skips it);
+1. generation, compiled by default (``--backend numpy``: the NumPy module; cached by content:
+   a second run skips it);
 2. **check** at constant Δp (``dp_ramp = 0``): from the steady state of the linearized module
    at ``t = 0`` (``x₀`` from the FRF), ``--check-periods`` periods; the amplitude of the last
    period (lock-in at the tone) of the umbo velocity and the probe pressure against
@@ -73,8 +75,9 @@ def ramp_description(data: Path) -> str:
     return head + "\ncoordinates:" + body
 
 
-def ramp_module(data: Path, out: Path):
-    """The generated ramp module (progress on stderr; cached by content in ``out/cache``)."""
+def ramp_module(data: Path, out: Path, backend: str = "numpy"):
+    """The generated ramp module, NumPy or compiled (``backend``: ``"numpy"`` or ``"c"``;
+    progress on stderr; cached by content in ``out/cache``)."""
     out.mkdir(parents=True, exist_ok=True)
     desc = out / "middle_ear_ramp.yaml"
     text = ramp_description(data)
@@ -82,7 +85,7 @@ def ramp_module(data: Path, out: Path):
         desc.write_text(text)
     with Tracker("generate") as track:
         return load_generated(generate(desc, out / "generated", progress=track,
-                                       cache=out / "cache"))
+                                       cache=out / "cache", backend=backend))
 
 
 def parameters(mod, **values: float) -> np.ndarray:
@@ -240,6 +243,8 @@ def main() -> None:
                     help="spectral radius at infinity (default 0.5, the value the README's "
                     "measurements use; 0.8 converges too since the per-state tolerances)")
     ap.add_argument("--method", default="generalized-alpha")
+    ap.add_argument("--backend", choices=("c", "numpy"), default="c",
+                    help="the generated module: compiled (default; needs a C compiler) or NumPy")
     ap.add_argument("--check-periods", type=int, default=10,
                     help="periods of the check at constant dp (default 10)")
     ap.add_argument("--check-only", action="store_true",
@@ -251,7 +256,7 @@ def main() -> None:
     f, spp = args.f_tone, args.steps_per_period
     wall = time.perf_counter()
     t0 = time.perf_counter()
-    mod = ramp_module(args.dir, out)
+    mod = ramp_module(args.dir, out, args.backend)
     t_gen = time.perf_counter() - t0
     print(f"module: {mod.STATE_SIZE} states, generated/loaded in {t_gen:.0f} s", flush=True)
     lines = ["# Middle-ear EMBS time study (examples/middle_ear/time_study.py)", "",
