@@ -55,7 +55,8 @@ differences, with the samples themselves, give the curvatures of ``quintic-hermi
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import itertools
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sps
@@ -109,10 +110,13 @@ CHUNK_RTOL = 1e-14
 
 def energy_metric(fes: Sequence[FEModel]) -> sps.csr_matrix:
     """``G = blockdiag(K̄s, M̄f/ρ)`` on the u and p DOFs (module docstring), sparse SPD."""
-    kinds = fes[0].dof_kind
+    K = M = first = None
+    for fe in fes:                      # one pass: a lazy sequence reads each model once
+        K, M = (fe.K, fe.M) if K is None else (K + fe.K, M + fe.M)
+        first = fe if first is None else first
+    K, M = K / len(fes), M / len(fes)
+    kinds = first.dof_kind
     is_p = kinds == "p"
-    K = sum(fe.K for fe in fes) / len(fes)
-    M = sum(fe.M for fe in fes) / len(fes)
     if is_p.all():
         return sps.csr_matrix(M)
     u = sps.diags((~is_p).astype(float))
@@ -125,9 +129,9 @@ def energy_metric(fes: Sequence[FEModel]) -> sps.csr_matrix:
         if np.any(Ks.diagonal() <= 0):
             G = 0.5 * (M + M.T)
         return sps.csr_matrix(G)
-    rho = fes[0].density
+    rho = first.density
     if not rho or rho <= 0:
-        raise DataError("the u–p energy metric needs the fluid density", fes[0].source,
+        raise DataError("the u–p energy metric needs the fluid density", first.source,
                         "density")
     Mf = p @ M @ p
     return sps.csr_matrix(Ks + 0.5 * (Mf + Mf.T) / rho)
@@ -256,11 +260,12 @@ def global_bases(fes: Sequence[FEModel], bodies: Sequence[ReducedBody],
     return V, V, energy
 
 
-def check_same_models(fes: Sequence[FEModel], what: str = "FE model") -> None:
+def check_same_models(fes: Iterable[FEModel], what: str = "FE model") -> None:
     """One DOF map and one set of inputs/outputs for all ``fes``; otherwise a
     :class:`DataError` naming the first model that differs."""
-    ref = fes[0]
-    for i, fe in enumerate(fes[1:], start=2):
+    it = iter(fes)
+    ref = next(it, None)
+    for i, fe in enumerate(it, start=2):
         if (fe.n_dofs != ref.n_dofs or not np.array_equal(fe.dof_node, ref.dof_node)
                 or not np.array_equal(fe.dof_kind, ref.dof_kind)):
             raise DataError(f"{what} {i} ({fe.source or fe.name}) has another DOF map than "
@@ -386,7 +391,8 @@ def global_slopes(fes: Sequence[FEModel], minus: Sequence[FEModel], plus: Sequen
                         f"FE static states (sample_statics, {k}), projected like those of "
                         "the slope models", None, "static")
     V, W = gb[0].V, gb[0].W
-    check_same_models([*fes, *minus, *plus], "FE model (samples, then slope models)")
+    check_same_models(itertools.chain(fes, minus, plus),
+                      "FE model (samples, then slope models)")
     G = energy_metric(fes) if statics is not None else None
 
     def projected(fe: FEModel, i: int, state: Mapping | None) -> ReducedBody:
@@ -501,6 +507,6 @@ def global_parametric_body(fes: Sequence[FEModel], bodies: Sequence[ReducedBody]
         sample_settings=tuple(b.settings for b in gb), slopes=slopes,
         curvatures=curvatures,
         slope_step=None if slopes is None else float(slope_step),
-        slope_sources=() if slopes is None else model_sources([*slope_models[0],
-                                                               *slope_models[1]]),
+        slope_sources=() if slopes is None else model_sources(
+            itertools.chain(*slope_models)),
     )

@@ -49,7 +49,7 @@ from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, build_reduced_body
 from ..reductors.static_state import static_deflection
 from .global_basis import energy_metric, g_orthonormal
-from .samples import central_curvatures, central_slopes, hermite_kind, model_sources, stacked_loss
+from .samples import central_curvatures, central_slopes, hermite_kind, stacked_loss
 
 __all__ = ["ProjectionCache", "basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
            "frequency_snapshots", "sample_snapshots", "snapshot_basis"]
@@ -366,8 +366,11 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         raise DataError("need at least two increasing sample values, one per FE model",
                         None, "samples")
     check_same_mesh(fes, s)
-    if V.shape[0] != fes[0].n_dofs:
-        raise DataError(f"the basis has {V.shape[0]} rows for FE models of {fes[0].n_dofs} DOFs",
+    first = fes[0]                      # once: a lazy sequence reads a model per access
+    n_dofs, dof_kind = first.n_dofs, first.dof_kind
+    del first
+    if V.shape[0] != n_dofs:
+        raise DataError(f"the basis has {V.shape[0]} rows for FE models of {n_dofs} DOFs",
                         None, "V")
     two = W is not None
     if two and W.shape != V.shape:
@@ -415,7 +418,7 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         T=eye, L=eye, R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
         two_sided=two, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
-        V=None, W=None, full_dof_kind=fes[0].dof_kind, invariants=inv,
+        V=None, W=None, full_dof_kind=dof_kind, invariants=inv,
         interpolation=kind if slope_models is None else "cubic",
         sample_sources=tuple(dict(b.source) for b in bodies),
         sample_methods=("snapshot",) * k, sample_settings=tuple(b.settings for b in bodies),
@@ -429,8 +432,9 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                                   progress=progress, projections=projections)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
     slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
-    where = {"slope_step": float(slope_step),
-             "slope_sources": model_sources(itertools.chain(*slope_models))}
+    where = {"slope_step": float(slope_step),      # the sources the side bodies recorded:
+             "slope_sources": tuple({"file": x["file"], "fingerprint": x["fingerprint"]}
+                                    for b in side for x in b.sample_sources)}
     if kind != "quintic-hermite":
         return pb.with_(interpolation="hermite", slopes=slopes, **where)
     return pb.with_(interpolation="quintic-hermite", slopes=slopes, **where,

@@ -204,14 +204,27 @@ def test_models_given_lazily_are_taken_when_used(family) -> None:
     """A lazy sequence of FE models gives the same basis and body as a list, each model is
     taken when its sample is solved or projected, and the mesh check walks it once
     (reference: the body of the list in the fixture)."""
+    from neweul_py.elastic.parametric.snapshot_basis import frequency_snapshots
+
     fes, V, body = family
     lazy = _Built(SPEEDS)
     check_same_mesh(iter(lazy), SPEEDS)
     assert lazy.taken == [0, 1, 2]
     V2, _ = snapshot_basis(lazy, [fe.B("force") for fe in fes], F_SNAP)
     np.testing.assert_array_equal(V2, V)
-    b2 = basis_parametric_body(_Built(SPEEDS), V, SPEEDS, parameter="c", keep_nodes=[1])
+    # the solves take a model when its sample is solved, in processes at most workers + 1
+    # ahead of the snapshots handed out (a list made of the sequence would take all five)
+    speeds = (300.0, 320.0, 343.0, 360.0, 390.0)
+    for workers, ahead in ((1, 1), (2, 4)):
+        lazy = _Built(speeds)
+        snaps = frequency_snapshots(lazy, [fes[0].B("force")] * 5, F_SNAP[:2], workers=workers)
+        next(snaps)
+        assert lazy.taken == list(range(ahead))
+        assert len(list(snaps)) == 2 * 5 - 1 and lazy.taken == [0, 1, 2, 3, 4]
+    lazy = _Built(SPEEDS)
+    b2 = basis_parametric_body(lazy, V, SPEEDS, parameter="c", keep_nodes=[1])
     np.testing.assert_allclose(b2.K, body.K, rtol=0, atol=1e-12 * np.abs(body.K).max())
+    assert lazy.taken == [0, 1, 2, 0, 0, 1, 2]    # the mesh, its DOFs, each projection
     other = [fes[0], piston_duct(n_el=60, c=SPEEDS[1], damping=3.0), fes[2]]
     with pytest.raises(DataError, match=r"sample at 343 .*other nodes or DOFs"):
         check_same_mesh((fe for fe in other), SPEEDS)
