@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import os
 import sys
 import time
 
@@ -130,7 +131,7 @@ def _models(args: argparse.Namespace, bodies: list) -> list:
         raise NeweulError(f"--models has {len(args.models)} files for {len(bodies)} bodies")
     fes = []
     for i, (path, body) in enumerate(zip(args.bodies, bodies, strict=True)):
-        model = args.models[i] if args.models else body.source.get("file")
+        model = args.models[i] if args.models else _recorded_model(path, body)
         if not model:
             raise DataError("the body records no FE model file: give --models (or use "
                             "--method local)", path, "source")
@@ -250,6 +251,18 @@ def _slope_models(files: list[str], bodies: list, values, step: float
     return (fes[0::2], fes[1::2]), ((states[0::2], states[1::2]) if need else None)
 
 
+def _recorded_model(path: str, body: object) -> str | None:
+    """The FE model file the body at ``path`` records (``source.file``): as written, or, when
+    that is relative and not there, relative to the body file's folder (a body of a
+    parametric one names its models so; docs/reduced-body-format.md)."""
+    model = body.source.get("file")  # type: ignore[attr-defined]
+    if model and not os.path.isabs(model) and not os.path.exists(model):
+        near = os.path.join(os.path.dirname(path), model)
+        if os.path.exists(near):
+            return near
+    return model
+
+
 def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
     """The samples' own FE static states (their working-point files: ``--models`` or the
     files the bodies record), for the curvatures of their static states — projected like
@@ -260,7 +273,7 @@ def _sample_statics(args: argparse.Namespace, bodies: list) -> list:
 
     out = []
     for i, body in enumerate(bodies):
-        path = args.models[i] if args.models else body.source.get("file")
+        path = args.models[i] if args.models else _recorded_model(args.bodies[i], body)
         kept = {int(n) for n in body.nodes[:, 0]}
         out.append(static_loads(path, kept))
         if out[-1] is None:

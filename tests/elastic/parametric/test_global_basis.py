@@ -151,6 +151,26 @@ def test_cli_interpolate_global_and_frf_body(tmp_path, capsys):
     assert "--basis and --weights apply to --method local only" in capsys.readouterr().err
 
 
+def test_cli_interpolate_finds_models_next_to_the_bodies(tmp_path, monkeypatch):
+    """Bodies reduced in their own folder record their FE models by a relative name; run from
+    another folder, `interpolate` finds them next to the bodies (docs/reduced-body-format.md;
+    reference: the same interpolation run in the bodies' folder)."""
+    d = tmp_path / "bodies"
+    d.mkdir()
+    monkeypatch.chdir(d)
+    for i, p in enumerate(SAMPLES):
+        write_fe_model(fe_at(p), d / f"m{i}.npz")
+        assert main(["reduce", f"m{i}.npz", "--modes", "20", "--static-correction",
+                     "--store-bases", "-o", f"b{i}.npz"]) == 0
+    args = ["--parameter", "p", "--values", "0,0.2,0.4", "-o"]
+    assert main(["interpolate", *[f"b{i}.npz" for i in range(3)], *args, "here.npz"]) == 0
+    monkeypatch.chdir(tmp_path)
+    assert main(["interpolate", *[f"bodies/b{i}.npz" for i in range(3)], *args,
+                 "there.npz"]) == 0
+    np.testing.assert_array_equal(load_parametric_body(tmp_path / "there.npz").K,
+                                  load_parametric_body(d / "here.npz").K)
+
+
 def test_invariants_follow_the_global_basis():
     """Bodies with invariants: every sample's invariants are those that compute_invariants
     gives for its FE model and the global basis (independent recomputation here), and the
