@@ -3,7 +3,7 @@
 Run from the repository root after ``neweul middle-ear build --dir DATA``::
 
     python examples/middle_ear/time_study.py --dir DATA [--out DIR] [--t-ramp 0.35]
-        [--dp-peak 2000] [--f-tone 1000] [--steps-per-period 40] [--backend c|numpy]
+        [--dp-peak 2000] [--f-tone 1000] [--steps-per-period 100] [--backend c|numpy]
         [--check-only]
 
 A tone ``Q = Q_amp sin(2π f t)`` in the canal while the static pressure difference goes
