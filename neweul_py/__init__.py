@@ -15,18 +15,7 @@ from .errors import (
     NeweulError,
     SolverError,
 )
-
-
-def _installed_version() -> str:
-    """The version of the installed distribution (its metadata, set from pyproject.toml);
-    ``0+unknown`` when the package runs from a tree that was never installed."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("neweul-py")
-    except PackageNotFoundError:
-        return "0+unknown"
-
+from .version import installed_version
 
 if TYPE_CHECKING:
     from .api import load_description
@@ -40,7 +29,7 @@ _LAZY = {"SystemBuilder": ".description", "load_description": ".api"}
 
 def __getattr__(name: str) -> Any:
     if name == "__version__":  # read once, when asked: importlib.metadata costs ~50 ms
-        value = globals()["__version__"] = _installed_version()
+        value = globals()["__version__"] = installed_version()
         return value
     if name in _LAZY:
         import importlib

@@ -29,6 +29,7 @@ from .cache import (
 from .errors import DescriptionError, ModelError, NeweulError
 from .files import MAX_DESCRIPTION_BYTES, read_checked
 from .progress import StagedProgress
+from .version import installed_version
 from .yaml_tree import YamlTree, read_description
 
 if TYPE_CHECKING:
@@ -727,7 +728,6 @@ def export_fmu(
     """
     import numpy as np
 
-    from . import __version__
     from .codegen.fmu import binary_platform, find_compiler, write_fmu
     from .codegen.fmu_model import KINDS, export_problems, fmu_model
     from .description import load_description_text
@@ -757,7 +757,7 @@ def export_fmu(
                           f"{module.MODEL_NAME} has none")
     model = fmu_model(system, constants, x0, module.default_inputs(0.0, p0), dependent)
     return write_fmu(entry.equations(), model, out, KINDS[kind],
-                     tool=f"neweul-py {__version__}", progress=progress)
+                     tool=f"neweul-py {installed_version()}", progress=progress)
 
 
 def _consistent_start(module: Any, independent: Sequence[str] | None) -> tuple[Any, tuple]:

@@ -103,9 +103,9 @@ class _VersionAction(argparse.Action):
                          help=help or "show the version (from the package metadata) and exit")
 
     def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[override]
-        from . import __version__
+        from .version import installed_version
 
-        print(f"neweul {__version__}")
+        print(f"neweul {installed_version()}")
         parser.exit()
 
 
