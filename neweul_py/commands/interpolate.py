@@ -23,6 +23,7 @@ import functools
 import os
 import sys
 import time
+from typing import Any
 
 from ..errors import NeweulError
 from . import common as shared
@@ -251,11 +252,11 @@ def _slope_models(files: list[str], bodies: list, values, step: float
     return (fes[0::2], fes[1::2]), ((states[0::2], states[1::2]) if need else None)
 
 
-def _recorded_model(path: str, body: object) -> str | None:
+def _recorded_model(path: str, body: Any) -> str | None:
     """The FE model file the body at ``path`` records (``source.file``): as written, or, when
     that is relative and not there, relative to the body file's folder (a body of a
     parametric one names its models so; docs/reduced-body-format.md)."""
-    model = body.source.get("file")  # type: ignore[attr-defined]
+    model = body.source.get("file")
     if model and not os.path.isabs(model) and not os.path.exists(model):
         near = os.path.join(os.path.dirname(path), model)
         if os.path.exists(near):

@@ -37,7 +37,7 @@ from ...errors import DataError
 from ...files import MAX_DATA_BYTES, check_npz, read_checked
 from .npz import json_from_uint8, json_to_uint8, save_npz_deterministic
 
-__all__ = ["PATCH_POS", "PATCH_VAL", "base_name", "check_base", "delta_arrays", "file_sha256",
+__all__ = ["PATCH_POS", "PATCH_VAL", "base_name", "check_base", "delta_arrays",
            "merge_delta", "write_fe_arrays"]
 
 #: Prefixes of the two arrays of a patched array ``<name>`` in a delta file.
@@ -48,15 +48,6 @@ _HEX64 = re.compile(r"[0-9a-f]{64}")
 COMPLETE_RATIO = 2.0
 #: The same for a delta file, whose members are small: everything that shrinks by a fifth.
 DELTA_RATIO = 1.25
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """The SHA-256 (hex) of the bytes of ``path``."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def base_name(delta: str | os.PathLike, base: str | os.PathLike) -> str:

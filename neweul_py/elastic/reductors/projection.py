@@ -87,7 +87,8 @@ def project(
 def _difference_projection(V: np.ndarray, W: np.ndarray, dx: sps.csr_matrix) -> np.ndarray:
     """``Wᵀ ΔX V`` on the nonzero rows and columns of the sparse ``ΔX`` only."""
     dx.eliminate_zeros()
-    rows, cols = np.unique(dx.nonzero()[0]), np.unique(dx.nonzero()[1])
+    nz_rows, nz_cols = dx.nonzero()
+    rows, cols = np.unique(nz_rows), np.unique(nz_cols)
     if rows.size == 0:
         return np.zeros((W.shape[1], V.shape[1]))
     block = dx[rows][:, cols]
