@@ -72,14 +72,21 @@ __all__ = ["BASES", "BUILD_RECORD", "BuildOptions", "build", "reduction_basis"]
 
 #: The record of a build (written last: a directory holding it is complete).
 BUILD_RECORD = "build.json"
-#: Frequencies of the snapshots of the reduction basis [Hz]: 20 Hz, 10 from 100 Hz to 8 kHz,
-#: and 5.5 and 6.5 kHz, where the band checked ends (docs/equations-middle-ear.md §7).
-SNAPSHOT_HZ = np.sort(np.r_[20.0, np.geomspace(100.0, 8000.0, 10), 5500.0, 6500.0])
+#: Frequencies of the snapshots of the Galerkin basis [Hz], each with its first derivative in
+#: ``ω`` (:data:`SNAPSHOT_MOMENTS`; Hermite interpolation, one sparse LU per working point and
+#: frequency serves both): 7 from 20 Hz to 6.5 kHz, where the band checked ends
+#: (docs/equations-middle-ear.md, "Choice of reduction").
+SNAPSHOT_HZ = np.array([20.0, 100.0, 300.0, 800.0, 2000.0, 4000.0, 6500.0])
+#: Snapshots per frequency of the Galerkin basis: the response and its first derivative.
+SNAPSHOT_MOMENTS = 2
+#: Frequencies of the snapshots of the two-sided basis [Hz] (responses only): 20 Hz, 10 from
+#: 100 Hz to 8 kHz, and 5.5 and 6.5 kHz.
+BALANCED_HZ = np.sort(np.r_[20.0, np.geomspace(100.0, 8000.0, 10), 5500.0, 6500.0])
 #: The reduction bases of ``neweul middle-ear build --basis`` (:func:`reduction_basis`) and
 #: their default relative cut ``rtol``: of the singular values of the balanced pairing
 #: (two-sided), of the POD energy (Galerkin); accuracy of both in docs/equations-middle-ear.md,
 #: "Choice of reduction" (benchmarks/bench_two_sided.py).
-BASES = {"two-sided": 1e-10, "galerkin": 1e-8}
+BASES = {"two-sided": 1e-10, "galerkin": 5e-9}
 #: Step of the static curve of the volume coordinate [Pa].
 CURVE_STEP = 100.0
 #: The sweep directories of a build: ``fem`` (the working points asked for), then one per
@@ -301,7 +308,8 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
                     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
     """The reduction bases ``V``, ``W`` of the TM + air body (``W`` ``None``: ``W = V``) and
     the weight of each direction, from full FE responses of every working point at
-    :data:`SNAPSHOT_HZ` (:func:`~neweul_py.middle_ear.sampling.interface_loads`): primal to
+    :data:`SNAPSHOT_HZ` with their first derivatives (Galerkin) or at :data:`BALANCED_HZ`
+    (two-sided) (:func:`~neweul_py.middle_ear.sampling.interface_loads`): primal to
     the canal source and the six rigid malleus motions seen through the TM–manubrium
     springs, adjoint to the probe pressure, the umbo and the malleus loads.
 
@@ -313,7 +321,8 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
     ``"galerkin"`` — one basis of both, POD-compressed per u/p block in the energy norms
     (:func:`~neweul_py.elastic.parametric.snapshot_basis.snapshot_basis`), weights the POD
     energies (docs/equations-middle-ear.md, "Choice of reduction"). Cached in ``cache``;
-    a Galerkin basis is extended by the missing frequencies, a two-sided one rebuilt."""
+    a Galerkin basis is extended by the missing frequencies (a cache of other moments is
+    solved anew), a two-sided one rebuilt."""
     Kx, F, Cadj = interface_loads(fes[0], umbo, k_attach)
     n = len(fes)
 
@@ -323,29 +332,33 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
         else:
             progress(m)
 
+    two = options.basis == "two-sided"
+    freqs, moments = (BALANCED_HZ, 1) if two else (SNAPSHOT_HZ, SNAPSHOT_MOMENTS)
     done, prior, W = np.zeros(0), None, None
     if cache.is_file():
         with np.load(cache) as z:
-            V, energy, done = z["V"], z["energy"], z["freqs"]
-            W = z["W"] if "W" in z.files else None
-        prior = V
-    todo = np.array([f for f in SNAPSHOT_HZ if not np.any(np.isclose(f, done))])
-    two = options.basis == "two-sided"
+            cached = int(z["moments"]) if "moments" in z.files else 1
+            if cached == moments:           # else solved anew
+                V, energy, done = z["V"], z["energy"], z["freqs"]
+                W = z["W"] if "W" in z.files else None
+                prior = V
+    todo = np.array([f for f in freqs if not np.any(np.isclose(f, done))])
     if todo.size and two:
-        b = balanced_snapshot_basis(fes, [F] * n, [Cadj] * n, SNAPSHOT_HZ, Kx,
+        b = balanced_snapshot_basis(fes, [F] * n, [Cadj] * n, freqs, Kx,
                                     rtol=options.rtol, progress=say,
                                     pairs=[zero_mode_pairs(fe) for fe in fes],
                                     workers=options.jobs)
         V, W, energy = b.V, b.W, b.singular_values[:b.order] ** 2
-        todo = SNAPSHOT_HZ
+        todo = freqs
     elif todo.size:
         V, energy = snapshot_basis(fes, [F] * n, todo, Kx, rtol=options.rtol, prior=prior,
-                                   adjoint=[Cadj] * n, progress=say, workers=options.jobs)
+                                   adjoint=[Cadj] * n, progress=say, workers=options.jobs,
+                                   moments=moments)
     if todo.size:
-        freqs = np.union1d(done, todo)
+        solved = np.union1d(done, todo)
         cache.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(cache, lambda fh: np.savez(fh, V=V, energy=energy, freqs=freqs,
-                                                **({"W": W} if two else {})))
+        atomic_write(cache, lambda fh: np.savez(fh, V=V, energy=energy, freqs=solved,
+                                                moments=moments, **({"W": W} if two else {})))
     k = options.order
     return V[:, :k], (W[:, :k] if two else None), energy[:k]
 
@@ -440,7 +453,9 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
         **dataclasses.asdict(options),
         "pressures": pressures, "order": int(V.shape[1]), "two_sided": W is not None,
         "samples_Pa": samples.tolist(),
-        "snapshot_Hz": SNAPSHOT_HZ.tolist(), "manubrium": manubrium, "umbo": umbo,
+        "snapshot_Hz": (BALANCED_HZ if W is not None else SNAPSHOT_HZ).tolist(),
+        "snapshot_moments": 1 if W is not None else SNAPSHOT_MOMENTS,
+        "manubrium": manubrium, "umbo": umbo,
         "body": "embs/tm_air.npz", "description": "middle_ear.yaml",
         "module": "generated/middle_ear.py" if options.generate else None,
         **made,

@@ -64,7 +64,7 @@ def frequency_snapshots(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                         freqs_hz: Sequence[float],
                         extra_stiffness: sps.spmatrix | None = None,
                         adjoint: Sequence[np.ndarray] | None = None,
-                        progress: Progress = None, workers: int = 1
+                        progress: Progress = None, workers: int = 1, moments: int = 1
                         ) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
     """The primal and adjoint frequency-response snapshots of every sample (module
     docstring), sample by sample, frequency by frequency: ``(X_ij, Y_ij, ω_j)`` with
@@ -76,6 +76,8 @@ def frequency_snapshots(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
     sets that is not one per FE model, or a frequency that is not positive and finite, is a
     :class:`DataError` before any solve. ``workers > 1``: the samples are solved in that many
     processes (one BLAS thread each), the snapshots come in the same order and are the same.
+    ``moments`` (1, 2 or 3): per frequency the snapshots and their first ``moments − 1``
+    scaled derivatives in ``ω`` (:func:`sample_snapshots`), in that order.
     """
     if len(loads) != len(fes) or (adjoint is not None and len(adjoint) != len(fes)):
         raise DataError(f"{len(loads)} load sets for {len(fes)} FE models", None, "loads")
@@ -85,13 +87,25 @@ def frequency_snapshots(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
     if int(workers) < 1:
         raise DataError(f"workers: a positive number of processes, got {workers!r}", None,
                         "workers")
-    return _solves(fes, loads, f, extra_stiffness, adjoint, progress, int(workers))
+    if int(moments) not in (1, 2, 3):
+        raise DataError(f"moments: 1, 2 or 3 per frequency, got {moments!r}", None, "moments")
+    return _solves(fes, loads, f, extra_stiffness, adjoint, progress, int(workers),
+                   int(moments))
 
 
 def sample_snapshots(fe: FEModel, F: np.ndarray, adjoint: np.ndarray | None, f: np.ndarray,
-                     extra_stiffness: sps.spmatrix | None
+                     extra_stiffness: sps.spmatrix | None, moments: int = 1
                      ) -> list[tuple[np.ndarray, np.ndarray | None, float]]:
-    """The snapshots ``(X_j, Y_j, ω_j)`` of one sample (:func:`frequency_snapshots`)."""
+    """The snapshots ``(X_j, Y_j, ω_j)`` of one sample (:func:`frequency_snapshots`); with
+    ``moments = 2`` or ``3`` after each also its scaled derivatives in ``ω`` from the same
+    factorization (Hermite interpolation, Baur et al. 2011, §3)::
+
+        ω X′ = −ω A⁻¹ A′ X,       ω² X″/2 = −ω² A⁻¹ (A′ X′ + ½ A″ X),
+        A′ = iD − 2ωM,            A″ = −2M
+
+    and likewise ``Y`` with ``Aᵀ`` (a projection whose space holds ``X`` and its first
+    ``m − 1`` derivatives at ``ω_j`` matches the transfer function and as many derivatives
+    there)."""
     K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
     D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
     out = []
@@ -101,6 +115,15 @@ def sample_snapshots(fe: FEModel, F: np.ndarray, adjoint: np.ndarray | None, f: 
         Y = None if adjoint is None else lu.solve(np.asarray(adjoint, dtype=complex),
                                                   transpose=True)
         out.append((X, Y, float(w)))
+        if moments > 1:
+            A1 = sps.csr_matrix(1j * D - 2 * w * fe.M, dtype=complex)
+            X1 = -lu.solve(A1 @ X)
+            Y1 = None if Y is None else -lu.solve(A1.T @ Y, transpose=True)
+            out.append((w * X1, None if Y is None else w * Y1, float(w)))
+            if moments > 2:
+                X2 = -lu.solve(A1 @ X1 - fe.M @ X)
+                Y2 = None if Y is None else -lu.solve(A1.T @ Y1 - fe.M.T @ Y, transpose=True)
+                out.append((w * w * X2, None if Y is None else w * w * Y2, float(w)))
         del lu                          # before the next factorization, not after it
     return out
 
@@ -111,13 +134,14 @@ _WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THR
 
 def _solves(fes: Sequence[FEModel], loads: Sequence[np.ndarray], f: np.ndarray,
             extra_stiffness: sps.spmatrix | None, adjoint: Sequence[np.ndarray] | None,
-            progress: Progress, workers: int
+            progress: Progress, workers: int, moments: int = 1
             ) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
     """The snapshots of sample after sample; ``fes[i]`` is taken only when sample ``i`` is
     solved or sent to a worker (a lazy sequence of models is never held whole), and at most
     ``workers + 1`` samples are in the pool at a time."""
     def args(i: int) -> tuple[Any, ...]:
-        return (fes[i], loads[i], None if adjoint is None else adjoint[i], f, extra_stiffness)
+        return (fes[i], loads[i], None if adjoint is None else adjoint[i], f, extra_stiffness,
+                moments)
 
     n = len(fes)
     if workers == 1 or n == 1:
@@ -153,7 +177,7 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
                    progress: Progress = None,
                    prior: np.ndarray | None = None,
                    adjoint: Sequence[np.ndarray] | None = None,
-                   workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                   workers: int = 1, moments: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """The G-orthonormal, u/p block-diagonal snapshot basis (module docstring).
 
     Parameters
@@ -183,6 +207,9 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
         by further frequencies without solving the old ones again.
     workers
         Processes solving the samples (:func:`frequency_snapshots`).
+    moments
+        Snapshots per frequency: the response and its first ``moments − 1`` derivatives in
+        ``ω`` (:func:`sample_snapshots`; one factorization serves them all).
 
     Returns
     -------
@@ -194,12 +221,13 @@ def snapshot_basis(fes: Sequence[FEModel], loads: Sequence[np.ndarray],
              + (np.asarray(adjoint[i]).reshape(n, -1).shape[1] if adjoint is not None else 0)
              for i, F in enumerate(loads)]
     first = 0 if prior is None else np.asarray(prior).shape[1]
-    S = np.empty((n, first + 2 * len(freqs_hz) * sum(width)))   # filled in place: one copy
+    # filled in place: one copy
+    S = np.empty((n, first + 2 * int(moments) * len(freqs_hz) * sum(width)))
     if prior is not None:
         S[:, :first] = prior
     col = first
     for X, Y, _w in frequency_snapshots(fes, loads, freqs_hz, extra_stiffness, adjoint,
-                                        progress, workers):
+                                        progress, workers, moments):
         for part in (X, Y):
             if part is not None:
                 part = part.reshape(n, -1)

@@ -228,3 +228,68 @@ def test_models_given_lazily_are_taken_when_used(family) -> None:
     other = [fes[0], piston_duct(n_el=60, c=SPEEDS[1], damping=3.0), fes[2]]
     with pytest.raises(DataError, match=r"sample at 343 .*other nodes or DOFs"):
         check_same_mesh((fe for fe in other), SPEEDS)
+
+
+def test_moment_snapshots_are_the_derivatives_of_the_response() -> None:
+    """With ``moments=3`` the snapshots after each response are ``ω X′`` and ``ω² X″/2``
+    (reference: central differences of ``X(ω) = A(ω)⁻¹F`` from direct sparse solves, and of
+    the adjoint ``Aᵀ(ω)⁻¹c``); ``moments`` outside 1–3 is one DataError."""
+    from neweul_py.elastic.parametric.snapshot_basis import frequency_snapshots
+
+    fe = piston_duct(n_el=40, c=343.0, damping=3.0)
+    F, c = fe.B("force"), fe.B("force") + 0.5
+    f0, h = 300.0, 1e-3                     # Hz; the difference step in ω is 2π h
+
+    def solve(f, rhs, transpose=False):
+        w = 2 * np.pi * f
+        A = (fe.K + 1j * w * fe.D - w * w * fe.M).tocsc()
+        return spla.spsolve(A.T.tocsc() if transpose else A, rhs[:, 0].astype(complex))
+
+    snaps = list(frequency_snapshots([fe], [F], [f0], adjoint=[c], moments=3))
+    assert len(snaps) == 3 and all(w == 2 * np.pi * f0 for *_, w in snaps)
+    w, dw = 2 * np.pi * f0, 2 * np.pi * h
+    for transpose, k in ((False, 0), (True, 1)):
+        x = [solve(f0 + s * h, F if not transpose else c, transpose) for s in (-1, 0, 1)]
+        d1 = w * (x[2] - x[0]) / (2 * dw)
+        d2 = w * w * (x[2] - 2 * x[1] + x[0]) / dw**2 / 2
+        np.testing.assert_allclose(snaps[0][k][:, 0], x[1], rtol=1e-10, atol=0)
+        np.testing.assert_allclose(snaps[1][k][:, 0], d1, rtol=0,
+                                   atol=1e-6 * np.abs(d1).max())
+        np.testing.assert_allclose(snaps[2][k][:, 0], d2, rtol=0,
+                                   atol=1e-4 * np.abs(d2).max())
+    with pytest.raises(DataError, match="moments"):
+        frequency_snapshots([fe], [F], [f0], moments=4)
+
+
+def test_a_basis_with_moments_matches_the_response_and_its_slope() -> None:
+    """A Galerkin basis of the response and its first derivative at one frequency gives a
+    reduced transfer function (piston force to the pressure at the far end: not collocated)
+    equal to the full one there and of equal slope; without the derivative the slope is
+    missed (Hermite interpolation, Baur et al. 2011, §3; reference: direct sparse solves of
+    the full model, the slope by central differences)."""
+    fe = piston_duct(n_el=80, c=343.0, damping=3.0)
+    f0, h = 250.0, 1e-3
+    b = fe.B("force")[:, 0]
+    end = fe.n_dofs - 1
+
+    def full(f):
+        w = 2 * np.pi * f
+        return spla.spsolve((fe.K + 1j * w * fe.D - w * w * fe.M).tocsc(),
+                            b.astype(complex))[end]
+
+    def reduced(V, f):
+        Kr, Dr, Mr = (V.T @ (X @ V) for X in (fe.K, fe.D, fe.M))
+        w = 2 * np.pi * f
+        return V[end] @ np.linalg.solve(Kr + 1j * w * Dr - w * w * Mr, V.T @ b)
+
+    ref = np.array([full(f) for f in (f0 - h, f0, f0 + h)])
+    slope = (ref[2] - ref[0]) / (2 * h)
+    for moments, slope_error in ((2, 1e-5), (1, None)):
+        V, _ = snapshot_basis([fe], [fe.B("force")], [f0], rtol=1e-14, moments=moments)
+        red = np.array([reduced(V, f) for f in (f0 - h, f0, f0 + h)])
+        assert abs(red[1] - ref[1]) <= 1e-9 * abs(ref[1])
+        error = abs((red[2] - red[0]) / (2 * h) - slope)
+        if slope_error is None:
+            assert error > 1e-3 * abs(slope)
+        else:
+            assert error <= slope_error * abs(slope)
