@@ -65,7 +65,7 @@ class SpliceTrace:
 
 #: The members of a mixing form in the data file (:func:`~neweul_py.ffrf.parametric.ffrf_stack`)
 #: that :func:`~neweul_py.ffrf.varying.ffrf_expand` takes, in its order.
-COMPACT = ("base", "base_rows", "index", "varying")
+COMPACT = ("base", "base_rows", "index", "varying", "mirror")
 
 
 def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
@@ -81,7 +81,7 @@ def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
         if isinstance(tree, dict):
             if "varying" in tree and "layout" in tree:          # a mixing form
                 keys = tuple(tree[name]["@"] for name in COMPACT)
-                key = keys[-1].removesuffix("/varying") + "/stack"
+                key = keys[COMPACT.index("varying")].removesuffix("/varying") + "/stack"
                 expand[key] = keys
                 return {"stack": {"@": key},
                         **{k: walk(v) for k, v in tree.items() if k not in COMPACT}}

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .varying import VARYING_TOLERANCE, entry_scale, split_varying
+from .varying import VARYING_TOLERANCE, entry_scale, mirror_varying, split_varying
 
 __all__ = ["HERMITE_ORDERS", "PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix",
            "ffrf_slope_form", "ffrf_slope_prepared", "ffrf_stack", "ffrf_unmix", "ffrf_weights",
@@ -291,8 +291,10 @@ def ffrf_weights(samples, coefficients, value, name):
 
 def ffrf_stack(samples, extra=None, orders=None, span=1.0, tol=VARYING_TOLERANCE):
     """The mixing form of prepared samples: ``{"base", "base_rows", "index", "varying",
-    "layout", "template"}``, the stack ``B`` (k, N) of their entries stored as the entries
-    that do not vary and those that do (:func:`~neweul_py.ffrf.varying.split_varying`).
+    "mirror", "layout", "template"}``, the stack ``B`` (k, N) of their entries stored as the
+    entries that do not vary and those that do (:func:`~neweul_py.ffrf.varying.split_varying`),
+    of the square matrices' entries below the diagonal that equal their transposed entry only
+    those (:func:`~neweul_py.ffrf.varying.mirror_varying`).
 
     Every numeric entry of the sample dicts (arrays, the mass, the arrays of a nested
     ``quad`` body of a second-order field) becomes a column block of ``B``; ``layout`` lists
@@ -332,11 +334,15 @@ def ffrf_stack(samples, extra=None, orders=None, span=1.0, tol=VARYING_TOLERANCE
     template = {k: v for k, v in samples[0].items()
                 if not (isinstance(v, np.ndarray) or k == "mass")}
     base_rows = values.astype(np.float64)
-    base, index, varying = split_varying(
-        np.hstack(columns), np.concatenate(scales), base_rows=base_rows,
-        row_scale=float(span) ** -orders.astype(np.float64), tol=tol)
+    row_scale = float(span) ** -orders.astype(np.float64)
+    scale = np.concatenate(scales)
+    base, index, varying = split_varying(np.hstack(columns), scale, base_rows=base_rows,
+                                         row_scale=row_scale, tol=tol)
+    square = [(i, shape[0]) for _path, i, _j, shape in layout
+              if len(shape) == 2 and shape[0] == shape[1] > 1]
+    index, varying, mirror = mirror_varying(index, varying, square, tol * scale, row_scale)
     return {"base": base, "base_rows": base_rows, "index": index, "varying": varying,
-            "layout": tuple(layout), "template": template}
+            "mirror": mirror, "layout": tuple(layout), "template": template}
 
 
 def ffrf_mix(mixing, w):
@@ -353,6 +359,9 @@ def ffrf_mix(mixing, w):
         V, r, w = V[nz[0]:nz[-1] + 1], r[nz[0]:nz[-1] + 1], w[nz[0]:nz[-1] + 1]
     flat = (w @ r) * mixing["base"]
     flat[mixing["index"]] = w @ V if not np.iscomplexobj(w) else (w.real @ V) + 1j * (w.imag @ V)
+    mirror = mixing.get("mirror")
+    if mirror is not None and mirror.size:          # the entries equal to their transpose's
+        flat[mirror[0]] = flat[mirror[1]]
     return ffrf_unmix(mixing, flat)
 
 

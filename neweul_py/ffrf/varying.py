@@ -30,15 +30,24 @@ scale). The bound, for every sample ``s`` and entry ``e``::
 
     |X̂_s[e] − X_s[e]| ≤ tol · c_s · scale[e],      tol = VARYING_TOLERANCE = 1e-13
 
-and ``tol = 0`` stores every entry that differs at all (exact). :func:`ffrf_expand` is
-embedded in generated modules (NumPy only).
+and ``tol = 0`` stores every entry that differs at all (exact).
+
+**Mirrored entries.** A stack of symmetric matrices varies in pairs: the membrane's blocks
+of ``K``, ``D``, ``G`` of a Galerkin body (``Vᵀ K_s V``) are symmetric at every sample.
+:func:`mirror_varying` drops a varying entry ``[i, j]`` below the diagonal of a square
+block whose transposed entry ``[j, i]`` varies alike (within the same bound) and lists
+it in ``mirror`` (2, m): the flat positions it is copied to and from, after the varying
+entries are set. :func:`ffrf_expand` is embedded in generated modules (NumPy only).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
-__all__ = ["VARYING_TOLERANCE", "entry_scale", "ffrf_expand", "split_varying"]
+__all__ = ["VARYING_TOLERANCE", "entry_scale", "ffrf_expand", "mirror_varying",
+           "split_varying"]
 
 #: Default relative tolerance of :func:`split_varying` (module docstring).
 VARYING_TOLERANCE = 1e-13
@@ -105,10 +114,62 @@ def split_varying(stack: np.ndarray, scale: np.ndarray | float | None = None, *,
     return base.reshape(shape), index, np.ascontiguousarray(flat[:, index])
 
 
-def ffrf_expand(base, base_rows, index, varying):
+def mirror_varying(index: np.ndarray, varying: np.ndarray, blocks: Iterable[tuple[int, int]],
+                   allowed: np.ndarray, row_scale: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(index, varying, mirror)`` of :func:`split_varying`'s ``index``, ``varying`` with
+    the entries below the diagonal of the square blocks that equal their transposed entry
+    moved to ``mirror`` (module docstring, "Mirrored entries").
+
+    Parameters
+    ----------
+    index, varying
+        From :func:`split_varying`.
+    blocks
+        ``(start, n)``: an ``n × n`` matrix in C order at the flat positions
+        ``start … start + n² − 1`` of a sample.
+    allowed
+        The bound of every flat entry, ``tol · scale`` (N,).
+    row_scale
+        ``c`` (k,): its factor per row of the stack; default ones.
+
+    Returns
+    -------
+    tuple
+        ``index`` (nv′,), ``varying`` (k, nv′) and ``mirror`` (2, m) int64: the flat
+        positions set from (row 1) the positions of row 0, increasing in row 0.
+    """
+    index = np.asarray(index, dtype=np.int64)
+    if not index.size:
+        return index, varying, np.zeros((2, 0), dtype=np.int64)
+    c = np.ones(varying.shape[0]) if row_scale is None else np.asarray(row_scale, float)
+    dst, src = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)]
+    for start, n in blocks:
+        lo, hi = np.searchsorted(index, [start, start + n * n])
+        i, j = np.divmod(index[lo:hi] - start, n)
+        low = np.flatnonzero(i > j) + lo                  # columns below the diagonal
+        t = start + (index[low] - start) % n * n + (index[low] - start) // n
+        k = np.minimum(np.searchsorted(index, t), index.size - 1)
+        hit = index[k] == t
+        low, k = low[hit], k[hit]
+        near = np.all(np.abs(varying[:, low] - varying[:, k])
+                      <= c[:, None] * np.asarray(allowed)[index[low]], axis=0)
+        dst.append(index[low[near]])
+        src.append(index[k[near]])
+    mirror = np.vstack([np.concatenate(dst), np.concatenate(src)])
+    mirror = mirror[:, np.argsort(mirror[0], kind="stable")]
+    keep = ~np.isin(index, mirror[0])
+    return index[keep], np.ascontiguousarray(varying[:, keep]), mirror
+
+
+def ffrf_expand(base, base_rows, index, varying, mirror=None):
     """The stack ``(k, …)`` of :func:`split_varying`'s ``base`` (…), ``base_rows`` (k,),
-    ``index`` (nv,) and ``varying`` (k, nv): ``r_s · base`` with the varying entries set."""
+    ``index`` (nv,) and ``varying`` (k, nv): ``r_s · base`` with the varying entries set,
+    then the mirrored ones (``mirror`` (2, m) of :func:`mirror_varying`, optional)."""
     base = np.asarray(base)
     out = np.multiply.outer(np.asarray(base_rows, dtype=np.float64), base.reshape(-1))
     out[:, np.asarray(index, dtype=np.intp)] = varying
+    if mirror is not None and np.size(mirror):
+        out[:, np.asarray(mirror[0], dtype=np.intp)] = out[:, np.asarray(mirror[1],
+                                                                          dtype=np.intp)]
     return out.reshape((out.shape[0], *base.shape))

@@ -10,7 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from neweul_py.ffrf.varying import VARYING_TOLERANCE, entry_scale, ffrf_expand, split_varying
+from neweul_py.ffrf.varying import (
+    VARYING_TOLERANCE,
+    entry_scale,
+    ffrf_expand,
+    mirror_varying,
+    split_varying,
+)
 
 K, NU, NP = 5, 6, 3
 
@@ -89,3 +95,32 @@ def test_entry_scale_is_the_smaller_of_row_and_column_maxima() -> None:
             assert scale[i, j] == ref
     vec = rng.standard_normal((3, 7))
     assert np.all(entry_scale(vec) == np.abs(vec).max())
+
+
+def test_mirrored_entries_of_symmetric_blocks_are_stored_once() -> None:
+    """A stack of matrices whose varying block is symmetric (within the bound) keeps the
+    entries on and above the diagonal; the ones below are copied back from their transposed
+    entries, within ``tol · c_s · scale``; an unsymmetric block and the columns after the
+    square block stay as they are (reference: the stack itself)."""
+    rng = np.random.default_rng(5)
+    k, n = 4, 6
+    A = rng.standard_normal((k, n, n))
+    A = A + A.transpose(0, 2, 1)
+    A[:, 0, 1] += 1e-3 * np.arange(k)                 # one unsymmetric pair: kept whole
+    A[:, 2, 4] += 1e-15 * rng.standard_normal(k)      # round-off: mirrored
+    tail = rng.standard_normal((k, 5))
+    X = np.concatenate([A.reshape(k, -1), tail], axis=1)
+    scale = np.concatenate([entry_scale(A).ravel(), np.ones(5)])
+    base, index, varying = split_varying(X, scale)
+    index2, varying2, mirror = mirror_varying(index, varying, [(0, n)],
+                                              VARYING_TOLERANCE * scale)
+    pairs = n * (n - 1) // 2
+    assert mirror.shape == (2, pairs - 1) and np.all(mirror[0] // n > mirror[0] % n)
+    assert 1 * n + 0 not in mirror[0] and 4 * n + 2 in mirror[0]
+    assert index2.size == index.size - (pairs - 1) and varying2.shape == (k, index2.size)
+    back = ffrf_expand(base, np.ones(k), index2, varying2, mirror)
+    assert np.all(np.abs(back - X) <= VARYING_TOLERANCE * scale)
+    np.testing.assert_array_equal(back[:, n * n:], tail)
+    assert np.array_equal(ffrf_expand(base, np.ones(k), index, varying), X)
+    none = mirror_varying(index[:0], varying[:, :0], [(0, n)], scale)
+    assert none[2].shape == (2, 0)

@@ -32,6 +32,7 @@ __all__ = [
     "GROUP_ORDER",
     "INTERPOLATIONS",
     "KIND_GROUPS",
+    "MIRROR_VERSION",
     "PARAMETRIC_BODY_VERSION",
     "READABLE_VERSIONS",
     "SLOPES_VERSION",
@@ -54,10 +55,13 @@ COORDINATE_VERSION = 3
 SLOPES_VERSION = 4
 CURVATURES_VERSION = 5
 #: Version 6 (the compact layout of docs/reduced-body-format.md) holds every optional group;
-#: version 7 adds the layout's ``varying`` rule (a stack's base and the entries that vary).
+#: version 7 adds the layout's ``varying`` rule (a stack's base and the entries that vary),
+#: version 8 its mirrored entries (``<key>@mirror``: of a stack of square matrices, the
+#: varying entries below the diagonal that are their transposed entry's).
 COMPACT_VERSION = 6
 VARYING_VERSION = 7
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7)
+MIRROR_VERSION = 8
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8)
 #: Weight functions of :meth:`ParametricBody.at
 #: <neweul_py.elastic.bodies.parametric.ParametricBody.at>`.
 INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)

@@ -22,10 +22,10 @@ from ..bodies.parametric import (
     COORDINATE_VERSION,
     CURVATURE_PREFIX,
     CURVATURES_VERSION,
+    MIRROR_VERSION,
     READABLE_VERSIONS,
     SLOPE_PREFIX,
     SLOPES_VERSION,
-    VARYING_VERSION,
     ParametricBody,
 )
 from ..bodies.reduced import (
@@ -35,7 +35,7 @@ from ..bodies.reduced import (
     ReducedBody,
 )
 from ..bodies.static import STATIC_KEYS, STATIC_PREFIX, StaticDeflection
-from .layout import pack, unpack
+from .layout import MIRROR_SUFFIX, pack, unpack
 from .npz import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 
 __all__ = [
@@ -188,9 +188,9 @@ PARAMETRIC_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind",
 UNSTACKED = frozenset({"samples", "nodes", "kept_dofs", "dof_node", "dof_kind", "R",
                        "singular_values", "svd_weights", "row_scale", "left_row_scale",
                        "full_dof_kind", "coordinate"})
-#: The version this writer writes (7: the compact layout with the stacks' varying entries,
-#: every optional group); the reader reads 1 to 7.
-PARAMETRIC_FILE_VERSION = VARYING_VERSION
+#: The version this writer writes (8: the compact layout with the stacks' varying entries and
+#: their mirrored ones, every optional group); the reader reads 1 to 8.
+PARAMETRIC_FILE_VERSION = MIRROR_VERSION
 
 
 # ---------------------------------------------------------------------- file format
@@ -277,6 +277,9 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     if version not in READABLE_VERSIONS:
         raise DataError(f"unsupported version {version!r} (this reader: "
                         f"{', '.join(map(str, READABLE_VERSIONS))})", file, "meta")
+    mirrored = next((key for key in data if key.endswith(MIRROR_SUFFIX)), None)
+    if version < MIRROR_VERSION and mirrored:
+        raise DataError(f"a version-{version} file holds no mirrored entries", file, mirrored)
     if version >= COMPACT_VERSION:
         samples = data.get("samples")
         k = int(samples.size) if isinstance(samples, np.ndarray) and samples.ndim == 1 else 0

@@ -16,7 +16,9 @@ no array it can reconstruct. Six rules, applied by :func:`pack` and undone by
   :func:`numpy.packbits`) and ``<key>@values`` (k, nv), the one encoding
   of :mod:`neweul_py.ffrf.varying` (e.g. the membrane's rows of ``K``, ``D``, ``G`` and the
   coupling block of ``M`` of the middle ear, whose air blocks are the same in every
-  sample);
+  sample); of a stack of square matrices, the varying entries below the diagonal that equal
+  their transposed entry within the tolerance are not stored but named by
+  ``<key>@mirror`` (one bit per entry; version 8);
 * ``scaled`` — a stack that is a given factor times another one (within the tolerance below)
   is not stored; the metadata name the other and the factor (e.g. the ``D = G/ω_ref`` of a
   body whose damping is its loss factors' at the reference frequency);
@@ -55,9 +57,16 @@ from typing import Any
 import numpy as np
 
 from ...errors import DataError
-from ...ffrf.varying import VARYING_TOLERANCE, entry_scale, ffrf_expand, split_varying
+from ...ffrf.varying import (
+    VARYING_TOLERANCE,
+    entry_scale,
+    ffrf_expand,
+    mirror_varying,
+    split_varying,
+)
 
-__all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "NONZERO_SUFFIX", "VALUES_SUFFIX", "pack", "unpack"]
+__all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "MIRROR_SUFFIX", "NONZERO_SUFFIX", "VALUES_SUFFIX",
+           "pack", "unpack"]
 
 #: The keys of the metadata's ``layout`` object.
 LAYOUT_KEYS = ("zero", "constant", "same", "varying", "scaled", "sparse", "tolerance")
@@ -66,6 +75,9 @@ MASK_SUFFIX = "@mask"
 #: The member of a ``sparse`` array besides its nonzero values (stored under its own key).
 NONZERO_SUFFIX = "@nonzero"
 VALUES_SUFFIX = "@values"
+#: The member of a ``varying`` stack of square matrices naming the entries below the
+#: diagonal that are their transposed entry's (:func:`~neweul_py.ffrf.varying.mirror_varying`).
+MIRROR_SUFFIX = "@mirror"
 
 
 def _digest(a: np.ndarray) -> str:
@@ -141,14 +153,18 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
                 layout["constant"].append(key)
                 stored[key] = base
                 continue
-            mask = np.zeros(base.size, dtype=bool)
-            mask[index] = True
-            mask = np.packbits(mask)
-            if base.nbytes + mask.nbytes + values.nbytes < a.nbytes:
+            members = {}
+            if a.ndim == 3 and a.shape[1] == a.shape[2] > 1:     # square: mirrored entries
+                allowed = tol * np.broadcast_to(scale, a.shape[1:]).reshape(-1)
+                index, values, mirror = mirror_varying(index, values, [(0, a.shape[1])],
+                                                       allowed)
+                if mirror.size:
+                    members[MIRROR_SUFFIX] = _bits(mirror[0], base.size)
+            members = {"": base, MASK_SUFFIX: _bits(index, base.size),
+                       VALUES_SUFFIX: values, **members}
+            if sum(m.nbytes for m in members.values()) < a.nbytes:
                 layout["varying"].append(key)
-                stored[key] = base
-                stored[key + MASK_SUFFIX] = mask
-                stored[key + VALUES_SUFFIX] = values
+                stored.update({key + suffix: m for suffix, m in members.items()})
                 continue
         elif key in stacked and _constant(a, k):
             layout["constant"].append(key)
@@ -162,7 +178,7 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
         ref, ref_factor = reference.get(key, (key, 1.0))
         if approx.shape == a.shape and np.all(
                 np.abs(a - approx) <= tol * ref_factor * entry_scale(np.asarray(arrays[ref]))):
-            for member in (key, key + MASK_SUFFIX, key + VALUES_SUFFIX):
+            for member in (key, key + MASK_SUFFIX, key + VALUES_SUFFIX, key + MIRROR_SUFFIX):
                 stored.pop(member, None)
             for rule in ("constant", "varying"):
                 if key in layout[rule]:
@@ -183,6 +199,13 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
             stored[key + NONZERO_SUFFIX] = mask
             layout["sparse"][key] = list(a.shape)
     return stored, layout
+
+
+def _bits(index: np.ndarray, size: int) -> np.ndarray:
+    """One bit per entry of ``size`` entries, set at ``index`` (:func:`numpy.packbits`)."""
+    mask = np.zeros(size, dtype=bool)
+    mask[index] = True
+    return np.packbits(mask)
 
 
 def _read_back(stored: dict[str, np.ndarray], layout: dict[str, Any], key: str, k: int
@@ -258,7 +281,8 @@ def unpack(data: Mapping[str, np.ndarray], layout: Any, k: int, file: str | None
 
 
 def _expanded(data: dict[str, np.ndarray], key: str, k: int, file: str | None) -> np.ndarray:
-    """The ``varying`` stack ``key`` of ``data`` in full; its two members are removed."""
+    """The ``varying`` stack ``key`` of ``data`` in full; its members are removed."""
+    bits = data.pop(key + MIRROR_SUFFIX, None)
     parts = [data.pop(key + suffix, None) for suffix in ("", MASK_SUFFIX, VALUES_SUFFIX)]
     if any(p is None for p in parts):
         raise DataError(f"layout names the varying array {key!r}, whose members {key!r}, "
@@ -274,7 +298,21 @@ def _expanded(data: dict[str, np.ndarray], key: str, k: int, file: str | None) -
                         f"entry and ({k}, entries that vary) values, got {base.dtype} "
                         f"{base.shape}, {mask.dtype} {mask.shape}, {values.dtype} "
                         f"{values.shape}", file, key)
-    return ffrf_expand(base, np.ones(k), index, values)
+    return ffrf_expand(base, np.ones(k), index, values,
+                       None if bits is None else _mirror(bits, base, key, file))
+
+
+def _mirror(bits: np.ndarray, base: np.ndarray, key: str, file: str | None) -> np.ndarray:
+    """``mirror`` (2, m) of a square stack from its member ``<key>@mirror``: the entries
+    ``[i, j]``, ``i > j``, that are set from ``[j, i]``."""
+    n = base.shape[-1] if base.ndim == 2 else 0
+    dst = (np.flatnonzero(np.unpackbits(bits, count=base.size))
+           if bits.dtype == np.uint8 and bits.ndim == 1 and bits.size == -(-base.size // 8)
+           and base.ndim == 2 and base.shape[0] == n else None)
+    if dst is None or np.any(dst // n <= dst % n):
+        raise DataError(f"the varying array {key!r}: {key + MIRROR_SUFFIX!r} needs one bit per "
+                        "entry of a square matrix, set below its diagonal only", file, key)
+    return np.vstack([dst, dst % n * n + dst // n])
 
 
 def _dense(data: dict[str, np.ndarray], key: str, shape: Any, file: str | None) -> np.ndarray:

@@ -9,13 +9,14 @@ curvatures (§4.2) and the interpolation-coordinate table (§4.1).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from ...errors import DataError
 from ...ffrf.parametric import HERMITE_ORDERS, coordinate_problem
+from ...ffrf.varying import VARYING_TOLERANCE, entry_scale
 from ..bodies.parametric import checked_slope_step
 from ..bodies.reduced import INVARIANT_PREFIX, ReducedBody
 from ..bodies.static import STATIC_PREFIX
@@ -31,6 +32,7 @@ __all__ = [
     "model_sources",
     "sample_values",
     "stacked_loss",
+    "structured_derivatives",
 ]
 
 
@@ -104,6 +106,41 @@ def central_curvatures(minus: Any, centre: Any, plus: Any, step: float,
     step = checked_slope_step(step)
     return {key: (plus(key) - 2.0 * centre(key) + minus(key)) / step**2
             * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
+
+
+def structured_derivatives(values: Callable[[str], np.ndarray],
+                           derivatives: Mapping[str, np.ndarray],
+                           proportional: Mapping[str, tuple[str, float]] | None = None,
+                           tol: float = VARYING_TOLERANCE) -> dict[str, np.ndarray]:
+    """Slopes or curvatures (:func:`central_slopes`, :func:`central_curvatures`) with the
+    structure of the samples they belong to (``docs/equations.md`` §4.2):
+
+    * where a square stack's samples are symmetric (``|X_ij − X_ji| ≤ tol · scale`` at every
+      sample, :func:`~neweul_py.ffrf.varying.entry_scale`), its derivative is made symmetric,
+      ``(Y_ij + Y_ji)/2``;
+    * ``proportional`` ``key → (other, c)``: where ``X_key = c X_other`` at every sample
+      within the same bound, the derivative of ``key`` is ``c`` times the other's.
+
+    The central differences of nearby FE models cancel the samples' leading digits: their
+    round-off is the samples' magnified by ``span/step`` (slopes) or ``(span/step)²``
+    (curvatures) — in the middle ear ~2·10⁻¹⁴ and ~3·10⁻¹¹ of the entries' scale — and it
+    breaks the symmetry of the membrane's blocks and ``D = G/ω_ref``, which the exact
+    derivatives keep. ``values(key)``: the (k, …) stack of the samples.
+    """
+    out = dict(derivatives)
+    for key, d in derivatives.items():
+        if d.ndim != 3 or d.shape[1] != d.shape[2]:
+            continue
+        x = values(key)
+        sym = np.all(np.abs(x - x.transpose(0, 2, 1)) <= tol * entry_scale(x), axis=0)
+        if sym.any():
+            out[key] = np.where(sym, 0.5 * (d + d.transpose(0, 2, 1)), d)
+    for key, (other, c) in (proportional or {}).items():
+        if key in out and other in out and out[key].shape == out[other].shape:
+            x = values(key)
+            if np.all(np.abs(x - c * values(other)) <= tol * entry_scale(x)):
+                out[key] = c * out[other]
+    return out
 
 
 def stacked_loss(bodies: Sequence[ReducedBody]) -> dict[str, Any]:

@@ -49,7 +49,13 @@ from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, build_reduced_body
 from ..reductors.static_state import static_deflection
 from .global_basis import energy_metric, g_orthonormal
-from .samples import central_curvatures, central_slopes, hermite_kind, stacked_loss
+from .samples import (
+    central_curvatures,
+    central_slopes,
+    hermite_kind,
+    stacked_loss,
+    structured_derivatives,
+)
 
 __all__ = ["ProjectionCache", "basis_parametric_body", "check_same_mesh", "fixed_frame_invariants",
            "frequency_snapshots", "sample_snapshots", "snapshot_basis"]
@@ -459,12 +465,21 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
                                   static=None if slope_static is None else slope_static[j],
                                   progress=progress, projections=projections)
             for j, (models, sign) in enumerate(zip(slope_models, (-1.0, 1.0), strict=True))]
-    slopes = central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys())
+    # the derivatives keep the samples' symmetric blocks and D = G/ω_ref (samples.py)
+    proportional = {}
+    if pb.G is not None:
+        c = 1.0 / (2.0 * np.pi * pb.loss_reference_frequency)
+        proportional = {"D": ("G", c), "invariants/De.m0": ("invariants/Le.m0", c)}
+    slopes = structured_derivatives(
+        pb.stack, central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys()),
+        proportional)
     where = {"slope_step": float(slope_step),      # the sources the side bodies recorded:
              "slope_sources": tuple({"file": x["file"], "fingerprint": x["fingerprint"]}
                                     for b in side for x in b.sample_sources)}
     if kind != "quintic-hermite":
         return pb.with_(interpolation="hermite", slopes=slopes, **where)
     return pb.with_(interpolation="quintic-hermite", slopes=slopes, **where,
-                    curvatures=central_curvatures(side[0].stack, pb.stack, side[1].stack,
-                                                  slope_step, pb.slope_keys()))
+                    curvatures=structured_derivatives(
+                        pb.stack, central_curvatures(side[0].stack, pb.stack, side[1].stack,
+                                                     slope_step, pb.slope_keys()),
+                        proportional))

@@ -86,7 +86,7 @@ def test_read_back_within_the_documented_bound(body, tmp_path: Path) -> None:
     save_parametric_body(body, path)
     back = load_parametric_body(path)
     meta = _meta(path)
-    assert meta["version"] == 7 and meta["layout"]["tolerance"] == VARYING_TOLERANCE
+    assert meta["version"] == 8 and meta["layout"]["tolerance"] == VARYING_TOLERANCE
     for key in ("M", "K", "G", "slope/K", "curvature/M"):
         assert key in meta["layout"]["varying"], key
     for prefix in ("", "slope/", "curvature/"):               # D = G/ω_ref: not stored
@@ -154,3 +154,44 @@ def test_a_version_6_file_still_reads(body, tmp_path: Path) -> None:
         assert np.array_equal(six.stack(key), seven.stack(key))
         assert np.array_equal(six.slopes[key], seven.slopes[key])
         assert np.array_equal(six.curvatures[key], seven.curvatures[key])
+
+
+def test_symmetric_blocks_store_their_upper_triangle(body, tmp_path: Path) -> None:
+    """A stack whose varying structural block is symmetric (the membrane of a Galerkin
+    body) stores the entries on and above the diagonal and ``<key>@mirror``; read back,
+    every entry is within the documented bound and the block symmetric. A version-7 file
+    with such a member, or mirror bits on or above the diagonal, is one DataError
+    (reference: the stack written)."""
+    from neweul_py.errors import DataError
+
+    def sym(a: np.ndarray) -> np.ndarray:
+        a = a.copy()
+        a[:, :NU, :NU] = 0.5 * (a[:, :NU, :NU] + a[:, :NU, :NU].transpose(0, 2, 1))
+        return a
+
+    b = body.with_(K=sym(body.K), slopes={**body.slopes, "K": sym(body.slopes["K"])})
+    plain, mirrored = tmp_path / "plain.npz", tmp_path / "sym.npz"
+    save_parametric_body(body, plain)
+    save_parametric_body(b, mirrored)
+    with zipfile.ZipFile(mirrored) as z:
+        names = {i.filename[:-4]: i.file_size for i in z.infolist()}
+    assert "K@mirror" in names and "slope/K@mirror" in names
+    with zipfile.ZipFile(plain) as z:
+        assert names["K@values"] < {i.filename[:-4]: i.file_size
+                                    for i in z.infolist()}["K@values"]
+    back = load_parametric_body(mirrored)
+    span = b.samples[-1] - b.samples[0]
+    scale = VARYING_TOLERANCE * entry_scale(b.K)
+    assert np.all(np.abs(back.K - b.K) <= scale)
+    assert np.all(np.abs(back.slopes["K"] - b.slopes["K"]) <= scale / span)
+    np.testing.assert_array_equal(back.K[:, :NU, :NU], back.K[:, :NU, :NU].transpose(0, 2, 1))
+    with np.load(mirrored) as z:
+        data = {k: z[k] for k in z.files}
+    meta = json.loads(data["meta"].tobytes())
+    for version, bits, words in ((7, data["K@mirror"], "version-7 file holds no mirrored"),
+                                 (8, np.full_like(data["K@mirror"], 255), "below its diagonal")):
+        bad = tmp_path / f"bad{version}.npz"
+        save_npz_atomic(bad, {**data, "K@mirror": bits,
+                              "meta": json_to_uint8({**meta, "version": version})})
+        with pytest.raises(DataError, match=words):
+            load_parametric_body(bad)
