@@ -87,8 +87,22 @@ def central_slopes(minus: Any, plus: Any, step: float, keys: Sequence[str]
         A step that is not a positive finite number.
     """
     step = checked_slope_step(step)
-    return {key: (plus(key) - minus(key)) / (2.0 * step)
-            * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
+    return _shared({key: (minus(key), plus(key)) for key in keys},
+                   lambda key, m, p: (p - m) / (2.0 * step)
+                   * (0.0 if key == STATIC_PREFIX + "residual" else 1.0))
+
+
+def _shared(arguments: Mapping[str, tuple[np.ndarray, ...]],
+            derivative: Callable[..., np.ndarray]) -> dict[str, np.ndarray]:
+    """``key → derivative(key, *arguments[key])``, computed once for keys whose arguments
+    are the same arrays (an invariant that is the body's own ``M``, ``K``, ``D``, ``G``)."""
+    out, done = {}, {}
+    for key, args in arguments.items():
+        ident = (key == STATIC_PREFIX + "residual", *(id(a) for a in args))
+        if ident not in done:
+            done[ident] = derivative(key, *args)
+        out[key] = done[ident]
+    return out
 
 
 def central_curvatures(minus: Any, centre: Any, plus: Any, step: float,
@@ -104,8 +118,9 @@ def central_curvatures(minus: Any, centre: Any, plus: Any, step: float,
         A step that is not a positive finite number.
     """
     step = checked_slope_step(step)
-    return {key: (plus(key) - 2.0 * centre(key) + minus(key)) / step**2
-            * (0.0 if key == STATIC_PREFIX + "residual" else 1.0) for key in keys}
+    return _shared({key: (minus(key), centre(key), plus(key)) for key in keys},
+                   lambda key, m, c, p: (p - 2.0 * c + m) / step**2
+                   * (0.0 if key == STATIC_PREFIX + "residual" else 1.0))
 
 
 def structured_derivatives(values: Callable[[str], np.ndarray],
@@ -127,19 +142,25 @@ def structured_derivatives(values: Callable[[str], np.ndarray],
     breaks the symmetry of the membrane's blocks and ``D = G/ω_ref``, which the exact
     derivatives keep. ``values(key)``: the (k, …) stack of the samples.
     """
-    out = dict(derivatives)
+    out, done = dict(derivatives), {}
     for key, d in derivatives.items():
         if d.ndim != 3 or d.shape[1] != d.shape[2]:
+            continue
+        if id(d) in done:                          # a derivative shared by two keys
+            out[key] = done[id(d)]
             continue
         x = values(key)
         sym = np.all(np.abs(x - x.transpose(0, 2, 1)) <= tol * entry_scale(x), axis=0)
         if sym.any():
-            out[key] = np.where(sym, 0.5 * (d + d.transpose(0, 2, 1)), d)
+            out[key] = done[id(d)] = np.where(sym, 0.5 * (d + d.transpose(0, 2, 1)), d)
     for key, (other, c) in (proportional or {}).items():
         if key in out and other in out and out[key].shape == out[other].shape:
             x = values(key)
             if np.all(np.abs(x - c * values(other)) <= tol * entry_scale(x)):
-                out[key] = c * out[other]
+                ident = (id(out[other]), c)
+                if ident not in done:
+                    done[ident] = c * out[other]
+                out[key] = done[ident]
     return out
 
 

@@ -305,10 +305,10 @@ def fixed_frame_invariants(body: ReducedBody, fe: FEModel) -> ReducedBody:
         "names": np.array([f"q{i + 1}" for i in range(nq)], dtype=str),
         "two_sided": np.array(bool(body.two_sided)),
         "md.m0": md, "J.m0": J, "Ct.m0": z((nq, 3)), "Cr.m0": z((nq, 3)),
-        "Crv.m0": z((nq, 3)), "Me.m0": np.array(body.M), "Gr.m0": z((3, 3 * nq)),
+        "Crv.m0": z((nq, 3)), "Me.m0": np.asarray(body.M), "Gr.m0": z((3, 3 * nq)),
         "Ge.m0": z((nq, 3 * nq)), "Oe.m0": z((nq, 6)), "ksigma.m0": z((nq, 1)),
-        "Ke.m0": np.array(body.K), "De.m0": np.array(body.D),
-        **({"Le.m0": np.array(body.G), "loss.f_ref": np.array(body.loss_reference_frequency)}
+        "Ke.m0": np.asarray(body.K), "De.m0": np.asarray(body.D),
+        **({"Le.m0": np.asarray(body.G), "loss.f_ref": np.array(body.loss_reference_frequency)}
            if body.G is not None else {}),
         "nodes.id": nodes[:, 0].astype(np.int64),
         "nodes.origin.m0": nodes[:, 1:4].reshape(nk, 3, 1).copy(),
@@ -440,15 +440,19 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         _say(progress, f"projected sample {i + 1} of {len(fes)}")
     k, r = len(bodies), V.shape[1]
     eye = np.broadcast_to(np.eye(r), (k, r, r))          # read-only: one copy in memory
-    inv = {name: np.stack([np.asarray(b.invariants[name]) for b in bodies])
+    stacks = {key: np.stack([b[key] for b in bodies]) for key in ("M", "D", "K", "B", "C",
+                                                                  "V_kept", "W_kept")}
+    stacks.update(stacked_loss(bodies))
+    # the invariants that are the bodies' own M, K, D, G share their stacks (no copies)
+    own = {"Me.m0": "M", "Ke.m0": "K", "De.m0": "D", "Le.m0": "G"}
+    inv = {name: stacks[own[name]] if name in own and own[name] in stacks and all(
+               b.invariants[name] is b[own[name]] for b in bodies)
+           else np.stack([np.asarray(b.invariants[name]) for b in bodies])
            for name in bodies[0].invariants}
     g0 = bodies[0]
     sv = np.sqrt(np.maximum(energy, 0.0)) if energy is not None else np.ones(r)
     pb = ParametricBody(
-        parameter=str(parameter), samples=s,
-        **{key: np.stack([b[key] for b in bodies]) for key in ("M", "D", "K", "B", "C",
-                                                                "V_kept", "W_kept")},
-        **stacked_loss(bodies),
+        parameter=str(parameter), samples=s, **stacks,
         T=eye, L=eye, R=V, singular_values=sv, svd_weights=np.ones(k), basis="full",
         two_sided=two, input_names=g0.input_names, output_names=g0.output_names,
         nodes=g0.nodes, kept_dofs=g0.kept_dofs, dof_node=g0.dof_node, dof_kind=g0.dof_kind,
