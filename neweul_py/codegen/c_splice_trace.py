@@ -65,7 +65,7 @@ class SpliceTrace:
 
 #: The members of a mixing form in the data file (:func:`~neweul_py.ffrf.parametric.ffrf_stack`)
 #: that :func:`~neweul_py.ffrf.varying.ffrf_expand` takes, in its order.
-COMPACT = ("base", "base_rows", "index", "varying", "mirror")
+COMPACT = ("base", "base_rows", "index", "varying", "mirror", "scaled")
 
 
 def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]

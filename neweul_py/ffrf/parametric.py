@@ -54,7 +54,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .varying import VARYING_TOLERANCE, entry_scale, mirror_varying, split_varying
+from .varying import (
+    VARYING_TOLERANCE,
+    entry_scale,
+    mirror_varying,
+    scale_varying,
+    split_varying,
+)
 
 __all__ = ["HERMITE_ORDERS", "PARAMETRIC_FUNCTIONS", "coordinate_problem", "ffrf_mix",
            "ffrf_slope_form", "ffrf_slope_prepared", "ffrf_stack", "ffrf_unmix", "ffrf_weights",
@@ -291,10 +297,12 @@ def ffrf_weights(samples, coefficients, value, name):
 
 def ffrf_stack(samples, extra=None, orders=None, span=1.0, tol=VARYING_TOLERANCE):
     """The mixing form of prepared samples: ``{"base", "base_rows", "index", "varying",
-    "mirror", "layout", "template"}``, the stack ``B`` (k, N) of their entries stored as the
-    entries that do not vary and those that do (:func:`~neweul_py.ffrf.varying.split_varying`),
+    "mirror", "scaled", "layout", "template"}``, the stack ``B`` (k, N) of their entries
+    stored as the entries that do not vary and those that do
+    (:func:`~neweul_py.ffrf.varying.split_varying`),
     of the square matrices' entries below the diagonal that equal their transposed entry only
-    those (:func:`~neweul_py.ffrf.varying.mirror_varying`).
+    those (:func:`~neweul_py.ffrf.varying.mirror_varying`), of a matrix that is a factor times
+    another only the factor (:func:`~neweul_py.ffrf.varying.scale_varying`).
 
     Every numeric entry of the sample dicts (arrays, the mass, the arrays of a nested
     ``quad`` body of a second-order field) becomes a column block of ``B``; ``layout`` lists
@@ -336,13 +344,20 @@ def ffrf_stack(samples, extra=None, orders=None, span=1.0, tol=VARYING_TOLERANCE
     base_rows = values.astype(np.float64)
     row_scale = float(span) ** -orders.astype(np.float64)
     scale = np.concatenate(scales)
-    base, index, varying = split_varying(np.hstack(columns), scale, base_rows=base_rows,
+    stack = np.hstack(columns)
+    columns.clear()
+    base, index, varying = split_varying(stack, scale, base_rows=base_rows,
                                          row_scale=row_scale, tol=tol)
     square = [(i, shape[0]) for _path, i, _j, shape in layout
               if len(shape) == 2 and shape[0] == shape[1] > 1]
     index, varying, mirror = mirror_varying(index, varying, square, tol * scale, row_scale)
+    index, varying, mirror, scaled = scale_varying(
+        stack, base, base_rows, index, varying, mirror,
+        [(i, j) for _path, i, j, shape in layout if len(shape) == 2 and j - i > 1],
+        tol * scale, row_scale)
     return {"base": base, "base_rows": base_rows, "index": index, "varying": varying,
-            "mirror": mirror, "layout": tuple(layout), "template": template}
+            "mirror": mirror, "scaled": scaled, "layout": tuple(layout),
+            "template": template}
 
 
 def ffrf_mix(mixing, w):
@@ -362,6 +377,9 @@ def ffrf_mix(mixing, w):
     mirror = mixing.get("mirror")
     if mirror is not None and mirror.size:          # the entries equal to their transpose's
         flat[mirror[0]] = flat[mirror[1]]
+    for start, stop, src, factor in mixing.get("scaled", ()):   # a factor times another
+        i, j, k = int(start), int(stop), int(src)
+        flat[i:j] = factor * flat[k:k + j - i]
     return ffrf_unmix(mixing, flat)
 
 

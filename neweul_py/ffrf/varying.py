@@ -37,17 +37,20 @@ of ``K``, ``D``, ``G`` of a Galerkin body (``Vᵀ K_s V``) are symmetric at ever
 :func:`mirror_varying` drops a varying entry ``[i, j]`` below the diagonal of a square
 block whose transposed entry ``[j, i]`` varies alike (within the same bound) and lists
 it in ``mirror`` (2, m): the flat positions it is copied to and from, after the varying
-entries are set. :func:`ffrf_expand` is embedded in generated modules (NumPy only).
+entries are set. **Scaled blocks.** :func:`scale_varying` leaves out a block that is a
+factor times an earlier one (the damping ``D = G/ω_ref`` of loss factors) and lists it in
+``scaled``, copied last. :func:`ffrf_expand` is embedded in generated modules (NumPy
+only).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
 __all__ = ["VARYING_TOLERANCE", "entry_scale", "ffrf_expand", "mirror_varying",
-           "split_varying"]
+           "scale_varying", "split_varying"]
 
 #: Default relative tolerance of :func:`split_varying` (module docstring).
 VARYING_TOLERANCE = 1e-13
@@ -162,14 +165,66 @@ def mirror_varying(index: np.ndarray, varying: np.ndarray, blocks: Iterable[tupl
     return index[keep], np.ascontiguousarray(varying[:, keep]), mirror
 
 
-def ffrf_expand(base, base_rows, index, varying, mirror=None):
+def scale_varying(stack: np.ndarray, base: np.ndarray, base_rows: np.ndarray,
+                  index: np.ndarray, varying: np.ndarray, mirror: np.ndarray,
+                  blocks: Sequence[tuple[int, int]], allowed: np.ndarray,
+                  row_scale: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(index, varying, mirror, scaled)``: the blocks of a stack ``(k, N)`` that are a
+    factor times an earlier block of the same size (``D = G/ω_ref``) left out of
+    :func:`split_varying`'s ``index``, ``varying`` and :func:`mirror_varying`'s ``mirror``
+    and listed in ``scaled`` (m, 4) float64 rows ``[start, stop, source start, factor]``.
+
+    A block is scaled when ``factor`` times the source block *as read back*
+    (:func:`ffrf_expand`) is within ``c_s · allowed`` of the block in every row, the bound
+    of the stack; ``blocks`` are ``(start, stop)`` column ranges, ``allowed`` (N,) and
+    ``row_scale`` (k,) as in :func:`mirror_varying`.
+    """
+    c = np.ones(stack.shape[0]) if row_scale is None else np.asarray(row_scale, float)
+    rows = []
+    for n, (start, stop) in enumerate(blocks):
+        for src, src_stop in blocks[:n]:
+            if src_stop - src != stop - start or any(r[0] == src for r in rows):
+                continue
+            b = _read_columns(base, base_rows, index, varying, mirror, src, src_stop)
+            peak = np.unravel_index(np.argmax(np.abs(b)), b.shape)
+            if b[peak] == 0:
+                continue
+            factor = float(stack[(peak[0], start + peak[1])] / b[peak])
+            if factor != 0 and np.all(np.abs(stack[:, start:stop] - factor * b)
+                                      <= c[:, None] * allowed[start:stop]):
+                rows.append((start, stop, src, factor))
+                break
+    scaled = np.array(rows, dtype=np.float64).reshape(-1, 4)
+    out = np.zeros(base.size, dtype=bool)
+    for start, stop, _src, _f in rows:
+        out[start:stop] = True
+    keep, mkeep = ~out[index], ~out[mirror[0]]
+    return index[keep], np.ascontiguousarray(varying[:, keep]), mirror[:, mkeep], scaled
+
+
+def _read_columns(base, base_rows, index, varying, mirror, start, stop):
+    """Columns ``start:stop`` of :func:`ffrf_expand` of the stack (the others not built)."""
+    out = np.multiply.outer(np.asarray(base_rows, dtype=np.float64), base[start:stop])
+    lo, hi = np.searchsorted(index, [start, stop])
+    out[:, index[lo:hi] - start] = varying[:, lo:hi]
+    inside = (mirror[0] >= start) & (mirror[0] < stop)
+    out[:, mirror[0, inside] - start] = out[:, mirror[1, inside] - start]
+    return out
+
+
+def ffrf_expand(base, base_rows, index, varying, mirror=None, scaled=None):
     """The stack ``(k, …)`` of :func:`split_varying`'s ``base`` (…), ``base_rows`` (k,),
     ``index`` (nv,) and ``varying`` (k, nv): ``r_s · base`` with the varying entries set,
-    then the mirrored ones (``mirror`` (2, m) of :func:`mirror_varying`, optional)."""
+    then the mirrored ones (``mirror`` (2, m) of :func:`mirror_varying`, optional), then
+    the scaled blocks (``scaled`` (m, 4) of :func:`scale_varying`, optional)."""
     base = np.asarray(base)
     out = np.multiply.outer(np.asarray(base_rows, dtype=np.float64), base.reshape(-1))
     out[:, np.asarray(index, dtype=np.intp)] = varying
     if mirror is not None and np.size(mirror):
         out[:, np.asarray(mirror[0], dtype=np.intp)] = out[:, np.asarray(mirror[1],
                                                                           dtype=np.intp)]
+    for start, stop, src, factor in (() if scaled is None else np.asarray(scaled)):
+        i, j, k = int(start), int(stop), int(src)
+        out[:, i:j] = factor * out[:, k:k + j - i]
     return out.reshape((out.shape[0], *base.shape))

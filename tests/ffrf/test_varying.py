@@ -15,6 +15,7 @@ from neweul_py.ffrf.varying import (
     entry_scale,
     ffrf_expand,
     mirror_varying,
+    scale_varying,
     split_varying,
 )
 
@@ -124,3 +125,28 @@ def test_mirrored_entries_of_symmetric_blocks_are_stored_once() -> None:
     assert np.array_equal(ffrf_expand(base, np.ones(k), index, varying), X)
     none = mirror_varying(index[:0], varying[:, :0], [(0, n)], scale)
     assert none[2].shape == (2, 0)
+
+
+def test_a_block_that_is_a_factor_times_another_is_stored_as_the_factor() -> None:
+    """Of two blocks ``G`` and ``D = G/ω_ref`` (with round-off in ``D``) only ``G`` is stored;
+    ``D`` is read back as the factor times ``G`` as read back, within the bound; a block
+    that is not proportional stays (reference: the stack itself)."""
+    rng = np.random.default_rng(9)
+    k, n, c = 4, 5, 1 / (2 * np.pi * 1000.0)
+    G = rng.standard_normal((k, n * n))
+    D = c * G * (1 + 1e-16 * rng.standard_normal(G.shape))
+    other = rng.standard_normal((k, n * n))
+    X = np.hstack([G, D, other])
+    scale = np.concatenate([np.full(n * n, np.abs(G).max()), np.full(n * n, np.abs(D).max()),
+                            np.full(n * n, np.abs(other).max())])
+    allowed = VARYING_TOLERANCE * scale
+    base, index, varying = split_varying(X, scale)
+    none = np.zeros((2, 0), dtype=np.int64)
+    blocks = [(0, n * n), (n * n, 2 * n * n), (2 * n * n, 3 * n * n)]
+    i2, v2, m2, scaled = scale_varying(X, base, np.ones(k), index, varying, none, blocks,
+                                       allowed)
+    np.testing.assert_allclose(scaled, [[n * n, 2 * n * n, 0, c]], rtol=1e-14)
+    assert i2.size == index.size - n * n and v2.shape == (k, i2.size) and m2.shape == (2, 0)
+    back = ffrf_expand(base, np.ones(k), i2, v2, m2, scaled)
+    assert np.all(np.abs(back - X) <= allowed)
+    np.testing.assert_array_equal(back[:, 2 * n * n:], other)
