@@ -73,21 +73,22 @@ def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
     """The skeleton and the arrays the C library is traced on and bound to: the data file's
     arrays, with every mixing form's stack ``B`` (k, N) in full
     (:func:`~neweul_py.ffrf.varying.ffrf_expand` of its base and varying columns) under the
-    key ``<…>/stack`` in place of its compact members; also ``stack key → the keys of
-    ffrf_expand's arguments`` (what the wrapper expands when it binds)."""
+    key ``_stack/<its path in the skeleton>`` in place of its compact members (the data
+    file stores equal arrays once, so two bodies may share a compact member but not a
+    stack); also ``stack key → the keys of ffrf_expand's arguments`` (what the wrapper
+    expands when it binds)."""
     expand: dict[str, tuple[str, ...]] = {}
 
-    def walk(tree: Any) -> Any:
+    def walk(tree: Any, path: str) -> Any:
         if isinstance(tree, dict):
             if "varying" in tree and "layout" in tree:          # a mixing form
-                keys = tuple(tree[name]["@"] for name in COMPACT)
-                key = keys[COMPACT.index("varying")].removesuffix("/varying") + "/stack"
-                expand[key] = keys
-                return {"stack": {"@": key},
-                        **{k: walk(v) for k, v in tree.items() if k not in COMPACT}}
-            return {k: walk(v) for k, v in tree.items()}
+                key = f"_stack{path}"
+                expand[key] = tuple(tree[name]["@"] for name in COMPACT)
+                return {"stack": {"@": key}, **{k: walk(v, f"{path}/{k}")
+                                                for k, v in tree.items() if k not in COMPACT}}
+            return {k: walk(v, f"{path}/{k}") for k, v in tree.items()}
         if isinstance(tree, list | tuple):
-            items = [walk(v) for v in tree]
+            items = [walk(v, f"{path}/{i}") for i, v in enumerate(tree)]
             return items if isinstance(tree, list) else tuple(items)
         return tree
 
@@ -100,7 +101,7 @@ def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
             return [r for v in tree for r in refs(v)]
         return []
 
-    traced = walk(skeleton)
+    traced = walk(skeleton, "")
     out = {key: arrays[key] for key in refs(traced) if key not in expand}
     out.update({key: ffrf_expand(*(arrays[k] for k in keys)) for key, keys in expand.items()})
     return traced, out, expand
