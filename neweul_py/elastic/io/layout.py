@@ -252,6 +252,9 @@ def unpack(data: Mapping[str, np.ndarray], layout: Any, k: int, file: str | None
         out[key] = np.broadcast_to(out[key], (k, *out[key].shape))
     for key in varying:
         out[key] = _expanded(out, key, k, file)
+    stray = next((key for key in out if key.endswith(MIRROR_SUFFIX)), None)
+    if stray is not None:
+        raise DataError(f"{stray!r} belongs to no varying array of the layout", file, stray)
     scaled = layout.get("scaled") or {}
     if not isinstance(scaled, Mapping):
         raise DataError("layout: scaled is an object", file, "meta.layout")
@@ -299,20 +302,24 @@ def _expanded(data: dict[str, np.ndarray], key: str, k: int, file: str | None) -
                         f"{base.shape}, {mask.dtype} {mask.shape}, {values.dtype} "
                         f"{values.shape}", file, key)
     return ffrf_expand(base, np.ones(k), index, values,
-                       None if bits is None else _mirror(bits, base, key, file))
+                       None if bits is None else _mirror(bits, base, index, key, file))
 
 
-def _mirror(bits: np.ndarray, base: np.ndarray, key: str, file: str | None) -> np.ndarray:
+def _mirror(bits: np.ndarray, base: np.ndarray, index: np.ndarray, key: str,
+            file: str | None) -> np.ndarray:
     """``mirror`` (2, m) of a square stack from its member ``<key>@mirror``: the entries
-    ``[i, j]``, ``i > j``, that are set from ``[j, i]``."""
+    ``[i, j]``, ``i > j``, that are set from ``[j, i]`` (a varying entry; ``index``)."""
     n = base.shape[-1] if base.ndim == 2 else 0
     dst = (np.flatnonzero(np.unpackbits(bits, count=base.size))
            if bits.dtype == np.uint8 and bits.ndim == 1 and bits.size == -(-base.size // 8)
            and base.ndim == 2 and base.shape[0] == n else None)
-    if dst is None or np.any(dst // n <= dst % n):
+    src = None if dst is None else dst % n * n + dst // n
+    if (dst is None or np.any(dst // n <= dst % n) or np.any(np.isin(dst, index))
+            or not np.all(np.isin(src, index))):
         raise DataError(f"the varying array {key!r}: {key + MIRROR_SUFFIX!r} needs one bit per "
-                        "entry of a square matrix, set below its diagonal only", file, key)
-    return np.vstack([dst, dst % n * n + dst // n])
+                        "entry of a square matrix, set below its diagonal only where the "
+                        "transposed entry varies and the entry itself is not stored", file, key)
+    return np.vstack([dst, src])
 
 
 def _dense(data: dict[str, np.ndarray], key: str, shape: Any, file: str | None) -> np.ndarray:

@@ -188,10 +188,13 @@ def test_symmetric_blocks_store_their_upper_triangle(body, tmp_path: Path) -> No
     with np.load(mirrored) as z:
         data = {k: z[k] for k in z.files}
     meta = json.loads(data["meta"].tobytes())
-    for version, bits, words in ((7, data["K@mirror"], "version-7 file holds no mirrored"),
-                                 (8, np.full_like(data["K@mirror"], 255), "below its diagonal")):
-        bad = tmp_path / f"bad{version}.npz"
-        save_npz_atomic(bad, {**data, "K@mirror": bits,
+    for n, (version, members, words) in enumerate((
+            (7, {}, "version-7 file holds no mirrored"),
+            (8, {"K@mirror": np.full_like(data["K@mirror"], 255)}, "below its diagonal"),
+            (8, {"K@mirror": data["K@mask"]}, "is not stored"),
+            (8, {"B@mirror": data["K@mirror"]}, "belongs to no varying array"))):
+        bad = tmp_path / f"bad{n}.npz"
+        save_npz_atomic(bad, {**data, **members,
                               "meta": json_to_uint8({**meta, "version": version})})
         with pytest.raises(DataError, match=words):
             load_parametric_body(bad)
