@@ -57,6 +57,7 @@ import numpy as np
 from .varying import (
     VARYING_TOLERANCE,
     entry_scale,
+    ffrf_derived,
     mirror_varying,
     scale_varying,
     split_varying,
@@ -374,12 +375,7 @@ def ffrf_mix(mixing, w):
         V, r, w = V[nz[0]:nz[-1] + 1], r[nz[0]:nz[-1] + 1], w[nz[0]:nz[-1] + 1]
     flat = (w @ r) * mixing["base"]
     flat[mixing["index"]] = w @ V if not np.iscomplexobj(w) else (w.real @ V) + 1j * (w.imag @ V)
-    mirror = mixing.get("mirror")
-    if mirror is not None and mirror.size:          # the entries equal to their transpose's
-        flat[mirror[0]] = flat[mirror[1]]
-    for start, stop, src, factor in mixing.get("scaled", ()):   # a factor times another
-        i, j, k = int(start), int(stop), int(src)
-        flat[i:j] = factor * flat[k:k + j - i]
+    ffrf_derived(flat, mixing.get("mirror"), mixing.get("scaled"))   # the copied entries
     return ffrf_unmix(mixing, flat)
 
 

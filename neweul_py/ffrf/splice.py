@@ -45,7 +45,7 @@ from .parametric import (
     ffrf_unmix,
     ffrf_weights,
 )
-from .varying import ffrf_expand
+from .varying import ffrf_derived, ffrf_expand
 
 __all__ = ["KIN_TAIL", "MAX_BLOCK_CONDITION", "PROTOCOL", "SPLICE_FUNCTIONS", "ffrf_add_force",
            "ffrf_add_mass", "ffrf_at", "ffrf_bodies", "ffrf_cloud", "ffrf_system", "ffrf_terms"]
@@ -915,7 +915,7 @@ PROTOCOL = {
 }
 
 #: The functions a generated module embeds after the kernel's (in this order).
-SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_expand, ffrf_system,
+SPLICE_FUNCTIONS = (ffrf_weights, ffrf_mix, ffrf_unmix, ffrf_derived, ffrf_expand, ffrf_system,
                     ffrf_index, ffrf_mass_maps, ffrf_block_constant, ffrf_block,
                     ffrf_dense_solve, ffrf_solve,
                     ffrf_schedule, ffrf_at, ffrf_mixed, ffrf_sigma_sensitivity,

@@ -39,7 +39,8 @@ block whose transposed entry ``[j, i]`` varies alike (within the same bound) and
 it in ``mirror`` (2, m): the flat positions it is copied to and from, after the varying
 entries are set. **Scaled blocks.** :func:`scale_varying` leaves out a block that is a
 factor times an earlier one (the damping ``D = G/ω_ref`` of loss factors) and lists it in
-``scaled``, copied last. :func:`ffrf_expand` is embedded in generated modules (NumPy
+``scaled``, copied last (:func:`ffrf_derived`, for stacks and mixed rows alike).
+:func:`ffrf_expand` and :func:`ffrf_derived` are embedded in generated modules (NumPy
 only).
 """
 
@@ -49,8 +50,8 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["VARYING_TOLERANCE", "entry_scale", "ffrf_expand", "mirror_varying",
-           "scale_varying", "split_varying"]
+__all__ = ["VARYING_TOLERANCE", "entry_scale", "ffrf_derived", "ffrf_expand",
+           "mirror_varying", "scale_varying", "split_varying"]
 
 #: Default relative tolerance of :func:`split_varying` (module docstring).
 VARYING_TOLERANCE = 1e-13
@@ -204,27 +205,34 @@ def scale_varying(stack: np.ndarray, base: np.ndarray, base_rows: np.ndarray,
 
 
 def _read_columns(base, base_rows, index, varying, mirror, start, stop):
-    """Columns ``start:stop`` of :func:`ffrf_expand` of the stack (the others not built)."""
-    out = np.multiply.outer(np.asarray(base_rows, dtype=np.float64), base[start:stop])
+    """Columns ``start:stop`` of :func:`ffrf_expand` of the stack (the others not built;
+    a mirror pair stays inside one square block)."""
     lo, hi = np.searchsorted(index, [start, stop])
-    out[:, index[lo:hi] - start] = varying[:, lo:hi]
     inside = (mirror[0] >= start) & (mirror[0] < stop)
-    out[:, mirror[0, inside] - start] = out[:, mirror[1, inside] - start]
-    return out
+    return ffrf_expand(base[start:stop], base_rows, index[lo:hi] - start, varying[:, lo:hi],
+                       mirror[:, inside] - start)
 
 
 def ffrf_expand(base, base_rows, index, varying, mirror=None, scaled=None):
     """The stack ``(k, …)`` of :func:`split_varying`'s ``base`` (…), ``base_rows`` (k,),
     ``index`` (nv,) and ``varying`` (k, nv): ``r_s · base`` with the varying entries set,
-    then the mirrored ones (``mirror`` (2, m) of :func:`mirror_varying`, optional), then
-    the scaled blocks (``scaled`` (m, 4) of :func:`scale_varying`, optional)."""
+    then the mirrored and scaled ones (:func:`ffrf_derived`)."""
     base = np.asarray(base)
     out = np.multiply.outer(np.asarray(base_rows, dtype=np.float64), base.reshape(-1))
     out[:, np.asarray(index, dtype=np.intp)] = varying
+    ffrf_derived(out, mirror, scaled)
+    return out.reshape((out.shape[0], *base.shape))
+
+
+def ffrf_derived(flat, mirror=None, scaled=None):
+    """Set, in place, the entries of ``flat`` (…, N) that are copies: the mirrored ones
+    (``mirror`` (2, m) of :func:`mirror_varying`: row 0 from row 1), then the scaled blocks
+    (``scaled`` (m, 4) of :func:`scale_varying`: ``[start, stop)`` as the factor times the
+    block at the source). For a stack and for a mixed row ``w B`` alike (both linear)."""
     if mirror is not None and np.size(mirror):
-        out[:, np.asarray(mirror[0], dtype=np.intp)] = out[:, np.asarray(mirror[1],
-                                                                          dtype=np.intp)]
+        flat[..., np.asarray(mirror[0], dtype=np.intp)] = flat[
+            ..., np.asarray(mirror[1], dtype=np.intp)]
     for start, stop, src, factor in (() if scaled is None else np.asarray(scaled)):
         i, j, k = int(start), int(stop), int(src)
-        out[:, i:j] = factor * out[:, k:k + j - i]
-    return out.reshape((out.shape[0], *base.shape))
+        flat[..., i:j] = factor * flat[..., k:k + j - i]
+    return flat

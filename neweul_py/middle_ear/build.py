@@ -68,7 +68,8 @@ from .sampling import (
 from .sweep import pressure_sweep
 from .transfer import LumpedChain
 
-__all__ = ["BASES", "BUILD_RECORD", "BuildOptions", "build", "reduction_basis"]
+__all__ = ["BASES", "BUILD_RECORD", "BuildOptions", "build", "reduction_basis",
+           "snapshot_plan"]
 
 #: The record of a build (written last: a directory holding it is complete).
 BUILD_RECORD = "build.json"
@@ -303,6 +304,12 @@ def _reuse(old: Path, tmp: Path, refine: int) -> None:
                 shutil.copy2(path, dst)
 
 
+def snapshot_plan(basis: str) -> tuple[np.ndarray, int]:
+    """The snapshot frequencies [Hz] of a reduction basis (``"galerkin"`` or ``"two-sided"``)
+    and the snapshots per frequency (the response and its derivatives)."""
+    return (BALANCED_HZ, 1) if basis == "two-sided" else (SNAPSHOT_HZ, SNAPSHOT_MOMENTS)
+
+
 def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
                     options: BuildOptions, progress: Progress
                     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
@@ -333,7 +340,7 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
             progress(m)
 
     two = options.basis == "two-sided"
-    freqs, moments = (BALANCED_HZ, 1) if two else (SNAPSHOT_HZ, SNAPSHOT_MOMENTS)
+    freqs, moments = snapshot_plan(options.basis)
     done, prior, W = np.zeros(0), None, None
     if cache.is_file():
         with np.load(cache) as z:
@@ -448,13 +455,13 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     tangent = [float(read_static(model_path(sweeps.where[p], p))["chain_tangent"][2, 2])
                for p in samples]
     chain = LumpedChain()
+    snap_hz, snap_moments = snapshot_plan(options.basis)
     return {
         "format": "neweul-middle-ear-build", "version": 1,
         **dataclasses.asdict(options),
         "pressures": pressures, "order": int(V.shape[1]), "two_sided": W is not None,
         "samples_Pa": samples.tolist(),
-        "snapshot_Hz": (BALANCED_HZ if W is not None else SNAPSHOT_HZ).tolist(),
-        "snapshot_moments": 1 if W is not None else SNAPSHOT_MOMENTS,
+        "snapshot_Hz": snap_hz.tolist(), "snapshot_moments": snap_moments,
         "manubrium": manubrium, "umbo": umbo,
         "body": "embs/tm_air.npz", "description": "middle_ear.yaml",
         "module": "generated/middle_ear.py" if options.generate else None,

@@ -124,11 +124,11 @@ def central_curvatures(minus: Any, centre: Any, plus: Any, step: float,
 
 
 def structured_derivatives(values: Callable[[str], np.ndarray],
-                           derivatives: Mapping[str, np.ndarray],
+                           derivatives: Sequence[Mapping[str, np.ndarray]],
                            proportional: Mapping[str, tuple[str, float]] | None = None,
-                           tol: float = VARYING_TOLERANCE) -> dict[str, np.ndarray]:
-    """Slopes or curvatures (:func:`central_slopes`, :func:`central_curvatures`) with the
-    structure of the samples they belong to (``docs/equations.md`` §4.2):
+                           tol: float = VARYING_TOLERANCE) -> list[dict[str, np.ndarray]]:
+    """Slopes and curvatures (:func:`central_slopes`, :func:`central_curvatures`; one dict
+    per set) with the structure of the samples they belong to (``docs/equations.md`` §4.2):
 
     * where a square stack's samples are symmetric (``|X_ij − X_ji| ≤ tol · scale`` at every
       sample, :func:`~neweul_py.ffrf.varying.entry_scale`), its derivative is made symmetric,
@@ -140,27 +140,39 @@ def structured_derivatives(values: Callable[[str], np.ndarray],
     round-off is the samples' magnified by ``span/step`` (slopes) or ``(span/step)²``
     (curvatures) — in the middle ear ~2·10⁻¹⁴ and ~3·10⁻¹¹ of the entries' scale — and it
     breaks the symmetry of the membrane's blocks and ``D = G/ω_ref``, which the exact
-    derivatives keep. ``values(key)``: the (k, …) stack of the samples.
+    derivatives keep. ``values(key)``: the (k, …) stack of the samples; the structure of
+    the samples is found once for all sets, and a derivative shared by keys is fixed once.
     """
-    out, done = dict(derivatives), {}
-    for key, d in derivatives.items():
-        if d.ndim != 3 or d.shape[1] != d.shape[2]:
-            continue
-        if id(d) in done:                          # a derivative shared by two keys
-            out[key] = done[id(d)]
-            continue
-        x = values(key)
-        sym = np.all(np.abs(x - x.transpose(0, 2, 1)) <= tol * entry_scale(x), axis=0)
-        if sym.any():
-            out[key] = done[id(d)] = np.where(sym, 0.5 * (d + d.transpose(0, 2, 1)), d)
-    for key, (other, c) in (proportional or {}).items():
-        if key in out and other in out and out[key].shape == out[other].shape:
+    symmetric, seen, scaled = {}, {}, {}
+    for key, d in derivatives[0].items() if derivatives else ():
+        if d.ndim == 3 and d.shape[1] == d.shape[2]:
             x = values(key)
-            if np.all(np.abs(x - c * values(other)) <= tol * entry_scale(x)):
-                ident = (id(out[other]), c)
-                if ident not in done:
-                    done[ident] = c * out[other]
-                out[key] = done[ident]
+            if id(x) not in seen:           # the samples of two keys may be one array
+                seen[id(x)] = (x, np.all(np.abs(x - x.transpose(0, 2, 1))
+                                         <= tol * entry_scale(x), axis=0))
+            symmetric[key] = seen[id(x)][1]
+    for key, (other, c) in (proportional or {}).items():
+        if key in derivatives[0] and other in derivatives[0]:
+            x = values(key)
+            if x.shape == values(other).shape and np.all(
+                    np.abs(x - c * values(other)) <= tol * entry_scale(x)):
+                scaled[key] = (other, c)
+    out = []
+    for given in derivatives:
+        fixed, done = dict(given), {}
+        for key, d in given.items():
+            sym = symmetric.get(key)
+            if sym is None or not sym.any():
+                continue
+            if id(d) not in done:                       # a derivative shared by two keys
+                done[id(d)] = np.where(sym, 0.5 * (d + d.transpose(0, 2, 1)), d)
+            fixed[key] = done[id(d)]
+        for key, (other, c) in scaled.items():
+            ident = (id(fixed[other]), c)
+            if ident not in done:
+                done[ident] = c * fixed[other]
+            fixed[key] = done[ident]
+        out.append(fixed)
     return out
 
 

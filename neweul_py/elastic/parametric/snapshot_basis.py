@@ -474,16 +474,16 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
     if pb.G is not None:
         c = 1.0 / (2.0 * np.pi * pb.loss_reference_frequency)
         proportional = {"D": ("G", c), "invariants/De.m0": ("invariants/Le.m0", c)}
-    slopes = structured_derivatives(
-        pb.stack, central_slopes(side[0].stack, side[1].stack, slope_step, pb.slope_keys()),
-        proportional)
+    keys = pb.slope_keys()
+    found = [central_slopes(side[0].stack, side[1].stack, slope_step, keys)]
+    if kind == "quintic-hermite":
+        found.append(central_curvatures(side[0].stack, pb.stack, side[1].stack, slope_step,
+                                        keys))
+    slopes, *curvatures = structured_derivatives(pb.stack, found, proportional)
     where = {"slope_step": float(slope_step),      # the sources the side bodies recorded:
              "slope_sources": tuple({"file": x["file"], "fingerprint": x["fingerprint"]}
                                     for b in side for x in b.sample_sources)}
     if kind != "quintic-hermite":
         return pb.with_(interpolation="hermite", slopes=slopes, **where)
     return pb.with_(interpolation="quintic-hermite", slopes=slopes, **where,
-                    curvatures=structured_derivatives(
-                        pb.stack, central_curvatures(side[0].stack, pb.stack, side[1].stack,
-                                                     slope_step, pb.slope_keys()),
-                        proportional))
+                    curvatures=curvatures[0])

@@ -39,7 +39,7 @@ def test_central_differences_keep_symmetry_and_proportionality() -> None:
     curv = central_curvatures(minus.get, centre.get, plus.get, h, keys)
     exact_s = np.stack([S + 2 * x * T for x in sigma])
     for got, exact in ((slopes, exact_s), (curv, np.broadcast_to(2 * T, (k, n, n)))):
-        fixed = structured_derivatives(centre.get, got, {"D": ("G", c)})
+        fixed = structured_derivatives(centre.get, [got], {"D": ("G", c)})[0]
         G = fixed["G"]
         sym_part = np.ones((n, n), dtype=bool)
         sym_part[0, 1] = sym_part[1, 0] = False
