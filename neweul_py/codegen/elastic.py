@@ -297,9 +297,8 @@ def symbolic_part(equations: Any) -> Any:
 def patterns(symbolic: Any, hidden: Any) -> tuple[tuple[list[int], list[int]], list[int]]:
     """The rows and columns of the symbolic part's mass matrix that are not zero by
     construction, and the hidden outputs (frame kinematics) that are not."""
-    Ms = symbolic.mass_matrix
-    mass = ([i for i in range(Ms.rows) if any(e != 0 for e in Ms.row(i))],
-            [j for j in range(Ms.cols) if any(e != 0 for e in Ms.col(j))])
+    nonzero = symbolic.mass_matrix.todok()          # the entries not zero by construction
+    mass = (sorted({i for i, _ in nonzero}), sorted({j for _, j in nonzero}))
     return mass, [i for i, e in enumerate(hidden) if e != 0]
 
 

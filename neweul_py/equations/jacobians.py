@@ -127,6 +127,16 @@ def _program(program: Program | None, assignments: Sequence[Assignment],
                    tuple(as_expr(e) for e in values))
 
 
+def _times(m: Sequence[sp.Expr], a: Sequence[sp.Symbol]) -> tuple[sp.Expr, ...]:
+    """``M a`` for the n·n entries ``m`` of ``M`` (row-major); the entries that are zero by
+    construction are skipped (the mass matrix of an EMBS is mostly zero: its elastic rows
+    are handled numerically)."""
+    n = len(a)
+    zero = sp.S.Zero
+    return tuple(add(*(mul(m[i * n + j], a[j]) for j in range(n) if m[i * n + j] is not zero))
+                 for i in range(n))
+
+
 def _through(program: Program, wrt: Sequence[sp.Symbol], widths: Sequence[int]
              ) -> Derivatives:
     inter, J = jacobian(program.values, wrt, program.assignments, prefix=PREFIX)
@@ -170,9 +180,8 @@ def mass_matrix_times_derivative(equations: Any, a: Sequence[sp.Symbol],
     n = len(equations.coordinates)
     if len(a) != n:
         raise ValueError(f"a must have {n} entries, got {len(a)}")
-    program = _program(program, equations.intermediates, list(equations.mass_matrix))
-    m = program.values
-    ma = tuple(add(*(mul(m[i * n + j], a[j]) for j in range(n))) for i in range(n))
+    program = _program(program, equations.intermediates, equations.mass_matrix.flat())
+    ma = _times(program.values, a)
     return _through(Program(program.assignments, ma), tuple(equations.coordinates), (n,))
 
 
@@ -207,9 +216,8 @@ def mass_matrix_parameter_derivative(equations: Any, a: Sequence[sp.Symbol],
     n, p = len(equations.coordinates), tuple(equations.parameters)
     if len(a) != n:
         raise ValueError(f"a must have {n} entries, got {len(a)}")
-    program = _program(program, equations.intermediates, list(equations.mass_matrix))
-    m = program.values
-    ma = tuple(add(*(mul(m[i * n + j], a[j]) for j in range(n))) for i in range(n))
+    program = _program(program, equations.intermediates, equations.mass_matrix.flat())
+    ma = _times(program.values, a)
     return _through(Program(program.assignments, ma), p, (len(p),))
 
 

@@ -51,12 +51,15 @@ class NewtonOptions:
 
 @dataclass(frozen=True)
 class StaticState:
-    """A converged equilibrium: ``load``, free-DOF vector ``u``, ``iterations``, ``residual``."""
+    """A converged equilibrium: ``load``, free-DOF vector ``u``, ``iterations``, ``residual``;
+    ``lowest_eigenvalue``: the eigenvalue nearest 0 of its tangent where a stability check
+    computed it (``None`` otherwise)."""
 
     load: float
     u: np.ndarray
     iterations: int
     residual: float
+    lowest_eigenvalue: float | None = None
 
 
 def _newton(

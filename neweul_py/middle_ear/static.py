@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sps
@@ -322,6 +322,7 @@ def solve_static(
         for i, s in zip(branch, states, strict=True):
             if check_stability:
                 lam = lowest_tangent_eigenvalue(me, s)
+                s = replace(s, lowest_eigenvalue=lam)          # for static_summary
                 if lam < 0:
                     raise SolverError(
                         f"TM static solution at Δp = {s.load:g} Pa is unstable (the tangent "
@@ -338,8 +339,11 @@ def lowest_tangent_eigenvalue(me: MiddleEar, state: StaticState) -> float:
     """The eigenvalue ``ω²`` nearest 0 of the TM tangent (with the chain support linearized at
     the state, malleus condensed) and the TM mass.
 
-    Negative: the static state is unstable. Found by shift-invert Lanczos about 0.
+    Negative: the static state is unstable. Found by shift-invert Lanczos about 0, unless
+    :func:`solve_static` recorded it in ``state.lowest_eigenvalue``.
     """
+    if state.lowest_eigenvalue is not None:
+        return float(state.lowest_eigenvalue)
     shell, fi = me.shell, me.free_dofs
     u = tm_displacements(me, state).ravel()
     _, _, km = shell.membrane(u)

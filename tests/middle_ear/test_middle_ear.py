@@ -115,6 +115,32 @@ def test_static_volume_displacement_is_nonlinear(coarse):
     assert abs(uz[0]) > 1.3 * abs(uz[-1])
 
 
+def test_recorded_stability_eigenvalue_is_the_tangent_eigenvalue_nearest_zero(coarse):
+    """``solve_static`` records the eigenvalue nearest 0 of the supported TM tangent with the
+    TM mass; reference: SciPy's dense symmetric-definite eigensolver (LAPACK ``sygvd``) of
+    the same pencil, and ``static_summary`` reports the recorded value as ``f₁``."""
+    import dataclasses
+
+    import scipy.linalg as sla
+
+    from neweul_py.middle_ear.static import support_at
+
+    me, states = coarse
+    for s in (states[0], states[3], states[-1]):
+        assert s.lowest_eigenvalue is not None
+        u = tm_displacements(me, s).ravel()
+        km = me.shell.membrane(u)[2]
+        kp = me.shell.pressure(u, s.load)[2]
+        fi = me.free_dofs
+        k = (km + me.shell.bending + kp + support_at(me, s)).tocsr()[fi][:, fi].toarray()
+        lam = sla.eigh(0.5 * (k + k.T), me.shell.mass()[fi][:, fi].toarray(),
+                       eigvals_only=True)
+        assert s.lowest_eigenvalue == pytest.approx(lam[np.argmin(abs(lam))], rel=1e-8)
+        row = static_summary(me, s)
+        again = static_summary(me, dataclasses.replace(s, lowest_eigenvalue=None))
+        assert row["tm_f1_support_Hz"] == pytest.approx(again["tm_f1_support_Hz"], rel=1e-9)
+
+
 def test_prestress_raises_tm_frequencies(coarse):
     """Tension stiffening: the first coupled TM mode is higher at +4 kPa than at 0."""
     me, states = coarse

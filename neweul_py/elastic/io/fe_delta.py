@@ -121,10 +121,10 @@ def write_fe_arrays(path: str | os.PathLike, arrays: Mapping[str, np.ndarray],
     name = base_name(path, base)
     if os.path.abspath(path) == os.path.abspath(base):
         raise DataError("a file cannot be the base of itself", str(path), "base")
-    raw, ref = _read_base(Path(base), str(path))
+    digest, ref = _read_base(Path(base), str(path))
     meta = json_from_uint8(arrays["meta"], str(path))
     stored, drop = delta_arrays(arrays, ref)
-    meta["base"] = {"file": name, "sha256": hashlib.sha256(raw).hexdigest(), "drop": drop}
+    meta["base"] = {"file": name, "sha256": digest, "drop": drop}
     stored["meta"] = json_to_uint8(meta)
     save_npz_deterministic(path, stored, DELTA_RATIO)
 
@@ -142,12 +142,30 @@ def check_base(base: str | os.PathLike, delta: str | os.PathLike) -> None:
     _read_base(Path(base), str(delta))
 
 
-def _read_base(base: Path, delta: str) -> tuple[bytes, dict[str, np.ndarray]]:
-    """The bytes and the arrays of the base ``base`` of ``delta`` (a complete file)."""
+#: The arrays of the last base read, by its SHA-256. A sweep writes and reads dozens of
+#: deltas of one base: hashing its bytes is a fraction of parsing them.
+_LAST_BASE: dict[str, dict[str, np.ndarray]] = {}
+
+
+def _read_base(base: Path, delta: str) -> tuple[str, dict[str, np.ndarray]]:
+    """The SHA-256 (hex) and the arrays (fresh copies) of the base ``base`` of ``delta`` (a
+    complete file); its bytes are parsed again only when their hash differs from the last
+    base's."""
     if not base.exists():
         raise DataError(f"its base {base} is missing (this file holds only what differs from "
                         "it)", delta, "base")
     raw = read_checked(base, "base FE file", MAX_DATA_BYTES)
+    digest = hashlib.sha256(raw).hexdigest()
+    if digest not in _LAST_BASE:
+        arrays = _parse_base(raw, base, delta)
+        _LAST_BASE.clear()
+        _LAST_BASE[digest] = arrays
+    return digest, {k: v.copy() for k, v in _LAST_BASE[digest].items()}
+
+
+def _parse_base(raw: bytes, base: Path, delta: str) -> dict[str, np.ndarray]:
+    """The arrays of the base file ``base`` from its bytes ``raw`` (checked: a complete FE
+    file)."""
     buffer = io.BytesIO(raw)
     check_npz(buffer, file=str(base))
     buffer.seek(0)
@@ -163,7 +181,7 @@ def _read_base(base: Path, delta: str) -> tuple[bytes, dict[str, np.ndarray]]:
     if "base" in meta:
         raise DataError(f"the base of {delta} is itself a delta file (a base must be "
                         "complete)", str(base), "base")
-    return raw, arrays
+    return arrays
 
 
 def _record(meta: Mapping[str, Any], file: str) -> tuple[str, str, list[str]]:
@@ -205,8 +223,7 @@ def merge_delta(path: str | os.PathLike, data: Mapping[str, np.ndarray],
     file = str(path)
     name, digest, drop = _record(meta, file)
     base = Path(os.path.normpath(path.parent / name))
-    raw, arrays = _read_base(base, file)
-    actual = hashlib.sha256(raw).hexdigest()
+    actual, arrays = _read_base(base, file)
     if actual != digest:
         raise DataError(f"its base {base} has changed since it was written (SHA-256 "
                         f"{actual[:16]}…, recorded {digest[:16]}…): this file holds only what "

@@ -232,10 +232,14 @@ def _read_manifest(path: Path) -> FEModel:
 
 
 def _build(file: str, meta: dict, matrices: dict, nodes, dof_node, dof_kind,
-           files: dict[str, str] | None = None) -> FEModel:
-    """Construct (and so validate) the model; errors about a matrix or table name the
-    companion file that holds it (``files``: item → file), others the manifest."""
+           files: dict[str, str] | None = None,
+           loss: tuple[sps.csr_matrix, float] | None = None) -> FEModel:
+    """Construct (and so validate, once) the model, with the loss group ``(G, f_ref)``
+    where given; errors about a matrix or table name the companion file that holds it
+    (``files``: item → file; ``G`` is the ``.npz`` member ``loss_G``), others the
+    manifest."""
     kind = meta.get("kind", "structural")
+    G, f_ref = loss if loss is not None else (None, None)
     try:
         return FEModel(
             M=matrices["M"], K=matrices["K"], D=matrices.get("D"),
@@ -244,8 +248,11 @@ def _build(file: str, meta: dict, matrices: dict, nodes, dof_node, dof_kind,
             kind=kind, density=meta.get("density"),
             name=str(meta.get("name", Path(file).stem)),
             symmetric=meta.get("symmetric", {}), source=file,
+            G=G, loss_reference_frequency=f_ref,
         )
     except DataError as exc:
+        if loss is not None and exc.file == file and exc.item == "G":
+            raise DataError(exc.message, file, "loss_G") from None
         where = (files or {}).get(exc.item or "")
         if where is None or exc.file != file:
             raise
@@ -588,14 +595,8 @@ def _read_npz(path: Path) -> FEModel:
     for key in ("nodes", "dof_node", "dof_kind"):
         if key not in data:
             raise DataError("missing array", file, key)
-    fe = _build(file, meta, matrices, data["nodes"], data["dof_node"], data["dof_kind"])
-    loss = _read_loss_group(data, file)
-    if loss is None:
-        return fe
-    try:
-        return fe.with_(G=loss[0], loss_reference_frequency=loss[1])
-    except DataError as exc:
-        raise DataError(exc.message, file, "loss_G" if exc.item == "G" else exc.item) from None
+    return _build(file, meta, matrices, data["nodes"], data["dof_node"], data["dof_kind"],
+                  loss=_read_loss_group(data, file))
 
 
 #: Keys of the optional loss group of an ``.npz`` FE file (``docs/equations.md`` §1.1): the

@@ -140,6 +140,24 @@ def test_a_changed_or_missing_base_is_refused(pair):
     assert exc.value.file == str(tmp / "delta.npz")
 
 
+def test_a_base_changed_in_place_is_refused_and_reads_do_not_share_arrays(pair):
+    """The base's arrays are kept between reads by the SHA-256 of its bytes: one byte of it
+    changed in place (same file, same size) is refused, never read from the kept arrays,
+    and a model read twice gives arrays that do not share memory."""
+    tmp, _, other = pair
+    first, second = read_fe_model(tmp / "delta.npz"), read_fe_model(tmp / "delta.npz")
+    first.K.data[:] = 0.0
+    np.testing.assert_array_equal(second.K.toarray(), other.K.toarray())
+    np.testing.assert_array_equal(read_fe_model(tmp / "delta.npz").M.toarray(),
+                                  other.M.toarray())
+    raw = bytearray((tmp / "base.npz").read_bytes())
+    raw[-30] ^= 0x01                  # in the central directory: the same size, other bytes
+    with open(tmp / "base.npz", "r+b") as fh:
+        fh.write(raw)
+    with pytest.raises(DataError, match=r"base\.npz"):
+        read_fe_model(tmp / "delta.npz")
+
+
 def test_a_base_elsewhere_or_a_delta_base_is_refused_when_writing(pair):
     """The base must be complete and in the same or a sibling directory; the file itself
     cannot be its own base."""
