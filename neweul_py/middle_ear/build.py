@@ -53,7 +53,6 @@ from ..elastic.parametric.snapshot_basis import (
     snapshot_basis,
 )
 from ..elastic.parametric.two_sided_basis import balanced_snapshot_basis, zero_mode_pairs
-from ..elastic.reductors.projection import build_reduced_body
 from ..errors import NeweulError
 from .embs import model_path, retarget, template
 from .output import write_directory_atomically
@@ -411,9 +410,8 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     def body_of(points: Sequence[float], static: bool = False) -> Any:
         pts = [float(p) for p in points]
         models = _Models(sweeps, pts)        # basis_parametric_body checks the mesh
-        if len(pts) == 1:
-            return build_reduced_body(models[0], V, V if W is None else W, "snapshot", {},
-                                      keep_nodes=manubrium)
+        if len(pts) == 1:              # a midpoint's reference: projected once, kept
+            return projections.body(models[0], V, W, keep_nodes=manubrium)
         pb = basis_parametric_body(
             models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy, W=W,
             static=static_states(sweeps.where, pts, manubrium) if static else None,

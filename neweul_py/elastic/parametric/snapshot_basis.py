@@ -47,7 +47,7 @@ from ..bodies.static import StaticDeflection
 from ..fe_model import FEModel
 from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, build_reduced_body
-from ..reductors.static_state import static_deflection
+from ..reductors.static_state import metric_gram, static_deflection
 from .global_basis import energy_metric, g_orthonormal
 from .samples import (
     central_curvatures,
@@ -337,6 +337,21 @@ class ProjectionCache:
         if self.base is None:
             self.base = (fe, body)
 
+    def body(self, fe: FEModel, V: np.ndarray, W: np.ndarray | None = None,
+             keep_nodes: Sequence[int] | None = None) -> ReducedBody:
+        """``fe`` projected on ``V`` (``W``: the left basis of a two-sided pair, ``None``
+        for Galerkin), with :func:`fixed_frame_invariants`: remembered, or projected against
+        the base and remembered."""
+        b = self.bodies.get(fe.fingerprint)
+        if b is None:
+            settings = {"order": int(V.shape[1])} | ({"two_sided": True} if W is not None
+                                                     else {})
+            b = fixed_frame_invariants(build_reduced_body(
+                fe, V, V if W is None else W, "snapshot", settings, keep_nodes=keep_nodes,
+                base=self.base), fe)
+            self.add(fe, b)
+        return b
+
 
 def check_same_mesh(fes: Iterable[FEModel], samples: Sequence[float]) -> None:
     """One :class:`DataError` naming the first sample whose nodes or DOFs differ from the
@@ -424,19 +439,15 @@ def basis_parametric_body(fes: Sequence[FEModel], V: np.ndarray, samples: Sequen
         d = float(slope_step)
         check_same_mesh(itertools.chain(fes, *slope_models), [*s, *(s - d), *(s + d)])
     G = (metric if metric is not None else energy_metric(fes)) if static is not None else None
-    settings = {"order": int(V.shape[1])} | ({"two_sided": True} if two else {})
     bodies, states = [], []
     cache = ProjectionCache() if projections is None else projections
+    gram = metric_gram(G, V) if G is not None else None    # once for all the states
     for i, fe in enumerate(fes):
-        b = cache.bodies.get(fe.fingerprint)
-        if b is None:
-            b = fixed_frame_invariants(build_reduced_body(
-                fe, V, Wb, "snapshot", settings, keep_nodes=keep_nodes, base=cache.base), fe)
-            cache.add(fe, b)
+        b = cache.body(fe, V, W, keep_nodes)
         bodies.append(b.with_(parameters={parameter: float(s[i])}))
         if static is not None:
             states.append(static_deflection(b, V=V, W=Wb, output_rows=fe.C(), metric=G,
-                                            **static[i]))
+                                            gram=gram, **static[i]))
         _say(progress, f"projected sample {i + 1} of {len(fes)}")
     k, r = len(bodies), V.shape[1]
     eye = np.broadcast_to(np.eye(r), (k, r, r))          # read-only: one copy in memory

@@ -19,15 +19,24 @@ from ...errors import DataError
 from ..bodies.static import StaticDeflection, node_rows
 
 __all__ = [
+    "metric_gram",
     "static_deflection",
 ]
+
+
+def metric_gram(metric: sps.spmatrix, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(ḠV, VᵀḠV)``: the metric applied to the basis and its Gram matrix, the two products
+    of :func:`static_deflection` that do not depend on the state."""
+    GV = metric @ V
+    return GV, V.T @ GV
 
 
 def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
                       W: np.ndarray | None = None, output_rows: np.ndarray | None = None,
                       node_force: Mapping[int, np.ndarray] | None = None,
                       outputs: Mapping[str, float] | None = None,
-                      metric: sps.spmatrix | None = None) -> StaticDeflection:
+                      metric: sps.spmatrix | None = None,
+                      gram: tuple[np.ndarray, np.ndarray] | None = None) -> StaticDeflection:
     """The static state of a reduced body from the FE static state ``x`` (module docstring).
 
     Parameters
@@ -54,6 +63,9 @@ def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
         Ḡ (n × n, symmetric positive definite): ``q = (VᵀḠV)⁻¹VᵀḠx`` and the residual in
         that norm. ``None``: ``q = (WᵀV)⁻¹Wᵀx`` (the oblique projection of two-sided data;
         least squares for ``W = V``) and the Euclidean residual.
+    gram
+        ``(ḠV, VᵀḠV)`` of this metric and ``V`` (:func:`metric_gram`), for a caller that
+        projects many states on one basis: computed here when ``None``.
     """
     V = body.V if V is None else np.asarray(V)
     W = (body.W if body.W is not None else V) if W is None else np.asarray(W)
@@ -65,8 +77,8 @@ def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
         raise DataError(f"the static state has {x.size} entries for a basis of "
                         f"{V.shape[0]} rows", None, "static.x")
     if metric is not None:
-        GV = metric @ V
-        q = np.linalg.solve(V.T @ GV, GV.T @ x)
+        GV, VGV = metric_gram(metric, V) if gram is None else gram
+        q = np.linalg.solve(VGV, GV.T @ x)
         norm = lambda v: float(np.sqrt(max(v @ (metric @ v), 0.0)))  # noqa: E731
     else:
         q = np.linalg.lstsq(W.T @ V, W.T @ x, rcond=None)[0]

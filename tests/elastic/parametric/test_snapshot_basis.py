@@ -18,6 +18,7 @@ from fe_builders import piston_duct
 
 from neweul_py.elastic.bodies.invariants import Invariants
 from neweul_py.elastic.parametric.snapshot_basis import (
+    ProjectionCache,
     basis_parametric_body,
     check_same_mesh,
     snapshot_basis,
@@ -83,6 +84,27 @@ def test_between_samples_the_body_is_stable(family, c: float) -> None:
     b = body.at(c)
     s = second_order_poles(b.M, b.D, b.K)
     assert s.real.max() <= 1e-9 * np.abs(s).max()
+
+
+def test_a_cached_projection_is_the_direct_projection(family) -> None:
+    """A model projected through a :class:`ProjectionCache` — against the first model
+    projected, as its difference — equals ``Vᵀ X V`` computed densely (reference: the
+    definition, round-off aside), is projected once, and is the sample that
+    :func:`basis_parametric_body` then uses."""
+    fes, V, _ = family
+    cache = ProjectionCache()
+    first = cache.body(fes[0], V, keep_nodes=[1])
+    other = cache.body(fes[2], V, keep_nodes=[1])
+    assert cache.base[0] is fes[0] and cache.body(fes[2], V, keep_nodes=[1]) is other
+    for key in ("M", "K", "D"):
+        direct = V.T @ getattr(fes[2], key).toarray() @ V
+        np.testing.assert_allclose(other[key], direct, rtol=0,
+                                   atol=1e-12 * np.abs(direct).max())
+        np.testing.assert_allclose(first[key], V.T @ getattr(fes[0], key).toarray() @ V,
+                                   rtol=0, atol=1e-12 * np.abs(direct).max())
+    again = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
+                                  projections=cache)
+    np.testing.assert_array_equal(again.K[2], other.K)
 
 
 def test_fixed_frame_invariants(family) -> None:
