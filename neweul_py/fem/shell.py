@@ -27,6 +27,7 @@ Formulation (translational DOFs ``ux, uy, uz`` per node only):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sps
@@ -199,6 +200,11 @@ class ShellStructure:
     def _dofs(self) -> np.ndarray:
         return node_dofs(self.triangles, 3)
 
+    @cached_property
+    def reference_volume(self) -> float:
+        """The swept volume of the reference surface (:func:`swept_volume`), computed once."""
+        return swept_volume(self.points, self.triangles)[0]
+
     def membrane(
         self, u: np.ndarray, tangent: bool = True, incremental_modulus: float | None = None
     ) -> tuple[float, np.ndarray, sps.csr_matrix | None]:
@@ -220,14 +226,16 @@ class ShellStructure:
         x = self.points + np.reshape(u, (-1, 3))
         xe = x[self.triangles]
         g, a = self.grads, self.areas
-        f = np.einsum("eai,eaJ->eiJ", xe, g)  # (nt, 3, 2) deformation gradient
-        c = np.einsum("eiI,eiJ->eIJ", f, f)
+        # batched matrix products (einsum over several operands loops element by element)
+        f = np.swapaxes(xe, 1, 2) @ g  # (nt, 3, 2) deformation gradient F = Σ_a x_a ⊗ ∇N_a
+        c = np.swapaxes(f, 1, 2) @ f   # C = FᵀF
         ev = np.stack([0.5 * (c[:, 0, 0] - 1), 0.5 * (c[:, 1, 1] - 1), c[:, 0, 1]], axis=1)
         dm = m.t * plane_stress(m.E, m.nu)
         nv = ev @ dm  # membrane forces (Voigt) — dm symmetric
         energy = float(0.5 * np.einsum("e,ei,ei->", a, ev, nv))
-        nmat = np.stack([nv[:, [0, 2]], nv[:, [2, 1]]], axis=1)  # (nt, 2, 2)
-        fe = np.einsum("e,eiI,eIJ,eaJ->eai", a, f, nmat, g).reshape(-1, 9)
+        nmat = np.stack([nv[:, [0, 2]], nv[:, [2, 1]]], axis=1)  # (nt, 2, 2), symmetric
+        gn = g @ (a[:, None, None] * nmat)  # (nt, 3 nodes, 2): A ∇N_a · N
+        fe = (gn @ np.swapaxes(f, 1, 2)).reshape(-1, 9)  # A F N ∇N_a per node a
         dofs = self._dofs()
         fint = assemble_vector(fe, dofs, self.n_dof)
         if not tangent:
@@ -240,9 +248,9 @@ class ShellStructure:
         b = b.reshape(-1, 3, 9)
         if incremental_modulus is not None:
             dm = dm * (incremental_modulus / m.E)
-        km = np.einsum("e,evk,vw,ewl->ekl", a, b, dm, b)
-        gg = np.einsum("e,eaI,eIJ,ebJ->eab", a, g, nmat, g)
-        kg = np.einsum("eab,ij->eaibj", gg, np.eye(3)).reshape(-1, 9, 9)
+        km = np.swapaxes(b, 1, 2) @ ((a[:, None, None] * dm) @ b)  # A Bᵀ 𝔻 B
+        gg = gn @ np.swapaxes(g, 1, 2)  # A ∇N_a · N ∇N_b
+        kg = (gg[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]).reshape(-1, 9, 9)
         return energy, fint, assemble_matrix(km + kg, dofs, self.n_dof)
 
     def bending_energy(self, u: np.ndarray) -> float:
@@ -264,9 +272,8 @@ class ShellStructure:
         """
         x = self.points + np.reshape(u, (-1, 3))
         v, grad, h = swept_volume(x, self.triangles)
-        v0, _, _ = swept_volume(self.points, self.triangles)
         kp = assemble_matrix(-dp * h, self._dofs(), self.n_dof)
-        return v - v0, dp * grad.ravel(), kp
+        return v - self.reference_volume, dp * grad.ravel(), kp
 
 
 def _bst_bending(
