@@ -410,8 +410,8 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     def body_of(points: Sequence[float], static: bool = False) -> Any:
         pts = [float(p) for p in points]
         models = _Models(sweeps, pts)        # basis_parametric_body checks the mesh
-        if len(pts) == 1:              # a midpoint's reference: projected once, kept
-            return projections.body(models[0], V, W, keep_nodes=manubrium)
+        if len(pts) == 1:     # a midpoint's reference: its difference to the base projected
+            return projections.body(models[0], V, W, keep_nodes=manubrium, remember=False)
         pb = basis_parametric_body(
             models, V, pts, parameter="dp", keep_nodes=manubrium, energy=energy, W=W,
             static=static_states(sweeps.where, pts, manubrium) if static else None,

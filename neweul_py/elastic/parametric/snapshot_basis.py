@@ -338,10 +338,11 @@ class ProjectionCache:
             self.base = (fe, body)
 
     def body(self, fe: FEModel, V: np.ndarray, W: np.ndarray | None = None,
-             keep_nodes: Sequence[int] | None = None) -> ReducedBody:
+             keep_nodes: Sequence[int] | None = None, remember: bool = True) -> ReducedBody:
         """``fe`` projected on ``V`` (``W``: the left basis of a two-sided pair, ``None``
         for Galerkin), with :func:`fixed_frame_invariants`: remembered, or projected against
-        the base and remembered."""
+        the base (and remembered unless ``remember`` is false and there is a base: a model
+        used once, e.g. a refinement's midpoint, does not stay in memory)."""
         b = self.bodies.get(fe.fingerprint)
         if b is None:
             settings = {"order": int(V.shape[1])} | ({"two_sided": True} if W is not None
@@ -349,7 +350,8 @@ class ProjectionCache:
             b = fixed_frame_invariants(build_reduced_body(
                 fe, V, V if W is None else W, "snapshot", settings, keep_nodes=keep_nodes,
                 base=self.base), fe)
-            self.add(fe, b)
+            if remember or self.base is None:
+                self.add(fe, b)
         return b
 
 

@@ -105,6 +105,11 @@ def test_a_cached_projection_is_the_direct_projection(family) -> None:
     again = basis_parametric_body(fes, V, SPEEDS, parameter="c", keep_nodes=[1],
                                   projections=cache)
     np.testing.assert_array_equal(again.K[2], other.K)
+    once = ProjectionCache()
+    once.body(fes[0], V, keep_nodes=[1], remember=False)        # the base is always kept
+    passing = once.body(fes[1], V, keep_nodes=[1], remember=False)
+    assert set(once.bodies) == {fes[0].fingerprint}
+    np.testing.assert_array_equal(passing.K, cache.body(fes[1], V, keep_nodes=[1]).K)
 
 
 def test_fixed_frame_invariants(family) -> None:
