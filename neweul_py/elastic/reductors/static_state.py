@@ -24,11 +24,11 @@ __all__ = [
 ]
 
 
-def metric_gram(metric: sps.spmatrix, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(ḠV, VᵀḠV)``: the metric applied to the basis and its Gram matrix, the two products
-    of :func:`static_deflection` that do not depend on the state."""
-    GV = metric @ V
-    return GV, V.T @ GV
+def metric_gram(metric: sps.spmatrix, V: np.ndarray) -> np.ndarray:
+    """``VᵀḠV``: the Gram matrix of the basis in the metric, the product of
+    :func:`static_deflection` that does not depend on the state (r × r; ``ḠV``, as large as
+    ``V``, is not kept)."""
+    return V.T @ np.asarray(metric @ V)
 
 
 def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
@@ -36,7 +36,7 @@ def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
                       node_force: Mapping[int, np.ndarray] | None = None,
                       outputs: Mapping[str, float] | None = None,
                       metric: sps.spmatrix | None = None,
-                      gram: tuple[np.ndarray, np.ndarray] | None = None) -> StaticDeflection:
+                      gram: np.ndarray | None = None) -> StaticDeflection:
     """The static state of a reduced body from the FE static state ``x`` (module docstring).
 
     Parameters
@@ -64,8 +64,8 @@ def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
         that norm. ``None``: ``q = (WᵀV)⁻¹Wᵀx`` (the oblique projection of two-sided data;
         least squares for ``W = V``) and the Euclidean residual.
     gram
-        ``(ḠV, VᵀḠV)`` of this metric and ``V`` (:func:`metric_gram`), for a caller that
-        projects many states on one basis: computed here when ``None``.
+        ``VᵀḠV`` of this metric and ``V`` (:func:`metric_gram`), for a caller that projects
+        many states on one basis: computed here when ``None``.
     """
     V = body.V if V is None else np.asarray(V)
     W = (body.W if body.W is not None else V) if W is None else np.asarray(W)
@@ -77,8 +77,8 @@ def static_deflection(body: Any, x: np.ndarray, *, V: np.ndarray | None = None,
         raise DataError(f"the static state has {x.size} entries for a basis of "
                         f"{V.shape[0]} rows", None, "static.x")
     if metric is not None:
-        GV, VGV = metric_gram(metric, V) if gram is None else gram
-        q = np.linalg.solve(VGV, GV.T @ x)
+        VGV = metric_gram(metric, V) if gram is None else gram
+        q = np.linalg.solve(VGV, V.T @ np.asarray(metric @ x))
         norm = lambda v: float(np.sqrt(max(v @ (metric @ v), 0.0)))  # noqa: E731
     else:
         q = np.linalg.lstsq(W.T @ V, W.T @ x, rcond=None)[0]
