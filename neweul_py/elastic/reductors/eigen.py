@@ -62,6 +62,15 @@ PERMC_SPEC = "MMD_AT_PLUS_A"
 #: Matrices from this many rows on are ordered by nested dissection (:func:`nested_dissection`);
 #: smaller ones by SuperLU's :data:`PERMC_SPEC`.
 ND_MIN_ROWS = 2000
+
+#: Threshold of SuperLU's diagonal pivoting: the diagonal entry is the pivot unless it is
+#: smaller than this fraction of the largest entry of its column (threshold partial
+#: pivoting, as in UMFPACK's symmetric strategy; SciPy's default 1.0 is plain partial
+#: pivoting, which undoes the fill-reducing symmetric ordering). On the refine-1 middle-ear
+#: ``K + iωD − ω²M`` (6 584 DOFs, nested dissection): 0.18 s instead of 0.28 s, 2.09·10⁶
+#: factor entries instead of 2.5–2.7·10⁶, the same backward error (about 1e-21 of
+#: ‖A‖·‖x‖).
+DIAG_PIVOT_THRESHOLD = 0.1
 #: Nested-dissection orderings by sparsity pattern (the factorizations of a frequency sweep
 #: or of the working points of one mesh share their pattern: one ordering serves them all).
 _ORDERINGS: dict[str, np.ndarray] = {}
@@ -94,10 +103,11 @@ class SparseLU:
 
     Ordering: from :data:`ND_MIN_ROWS` rows on, the symmetric nested-dissection permutation of
     :func:`nested_dissection` (then SuperLU's natural order), below minimum degree on
-    ``Aᵀ + A``; both with SuperLU's symmetric mode (diagonal pivots preferred), for real and
-    complex matrices alike. On the middle-ear u–p model (33 210 DOFs, ``K + iωD − ω²M``) the
-    complex factorization took 4.0 s with nested dissection, 9.5 s with minimum degree, 23 s
-    with COLAMD and 35 s for the equivalent real form ``[[Ar, −Ai], [Ai, Ar]]``.
+    ``Aᵀ + A``; both with SuperLU's symmetric mode and threshold pivoting on the diagonal
+    (:data:`DIAG_PIVOT_THRESHOLD`), for real and complex matrices alike. On the middle-ear u–p
+    model (33 210 DOFs, ``K + iωD − ω²M``) with partial pivoting the complex factorization
+    took 4.0 s with nested dissection, 9.5 s with minimum degree, 23 s with COLAMD and 35 s
+    for the equivalent real form ``[[Ar, −Ai], [Ai, Ar]]``.
 
     Raises
     ------
@@ -113,7 +123,8 @@ class SparseLU:
         if self.perm is not None:
             A = A[self.perm][:, self.perm].tocsc()
         self.lu = spla.splu(A, permc_spec=PERMC_SPEC if self.perm is None else "NATURAL",
-                            options={"SymmetricMode": True})
+                            options={"SymmetricMode": True,
+                                     "DiagPivotThresh": DIAG_PIVOT_THRESHOLD})
 
     def condition_estimate(self, A: sps.spmatrix) -> float:
         """Cheap lower bound of ``cond₁(A)``: ``‖A‖₁ ‖A⁻¹r‖ / ‖r‖`` for a random ``r``.

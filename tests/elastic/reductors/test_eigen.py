@@ -37,3 +37,19 @@ def test_sparse_lu_solves_complex_systems_and_their_transposes(size) -> None:
     real = SparseLU(sps.csr_matrix(A.real))
     r = rng.standard_normal(fe.n_dofs)
     assert np.abs(A.real @ real.solve(r) - r).max() <= 1e-6 * np.abs(r).max()
+
+
+@pytest.mark.parametrize("n", [40, ND_MIN_ROWS + 10])
+def test_a_small_diagonal_is_pivoted_away(n) -> None:
+    """Threshold pivoting prefers the diagonal but leaves one smaller than the threshold times
+    its column's largest entry: a saddle-point matrix ``[[εI, I], [I, 0]]``-like (diagonal
+    1e-14 or 0 against off-diagonal 1) is solved to round-off. Reference: the dense solve of
+    NumPy (LAPACK ``gesv``, partial pivoting)."""
+    m = n // 2
+    eye = sps.identity(m, format="csr")
+    chain = sps.diags([np.full(m - 1, 0.3)], [1], shape=(m, m))
+    A = sps.bmat([[1e-14 * eye, eye + chain], [(eye + chain).T, None]], format="csr")
+    b = np.random.default_rng(1).standard_normal(2 * m)
+    x = SparseLU(A).solve(b)
+    ref = np.linalg.solve(A.toarray(), b)
+    np.testing.assert_allclose(x, ref, rtol=1e-10, atol=1e-10 * np.abs(ref).max())
