@@ -71,6 +71,7 @@ ND_MIN_ROWS = 2000
 #: factor entries instead of 2.5–2.7·10⁶, the same backward error (about 1e-21 of
 #: ‖A‖·‖x‖).
 DIAG_PIVOT_THRESHOLD = 0.1
+
 #: Nested-dissection orderings by sparsity pattern (the factorizations of a frequency sweep
 #: or of the working points of one mesh share their pattern: one ordering serves them all).
 _ORDERINGS: dict[str, np.ndarray] = {}
