@@ -148,9 +148,9 @@ _LAST_BASE: dict[str, dict[str, np.ndarray]] = {}
 
 
 def _read_base(base: Path, delta: str) -> tuple[str, dict[str, np.ndarray]]:
-    """The SHA-256 (hex) and the arrays (fresh copies) of the base ``base`` of ``delta`` (a
-    complete file); its bytes are parsed again only when their hash differs from the last
-    base's."""
+    """The SHA-256 (hex) and the arrays (read-only, kept between calls: a caller that hands
+    them on copies them) of the base ``base`` of ``delta`` (a complete file); its bytes are
+    parsed again only when their hash differs from the last base's."""
     if not base.exists():
         raise DataError(f"its base {base} is missing (this file holds only what differs from "
                         "it)", delta, "base")
@@ -158,9 +158,11 @@ def _read_base(base: Path, delta: str) -> tuple[str, dict[str, np.ndarray]]:
     digest = hashlib.sha256(raw).hexdigest()
     if digest not in _LAST_BASE:
         arrays = _parse_base(raw, base, delta)
+        for value in arrays.values():
+            value.setflags(write=False)
         _LAST_BASE.clear()
         _LAST_BASE[digest] = arrays
-    return digest, {k: v.copy() for k, v in _LAST_BASE[digest].items()}
+    return digest, dict(_LAST_BASE[digest])
 
 
 def _parse_base(raw: bytes, base: Path, delta: str) -> dict[str, np.ndarray]:
@@ -246,7 +248,9 @@ def merge_delta(path: str | os.PathLike, data: Mapping[str, np.ndarray],
         if key.startswith(PATCH_VAL) and PATCH_POS + key[len(PATCH_VAL):] not in data:
             raise DataError("a patch without positions", file, key)
     arrays["meta"] = json_to_uint8({k: v for k, v in meta.items() if k != "base"})
-    return arrays
+    # the base's arrays the delta keeps as they are are read-only and shared: the model's own
+    return {key: value if value.flags.writeable else value.copy()
+            for key, value in arrays.items()}
 
 
 def _patched(old: np.ndarray | None, pos: np.ndarray, val: np.ndarray | None, key: str,
