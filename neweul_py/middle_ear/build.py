@@ -30,7 +30,6 @@ import json
 import os
 import shutil
 import time
-from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,7 +42,6 @@ from ..atomic import atomic_write
 from ..description.loader import load_description_text
 from ..elastic.bodies.static import node_rows
 from ..elastic.io.body_files import save_parametric_body
-from ..elastic.io.fe_files import read_fe_model
 from ..elastic.io.reader import read_elastic_data
 from ..elastic.io.working_point import read_static
 from ..elastic.parametric.snapshot_basis import (
@@ -64,8 +62,14 @@ from .sampling import (
     static_states,
     volume_coordinate,
 )
-from .sweep import pressure_sweep
 from .transfer import LumpedChain
+from .working_points import (
+    BASIS_CACHE_BYTES,
+    MODEL_CACHE_BYTES,
+    SWEEP_GLOB,
+    LazyModels,
+    WorkingPoints,
+)
 
 __all__ = ["BASES", "BUILD_RECORD", "BuildOptions", "build", "reduction_basis",
            "snapshot_plan"]
@@ -87,19 +91,6 @@ BALANCED_HZ = np.sort(np.r_[20.0, np.geomspace(100.0, 8000.0, 10), 5500.0, 6500.
 #: (two-sided), of the POD energy (Galerkin); accuracy of both in docs/equations-middle-ear.md,
 #: "Choice of reduction" (benchmarks/bench_two_sided.py).
 BASES = {"two-sided": 1e-10, "galerkin": 5e-9}
-#: Step of the static curve of the volume coordinate [Pa].
-CURVE_STEP = 100.0
-#: The sweep directories of a build: ``fem`` (the working points asked for), then one per
-#: further call of the FE sweep, named by what it holds (``fem_slopes``, ``fem_refine``, and
-#: ``fem_slopes_2`` … for later calls: a sweep directory is never solved again).
-SWEEP_GLOB = "fem*"
-#: The FE models a build keeps in memory [bytes] (at refine 2 about 50 MB each; a refinement
-#: reads 50–60 working points, of which the body of the last step needs about 40 at once).
-MODEL_CACHE_BYTES = 1e9
-#: … and while the reduction basis is computed (all models of refine 1, four of refine 2:
-#: beside them the snapshot matrix, 1.5 GB at refine 2, and the workers' factorizations).
-BASIS_CACHE_BYTES = 2.5e8
-
 Progress = Callable[..., None]
 
 
@@ -181,90 +172,8 @@ class BuildOptions:
             raise NeweulError(f"order: a positive number of directions, got {self.order!r}")
 
 
-def _model_bytes(fe: Any) -> int:
-    """Bytes of the sparse matrices of an FE model."""
-    return sum(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes
-               for m in (fe.M, fe.K, fe.D, fe.G) if m is not None)
-
-
 def _quiet(*_args: Any, **_kwargs: Any) -> None:
     """A progress hook that says nothing."""
-
-
-class _Sweeps:
-    """The FE working points of a build: where each is, loaded once, built when missing."""
-
-    def __init__(self, root: Path, options: BuildOptions, progress: Progress) -> None:
-        self.root, self.options, self.progress = root, options, progress
-        self.where: dict[float, Path] = {}
-        self.models: OrderedDict[float, Any] = OrderedDict()      # least recently used first
-        self.cap = MODEL_CACHE_BYTES
-        for d in sorted(root.glob(SWEEP_GLOB)):
-            record = d / "sweep.json"
-            if record.is_file():
-                for wp in json.loads(record.read_text())["working_points"]:
-                    if (d / wp["file"]).is_file():
-                        self.where.setdefault(float(wp["dp_Pa"]), d)
-
-    def solve(self, name: str, pressures: Sequence[float], curve: bool = False) -> None:
-        """Solve the working points ``pressures`` into a new sweep directory named ``name``
-        (``name_2`` … when that exists; written atomically)."""
-        d, k = self.root / name, 1
-        while (d / "sweep.json").exists():
-            k += 1
-            d = self.root / f"{name}_{k}"
-        todo = sorted({float(p) for p in pressures})
-        self.progress(f"FE models at {', '.join(f'{p:+.0f}' for p in todo)} Pa")
-        pressure_sweep(todo, refine=self.options.refine, out_dir=str(d), progress=self.progress,
-                       static_curve=CURVE_STEP if curve else None, base=self.base())
-        self.where.update({p: d for p in todo})
-
-    def base(self) -> Path | None:
-        """The complete working-point file of the first sweep ``fem``, which later sweeps are
-        stored against (delta files: the shared matrices once per build); ``None`` before
-        ``fem`` exists."""
-        fem = self.root / "fem"
-        record = fem / "sweep.json"
-        if not record.is_file():
-            return None
-        sweep = json.loads(record.read_text())
-        name = sweep.get("fe_base", sweep["working_points"][0]["file"])  # older: all complete
-        return fem / name if "/" not in name and (fem / name).is_file() else None
-
-    def need(self, name: str, pressures: Sequence[float]) -> None:
-        """The working points ``pressures``, solved into ``name`` where they are missing."""
-        new = [float(p) for p in pressures if float(p) not in self.where]
-        if new:
-            self.solve(name, new)
-
-    def model(self, p: float) -> Any:
-        """The FE model of the working point ``p``, read once and kept while the models
-        kept take less than ``self.cap`` bytes (the least recently used go first)."""
-        if p in self.models:
-            self.models.move_to_end(p)
-            return self.models[p]
-        fe = self.models[p] = read_fe_model(model_path(self.where[p], p))
-        while len(self.models) > 1 and sum(map(_model_bytes, self.models.values())) \
-                > self.cap:
-            self.models.popitem(last=False)
-        return fe
-
-
-class _Models(Sequence[Any]):
-    """The FE models of the working points ``points``, each read through the build's cache
-    (:meth:`_Sweeps.model`) when it is indexed: a list would hold them all at once (at
-    refine 2 a body with its slope models reads about 40), this holds none."""
-
-    def __init__(self, sweeps: _Sweeps, points: Sequence[float]) -> None:
-        self.sweeps, self.points = sweeps, [float(p) for p in points]
-
-    def __len__(self) -> int:
-        return len(self.points)
-
-    def __getitem__(self, i: Any) -> Any:
-        if isinstance(i, slice):
-            return _Models(self.sweeps, self.points[i])
-        return self.sweeps.model(self.points[i])
 
 
 def _sources_relative(body: Any, where: Path) -> Any:
@@ -372,7 +281,7 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
 def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any]:
     """Build into the temporary directory ``tmp`` (the steps of the module docstring)."""
     t0 = time.perf_counter()
-    sweeps = _Sweeps(tmp, options, progress)
+    sweeps = WorkingPoints(tmp, options.refine, progress)
     pressures = [float(p) for p in options.pressures]
     volume = options.coordinate == "volume"
     fem = tmp / "fem"
@@ -385,7 +294,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     params = MiddleEarParameters(**sweep["parameters"])
     manubrium = [int(i) for i in sweep["interface_nodes"]["manubrium"]]
     umbo = int(sweep["interface_nodes"]["umbo"])
-    fes = _Models(sweeps, pressures)
+    fes = LazyModels(sweeps, pressures)
     check_same_mesh(fes, pressures)
     progress("2/6 reduction basis")
     tag = "basis2" if options.basis == "two-sided" else "basis"
@@ -396,20 +305,21 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     sweeps.cap = MODEL_CACHE_BYTES
     step = float(options.slope_step)
     projections = ProjectionCache()         # each FE model projected on (V, W) once
+    sweeps.pinned.add(pressures[0])         # the first projected: the others' base
 
     def slope_keywords(pts: list[float], static: bool) -> dict[str, Any]:
         if step <= 0:
             return {}
         side = [[p + sign * step for p in pts] for sign in (-1.0, 1.0)]
         sweeps.need("fem_slopes", side[0] + side[1])
-        return {"slope_models": tuple(_Models(sweeps, ps) for ps in side),
+        return {"slope_models": tuple(LazyModels(sweeps, ps, handles=True) for ps in side),
                 "slope_step": step,
                 "slope_static": tuple(static_states(sweeps.where, ps, manubrium)
                                       for ps in side) if static else None}
 
     def body_of(points: Sequence[float], static: bool = False) -> Any:
         pts = [float(p) for p in points]
-        models = _Models(sweeps, pts)        # basis_parametric_body checks the mesh
+        models = LazyModels(sweeps, pts, handles=True)   # read as the projections need
         if len(pts) == 1:     # a midpoint's reference: its difference to the base projected
             return projections.body(models[0], V, W, keep_nodes=manubrium, remember=False)
         pb = basis_parametric_body(

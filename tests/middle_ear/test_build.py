@@ -123,12 +123,12 @@ def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
     to the previous build's)."""
     out = tmp_path / "b"
     shutil.copytree(small, out)
-    import neweul_py.middle_ear.build as b
+    import neweul_py.middle_ear.working_points as wp
 
     def no_sweep(*args, **kwargs):
         raise AssertionError("an FE model was solved again")
 
-    monkeypatch.setattr(b, "pressure_sweep", no_sweep)
+    monkeypatch.setattr(wp, "pressure_sweep", no_sweep)
     build(out, SMALL)
     assert json.loads((out / "build.json").read_text())["samples_Pa"] == [-1000.0, 0.0, 1000.0]
     assert [p.relative_to(out) for p in _models(out)] == [
