@@ -48,6 +48,7 @@ from ..fe_model import FEModel
 from ..reductors.eigen import SparseLU
 from ..reductors.projection import Progress, build_reduced_body
 from ..reductors.static_state import metric_gram, static_deflection
+from ..reductors.up_transpose import adjoint_from_primal, mirrored_loads, up_similarity
 from .global_basis import energy_metric, g_orthonormal
 from .samples import (
     central_curvatures,
@@ -111,26 +112,43 @@ def sample_snapshots(fe: FEModel, F: np.ndarray, adjoint: np.ndarray | None, f: 
 
     and likewise ``Y`` with ``Aᵀ`` (a projection whose space holds ``X`` and its first
     ``m − 1`` derivatives at ``ω_j`` matches the transfer function and as many derivatives
-    there)."""
+    there). An adjoint load of a u–p model that is also a primal load and has no pressure
+    rows gets its responses from the primal ones (``Y = S X``,
+    :mod:`~neweul_py.elastic.reductors.up_transpose`) instead of a transposed solve."""
     K = fe.K if extra_stiffness is None else fe.K + extra_stiffness
     D = fe.D if fe.D is not None else sps.csr_matrix(fe.K.shape)
+    F = np.asarray(F, dtype=complex)
+    c = None if adjoint is None else np.asarray(adjoint, dtype=complex)
+    rho = None if c is None else up_similarity(fe, K, D)
+    is_p = fe.dof_kind == "p"
+    mirror = mirrored_loads(F, c, is_p) if rho is not None and F.ndim == c.ndim == 2 else {}
+    solved = [j for j in range(0 if c is None else c.shape[-1]) if j not in mirror]
     out = []
     for w in 2 * np.pi * f:
         lu = SparseLU(sps.csr_matrix(K + 1j * w * D - w * w * fe.M, dtype=complex))
-        X = lu.solve(np.asarray(F, dtype=complex))
-        Y = None if adjoint is None else lu.solve(np.asarray(adjoint, dtype=complex),
-                                                  transpose=True)
-        out.append((X, Y, float(w)))
+        Xs = [lu.solve(F)]
+        Ys = None if c is None else [lu.solve(c[..., solved] if mirror else c, transpose=True)]
         if moments > 1:
             A1 = sps.csr_matrix(1j * D - 2 * w * fe.M, dtype=complex)
-            X1 = -lu.solve(A1 @ X)
-            Y1 = None if Y is None else -lu.solve(A1.T @ Y, transpose=True)
-            out.append((w * X1, None if Y is None else w * Y1, float(w)))
+            Xs.append(-lu.solve(A1 @ Xs[0]))
+            if Ys is not None:
+                Ys.append(-lu.solve(A1.T @ Ys[0], transpose=True))
             if moments > 2:
-                X2 = -lu.solve(A1 @ X1 - fe.M @ X)
-                Y2 = None if Y is None else -lu.solve(A1.T @ Y1 - fe.M.T @ Y, transpose=True)
-                out.append((w * w * X2, None if Y is None else w * w * Y2, float(w)))
+                Xs.append(-lu.solve(A1 @ Xs[1] - fe.M @ Xs[0]))
+                if Ys is not None:
+                    Ys.append(-lu.solve(A1.T @ Ys[1] - fe.M.T @ Ys[0], transpose=True))
         del lu                          # before the next factorization, not after it
+        if Ys is not None and mirror:
+            js, ks = list(mirror), list(mirror.values())
+            full = [np.empty((F.shape[0], c.shape[1]), dtype=complex) for _ in Ys]
+            from_primal = adjoint_from_primal([X[:, ks] for X in Xs], float(w), rho, is_p)
+            for Y, part, mirrored in zip(full, Ys, from_primal, strict=True):
+                Y[:, solved], Y[:, js] = part, mirrored
+            Ys = full
+        for m, X in enumerate(Xs):
+            scale = (1.0, w, w * w)[m]
+            out.append((scale * X if m else X,
+                        None if Ys is None else (scale * Ys[m] if m else Ys[m]), float(w)))
     return out
 
 
