@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
+from ..elastic.reductors.eigen import SparseLU
 from ..errors import SolverError
 
 __all__ = ["NewtonOptions", "StaticState", "load_path"]
@@ -72,8 +72,8 @@ def _newton(
     for it in range(1, opts.max_iter + 1):
         if not np.all(np.isfinite(r)):
             return None
-        try:
-            du = spla.spsolve(sps.csc_matrix(k), -r)
+        try:    # the tangent's symmetric ordering, cached by pattern (SparseLU)
+            du = SparseLU(sps.csc_matrix(k)).solve(-r)
         except RuntimeError:  # singular factor
             return None
         if not np.all(np.isfinite(du)):
