@@ -138,6 +138,28 @@ def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
         assert (a.K != b.K).nnz == 0 and (a.G != b.G).nnz == 0
 
 
+def test_the_basis_is_cached_deflated_and_reused(small, tmp_path, monkeypatch):
+    """The reduction basis is cached in ``embs/`` — the body's own basis ``R`` (reference),
+    deflated, since a u–p basis is block-diagonal and mostly zeros — and a rebuild of the
+    same refinement takes it instead of solving snapshots again."""
+    cache = next((small / "embs").glob("basis*.npz"))
+    with np.load(cache) as z:
+        V = z["V"]
+    body = load_parametric_body(small / "embs" / "tm_air.npz")
+    np.testing.assert_array_equal(V, np.asarray(body.R))
+    assert cache.stat().st_size < 0.5 * V.nbytes
+    out = tmp_path / "c"
+    shutil.copytree(small, out)
+    import neweul_py.middle_ear.build as b
+
+    def no_snapshots(*args, **kwargs):
+        raise AssertionError("the basis was solved again")
+
+    monkeypatch.setattr(b, "snapshot_basis", no_snapshots)
+    build(out, SMALL)
+    assert load_parametric_body(out / "embs" / "tm_air.npz").R.shape == V.shape
+
+
 @pytest.mark.parametrize(("args", "where"), [
     (["--pressures=1000,0"], "pressures"),
     (["--refine", "7"], "--refine"),
