@@ -144,6 +144,11 @@ class WorkingPoints:
         return known[name]
 
 
+def _known(name: str, doc: str) -> property:
+    """A read-only property of :class:`ModelHandle`: ``name`` as its store knows it."""
+    return property(lambda self: self.points.fact(self.p, name), doc=doc)
+
+
 class ModelHandle:
     """The FE model of one working point of :class:`WorkingPoints`, read only when more than
     its mesh (:data:`KEPT`) or fingerprint is asked of it; then every attribute is the
@@ -154,35 +159,13 @@ class ModelHandle:
     def __init__(self, points: WorkingPoints, p: float) -> None:
         self.points, self.p = points, float(p)
 
-    @property
-    def n_dofs(self) -> int:
-        """Number of DOFs."""
-        return self.points.fact(self.p, "n_dofs")
-
-    @property
-    def nodes(self) -> Any:
-        """The model's node table."""
-        return self.points.fact(self.p, "nodes")
-
-    @property
-    def dof_node(self) -> Any:
-        """Node of every DOF."""
-        return self.points.fact(self.p, "dof_node")
-
-    @property
-    def dof_kind(self) -> Any:
-        """Kind of every DOF."""
-        return self.points.fact(self.p, "dof_kind")
-
-    @property
-    def source(self) -> Any:
-        """The model's file."""
-        return self.points.fact(self.p, "source")
-
-    @property
-    def fingerprint(self) -> str:
-        """:attr:`~neweul_py.elastic.fe_model.FEModel.fingerprint`, computed once."""
-        return self.points.fact(self.p, "fingerprint")
+    n_dofs = _known("n_dofs", "Number of DOFs.")
+    nodes = _known("nodes", "The node table.")
+    dof_node = _known("dof_node", "Node of every DOF.")
+    dof_kind = _known("dof_kind", "Kind of every DOF.")
+    source = _known("source", "The model's file.")
+    fingerprint = _known("fingerprint", ":attr:`~neweul_py.elastic.fe_model.FEModel"
+                                        ".fingerprint`, computed once.")
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__"):           # no copy or pickle protocol through the model
