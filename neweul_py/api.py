@@ -194,6 +194,7 @@ def generate(
     progress: StagedProgress = None,
     cache: bool | str | os.PathLike[str] = False,
     sensitivities: bool = False,
+    reference_bodies: bool = False,
 ) -> Path:
     """Generate the NumPy module of a description: ``out_dir/<name>.py``.
 
@@ -227,6 +228,11 @@ def generate(
         Also the directional second derivatives of the parameter sensitivities of linear
         models (docs/sensitivity.md §1; rigid models). The first parameter derivatives are in
         every module.
+    reference_bodies
+        Parametric elastic bodies: the module reads their sample stacks from their body
+        files, named relative to ``out_dir`` and checked by SHA-256 at import, instead of a
+        copy in its data file (docs/generated-module-protocol.md); not with ``cache``, whose
+        modules live elsewhere.
 
     Returns
     -------
@@ -243,6 +249,12 @@ def generate(
     """
     _check_backend(backend)
     is_text = isinstance(source, str) and "\n" in source
+    if reference_bodies and cache is not False:
+        raise NeweulError("generate: reference_bodies names body files relative to the "
+                          "module, which a cached module cannot (give one of the two)")
+    if reference_bodies and (is_text or not isinstance(source, str | os.PathLike)):
+        raise NeweulError("generate: reference_bodies needs a description file (its "
+                          "elastic bodies name their files)")
     if (isinstance(source, str | os.PathLike) and not is_text and cache is not False
             and backend == "numpy"):
         return _generate_cached(source, out_dir, form, None if cache is True else cache,
@@ -273,8 +285,24 @@ def generate(
     from .codegen import generate_module
 
     path = generate_module(equations, source_hash, Path(out_dir) / f"{equations.system.name}.py",
-                           sensitivities=sensitivities, progress=progress)
+                           sensitivities=sensitivities, progress=progress,
+                           body_files=_body_files(source) if reference_bodies else None)
     return _with_backend(path, backend, lambda: equations, rebuild=True, progress=progress)
+
+
+def _body_files(description_path: str | os.PathLike[str]) -> dict[str, str]:
+    """The file each elastic body of a description names, resolved as the loader resolves
+    it (relative to the description's folder): the files themselves, not those of equations
+    derived earlier from equal data, which the derivation cache may return."""
+    tree = _parsed(description_path).tree
+    bodies = tree.data.get("elastic_bodies") if isinstance(tree.data, dict) else None
+    base = Path(description_path).parent
+    out = {}
+    for name, spec in (bodies or {}).items():
+        data = spec.get("data") if isinstance(spec, dict) else None
+        if isinstance(data, str):
+            out[str(name)] = os.fspath(Path(data) if os.path.isabs(data) else base / data)
+    return out
 
 
 def _constant_of(source: bytes, name: str) -> Any:

@@ -37,6 +37,7 @@ import functools
 import hashlib
 import inspect
 import pprint
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -65,6 +66,7 @@ from ..ffrf.data_file import (
 from ..ffrf.parametric import weight_polynomials
 from ..progress import StagedProgress
 from .blocks import units
+from .body_reference import body_sources
 from .writer import ModuleParts, module_parts
 
 __all__ = ["DataFile", "data_file_name", "elastic_module_parts"]
@@ -83,13 +85,25 @@ class DataFile:
     sha256
         Their SHA-256 (hex), recorded in the module.
     arrays
-        The arrays it holds, by key (the same as reading ``content`` gives).
+        The arrays the module uses, by key: those of ``content`` (:attr:`stored`) and those
+        it reads from other files.
+    sources
+        The other files (a parametric body's file, by reference): file name relative to the
+        module → ``{"sha256", "owner", "arrays"}``
+        (:func:`~neweul_py.ffrf.data_file.ffrf_load_sources`).
     """
 
     name: str
     content: bytes
     sha256: str
     arrays: dict[str, np.ndarray] = dataclasses.field(repr=False)
+    sources: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    @property
+    def stored(self) -> dict[str, np.ndarray]:
+        """The arrays in the file itself (the others are read from :attr:`sources`)."""
+        taken = {key for spec in self.sources.values() for key in spec["arrays"]}
+        return {k: v for k, v in self.arrays.items() if k not in taken}
 
 
 def data_file_name(model: str, sha256: str) -> str:
@@ -209,10 +223,14 @@ def _owners(el: Any) -> dict[str, str]:
             **{s.body.name: f"elastic body {s.body.name!r}" for s in el.splices}}
 
 
-def elastic_data(equations: Any, a_idx: list[int], true_index: dict[int, int]
+def elastic_data(equations: Any, a_idx: list[int], true_index: dict[int, int],
+                 body_files: tuple[Mapping[str, str], Any] | None = None
                  ) -> tuple[dict[str, Any], DataFile]:
     """The skeletons of the prepared bodies, the node maps and the node clouds
-    (:func:`~neweul_py.ffrf.data_file.ffrf_split`) and the data file holding their arrays."""
+    (:func:`~neweul_py.ffrf.data_file.ffrf_split`) and the data file holding their arrays;
+    with ``body_files`` (body name → file, and the module's directory) a parametric body's
+    mixing stack is read from its body file where that holds it exactly
+    (:func:`.body_reference.body_sources`)."""
     el = equations.elastic
     store = ArrayStore()
     entries = [_entry(s, true_index[s.first], off)
@@ -228,10 +246,14 @@ def elastic_data(equations: Any, a_idx: list[int], true_index: dict[int, int]
         clouds = _node_clouds(el, list(equations.poses.frames),
                               [true_index[s.first] for s in el.splices])
         skeleton["nodes"] = [ffrf_split(c, f"{c['name']}/nodes", store) for c in clouds]
-    content = data_file_bytes(store.arrays)
+    sources = {} if body_files is None else body_sources(
+        [(s.body.name, body_files[0].get(s.body.name, "")) for s in el.splices
+         if s.body.parametric], store.arrays, body_files[1])
+    data = DataFile("", b"", "", store.arrays, sources)
+    content = data_file_bytes(data.stored)
     digest = hashlib.sha256(content).hexdigest()
     name = data_file_name(equations.system.name, digest)
-    return skeleton, DataFile(name, content, digest, store.arrays)
+    return skeleton, dataclasses.replace(data, name=name, content=content, sha256=digest)
 
 
 #: ``node_positions`` of a module with elastic bodies: the node clouds of ``_NODES``, moved by
@@ -303,7 +325,9 @@ def patterns(symbolic: Any, hidden: Any) -> tuple[tuple[list[int], list[int]], l
 
 
 def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
-                         progress: StagedProgress = None) -> tuple[ModuleParts, DataFile]:
+                         progress: StagedProgress = None,
+                         body_files: tuple[Mapping[str, str], Any] | None = None
+                         ) -> tuple[ModuleParts, DataFile]:
     """The parts of the module of a system with elastic bodies (module docstring) and its
     data file.
 
@@ -315,6 +339,10 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         SHA-256 of the description.
     cse, progress
         Passed to :func:`.writer.module_parts`.
+    body_files
+        Body name → body file, and the module's directory, when a parametric body's samples
+        are to be read from its body file instead of copied into the data file
+        (:func:`elastic_data`).
     """
     el = equations.elastic
     system = equations.system
@@ -342,7 +370,7 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                                    and _symmetric(el.splices)
                                    and bool(np.array_equal(el.SV, el.SW))),
     )
-    skeleton, data = elastic_data(equations, a_idx, true_index)
+    skeleton, data = elastic_data(equations, a_idx, true_index, body_files)
     mass_pattern, kin_pattern = patterns(symbolic, el.hidden)
     private = (*rigid.private, f"_NS = {len(a_idx)}",
                f"_MASS_PATTERN = ({mass_pattern[0]!r}, {mass_pattern[1]!r})",
@@ -350,7 +378,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                "# the elastic arrays are in the data file next to this module, checked at import",
                f"_DATA_FILE = {data.name!r}",
                f"_DATA_SHA256 = {data.sha256!r}",
-               *_literal("_DATA_SCHEMA", schema_of(data.arrays)),
+               *_literal("_DATA_SCHEMA", schema_of(data.stored)),
+               *_literal("_DATA_SOURCES", data.sources),
                *_literal("_DATA_OWNERS", _owners(el)),
                *_literal("_ELASTIC", skeleton))
 
@@ -369,6 +398,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     functions["_DATA"] = (
         "_DATA = ffrf_load_data(os.path.dirname(os.path.abspath(__file__)), _DATA_FILE,",
         "                       _DATA_SHA256, _DATA_SCHEMA, _DATA_OWNERS)",
+        "_DATA.update(ffrf_load_sources(os.path.dirname(os.path.abspath(__file__)),",
+        "                               _DATA_SOURCES, _DATA_OWNERS))",
         "_ELASTIC = ffrf_restore(_ELASTIC, _DATA)")
     functions["_FFRF"] = (
         "_FFRF = ffrf_system(_ELASTIC['bodies'], _NS, _ELASTIC['SV'], _ELASTIC['SW'],",
@@ -402,7 +433,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
     return rigid.with_(
         docstring=(*rigid.docstring, "", f"Elastic bodies: {bodies}; the floating-frame "
                    "kernel (neweul_py.ffrf) is embedded below,", f"their arrays are in the "
-                   f"data file {data.name} next to this module (checked at import)."),
+                   f"data file {data.name} next to this module"
+                   + "".join(f" and in {f}" for f in data.sources) + " (checked at import)."),
         imports=("import hashlib", "import math as _math", "import mmap", "import os",
                  "import struct", "import struct as _struct", "", "import numpy as _np",
                  "import numpy as np"),

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,9 @@ class GeneratedFiles:
 
 def render_files(equations: Any, source_hash: str, *, cse: bool = True,
                  sensitivities: bool = False,
-                 progress: StagedProgress = None) -> GeneratedFiles:
+                 progress: StagedProgress = None,
+                 body_files: Mapping[str, str] | None = None,
+                 module_dir: str | os.PathLike[str] | None = None) -> GeneratedFiles:
     """The source text of the generated module and its data file (``None`` without elastic
     bodies).
 
@@ -54,6 +57,11 @@ def render_files(equations: Any, source_hash: str, *, cse: bool = True,
     progress
         ``progress("code generation", done, total)`` after each block
         (:mod:`neweul_py.progress`).
+    body_files, module_dir
+        Body name → body file, when the sample stacks of parametric bodies are to be read
+        from their body files instead of copied into the data file, and the directory the
+        module will be written to, which names them relative to itself
+        (:func:`.elastic.elastic_data`).
 
     Raises
     ------
@@ -65,7 +73,9 @@ def render_files(equations: Any, source_hash: str, *, cse: bool = True,
         # rigid model never imports
         from .elastic import elastic_module_parts
 
-        parts, data = elastic_module_parts(equations, source_hash, cse=cse, progress=progress)
+        parts, data = elastic_module_parts(
+            equations, source_hash, cse=cse, progress=progress,
+            body_files=None if body_files is None else (body_files, module_dir or "."))
         return GeneratedFiles(compose(parts), data)
     return GeneratedFiles(compose(module_parts(equations, source_hash, cse=cse,
                                                directional=sensitivities, progress=progress)))
@@ -118,10 +128,13 @@ def _names(module: Path, data_name: str) -> bool:
 def generate_module(
     equations: Any, source_hash: str, path: str | os.PathLike[str], *, cse: bool = True,
     sensitivities: bool = False, progress: StagedProgress = None,
+    body_files: Mapping[str, str] | None = None,
 ) -> Path:
     """Render the module for ``equations`` and write it atomically to ``path`` (with elastic
     bodies also its data file, next to it: :func:`write_files`; ``sensitivities``: as
-    :func:`render_files`).
+    :func:`render_files`; ``body_files``: body name → the body file the module reads the
+    sample stacks of a parametric body from (named relative to the module) instead of a
+    copy in its data file).
 
     Returns
     -------
@@ -134,4 +147,6 @@ def generate_module(
     ...                 description_hash(b"..."), "generated/pendulum.py")  # doctest: +SKIP
     """
     return write_files(render_files(equations, source_hash, cse=cse,
-                                    sensitivities=sensitivities, progress=progress), path)
+                                    sensitivities=sensitivities, progress=progress,
+                                    body_files=body_files, module_dir=Path(path).parent),
+                       path)

@@ -44,8 +44,10 @@ __all__ = [
     "ElasticDataError",
     "data_file_bytes",
     "ffrf_load_data",
+    "ffrf_load_sources",
     "ffrf_restore",
     "ffrf_split",
+    "ffrf_stack_parts",
     "schema_of",
 ]
 
@@ -313,6 +315,19 @@ def ffrf_data_problem(buf, members, schema):
     return None
 
 
+def ffrf_map(path, fail):
+    """The bytes of the file ``path`` mapped read-only (``b""`` for an empty file);
+    ``fail(words)`` (which raises) for a missing or unreadable one."""
+    try:
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            return mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) if size else b""
+    except FileNotFoundError:
+        fail("is missing")
+    except OSError as exc:
+        fail(f"cannot be read ({exc.strerror})")
+
+
 def ffrf_load_data(directory, name, sha256, schema, owners):
     """The arrays of the data file ``directory/name`` as read-only views of its memory map,
     after checking its SHA-256 against ``sha256`` and, on a mismatch, naming what differs
@@ -336,14 +351,7 @@ def ffrf_load_data(directory, name, sha256, schema, owners):
             "module (its data file is written next to it)"
         )
 
-    try:
-        with open(path, "rb") as fh:
-            size = os.fstat(fh.fileno()).st_size
-            buf = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) if size else b""
-    except FileNotFoundError:
-        fail(first, "is missing")
-    except OSError as exc:
-        fail(first, f"cannot be read ({exc.strerror})")
+    buf = ffrf_map(path, lambda words: fail(first, words))
     if hashlib.sha256(buf).hexdigest() != sha256:
         members = ffrf_members(buf)
         if members is None:
@@ -363,5 +371,71 @@ def ffrf_load_data(directory, name, sha256, schema, owners):
     return out
 
 
+def ffrf_stack_parts(buf, members, parts):
+    """The array that ``parts`` name in the uncompressed archive ``buf`` (its members by
+    :func:`ffrf_members`): per part ``[names, scale]`` the members ``names`` — each (k, n),
+    e.g. a parametric body's values, slopes and curvatures of one matrix — interleaved row by
+    row into (k·len(names), n) and multiplied by ``scale`` (unless it is 1); the parts side
+    by side. ``None`` when a member is missing, unreadable or of another row count."""
+    blocks = []
+    for names, scale in parts:
+        stack = []
+        for name in names:
+            at = members.get(f"{name}.npy")
+            head = None if at is None else ffrf_npy(buf, *at)
+            if head is None or len(head[1]) != 2:
+                return None
+            count = int(np.prod(head[1], dtype=np.int64))
+            if head[2] + count * np.dtype(head[0]).itemsize > at[0] + at[1]:
+                return None
+            stack.append(np.frombuffer(buf, dtype=np.dtype(head[0]), count=count,
+                                       offset=head[2]).reshape(head[1]))
+        if len({a.shape for a in stack}) != 1:
+            return None
+        block = np.stack(stack, axis=1).reshape(-1, stack[0].shape[1])
+        blocks.append(block * scale if scale != 1.0 else block)
+    if len({b.shape[0] for b in blocks}) != 1:
+        return None
+    out = np.hstack(blocks) if len(blocks) > 1 else blocks[0]
+    out.setflags(write=False)
+    return out
+
+
+def ffrf_load_sources(directory, sources, owners):
+    """The arrays a module reads from files other than its data file (a parametric body's
+    sample stacks from the body file it was generated from, docs/generated-module-protocol.md):
+    ``sources`` maps a file name relative to ``directory`` to ``{"sha256": hex, "owner": body
+    name, "arrays": {key: parts}}`` (:func:`ffrf_stack_parts`); each file is checked against
+    its SHA-256 before it is read.
+
+    Raises
+    ------
+    ElasticDataError
+        A file is missing, unreadable or changed after generation: one message naming the
+        body and the file.
+    """
+    out = {}
+    for name, spec in sources.items():
+        path = os.path.normpath(os.path.join(directory, name))
+        who = owners.get(spec["owner"], owners.get("", "elastic data"))
+
+        def fail(words, who=who, path=path):
+            raise ElasticDataError(
+                f"{who}: the body file {path} {words}; the module reads the body's samples "
+                "from it: regenerate the module"
+            )
+
+        buf = ffrf_map(path, fail)
+        if hashlib.sha256(buf).hexdigest() != spec["sha256"]:
+            fail("changed after generation (its SHA-256 differs)")
+        members = ffrf_members(buf)
+        for key, parts in spec["arrays"].items():
+            out[key] = None if members is None else ffrf_stack_parts(buf, members, parts)
+            if out[key] is None:
+                fail(f"does not hold the arrays of {key!r} as the module expects")
+    return out
+
+
 #: The functions a generated module with elastic bodies embeds to read its data file.
-DATA_FUNCTIONS = (ffrf_restore, ffrf_members, ffrf_npy, ffrf_data_problem, ffrf_load_data)
+DATA_FUNCTIONS = (ffrf_restore, ffrf_members, ffrf_npy, ffrf_data_problem, ffrf_map,
+                  ffrf_load_data, ffrf_stack_parts, ffrf_load_sources)

@@ -362,7 +362,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     atomic_write(desc, text)
     if options.generate:
         progress("6/6 generated module")
-        generate(desc, tmp / "generated", progress=progress)
+        generate(desc, tmp / "generated", progress=progress, reference_bodies=True)
     tangent = [float(read_static(model_path(sweeps.where[p], p))["chain_tangent"][2, 2])
                for p in samples]
     chain = LumpedChain()

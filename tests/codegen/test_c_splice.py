@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fe_builders import piston_duct
+from fe_builders import parametric_ducts
 
 from neweul_py.analysis import load_generated
 from neweul_py.api import load_description
@@ -24,8 +24,6 @@ from neweul_py.codegen import generate_module
 from neweul_py.codegen.c_module import write_c_module
 from neweul_py.elastic import reduce_modal
 from neweul_py.elastic.io.body_files import save_parametric_body
-from neweul_py.elastic.parametric.local_interpolation import interpolate
-from neweul_py.elastic.reductors.invariants import attach_invariants
 from neweul_py.equations import newton_euler
 from neweul_py.errors import NeweulError
 
@@ -58,27 +56,9 @@ outputs:
 
 @pytest.fixture(scope="module")
 def bodies(tmp_path_factory) -> Path:
-    """Two-sided u–p piston ducts at three sound speeds (6 modes), interpolated with cubic
-    weights (``duct.npz``), with sample slopes and cubic Hermite weights (``duct_h.npz``) and
-    with slopes and curvatures, quintic Hermite weights in ``ξ = c²`` (``duct_q.npz``)."""
+    """The piston ducts of every weight form (``fe_builders.parametric_ducts``)."""
     tmp = tmp_path_factory.mktemp("c_splice")
-    samples = []
-    for c in SPEEDS:
-        fe = piston_duct(n_el=40, c=c)
-        body = reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1], store_bases=True)
-        samples.append(attach_invariants(body, fe, nodes=[1]))
-    pb = interpolate(samples, list(SPEEDS), parameter="c")
-    save_parametric_body(pb, tmp / "duct.npz")
-    slopes = {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
-              * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
-    hb = pb.with_(interpolation="hermite", slopes=slopes)
-    save_parametric_body(hb, tmp / "duct_h.npz")
-    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
-            for key in hb.slope_keys()}
-    knots = np.unique(np.concatenate([np.linspace(SPEEDS[0], SPEEDS[-1], 31), SPEEDS]))
-    qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
-                  coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
-    save_parametric_body(qb, tmp / "duct_q.npz")
+    parametric_ducts(tmp, SPEEDS)
     return tmp
 
 

@@ -13,6 +13,7 @@ Kringlebotn & Gundersen 1985).
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 
@@ -48,6 +49,18 @@ def study(built):
     _data, (mod, _chain), _text = built
     f = np.geomspace(100.0, 8000.0, 40)
     return f, {float(dp): transfer(embs_frf(mod, dp, f), f) for dp in PRESSURES}
+
+
+def test_the_module_reads_the_body_file_instead_of_a_copy(built) -> None:
+    """Data by reference: the generated module names the body file relative to itself with
+    its SHA-256, and its own data file holds no sample stack (reference: the body file's
+    bytes)."""
+    data, _modules, _text = built
+    text = (data / "generated" / "middle_ear.py").read_text()
+    digest = hashlib.sha256((data / "embs" / "tm_air.npz").read_bytes()).hexdigest()
+    assert "'../embs/tm_air.npz'" in text and digest in text
+    with np.load(next((data / "generated").glob("middle_ear.*.npz"))) as z:
+        assert "tm/mixing/varying" not in z.files
 
 
 def _low(study, key: str) -> dict[float, float]:

@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import scipy.optimize as so
 import scipy.sparse as sps
@@ -216,3 +218,32 @@ def twin(fe: FEModel, seed: int = 1) -> FEModel:
                    dof_node=dof_node, dof_kind=dof_kind, inputs=moved(fe.inputs),
                    outputs=moved(fe.outputs), kind=fe.kind, density=fe.density,
                    name=f"twin-{fe.name}")
+
+
+def parametric_ducts(out: Path, speeds: tuple[float, ...] = (300.0, 343.0, 390.0)) -> None:
+    """Two-sided u–p piston ducts at the sound speeds ``speeds`` (6 modes), interpolated with
+    cubic weights (``out/duct.npz``), with sample slopes and cubic Hermite weights
+    (``duct_h.npz``) and with slopes and curvatures, quintic Hermite weights in ``ξ = c²``
+    (``duct_q.npz``): parametric body files of every weight form."""
+    from neweul_py.elastic import reduce_modal
+    from neweul_py.elastic.io.body_files import save_parametric_body
+    from neweul_py.elastic.parametric.local_interpolation import interpolate
+    from neweul_py.elastic.reductors.invariants import attach_invariants
+
+    samples = []
+    for c in speeds:
+        fe = piston_duct(n_el=40, c=c)
+        body = reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1], store_bases=True)
+        samples.append(attach_invariants(body, fe, nodes=[1]))
+    pb = interpolate(samples, list(speeds), parameter="c")
+    save_parametric_body(pb, out / "duct.npz")
+    slopes = {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
+              * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
+    hb = pb.with_(interpolation="hermite", slopes=slopes)
+    save_parametric_body(hb, out / "duct_h.npz")
+    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
+            for key in hb.slope_keys()}
+    knots = np.unique(np.concatenate([np.linspace(speeds[0], speeds[-1], 31), speeds]))
+    qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
+                  coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
+    save_parametric_body(qb, out / "duct_q.npz")
