@@ -18,8 +18,8 @@ def test_fuzz_benchmark_runs_a_small_sample() -> None:
     """``benchmarks/bench_fuzz.py`` with a few cases of every kind ends with no exception
     outside the hierarchy (and runs at all: the benchmarks use the package's public API)."""
     out = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "bench_fuzz.py"), "--descriptions", "20",
-         "--generate", "2", "--data", "20", "--tables", "20", "--kills", "2"],
+        [sys.executable, str(ROOT / "benchmarks" / "bench_fuzz.py"), "--descriptions", "10",
+         "--generate", "1", "--data", "10", "--tables", "10", "--kills", "1"],
         capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONHASHSEED": "0"},
     )
     assert out.returncode == 0, out.stderr[-2000:]

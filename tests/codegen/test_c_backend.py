@@ -260,7 +260,9 @@ outputs:
 
 
 @pytest.mark.parametrize("form", ["plain", "first-order stiffening", "second-order field",
-                                  "fixed frame", "plain 10 modes"])
+                                  "fixed frame",
+                                  # the plain body again with more modes: 4.4 s of CPU
+                                  pytest.param("plain 10 modes", marks=pytest.mark.slow)])
 def test_elastic_bodies_compile_and_equal_the_numpy_module(form, tmp_path):
     """Elastic bodies in C: the kernel's operations traced and printed as loops
     (codegen/c_splice.py), the body data bound from the twin's data file, against the NumPy
