@@ -36,7 +36,7 @@ coordinates: {{z: {{}}}}
 frames:
   carrier: {{translation: [z, 0, 0]}}
 elastic_bodies:
-  duct: {{frame: ISYS, data: {data}, nodes: {{piston: 1}}, schedule: cs}}
+  duct: {{frame: ISYS, data: {data}, nodes: {{piston: 1}}, schedule: cs, inertia: sid}}
 bodies:
   mass: {{frame: carrier, mass: m2}}
 forces:
