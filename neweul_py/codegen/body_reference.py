@@ -114,13 +114,22 @@ def body_sources(bodies: list[tuple[str, str]], arrays: dict[str, np.ndarray],
         with open(file, "rb") as fh:
             if os.fstat(fh.fileno()).st_size == 0:
                 continue
-            buf = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
-        members = ffrf_members(buf)
-        parts = None if members is None else stack_parts(np.asarray(stack), buf, members)
-        if parts is None or not np.array_equal(ffrf_stack_parts(buf, members, parts), stack):
+            with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as buf:
+                parts, digest = _file_parts(np.asarray(stack), buf)
+        if parts is None:
             continue
         rel = Path(os.path.relpath(os.path.abspath(file), os.path.abspath(module_dir)))
-        entry = out.setdefault(rel.as_posix(), {"sha256": hashlib.sha256(buf).hexdigest(),
-                                                "owner": name, "arrays": {}})
+        entry = out.setdefault(rel.as_posix(), {"sha256": digest, "owner": name,
+                                                "arrays": {}})
         entry["arrays"][key] = parts
     return out
+
+
+def _file_parts(stack: np.ndarray, buf: Any) -> tuple[list[list[Any]] | None, str]:
+    """The parts of the archive ``buf`` that give ``stack`` exactly (read back and compared),
+    or ``None``, and the SHA-256 of ``buf``."""
+    members = ffrf_members(buf)
+    parts = None if members is None else stack_parts(stack, buf, members)
+    if parts is not None and not np.array_equal(ffrf_stack_parts(buf, members, parts), stack):
+        parts = None
+    return parts, hashlib.sha256(buf).hexdigest()

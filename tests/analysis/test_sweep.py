@@ -142,6 +142,22 @@ def test_cli_sweep_on_a_running_scheduler(client, capsys, tmp_path):
     np.testing.assert_allclose(data["phi1"], ref.data["phi1"], atol=1e-12)
 
 
+def _rogue_client(address: str, **kwargs) -> None:
+    """Connect a client to ``address`` on an event loop of its own in this thread (a
+    synchronous client that fails to connect leaves its loop thread behind, and the next one
+    then waited for its loop in vain: Dask's LoopRunner, "assert loop is not None")."""
+    import asyncio
+
+    async def connect_once() -> None:
+        client = distributed.Client(address, asynchronous=True, timeout="2s", **kwargs)
+        try:
+            await client
+        finally:
+            await client.close()
+
+    asyncio.run(connect_once())
+
+
 def test_local_cluster_admits_only_its_own_credentials():
     """Reference: Dask's TLS security with temporary credentials
     (``distributed.security.Security.temporary``): the local cluster of a sweep listens on
@@ -162,11 +178,11 @@ def test_local_cluster_admits_only_its_own_credentials():
         assert [r.target.__name__ for r in
                 cluster.scheduler.http_application.wildcard_router.rules] == ["HealthHandler"]
         with pytest.raises(TypeError, match="TLS expects"):
-            distributed.Client(address, timeout="2s")
+            _rogue_client(address)
         with pytest.raises(OSError, match="certificate"):
-            distributed.Client(address, timeout="2s", security=Security.temporary())
+            _rogue_client(address, security=Security.temporary())
         with pytest.raises(OSError):
-            distributed.Client(address.replace("tls://", "tcp://"), timeout="2s")
+            _rogue_client(address.replace("tls://", "tcp://"))
         assert client.submit(operator.add, 1, 2).result() == 3
         other = connect(workers=1, processes=False)
         assert other[1].scheduler_address != address

@@ -51,6 +51,7 @@ def study(built):
     return f, {float(dp): transfer(embs_frf(mod, dp, f), f) for dp in PRESSURES}
 
 
+@pytest.mark.slow          # the refine-0 build with its module (13 s)
 def test_the_module_reads_the_body_file_instead_of_a_copy(built) -> None:
     """Data by reference: the generated module names the body file relative to itself with
     its SHA-256, and its own data file holds no sample stack (reference: the body file's
