@@ -19,6 +19,10 @@ import (:func:`ffrf_load_data`):
   processes shares the pages). A missing file, other bytes (SHA-256), or another schema
   (names, dtypes, shapes) is one :class:`ElasticDataError` naming the body, the file and
   what differs, raised at import.
+* **A body file by reference.** A parametric body's sample stack may instead be read from
+  the body file it was generated from, named relative to the module with its SHA-256
+  (:func:`ffrf_load_sources`, :func:`ffrf_stack_parts`; chosen at generation by
+  :mod:`neweul_py.codegen.body_reference`).
 * **Skeleton and arrays.** :func:`ffrf_split` replaces every array of a nested structure of
   dicts, lists and tuples by a reference ``{"@": key}`` (arrays of equal bytes are stored
   once); the rest is a Python literal the module prints. :func:`ffrf_restore` puts the
