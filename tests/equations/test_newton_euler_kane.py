@@ -58,8 +58,12 @@ def _states(ref, name):
         yield y, yd, p, t
 
 
-@pytest.mark.parametrize("form", ["closed", "recursive"])
-@pytest.mark.parametrize("name", list(BUILDERS))
+@pytest.mark.parametrize(("name", "form"), [
+    # the spatial chain's closed form takes 7 s of CPU: its recursive form and the closed
+    # form of the other systems (the heavy top spatial too) stay in the default suite
+    pytest.param(name, form, marks=pytest.mark.slow)
+    if (name, form) == ("spatial_chain3", "closed") else (name, form)
+    for name in BUILDERS for form in ("closed", "recursive")])
 def test_matches_kane(name: str, form: str) -> None:
     """M and q − k equal Kane's mass_matrix and forcing (u = q̇) at 24 random states."""
     ref = reference(name)
