@@ -116,9 +116,12 @@ def body_sources(bodies: list[tuple[str, str]], arrays: dict[str, np.ndarray],
                 continue
             with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as buf:
                 parts, digest = _file_parts(np.asarray(stack), buf)
+        try:        # no relative name (another drive): the copy stays
+            rel = Path(os.path.relpath(os.path.abspath(file), os.path.abspath(module_dir)))
+        except ValueError:
+            continue
         if parts is None:
             continue
-        rel = Path(os.path.relpath(os.path.abspath(file), os.path.abspath(module_dir)))
         entry = out.setdefault(rel.as_posix(), {"sha256": digest, "owner": name,
                                                 "arrays": {}})
         entry["arrays"][key] = parts
