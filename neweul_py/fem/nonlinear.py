@@ -73,7 +73,7 @@ def _newton(
         if not np.all(np.isfinite(r)):
             return None
         try:    # the tangent's symmetric ordering, cached by pattern (SparseLU)
-            du = SparseLU(sps.csc_matrix(k)).solve(-r)
+            du = SparseLU(k).solve(-r)
         except RuntimeError:  # singular factor
             return None
         if not np.all(np.isfinite(du)):

@@ -352,9 +352,10 @@ def lowest_tangent_eigenvalue(me: MiddleEar, state: StaticState) -> float:
     k = (km + shell.bending + kp + support_at(me, state)).tocsr()[fi][:, fi]
     k = 0.5 * (k + k.T)
     ms = shell.mass()[fi][:, fi]
-    lu = SparseLU(k.tocsc())            # symmetric ordering: 30 % less than eigsh's own LU
+    k = k.tocsc()
+    lu = SparseLU(k)                    # symmetric ordering: 30 % less than eigsh's own LU
     inverse = spla.LinearOperator(k.shape, matvec=lu.solve, dtype=float)
-    lam = spla.eigsh(k.tocsc(), M=ms.tocsc(), k=1, sigma=0.0, which="LM", OPinv=inverse)[0]
+    lam = spla.eigsh(k, M=ms.tocsc(), k=1, sigma=0.0, which="LM", OPinv=inverse)[0]
     return float(lam[0])
 
 
