@@ -55,7 +55,10 @@ def _closed_reference(eq: Equations, a):
     return closed, mats
 
 
-@pytest.mark.parametrize("case", ["pendulum_forces", "spatial_chain2"])
+@pytest.mark.parametrize("case", ["pendulum_forces",
+                                  # 8 s of CPU; the generated spatial chain's Jacobians are
+                                  # compared with lambdify of its equations by default
+                                  pytest.param("spatial_chain2", marks=pytest.mark.slow)])
 def test_symbolic_jacobians_match_sympy_jacobian_of_closed_form(case: str) -> None:
     """force_jacobians, mass_matrix_times_derivative, output_jacobians of both forms equal
     sympy's Matrix.jacobian of the fully substituted equations."""
