@@ -28,7 +28,7 @@ from ..fem.shell import ShellMaterial, ShellStructure
 from .chain import chain_tangent_matrix, condensed_support, malleus_map
 from .parameters import MiddleEarParameters
 
-__all__ = ["MiddleEar", "build_middle_ear", "support_stiffness"]
+__all__ = ["MiddleEar", "build_middle_ear", "flaccida_patches", "support_stiffness"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,6 +58,12 @@ class MiddleEar:
     info: dict = field(default_factory=dict)
     Kf_aditus: sps.csr_matrix | None = None  # the aditus part of Kf (its own loss factor)
     malleus_T: np.ndarray | None = None  # (3m, 6) rigid malleus → manubrium nodes
+    flaccida: np.ndarray | None = None  # (n_p,) pars flaccida's patch weights, if present
+
+    @property
+    def n_flaccida(self) -> int:
+        """1 if the pars flaccida's displacement DOF is present, else 0."""
+        return 0 if self.flaccida is None else 1
 
     @property
     def n_mastoid(self) -> int:
@@ -200,6 +206,8 @@ def build_middle_ear(
         umbo,
         Kf_aditus=kf_aditus,
         malleus_T=t_mal,
+        flaccida=(flaccida_patches(tm, canal, cavity, canal_tm, cav_tm, p, mf.shape[0])
+                  if p.pf_compliance > 0 else None),
         info={
             "canal_layers": n_canal,
             "cavity_layers": n_cav,
@@ -222,6 +230,34 @@ def build_middle_ear(
             )
         )
     return me
+
+
+def flaccida_patches(tm: SurfaceMesh, canal: TetMesh, cavity: TetMesh, canal_tm: np.ndarray,
+                     cavity_tm: np.ndarray, p: MiddleEarParameters, n_p: int) -> np.ndarray:
+    """The weights ``g`` (n_p,) of the pars flaccida's load ``A gᵀp = A (p̄_canal − p̄_cavity)``.
+
+    The pars flaccida closes the ring above the superior end of the manubrium
+    (:mod:`neweul_py.middle_ear.flaccida`); the model's air has no wall there, so it is loaded by
+    the mean pressures over the faces of the canal and of the cavity on the TM triangles whose
+    centroids lie within ``max(r, 1.5 h)`` of the superior rim point, the rim node next to the
+    manubrium's superior end (``r = √(A/π)`` the pars
+    flaccida's radius, ``h`` the TM's ring width, so that a coarse mesh still has a patch):
+    ``g = b_canal / S_canal − b_cavity / S_cavity`` with ``b = ∫ N dΓ`` over each patch.
+    """
+    a = p.tm_radius
+    rim = tm.points[tm.boundary]
+    top = rim[np.argmin(np.linalg.norm(rim - tm.points[tm.line[-1]], axis=1))]
+    centroids = tm.points[tm.triangles].mean(axis=1)
+    near = np.linalg.norm(centroids - top, axis=1) <= max(math.sqrt(p.pf_area / math.pi),
+                                                           1.5 * a / (tm.line.size + 1))
+    tri = tm.triangles[near]
+    b_c = surface_load(canal.points, canal_tm[tri])
+    b_t = surface_load(cavity.points, cavity_tm[tri])
+    g = np.zeros(n_p)
+    nc, nt = b_c.size, b_t.size
+    g[:nc] = b_c / b_c.sum()
+    g[nc : nc + nt] = -b_t / b_t.sum()
+    return g
 
 
 def _barycentric(mesh: TetMesh, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

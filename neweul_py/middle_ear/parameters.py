@@ -119,6 +119,20 @@ class MiddleEarParameters:
     probe_distance
         Probe microphone on the canal's axis (through the rim's centre) this far lateral of
         the TM rim plane [m].
+    pf_compliance
+        Volume compliance ``C₀`` [m³/Pa] of the pars flaccida at ``Δp = 0``
+        (:mod:`neweul_py.middle_ear.flaccida`); 0 (default): no pars flaccida, the tympanic
+        ring is closed by the pars tensa alone.
+    pf_stiffening_pressure
+        ``p_s`` [Pa]: the static pressure difference at which the pars flaccida's tangent
+        compliance has fallen to ``C₀/4`` (its bulge characteristic).
+    pf_area
+        Area of the pars flaccida [m²]: 3 mm², an estimate (5 % of the pars tensa; in gerbil,
+        whose pars flaccida is large, 2.1–2.5 mm² against 17–18 mm², Buytaert et al. 2011). It
+        sets the size of the air patches that load it and, with ``pf_surface_density``, its mass.
+    pf_surface_density
+        Mass per area of the pars flaccida [kg/m²]: 0.12, the TM's density on 100 µm (an
+        estimate: thicker than the pars tensa; its mass is felt only above a few kHz).
     f_ref
         Frequency [Hz] at which the equivalent viscous damping of the time domain matches the
         loss factors (the frequency domain uses the loss factors themselves,
@@ -152,6 +166,10 @@ class MiddleEarParameters:
     air_loss: float = 0.01
     probe_distance: float = 3e-3
     f_ref: float = 1000.0
+    pf_compliance: float = 0.0
+    pf_stiffening_pressure: float = 200.0
+    pf_area: float = 3e-6
+    pf_surface_density: float = 0.12
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -161,13 +179,16 @@ class MiddleEarParameters:
         positive = (
             "tm_area tm_thickness tm_E tm_E_static tm_rho k_tm_manubrium k_chain canal_length "
             "canal_diameter cavity_volume rho_air c_air probe_distance f_ref "
-            "chain_limit_medial chain_limit_lateral aditus_area aditus_length"
+            "chain_limit_medial chain_limit_lateral aditus_area aditus_length "
+            "pf_stiffening_pressure pf_area pf_surface_density"
         ).split()
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ModelError(
                     f"must be positive, got {getattr(self, name)!r}", f"middle_ear.{name}"
                 )
+        if self.pf_compliance < 0:
+            raise ModelError("must be ≥ 0 (0: no pars flaccida)", "middle_ear.pf_compliance")
         if self.mastoid_volume < 0:
             raise ModelError("must be ≥ 0 (0: no antrum/mastoid)", "middle_ear.mastoid_volume")
         for name in ("tm_loss", "air_loss", "mastoid_loss"):
@@ -242,4 +263,5 @@ class MiddleEarParameters:
         shape ``max z = h``: ``π a² (1.05 h − (h − 2δ)/3)`` ≈ 1.06·10⁻⁷ m³)."""
         a = self.tm_radius
         return math.pi * a**2 * 1.05 * self.tm_height - self._profile_volume
+
 

@@ -50,6 +50,8 @@ MIN_INTERVAL = 125.0
 #: The canal source and the outputs of the adjoint snapshots.
 SOURCE = "canal_volume_acceleration"
 OUTPUTS = ("probe_pressure", "umbo_uz")
+#: The pars flaccida's output (present with ``pf_compliance > 0``): its DOF takes a unit load.
+FLACCIDA = "pf_volume_displacement"
 
 
 def manubrium_inputs(fe: FEModel) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -67,7 +69,10 @@ def interface_loads(fe: FEModel, umbo: int, k_attach: float
     node), the loads ``[b_canal, K_x T]`` and the output rows (transposed)
     ``[c_probe, c_umbo, K_x T]`` of the adjoint snapshots; ``T`` the rigid malleus map about
     the umbo node (:func:`~neweul_py.middle_ear.chain.malleus_map`) in the rows of the
-    manubrium inputs."""
+    manubrium inputs. With a pars flaccida (output ``pf_volume_displacement``) both also hold
+    a unit force on its DOF: its stiffness varies fast with ``Δp``, and by Sherman–Morrison
+    the response of a working point with another pars-flaccida stiffness lies in the span of
+    the responses to the canal source and to that force (docs/equations-middle-ear.md §8)."""
     names, dofs, nodes = manubrium_inputs(fe)
     k = k_attach / (dofs.size // 3)
     n = fe.n_dofs
@@ -77,10 +82,12 @@ def interface_loads(fe: FEModel, umbo: int, k_attach: float
     T3 = malleus_map(np.array([xyz[i] for i in order]), np.arange(len(order)), xyz[int(umbo)])
     row = {(node, "xyz"[a]): 3 * j + a for j, node in enumerate(order) for a in range(3)}
     T = T3[[row[(int(name.split(".")[1]), name[-1])] for name in names]]
-    F = np.zeros((n, 7))
+    pf = [i for i, _ in fe.outputs.get(FLACCIDA, ())]
+    F = np.zeros((n, 7 + len(pf)))
     F[:, 0] = fe.B(SOURCE)[:, 0]
-    F[dofs, 1:] = k * T
-    Cadj = np.zeros((n, 8))
+    F[dofs, 1:7] = k * T
+    F[pf, 7:] = np.eye(len(pf))
+    Cadj = np.zeros((n, 8 + len(pf)))
     for j, name in enumerate(OUTPUTS):
         for i, w in fe.outputs[name]:
             Cadj[i, j] += w
