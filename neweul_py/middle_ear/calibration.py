@@ -56,6 +56,7 @@ __all__ = [
     "calibration_residuals",
     "evaluate",
     "held_out",
+    "log_parabolic_peak",
     "residual_labels",
 ]
 
@@ -80,6 +81,10 @@ CALIBRATION: dict[str, Datum] = {
     "umbo+2kPa": Datum(-9.2, 1.3, "dB", "Gyo & Goode 1987: umbo at -200 mmH2O"),
     "umbo+3kPa": Datum(-13.1, 1.8, "dB", "Gyo & Goode 1987: umbo at -300 mmH2O"),
     "f_res": Datum(1049.0, 261.0, "Hz", "Valvik et al. 1994: middle-ear resonance, 100 ears"),
+    "stapes_peak": Datum(float(np.log(np.sqrt(600.0 * 1500.0))),
+                         float(np.log(1500.0 / 600.0) / (2 * 1.645)), "ln Hz",
+                         "ASTM F2504 criterion (Rosowski et al. 2007): stapes velocity peak "
+                         "0.6-1.5 kHz, taken as a 90 % range"),
 }
 #: Murakami et al. 1997 (either sign of Δp loses at low frequencies, Δp > 0 more): one-sided
 #: residuals in units of this [dB] — the umbo's gain at −k kPa, and the excess of its change at
@@ -111,6 +116,13 @@ FIT_BOUNDS: dict[str, tuple[float, float, str]] = {
                      "et al. 2006)"),
     "mastoid_volume": (1.0e-6, 8.0e-6, "antrum + mastoid air: middle-ear air 2-6 cm3 (Molvaer "
                        "et al. 1978), mastoid 0.7-21 cm3 (Swarts et al. 2011)"),
+    "pf_compliance": (1e-14, 2e-11, "pars flaccida compliance at 0 Pa: a membrane of 2-8 mm2 "
+                      "and tension 0.1-10 N/m, pi a^4/(8 T) (not measured in human ears)"),
+    "pf_stiffening_pressure": (20.0, 2000.0, "pressure at which the pars flaccida's compliance "
+                               "has fallen to a quarter (estimate: it moves with pressures of "
+                               "a few daPa, Hellstrom & Stenfors 1983, in rat)"),
+    "pf_surface_density": (0.03, 0.3, "mass per area of the pars flaccida: 25-250 um of tissue "
+                           "(estimate)"),
     "tm_E": (20e6, 30e6, "TM storage modulus: 22.5 MPa at 226 Hz to 27.6 MPa at 3.8 kHz "
              "(Zhang & Gan 2013, power law)"),
 }
@@ -235,6 +247,7 @@ def calibration_measures(params: MiddleEarParameters, chain: CalibrationChain,
         f_res = float(F_RES[i] - db[i] * (F_RES[i + 1] - F_RES[i]) / (db[i + 1] - db[i]))
     st = np.abs(per_probe(0.0, "stapes", "stapes"))
     k = int(np.argmax(st))
+    peak_hz = log_parabolic_peak(F_STAPES, st, k)
     low = (F_STAPES >= 200.0) & (F_STAPES <= 800.0)
     volume = st[low] / (2 * np.pi * F_STAPES[low]) * FOOTPLATE_AREA * 1e9     # mm³/Pa
     return {"tw": m.width_daPa, "ytm_mmho": m.peak_admittance_mmho, "tpp": m.peak_pressure_daPa,
@@ -243,8 +256,21 @@ def calibration_measures(params: MiddleEarParameters, chain: CalibrationChain,
                             "admittance_mmho": (np.abs(y) / MMHO).tolist()},
             "stapes": {"frequency_hz": F_STAPES.tolist(),
                        "velocity_mm_s_Pa": (1e3 * st).tolist()},
-            "stapes_peak_hz": float(F_STAPES[k]), "stapes_peak_mm_s_Pa": 1e3 * float(st[k]),
+            "stapes_peak_hz": peak_hz, "stapes_peak_mm_s_Pa": 1e3 * float(st[k]),
             "stapes_volume_low_mm3_Pa": float(np.mean(volume))}
+
+
+def log_parabolic_peak(freqs: np.ndarray, mag: np.ndarray, k: int) -> float:
+    """The peak frequency: the vertex of the parabola through the largest sample ``k`` and
+    its neighbours in (ln f, ln |v|), so that the measure moves smoothly with the parameters
+    (the sample itself where ``k`` is at an end of the band)."""
+    if k == 0 or k == freqs.size - 1:
+        return float(freqs[k])
+    x, y = np.log(freqs[k - 1 : k + 2]), np.log(mag[k - 1 : k + 2])
+    den = (x[0] - x[1]) * (x[0] - x[2]) * (x[1] - x[2])
+    a = (x[2] * (y[1] - y[0]) + x[1] * (y[0] - y[2]) + x[0] * (y[2] - y[1])) / den
+    b = (x[2] ** 2 * (y[0] - y[1]) + x[1] ** 2 * (y[2] - y[0]) + x[0] ** 2 * (y[1] - y[2])) / den
+    return float(np.exp(-b / (2 * a))) if a < 0 else float(freqs[k])
 
 
 def residual_labels(keys: Sequence[str]) -> list[str]:
@@ -267,7 +293,8 @@ def calibration_residuals(measures: dict[str, Any] | None, keys: Sequence[str]) 
     value = {"tw": measures["tw"] if np.isfinite(measures["tw"]) else 400.0,
              "ytm": float(np.log(max(measures["ytm_mmho"], 1e-3))),
              "umbo+1kPa": umbo[1000.0], "umbo+2kPa": umbo[2000.0], "umbo+3kPa": umbo[3000.0],
-             "f_res": measures["f_res"] if np.isfinite(measures["f_res"]) else 3000.0}
+             "f_res": measures["f_res"] if np.isfinite(measures["f_res"]) else 3000.0,
+             "stapes_peak": float(np.log(measures["stapes_peak_hz"]))}
     out = [(value[k] - CALIBRATION[k].mean) / CALIBRATION[k].sd for k in keys
            if k != "murakami"]
     if "murakami" in keys:

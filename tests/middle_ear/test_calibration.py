@@ -16,6 +16,7 @@ from neweul_py.middle_ear.calibration import (
     PENALTY,
     STATIC_PA,
     calibration_residuals,
+    log_parabolic_peak,
     residual_labels,
 )
 
@@ -29,7 +30,8 @@ def _measures(**loss):
              -3000.0: -6.0}
     umbo |= {float(k): v for k, v in loss.items()}
     return {"tw": 82.5, "ytm_mmho": float(np.exp(CALIBRATION["ytm"].mean)),
-            "f_res": 1049.0, "loss": {"umbo": umbo}}
+            "f_res": 1049.0, "stapes_peak_hz": float(np.sqrt(600.0 * 1500.0)),
+            "loss": {"umbo": umbo}}
 
 
 def test_residuals_vanish_at_the_means_and_count_in_sds():
@@ -38,7 +40,7 @@ def test_residuals_vanish_at_the_means_and_count_in_sds():
     assert np.allclose(calibration_residuals(m, KEYS), 0.0)
     m["tw"] = 82.5 + 19.1
     r = calibration_residuals(m, KEYS)
-    assert r[0] == pytest.approx(1.0) and len(r) == len(residual_labels(KEYS)) == 12
+    assert r[0] == pytest.approx(1.0) and len(r) == len(residual_labels(KEYS)) == 13
 
 
 def test_murakami_residuals_are_one_sided():
@@ -81,3 +83,14 @@ def test_forward_model_matches_the_validation_path_at_zero_pressure(tmp_path):
     want = 1e3 * np.abs(ref["stapes_velocity"] / ref["p_probe"])
     got = np.array(m["stapes"]["velocity_mm_s_Pa"])[::8]
     assert np.allclose(got, want, rtol=1e-2)
+
+
+def test_peak_frequency_between_samples_is_the_vertex_of_a_log_parabola():
+    """A peak that is a parabola in (ln f, ln |v|) (a log-normal resonance shape) is found
+    exactly between the samples of the stapes band; at the band's end the sample is kept."""
+    f = np.geomspace(200.0, 4000.0, 48)
+    for centre in (612.0, 1234.0, 1499.0):
+        mag = np.exp(-3.0 * (np.log(f) - np.log(centre)) ** 2)
+        assert log_parabolic_peak(f, mag, int(np.argmax(mag))) == pytest.approx(centre, rel=1e-12)
+    rising = f / f[-1]
+    assert log_parabolic_peak(f, rising, f.size - 1) == f[-1]
