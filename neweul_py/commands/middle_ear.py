@@ -32,7 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "build", help="FE sweep → reduction → parametric body → description → module",
         description="Build the middle-ear EMBS into DIR (atomically: an interrupted build leaves "
         "the previous complete DIR or none; FE working points of a previous build of the same "
-        "refinement are reused).")
+        "refinement and parameters are reused).")
     b.add_argument("--dir", type=Path, required=True, help="the build directory")
     b.add_argument("--refine", type=count("--refine", minimum=0), default=1,
                    help="mesh refinement of the FE model (default 1)")
@@ -47,9 +47,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "volume displacement)")
     b.add_argument("--slope-step",
                    type=functools.partial(number, option="--slope-step", minimum=0.0),
-                   default=20.0, metavar="PA",
+                   default=None, metavar="PA",
                    help="slopes and curvatures from FE models at every working point ∓ PA "
-                   "(default 20; 0: cubic weights through the values alone)")
+                   "(default 20, with a pars flaccida an eighth of the minimum interval; 0: "
+                   "cubic weights through the values alone)")
+    b.add_argument("--min-interval",
+                   type=functools.partial(number, option="--min-interval", minimum=0.0),
+                   default=None, metavar="PA",
+                   help="the refinement splits no interval narrower than twice this (default "
+                   "125, with a pars flaccida an eighth of its stiffening pressure)")
     b.add_argument("--interpolation", choices=("quintic-hermite", "hermite"),
                    default="quintic-hermite", help="Hermite weights (default quintic)")
     b.add_argument("--basis", choices=("galerkin", "two-sided"), default="galerkin",
@@ -60,6 +66,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "1e-8 galerkin)")
     b.add_argument("--order", type=count("--order", cap=100_000),
                    default=None, help="cap on the number of basis directions")
+    b.add_argument("--parameters", type=Path, default=None, metavar="FILE",
+                   help="the middle ear's data that differ from the defaults: a YAML mapping "
+                   "of MiddleEarParameters names to numbers (e.g. "
+                   "examples/middle_ear/identified.yaml)")
     b.add_argument("--no-generate", action="store_true", help="skip the generated module")
     b.add_argument("--jobs", type=count("--jobs", cap=256), default=1,
                    help="processes solving the snapshot systems of the working points "
@@ -116,10 +126,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _build(args: argparse.Namespace) -> int:
     from ..middle_ear.build import BuildOptions, build
+    from ..middle_ear.parameters import read_parameters
 
     options = BuildOptions(
+        parameters=read_parameters(args.parameters) if args.parameters else {},
         refine=args.refine, tol=args.tol, coordinate=args.coordinate,
-        slope_step=args.slope_step, interpolation=args.interpolation, order=args.order,
+        slope_step=args.slope_step, min_interval=args.min_interval,
+        interpolation=args.interpolation, order=args.order,
         basis=args.basis, rtol=args.rtol, jobs=args.jobs,
         generate=not args.no_generate,
         **({"pressures": tuple(args.pressures.values())} if args.pressures else {}))

@@ -18,9 +18,9 @@ The steps (docs/equations-middle-ear.md; each reported to ``progress``):
 
 The directory is written atomically
 (:func:`~neweul_py.middle_ear.output.write_directory_atomically`): a build interrupted at any
-point leaves the previous complete directory or none. The FE
-working points of a previous build in ``DIR`` with the same refinement are reused (linked, not
-solved again). ``DIR/build.json`` records the settings and the result; it is written last.
+point leaves the previous complete directory or none. The FE working points of a previous
+build in ``DIR`` with the same refinement and parameters are reused (linked, not solved
+again). ``DIR/build.json`` records the settings and the result; it is written last.
 """
 
 from __future__ import annotations
@@ -121,7 +121,15 @@ class BuildOptions:
         §4.1) or ``"dp"``.
     slope_step
         The samples' slopes and curvatures from the FE models at every working point ∓ this
-        [Pa] (Hermite weights, §4.2); 0: cubic weights through the values alone.
+        [Pa] (Hermite weights, §4.2); 0: cubic weights through the values alone. ``None``:
+        20 Pa, or with a pars flaccida an eighth of ``min_interval`` (a whole number of
+        pascals, at least 1).
+    min_interval
+        The refinement splits no interval narrower than twice this [Pa]
+        (:func:`~neweul_py.middle_ear.sampling.refine`). ``None``: :data:`MIN_INTERVAL`, or with
+        a pars flaccida an eighth of its stiffening pressure if that is smaller — its
+        stiffness changes fourfold within ``±p_s`` (docs/equations-middle-ear.md §8), and the
+        interpolation must follow it there.
     interpolation
         ``"quintic-hermite"`` (slopes and curvatures) or ``"hermite"`` (slopes).
     generate
@@ -129,6 +137,10 @@ class BuildOptions:
     jobs
         Processes solving the snapshot systems of the working points (the same basis for
         any number).
+    parameters
+        The middle ear's data that differ from :class:`MiddleEarParameters`' defaults, by
+        name (``neweul middle-ear build --parameters FILE``,
+        :func:`~neweul_py.middle_ear.parameters.read_parameters`).
     """
 
     refine: int = 1
@@ -138,12 +150,28 @@ class BuildOptions:
     order: int | None = None
     tol: float = 3e-4
     coordinate: str = "volume"
-    slope_step: float = 20.0
+    slope_step: float | None = None
+    min_interval: float | None = None
     interpolation: str = "quintic-hermite"
     generate: bool = True
     jobs: int = 1
+    parameters: dict[str, float] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        try:
+            params = MiddleEarParameters(**self.parameters)
+        except TypeError as exc:
+            raise NeweulError(f"parameters: {exc} (the fields of MiddleEarParameters)") from None
+        flaccida = params.pf_compliance > 0
+        if self.min_interval is None:
+            object.__setattr__(self, "min_interval", min(
+                MIN_INTERVAL, params.pf_stiffening_pressure / 8) if flaccida else MIN_INTERVAL)
+        if not (np.isfinite(self.min_interval) and self.min_interval > 0):
+            raise NeweulError(f"min interval: a positive number of pascals, got "
+                              f"{self.min_interval!r}")
+        if self.slope_step is None:
+            object.__setattr__(self, "slope_step", float(max(
+                1, self.min_interval // 8)) if flaccida else 20.0)
         p = np.asarray(self.pressures, dtype=float)
         if p.size < 2 or not np.all(np.isfinite(p)) or np.any(np.diff(p) <= 0):
             raise NeweulError(f"pressures: at least two increasing, finite values, got "
@@ -151,9 +179,10 @@ class BuildOptions:
         if self.refine not in (0, 1, 2, 3):
             raise NeweulError(f"refine: 0, 1, 2 or 3, got {self.refine!r}")
         step = self.slope_step
-        if not (np.isfinite(step) and 0 <= step < MIN_INTERVAL / 2 and step == round(step)):
+        if not (np.isfinite(step) and 0 <= step < self.min_interval / 2
+                and step == round(step)):
             raise NeweulError(f"slope step {step:g}: a whole number of pascals in [0, "
-                              f"{MIN_INTERVAL / 2:g})")
+                              f"{self.min_interval / 2:g})")
         if self.basis not in BASES:
             raise NeweulError(f"basis: {' or '.join(map(repr, BASES))}, got {self.basis!r}")
         if self.coordinate not in ("volume", "dp"):
@@ -191,11 +220,15 @@ def _sources_relative(body: Any, where: Path) -> Any:
                       slope_sources=tuple(map(rel, body.slope_sources)))
 
 
-def _reuse(old: Path, tmp: Path, refine: int) -> None:
+def _reuse(old: Path, tmp: Path, refine: int, parameters: dict[str, float]) -> None:
     """Link the FE sweeps and the basis cache of a previous build ``old`` of the same
-    refinement into ``tmp`` (hard links: no copy, and the old directory stays intact)."""
+    refinement and parameters into ``tmp`` (hard links: no copy, and the old directory stays
+    intact)."""
     record = old / BUILD_RECORD
-    if not record.is_file() or json.loads(record.read_text()).get("refine") != refine:
+    if not record.is_file():
+        return
+    made = json.loads(record.read_text())
+    if made.get("refine") != refine or made.get("parameters", {}) != parameters:
         return
     for src in (*sorted(old.glob(SWEEP_GLOB)), old / "embs"):
         if not src.is_dir():
@@ -284,7 +317,8 @@ def reduction_basis(fes: Sequence[Any], umbo: int, k_attach: float, cache: Path,
 def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any]:
     """Build into the temporary directory ``tmp`` (the steps of the module docstring)."""
     t0 = time.perf_counter()
-    sweeps = WorkingPoints(tmp, options.refine, progress)
+    sweeps = WorkingPoints(tmp, options.refine, progress,
+                           MiddleEarParameters(**options.parameters))
     pressures = [float(p) for p in options.pressures]
     volume = options.coordinate == "volume"
     fem = tmp / "fem"
@@ -343,7 +377,8 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
         rows = node_rows(b0.nodes, b0.dof_node, b0.dof_kind).ravel()
         samples = refine(pressures, body_of, options.tol, b0.V_kept[rows],
                          params.k_tm_manubrium / len(manubrium),
-                         lambda pts: sweeps.need("fem_refine", pts), progress)
+                         lambda pts: sweeps.need("fem_refine", pts), progress,
+                         min_interval=float(options.min_interval))
     progress(f"4/6 parametric body ({samples.size} working points)")
     body = _sources_relative(body_of(samples, static=True), tmp / "embs")
     save_parametric_body(body, tmp / "embs" / "tm_air.npz")
@@ -391,7 +426,7 @@ def build(directory: str | os.PathLike, options: BuildOptions | None = None,
     ----------
     directory
         The build directory: new, empty, or a previous build (replaced atomically; its FE
-        working points of the same refinement are reused).
+        working points of the same refinement and parameters are reused).
     options
         :class:`BuildOptions` (default: refine 1, −4000…4000 Pa in 9 working points).
     progress
@@ -409,7 +444,7 @@ def build(directory: str | os.PathLike, options: BuildOptions | None = None,
     out = Path(directory)
 
     def fill(tmp: Path) -> dict[str, Any]:
-        _reuse(out, tmp, options.refine)
+        _reuse(out, tmp, options.refine, options.parameters)
         return _fill(tmp, options, progress)
 
     write_directory_atomically(out, fill, manifest=BUILD_RECORD)

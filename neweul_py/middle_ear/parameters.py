@@ -7,16 +7,25 @@ Every value with its source: ``docs/middle-ear-data.md`` and
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, fields
+from pathlib import Path
 
-from ..errors import ModelError
+import yaml
+
+from ..errors import DataError, ModelError
 
 __all__ = [
     "MAX_DISPLACEMENT_FRACTION",
+    "MAX_PARAMETER_FILE_BYTES",
     "MAX_VOLUME_FRACTION",
     "THIN_SHELL_RATIO",
     "MiddleEarParameters",
+    "read_parameters",
 ]
+
+#: Largest parameter file read [bytes]: a mapping of a few dozen numbers.
+MAX_PARAMETER_FILE_BYTES = 1 << 20
 
 
 #: Thin-shell bound of the TM: ``thickness ≤ radius / THIN_SHELL_RATIO``.
@@ -265,3 +274,63 @@ class MiddleEarParameters:
         return math.pi * a**2 * 1.05 * self.tm_height - self._profile_volume
 
 
+
+def _number(value: object) -> float | None:
+    """A finite float from a YAML value, or ``None``. YAML 1.1 reads ``410e-6`` (no dot) as
+    a string; such a string is taken as the number it spells (``float``, never evaluated)."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, str):
+        try:
+            value = float(value.strip())
+        except ValueError:
+            return None
+    if not isinstance(value, int | float) or not math.isfinite(value):
+        return None
+    return float(value)
+
+
+def read_parameters(path: str | os.PathLike) -> dict[str, float]:
+    """The middle ear's data that differ from the defaults, from a YAML (or JSON) mapping
+    ``name: number`` of :class:`MiddleEarParameters` fields (``neweul middle-ear build
+    --parameters``).
+
+    The mapping is validated whole: every name a field, every value a finite number, and
+    the set a valid :class:`MiddleEarParameters` (e.g. ``examples/middle_ear/identified.yaml``).
+
+    Raises
+    ------
+    DataError
+        A missing, oversized or unparsable file, a name that is not a field, a value that is
+        not a number, or data the model refuses — naming the file and the key.
+    """
+    where = str(path)
+    try:
+        size = Path(path).stat().st_size
+        if size > MAX_PARAMETER_FILE_BYTES:
+            raise DataError(f"{size} bytes: larger than a parameter file can be "
+                            f"({MAX_PARAMETER_FILE_BYTES})", where)
+        data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise DataError(f"cannot read: {exc.strerror or exc}", where) from None
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        line = getattr(getattr(exc, "problem_mark", None), "line", None)
+        raise DataError(f"not YAML: {str(exc).splitlines()[0]}", where,
+                        line=None if line is None else line + 1) from None
+    if not isinstance(data, dict):
+        raise DataError("must be a mapping of parameter names to numbers", where)
+    known = {f.name for f in fields(MiddleEarParameters)}
+    out: dict[str, float] = {}
+    for key, value in data.items():
+        if key not in known:
+            raise DataError(f"unknown middle-ear parameter {key!r} (known: "
+                            f"{', '.join(sorted(known))})", where, str(key))
+        number = _number(value)
+        if number is None:
+            raise DataError(f"must be a finite number, got {value!r}", where, key)
+        out[key] = number
+    try:
+        MiddleEarParameters(**out)
+    except ModelError as exc:
+        raise DataError(exc.message, where, exc.key_path) from None
+    return out

@@ -165,20 +165,20 @@ def indicator(body: Any, ref: Any, phi: np.ndarray, k_node: float) -> float:
 
 def refine(samples: Sequence[float], body_of: Callable[[list[float]], Any], tol: float,
            phi: np.ndarray, k_node: float, more_models: Callable[[list[float]], None],
-           progress: Callable[..., None]) -> np.ndarray:
+           progress: Callable[..., None], min_interval: float = MIN_INTERVAL) -> np.ndarray:
     """The working points with samples added where the parametric body misses (greedy
     sampling, e.g. Haasdonk 2017, *Reduced basis methods*, §2.4): at the middle of every
     interval the FE model is built (``more_models(points)``), projected on the basis and
     compared with the body interpolated there (:func:`indicator`); where they differ by more
     than ``tol`` the middle becomes a sample. Repeated until every interval passes or is
-    :data:`MIN_INTERVAL` wide. ``body_of(points)`` is the parametric body of the samples
-    ``points`` (a single point: that working point's body)."""
+    ``min_interval`` wide (default :data:`MIN_INTERVAL`). ``body_of(points)`` is the
+    parametric body of the samples ``points`` (a single point: that working point's body)."""
     s = np.array(samples, dtype=float)
     passed: set[tuple[float, float]] = set()
     rounds = 0
     while True:
         todo = [(a, b) for a, b in itertools.pairwise(s)
-                if (a, b) not in passed and b - a >= 2 * MIN_INTERVAL]
+                if (a, b) not in passed and b - a >= 2 * min_interval]
         if not todo:
             return s
         rounds += 1

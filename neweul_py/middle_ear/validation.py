@@ -74,7 +74,8 @@ def chain_module(description: Path, fem: Path, gen: Path) -> Any:
 
 def fe_model_at(dp: float, build: Path, refine: int) -> Path:
     """The FE model of a working point: from a sweep of the build, or solved alone (between
-    samples) into ``build/fem_dp<dp>``."""
+    samples) into ``build/fem_dp<dp>`` with the build's data (the ``parameters`` of its
+    ``fem/sweep.json``)."""
     for d in sorted(build.glob("fem*")):
         path = model_path(d, dp)
         if path.is_file():
@@ -82,7 +83,9 @@ def fe_model_at(dp: float, build: Path, refine: int) -> Path:
     extra = build / f"fem_dp{dp:+06.0f}"
     path = model_path(extra, dp)
     if not path.is_file():
-        pressure_sweep([dp], refine=refine, out_dir=str(extra))
+        record = json.loads((build / "fem" / "sweep.json").read_text())
+        pressure_sweep([dp], MiddleEarParameters(**record["parameters"]), refine=refine,
+                       out_dir=str(extra))
     return path
 
 

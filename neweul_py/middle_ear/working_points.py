@@ -29,6 +29,7 @@ from typing import Any
 
 from ..elastic.io.fe_files import read_fe_model
 from .embs import model_path
+from .parameters import MiddleEarParameters
 from .sweep import pressure_sweep
 
 __all__ = ["BASIS_CACHE_BYTES", "CURVE_STEP", "MODEL_CACHE_BYTES", "SWEEP_GLOB",
@@ -70,10 +71,15 @@ class WorkingPoints:
         The mesh refinement of the FE sweeps solved here.
     progress
         Progress hook of the FE sweeps.
+    params
+        The middle ear's data of the FE sweeps solved here (default
+        :class:`~neweul_py.middle_ear.parameters.MiddleEarParameters`).
     """
 
-    def __init__(self, root: Path, refine: int, progress: Progress) -> None:
+    def __init__(self, root: Path, refine: int, progress: Progress,
+                 params: MiddleEarParameters | None = None) -> None:
         self.root, self.refine, self.progress = root, refine, progress
+        self.params = params
         self.where: dict[float, Path] = {}
         self.models: OrderedDict[float, Any] = OrderedDict()      # least recently used first
         self.facts: dict[float, dict[str, Any]] = {}              # what KEPT names, per point
@@ -96,7 +102,8 @@ class WorkingPoints:
             d = self.root / f"{name}_{k}"
         todo = sorted({float(p) for p in pressures})
         self.progress(f"FE models at {', '.join(f'{p:+.0f}' for p in todo)} Pa")
-        pressure_sweep(todo, refine=self.refine, out_dir=str(d), progress=self.progress,
+        pressure_sweep(todo, self.params, refine=self.refine, out_dir=str(d),
+                       progress=self.progress,
                        static_curve=CURVE_STEP if curve else None, base=self.base())
         self.where.update({p: d for p in todo})
 

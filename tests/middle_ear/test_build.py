@@ -138,6 +138,49 @@ def test_a_rebuild_reuses_the_working_points(small, tmp_path, monkeypatch):
         assert (a.K != b.K).nnz == 0 and (a.G != b.G).nnz == 0
 
 
+def test_a_rebuild_with_other_parameters_solves_its_working_points(small, tmp_path,
+                                                                   monkeypatch):
+    """Other data (``BuildOptions.parameters``) make other FE models: nothing is reused, the
+    sweep is solved with those data, and the failed rebuild leaves the previous build."""
+    out = tmp_path / "d"
+    shutil.copytree(small, out)
+    import neweul_py.middle_ear.working_points as wp
+
+    asked = []
+
+    def sweep(pressures, params, **kwargs):
+        asked.append(params)
+        raise NeweulError("stop here")
+
+    monkeypatch.setattr(wp, "pressure_sweep", sweep)
+    with pytest.raises(NeweulError, match="stop here"):
+        build(out, BuildOptions(**{**SMALL.__dict__, "parameters": {"k_chain": 1200.0}}))
+    assert asked and asked[0].k_chain == 1200.0
+    assert json.loads((out / "build.json").read_text()) == json.loads(
+        (small / "build.json").read_text())
+
+
+def test_a_pars_flaccida_refines_down_to_an_eighth_of_its_stiffening_pressure() -> None:
+    """Its stiffness changes fourfold within ``±p_s`` (docs/equations-middle-ear.md §8): the
+    refinement may split down to ``p_s/8`` and the slopes come from ``p_s/64`` (whole
+    pascals, at least 1); without one, or with explicit values, the settings are as given."""
+    pf = BuildOptions(parameters={"pf_compliance": 1e-12, "pf_stiffening_pressure": 400.0})
+    assert (pf.min_interval, pf.slope_step) == (50.0, 6.0)
+    steep = BuildOptions(parameters={"pf_compliance": 1e-12, "pf_stiffening_pressure": 40.0})
+    assert (steep.min_interval, steep.slope_step) == (5.0, 1.0)
+    assert (BuildOptions().min_interval, BuildOptions().slope_step) == (125.0, 20.0)
+    own = BuildOptions(parameters={"pf_compliance": 1e-12}, min_interval=100.0, slope_step=0.0)
+    assert (own.min_interval, own.slope_step) == (100.0, 0.0)
+    with pytest.raises(NeweulError, match="slope step"):
+        BuildOptions(min_interval=30.0, slope_step=20.0)
+
+
+def test_build_options_refuse_an_unknown_parameter() -> None:
+    """The Python path checks the names as the file reader does."""
+    with pytest.raises(NeweulError, match="k_chian"):
+        BuildOptions(parameters={"k_chian": 900.0})
+
+
 def test_the_basis_is_cached_deflated_and_reused(small, tmp_path, monkeypatch):
     """The reduction basis is cached in ``embs/`` — the body's own basis ``R`` (reference),
     deflated, since a u–p basis is block-diagonal and mostly zeros — and a rebuild of the
@@ -166,6 +209,7 @@ def test_the_basis_is_cached_deflated_and_reused(small, tmp_path, monkeypatch):
     (["--slope-step", "20.5"], "slope step"),
     (["--basis", "oblique"], "--basis"),
     (["--rtol", "2"], "rtol"),
+    (["--parameters", "no-such-ear.yaml"], "no-such-ear.yaml"),
 ])
 def test_bad_options_are_one_error_and_write_nothing(args, where, tmp_path, capsys):
     """Decreasing working points, a refinement beyond the cap, a slope step that is no whole
