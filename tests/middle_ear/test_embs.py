@@ -320,3 +320,29 @@ def test_the_study_writes_its_tables_and_plots(built, tmp_path):
     assert "| +0 | +0.00 | +0.00 | +0.00 |" in text
     for name in ("frf.csv", "frf.png", "dp_trend.png", "static.png"):
         assert (out / name).stat().st_size > 0
+
+
+@pytest.mark.slow          # a refined refine-0 build with its module (≈ 40 s)
+def test_the_identified_ear_with_a_pars_flaccida_matches_the_fe_model_near_rest(
+        tmp_path_factory) -> None:
+    """``examples/middle_ear/identified.yaml`` built (``BuildOptions.parameters``: a pars
+    flaccida, so that samples go down to ``p_s/8`` near rest) against the unreduced FE model
+    of the same data with the same chain, linearized between samples where the pars
+    flaccida's stiffness changes fastest (measured at refine 0: ≤ 1.6e-4 below 2 kHz)."""
+    from pathlib import Path
+
+    from neweul_py.middle_ear.parameters import read_parameters
+
+    data = tmp_path_factory.mktemp("me_id") / "build"
+    ear = Path(__file__).parents[2] / "examples" / "middle_ear" / "identified.yaml"
+    build(data, BuildOptions(refine=0, parameters=read_parameters(ear)))
+    record = json.loads((data / "build.json").read_text())
+    assert record["parameters"]["pf_compliance"] > 0
+    mod = load_generated(data / record["module"])
+    chain = validation.chain_module(data / "middle_ear.yaml", data / "fem", data / "chain")
+    f = np.geomspace(100.0, 5000.0, 16)
+    for dp in (-30.0, 15.0):
+        e = validation.errors(mod, chain, dp, f, validation.fe_model_at(dp, data, 0))
+        for key in ("umbo", "stapes"):
+            assert e[key][f < 2000.0].max() <= 1e-3, (dp, key, e[key].max())
+            assert e[key].max() <= 1e-2, (dp, key, e[key].max())
