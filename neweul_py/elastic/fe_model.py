@@ -30,7 +30,7 @@ import scipy.sparse as sps
 
 from ..errors import DataError
 
-__all__ = ["DOF_KINDS", "FE_KINDS", "SYMMETRY_RTOL", "FEModel"]
+__all__ = ["DOF_KINDS", "FE_KINDS", "SYMMETRY_RTOL", "FEModel", "up_block_deviations"]
 
 #: DOF kinds of the DOF map.
 DOF_KINDS = ("ux", "uy", "uz", "rx", "ry", "rz", "p")
@@ -73,6 +73,43 @@ def asymmetry(a: sps.spmatrix) -> float:
     """``max|A − Aᵀ| / max|A|`` (0 for the zero matrix)."""
     scale = _max_abs(a)
     return _max_abs(a - a.T) / scale if scale > 0 else 0.0
+
+
+def up_block_deviations(M: sps.spmatrix, K: sps.spmatrix, D: sps.spmatrix | None,
+                        is_p: np.ndarray, rho: float) -> dict[str, float]:
+    """Relative deviations of ``M``, ``K`` (and ``D``) from the block structure of the u–p
+    model, Eq. (2) of docs/equations.md §3: ``M_up = 0``, ``K_pu = 0``,
+    ``M_pu = ρCᵀ = −ρK_upᵀ``, no loss coupling, symmetric diagonal blocks.
+
+    Returns
+    -------
+    dict
+        ``"M_up"`` ``max|M_up|/max|M|``, ``"K_pu"`` ``max|K_pu|/max|K|``, ``"D_up"``
+        ``max(|D_up|, |D_pu|)/max|D|`` (0 without ``D``), ``"coupling"``
+        ``max|M_pu + ρK_upᵀ| / max(max|M_pu|, ρ max|K_up|)``, and for each of ``M``, ``K``,
+        ``D`` and block ``uu``, ``pp`` (e.g. ``"K_pp"``) its :func:`asymmetry`.
+    """
+    u, p = np.flatnonzero(~is_p), np.flatnonzero(is_p)
+    mats = {"M": sps.csr_matrix(M), "K": sps.csr_matrix(K)}
+    if D is not None:
+        mats["D"] = sps.csr_matrix(D)
+
+    def rel(a: sps.spmatrix, whole: sps.spmatrix) -> float:
+        scale = _max_abs(whole)
+        return _max_abs(a) / scale if scale > 0 else 0.0
+
+    M_, K_ = mats["M"], mats["K"]
+    out = {"M_up": rel(M_[u][:, p], M_), "K_pu": rel(K_[p][:, u], K_), "D_up": 0.0}
+    if "D" in mats:
+        d = mats["D"]
+        out["D_up"] = max(rel(d[u][:, p], d), rel(d[p][:, u], d))
+    m_pu, k_up = M_[p][:, u], K_[u][:, p]
+    ref = max(_max_abs(m_pu), rho * _max_abs(k_up))
+    out["coupling"] = _max_abs(m_pu + rho * k_up.T) / ref if ref > 0 else 0.0
+    for key, a in mats.items():
+        for name, idx in (("uu", u), ("pp", p)):
+            out[f"{key}_{name}"] = asymmetry(a[idx][:, idx])
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,28 +234,25 @@ class FEModel:
             self.G, self.loss_reference_frequency, self.D, self.source))
 
     def _check_up_blocks(self, is_p: np.ndarray) -> None:
-        """Block structure of Eq. (2): ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ``."""
+        """Block structure of Eq. (2): ``M_up = 0``, ``K_pu = 0``, ``M_pu = −ρ K_upᵀ``,
+        symmetric blocks (:func:`up_block_deviations`)."""
         src, rho = self.source, self.density
-        u, p = np.flatnonzero(~is_p), np.flatnonzero(is_p)
-        M, K = self.M, self.K
-        scale_m, scale_k = _max_abs(M), _max_abs(K)
-        if _max_abs(M[u][:, p]) > SYMMETRY_RTOL * scale_m:
+        dev = up_block_deviations(self.M, self.K, None, is_p, rho)
+        if dev["M_up"] > SYMMETRY_RTOL:
             raise DataError("up-coupled: the u–p block of M (rows u, columns p) must be zero "
                             "(Eq. (2))", src, "M")
-        if _max_abs(K[p][:, u]) > SYMMETRY_RTOL * scale_k:
+        if dev["K_pu"] > SYMMETRY_RTOL:
             raise DataError("up-coupled: the p–u block of K (rows p, columns u) must be zero "
                             "(Eq. (2))", src, "K")
-        m_pu, k_up = M[p][:, u], K[u][:, p]
-        ref = max(_max_abs(m_pu), rho * _max_abs(k_up))
-        if ref > 0 and _max_abs(m_pu + rho * k_up.T) > 1e-8 * ref:
+        if dev["coupling"] > 1e-8:
             raise DataError("up-coupled: M_pu must equal ρ·Cᵀ = −ρ·K_upᵀ (Eq. (2)) with the "
                             f"declared density ρ = {rho}", src, "M")
-        for key, a, idx in (("M", M, u), ("K", K, u), ("M", M, p), ("K", K, p)):
-            block = a[idx][:, idx]
-            if asymmetry(block) > SYMMETRY_RTOL:
-                part = "structure" if idx is u else "fluid"
+        for key, block, part in (("M", "uu", "structure"), ("K", "uu", "structure"),
+                                 ("M", "pp", "fluid"), ("K", "pp", "fluid")):
+            value = dev[f"{key}_{block}"]
+            if value > SYMMETRY_RTOL:
                 raise DataError(f"up-coupled: the {part} block must be symmetric (Eq. (2)), "
-                                f"asymmetry {asymmetry(block):.3g}", src, key)
+                                f"asymmetry {value:.3g}", src, key)
 
     # ------------------------------------------------------------------ derived data
     @property

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sps
 
-from ..fe_model import FEModel
+from ..fe_model import FEModel, up_block_deviations
 
 __all__ = ["EXACT_RTOL", "adjoint_from_primal", "mirrored_loads", "up_similarity"]
 
@@ -29,37 +29,17 @@ __all__ = ["EXACT_RTOL", "adjoint_from_primal", "mirrored_loads", "up_similarity
 EXACT_RTOL = 1e-13
 
 
-def _max_abs(a: sps.spmatrix) -> float:
-    a = sps.csr_matrix(a)
-    return float(np.abs(a.data).max()) if a.nnz else 0.0
-
-
 def up_similarity(fe: FEModel, K: sps.spmatrix, D: sps.spmatrix | None) -> float | None:
     """The fluid density ``ρ`` when ``A(ω) = K + iωD − ω²M`` of the u–p model ``fe`` (with
     the stiffness ``K`` and damping ``D`` used, e.g. with springs added) satisfies
-    ``Aᵀ = S A S⁻¹`` (module docstring) to :data:`EXACT_RTOL`; ``None`` otherwise (another
+    ``Aᵀ = S A S⁻¹`` (module docstring) to :data:`EXACT_RTOL` in every deviation of
+    :func:`~neweul_py.elastic.fe_model.up_block_deviations`; ``None`` otherwise (another
     kind of model, loss coupling between u and p, an unsymmetric block)."""
     if fe.kind != "up-coupled" or not fe.density or fe.density <= 0:
         return None
-    is_p = fe.dof_kind == "p"
-    u, p = np.flatnonzero(~is_p), np.flatnonzero(is_p)
     rho = float(fe.density)
-    M, K = sps.csr_matrix(fe.M), sps.csr_matrix(K)
-    D = sps.csr_matrix(K.shape) if D is None else sps.csr_matrix(D)
-    for a in (M, K, D):
-        scale = _max_abs(a)
-        blocks = [a[u][:, u], a[p][:, p]]
-        if any(_max_abs(b - b.T) > EXACT_RTOL * scale for b in blocks):
-            return None
-    if _max_abs(M[u][:, p]) > EXACT_RTOL * _max_abs(M) or \
-            _max_abs(K[p][:, u]) > EXACT_RTOL * _max_abs(K) or \
-            max(_max_abs(D[u][:, p]), _max_abs(D[p][:, u])) > EXACT_RTOL * _max_abs(D):
-        return None
-    m_pu, k_up = M[p][:, u], K[u][:, p]
-    ref = max(_max_abs(m_pu), rho * _max_abs(k_up))
-    if ref > 0 and _max_abs(m_pu + rho * k_up.T) > EXACT_RTOL * ref:
-        return None
-    return rho
+    dev = up_block_deviations(fe.M, K, D, fe.dof_kind == "p", rho)
+    return rho if max(dev.values()) <= EXACT_RTOL else None
 
 
 def mirrored_loads(F: np.ndarray, c: np.ndarray, is_p: np.ndarray) -> dict[int, int]:

@@ -18,6 +18,7 @@ import scipy.sparse as sps
 from fe_builders import duct, piston_duct, random_up
 
 from neweul_py.elastic import FEModel, read_fe_model, write_fe_model
+from neweul_py.elastic.fe_model import up_block_deviations
 from neweul_py.errors import DataError
 
 
@@ -114,6 +115,29 @@ def test_up_coupled_block_structure_is_checked():
     M[0, 3] = 1.0  # a u–p entry in M
     with pytest.raises(DataError, match="u–p block of M"):
         FEModel(**_kw(fe, M=M.tocsr()))
+
+
+def test_up_block_deviations_measure_each_rule_relative_to_its_scale():
+    """A valid u–p model deviates by round-off only; an entry put into a forbidden block, a
+    loss coupling or an unsymmetric block shows as exactly its size over its matrix's (or
+    block's) largest entry — the one measure the validation and the adjoint similarity use."""
+    fe = piston_duct(damping=1.0)
+    is_p = fe.dof_kind == "p"
+    D = sps.csr_matrix(fe.D)
+    dev = up_block_deviations(fe.M, fe.K, D, is_p, fe.density)
+    assert max(dev.values()) <= 1e-15
+    u, p = int(np.flatnonzero(~is_p)[0]), int(np.flatnonzero(is_p)[0])
+    K = fe.K.tolil()
+    K[p, u] = 0.5 * abs(fe.K).max()
+    assert up_block_deviations(fe.M, K.tocsr(), D, is_p, fe.density)["K_pu"] == 0.5
+    Dc = D.tolil()
+    Dc[u, p] = 0.25 * abs(D).max()
+    assert up_block_deviations(fe.M, fe.K, Dc.tocsr(), is_p, fe.density)["D_up"] == 0.25
+    Mb = fe.M.tolil()
+    pp = np.flatnonzero(is_p)
+    Mb[pp[0], pp[1]] += 1e-3 * abs(fe.M[pp][:, pp]).max()
+    got = up_block_deviations(Mb.tocsr(), fe.K, D, is_p, fe.density)["M_pp"]
+    assert got == pytest.approx(1e-3, rel=1e-6)
 
 
 # ---------------------------------------------------------------------- bad files
