@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import functools
 import sys
+from pathlib import Path
 
 from ..progress import QUIET_HELP, Tracker
 from . import CAPS, count, number, range_type
@@ -60,17 +61,25 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "static_curve.csv (static solves only; the table of an interpolation coordinate: "
         "neweul interpolate --coordinate DIR/static_curve.csv:dp_Pa:volume_displacement_m3)",
     )
+    me.add_argument("--parameters", type=Path, default=None, metavar="FILE",
+                    help="the middle ear's data that differ from the defaults (a YAML mapping "
+                    "of MiddleEarParameters names to numbers, e.g. "
+                    "examples/middle_ear/identified.yaml)")
     me.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     me.set_defaults(func=_middle_ear)
     _register_beams(sub)
 
 
 def _middle_ear(args: argparse.Namespace) -> int:
+    from ..middle_ear.parameters import MiddleEarParameters, read_parameters
     from ..middle_ear.sweep import pressure_sweep
 
+    params = MiddleEarParameters(**read_parameters(args.parameters)) if args.parameters \
+        else None
     with Tracker("FE sweep", unit="point", quiet=args.quiet) as track:  # a bar on a terminal
         result = pressure_sweep(
             args.pressures.values(),
+            params,
             refine=args.refine,
             out_dir=args.output,
             plots=args.plots,

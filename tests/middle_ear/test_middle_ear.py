@@ -311,6 +311,30 @@ def test_cli_refuses_extreme_pressure_with_one_line(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_sweep_cli_takes_another_ear_from_a_parameter_file(tmp_path, capsys):
+    """``--parameters``: the sweep records the file's data and its models carry them (a pars
+    flaccida adds its output); a file with an unknown name is one error naming the file and
+    the name, and nothing is written."""
+    ear = tmp_path / "ear.yaml"
+    ear.write_text("pf_compliance: 1.0e-12\nk_chain: 1200\n", encoding="utf-8")
+    out = tmp_path / "sweep"
+    assert main(["fem", "middle-ear", "--pressures", "0,500", "-o", str(out), "--refine", "0",
+                 "--parameters", str(ear), "-q"]) == 0
+    manifest = json.loads((out / "sweep.json").read_text())
+    assert manifest["parameters"]["k_chain"] == 1200.0
+    from neweul_py.elastic.io.fe_files import read_fe_model
+
+    fe = read_fe_model(out / manifest["working_points"][0]["file"])
+    assert "pf_volume_displacement" in fe.outputs
+    ear.write_text("k_chian: 1200\n", encoding="utf-8")
+    bad = tmp_path / "bad"
+    assert main(["fem", "middle-ear", "--pressures", "0,500", "-o", str(bad), "--refine", "0",
+                 "--parameters", str(ear), "-q"]) != 0
+    err = capsys.readouterr().err
+    assert str(ear) in err and "k_chian" in err
+    assert not bad.exists()
+
+
 def test_cone_inversion_bound():
     """With a 5 cm³ cavity the volume bounds are far; with an (almost) linear chain (limit
     displacements 10 mm: the default chain holds the umbo within 80 µm and the bound is never
