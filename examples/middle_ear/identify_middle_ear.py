@@ -11,6 +11,9 @@ The forward model, the calibration set and the held-out measurements are
 :mod:`neweul_py.middle_ear.calibration`; the fit is
 :func:`neweul_py.analysis.identify_function` (bounded least squares in ``ln θ``, standard errors
 from the Jacobian at the optimum, the residuals in units of the data's standard deviations).
+By default the pars flaccida, the chain and the TM's static modulus are fitted; a parameter
+whose default lies outside its bounds (no pars flaccida: ``pf_compliance`` = 0) starts at the
+geometric mean of its bounds unless ``--evaluate`` gives it.
 ``--fit tympanogram`` and ``--fit gyo-goode`` fit one data set each (with Murakami's signs),
 to show what each asks of the model; ``--fit none`` evaluates ``--evaluate`` values.
 docs/middle-ear-clinical.md §5 has the method and the result.
@@ -43,8 +46,8 @@ from neweul_py.middle_ear.plots import calibration_figure
 SETS = {"all": (*CALIBRATION, "murakami"),
         "tympanogram": ("tw", "ytm", "f_res", "murakami"),
         "gyo-goode": ("umbo+1kPa", "umbo+2kPa", "umbo+3kPa", "murakami")}
-DEFAULT_PARAMS = ("tm_E_static", "chain_limit_medial", "chain_limit_lateral", "k_chain",
-                  "tm_thickness", "mastoid_volume")
+DEFAULT_PARAMS = ("pf_compliance", "pf_stiffening_pressure", "pf_surface_density", "k_chain",
+                  "chain_limit_medial", "chain_limit_lateral", "tm_E_static")
 
 
 def summary(m: dict) -> str:
@@ -55,6 +58,19 @@ def summary(m: dict) -> str:
                         for dp in sorted(lo["umbo"]))
             + f"; stapes peak {m['stapes_peak_mm_s_Pa']:.3f} mm/s/Pa at "
               f"{m['stapes_peak_hz']:.0f} Hz")
+
+
+def start_of(name: str, base: MiddleEarParameters, given: set[str]) -> float:
+    """The start of a fitted parameter: its value in ``base``, or — when it was not given
+    and its default lies outside the bounds (``pf_compliance`` = 0: no pars flaccida) — the
+    geometric mean of its bounds."""
+    lo, hi, _why = FIT_BOUNDS[name]
+    value = getattr(base, name)
+    if name in given or lo <= value <= hi:
+        return value
+    start = float(np.sqrt(lo * hi))
+    print(f"start: {name} = {start:.4g} (the default {value:g} is outside its bounds)")
+    return start
 
 
 def main(argv=None) -> int:
@@ -83,7 +99,8 @@ def main(argv=None) -> int:
     fitted, end = base, start
     if args.fit != "none":
         keys = SETS[args.fit]
-        bounds = [Bound(n, FIT_BOUNDS[n][0], FIT_BOUNDS[n][1], getattr(base, n))
+        given = {a.split("=")[0] for a in args.evaluate}
+        bounds = [Bound(n, FIT_BOUNDS[n][0], FIT_BOUNDS[n][1], start_of(n, base, given))
                   for n in args.params.split(",")]
 
         def residuals(values):
