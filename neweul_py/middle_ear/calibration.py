@@ -262,7 +262,7 @@ def calibration_measures(params: MiddleEarParameters, chain: CalibrationChain,
 
 def log_parabolic_peak(freqs: np.ndarray, mag: np.ndarray, k: int) -> float:
     """The peak frequency: the vertex of the parabola through the largest sample ``k`` and
-    its neighbours in (ln f, ln |v|), so that the measure moves smoothly with the parameters
+    its neighbours in ``(ln f, ln |v|)``, so that the measure moves smoothly with the parameters
     (the sample itself where ``k`` is at an end of the band)."""
     if k == 0 or k == freqs.size - 1:
         return float(freqs[k])
