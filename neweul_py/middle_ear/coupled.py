@@ -11,7 +11,9 @@ is attached to) and ``u_n = E x`` (rows of the FE DOFs):
     [M_cn E             M_cc   ] [ÿ_c] + (same for D, K) = [0] u
 
 solved in the frequency domain, ``(K + iωD − ω²M) X = B`` (viscous FE damping ``D`` as in the
-time domain, so that the EMBS and the reference have the same losses).
+time domain, so that the EMBS and the reference have the same losses), one
+:class:`~neweul_py.elastic.reductors.eigen.SparseLU` per frequency (the symmetric ordering of the
+u–p pattern: a refine-1 calibration evaluation, 208 solves, takes 55 s instead of 115 s).
 """
 
 from __future__ import annotations
@@ -20,9 +22,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
 from ..elastic.fe_model import FEModel
+from ..elastic.reductors.eigen import SparseLU
 from ..errors import ModelError
 
 __all__ = ["coupled_frf"]
@@ -83,7 +85,7 @@ def coupled_frf(fe: FEModel, chain: Mapping[str, np.ndarray], node_dofs: Sequenc
     out = {name: [] for name in (*fe_outputs, *(f"chain{i}" for i in chain_outputs))}
     for f in np.asarray(freqs_hz, dtype=float):
         w = 2 * np.pi * f
-        x = spla.spsolve(K + 1j * w * D - w * w * M, b)
+        x = SparseLU(K + 1j * w * D - w * w * M).solve(b)
         for name, c in rows.items():
             out[name].append(c @ x)
         for i in chain_outputs:
