@@ -241,7 +241,8 @@ def flaccida_patches(tm: SurfaceMesh, canal: TetMesh, cavity: TetMesh, canal_tm:
     the mean pressures over the faces of the canal and of the cavity on the TM triangles whose
     centroids lie within ``max(r, 1.5 h)`` of the superior rim point, the rim node next to the
     manubrium's superior end (``r = √(A/π)`` the pars
-    flaccida's radius, ``h`` the TM's ring width, so that a coarse mesh still has a patch):
+    flaccida's radius, ``h = a/(m + 1)`` with ``m`` manubrium nodes, about the TM's ring
+    width, so that a coarse mesh still has a patch):
     ``g = b_canal / S_canal − b_cavity / S_cavity`` with ``b = ∫ N dΓ`` over each patch.
     """
     a = p.tm_radius
