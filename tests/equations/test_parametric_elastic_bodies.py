@@ -12,15 +12,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fe_builders import piston_duct
+from fe_builders import piston_duct_bodies
 
 from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
 from neweul_py.api import generate
-from neweul_py.elastic import reduce_modal, save_reduced_body
+from neweul_py.elastic import save_reduced_body
 from neweul_py.elastic.io.body_files import save_parametric_body
 from neweul_py.elastic.parametric.local_interpolation import interpolate
-from neweul_py.elastic.reductors.invariants import attach_invariants
 from neweul_py.errors import DescriptionError
 
 SPEEDS = (300.0, 343.0, 390.0)
@@ -52,12 +51,8 @@ forces:
 def parametric(tmp_path_factory) -> tuple[Path, object]:
     """Two-sided u–p piston ducts at three sound speeds, 8 modes each, interpolated."""
     tmp = tmp_path_factory.mktemp("param")
-    bodies = []
-    for c in SPEEDS:
-        fe = piston_duct(n_el=60, c=c)
-        body = reduce_modal(fe, modes=8, two_sided=True, keep_nodes=[1], store_bases=True)
-        bodies.append(attach_invariants(body, fe, nodes=[1]))
-    pb = interpolate(bodies, list(SPEEDS), parameter="c")
+    pb = interpolate(piston_duct_bodies(tuple(SPEEDS), n_el=60, modes=8), list(SPEEDS),
+                     parameter="c")
     save_parametric_body(pb, tmp / "duct.npz")
     return tmp, pb
 

@@ -220,22 +220,29 @@ def twin(fe: FEModel, seed: int = 1) -> FEModel:
                    name=f"twin-{fe.name}")
 
 
+def piston_duct_bodies(speeds: tuple[float, ...], n_el: int, modes: int) -> list:
+    """Two-sided modal u–p piston ducts (``modes`` modes, the piston node kept, with bases and
+    invariants) at the sound speeds ``speeds``: the samples of a parametric duct body."""
+    from neweul_py.elastic import reduce_modal
+    from neweul_py.elastic.reductors.invariants import attach_invariants
+
+    bodies = []
+    for c in speeds:
+        fe = piston_duct(n_el=n_el, c=c)
+        body = reduce_modal(fe, modes=modes, two_sided=True, keep_nodes=[1], store_bases=True)
+        bodies.append(attach_invariants(body, fe, nodes=[1]))
+    return bodies
+
+
 def parametric_ducts(out: Path, speeds: tuple[float, ...] = (300.0, 343.0, 390.0)) -> None:
     """Two-sided u–p piston ducts at the sound speeds ``speeds`` (6 modes), interpolated with
     cubic weights (``out/duct.npz``), with sample slopes and cubic Hermite weights
     (``duct_h.npz``) and with slopes and curvatures, quintic Hermite weights in ``ξ = c²``
     (``duct_q.npz``): parametric body files of every weight form."""
-    from neweul_py.elastic import reduce_modal
     from neweul_py.elastic.io.body_files import save_parametric_body
     from neweul_py.elastic.parametric.local_interpolation import interpolate
-    from neweul_py.elastic.reductors.invariants import attach_invariants
 
-    samples = []
-    for c in speeds:
-        fe = piston_duct(n_el=40, c=c)
-        body = reduce_modal(fe, modes=6, two_sided=True, keep_nodes=[1], store_bases=True)
-        samples.append(attach_invariants(body, fe, nodes=[1]))
-    pb = interpolate(samples, list(speeds), parameter="c")
+    pb = interpolate(piston_duct_bodies(speeds, n_el=40, modes=6), list(speeds), parameter="c")
     save_parametric_body(pb, out / "duct.npz")
     slopes = {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
               * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
