@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fe_builders import piston_duct_bodies
+from fe_builders import piston_duct_bodies, quintic_in_c_squared
 
 from neweul_py.analysis import load_generated
 from neweul_py.analysis.linearize import linearize
@@ -164,11 +164,7 @@ def quintic(hermite) -> tuple[Path, object]:
     """The Hermite duct body with sample curvatures too (quintic Hermite weights in
     ``ξ = c²``, equations.md §4.2; any consistent curvature data serve the checks)."""
     tmp, hb = hermite
-    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
-            for key in hb.slope_keys()}
-    knots = np.unique(np.concatenate([np.linspace(SPEEDS[0], SPEEDS[-1], 31), SPEEDS]))
-    qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
-                  coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
+    qb = quintic_in_c_squared(hb)
     save_parametric_body(qb, tmp / "duct_q.npz")
     return tmp, qb
 

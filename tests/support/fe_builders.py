@@ -234,6 +234,17 @@ def piston_duct_bodies(speeds: tuple[float, ...], n_el: int, modes: int) -> list
     return bodies
 
 
+def quintic_in_c_squared(hb):
+    """A duct body with sample slopes made quintic: curvatures as differences of its slopes,
+    weights in ``ξ = c²`` tabulated on 31 knots and the samples (equations.md §4.2)."""
+    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
+            for key in hb.slope_keys()}
+    speeds = np.asarray(hb.samples, dtype=float)
+    knots = np.unique(np.concatenate([np.linspace(speeds[0], speeds[-1], 31), speeds]))
+    return hb.with_(interpolation="quintic-hermite", curvatures=curv,
+                    coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
+
+
 def parametric_ducts(out: Path, speeds: tuple[float, ...] = (300.0, 343.0, 390.0)) -> None:
     """Two-sided u–p piston ducts at the sound speeds ``speeds`` (6 modes), interpolated with
     cubic weights (``out/duct.npz``), with sample slopes and cubic Hermite weights
@@ -248,9 +259,4 @@ def parametric_ducts(out: Path, speeds: tuple[float, ...] = (300.0, 343.0, 390.0
               * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
     hb = pb.with_(interpolation="hermite", slopes=slopes)
     save_parametric_body(hb, out / "duct_h.npz")
-    curv = {key: np.gradient(hb.slopes[key], hb.samples, axis=0, edge_order=1)
-            for key in hb.slope_keys()}
-    knots = np.unique(np.concatenate([np.linspace(speeds[0], speeds[-1], 31), speeds]))
-    qb = hb.with_(interpolation="quintic-hermite", curvatures=curv,
-                  coordinate=np.vstack([knots, knots**2]), coordinate_name="c_squared")
-    save_parametric_body(qb, out / "duct_q.npz")
+    save_parametric_body(quintic_in_c_squared(hb), out / "duct_q.npz")
