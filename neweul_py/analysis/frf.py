@@ -32,14 +32,15 @@ from typing import Any
 import numpy as np
 
 from ..atomic import atomic_savez, atomic_write
-from ..errors import DataError, NeweulError
+from ..errors import DataError, NeweulError, SolverError
 from ..files import load_npz
 from . import protocol as proto
 from .linearize import DAMPING_FORMS, LinearModel, linearize
 from .plot import check_plot_path, new_figure, plot_bode, save_figure
 from .results import ResultDisplay, check_output_path
 
-__all__ = ["SUFFIXES", "FrequencyResponse", "frequency_response", "frequency_vector", "frf"]
+__all__ = ["SUFFIXES", "FrequencyResponse", "dynamic_solve", "frequency_response",
+           "frequency_vector", "frf"]
 
 #: Suffixes of frequency-response files (:meth:`FrequencyResponse.save`).
 SUFFIXES: tuple[str, ...] = (".csv", ".npz")
@@ -223,6 +224,30 @@ def _as_names(value: str | Sequence[str] | None, default: Sequence[str]) -> list
     return list(value)
 
 
+def dynamic_solve(z: np.ndarray, rhs: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``Z(ω)⁻¹ rhs`` for a stack of dynamic stiffness matrices ``z`` (nf, m, m) at the angular
+    frequencies ``w`` (nf,) (one batched :func:`numpy.linalg.solve`).
+
+    Raises
+    ------
+    SolverError
+        Naming the first frequency where ``Z(ω)`` is singular: an undamped resonance, or a
+        free rigid-body motion at 0 Hz, where the response is infinite.
+    """
+    try:
+        return np.linalg.solve(z, rhs)
+    except np.linalg.LinAlgError:
+        for k in range(z.shape[0]):
+            try:
+                np.linalg.solve(z[k], rhs[k])
+            except np.linalg.LinAlgError:
+                raise SolverError(
+                    f"the dynamic stiffness is singular at f = {w[k] / (2 * np.pi):.10g} Hz: "
+                    "an undamped resonance (or a free motion at 0 Hz), where the response "
+                    "is infinite; add damping or leave that frequency out") from None
+        raise
+
+
 def _solve_second_order(lin, w, cy, cyd, cydd, d, b, damping="loss") -> np.ndarray:
     m = lin.n
     nf = w.size
@@ -231,7 +256,7 @@ def _solve_second_order(lin, w, cy, cyd, cydd, d, b, damping="loss") -> np.ndarr
     for lo in range(0, nf, chunk):
         ww = w[lo : lo + chunk, None, None]
         z = lin.dynamic_stiffness(ww[:, 0, 0], damping)
-        x = np.linalg.solve(z, np.broadcast_to(b, (z.shape[0], m, b.shape[1])))
+        x = dynamic_solve(z, np.broadcast_to(b, (z.shape[0], m, b.shape[1])), ww[:, 0, 0])
         c = cy + 1j * ww * cyd - ww**2 * cydd
         h[lo : lo + chunk] = c @ x + d
     return h

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..atomic import atomic_write
-from .frf import frequency_response
+from .frf import dynamic_solve, frequency_response
 from .linearize import LinearModel
 from .modes import ModalResult, modes
 from .results import ResultDisplay, check_output_path
@@ -268,7 +268,7 @@ def _stiffness_term(lin: LinearModel, dlin: LinearModel, w: np.ndarray, X: np.nd
     """``C_ω Z⁻¹ dZ X`` (nf, ny, nu) for the coordinates' response ``X``
     (:func:`_coordinate_response`)."""
     dZ = dlin.dynamic_stiffness(w, damping if dlin.G is not None else "viscous")
-    sol = np.linalg.solve(lin.dynamic_stiffness(w, damping), dZ @ X)
+    sol = dynamic_solve(lin.dynamic_stiffness(w, damping), dZ @ X, w)
     cy, cyd, cydd, _d = lin.output_rows(outputs)
     ww = w[:, None, None]
     return (cy + 1j * ww * cyd - ww**2 * cydd) @ sol

@@ -211,3 +211,19 @@ def test_unstable_operating_point_is_named(spring_pendulum):
                               f"real part {lam:+.6g} (aperiodic, dominant phi)")
     assert modes(linearize(spring_pendulum, equilibrium(spring_pendulum))).stability_warning() \
         is None
+
+
+def test_an_undamped_resonance_is_one_error_naming_the_frequency(two_mass):
+    """With ``M = I``, ``P = 0`` and ``Q = diag((2π)², (4π)²)`` the dynamic stiffness
+    ``Q − ω² M`` is exactly singular at 1 Hz and 2 Hz (closed form ``f = √q / 2π``): the
+    response there is infinite, one error names the first such frequency."""
+    from dataclasses import replace
+
+    from neweul_py.errors import SolverError
+
+    lin = linearize(two_mass, [0.0, 0.0])
+    w = 2 * np.pi
+    undamped = replace(lin, M0=np.eye(2), P=np.zeros((2, 2)), Q=np.diag([w * w, 4 * w * w]))
+    with pytest.raises(SolverError, match=r"singular at f = 2 Hz"):
+        frequency_response(undamped, [0.5, 2.0, 3.0], "F1", "x1")
+    assert np.isfinite(frequency_response(undamped, [0.5, 1.5], "F1", "x1").H).all()
