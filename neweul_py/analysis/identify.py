@@ -1,17 +1,14 @@
 """Parameter identification: bounded nonlinear least squares with the analytic sensitivities
-as Jacobian (docs/sensitivity.md §6, docs/howto/identify.md).
+as Jacobian (docs/sensitivity.md §7, docs/howto/identify.md).
 
 :func:`identify` fits parameters of a generated module to a measured frequency response or
 time history (:mod:`.identify_data`) with :func:`scipy.optimize.least_squares` (trust-region
 reflective, bounds), the residuals and Jacobian of :mod:`.identify_model`, from one start or
 several (a Latin hypercube in the bounds; on Dask with ``workers`` or ``scheduler``).
 
-At the optimum ``θ*`` the Jacobian ``J = U S Vᵀ`` gives the covariance
-``Σ = s² V S⁻² Vᵀ`` (``s² = 2·cost/(m − k)``) and the standard errors (``p·σ_θ`` for log
-parameters). A direction ``v_i`` with ``S_i < RCOND·S_0`` is one the data do not determine:
-every parameter with a component above :data:`NULL_COMPONENT` in it is reported as
-undetermined (value, standard error and correlations ``None``, with the reason), and so is a
-parameter whose correlation with another exceeds :data:`MAX_CORRELATION`.
+The standard errors, correlations and undetermined parameters at the optimum are those of
+:mod:`.identify_statistics`: of the Jacobian there, and of the starts that end with the same
+cost elsewhere.
 """
 
 from __future__ import annotations
@@ -30,20 +27,11 @@ from ..errors import NeweulError, SolverError
 from . import protocol as proto
 from .identify_data import FrequencyData, TimeData, read_frequency_data, read_time_data
 from .identify_model import FitProblem, Residuals, column_index
+from .identify_statistics import equal_cost_spread, fit_statistics
 from .module import GeneratedModel, ModelLike, as_model
 from .results import check_output_path
 
-__all__ = ["MAX_CORRELATION", "NULL_COMPONENT", "RCOND", "Bound", "FitResult", "fit_start",
-           "fit_statistics", "identify"]
-
-#: Singular values of ``J`` below ``RCOND`` times the largest are null directions
-#: (``cond(JᵀJ) > 1e12``).
-RCOND = 1e-6
-#: Components of a null direction above this make a parameter undetermined.
-NULL_COMPONENT = 0.1
-#: Correlations above this (in magnitude) make both parameters undetermined.
-MAX_CORRELATION = 0.9999
-
+__all__ = ["Bound", "FitResult", "fit_start", "identify"]
 
 @dataclass(frozen=True)
 class Bound:
@@ -250,7 +238,6 @@ def _problem(module: GeneratedModel, data: Any, bounds: Sequence[Bound], task: s
         valid = [*module.OUTPUTS, *module.COORDINATES,
                  *(f"{d}_{c}" for d in ("d", "dd") for c in module.COORDINATES)]
         proto.name_index(valid, data.response, "response")
-        m = 2 * data.frequency_hz.size
     elif task == "simulate":
         if not isinstance(data, TimeData):
             raise NeweulError("--task simulate fits a time history (t and signals, as neweul "
@@ -261,16 +248,17 @@ def _problem(module: GeneratedModel, data: Any, bounds: Sequence[Bound], task: s
         if data.t[-1] > t_end:
             raise NeweulError(f"the data reach t = {data.t[-1]:g}, beyond --t-end {t_end:g}")
         column_index(module, list(data.columns))
-        m = data.t.size * len(data.columns)
     else:
         raise NeweulError(f"unknown task {task!r}; tasks are: frf, simulate")
-    if m <= len(bounds):
-        raise NeweulError(f"{m} residuals cannot determine {len(bounds)} parameters and "
-                          "their standard errors (more data points are needed)")
     pv = proto.resolve_parameters(module, p)
-    return FitProblem(tuple(b.name for b in bounds), tuple(b.log for b in bounds),
-                      np.array([b.theta(b.lo) for b in bounds]),
-                      np.array([b.theta(b.hi) for b in bounds]), pv, data, options)
+    problem = FitProblem(tuple(b.name for b in bounds), tuple(b.log for b in bounds),
+                         np.array([b.theta(b.lo) for b in bounds]),
+                         np.array([b.theta(b.hi) for b in bounds]), pv, data, options)
+    m = problem.counted_residuals()
+    if m <= len(bounds):
+        raise NeweulError(f"{m} residuals of nonzero weight cannot determine {len(bounds)} "
+                          "parameters and their standard errors (more data points are needed)")
+    return problem
 
 
 def _starts(module: GeneratedModel, bounds: Sequence[Bound], problem: FitProblem, n: int,
@@ -347,68 +335,6 @@ def _run_starts(module: GeneratedModel, problem: FitProblem, starts: np.ndarray,
             client.close()
             if cluster is not None:
                 cluster.close()
-
-
-def fit_statistics(problem: FitProblem, theta: np.ndarray, r: np.ndarray, J: np.ndarray,
-                   variance: float | None = None) -> tuple[dict, dict, dict]:
-    """Standard errors, correlations and the undetermined parameters (module docstring).
-
-    ``variance``: the residuals' variance ``s²`` when it is known (residuals already divided
-    by their measured standard deviations: ``1``); ``None`` estimates it as
-    ``2·cost/(m − k)``.
-    """
-    names = list(problem.names)
-    m, k = J.shape
-    values = problem.values(theta)
-    undetermined: dict[str, str] = {}
-    U, S, Vt = np.linalg.svd(J, full_matrices=False)
-    del U
-    top = S[0] if S.size and S[0] > 0 else 0.0
-    null = [i for i in range(k) if top == 0.0 or S[i] < RCOND * top]
-    for i in null:
-        v = Vt[i]
-        involved = [j for j in range(k) if abs(v[j]) > NULL_COMPONENT]
-        combo = " ".join(f"{v[j]:+.2f}·d{'ln ' if problem.log[j] else ''}{names[j]}"
-                         for j in involved)
-        ratio = S[i] / top if top else 0.0
-        if len(involved) == 1:
-            why = ("the data do not determine it: the residuals do not change with it "
-                   f"(singular value ratio {ratio:.1e})")
-        else:
-            why = ("the data do not determine it: the residuals do not change along "
-                   f"{combo} (singular value ratio {ratio:.1e}), only a combination of "
-                   f"{', '.join(names[q] for q in involved)} is determined")
-        for j in involved:
-            undetermined.setdefault(names[j], why)
-    keep = [i for i in range(k) if i not in null]
-    if variance is not None:
-        s2 = float(variance)
-    else:
-        s2 = 2.0 * 0.5 * float(r @ r) / (m - k) if m > k else np.nan
-    cov = (Vt[keep].T / S[keep] ** 2) @ Vt[keep] * s2
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(sd, sd)
-    for a in range(k):
-        for b in range(a + 1, k):
-            if names[a] in undetermined or names[b] in undetermined:
-                continue
-            if np.isfinite(corr[a, b]) and abs(corr[a, b]) > MAX_CORRELATION:
-                why = (f"correlated with {{}} (ρ = {corr[a, b]:.6f}): the data determine "
-                       "only a combination")
-                undetermined[names[a]] = why.format(names[b])
-                undetermined[names[b]] = why.format(names[a])
-    errors: dict[str, float | None] = {}
-    correlation: dict[str, dict[str, float | None] | None] = {}
-    for j, nm in enumerate(names):
-        if nm in undetermined or not np.isfinite(sd[j]):
-            errors[nm] = None
-            correlation[nm] = None
-            continue
-        errors[nm] = float(values[j] * sd[j] if problem.log[j] else sd[j])
-        correlation[nm] = {other: (None if other in undetermined else float(corr[j, q]))
-                           for q, other in enumerate(names)}
-    return errors, correlation, undetermined
 
 
 def identify(
@@ -506,7 +432,14 @@ def identify(
     best = min(good, key=lambda r: r["cost"])
     model = Residuals(module, problem)
     r, J, curve = model.evaluate(best["theta"])
-    errors, correlation, undetermined = fit_statistics(problem, best["theta"], r, J)
+    counted = problem.counted_residuals()
+    errors, correlation, undetermined = fit_statistics(problem, best["theta"], r, J, m=counted)
+    for name, why in equal_cost_spread(problem, best, good, errors).items():
+        undetermined.setdefault(name, why)
+        errors[name] = correlation[name] = None
+    for row in correlation.values():
+        if row is not None:
+            row.update({nm: None for nm in undetermined if nm in row})
     values = problem.values(best["theta"])
     names = list(problem.names)
     end = {nm: float(v) for nm, v in zip(names, values, strict=True)}
@@ -541,6 +474,7 @@ def identify(
         scale={nm: "log" if lg else "linear" for nm, lg in zip(names, problem.log,
                                                                  strict=True)},
         at_bounds=at_bounds, starts=summary,
-        residual_rms=float(np.sqrt(np.mean(r**2))) if r.size else 0.0, n_residuals=int(r.size),
+        residual_rms=float(np.sqrt(float(r @ r) / counted)) if counted else 0.0,
+        n_residuals=counted,
         model_name=str(module.MODEL_NAME),
         data_file=data.file, curve=curve_out)

@@ -2,9 +2,10 @@
 as ``neweul frf -o`` writes it, or a time history as ``neweul simulate -o`` writes it.
 
 Every problem is one :class:`~neweul_py.errors.DataError` naming the file and the column (and
-the row where one is at fault): a file that is not such a CSV, data of the other task, a
-missing column, a value that is not a finite number, frequencies or times that do not
-increase, negative weights. An optional column ``weight`` (≥ 0) weights each row's residuals.
+the line where one is at fault): a file that is not such a CSV (a row with more fields than
+the header, as a decimal comma makes), data of the other task, a missing column, a value that
+is not a finite number, frequencies or times that do not increase, negative weights. A UTF-8
+byte-order mark is skipped. An optional column ``weight`` (≥ 0) weights each row's residuals.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ class FrequencyData:
     Attributes
     ----------
     frequency_hz : ndarray (nf,)
-        Increasing, positive.
+        Increasing, ≥ 0 (``neweul frf`` writes the static response at 0 Hz).
     H : ndarray (nf,) complex
         ``magnitude · exp(j phase)``.
     weight : ndarray (nf,)
@@ -70,31 +71,52 @@ class TimeData:
     file: str = "<data>"
 
 
-def _table(path: str | os.PathLike[str]) -> tuple[list[str], list[list[str]], str]:
+@dataclass(frozen=True)
+class _Table:
+    """A CSV file's header and rows, each row with its line number in the file."""
+
+    header: list[str]
+    rows: list[list[str]]
+    lines: list[int]
+    file: str
+
+    def first(self, bad: np.ndarray) -> int:
+        """The line of the first row where ``bad`` holds."""
+        return self.lines[int(np.flatnonzero(bad)[0])]
+
+
+def _table(path: str | os.PathLike[str]) -> _Table:
     """Header and rows of a CSV file (one clear error for anything else)."""
     name = os.fspath(path)
     raw = read_checked(path, "data file", MAX_DATA_BYTES, DataError)
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise DataError(f"not UTF-8 text ({exc.reason})", file=name) from None
-    rows = [r for r in csv.reader(text.splitlines()) if r and any(c.strip() for c in r)]
-    if len(rows) < 2:
+    numbered = [(k + 1, r) for k, r in enumerate(csv.reader(text.splitlines()))
+                if r and any(c.strip() for c in r)]
+    if len(numbered) < 2:
         raise DataError("expected a CSV file with a header and at least one row of numbers",
                         file=name)
-    header = [h.strip() for h in rows[0]]
+    header = [h.strip() for h in numbered[0][1]]
     if len(set(header)) < len(header):
         raise DataError(f"repeated column names in the header: {', '.join(header)}", file=name)
-    return header, rows[1:], name
+    for line, row in numbered[1:]:
+        if len(row) > len(header):
+            raise DataError(f"{len(row)} fields where the header has {len(header)} (a "
+                            "decimal comma, or a value without a column?)", file=name,
+                            line=line)
+    return _Table(header, [r for _, r in numbered[1:]], [k for k, _ in numbered[1:]], name)
 
 
-def _column(header: list[str], rows: list[list[str]], key: str, file: str) -> np.ndarray:
-    """The finite numbers of column ``key`` (errors name the row, counting the header as 1)."""
-    if key not in header:
-        raise DataError(f"no column {key!r}; columns are: {', '.join(header)}", file=file)
-    j = header.index(key)
-    out = np.empty(len(rows))
-    for i, row in enumerate(rows):
+def _column(table: _Table, key: str) -> np.ndarray:
+    """The finite numbers of column ``key`` (errors name the line)."""
+    if key not in table.header:
+        raise DataError(f"no column {key!r}; columns are: {', '.join(table.header)}",
+                        file=table.file)
+    j = table.header.index(key)
+    out = np.empty(len(table.rows))
+    for i, row in enumerate(table.rows):
         cell = row[j].strip() if j < len(row) else ""
         try:
             value = float(cell)
@@ -102,25 +124,28 @@ def _column(header: list[str], rows: list[list[str]], key: str, file: str) -> np
             value = np.nan
         if not np.isfinite(value):
             what = "missing" if not cell else f"{cell!r} is not a finite number"
-            raise DataError(f"column {key!r}: {what}", file=file, line=i + 2)
+            raise DataError(f"column {key!r}: {what}", file=table.file, line=table.lines[i])
         out[i] = value
     return out
 
 
-def _increasing(values: np.ndarray, key: str, file: str) -> None:
+def _increasing(values: np.ndarray, key: str, table: _Table) -> None:
     bad = np.flatnonzero(np.diff(values) <= 0)
     if bad.size:
         i = int(bad[0])
         raise DataError(f"column {key!r} must increase: {values[i + 1]:g} follows "
-                        f"{values[i]:g}", file=file, line=i + 3)
+                        f"{values[i]:g}", file=table.file, line=table.lines[i + 1])
 
 
-def _weights(header: list[str], rows: list[list[str]], file: str) -> np.ndarray:
-    if "weight" not in header:
-        return np.ones(len(rows))
-    w = _column(header, rows, "weight", file)
-    if np.any(w < 0) or not np.any(w > 0):
-        raise DataError("column 'weight' must hold numbers ≥ 0, not all 0", file=file)
+def _weights(table: _Table) -> np.ndarray:
+    if "weight" not in table.header:
+        return np.ones(len(table.rows))
+    w = _column(table, "weight")
+    if np.any(w < 0):
+        raise DataError("column 'weight' must hold numbers ≥ 0", file=table.file,
+                        line=table.first(w < 0))
+    if not np.any(w > 0):
+        raise DataError("column 'weight' is 0 in every row", file=table.file)
     return w
 
 
@@ -137,7 +162,8 @@ def read_frequency_data(path: str | os.PathLike[str], response: str | None = Non
     DataError
         As the module docstring says.
     """
-    header, rows, file = _table(path)
+    table = _table(path)
+    header, file = table.header, table.file
     if "frequency_hz" not in header:
         other = " (it looks like a simulation: use --task simulate)" if "t" in header else ""
         raise DataError(f"not a frequency response: no column 'frequency_hz'{other}",
@@ -151,17 +177,16 @@ def read_frequency_data(path: str | os.PathLike[str], response: str | None = Non
         sfx = f"__{response}__{input}"
     else:
         sfx = ""
-    f = _column(header, rows, "frequency_hz", file)
-    mag = _column(header, rows, f"magnitude{sfx}", file)
-    phase = _column(header, rows, f"phase_deg{sfx}", file)
-    if np.any(f <= 0):
-        raise DataError("column 'frequency_hz' must be positive", file=file)
-    _increasing(f, "frequency_hz", file)
+    f = _column(table, "frequency_hz")
+    mag = _column(table, f"magnitude{sfx}")
+    phase = _column(table, f"phase_deg{sfx}")
+    if np.any(f < 0):
+        raise DataError("column 'frequency_hz' must be ≥ 0", file=file, line=table.first(f < 0))
+    _increasing(f, "frequency_hz", table)
     if np.any(mag <= 0):
-        i = int(np.flatnonzero(mag <= 0)[0])
         raise DataError(f"column 'magnitude{sfx}': a magnitude must be positive (its "
-                        "logarithm is fitted)", file=file, line=i + 2)
-    return FrequencyData(f, mag * np.exp(1j * np.radians(phase)), _weights(header, rows, file),
+                        "logarithm is fitted)", file=file, line=table.first(mag <= 0))
+    return FrequencyData(f, mag * np.exp(1j * np.radians(phase)), _weights(table),
                          response or "", input or "", file)
 
 
@@ -175,18 +200,19 @@ def read_time_data(path: str | os.PathLike[str],
     DataError
         As the module docstring says.
     """
-    header, rows, file = _table(path)
+    table = _table(path)
+    header, file = table.header, table.file
     if "t" not in header:
         other = (" (it looks like a frequency response: use --task frf)"
                  if "frequency_hz" in header else "")
         raise DataError(f"not a simulation: no column 't'{other}", file=file)
-    t = _column(header, rows, "t", file)
+    t = _column(table, "t")
     if np.any(t < 0):
-        raise DataError("column 't' must be ≥ 0 (simulations start at t = 0)", file=file)
-    _increasing(t, "t", file)
+        raise DataError("column 't' must be ≥ 0 (simulations start at t = 0)", file=file,
+                        line=table.first(t < 0))
+    _increasing(t, "t", table)
     names = list(columns) if columns else [h for h in header if h not in ("t", "weight")]
     if not names:
         raise DataError("no signal columns besides 't'", file=file)
-    return TimeData(t, {n: _column(header, rows, n, file) for n in names},
-                    _weights(header, rows, file), file)
+    return TimeData(t, {n: _column(table, n) for n in names}, _weights(table), file)
 

@@ -8,7 +8,7 @@ bounded nonlinear least squares of :func:`~neweul_py.analysis.identify.identify`
 reflective, ``θ = ln p`` for positive bounds) with a forward-difference Jacobian of absolute
 step ``h`` in ``θ`` (a relative step in ``p`` for log parameters), stepping inwards at an upper
 bound. Its standard errors, correlations and undetermined parameters are those of
-:func:`~neweul_py.analysis.identify.fit_statistics`, with the residuals' variance known
+:func:`~neweul_py.analysis.identify_statistics.fit_statistics`, with the residuals' variance known
 (``s² = 1``: the residuals are in units of their standard deviations) or estimated; a log
 parameter whose ``σ(ln p)`` exceeds ``max_log_sd`` is reported undetermined as well (the data
 bound it only within a factor ``e^σ``: a number with that error says nothing).
@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import NeweulError, SolverError
-from .identify import Bound, FitResult, fit_statistics
+from .identify import Bound, FitResult
 from .identify_model import FitProblem
+from .identify_statistics import fit_statistics
 
 __all__ = ["identify_function"]
 

@@ -1,4 +1,4 @@
-"""The residuals of a parameter fit and their analytic Jacobian (docs/sensitivity.md §6).
+"""The residuals of a parameter fit and their analytic Jacobian (docs/sensitivity.md §7).
 
 The fitted parameters are the coordinates ``θ`` of the least-squares problem: ``θ = ln p``
 (log scale) or ``θ = p``. For a frequency response the residuals are the real and imaginary
@@ -72,6 +72,14 @@ class FitProblem:
         """The fitted parameters' values at ``θ``."""
         return np.array([np.exp(v) if lg else v for v, lg in zip(theta, self.log,
                                                                  strict=True)])
+
+    def counted_residuals(self) -> int:
+        """The residuals that carry weight: a data row of weight zero, and the phase rows
+        with ``phase_weight`` zero, give residuals that are identically zero, not data."""
+        rows = int(np.count_nonzero(self.data.weight))
+        if isinstance(self.data, FrequencyData):
+            return rows * (2 if self.options.get("phase_weight", 1.0) else 1)
+        return rows * len(self.data.columns)
 
 
 class Residuals:

@@ -100,15 +100,28 @@ def check_files(
     plot: str | None = None,
 ) -> None:
     """Check ``-o`` (its suffix one of ``suffixes``) and ``--plot`` (matplotlib installed, a
-    format it writes) before any computation, so that a typo fails at once."""
+    format it writes), and that neither lies below a file, before any computation, so that a
+    typo fails at once (missing directories are created when the file is written)."""
     if output:
         from ..analysis.results import check_output_path
 
         check_output_path(output, suffixes, what)
+        check_parents(output)
     if plot:
         from ..analysis.plot import check_plot_path
 
         check_plot_path(plot)
+        check_parents(plot)
+
+
+def check_parents(path: str | os.PathLike[str]) -> None:
+    """One error when a directory on the way to ``path`` is a file (the write would fail
+    after the work)."""
+    for parent in Path(path).parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise NeweulError(f"{path}: {parent} is a file, not a directory")
+            return
 
 
 def refuse_overwrite(output: str | None, inputs: Mapping[str, str | Sequence[str] | None],

@@ -57,6 +57,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="simulate: final time [s] (at least DATA's last time)")
     parser.add_argument("--method", choices=METHODS, default="RK45",
                         help="simulate: integrator (default RK45)")
+    parser.add_argument("--rtol", type=functools.partial(number, option="--rtol", positive=True,
+                                                         maximum=1.0), default=1e-8,
+                        help="simulate: relative tolerance of the state and its sensitivities "
+                        "(default 1e-8)")
+    parser.add_argument("--atol", type=functools.partial(number, option="--atol",
+                                                         positive=True), default=1e-10,
+                        help="simulate: absolute tolerance (default 1e-10)")
     parser.add_argument("--starts", type=count("--starts", cap=10_000), default=1, metavar="N",
                         help="starts: the given one, then a Latin hypercube in the bounds")
     parser.add_argument("--seed", type=count("--seed", minimum=0, cap=2**32 - 1), default=0,
@@ -97,6 +104,10 @@ def run(args: argparse.Namespace) -> int:
     bounds = [Bound.parse(text, args.scale) for text in args.fit]
     for b in bounds:
         b.check()
+    held = sorted({b.name for b in bounds} & {name for name, _ in args.param})
+    if held:
+        raise NeweulError(f"{', '.join(held)}: fitted (--param) and held (--set) at once; give "
+                          "a start as --param NAME=LO:HI:START")
     if args.task == "frf":
         if not args.input or not args.response or len(args.response) != 1:
             raise NeweulError("--task frf needs --input U and one --response Y (the model's "
@@ -113,8 +124,8 @@ def run(args: argparse.Namespace) -> int:
         columns=args.response if args.task == "simulate" else None, t_end=args.t_end,
         p=common.parameters(args), u=common.inputs(args), at=args.at, fixed=args.fix,
         start=common.start(args), damping=args.damping, phase_weight=args.phase_weight,
-        method=args.method, starts=args.starts, seed=args.seed, workers=args.workers,
-        scheduler=args.scheduler, max_nfev=args.max_nfev)
+        method=args.method, rtol=args.rtol, atol=args.atol, starts=args.starts,
+        seed=args.seed, workers=args.workers, scheduler=args.scheduler, max_nfev=args.max_nfev)
     width = max(len(n) for n in fit.parameters)
     for name, value in fit.parameters.items():
         if value is None:
@@ -127,10 +138,10 @@ def run(args: argparse.Namespace) -> int:
           f"{fit.iterations} iterations, {len(fit.starts)} start(s)")
     if fit.at_bounds:
         print(f"neweul identify: note: on a bound: {', '.join(fit.at_bounds)}", file=sys.stderr)
+    if args.plot:                     # first: the report is the last file written
+        print(f"plot: {fit.plot(args.plot)}")
     if args.output:
         print(f"fit: {fit.to_json(args.output)}")
-    if args.plot:
-        print(f"plot: {fit.plot(args.plot)}")
     if not fit.converged:
         print(f"neweul identify: error: the fit did not converge ({fit.message}; raise "
               "--max-nfev or narrow the bounds)"

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from neweul_py.analysis.equilibrium import equilibrium
 from neweul_py.analysis.frf import frequency_response
 from neweul_py.analysis.identify import Bound, identify
 from neweul_py.analysis.identify_data import FrequencyData, read_frequency_data, read_time_data
@@ -90,6 +91,68 @@ def test_product_of_two_parameters_is_reported_undetermined(oscillators) -> None
     assert fit.end_point["k1"] * fit.end_point["k2"] == pytest.approx(800.0, rel=0.02)
     assert fit.parameters["m"] == pytest.approx(2.0, rel=0.02)
     assert fit.correlation["m"]["k1"] is None
+
+
+def test_rows_of_weight_zero_are_not_data(oscillators) -> None:
+    """Weight zero above 10 Hz gives the fit, the standard errors and the residual count of
+    the data without those rows (``s² = 2·cost/(m − k)`` counts the residuals that carry
+    weight: the Cramér–Rao bound of the rows that remain); so does a phase weight of zero
+    for the phase rows."""
+    mod = oscillators[1]
+    data = _noisy_frf(mod, 0.01)
+    low = data.frequency_hz < 10.0
+    zero = FrequencyData(data.frequency_hz, data.H, low.astype(float), "x", "F")
+    cut = FrequencyData(data.frequency_hz[low], data.H[low], np.ones(low.sum()), "x", "F")
+    bounds = ["m=0.1:20:0.5", "k1=10:1e5:100", "c=0.01:100:1"]
+    a, b = identify(mod, zero, bounds, "frf"), identify(mod, cut, bounds, "frf")
+    assert a.n_residuals == b.n_residuals == 2 * int(low.sum())
+    for name in ("m", "k1", "c"):
+        assert a.parameters[name] == pytest.approx(b.parameters[name], rel=1e-6)
+        assert a.standard_errors[name] == pytest.approx(b.standard_errors[name], rel=1e-6)
+    assert a.residual_rms == pytest.approx(b.residual_rms, rel=1e-6)
+    magnitude = identify(mod, cut, bounds, "frf", phase_weight=0.0)
+    assert magnitude.n_residuals == int(low.sum())
+
+
+PRELOADED = """\
+name: preloaded
+parameters: {m: 1.0, l: 0.5, g: 9.81, kt: 3.0, ct: 0.2, T0: 2.0}
+gravity: [0, 0, -g]
+coordinates: {phi: 0.3}
+inputs: {T: T0}
+frames:
+  rod: {rotation: [[y, phi]]}
+bodies:
+  bob: {frame: rod, mass: m, center_of_mass: [0, 0, -l]}
+forces:
+  spring: {type: torque, frame: rod, vector: [0, T - kt*phi - ct*d_phi, 0], in: ISYS}
+"""
+
+
+def test_a_curved_valley_is_reported_undetermined_from_the_starts(tmp_path) -> None:
+    """A pendulum on a torsion spring ``kt`` under a constant torque ``T0``, linearized at its
+    equilibrium ``kt φ₀ + m g l sin φ₀ = T0``: the response depends on
+    ``kt + m g l cos φ₀`` alone, a curved combination of ``kt`` and ``T0``. At the optimum the
+    flat direction is almost ``T0`` alone, so the Jacobian keeps ``kt``; starts that end with
+    the same cost at other ``kt`` must make it undetermined, not a number with a tiny
+    standard error (the truth, kt = 3, lies on the valley, not at its end points)."""
+    (tmp_path / "p.yaml").write_text(PRELOADED)
+    mod = load_generated(generate(tmp_path / "p.yaml", tmp_path / "g", sensitivities=True))
+    f = np.geomspace(0.1, 3.0, 60)
+    eq = equilibrium(mod)
+    H = frequency_response(linearize(mod, eq, u0=eq.u), f, "T", "phi").H[:, 0, 0]
+    rng = np.random.default_rng(2)
+    H = H * np.exp(0.01 * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size)))
+    data = FrequencyData(f, H, np.ones(f.size), "phi", "T")
+    fit = identify(mod, data, ["kt=0.01:100:1", "T0=0.1:50:20", "ct=0.01:5"], "frf",
+                   starts=5)
+    assert fit.parameters["kt"] is None and fit.standard_errors["kt"] is None
+    assert fit.parameters["T0"] is None
+    assert fit.parameters["ct"] == pytest.approx(0.2, rel=0.05)
+    assert fit.correlation["ct"]["kt"] is None
+    ends = [s["end"]["kt"] for s in fit.starts if "end" in s
+            and abs(s["cost"] - fit.cost) <= 1e-6 * fit.cost]
+    assert max(ends) > 1.5 * min(ends)
 
 
 def test_pendulum_length_from_a_noisy_swing(tmp_path) -> None:
@@ -172,11 +235,27 @@ def _write(path: Path, rows: list[list[str]]) -> Path:
      "must increase"),
     ([["t", "x"], ["0", "1"]], "it looks like a simulation"),
     ([["frequency_hz", "magnitude", "phase_deg", "weight"], ["1", "1", "0", "-1"]],
-     "'weight' must hold numbers"),
+     r"d\.csv:2: column 'weight' must hold numbers"),
+    ([["frequency_hz", "magnitude", "phase_deg"], ["1", "1", "0"], ["2", "1", "-1", "5"]],
+     r"d\.csv:3: 4 fields where the header has 3"),
+    ([["frequency_hz", "magnitude", "phase_deg"], ["-1", "1", "0"]],
+     r"d\.csv:2: column 'frequency_hz' must be ≥ 0"),
 ])
 def test_bad_frequency_data_is_one_error_naming_the_place(tmp_path, rows, message) -> None:
     with pytest.raises(DataError, match=message):
         read_frequency_data(_write(tmp_path / "d.csv", rows), "x", "F")
+
+
+def test_frequency_data_as_neweul_frf_writes_it(tmp_path) -> None:
+    """What ``neweul frf -o`` writes is read: the static row at 0 Hz, and a byte-order mark
+    some editors add; blank lines do not shift the line an error names."""
+    path = tmp_path / "d.csv"
+    path.write_bytes("\ufefffrequency_hz,magnitude,phase_deg\n0,2,0\n1,1,-10\n".encode())
+    data = read_frequency_data(path, "x", "F")
+    assert data.frequency_hz.tolist() == [0.0, 1.0] and data.H[0] == 2.0
+    path.write_text("frequency_hz,magnitude,phase_deg\n\n1,1,0\n\n2,x,0\n")
+    with pytest.raises(DataError, match=r"d\.csv:5: column 'magnitude'"):
+        read_frequency_data(path, "x", "F")
 
 
 def test_bad_time_data_is_one_error_naming_the_place(tmp_path) -> None:

@@ -83,12 +83,26 @@ def test_simulation_fit_from_simulate_output(measured) -> None:
      "unknown parameter 'kk'"),
     (["--task", "frf", "--input", "F", "--response", "x", "--param", "k1=1:100", "-o",
       "fit.txt"], "written as .json"),
+    (["--task", "frf", "--input", "F", "--response", "x", "--param", "k1=1:100", "--set",
+      "k1=3"], "k1: fitted (--param) and held (--set) at once"),
+    (["--task", "frf", "--input", "F", "--response", "x", "--param", "k1=1:100", "--plot",
+      "data.csv/fit.png"], "data.csv is a file, not a directory"),
 ])
 def test_bad_input_is_one_error_and_writes_nothing(measured, capsys, words, message) -> None:
     assert main(["identify", "osc.yaml", "--data", "data.csv", *words]) == 1
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert sorted(p.name for p in measured.iterdir()) == ["data.csv", "osc.yaml"]
+
+
+def test_a_failed_run_keeps_the_previous_report(measured, capsys) -> None:
+    """A plot path below a file fails before the fit: the report of an earlier run stays
+    byte for byte."""
+    (measured / "fit.json").write_text("earlier")
+    assert main(["identify", "osc.yaml", "--data", "data.csv", "--task", "frf", "--input", "F",
+                 "--response", "x", "--param", "k1=1:100", "-o", "fit.json", "--plot",
+                 "osc.yaml/fit.png"]) == 1
+    assert (measured / "fit.json").read_text() == "earlier"
 
 
 def test_a_fit_that_does_not_converge_is_reported(measured, capsys) -> None:
