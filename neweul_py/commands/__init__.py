@@ -174,8 +174,8 @@ class Range:
             if self.start <= 0:
                 from ..errors import NeweulError
 
-                raise NeweulError(f"{self.option}: --log needs a positive start, got "
-                                  f"{self.start:g}")
+                raise NeweulError(f"{self.option}: log-spaced values need a positive start, "
+                                  f"got {self.start:g}")
             return [float(v) for v in np.geomspace(self.start, self.stop, self.n)]
         return [float(v) for v in np.linspace(self.start, self.stop, self.n)]
 

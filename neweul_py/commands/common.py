@@ -115,8 +115,10 @@ def check_files(
 
 
 def check_parents(path: str | os.PathLike[str]) -> None:
-    """One error when a directory on the way to ``path`` is a file (the write would fail
-    after the work)."""
+    """One error when ``path`` is a directory, or a directory on the way to it is a file (the
+    write would fail after the work)."""
+    if Path(path).is_dir():
+        raise NeweulError(f"{path}: a directory, not a file")
     for parent in Path(path).parents:
         if parent.exists():
             if not parent.is_dir():

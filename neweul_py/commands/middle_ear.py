@@ -162,15 +162,15 @@ def _tympanogram(args: argparse.Namespace) -> int:
     from ..middle_ear.clinical import (
         COMPENSATION_DAPA,
         DAPA,
+        MAX_PROBE_TONES,
         SWEEP_DAPA,
         build_model,
+        check_frequencies,
         tympanogram,
     )
 
     common.check_files(args.output, (".csv",), "tympanograms", args.plot)
-    f = np.asarray(args.f, dtype=float)
-    if np.any(f <= 0):
-        raise NeweulError(f"--f: probe frequencies must be > 0 Hz, got {args.f}")
+    f = check_frequencies(args.f, most=MAX_PROBE_TONES)
     p = np.asarray(args.pressures.values() if args.pressures else SWEEP_DAPA, dtype=float)
     if not np.any(p == COMPENSATION_DAPA):
         raise NeweulError(f"--pressures: the sweep must include {COMPENSATION_DAPA:+g} daPa "
@@ -183,25 +183,28 @@ def _tympanogram(args: argparse.Namespace) -> int:
     if args.output:
         print(f"tympanogram: {tg.to_csv(args.output)}")
     if args.plot:
-        print(f"plot: {tg.plot(args.plot)}")
+        print(f"plot: {tg.plot(args.plot, vector=args.vector)}")
     return 0
 
 
 def _absorbance(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..middle_ear.clinical import build_model, immittance
+    from ..middle_ear.clinical import build_model, check_frequencies, immittance
 
     common.check_files(args.output, (".csv",), "absorbance spectra", args.plot)
-    f = np.asarray(args.f.values(log=True) if args.f else np.geomspace(100.0, 8000.0, 120))
+    f = check_frequencies(args.f.values(log=True) if args.f else np.geomspace(100.0, 8000.0,
+                                                                                120))
     mod, params = build_model(args.dir, args.dp)
     im = immittance(mod, params, args.dp, f)
     a = im.absorbance
     bands = [(lo, hi) for lo, hi in ((250, 500), (500, 1000), (1000, 2000), (2000, 4000),
                                      (4000, 8000)) if np.any((f >= lo) & (f < hi))]
+    means = (", ".join(f"{lo / 1e3:g}-{hi / 1e3:g} kHz {a[(f >= lo) & (f < hi)].mean():.2f}"
+                       for lo, hi in bands) if bands
+             else f"{a.mean():.2f} over {f.min():g}-{f.max():g} Hz")
     print(f"dp = {args.dp:+g} Pa, Z0 = rho c/A = {im.z0:.4g} Pa s/m^3; mean absorbance "
-          + ", ".join(f"{lo / 1e3:g}-{hi / 1e3:g} kHz {a[(f >= lo) & (f < hi)].mean():.2f}"
-                      for lo, hi in bands))
+          + means)
     if args.output:
         print(f"spectra: {im.to_csv(args.output)}")
     if args.plot:

@@ -7,7 +7,9 @@ volume acceleration ``Q`` there and the pressure is its mean, ``p_entrance``, so
 probe's acoustic impedance is ``Z = p_entrance/U`` with ``U = Q/(jω)``
 (:func:`~neweul_py.analysis.acoustic.port_impedance`). The TM's admittance is its volume
 velocity per the pressure in front of it, ``Y_TM = jω V_TM/p_probe`` (the probe microphone of
-the model, 3 mm lateral of the TM rim plane).
+the model, 3 mm lateral of the TM rim plane). ``V_TM`` is the pars tensa's volume
+displacement: a pars flaccida (``pf_compliance`` > 0) is not in it, and its own admittance,
+about ``jω C₀`` at low frequencies, adds to the probe's.
 
 **Absorbance** at the probe: ``𝒜 = 1 − |R|²``, ``R = (Z − Z₀)/(Z + Z₀)``, ``Z₀ = ρc/A`` with
 ``A`` the canal's cross-section at the entrance, ``π d²/4`` (``canal_diameter`` = 7.5 mm:
@@ -21,16 +23,21 @@ direction, its speed and the hysteresis of living ears do not enter. The measure
 (:func:`tympanometric_measures`; ANSI S3.39-1987, ASHA 1990):
 
 * ``Vea`` — equivalent ear-canal volume: ``|Y(+200 daPa)|`` as the volume of a rigid
-  cavity of that admittance, ``|Y| ρc²/ω`` (1 mmho ≈ 1 cm³ at 226 Hz);
-* ``Ytm`` — peak compensated static acoustic admittance: the largest
-  ``Y_c(P) = |Y(P)| − |Y(+200 daPa)|`` (``vector=True``: ``|Y(P) − Y(+200 daPa)|``);
-* ``TPP`` — tympanometric peak pressure, where ``Y_c`` peaks;
+  cavity of that admittance, ``|Y| ρc²/ω`` (1 mmho ≈ 1 cm³ at 226 Hz); a low-frequency
+  measure, printed only for probe tones up to :data:`VEA_MAX_HZ`;
+* ``Ytm`` — peak compensated static acoustic admittance: the peak of
+  ``Y_c(P) = |Y(P)| − |Y(+200 daPa)|`` (``vector=True``: ``|Y(P) − Y(+200 daPa)|``), the
+  vertex of the parabola through the largest sample and its neighbours (never below the
+  largest sample: the peak between the sampled pressures);
+* ``TPP`` — tympanometric peak pressure, where that parabola peaks;
 * ``TW`` — tympanometric width, the pressure interval over which ``Y_c ≥ Ytm/2``.
+
+A curve whose compensated admittance never rises above zero (a flat tympanogram, or a sweep
+that ends at +200 daPa's side) has no peak: ``TPP`` and ``TW`` are ``nan``.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -55,17 +62,21 @@ from ..atomic import atomic_write
 from ..errors import DataError, NeweulError
 from .embs import parameters_at
 from .parameters import MiddleEarParameters
-from .study import build_record
+from .study import build_parameters, build_record
 
 __all__ = [
     "DAPA",
+    "MAX_PROBE_HZ",
+    "MAX_PROBE_TONES",
     "PROBE_OUTPUT",
     "TYMPANOMETRY_HZ",
+    "VEA_MAX_HZ",
     "Immittance",
     "Tympanogram",
     "TympanometricMeasures",
     "build_model",
     "canal_impedance",
+    "check_frequencies",
     "immittance",
     "tympanogram",
     "tympanometric_measures",
@@ -81,6 +92,15 @@ COMPENSATION_DAPA = 200.0
 PROBE_OUTPUT = "p_entrance"
 #: The default sweep [daPa]: +200 → −400 in steps of 5.
 SWEEP_DAPA = np.linspace(200.0, -400.0, 121)
+#: Highest probe frequency [Hz]: the audible range (the FE meshes resolve the TM's modes to
+#: about 8 kHz at refine 1).
+MAX_PROBE_HZ = 20000.0
+#: Most probe tones of one tympanogram (clinical multifrequency tympanometry sweeps 0.2–2 kHz
+#: in about 20 steps).
+MAX_PROBE_TONES = 64
+#: ``Vea`` is printed for probe tones up to this [Hz] (``|Y| ρc²/ω`` is a volume only where
+#: the canal is small against the wavelength and the TM is stiff: the 226 Hz measure).
+VEA_MAX_HZ = 300.0
 
 Progress = Callable[..., None]
 
@@ -90,6 +110,32 @@ def canal_impedance(params: MiddleEarParameters) -> float:
     diameter at the entrance (44.2 mm² for 7.5 mm)."""
     return characteristic_impedance(params.rho_air, params.c_air,
                                     math.pi * params.canal_diameter**2 / 4)
+
+
+def check_frequencies(f: Sequence[float] | np.ndarray, option: str = "--f",
+                      most: int | None = None) -> np.ndarray:
+    """``f`` [Hz] as an array of probe frequencies: finite, in ``(0, MAX_PROBE_HZ]``, at most
+    ``most`` of them, distinct to the 10 digits their CSV columns are named by.
+
+    Raises
+    ------
+    NeweulError
+        Naming ``option`` and the first value at fault.
+    """
+    freq = np.asarray(f, dtype=float).reshape(-1)
+    if freq.size == 0:
+        raise NeweulError(f"{option}: no frequency")
+    if most is not None and freq.size > most:
+        raise NeweulError(f"{option}: {freq.size} probe frequencies, at most {most}")
+    bad = ~(np.isfinite(freq) & (freq > 0) & (freq <= MAX_PROBE_HZ))
+    if bad.any():
+        raise NeweulError(f"{option}: {freq[bad][0]:g} Hz is not a probe frequency in "
+                          f"(0, {MAX_PROBE_HZ:g}] Hz")
+    names = [f"{v:.10g}" for v in freq]
+    if len(set(names)) < len(names):
+        raise NeweulError(f"{option}: repeated probe frequencies "
+                          f"({', '.join(n for n in names if names.count(n) > 1)} Hz)")
+    return freq
 
 
 @dataclass(frozen=True)
@@ -104,7 +150,7 @@ class Immittance:
     z_probe : ndarray (nf,) complex
         Impedance at the probe tip, ``p_entrance/U`` [Pa s/m³].
     y_tm : ndarray (nf,) complex
-        The TM's admittance ``jω V_TM/p_probe`` [m³/(Pa s)].
+        The TM's (pars tensa's) admittance ``jω V_TM/p_probe`` [m³/(Pa s)].
     z0 : float
         The canal's characteristic impedance at the probe tip [Pa s/m³].
     """
@@ -164,7 +210,7 @@ class Immittance:
         ax[0].set_title(f"probe tip, Δp = {self.dp:+.0f} Pa, Z₀ = ρc/A = "
                         f"{self.z0 / 1e6:.2f} MPa s/m³")
         ax[1].loglog(f, np.abs(self.y_probe) / MMHO, label="probe tip")
-        ax[1].loglog(f, np.abs(self.y_tm) / MMHO, label="TM")
+        ax[1].loglog(f, np.abs(self.y_tm) / MMHO, label="TM (pars tensa)")
         ax[1].set_ylabel("|Y| [mmho]")
         ax[1].set_xlabel("frequency [Hz]")
         ax[1].legend()
@@ -193,15 +239,14 @@ def build_model(directory: str | Path, *dps: float) -> tuple[Any, MiddleEarParam
         raise DataError(f"the module has no output {PROBE_OUTPUT!r} (the pressure at the canal "
                         "entrance, the probe tip): rebuild with neweul middle-ear build",
                         str(d / info["module"]), "OUTPUTS")
-    sweep = json.loads((d / "fem" / "sweep.json").read_text())
-    return mod, MiddleEarParameters(**sweep["parameters"])
+    return mod, build_parameters(d)
 
 
 def immittance(mod: Any, params: MiddleEarParameters, dp: float,
                f: Sequence[float] | np.ndarray, damping: str = "loss") -> Immittance:
     """The immittance of the EMBS ``mod`` linearized at ``dp`` (module docstring)."""
     lin = linearize(mod, p=parameters_at(mod, dp))
-    freq = np.asarray(f, dtype=float).reshape(-1)
+    freq = check_frequencies(f)
     z = port_impedance(lin, freq, "Q", PROBE_OUTPUT, damping=damping)
     y_tm = surface_admittance(lin, freq, "Q", "tm_volume", "p_probe", damping=damping)
     return Immittance(freq, float(dp), z, y_tm, canal_impedance(params))
@@ -217,10 +262,10 @@ class TympanometricMeasures:
     peak_admittance_mmho : float
         ``Ytm``, peak compensated static acoustic admittance.
     peak_pressure_daPa : float
-        ``TPP``.
+        ``TPP``; ``nan`` without a peak.
     width_daPa : float
-        ``TW``; ``nan`` when the compensated curve does not fall to half its peak on both
-        sides within the sweep.
+        ``TW``; ``nan`` without a peak, or when the compensated curve does not fall to half
+        its peak on both sides within the sweep.
     half_points_daPa : tuple of float
         The pressures (negative side, positive side) where ``Y_c = Ytm/2`` (``nan`` where
         not reached).
@@ -242,12 +287,16 @@ class TympanometricMeasures:
     compensation: str = "magnitude"
 
     def summary(self) -> str:
-        """One line: ``Ytm``, ``TPP``, ``TW``, ``Vea``."""
+        """One line: ``Ytm``, ``TPP``, ``TW``, and ``Vea`` at low probe frequencies."""
+        vea = (f", Vea {self.ear_canal_volume_cm3:.2f} cm³"
+               if self.frequency_hz <= VEA_MAX_HZ else "")
+        if math.isnan(self.peak_pressure_daPa):
+            return (f"{self.frequency_hz:g} Hz: no peak (the compensated admittance does not "
+                    f"rise above its value at {COMPENSATION_DAPA:+g} daPa){vea}")
         tw = ("not reached on both sides" if math.isnan(self.width_daPa)
               else f"{self.width_daPa:.0f} daPa")
         return (f"{self.frequency_hz:g} Hz: Ytm {self.peak_admittance_mmho:.3f} mmho, "
-                f"TPP {self.peak_pressure_daPa:+.0f} daPa, TW {tw}, "
-                f"Vea {self.ear_canal_volume_cm3:.2f} cm³")
+                f"TPP {self.peak_pressure_daPa + 0.0:+.0f} daPa, TW {tw}{vea}")
 
 
 def _crossing(p: np.ndarray, y: np.ndarray, level: float) -> float:
@@ -321,6 +370,8 @@ def tympanometric_measures(pressure_dapa: Sequence[float] | np.ndarray,
             peak = float(max(peak, c2 - b * b / (4 * a)))
     lo = _crossing(p[k::-1], yc[k::-1], peak / 2)
     hi = _crossing(p[k:], yc[k:], peak / 2)
+    if not peak > 0:                             # no peak: nothing rises above the reference
+        peak, tpp, lo, hi = 0.0, float("nan"), float("nan"), float("nan")
     vea = float(equivalent_volume(np.abs(y_ref), frequency_hz, rho, c)[0]) * 1e6
     return TympanometricMeasures(
         frequency_hz=float(frequency_hz), peak_admittance_mmho=peak / MMHO,
@@ -366,8 +417,9 @@ class Tympanogram:
                 "dp_Pa": DAPA * self.pressure_daPa}
         for j, f in enumerate(self.frequency_hz):
             y, t = self.y_probe[:, j] / MMHO, self.y_tm[:, j] / MMHO
-            cols |= {f"Y_probe_{f:g}Hz_mmho": np.abs(y), f"B_probe_{f:g}Hz_mmho": y.imag,
-                     f"G_probe_{f:g}Hz_mmho": y.real, f"Y_tm_{f:g}Hz_mmho": np.abs(t)}
+            hz = f"{f:.10g}Hz"
+            cols |= {f"Y_probe_{hz}_mmho": np.abs(y), f"B_probe_{hz}_mmho": y.imag,
+                     f"G_probe_{hz}_mmho": y.real, f"Y_tm_{hz}_mmho": np.abs(t)}
         return cols
 
     def to_csv(self, path: str | Path) -> Path:
@@ -379,27 +431,38 @@ class Tympanogram:
         atomic_write(Path(path), "\n".join(lines) + "\n")
         return Path(path)
 
-    def plot(self, path: str | Path) -> Path:
-        """``|Y|`` at the probe tip (and compensated) against pressure, one panel per
-        frequency, the measures in the legend (matplotlib)."""
+    def plot(self, path: str | Path, vector: bool = False) -> Path:
+        """``|Y|`` at the probe tip (and compensated as :meth:`measures` with ``vector``)
+        against pressure, increasing to the right as tympanograms are drawn, one panel per
+        frequency (at most four in a row), the measures in the titles (matplotlib)."""
         nf = self.frequency_hz.size
-        fig = new_figure(figsize=(4.5 * nf, 3.6), layout="constrained")
-        axes = fig.subplots(1, nf, squeeze=False)
-        for ax, m, j in zip(axes[0], self.measures(), range(nf), strict=True):
-            y = np.abs(self.y_probe[:, j]) / MMHO
-            ax.plot(self.pressure_daPa, y, label="|Y| probe tip")
-            ax.plot(self.pressure_daPa, y - m.reference_mmho, label="compensated (+200 daPa)")
-            ax.plot(self.pressure_daPa, np.abs(self.y_tm[:, j]) / MMHO, ":", label="|Y_TM|")
+        cols = min(nf, 4)
+        rows = -(-nf // cols)
+        fig = new_figure(figsize=(4.5 * cols, 3.6 * rows), layout="constrained")
+        axes = fig.subplots(rows, cols, squeeze=False).ravel()
+        ref = int(np.flatnonzero(np.isclose(self.pressure_daPa, COMPENSATION_DAPA))[0])
+        for ax, m, j in zip(axes, self.measures(vector), range(nf), strict=False):
+            y = self.y_probe[:, j] / MMHO
+            yc = np.abs(y - y[ref]) if vector else np.abs(y) - np.abs(y[ref])
+            ax.plot(self.pressure_daPa, np.abs(y), label="|Y| probe tip")
+            kind = "vector" if vector else "magnitude"
+            ax.plot(self.pressure_daPa, yc,
+                    label=f"compensated ({kind}, {COMPENSATION_DAPA:+g} daPa)")
+            ax.plot(self.pressure_daPa, np.abs(self.y_tm[:, j]) / MMHO, ":",
+                    label="|Y_TM| (pars tensa)")
             if not math.isnan(m.width_daPa):
                 ax.hlines(m.peak_admittance_mmho / 2, *m.half_points_daPa, colors="k",
                           lw=0.8, label=f"TW {m.width_daPa:.0f} daPa")
-            ax.set_title(f"{m.frequency_hz:g} Hz: Ytm {m.peak_admittance_mmho:.2f} mmho, "
-                         f"TPP {m.peak_pressure_daPa:+.0f} daPa", fontsize=9)
+            title = (f"{m.frequency_hz:g} Hz: no peak" if math.isnan(m.peak_pressure_daPa)
+                     else f"{m.frequency_hz:g} Hz: Ytm {m.peak_admittance_mmho:.2f} mmho, "
+                     f"TPP {m.peak_pressure_daPa + 0.0:+.0f} daPa")
+            ax.set_title(title, fontsize=9)
             ax.set_xlabel("ear-canal pressure [daPa]")
             ax.set_ylabel("admittance [mmho]")
-            ax.invert_xaxis()
             ax.grid(True, lw=0.3)
             ax.legend(fontsize=7)
+        for ax in axes[nf:]:
+            ax.set_visible(False)
         return save_figure(fig, path)
 
 
@@ -414,13 +477,14 @@ def tympanogram(mod: Any, params: MiddleEarParameters,
     Raises
     ------
     NeweulError
-        No pressure, a non-finite one, or a frequency ≤ 0.
+        No pressure, a non-finite one, or frequencies :func:`check_frequencies` refuses (at
+        most :data:`MAX_PROBE_TONES`).
     """
     say = progress or (lambda *_a, **_k: None)
     p = np.asarray(pressures_dapa, dtype=float).reshape(-1)
     if p.size == 0 or not np.all(np.isfinite(p)):
         raise NeweulError("tympanogram: the pressures must be finite, at least one")
-    f = np.asarray(frequencies, dtype=float).reshape(-1)
+    f = check_frequencies(frequencies, most=MAX_PROBE_TONES)
     yp = np.zeros((p.size, f.size), dtype=complex)
     yt = np.zeros_like(yp)
     for i, pi in enumerate(p):

@@ -21,6 +21,7 @@ __all__ = [
     "MAX_VOLUME_FRACTION",
     "THIN_SHELL_RATIO",
     "MiddleEarParameters",
+    "check_parameters",
     "read_parameters",
 ]
 
@@ -317,20 +318,36 @@ def read_parameters(path: str | os.PathLike) -> dict[str, float]:
         line = getattr(getattr(exc, "problem_mark", None), "line", None)
         raise DataError(f"not YAML: {str(exc).splitlines()[0]}", where,
                         line=None if line is None else line + 1) from None
+    return check_parameters(data, where)
+
+
+def check_parameters(data: object, where: str, key: str = "") -> dict[str, float]:
+    """``data`` as the middle ear's parameters: a mapping of :class:`MiddleEarParameters`
+    names to finite numbers that the model accepts (:func:`read_parameters`; the
+    ``parameters`` of a build's ``fem/sweep.json``).
+
+    Raises
+    ------
+    DataError
+        Naming ``where`` (the file) and the key (below ``key``, e.g. ``"parameters"``).
+    """
+    prefix = f"{key}." if key else ""
     if not isinstance(data, dict):
-        raise DataError("must be a mapping of parameter names to numbers", where)
+        raise DataError("must be a mapping of parameter names to numbers", where, key or None)
     known = {f.name for f in fields(MiddleEarParameters)}
     out: dict[str, float] = {}
-    for key, value in data.items():
-        if key not in known:
-            raise DataError(f"unknown middle-ear parameter {key!r} (known: "
-                            f"{', '.join(sorted(known))})", where, str(key))
+    for name, value in data.items():
+        if name not in known:
+            raise DataError(f"unknown middle-ear parameter {name!r} (known: "
+                            f"{', '.join(sorted(known))})", where, f"{prefix}{name}")
         number = _number(value)
         if number is None:
-            raise DataError(f"must be a finite number, got {value!r}", where, key)
-        out[key] = number
+            raise DataError(f"must be a finite number, got {value!r}", where,
+                            f"{prefix}{name}")
+        out[name] = number
     try:
         MiddleEarParameters(**out)
     except ModelError as exc:
-        raise DataError(exc.message, where, exc.key_path) from None
+        raise DataError(exc.message, where,
+                        f"{prefix}{exc.key_path}" if exc.key_path else key or None) from None
     return out

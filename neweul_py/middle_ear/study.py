@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -40,9 +41,13 @@ from .embs import (
     sweep_tangents,
     umbo_stiffness,
 )
+from .parameters import MiddleEarParameters, check_parameters
 
-__all__ = ["GYO_GOODE", "PRESSURES", "build_record", "embs_frf", "low_db", "static_table",
-           "study", "transfer"]
+__all__ = ["GYO_GOODE", "MAX_RECORD_BYTES", "PRESSURES", "build_parameters", "build_record",
+           "embs_frf", "low_db", "read_record", "static_table", "study", "transfer"]
+
+#: Largest build record read [bytes] (``build.json``, ``fem/sweep.json``: a few hundred kB).
+MAX_RECORD_BYTES = 64 << 20
 
 #: The pressures of the study [Pa].
 PRESSURES = np.arange(-4000.0, 4001.0, 1000.0)
@@ -65,13 +70,57 @@ def build_record(directory: str | Path, *dps: float) -> dict[str, Any]:
     if not record.is_file():
         raise DataError("no middle-ear build here (run neweul middle-ear build first)",
                         str(directory), "build.json")
-    info = json.loads(record.read_text())
-    lo, hi = min(info["samples_Pa"]), max(info["samples_Pa"])
+    info = read_record(record)
+    samples = info.get("samples_Pa")
+    if (not isinstance(samples, list) or not samples
+            or not all(isinstance(v, int | float) and math.isfinite(v) for v in samples)):
+        raise DataError("must be a list of the sampled Δp [Pa]", str(record), "samples_Pa")
+    if not isinstance(info.get("module", ""), str | None):
+        raise DataError("must be the generated module's path", str(record), "module")
+    lo, hi = min(samples), max(samples)
     bad = [dp for dp in dps if not lo <= dp <= hi]
     if bad:
         raise DataError(f"the build covers Δp in [{lo:g}, {hi:g}] Pa, not {bad[0]:g} Pa (no "
                         "extrapolation)", str(record), "samples_Pa")
     return info
+
+
+def read_record(path: Path) -> dict[str, Any]:
+    """A build's JSON record (``build.json``, ``fem/sweep.json``) as a mapping.
+
+    Raises
+    ------
+    DataError
+        A missing, oversized or unreadable file, or one that is not a JSON object.
+    """
+    try:
+        if path.stat().st_size > MAX_RECORD_BYTES:
+            raise DataError(f"larger than a build record can be ({MAX_RECORD_BYTES} bytes)",
+                            str(path))
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise DataError(f"cannot read: {exc.strerror or exc}", str(path)) from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise DataError(f"not a build record (JSON): {exc}", str(path)) from None
+    if not isinstance(data, dict):
+        raise DataError("not a build record: a JSON object was expected", str(path))
+    return data
+
+
+def build_parameters(directory: str | Path) -> MiddleEarParameters:
+    """The physical data of a build: the ``parameters`` of its ``fem/sweep.json``.
+
+    Raises
+    ------
+    DataError
+        As :func:`read_record`, or parameters the model refuses (naming the key).
+    """
+    path = Path(directory) / "fem" / "sweep.json"
+    if not path.is_file():
+        raise DataError("no FE sweep record: not a complete build", str(path))
+    data = read_record(path)
+    return MiddleEarParameters(**check_parameters(data.get("parameters"), str(path),
+                                                  "parameters"))
 
 
 def embs_frf(mod: Any, dp: float, f: np.ndarray, damping: str = "loss"

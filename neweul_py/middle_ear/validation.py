@@ -20,7 +20,6 @@ malleus held by the chain's static characteristic, against the FE static solutio
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -51,7 +50,7 @@ from .embs import (
     template,
 )
 from .parameters import MiddleEarParameters
-from .study import embs_frf, transfer
+from .study import build_parameters, build_record, embs_frf, transfer
 from .sweep import pressure_sweep
 
 __all__ = ["body_coupled", "body_coupled_frf", "chain_matrices", "chain_module",
@@ -83,9 +82,7 @@ def fe_model_at(dp: float, build: Path, refine: int) -> Path:
     extra = build / f"fem_dp{dp:+06.0f}"
     path = model_path(extra, dp)
     if not path.is_file():
-        record = json.loads((build / "fem" / "sweep.json").read_text())
-        pressure_sweep([dp], MiddleEarParameters(**record["parameters"]), refine=refine,
-                       out_dir=str(extra))
+        pressure_sweep([dp], build_parameters(build), refine=refine, out_dir=str(extra))
     return path
 
 
@@ -205,13 +202,15 @@ def errors(mod: Any, chain_mod: Any, dp: float, f: np.ndarray, fe_path: Path,
         f"ref_{k}": v for k, v in ref.items()} | {f"got_{k}": v for k, v in got.items()}
 
 
-def chain_restoring(table: bool, kc0: np.ndarray) -> Callable[[np.ndarray], tuple]:
+def chain_restoring(table: bool, kc0: np.ndarray,
+                    p: MiddleEarParameters | None = None) -> Callable[[np.ndarray], tuple]:
     """``y → (F_c, K_c)``: the chain at the malleus as the FE static solution has it
     (docs/equations-middle-ear.md §2), the tangent at Δp = 0 ``kc0`` in every direction plus,
-    along z, the excess of the stiffening characteristic — the closed form ``F(s) − k₀ s``
-    or (``table``) the ``chain_stiffening`` table of ``templates/ossicles.yaml`` (natural
-    cubic spline, as the description interpolates it)."""
-    p = MiddleEarParameters()
+    along z, the excess of the stiffening characteristic — the closed form ``F(s) − k₀ s`` of
+    the data ``p`` (default: the defaults) or (``table``) the ``chain_stiffening`` table of
+    ``templates/ossicles.yaml`` (natural cubic spline, as the description interpolates it;
+    the defaults' chain)."""
+    p = p or MiddleEarParameters()
     k0, sp, sm = p.k_chain, p.chain_limit_medial, p.chain_limit_lateral
     forces = yaml.safe_load(template("ossicles.yaml"))["forces"]
     tab = np.array(forces["chain_stiffening"]["stiffness"]["table"])
@@ -240,10 +239,15 @@ def static_errors(build: Path, extra: Sequence[float] = ()) -> list[tuple]:
     (:func:`~neweul_py.elastic.quality.static_equilibrium.tied_static_equilibrium`, §5):
     ``(dp, is_sample, characteristic, umbo error, volume error)`` (relative, against
     ``static.csv`` of the FE sweeps)."""
-    record = json.loads((build / "build.json").read_text())
+    record = build_record(build)
+    params = build_parameters(build)
+    defaults = MiddleEarParameters()
+    tables = (False, True) if all(
+        getattr(params, n) == getattr(defaults, n)
+        for n in ("k_chain", "chain_limit_medial", "chain_limit_lateral")) else (False,)
     pb = load_parametric_body(build / record["body"])
     man = np.array(record["manubrium"])
-    k = MiddleEarParameters().k_tm_manubrium / man.size
+    k = params.k_tm_manubrium / man.size
     kc0 = read_static(model_path(build / "fem", 0.0))["chain_tangent"]
     umbo = pb.nodes[pb.nodes[:, 0] == record["umbo"]][0, 1:4]
     out = list(pb.output_names)
@@ -258,8 +262,9 @@ def static_errors(build: Path, extra: Sequence[float] = ()) -> list[tuple]:
                                                      delimiter=",", names=True))[0]
     rows = []
     for dp in sorted(p for p in ref if p != 0.0 and (p in pb.samples or p in extra)):
-        for table in (False, True):
-            sol = tied_static_equilibrium(pb.at(dp), man, k, chain_restoring(table, kc0), umbo)
+        for table in tables:
+            sol = tied_static_equilibrium(pb.at(dp), man, k,
+                                          chain_restoring(table, kc0, params), umbo)
             e = [sol["outputs"][out.index(name)] / float(ref[dp][col]) - 1 for name, col in
                  (("umbo_uz", "umbo_uz_m"), ("tm_volume_displacement",
                                              "volume_displacement_m3"))]

@@ -13,8 +13,14 @@ import numpy as np
 import pytest
 
 from neweul_py.analysis.acoustic import MMHO, cavity_admittance
-from neweul_py.errors import NeweulError
-from neweul_py.middle_ear.clinical import canal_impedance, tympanometric_measures
+from neweul_py.errors import DataError, NeweulError
+from neweul_py.middle_ear.clinical import (
+    MAX_PROBE_HZ,
+    VEA_MAX_HZ,
+    canal_impedance,
+    check_frequencies,
+    tympanometric_measures,
+)
 from neweul_py.middle_ear.parameters import MiddleEarParameters
 
 RHO, C, F = 1.2, 343.0, 226.0
@@ -65,6 +71,78 @@ def test_width_not_reached_is_nan_not_a_number():
     assert math.isnan(m.width_daPa) and math.isnan(m.half_points_daPa[0])
     assert m.half_points_daPa[1] == pytest.approx(100.0)
     assert "not reached" in m.summary()
+
+
+def test_a_curve_without_a_peak_has_no_tpp_nor_width():
+    """A sweep on the positive side only of a TM that stiffens away from 0 daPa: the
+    compensated admittance never rises above its value at +200 daPa, so there is no peak
+    (``TPP``, ``TW`` ``nan``), not "Ytm 0, TW 0"."""
+    p = np.linspace(400.0, 200.0, 21)
+    tm = 0.5 * MMHO * np.clip(1 - p / 400.0, 0, 1)           # largest at +200
+    m = tympanometric_measures(p, CANAL + 1j * tm, F, RHO, C)
+    assert math.isnan(m.peak_pressure_daPa) and math.isnan(m.width_daPa)
+    assert m.peak_admittance_mmho == 0.0 and "no peak" in m.summary()
+
+
+def test_vea_is_printed_at_low_probe_tones_only():
+    """``|Y| ρc²/ω`` is the rigid canal's volume at 226 Hz; at 1000 Hz it is not reported."""
+    p = np.arange(200.0, -401.0, -10.0)
+    tm = 0.5 * MMHO * np.clip(1 - np.abs(p + 30.0) / 60.0, 0, 1)
+    low = tympanometric_measures(p, CANAL + 1j * tm, F, RHO, C)
+    high = tympanometric_measures(p, CANAL + 1j * tm, 1000.0, RHO, C)
+    assert "Vea 1.20 cm³" in low.summary() and "Vea" not in high.summary()
+    assert F <= VEA_MAX_HZ < 678.0
+
+
+@pytest.mark.parametrize(("f", "match"), [
+    ([0.0], "0 Hz is not a probe frequency"),
+    ([226.0, 2 * MAX_PROBE_HZ], "is not a probe frequency"),
+    ([float("nan")], "nan Hz"),
+    ([226.0, 226.00000000001], "repeated probe frequencies"),
+    ([], "no frequency"),
+])
+def test_probe_frequencies_are_checked(f, match):
+    """In (0, 20 kHz], finite, and distinct to the digits their CSV columns carry."""
+    with pytest.raises(NeweulError, match=match):
+        check_frequencies(f)
+    with pytest.raises(NeweulError, match="at most 2"):
+        check_frequencies([226.0, 678.0, 1000.0], most=2)
+
+
+@pytest.mark.parametrize(("name", "text", "match"), [
+    ("build.json", "{garbage", "not a build record"),
+    ("build.json", "[]", "a JSON object was expected"),
+    ("build.json", '{"module": "m.py"}', "samples_Pa"),
+    ("build.json", '{"samples_Pa": []}', "samples_Pa"),
+    ("build.json", '{"samples_Pa": ["a"]}', "samples_Pa"),
+])
+def test_a_corrupt_build_record_is_one_error_naming_the_file(tmp_path, name, text, match):
+    """``build.json`` of a build that is not one: one DataError naming the file (and the
+    key), no traceback."""
+    from neweul_py.middle_ear.clinical import build_model
+
+    (tmp_path / name).write_text(text)
+    with pytest.raises(DataError, match=match) as info:
+        build_model(tmp_path, 0.0)
+    assert "build.json" in str(info.value)
+
+
+def test_a_corrupt_sweep_record_is_one_error_naming_the_key(tmp_path):
+    """The FE sweep's ``parameters``: an unknown name or a value the model refuses names
+    ``fem/sweep.json`` and the key."""
+    from neweul_py.middle_ear.study import build_parameters
+
+    (tmp_path / "fem").mkdir()
+    record = tmp_path / "fem" / "sweep.json"
+    record.write_text('{"parameters": {"tm_E": "soft"}}')
+    with pytest.raises(DataError, match=r"sweep\.json.*parameters\.tm_E"):
+        build_parameters(tmp_path)
+    record.write_text('{"parameters": {"no_such": 1}}')
+    with pytest.raises(DataError, match="unknown middle-ear parameter"):
+        build_parameters(tmp_path)
+    record.write_text("\x00\x01")
+    with pytest.raises(DataError, match="not a build record"):
+        build_parameters(tmp_path)
 
 
 def test_canal_characteristic_impedance():
