@@ -155,13 +155,27 @@ def test_result_files_go_into_missing_directories(capsys, tmp_path):
     assert not list(tmp_path.rglob("*.tmp"))
 
 
-def test_write_errors_are_one_line(capsys, tmp_path):
-    """An OSError while writing (here: the target is a directory) is one line, exit 1."""
+def test_write_errors_are_one_line(capsys, tmp_path, monkeypatch):
+    """An OSError while writing (here: a full disk) is one line, exit 1; a target that is a
+    directory is refused before the work."""
+    import errno
+
+    modes_module = importlib.import_module("neweul_py.analysis.modes")
+
     (tmp_path / "modes.csv").mkdir()
     code, _, err = _run(capsys, "modes", str(FIXTURES / "two_mass.py"), "--at", "initial",
                         "-o", str(tmp_path / "modes.csv"))
     assert code == 1
-    assert err == f"neweul modes: error: {tmp_path / 'modes.csv'}: Is a directory\n"
+    assert err == f"neweul modes: error: {tmp_path / 'modes.csv'}: a directory, not a file\n"
+
+    def full(path, data):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(modes_module, "atomic_write", full)
+    code, _, err = _run(capsys, "modes", str(FIXTURES / "two_mass.py"), "--at", "initial",
+                        "-o", str(tmp_path / "m.csv"))
+    assert code == 1
+    assert err.count("\n") == 1 and "No space left on device" in err
 
 
 def test_bugs_keep_their_traceback(monkeypatch):
