@@ -33,6 +33,7 @@ from .results import check_output_path
 
 __all__ = ["Bound", "FitResult", "fit_start", "identify"]
 
+
 @dataclass(frozen=True)
 class Bound:
     """A fitted parameter: ``LO ≤ p ≤ HI``, an optional start, and its scale.

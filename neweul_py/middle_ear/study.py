@@ -73,7 +73,8 @@ def build_record(directory: str | Path, *dps: float) -> dict[str, Any]:
     info = read_record(record)
     samples = info.get("samples_Pa")
     if (not isinstance(samples, list) or not samples
-            or not all(isinstance(v, int | float) and math.isfinite(v) for v in samples)):
+            or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                       and math.isfinite(v) for v in samples)):
         raise DataError("must be a list of the sampled Δp [Pa]", str(record), "samples_Pa")
     if not isinstance(info.get("module", ""), str | None):
         raise DataError("must be the generated module's path", str(record), "module")

@@ -115,6 +115,7 @@ def test_probe_frequencies_are_checked(f, match):
     ("build.json", '{"module": "m.py"}', "samples_Pa"),
     ("build.json", '{"samples_Pa": []}', "samples_Pa"),
     ("build.json", '{"samples_Pa": ["a"]}', "samples_Pa"),
+    ("build.json", '{"samples_Pa": [true, 1]}', "samples_Pa"),
 ])
 def test_a_corrupt_build_record_is_one_error_naming_the_file(tmp_path, name, text, match):
     """``build.json`` of a build that is not one: one DataError naming the file (and the
