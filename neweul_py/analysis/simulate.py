@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import NeweulError
+from ..errors import NeweulError, SolverError
 from .dae import ConstrainedDAE
 from .generalized_alpha import MAX_STEPS, GeneralizedAlphaSteps
 from .integrators import (
@@ -36,6 +36,9 @@ from .results import SimulationResult
 
 __all__ = ["METHODS", "SimulationOptions", "integrator", "simulate"]
 
+#: The words of a generated module's error for a schedule outside a parametric body's samples
+#: (NumPy and compiled modules alike: docs/generated-module-protocol.md).
+OUTSIDE_SAMPLES = "outside the sampled range"
 #: Integrators offered (``scipy.integrate.solve_ivp`` names; implicit ones use the Jacobian),
 #: the fixed-step second-order method, then those running inside compiled modules.
 METHODS: tuple[str, ...] = (*SCIPY_METHODS, "generalized-alpha", *COMPILED_METHODS)
@@ -161,8 +164,9 @@ def simulate(module: ModelLike, t_end: float, *, method: str = "RK45",
     Raises
     ------
     SolverError
-        When the integrator fails (with the last state reached) or the mass matrix is singular
-        (naming the coordinates without inertia).
+        When the integrator fails (with the last state reached), the mass matrix is singular
+        (naming the coordinates without inertia), or a parametric body's schedule leaves its
+        sampled range during the run.
 
     Examples
     --------
@@ -172,7 +176,12 @@ def simulate(module: ModelLike, t_end: float, *, method: str = "RK45",
     model = as_model(module)
     strategy = integrator(method, model)
     run = _run(model, strategy, t_end, SimulationOptions.of(options))
-    return strategy.simulate(model, run)
+    try:
+        return strategy.simulate(model, run)
+    except ValueError as exc:       # a schedule that leaves a parametric body's samples
+        if OUTSIDE_SAMPLES not in str(exc):
+            raise
+        raise SolverError(f"the simulation left the model's validity: {exc}") from None
 
 
 def _run(model: GeneratedModel, strategy: Integrator, t_end: float,

@@ -38,6 +38,7 @@ from __future__ import annotations
 import hashlib
 import mmap
 import os
+import stat
 import struct
 
 import numpy as np
@@ -323,6 +324,8 @@ def ffrf_map(path, fail):
     """The bytes of the file ``path`` mapped read-only (``b""`` for an empty file);
     ``fail(words)`` (which raises) for a missing or unreadable one."""
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):     # a FIFO or a device would block
+            fail("is not a regular file")
         with open(path, "rb") as fh:
             size = os.fstat(fh.fileno()).st_size
             return mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) if size else b""

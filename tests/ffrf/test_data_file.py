@@ -9,6 +9,7 @@ evaluated).
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -195,6 +196,33 @@ def test_missing_data_file_is_refused(scheduled, tmp_path: Path) -> None:
     module, data = _copy(scheduled, tmp_path)
     data.unlink()
     _refused(module, "elastic body 'duct'", str(data), "is missing")
+
+
+def test_a_data_file_that_is_no_regular_file_is_refused(scheduled, tmp_path: Path) -> None:
+    """A FIFO in place of the data file: one line at once (opening it would block until a
+    writer came), not a hang."""
+    module, data = _copy(scheduled, tmp_path)
+    data.unlink()
+    os.mkfifo(data)
+    _refused(module, "elastic body 'duct'", str(data), "is not a regular file")
+
+
+def test_a_schedule_leaving_the_samples_during_a_run_is_one_error(scheduled, tmp_path: Path
+                                                                   ) -> None:
+    """The sound speed ramped past the last sample (390 m/s) while simulating: one
+    SolverError naming the schedule value, not the integrator's traceback."""
+    from neweul_py.analysis.simulate import simulate
+    from neweul_py.errors import SolverError
+
+    tmp, _path = scheduled
+    text = (tmp / "model.yaml").read_text()
+    assert "schedule: cs}" in text
+    (tmp_path / "duct.npz").symlink_to(tmp / "duct.npz")
+    (tmp_path / "model.yaml").write_text(text.replace("schedule: cs}",
+                                                      "schedule: cs + 1.0e5*t}"))
+    mod = load_generated(generate(tmp_path / "model.yaml", tmp_path / "gen"))
+    with pytest.raises(SolverError, match="outside the sampled range"):
+        simulate(mod, 0.01)
 
 
 def test_data_file_of_another_schema_is_refused(scheduled, tmp_path: Path) -> None:
