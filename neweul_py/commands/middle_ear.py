@@ -166,6 +166,7 @@ def _tympanogram(args: argparse.Namespace) -> int:
         SWEEP_DAPA,
         build_model,
         check_frequencies,
+        eardrum_volume,
         tympanogram,
     )
 
@@ -176,8 +177,9 @@ def _tympanogram(args: argparse.Namespace) -> int:
         raise NeweulError(f"--pressures: the sweep must include {COMPENSATION_DAPA:+g} daPa "
                           "(the compensation and Vea pressure)")
     mod, params = build_model(args.dir, *(DAPA * p))
+    eardrum = eardrum_volume(args.dir, mod)
     with Tracker("middle-ear tympanogram", quiet=args.quiet) as track:
-        tg = tympanogram(mod, params, f, p, progress=track)
+        tg = tympanogram(mod, params, f, p, progress=track, eardrum=eardrum)
     for m in tg.measures(vector=args.vector):
         print(m.summary())
     if args.output:
@@ -190,13 +192,18 @@ def _tympanogram(args: argparse.Namespace) -> int:
 def _absorbance(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..middle_ear.clinical import build_model, check_frequencies, immittance
+    from ..middle_ear.clinical import (
+        build_model,
+        check_frequencies,
+        eardrum_volume,
+        immittance,
+    )
 
     common.check_files(args.output, (".csv",), "absorbance spectra", args.plot)
     f = check_frequencies(args.f.values(log=True) if args.f else np.geomspace(100.0, 8000.0,
                                                                                 120))
     mod, params = build_model(args.dir, args.dp)
-    im = immittance(mod, params, args.dp, f)
+    im = immittance(mod, params, args.dp, f, eardrum=eardrum_volume(args.dir, mod))
     a = im.absorbance
     bands = [(lo, hi) for lo, hi in ((250, 500), (500, 1000), (1000, 2000), (2000, 4000),
                                      (4000, 8000)) if np.any((f >= lo) & (f < hi))]

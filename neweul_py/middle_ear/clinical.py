@@ -7,9 +7,12 @@ volume acceleration ``Q`` there and the pressure is its mean, ``p_entrance``, so
 probe's acoustic impedance is ``Z = p_entrance/U`` with ``U = Q/(jω)``
 (:func:`~neweul_py.analysis.acoustic.port_impedance`). The TM's admittance is its volume
 velocity per the pressure in front of it, ``Y_TM = jω V_TM/p_probe`` (the probe microphone of
-the model, 3 mm lateral of the TM rim plane). ``V_TM`` is the pars tensa's volume
-displacement: a pars flaccida (``pf_compliance`` > 0) is not in it, and its own admittance,
-about ``jω C₀`` at low frequencies, adds to the probe's.
+the model, 3 mm lateral of the TM rim plane). With the build's body (:func:`eardrum_volume`)
+``V_TM`` is the whole eardrum's, the pars tensa's and a pars flaccida's volume displacement
+from the body's output rows at ``Δp`` (``C(σ)``, mixed with the weights of its matrices: the
+rows change by 3 % over ±4 kPa, as the static state turns the membrane); without it, the
+module's output ``tm_volume``, whose row is the first sample's (outputs of a body are
+constant coefficients in a description) and which leaves the pars flaccida out.
 
 **Absorbance** at the probe: ``𝒜 = 1 − |R|²``, ``R = (Z − Z₀)/(Z + Z₀)``, ``Z₀ = ρc/A`` with
 ``A`` the canal's cross-section at the entrance, ``π d²/4`` (``canal_diameter`` = 7.5 mm:
@@ -56,9 +59,11 @@ from ..analysis.acoustic import (
     reflectance,
     surface_admittance,
 )
+from ..analysis.frf import frequency_response
 from ..analysis.linearize import linearize
 from ..analysis.plot import new_figure, save_figure
 from ..atomic import atomic_write
+from ..elastic.io.body_files import load_parametric_body
 from ..errors import DataError, NeweulError
 from .embs import parameters_at
 from .parameters import MiddleEarParameters
@@ -71,12 +76,14 @@ __all__ = [
     "PROBE_OUTPUT",
     "TYMPANOMETRY_HZ",
     "VEA_MAX_HZ",
+    "EardrumVolume",
     "Immittance",
     "Tympanogram",
     "TympanometricMeasures",
     "build_model",
     "canal_impedance",
     "check_frequencies",
+    "eardrum_volume",
     "immittance",
     "tympanogram",
     "tympanometric_measures",
@@ -92,6 +99,9 @@ COMPENSATION_DAPA = 200.0
 PROBE_OUTPUT = "p_entrance"
 #: The default sweep [daPa]: +200 → −400 in steps of 5.
 SWEEP_DAPA = np.linspace(200.0, -400.0, 121)
+#: The body outputs whose sum is the eardrum's volume displacement [m³] (pars tensa, and the
+#: pars flaccida where the model has one).
+EARDRUM_OUTPUTS = ("tm_volume_displacement", "pf_volume_displacement")
 #: Highest probe frequency [Hz]: the audible range (the FE meshes resolve the TM's modes to
 #: about 8 kHz at refine 1).
 MAX_PROBE_HZ = 20000.0
@@ -150,7 +160,7 @@ class Immittance:
     z_probe : ndarray (nf,) complex
         Impedance at the probe tip, ``p_entrance/U`` [Pa s/m³].
     y_tm : ndarray (nf,) complex
-        The TM's (pars tensa's) admittance ``jω V_TM/p_probe`` [m³/(Pa s)].
+        The TM's admittance ``jω V_TM/p_probe`` [m³/(Pa s)] (module docstring).
     z0 : float
         The canal's characteristic impedance at the probe tip [Pa s/m³].
     """
@@ -210,7 +220,7 @@ class Immittance:
         ax[0].set_title(f"probe tip, Δp = {self.dp:+.0f} Pa, Z₀ = ρc/A = "
                         f"{self.z0 / 1e6:.2f} MPa s/m³")
         ax[1].loglog(f, np.abs(self.y_probe) / MMHO, label="probe tip")
-        ax[1].loglog(f, np.abs(self.y_tm) / MMHO, label="TM (pars tensa)")
+        ax[1].loglog(f, np.abs(self.y_tm) / MMHO, label="TM")
         ax[1].set_ylabel("|Y| [mmho]")
         ax[1].set_xlabel("frequency [Hz]")
         ax[1].legend()
@@ -242,13 +252,68 @@ def build_model(directory: str | Path, *dps: float) -> tuple[Any, MiddleEarParam
     return mod, build_parameters(d)
 
 
+@dataclass(frozen=True)
+class EardrumVolume:
+    """The eardrum's volume-displacement row of a build's parametric body.
+
+    Attributes
+    ----------
+    body : ParametricBody
+        The build's elastic body (``build.json``'s ``body``).
+    coordinates : tuple of str
+        The module's coordinates of the body, in the body's order.
+    """
+
+    body: Any
+    coordinates: tuple[str, ...]
+
+    def row(self, dp: float) -> np.ndarray:
+        """``Σ C_o(σ(Δp))`` over :data:`EARDRUM_OUTPUTS`: the body at ``dp`` (its matrices'
+        weights, :meth:`~neweul_py.elastic.bodies.parametric.ParametricBody.at`)."""
+        b = self.body.at(float(dp))
+        names = list(b.output_names)
+        return sum(np.asarray(b.C[names.index(n)], dtype=float) for n in EARDRUM_OUTPUTS
+                   if n in names)
+
+
+def eardrum_volume(directory: str | Path, mod: Any) -> EardrumVolume:
+    """The eardrum's volume row of the build in ``directory`` for its module ``mod``.
+
+    Raises
+    ------
+    DataError
+        The build's body file is missing or unreadable, lacks the output
+        ``tm_volume_displacement``, or its order differs from the module's ``tm_q…``
+        coordinates.
+    """
+    d = Path(directory)
+    info = build_record(d)
+    path = d / str(info.get("body", ""))
+    if not path.is_file():
+        raise DataError("the build's body file is missing", str(path), "body")
+    body = load_parametric_body(path)
+    coords = tuple(c for c in mod.COORDINATES if c.startswith("tm_q"))
+    if EARDRUM_OUTPUTS[0] not in body.output_names or len(coords) != body.order:
+        raise DataError(f"not the body of this module (order {body.order}, the module has "
+                        f"{len(coords)} tm_q coordinates; outputs must include "
+                        f"{EARDRUM_OUTPUTS[0]!r})", str(path))
+    return EardrumVolume(body, coords)
+
+
 def immittance(mod: Any, params: MiddleEarParameters, dp: float,
-               f: Sequence[float] | np.ndarray, damping: str = "loss") -> Immittance:
-    """The immittance of the EMBS ``mod`` linearized at ``dp`` (module docstring)."""
+               f: Sequence[float] | np.ndarray, damping: str = "loss",
+               eardrum: EardrumVolume | None = None) -> Immittance:
+    """The immittance of the EMBS ``mod`` linearized at ``dp`` (module docstring); with
+    ``eardrum`` the TM's admittance is the whole eardrum's from the body's rows at ``dp``."""
     lin = linearize(mod, p=parameters_at(mod, dp))
     freq = check_frequencies(f)
     z = port_impedance(lin, freq, "Q", PROBE_OUTPUT, damping=damping)
-    y_tm = surface_admittance(lin, freq, "Q", "tm_volume", "p_probe", damping=damping)
+    if eardrum is None:
+        y_tm = surface_admittance(lin, freq, "Q", "tm_volume", "p_probe", damping=damping)
+    else:
+        h = frequency_response(lin, freq, "Q", [*eardrum.coordinates, "p_probe"],
+                               damping=damping).H[:, :, 0]
+        y_tm = 2j * np.pi * freq * (h[:, :-1] @ eardrum.row(dp)) / h[:, -1]
     return Immittance(freq, float(dp), z, y_tm, canal_impedance(params))
 
 
@@ -448,8 +513,7 @@ class Tympanogram:
             kind = "vector" if vector else "magnitude"
             ax.plot(self.pressure_daPa, yc,
                     label=f"compensated ({kind}, {COMPENSATION_DAPA:+g} daPa)")
-            ax.plot(self.pressure_daPa, np.abs(self.y_tm[:, j]) / MMHO, ":",
-                    label="|Y_TM| (pars tensa)")
+            ax.plot(self.pressure_daPa, np.abs(self.y_tm[:, j]) / MMHO, ":", label="|Y_TM|")
             if not math.isnan(m.width_daPa):
                 ax.hlines(m.peak_admittance_mmho / 2, *m.half_points_daPa, colors="k",
                           lw=0.8, label=f"TW {m.width_daPa:.0f} daPa")
@@ -469,7 +533,8 @@ class Tympanogram:
 def tympanogram(mod: Any, params: MiddleEarParameters,
                 frequencies: Sequence[float] = (TYMPANOMETRY_HZ[0],),
                 pressures_dapa: Sequence[float] | np.ndarray = SWEEP_DAPA,
-                damping: str = "loss", progress: Progress | None = None) -> Tympanogram:
+                damping: str = "loss", progress: Progress | None = None,
+                eardrum: EardrumVolume | None = None) -> Tympanogram:
     """The tympanogram of the EMBS ``mod``: at each ear-canal pressure (in the order given,
     +200 → −400 daPa by default) the model linearized at ``Δp = 10 P`` and its admittance at
     the probe tip and at the TM at ``frequencies`` (module docstring).
@@ -489,6 +554,6 @@ def tympanogram(mod: Any, params: MiddleEarParameters,
     yt = np.zeros_like(yp)
     for i, pi in enumerate(p):
         say("tympanogram", i + 1, p.size)
-        im = immittance(mod, params, DAPA * pi, f, damping)
+        im = immittance(mod, params, DAPA * pi, f, damping, eardrum)
         yp[i], yt[i] = im.y_probe, im.y_tm
     return Tympanogram(p, f, yp, yt, params.rho_air, params.c_air)

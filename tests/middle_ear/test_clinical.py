@@ -185,15 +185,16 @@ def test_the_probe_sees_the_tm_through_the_canal(embs):
     ``Y = (Y_TM + j tan(kL)/Z₀)/(1 + j Z₀ Y_TM tan(kL))``, ``Z₀ = ρc/A`` (closed form of
     plane waves; to 0.6 %: the canal widens towards the TM, 7.5 → 8.7 mm). The compact
     limit ``jωV/(ρc²) + Y_TM`` is 1 % off, (kL)²/3 and the TM seen through the air mass."""
-    from neweul_py.middle_ear.clinical import immittance
+    from neweul_py.middle_ear.clinical import eardrum_volume, immittance
     from neweul_py.middle_ear.model import build_middle_ear
 
-    _out, mod, params = embs
+    out, mod, params = embs
+    drum = eardrum_volume(out, mod)
     v, length = build_middle_ear(params, refine=0).info["canal_volume_m3"], params.canal_length
     z0 = params.rho_air * params.c_air * length / v
     t = np.tan(2 * np.pi * 226.0 / params.c_air * length)
     for dp in (0.0, 2000.0):
-        im = immittance(mod, params, dp, [226.0])
+        im = immittance(mod, params, dp, [226.0], eardrum=drum)
         y_tm = im.y_tm[0]
         line = (y_tm + 1j * t / z0) / (1 + 1j * z0 * y_tm * t)
         np.testing.assert_allclose(im.y_probe[0], line, rtol=6e-3)
