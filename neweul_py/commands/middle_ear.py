@@ -160,7 +160,6 @@ def _tympanogram(args: argparse.Namespace) -> int:
 
     from ..errors import NeweulError
     from ..middle_ear.clinical import (
-        COMPENSATION_DAPA,
         DAPA,
         MAX_PROBE_TONES,
         SWEEP_DAPA,
@@ -169,6 +168,7 @@ def _tympanogram(args: argparse.Namespace) -> int:
         eardrum_volume,
         tympanogram,
     )
+    from ..middle_ear.tympanometry import COMPENSATION_DAPA
 
     common.check_files(args.output, (".csv",), "tympanograms", args.plot)
     f = check_frequencies(args.f, most=MAX_PROBE_TONES)

@@ -10,7 +10,7 @@ working point (docs/equations-middle-ear.md §7), solved in the loss-factor form
 (:func:`~neweul_py.middle_ear.coupled.coupled_frf`). From it (:func:`calibration_measures`):
 
 * the 226 Hz tympanogram at the probe tip, +200 → −400 daPa every 20 daPa, and its ``Ytm``,
-  ``TW``, ``TPP``, ``Vea`` (:func:`~neweul_py.middle_ear.clinical.tympanometric_measures`);
+  ``TW``, ``TPP``, ``Vea`` (:func:`~neweul_py.middle_ear.tympanometry.tympanometric_measures`);
 * the middle-ear resonance: the lowest frequency at which the compensated susceptance
   ``B(0) − B(+200 daPa)`` at the probe tip changes sign from + to − (Shanks 1984);
 * the low-frequency change (mean over 100–1000 Hz, dB re Δp = 0) of the umbo (the TM node at
@@ -37,11 +37,11 @@ import numpy as np
 from ..analysis.acoustic import MMHO
 from ..elastic.quality.frf_sweep import frequency_form
 from ..errors import SolverError
-from .clinical import tympanometric_measures
 from .coupled import coupled_frf
 from .embs import PHI, calibration_module, node_positions, umbo_stiffness
 from .parameters import MiddleEarParameters
 from .sweep import pressure_sweep
+from .tympanometry import tympanometric_measures
 from .validation import linear_chain
 
 __all__ = [
