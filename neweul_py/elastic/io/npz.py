@@ -65,7 +65,8 @@ def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     Raises
     ------
     DataError
-        The file is missing, not an ``.npz`` or holds pickled objects.
+        The file is missing, not an ``.npz``, holds pickled objects, or an array of dates,
+        durations or records (naming it).
     """
     check_regular_file(path, "file")  # a FIFO or /dev/zero is refused before it is opened
     try:
@@ -80,13 +81,18 @@ def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
     check_npz(path)  # a zip bomb or a forged array header is refused before loading
     try:
         with np.load(path, allow_pickle=False) as data:
-            return {key: data[key] for key in data.files}
+            arrays = {key: data[key] for key in data.files}
     except FileNotFoundError:
         raise DataError("file not found", str(path)) from None
     except (zipfile.BadZipFile, OSError, EOFError, MemoryError) as exc:
         raise DataError(f"not a readable .npz file ({exc})", str(path)) from None
     except ValueError as exc:  # object arrays refuse to load without pickles
         raise DataError(f"unreadable array ({exc})", str(path)) from None
+    for key, arr in arrays.items():     # dates, durations and records are no data of ours
+        if arr.dtype.kind in "mMV":
+            raise DataError(f"array {key!r} has dtype {arr.dtype}, not numbers", str(path),
+                            key)
+    return arrays
 
 
 #: Time stamp of every member of a :func:`save_npz_deterministic` archive (the zip epoch).
