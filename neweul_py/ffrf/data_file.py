@@ -345,8 +345,9 @@ def ffrf_load_data(directory, name, sha256, schema, owners):
     Raises
     ------
     ElasticDataError
-        The file is missing or unreadable, changed after generation, or of another schema:
-        one message naming the body, the file and what differs.
+        The file is missing or unreadable, larger than the schema's arrays with their headers
+        can be (refused before it is hashed), changed after generation, or of another
+        schema: one message naming the body, the file and what differs.
     """
     path = os.path.join(directory, name)
     first = ""
@@ -359,6 +360,12 @@ def ffrf_load_data(directory, name, sha256, schema, owners):
         )
 
     buf = ffrf_map(path, lambda words: fail(first, words))
+    payload = sum(np.dtype(descr).itemsize * int(np.prod(shape, dtype=np.int64))
+                  for descr, shape, _digest in schema.values())
+    most = payload + 1024 * len(schema) + 65536     # headers, names, alignment: generous
+    if len(buf) > most:       # refused before 8 GB are hashed
+        fail(first, f"is not the data file of this module ({len(buf)} bytes; it has at "
+                    f"most {most})")
     if hashlib.sha256(buf).hexdigest() != sha256:
         members = ffrf_members(buf)
         if members is None:

@@ -207,6 +207,17 @@ def test_a_data_file_that_is_no_regular_file_is_refused(scheduled, tmp_path: Pat
     _refused(module, "elastic body 'duct'", str(data), "is not a regular file")
 
 
+def test_a_huge_data_file_is_refused_before_it_is_hashed(scheduled, tmp_path: Path) -> None:
+    """A sparse file of 8 GB in place of the data file: refused by its size, which the
+    schema bounds (the arrays' bytes with their headers), not after hashing 8 GB."""
+    module, data = _copy(scheduled, tmp_path)
+    data.unlink()
+    with open(data, "wb") as fh:
+        fh.truncate(8 << 30)
+    _refused(module, "elastic body 'duct'", str(data), "is not the data file of this module",
+             "8589934592 bytes")
+
+
 def test_a_schedule_leaving_the_samples_during_a_run_is_one_error(scheduled, tmp_path: Path
                                                                    ) -> None:
     """The sound speed ramped past the last sample (390 m/s) while simulating: one
