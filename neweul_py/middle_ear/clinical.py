@@ -247,11 +247,12 @@ class EardrumVolume:
     coordinates: tuple[str, ...]
 
     def row(self, dp: float) -> np.ndarray:
-        """``Σ C_o(σ(Δp))`` over :data:`EARDRUM_OUTPUTS`: the body at ``dp`` (its matrices'
-        weights, :meth:`~neweul_py.elastic.bodies.parametric.ParametricBody.at`)."""
-        b = self.body.at(float(dp))
-        names = list(b.output_names)
-        return sum(np.asarray(b.C[names.index(n)], dtype=float) for n in EARDRUM_OUTPUTS
+        """``Σ C_o(σ(Δp))`` over :data:`EARDRUM_OUTPUTS`: the body's output rows mixed with
+        its matrices' weights at ``dp``
+        (:meth:`~neweul_py.elastic.bodies.parametric.ParametricBody.mix`)."""
+        C = self.body.mix("C", self.body.weights(float(dp)))
+        names = list(self.body.output_names)
+        return sum(np.asarray(C[names.index(n)], dtype=float) for n in EARDRUM_OUTPUTS
                    if n in names)
 
 

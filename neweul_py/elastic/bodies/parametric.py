@@ -325,6 +325,21 @@ class ParametricBody(BodyFields):
         breaks, c = weight_polynomials(s, kind, self.coordinate)
         return np.asarray(ffrf_weights(breaks, c, p, self.name), dtype=np.float64)
 
+    def mix(self, key: str, w: np.ndarray) -> np.ndarray:
+        """``Σ_i w_i X̃_i`` of one stack (:meth:`stack`; with Hermite weights its slopes and
+        curvatures too) for the weights ``w`` of :meth:`weights`: what :meth:`at` does for
+        every stack, for one quantity alone (e.g. the output rows ``"C"``)."""
+        idx = np.flatnonzero(w)
+        k = self.n_samples
+        stack = self.stack(key)
+        if idx.size == 1 and idx[0] < k:
+            return stack[idx[0]].copy()
+        out = np.einsum("i,i...->...", w[idx[idx < k]], stack[idx[idx < k]])
+        for b, data in enumerate((self.slopes, self.curvatures)[:w.size // k - 1], 1):
+            j = idx[(idx >= b * k) & (idx < (b + 1) * k)] - b * k   # Hermite blocks
+            out += np.einsum("i,i...->...", w[j + b * k], data[key][j])
+        return out
+
     def at(self, p: float, interpolation: str | None = None) -> ReducedBody:
         """The reduced body at parameter value ``p``: ``X(p) = Σ_i w_i(p) X̃_i`` (§4, step 5).
 
@@ -363,18 +378,9 @@ class ParametricBody(BodyFields):
         """
         kind = self.interpolation if interpolation is None else interpolation
         w = self.weights(p, kind)
-        idx = np.flatnonzero(w)
-        k = self.n_samples
 
         def mix(key: str) -> np.ndarray:
-            stack = self.stack(key)
-            if idx.size == 1 and idx[0] < k:
-                return stack[idx[0]].copy()
-            out = np.einsum("i,i...->...", w[idx[idx < k]], stack[idx[idx < k]])
-            for b, data in enumerate((self.slopes, self.curvatures)[:w.size // k - 1], 1):
-                j = idx[(idx >= b * k) & (idx < (b + 1) * k)] - b * k   # Hermite blocks
-                out += np.einsum("i,i...->...", w[j + b * k], data[key][j])
-            return out
+            return self.mix(key, w)
 
         arrays = {key: mix(key) for key in STACKED}
         if self.G is not None:
