@@ -32,6 +32,7 @@ from ..analysis.linearize import linearize
 from ..api import generate
 from ..atomic import atomic_write
 from ..errors import DataError
+from ..files import read_text
 from .embs import (
     PHI,
     calibration_module,
@@ -94,14 +95,10 @@ def read_record(path: Path) -> dict[str, Any]:
     DataError
         A missing, oversized or unreadable file, or one that is not a JSON object.
     """
+    text = read_text(path, "build record", MAX_RECORD_BYTES)
     try:
-        if path.stat().st_size > MAX_RECORD_BYTES:
-            raise DataError(f"larger than a build record can be ({MAX_RECORD_BYTES} bytes)",
-                            str(path))
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise DataError(f"cannot read: {exc.strerror or exc}", str(path)) from None
-    except (ValueError, UnicodeDecodeError) as exc:
+        data = json.loads(text)
+    except ValueError as exc:
         raise DataError(f"not a build record (JSON): {exc}", str(path)) from None
     if not isinstance(data, dict):
         raise DataError("not a build record: a JSON object was expected", str(path))
