@@ -81,6 +81,13 @@ def _parts(path: str) -> list[str]:
     with zipfile.ZipFile(path) as z:
         members = {i.filename[:-4]: i.file_size for i in z.infolist()
                    if i.filename.endswith(".npy")}
+        single = 0
+        for member in members:
+            with z.open(member + ".npy") as fh:
+                read = (np.lib.format.read_array_header_1_0
+                        if np.lib.format.read_magic(fh) == (1, 0)
+                        else np.lib.format.read_array_header_2_0)
+                single += read(fh)[2] == np.float32
         meta = json.loads(np.load(path, allow_pickle=False)["meta"].tobytes())
     for member, size in members.items():
         key = member.split("@", 1)[0]      # a varying stack's index and values: its part
@@ -100,7 +107,9 @@ def _parts(path: str) -> list[str]:
                 + (f"; {len(layout['scaled'])} as a factor of another"
                    if layout.get("scaled") else "")
                 + (f"; {len(layout['sparse'])} as their nonzeros"
-                   if layout.get("sparse") else "") if layout else "") + ")"]
+                   if layout.get("sparse") else "")
+                + (f"; {single} in single precision" if single else "")
+                if layout else "") + ")"]
     lines += [f"    {name}: {size / 1e6:.2f} MB" for name, size in
               sorted(sizes.items(), key=lambda kv: -kv[1]) if size]
     return lines

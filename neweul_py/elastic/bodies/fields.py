@@ -201,7 +201,10 @@ def _check_kept(body: BodyFields) -> None:
     """The kept nodes and DOFs: ``nodes`` (·, 4) finite with whole non-negative ids,
     ``kept_dofs`` and ``dof_node`` whole non-negative numbers, one ``dof_kind`` each."""
     set_ = object.__setattr__
-    nodes = real_array(body.nodes, "nodes").reshape(-1, 4)
+    nodes = real_array(body.nodes, "nodes")
+    if nodes.ndim != 2 or nodes.shape[1] != 4:
+        raise DataError(f"must be (nodes, 4): id, x, y, z per row; got shape {nodes.shape}",
+                        None, "nodes")
     ids = nodes[:, 0]
     if np.any(ids < 0) or np.any(ids != np.round(ids)):
         raise DataError("node ids (first column) must be non-negative whole numbers", None,

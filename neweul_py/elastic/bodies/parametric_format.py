@@ -35,6 +35,8 @@ __all__ = [
     "MIRROR_VERSION",
     "PARAMETRIC_BODY_VERSION",
     "READABLE_VERSIONS",
+    "SINGLE_KEYS",
+    "SINGLE_VERSION",
     "SLOPES_VERSION",
     "SLOPE_PREFIX",
     "STACKED",
@@ -57,11 +59,16 @@ CURVATURES_VERSION = 5
 #: Version 6 (the compact layout of docs/reduced-body-format.md) holds every optional group;
 #: version 7 adds the layout's ``varying`` rule (a stack's base and the entries that vary),
 #: version 8 its mirrored entries (``<key>@mirror``: of a stack of square matrices, the
-#: varying entries below the diagonal that are their transposed entry's).
+#: varying entries below the diagonal that are their transposed entry's), version 9 the
+#: varying entries of the slopes and curvatures of ``M``, ``D``, ``K``, ``G`` in single
+#: precision (``SINGLE_KEYS``).
 COMPACT_VERSION = 6
 VARYING_VERSION = 7
 MIRROR_VERSION = 8
-READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8)
+SINGLE_VERSION = 9
+READABLE_VERSIONS = (1, 2, 3, 4, 5, 6, 7, 8, 9)
+#: The matrices whose slopes and curvatures a version-9 file may hold in single precision.
+SINGLE_KEYS = ("M", "D", "K", "G")
 #: Weight functions of :meth:`ParametricBody.at
 #: <neweul_py.elastic.bodies.parametric.ParametricBody.at>`.
 INTERPOLATIONS = ("linear", "cubic", *HERMITE_ORDERS)

@@ -28,6 +28,7 @@ from ..bodies.parametric import (
     SLOPES_VERSION,
     ParametricBody,
 )
+from ..bodies.parametric_format import SINGLE_KEYS, SINGLE_VERSION
 from ..bodies.reduced import (
     INVARIANT_PREFIX,
     REDUCED_BODY_VERSION,
@@ -35,7 +36,7 @@ from ..bodies.reduced import (
     ReducedBody,
 )
 from ..bodies.static import STATIC_KEYS, STATIC_PREFIX, StaticDeflection
-from .layout import MIRROR_SUFFIX, pack, unpack
+from .layout import MIRROR_SUFFIX, VALUES_SUFFIX, pack, unpack
 from .npz import json_from_uint8, json_to_uint8, load_npz, save_npz_atomic
 
 __all__ = [
@@ -46,6 +47,7 @@ __all__ = [
     "REDUCED_ARRAYS",
     "REDUCED_BODY_FORMAT",
     "REDUCED_OPTIONAL",
+    "check_member_types",
     "check_metadata",
     "is_parametric_body_file",
     "load_parametric_body",
@@ -141,6 +143,7 @@ def load_reduced_body(path: str | os.PathLike) -> ReducedBody:
     if meta.get("version") not in REDUCED_READABLE:
         raise DataError(f"unsupported version {meta.get('version')!r} (this reader: "
                         f"{', '.join(map(str, REDUCED_READABLE))})", file, "meta")
+    check_member_types(data, False, file)
     if meta["version"] >= 2:
         data = unpack(data, meta.get("layout"), 1, file)
     missing = [k for k in REDUCED_ARRAYS if k not in data]
@@ -188,9 +191,14 @@ PARAMETRIC_OPTIONAL = ("V", "W", "row_scale", "left_row_scale", "full_dof_kind",
 UNSTACKED = frozenset({"samples", "nodes", "kept_dofs", "dof_node", "dof_kind", "R",
                        "singular_values", "svd_weights", "row_scale", "left_row_scale",
                        "full_dof_kind", "coordinate"})
-#: The version this writer writes (8: the compact layout with the stacks' varying entries and
-#: their mirrored ones, every optional group); the reader reads 1 to 8.
-PARAMETRIC_FILE_VERSION = MIRROR_VERSION
+#: The version this writer writes (9: the compact layout with the stacks' varying entries,
+#: their mirrored ones, the varying entries of the matrices' slopes and curvatures in single
+#: precision, every optional group); the reader reads 1 to 9.
+PARAMETRIC_FILE_VERSION = SINGLE_VERSION
+#: The members of a body file that a version-9 file may hold in single precision: the varying
+#: entries of the slopes and curvatures of :data:`SINGLE_KEYS`.
+SINGLE_MEMBERS = frozenset(prefix + key + VALUES_SUFFIX for key in SINGLE_KEYS
+                           for prefix in (SLOPE_PREFIX, CURVATURE_PREFIX))
 
 
 # ---------------------------------------------------------------------- file format
@@ -222,7 +230,10 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
     scaled = ({prefix + "D": (prefix + "G", 1.0 / (2.0 * np.pi * body.loss_reference_frequency))
                for prefix in ("", SLOPE_PREFIX, CURVATURE_PREFIX)}
               if body.G is not None else {})
-    stored, layout = pack(arrays, stacked, body.n_samples, reference, scaled=scaled)
+    # the slopes and curvatures carry their central differences' error, far above 2⁻²⁴
+    single = frozenset(key.removesuffix(VALUES_SUFFIX) for key in SINGLE_MEMBERS)
+    stored, layout = pack(arrays, stacked, body.n_samples, reference, scaled=scaled,
+                          single=single)
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": PARAMETRIC_FILE_VERSION,
@@ -280,6 +291,7 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     mirrored = next((key for key in data if key.endswith(MIRROR_SUFFIX)), None)
     if version < MIRROR_VERSION and mirrored:
         raise DataError(f"a version-{version} file holds no mirrored entries", file, mirrored)
+    check_member_types(data, version >= SINGLE_VERSION, file)
     if version >= COMPACT_VERSION:
         samples = data.get("samples")
         k = int(samples.size) if isinstance(samples, np.ndarray) and samples.ndim == 1 else 0
@@ -340,6 +352,44 @@ def load_parametric_body(path: str | os.PathLike) -> ParametricBody:
     except (TypeError, ValueError) as exc:
         raise DataError(f"inconsistent arrays ({' '.join(str(exc).split())})", file,
                         "meta") from None
+
+#: The members of a body file that hold whole numbers, strings, and bits
+#: (docs/reduced-body-format.md); the matrices, bases and vectors of :data:`REAL_MEMBERS`
+#: (their slopes, curvatures and stored parts alike) hold float64 numbers.
+WHOLE_MEMBERS = frozenset({"kept_dofs", "dof_node"})
+TEXT_MEMBERS = frozenset({"dof_kind", "full_dof_kind"})
+BIT_SUFFIXES = ("@mask", "@mirror", "@nonzero")
+REAL_MEMBERS = frozenset({"M", "D", "K", "G", "B", "C", "V_kept", "W_kept", "T", "L", "R",
+                          "V", "W", "samples", "singular_values", "svd_weights", "nodes",
+                          "row_scale", "left_row_scale", "coordinate", "eigenvalues"})
+
+
+def check_member_types(data: Mapping[str, np.ndarray], single: bool, file: str) -> None:
+    """Each member of a body file has the type its format gives it: ``meta`` and the bit
+    members ``uint8``, the DOF numbers integers, the DOF kinds strings, the rest float64 —
+    or float32 for :data:`SINGLE_MEMBERS` when ``single`` (a parametric file of version 9
+    or later). A :class:`DataError` naming the array otherwise: a bool, integer or text
+    matrix is not converted. The invariants and the static group are checked where they
+    are read."""
+    for key, a in data.items():
+        name = key.removeprefix(SLOPE_PREFIX).removeprefix(CURVATURE_PREFIX).split("@")[0]
+        if key == "meta" or key.endswith(BIT_SUFFIXES):
+            ok, what = a.dtype == np.uint8, "uint8"
+        elif key in WHOLE_MEMBERS:
+            ok, what = a.dtype.kind in "iu" or a.dtype == np.float64, "integers"
+        elif key in TEXT_MEMBERS:
+            ok, what = a.dtype.kind in "US", "strings"
+        elif key in SINGLE_MEMBERS:
+            ok = a.dtype == np.float64 or (single and a.dtype == np.float32)
+            what = "float64" + (" or float32" if single else
+                                f" (float32 from version {SINGLE_VERSION} of the format)")
+        elif name in REAL_MEMBERS:
+            ok, what = a.dtype == np.float64, "float64"
+        else:
+            continue
+        if not ok:
+            raise DataError(f"is {a.dtype}; the format holds {what} here", file, key)
+
 
 def static_from_arrays(data: Mapping[str, np.ndarray], file: str | None = None
                        ) -> StaticDeflection | None:

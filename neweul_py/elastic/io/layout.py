@@ -18,7 +18,10 @@ no array it can reconstruct. Six rules, applied by :func:`pack` and undone by
   coupling block of ``M`` of the middle ear, whose air blocks are the same in every
   sample); of a stack of square matrices, the varying entries below the diagonal that equal
   their transposed entry within the tolerance are not stored but named by
-  ``<key>@mirror`` (one bit per entry; version 8);
+  ``<key>@mirror`` (one bit per entry; version 8); the ``@values`` of the stacks named
+  ``single`` (a parametric body's slopes and curvatures of ``M``, ``D``, ``K``, ``G``;
+  version 9) are stored in single precision when each entry is then within ``2⁻²⁴`` of
+  itself (no overflow, no subnormal);
 * ``scaled`` — a stack that is a given factor times another one (within the tolerance below)
   is not stored; the metadata name the other and the factor (e.g. the ``D = G/ω_ref`` of a
   body whose damping is its loss factors' at the reference frequency);
@@ -65,11 +68,13 @@ from ...ffrf.varying import (
     split_varying,
 )
 
-__all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "MIRROR_SUFFIX", "NONZERO_SUFFIX", "VALUES_SUFFIX",
-           "pack", "unpack"]
+__all__ = ["LAYOUT_KEYS", "MASK_SUFFIX", "MIRROR_SUFFIX", "NONZERO_SUFFIX", "SINGLE_ROUNDING",
+           "VALUES_SUFFIX", "pack", "unpack"]
 
 #: The keys of the metadata's ``layout`` object.
 LAYOUT_KEYS = ("zero", "constant", "same", "varying", "scaled", "sparse", "tolerance")
+#: The largest relative rounding error of a value stored in single precision (``2⁻²⁴``).
+SINGLE_ROUNDING = 2.0**-24
 #: The members of a ``varying`` stack besides its base (stored under its own key).
 MASK_SUFFIX = "@mask"
 #: The member of a ``sparse`` array besides its nonzero values (stored under its own key).
@@ -98,7 +103,8 @@ def _constant(a: np.ndarray, k: int) -> bool:
 def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
          reference: Mapping[str, tuple[str, float]] | None = None,
          tol: float = VARYING_TOLERANCE,
-         scaled: Mapping[str, tuple[str, float]] | None = None
+         scaled: Mapping[str, tuple[str, float]] | None = None,
+         single: frozenset[str] | set[str] = frozenset()
          ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """The arrays to store and the ``layout`` metadata of ``arrays`` (module docstring).
 
@@ -120,6 +126,10 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
     scaled
         ``key → (other key, factor)``: candidates for ``scaled`` (``key`` is not stored when
         ``factor`` times ``other`` as read back is ``key`` within the tolerance).
+    single
+        Keys whose ``varying`` values are stored in single precision (``float32``: each
+        entry rounded to nearest, relative error at most ``2⁻²⁴``); decided after the other
+        rules, which compare the values in double precision.
 
     Returns
     -------
@@ -184,6 +194,14 @@ def pack(arrays: Mapping[str, Any], stacked: frozenset[str] | set[str], k: int,
                 if key in layout[rule]:
                     layout[rule].remove(key)
             layout["scaled"][key] = [other, float(factor)]
+    for key in layout["varying"]:
+        if key in single:
+            values = stored[key + VALUES_SUFFIX]
+            with np.errstate(over="ignore"):
+                narrow = values.astype(np.float32)
+            # kept in double precision where single would overflow or lose relative digits
+            if np.all(np.abs(narrow - values) <= SINGLE_ROUNDING * np.abs(values)):
+                stored[key + VALUES_SUFFIX] = narrow
     if k == 1:                      # no samples: the layout of a reduced body (version 2)
         del layout["varying"], layout["scaled"], layout["tolerance"]
         return stored, layout

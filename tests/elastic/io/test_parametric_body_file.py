@@ -1,9 +1,11 @@
-"""Parametric body files in the compact layout of version 7: a stack's base and the entries
-that vary (neweul_py/elastic/io/body_files.py, layout.py; docs/reduced-body-format.md).
+"""Parametric body files in the compact layout of version 9: a stack's base and the entries
+that vary, the matrices' slopes and curvatures in single precision
+(neweul_py/elastic/io/body_files.py, layout.py; docs/reduced-body-format.md).
 
 Reference: the body written — read back, every value, slope and curvature is within the
 documented bound (1e-13 of its entry's scale; the values' scale over the sampled range for
-slopes, over its square for curvatures) — and the block structure the body is built with
+slopes, over its square for curvatures; plus 2⁻²⁴ of the entry for the slopes and curvatures
+of M, D, K, G) — and the block structure the body is built with
 (the u–p structure of the middle ear: the structural rows vary, the pressure block varies at
 round-off, the block below the structure is zero).
 """
@@ -80,13 +82,14 @@ def _meta(path: Path) -> dict:
 
 def test_read_back_within_the_documented_bound(body, tmp_path: Path) -> None:
     """Values, slopes and curvatures read back within ``1e-13 · scale`` entry by entry (the
-    varying rows bit for bit); the u–p matrices are stored as their varying rows, ``D``
-    (``G/ω_ref``) as the factor of ``G``."""
+    varying rows bit for bit), the slopes and curvatures of ``M``, ``D``, ``K``, ``G``
+    within ``2⁻²⁴`` of each entry more (single precision); the u–p matrices are stored as
+    their varying rows, ``D`` (``G/ω_ref``) as the factor of ``G``."""
     path = tmp_path / "b.npz"
     save_parametric_body(body, path)
     back = load_parametric_body(path)
     meta = _meta(path)
-    assert meta["version"] == 8 and meta["layout"]["tolerance"] == VARYING_TOLERANCE
+    assert meta["version"] == 9 and meta["layout"]["tolerance"] == VARYING_TOLERANCE
     for key in ("M", "K", "G", "slope/K", "curvature/M"):
         assert key in meta["layout"]["varying"], key
     for prefix in ("", "slope/", "curvature/"):               # D = G/ω_ref: not stored
@@ -95,16 +98,26 @@ def test_read_back_within_the_documented_bound(body, tmp_path: Path) -> None:
     span = body.samples[-1] - body.samples[0]
     for key in ("M", "K", "G", "D", "C"):
         scale = VARYING_TOLERANCE * entry_scale(body.stack(key))
-        for got, want, factor in ((back.stack(key), body.stack(key), 1.0),
-                                  (back.slopes[key], body.slopes[key], 1 / span),
-                                  (back.curvatures[key], body.curvatures[key], 1 / span**2)):
-            assert np.all(np.abs(got - want) <= factor * scale), key
+        single = 2.0**-24 if key != "C" else 0.0
+        for got, want, factor, rounding in (
+                (back.stack(key), body.stack(key), 1.0, 0.0),
+                (back.slopes[key], body.slopes[key], 1 / span, single),
+                (back.curvatures[key], body.curvatures[key], 1 / span**2, single)):
+            assert got.dtype == np.float64, key
+            assert np.all(np.abs(got - want) <= factor * scale + rounding * np.abs(want)), key
             if key != "D":
-                assert np.array_equal(got[:, :NU], want[:, :NU]), key
+                assert np.array_equal(got[:, :NU], want[:, :NU]) == (rounding == 0), key
+    with np.load(path) as z:
+        assert z["slope/K@values"].dtype == np.float32 and z["K@values"].dtype == np.float64
     with zipfile.ZipFile(path) as z:
         sizes = {i.filename[:-4]: i.file_size for i in z.infolist()}
     assert sizes["K@values"] < 8 * K * NU * R + 256        # the structural rows only
-    assert np.array_equal(back.at(300.0).K[:NU], body.at(300.0).K[:NU])
+    # the structural rows: the Hermite weights of the slopes and curvatures are below h
+    # and h² (0 at a sample)
+    bound = 2.0**-24 * (STEP * np.abs(body.slopes["K"]).max()
+                        + STEP**2 * np.abs(body.curvatures["K"]).max())
+    for p in (STEP, 300.0):
+        assert np.abs(back.at(p).K[:NU] - body.at(p).K[:NU]).max() <= bound
     assert meta["layout"]["sparse"]["R"] == [12, R] and np.array_equal(back.R, body.R)
 
 
@@ -183,16 +196,21 @@ def test_symmetric_blocks_store_their_upper_triangle(body, tmp_path: Path) -> No
     span = b.samples[-1] - b.samples[0]
     scale = VARYING_TOLERANCE * entry_scale(b.K)
     assert np.all(np.abs(back.K - b.K) <= scale)
-    assert np.all(np.abs(back.slopes["K"] - b.slopes["K"]) <= scale / span)
+    assert np.all(np.abs(back.slopes["K"] - b.slopes["K"])
+                  <= scale / span + 2.0**-24 * np.abs(b.slopes["K"]))
     np.testing.assert_array_equal(back.K[:, :NU, :NU], back.K[:, :NU, :NU].transpose(0, 2, 1))
     with np.load(mirrored) as z:
         data = {k: z[k] for k in z.files}
     meta = json.loads(data["meta"].tobytes())
+    double = {k: v.astype(np.float64) for k, v in data.items() if v.dtype == np.float32}
     for n, (version, members, words) in enumerate((
-            (7, {}, "version-7 file holds no mirrored"),
-            (8, {"K@mirror": np.full_like(data["K@mirror"], 255)}, "below its diagonal"),
-            (8, {"K@mirror": data["K@mask"]}, "is not stored"),
-            (8, {"B@mirror": data["K@mirror"]}, "belongs to no varying array"))):
+            (7, double, "version-7 file holds no mirrored"),
+            (9, {"K@mirror": np.full_like(data["K@mirror"], 255)}, "below its diagonal"),
+            (9, {"K@mirror": data["K@mask"]}, "is not stored"),
+            (9, {"B@mirror": data["K@mirror"]}, "belongs to no varying array"),
+            (8, {}, "float32 from version 9"),
+            (9, {"slope/K@values": data["slope/K@values"].astype(np.float16)}, "float16"),
+            (9, {"K@values": data["K@values"].astype(np.float32)}, "holds float64"))):
         bad = tmp_path / f"bad{n}.npz"
         save_npz_atomic(bad, {**data, **members,
                               "meta": json_to_uint8({**meta, "version": version})})

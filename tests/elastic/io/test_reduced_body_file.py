@@ -143,6 +143,29 @@ def test_bad_files_are_rejected(body, tmp_path, change, item, text):
     assert exc.value.file == str(path) and exc.value.item == item
 
 
+@pytest.mark.parametrize(("item", "make", "text"), [
+    ("M", lambda a: a.astype(bool), "is bool; the format holds float64"),
+    ("M", lambda a: a.astype(np.int64), "is int64; the format holds float64"),
+    ("M", lambda a: a.astype(str), "the format holds float64"),
+    ("B", lambda a: a.astype(np.float32), "is float32; the format holds float64"),
+    ("kept_dofs", lambda a: a.astype(bool), "the format holds integers"),
+    ("dof_kind", lambda a: np.zeros(a.shape), "the format holds strings"),
+    ("nodes", lambda a: np.zeros((2, 2)), r"must be \(nodes, 4\)"),
+])
+def test_members_of_another_type_are_refused_not_converted(body, tmp_path, item, make, text):
+    """A matrix stored as bools, integers, strings or single precision, DOF numbers as
+    bools, DOF kinds as numbers, nodes that are not rows of four: one DataError naming the
+    file and the array, where ``numpy.asarray`` would have converted or reshaped them
+    (reference: the format's member types, docs/reduced-body-format.md)."""
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    data = explicit_arrays(path)
+    _rewrite(path, **{item: make(data[item])})
+    with pytest.raises(DataError, match=text) as exc:
+        load_reduced_body(path)
+    assert exc.value.file == str(path) and exc.value.item == item
+
+
 def test_missing_array_and_not_an_npz(body, tmp_path):
     path = tmp_path / "b.npz"
     save_reduced_body(body, path)

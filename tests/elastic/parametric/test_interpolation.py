@@ -582,7 +582,7 @@ def test_file_round_trip_is_exact(pbody, tmp_path):
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(z["meta"].tobytes().decode())
         assert all(z[k].dtype != object for k in z.files)
-    assert meta["format"] == "neweul-parametric-body" and meta["version"] == 8
+    assert meta["format"] == "neweul-parametric-body" and meta["version"] == 9
     assert meta["parameter"] == "p" and meta["interpolation"] == "cubic"
     assert meta["row_scaling"] == "kind" and meta["pressure_weight"] == 1e-3
 
@@ -609,7 +609,7 @@ def test_version_1_files_still_load(tmp_path):
                                rtol=0, atol=1e-14)
     save_parametric_body(old, tmp_path / "again.npz")
     again = load_parametric_body(tmp_path / "again.npz")
-    assert again.format_version == 8 and again.row_scaling == "none"
+    assert again.format_version == 9 and again.row_scaling == "none"
     for key in ("M", "K", "T", "L", "R"):
         assert np.array_equal(again[key], old[key]), key
     np.savez(path, **{**data, "row_scale": np.ones(pb.R.shape[0]),
@@ -804,7 +804,7 @@ def test_interpolation_coordinate_weights_and_file(pbody, tmp_path):
     assert np.array_equal(back.at(0.77).K, pb.at(0.77).K)
     data = explicit_arrays(tmp_path / "xi.npz")
     meta = json.loads(data["meta"].tobytes().decode())
-    assert meta["version"] == 8 and meta["coordinate_name"] == "xi"
+    assert meta["version"] == 9 and meta["coordinate_name"] == "xi"
     np.savez(tmp_path / "old.npz", **{**data, "meta": json_to_uint8({**meta, "version": 2})})
     with pytest.raises(DataError, match="version-2 file holds no interpolation coordinate"):
         load_parametric_body(tmp_path / "old.npz")
@@ -945,7 +945,7 @@ def test_sample_slopes_weights_and_file(pbody, tmp_path):
     assert np.array_equal(back.at(0.77).invariants["Me.m0"], hb.at(0.77).invariants["Me.m0"])
     data = explicit_arrays(tmp_path / "h.npz")
     meta = json.loads(data["meta"].tobytes().decode())
-    assert meta["version"] == 8
+    assert meta["version"] == 9
     np.savez(tmp_path / "old.npz", **{**data, "meta": json_to_uint8({**meta, "version": 3})})
     with pytest.raises(DataError, match="version-3 file holds no sample slopes"):
         load_parametric_body(tmp_path / "old.npz")
@@ -991,7 +991,7 @@ def test_sample_curvatures_weights_and_file(pbody, tmp_path):
     assert np.array_equal(back.at(0.77).invariants["Me.m0"], qb.at(0.77).invariants["Me.m0"])
     data = explicit_arrays(tmp_path / "q.npz")
     meta = json.loads(data["meta"].tobytes().decode())
-    assert meta["version"] == 8
+    assert meta["version"] == 9
     np.savez(tmp_path / "old.npz", **{**data, "meta": json_to_uint8({**meta, "version": 4})})
     with pytest.raises(DataError, match="version-4 file holds no sample curvatures"):
         load_parametric_body(tmp_path / "old.npz")
