@@ -101,9 +101,9 @@ def body_sources(bodies: list[tuple[str, str]], arrays: dict[str, np.ndarray],
     Returns
     -------
     dict
-        File name relative to ``module_dir`` → ``{"sha256", "owner", "arrays": {key:
-        parts}}`` (:func:`~neweul_py.ffrf.data_file.ffrf_load_sources`), for the bodies whose
-        file gives their stack exactly.
+        File name relative to ``module_dir`` → ``{"sha256", "bytes", "owner", "arrays":
+        {key: parts}}`` (:func:`~neweul_py.ffrf.data_file.ffrf_load_sources`), for the bodies
+        whose file gives their stack exactly.
     """
     out: dict[str, Any] = {}
     for name, file in bodies:
@@ -116,14 +116,15 @@ def body_sources(bodies: list[tuple[str, str]], arrays: dict[str, np.ndarray],
                 continue
             with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as buf:
                 parts, digest = _file_parts(np.asarray(stack), buf)
+                size = len(buf)
         try:        # no relative name (another drive): the copy stays
             rel = Path(os.path.relpath(os.path.abspath(file), os.path.abspath(module_dir)))
         except ValueError:
             continue
         if parts is None:
             continue
-        entry = out.setdefault(rel.as_posix(), {"sha256": digest, "owner": name,
-                                                "arrays": {}})
+        entry = out.setdefault(rel.as_posix(), {"sha256": digest, "bytes": size,
+                                                "owner": name, "arrays": {}})
         entry["arrays"][key] = parts
     return out
 

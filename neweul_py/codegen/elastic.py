@@ -60,6 +60,7 @@ from ..ffrf.data_file import (
     ArrayStore,
     ElasticDataError,
     data_file_bytes,
+    ffrf_encode,
     ffrf_split,
     schema_of,
 )
@@ -91,6 +92,12 @@ class DataFile:
         The other files (a parametric body's file, by reference): file name relative to the
         module → ``{"sha256", "owner", "arrays"}``
         (:func:`~neweul_py.ffrf.data_file.ffrf_load_sources`).
+    encodings
+        The arrays of :attr:`stored` that the file holds compactly, by key
+        (:func:`~neweul_py.ffrf.data_file.ffrf_encode`).
+    schema
+        What the module expects of the file's members
+        (:func:`~neweul_py.ffrf.data_file.schema_of`).
     """
 
     name: str
@@ -98,6 +105,8 @@ class DataFile:
     sha256: str
     arrays: dict[str, np.ndarray] = dataclasses.field(repr=False)
     sources: dict[str, Any] = dataclasses.field(default_factory=dict)
+    encodings: dict[str, list] = dataclasses.field(default_factory=dict)
+    schema: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     @property
     def stored(self) -> dict[str, np.ndarray]:
@@ -250,10 +259,12 @@ def elastic_data(equations: Any, a_idx: list[int], true_index: dict[int, int],
         [(s.body.name, body_files[0].get(s.body.name, "")) for s in el.splices
          if s.body.parametric], store.arrays, body_files[1])
     data = DataFile("", b"", "", store.arrays, sources)
-    content = data_file_bytes(data.stored)
+    members, encodings = ffrf_encode(data.stored)
+    content = data_file_bytes(members)
     digest = hashlib.sha256(content).hexdigest()
     name = data_file_name(equations.system.name, digest)
-    return skeleton, dataclasses.replace(data, name=name, content=content, sha256=digest)
+    return skeleton, dataclasses.replace(data, name=name, content=content, sha256=digest,
+                                         encodings=encodings, schema=schema_of(members))
 
 
 #: ``node_positions`` of a module with elastic bodies: the node clouds of ``_NODES``, moved by
@@ -378,7 +389,8 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
                "# the elastic arrays are in the data file next to this module, checked at import",
                f"_DATA_FILE = {data.name!r}",
                f"_DATA_SHA256 = {data.sha256!r}",
-               *_literal("_DATA_SCHEMA", schema_of(data.stored)),
+               *_literal("_DATA_SCHEMA", data.schema),
+               *_literal("_DATA_ENCODINGS", data.encodings),
                *_literal("_DATA_SOURCES", data.sources),
                *_literal("_DATA_OWNERS", _owners(el)),
                *_literal("_ELASTIC", skeleton))
@@ -396,8 +408,9 @@ def elastic_module_parts(equations: Any, source_hash: str, *, cse: bool = True,
         functions[fn.__name__] = kernel_source(fn)
     rigid_map = ", ".join(f"{k!r}: _rigid_{k}" for k in used)
     functions["_DATA"] = (
-        "_DATA = ffrf_load_data(os.path.dirname(os.path.abspath(__file__)), _DATA_FILE,",
-        "                       _DATA_SHA256, _DATA_SCHEMA, _DATA_OWNERS)",
+        "_DATA = ffrf_decode(ffrf_load_data(os.path.dirname(os.path.abspath(__file__)),",
+        "                                   _DATA_FILE, _DATA_SHA256, _DATA_SCHEMA,",
+        "                                   _DATA_OWNERS), _DATA_ENCODINGS)",
         "_DATA.update(ffrf_load_sources(os.path.dirname(os.path.abspath(__file__)),",
         "                               _DATA_SOURCES, _DATA_OWNERS))",
         "_ELASTIC = ffrf_restore(_ELASTIC, _DATA)")

@@ -23,6 +23,12 @@ import (:func:`ffrf_load_data`):
   the body file it was generated from, named relative to the module with its SHA-256
   (:func:`ffrf_load_sources`, :func:`ffrf_stack_parts`; chosen at generation by
   :mod:`neweul_py.codegen.body_reference`).
+* **Stored compactly, used in full.** :func:`ffrf_encode` stores a floating-point array
+  that is mostly zeros (the node maps ``S_V``, ``S_W``, a parametric body's base of
+  constant entries) as its nonzero values and a bit per entry (``<key>@nonzero``,
+  :func:`numpy.packbits`), an integer array whose values fit as ``int32`` (the index tables
+  of a mixing stack); the module names these encodings and :func:`ffrf_decode` gives the
+  arrays back, equal bit for bit, after the file is checked.
 * **Skeleton and arrays.** :func:`ffrf_split` replaces every array of a nested structure of
   dicts, lists and tuples by a reference ``{"@": key}`` (arrays of equal bytes are stored
   once); the rest is a Python literal the module prints. :func:`ffrf_restore` puts the
@@ -48,6 +54,8 @@ __all__ = [
     "ArrayStore",
     "ElasticDataError",
     "data_file_bytes",
+    "ffrf_decode",
+    "ffrf_encode",
     "ffrf_load_data",
     "ffrf_load_sources",
     "ffrf_restore",
@@ -60,6 +68,10 @@ __all__ = [
 ALIGN = 64
 #: Largest data file written (the zip format without its 64-bit extension).
 MAX_BYTES = 2**32 - 1
+
+
+#: The member holding the nonzero pattern of an array stored as its nonzeros.
+NONZERO_SUFFIX = "@nonzero"
 
 
 class ElasticDataError(ValueError):
@@ -194,6 +206,54 @@ class ArrayStore:
         self.arrays[key] = arr
         self._keys[ident] = key
         return key
+
+
+def ffrf_encode(arrays: dict[str, np.ndarray]
+                ) -> tuple[dict[str, np.ndarray], dict[str, list]]:
+    """The arrays to write and their encodings (module docstring): a floating-point array of
+    at least one axis whose nonzero values and bit mask take less than half its bytes is
+    stored as those (``["nonzero", shape]``); a signed integer array of 64-bit values that
+    all fit in 32 bits as ``int32`` (``["narrow", descr]``); the others as they are.
+    :func:`ffrf_decode` inverts it exactly."""
+    stored: dict[str, np.ndarray] = {}
+    encodings: dict[str, list] = {}
+    for key in sorted(arrays):
+        a = _c_order(np.asarray(arrays[key]))
+        if (a.dtype.kind == "f" and a.ndim and key + NONZERO_SUFFIX not in arrays
+                and not key.endswith(NONZERO_SUFFIX)):
+            flat = a.reshape(-1)
+            nonzero = (flat != 0) | np.signbit(flat)        # a −0 is kept as it is
+            mask = np.packbits(nonzero)
+            if mask.nbytes + a.itemsize * int(nonzero.sum()) < a.nbytes // 2:
+                stored[key] = np.ascontiguousarray(flat[nonzero])
+                stored[key + NONZERO_SUFFIX] = mask
+                encodings[key] = ["nonzero", [int(n) for n in a.shape]]
+                continue
+        if a.dtype.kind == "i" and a.itemsize == 8 and a.size and \
+                np.iinfo(np.int32).min <= a.min() and a.max() <= np.iinfo(np.int32).max:
+            stored[key] = a.astype(np.int32)
+            encodings[key] = ["narrow", np.lib.format.dtype_to_descr(a.dtype)]
+            continue
+        stored[key] = a
+    return stored, encodings
+
+
+def ffrf_decode(arrays, encodings):
+    """The arrays of a data file as the module uses them: those that :func:`ffrf_encode`
+    stored compactly (``encodings``: key → ``["nonzero", shape]`` or ``["narrow", descr]``)
+    in full, read-only; the others as they are (views of the file)."""
+    out = dict(arrays)
+    for key, spec in encodings.items():
+        if spec[0] == "nonzero":
+            shape = tuple(spec[1])
+            size = int(np.prod(shape, dtype=np.int64))
+            full = np.zeros(size, dtype=out[key].dtype)
+            full[np.flatnonzero(np.unpackbits(out.pop(key + "@nonzero"), count=size))] = out[key]
+            out[key] = full.reshape(shape)
+        else:
+            out[key] = out[key].astype(np.dtype(spec[1]))
+        out[key].setflags(write=False)
+    return out
 
 
 def ffrf_split(tree, prefix: str, store: ArrayStore):
@@ -418,9 +478,10 @@ def ffrf_stack_parts(buf, members, parts):
 def ffrf_load_sources(directory, sources, owners):
     """The arrays a module reads from files other than its data file (a parametric body's
     sample stacks from the body file it was generated from, docs/generated-module-protocol.md):
-    ``sources`` maps a file name relative to ``directory`` to ``{"sha256": hex, "owner": body
-    name, "arrays": {key: parts}}`` (:func:`ffrf_stack_parts`); each file is checked against
-    its SHA-256 before it is read.
+    ``sources`` maps a file name relative to ``directory`` to ``{"sha256": hex, "bytes":
+    size, "owner": body name, "arrays": {key: parts}}`` (:func:`ffrf_stack_parts`); each file
+    is checked against its size (before it is hashed: a replaced file of gigabytes is refused
+    at once) and its SHA-256 before it is read (``"bytes"`` may be absent: no size check).
 
     Raises
     ------
@@ -440,6 +501,8 @@ def ffrf_load_sources(directory, sources, owners):
             )
 
         buf = ffrf_map(path, fail)
+        if spec.get("bytes", len(buf)) != len(buf):
+            fail(f"changed after generation ({len(buf)} bytes, it had {spec['bytes']})")
         if hashlib.sha256(buf).hexdigest() != spec["sha256"]:
             fail("changed after generation (its SHA-256 differs)")
         members = ffrf_members(buf)
@@ -452,4 +515,4 @@ def ffrf_load_sources(directory, sources, owners):
 
 #: The functions a generated module with elastic bodies embeds to read its data file.
 DATA_FUNCTIONS = (ffrf_restore, ffrf_members, ffrf_npy, ffrf_data_problem, ffrf_map,
-                  ffrf_load_data, ffrf_stack_parts, ffrf_load_sources)
+                  ffrf_load_data, ffrf_decode, ffrf_stack_parts, ffrf_load_sources)

@@ -126,6 +126,22 @@ def test_a_changed_or_missing_body_file_is_one_error_at_import(ducts, tmp_path) 
         body.unlink(missing_ok=True)
 
 
+def test_a_huge_body_file_is_refused_before_it_is_hashed(ducts, tmp_path) -> None:
+    """A sparse file of 8 GB in place of the body file: refused by the size the module
+    recorded, naming both sizes, not after hashing 8 GB (reference: the body file's size
+    at generation)."""
+    shutil.copy(ducts / "duct_h.npz", tmp_path / "duct_h.npz")
+    _copy, ref = _modules(tmp_path, "duct_h.npz", "huge")
+    body = tmp_path / "duct_h.npz"
+    size = body.stat().st_size
+    body.unlink()
+    with open(body, "wb") as fh:
+        fh.truncate(8 << 30)
+    with pytest.raises(ValueError, match=rf"the body file {tmp_path}/duct_h\.npz changed after "
+                                         rf"generation \(8589934592 bytes, it had {size}\)"):
+        _import(ref)
+
+
 def test_a_body_file_without_the_exact_stack_is_not_referenced(ducts) -> None:
     """A stack that the file's members do not give bit for bit stays in the data file
     (reference: the module's own stack, changed in its last bit; and the quintic body, whose
