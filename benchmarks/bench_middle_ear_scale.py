@@ -119,7 +119,12 @@ def main() -> None:
     record = json.loads((args.dir / "build.json").read_text())
     rows.append(_row("data directory", _size(args.dir) / 1e6, "MB",
                      60.0 if args.refine == 1 else None))
-    for part in ("fem", "fem_slopes", "fem_refine", "embs", "generated"):
+    for prefix in ("fem_refine", "fem_slopes"):       # each round of a sweep: one figure
+        rounds = sorted(args.dir.glob(prefix + "*"))
+        if rounds:
+            rows.append(_row(f"  {prefix}*/ ({len(rounds)})",
+                             sum(_size(p) for p in rounds) / 1e6, "MB", None))
+    for part in ("fem", "embs", "generated"):
         if (args.dir / part).exists():
             rows.append(_row(f"  {part}/", _size(args.dir / part) / 1e6, "MB", None))
     if record.get("module"):

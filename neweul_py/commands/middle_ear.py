@@ -71,6 +71,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "of MiddleEarParameters names to numbers (e.g. "
                    "examples/middle_ear/identified.yaml)")
     b.add_argument("--no-generate", action="store_true", help="skip the generated module")
+    b.add_argument("--keep-intermediate", action="store_true",
+                   help="keep the slope FE models (DIR/fem_slopes*) and the basis cache, "
+                   "which a rebuild with other reduction settings reuses")
     b.add_argument("--jobs", type=count("--jobs", cap=256), default=1,
                    help="processes solving the snapshot systems of the working points "
                    "(default 1; the same body for any number)")
@@ -134,7 +137,7 @@ def _build(args: argparse.Namespace) -> int:
         slope_step=args.slope_step, min_interval=args.min_interval,
         interpolation=args.interpolation, order=args.order,
         basis=args.basis, rtol=args.rtol, jobs=args.jobs,
-        generate=not args.no_generate,
+        generate=not args.no_generate, keep_intermediate=args.keep_intermediate,
         **({"pressures": tuple(args.pressures.values())} if args.pressures else {}))
     with Tracker("middle-ear build", quiet=args.quiet) as track:
         record = build(args.dir, options, progress=track)

@@ -16,6 +16,13 @@ The steps (docs/equations-middle-ear.md; each reported to ``progress``):
    stiffening factor (:func:`~neweul_py.middle_ear.embs.retarget`) → ``DIR/middle_ear.yaml``;
 6. **module**: generated into ``DIR/generated``.
 
+What only the build itself reads — the FE models next to the working points that gave the
+slopes and curvatures (``DIR/fem_slopes*``) and the cache of the reduction basis
+(``DIR/embs/basis*.npz``) — is removed at the end unless ``keep_intermediate`` is set; the
+body records each such FE file with its fingerprint (``slope_sources``). The FE working
+points the body was built from and the refinement's midpoints (``DIR/fem``,
+``DIR/fem_refine*``), against which the EMBS is validated, stay.
+
 The directory is written atomically
 (:func:`~neweul_py.middle_ear.output.write_directory_atomically`): a build interrupted at any
 point leaves the previous complete directory or none. The FE working points of a previous
@@ -141,6 +148,9 @@ class BuildOptions:
         The middle ear's data that differ from :class:`MiddleEarParameters`' defaults, by
         name (``neweul middle-ear build --parameters FILE``,
         :func:`~neweul_py.middle_ear.parameters.read_parameters`).
+    keep_intermediate
+        Keep the slope FE models and the basis cache (module docstring), so that a rebuild
+        with other reduction settings reuses them.
     """
 
     refine: int = 1
@@ -156,6 +166,7 @@ class BuildOptions:
     generate: bool = True
     jobs: int = 1
     parameters: dict[str, float] = dataclasses.field(default_factory=dict)
+    keep_intermediate: bool = False
 
     def __post_init__(self) -> None:
         try:
@@ -244,6 +255,16 @@ def _reuse(old: Path, tmp: Path, refine: int, parameters: dict[str, float]) -> N
                 os.link(path, dst)
             except OSError:
                 shutil.copy2(path, dst)
+
+
+def _remove_intermediate(tmp: Path) -> None:
+    """Remove from the build ``tmp`` what only the build reads (module docstring): the slope
+    FE models and the basis cache. No other FE model is stored relative to them (every delta
+    file's base is a working point of ``DIR/fem``)."""
+    for path in sorted(tmp.glob("fem_slopes*")):
+        shutil.rmtree(path)
+    for path in sorted((tmp / "embs").glob("basis*.npz")):
+        path.unlink()
 
 
 def snapshot_plan(basis: str) -> tuple[np.ndarray, int]:
@@ -402,6 +423,8 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
                for p in samples]
     chain = LumpedChain()
     snap_hz, snap_moments = snapshot_plan(options.basis)
+    if not options.keep_intermediate:
+        _remove_intermediate(tmp)
     return {
         "format": "neweul-middle-ear-build", "version": 1,
         **dataclasses.asdict(options),

@@ -22,8 +22,10 @@ from neweul_py.elastic.io.fe_files import read_fe_model
 from neweul_py.errors import NeweulError
 from neweul_py.middle_ear.build import BuildOptions, build
 
-#: A small build: refine 0, three working points, no refinement, slopes from ±20 Pa.
-SMALL = BuildOptions(refine=0, pressures=(-1000.0, 0.0, 1000.0), tol=0.0, generate=False)
+#: A small build: refine 0, three working points, no refinement, slopes from ±20 Pa; it keeps
+#: its slope FE models and basis cache for the rebuilds below.
+SMALL = BuildOptions(refine=0, pressures=(-1000.0, 0.0, 1000.0), tol=0.0, generate=False,
+                     keep_intermediate=True)
 
 
 @pytest.fixture(scope="module")
@@ -201,6 +203,31 @@ def test_the_basis_is_cached_deflated_and_reused(small, tmp_path, monkeypatch):
     monkeypatch.setattr(b, "snapshot_basis", no_snapshots)
     build(out, SMALL)
     assert load_parametric_body(out / "embs" / "tm_air.npz").R.shape == V.shape
+
+
+def test_a_build_removes_what_only_the_build_reads(small, tmp_path, monkeypatch):
+    """Without ``keep_intermediate`` the slope FE models and the basis cache are gone after
+    the build; the body still names each slope model with its fingerprint, and every FE
+    model left reads (their delta bases are in ``fem``). Reference: the build that kept
+    them (the same body, bit for bit)."""
+    out = tmp_path / "lean"
+    shutil.copytree(small, out)
+    import neweul_py.middle_ear.working_points as wp
+
+    def no_sweep(*args, **kwargs):
+        raise AssertionError("an FE model was solved again")
+
+    monkeypatch.setattr(wp, "pressure_sweep", no_sweep)     # all linked from the copy
+    build(out, BuildOptions(**{**SMALL.__dict__, "keep_intermediate": False}))
+    assert not list(out.glob("fem_slopes*")) and not list((out / "embs").glob("basis*"))
+    assert list(small.glob("fem_slopes*")) and list((small / "embs").glob("basis*"))
+    lean = load_parametric_body(out / "embs" / "tm_air.npz")
+    kept = load_parametric_body(small / "embs" / "tm_air.npz")
+    assert np.array_equal(lean.slopes["K"], kept.slopes["K"])
+    assert lean.slope_sources == kept.slope_sources and all(
+        s["fingerprint"] for s in lean.slope_sources)
+    for path in _models(out):
+        read_fe_model(path)
 
 
 @pytest.mark.parametrize(("args", "where"), [
