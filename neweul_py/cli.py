@@ -187,6 +187,21 @@ def _before_exit() -> None:
     gc.freeze()
 
 
+#: The signal number of a write to a closed pipe (POSIX); a command ended by it exits with
+#: 128 + this, as the shell reports a process killed by the signal.
+SIGPIPE = 13
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at the null device, so that the interpreter's flush at exit finds no
+    closed pipe (Python docs, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):      # no file descriptor (an in-process caller's stream)
+        pass
+
+
 def _run(args: argparse.Namespace) -> int:
     """Run the chosen sub-command; every :class:`NeweulError` becomes one line on stderr."""
     try:
@@ -194,6 +209,9 @@ def _run(args: argparse.Namespace) -> int:
     except NeweulError as exc:
         print(f"neweul {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except BrokenPipeError:     # the reader of stdout left (`neweul … | head`): no message
+        _quiet_stdout()
+        return 128 + SIGPIPE
     except OSError as exc:
         name = exc.filename2 or exc.filename  # os.replace: the target is filename2
         where = f"{name}: " if name else ""

@@ -131,3 +131,21 @@ def test_sweep_with_failed_cases_exits_3_unless_allowed(capsys):
     assert code == 3 and "1 ok, 1 failed" in out and "case 0 failed" in err
     code, out, _ = _run(capsys, *argv, "--allow-failures")
     assert code == 0 and "1 ok, 1 failed" in out
+
+
+def test_a_reader_that_leaves_early_ends_the_command_silently_with_141(tmp_path):
+    """``neweul frf … | head -1``: the closed pipe ends the command with 128 + SIGPIPE and no
+    "Broken pipe" message (reference: the shell's status of a process ended by SIGPIPE)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NEWEUL_CACHE": str(tmp_path / "cache")}
+    proc = subprocess.Popen([sys.executable, "-m", "neweul_py.cli", "frf",
+                             str(ROOT / "examples" / "quarter_car.yaml"), "--f",
+                             "0.1:10:200000"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            cwd=tmp_path, env=env)
+    assert proc.stdout.readline().split()[0] == b"frequency_hz"
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait() == 141 and "Broken pipe" not in err and "Traceback" not in err, err
