@@ -285,8 +285,8 @@ def ffrf_weights(samples, coefficients, value, name):
     s = samples
     x = np.real(value)
     if not (s[0] <= x <= s[-1]):
-        raise ValueError(f"elastic body {name!r}: schedule value {x:.6g} outside the sampled "
-                         f"range [{s[0]:.6g}, {s[-1]:.6g}] (no extrapolation)")
+        raise ValueError(f"elastic body {name!r}: schedule value {float(x)!r} outside the "
+                         f"sampled range [{float(s[0])!r}, {float(s[-1])!r}] (no extrapolation)")
     j = min(int(np.searchsorted(s, x, side="right")) - 1, s.size - 2)
     dx = value - s[j]
     c = coefficients[:, j, :]

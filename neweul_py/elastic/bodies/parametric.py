@@ -309,9 +309,10 @@ class ParametricBody(BodyFields):
         s = self.samples
         lo, hi = self.range
         if not np.isfinite(p) or p < lo or p > hi:
-            raise DataError(f"parametric body {self.name!r}: {self.parameter} = {p:g} is "
-                            f"outside the sampled range [{lo:g}, {hi:g}]; the parametric "
-                            "body does not extrapolate (add a sample)", None, self.parameter)
+            raise DataError(f"parametric body {self.name!r}: {self.parameter} = {p!r} is "
+                            f"outside the sampled range [{float(lo)!r}, {float(hi)!r}]; the "
+                            "parametric body does not extrapolate (add a sample)", None,
+                            self.parameter)
         w = np.zeros(blocks * s.size)
         hit = np.flatnonzero(s == p)
         if hit.size:

@@ -108,7 +108,7 @@ def test_bad_samples_are_refused():
     with pytest.raises(DataError, match=r"FE model 2 \(membrane-cavity\) has another DOF map"):
         global_parametric_body([fe_at(0.0), other], [body_at(0.0), body_at(0.2)], [0.0, 0.2])
     with pytest.raises(DataError, match=r"'membrane-cavity': p = 0.5 is outside the sampled "
-                                        r"range \[0, 0.4\]"):
+                                        r"range \[0.0, 0.4\]"):
         parametric().at(0.5)
 
 
@@ -137,7 +137,7 @@ def test_cli_interpolate_global_and_frf_body(tmp_path, capsys):
     np.testing.assert_allclose(table["probe_real"], H[:, 1].real, rtol=1e-12)
     assert main(["frf-body", paths[0], "--input", "force", "--response", "umbo"]) == 0
     capsys.readouterr()
-    for args, text in (([str(out), "--at", "p=1"], "p = 1 is outside the sampled range"),
+    for args, text in (([str(out), "--at", "p=1"], "p = 1.0 is outside the sampled range"),
                        ([paths[0], "--at", "p=0"], "--at applies to parametric bodies"),
                        ([str(out)], "give --at p=VALUE")):
         assert main(["frf-body", *args, "--input", "force", "--response", "umbo"]) == 1
