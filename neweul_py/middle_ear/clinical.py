@@ -7,12 +7,11 @@ volume acceleration ``Q`` there and the pressure is its mean, ``p_entrance``, so
 probe's acoustic impedance is ``Z = p_entrance/U`` with ``U = Q/(jω)``
 (:func:`~neweul_py.analysis.acoustic.port_impedance`). The TM's admittance is its volume
 velocity per the pressure in front of it, ``Y_TM = jω V_TM/p_probe`` (the probe microphone of
-the model, 3 mm lateral of the TM rim plane). With the build's body (:func:`eardrum_volume`)
-``V_TM`` is the whole eardrum's, the pars tensa's and a pars flaccida's volume displacement
-from the body's output rows at ``Δp`` (``C(σ)``, mixed with the weights of its matrices: the
-rows change by 3 % over ±4 kPa, as the static state turns the membrane); without it, the
-module's output ``tm_volume``, whose row is the first sample's (outputs of a body are
-constant coefficients in a description) and which leaves the pars flaccida out.
+the model, 3 mm lateral of the TM rim plane). ``V_TM`` is the whole eardrum's, the pars
+tensa's and a pars flaccida's volume displacement from the build's body
+(:func:`eardrum_volume`): its output rows at ``Δp`` (``C(σ)``, mixed with the weights of its
+matrices: the rows change by 3 % over ±4 kPa, as the static state turns the membrane). A
+description's outputs have constant coefficients, so the module has no such output.
 
 **Absorbance** at the probe: ``𝒜 = 1 − |R|²``, ``R = (Z − Z₀)/(Z + Z₀)``, ``Z₀ = ρc/A`` with
 ``A`` the canal's cross-section at the entrance, ``π d²/4`` (``canal_diameter`` = 7.5 mm:
@@ -43,7 +42,6 @@ from ..analysis.acoustic import (
     characteristic_impedance,
     port_impedance,
     reflectance,
-    surface_admittance,
 )
 from ..analysis.frf import frequency_response
 from ..analysis.linearize import linearize
@@ -281,19 +279,17 @@ def eardrum_volume(directory: str | Path, mod: Any) -> EardrumVolume:
 
 
 def immittance(mod: Any, params: MiddleEarParameters, dp: float,
-               f: Sequence[float] | np.ndarray, damping: str = "loss",
-               eardrum: EardrumVolume | None = None) -> Immittance:
-    """The immittance of the EMBS ``mod`` linearized at ``dp`` (module docstring); with
-    ``eardrum`` the TM's admittance is the whole eardrum's from the body's rows at ``dp``."""
+               f: Sequence[float] | np.ndarray, damping: str = "loss", *,
+               eardrum: EardrumVolume) -> Immittance:
+    """The immittance of the EMBS ``mod`` linearized at ``dp`` (module docstring); the TM's
+    admittance is the whole eardrum's, from the rows of ``eardrum`` (the build's body) at
+    ``dp``."""
     lin = linearize(mod, p=parameters_at(mod, dp))
     freq = check_frequencies(f)
     z = port_impedance(lin, freq, "Q", PROBE_OUTPUT, damping=damping)
-    if eardrum is None:
-        y_tm = surface_admittance(lin, freq, "Q", "tm_volume", "p_probe", damping=damping)
-    else:
-        h = frequency_response(lin, freq, "Q", [*eardrum.coordinates, "p_probe"],
-                               damping=damping).H[:, :, 0]
-        y_tm = 2j * np.pi * freq * (h[:, :-1] @ eardrum.row(dp)) / h[:, -1]
+    h = frequency_response(lin, freq, "Q", [*eardrum.coordinates, "p_probe"],
+                           damping=damping).H[:, :, 0]
+    y_tm = 2j * np.pi * freq * (h[:, :-1] @ eardrum.row(dp)) / h[:, -1]
     return Immittance(freq, float(dp), z, y_tm, canal_impedance(params))
 
 
@@ -385,8 +381,8 @@ class Tympanogram:
 def tympanogram(mod: Any, params: MiddleEarParameters,
                 frequencies: Sequence[float] = (TYMPANOMETRY_HZ[0],),
                 pressures_dapa: Sequence[float] | np.ndarray = SWEEP_DAPA,
-                damping: str = "loss", progress: Progress | None = None,
-                eardrum: EardrumVolume | None = None) -> Tympanogram:
+                damping: str = "loss", progress: Progress | None = None, *,
+                eardrum: EardrumVolume) -> Tympanogram:
     """The tympanogram of the EMBS ``mod``: at each ear-canal pressure (in the order given,
     +200 → −400 daPa by default) the model linearized at ``Δp = 10 P`` and its admittance at
     the probe tip and at the TM at ``frequencies`` (module docstring).
@@ -406,6 +402,6 @@ def tympanogram(mod: Any, params: MiddleEarParameters,
     yt = np.zeros_like(yp)
     for i, pi in enumerate(p):
         say("tympanogram", i + 1, p.size)
-        im = immittance(mod, params, DAPA * pi, f, damping, eardrum)
+        im = immittance(mod, params, DAPA * pi, f, damping, eardrum=eardrum)
         yp[i], yt[i] = im.y_probe, im.y_tm
     return Tympanogram(p, f, yp, yt, params.rho_air, params.c_air)

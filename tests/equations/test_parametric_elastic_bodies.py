@@ -104,7 +104,7 @@ def test_schedule_outside_the_samples_is_an_error(parametric) -> None:
     mod = load_generated(generate(tmp / "out.yaml", tmp / "gen_out"))
     p = mod.default_parameters()
     p[list(mod.PARAMETERS).index("cs")] = 500.0
-    with pytest.raises(ValueError, match=r"'duct'.*500.*\[300, 390\]"):
+    with pytest.raises(ValueError, match=r"'duct'.*500.*\[300.0, 390.0\]"):
         mod.rhs(0.0, np.array(mod.INITIAL_STATE), p)
 
 
@@ -254,7 +254,7 @@ def test_schedule_outside_the_samples_from_the_command_line_names_the_range(para
     code = main(["frf", str(tmp / "cli.yaml"), "--f", "100,200", "-p", "cs=500"])
     err = capsys.readouterr().err.strip()
     assert code == 1 and err.count("\n") == 0, err
-    assert "'duct'" in err and "500" in err and "[300, 390]" in err, err
+    assert "'duct'" in err and "500" in err and "[300.0, 390.0]" in err, err
 
 
 def _readme_scheduled_block() -> str:
@@ -342,3 +342,25 @@ def test_parameter_derivatives_through_the_schedule(parametric, c: float) -> Non
                                for j, e in enumerate(np.diag(1e-4 * p))])
         assert np.any(got[:, k])
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6 * np.max(np.abs(ref)))
+
+
+def test_an_output_row_that_changes_over_the_samples_is_refused(parametric) -> None:
+    """A description's outputs have constant coefficients: an output of a parametric body
+    whose row changes between samples (here ``p_end`` by 1 % at the second sample) is one
+    DescriptionError naming the output and the change; an output whose row is the same at
+    every sample (``x_piston``) is accepted from the same file (reference: the rows
+    written)."""
+    tmp, pb = parametric
+    C = np.array(pb.C, copy=True)
+    C[1, 0] *= 1.01
+    save_parametric_body(pb.with_(C=C), tmp / "duct_c.npz")
+    base = _description("duct_c.npz", "cs", 343.0)
+    good = base.replace("{piston: 1}, schedule", "{piston: 1}, outputs: {x_piston: xp}, "
+                        "schedule")
+    (tmp / "good_c.yaml").write_text(good)
+    assert "xp" in load_generated(generate(tmp / "good_c.yaml", tmp / "gen_good_c")).OUTPUTS
+    (tmp / "bad_c.yaml").write_text(good.replace("{x_piston: xp}", "{p_end: pe}"))
+    with pytest.raises(DescriptionError, match=r"output 'p_end' changes between sample 1 and "
+                                                r"sample 2 by 0\.01 of its largest") as exc:
+        generate(tmp / "bad_c.yaml", tmp / "gen_bad_c")
+    assert "elastic_bodies.duct.outputs.p_end" in str(exc.value)

@@ -120,12 +120,13 @@ def test_the_probe_sees_the_tm_through_the_canal(embs):
 def test_the_probe_impedance_is_passive(embs):
     """A passive ear: ``Re Z ≥ 0`` at the probe tip, so ``|R| ≤ 1`` and the absorbance in
     [0, 1], at 100 Hz–8 kHz and Δp = −4, 0, +2 kPa."""
-    from neweul_py.middle_ear.clinical import immittance
+    from neweul_py.middle_ear.clinical import eardrum_volume, immittance
 
-    _out, mod, params = embs
+    out, mod, params = embs
     f = np.geomspace(100.0, 8000.0, 60)
+    drum = eardrum_volume(out, mod)
     for dp in (-4000.0, 0.0, 2000.0):
-        im = immittance(mod, params, dp, f)
+        im = immittance(mod, params, dp, f, eardrum=drum)
         assert np.all(im.z_probe.real >= 0), dp
         assert np.all((im.absorbance >= 0) & (im.absorbance <= 1)), dp
 

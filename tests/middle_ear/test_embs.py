@@ -331,7 +331,7 @@ def test_the_identified_ear_with_a_pars_flaccida_matches_the_fe_model_near_rest(
     flaccida's stiffness changes fastest (measured at refine 0: ≤ 5.1e-4 below 2 kHz); its
     static state at the samples against the FE static solution with the build's chain; and
     at 226 Hz the canal's admittance ``Y − Y_TM``, which Δp cannot change, the same at −2, 0
-    and +2 kPa within 2 % (0.8 % measured; 24 % with the module's ``tm_volume``, the first
+    and +2 kPa within 2 % (0.8 % measured; 24 % with a constant row, the first
     sample's pars tensa alone)."""
     from pathlib import Path
 
