@@ -5,7 +5,8 @@ gives the chain's description and the mesh's manubrium nodes)::
 
     python examples/middle_ear/identify_middle_ear.py --build DATA [--refine 0]
         [--fit all|tympanogram|gyo-goode|none] [--params NAME,...] [--evaluate NAME=VALUE ...]
-        [--max-nfev N] [--tolerance TOL] [--out FIT.json] [--figure FIT.png]
+        [--max-nfev N] [--tolerance TOL] [--mesh-offsets FINE.json] [--out FIT.json]
+        [--figure FIT.png]
 
 The forward model, the calibration set and the held-out measurements are
 :mod:`neweul_py.middle_ear.calibration`; the fit is
@@ -16,7 +17,10 @@ whose default lies outside its bounds (no pars flaccida: ``pf_compliance`` = 0) 
 geometric mean of its bounds unless ``--evaluate`` gives it.
 ``--fit tympanogram`` and ``--fit gyo-goode`` fit one data set each (with Murakami's signs),
 to show what each asks of the model; ``--fit none`` evaluates ``--evaluate`` values.
-docs/middle-ear-clinical.md §5 has the method and the result.
+``--mesh-offsets FINE.json`` (the ``--out`` of ``--fit none`` with the same values on a finer
+``--refine``) adds the finer mesh's values minus this mesh's at the start to every evaluation
+(:func:`~neweul_py.middle_ear.calibration.mesh_offsets`), so that the fit on this mesh aims at
+what the finer one gives. docs/middle-ear-clinical.md §5 has the method and the result.
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ from neweul_py.middle_ear.calibration import (
     calibration_residuals,
     evaluate,
     held_out,
+    mesh_offsets,
     residual_labels,
 )
 from neweul_py.middle_ear.parameters import MiddleEarParameters
@@ -85,6 +90,9 @@ def main(argv=None) -> int:
     ap.add_argument("--max-nfev", type=int, default=30)
     ap.add_argument("--tolerance", type=float, default=1e-3,
                     help="ftol/xtol/gtol of the least squares")
+    ap.add_argument("--mesh-offsets", type=Path, default=None, metavar="FINE.json",
+                    help="the --out of --fit none with the same values on a finer mesh: its "
+                    "values minus this mesh's are added to every evaluation")
     ap.add_argument("--out", type=Path, default=None, help="the fit and measures (JSON)")
     ap.add_argument("--figure", type=Path, default=None, help="the figure (PNG)")
     args = ap.parse_args(argv)
@@ -96,6 +104,17 @@ def main(argv=None) -> int:
     print("start:", summary(start))
     out: dict = {"refine": args.refine, "start_parameters": dataclasses.asdict(base),
                  "start": start}
+    offsets = None
+    if args.mesh_offsets:
+        fine = json.loads(args.mesh_offsets.read_text())
+        if fine.get("parameters") != dataclasses.asdict(base) or fine.get("refine", -1) <= \
+                args.refine:
+            ap.error(f"--mesh-offsets {args.mesh_offsets}: not an evaluation of these values "
+                     "on a finer mesh (--fit none --out with the same --evaluate)")
+        offsets = mesh_offsets(start, fine["end"])
+        out["mesh_offsets"] = {"refine": fine["refine"], "offsets": offsets}
+        print(f"mesh offsets (refine {fine['refine']} − {args.refine}):",
+              ", ".join(f"{k} {v:+.3g}" for k, v in offsets.items()))
     fitted, end = base, start
     if args.fit != "none":
         keys = SETS[args.fit]
@@ -105,7 +124,7 @@ def main(argv=None) -> int:
 
         def residuals(values):
             r = calibration_residuals(evaluate(dataclasses.replace(base, **values), chain,
-                                               args.refine), keys)
+                                               args.refine), keys, offsets)
             print("  " + ", ".join(f"{n}={v:.4g}" for n, v in values.items())
                   + f": cost {0.5 * float(r @ r):.3f}", flush=True)
             return r

@@ -21,7 +21,9 @@ working point (docs/equations-middle-ear.md §7), solved in the loss-factor form
 The residuals (:func:`calibration_residuals`) are ``(model − mean)/SD`` of
 :data:`CALIBRATION`, and the one-sided residuals of :data:`MURAKAMI_DB` (either sign of
 ``Δp`` loses, ``Δp > 0`` more); :func:`held_out` compares the model with the measurements
-that are not fitted (:data:`HELD_OUT`).
+that are not fitted (:data:`HELD_OUT`). A fit on a coarse mesh may add the mesh's
+discretization error measured at one parameter set (:func:`mesh_offsets`: the finer mesh's
+values minus the coarse mesh's, an additive output correction) to the values it compares.
 """
 
 from __future__ import annotations
@@ -52,11 +54,13 @@ __all__ = [
     "PENALTY",
     "CalibrationChain",
     "Datum",
+    "calibrated_values",
     "calibration_measures",
     "calibration_residuals",
     "evaluate",
     "held_out",
     "log_parabolic_peak",
+    "mesh_offsets",
     "residual_labels",
 ]
 
@@ -282,25 +286,46 @@ def residual_labels(keys: Sequence[str]) -> list[str]:
     return out
 
 
-def calibration_residuals(measures: dict[str, Any] | None, keys: Sequence[str]) -> np.ndarray:
+def calibrated_values(measures: dict[str, Any]) -> dict[str, float]:
+    """The values :func:`calibration_residuals` compares, in the units of :data:`CALIBRATION`
+    (``ytm`` and ``stapes_peak`` in ln), and the umbo's change at ``±k kPa`` as
+    ``umbo±kkPa`` [dB]; a ``TW`` or resonance that does not exist counts as 400 daPa or
+    3 kHz."""
+    umbo = {float(k): float(v) for k, v in measures["loss"]["umbo"].items()}
+    out = {"tw": measures["tw"] if np.isfinite(measures["tw"]) else 400.0,
+           "ytm": float(np.log(max(measures["ytm_mmho"], 1e-3))),
+           "f_res": measures["f_res"] if np.isfinite(measures["f_res"]) else 3000.0,
+           "stapes_peak": float(np.log(measures["stapes_peak_hz"]))}
+    out.update({f"umbo{dp / 1e3:+.0f}kPa": umbo[dp] for dp in STATIC_PA})
+    return {k: float(v) for k, v in out.items()}
+
+
+def mesh_offsets(coarse: dict[str, Any], fine: dict[str, Any]) -> dict[str, float]:
+    """``fine − coarse`` of :func:`calibrated_values`: the measures of one parameter set on a
+    finer mesh minus those on the coarse one — the coarse mesh's discretization error,
+    which a fit on the coarse mesh adds to its values (an additive output correction; the
+    difference is taken as constant over the fit's neighbourhood)."""
+    a, b = calibrated_values(coarse), calibrated_values(fine)
+    return {k: b[k] - a[k] for k in a}
+
+
+def calibration_residuals(measures: dict[str, Any] | None, keys: Sequence[str],
+                          offsets: dict[str, float] | None = None) -> np.ndarray:
     """``(model − mean)/SD`` per key of :data:`CALIBRATION` in ``keys``; ``"murakami"`` adds
-    the six one-sided residuals of :data:`MURAKAMI_DB`. ``measures=None`` (the model could
-    not be evaluated): :data:`PENALTY` everywhere."""
+    the six one-sided residuals of :data:`MURAKAMI_DB`; ``offsets`` (:func:`mesh_offsets`)
+    are added to the model's values first. ``measures=None`` (the model could not be
+    evaluated): :data:`PENALTY` everywhere."""
     n = len(residual_labels(keys))
     if measures is None:
         return np.full(n, PENALTY)
-    umbo = measures["loss"]["umbo"]
-    value = {"tw": measures["tw"] if np.isfinite(measures["tw"]) else 400.0,
-             "ytm": float(np.log(max(measures["ytm_mmho"], 1e-3))),
-             "umbo+1kPa": umbo[1000.0], "umbo+2kPa": umbo[2000.0], "umbo+3kPa": umbo[3000.0],
-             "f_res": measures["f_res"] if np.isfinite(measures["f_res"]) else 3000.0,
-             "stapes_peak": float(np.log(measures["stapes_peak_hz"]))}
+    value = calibrated_values(measures)
+    value = {k: v + (offsets or {}).get(k, 0.0) for k, v in value.items()}
     out = [(value[k] - CALIBRATION[k].mean) / CALIBRATION[k].sd for k in keys
            if k != "murakami"]
     if "murakami" in keys:
-        for k in (1000.0, 2000.0, 3000.0):
-            out.append(max(0.0, umbo[-k]) / MURAKAMI_DB)
-            out.append(max(0.0, umbo[k] - umbo[-k]) / MURAKAMI_DB)
+        for k in (1, 2, 3):
+            out.append(max(0.0, value[f"umbo-{k}kPa"]) / MURAKAMI_DB)
+            out.append(max(0.0, value[f"umbo+{k}kPa"] - value[f"umbo-{k}kPa"]) / MURAKAMI_DB)
     return np.array(out)
 
 

@@ -17,6 +17,7 @@ from neweul_py.middle_ear.calibration import (
     STATIC_PA,
     calibration_residuals,
     log_parabolic_peak,
+    mesh_offsets,
     residual_labels,
 )
 
@@ -60,6 +61,22 @@ def test_width_not_reached_counts_as_the_whole_sweep_and_failure_as_penalty():
     m["tw"] = float("nan")
     assert calibration_residuals(m, ("tw",))[0] == pytest.approx((400 - 82.5) / 19.1)
     assert np.all(calibration_residuals(None, KEYS) == PENALTY)
+
+
+def test_mesh_offsets_make_the_coarse_residuals_the_fine_ones():
+    """The coarse mesh's measures with the offsets ``fine − coarse`` give the fine mesh's
+    residuals, the one-sided signs included (reference: the fine residuals themselves);
+    loss keys may be strings, as a JSON file of measures gives them back."""
+    coarse = _measures(**{"-1000.0": -1.6, "3000.0": -11.7})
+    fine = _measures(**{"-1000.0": 0.3, "3000.0": -11.0})
+    fine |= {"tw": 73.0, "ytm_mmho": 0.48, "f_res": 831.0, "stapes_peak_hz": 1157.0}
+    fine["loss"] = {"umbo": {str(k): v for k, v in fine["loss"]["umbo"].items()}}
+    off = mesh_offsets(coarse, fine)
+    assert off["umbo-1kPa"] == pytest.approx(1.9) and off["tw"] == pytest.approx(73.0 - 82.5)
+    np.testing.assert_allclose(calibration_residuals(coarse, KEYS, off),
+                               calibration_residuals(fine, KEYS), rtol=0, atol=1e-12)
+    assert calibration_residuals(fine, KEYS)[residual_labels(KEYS).index("gain-1kPa")] == \
+        pytest.approx(0.3)
 
 
 @pytest.mark.slow
