@@ -169,11 +169,12 @@ def _io_vector(body: ElasticBody, key: str, j: int, name: str, item: str) -> Any
         change = float(abs(vector(sample) - first).max(initial=0.0))
         if change > IO_VARIATION * scale:
             what = "input" if key == "io.B" else "output"
+            by = (f"by {change / scale:.2g} of its largest coefficient" if scale > 0 else
+                  f"from zero to coefficients of {change:.2g}")
             raise ModelError(f"the body's {what} {name!r} changes between sample 1 and sample "
-                             f"{i} by {change / scale:.2g} of its largest coefficient: a "
-                             f"description's {what} has constant coefficients (leave it out, "
-                             "or mix the body's rows at the schedule's value with "
-                             "ParametricBody.mix)", item)
+                             f"{i} {by}: a description's {what} has constant coefficients "
+                             "(leave it out, or mix the body's rows at the schedule's value "
+                             "with ParametricBody.mix)", item)
     return first
 
 

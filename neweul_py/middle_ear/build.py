@@ -257,12 +257,15 @@ def _reuse(old: Path, tmp: Path, refine: int, parameters: dict[str, float]) -> N
                 shutil.copy2(path, dst)
 
 
-def _remove_intermediate(tmp: Path) -> None:
+def _remove_intermediate(tmp: Path, keep: set[Path]) -> None:
     """Remove from the build ``tmp`` what only the build reads (module docstring): the slope
-    FE models and the basis cache. No other FE model is stored relative to them (every delta
-    file's base is a working point of ``DIR/fem``)."""
+    FE models and the basis cache. A slope sweep that holds a working point of the body
+    (``keep``: a rebuild may take a sample from a previous build's slope models) stays. No
+    other FE model is stored relative to them (every delta file's base is a working point
+    of ``DIR/fem``)."""
     for path in sorted(tmp.glob("fem_slopes*")):
-        shutil.rmtree(path)
+        if path.resolve() not in keep:
+            shutil.rmtree(path)
     for path in sorted((tmp / "embs").glob("basis*.npz")):
         path.unlink()
 
@@ -403,6 +406,8 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     progress(f"4/6 parametric body ({samples.size} working points)")
     body = _sources_relative(body_of(samples, static=True), tmp / "embs")
     save_parametric_body(body, tmp / "embs" / "tm_air.npz")
+    sample_dirs = {(tmp / "embs" / s["file"]).resolve().parent for s in body.sample_sources
+                   if s.get("file")}
     made = {"interpolation_used": body.interpolation,
             "static_residual": body.static.residual.tolist()}
     # the FE models and projections are done with: free them before the module is generated
@@ -424,7 +429,7 @@ def _fill(tmp: Path, options: BuildOptions, progress: Progress) -> dict[str, Any
     chain = LumpedChain()
     snap_hz, snap_moments = snapshot_plan(options.basis)
     if not options.keep_intermediate:
-        _remove_intermediate(tmp)
+        _remove_intermediate(tmp, sample_dirs)
     return {
         "format": "neweul-middle-ear-build", "version": 1,
         **dataclasses.asdict(options),

@@ -364,3 +364,9 @@ def test_an_output_row_that_changes_over_the_samples_is_refused(parametric) -> N
                                                 r"sample 2 by 0\.01 of its largest") as exc:
         generate(tmp / "bad_c.yaml", tmp / "gen_bad_c")
     assert "elastic_bodies.duct.outputs.p_end" in str(exc.value)
+    C[1, 0] = pb.C[1, 0]                  # zero at the first sample, not at the second
+    C[0, 1] = 0.0
+    save_parametric_body(pb.with_(C=C), tmp / "duct_c.npz")
+    with pytest.raises(DescriptionError, match=r"output 'x_piston' changes between sample 1 "
+                                                r"and sample 2 from zero to coefficients"):
+        generate(tmp / "good_c.yaml", tmp / "gen_zero_c")

@@ -230,6 +230,21 @@ def test_a_build_removes_what_only_the_build_reads(small, tmp_path, monkeypatch)
         read_fe_model(path)
 
 
+def test_a_lean_rebuild_keeps_a_sample_taken_from_a_slope_sweep(small, tmp_path):
+    """A rebuild at −980 Pa, a slope model of the previous build (−1000 + 20 Pa), takes that
+    working point from ``fem_slopes``: the lean build keeps that sweep, so the body's every
+    sample source still reads (reference: the body's ``sample_sources``)."""
+    out = tmp_path / "resample"
+    shutil.copytree(small, out)
+    build(out, BuildOptions(**{**SMALL.__dict__, "pressures": (-980.0, 0.0, 1000.0),
+                               "keep_intermediate": False}))
+    body = load_parametric_body(out / "embs" / "tm_air.npz")
+    files = [out / "embs" / s["file"] for s in body.sample_sources]
+    assert any("fem_slopes" in f.parent.name for f in files)
+    for f in files:
+        read_fe_model(f)
+
+
 @pytest.mark.parametrize(("args", "where"), [
     (["--pressures=1000,0"], "pressures"),
     (["--refine", "7"], "--refine"),

@@ -364,6 +364,11 @@ REAL_MEMBERS = frozenset({"M", "D", "K", "G", "B", "C", "V_kept", "W_kept", "T",
                           "row_scale", "left_row_scale", "coordinate", "eigenvalues"})
 
 
+def _real(a: np.ndarray, itemsize: int) -> bool:
+    """Whether ``a`` holds real floats of ``itemsize`` bytes, in either byte order."""
+    return a.dtype.kind == "f" and a.dtype.itemsize == itemsize
+
+
 def check_member_types(data: Mapping[str, np.ndarray], single: bool, file: str) -> None:
     """Each member of a body file has the type its format gives it: ``meta`` and the bit
     members ``uint8``, the DOF numbers integers, the DOF kinds strings, the rest float64 —
@@ -376,15 +381,15 @@ def check_member_types(data: Mapping[str, np.ndarray], single: bool, file: str) 
         if key == "meta" or key.endswith(BIT_SUFFIXES):
             ok, what = a.dtype == np.uint8, "uint8"
         elif key in WHOLE_MEMBERS:
-            ok, what = a.dtype.kind in "iu" or a.dtype == np.float64, "integers"
+            ok, what = a.dtype.kind in "iu" or _real(a, 8), "integers"
         elif key in TEXT_MEMBERS:
             ok, what = a.dtype.kind in "US", "strings"
         elif key in SINGLE_MEMBERS:
-            ok = a.dtype == np.float64 or (single and a.dtype == np.float32)
+            ok = _real(a, 8) or (single and _real(a, 4))
             what = "float64" + (" or float32" if single else
                                 f" (float32 from version {SINGLE_VERSION} of the format)")
         elif name in REAL_MEMBERS:
-            ok, what = a.dtype == np.float64, "float64"
+            ok, what = _real(a, 8), "float64"
         else:
             continue
         if not ok:

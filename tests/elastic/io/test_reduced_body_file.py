@@ -166,6 +166,20 @@ def test_members_of_another_type_are_refused_not_converted(body, tmp_path, item,
     assert exc.value.file == str(path) and exc.value.item == item
 
 
+def test_a_big_endian_file_reads(body, tmp_path):
+    """A body file whose numbers are stored big-endian (another writer's ``>f8``, ``>i8``)
+    reads as the same body (reference: the body written little-endian)."""
+    path = tmp_path / "b.npz"
+    save_reduced_body(body, path)
+    data = explicit_arrays(path)
+    swapped = {k: (v.astype(v.dtype.newbyteorder(">")) if k != "meta" and v.dtype.kind in "fi"
+                   else v) for k, v in data.items()}
+    assert swapped["M"].dtype.str == ">f8"
+    np.savez(path, **swapped)
+    back = load_reduced_body(path)
+    assert np.array_equal(back.M, body.M) and np.array_equal(back.kept_dofs, body.kept_dofs)
+
+
 def test_missing_array_and_not_an_npz(body, tmp_path):
     path = tmp_path / "b.npz"
     save_reduced_body(body, path)
