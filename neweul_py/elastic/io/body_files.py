@@ -195,10 +195,11 @@ UNSTACKED = frozenset({"samples", "nodes", "kept_dofs", "dof_node", "dof_kind", 
 #: their mirrored ones, the varying entries of the matrices' slopes and curvatures in single
 #: precision, every optional group); the reader reads 1 to 9.
 PARAMETRIC_FILE_VERSION = SINGLE_VERSION
-#: The members of a body file that a version-9 file may hold in single precision: the varying
-#: entries of the slopes and curvatures of :data:`SINGLE_KEYS`.
-SINGLE_MEMBERS = frozenset(prefix + key + VALUES_SUFFIX for key in SINGLE_KEYS
-                           for prefix in (SLOPE_PREFIX, CURVATURE_PREFIX))
+#: The stacks whose varying entries a version-9 file holds in single precision (the slopes
+#: and curvatures of :data:`SINGLE_KEYS`), and their members.
+SINGLE_STACKS = frozenset(prefix + key for key in SINGLE_KEYS
+                          for prefix in (SLOPE_PREFIX, CURVATURE_PREFIX))
+SINGLE_MEMBERS = frozenset(key + VALUES_SUFFIX for key in SINGLE_STACKS)
 
 
 # ---------------------------------------------------------------------- file format
@@ -231,9 +232,8 @@ def save_parametric_body(body: ParametricBody, path: str | os.PathLike) -> None:
                for prefix in ("", SLOPE_PREFIX, CURVATURE_PREFIX)}
               if body.G is not None else {})
     # the slopes and curvatures carry their central differences' error, far above 2⁻²⁴
-    single = frozenset(key.removesuffix(VALUES_SUFFIX) for key in SINGLE_MEMBERS)
     stored, layout = pack(arrays, stacked, body.n_samples, reference, scaled=scaled,
-                          single=single)
+                          single=SINGLE_STACKS)
     meta = {
         "format": PARAMETRIC_BODY_FORMAT,
         "version": PARAMETRIC_FILE_VERSION,
