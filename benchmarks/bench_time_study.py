@@ -7,7 +7,8 @@ through node frames), retargeted and ramped by ``examples/middle_ear/time_study.
 (``Δp(t) = dp_ramp sin²(π t / t_ramp)``, a tone ``Q = Q_amp sin 2π f t`` in the canal).
 
 Measured in one run (BLAS single-threaded): the sizes of the data file and the modules;
-``import + first rhs`` of both modules in fresh processes; ``rhs`` per call at a constant
+``import + first rhs`` of both modules in fresh processes, and the peak resident memory of
+such a process; ``rhs`` per call at a constant
 Δp and with Δp moving at every call; the ramp of ``time_study.tone`` (generalized-α,
 ``--steps-per-period`` steps, over ``--t-ramp``) with each module — wall time, rhs calls,
 the ratio NumPy / compiled and the largest difference of the umbo velocity relative to its
@@ -66,6 +67,25 @@ def _modules(data: Path, out: Path):
     return load_generated(npath), load_generated(wrapper), npath, wrapper, t1 - t0, t2 - t1
 
 
+_PEAK = """
+import importlib.util, numpy as np
+spec = importlib.util.spec_from_file_location("m", {path!r})
+m = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(m)
+m.rhs(0.0, np.zeros(m.STATE_SIZE), m.default_parameters())
+print(next(line.split()[1] for line in open("/proc/self/status") if line.startswith("VmHWM")))
+"""
+
+
+def peak_memory(path: Path) -> float:
+    """Peak resident memory [MB] of a fresh process that imports the module and evaluates
+    one rhs (Linux's ``VmHWM``: the process's own, where ``ru_maxrss`` would keep the
+    parent's across ``fork`` and ``exec``)."""
+    out = subprocess.run([sys.executable, "-c", _PEAK.format(path=str(path))],
+                         capture_output=True, text=True, check=True)
+    return float(out.stdout.split()[-1]) / 1024
+
+
 def _per_call(fn) -> float:
     fn()
     number = max(1, int(0.3 / max(timeit.timeit(fn, number=1), 1e-6)))
@@ -92,11 +112,11 @@ def main() -> None:
     for f in (*npath.parent.glob("middle_ear_ramp.*.npz"), npath, wrapper,
               wrapper.with_suffix(".c"), wrapper.with_name(wrapper.stem + "_jac.c")):
         print(f"| {f.name} | {f.stat().st_size / 1e6:.3f} MB |")
-    print("\n| module | import + first rhs (bytecode cached) | (source compiled) |\n"
-          "|---|---|---|")
+    print("\n| module | import + first rhs (bytecode cached) | (source compiled) | peak "
+          "memory |\n|---|---|---|---|")
     for key, path in (("NumPy", npath), ("compiled", wrapper)):
         print(f"| {key} | {import_first_rhs(path, True):.2f} s | "
-              f"{import_first_rhs(path, False):.2f} s |")
+              f"{import_first_rhs(path, False):.2f} s | {peak_memory(path):.0f} MB |")
     x = 1e-12 * np.random.default_rng(1).standard_normal(2 * n)
     print("\n| per call | NumPy [ms] | C [ms] | NumPy / C |\n|---|---|---|---|")
     for name, moving in (("rhs, constant Δp", False), ("rhs, Δp moving", True)):

@@ -18,7 +18,9 @@ values. :class:`KernelPrinter` turns chosen outputs of it into C functions:
   matrices and vectors through the fixed helpers of :data:`C_DOT` (four partial sums, the
   zero entries of a vector of weights skipped: mixing a parametric body's samples reads only
   the rows of the samples next to ``σ``), other products as loops; concatenations, fancy
-  indexing (index tables are structure and printed), assignments. Complex values
+  indexing (index tables are structure and printed), assignments; the compact mixing of a
+  parametric body's samples (op ``"mix"``, :data:`C_MIX`: its index tables are data, bound
+  and read through ``nw_D[k]``, not printed). Complex values
   (``double complex`` of C99) are what the complex-step derivatives of the kernel need.
 
 Structural constants of the kernel (the maps of ``ffrf_rigid_map``, zeros, unit matrices)
@@ -34,7 +36,7 @@ import numpy as np
 from ..errors import GenerationError
 from .c_trace import Graph, Node, TArray
 
-__all__ = ["C_DOT", "KernelPrinter"]
+__all__ = ["C_DOT", "C_MIX", "KernelPrinter"]
 
 #: Products of the printed kernels (real operands; the strides are in elements).
 C_DOT = r"""
@@ -99,6 +101,41 @@ __attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
 }
 """
 
+
+#: The compact mixing of a parametric body's samples (op ``"mix"`` of
+#: :class:`~.c_splice_trace.MixedColumns`; :func:`~neweul_py.ffrf.parametric.ffrf_mix`): the
+#: varying columns ``lo … hi − 1`` of ``V`` (k, nv) mixed by ``x`` (the zero weights
+#: skipped), set at their positions ``index[c] − i0`` of ``out``, then the mirrored entries
+#: ``mirror[q] − i0`` from ``mirror[m + q] − i0``; the index tables are bound float64 arrays.
+#: The caller sets ``(x·r) base`` first (the entries that do not vary).
+C_MIX = r"""
+/* ---- the compact mixing of a parametric body's samples (codegen/c_kernel.py, C_MIX) */
+__attribute__((optimize("O3"))) static void nw_mix(int k, const double *restrict x,
+    const double *restrict V, long nv, long lo, long hi, const double *restrict index,
+    const double *restrict mirror, long m, long mlo, long mhi, long i0,
+    double *restrict out, double *restrict tmp)
+{
+    nw_vecmat(k, (int)(hi - lo), x, 1, V + lo, nv, 1, tmp);
+    for (long c = lo; c < hi; ++c) out[(long)index[c] - i0] = tmp[c - lo];
+    for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
+}
+
+/* the same for complex weights (the complex step in sigma): real and imaginary parts */
+__attribute__((optimize("O3"))) static void nw_mixz(int k, const double complex *restrict x,
+    const double *restrict V, long nv, long lo, long hi, const double *restrict index,
+    const double *restrict mirror, long m, long mlo, long mhi, long i0,
+    double complex *restrict out, double *restrict tmp)
+{
+    double xr[NW_NW + 1], xi[NW_NW + 1];
+    const long n = hi - lo;
+    for (int r = 0; r < k; ++r) { xr[r] = creal(x[r]); xi[r] = cimag(x[r]); }
+    nw_vecmat(k, (int)n, xr, 1, V + lo, nv, 1, tmp);
+    nw_vecmat(k, (int)n, xi, 1, V + lo, nv, 1, tmp + n);
+    for (long c = lo; c < hi; ++c)
+        out[(long)index[c] - i0] = tmp[c - lo] + tmp[n + c - lo] * I;
+    for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
+}
+"""
 
 #: The printed functions are loops over arrays: compiled with gcc's -O3 (vectorized; the
 #: libraries build with -O1, and other compilers ignore the attribute).
@@ -410,6 +447,8 @@ class KernelPrinter:
             return self._ew(n, out, idx, lin, local)
         if n.op == "dot":
             return self._dot(n, out, local)
+        if n.op == "mix":
+            return self._mix(n, out, local)
         if n.op == "pack":
             return [f"    {out}[{i}] = {self.access(a, [], local)};"
                     for i, a in enumerate(n.args)]
@@ -509,6 +548,35 @@ class KernelPrinter:
         lines += _loops(region_shape, [f"{out}[{address}] = "
                                        f"{self._operand(value, region_shape, ridx, local)};"])
         return lines
+
+    def _mix(self, n: Node, out: str, local: dict[int, str]) -> list[str]:
+        """A parametric body's entries ``i0 …`` mixed from its compact form (:data:`C_MIX`):
+        ``(x·r) base`` as :func:`~neweul_py.ffrf.parametric.ffrf_mix` (set again only when
+        ``x·r`` or the binding changed), then the varying and the mirrored entries."""
+        x, rows, base, V, index, mirror = n.args
+        i0, lo, hi, mlo, mhi = n.params
+        ctype = self._ctype(n)
+        self.static += [f"static {ctype} {out}_s = NAN;", f"static long {out}_bound = -1;",
+                        f"static double {out}_tmp[{max(2 * (hi - lo), 1)}];"]
+        ptr = {}
+        for name, a in (("x", x), ("rows", rows), ("base", base), ("V", V),
+                        ("index", index), ("mirror", mirror)):
+            st, off, _s = self.graph.storage_view(a)
+            ptr[name] = (f"{self._storage_name(st, local)} + {off}" if off
+                         else self._storage_name(st, local))
+        call = "nw_mixz" if n.cplx else "nw_mix"
+        return ["    {",
+                f"        {ctype} s = 0.0;",
+                f"        for (int r = 0; r < {x.shape[0]}; ++r) s += ({ptr['x']})[r] * "
+                f"({ptr['rows']})[r];",
+                f"        if (s != {out}_s || {out}_bound != nw_binds) {{",
+                f"            for (long i = 0; i < {n.size}; ++i) "
+                f"{out}[i] = s * ({ptr['base']})[{i0} + i];",
+                f"            {out}_s = s;", f"            {out}_bound = nw_binds;",
+                "        }", "    }",
+                f"    {call}({x.shape[0]}, {ptr['x']}, {ptr['V']}, {V.shape[1]}, {lo}, {hi}, "
+                f"{ptr['index']}, {ptr['mirror']}, {mirror.size // 2}, {mlo}, {mhi}, {i0}, "
+                f"{out}, {out}_tmp);"]
 
     def _dot(self, n: Node, out: str, local: dict[int, str]) -> list[str]:
         a, b = n.args

@@ -248,14 +248,15 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
 
 def render_c_wrapper(
     model_name: str, numpy_name: str, c_files: dict[str, str], sizes: dict[str, int],
-    data: tuple[str, ...] = (), expand: dict[str, tuple[str, ...]] | None = None,
+    data: tuple[str, ...] = (),
+    derived: dict[str, tuple[str, tuple[str, ...]]] | None = None,
 ) -> str:
     """The Python text of the wrapper module (see :mod:`.c_runtime` for the loading rules).
 
     ``c_files`` maps ``"core"`` and ``"jac"`` to ``(file name, SHA-256)`` pairs joined by a
     space; ``data``: the keys of the twin's data-file arrays the libraries are bound to
-    (``nw_bind``, models with elastic bodies); ``expand``: those of them bound as
-    ``ffrf_expand`` of data-file arrays (a parametric body's stack, key → their keys).
+    (``nw_bind``, models with elastic bodies); ``derived``: those of them derived from
+    data-file arrays (key → (kind, their keys), :func:`.c_splice_trace.derived_array`).
     """
     here = Path(__file__).parent
     runtime = (here / "c_runtime.py").read_text(encoding="utf-8")
@@ -275,7 +276,7 @@ def render_c_wrapper(
         f"_C_JAC_SHA256 = {jac_sha!r}",
         *(f"_{k.upper()} = {v!r}" for k, v in sizes.items()),
         f"_C_DATA = {data!r}",
-        *([f"_C_EXPAND = {dict(expand or {})!r}"] if data else []),
+        *([f"_C_DERIVED = {dict(derived or {})!r}"] if data else []),
         f"_CDEF = {cdef!r}",
     ])
     header = (
@@ -318,11 +319,11 @@ def write_c_module(
     """
     system = equations.system
     data: tuple[str, ...] = ()
-    expand: dict[str, tuple[str, ...]] = {}
+    derived: dict[str, tuple[str, tuple[str, ...]]] = {}
     if getattr(equations, "elastic", None) is not None:
         # the kernel traced on its data, which are bound at load time (codegen/c_splice.py)
         src = render_elastic_sources(equations, system.name, cse=cse)
-        core, jac, data, expand = src.core, src.jac, src.data, src.expand
+        core, jac, data, derived = src.core, src.jac, src.data, src.derived
         sizes = {**src.sizes, "loss": 0}
     else:
         blocks = program_blocks(equations, cse=cse, progress=progress)
@@ -342,7 +343,7 @@ def write_c_module(
     jac_path = wrapper.with_name(f"{wrapper.stem}_jac.c")
     files = {"core": f"{c_path.name} {hashlib.sha256(core.encode()).hexdigest()}",
              "jac": f"{jac_path.name} {hashlib.sha256(jac.encode()).hexdigest()}"}
-    py = render_c_wrapper(system.name, numpy_path.name, files, sizes, data, expand)
+    py = render_c_wrapper(system.name, numpy_path.name, files, sizes, data, derived)
     atomic_write(c_path, core)
     atomic_write(jac_path, jac)
     return atomic_write(wrapper, py)

@@ -14,9 +14,10 @@ The C sources of a model with elastic bodies are made of three parts:
    ``ffrf_fixed_force_jacobians``, :func:`~neweul_py.ffrf.parametric.ffrf_unmix` — are
    called once on traced arrays: the body data of the module's data file
    (:mod:`neweul_py.ffrf.data_file`), the samples of a parametric body mixed with traced
-   weights (one product ``w B``), and traced arguments. Their operations become C loops; so
-   the C holds the kernel's operations, never a second implementation of them, and the data
-   enter through pointers (``nw_bind``), never as numbers in the text. What depends on the
+   weights (``w B`` per entry of its layout, from the compact form), and traced arguments.
+   Their operations become C loops; so the C holds the kernel's operations, never a second
+   implementation of them, and the data enter through pointers (``nw_bind``), never as
+   numbers in the text. What depends on the
    data alone is computed when they are bound, what depends on the weights of the parametric
    bodies (the mixed samples, ``S_V(σ)``, ``S_W(σ)``, ``∂S_V/∂σ``) when the weights change.
 3. **The splice**, fixed C text (:mod:`.c_splice_text`) in the order of the
@@ -47,10 +48,13 @@ a slow contraction, or many right-hand sides, factors the new ``D``.
 sizes)`` takes the pointers of every float64 array of the module's data file in the order of
 their keys (``_C_DATA`` of the wrapper: the file's member order) with their sizes, checks
 count and sizes, and computes what depends on the data alone; every function returns 2
-before it. A parametric body's stack is bound in full: the wrapper expands the compact form
-of the data file (the base and the columns that vary, :mod:`neweul_py.ffrf.varying`) once,
-when it binds (``_C_EXPAND``). Integer arrays of the data file (the rows of node maps) are
-structure and are compiled in.
+before it. A parametric body is bound in its compact form (:mod:`neweul_py.ffrf.varying`):
+its base and the columns that vary as the data file stores them, and what the wrapper
+derives from them once, when it binds (``_C_DERIVED``, :func:`.c_splice_trace.derived_array`):
+the first row of its samples and its index tables as float64. The C code mixes them as
+:func:`~neweul_py.ffrf.parametric.ffrf_mix` does (:data:`.c_kernel.C_MIX`), reading only the
+varying columns of the samples next to ``σ``. Integer arrays of the data file (the rows of
+node maps) are structure and are compiled in.
 """
 
 from __future__ import annotations
@@ -64,7 +68,7 @@ import sympy as sp
 from ..errors import GenerationError
 from ..model import as_expr
 from .c_functions import SymbolGroups, big, c_body, c_function
-from .c_kernel import C_DOT, KernelPrinter
+from .c_kernel import C_DOT, C_MIX, KernelPrinter
 from .c_printer import DotRows
 from .c_splice_parameters import PARAMETER_C
 from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SPLICE_C
@@ -92,10 +96,11 @@ class ElasticSources:
     arrays
         Those arrays, in that order (what a host without the data file binds: the FMU,
         :mod:`.fmu`).
-    expand
-        The keys of ``data`` that are no member of the data file: a parametric body's
-        stack in full, ``key → the members of its compact form``
-        (:func:`~neweul_py.ffrf.varying.ffrf_expand` of them is bound).
+    derived
+        The keys of ``data`` that are no member of the data file, ``key → (kind, the keys
+        of the members it is derived from)``
+        (:func:`~.c_splice_trace.derived_array`: a parametric body's first row of samples
+        and its index tables as float64).
     """
 
     core: str
@@ -103,7 +108,7 @@ class ElasticSources:
     data: tuple[str, ...]
     sizes: dict[str, int]
     arrays: tuple[np.ndarray, ...] = ()
-    expand: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    derived: dict[str, tuple[str, tuple[str, ...]]] = dataclasses.field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------- symbolic part
@@ -250,7 +255,7 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
         text += [JACOBIAN_C.replace("NW_FIXED_JACOBIANS", fixed), PARAMETER_C]
     else:
         text += [CORE_C, C_DOPRI5]
-    return "\n".join([*symbolic_lines, C_DOT, *text])
+    return "\n".join([*symbolic_lines, C_DOT, C_MIX, *text])
 
 
 def _depends_only(graph: Graph, node: Any, leaf_ids: set[int]) -> bool:
@@ -328,4 +333,4 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
         raise GenerationError("a model with elastic bodies but no elastic coordinates")
     return ElasticSources(core.rstrip("\n") + "\n", jac.rstrip("\n") + "\n", keys, {
         "n": n, "nu": nu, "np": len(equations.parameters), "ny": ny, "nc": nc},
-        tuple(t.bound[k] for k in keys), {k: t.expand[k] for k in keys if k in t.expand})
+        tuple(t.bound[k] for k in keys), {k: t.derived[k] for k in keys if k in t.derived})

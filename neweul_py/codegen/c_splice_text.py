@@ -24,6 +24,7 @@ static double nw_w[NW_NW + 1], nw_dw[NW_NW + 1];
 static double complex nw_wc[NW_NW + 1];
 static int nw_have_w;
 static long nw_wversion;   /* counts the changes of the weights (and of the bound data) */
+static long nw_binds;      /* counts the bindings (the compact mixing's constant entries) */
 """
 
 SPLICE_C = r"""
@@ -117,6 +118,7 @@ int nw_bind(int count, const double *const *data, const long *sizes)
     for (int i = 0; i < NW_ND; ++i)
         if (sizes[i] != expect[i]) return 1;
     for (int i = 0; i < NW_ND; ++i) nw_D[i] = data[i];
+    ++nw_binds;
 NW_BIND
     nw_bound = 1;
     nw_have_w = 0;

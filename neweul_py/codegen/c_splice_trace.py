@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import GenerationError
 from ..ffrf.parametric import ffrf_unmix
 from ..ffrf.splice import (
     ffrf_add_force,
@@ -35,7 +36,7 @@ from .c_trace import Graph, TArray
 from .elastic import elastic_data, patterns, symbolic_part
 
 __all__ = ["COMPACT", "STEP", "MixedColumns", "SpliceTrace", "bound_arrays",
-           "constant_columns", "node_structure",
+           "constant_columns", "derived_array", "node_structure",
            "restore_data", "trace_splice", "traced_context", "traced_kernels"]
 
 #: The complex step of the directional derivatives (as ``S["step"]`` of the NumPy module).
@@ -60,7 +61,8 @@ class SpliceTrace:
     elastic: list[int]                    # the elastic coordinates (E)
     block_sigma: bool                     # M[E, E] depends on the schedule alone
     bound: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)  # nw_bind's arrays
-    expand: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)  # stacks
+    derived: dict[str, tuple[str, tuple[str, ...]]] = dataclasses.field(
+        default_factory=dict)                 # bound arrays derived from the data file
 
 
 #: The members of a mixing form in the data file (:func:`~neweul_py.ffrf.parametric.ffrf_stack`)
@@ -68,24 +70,55 @@ class SpliceTrace:
 COMPACT = ("base", "base_rows", "index", "varying", "mirror", "scaled")
 
 
+def derived_array(kind: str, members: tuple[np.ndarray, ...]) -> np.ndarray:
+    """An array the C library is bound to that is no member of the data file, from the
+    members it is derived from (the wrapper derives it the same way, ``_C_DERIVED``):
+    ``"row0"`` — the first row of a mixing form's stack, ``ffrf_expand`` of its
+    :data:`COMPACT` members (the entries that do not vary are read there); ``"float"`` — an
+    index table of the form (``index``, ``mirror``) as float64, read by the compact mixing
+    (:data:`~.c_kernel.C_MIX`)."""
+    if kind == "row0":
+        base, rows, index, varying, mirror, scaled = members
+        return np.ascontiguousarray(ffrf_expand(base, np.asarray(rows)[:1], index,
+                                                np.asarray(varying)[:1], mirror,
+                                                scaled).reshape(-1))
+    if kind == "float":
+        return np.ascontiguousarray(np.asarray(members[0], dtype=np.float64).reshape(-1))
+    raise ValueError(f"unknown derived array {kind!r}")
+
+
 def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
-                 ) -> tuple[Any, dict[str, np.ndarray], dict[str, tuple[str, ...]]]:
+                 ) -> tuple[Any, dict[str, np.ndarray], dict[str, tuple[str, tuple[str, ...]]],
+                            dict[str, np.ndarray]]:
     """The skeleton and the arrays the C library is traced on and bound to: the data file's
-    arrays, with every mixing form's stack ``B`` (k, N) in full
-    (:func:`~neweul_py.ffrf.varying.ffrf_expand` of its base and varying columns) under the
-    key ``_stack/<its path in the skeleton>`` in place of its compact members (the data
-    file stores equal arrays once, so two bodies may share a compact member but not a
-    stack); also ``stack key → the keys of ffrf_expand's arguments`` (what the wrapper
-    expands when it binds)."""
-    expand: dict[str, tuple[str, ...]] = {}
+    arrays, and for every mixing form its compact members as the compact mixing reads them
+    (:data:`~.c_kernel.C_MIX`): its base, base rows and varying columns as stored, and,
+    under keys of the form's
+    path in the skeleton, its stack's first row ``_row0…`` and its index tables as float64
+    ``_index…``, ``_mirror…`` (:func:`derived_array`; the data file stores equal arrays once,
+    so two bodies may share a member but not a derived array). Also ``derived key → (kind,
+    the keys of its members)`` (what the wrapper derives when it binds) and every form's
+    stack in full under ``_stack…`` (at generation only: its constant columns, the
+    structure of its node maps; never bound)."""
+    derived: dict[str, tuple[str, tuple[str, ...]]] = {}
+    stacks: dict[str, np.ndarray] = {}
 
     def walk(tree: Any, path: str) -> Any:
         if isinstance(tree, dict):
             if "varying" in tree and "layout" in tree:          # a mixing form
-                key = f"_stack{path}"
-                expand[key] = tuple(tree[name]["@"] for name in COMPACT)
-                return {"stack": {"@": key}, **{k: walk(v, f"{path}/{k}")
-                                                for k, v in tree.items() if k not in COMPACT}}
+                members = tuple(tree[name]["@"] for name in COMPACT)
+                keys = {"row0": f"_row0{path}", "index": f"_index{path}",
+                        "mirror": f"_mirror{path}"}
+                derived[keys["row0"]] = ("row0", members)
+                derived[keys["index"]] = ("float", (tree["index"]["@"],))
+                derived[keys["mirror"]] = ("float", (tree["mirror"]["@"],))
+                stacks[f"_stack{path}"] = ffrf_expand(*(arrays[k] for k in members))
+                compact = {"stack": f"_stack{path}", "varying": tree["varying"],
+                           "base": tree["base"], "rows": tree["base_rows"],
+                           **{name: {"@": key} for name, key in keys.items()},
+                           "scaled": np.asarray(arrays[tree["scaled"]["@"]], dtype=float)}
+                return {"compact": compact, **{k: walk(v, f"{path}/{k}")
+                                               for k, v in tree.items() if k not in COMPACT}}
             return {k: walk(v, f"{path}/{k}") for k, v in tree.items()}
         if isinstance(tree, list | tuple):
             items = [walk(v, f"{path}/{i}") for i, v in enumerate(tree)]
@@ -102,9 +135,10 @@ def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
         return []
 
     traced = walk(skeleton, "")
-    out = {key: arrays[key] for key in refs(traced) if key not in expand}
-    out.update({key: ffrf_expand(*(arrays[k] for k in keys)) for key, keys in expand.items()})
-    return traced, out, expand
+    out = {key: arrays[key] for key in refs(traced) if key not in derived}
+    out.update({key: derived_array(kind, tuple(arrays[k] for k in keys))
+                for key, (kind, keys) in derived.items()})
+    return traced, out, derived, stacks
 
 
 def restore_data(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndarray]) -> Any:
@@ -124,22 +158,56 @@ def restore_data(tree: Any, leaves: dict[str, TArray], arrays: dict[str, np.ndar
 class MixedColumns:
     """The mixed values ``w B`` of a parametric body's stack, as
     :func:`~neweul_py.ffrf.parametric.ffrf_unmix` reads them (``flat[i:j]``, ``flat[i]``), one
-    product per entry of the layout, so that the C code mixes only the entries the kernel uses.
+    node per entry of the layout, so that the C code mixes only the entries the kernel uses.
+
     An entry that does not vary (equal in every sample, zero slopes and curvatures:
     ``constant``) is the first sample's (the value weights sum to one), or zero with the
-    weights' derivative."""
+    weights' derivative. An entry that varies is mixed from the compact form as
+    :func:`~neweul_py.ffrf.parametric.ffrf_mix` mixes it — ``(w·r) base``, the varying
+    columns ``w V`` set at their positions, then the mirrored entries (a ``"mix"`` node,
+    :data:`~.c_kernel.C_MIX`) — or, a block that is a factor times another
+    (``scaled``), that factor times the other block mixed."""
 
-    def __init__(self, w: TArray, B: TArray, constant: np.ndarray, derivative: bool) -> None:
-        self.w, self.B, self.constant, self.derivative = w, B, constant, derivative
+    def __init__(self, w: TArray, compact: dict[str, Any], arrays: dict[str, np.ndarray],
+                 constant: np.ndarray, derivative: bool) -> None:
+        self.w, self.c, self.constant, self.derivative = w, compact, constant, derivative
+        self.index = np.asarray(arrays[compact["index"].node.params[0]]).astype(np.int64)
+        mirror = np.asarray(arrays[compact["mirror"].node.params[0]]).astype(np.int64)
+        self.mirror = mirror.reshape(2, -1)
+        if np.any(np.diff(self.index) <= 0) or np.any(np.diff(self.mirror[0]) <= 0):
+            raise GenerationError("a mixing form whose index tables do not increase")
+        self._blocks: dict[tuple[int, int], TArray] = {}
 
     def __getitem__(self, key: Any) -> TArray:
         i, j = (key.start, key.stop) if isinstance(key, slice) else (key, key + 1)
-        if self.constant[i:j].all():
-            block = self.B[0, i:j] if not self.derivative else TArray(
-                self.B.graph, self.B.graph.zeros((j - i,)))
-        else:
-            block = np.dot(self.w, self.B[:, i:j])
+        block = self.block(i, j)
         return block if isinstance(key, slice) else block[0]
+
+    def block(self, i: int, j: int) -> TArray:
+        """The mixed entries ``i … j − 1`` (one entry of the layout)."""
+        if (i, j) not in self._blocks:
+            self._blocks[i, j] = self._mixed(i, j)
+        return self._blocks[i, j]
+
+    def _mixed(self, i: int, j: int) -> TArray:
+        g = self.w.graph
+        if self.constant[i:j].all():
+            return (self.c["row0"][i:j] if not self.derivative
+                    else TArray(g, g.zeros((j - i,))))
+        for start, stop, src, factor in self.c["scaled"]:
+            if (int(start), int(stop)) == (i, j):
+                s = int(src)
+                return self.block(s, s + j - i) * float(factor)
+        lo, hi = (int(v) for v in np.searchsorted(self.index, [i, j]))
+        mlo, mhi = (int(v) for v in np.searchsorted(self.mirror[0], [i, j]))
+        src = self.mirror[1, mlo:mhi]
+        if np.any((src < i) | (src >= j)):
+            raise GenerationError("a mirrored entry whose source lies in another block")
+        c = self.c
+        node = g.node("mix", (self.w.node, c["rows"].node, c["base"].node, c["varying"].node,
+                              c["index"].node, c["mirror"].node), (j - i,), self.w.node.cplx,
+                      (i, lo, hi, mlo, mhi))
+        return TArray(g, node)
 
 
 def constant_columns(stack: np.ndarray, blocks: int) -> np.ndarray:
@@ -153,7 +221,7 @@ def constant_columns(stack: np.ndarray, blocks: int) -> np.ndarray:
 def traced_context(g: Graph, bodies: list[dict], SV0: TArray, SW0: TArray, same: bool,
              weights: list[TArray] | None, n: int, ns: int,
              pattern: tuple[list[int], list[int]], constant: list[np.ndarray],
-             derivative: bool = False) -> dict[str, Any]:
+             arrays: dict[str, np.ndarray], derivative: bool = False) -> dict[str, Any]:
     """The splice context the traced kernel runs in, assembled as
     :func:`~neweul_py.ffrf.splice.ffrf_system` and, mixed at ``weights`` (one traced
     vector per parametric body; ``constant``: its stack's columns that do not vary,
@@ -169,8 +237,8 @@ def traced_context(g: Graph, bodies: list[dict], SV0: TArray, SW0: TArray, same:
             out.append(bb)
             continue
         w = weights[k]
-        mixed = ffrf_unmix(b["mixing"], MixedColumns(w, b["mixing"]["stack"], constant[k],
-                                               derivative))
+        mixed = ffrf_unmix(b["mixing"], MixedColumns(w, b["mixing"]["compact"], arrays,
+                                                     constant[k], derivative))
         k += 1
         mixed.update(name=b["name"], first=b["first"], kin=b["kin"])
         SV, SW = SV.astype(np.result_type(SV, w)), SW.astype(np.result_type(SW, w))
@@ -195,7 +263,7 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     keep = list(el.keep)
     true_index = {j: k for k, j in enumerate(keep)}
     skeleton, data = elastic_data(equations, a_idx, true_index)
-    skeleton, arrays, expand = bound_arrays(skeleton, data.arrays)
+    skeleton, arrays, derived, stacks = bound_arrays(skeleton, data.arrays)
     symbolic = symbolic_part(equations)
     mass_pattern, _kin = patterns(symbolic, el.hidden)
     g = Graph()
@@ -217,20 +285,20 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     w = [g.leaf(f"w{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
     dw = [g.leaf(f"dw{k}", (p["cols"],), 1) for k, p in enumerate(parametric)]
     wc = [g.leaf(f"wc{k}", (p["cols"],), 1, cplx=True) for k, p in enumerate(parametric)]
-    constant = [constant_columns(arrays[raw["mixing"]["stack"]["@"]], blocks)
+    constant = [constant_columns(stacks[raw["mixing"]["compact"]["stack"]], blocks)
                 for raw, blocks in zip([r for r in skeleton["bodies"] if "mixing" in r],
                                        [1 + bool(s.body.slopes) + bool(s.body.curvatures)
                                         for s in el.splices if s.body.parametric],
                                        strict=True)]
     real = traced_context(g, bodies, tree["SV"], tree["SW"], same, w, n, ns, mass_pattern,
-                    constant)
+                          constant, arrays)
     cplx = (traced_context(g, bodies, tree["SV"], tree["SW"], same, wc, n, ns, mass_pattern,
-                     constant) if parametric else None)
+                           constant, arrays) if parametric else None)
     dsv = []
     for k, p in enumerate(parametric):               # ∂S_V/∂σ_k: the node rows mixed by w′
         b = next(b for b in bodies if b.get("name") == p["name"] and "mixing" in b)
-        d = ffrf_unmix(b["mixing"], MixedColumns(dw[k], b["mixing"]["stack"], constant[k],
-                                           True))["_sv"]
+        d = ffrf_unmix(b["mixing"], MixedColumns(dw[k], b["mixing"]["compact"], arrays,
+                                                 constant[k], True))["_sv"]
         m = TArray(g, g.zeros((ns, n)))
         m[p["rows"]] = d
         dsv.append(m)
@@ -239,20 +307,20 @@ def trace_splice(equations: Any) -> tuple[SpliceTrace, Any]:
     elastic = sorted(j for b in bodies for j in range(b["first"], b["first"] + b["nq"]))
     block_sigma = ffrf_block_constant(
         [{k: v for k, v in b.items() if not isinstance(v, TArray)} for b in bodies], ns,
-        *node_structure(skeleton, arrays, parametric), mass_pattern,
+        *node_structure(skeleton, arrays, stacks), mass_pattern,
         np.asarray(_kin, dtype=np.intp))
     return SpliceTrace(g, n, ns, nh, nu, parametric, fixed, moving, real, cplx, dsv,
-                       elastic, block_sigma, arrays, expand), data
+                       elastic, block_sigma, arrays, derived), data
 
 
 def node_structure(skeleton: dict, arrays: dict[str, np.ndarray],
-                    parametric: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
+                   stacks: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """The nonzero structure of ``S_V``, ``S_W`` at every schedule: the base maps and the
-    node rows of every parametric body in any sample."""
+    node rows of every parametric body in any sample (``stacks``: of :func:`bound_arrays`)."""
     SV = arrays[skeleton["SV"]["@"]] != 0
     SW = arrays[skeleton["SW"]["@"]] != 0
     for raw in (r for r in skeleton["bodies"] if "mixing" in r):
-        stack = arrays[raw["mixing"]["stack"]["@"]]
+        stack = stacks[raw["mixing"]["compact"]["stack"]]
         rows = np.asarray(arrays[raw["rows"]["@"]])
         for path, i, j, shape in raw["mixing"]["layout"]:
             target = {("_sv",): SV, ("_sw",): SW}.get(tuple(path))

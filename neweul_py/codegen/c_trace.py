@@ -45,7 +45,9 @@ class Node:
     ----------
     op
         ``"leaf"``, ``"const"``, ``"zeros"``, ``"view"``, ``"ew"`` (elementwise), ``"dot"``,
-        ``"concat"``, ``"pack"``, ``"gather"`` or ``"update"``.
+        ``"concat"``, ``"pack"``, ``"gather"``, ``"update"`` or ``"mix"`` (a parametric
+        body's samples mixed from their compact form,
+        :class:`~.c_splice_trace.MixedColumns`).
     args
         The nodes it is computed from.
     shape

@@ -17,9 +17,10 @@ cannot be had, those functions fall back to the twin's, with one warning.
 
 Models with elastic bodies (``_C_DATA`` not empty): each library is bound to the arrays of
 the twin's data file (``nw_bind``, the twin's ``_DATA`` by the keys of ``_C_DATA``, no
-copies; a parametric body's stack, ``_C_EXPAND``, expanded once from its compact form) right
-after loading; a schedule outside the sampled range (the library's code 3) is
-reported by calling the twin, whose message names the body, the value and the range.
+copies; what is derived from its arrays, ``_C_DERIVED``: a parametric body's first row of
+samples and its index tables as float64, made once) right after loading; a schedule outside
+the sampled range (the library's code 3) is reported by calling the twin, whose message
+names the body, the value and the range.
 """
 
 from pathlib import Path as _Path
@@ -29,7 +30,7 @@ from .c_runtime import BackendUnavailable, compiled_library, load_twin
 _MODEL_NAME = _TWIN_FILE = _C_FILE = _C_SHA256 = _C_JAC_FILE = _C_JAC_SHA256 = _CDEF = ""
 _N = _NU = _NP = _NY = _NC = _LOSS = 0
 _C_DATA: tuple = ()
-_C_EXPAND: dict = {}
+_C_DERIVED: dict = {}
 
 # ---- template begins
 import threading as _threading  # noqa: E402
@@ -59,12 +60,23 @@ for _name in ("energy", "frame_poses", "body_properties", "node_positions",
 _BOUND = []     # the pointers bound into the libraries, kept alive with the module
 
 
+def _derived(kind, keys):
+    """An array bound that is no member of the data file (``_C_DERIVED``; as the generator's
+    ``codegen.c_splice_trace.derived_array``): a parametric body's first row of samples, or
+    one of its index tables as float64."""
+    members = [_twin._DATA[k] for k in keys]
+    if kind == "row0":
+        base, rows, index, varying, mirror, scaled = members
+        return _np.ascontiguousarray(_twin.ffrf_expand(base, rows[:1], index, varying[:1],
+                                                       mirror, scaled).reshape(-1))
+    return _np.ascontiguousarray(_np.asarray(members[0], dtype=_np.float64).reshape(-1))
+
+
 def _bind(ffi, lib):
     """Bind ``lib`` to the twin's data-file arrays ``_C_DATA`` (models with elastic bodies)."""
     if not _C_DATA:
         return lib
-    arrays = [_twin.ffrf_expand(*(_twin._DATA[j] for j in _C_EXPAND[k])) if k in _C_EXPAND
-              else _twin._DATA[k] for k in _C_DATA]
+    arrays = [_derived(*_C_DERIVED[k]) if k in _C_DERIVED else _twin._DATA[k] for k in _C_DATA]
     views = [ffi.from_buffer("double[]", a) for a in arrays]
     pointers = ffi.new("const double *[]", [ffi.cast("const double *", v) for v in views])
     sizes = ffi.new("long[]", [int(a.size) for a in arrays])
