@@ -10,9 +10,11 @@ Measured in one run (BLAS single-threaded): the sizes of the data file and the m
 ``import + first rhs`` of both modules in fresh processes, and the peak resident memory of
 such a process; ``rhs`` per call at a constant
 Δp and with Δp moving at every call; the ramp of ``time_study.tone`` (generalized-α,
-``--steps-per-period`` steps, over ``--t-ramp``) with each module — wall time, rhs calls,
-the ratio NumPy / compiled and the largest difference of the umbo velocity relative to its
-largest value. Nothing is asserted.
+``--steps-per-period`` steps, over ``--t-ramp``) with each module — the NumPy module in the
+Python loop, the compiled one in its C loop (``generalized_alpha_steps``) — wall time, rhs
+calls (residual evaluations in C), the ratio NumPy / compiled and the largest difference of
+the umbo velocity relative to its largest value (the two loops stop at different Newton
+iterates: within the tolerance, docs/analysis.md). Nothing is asserted.
 
 Usage (after ``neweul middle-ear build --dir DATA``)::
 

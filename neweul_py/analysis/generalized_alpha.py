@@ -37,6 +37,15 @@ the step's own contraction is measured first), measured on the position and velo
 ``h² β′ Δ`` and ``h γ′ Δ`` against ``atol + rtol |·|``. Output times between steps are
 interpolated by cubic Hermite polynomials (``y`` from ``y, ẏ``; ``ẏ`` from ``ẏ, ÿ``), so the
 user sees the same result arrays as from the SciPy methods.
+
+A compiled module with its own loop (``generalized_alpha_steps``,
+:data:`~neweul_py.codegen.c_templates.C_GALPHA`) takes the steps in C when the inputs are
+constant or the default (:func:`_compiled_steps` drives it: it builds ``S`` at the start and
+whenever the loop asks, and raises the errors): the same predictor, stopping rule and
+outputs, with Newton's method on the residual ``r = M ÿ₊ − (q − k)`` and the kept factors of
+``S`` (``Δ = S⁻¹ r``, Arnold & Brüls, Eq. (14)): no solve with ``M`` per iteration. With a
+constant ``M`` that is the iteration above; when ``M`` changes the two stop at different
+iterates within the tolerance (docs/analysis.md).
 """
 
 from __future__ import annotations
@@ -62,6 +71,8 @@ SLOW_CONTRACTION = 0.5
 #: ``ω h ≫ 1`` the positions ``ŷ + h² β′ ÿ₊`` lose digits to cancellation, so tight
 #: tolerances cannot be met by the increments).
 ROUND_OFF = 64 * np.finfo(float).eps
+#: A weighted increment below this ends the iterations (far inside the tolerance).
+SMALL_INCREMENT = 1e-3
 
 
 class GeneralizedAlpha:
@@ -131,13 +142,20 @@ class _Problem:
                       c: GeneralizedAlpha) -> np.ndarray:
         """``S⁻¹ M`` with ``S = M + c_v C_t + c_y K_t`` at ``(t, y, ẏ, ÿ)``: the inverse of
         ``∂r̃/∂ÿ₊`` for the acceleration-form residual."""
+        S, mass = self.iteration_matrix(t, y, yd, ydd, c)
+        return np.linalg.solve(S, mass)
+
+    def iteration_matrix(self, t: float, y: np.ndarray, yd: np.ndarray, ydd: np.ndarray,
+                         c: GeneralizedAlpha) -> tuple[np.ndarray, np.ndarray]:
+        """``(S, M)``: ``S = M + c_v C_t + c_y K_t`` and ``M`` at ``(t, y, ẏ, ÿ)`` (module
+        docstring; one Jacobian evaluation)."""
         self.njev += 1
         u, m = self.uf(t), self.module
         fy, fyd, _fu = m.force_jacobians(t, y, yd, self.p, u)
         dma = m.mass_matrix_times_derivative(t, y, self.p, ydd, u)
         mass = np.asarray(m.mass_matrix(t, y, self.p, u), dtype=float)
         S = mass - c.c_v * np.asarray(fyd) + c.c_y * (np.asarray(dma) - np.asarray(fy))
-        return np.linalg.solve(S, mass)
+        return S, mass
 
 
 def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
@@ -168,7 +186,7 @@ def _newton(prob: _Problem, cz: np.ndarray, tn: float, y_hat: np.ndarray,
             if theta >= 1.0 or (theta > SLOW_CONTRACTION and not fresh):
                 return None, theta
         if ((k or fresh) and theta < 1.0 and theta / (1.0 - theta) * err <= 1.0) \
-                or err <= 1e-3 or np.abs(dx).max() <= ROUND_OFF * np.abs(x).max():
+                or err <= SMALL_INCREMENT or np.abs(dx).max() <= ROUND_OFF * np.abs(x).max():
             return x, theta
         previous = err
     return None, theta
@@ -198,6 +216,65 @@ def step_count(span: float, h: float, max_steps: int = MAX_STEPS) -> int:
     return max(1, math.ceil(ratio))
 
 
+def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: int,
+                    c: GeneralizedAlpha, x0: np.ndarray, p: np.ndarray, u: Any,
+                    times: np.ndarray, rtol: float, atol: np.ndarray, names: list[str],
+                    progress: Callable[[float, float], None] | None) -> Solution:
+    """The steps of :func:`integrate_generalized_alpha` in the module's C loop
+    (``generalized_alpha_steps``, :data:`~neweul_py.codegen.c_templates.C_GALPHA`): the
+    same predictor, stopping rule, rebuild protocol and outputs, Newton's method on the
+    residual ``M ÿ₊ − (q − k)`` with the factors of ``S`` kept in C; this driver builds
+    ``S`` (at the start and whenever the loop asks), reports progress and raises the
+    errors."""
+    t0, t1 = t_span
+    n = x0.size // 2
+    prob = _Problem(module, p, lambda _t: u, n)
+    ydd = prob.acceleration(t0, x0)
+    state = np.concatenate((x0, ydd, ydd))
+    out = np.full((times.size, 2 * n), np.nan)
+    k = int(np.searchsorted(times, t0, side="right"))
+    out[:k] = x0
+    S, _m = prob.iteration_matrix(t0, x0[:n], x0[n:], ydd, c)
+    flags = np.array([0.5, 1.0, 0.0])
+    coef = np.array([c.h, c.c_y, c.c_v, c._ya, c._yy, c._va, c._vy, c.alpha_m, c.alpha_f,
+                     MAX_ITERATIONS, SLOW_CONTRACTION, ROUND_OFF, SMALL_INCREMENT])
+    counters = np.array([k, prob.nfev, 0], dtype=np.int64)
+    report = max(1, steps // 200)
+    i = 0
+    while i < steps:
+        last = min(steps, (i // report + 1) * report)
+        status = module.generalized_alpha_steps(t0, t1, i, last, steps, coef, p, u, S, rtol,
+                                                atol, state, flags, times, out, counters)
+        S, i = None, int(counters[2])
+        tn = t0 + (i + 1) * c.h if i + 1 < steps else t1
+        y, v, ydd_i, a = state.reshape(4, n)
+        if status == 1:                  # rebuild the matrix at the predictor, retry
+            y_hat, v_hat = c.predict(y, v, a, ydd_i)
+            S, _m = prob.iteration_matrix(tn, y_hat + c.c_y * ydd_i, v_hat + c.c_v * ydd_i,
+                                          ydd_i, c)
+            flags[:] = (0.5, 1.0, 1.0)
+            continue
+        if status == 2:
+            raise SolverError(
+                f"generalized-alpha: Newton's method does not converge at t = {tn:g} "
+                f"(h = {c.h:g}); use a smaller step", last_iterate=state[:2 * n].copy(),
+                names=names)
+        if status == 3:
+            raise np.linalg.LinAlgError("Singular matrix")
+        if status:                       # the model's own error at the predictor
+            y_hat, v_hat = c.predict(y, v, a, ydd_i)
+            prob.acceleration(tn, np.concatenate((y_hat + c.c_y * ydd_i,
+                                                  v_hat + c.c_v * ydd_i)))
+            raise SolverError(f"generalized-alpha: the model failed at t = {tn:g} "
+                              f"(code {status - 4})", last_iterate=state[:2 * n].copy(),
+                              names=names)
+        if progress is not None:
+            progress(min(i * c.h, t1 - t0), t1 - t0)
+    return Solution(times, out.T, True,
+                    "The solver successfully reached the end of the integration interval.",
+                    int(counters[1]), prob.njev)
+
+
 def integrate_generalized_alpha(
     module: GeneratedModel,
     t_span: tuple[float, float],
@@ -213,9 +290,12 @@ def integrate_generalized_alpha(
     names: list[str],
     progress: Callable[[float, float], None] | None = None,
     max_steps: int = MAX_STEPS,
+    loop_inputs: Any = ...,
 ) -> Solution:
     """Integrate the module from ``x0`` over ``t_span`` with generalized-α steps of (at most)
-    ``h``.
+    ``h``; in the module's C loop when it has one (``generalized_alpha_steps``) and the
+    inputs are constant (``loop_inputs``: ``None`` for the default excitation or the input
+    vector; ``...``, the default: not constant).
 
     Parameters
     ----------
@@ -244,6 +324,8 @@ def integrate_generalized_alpha(
         ``progress(done, total)`` hook, called about 200 times.
     max_steps
         Largest number of steps (:func:`step_count`).
+    loop_inputs
+        ``u`` of every step when constant (above).
 
     Returns
     -------
@@ -263,6 +345,10 @@ def integrate_generalized_alpha(
     c = coefficients(rho_inf, h)
     n = x0.size // 2
     atol_y, atol_v = np.broadcast_to(np.asarray(atol, dtype=float), (2 * n,)).reshape(2, n)
+    if loop_inputs is not ... and module.generalized_alpha_steps is not None:
+        return _compiled_steps(module, (t0, t1), steps, c, np.asarray(x0, dtype=float), p,
+                               loop_inputs, times, rtol, np.concatenate((atol_y, atol_v)),
+                               names, progress)
     cz = np.repeat((c.c_y, c.c_v), n)  # [y₊, ẏ₊] = [ŷ, v̂] + cz · [ÿ₊, ÿ₊]
     prob = _Problem(module, p, uf, n)
     y, v = x0[:n].astype(float), x0[n:].astype(float)
@@ -326,4 +412,6 @@ class GeneralizedAlphaSteps(FirstOrder):
             model, (run.t_start, run.t_end), run.x0, run.p, uf, times,
             h=float(run.h),  # type: ignore[arg-type]
             rho_inf=run.rho_inf, rtol=run.rtol, atol=run.atol, names=model.state_names,
-            progress=run.progress, max_steps=run.max_steps)
+            progress=run.progress, max_steps=run.max_steps,
+            loop_inputs=... if callable(run.u) else (None if run.u is None
+                                                     else uf(run.t_start)))

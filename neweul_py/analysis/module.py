@@ -173,6 +173,7 @@ class GeneratedModel:
     body_properties: Function | None = None
     node_positions: Function | None = None
     integrate_dopri5: Function | None = None
+    generalized_alpha_steps: Function | None = None
     # parameter derivatives (docs/sensitivity.md)
     default_inputs_parameter_jacobian: Function | None = None
     force_parameter_jacobian: Function | None = None
@@ -313,7 +314,8 @@ ModelLike = GeneratedModel | Any
 
 _OPTIONAL_FUNCTIONS = ("constraint_reaction_jacobian", "constraint_time_derivative", "energy",
                        "loss_matrix", "frame_poses", "body_properties", "node_positions",
-                       "integrate_dopri5", "default_inputs_parameter_jacobian",
+                       "integrate_dopri5", "generalized_alpha_steps",
+                       "default_inputs_parameter_jacobian",
                        "force_parameter_jacobian", "mass_matrix_parameter_derivative",
                        "rhs_parameter_jacobian", "output_parameter_jacobian",
                        "force_jacobians_directional", "mass_matrix_directional",

@@ -48,7 +48,7 @@ from .c_functions import (
 from .c_printer import DotRows
 from .c_solve import c_solver, constant_block
 from .c_splice import render_elastic_sources
-from .c_templates import C_DOPRI5, C_LU, C_SUPPORT_DECLARATIONS
+from .c_templates import C_DOPRI5, C_GALPHA, C_LU, C_SUPPORT_DECLARATIONS
 from .cse import Block
 from .writer import program_blocks
 
@@ -67,6 +67,22 @@ _MF_SIGNATURE = f"nw_mf({YYD_ARGS}, int full)"
 #: The cffi declaration of the binding of the data file's arrays (models with elastic bodies,
 #: :mod:`.c_splice`).
 BIND_DECLARATION = "int nw_bind(int count, const double *const *data, const long *sizes);\n"
+
+
+#: ``M`` and ``q − k`` in one evaluation, for the generalized-α loop (:data:`.C_GALPHA`).
+_MASS_FORCE = [
+    "static int nw_mass_force(double t, const double *y, const double *yd, const double *p,",
+    "                         const double *u, double *M, double *f)",
+    "{",
+    "    static double mf[NW_N * NW_N + NW_N];",
+    "    int code = nw_mf(t, y, yd, p, u, mf, 1);",
+    "    if (code) return code;",
+    "    memcpy(M, mf, NW_N * NW_N * sizeof(double));",
+    "    memcpy(f, mf + NW_N * NW_N, NW_N * sizeof(double));",
+    "    return 0;",
+    "}",
+    "",
+]
 
 
 def core_declarations() -> str:
@@ -205,7 +221,7 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
                        ("constraint_gamma", YYD_ARGS)):
         core += c_function(f"nw_{name}({args})",
                           c_body(g, blocks[name], "out", name.replace("_", " "), dots))
-    core += [C_LU, solve, C_DOPRI5]
+    core += [C_LU, solve, C_DOPRI5, *_MASS_FORCE, C_GALPHA]
 
     jac_head = _head(model_name, "Derivatives of the equations of motion", n, nu, [
         jacobian_declarations("loss_matrix" in blocks),

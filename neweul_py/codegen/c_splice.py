@@ -73,7 +73,7 @@ from .c_printer import DotRows
 from .c_splice_parameters import PARAMETER_C
 from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SPLICE_C
 from .c_splice_trace import SpliceTrace, trace_splice, traced_kernels
-from .c_templates import C_DOPRI5, C_LU
+from .c_templates import C_DOPRI5, C_GALPHA, C_LU
 from .c_trace import Graph
 from .cse import Block, eliminate
 from .elastic import symbolic_part
@@ -203,6 +203,17 @@ def _weights_lines(t: SpliceTrace, data: dict[str, int]) -> list[str]:
     return lines
 
 
+#: ``M`` and ``q − k`` in one evaluation, for the generalized-α loop (:data:`.C_GALPHA`).
+_MASS_FORCE = r"""
+static int nw_mass_force(double t, const double *y, const double *yd, const double *p,
+                         const double *u, double *M, double *f)
+{
+    if (!nw_bound) return 2;
+    return nw_dyn(t, y, yd, p, u, M, f);
+}
+"""
+
+
 def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple[str, ...],
              data: list[str], sizes: dict[str, int], symbolic_lines: list[str],
              jacobian: bool) -> str:
@@ -254,7 +265,7 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
         fixed = ("    nw_k_fixed(fy, fyd, fy, fyd);" if "nw_k_fixed" in which else "")
         text += [JACOBIAN_C.replace("NW_FIXED_JACOBIANS", fixed), PARAMETER_C]
     else:
-        text += [CORE_C, C_DOPRI5]
+        text += [CORE_C, C_DOPRI5, _MASS_FORCE, C_GALPHA]
     return "\n".join([*symbolic_lines, C_DOT, C_MIX, *text])
 
 

@@ -7,6 +7,10 @@ one shared library, no linking against anything but ``libm``).
   row-major ``n × n`` matrix, in place (Golub & Van Loan, *Matrix Computations*, Alg. 3.4.1);
   no symmetry assumed, so the unsymmetric mass matrices of two-sided elastic bodies are
   solved as well. A zero pivot returns 1 (singular matrix).
+* ``nw_integrate_galpha``: steps of the generalized-α method of
+  :mod:`neweul_py.analysis.generalized_alpha` (the driver there rebuilds the iteration
+  matrix ``S`` when the loop asks for it), Newton's method on the residual
+  ``M(y₊) ÿ₊ − (q − k)(t₊, y₊, ẏ₊)`` with the kept factors of ``S`` (:data:`C_GALPHA`).
 * ``nw_integrate_dopri5``: the explicit Runge–Kutta pair of Dormand & Prince, 5(4), with
   exactly the step-size control, initial step (Hairer, Nørsett & Wanner, *Solving ODEs I*,
   §II.4) and 4th-order dense output of ``scipy.integrate.RK45`` (SciPy 1.x, ``rk.py``), so that
@@ -16,7 +20,7 @@ one shared library, no linking against anything but ``libm``).
 
 from __future__ import annotations
 
-__all__ = ["C_DOPRI5", "C_DOPRI5_TABLEAU", "C_LU", "C_SUPPORT_DECLARATIONS"]
+__all__ = ["C_DOPRI5", "C_DOPRI5_TABLEAU", "C_GALPHA", "C_LU", "C_SUPPORT_DECLARATIONS"]
 
 #: Declarations (cffi ``cdef``) of the support functions.
 C_SUPPORT_DECLARATIONS = """
@@ -24,6 +28,11 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
                         const double *u, double rtol, double atol, double max_step,
                         int n_eval, const double *t_eval, double *x_eval,
                         long *nfev, double *t_reached);
+int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
+                        const double *cf, const double *p, const double *u, const double *S,
+                        double rtol, const double *atol, double *state, double *flags,
+                        int n_eval, const double *t_eval, double *x_eval, long *k_eval,
+                        long *nfev, long *done);
 """
 
 C_LU = r"""
@@ -252,3 +261,147 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
 
 #: The whole integrator: :data:`C_DOPRI5_TABLEAU` and the loop ``nw_integrate_dopri5``.
 C_DOPRI5 = C_DOPRI5_TABLEAU + _C_DOPRI5_LOOP
+
+
+#: Steps of the generalized-α method (:mod:`neweul_py.analysis.generalized_alpha`, whose
+#: module docstring gives the method, the stopping rule and the outputs) in C: the same
+#: predictor, Newton iteration, contraction test, rebuild protocol and cubic Hermite outputs,
+#: with Newton's method on the residual ``r = M(y₊) ÿ₊ − (q − k)(t₊, y₊, ẏ₊)`` and the kept
+#: LU factors of the iteration matrix ``S = M + c_v C_t + c_y K_t`` (Arnold & Brüls, Multibody
+#: Syst. Dyn. 18 (2007) 185–202, Eq. (14)): ``Δ = S⁻¹ r``, one evaluation of ``M`` and
+#: ``q − k`` (``nw_mass_force``) and no solve with ``M`` per iteration. The Python loop
+#: iterates on ``ÿ₊ − M⁻¹ (q − k)`` with ``S⁻¹ M`` of the rebuild; both are Newton's method
+#: with the same matrix at the rebuild and converge to the same step to the tolerance.
+#: ``cf``: ``h, c_y, c_v, ya, yy, va, vy, α_m, α_f`` (``GeneralizedAlpha``) and the stopping
+#: rule's iterations, contraction, round-off and small increment (the Python loop's
+#: constants, passed by its driver); ``state``:
+#: ``y, ẏ, ÿ, a`` (4n, in and out); ``flags``: ``θ``, fresh, retry (in and out); ``S``
+#: (n × n) factored on entry, or ``NULL`` to keep the factors. Returns 0 (steps ``first …
+#: last − 1`` done), 1 (Newton's method failed with an old matrix at step ``*done``: rebuild
+#: ``S`` at the predictor and call again with fresh and retry set), 2 (failed with a rebuilt
+#: matrix), 3 (``S`` singular) or 4 + the model's error code.
+C_GALPHA = r"""
+/* ---- generalized-alpha steps (codegen/c_templates.py, C_GALPHA) */
+static double nw_ga_lu[NW_N * NW_N + 1];
+static int nw_ga_piv[NW_N + 1];
+
+__attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double *z,
+    const double *x, const double *p, const double *u, double *r)
+{
+    static double M[NW_N * NW_N + 1], f[NW_N + 1];
+    int code = nw_mass_force(t, z, z + NW_N, p, u, M, f);
+    if (code) return code;
+    for (int i = 0; i < NW_N; ++i) {
+        const double *row = M + (long)i * NW_N;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        int j = 0;
+        for (; j + 4 <= NW_N; j += 4) {
+            s0 += row[j] * x[j]; s1 += row[j + 1] * x[j + 1];
+            s2 += row[j + 2] * x[j + 2]; s3 += row[j + 3] * x[j + 3];
+        }
+        for (; j < NW_N; ++j) s0 += row[j] * x[j];
+        r[i] = (s0 + s1) + (s2 + s3) - f[i];
+    }
+    return 0;
+}
+
+/* Newton's method of one step (analysis/generalized_alpha.py, _newton): 0 converged, 1 not */
+static int nw_ga_newton(double tn, const double *yh, const double *vh, const double *cf,
+                        const double *scale, const double *p, const double *u, double *x,
+                        double *theta, int fresh, long *nfev, int *code)
+{
+    const double cy = cf[1], cv = cf[2], slow = cf[10], round_off = cf[11], small = cf[12];
+    double z[2 * NW_N], r[NW_N], previous = INFINITY;
+    for (int k = 0; k < (int)cf[9]; ++k) {
+        for (int i = 0; i < NW_N; ++i) {
+            z[i] = yh[i] + cy * x[i];
+            z[NW_N + i] = vh[i] + cv * x[i];
+        }
+        ++*nfev;
+        if ((*code = nw_ga_residual(tn, z, x, p, u, r))) return 1;
+        nw_lu_solve(NW_N, nw_ga_lu, nw_ga_piv, 1, r);
+        double err = 0.0, dmax = 0.0, xmax = 0.0;
+        for (int i = 0; i < NW_N; ++i) {
+            x[i] -= r[i];
+            err = fmax(err, fabs(r[i]) * scale[i]);
+            dmax = fmax(dmax, fabs(r[i]));
+            xmax = fmax(xmax, fabs(x[i]));
+        }
+        if (!isfinite(err)) return 1;
+        if (k) {
+            *theta = err / previous;
+            if (*theta >= 1.0 || (*theta > slow && !fresh)) return 1;
+        }
+        if (((k || fresh) && *theta < 1.0 && *theta / (1.0 - *theta) * err <= 1.0)
+                || err <= small || dmax <= round_off * xmax)
+            return 0;
+        previous = err;
+    }
+    return 1;
+}
+
+static void nw_ga_hermite(double t0, double t1, const double *p0, const double *d0,
+                          const double *p1, const double *d1, double t, double *out)
+{
+    const double h = t1 - t0, s = (t - t0) / h;
+    const double h00 = 2 * s * s * s - 3 * s * s + 1, h10 = s * s * s - 2 * s * s + s;
+    const double h01 = -2 * s * s * s + 3 * s * s, h11 = s * s * s - s * s;
+    for (int i = 0; i < NW_N; ++i)
+        out[i] = h00 * p0[i] + h10 * h * d0[i] + h01 * p1[i] + h11 * h * d1[i];
+}
+
+int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
+                        const double *cf, const double *p, const double *u, const double *S,
+                        double rtol, const double *atol, double *state, double *flags,
+                        int n_eval, const double *t_eval, double *x_eval, long *k_eval,
+                        long *nfev, long *done)
+{
+    const double h = cf[0], cy = cf[1], cv = cf[2], ya = cf[3], yy = cf[4], va = cf[5],
+                 vy = cf[6], am = cf[7], af = cf[8];
+    double *y = state, *v = state + NW_N, *ydd = state + 2 * NW_N, *a = state + 3 * NW_N;
+    double yh[NW_N], vh[NW_N], x[NW_N], scale[NW_N], yn[NW_N], vn[NW_N];
+    double theta = flags[0];
+    int fresh = flags[1] != 0.0, retry = flags[2] != 0.0, code = 0;
+    long k = *k_eval;
+    *done = first;
+    if (S) {
+        memcpy(nw_ga_lu, S, NW_N * NW_N * sizeof(double));
+        if (nw_lu(NW_N, nw_ga_lu, nw_ga_piv)) return 3;
+    }
+    for (long i = first; i < last; ++i) {
+        const double t = t0 + i * h, tn = i + 1 < steps ? t0 + (i + 1) * h : t1;
+        for (int j = 0; j < NW_N; ++j) {
+            yh[j] = y[j] + h * v[j] + ya * a[j] + yy * ydd[j];
+            vh[j] = v[j] + va * a[j] + vy * ydd[j];
+            scale[j] = fmax(cy / (atol[j] + rtol * fabs(y[j])),
+                            cv / (atol[NW_N + j] + rtol * fabs(v[j])));
+        }
+        memcpy(x, ydd, sizeof x);
+        int failed = nw_ga_newton(tn, yh, vh, cf, scale, p, u, x, &theta, fresh, nfev, &code);
+        flags[0] = theta;
+        if (code) return 4 + code;
+        if (failed) {
+            flags[1] = 0.0;
+            return retry ? 2 : 1;
+        }
+        fresh = retry = 0;
+        for (int j = 0; j < NW_N; ++j) {
+            a[j] = ((1 - af) * x[j] + af * ydd[j] - am * a[j]) / (1 - am);
+            yn[j] = yh[j] + cy * x[j];
+            vn[j] = vh[j] + cv * x[j];
+        }
+        for (; k < n_eval && (i + 1 == steps || t_eval[k] <= tn); ++k) {
+            nw_ga_hermite(t, tn, y, v, yn, vn, t_eval[k], x_eval + k * NW_STATE_SIZE);
+            nw_ga_hermite(t, tn, v, ydd, vn, x, t_eval[k], x_eval + k * NW_STATE_SIZE + NW_N);
+        }
+        memcpy(y, yn, sizeof yn);
+        memcpy(v, vn, sizeof vn);
+        memcpy(ydd, x, sizeof x);
+        *done = i + 1;
+        *k_eval = k;
+    }
+    flags[1] = fresh;
+    flags[2] = retry;
+    return 0;
+}
+"""

@@ -405,3 +405,34 @@ else:
                 _inputs(u), float(rtol), float(atol), float(max_step), te.size,
                 _fb("double[]", te), _fb("double[]", x_eval), nfev, reached)
         return x_eval, int(nfev[0]), int(status), float(reached[0])
+
+    def generalized_alpha_steps(t0, t1, first, last, steps, coefficients, p, u, S, rtol, atol,
+                                state, flags, t_eval, x_eval, counters):
+        """Steps ``first … last − 1`` of the generalized-α method in C (``nw_integrate_galpha``,
+        driven by ``neweul_py.analysis.generalized_alpha``): ``state`` (y, ẏ, ÿ, a),
+        ``flags`` (θ, fresh, retry), ``x_eval`` and ``counters`` (the next output, rhs-like
+        evaluations, the steps done) are updated in place; ``S`` the new iteration matrix or
+        ``None`` (keep its factors); ``u``: ``None`` or constant inputs.
+
+        Returns
+        -------
+        int
+            0 done, 1 rebuild the matrix, 2 Newton's method failed with a rebuilt matrix,
+            3 singular matrix, 4 + the library's code of a failed evaluation.
+        """
+        k, nfev, done = (_ffi.new("long *", int(v)) for v in counters)
+        for arr, size in ((state, 4 * _N), (flags, 3), (x_eval, x_eval.size)):
+            if arr.dtype != _f8 or not arr.flags.c_contiguous or arr.size != size:
+                raise ValueError("state, flags and x_eval: contiguous float64 arrays")
+        te = _as(t_eval, dtype=_f8).reshape(-1)
+        if x_eval.size != te.size * _S:
+            raise ValueError("x_eval must hold one state per output time")
+        with _lock:
+            status = _lib.nw_integrate_galpha(
+                float(t0), float(t1), int(first), int(last), int(steps),
+                _arr(coefficients, 13, "coefficients"), _arr(p, _NP, "p"), _inputs(u),
+                _NULL if S is None else _arr(_np.reshape(S, -1), _N * _N, "S"), float(rtol),
+                _arr(atol, _S, "atol"), _fb("double[]", state), _fb("double[]", flags),
+                te.size, _fb("double[]", te), _fb("double[]", x_eval), k, nfev, done)
+        counters[:] = [int(k[0]), int(nfev[0]), int(done[0])]
+        return int(status)
