@@ -9,6 +9,7 @@ same numbers to round-off, derivatives through the schedule included.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import shutil
 import warnings
@@ -62,8 +63,10 @@ def bodies(tmp_path_factory) -> Path:
     return tmp
 
 
+@functools.cache
 def _pair(tmp: Path, frame: str, data: str, schedule: str, tag: str):
-    """The NumPy module and the compiled module of the description."""
+    """The NumPy module and the compiled module of the description (made once per test
+    session and arguments)."""
     (tmp / f"{tag}.yaml").write_text(DESCRIPTION.format(frame=frame, data=data,
                                                         schedule=schedule))
     eq = newton_euler(load_description(tmp / f"{tag}.yaml"))
@@ -262,12 +265,13 @@ outputs:
 def test_parametric_body_in_the_compiled_generalized_alpha_loop(bodies) -> None:
     """Generalized-α steps of a compiled parametric body in the module's C loop (residual
     form, the factors of the iteration matrix kept in C) against the NumPy module's Python
-    loop: a constant force moves the carrier, so the schedule ``cs + 2000 z + 5 F`` and the
-    mixed samples change at every step. Reference: the NumPy module, to the Newton tolerance
-    (rtol 1e-8) — the two loops iterate in different forms with the same matrix."""
+    loop: a constant force moves the carrier (the body's frame), so the schedule
+    ``cs + 2000 z + 5 F`` and the mixed samples change at every step. Reference: the NumPy
+    module, to the Newton tolerance (rtol 1e-8) — the two loops iterate in different forms
+    with the same matrix."""
     from neweul_py.analysis.simulate import simulate
 
-    mnp, mc = _pair(bodies, "ISYS", "duct_q.npz", "cs + 2000*z + 5*F", "galpha")
+    mnp, mc = _pair(bodies, "carrier", "duct_q.npz", "cs + 2000*z + 5*F", "carrier_duct_q")
     assert mc.generalized_alpha_steps is not None
     kw = {"method": "generalized-alpha", "h": 2e-5, "rho_inf": 0.8, "rtol": 1e-8,
           "atol": 1e-14, "n_out": 51, "u": {"F": 2.0}}
