@@ -239,12 +239,14 @@ def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: 
     coef = np.array([c.h, c.c_y, c.c_v, c._ya, c._yy, c._va, c._vy, c.alpha_m, c.alpha_f,
                      MAX_ITERATIONS, SLOW_CONTRACTION, ROUND_OFF, SMALL_INCREMENT])
     counters = np.array([k, prob.nfev, 0], dtype=np.int64)
+    work = np.zeros(n * n + 3 * n + 1)      # this run's factors of S (and the failing point)
     report = max(1, steps // 200)
     i = 0
     while i < steps:
         last = min(steps, (i // report + 1) * report)
         status = module.generalized_alpha_steps(t0, t1, i, last, steps, coef, p, u, S, rtol,
-                                                atol, state, flags, times, out, counters)
+                                                atol, state, flags, work, times, out,
+                                                counters)
         S, i = None, int(counters[2])
         tn = t0 + (i + 1) * c.h if i + 1 < steps else t1
         y, v, ydd_i, a = state.reshape(4, n)
@@ -261,10 +263,8 @@ def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: 
                 names=names)
         if status == 3:
             raise np.linalg.LinAlgError("Singular matrix")
-        if status:                       # the model's own error at the predictor
-            y_hat, v_hat = c.predict(y, v, a, ydd_i)
-            prob.acceleration(tn, np.concatenate((y_hat + c.c_y * ydd_i,
-                                                  v_hat + c.c_v * ydd_i)))
+        if status:                       # the model's own error where it failed
+            prob.acceleration(tn, work[n * n + n:n * n + 3 * n].copy())
             raise SolverError(f"generalized-alpha: the model failed at t = {tn:g} "
                               f"(code {status - 4})", last_iterate=state[:2 * n].copy(),
                               names=names)

@@ -31,8 +31,8 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
 int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
                         const double *cf, const double *p, const double *u, const double *S,
                         double rtol, const double *atol, double *state, double *flags,
-                        int n_eval, const double *t_eval, double *x_eval, long *k_eval,
-                        long *nfev, long *done);
+                        double *work, int n_eval, const double *t_eval, double *x_eval,
+                        long *k_eval, long *nfev, long *done);
 """
 
 C_LU = r"""
@@ -276,15 +276,15 @@ C_DOPRI5 = C_DOPRI5_TABLEAU + _C_DOPRI5_LOOP
 #: rule's iterations, contraction, round-off and small increment (the Python loop's
 #: constants, passed by its driver); ``state``:
 #: ``y, ẏ, ÿ, a`` (4n, in and out); ``flags``: ``θ``, fresh, retry (in and out); ``S``
-#: (n × n) factored on entry, or ``NULL`` to keep the factors. Returns 0 (steps ``first …
+#: (n × n) factored on entry into ``work`` (the caller's, ``n² + 3n + 1``: the factors, the
+#: pivots, the point where the model failed, whether ``S`` was finite — a matrix with a NaN
+#: makes the iterations fail, as in the Python loop), or ``NULL`` to keep the factors of
+#: ``work``. Returns 0 (steps ``first …
 #: last − 1`` done), 1 (Newton's method failed with an old matrix at step ``*done``: rebuild
 #: ``S`` at the predictor and call again with fresh and retry set), 2 (failed with a rebuilt
 #: matrix), 3 (``S`` singular) or 4 + the model's error code.
 C_GALPHA = r"""
 /* ---- generalized-alpha steps (codegen/c_templates.py, C_GALPHA) */
-static double nw_ga_lu[NW_N * NW_N + 1];
-static int nw_ga_piv[NW_N + 1];
-
 __attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double *z,
     const double *x, const double *p, const double *u, double *r)
 {
@@ -308,8 +308,11 @@ __attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double
 /* Newton's method of one step (analysis/generalized_alpha.py, _newton): 0 converged, 1 not */
 static int nw_ga_newton(double tn, const double *yh, const double *vh, const double *cf,
                         const double *scale, const double *p, const double *u, double *x,
-                        double *theta, int fresh, long *nfev, int *code)
+                        double *theta, int fresh, double *work, long *nfev, int *code)
 {
+    const double *lu = work;
+    const int *piv = (const int *)(work + NW_N * NW_N);
+    double *zfail = work + NW_N * NW_N + NW_N;
     const double cy = cf[1], cv = cf[2], slow = cf[10], round_off = cf[11], small = cf[12];
     double z[2 * NW_N], r[NW_N], previous = INFINITY;
     for (int k = 0; k < (int)cf[9]; ++k) {
@@ -318,8 +321,12 @@ static int nw_ga_newton(double tn, const double *yh, const double *vh, const dou
             z[NW_N + i] = vh[i] + cv * x[i];
         }
         ++*nfev;
-        if ((*code = nw_ga_residual(tn, z, x, p, u, r))) return 1;
-        nw_lu_solve(NW_N, nw_ga_lu, nw_ga_piv, 1, r);
+        if ((*code = nw_ga_residual(tn, z, x, p, u, r))) {
+            memcpy(zfail, z, sizeof z);                  /* where the model failed */
+            return 1;
+        }
+        if (work[NW_N * NW_N + 3 * NW_N] == 0.0) return 1;   /* S not finite: as NaN steps */
+        nw_lu_solve(NW_N, lu, piv, 1, r);
         double err = 0.0, dmax = 0.0, xmax = 0.0;
         for (int i = 0; i < NW_N; ++i) {
             x[i] -= r[i];
@@ -353,8 +360,8 @@ static void nw_ga_hermite(double t0, double t1, const double *p0, const double *
 int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
                         const double *cf, const double *p, const double *u, const double *S,
                         double rtol, const double *atol, double *state, double *flags,
-                        int n_eval, const double *t_eval, double *x_eval, long *k_eval,
-                        long *nfev, long *done)
+                        double *work, int n_eval, const double *t_eval, double *x_eval,
+                        long *k_eval, long *nfev, long *done)
 {
     const double h = cf[0], cy = cf[1], cv = cf[2], ya = cf[3], yy = cf[4], va = cf[5],
                  vy = cf[6], am = cf[7], af = cf[8];
@@ -364,9 +371,12 @@ int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
     int fresh = flags[1] != 0.0, retry = flags[2] != 0.0, code = 0;
     long k = *k_eval;
     *done = first;
-    if (S) {
-        memcpy(nw_ga_lu, S, NW_N * NW_N * sizeof(double));
-        if (nw_lu(NW_N, nw_ga_lu, nw_ga_piv)) return 3;
+    if (S) {                  /* the caller's work: the factors of S, a flag, the failing point */
+        int finite = 1;
+        for (long j = 0; j < (long)NW_N * NW_N; ++j) finite &= isfinite(S[j]) != 0;
+        work[NW_N * NW_N + 3 * NW_N] = finite;
+        memcpy(work, S, NW_N * NW_N * sizeof(double));
+        if (finite && nw_lu(NW_N, work, (int *)(work + NW_N * NW_N))) return 3;
     }
     for (long i = first; i < last; ++i) {
         const double t = t0 + i * h, tn = i + 1 < steps ? t0 + (i + 1) * h : t1;
@@ -377,14 +387,16 @@ int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
                             cv / (atol[NW_N + j] + rtol * fabs(v[j])));
         }
         memcpy(x, ydd, sizeof x);
-        int failed = nw_ga_newton(tn, yh, vh, cf, scale, p, u, x, &theta, fresh, nfev, &code);
+        int failed = nw_ga_newton(tn, yh, vh, cf, scale, p, u, x, &theta, fresh, work, nfev,
+                                  &code);
         flags[0] = theta;
         if (code) return 4 + code;
         if (failed) {
             flags[1] = 0.0;
             return retry ? 2 : 1;
         }
-        fresh = retry = 0;
+        fresh = retry;            /* the step after a rebuild keeps its fresh matrix */
+        retry = 0;
         for (int j = 0; j < NW_N; ++j) {
             a[j] = ((1 - af) * x[j] + af * ydd[j] - am * a[j]) / (1 - am);
             yn[j] = yh[j] + cy * x[j];

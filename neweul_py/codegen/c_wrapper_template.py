@@ -407,12 +407,13 @@ else:
         return x_eval, int(nfev[0]), int(status), float(reached[0])
 
     def generalized_alpha_steps(t0, t1, first, last, steps, coefficients, p, u, S, rtol, atol,
-                                state, flags, t_eval, x_eval, counters):
+                                state, flags, work, t_eval, x_eval, counters):
         """Steps ``first … last − 1`` of the generalized-α method in C (``nw_integrate_galpha``,
         driven by ``neweul_py.analysis.generalized_alpha``): ``state`` (y, ẏ, ÿ, a),
-        ``flags`` (θ, fresh, retry), ``x_eval`` and ``counters`` (the next output, rhs-like
-        evaluations, the steps done) are updated in place; ``S`` the new iteration matrix or
-        ``None`` (keep its factors); ``u``: ``None`` or constant inputs.
+        ``flags`` (θ, fresh, retry), ``work`` (the run's: the factors of ``S``, n² + 3n + 1),
+        ``x_eval`` and ``counters`` (the next output, rhs-like evaluations, the steps done)
+        are updated in place; ``S`` the new iteration matrix or ``None`` (keep its factors);
+        ``u``: ``None`` or constant inputs.
 
         Returns
         -------
@@ -421,9 +422,11 @@ else:
             3 singular matrix, 4 + the library's code of a failed evaluation.
         """
         k, nfev, done = (_ffi.new("long *", int(v)) for v in counters)
-        for arr, size in ((state, 4 * _N), (flags, 3), (x_eval, x_eval.size)):
+        for arr, size in ((state, 4 * _N), (flags, 3), (work, _N * _N + 3 * _N + 1),
+                          (x_eval, x_eval.size)):
             if arr.dtype != _f8 or not arr.flags.c_contiguous or arr.size != size:
-                raise ValueError("state, flags and x_eval: contiguous float64 arrays")
+                raise ValueError("state, flags, work and x_eval: contiguous float64 arrays of "
+                             "their sizes")
         te = _as(t_eval, dtype=_f8).reshape(-1)
         if x_eval.size != te.size * _S:
             raise ValueError("x_eval must hold one state per output time")
@@ -433,6 +436,7 @@ else:
                 _arr(coefficients, 13, "coefficients"), _arr(p, _NP, "p"), _inputs(u),
                 _NULL if S is None else _arr(_np.reshape(S, -1), _N * _N, "S"), float(rtol),
                 _arr(atol, _S, "atol"), _fb("double[]", state), _fb("double[]", flags),
-                te.size, _fb("double[]", te), _fb("double[]", x_eval), k, nfev, done)
+                _fb("double[]", work), te.size, _fb("double[]", te), _fb("double[]", x_eval),
+                k, nfev, done)
         counters[:] = [int(k[0]), int(nfev[0]), int(done[0])]
         return int(status)

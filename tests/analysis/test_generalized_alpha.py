@@ -285,13 +285,44 @@ def test_compiled_loop_takes_the_python_loops_steps_on_the_oscillator(tmp_path) 
 def test_compiled_loop_with_time_varying_stiffness(tmp_path) -> None:
     """The stiff spring of ``test_time_varying_stiffness_with_a_reused_iteration_matrix`` in
     the C loop: bounded, ``z1`` the oscillator ``cos(√2 t)`` to the method's error (the same
-    reference and bounds), and within the Newton tolerance of the Python loop (the two
-    iterate with the rebuilt matrix in two forms that differ once the stiffness moved)."""
-    mnp, mod = _compiled(STIFF_SOFT, tmp_path)
-    kw = {"method": "generalized-alpha", "h": 1e-2, "rho_inf": 0.5, "rtol": 1e-6,
-          "atol": 1e-8, "n_out": 31}
-    ga = simulate(mod, 3.0, **kw)
+    reference and bounds). The mass matrix is constant, so the C loop must be the Python
+    loop's iteration on the same module, its rebuilds of the matrix included (a rebuilt
+    matrix is fresh for the step after the retry too): the same evaluations and the same
+    states to round-off."""
+    from neweul_py.analysis.generalized_alpha import integrate_generalized_alpha
+
+    _mnp, mod = _compiled(STIFF_SOFT, tmp_path)
+    ga = simulate(mod, 3.0, method="generalized-alpha", h=1e-2, rho_inf=0.5, rtol=1e-6,
+                  atol=1e-8, n_out=31)
     assert np.abs(ga.y[:, 1]).max() < 1e-5
     assert np.abs(ga.y[:, 0] - np.cos(np.sqrt(2.0) * ga.t)).max() < 2e-3
-    ref = simulate(mnp, 3.0, **kw)
-    assert np.abs(ga.y[:, 0] - ref.y[:, 0]).max() < 1e-4
+    p, x0 = mod.default_parameters(), np.asarray(mod.INITIAL_STATE, dtype=float)
+    times = np.linspace(0.0, 3.0, 31)
+    kw = {"h": 1e-2, "rho_inf": 0.5, "rtol": 1e-6, "atol": 1e-8, "names": list("abcd")}
+    py = integrate_generalized_alpha(mod, (0.0, 3.0), x0, p, lambda t: None, times, **kw)
+    c = integrate_generalized_alpha(mod, (0.0, 3.0), x0, p, lambda t: None, times,
+                                    loop_inputs=None, **kw)
+    assert c.njev == py.njev > 5 and c.nfev == py.nfev
+    np.testing.assert_allclose(c.y, py.y, rtol=0, atol=1e-12)
+
+
+def test_compiled_loop_starts_from_a_jacobian_with_nan(tmp_path) -> None:
+    """A damper ``c √(z² + ż²)`` from rest: its derivatives are 0/0 at the start, so the
+    first iteration matrix holds NaN. The Python loop's increments are then NaN, its
+    iterations fail and it rebuilds the matrix at the predictor; the C loop must do the
+    same instead of reporting a singular matrix (reference: the Python loop on the same
+    module, to round-off)."""
+    from neweul_py.analysis.generalized_alpha import integrate_generalized_alpha
+
+    text = OSCILLATOR.replace("z: {initial: 1.1, velocity: 0.0}",
+                              "z: {initial: 0.0, velocity: 0.0}").replace(
+        "value: -k*(z - 1) - c*d_z", "value: -k*z - c*sqrt(z**2 + d_z**2) + 1")
+    _mnp, mod = _compiled(text, tmp_path)
+    p, x0 = mod.default_parameters(), np.zeros(2)
+    times = np.linspace(0.0, 0.5, 11)
+    kw = {"h": 1e-2, "rho_inf": 0.5, "rtol": 1e-8, "atol": 1e-10, "names": ["z", "d_z"]}
+    py = integrate_generalized_alpha(mod, (0.0, 0.5), x0, p, lambda t: None, times, **kw)
+    c = integrate_generalized_alpha(mod, (0.0, 0.5), x0, p, lambda t: None, times,
+                                    loop_inputs=None, **kw)
+    assert np.all(np.isfinite(c.y)) and c.y[0, -1] > 0
+    np.testing.assert_allclose(c.y, py.y, rtol=0, atol=1e-12)

@@ -281,3 +281,29 @@ def test_parametric_body_in_the_compiled_generalized_alpha_loop(bodies) -> None:
     got = c.outputs[:, list(c.output_names).index("piston")]
     assert np.abs(z).max() > 0
     assert np.abs(got - z).max() <= 1e-7 * np.abs(z).max()
+
+
+@pytest.mark.slow
+def test_compiled_loop_leaving_the_samples_gives_the_numpy_modules_error(bodies,
+                                                                         tmp_path) -> None:
+    """A force ``A t²`` drives the schedule ``cs + 2000 z`` out of the samples during a
+    step, at a later Newton iterate than the first: the C loop's driver evaluates the model
+    where it failed, so ``simulate`` reports the NumPy module's error, naming the body and
+    the range (reference: that message)."""
+    from neweul_py.analysis.simulate import simulate
+
+    text = DESCRIPTION.replace("inputs: {{F: 0}}", "inputs: {{F: 'A*t*t'}}").replace(
+        "parameters: {{cs: 343.0,", "parameters: {{A: 3.98e6, cs: 343.0,")
+    path = tmp_path / "ramp.yaml"
+    path.write_text(text.format(frame="carrier", data=bodies / "duct_q.npz",
+                                schedule="cs + 2000*z"))
+    eq = newton_euler(load_description(path))
+    npath = generate_module(eq, "h", tmp_path / "gen" / "scheduled_duct.py")
+    mc = load_generated(write_c_module(eq, npath))
+    assert mc.generalized_alpha_steps is not None
+    kw = {"method": "generalized-alpha", "h": 2e-4, "rho_inf": 0.8, "rtol": 1e-8,
+          "atol": 1e-14, "n_out": 11}
+    for mod in (load_generated(npath), mc):
+        with pytest.raises(NeweulError, match=r"elastic body 'duct': schedule value 390\.00"
+                                              r".* outside the sampled range \[300\.0, 390\.0\]"):
+            simulate(mod, 8e-3, **kw)
