@@ -93,10 +93,10 @@ def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
     """The skeleton and the arrays the C library is traced on and bound to: the data file's
     arrays, and for every mixing form its compact members as the compact mixing reads them
     (:data:`~.c_kernel.C_MIX`): its base, base rows and varying columns as stored, and,
-    under keys of the form's
-    path in the skeleton, its stack's first row ``_row0…`` and its index tables as float64
-    ``_index…``, ``_mirror…`` (:func:`derived_array`; the data file stores equal arrays once,
-    so two bodies may share a member but not a derived array). Also ``derived key → (kind,
+    under keys of the form's path in the skeleton, its stack's first row ``_row0…`` and its
+    index tables as float64 ``_index…``, ``_mirror…`` (:func:`derived_array`; the data file
+    stores equal arrays once, so two bodies may share a member but not a derived array).
+    Also ``derived key → (kind,
     the keys of its members)`` (what the wrapper derives when it binds) and every form's
     stack in full under ``_stack…`` (at generation only: its constant columns, the
     structure of its node maps; never bound)."""
