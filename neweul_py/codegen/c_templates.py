@@ -328,13 +328,15 @@ static int nw_ga_newton(double tn, const double *yh, const double *vh, const dou
         if (work[NW_N * NW_N + 3 * NW_N] == 0.0) return 1;   /* S not finite: as NaN steps */
         nw_lu_solve(NW_N, lu, piv, 1, r);
         double err = 0.0, dmax = 0.0, xmax = 0.0;
+        int finite = 1;                  /* fmax drops a NaN: the increments checked apart */
         for (int i = 0; i < NW_N; ++i) {
             x[i] -= r[i];
+            finite &= isfinite(r[i]) != 0;
             err = fmax(err, fabs(r[i]) * scale[i]);
             dmax = fmax(dmax, fabs(r[i]));
             xmax = fmax(xmax, fabs(x[i]));
         }
-        if (!isfinite(err)) return 1;
+        if (!finite || !isfinite(err)) return 1;
         if (k) {
             *theta = err / previous;
             if (*theta >= 1.0 || (*theta > slow && !fresh)) return 1;

@@ -326,3 +326,26 @@ def test_compiled_loop_starts_from_a_jacobian_with_nan(tmp_path) -> None:
                                     loop_inputs=None, **kw)
     assert np.all(np.isfinite(c.y)) and c.y[0, -1] > 0
     np.testing.assert_allclose(c.y, py.y, rtol=0, atol=1e-12)
+
+
+def test_compiled_loop_refuses_a_force_that_is_not_a_number(tmp_path) -> None:
+    """A force ``√(1.2 − z)`` with the mass moving up from ``z = 1.19``: finite where the run
+    starts (and so is the iteration matrix), NaN in the compiled module's C once an iterate
+    passes ``z = 1.2``. The Python loop's increments are then NaN, its Newton iterations fail
+    and the run ends with a SolverError; the C loop must end the same way instead of
+    accepting NaN states (the largest of its increments by ``fmax`` would drop a NaN).
+    Reference: the Python loop on the same module."""
+    from neweul_py.analysis.generalized_alpha import integrate_generalized_alpha
+    from neweul_py.errors import SolverError as _SolverError
+
+    text = OSCILLATOR.replace("value: -k*(z - 1) - c*d_z",
+                              "value: -k*(z - 1) - c*d_z + sqrt(1.2 - z)").replace(
+        "z: {initial: 1.1, velocity: 0.0}", "z: {initial: 1.19, velocity: 1.0}")
+    _mnp, mod = _compiled(text, tmp_path)
+    p, x0 = mod.default_parameters(), np.asarray(mod.INITIAL_STATE, dtype=float)
+    times = np.linspace(0.0, 0.1, 3)
+    kw = {"h": 1e-2, "rho_inf": 0.5, "rtol": 1e-6, "atol": 1e-8, "names": ["z", "d_z"]}
+    for loop in ({}, {"loop_inputs": None}):
+        with pytest.raises(_SolverError, match="does not converge"):
+            integrate_generalized_alpha(mod, (0.0, 0.1), x0, p, lambda t: None, times,
+                                        **loop, **kw)
