@@ -144,7 +144,7 @@ def test_parametric_body_in_c_equals_the_numpy_module(bodies, frame: str, data: 
 def test_schedule_outside_the_samples_gives_the_numpy_modules_error(bodies) -> None:
     """``cs = 500`` outside [300, 390]: the compiled module raises the NumPy module's
     ValueError naming the body, the value and the range (reference: that message)."""
-    mnp, mc = _pair(bodies, "ISYS", "duct.npz", "cs", "range")
+    mnp, mc = _pair(bodies, "ISYS", "duct.npz", "cs + 2000*z + 5*F", "ISYS_duct")
     p = mnp.default_parameters()
     p[list(mnp.PARAMETERS).index("cs")] = 500.0
     x = np.zeros(mnp.STATE_SIZE)
