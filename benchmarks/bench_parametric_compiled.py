@@ -125,16 +125,20 @@ def _generate(directory: Path) -> tuple[Path, Path, float, float]:
     return npath, wrapper, t1 - t0, t2 - t1
 
 
-_IMPORT = """
-import time
-t0 = time.perf_counter()
+#: A fresh process: import the module at ``{path}`` and evaluate one rhs.
+_LOAD = """
 import importlib.util, numpy as np
 spec = importlib.util.spec_from_file_location("m", {path!r})
 m = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(m)
 m.rhs(0.0, np.zeros(m.STATE_SIZE), m.default_parameters())
-print(time.perf_counter() - t0)
 """
+_IMPORT = ("import time\nt0 = time.perf_counter()\n" + _LOAD
+           + "print(time.perf_counter() - t0)\n")
+#: Linux's ``VmHWM``: the process's own peak, where ``ru_maxrss`` keeps the parent's across
+#: ``fork`` and ``exec``.
+_PEAK = (_LOAD + 'print(next(line.split()[1] for line in open("/proc/self/status") '
+         'if line.startswith("VmHWM")))\n')
 
 
 def import_first_rhs(path: Path, bytecode: bool) -> float:
@@ -153,6 +157,14 @@ def import_first_rhs(path: Path, bytecode: bool) -> float:
                              capture_output=True, text=True, check=True, env=env)
         times.append(float(out.stdout.split()[-1]))
     return float(np.median(times[1:] if bytecode else times))
+
+
+def peak_memory(path: Path) -> float:
+    """Peak resident memory [MB] of a fresh process that imports the module and evaluates
+    one rhs (:data:`_PEAK`)."""
+    out = subprocess.run([sys.executable, "-c", _PEAK.format(path=str(path))],
+                         capture_output=True, text=True, check=True)
+    return float(out.stdout.split()[-1]) / 1024
 
 
 def _per_call(fn, repeat: int = 5) -> float:

@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples" / "middle_ear"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_parametric_compiled import import_first_rhs  # noqa: E402
+from bench_parametric_compiled import import_first_rhs, peak_memory  # noqa: E402
 
 
 def _modules(data: Path, out: Path):
@@ -67,25 +67,6 @@ def _modules(data: Path, out: Path):
     subprocess.run([sys.executable, "-c", f"import runpy; runpy.run_path({str(wrapper)!r})"],
                    check=True)
     return load_generated(npath), load_generated(wrapper), npath, wrapper, t1 - t0, t2 - t1
-
-
-_PEAK = """
-import importlib.util, numpy as np
-spec = importlib.util.spec_from_file_location("m", {path!r})
-m = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(m)
-m.rhs(0.0, np.zeros(m.STATE_SIZE), m.default_parameters())
-print(next(line.split()[1] for line in open("/proc/self/status") if line.startswith("VmHWM")))
-"""
-
-
-def peak_memory(path: Path) -> float:
-    """Peak resident memory [MB] of a fresh process that imports the module and evaluates
-    one rhs (Linux's ``VmHWM``: the process's own, where ``ru_maxrss`` would keep the
-    parent's across ``fork`` and ``exec``)."""
-    out = subprocess.run([sys.executable, "-c", _PEAK.format(path=str(path))],
-                         capture_output=True, text=True, check=True)
-    return float(out.stdout.split()[-1]) / 1024
 
 
 def _per_call(fn) -> float:
