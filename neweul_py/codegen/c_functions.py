@@ -50,14 +50,16 @@ def uses(block: Block, group: Sequence[sp.Symbol]) -> bool:
 
 
 def c_body(g: SymbolGroups, block: Block, target: str, what: str,
-          dots: DotRows | None = None, optional: frozenset[int] = frozenset()) -> list[str]:
+          dots: DotRows | None = None, optional: frozenset[int] = frozenset(),
+          zeroed: bool = False) -> list[str]:
     """Statements computing ``block``: locals ``w<k>`` (those the finals read, directly or
     through other locals), then ``target[i] = final_i``
     (zeros by ``memset``; repeated finals — symmetric mass entries — computed once); long
     linear combinations of ``y``, ``yd``, ``a`` as rows of ``dots``, one product per array
     at the top (:meth:`.c_printer.DotRows.batch`). The finals ``optional`` are written only
     ``if (full)`` (a flag of the function: the constant block that the block elimination of
-    ``rhs`` never reads, :mod:`.c_solve`)."""
+    ``rhs`` never reads, :mod:`.c_solve`). ``zeroed``: the zero finals are zero on entry (a
+    static buffer that only this function writes, zero from the load on), so no ``memset``."""
     names = dict(g.names)
     assignments, finals = block.assignments, block.finals
     for k, (s, _) in enumerate(assignments):
@@ -73,7 +75,7 @@ def c_body(g: SymbolGroups, block: Block, target: str, what: str,
             printed.append((s, f"const double w{k} = {pr.doprint_expr(e)};", pr.used))
         pr.used = set()
         finals_at = len(lines)
-        if any(f == 0 for f in finals):
+        if not zeroed and any(f == 0 for f in finals):
             lines.append(f"memset({target}, 0, {len(finals)} * sizeof(double));")
         constant = constant_runs(finals)
         for i, run in constant.items():

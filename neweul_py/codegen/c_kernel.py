@@ -109,14 +109,19 @@ __attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
 #: ``mirror[q] − i0`` from ``mirror[m + q] − i0``; the index tables are bound float64 arrays.
 #: The caller sets ``(x·r) base`` first (the entries that do not vary).
 C_MIX = r"""
-/* ---- the compact mixing of a parametric body's samples (codegen/c_kernel.py, C_MIX) */
+/* ---- the compact mixing of a parametric body's samples (codegen/c_kernel.py, C_MIX);
+   columns by blocks of NW_MIXB, so that the mixed block is scattered while in cache */
+#define NW_MIXB 512
 __attribute__((optimize("O3"))) static void nw_mix(int k, const double *restrict x,
     const double *restrict V, long nv, long lo, long hi, const double *restrict index,
-    const double *restrict mirror, long m, long mlo, long mhi, long i0,
-    double *restrict out, double *restrict tmp)
+    const double *restrict mirror, long m, long mlo, long mhi, long i0, double *restrict out)
 {
-    nw_vecmat(k, (int)(hi - lo), x, 1, V + lo, nv, 1, tmp);
-    for (long c = lo; c < hi; ++c) out[(long)index[c] - i0] = tmp[c - lo];
+    double tmp[NW_MIXB];
+    for (long b = lo; b < hi; b += NW_MIXB) {
+        const long e = hi - b < NW_MIXB ? hi : b + NW_MIXB;
+        nw_vecmat(k, (int)(e - b), x, 1, V + b, nv, 1, tmp);
+        for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tmp[c - b];
+    }
     for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
 }
 
@@ -124,15 +129,16 @@ __attribute__((optimize("O3"))) static void nw_mix(int k, const double *restrict
 __attribute__((optimize("O3"))) static void nw_mixz(int k, const double complex *restrict x,
     const double *restrict V, long nv, long lo, long hi, const double *restrict index,
     const double *restrict mirror, long m, long mlo, long mhi, long i0,
-    double complex *restrict out, double *restrict tmp)
+    double complex *restrict out)
 {
-    double xr[NW_NW + 1], xi[NW_NW + 1];
-    const long n = hi - lo;
+    double xr[NW_NW + 1], xi[NW_NW + 1], tr[NW_MIXB], ti[NW_MIXB];
     for (int r = 0; r < k; ++r) { xr[r] = creal(x[r]); xi[r] = cimag(x[r]); }
-    nw_vecmat(k, (int)n, xr, 1, V + lo, nv, 1, tmp);
-    nw_vecmat(k, (int)n, xi, 1, V + lo, nv, 1, tmp + n);
-    for (long c = lo; c < hi; ++c)
-        out[(long)index[c] - i0] = tmp[c - lo] + tmp[n + c - lo] * I;
+    for (long b = lo; b < hi; b += NW_MIXB) {
+        const long e = hi - b < NW_MIXB ? hi : b + NW_MIXB;
+        nw_vecmat(k, (int)(e - b), xr, 1, V + b, nv, 1, tr);
+        nw_vecmat(k, (int)(e - b), xi, 1, V + b, nv, 1, ti);
+        for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tr[c - b] + ti[c - b] * I;
+    }
     for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
 }
 """
@@ -556,8 +562,7 @@ class KernelPrinter:
         x, rows, base, V, index, mirror = n.args
         i0, lo, hi, mlo, mhi = n.params
         ctype = self._ctype(n)
-        self.static += [f"static {ctype} {out}_s = NAN;", f"static long {out}_bound = -1;",
-                        f"static double {out}_tmp[{max(2 * (hi - lo), 1)}];"]
+        self.static += [f"static {ctype} {out}_s = NAN;", f"static long {out}_bound = -1;"]
         ptr = {}
         for name, a in (("x", x), ("rows", rows), ("base", base), ("V", V),
                         ("index", index), ("mirror", mirror)):
@@ -576,7 +581,7 @@ class KernelPrinter:
                 "        }", "    }",
                 f"    {call}({x.shape[0]}, {ptr['x']}, {ptr['V']}, {V.shape[1]}, {lo}, {hi}, "
                 f"{ptr['index']}, {ptr['mirror']}, {mirror.size // 2}, {mlo}, {mhi}, {i0}, "
-                f"{out}, {out}_tmp);"]
+                f"{out});"]
 
     def _dot(self, n: Node, out: str, local: dict[int, str]) -> list[str]:
         a, b = n.args

@@ -175,7 +175,9 @@ def _symbolic_functions(symbolic: Any, blocks: dict[str, Block], which: tuple[st
         if name not in which:
             continue
         block = blocks.get(name, Block((), ()))
-        body = c_body(g, block, "out", what, dots)
+        # rhs_parts' one caller, nw_dyn, passes a static buffer that only it writes and
+        # nothing writes back into: its zero finals stay zero (no memset of NS² doubles)
+        body = c_body(g, block, "out", what, dots, zeroed=name == "rhs_parts")
         lines += c_function(f"nw_s_{name}({_S_ARGS[args]})", body, big(block), static=True)
     return lines
 
@@ -246,7 +248,9 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
                             direct=name == "nw_k_dyn")
     sv, sw = pr.pointer(t.real["SV"]), pr.pointer(t.real["SW"])
     sv0 = f"nw_D[{index['_splice/SV']}]"
-    macros = [f"#define NW_SV {sv}", f"#define NW_SW {sw}", f"#define NW_SV0 {sv0}"]
+    sv_sigma = int(pr.level[t.real["SV"].node.id] > 0)     # S_V(σ) mixed with the weights
+    macros = [f"#define NW_SV {sv}", f"#define NW_SW {sw}", f"#define NW_SV0 {sv0}",
+              f"#define NW_SV_SIGMA {sv_sigma}"]
     if t.parametric:
         offs = np.cumsum([0, *(p["cols"] for p in t.parametric)])
         body.insert(0, f"static const int nw_woff[NW_NPB + 1] = "

@@ -24,7 +24,7 @@ static int nw_psens(double t, const double *y, const double *p, const double *u,
 #if NW_NPB && NW_NP
     double ys0[NW_NS + 1];
     int any = 0;
-    nw_gemv(NW_NS, NW_N, NW_SV0, NW_N, 1, y, 1, ys0);
+    nw_smap(1, y, ys0);
     nw_s_schedule_parameter_jacobian(t, ys0, p, u, Sp);
     for (int i = 0; i < NW_NPB * NW_NP; ++i) any |= Sp[i] != 0.0;
     return any;
@@ -46,8 +46,8 @@ int nw_force_parameter_jacobian(double t, const double *y, const double *yd, con
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
     if (!NW_NP) return 0;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_smap(0, y, ys);
+    nw_smap(0, yd, yds);
     nw_s_force_parameter_jacobian(t, ys, yds, p, u, J);
     nw_gemm(NW_N, NW_NP, NW_NS, NW_SW, 1, NW_N, J, NW_NP, 1, out);
     nw_s_outputs(t, ys, yds, p, u, o);
@@ -89,8 +89,8 @@ int nw_mass_matrix_parameter_derivative(double t, const double *y, const double 
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
     if (!NW_NP) return 0;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, a, 1, as);
+    nw_smap(0, y, ys);
+    nw_smap(0, a, as);
     nw_s_mass_matrix_parameter_derivative(t, ys, p, as, u, mm);
     nw_gemm(NW_N, NW_NP, NW_NS, NW_SW, 1, NW_N, mm, NW_NP, 1, out);
 #if NW_MOVING
@@ -139,8 +139,8 @@ int nw_output_parameter_jacobian(double t, const double *x, const double *p, con
     if (!nw_bound) return 2;
     if (nw_at(t, x, p, u)) return 3;
     if (!NW_NP) return 0;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x + NW_N, 1, yds);
+    nw_smap(0, x, ys);
+    nw_smap(0, x + NW_N, yds);
     nw_s_output_parameter_jacobian(t, ys, yds, p, u, O);
     memcpy(out, O, NW_NY * NW_NP * sizeof(double));
 #if NW_NPB

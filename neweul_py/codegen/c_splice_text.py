@@ -52,13 +52,49 @@ static int nw_weights(double x, const double *b, const double *c, int nb, int nd
     return 0;
 }
 
+/* y_s = S_V x (which 0) or y_s(0) = S_V(0) x (which 1) along the nonzero span of each row:
+   the maps are unit rows but for the rows of the node coordinates (ffrf/splice.py). The
+   spans are found again when a map may have changed: S_V(0) at a binding, S_V with the
+   weights too when it depends on them (NW_SV_SIGMA) */
+static int nw_sp_lo[2][NW_NS + 1], nw_sp_hi[2][NW_NS + 1];
+static long nw_sp_at[2] = {-1, -1};
+__attribute__((optimize("O3"))) static void nw_smap(int which, const double *restrict x,
+                                                   double *restrict y)
+{
+    const double *A = which ? NW_SV0 : NW_SV;
+    const long at = (which || !NW_SV_SIGMA) ? nw_binds : nw_wversion;
+    int *lo = nw_sp_lo[which], *hi = nw_sp_hi[which];
+    if (nw_sp_at[which] != at) {
+        for (int i = 0; i < NW_NS; ++i) {
+            const double *a = A + (long)i * NW_N;
+            int l = 0, h = NW_N;
+            while (l < NW_N && a[l] == 0.0) ++l;
+            while (h > l && a[h - 1] == 0.0) --h;
+            lo[i] = l;
+            hi[i] = h;
+        }
+        nw_sp_at[which] = at;
+    }
+    for (int i = 0; i < NW_NS; ++i) {
+        const double *a = A + (long)i * NW_N;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        int j = lo[i];
+        for (; j + 4 <= hi[i]; j += 4) {
+            s0 += a[j] * x[j]; s1 += a[j + 1] * x[j + 1];
+            s2 += a[j + 2] * x[j + 2]; s3 += a[j + 3] * x[j + 3];
+        }
+        for (; j < hi[i]; ++j) s0 += a[j] * x[j];
+        y[i] = (s0 + s1) + (s2 + s3);
+    }
+}
+
 /* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at;
    the mixed samples are kept while the weights are unchanged); 3 outside the samples */
 static int nw_at(double t, const double *y, const double *p, const double *u)
 {
 #if NW_NPB
     double ys0[NW_NS + 1], sigma[NW_NPB], w[NW_NW], dw[NW_NW];
-    nw_gemv(NW_NS, NW_N, NW_SV0, NW_N, 1, y, 1, ys0);
+    nw_smap(1, y, ys0);
     nw_s_schedule(t, ys0, p, u, sigma);
 NW_WEIGHTS
     if (!nw_have_w || memcmp(w, nw_w, sizeof w)) {
@@ -78,11 +114,12 @@ NW_WEIGHTS
 static int nw_dyn(double t, const double *y, const double *yd, const double *p,
                   const double *u, double *M, double *f)
 {
+    /* zero at load; nw_s_rhs_parts writes its nonzero entries only (c_splice.py) */
     static double parts[NW_NH + NW_NS * NW_NS + NW_NS + 1];
     double ys[NW_NS + 1], yds[NW_NS + 1];
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_smap(0, y, ys);
+    nw_smap(0, yd, yds);
     nw_s_rhs_parts(t, ys, yds, p, u, parts);
     nw_k_dyn(parts, y, yd, parts + NW_NH, parts + NW_NH + NW_NS * NW_NS, M, f);
     return 0;
@@ -97,7 +134,7 @@ static int nw_sens(double t, const double *y, const double *p, const double *u, 
     double ys0[NW_NS + 1], J[NW_NPB * (NW_NS + NW_NU) + 1];
     int any = 0;
     memset(J, 0, sizeof J);
-    nw_gemv(NW_NS, NW_N, NW_SV0, NW_N, 1, y, 1, ys0);
+    nw_smap(1, y, ys0);
     nw_s_schedule_jacobians(t, ys0, p, u, J);
     for (int i = 0; i < NW_NPB * (NW_NS + NW_NU); ++i) any |= J[i] != 0.0;
     nw_gemm(NW_NPB, NW_N, NW_NS, J, NW_NS, 1, NW_SV0, NW_N, 1, Sy);
@@ -304,8 +341,8 @@ int nw_outputs(double t, const double *x, const double *p, const double *u, doub
     double ys[NW_NS + 1], yds[NW_NS + 1], o[NW_NY + NW_NH + 1];
     if (!nw_bound) return 2;
     if (nw_at(t, x, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x + NW_N, 1, yds);
+    nw_smap(0, x, ys);
+    nw_smap(0, x + NW_N, yds);
     nw_s_outputs(t, ys, yds, p, u, o);
     memcpy(out, o, NW_NY * sizeof(double));
     return 0;
@@ -316,7 +353,7 @@ int nw_constraints(double t, const double *y, const double *p, const double *u, 
     double ys[NW_NS + 1];
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_smap(0, y, ys);
     return nw_s_constraints(t, ys, p, u, out);
 }
 
@@ -326,7 +363,7 @@ int nw_constraint_time_derivative(double t, const double *y, const double *p, co
     double ys[NW_NS + 1];
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_smap(0, y, ys);
     return nw_s_constraint_time_derivative(t, ys, p, u, out);
 }
 
@@ -336,8 +373,8 @@ int nw_constraint_gamma(double t, const double *y, const double *yd, const doubl
     double ys[NW_NS + 1], yds[NW_NS + 1];
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_smap(0, y, ys);
+    nw_smap(0, yd, yds);
     return nw_s_constraint_gamma(t, ys, yds, p, u, out);
 }
 
@@ -350,7 +387,7 @@ int nw_constraint_jacobian(double t, const double *y, const double *p, const dou
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
+    nw_smap(0, y, ys);
     nw_s_constraint_jacobian(t, ys, p, u, Gs);
     nw_gemm(NW_NC, NW_N, NW_NS, Gs, NW_NS, 1, NW_SV, NW_N, 1, out);
 #if NW_NPB
@@ -409,8 +446,8 @@ static void nw_sigma_terms(double t, const double *y, const double *yd, const do
     static double complex kinc[NW_NH + 1], fsc[NW_NS + 1], f[NW_N + 1];
     double ys[NW_NS + 1], yds[NW_NS + 1], as[NW_NS + 1], dys[NW_NS + 1], dyds[NW_NS + 1];
     double dk[NW_NH + 1], v[NW_NS + 1], mmd[NW_NS + 1];
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_smap(0, y, ys);
+    nw_smap(0, yd, yds);
     nw_s_output_jacobians(t, ys, yds, p, u, C);
     nw_s_outputs(t, ys, yds, p, u, o);
     const double *Cs = C + NW_NY * NW_NX, *kin = o + NW_NY;
@@ -418,7 +455,7 @@ static void nw_sigma_terms(double t, const double *y, const double *yd, const do
         nw_s_force_vector(t, ys, yds, p, u, fs);
         nw_s_force_jacobians(t, ys, yds, p, u, J);
     } else {
-        nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, a, 1, as);
+        nw_smap(0, a, as);
         nw_s_mass_matrix(t, ys, p, u, Ms);
         nw_s_mass_matrix_times_derivative(t, ys, p, as, u, mm);
     }
@@ -469,8 +506,8 @@ int nw_force_jacobians(double t, const double *y, const double *yd, const double
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, yd, 1, yds);
+    nw_smap(0, y, ys);
+    nw_smap(0, yd, yds);
     nw_s_force_jacobians(t, ys, yds, p, u, J);
     nw_sandwich(J, NW_NX, fy);
     nw_sandwich(J + NW_NS, NW_NX, fyd);
@@ -529,8 +566,8 @@ int nw_mass_matrix_times_derivative(double t, const double *y, const double *p,
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
     if (nw_at(t, y, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, y, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, a, 1, as);
+    nw_smap(0, y, ys);
+    nw_smap(0, a, as);
     nw_s_mass_matrix_times_derivative(t, ys, p, as, u, mm);
     nw_sandwich(mm, NW_NS, out);
 #if NW_MOVING
@@ -597,8 +634,8 @@ int nw_output_jacobians(double t, const double *x, const double *p, const double
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
     if (nw_at(t, x, p, u)) return 3;
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x, 1, ys);
-    nw_gemv(NW_NS, NW_N, NW_SV, NW_N, 1, x + NW_N, 1, yds);
+    nw_smap(0, x, ys);
+    nw_smap(0, x + NW_N, yds);
     nw_s_output_jacobians(t, ys, yds, p, u, C);
     nw_gemm(NW_NY, NW_N, NW_NS, C, NW_NX, 1, NW_SV, NW_N, 1, Cy);
     nw_gemm(NW_NY, NW_N, NW_NS, C + NW_NS, NW_NX, 1, NW_SV, NW_N, 1, Cyd);
