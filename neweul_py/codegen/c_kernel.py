@@ -15,12 +15,13 @@ values. :class:`KernelPrinter` turns chosen outputs of it into C functions:
   generation); no view is copied. An assignment into a part of an array writes into the
   array's buffer when nothing else reads the array afterwards, else into a copy.
 * **Operations.** Elementwise operations with NumPy's broadcasting; ``numpy.dot`` of
-  matrices and vectors through the fixed helpers of :data:`C_DOT` (four partial sums, the
-  zero entries of a vector of weights skipped: mixing a parametric body's samples reads only
-  the rows of the samples next to ``σ``), other products as loops; concatenations, fancy
-  indexing (index tables are structure and printed), assignments; the compact mixing of a
-  parametric body's samples (op ``"mix"``, :data:`C_MIX`: its index tables are data, bound
-  and read through ``nw_D[k]``, not printed). Complex values
+  matrices and vectors through the fixed helpers of :data:`.c_kernel_text.C_DOT` (four
+  partial sums, the zero entries of a vector of weights skipped: mixing a parametric body's
+  samples reads only the rows of the samples next to ``σ``), other products as loops;
+  concatenations, fancy indexing (index tables are structure and printed), assignments; the
+  compact mixing of a parametric body's samples (op ``"mix"``,
+  :data:`.c_kernel_text.C_MIX`: its index tables are data, bound and read through
+  ``nw_D[k]``, not printed). Complex values
   (``double complex`` of C99) are what the complex-step derivatives of the kernel need.
 
 Structural constants of the kernel (the maps of ``ffrf_rigid_map``, zeros, unit matrices)
@@ -36,112 +37,7 @@ import numpy as np
 from ..errors import GenerationError
 from .c_trace import Graph, Node, TArray
 
-__all__ = ["C_DOT", "C_MIX", "KernelPrinter"]
-
-#: Products of the printed kernels (real operands; the strides are in elements).
-C_DOT = r"""
-/* ---- products of the traced kernel (codegen/c_kernel.py): y = A x, y = x B, C = A B with
-   strides; four partial sums; a zero entry of x (weights of mixed samples) and a zero row of
-   A are skipped */
-__attribute__((optimize("O3"))) static void nw_gemv(int m, int k, const double *restrict A,
-    long sa, long sk, const double *restrict x, long sx, double *restrict y)
-{
-    for (int i = 0; i < m; ++i) {
-        const double *a = A + i * sa;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        int j = 0;
-        if (sk == 1 && sx == 1) {
-            for (; j + 4 <= k; j += 4) {
-                s0 += a[j] * x[j]; s1 += a[j + 1] * x[j + 1];
-                s2 += a[j + 2] * x[j + 2]; s3 += a[j + 3] * x[j + 3];
-            }
-            for (; j < k; ++j) s0 += a[j] * x[j];
-        } else {
-            for (; j < k; ++j) s0 += a[j * sk] * x[j * sx];
-        }
-        y[i] = (s0 + s1) + (s2 + s3);
-    }
-}
-
-__attribute__((optimize("O3"))) static void nw_vecmat(int k, int n, const double *restrict x,
-    long sx, const double *restrict B, long sb, long sn, double *restrict y)
-{
-    int nz[4], m = 0, i = 0;
-    for (int j = 0; j < n; ++j) y[j] = 0.0;
-    while (i < k) {             /* the nonzero rows four at a time: y is passed once per four */
-        for (m = 0; i < k && m < 4; ++i)
-            if (x[i * sx] != 0.0) nz[m++] = i;
-        if (m == 4 && sn == 1) {
-            const double x0 = x[nz[0] * sx], x1 = x[nz[1] * sx], x2 = x[nz[2] * sx],
-                         x3 = x[nz[3] * sx];
-            const double *b0 = B + nz[0] * sb, *b1 = B + nz[1] * sb, *b2 = B + nz[2] * sb,
-                         *b3 = B + nz[3] * sb;
-            for (int j = 0; j < n; ++j)
-                y[j] += (x0 * b0[j] + x1 * b1[j]) + (x2 * b2[j] + x3 * b3[j]);
-            continue;
-        }
-        for (int r = 0; r < m; ++r) {
-            const double xi = x[nz[r] * sx], *b = B + nz[r] * sb;
-            if (sn == 1) for (int j = 0; j < n; ++j) y[j] += xi * b[j];
-            else for (int j = 0; j < n; ++j) y[j] += xi * b[j * sn];
-        }
-    }
-}
-
-__attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
-    const double *restrict A, long sa, long sk, const double *restrict B, long sb, long sn,
-    double *restrict C)
-{
-    for (int i = 0; i < m; ++i) {      /* a zero row of A (S_W^T of rigid coordinates): zeros */
-        int nz = 0;
-        for (int j = 0; j < k && !nz; ++j) nz = A[i * sa + j * sk] != 0.0;
-        if (nz) nw_vecmat(k, n, A + i * sa, sk, B, sb, sn, C + i * n);
-        else memset(C + i * n, 0, (size_t)n * sizeof(double));
-    }
-}
-"""
-
-
-#: The compact mixing of a parametric body's samples (op ``"mix"`` of
-#: :class:`~.c_splice_trace.MixedColumns`; :func:`~neweul_py.ffrf.parametric.ffrf_mix`): the
-#: varying columns ``lo … hi − 1`` of ``V`` (k, nv) mixed by ``x`` (the zero weights
-#: skipped), set at their positions ``index[c] − i0`` of ``out``, then the mirrored entries
-#: ``mirror[q] − i0`` from ``mirror[m + q] − i0``; the index tables are bound float64 arrays.
-#: The caller sets ``(x·r) base`` first (the entries that do not vary).
-C_MIX = r"""
-/* ---- the compact mixing of a parametric body's samples (codegen/c_kernel.py, C_MIX);
-   columns by blocks of NW_MIXB, so that the mixed block is scattered while in cache */
-#define NW_MIXB 512
-__attribute__((optimize("O3"))) static void nw_mix(int k, const double *restrict x,
-    const double *restrict V, long nv, long lo, long hi, const double *restrict index,
-    const double *restrict mirror, long m, long mlo, long mhi, long i0, double *restrict out)
-{
-    double tmp[NW_MIXB];
-    for (long b = lo; b < hi; b += NW_MIXB) {
-        const long e = hi - b < NW_MIXB ? hi : b + NW_MIXB;
-        nw_vecmat(k, (int)(e - b), x, 1, V + b, nv, 1, tmp);
-        for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tmp[c - b];
-    }
-    for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
-}
-
-/* the same for complex weights (the complex step in sigma): real and imaginary parts */
-__attribute__((optimize("O3"))) static void nw_mixz(int k, const double complex *restrict x,
-    const double *restrict V, long nv, long lo, long hi, const double *restrict index,
-    const double *restrict mirror, long m, long mlo, long mhi, long i0,
-    double complex *restrict out)
-{
-    double xr[NW_NW + 1], xi[NW_NW + 1], tr[NW_MIXB], ti[NW_MIXB];
-    for (int r = 0; r < k; ++r) { xr[r] = creal(x[r]); xi[r] = cimag(x[r]); }
-    for (long b = lo; b < hi; b += NW_MIXB) {
-        const long e = hi - b < NW_MIXB ? hi : b + NW_MIXB;
-        nw_vecmat(k, (int)(e - b), xr, 1, V + b, nv, 1, tr);
-        nw_vecmat(k, (int)(e - b), xi, 1, V + b, nv, 1, ti);
-        for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tr[c - b] + ti[c - b] * I;
-    }
-    for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
-}
-"""
+__all__ = ["KernelPrinter"]
 
 #: The printed functions are loops over arrays: compiled with gcc's -O3 (vectorized; the
 #: libraries build with -O1, and other compilers ignore the attribute).
@@ -556,9 +452,10 @@ class KernelPrinter:
         return lines
 
     def _mix(self, n: Node, out: str, local: dict[int, str]) -> list[str]:
-        """A parametric body's entries ``i0 …`` mixed from its compact form (:data:`C_MIX`):
-        ``(x·r) base`` as :func:`~neweul_py.ffrf.parametric.ffrf_mix` (set again only when
-        ``x·r`` or the binding changed), then the varying and the mirrored entries."""
+        """A parametric body's entries ``i0 …`` mixed from its compact form
+        (:data:`.c_kernel_text.C_MIX`): ``(x·r) base`` as
+        :func:`~neweul_py.ffrf.parametric.ffrf_mix` (set again only when ``x·r`` or the
+        binding changed), then the varying and the mirrored entries."""
         x, rows, base, V, index, mirror = n.args
         i0, lo, hi, mlo, mhi = n.params
         ctype = self._ctype(n)

@@ -52,7 +52,7 @@ before it. A parametric body is bound in its compact form (:mod:`neweul_py.ffrf.
 its base and the columns that vary as the data file stores them, and what the wrapper
 derives from them once, when it binds (``_C_DERIVED``, :func:`.c_splice_trace.derived_array`):
 the first row of its samples and its index tables as float64. The C code mixes them as
-:func:`~neweul_py.ffrf.parametric.ffrf_mix` does (:data:`.c_kernel.C_MIX`), reading only the
+:func:`~neweul_py.ffrf.parametric.ffrf_mix` does (:data:`.c_kernel_text.C_MIX`), reading only the
 varying columns of the samples next to ``σ``. Integer arrays of the data file (the rows of
 node maps) are structure and are compiled in.
 """
@@ -68,7 +68,8 @@ import sympy as sp
 from ..errors import GenerationError
 from ..model import as_expr
 from .c_functions import SymbolGroups, big, c_body, c_function
-from .c_kernel import C_DOT, C_MIX, KernelPrinter
+from .c_kernel import KernelPrinter
+from .c_kernel_text import C_DOT, C_MIX
 from .c_printer import DotRows
 from .c_splice_parameters import PARAMETER_C
 from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SPLICE_C

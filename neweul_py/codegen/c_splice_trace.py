@@ -76,7 +76,7 @@ def derived_array(kind: str, members: tuple[np.ndarray, ...]) -> np.ndarray:
     ``"row0"`` — the first row of a mixing form's stack, ``ffrf_expand`` of its
     :data:`COMPACT` members (the entries that do not vary are read there); ``"float"`` — an
     index table of the form (``index``, ``mirror``) as float64, read by the compact mixing
-    (:data:`~.c_kernel.C_MIX`)."""
+    (:data:`~.c_kernel_text.C_MIX`)."""
     if kind == "row0":
         base, rows, index, varying, mirror, scaled = members
         return np.ascontiguousarray(ffrf_expand(base, np.asarray(rows)[:1], index,
@@ -92,7 +92,7 @@ def bound_arrays(skeleton: Any, arrays: dict[str, np.ndarray]
                             dict[str, np.ndarray]]:
     """The skeleton and the arrays the C library is traced on and bound to: the data file's
     arrays, and for every mixing form its compact members as the compact mixing reads them
-    (:data:`~.c_kernel.C_MIX`): its base, base rows and varying columns as stored, and,
+    (:data:`~.c_kernel_text.C_MIX`): its base, base rows and varying columns as stored, and,
     under keys of the form's path in the skeleton, its stack's first row ``_row0…`` and its
     index tables as float64 ``_index…``, ``_mirror…`` (:func:`derived_array`; the data file
     stores equal arrays once, so two bodies may share a member but not a derived array).
@@ -165,7 +165,7 @@ class MixedColumns:
     weights' derivative. An entry that varies is mixed from the compact form as
     :func:`~neweul_py.ffrf.parametric.ffrf_mix` mixes it — ``(w·r) base``, the varying
     columns ``w V`` set at their positions, then the mirrored entries (a ``"mix"`` node,
-    :data:`~.c_kernel.C_MIX`) — or, a block that is a factor times another
+    :data:`~.c_kernel_text.C_MIX`) — or, a block that is a factor times another
     (``scaled``), that factor times the other block mixed."""
 
     def __init__(self, w: TArray, compact: dict[str, Any], arrays: dict[str, np.ndarray],

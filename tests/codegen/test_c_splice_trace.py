@@ -14,7 +14,8 @@ import shutil
 import numpy as np
 import pytest
 
-from neweul_py.codegen.c_kernel import C_DOT, C_MIX, KernelPrinter
+from neweul_py.codegen.c_kernel import KernelPrinter
+from neweul_py.codegen.c_kernel_text import C_DOT, C_MIX
 from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_splice_trace import (
     MixedColumns,

@@ -13,7 +13,8 @@ import shutil
 import numpy as np
 import pytest
 
-from neweul_py.codegen.c_kernel import C_DOT, KernelPrinter
+from neweul_py.codegen.c_kernel import KernelPrinter
+from neweul_py.codegen.c_kernel_text import C_DOT
 from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_trace import Graph, TArray, TraceError
 from neweul_py.ffrf.body import ffrf_omega_products
