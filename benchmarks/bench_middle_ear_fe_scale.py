@@ -38,9 +38,9 @@ import json, sys
 from neweul_py.middle_ear.sweep import pressure_sweep
 args = json.loads(sys.argv[1])
 res = pressure_sweep(args["pressures"], refine=args["refine"], out_dir=args["out"])
-import resource
 print(json.dumps({"points": len(args["pressures"]),
-                  "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6}))
+                  "peak": next(int(line.split()[1]) for line in open("/proc/self/status")
+                               if line.startswith("VmHWM")) / 1e6}))
 """
 
 REDUCE = """
@@ -69,13 +69,15 @@ t0 = time.process_time()
 b = balanced_snapshot_basis([fe], [F], [C], args["freqs"], Kx, pairs=[zero_mode_pairs(fe)])
 print(json.dumps({"dofs": int(fe.n_dofs), "order": int(b.order), "lu_seconds": one,
                   "lu_entries": fill, "reduction_seconds": time.process_time() - t0,
-                  "peak": __import__("resource").getrusage(0).ru_maxrss / 1e6}))
+                  "peak": next(int(line.split()[1]) for line in open("/proc/self/status")
+                               if line.startswith("VmHWM")) / 1e6}))
 """
 
 
 def _child(code: str, args: dict) -> tuple[dict, float, float, float]:
     """Run ``code`` in a child interpreter; its JSON answer, CPU [s], wall [s] and peak
-    memory [GB] (the child's own ``ru_maxrss``)."""
+    memory [GB] (the child's own Linux ``VmHWM``; ``ru_maxrss`` would keep the parent's peak
+    across ``fork`` and ``exec``)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     wall = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", code, json.dumps(args)],
