@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """The middle ear's FE model at scale: the FE sweep and one two-sided reduction, per stage.
 
-Runs, each stage in a child process whose CPU time and peak memory the operating system
-accounts (``resource.getrusage(RUSAGE_CHILDREN)``):
+Runs each stage in a child process: its CPU time as the operating system accounts it
+(``resource.getrusage(RUSAGE_CHILDREN)``), its peak memory as the child's own ``VmHWM``
+(``/proc/self/status``, Linux):
 
 1. the FE sweep (:func:`neweul_py.middle_ear.sweep.pressure_sweep`) at the working points
    ``--pressures`` into ``DIR/fem`` — the nonlinear static states and the linearized u–p

@@ -459,7 +459,9 @@ class KernelPrinter:
         x, rows, base, V, index, mirror = n.args
         i0, lo, hi, mlo, mhi = n.params
         ctype = self._ctype(n)
-        self.static += [f"static {ctype} {out}_s = NAN;", f"static long {out}_bound = -1;"]
+        self.static += [f"static {ctype} {out}_s = NAN;", f"static long {out}_bound = -1;",
+                        f"static int {out}_pl[{max(2 * (hi - lo), 1)}];",
+                        f"static nw_mixplan {out}_plan = {{-1, 0, {out}_pl}};"]
         ptr = {}
         for name, a in (("x", x), ("rows", rows), ("base", base), ("V", V),
                         ("index", index), ("mirror", mirror)):
@@ -478,7 +480,7 @@ class KernelPrinter:
                 "        }", "    }",
                 f"    {call}({x.shape[0]}, {ptr['x']}, {ptr['V']}, {V.shape[1]}, {lo}, {hi}, "
                 f"{ptr['index']}, {ptr['mirror']}, {mirror.size // 2}, {mlo}, {mhi}, {i0}, "
-                f"{out});"]
+                f"{out}, &{out}_plan, nw_binds);"]
 
     def _dot(self, n: Node, out: str, local: dict[int, str]) -> list[str]:
         a, b = n.args

@@ -77,40 +77,104 @@ __attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
 #: The compact mixing of a parametric body's samples (op ``"mix"`` of
 #: :class:`~.c_splice_trace.MixedColumns`; :func:`~neweul_py.ffrf.parametric.ffrf_mix`): the
 #: varying columns ``lo … hi − 1`` of ``V`` (k, nv) mixed by ``x`` (the zero weights
-#: skipped), set at their positions ``index[c] − i0`` of ``out``, then the mirrored entries
+#: skipped), set at their positions ``index[c] − i0`` of ``out`` and the mirrored entries
 #: ``mirror[q] − i0`` from ``mirror[m + q] − i0``; the index tables are bound float64 arrays.
-#: The caller sets ``(x·r) base`` first (the entries that do not vary).
+#: A plan made once per binding (``nw_mix_plan``) sets each column's mirrored entry with the
+#: column itself, as int positions; where the tables do not allow it (positions not
+#: increasing, an entry mirrored twice) the mirrored entries are copied after, as
+#: ``ffrf_derived`` does. The caller sets ``(x·r) base`` first (the entries that do not vary).
 C_MIX = r"""
 /* ---- the compact mixing of a parametric body's samples (codegen/c_kernel_text.py, C_MIX);
    columns by blocks of NW_MIXB, so that the mixed block is scattered while in cache */
 #define NW_MIXB 512
+#ifndef NW_MIX_PLAN
+#define NW_MIX_PLAN 1           /* 0: the mirrored entries always copied after (a test's) */
+#endif
+typedef struct { long bound; int ok; int *plan; } nw_mixplan;
+
+/* the plan of a mixing, per varying column c: its position plan[2c] and that of its mirrored
+   entry plan[2c + 1] (-1: none); 0 (the mirrored entries copied after) unless the positions
+   increase and every mirrored entry comes from its own column of lo ... hi - 1 */
+static int nw_mix_plan(long lo, long hi, const double *restrict index,
+                       const double *restrict mirror, long m, long mlo, long mhi, long i0,
+                       int *restrict plan)
+{
+    if (hi <= lo) return mlo >= mhi;
+    for (long c = lo; c < hi; ++c) {
+        if (c > lo && !(index[c] > index[c - 1])) return 0;
+        plan[2 * (c - lo)] = (int)((long)index[c] - i0);
+        plan[2 * (c - lo) + 1] = -1;
+    }
+    for (long q = mlo; q < mhi; ++q) {
+        const double src = mirror[m + q];
+        long a = lo, b = hi;                            /* bisection: index[a] <= src */
+        while (b - a > 1) {
+            const long h = a + (b - a) / 2;
+            if (index[h] <= src) a = h; else b = h;
+        }
+        if (index[a] != src || plan[2 * (a - lo) + 1] >= 0) return 0;
+        plan[2 * (a - lo) + 1] = (int)((long)mirror[q] - i0);
+    }
+    return 1;
+}
+
 __attribute__((optimize("O3"))) static void nw_mix(int k, const double *restrict x,
     const double *restrict V, long nv, long lo, long hi, const double *restrict index,
-    const double *restrict mirror, long m, long mlo, long mhi, long i0, double *restrict out)
+    const double *restrict mirror, long m, long mlo, long mhi, long i0, double *restrict out,
+    nw_mixplan *P, long bound)
 {
     double tmp[NW_MIXB];
+    if (P->bound != bound) {
+        P->ok = NW_MIX_PLAN && nw_mix_plan(lo, hi, index, mirror, m, mlo, mhi, i0, P->plan);
+        P->bound = bound;
+    }
     for (long b = lo; b < hi; b += NW_MIXB) {
         const long e = hi - b < NW_MIXB ? hi : b + NW_MIXB;
         nw_vecmat(k, (int)(e - b), x, 1, V + b, nv, 1, tmp);
-        for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tmp[c - b];
+        if (P->ok) {
+            const int *restrict pl = P->plan + 2 * (b - lo);
+            for (long c = 0; c < e - b; ++c) {
+                out[pl[2 * c]] = tmp[c];
+                if (pl[2 * c + 1] >= 0) out[pl[2 * c + 1]] = tmp[c];
+            }
+        } else {
+            for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tmp[c - b];
+        }
     }
-    for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
+    if (!P->ok)
+        for (long q = mlo; q < mhi; ++q)
+            out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
 }
 
 /* the same for complex weights (the complex step in sigma): real and imaginary parts */
 __attribute__((optimize("O3"))) static void nw_mixz(int k, const double complex *restrict x,
     const double *restrict V, long nv, long lo, long hi, const double *restrict index,
     const double *restrict mirror, long m, long mlo, long mhi, long i0,
-    double complex *restrict out)
+    double complex *restrict out, nw_mixplan *P, long bound)
 {
     double xr[NW_NW + 1], xi[NW_NW + 1], tr[NW_MIXB], ti[NW_MIXB];
+    if (P->bound != bound) {
+        P->ok = NW_MIX_PLAN && nw_mix_plan(lo, hi, index, mirror, m, mlo, mhi, i0, P->plan);
+        P->bound = bound;
+    }
     for (int r = 0; r < k; ++r) { xr[r] = creal(x[r]); xi[r] = cimag(x[r]); }
     for (long b = lo; b < hi; b += NW_MIXB) {
         const long e = hi - b < NW_MIXB ? hi : b + NW_MIXB;
         nw_vecmat(k, (int)(e - b), xr, 1, V + b, nv, 1, tr);
         nw_vecmat(k, (int)(e - b), xi, 1, V + b, nv, 1, ti);
-        for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tr[c - b] + ti[c - b] * I;
+        if (P->ok) {
+            const int *restrict pl = P->plan + 2 * (b - lo);
+            for (long c = 0; c < e - b; ++c) {
+                const double complex v = tr[c] + ti[c] * I;
+                out[pl[2 * c]] = v;
+                if (pl[2 * c + 1] >= 0) out[pl[2 * c + 1]] = v;
+            }
+        } else {
+            for (long c = b; c < e; ++c) out[(long)index[c] - i0] = tr[c - b] + ti[c - b] * I;
+        }
     }
-    for (long q = mlo; q < mhi; ++q) out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
+    if (!P->ok)
+        for (long q = mlo; q < mhi; ++q)
+            out[(long)mirror[q] - i0] = out[(long)mirror[m + q] - i0];
 }
 """

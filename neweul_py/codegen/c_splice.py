@@ -72,7 +72,7 @@ from .c_kernel import KernelPrinter
 from .c_kernel_text import C_DOT, C_MIX
 from .c_printer import DotRows
 from .c_splice_parameters import PARAMETER_C
-from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SPLICE_C
+from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SMAP_C, SPLICE_C
 from .c_splice_trace import SpliceTrace, trace_splice, traced_kernels
 from .c_templates import C_DOPRI5, C_GALPHA, C_LU
 from .c_trace import Graph
@@ -258,7 +258,8 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
                        f"{{{', '.join(str(int(o)) for o in offs)}}};")
         body.insert(1, "static const double *nw_dsv[NW_NPB] = {"
                        + ", ".join(pr.pointer(d) for d in t.dsv) + "};")
-    splice = SPLICE_C.replace("NW_WEIGHTS", "\n".join(_weights_lines(t, index)))
+    splice = SPLICE_C.replace("NW_SMAP", SMAP_C.strip("\n"))
+    splice = splice.replace("NW_WEIGHTS", "\n".join(_weights_lines(t, index)))
     splice = splice.replace("NW_BIND", "\n".join(pr.bind_lines()))
     splice = splice.replace("NW_SIZES", ", ".join(str(sizes[k]) for k in data) or "0")
     R = [j for j in range(t.n) if j not in set(t.elastic)]

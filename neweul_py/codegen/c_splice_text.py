@@ -12,7 +12,7 @@ The ``NW_*`` macros are defined per model by :mod:`.c_splice`.
 
 from __future__ import annotations
 
-__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "JACOBIAN_C", "SPLICE_C"]
+__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "JACOBIAN_C", "SMAP_C", "SPLICE_C"]
 
 #: The splice of both libraries: binding, weights, the context at the schedule, the
 #: dynamics and the sensitivities of the schedule (mirrors neweul_py/ffrf/splice.py).
@@ -25,6 +25,55 @@ static double complex nw_wc[NW_NW + 1];
 static int nw_have_w;
 static long nw_wversion;   /* counts the changes of the weights (and of the bound data) */
 static long nw_binds;      /* counts the bindings (the compact mixing's constant entries) */
+"""
+
+#: ``y_s = S_V x`` and ``y_s(0) = S_V(0) x`` by the rows' nonzero spans (part of
+#: :data:`SPLICE_C`; uses ``nw_gemv`` of :data:`.c_kernel_text.C_DOT`, ``nw_binds`` and
+#: ``nw_wversion`` of :data:`GLOBALS_C` and the macros ``NW_NS``, ``NW_N``, ``NW_SV``,
+#: ``NW_SV0``, ``NW_SV_SIGMA``).
+SMAP_C = r"""
+/* y_s = S_V x (which 0) or y_s(0) = S_V(0) x (which 1) along the nonzero span of each row:
+   the maps are unit rows but for the rows of the node coordinates (ffrf/splice.py). The
+   spans are found again when a map may have changed: S_V(0) at a binding, S_V with the
+   weights too when it depends on them (NW_SV_SIGMA). An x that is not finite takes the
+   dense product, so that NaN and inf reach every row as in the NumPy module's S_V @ x. */
+static int nw_sp_lo[2][NW_NS + 1], nw_sp_hi[2][NW_NS + 1];
+static long nw_sp_at[2] = {-1, -1};
+__attribute__((optimize("O3"))) static void nw_smap(int which, const double *restrict x,
+                                                   double *restrict y)
+{
+    const double *A = which ? NW_SV0 : NW_SV;
+    const long at = (which || !NW_SV_SIGMA) ? nw_binds : nw_wversion;
+    int *lo = nw_sp_lo[which], *hi = nw_sp_hi[which];
+    int finite = 1;
+    for (int j = 0; j < NW_N; ++j) finite &= isfinite(x[j]) != 0;
+    if (!finite) {
+        nw_gemv(NW_NS, NW_N, A, NW_N, 1, x, 1, y);
+        return;
+    }
+    if (nw_sp_at[which] != at) {
+        for (int i = 0; i < NW_NS; ++i) {
+            const double *a = A + (long)i * NW_N;
+            int l = 0, h = NW_N;
+            while (l < NW_N && a[l] == 0.0) ++l;
+            while (h > l && a[h - 1] == 0.0) --h;
+            lo[i] = l;
+            hi[i] = h;
+        }
+        nw_sp_at[which] = at;
+    }
+    for (int i = 0; i < NW_NS; ++i) {
+        const double *a = A + (long)i * NW_N;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        int j = lo[i];
+        for (; j + 4 <= hi[i]; j += 4) {
+            s0 += a[j] * x[j]; s1 += a[j + 1] * x[j + 1];
+            s2 += a[j + 2] * x[j + 2]; s3 += a[j + 3] * x[j + 3];
+        }
+        for (; j < hi[i]; ++j) s0 += a[j] * x[j];
+        y[i] = (s0 + s1) + (s2 + s3);
+    }
+}
 """
 
 SPLICE_C = r"""
@@ -52,42 +101,7 @@ static int nw_weights(double x, const double *b, const double *c, int nb, int nd
     return 0;
 }
 
-/* y_s = S_V x (which 0) or y_s(0) = S_V(0) x (which 1) along the nonzero span of each row:
-   the maps are unit rows but for the rows of the node coordinates (ffrf/splice.py). The
-   spans are found again when a map may have changed: S_V(0) at a binding, S_V with the
-   weights too when it depends on them (NW_SV_SIGMA) */
-static int nw_sp_lo[2][NW_NS + 1], nw_sp_hi[2][NW_NS + 1];
-static long nw_sp_at[2] = {-1, -1};
-__attribute__((optimize("O3"))) static void nw_smap(int which, const double *restrict x,
-                                                   double *restrict y)
-{
-    const double *A = which ? NW_SV0 : NW_SV;
-    const long at = (which || !NW_SV_SIGMA) ? nw_binds : nw_wversion;
-    int *lo = nw_sp_lo[which], *hi = nw_sp_hi[which];
-    if (nw_sp_at[which] != at) {
-        for (int i = 0; i < NW_NS; ++i) {
-            const double *a = A + (long)i * NW_N;
-            int l = 0, h = NW_N;
-            while (l < NW_N && a[l] == 0.0) ++l;
-            while (h > l && a[h - 1] == 0.0) --h;
-            lo[i] = l;
-            hi[i] = h;
-        }
-        nw_sp_at[which] = at;
-    }
-    for (int i = 0; i < NW_NS; ++i) {
-        const double *a = A + (long)i * NW_N;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        int j = lo[i];
-        for (; j + 4 <= hi[i]; j += 4) {
-            s0 += a[j] * x[j]; s1 += a[j + 1] * x[j + 1];
-            s2 += a[j + 2] * x[j + 2]; s3 += a[j + 3] * x[j + 3];
-        }
-        for (; j < hi[i]; ++j) s0 += a[j] * x[j];
-        y[i] = (s0 + s1) + (s2 + s3);
-    }
-}
-
+NW_SMAP
 /* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at;
    the mixed samples are kept while the weights are unchanged); 3 outside the samples */
 static int nw_at(double t, const double *y, const double *p, const double *u)
@@ -114,7 +128,8 @@ NW_WEIGHTS
 static int nw_dyn(double t, const double *y, const double *yd, const double *p,
                   const double *u, double *M, double *f)
 {
-    /* zero at load; nw_s_rhs_parts writes its nonzero entries only (c_splice.py) */
+    /* zero at load; nw_s_rhs_parts writes the entries that are not zero by construction,
+       the same ones at every call (c_splice.py) */
     static double parts[NW_NH + NW_NS * NW_NS + NW_NS + 1];
     double ys[NW_NS + 1], yds[NW_NS + 1];
     if (nw_at(t, y, p, u)) return 3;

@@ -65,13 +65,15 @@ def _samples(rng: np.random.Generator, k: int) -> list[dict]:
 
 @pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                     reason="no C compiler")
-def test_compact_mixing_printed_as_c_gives_ffrf_mix(tmp_path) -> None:
+@pytest.mark.parametrize("plan", [1, 0])
+def test_compact_mixing_printed_as_c_gives_ffrf_mix(tmp_path, plan: int) -> None:
     """A mixing form with mirrored, scaled and constant entries, traced through
     ``MixedColumns`` (real weights, their derivative, complex weights), printed and
     compiled: every entry of the layout equals ``ffrf_mix`` at the same weights to
     round-off, and mixing again at other weights (the constant part kept) as well. The
     entries that vary in no sample are the first sample's (``ffrf_mix``: the value weights
-    sum to one), zero for the derivative."""
+    sum to one), zero for the derivative. Both ways of setting the mirrored entries: with
+    their columns (the plan, ``plan=1``) and copied after (``NW_MIX_PLAN 0``)."""
     rng = np.random.default_rng(11)
     form = ffrf_stack(_samples(rng, 4))
     assert form["mirror"].size and form["scaled"].size      # the case this test is about
@@ -105,23 +107,26 @@ def test_compact_mixing_printed_as_c_gives_ffrf_mix(tmp_path) -> None:
             cast = "(const double *)" if e.node.cplx else ""
             copy.append(f"    memcpy(o + {offset}, {cast}{pr.pointer(e)}, {size});")
         offset += factor * e.size
+    plans = [line.split()[2] for line in pr.static if line.startswith("static nw_mixplan ")]
     decl = ", ".join(f"const double *d{i}" for i in range(len(data)))
     src = "\n".join([
         "#include <complex.h>", "#include <math.h>", "#include <string.h>",
-        "#define NW_NW 4", f"static const double *nw_D[{len(data)}];", "static long nw_binds;",
+        "#define NW_NW 4", f"#define NW_MIX_PLAN {plan}",
+        f"static const double *nw_D[{len(data)}];", "static long nw_binds;",
         "static double nw_w[4], nw_dw[4];", "static double complex nw_wc[4];",
         C_DOT, C_MIX, *pr.static, *sigma,
         f"int run({decl}, const double *w, const double *dw, const double *wc, double *o)",
         "{", *(f"    nw_D[{i}] = d{i};" for i in range(len(data))),
         "    static int bound; if (!bound) { ++nw_binds; bound = 1; }", *pr.bind_lines(),
         "    memcpy(nw_w, w, sizeof nw_w); memcpy(nw_dw, dw, sizeof nw_dw);",
-        "    memcpy(nw_wc, wc, sizeof nw_wc);", "    sig();", *copy, "    return 0;", "}", ""])
+        "    memcpy(nw_wc, wc, sizeof nw_wc);", "    sig();", *copy, "    return 0;", "}",
+        f"int planned(void) {{ return {' + '.join(f'{q}.ok' for q in plans) or '0'}; }}", ""])
     path = tmp_path / "mix.c"
     path.write_text(src)
     ffi, lib, _ = compiled_library(
         path, hashlib.sha256(src.encode()).hexdigest(),
-        f"int run({decl}, const double *w, const double *dw, const double *wc, double *o);",
-        tmp_path / "cache")
+        f"int run({decl}, const double *w, const double *dw, const double *wc, double *o);"
+        "int planned(void);", tmp_path / "cache")
     bound = [np.ascontiguousarray(arrays[k]) for k in data]
     for trial in range(2):                   # the second mix reuses the constant part
         # weights as the schedule gives them: the values' weights sum to one, their
@@ -150,6 +155,7 @@ def test_compact_mixing_printed_as_c_gives_ffrf_mix(tmp_path) -> None:
                     pos += j - i
                 scale = max(float(np.abs(want).max(initial=0.0)), 1.0)
                 assert np.abs(val - want).max() <= 1e-13 * scale, (name, path_, trial)
+    assert plans and lib.planned() == plan * len(plans)     # the way this case is about
 
 
 def test_unmixed_layout_reads_every_entry() -> None:

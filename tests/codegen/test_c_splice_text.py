@@ -1,0 +1,93 @@
+"""The fixed C text of the splice (neweul_py/codegen/c_splice_text.py): the products with the
+selection maps ``S_V`` and ``S_V(0)`` along the nonzero span of each row (``SMAP_C``).
+
+Reference: NumPy's dense product ``S_V @ x``, as the NumPy module forms ``y_s`` — for maps
+whose zero pattern changes between bindings or weights, and for an ``x`` with NaN, which
+the dense product carries into every row (``0 · NaN``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+
+import numpy as np
+import pytest
+
+from neweul_py.codegen.c_kernel_text import C_DOT
+from neweul_py.codegen.c_runtime import compiled_library
+from neweul_py.codegen.c_splice_text import SMAP_C
+
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="no C compiler")
+
+NS, N = 7, 6
+
+
+def _library(tmp_path, sigma: int):
+    src = "\n".join([
+        "#include <math.h>", "#include <string.h>", f"#define NW_NS {NS}", f"#define NW_N {N}",
+        "static double A0[NW_NS * NW_N], A1[NW_NS * NW_N];", "#define NW_SV A0",
+        "#define NW_SV0 A1", f"#define NW_SV_SIGMA {sigma}", "static long nw_binds, nw_wversion;",
+        C_DOT, SMAP_C,
+        "void set(int which, const double *a) { memcpy(which ? A1 : A0, a, sizeof A0); }",
+        "void bump(int binds, int weights) { nw_binds += binds; nw_wversion += weights; }",
+        "void smap(int which, const double *x, double *y) { nw_smap(which, x, y); }", ""])
+    path = tmp_path / f"smap{sigma}.c"
+    path.write_text(src)
+    cdef = ("void set(int which, const double *a); void bump(int binds, int weights);"
+            "void smap(int which, const double *x, double *y);")
+    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(), cdef,
+                                   tmp_path / "cache")
+    return ffi, lib
+
+
+def _map(rng: np.random.Generator, edge: float) -> np.ndarray:
+    """A selection map: unit rows, a zero row, and node rows dense but for their first and
+    last entries (``edge`` there)."""
+    A = np.zeros((NS, N))
+    A[np.arange(N - 1), np.arange(N - 1)] = 1.0
+    A[NS - 1] = rng.normal(size=N)
+    A[NS - 1, [0, -1]] = edge
+    return A
+
+
+@pytest.mark.parametrize("sigma", [0, 1])
+def test_span_products_equal_the_dense_product_as_the_maps_change(tmp_path, sigma) -> None:
+    """``y = S_V x`` and ``S_V(0) x`` equal ``A @ x`` for maps with zero edges, and again
+    after the maps gain entries outside the old spans: ``S_V(0)`` at a binding, ``S_V`` at a
+    binding or (``NW_SV_SIGMA``) a change of the weights."""
+    ffi, lib = _library(tmp_path, sigma)
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=N)
+    y = np.empty(NS)
+    maps = [_map(rng, 0.0), _map(rng, 0.0)]
+    lib.bump(1, 1)
+    for which, A in enumerate(maps):
+        lib.set(which, ffi.from_buffer("double[]", A))
+        lib.smap(which, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", y))
+        np.testing.assert_allclose(y, A @ x, rtol=1e-15, atol=1e-15)
+    for which in (0, 1):
+        A = _map(rng, 0.5)                                   # entries outside the spans
+        lib.set(which, ffi.from_buffer("double[]", A))
+        lib.bump(int(which == 1 or not sigma), int(which == 0 and sigma == 1))
+        lib.smap(which, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", y))
+        np.testing.assert_allclose(y, A @ x, rtol=1e-15, atol=1e-15)
+
+
+def test_span_product_of_a_nan_reaches_every_row(tmp_path) -> None:
+    """A NaN in ``x`` outside a row's span makes that row NaN as in ``A @ x`` (the NumPy
+    module's schedule then sees NaN and refuses it), not a finite number."""
+    ffi, lib = _library(tmp_path, 1)
+    rng = np.random.default_rng(6)
+    A = _map(rng, 0.0)
+    lib.bump(1, 1)
+    lib.set(0, ffi.from_buffer("double[]", A))
+    x = rng.normal(size=N)
+    x[0] = np.nan
+    y = np.empty(NS)
+    lib.smap(0, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", y))
+    with np.errstate(invalid="ignore"):
+        want = A @ x
+    assert np.isnan(want).all()
+    np.testing.assert_array_equal(np.isnan(y), np.isnan(want))
