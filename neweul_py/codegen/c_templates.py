@@ -36,6 +36,21 @@ int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
 """
 
 C_LU = r"""
+/* ---- a . b of n entries, four partial sums, vectorized (-O3; the substitutions of a large
+   solve, where the library's -O1 would leave them scalar) */
+__attribute__((optimize("O3"), noinline)) static double nw_dotn(int n, const double *restrict a,
+                                                               const double *restrict b)
+{
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    int k = 0;
+    for (; k + 4 <= n; k += 4) {
+        s0 += a[k] * b[k]; s1 += a[k + 1] * b[k + 1];
+        s2 += a[k + 2] * b[k + 2]; s3 += a[k + 3] * b[k + 3];
+    }
+    for (; k < n; ++k) s0 += a[k] * b[k];
+    return (s0 + s1) + (s2 + s3);
+}
+
 /* ---- dense LU with partial pivoting (Golub & Van Loan, Alg. 3.4.1), row-major, in place;
    inlined into each solve (the block elimination's small LU of S then has constant sizes) */
 __attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *piv)
@@ -65,13 +80,22 @@ __attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *pi
 }
 
 /* solve A X = B for m right-hand sides; b is row-major n x m, overwritten by X (one
-   right-hand side: dot products along the rows of the factors, two partial sums) */
+   right-hand side: dot products along the rows of the factors, two partial sums; nw_dotn's
+   four from 64 unknowns on) */
 __attribute__((always_inline)) static inline void nw_lu_solve(int n, const double *lu,
                                                               const int *piv, int m, double *b)
 {
     if (m == 1) {
         for (int k = 0; k < n; ++k)
             if (piv[k] != k) { double s = b[k]; b[k] = b[piv[k]]; b[piv[k]] = s; }
+        if (n >= 64) {
+            for (int i = 1; i < n; ++i) b[i] -= nw_dotn(i, lu + (long)i * n, b);
+            for (int i = n - 1; i >= 0; --i) {
+                const double *r = lu + (long)i * n;
+                b[i] = (b[i] - nw_dotn(n - i - 1, r + i + 1, b + i + 1)) * (1.0 / r[i]);
+            }
+            return;
+        }
         for (int i = 1; i < n; ++i) {
             const double *r = lu + (long)i * n;
             double s0 = 0.0, s1 = 0.0;

@@ -55,13 +55,14 @@ def _solver(tmp_path, a_sym, n):
 @pytest.mark.parametrize(("n", "varying", "diagonal"),
                          [(6, {0, 1}, False), (5, set(), False), (7, {3}, False),
                           (4, {0, 1, 2}, False), (7, {0, 4}, False), (6, {0, 1}, True),
-                          (7, {2, 5}, True)])
+                          (7, {2, 5}, True), (70, set(range(70)), False)])
 def test_solve_equals_lapack(n, varying, diagonal, tmp_path):
     """Reference: numpy.linalg.solve (LAPACK gesv) on random unsymmetric matrices, several
     right-hand sides and one (``nw_solve1``): the block elimination (constant rows/columns
     outside ``varying``; all constant; a constant block split by a varying coordinate;
     ``R`` not one range; a diagonal constant block, whose inverse is stored as a diagonal)
-    and the dense LU (one constant coordinate only) give the same solution."""
+    and the dense LU (one constant coordinate only; 70 unknowns, whose substitutions take
+    the vectorized ``nw_dotn``) give the same solution."""
     rng = np.random.default_rng(n)
     a = rng.standard_normal((n, n)) + n * np.eye(n)
     if diagonal:
