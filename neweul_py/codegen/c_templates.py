@@ -51,8 +51,24 @@ __attribute__((optimize("O3"), noinline)) static double nw_dotn(int n, const dou
     return (s0 + s1) + (s2 + s3);
 }
 
+/* ---- the elimination below the pivot row k of an LU (-O3, vectorized; large factors) */
+__attribute__((optimize("O3"), noinline)) static void nw_lu_rows(int n, int k,
+                                                                double *restrict a)
+{
+    const double inv = 1.0 / a[k * n + k];
+    const double *restrict p = a + (long)k * n;
+    for (int i = k + 1; i < n; ++i) {
+        double *restrict r = a + (long)i * n;
+        const double l = r[k] * inv;
+        r[k] = l;
+        if (l != 0.0)
+            for (int j = k + 1; j < n; ++j) r[j] -= l * p[j];
+    }
+}
+
 /* ---- dense LU with partial pivoting (Golub & Van Loan, Alg. 3.4.1), row-major, in place;
-   inlined into each solve (the block elimination's small LU of S then has constant sizes) */
+   inlined into each solve (the block elimination's small LU of S then has constant sizes;
+   from 64 unknowns on the elimination is nw_lu_rows') */
 __attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *piv)
 {
     for (int k = 0; k < n; ++k) {
@@ -68,6 +84,10 @@ __attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *pi
             for (int j = 0; j < n; ++j) {
                 double s = a[k * n + j]; a[k * n + j] = a[r * n + j]; a[r * n + j] = s;
             }
+        if (n >= 64) {
+            nw_lu_rows(n, k, a);
+            continue;
+        }
         double inv = 1.0 / a[k * n + k];
         for (int i = k + 1; i < n; ++i) {
             double l = a[i * n + k] * inv;

@@ -61,8 +61,8 @@ def test_solve_equals_lapack(n, varying, diagonal, tmp_path):
     right-hand sides and one (``nw_solve1``): the block elimination (constant rows/columns
     outside ``varying``; all constant; a constant block split by a varying coordinate;
     ``R`` not one range; a diagonal constant block, whose inverse is stored as a diagonal)
-    and the dense LU (one constant coordinate only; 70 unknowns, whose substitutions take
-    the vectorized ``nw_dotn``) give the same solution."""
+    and the dense LU (one constant coordinate only; 70 unknowns, whose elimination and
+    substitutions take the vectorized ``nw_lu_rows`` and ``nw_dotn``) give the same solution."""
     rng = np.random.default_rng(n)
     a = rng.standard_normal((n, n)) + n * np.eye(n)
     if diagonal:
