@@ -231,6 +231,8 @@ class KernelPrinter:
                 if add is not None:
                     fused[n.id] = add
         skipped = {fused[u][2] for u in fused}
+        blocks = self._gemm_blocks(calls, alias, fused, readers)     # dot → its added block
+        added_by_gemm = {u.id for u in blocks.values()}
         root: dict[int, int] = {}
         for n in calls:
             root[n.id] = root[alias[n.id]] if n.id in alias else n.id
@@ -251,7 +253,11 @@ class KernelPrinter:
                 names[r] = f"{fname}_t{r}"
                 self.static.append(f"static {self._ctype(n)} {names[r]}[{max(n.size, 1)}];")
             local[n.id] = names[r]
-            if n.id in fused:
+            if n.id in added_by_gemm:
+                continue
+            if n.id in blocks:
+                body += self._gemm_add(n, blocks[n.id], fused, names[r], local)
+            elif n.id in fused:
                 sign, added, _v = fused[n.id]
                 body += self._add_region(n, names[r], sign, added, local)
             else:
@@ -301,6 +307,52 @@ class KernelPrinter:
         if storage.id != n.args[0].id or (offset, strides, part.shape) != region:
             return None
         return ("+" if value.params[0] == "add" else "-"), added, value.id
+
+    def _gemm_blocks(self, calls: Sequence[Node], alias: dict[int, int],
+                     fused: dict[int, tuple[str, Node, int]], readers: dict[int, int]
+                     ) -> dict[int, Node]:
+        """Products ``C = A B`` (printed as ``nw_gemm``) to which one update then adds a block
+        ``C[r0:r0+nr, c0:c0+nc] ±= X`` and that nothing else reads: the dot's id → the
+        update's, printed as one ``nw_gemm_add`` (the mass matrix of a body on a fixed frame:
+        the symbolic part's product and the body's block, without zeroing the block's rows
+        first). ``X`` must be computed before the product: bound, per weights, or earlier."""
+        nodes = {n.id: n for n in calls}
+        pairs: dict[int, Node] = {}
+        for u, (_sign, added, _v) in fused.items():
+            b = nodes.get(alias[u])
+            region = self._region(nodes[u])
+            if b is None or b.op != "dot" or readers.get(b.id, 0) != 1 or region is None:
+                continue
+            x, y = b.args
+            sx = self.graph.storage_view(added)
+            if (b.cplx or x.cplx or y.cplx or added.cplx or len(x.shape) != 2
+                    or len(y.shape) != 2 or len(region[2]) != 2
+                    or region[1] != (b.shape[1], 1) or added.shape != region[2]
+                    or len(sx[2]) != 2 or sx[0].op == "zeros"
+                    or "zeros" in (self.graph.storage_view(x)[0].op,
+                                   self.graph.storage_view(y)[0].op)
+                    or (self.level[sx[0].id] == 2 and sx[0].id >= b.id)):
+                continue
+            pairs[b.id] = nodes[u]
+        return pairs
+
+    def _gemm_add(self, n: Node, u: Node, fused: dict[int, tuple[str, Node, int]], out: str,
+                  local: dict[int, str]) -> list[str]:
+        """``nw_gemm_add`` of :meth:`_gemm_blocks`' pair ``n`` (the dot), ``u`` (its
+        update)."""
+        sign, added, _v = fused[u.id]
+        a, b = n.args
+        ptr = []
+        for v in (a, b, added):
+            st, off, strides = self.graph.storage_view(v)
+            name = self._storage_name(st, local)
+            ptr.append((f"{name} + {off}" if off else name, strides))
+        (pa, ta), (pb, tb), (px, tx) = ptr
+        offset, _strides, (nr, nc) = self._region(u)
+        r0, c0 = divmod(offset, n.shape[1])
+        return [f"    nw_gemm_add({a.shape[0]}, {b.shape[1]}, {a.shape[1]}, {pa}, {ta[0]}, "
+                f"{ta[1]}, {pb}, {tb[0]}, {tb[1]}, {out}, {r0}, {nr}, {c0}, {nc}, {px}, "
+                f"{tx[0]}, {tx[1]}, {'1.0' if sign == '+' else '-1.0'});"]
 
     def _add_region(self, n: Node, out: str, sign: str, added: Node, local: dict[int, str]
                     ) -> list[str]:

@@ -71,6 +71,34 @@ __attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
         else memset(C + i * n, 0, (size_t)n * sizeof(double));
     }
 }
+
+/* C = A B, then s X (s = 1 or -1) added to its block of rows r0 ... r0 + nr - 1 and columns
+   c0 ... c0 + nc - 1, in one pass: a zero row of A gives zeros and the block's row */
+__attribute__((optimize("O3"))) static void nw_gemm_add(int m, int n, int k,
+    const double *restrict A, long sa, long sk, const double *restrict B, long sb, long sn,
+    double *restrict C, int r0, int nr, int c0, int nc, const double *restrict X, long sxr,
+    long sxc, double s)
+{
+    for (int i = 0; i < m; ++i) {
+        double *c = C + (long)i * n;
+        int nz = 0;
+        for (int j = 0; j < k && !nz; ++j) nz = A[i * sa + j * sk] != 0.0;
+        if (i < r0 || i >= r0 + nr) {
+            if (nz) nw_vecmat(k, n, A + i * sa, sk, B, sb, sn, c);
+            else memset(c, 0, (size_t)n * sizeof(double));
+            continue;
+        }
+        const double *x = X + (long)(i - r0) * sxr;
+        if (nz) {
+            nw_vecmat(k, n, A + i * sa, sk, B, sb, sn, c);
+            for (int j = 0; j < nc; ++j) c[c0 + j] += s * x[j * sxc];
+        } else {
+            memset(c, 0, (size_t)c0 * sizeof(double));
+            for (int j = 0; j < nc; ++j) c[c0 + j] = 0.0 + s * x[j * sxc];
+            memset(c + c0 + nc, 0, (size_t)(n - c0 - nc) * sizeof(double));
+        }
+    }
+}
 """
 
 

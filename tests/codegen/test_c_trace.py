@@ -87,6 +87,49 @@ def test_traced_program_printed_as_c_gives_numpys_numbers(tmp_path):
     np.testing.assert_allclose(got_v, ref_v, rtol=1e-13, atol=1e-13)
 
 
+def _block_program(S, T, X):
+    """A mass matrix as the kernel assembles one of a body on a fixed frame: a product whose
+    left factor has zero rows, then a block of bound data added (and, transposed, one
+    subtracted)."""
+    M = S @ T
+    M[2:, 1:] += X
+    N = S.T @ T.T
+    N[1:3, 0:2] -= X[:2, 1:3]
+    return M, N
+
+
+def test_product_and_added_block_print_as_one_pass(tmp_path):
+    """``C = A B`` followed by ``C[block] ±= X`` that nothing else reads prints as one
+    ``nw_gemm_add`` (zero rows of ``A`` included), whose result equals NumPy's."""
+    rng = np.random.default_rng(8)
+    S = rng.normal(size=(5, 5)) * np.array([1.0, 0.0, 1.0, 0.0, 0.0])[:, None]
+    T, X = rng.normal(size=(5, 5)), rng.normal(size=(3, 4))
+    g = Graph()
+    tS, tX, tT = g.leaf("S", S.shape, 0), g.leaf("X", X.shape, 0), g.leaf("T", T.shape, 2)
+    M, N = _block_program(tS, tT, tX)
+    pr = KernelPrinter(g, ["S", "X"])
+    fn = pr.function("f(const double *T, double *M, double *N)", [("T", tT)],
+                     [("M", M), ("N", N)], direct=True)
+    assert sum(line.count("nw_gemm_add(") for line in fn) == 2
+    src = "\n".join([
+        "#include <math.h>", "#include <string.h>", "static const double *nw_D[2];", C_DOT,
+        *pr.static, *fn, "int run(const double *S, const double *X, const double *T,",
+        "        double *M, double *N)", "{", "    nw_D[0] = S; nw_D[1] = X;",
+        *pr.bind_lines(), "    f(T, M, N); return 0;", "}", ""])
+    path = tmp_path / "block.c"
+    path.write_text(src)
+    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(),
+                                   "int run(const double *S, const double *X, const double *T,"
+                                   " double *M, double *N);", tmp_path / "cache")
+    ref_M, ref_N = _block_program(S, T, X)
+    got_M, got_N = np.full(ref_M.shape, np.nan), np.full(ref_N.shape, np.nan)
+    fb = ffi.from_buffer
+    lib.run(*(fb("double[]", np.ascontiguousarray(a)) for a in (S, X, T)),
+            fb("double[]", got_M), fb("double[]", got_N))
+    np.testing.assert_allclose(got_M, ref_M, rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(got_N, ref_N, rtol=1e-13, atol=1e-13)
+
+
 def test_complex_steps_print_as_c99_complex(tmp_path):
     """A complex argument and a complex scalar factor (the complex-step derivatives of the
     kernel): the C99 ``double complex`` loops give NumPy's complex result."""
