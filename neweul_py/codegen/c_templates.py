@@ -335,17 +335,7 @@ __attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double
     static double M[NW_N * NW_N + 1], f[NW_N + 1];
     int code = nw_mass_force(t, z, z + NW_N, p, u, M, f);
     if (code) return code;
-    for (int i = 0; i < NW_N; ++i) {
-        const double *row = M + (long)i * NW_N;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        int j = 0;
-        for (; j + 4 <= NW_N; j += 4) {
-            s0 += row[j] * x[j]; s1 += row[j + 1] * x[j + 1];
-            s2 += row[j + 2] * x[j + 2]; s3 += row[j + 3] * x[j + 3];
-        }
-        for (; j < NW_N; ++j) s0 += row[j] * x[j];
-        r[i] = (s0 + s1) + (s2 + s3) - f[i];
-    }
+    for (int i = 0; i < NW_N; ++i) r[i] = nw_dotn(NW_N, M + (long)i * NW_N, x) - f[i];
     return 0;
 }
 
