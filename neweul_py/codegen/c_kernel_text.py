@@ -1,7 +1,8 @@
 """The fixed C helpers that printed kernels call (:mod:`.c_kernel`).
 
-:data:`C_DOT`: the products ``y = A x``, ``y = x B``, ``C = A B`` with strides (four partial
-sums; a zero entry of ``x`` — the weights of mixed samples — and a zero row of ``A`` skipped).
+:data:`C_DOT`: the products ``y = A x``, ``y = x B``, ``C = A B`` with strides, and ``C = A B``
+with a block added in the same pass (four partial sums; a zero entry of ``x`` — the weights
+of mixed samples — and a zero row of ``A`` skipped).
 :data:`C_MIX`: the compact mixing of a parametric body's samples
 (:func:`~neweul_py.ffrf.parametric.ffrf_mix`), by blocks of columns.
 """
@@ -60,18 +61,6 @@ __attribute__((optimize("O3"))) static void nw_vecmat(int k, int n, const double
     }
 }
 
-__attribute__((optimize("O3"))) static void nw_gemm(int m, int n, int k,
-    const double *restrict A, long sa, long sk, const double *restrict B, long sb, long sn,
-    double *restrict C)
-{
-    for (int i = 0; i < m; ++i) {      /* a zero row of A (S_W^T of rigid coordinates): zeros */
-        int nz = 0;
-        for (int j = 0; j < k && !nz; ++j) nz = A[i * sa + j * sk] != 0.0;
-        if (nz) nw_vecmat(k, n, A + i * sa, sk, B, sb, sn, C + i * n);
-        else memset(C + i * n, 0, (size_t)n * sizeof(double));
-    }
-}
-
 /* C = A B, then s X (s = 1 or -1) added to its block of rows r0 ... r0 + nr - 1 and columns
    c0 ... c0 + nc - 1, in one pass: a zero row of A gives zeros and the block's row */
 __attribute__((optimize("O3"))) static void nw_gemm_add(int m, int n, int k,
@@ -98,6 +87,13 @@ __attribute__((optimize("O3"))) static void nw_gemm_add(int m, int n, int k,
             memset(c + c0 + nc, 0, (size_t)(n - c0 - nc) * sizeof(double));
         }
     }
+}
+
+/* C = A B (a zero row of A, S_W^T of rigid coordinates: zeros) */
+static void nw_gemm(int m, int n, int k, const double *restrict A, long sa, long sk,
+                    const double *restrict B, long sb, long sn, double *restrict C)
+{
+    nw_gemm_add(m, n, k, A, sa, sk, B, sb, sn, C, 0, 0, 0, 0, NULL, 0, 0, 0.0);
 }
 """
 
