@@ -426,7 +426,7 @@ else:
                           (x_eval, x_eval.size)):
             if arr.dtype != _f8 or not arr.flags.c_contiguous or arr.size != size:
                 raise ValueError("state, flags, work and x_eval: contiguous float64 arrays of "
-                             "their sizes")
+                                 "their sizes")
         te = _as(t_eval, dtype=_f8).reshape(-1)
         if x_eval.size != te.size * _S:
             raise ValueError("x_eval must hold one state per output time")
