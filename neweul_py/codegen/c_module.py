@@ -48,7 +48,13 @@ from .c_functions import (
 from .c_printer import DotRows
 from .c_solve import c_solver, constant_block
 from .c_splice import render_elastic_sources
-from .c_templates import C_DOPRI5, C_GALPHA, C_LU, C_SUPPORT_DECLARATIONS
+from .c_templates import (
+    C_DOPRI5,
+    C_GALPHA,
+    C_GALPHA_RESIDUAL,
+    C_LU,
+    C_SUPPORT_DECLARATIONS,
+)
 from .cse import Block
 from .writer import program_blocks
 
@@ -221,7 +227,7 @@ def render_c_sources(equations: Any, blocks: dict[str, Block], model_name: str
                        ("constraint_gamma", YYD_ARGS)):
         core += c_function(f"nw_{name}({args})",
                           c_body(g, blocks[name], "out", name.replace("_", " "), dots))
-    core += [C_LU, solve, C_DOPRI5, *_MASS_FORCE, C_GALPHA]
+    core += [C_LU, solve, C_DOPRI5, *_MASS_FORCE, C_GALPHA_RESIDUAL, C_GALPHA]
 
     jac_head = _head(model_name, "Derivatives of the equations of motion", n, nu, [
         jacobian_declarations("loss_matrix" in blocks),

@@ -206,13 +206,16 @@ def _weights_lines(t: SpliceTrace, data: dict[str, int]) -> list[str]:
     return lines
 
 
-#: ``M`` and ``q − k`` in one evaluation, for the generalized-α loop (:data:`.C_GALPHA`).
-_MASS_FORCE = r"""
-static int nw_mass_force(double t, const double *y, const double *yd, const double *p,
-                         const double *u, double *M, double *f)
+#: The residual ``M a − (q − k)`` of the generalized-α loop (:data:`.C_GALPHA`), with ``M a``
+#: of the traced ``nw_k_dynr`` (:mod:`.c_matvec`): ``M`` is not formed.
+_RESIDUAL = r"""
+static int nw_ga_residual(double t, const double *z, const double *a, const double *p,
+                          const double *u, double *r)
 {
     if (!nw_bound) return 2;
-    return nw_dyn(t, y, yd, p, u, M, f);
+    if (nw_sym(t, z, z + NW_N, p, u)) return 3;
+    nw_k_dynr(parts, z, z + NW_N, parts + NW_NH, parts + NW_NH + NW_NS * NW_NS, a, r);
+    return 0;
 }
 """
 
@@ -246,7 +249,7 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
         outs = ", ".join(f"{'double complex' if o.node.cplx else 'double'} *{c}"
                          for c, o in outputs)
         body += pr.function(f"{name}({args}, {outs})", params, outputs,
-                            direct=name == "nw_k_dyn")
+                            direct=name in ("nw_k_dyn", "nw_k_dynr"))
     sv, sw = pr.pointer(t.real["SV"]), pr.pointer(t.real["SW"])
     sv0 = f"nw_D[{index['_splice/SV']}]"
     sv_sigma = int(pr.level[t.real["SV"].node.id] > 0)     # S_V(σ) mixed with the weights
@@ -271,7 +274,7 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
         fixed = ("    nw_k_fixed(fy, fyd, fy, fyd);" if "nw_k_fixed" in which else "")
         text += [JACOBIAN_C.replace("NW_FIXED_JACOBIANS", fixed), PARAMETER_C]
     else:
-        text += [CORE_C, C_DOPRI5, _MASS_FORCE, C_GALPHA]
+        text += [CORE_C, C_DOPRI5, _RESIDUAL, C_GALPHA]
     return "\n".join([*symbolic_lines, C_DOT, C_MIX, *text])
 
 
@@ -332,7 +335,7 @@ def render_elastic_sources(equations: Any, model_name: str, *, cse: bool = True
         "rhs_parts", "outputs", "constraints", "constraint_jacobian",
         "constraint_time_derivative", "constraint_gamma", "schedule", "schedule_jacobians"),
         dots)]
-    core_kernels = ("nw_k_dyn",)
+    core_kernels = ("nw_k_dyn", "nw_k_dynr")
     jac_dots = DotRows(len(symbolic.coordinates))
     inputs_j = c_function("nw_s_default_inputs(double t, const double *p, double *out)",
                           c_body(g, blocks["default_inputs"], "out", "the default inputs",

@@ -124,18 +124,26 @@ NW_WEIGHTS
     return 0;
 }
 
-/* (M, q - k) at the state: y_s = S_V y, the symbolic part, the bodies (ffrf_dynamics) */
-static int nw_dyn(double t, const double *y, const double *yd, const double *p,
-                  const double *u, double *M, double *f)
+/* The context and the symbolic part at the state: y_s = S_V y, its frame kinematics, M_s
+   and (q - k)_s into parts (ffrf_dynamics). parts is zero at load; nw_s_rhs_parts writes
+   the entries that are not zero by construction, the same ones at every call (c_splice.py) */
+static double parts[NW_NH + NW_NS * NW_NS + NW_NS + 1];
+static int nw_sym(double t, const double *y, const double *yd, const double *p,
+                  const double *u)
 {
-    /* zero at load; nw_s_rhs_parts writes the entries that are not zero by construction,
-       the same ones at every call (c_splice.py) */
-    static double parts[NW_NH + NW_NS * NW_NS + NW_NS + 1];
     double ys[NW_NS + 1], yds[NW_NS + 1];
     if (nw_at(t, y, p, u)) return 3;
     nw_smap(0, y, ys);
     nw_smap(0, yd, yds);
     nw_s_rhs_parts(t, ys, yds, p, u, parts);
+    return 0;
+}
+
+/* (M, q - k) at the state: the symbolic part and the bodies (ffrf_dynamics) */
+static int nw_dyn(double t, const double *y, const double *yd, const double *p,
+                  const double *u, double *M, double *f)
+{
+    if (nw_sym(t, y, yd, p, u)) return 3;
     nw_k_dyn(parts, y, yd, parts + NW_NH, parts + NW_NH + NW_NS * NW_NS, M, f);
     return 0;
 }

@@ -32,6 +32,7 @@ from ..ffrf.splice import (
     ffrf_terms,
 )
 from ..ffrf.varying import ffrf_expand
+from .c_matvec import matvec
 from .c_trace import Graph, TArray
 from .elastic import elastic_data, patterns, symbolic_part
 
@@ -347,6 +348,14 @@ def traced_kernels(t: SpliceTrace) -> dict[str, tuple[list, list]]:
     f = ffrf_add_force(S, np.dot(S["SW"].T, fs), terms)
     out["nw_k_dyn"] = ([("kin", kin), ("y", y), ("yd", yd), ("Ms", Ms), ("fs", fs)],
                        [("M", M), ("f", f)])
+    # the residual M a − (q − k) of the generalized-α loop, without forming M (.c_matvec)
+    kin2, y2, yd2, a2 = leaf("kin", (nh,)), leaf("y", (n,)), leaf("yd", (n,)), leaf("a", (n,))
+    Ms2, fs2 = leaf("Ms", (ns, ns)), leaf("fs", (ns,))
+    terms2 = ffrf_terms(S, kin2, y2, yd2)
+    M2 = ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms2), terms2)
+    r = matvec(M2, a2) - ffrf_add_force(S, np.dot(S["SW"].T, fs2), terms2)
+    out["nw_k_dynr"] = ([("kin", kin2), ("y", y2), ("yd", yd2), ("Ms", Ms2), ("fs", fs2),
+                         ("a", a2)], [("r", r)])
     if t.fixed:                               # the constant Ke, De of fixed frames
         fy, fyd = leaf("fy", (n, n)), leaf("fyd", (n, n))
         fy2, fyd2 = TArray(g, fy.node), TArray(g, fyd.node)

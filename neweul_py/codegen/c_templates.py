@@ -20,7 +20,8 @@ one shared library, no linking against anything but ``libm``).
 
 from __future__ import annotations
 
-__all__ = ["C_DOPRI5", "C_DOPRI5_TABLEAU", "C_GALPHA", "C_LU", "C_SUPPORT_DECLARATIONS"]
+__all__ = ["C_DOPRI5", "C_DOPRI5_TABLEAU", "C_GALPHA", "C_GALPHA_RESIDUAL", "C_LU",
+           "C_SUPPORT_DECLARATIONS"]
 
 #: Declarations (cffi ``cdef``) of the support functions.
 C_SUPPORT_DECLARATIONS = """
@@ -307,13 +308,29 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
 C_DOPRI5 = C_DOPRI5_TABLEAU + _C_DOPRI5_LOOP
 
 
+#: The residual ``M a − (q − k)`` from ``M`` and ``q − k`` (``nw_mass_force``), for
+#: :data:`C_GALPHA` in a module without elastic bodies (one with them has its own, which does
+#: not form ``M``: :mod:`.c_splice`).
+C_GALPHA_RESIDUAL = r"""
+__attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double *z,
+    const double *a, const double *p, const double *u, double *r)
+{
+    static double M[NW_N * NW_N + 1], f[NW_N + 1];
+    int code = nw_mass_force(t, z, z + NW_N, p, u, M, f);
+    if (code) return code;
+    for (int i = 0; i < NW_N; ++i) r[i] = nw_dotn(NW_N, M + (long)i * NW_N, a) - f[i];
+    return 0;
+}
+"""
+
 #: Steps of the generalized-α method (:mod:`neweul_py.analysis.generalized_alpha`, whose
 #: module docstring gives the method, the stopping rule and the outputs) in C: the same
 #: predictor, Newton iteration, contraction test, rebuild protocol and cubic Hermite outputs,
 #: with Newton's method on the residual ``r = M(y₊) ÿ₊ − (q − k)(t₊, y₊, ẏ₊)`` and the kept
 #: LU factors of the iteration matrix ``S = M + c_v C_t + c_y K_t`` (Arnold & Brüls, Multibody
-#: Syst. Dyn. 18 (2007) 185–202, Eq. (14)): ``Δ = S⁻¹ r``, one evaluation of ``M`` and
-#: ``q − k`` (``nw_mass_force``) and no solve with ``M`` per iteration. The Python loop
+#: Syst. Dyn. 18 (2007) 185–202, Eq. (14)): ``Δ = S⁻¹ r``, one evaluation of the residual
+#: (``nw_ga_residual``, placed before: :data:`C_GALPHA_RESIDUAL`, or that of :mod:`.c_splice`)
+#: and no solve with ``M`` per iteration. The Python loop
 #: iterates on ``ÿ₊ − M⁻¹ (q − k)`` with ``S⁻¹ M`` of the rebuild; both are Newton's method
 #: with the same matrix at the rebuild and converge to the same step to the tolerance.
 #: ``cf``: ``h, c_y, c_v, ya, yy, va, vy, α_m, α_f`` (``GeneralizedAlpha``) and the stopping
@@ -328,16 +345,7 @@ C_DOPRI5 = C_DOPRI5_TABLEAU + _C_DOPRI5_LOOP
 #: ``S`` at the predictor and call again with fresh and retry set), 2 (failed with a rebuilt
 #: matrix), 3 (``S`` singular) or 4 + the model's error code.
 C_GALPHA = r"""
-/* ---- generalized-alpha steps (codegen/c_templates.py, C_GALPHA) */
-__attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double *z,
-    const double *x, const double *p, const double *u, double *r)
-{
-    static double M[NW_N * NW_N + 1], f[NW_N + 1];
-    int code = nw_mass_force(t, z, z + NW_N, p, u, M, f);
-    if (code) return code;
-    for (int i = 0; i < NW_N; ++i) r[i] = nw_dotn(NW_N, M + (long)i * NW_N, x) - f[i];
-    return 0;
-}
+/* ---- generalized-alpha steps (codegen/c_templates.py, C_GALPHA; nw_ga_residual before) */
 
 /* Newton's method of one step (analysis/generalized_alpha.py, _newton): 0 converged, 1 not */
 static int nw_ga_newton(double tn, const double *yh, const double *vh, const double *cf,

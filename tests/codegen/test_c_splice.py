@@ -190,24 +190,30 @@ def test_symbolic_part_writes_into_its_one_static_buffer(bodies) -> None:
     """``nw_s_rhs_parts`` sets only the entries that are not zero by construction, without a
     ``memset`` (codegen/c_splice.py). That is right only while its one caller passes the
     static buffer ``parts``, zero from the load on, that nothing else writes: both C files
-    have exactly that one call, and ``nw_k_dyn`` reads the buffer as ``const`` (reference:
-    the invariant the generator states)."""
+    have exactly that one call, and the kernels that read the buffer (``nw_k_dyn``; in the
+    core library also the residual's ``nw_k_dynr``) read it as ``const`` (reference: the
+    invariant the generator states)."""
     import re
 
     _pair(bodies, "ISYS", "duct_q.npz", "cs + 2000*z + 5*F", "ISYS_duct_q")
     files = sorted((bodies / "gen_ISYS_duct_q").glob("*.c"))
-    assert len(files) == 2
-    for path in files:
+    assert [f.name.endswith("_jac.c") for f in files] == [False, True]
+    readers = {"nw_k_dyn": "nw_k_dyn(parts, y, yd, parts + NW_NH, parts + NW_NH + NW_NS * NW_NS, "
+                           "M, f);",
+               "nw_k_dynr": "nw_k_dynr(parts, z, z + NW_N, parts + NW_NH, "
+                            "parts + NW_NH + NW_NS * NW_NS, a, r);"}
+    for path, kernels in zip(files, (("nw_k_dyn", "nw_k_dynr"), ("nw_k_dyn",)), strict=True):
         text = re.sub(r"/\*.*?\*/", "", path.read_text(), flags=re.S)    # no comments
         assert re.findall(r"nw_s_rhs_parts\(([^;{]*)\);", text) == ["t, ys, yds, p, u, parts"]
         lines = [line.strip() for line in text.splitlines() if re.search(r"\bparts\b", line)]
         assert lines == ["static double parts[NW_NH + NW_NS * NW_NS + NW_NS + 1];",
                          "nw_s_rhs_parts(t, ys, yds, p, u, parts);",
-                         "nw_k_dyn(parts, y, yd, parts + NW_NH, parts + NW_NH + NW_NS * NW_NS, "
-                         "M, f);"]
+                         *(readers[k] for k in kernels)]
         start = text.index("static int nw_s_rhs_parts(")
         assert "memset" not in text[start:text.index("\n}\n", start)]
-        assert "const double *kin" in text[text.index("static void nw_k_dyn("):][:200]
+        for k in kernels:
+            head = text[text.index(f"static void {k}("):][:200]
+            assert all(f"const double *{a}" in head for a in ("kin", "Ms", "fs"))
 
 
 def test_kept_factorization_follows_the_schedule(bodies) -> None:
