@@ -116,6 +116,10 @@ class KernelPrinter:
         self.bound: list[str] = []            # level-0 computations (after binding)
         self._done_low: set[int] = set()
         self.params: dict[int, str] = {}      # leaves of level 1, 2 → C pointer names
+        # the weights leaves whose real mixes read the polynomial rows of nw_poly: leaf id →
+        # (parametric body k, degree + 1); and the rows made: (k, data name) → (buffer, nv)
+        self.polynomial_weights: dict[int, tuple[int, int]] = {}
+        self.polynomials: dict[tuple[int, str], tuple[str, int]] = {}
 
     # ------------------------------------------------------------------ names
     def _ctype(self, node: Node) -> str:
@@ -521,6 +525,10 @@ class KernelPrinter:
             ptr[name] = (f"{self._storage_name(st, local)} + {off}" if off
                          else self._storage_name(st, local))
         call = "nw_mixz" if n.cplx else "nw_mix"
+        rows_x, weights = x.shape[0], ptr["x"]
+        poly = self._polynomial_rows(x, V)
+        if poly is not None:
+            rows_x, weights, ptr["V"] = poly
         return ["    {",
                 f"        {ctype} s = 0.0;",
                 f"        for (int r = 0; r < {x.shape[0]}; ++r) s += ({ptr['x']})[r] * "
@@ -530,9 +538,30 @@ class KernelPrinter:
                 f"{out}[i] = s * ({ptr['base']})[{i0} + i];",
                 f"            {out}_s = s;", f"            {out}_bound = nw_binds;",
                 "        }", "    }",
-                f"    {call}({x.shape[0]}, {ptr['x']}, {ptr['V']}, {V.shape[1]}, {lo}, {hi}, "
+                f"    {call}({rows_x}, {weights}, {ptr['V']}, {V.shape[1]}, {lo}, {hi}, "
                 f"{ptr['index']}, {ptr['mirror']}, {mirror.size // 2}, {mlo}, {mhi}, {i0}, "
                 f"{out}, &{out}_plan, nw_binds);"]
+
+    def _polynomial_rows(self, x: Node, V: Node) -> tuple[int, str, str] | None:
+        """``(nd, pw, P)`` when the mix by the real weights ``x`` of ``V`` reads the rows
+        ``P = C_j V`` of ``nw_poly`` (:data:`.c_splice_text.SPLICE_C`) instead: ``x`` one of
+        :attr:`polynomial_weights` of lower degree than its length, ``V`` a whole data
+        array. The buffers are declared here and listed in :attr:`polynomials`."""
+        known = self.polynomial_weights.get(x.id) if x.op == "leaf" else None
+        if known is None or V.op != "leaf" or V.params[1] != 0 or len(V.shape) != 2:
+            return None
+        k, nd = known
+        if not nd < x.shape[0] == V.shape[0]:
+            return None
+        name = V.params[0]
+        if (k, name) not in self.polynomials:
+            buf = f"nw_P{k}_{self.data[name]}"
+            if not any(kk == k for kk, _n in self.polynomials):
+                self.static.append(f"static double nw_pw{k}[{nd}];")
+            self.static += [f"static double {buf}[{nd * V.shape[1] + 1}];",
+                            f"static long {buf}_at = -1;"]
+            self.polynomials[k, name] = (buf, int(V.shape[1]))
+        return nd, f"nw_pw{k}", self.polynomials[k, name][0]
 
     def _dot(self, n: Node, out: str, local: dict[int, str]) -> list[str]:
         a, b = n.args

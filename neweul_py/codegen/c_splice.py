@@ -72,7 +72,15 @@ from .c_kernel import KernelPrinter
 from .c_kernel_text import C_DOT, C_MIX
 from .c_printer import DotRows
 from .c_splice_parameters import PARAMETER_C
-from .c_splice_text import CORE_C, ESOLVE_C, GLOBALS_C, JACOBIAN_C, SMAP_C, SPLICE_C
+from .c_splice_text import (
+    CORE_C,
+    ESOLVE_C,
+    GLOBALS_C,
+    JACOBIAN_C,
+    POLY_C,
+    SMAP_C,
+    SPLICE_C,
+)
 from .c_splice_trace import SpliceTrace, trace_splice, traced_kernels
 from .c_templates import C_DOPRI5, C_GALPHA, C_LU
 from .c_trace import Graph
@@ -196,13 +204,20 @@ def _defines(t: SpliceTrace, nd: int, ny: int, nc: int) -> list[str]:
     ]
 
 
-def _weights_lines(t: SpliceTrace, data: dict[str, int]) -> list[str]:
-    lines, off = [], 0
+def _weights_lines(t: SpliceTrace, data: dict[str, int],
+                   polynomials: dict[tuple[int, str], tuple[str, int]]) -> list[str]:
+    """The weights at the schedules in ``nw_at``, then the polynomial rows of the mixes that
+    read them (``nw_poly``, :meth:`.KernelPrinter._polynomial_rows`)."""
+    lines, off, args = [], 0, []
     for k, p in enumerate(t.parametric):
-        lines.append(f"    if (nw_weights(sigma[{k}], nw_D[{data[p['values']]}], "
-                     f"nw_D[{data[p['coeff']]}], {p['nb']}, {p['nd']}, {p['cols']}, "
-                     f"w + {off}, dw + {off})) return 3;")
+        args.append(f"nw_D[{data[p['values']]}], nw_D[{data[p['coeff']]}], {p['nb']}, "
+                    f"{p['nd']}, {p['cols']}")
+        lines.append(f"    if (nw_weights(sigma[{k}], {args[k]}, w + {off}, dw + {off})) "
+                     "return 3;")
         off += p["cols"]
+    for (k, name), (buf, nv) in sorted(polynomials.items()):
+        lines.append(f"    nw_poly(sigma[{k}], {args[k]}, nw_D[{data[name]}], {nv}, {buf}, "
+                     f"nw_pw{k}, &{buf}_at);")
     return lines
 
 
@@ -226,6 +241,8 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
     """One C file: the symbolic part, the traced kernels ``which``, the splice."""
     index = {k: i for i, k in enumerate(data)}
     pr = KernelPrinter(t.graph, data)
+    pr.polynomial_weights = {t.graph.leaves[f"w{i}"].id: (i, p["nd"])
+                             for i, p in enumerate(t.parametric)}
     for name in ("w", "dw", "wc"):           # the weights: global arrays of the splice
         off = 0
         for i, p in enumerate(t.parametric):
@@ -261,8 +278,9 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
                        f"{{{', '.join(str(int(o)) for o in offs)}}};")
         body.insert(1, "static const double *nw_dsv[NW_NPB] = {"
                        + ", ".join(pr.pointer(d) for d in t.dsv) + "};")
-    splice = SPLICE_C.replace("NW_SMAP", SMAP_C.strip("\n"))
-    splice = splice.replace("NW_WEIGHTS", "\n".join(_weights_lines(t, index)))
+    splice = (SPLICE_C.replace("NW_SMAP", SMAP_C.strip("\n"))
+              .replace("NW_POLY", POLY_C.strip("\n")))
+    splice = splice.replace("NW_WEIGHTS", "\n".join(_weights_lines(t, index, pr.polynomials)))
     splice = splice.replace("NW_BIND", "\n".join(pr.bind_lines()))
     splice = splice.replace("NW_SIZES", ", ".join(str(sizes[k]) for k in data) or "0")
     R = [j for j in range(t.n) if j not in set(t.elastic)]

@@ -12,7 +12,7 @@ The ``NW_*`` macros are defined per model by :mod:`.c_splice`.
 
 from __future__ import annotations
 
-__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "JACOBIAN_C", "SMAP_C", "SPLICE_C"]
+__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "JACOBIAN_C", "POLY_C", "SMAP_C", "SPLICE_C"]
 
 #: The splice of both libraries: binding, weights, the context at the schedule, the
 #: dynamics and the sensitivities of the schedule (mirrors neweul_py/ffrf/splice.py).
@@ -76,6 +76,39 @@ __attribute__((optimize("O3"))) static void nw_smap(int which, const double *res
 }
 """
 
+#: ``nw_poly``: the rows ``P = C_j V`` (``nd × nv``) and powers ``pw`` with which a mix by a
+#: parametric body's weights ``w = pw C_j`` (their polynomial on the interval ``j`` of the
+#: schedule, :func:`~neweul_py.ffrf.parametric.ffrf_weights`) reads ``nd`` rows instead of the
+#: ``ncol`` of ``V``: ``w V = pw (C_j V)``, equal to round-off. Placed at ``NW_POLY`` in
+#: :data:`SPLICE_C`; needs ``nw_vecmat`` (:data:`.c_kernel_text.C_DOT`), ``NW_MIXB`` and
+#: ``nw_binds``.
+POLY_C = r"""
+/* A mix by the weights at x from nd rows instead of ncol: on the interval j of x the weights
+   are w = pw C_j, pw = (dx^(nd-1), ..., dx, 1) and C_j the rows of c at j (nw_weights'
+   Horner), so w V = pw P with P = C_j V (nd x nv). P is made again when j or the binding
+   changes (*at), in one pass over V by blocks; pw at every call. x in [b_0, b_{nb-1}] */
+__attribute__((optimize("O3"))) static void nw_poly(double x, const double *b, const double *c,
+    int nb, int nd, int ncol, const double *V, long nv, double *P, double *pw, long *at)
+{
+    int j = nb - 2;
+    for (int i = 0; i < nb - 1; ++i)
+        if (x < b[i + 1]) { j = i; break; }
+    const long key = nw_binds * nb + j;
+    if (*at != key) {
+        for (long s = 0; s < nv; s += NW_MIXB) {
+            const int e = nv - s < NW_MIXB ? (int)(nv - s) : NW_MIXB;
+            for (int m = 0; m < nd; ++m)
+                nw_vecmat(ncol, e, c + ((long)m * (nb - 1) + j) * ncol, 1, V + s, nv, 1,
+                          P + (long)m * nv + s);
+        }
+        *at = key;
+    }
+    const double dx = x - b[j];
+    pw[nd - 1] = 1.0;
+    for (int m = nd - 2; m >= 0; --m) pw[m] = pw[m + 1] * dx;
+}
+"""
+
 SPLICE_C = r"""
 /* ---- the splice of the elastic bodies (codegen/c_splice.py; neweul_py/ffrf/splice.py) */
 
@@ -101,6 +134,7 @@ static int nw_weights(double x, const double *b, const double *c, int nb, int nd
     return 0;
 }
 
+NW_POLY
 NW_SMAP
 /* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at;
    the mixed samples are kept while the weights are unchanged); 3 outside the samples */

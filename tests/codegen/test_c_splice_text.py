@@ -1,9 +1,11 @@
 """The fixed C text of the splice (neweul_py/codegen/c_splice_text.py): the products with the
-selection maps ``S_V`` and ``S_V(0)`` along the nonzero span of each row (``SMAP_C``).
+selection maps ``S_V`` and ``S_V(0)`` along the nonzero span of each row (``SMAP_C``), and
+the polynomial rows of a parametric body's mix (``POLY_C``).
 
 Reference: NumPy's dense product ``S_V @ x``, as the NumPy module forms ``y_s`` — for maps
 whose zero pattern changes between bindings or weights, and for an ``x`` with NaN, which
-the dense product carries into every row (``0 · NaN``).
+the dense product carries into every row (``0 · NaN``); for the mix, the weights of
+``ffrf_weights`` times the samples, ``w V``, as ``ffrf_mix`` forms the varying entries.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ import pytest
 
 from neweul_py.codegen.c_kernel_text import C_DOT
 from neweul_py.codegen.c_runtime import compiled_library
-from neweul_py.codegen.c_splice_text import SMAP_C
+from neweul_py.codegen.c_splice_text import POLY_C, SMAP_C
+from neweul_py.ffrf.parametric import ffrf_weights
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                                 reason="no C compiler")
@@ -91,3 +94,41 @@ def test_span_product_of_a_nan_reaches_every_row(tmp_path) -> None:
         want = A @ x
     assert np.isnan(want).all()
     np.testing.assert_array_equal(np.isnan(y), np.isnan(want))
+
+
+def test_polynomial_rows_give_the_weights_times_the_samples(tmp_path) -> None:
+    """``pw P`` of ``nw_poly`` equals ``ffrf_weights(σ) V`` to round-off at schedules in
+    several intervals, at breakpoints and the ends, back in an interval seen before, and
+    after a new binding with other samples (``P`` made again although the schedule stays in
+    the interval of the last call)."""
+    nb, nd, ncol, nv = 6, 4, 9, 1100                 # two blocks of NW_MIXB and a rest
+    src = "\n".join([
+        "#include <string.h>", "#define NW_MIXB 512", "static long nw_binds;", C_DOT,
+        POLY_C, f"static double P[{nd * nv}], pw[{nd}]; static long at = -1;",
+        "void poly(double x, const double *b, const double *c, const double *V, int bind,",
+        "          double *out)",
+        "{", "    nw_binds += bind;",
+        f"    nw_poly(x, b, c, {nb}, {nd}, {ncol}, V, {nv}, P, pw, &at);",
+        f"    memset(out, 0, {nv} * sizeof(double));",
+        f"    for (int m = 0; m < {nd}; ++m)",
+        f"        for (long i = 0; i < {nv}; ++i) out[i] += pw[m] * P[m * {nv} + i];",
+        "}", ""])
+    path = tmp_path / "poly.c"
+    path.write_text(src)
+    ffi, lib, _ = compiled_library(
+        path, hashlib.sha256(src.encode()).hexdigest(),
+        "void poly(double x, const double *b, const double *c, const double *V, int bind,"
+        " double *out);", tmp_path / "cache")
+    rng = np.random.default_rng(7)
+    b = np.cumsum(rng.uniform(0.5, 2.0, size=nb)) - 3.0
+    c = rng.normal(size=(nd, nb - 1, ncol))
+    c[:, :, ::3] = 0.0                               # weights that vanish on every interval
+    fb = ffi.from_buffer
+    out = np.empty(nv)
+    for bind, V in ((1, rng.normal(size=(ncol, nv))), (1, rng.normal(size=(ncol, nv)))):
+        for x in (b[1] + 0.3, b[3] + 0.1, b[3] + 0.2, b[2], b[-1], b[0], b[1] + 0.2):
+            lib.poly(x, fb("double[]", b), fb("double[]", c), fb("double[]", V), bind, fb(
+                "double[]", out))
+            bind = 0
+            want = ffrf_weights(b, c, x, "duct") @ V
+            np.testing.assert_allclose(out, want, rtol=1e-12, atol=1e-13 * np.abs(want).max())
