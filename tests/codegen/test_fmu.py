@@ -340,3 +340,68 @@ def test_model_description_declares_what_the_model_is(work):
     assert "binaries/linux64/four_bar.so" in names
     assert {"sources/model.c", "sources/model_jac.c", "sources/neweul_fmi2.c",
             "sources/model.h", "sources/fmi2Functions.h"} <= set(names)
+
+
+def _duct_run(fmu: Path, unzip: Path, cs: float, steps: int, start=None, done=None):
+    """The duct's piston position after each of ``steps`` co-simulation steps of 2 ms with
+    the sound speed ``cs``, an instance of the library extracted in ``unzip`` (loaded once
+    per process: the instances share it); with ``start`` (a barrier) the runs begin
+    together and each waits at ``done`` before it frees its instance."""
+    md = read_model_description(str(fmu))
+    inst = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip), instanceName=f"cs{cs:g}",
+                     modelIdentifier=md.coSimulation.modelIdentifier)
+    inst.instantiate()
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    inst.setupExperiment(tolerance=1e-8, startTime=0.0)
+    inst.enterInitializationMode()
+    inst.setReal([vr["cs"]], [cs])
+    inst.exitInitializationMode()
+    if start is not None:
+        start.wait()
+    out = []
+    for k in range(steps):
+        inst.doStep(k * 2e-3, 2e-3)
+        out.append(inst.getReal([vr["piston"]])[0])
+    if done is not None:
+        done.wait()
+    inst.terminate()
+    inst.freeInstance()
+    return np.array(out)
+
+
+def test_instances_stepped_in_parallel_threads_give_their_own_results(work, tmp_path):
+    """Two instances of the parametric elastic FMU (``canBeInstantiatedOnlyOncePerProcess``
+    false) of one loaded library, stepped at once from two threads — FMPy's calls release
+    the GIL, so the C runs in parallel — each give the result of that instance run alone
+    (reference: the runs one after the other, to round-off: the library's caches are
+    shared). The library's work buffers are shared too (docs/fmu-export.md): without its
+    lock the runs fail ("singular mass matrix") or drift. The sound speeds differ, so an
+    instance that used the other's intermediate values would be far off."""
+    import threading
+
+    _desc, fmu = _fmu(work, "duct")
+    unzip = tmp_path / "fmu"
+    extract(str(fmu), unzipdir=str(unzip))
+    speeds, steps = (320.0, 366.0), 200
+    alone = [_duct_run(fmu, unzip, cs, steps) for cs in speeds]
+    assert np.abs(alone[0] - alone[1]).max() > 1e-3 * np.abs(alone[0]).max()
+    start, done = threading.Barrier(2, timeout=300), threading.Barrier(2, timeout=300)
+    got: dict[int, object] = {}
+
+    def run(i: int) -> None:
+        try:
+            got[i] = _duct_run(fmu, unzip, speeds[i], steps, start, done)
+        except Exception as exc:          # reported below; the other thread is released
+            got[i] = exc
+            start.abort()
+            done.abort()
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for i in range(2):
+        assert isinstance(got[i], np.ndarray), (speeds[i], got[i])
+        scale = np.abs(alone[i]).max()
+        assert np.abs(got[i] - alone[i]).max() <= 1e-9 * scale, speeds[i]

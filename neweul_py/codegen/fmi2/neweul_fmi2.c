@@ -22,7 +22,8 @@
    resources/NW_DATA_FILE (NW_DATA_COUNT little-endian float64 arrays of nw_data_sizes
    elements, one after the other). The first instance reads them, checks their size and their
    checksums NW_DATA_SUM, NW_DATA_WSUM, and binds both translation units to them (nw_bind,
-   nw_bind_jac); the instances share them (and the library's state: one call at a time). */
+   nw_bind_jac); the instances share them and the library's state, whose calls hold a
+   process-wide lock (NW_LOCKED), so that instances may be stepped from several threads. */
 
 #include <math.h>
 #include <stdarg.h>
@@ -57,6 +58,32 @@ int nw_output_jacobians(double t, const double *x, const double *p, const double
 int nw_bind(int count, const double *const *data, const long *sizes);
 int nw_bind_jac(int count, const double *const *data, const long *sizes);
 #endif
+
+/* ---- one call into the model at a time. The instances share the compiled library, whose
+   functions keep work buffers and caches (the mixed samples of a parametric body, a kept
+   factorization) in static memory; those caches are keyed on their content, so calls of
+   different instances may alternate, but two may not run at once: every call into the model
+   holds a process-wide lock (an importer may step instances from several threads). */
+#ifdef _WIN32
+#include <windows.h>
+static SRWLOCK nw_lock = SRWLOCK_INIT;
+#define NW_LOCK() AcquireSRWLockExclusive(&nw_lock)
+#define NW_UNLOCK() ReleaseSRWLockExclusive(&nw_lock)
+#else
+#include <pthread.h>
+static pthread_mutex_t nw_lock = PTHREAD_MUTEX_INITIALIZER;
+#define NW_LOCK() pthread_mutex_lock(&nw_lock)
+#define NW_UNLOCK() pthread_mutex_unlock(&nw_lock)
+#endif
+
+static int nw_unlock(int code)
+{
+    NW_UNLOCK();
+    return code;
+}
+
+/* the model call `call` under the lock (the comma operator takes the lock first) */
+#define NW_LOCKED(call) (NW_LOCK(), nw_unlock(call))
 
 #define NW_S (2 * NW_N)          /* the full first-order state [y, yd] */
 #define NW_NZ (2 * NW_NI)        /* the FMU's continuous states [y_I, yd_I] */
@@ -133,11 +160,11 @@ static int nw_complete(nw_inst *c, double t, const double *ub)
     for (int j = 0; j < NW_N; ++j) scale = fmax(scale, 1.0 + fabs(y[j]));
     for (it = 0; it < NW_MAX_NEWTON; ++it) {
         double gmax = 0.0, step = 0.0;
-        nw_constraints(t, y, c->p, ub, g);
+        NW_LOCKED(nw_constraints(t, y, c->p, ub, g));
         for (int i = 0; i < NW_NC; ++i) gmax = fmax(gmax, fabs(g[i]));
         if (!(gmax == gmax)) break;
         if (gmax <= NW_NEWTON_TOL * scale && it > 0) break;
-        nw_constraint_jacobian(t, y, c->p, ub, gj);
+        NW_LOCKED(nw_constraint_jacobian(t, y, c->p, ub, gj));
         for (int i = 0; i < NW_NC; ++i)
             for (int k = 0; k < NW_NC; ++k) gd[i * NW_NC + k] = gj[i * NW_N + nw_dep[k]];
         if (nw_lu(NW_NC, gd, piv)) {
@@ -153,7 +180,7 @@ static int nw_complete(nw_inst *c, double t, const double *ub)
         }
         if (gmax <= NW_NEWTON_TOL * scale && step <= NW_NEWTON_TOL * scale) break;
     }
-    nw_constraints(t, y, c->p, ub, g);
+    NW_LOCKED(nw_constraints(t, y, c->p, ub, g));
     double gmax = 0.0;
     for (int i = 0; i < NW_NC; ++i) gmax = fmax(gmax, fabs(g[i]));
     if (!(gmax <= 1e3 * NW_NEWTON_TOL * scale)) {
@@ -163,8 +190,8 @@ static int nw_complete(nw_inst *c, double t, const double *ub)
         return 1;
     }
     /* G_D yd_D = -(G_I yd_I + dg/dt) */
-    nw_constraint_jacobian(t, y, c->p, ub, gj);
-    nw_constraint_time_derivative(t, y, c->p, ub, r);
+    NW_LOCKED(nw_constraint_jacobian(t, y, c->p, ub, gj));
+    NW_LOCKED(nw_constraint_time_derivative(t, y, c->p, ub, r));
     for (int i = 0; i < NW_NC; ++i) {
         double s = r[i];
         for (int k = 0; k < NW_NI; ++k) s += gj[i * NW_N + nw_indep[k]] * yd[nw_indep[k]];
@@ -191,17 +218,17 @@ static int nw_accelerations(nw_inst *c, double t, const double *ub, double *ydd)
 #if NW_NC == 0
     double f[NW_S];
     int r;
-    if ((r = nw_rhs(t, c->x, c->p, ub, f))) return r;
+    if ((r = NW_LOCKED(nw_rhs(t, c->x, c->p, ub, f)))) return r;
     memcpy(ydd, f + NW_N, NW_N * sizeof(double));
     return 0;
 #else
     const double *y = c->x, *yd = c->x + NW_N;
     double a[NW_NA * NW_NA], m[NW_N * NW_N], gj[NW_NC * NW_N], b[NW_NA], gam[NW_NC];
     int piv[NW_NA], r;
-    if ((r = nw_mass_matrix(t, y, c->p, ub, m))) return r;
-    if ((r = nw_force_vector(t, y, yd, c->p, ub, b))) return r;
-    nw_constraint_jacobian(t, y, c->p, ub, gj);
-    nw_constraint_gamma(t, y, yd, c->p, ub, gam);
+    if ((r = NW_LOCKED(nw_mass_matrix(t, y, c->p, ub, m)))) return r;
+    if ((r = NW_LOCKED(nw_force_vector(t, y, yd, c->p, ub, b)))) return r;
+    NW_LOCKED(nw_constraint_jacobian(t, y, c->p, ub, gj));
+    NW_LOCKED(nw_constraint_gamma(t, y, yd, c->p, ub, gam));
     memset(a, 0, sizeof a);
     for (int i = 0; i < NW_N; ++i) {
         for (int j = 0; j < NW_N; ++j) a[i * NW_NA + j] = m[i * NW_N + j];
@@ -227,7 +254,7 @@ static fmi2Status nw_update(nw_inst *c)
         c->consistent = 1;
     }
     int r = nw_accelerations(c, c->t, c->ub, c->ydd);
-    if (r == 3 || (r == 0 && NW_NY && nw_outputs(c->t, c->x, c->p, c->ub, c->out) == 3)) {
+    if (r == 3 || (r == 0 && NW_NY && NW_LOCKED(nw_outputs(c->t, c->x, c->p, c->ub, c->out)) == 3)) {
         nw_log(c, fmi2Error, "logStatusError", "t = %.9g: the schedule of a parametric elastic "
                "body left the range of its samples", c->t);
         return nw_fail(c, "a schedule outside its samples");
@@ -469,14 +496,14 @@ static fmi2Status nw_directional(nw_inst *c, const fmi2ValueReference *vu, size_
     memset(dacc, 0, sizeof dacc);
     memset(dout, 0, sizeof dout);
     if (need_acc) {
-        if (nw_rhs_jacobian(c->t, c->x, c->p, c->ub, jx)) return nw_fail(c, "singular mass matrix");
+        if (NW_LOCKED(nw_rhs_jacobian(c->t, c->x, c->p, c->ub, jx))) return nw_fail(c, "singular mass matrix");
         for (int i = 0; i < NW_N; ++i)
             for (int j = 0; j < NW_S; ++j) dacc[i] += jx[(NW_N + i) * NW_S + j] * dx[j];
         if (has_u && NW_NU > 0) {   /* M^-1 d(q - k)/du du */
             double fj[NW_N * (2 * NW_N + NW_NU)], m[NW_N * NW_N], b[NW_N];
             int piv[NW_N];
-            nw_force_jacobians(c->t, c->x, c->x + NW_N, c->p, c->ub, fj);
-            nw_mass_matrix(c->t, c->x, c->p, c->ub, m);
+            NW_LOCKED(nw_force_jacobians(c->t, c->x, c->x + NW_N, c->p, c->ub, fj));
+            NW_LOCKED(nw_mass_matrix(c->t, c->x, c->p, c->ub, m));
             for (int i = 0; i < NW_N; ++i) {
                 b[i] = 0.0;
                 for (int k = 0; k < NW_NU; ++k) b[i] += fj[i * (2 * NW_N + NW_NU) + 2 * NW_N + k]
@@ -489,7 +516,7 @@ static fmi2Status nw_directional(nw_inst *c, const fmi2ValueReference *vu, size_
     }
     if (need_out && NW_NY > 0) {
         double oj[(NW_NY + 1) * (NW_S + NW_NU)];
-        nw_output_jacobians(c->t, c->x, c->p, c->ub, oj);
+        NW_LOCKED(nw_output_jacobians(c->t, c->x, c->p, c->ub, oj));
         for (int i = 0; i < NW_NY; ++i) {
             for (int j = 0; j < NW_S; ++j) dout[i] += oj[i * (NW_S + NW_NU) + j] * dx[j];
             for (int k = 0; k < NW_NU; ++k) dout[i] += oj[i * (NW_S + NW_NU) + NW_S + k] * dun[k];
@@ -579,8 +606,9 @@ static int nw_data_path(const char *uri, char *out, size_t size)
     return 0;
 }
 
-/* read, check and bind the data (first instance); 0, or 1 with a message logged */
-static int nw_load_data(nw_inst *c, const char *location)
+/* read, check and bind the data (first instance); 0, or 1 with a message logged; under the
+   lock (nw_load_data) */
+static int nw_load_data_locked(nw_inst *c, const char *location)
 {
     char path[4096];
     long total = 0;
@@ -637,9 +665,17 @@ static int nw_load_data(nw_inst *c, const char *location)
     return 0;
 }
 
+static int nw_load_data(nw_inst *c, const char *location)
+{
+    NW_LOCK();
+    return nw_unlock(nw_load_data_locked(c, location));
+}
+
 static void nw_release_data(void)
 {
+    NW_LOCK();
     if (nw_data && --nw_data_users == 0) { free(nw_data); nw_data = NULL; }
+    NW_UNLOCK();
 }
 #else
 static int nw_load_data(nw_inst *c, const char *location)
