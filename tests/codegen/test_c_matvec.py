@@ -7,16 +7,15 @@ that forms ``M`` has a rule, no matrix-valued product of the call's arguments ma
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 
 import numpy as np
 import pytest
+from compiler import compile_c
 
 from neweul_py.codegen.c_kernel import KernelPrinter
 from neweul_py.codegen.c_kernel_text import C_DOT
 from neweul_py.codegen.c_matvec import matvec
-from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_trace import Graph, TArray
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
@@ -73,12 +72,9 @@ def _run(tmp_path, program, S, T, X, Y, a):
         "        const double *T, const double *a, double *r)", "{",
         "    nw_D[0] = S; nw_D[1] = X; nw_D[2] = Y;", *pr.bind_lines(), "    f(T, a, r);",
         "    return 0;", "}", ""])
-    path = tmp_path / "matvec.c"
-    path.write_text(src)
-    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(),
-                                   "int run(const double *S, const double *X, const double *Y,"
-                                   " const double *T, const double *a, double *r);",
-                                   tmp_path / "cache")
+    ffi, lib = compile_c(tmp_path, "matvec", src,
+                         "int run(const double *S, const double *X, const double *Y,"
+                         " const double *T, const double *a, double *r);")
     got = np.full(5, np.nan)
     fb = ffi.from_buffer
     lib.run(*(fb("double[]", np.ascontiguousarray(v)) for v in (S, X, Y, T, a)),

@@ -10,14 +10,13 @@ the dense product carries into every row (``0 · NaN``); for the mix, the weight
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 
 import numpy as np
 import pytest
+from compiler import compile_c
 
 from neweul_py.codegen.c_kernel_text import C_DOT
-from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_splice_text import POLY_C, SMAP_C
 from neweul_py.ffrf.parametric import ffrf_weights
 
@@ -36,13 +35,9 @@ def _library(tmp_path, sigma: int):
         "void set(int which, const double *a) { memcpy(which ? A1 : A0, a, sizeof A0); }",
         "void bump(int binds, int weights) { nw_binds += binds; nw_wversion += weights; }",
         "void smap(int which, const double *x, double *y) { nw_smap(which, x, y); }", ""])
-    path = tmp_path / f"smap{sigma}.c"
-    path.write_text(src)
-    cdef = ("void set(int which, const double *a); void bump(int binds, int weights);"
-            "void smap(int which, const double *x, double *y);")
-    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(), cdef,
-                                   tmp_path / "cache")
-    return ffi, lib
+    return compile_c(tmp_path, f"smap{sigma}", src,
+                     "void set(int which, const double *a); void bump(int binds, int weights);"
+                     "void smap(int which, const double *x, double *y);")
 
 
 def _map(rng: np.random.Generator, edge: float) -> np.ndarray:
@@ -113,12 +108,9 @@ def test_polynomial_rows_give_the_weights_times_the_samples(tmp_path) -> None:
         f"    for (int m = 0; m < {nd}; ++m)",
         f"        for (long i = 0; i < {nv}; ++i) out[i] += pw[m] * P[m * {nv} + i];",
         "}", ""])
-    path = tmp_path / "poly.c"
-    path.write_text(src)
-    ffi, lib, _ = compiled_library(
-        path, hashlib.sha256(src.encode()).hexdigest(),
-        "void poly(double x, const double *b, const double *c, const double *V, int bind,"
-        " double *out);", tmp_path / "cache")
+    ffi, lib = compile_c(tmp_path, "poly", src,
+                         "void poly(double x, const double *b, const double *c, const double *V,"
+                         " int bind, double *out);")
     rng = np.random.default_rng(7)
     b = np.cumsum(rng.uniform(0.5, 2.0, size=nb)) - 3.0
     c = rng.normal(size=(nd, nb - 1, ncol))

@@ -7,15 +7,14 @@ refused at once.
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 
 import numpy as np
 import pytest
+from compiler import compile_c
 
 from neweul_py.codegen.c_kernel import KernelPrinter
 from neweul_py.codegen.c_kernel_text import C_DOT
-from neweul_py.codegen.c_runtime import compiled_library
 from neweul_py.codegen.c_trace import Graph, TArray, TraceError
 from neweul_py.ffrf.body import ffrf_omega_products
 
@@ -73,12 +72,9 @@ def test_traced_program_printed_as_c_gives_numpys_numbers(tmp_path):
         "        const double *x, double *M, double *v)",
         "{", "    nw_D[0] = A; nw_D[1] = c2;", *pr.bind_lines(),
         "    memcpy(nw_w, w, sizeof nw_w); sig(); f(B, x, M, v); return 0;", "}", ""])
-    path = tmp_path / "prog.c"
-    path.write_text(src)
-    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(),
-                                   "int run(const double *A, const double *c2, const double *w,"
-                                   " const double *B, const double *x, double *M, double *v);",
-                                   tmp_path / "cache")
+    ffi, lib = compile_c(tmp_path, "prog", src,
+                         "int run(const double *A, const double *c2, const double *w,"
+                         " const double *B, const double *x, double *M, double *v);")
     ref_M, ref_v = _program(A, B, x, w, c2)
     got_M, got_v = np.empty(ref_M.shape), np.empty(ref_v.shape)
     fb = ffi.from_buffer
@@ -116,11 +112,9 @@ def test_product_and_added_block_print_as_one_pass(tmp_path):
         *pr.static, *fn, "int run(const double *S, const double *X, const double *T,",
         "        double *M, double *N)", "{", "    nw_D[0] = S; nw_D[1] = X;",
         *pr.bind_lines(), "    f(T, M, N); return 0;", "}", ""])
-    path = tmp_path / "block.c"
-    path.write_text(src)
-    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(),
-                                   "int run(const double *S, const double *X, const double *T,"
-                                   " double *M, double *N);", tmp_path / "cache")
+    ffi, lib = compile_c(tmp_path, "block", src,
+                         "int run(const double *S, const double *X, const double *T,"
+                         " double *M, double *N);")
     ref_M, ref_N = _block_program(S, T, X)
     got_M, got_N = np.full(ref_M.shape, np.nan), np.full(ref_N.shape, np.nan)
     fb = ffi.from_buffer
@@ -150,11 +144,8 @@ def test_complex_steps_print_as_c99_complex(tmp_path):
                      "int run(const double *A, const double *x, double *o)",
                      "{ nw_D[0] = A; f((const double complex *)x, (double complex *)o); "
                      "return 0; }", ""])
-    path = tmp_path / "cplx.c"
-    path.write_text(src)
-    ffi, lib, _ = compiled_library(path, hashlib.sha256(src.encode()).hexdigest(),
-                                   "int run(const double *A, const double *x, double *o);",
-                                   tmp_path / "cache")
+    ffi, lib = compile_c(tmp_path, "cplx", src,
+                         "int run(const double *A, const double *x, double *o);")
     got = np.empty(3, dtype=complex)
     xs = np.ascontiguousarray(x)
     lib.run(ffi.from_buffer("double[]", A), ffi.from_buffer("double[]", xs.view(float)),
