@@ -21,7 +21,9 @@ values. :class:`KernelPrinter` turns chosen outputs of it into C functions:
   concatenations, fancy indexing (index tables are structure and printed), assignments; the
   compact mixing of a parametric body's samples (op ``"mix"``,
   :data:`.c_kernel_text.C_MIX`: its index tables are data, bound and read through
-  ``nw_D[k]``, not printed). Complex values
+  ``nw_D[k]``, not printed; a mix by the real weights of a body in
+  :attr:`KernelPrinter.polynomial_weights` reads the rows of their polynomial on the
+  schedule's interval, :data:`.c_splice_text.POLY_C`). Complex values
   (``double complex`` of C99) are what the complex-step derivatives of the kernel need.
 
 Structural constants of the kernel (the maps of ``ffrf_rigid_map``, zeros, unit matrices)
@@ -544,7 +546,7 @@ class KernelPrinter:
 
     def _polynomial_rows(self, x: Node, V: Node) -> tuple[int, str, str] | None:
         """``(nd, pw, P)`` when the mix by the real weights ``x`` of ``V`` reads the rows
-        ``P = C_j V`` of ``nw_poly`` (:data:`.c_splice_text.SPLICE_C`) instead: ``x`` one of
+        ``P = C_j V`` of ``nw_poly`` (:data:`.c_splice_text.POLY_C`) instead: ``x`` one of
         :attr:`polynomial_weights` of lower degree than its length, ``V`` a whole data
         array. The buffers are declared here and listed in :attr:`polynomials`."""
         known = self.polynomial_weights.get(x.id) if x.op == "leaf" else None
