@@ -246,13 +246,25 @@ LEAVES = st.one_of(
 )
 
 
+def _power_refused(base: sp.Expr, exponent: sp.Expr) -> bool:
+    """The parser's limit on a power with a variable in it (``Parser.power``,
+    docs/description-format.md): a constant exponent of a variable base, or the constant term of a
+    variable exponent of a constant base, above 1000 in magnitude (the parser folds numeric
+    subterms such as ``12**pi`` before it looks)."""
+    if base.is_number and exponent.is_number:
+        return False                      # a constant power: _too_large
+    shift = (exponent.as_independent(*exponent.free_symbols, as_Add=True)[0]
+             if base.is_number else exponent)
+    return bool(shift.is_number) and abs(complex(shift.evalf())) > 1000
+
+
 def _binary(op: str, left, right, space: bool):
     sep = " " if space else ""
     prec = ADD if op in "+-" else MUL
     if op == "**":
         text = f"{_wrap(left, POW, strict=True)}{sep}**{sep}{_wrap(right, UNARY)}"
-        if _too_large(left[1], right[1]):  # the parser rightly refuses such constants
-            raise Invalid
+        if _too_large(left[1], right[1]) or _power_refused(left[1], right[1]):
+            raise Invalid                 # the parser rightly refuses such powers
         return text, _apply(lambda x, y: x**y, left[1], right[1]), POW
     text = f"{_wrap(left, prec)}{sep}{op}{sep}{_wrap(right, prec, strict=True)}"
     l_expr, r_expr = left[1], right[1]
@@ -341,6 +353,18 @@ def test_format_expression_round_trips(tree) -> None:
     parsed = parse(text)
     if parsed != expected:
         _assert_same_value(parsed, expected, text)
+
+
+def test_strategy_leaves_out_the_powers_the_parser_refuses() -> None:
+    """The strategy's model of the parser's exponent limit, on the case hypothesis found
+    (``heaviside(a)**12**pi``, exponent 2457): such a tree is not drawn, and the parser does
+    refuse its text (reference: the parser's error)."""
+    base = ("heaviside(a)", Step(a), ATOM)
+    with pytest.raises(Invalid):
+        _binary("**", base, ("12**pi", sp.Integer(12)**sp.pi, POW), False)
+    with pytest.raises(ExpressionError, match="too large"):
+        parse("heaviside(a)**12**pi")
+    assert _binary("**", base, ("3", sp.Integer(3), ATOM), False)[1] == Step(a)**3
 
 
 # --------------------------------------------------------------------------- bounded work
