@@ -28,8 +28,25 @@ __all__ = ["matvec"]
 
 
 def matvec(m: TArray, a: TArray) -> TArray:
-    """``m @ a`` for a traced matrix ``m`` (n, k) and vector ``a`` (k,), pushed into the
-    operations that form ``m`` (module docstring)."""
+    """``m @ a``, pushed into the operations that form ``m`` (module docstring).
+
+    Parameters
+    ----------
+    m
+        A traced matrix (n, k).
+    a
+        A traced vector (k,).
+
+    Returns
+    -------
+    TArray
+        The traced product (n,), equal to ``m @ a`` to round-off.
+
+    Raises
+    ------
+    ValueError
+        When the shapes do not multiply.
+    """
     if len(m.shape) != 2 or len(a.shape) != 1 or m.shape[1] != a.shape[0]:
         raise ValueError(f"matvec of shapes {m.shape} and {a.shape}")
     return TArray(m.graph, _push(m.graph, m.node, a.node))
@@ -60,7 +77,8 @@ def _push_update(g: Graph, node: Node, x: Node) -> Node | None:
     basic, fancy = node.params
     if fancy or len(basic) != 2 or not all(isinstance(b, tuple) for b in basic):
         return None
-    rows, cols = (slice(*b) for b in basic)
+    # (start, stop, step) of slice.indices: a stop of -1 ends a reversed slice at the start
+    rows, cols = (slice(b[0], b[1] if b[1] >= 0 else None, b[2]) for b in basic)
     region = TArray(g, base)[rows, cols].node
     if region.op == "zeros":
         sign, added = 1.0, value
@@ -72,6 +90,6 @@ def _push_update(g: Graph, node: Node, x: Node) -> Node | None:
     if added.shape != region.shape:
         return None
     y = TArray(g, _push(g, base, x))
-    product = np.dot(TArray(g, added), TArray(g, x)[cols])
+    product = TArray(g, _push(g, added, TArray(g, x)[cols].node))
     y[rows] = y[rows] + product if sign > 0 else y[rows] - product
     return y.node

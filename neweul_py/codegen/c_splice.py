@@ -221,6 +221,14 @@ def _weights_lines(t: SpliceTrace, data: dict[str, int],
     return lines
 
 
+def _busy_weights(t: SpliceTrace, p: dict[str, Any]) -> int:
+    """The most weights of the parametric body ``p`` that are not zero on one interval of
+    its schedule: the rows a mix reads without the polynomial rows of ``nw_poly``, which
+    read ``nd`` (worth it only with fewer)."""
+    coeff = np.asarray(t.bound[p["coeff"]]).reshape(p["nd"], p["nb"] - 1, p["cols"])
+    return int(np.any(coeff != 0.0, axis=0).sum(axis=1).max(initial=0))
+
+
 #: The residual ``M a − (q − k)`` of the generalized-α loop (:data:`.C_GALPHA`), with ``M a``
 #: of the traced ``nw_k_dynr`` (:mod:`.c_matvec`): ``M`` is not formed.
 _RESIDUAL = r"""
@@ -242,7 +250,8 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
     index = {k: i for i, k in enumerate(data)}
     pr = KernelPrinter(t.graph, data)
     pr.polynomial_weights = {t.graph.leaves[f"w{i}"].id: (i, p["nd"])
-                             for i, p in enumerate(t.parametric)}
+                             for i, p in enumerate(t.parametric)
+                             if p["nd"] < _busy_weights(t, p)}
     for name in ("w", "dw", "wc"):           # the weights: global arrays of the splice
         off = 0
         for i, p in enumerate(t.parametric):

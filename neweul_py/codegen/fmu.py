@@ -92,8 +92,8 @@ def _guid(*texts: str) -> str:
 
 
 def _compile(cc: str, src: Path, library: Path, c_files: Sequence[str]) -> None:
-    threads = [] if sys.platform == "win32" else ["-pthread"]     # the lock of neweul_fmi2.c
-    cmd = [cc, *C_FLAGS, *threads, "-fvisibility=hidden", "-I", str(src),
+    # -pthread: the lock of neweul_fmi2.c (binaries are built on Linux and macOS only)
+    cmd = [cc, *C_FLAGS, "-pthread", "-fvisibility=hidden", "-I", str(src),
            *(str(src / f) for f in c_files), "-o", str(library), "-lm"]
     try:
         proc = subprocess.run(cmd, capture_output=True, check=False)

@@ -24,12 +24,13 @@ pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc
 
 def _mass(S, T, X, Y, Z):
     """A matrix formed as the kernel forms a mass matrix: products, a difference, blocks
-    added to and subtracted from parts, a block set where the matrix is zero (``Z``, a zero
-    matrix of the program's kind)."""
+    added to and subtracted from parts (a product among them, and rows taken backwards), a
+    block set where the matrix is zero (``Z``, a zero matrix of the program's kind)."""
     M = S @ T
     M[2:, 1:] += X
     M = M - S.T @ S
-    M[0:2, 0:2] -= Y
+    M[0:2, 0:2] -= Y @ T[1:3, 3:5]
+    M[::-2, :] += S[:3]
     Z[1:4, 2:5] = X[:3, :3]
     return M + Z
 
@@ -101,7 +102,7 @@ def test_matrix_is_not_formed_where_every_step_has_a_rule(tmp_path):
     S, T, X, Y, a = _arrays(rng)
     _got, r, tT = _run(tmp_path, _mass, S, T, X, Y, a)
 
-    def uses_t(node, seen=None) -> bool:
+    def uses_t(node) -> bool:
         return node is tT.node or any(uses_t(x) for x in node.args)
 
     assert not [m for m in _matrices(r.node) if uses_t(m)]

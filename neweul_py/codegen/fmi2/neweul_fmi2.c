@@ -60,10 +60,12 @@ int nw_bind_jac(int count, const double *const *data, const long *sizes);
 #endif
 
 /* ---- one call into the model at a time. The instances share the compiled library, whose
-   functions keep work buffers and caches (the mixed samples of a parametric body, a kept
-   factorization) in static memory; those caches are keyed on their content, so calls of
-   different instances may alternate, but two may not run at once: every call into the model
-   holds a process-wide lock (an importer may step instances from several threads). */
+   functions keep work buffers and caches (the mixed samples of a parametric body, checked
+   against the weights; a kept factorization of the elastic block, refined against the
+   current one) in static memory. Calls of different instances may therefore alternate (their
+   results then differ from runs alone by round-off) but must not run at once: every call into
+   the model holds a process-wide lock, so an importer may step instances from several
+   threads. The importer's logger is never called with the lock held. */
 #ifdef _WIN32
 #include <windows.h>
 static SRWLOCK nw_lock = SRWLOCK_INIT;
@@ -88,6 +90,11 @@ static int nw_unlock(int code)
 #define NW_S (2 * NW_N)          /* the full first-order state [y, yd] */
 #define NW_NZ (2 * NW_NI)        /* the FMU's continuous states [y_I, yd_I] */
 #define NW_NA (NW_N + NW_NC)     /* the augmented system */
+/* an instance's work array (heap): the Jacobian of the state derivatives, the force
+   Jacobians, a mass or augmented matrix; at n = 389 that is 8.5 MB, more than the stack of a
+   thread may hold */
+#define NW_WORK ((size_t)NW_S * NW_S + (size_t)NW_N * (2 * NW_N + NW_NU) \
+                 + (size_t)NW_NA * NW_NA + 1)
 #define NW_MAX_NEWTON 50
 
 typedef enum { NW_INSTANTIATED, NW_INIT, NW_EVENT, NW_CONTINUOUS, NW_STEP, NW_TERMINATED,
@@ -111,6 +118,7 @@ typedef struct {
     double rtol, atol;           /* tolerances of the co-simulation stepper */
     double h;                    /* its next step size (0: choose one) */
     long nfev;
+    double *work;                /* NW_WORK doubles (nw_accelerations, nw_directional) */
 } nw_inst;
 
 /* ---- messages */
@@ -223,13 +231,14 @@ static int nw_accelerations(nw_inst *c, double t, const double *ub, double *ydd)
     return 0;
 #else
     const double *y = c->x, *yd = c->x + NW_N;
-    double a[NW_NA * NW_NA], m[NW_N * NW_N], gj[NW_NC * NW_N], b[NW_NA], gam[NW_NC];
+    double *a = c->work, *m = c->work + (size_t)NW_NA * NW_NA;
+    double gj[NW_NC * NW_N], b[NW_NA], gam[NW_NC];
     int piv[NW_NA], r;
     if ((r = NW_LOCKED(nw_mass_matrix(t, y, c->p, ub, m)))) return r;
     if ((r = NW_LOCKED(nw_force_vector(t, y, yd, c->p, ub, b)))) return r;
     NW_LOCKED(nw_constraint_jacobian(t, y, c->p, ub, gj));
     NW_LOCKED(nw_constraint_gamma(t, y, yd, c->p, ub, gam));
-    memset(a, 0, sizeof a);
+    memset(a, 0, (size_t)NW_NA * NW_NA * sizeof(double));
     for (int i = 0; i < NW_N; ++i) {
         for (int j = 0; j < NW_N; ++j) a[i * NW_NA + j] = m[i * NW_N + j];
         for (int k = 0; k < NW_NC; ++k) a[i * NW_NA + NW_N + k] = -gj[k * NW_N + i];
@@ -468,7 +477,7 @@ static fmi2Status nw_directional(nw_inst *c, const fmi2ValueReference *vu, size_
 {
 #if NW_NC == 0
     /* dx: the direction in x = [y, yd]; dun: in the inputs */
-    double dx[NW_S], dun[NW_NU + 1], jx[NW_S * NW_S];
+    double dx[NW_S], dun[NW_NU + 1], *jx = c->work;
     int need_acc = 0, need_out = 0, has_u = 0;
     fmi2Status s = nw_update(c);
     if (s != fmi2OK) return s;
@@ -500,7 +509,8 @@ static fmi2Status nw_directional(nw_inst *c, const fmi2ValueReference *vu, size_
         for (int i = 0; i < NW_N; ++i)
             for (int j = 0; j < NW_S; ++j) dacc[i] += jx[(NW_N + i) * NW_S + j] * dx[j];
         if (has_u && NW_NU > 0) {   /* M^-1 d(q - k)/du du */
-            double fj[NW_N * (2 * NW_N + NW_NU)], m[NW_N * NW_N], b[NW_N];
+            double *fj = c->work + (size_t)NW_S * NW_S;
+            double *m = fj + (size_t)NW_N * (2 * NW_N + NW_NU), b[NW_N];
             int piv[NW_N];
             NW_LOCKED(nw_force_jacobians(c->t, c->x, c->x + NW_N, c->p, c->ub, fj));
             NW_LOCKED(nw_mass_matrix(c->t, c->x, c->p, c->ub, m));
@@ -606,23 +616,23 @@ static int nw_data_path(const char *uri, char *out, size_t size)
     return 0;
 }
 
-/* read, check and bind the data (first instance); 0, or 1 with a message logged; under the
-   lock (nw_load_data) */
-static int nw_load_data_locked(nw_inst *c, const char *location)
+/* read, check and bind the data (first instance); 0, or 1 with the message in msg; under
+   the lock (nw_load_data, which logs the message after it lets go) */
+static int nw_load_data_locked(const char *location, char *msg, size_t size)
 {
     char path[4096];
     long total = 0;
     if (nw_data) { ++nw_data_users; return 0; }
     for (int i = 0; i < NW_DATA_COUNT; ++i) total += nw_data_sizes[i];
     if (nw_data_path(location, path, sizeof path)) {
-        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: the resource location %s is "
+        snprintf(msg, size, "fmi2Instantiate: the resource location %s is "
                "not a local file URI (the elastic bodies' data %s are there)",
                location ? location : "(none)", NW_DATA_FILE);
         return 1;
     }
     FILE *f = fopen(path, "rb");
     if (!f) {
-        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: cannot read the elastic "
+        snprintf(msg, size, "fmi2Instantiate: cannot read the elastic "
                "bodies' data %s", path);
         return 1;
     }
@@ -644,7 +654,7 @@ static int nw_load_data_locked(nw_inst *c, const char *location)
         wsum += (uint64_t)(i + 1) * w;
     }
     if (!buf || got != (size_t)total || sum != NW_DATA_SUM || wsum != NW_DATA_WSUM) {
-        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: the elastic bodies' data %s "
+        snprintf(msg, size, "fmi2Instantiate: the elastic bodies' data %s "
                "are not those of this FMU (%s)", path, !buf ? "out of memory"
                : got != (size_t)total ? "another size" : "other values");
         free(buf);
@@ -655,7 +665,7 @@ static int nw_load_data_locked(nw_inst *c, const char *location)
     for (int i = 0; i < NW_DATA_COUNT; ++i) { arrays[i] = buf + off; off += nw_data_sizes[i]; }
     if (nw_bind(NW_DATA_COUNT, arrays, nw_data_sizes)
         || nw_bind_jac(NW_DATA_COUNT, arrays, nw_data_sizes)) {
-        nw_log(c, fmi2Error, "logStatusError", "fmi2Instantiate: the model does not accept "
+        snprintf(msg, size, "fmi2Instantiate: the model does not accept "
                "the elastic bodies' data %s", path);
         free(buf);
         return 1;
@@ -667,8 +677,11 @@ static int nw_load_data_locked(nw_inst *c, const char *location)
 
 static int nw_load_data(nw_inst *c, const char *location)
 {
+    char msg[4600];
     NW_LOCK();
-    return nw_unlock(nw_load_data_locked(c, location));
+    int r = nw_unlock(nw_load_data_locked(location, msg, sizeof msg));
+    if (r) nw_log(c, fmi2Error, "logStatusError", "%s", msg);
+    return r;
 }
 
 static void nw_release_data(void)
@@ -714,10 +727,13 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     c->name = (char *)functions->allocateMemory(len, 1);
     if (!c->name) { functions->freeMemory(c); return NULL; }
     memcpy(c->name, probe.name, len);
+    c->work = (double *)functions->allocateMemory(NW_WORK, sizeof(double));
+    if (!c->work) { functions->freeMemory(c->name); functions->freeMemory(c); return NULL; }
     c->cb = functions;
     c->type = fmuType;
     c->logging = loggingOn ? 1 : 0;
     if (nw_load_data(c, fmuResourceLocation)) {
+        functions->freeMemory(c->work);
         functions->freeMemory(c->name);
         functions->freeMemory(c);
         return NULL;
@@ -730,6 +746,7 @@ void fmi2FreeInstance(fmi2Component comp)
 {
     nw_inst *c = (nw_inst *)comp;
     if (!c) return;
+    c->cb->freeMemory(c->work);
     c->cb->freeMemory(c->name);
     c->cb->freeMemory(c);
     nw_release_data();
