@@ -339,23 +339,23 @@ def traced_kernels(t: SpliceTrace) -> dict[str, tuple[list, list]]:
     def leaf(name: str, shape: tuple[int, ...], cplx: bool = False) -> TArray:
         return g.leaf(f"{name}@{len(g.leaves)}", shape, 2, cplx)
 
-    # (M, q − k) of ffrf_dynamics after the symbolic part's rhs_parts
+    def dynamics() -> tuple[list, TArray, TArray]:
+        """(M, q − k) of ffrf_dynamics after the symbolic part's rhs_parts, on new leaves."""
+        S = t.real
+        kin, y, yd = leaf("kin", (nh,)), leaf("y", (n,)), leaf("yd", (n,))
+        Ms, fs = leaf("Ms", (ns, ns)), leaf("fs", (ns,))
+        terms = ffrf_terms(S, kin, y, yd)
+        return ([("kin", kin), ("y", y), ("yd", yd), ("Ms", Ms), ("fs", fs)],
+                ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms),
+                ffrf_add_force(S, np.dot(S["SW"].T, fs), terms))
+
     S = t.real
-    kin, y, yd = leaf("kin", (nh,)), leaf("y", (n,)), leaf("yd", (n,))
-    Ms, fs = leaf("Ms", (ns, ns)), leaf("fs", (ns,))
-    terms = ffrf_terms(S, kin, y, yd)
-    M = ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms), terms)
-    f = ffrf_add_force(S, np.dot(S["SW"].T, fs), terms)
-    out["nw_k_dyn"] = ([("kin", kin), ("y", y), ("yd", yd), ("Ms", Ms), ("fs", fs)],
-                       [("M", M), ("f", f)])
+    params, M, f = dynamics()
+    out["nw_k_dyn"] = (params, [("M", M), ("f", f)])
     # the residual M a − (q − k) of the generalized-α loop, without forming M (.c_matvec)
-    kin2, y2, yd2, a2 = leaf("kin", (nh,)), leaf("y", (n,)), leaf("yd", (n,)), leaf("a", (n,))
-    Ms2, fs2 = leaf("Ms", (ns, ns)), leaf("fs", (ns,))
-    terms2 = ffrf_terms(S, kin2, y2, yd2)
-    M2 = ffrf_add_mass(S, ffrf_symbolic_mass(S, Ms2), terms2)
-    r = matvec(M2, a2) - ffrf_add_force(S, np.dot(S["SW"].T, fs2), terms2)
-    out["nw_k_dynr"] = ([("kin", kin2), ("y", y2), ("yd", yd2), ("Ms", Ms2), ("fs", fs2),
-                         ("a", a2)], [("r", r)])
+    params, M, f = dynamics()
+    a = leaf("a", (n,))
+    out["nw_k_dynr"] = ([*params, ("a", a)], [("r", matvec(M, a) - f)])
     if t.fixed:                               # the constant Ke, De of fixed frames
         fy, fyd = leaf("fy", (n, n)), leaf("fyd", (n, n))
         fy2, fyd2 = TArray(g, fy.node), TArray(g, fyd.node)
