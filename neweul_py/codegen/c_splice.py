@@ -205,9 +205,11 @@ def _defines(t: SpliceTrace, nd: int, ny: int, nc: int) -> list[str]:
 
 
 def _weights_lines(t: SpliceTrace, data: dict[str, int],
-                   polynomials: dict[tuple[int, str], tuple[str, int]]) -> list[str]:
-    """The weights at the schedules in ``nw_at``, then the polynomial rows of the mixes that
-    read them (``nw_poly``, :meth:`.KernelPrinter._polynomial_rows`)."""
+                   polynomials: dict[tuple[int, str], tuple[str, int]]
+                   ) -> tuple[list[str], list[str]]:
+    """The weights at the schedules in ``nw_at``, and the polynomial rows of the mixes that
+    read them, made when the weights changed (``nw_poly``,
+    :meth:`.KernelPrinter._polynomial_rows`)."""
     lines, off, args = [], 0, []
     for k, p in enumerate(t.parametric):
         args.append(f"nw_D[{data[p['values']]}], nw_D[{data[p['coeff']]}], {p['nb']}, "
@@ -215,10 +217,9 @@ def _weights_lines(t: SpliceTrace, data: dict[str, int],
         lines.append(f"    if (nw_weights(sigma[{k}], {args[k]}, w + {off}, dw + {off})) "
                      "return 3;")
         off += p["cols"]
-    for (k, name), (buf, nv) in sorted(polynomials.items()):
-        lines.append(f"    nw_poly(sigma[{k}], {args[k]}, nw_D[{data[name]}], {nv}, {buf}, "
-                     f"nw_pw{k}, &{buf}_at);")
-    return lines
+    rows = [f"        nw_poly(sigma[{k}], {args[k]}, nw_D[{data[name]}], {nv}, {buf}, "
+            f"nw_pw{k}, &{buf}_at);" for (k, name), (buf, nv) in sorted(polynomials.items())]
+    return lines, rows
 
 
 def _busy_weights(t: SpliceTrace, p: dict[str, Any]) -> int:
@@ -287,9 +288,11 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
                        f"{{{', '.join(str(int(o)) for o in offs)}}};")
         body.insert(1, "static const double *nw_dsv[NW_NPB] = {"
                        + ", ".join(pr.pointer(d) for d in t.dsv) + "};")
-    splice = (SPLICE_C.replace("NW_SMAP", SMAP_C.strip("\n"))
-              .replace("NW_POLY", POLY_C.strip("\n")))
-    splice = splice.replace("NW_WEIGHTS", "\n".join(_weights_lines(t, index, pr.polynomials)))
+    weights, rows = _weights_lines(t, index, pr.polynomials)
+    splice = (SPLICE_C.replace("NW_POLY_ROWS\n", "".join(f"{line}\n" for line in rows))
+              .replace("NW_POLY\n", POLY_C.lstrip("\n"))
+              .replace("NW_SMAP", SMAP_C.strip("\n")))
+    splice = splice.replace("NW_WEIGHTS", "\n".join(weights))
     splice = splice.replace("NW_BIND", "\n".join(pr.bind_lines()))
     splice = splice.replace("NW_SIZES", ", ".join(str(sizes[k]) for k in data) or "0")
     R = [j for j in range(t.n) if j not in set(t.elastic)]

@@ -79,20 +79,28 @@ __attribute__((optimize("O3"))) static void nw_smap(int which, const double *res
 #: ``nw_poly``: the rows ``P = C_j V`` (``nd × nv``) and powers ``pw`` with which a mix by a
 #: parametric body's weights ``w = pw C_j`` (their polynomial on the interval ``j`` of the
 #: schedule, :func:`~neweul_py.ffrf.parametric.ffrf_weights`) reads ``nd`` rows instead of the
-#: ``ncol`` of ``V``: ``w V = pw (C_j V)``, equal to round-off. Placed at ``NW_POLY`` in
+#: ``ncol`` of ``V``: ``w V = pw (C_j V)``, equal to round-off; and ``nw_interval``, the
+#: interval of the schedule (``nw_weights`` finds it so too). Placed at ``NW_POLY`` in
 #: :data:`SPLICE_C`; needs ``nw_vecmat`` (:data:`.c_kernel_text.C_DOT`), ``NW_MIXB`` and
 #: ``nw_binds``.
 POLY_C = r"""
+/* the interval j of x on the breakpoints b (nb): b_j <= x < b_{j+1}, the last one closed */
+static int nw_interval(double x, const double *b, int nb)
+{
+    for (int i = 0; i < nb - 2; ++i)
+        if (x < b[i + 1]) return i;
+    return nb - 2;
+}
+
 /* A mix by the weights at x from nd rows instead of ncol: on the interval j of x the weights
    are w = pw C_j, pw = (dx^(nd-1), ..., dx, 1) and C_j the rows of c at j (nw_weights'
    Horner), so w V = pw P with P = C_j V (nd x nv). P is made again when j or the binding
-   changes (*at), in one pass over V by blocks; pw at every call. x in [b_0, b_{nb-1}] */
+   changes (*at), in one pass over V by blocks; pw at every call (nw_at calls it when the
+   weights changed, before it mixes). x in [b_0, b_{nb-1}] */
 __attribute__((optimize("O3"))) static void nw_poly(double x, const double *b, const double *c,
     int nb, int nd, int ncol, const double *V, long nv, double *P, double *pw, long *at)
 {
-    int j = nb - 2;
-    for (int i = 0; i < nb - 1; ++i)
-        if (x < b[i + 1]) { j = i; break; }
+    const int j = nw_interval(x, b, nb);
     const long key = nw_binds * nb + j;
     if (*at != key) {
         for (long s = 0; s < nv; s += NW_MIXB) {
@@ -112,15 +120,14 @@ __attribute__((optimize("O3"))) static void nw_poly(double x, const double *b, c
 SPLICE_C = r"""
 /* ---- the splice of the elastic bodies (codegen/c_splice.py; neweul_py/ffrf/splice.py) */
 
+NW_POLY
 /* the weights w (ncol) at x and their derivative: the piecewise polynomials c (nd, nb-1, ncol)
    on the breakpoints b (ffrf_weights; Horner); 1 outside [b_0, b_{nb-1}] */
 static int nw_weights(double x, const double *b, const double *c, int nb, int nd, int ncol,
                       double *w, double *dw)
 {
     if (!(b[0] <= x && x <= b[nb - 1])) return 1;
-    int j = nb - 2;
-    for (int i = 0; i < nb - 1; ++i)
-        if (x < b[i + 1]) { j = i; break; }
+    const int j = nw_interval(x, b, nb);
     const double dx = x - b[j];
     for (int col = 0; col < ncol; ++col) {
         double v = c[(long)j * ncol + col], d = 0.0;
@@ -134,7 +141,6 @@ static int nw_weights(double x, const double *b, const double *c, int nb, int nd
     return 0;
 }
 
-NW_POLY
 NW_SMAP
 /* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at;
    the mixed samples are kept while the weights are unchanged); 3 outside the samples */
@@ -148,6 +154,7 @@ NW_WEIGHTS
     if (!nw_have_w || memcmp(w, nw_w, sizeof w)) {
         memcpy(nw_w, w, sizeof w);
         memcpy(nw_dw, dw, sizeof dw);
+NW_POLY_ROWS
         nw_k_sigma();
         nw_have_w = 1;
         ++nw_wversion;
