@@ -227,12 +227,15 @@ def test_input_driven_fmu_agrees_with_simulate(work):
         assert _worst(res, names, values) <= 1e-6, kind
 
 
-def _instance(fmu: Path, unzip: Path, cls):
+def _instance(fmu: Path, unzip: Path, cls, extracted: bool = False, name: str = "test"):
+    """An instantiated instance of ``fmu`` extracted into ``unzip`` (already, with
+    ``extracted``: instances of one extraction share the loaded library)."""
     md = read_model_description(str(fmu))
-    extract(str(fmu), unzipdir=str(unzip))
+    if not extracted:
+        extract(str(fmu), unzipdir=str(unzip))
     ident = (md.modelExchange if cls is FMU2Model else md.coSimulation).modelIdentifier
     inst = cls(guid=md.guid, unzipDirectory=str(unzip), modelIdentifier=ident,
-               instanceName="test")
+               instanceName=name)
     inst.instantiate()
     return md, inst
 
@@ -347,10 +350,7 @@ def _duct_run(fmu: Path, unzip: Path, cs: float, steps: int, start=None, done=No
     the sound speed ``cs``, an instance of the library extracted in ``unzip`` (loaded once
     per process: the instances share it); with ``start`` (a barrier) the runs begin
     together and each waits at ``done`` before it frees its instance."""
-    md = read_model_description(str(fmu))
-    inst = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip), instanceName=f"cs{cs:g}",
-                     modelIdentifier=md.coSimulation.modelIdentifier)
-    inst.instantiate()
+    md, inst = _instance(fmu, unzip, FMU2Slave, extracted=True, name=f"cs{cs:g}")
     vr = {v.name: v.valueReference for v in md.modelVariables}
     inst.setupExperiment(tolerance=1e-8, startTime=0.0)
     inst.enterInitializationMode()
