@@ -19,7 +19,9 @@ The C sources of a model with elastic bodies are made of three parts:
    implementation of them, and the data enter through pointers (``nw_bind``), never as
    numbers in the text. What depends on the
    data alone is computed when they are bound, what depends on the weights of the parametric
-   bodies (the mixed samples, ``S_V(σ)``, ``S_W(σ)``, ``∂S_V/∂σ``) when the weights change.
+   bodies (the mixed samples, ``S_V(σ)``, ``S_W(σ)``, ``∂S_V/∂σ``) when the weights change,
+   by the first function that reads it (``nw_mixed``; outputs and constraints need no mix
+   unless ``S_V`` is mixed, ``NW_SV_MIXED``).
 3. **The splice**, fixed C text (:mod:`.c_splice_text`) in the order of the
    protocol functions of :mod:`neweul_py.ffrf.splice`: the schedule and the weights of the
    parametric bodies (``nw_at``: the piecewise polynomials of
@@ -280,8 +282,9 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
     sv, sw = pr.pointer(t.real["SV"]), pr.pointer(t.real["SW"])
     sv0 = f"nw_D[{index['_splice/SV']}]"
     sv_sigma = int(pr.level[t.real["SV"].node.id] > 0)     # S_V(σ) mixed with the weights
+    sv_mixed = int(sv_sigma or any(pr.level[d.node.id] > 0 for d in t.dsv))
     macros = [f"#define NW_SV {sv}", f"#define NW_SW {sw}", f"#define NW_SV0 {sv0}",
-              f"#define NW_SV_SIGMA {sv_sigma}"]
+              f"#define NW_SV_SIGMA {sv_sigma}", f"#define NW_SV_MIXED {sv_mixed}"]
     if t.parametric:
         offs = np.cumsum([0, *(p["cols"] for p in t.parametric)])
         body.insert(0, f"static const int nw_woff[NW_NPB + 1] = "

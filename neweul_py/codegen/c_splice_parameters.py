@@ -137,7 +137,7 @@ int nw_output_parameter_jacobian(double t, const double *x, const double *p, con
     double ys[NW_NS + 1], yds[NW_NS + 1];
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
-    if (nw_at(t, x, p, u)) return 3;
+    if (nw_at_sv(t, x, p, u)) return 3;
     if (!NW_NP) return 0;
     nw_smap(0, x, ys);
     nw_smap(0, x + NW_N, yds);

@@ -142,9 +142,12 @@ static int nw_weights(double x, const double *b, const double *c, int nb, int nd
 }
 
 NW_SMAP
-/* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at;
-   the mixed samples are kept while the weights are unchanged); 3 outside the samples */
-static int nw_at(double t, const double *y, const double *p, const double *u)
+/* the weights of the parametric bodies at their schedules at (t, y, p, u) (ffrf_at); 3
+   outside the samples. What is mixed with the weights is made when a function reads it
+   (nw_mixed): outputs and constraints at a new schedule need no mix (NW_SV_MIXED 0) */
+static double nw_sigma[NW_NPB + 1];
+static int nw_mix_due;
+static int nw_weights_at(double t, const double *y, const double *p, const double *u)
 {
 #if NW_NPB
     double ys0[NW_NS + 1], sigma[NW_NPB], w[NW_NW], dw[NW_NW];
@@ -154,14 +157,45 @@ NW_WEIGHTS
     if (!nw_have_w || memcmp(w, nw_w, sizeof w)) {
         memcpy(nw_w, w, sizeof w);
         memcpy(nw_dw, dw, sizeof dw);
-NW_POLY_ROWS
-        nw_k_sigma();
+        memcpy(nw_sigma, sigma, sizeof sigma);
         nw_have_w = 1;
-        ++nw_wversion;
+        nw_mix_due = 1;
     }
 #else
     (void)t; (void)y; (void)p; (void)u;
 #endif
+    return 0;
+}
+
+/* the mixed samples at the weights of the last nw_weights_at (kept while they are unchanged;
+   nw_wversion counts the mixes) */
+static void nw_mixed(void)
+{
+#if NW_NPB
+    if (!nw_mix_due) return;
+    const double *sigma = nw_sigma;
+NW_POLY_ROWS
+    nw_k_sigma();
+    nw_mix_due = 0;
+    ++nw_wversion;
+    (void)sigma;
+#endif
+}
+
+/* the context at (t, y, p, u): the parametric bodies mixed at their schedules (ffrf_at) */
+static int nw_at(double t, const double *y, const double *p, const double *u)
+{
+    if (nw_weights_at(t, y, p, u)) return 3;
+    nw_mixed();
+    return 0;
+}
+
+/* the context of the functions of the symbolic part alone (outputs, constraints and their
+   derivatives): the weights, and the mix only when S_V or dS_V/dsigma is mixed */
+static int nw_at_sv(double t, const double *y, const double *p, const double *u)
+{
+    if (nw_weights_at(t, y, p, u)) return 3;
+    if (NW_SV_MIXED) nw_mixed();
     return 0;
 }
 
@@ -223,6 +257,7 @@ int nw_bind(int count, const double *const *data, const long *sizes)
 NW_BIND
     nw_bound = 1;
     nw_have_w = 0;
+    nw_mix_due = 0;
     ++nw_wversion;
     return 0;
 }
@@ -404,7 +439,7 @@ int nw_outputs(double t, const double *x, const double *p, const double *u, doub
 {
     double ys[NW_NS + 1], yds[NW_NS + 1], o[NW_NY + NW_NH + 1];
     if (!nw_bound) return 2;
-    if (nw_at(t, x, p, u)) return 3;
+    if (nw_at_sv(t, x, p, u)) return 3;
     nw_smap(0, x, ys);
     nw_smap(0, x + NW_N, yds);
     nw_s_outputs(t, ys, yds, p, u, o);
@@ -416,7 +451,7 @@ int nw_constraints(double t, const double *y, const double *p, const double *u, 
 {
     double ys[NW_NS + 1];
     if (!nw_bound) return 2;
-    if (nw_at(t, y, p, u)) return 3;
+    if (nw_at_sv(t, y, p, u)) return 3;
     nw_smap(0, y, ys);
     return nw_s_constraints(t, ys, p, u, out);
 }
@@ -426,7 +461,7 @@ int nw_constraint_time_derivative(double t, const double *y, const double *p, co
 {
     double ys[NW_NS + 1];
     if (!nw_bound) return 2;
-    if (nw_at(t, y, p, u)) return 3;
+    if (nw_at_sv(t, y, p, u)) return 3;
     nw_smap(0, y, ys);
     return nw_s_constraint_time_derivative(t, ys, p, u, out);
 }
@@ -436,7 +471,7 @@ int nw_constraint_gamma(double t, const double *y, const double *yd, const doubl
 {
     double ys[NW_NS + 1], yds[NW_NS + 1];
     if (!nw_bound) return 2;
-    if (nw_at(t, y, p, u)) return 3;
+    if (nw_at_sv(t, y, p, u)) return 3;
     nw_smap(0, y, ys);
     nw_smap(0, yd, yds);
     return nw_s_constraint_gamma(t, ys, yds, p, u, out);
@@ -450,7 +485,7 @@ int nw_constraint_jacobian(double t, const double *y, const double *p, const dou
     double ys[NW_NS + 1];
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
-    if (nw_at(t, y, p, u)) return 3;
+    if (nw_at_sv(t, y, p, u)) return 3;
     nw_smap(0, y, ys);
     nw_s_constraint_jacobian(t, ys, p, u, Gs);
     nw_gemm(NW_NC, NW_N, NW_NS, Gs, NW_NS, 1, NW_SV, NW_N, 1, out);
@@ -697,7 +732,7 @@ int nw_output_jacobians(double t, const double *x, const double *p, const double
     const int ld = 2 * NW_N + NW_NU;
     NW_DEFAULT_INPUTS;
     if (!nw_bound) return 2;
-    if (nw_at(t, x, p, u)) return 3;
+    if (nw_at_sv(t, x, p, u)) return 3;
     nw_smap(0, x, ys);
     nw_smap(0, x + NW_N, yds);
     nw_s_output_jacobians(t, ys, yds, p, u, C);

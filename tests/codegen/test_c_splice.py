@@ -237,6 +237,35 @@ def test_kept_factorization_follows_the_schedule(bodies) -> None:
         _same(mc.rhs(0.0, x, p), mnp.rhs(0.0, x, p), f"rhs at cs = {cs}")
 
 
+
+@pytest.mark.parametrize(("data", "mixed"), [("duct_g.npz", 0), ("duct_q.npz", 1)])
+def test_outputs_at_a_new_schedule_leave_the_mix_to_its_readers(bodies, data: str,
+                                                                mixed: int) -> None:
+    """The outputs and constraints read the symbolic part alone: at a new schedule they take
+    the weights (and their range check) but leave the mix of the samples to the functions
+    that read it (``nw_at_sv``, ``nw_mixed``), unless ``S_V`` is mixed too (``NW_SV_MIXED``:
+    the node rows of the global-basis duct are constant, those of the interpolated local
+    bodies are not). Called first at each of a series of states,
+    the outputs equal the NumPy module's, and ``rhs``, the mass matrix and the residual's
+    ``∂(q − k)/∂y`` at that state afterwards equal the NumPy module's too: a mix that were
+    left out would keep the previous schedule's samples (reference: the NumPy module at
+    every state)."""
+    mnp, mc = _pair(bodies, "ISYS", data, "cs + 2000*z + 5*F", f"ISYS_{data[:-4]}")
+    core = next((bodies / f"gen_ISYS_{data[:-4]}").glob("*_c.c")).read_text()
+    assert f"#define NW_SV_MIXED {mixed}" in core
+    outputs = core[core.index("int nw_outputs("):]
+    assert "nw_at_sv(t, x, p, u)" in outputs[:outputs.index("\n}\n")]
+    n, p = len(mnp.COORDINATES), mnp.default_parameters()
+    rng = np.random.default_rng(13)
+    for k in range(4):
+        x = 1e-3 * rng.normal(size=2 * n)
+        _same(mc.outputs(0.2, x, p), mnp.outputs(0.2, x, p), f"outputs {k}")
+        if k % 2:
+            _same(mc.force_jacobians(0.2, x[:n], x[n:], p)[0],
+                  mnp.force_jacobians(0.2, x[:n], x[n:], p)[0], f"fy {k}")
+        _same(mc.rhs(0.2, x, p), mnp.rhs(0.2, x, p), f"rhs {k}")
+        _same(mc.mass_matrix(0.2, x[:n], p), mnp.mass_matrix(0.2, x[:n], p), f"M {k}")
+
 @pytest.mark.slow
 def test_body_of_hundreds_of_modes_in_c_equals_the_numpy_module(tmp_path) -> None:
     """A spring chain of 260 DOFs whose stiffness and mass change with ``s``, reduced to 200

@@ -249,11 +249,18 @@ def parametric_ducts(out: Path, speeds: tuple[float, ...] = (300.0, 343.0, 390.0
     """Two-sided u–p piston ducts at the sound speeds ``speeds`` (6 modes), interpolated with
     cubic weights (``out/duct.npz``), with sample slopes and cubic Hermite weights
     (``duct_h.npz``) and with slopes and curvatures, quintic Hermite weights in ``ξ = c²``
-    (``duct_q.npz``): parametric body files of every weight form."""
+    (``duct_q.npz``): parametric body files of every weight form; and the body of the
+    samples' global basis (``duct_g.npz``, cubic weights), whose node rows do not depend on
+    the sound speed."""
     from neweul_py.elastic.io.body_files import save_parametric_body
+    from neweul_py.elastic.parametric.global_basis import global_parametric_body
     from neweul_py.elastic.parametric.local_interpolation import interpolate
 
-    pb = interpolate(piston_duct_bodies(speeds, n_el=40, modes=6), list(speeds), parameter="c")
+    bodies = piston_duct_bodies(speeds, n_el=40, modes=6)
+    save_parametric_body(global_parametric_body([piston_duct(n_el=40, c=c) for c in speeds],
+                                                bodies, speeds, parameter="c"),
+                         out / "duct_g.npz")
+    pb = interpolate(bodies, list(speeds), parameter="c")
     save_parametric_body(pb, out / "duct.npz")
     slopes = {key: np.gradient(pb.stack(key), pb.samples, axis=0, edge_order=1)
               * (0.0 if key.endswith("residual") else 1.0) for key in pb.slope_keys()}
