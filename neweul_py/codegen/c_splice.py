@@ -73,12 +73,12 @@ from .c_functions import SymbolGroups, big, c_body, c_function
 from .c_kernel import KernelPrinter
 from .c_kernel_text import C_DOT, C_MIX
 from .c_printer import DotRows
+from .c_splice_jacobians import JACOBIAN_C
 from .c_splice_parameters import PARAMETER_C
 from .c_splice_text import (
     CORE_C,
     ESOLVE_C,
     GLOBALS_C,
-    JACOBIAN_C,
     POLY_C,
     SMAP_C,
     SPLICE_C,

@@ -1,6 +1,6 @@
 """The parameter derivatives of a model with elastic bodies in C (docs/sensitivity.md).
 
-Fixed C text appended to the derivative library after :data:`.c_splice_text.JACOBIAN_C`
+Fixed C text appended to the derivative library after :data:`.c_splice_jacobians.JACOBIAN_C`
 (whose helpers it uses), in the order of :mod:`neweul_py.ffrf.splice`:
 ``nw_force_parameter_jacobian`` (``ffrf_force_parameter_jacobian``),
 ``nw_mass_matrix_parameter_derivative`` (``ffrf_mass_matrix_parameter_derivative``) and
