@@ -22,9 +22,10 @@ The C sources of a model with elastic bodies are made of three parts:
    bodies (the mixed samples, ``S_V(σ)``, ``S_W(σ)``, ``∂S_V/∂σ``) when the weights change,
    by the first function that reads it (``nw_mixed``; outputs and constraints need no mix
    unless ``S_V`` is mixed, ``NW_SV_MIXED``).
-3. **The splice**, fixed C text (:mod:`.c_splice_text`) in the order of the
+3. **The splice**, fixed C text (:mod:`.c_splice_text`; the Jacobians in
+   :mod:`.c_splice_jacobians` and :mod:`.c_splice_parameters`) in the order of the
    protocol functions of :mod:`neweul_py.ffrf.splice`: the schedule and the weights of the
-   parametric bodies (``nw_at``: the piecewise polynomials of
+   parametric bodies (``nw_weights_at``: the piecewise polynomials of
    :func:`~neweul_py.ffrf.parametric.ffrf_weights` by Horner's rule, with their derivative;
    outside the sampled range an error, which the wrapper reports with the NumPy module's
    message), ``y_s = S_V y``, the Jacobians by the chain rule — the symbolic part's analytic
@@ -209,8 +210,8 @@ def _defines(t: SpliceTrace, nd: int, ny: int, nc: int) -> list[str]:
 def _weights_lines(t: SpliceTrace, data: dict[str, int],
                    polynomials: dict[tuple[int, str], tuple[str, int]]
                    ) -> tuple[list[str], list[str]]:
-    """The weights at the schedules in ``nw_at``, and the polynomial rows of the mixes that
-    read them, made when the weights changed (``nw_poly``,
+    """The weights at the schedules in ``nw_weights_at``, and the polynomial rows of the
+    mixes that read them, made in ``nw_mixed`` when the weights changed (``nw_poly``,
     :meth:`.KernelPrinter._polynomial_rows`)."""
     lines, off, args = [], 0, []
     for k, p in enumerate(t.parametric):

@@ -69,13 +69,13 @@ static void nw_sigma_terms(double t, const double *y, const double *yd, const do
     }
     for (int k = 0; k < NW_NPB; ++k) {
         static double complex last[NW_NW];
-        static int have;
+        static long bound = -1;
         for (int i = 0; i < NW_NW; ++i) nw_wc[i] = nw_w[i];
         for (int i = nw_woff[k]; i < nw_woff[k + 1]; ++i) nw_wc[i] += I * NW_H * nw_dw[i];
-        if (!have || memcmp(last, nw_wc, sizeof last)) {   /* mixed once per weights */
+        if (bound != nw_binds || memcmp(last, nw_wc, sizeof last)) {  /* once per weights */
             nw_k_sigma_c();
             memcpy(last, nw_wc, sizeof last);
-            have = 1;
+            bound = nw_binds;
         }
         nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, y, 1, dys);
         nw_gemv(NW_NS, NW_N, nw_dsv[k], NW_N, 1, yd, 1, dyds);

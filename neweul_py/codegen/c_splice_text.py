@@ -24,7 +24,7 @@ static int nw_bound;
 static double nw_w[NW_NW + 1], nw_dw[NW_NW + 1];
 static double complex nw_wc[NW_NW + 1];
 static int nw_have_w;
-static long nw_wversion;   /* counts the changes of the weights (and of the bound data) */
+static long nw_wversion;   /* counts the mixes at new weights (and the bindings) */
 static long nw_binds;      /* counts the bindings (the compact mixing's constant entries) */
 """
 
@@ -96,8 +96,8 @@ static int nw_interval(double x, const double *b, int nb)
 /* A mix by the weights at x from nd rows instead of ncol: on the interval j of x the weights
    are w = pw C_j, pw = (dx^(nd-1), ..., dx, 1) and C_j the rows of c at j (nw_weights'
    Horner), so w V = pw P with P = C_j V (nd x nv). P is made again when j or the binding
-   changes (*at), in one pass over V by blocks; pw at every call (nw_at calls it when the
-   weights changed, before it mixes). x in [b_0, b_{nb-1}] */
+   changes (*at), in one pass over V by blocks; pw at every call (nw_mixed calls it before
+   it mixes). x in [b_0, b_{nb-1}] */
 __attribute__((optimize("O3"))) static void nw_poly(double x, const double *b, const double *c,
     int nb, int nd, int ncol, const double *V, long nv, double *P, double *pw, long *at)
 {
@@ -168,16 +168,24 @@ NW_WEIGHTS
     return 0;
 }
 
-/* the mixed samples at the weights of the last nw_weights_at (kept while they are unchanged;
-   nw_wversion counts the mixes) */
+/* the mixed samples at the weights of the last nw_weights_at: mixed when these differ from
+   the weights of the last mix (kept while they are the same; nw_wversion counts the mixes) */
+static double nw_wmix[NW_NW + 1], nw_dwmix[NW_NW + 1];
+static int nw_have_mix;
 static void nw_mixed(void)
 {
 #if NW_NPB
     if (!nw_mix_due) return;
+    nw_mix_due = 0;
+    if (nw_have_mix && !memcmp(nw_wmix, nw_w, NW_NW * sizeof(double))
+            && !memcmp(nw_dwmix, nw_dw, NW_NW * sizeof(double)))
+        return;                                          /* back at the mixed weights */
     const double *sigma = nw_sigma;
 NW_POLY_ROWS
     nw_k_sigma();
-    nw_mix_due = 0;
+    memcpy(nw_wmix, nw_w, NW_NW * sizeof(double));
+    memcpy(nw_dwmix, nw_dw, NW_NW * sizeof(double));
+    nw_have_mix = 1;
     ++nw_wversion;
     (void)sigma;
 #endif
@@ -258,6 +266,7 @@ int nw_bind(int count, const double *const *data, const long *sizes)
 NW_BIND
     nw_bound = 1;
     nw_have_w = 0;
+    nw_have_mix = 0;
     nw_mix_due = 0;
     ++nw_wversion;
     return 0;

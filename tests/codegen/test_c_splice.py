@@ -248,8 +248,9 @@ def test_outputs_at_a_new_schedule_leave_the_mix_to_its_readers(bodies, data: st
     bodies are not). Called first at each of a series of states,
     the outputs equal the NumPy module's, and ``rhs``, the mass matrix and the residual's
     ``∂(q − k)/∂y`` at that state afterwards equal the NumPy module's too: a mix that were
-    left out would keep the previous schedule's samples (reference: the NumPy module at
-    every state)."""
+    left out would keep the previous schedule's samples; so does ``rhs`` back at the
+    schedule of the last mix while another one's is pending (no mix) and then at the other
+    one (reference: the NumPy module at every state)."""
     mnp, mc = _pair(bodies, "ISYS", data, "cs + 2000*z + 5*F", f"ISYS_{data[:-4]}")
     core = next((bodies / f"gen_ISYS_{data[:-4]}").glob("*_c.c")).read_text()
     assert f"#define NW_SV_MIXED {mixed}" in core
@@ -265,6 +266,12 @@ def test_outputs_at_a_new_schedule_leave_the_mix_to_its_readers(bodies, data: st
                   mnp.force_jacobians(0.2, x[:n], x[n:], p)[0], f"fy {k}")
         _same(mc.rhs(0.2, x, p), mnp.rhs(0.2, x, p), f"rhs {k}")
         _same(mc.mass_matrix(0.2, x[:n], p), mnp.mass_matrix(0.2, x[:n], p), f"M {k}")
+    # back at the mixed schedule while another one's mix is pending, then at the other one
+    other = 1e-3 * rng.normal(size=2 * n)
+    for seen, state in ((other, x), (other, other), (x, other)):
+        _same(mc.outputs(0.2, seen, p), mnp.outputs(0.2, seen, p), "outputs")
+        _same(mc.rhs(0.2, state, p), mnp.rhs(0.2, state, p), "rhs after a pending mix")
+
 
 @pytest.mark.slow
 def test_body_of_hundreds_of_modes_in_c_equals_the_numpy_module(tmp_path) -> None:
