@@ -1,43 +1,43 @@
 """The fixed C helpers that printed kernels call (:mod:`.c_kernel`).
 
 :data:`C_DOT`: the products ``y = A x``, ``y = x B``, ``C = A B`` with strides, and ``C = A B``
-with a block added in the same pass (four partial sums; a zero entry of ``x`` — the weights
-of mixed samples — and a zero row of ``A`` skipped).
+with a block added in the same pass (the rows of ``A x`` in eight partial sums,
+:data:`.c_templates.C_DOT8`; a zero entry of ``x`` — the weights of mixed samples — and a
+zero row of ``A`` skipped).
 :data:`C_MIX`: the compact mixing of a parametric body's samples
 (:func:`~neweul_py.ffrf.parametric.ffrf_mix`), by blocks of columns.
 """
 
 from __future__ import annotations
 
+from .c_templates import C_CLONES, C_DOT8
+
 __all__ = ["C_DOT", "C_MIX"]
 
 #: Products of the printed kernels (real operands; the strides are in elements).
-C_DOT = r"""
+C_DOT = C_CLONES + C_DOT8 + r"""
 /* ---- products of the traced kernel (codegen/c_kernel_text.py): y = A x, y = x B, C = A B with
-   strides; four partial sums; a zero entry of x (weights of mixed samples) and a zero row of
-   A are skipped */
-__attribute__((optimize("O3"))) static void nw_gemv(int m, int k, const double *restrict A,
-    long sa, long sk, const double *restrict x, long sx, double *restrict y)
+   strides; contiguous rows of A in the eight partial sums of nw_dot8; a zero entry of x
+   (weights of mixed samples) and a zero row of A are skipped */
+__attribute__((optimize("O3"))) NW_CLONES static void nw_gemv(int m, int k,
+    const double *restrict A, long sa, long sk, const double *restrict x, long sx,
+    double *restrict y)
 {
     for (int i = 0; i < m; ++i) {
         const double *a = A + i * sa;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        int j = 0;
         if (sk == 1 && sx == 1) {
-            for (; j + 4 <= k; j += 4) {
-                s0 += a[j] * x[j]; s1 += a[j + 1] * x[j + 1];
-                s2 += a[j + 2] * x[j + 2]; s3 += a[j + 3] * x[j + 3];
-            }
-            for (; j < k; ++j) s0 += a[j] * x[j];
-        } else {
-            for (; j < k; ++j) s0 += a[j * sk] * x[j * sx];
+            y[i] = nw_dot8(k, a, x);
+            continue;
         }
-        y[i] = (s0 + s1) + (s2 + s3);
+        double s0 = 0.0;
+        for (int j = 0; j < k; ++j) s0 += a[j * sk] * x[j * sx];
+        y[i] = s0;
     }
 }
 
-__attribute__((optimize("O3"))) static void nw_vecmat(int k, int n, const double *restrict x,
-    long sx, const double *restrict B, long sb, long sn, double *restrict y)
+__attribute__((optimize("O3"))) NW_CLONES static void nw_vecmat(int k, int n,
+    const double *restrict x, long sx, const double *restrict B, long sb, long sn,
+    double *restrict y)
 {
     int nz[4], m = 0, i = 0;
     for (int j = 0; j < n; ++j) y[j] = 0.0;

@@ -24,6 +24,7 @@ from sympy.printing.codeprinter import PrintMethodNotImplementedError
 
 from ..errors import GenerationError
 from ..model import as_expr
+from .c_templates import C_CLONES
 from .printer import join_sum
 
 __all__ = ["CFallbackPrinter", "CPrinter", "DotRows"]
@@ -131,13 +132,9 @@ class DotRows:
             "codegen/c_module.BIG_FUNCTION),",
             "   with gcc and glibc on x86-64 also as an AVX2 clone chosen at load time (the "
             "same operations in",
-            "   the same order on four rows at once instead of two: the same results) */",
-            "#if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && "
-            "!defined(__clang__)",
-            '#define NW_CLONES __attribute__((target_clones("avx2", "default")))',
-            "#else",
-            "#define NW_CLONES",
-            "#endif",
+            "   the same order on four rows at once instead of two: the same results; "
+            "NW_CLONES) */",
+            *C_CLONES.strip("\n").splitlines(),
             '__attribute__((optimize("O3"))) NW_CLONES static void nw_rows(int k, int nc, '
             "const double *restrict T,",
             "                                                     const int *restrict col, "

@@ -29,7 +29,8 @@ static long nw_binds;      /* counts the bindings (the compact mixing's constant
 """
 
 #: ``y_s = S_V x`` and ``y_s(0) = S_V(0) x`` by the rows' nonzero spans (part of
-#: :data:`SPLICE_C`; uses ``nw_gemv`` of :data:`.c_kernel_text.C_DOT`, ``nw_binds`` and
+#: :data:`SPLICE_C`; uses ``nw_gemv``, ``nw_dot8`` and ``NW_CLONES`` of
+#: :data:`.c_kernel_text.C_DOT`, ``nw_binds`` and
 #: ``nw_wversion`` of :data:`GLOBALS_C` and the macros ``NW_NS``, ``NW_N``, ``NW_SV``,
 #: ``NW_SV0``, ``NW_SV_SIGMA``).
 SMAP_C = r"""
@@ -40,8 +41,8 @@ SMAP_C = r"""
    dense product, so that NaN and inf reach every row as in the NumPy module's S_V @ x. */
 static int nw_sp_lo[2][NW_NS + 1], nw_sp_hi[2][NW_NS + 1];
 static long nw_sp_at[2] = {-1, -1};
-__attribute__((optimize("O3"))) static void nw_smap(int which, const double *restrict x,
-                                                   double *restrict y)
+__attribute__((optimize("O3"))) NW_CLONES static void nw_smap(int which,
+    const double *restrict x, double *restrict y)
 {
     const double *A = which ? NW_SV0 : NW_SV;
     const long at = (which || !NW_SV_SIGMA) ? nw_binds : nw_wversion;
@@ -63,17 +64,8 @@ __attribute__((optimize("O3"))) static void nw_smap(int which, const double *res
         }
         nw_sp_at[which] = at;
     }
-    for (int i = 0; i < NW_NS; ++i) {
-        const double *a = A + (long)i * NW_N;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        int j = lo[i];
-        for (; j + 4 <= hi[i]; j += 4) {
-            s0 += a[j] * x[j]; s1 += a[j + 1] * x[j + 1];
-            s2 += a[j + 2] * x[j + 2]; s3 += a[j + 3] * x[j + 3];
-        }
-        for (; j < hi[i]; ++j) s0 += a[j] * x[j];
-        y[i] = (s0 + s1) + (s2 + s3);
-    }
+    for (int i = 0; i < NW_NS; ++i)
+        y[i] = nw_dot8(hi[i] - lo[i], A + (long)i * NW_N + lo[i], x + lo[i]);
 }
 """
 
@@ -333,6 +325,11 @@ __attribute__((optimize("O3"))) static int nw_dsolve(double *z, int m)
             double rmax = 0.0, xmax = 0.0;
             for (int i = 0; i < NW_NE; ++i) {
                 const double *row = nw_Dcur + (long)i * NW_NE;
+                if (m == 1) {                           /* one column: nw_dot8 */
+                    r[i] = b[i] - nw_dot8(NW_NE, row, z);
+                    rmax = fmax(rmax, fabs(r[i]));
+                    continue;
+                }
                 for (int c = 0; c < m; ++c) {
                     double s0 = b[i * m + c], s1 = 0.0;
                     int j = 0;
