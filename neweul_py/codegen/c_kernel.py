@@ -122,6 +122,9 @@ class KernelPrinter:
         # (parametric body k, degree + 1); and the rows made: (k, data name) → (buffer, nv)
         self.polynomial_weights: dict[int, tuple[int, int]] = {}
         self.polynomials: dict[tuple[int, str], tuple[str, int]] = {}
+        # matrices whose products x @ B call a helper along the rows' nonzero spans: storage
+        # id → (offset, row length, the helper's name), e.g. S_W and nw_wmap (c_splice)
+        self.row_spans: dict[int, tuple[int, int, str]] = {}
 
     # ------------------------------------------------------------------ names
     def _ctype(self, node: Node) -> str:
@@ -575,11 +578,17 @@ class KernelPrinter:
         if real and sa.op != "zeros" and sb.op != "zeros":
             if len(a.shape) == 2 and len(b.shape) == 1:
                 if ta[0] == 1 and ta[1] != 1:     # Aᵀ x of a row-major A: its rows, scaled
+                    spans = self.row_spans.get(sa.id)
+                    if spans and spans[:2] == (oa, a.shape[0]) and ta[1] == a.shape[0]:
+                        return [f"    {spans[2]}({a.shape[1]}, {pb}, {tb[0]}, {out});"]
                     return [f"    nw_vecmat({a.shape[1]}, {a.shape[0]}, {pb}, {tb[0]}, {pa}, "
                             f"{ta[1]}, 1, {out});"]
                 return [f"    nw_gemv({a.shape[0]}, {a.shape[1]}, {pa}, {ta[0]}, {ta[1]}, "
                         f"{pb}, {tb[0]}, {out});"]
             if len(a.shape) == 1 and len(b.shape) == 2:
+                spans = self.row_spans.get(sb.id)
+                if spans and spans[:2] == (ob, b.shape[1]) and tb == (b.shape[1], 1):
+                    return [f"    {spans[2]}({b.shape[0]}, {pa}, {ta[0]}, {out});"]
                 return [f"    nw_vecmat({b.shape[0]}, {b.shape[1]}, {pa}, {ta[0]}, {pb}, "
                         f"{tb[0]}, {tb[1]}, {out});"]
             if len(a.shape) == 2 and len(b.shape) == 2:

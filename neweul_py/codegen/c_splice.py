@@ -83,6 +83,7 @@ from .c_splice_text import (
     POLY_C,
     SMAP_C,
     SPLICE_C,
+    WMAP_C,
 )
 from .c_splice_trace import SpliceTrace, trace_splice, traced_kernels
 from .c_templates import C_DOPRI5, C_GALPHA, C_LU
@@ -262,6 +263,8 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
             leaf = t.graph.leaves[f"{name}{i}"]
             pr.params[leaf.id] = f"(nw_{name} + {off})" if off else f"nw_{name}"
             off += p["cols"]
+    sw_storage, sw_offset, _strides = t.graph.storage_view(t.real["SW"].node)
+    pr.row_spans[sw_storage.id] = (sw_offset, t.n, "nw_wmap")      # x @ S_W by rows' spans
     body: list[str] = []
     sig_outputs = [t.real["SV"], t.real["SW"], *t.dsv]
     need = [out for name in which for _n, out in kernels[name][1]]
@@ -284,8 +287,10 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
     sv0 = f"nw_D[{index['_splice/SV']}]"
     sv_sigma = int(pr.level[t.real["SV"].node.id] > 0)     # S_V(σ) mixed with the weights
     sv_mixed = int(sv_sigma or any(pr.level[d.node.id] > 0 for d in t.dsv))
+    sw_sigma = int(pr.level[t.real["SW"].node.id] > 0)
     macros = [f"#define NW_SV {sv}", f"#define NW_SW {sw}", f"#define NW_SV0 {sv0}",
-              f"#define NW_SV_SIGMA {sv_sigma}", f"#define NW_SV_MIXED {sv_mixed}"]
+              f"#define NW_SV_SIGMA {sv_sigma}", f"#define NW_SV_MIXED {sv_mixed}",
+              f"#define NW_SW_SIGMA {sw_sigma}"]
     if t.parametric:
         offs = np.cumsum([0, *(p["cols"] for p in t.parametric)])
         body.insert(0, f"static const int nw_woff[NW_NPB + 1] = "
@@ -303,7 +308,7 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
     esolve = (ESOLVE_C.replace("NW_ETABLE", ", ".join(map(str, t.elastic)))
               .replace("NW_RTABLE", ", ".join(map(str, R)) or "0"))
     splice = splice.replace("{esolve}", esolve)
-    text = [*pr.static, *macros, *body, C_LU, splice]
+    text = [*pr.static, *macros, WMAP_C, *body, C_LU, splice]
     if jacobian:
         fixed = ("    nw_k_fixed(fy, fyd, fy, fyd);" if "nw_k_fixed" in which else "")
         text += [JACOBIAN_C.replace("NW_FIXED_JACOBIANS", fixed), PARAMETER_C]

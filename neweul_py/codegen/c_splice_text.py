@@ -13,7 +13,7 @@ The ``NW_*`` macros are defined per model by :mod:`.c_splice`.
 
 from __future__ import annotations
 
-__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "POLY_C", "SMAP_C", "SPLICE_C"]
+__all__ = ["CORE_C", "ESOLVE_C", "GLOBALS_C", "POLY_C", "SMAP_C", "SPLICE_C", "WMAP_C"]
 
 #: The splice of both libraries: binding, weights, the context at the schedule, the
 #: dynamics and the sensitivities of the schedule (mirrors neweul_py/ffrf/splice.py).
@@ -66,6 +66,50 @@ __attribute__((optimize("O3"))) NW_CLONES static void nw_smap(int which,
     }
     for (int i = 0; i < NW_NS; ++i)
         y[i] = nw_dot8(hi[i] - lo[i], A + (long)i * NW_N + lo[i], x + lo[i]);
+}
+"""
+
+#: ``y = x S_W`` for the first ``k`` rows of ``S_W`` along the nonzero span of each row, as
+#: :data:`SMAP_C` multiplies by ``S_V`` (placed before the traced kernels, which call it for
+#: their products ``x @ S_W``; uses ``nw_vecmat`` and ``NW_CLONES`` of
+#: :data:`.c_kernel_text.C_DOT`, ``nw_binds`` and ``nw_wversion`` of :data:`GLOBALS_C` and
+#: the macros ``NW_NS``, ``NW_N``, ``NW_SW``, ``NW_SW_SIGMA``).
+WMAP_C = r"""
+/* y = x S_W for the first k rows of S_W (x: k entries of stride sx) along the nonzero span of
+   each row: the rows are unit rows but for those of the node coordinates (ffrf/splice.py),
+   so the product reads the node rows and one entry of every other row instead of k dense
+   rows. The spans are found again when S_W may have changed: at a binding, and with the
+   mixes when it depends on the weights (NW_SW_SIGMA). An x that is not finite takes the
+   dense product, so that NaN and inf reach every column as in the NumPy module's x @ S_W. */
+static int nw_wp_lo[NW_NS + 1], nw_wp_hi[NW_NS + 1];
+static long nw_wp_at = -1;
+__attribute__((optimize("O3"))) NW_CLONES static void nw_wmap(int k, const double *restrict x,
+    long sx, double *restrict y)
+{
+    const long at = NW_SW_SIGMA ? nw_wversion : nw_binds;
+    int finite = 1;
+    for (int i = 0; i < k; ++i) finite &= isfinite(x[i * sx]) != 0;
+    if (!finite) {
+        nw_vecmat(k, NW_N, x, sx, NW_SW, NW_N, 1, y);
+        return;
+    }
+    if (nw_wp_at != at) {
+        for (int i = 0; i < NW_NS; ++i) {
+            const double *a = NW_SW + (long)i * NW_N;
+            int l = 0, h = NW_N;
+            while (l < NW_N && a[l] == 0.0) ++l;
+            while (h > l && a[h - 1] == 0.0) --h;
+            nw_wp_lo[i] = l;
+            nw_wp_hi[i] = h;
+        }
+        nw_wp_at = at;
+    }
+    for (int j = 0; j < NW_N; ++j) y[j] = 0.0;
+    for (int i = 0; i < k; ++i) {
+        const double xi = x[i * sx], *a = NW_SW + (long)i * NW_N;
+        if (xi != 0.0)
+            for (int j = nw_wp_lo[i]; j < nw_wp_hi[i]; ++j) y[j] += xi * a[j];
+    }
 }
 """
 

@@ -112,11 +112,13 @@ def test_parametric_body_in_c_equals_the_numpy_module(bodies, frame: str, data: 
     weights read the rows of the weights' polynomials (``POLY_C``) where these are fewer than
     the weights that are not zero on an interval: the quintic Hermite weights in ``c²``
     (cubic pieces in ``c``: 4 rows for 6), not the cubic Hermite ones (4 for 4) nor the
-    cubic spline on 3 samples (4 for 3)."""
+    cubic spline on 3 samples (4 for 3). The products ``x @ S_W`` run along the nonzero
+    spans of the rows of ``S_W`` (``nw_wmap``)."""
     mnp, mc = _pair(bodies, frame, data, "cs + 2000*z + 5*F", f"{frame}_{data[:-4]}")
     core = [f for f in (bodies / f"gen_{frame}_{data[:-4]}").glob("*_c.c")]
     assert len(core) == 1
     assert ("nw_poly(sigma[0], " in core[0].read_text()) == (data == "duct_q.npz")
+    assert "    nw_wmap(" in core[0].read_text()          # x @ S_W along the rows' spans
     n, p = len(mnp.COORDINATES), mnp.default_parameters()
     rng = np.random.default_rng(7)
     for k in range(3):

@@ -1,10 +1,12 @@
 """The fixed C text of the splice (neweul_py/codegen/c_splice_text.py): the products with the
 selection maps ``S_V`` and ``S_V(0)`` along the nonzero span of each row (``SMAP_C``), and
-the polynomial rows of a parametric body's mix (``POLY_C``).
+``x S_W`` of the first rows of ``S_W`` so (``WMAP_C``), and the polynomial rows of a
+parametric body's mix (``POLY_C``).
 
-Reference: NumPy's dense product ``S_V @ x``, as the NumPy module forms ``y_s`` — for maps
-whose zero pattern changes between bindings or weights, and for an ``x`` with NaN, which
-the dense product carries into every row (``0 · NaN``); for the mix, the weights of
+Reference: NumPy's dense products ``S_V @ x`` and ``x @ S_W[:k]``, as the NumPy module forms
+``y_s`` and the generalized forces — for maps whose zero pattern changes between bindings or
+weights, and for an ``x`` with NaN, which the dense product carries into every row or column
+(``0 · NaN``); for the mix, the weights of
 ``ffrf_weights`` times the samples, ``w V``, as ``ffrf_mix`` forms the varying entries.
 """
 
@@ -17,7 +19,7 @@ import pytest
 from compiler import compile_c
 
 from neweul_py.codegen.c_kernel_text import C_DOT
-from neweul_py.codegen.c_splice_text import POLY_C, SMAP_C
+from neweul_py.codegen.c_splice_text import POLY_C, SMAP_C, WMAP_C
 from neweul_py.ffrf.parametric import ffrf_weights
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
@@ -87,6 +89,58 @@ def test_span_product_of_a_nan_reaches_every_row(tmp_path) -> None:
     lib.smap(0, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", y))
     with np.errstate(invalid="ignore"):
         want = A @ x
+    assert np.isnan(want).all()
+    np.testing.assert_array_equal(np.isnan(y), np.isnan(want))
+
+
+def _wlibrary(tmp_path, sigma: int):
+    src = "\n".join([
+        "#include <math.h>", "#include <string.h>", f"#define NW_NS {NS}", f"#define NW_N {N}",
+        "static double A0[NW_NS * NW_N];", "#define NW_SW A0", f"#define NW_SW_SIGMA {sigma}",
+        "static long nw_binds, nw_wversion;", C_DOT, WMAP_C,
+        "void set(const double *a) { memcpy(A0, a, sizeof A0); }",
+        "void bump(int binds, int weights) { nw_binds += binds; nw_wversion += weights; }",
+        "void wmap(int k, const double *x, long sx, double *y) { nw_wmap(k, x, sx, y); }", ""])
+    return compile_c(tmp_path, f"wmap{sigma}", src,
+                     "void set(const double *a); void bump(int binds, int weights);"
+                     "void wmap(int k, const double *x, long sx, double *y);")
+
+
+@pytest.mark.parametrize("sigma", [0, 1])
+def test_weighted_rows_equal_the_dense_product_as_the_map_changes(tmp_path, sigma) -> None:
+    """``y = x S_W[:k]`` (all rows, the first rows, a strided ``x``) equals ``x @ A[:k]`` for a
+    map with zero edges, and again after the map gains entries outside the old spans: at a
+    binding, or (``NW_SW_SIGMA``) at a change of the weights."""
+    ffi, lib = _wlibrary(tmp_path, sigma)
+    rng = np.random.default_rng(8)
+    x = rng.normal(size=2 * NS)
+    y = np.empty(N)
+    lib.bump(1, 1)
+    for edge, bump in ((0.0, (0, 0)), (0.5, (int(not sigma), sigma))):
+        A = _map(rng, edge)
+        A[NS - 2] = 0.0                                       # a zero row
+        lib.set(ffi.from_buffer("double[]", A))
+        lib.bump(*bump)
+        for k, stride in ((NS, 1), (3, 1), (NS, 2)):
+            xs = x[:stride * k:stride]
+            lib.wmap(k, ffi.from_buffer("double[]", x), stride, ffi.from_buffer("double[]", y))
+            np.testing.assert_allclose(y, xs @ A[:k], rtol=1e-15, atol=1e-15)
+
+
+def test_weighted_rows_of_a_nan_reach_every_column(tmp_path) -> None:
+    """A NaN in ``x`` at a unit row makes every column NaN as in ``x @ A`` (the NumPy module's
+    forces then carry it), not one column."""
+    ffi, lib = _wlibrary(tmp_path, 0)
+    rng = np.random.default_rng(9)
+    A = _map(rng, 0.0)
+    lib.bump(1, 0)
+    lib.set(ffi.from_buffer("double[]", A))
+    x = rng.normal(size=NS)
+    x[0] = np.nan
+    y = np.empty(N)
+    lib.wmap(NS, ffi.from_buffer("double[]", x), 1, ffi.from_buffer("double[]", y))
+    with np.errstate(invalid="ignore"):
+        want = x @ A
     assert np.isnan(want).all()
     np.testing.assert_array_equal(np.isnan(y), np.isnan(want))
 
