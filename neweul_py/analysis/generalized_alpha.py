@@ -40,10 +40,11 @@ user sees the same result arrays as from the SciPy methods.
 
 A compiled module with its own loop (``generalized_alpha_steps``,
 :data:`~neweul_py.codegen.c_templates.C_GALPHA`) takes the steps in C when the inputs are
-constant or the default (:func:`_compiled_steps` drives it: it builds ``S`` at the start and
-whenever the loop asks, and raises the errors): the same predictor, stopping rule and
-outputs, with Newton's method on the residual ``r = M ÿ₊ − (q − k)`` and the kept factors of
-``S`` (``Δ = S⁻¹ r``, Arnold & Brüls, Eq. (14)): no solve with ``M`` per iteration. With a
+constant or the default (:func:`_compiled_steps` drives it: it builds ``S`` and its inverse
+at the start and whenever the loop asks, and raises the errors): the same predictor,
+stopping rule and outputs, with Newton's method on the residual ``r = M ÿ₊ − (q − k)`` and
+the kept ``S⁻¹`` (``Δ = S⁻¹ r``, Arnold & Brüls, Eq. (14)), as the Python loop keeps
+``S⁻¹ M``: no solve with ``M`` per iteration. With a
 constant ``M`` that is the iteration above; when ``M`` changes the two stop at different
 iterates within the tolerance (docs/analysis.md).
 """
@@ -216,6 +217,14 @@ def step_count(span: float, h: float, max_steps: int = MAX_STEPS) -> int:
     return max(1, math.ceil(ratio))
 
 
+def _inverse(S: np.ndarray) -> np.ndarray:
+    """``S⁻¹`` for the C loop (LAPACK; ``LinAlgError`` when ``S`` is singular, as the Python
+    loop's solve with ``S``); a matrix that is not finite is passed as it is, so that the C
+    loop fails its iterations as the Python loop does with NaN increments."""
+    S = np.asarray(S, dtype=float)
+    return np.linalg.inv(S) if np.isfinite(S).all() else S
+
+
 def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: int,
                     c: GeneralizedAlpha, x0: np.ndarray, p: np.ndarray, u: Any,
                     times: np.ndarray, rtol: float, atol: np.ndarray, names: list[str],
@@ -223,8 +232,8 @@ def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: 
     """The steps of :func:`integrate_generalized_alpha` in the module's C loop
     (``generalized_alpha_steps``, :data:`~neweul_py.codegen.c_templates.C_GALPHA`): the
     same predictor, stopping rule, rebuild protocol and outputs, Newton's method on the
-    residual ``M ÿ₊ − (q − k)`` with the factors of ``S`` kept in C; this driver builds
-    ``S`` (at the start and whenever the loop asks), reports progress and raises the
+    residual ``M ÿ₊ − (q − k)`` with ``S⁻¹`` kept in C; this driver builds ``S`` and its
+    inverse (at the start and whenever the loop asks), reports progress and raises the
     errors."""
     t0, t1 = t_span
     n = x0.size // 2
@@ -234,26 +243,26 @@ def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: 
     out = np.full((times.size, 2 * n), np.nan)
     k = int(np.searchsorted(times, t0, side="right"))
     out[:k] = x0
-    S, _m = prob.iteration_matrix(t0, x0[:n], x0[n:], ydd, c)
+    Si = _inverse(prob.iteration_matrix(t0, x0[:n], x0[n:], ydd, c)[0])
     flags = np.array([0.5, 1.0, 0.0])
     coef = np.array([c.h, c.c_y, c.c_v, c._ya, c._yy, c._va, c._vy, c.alpha_m, c.alpha_f,
                      MAX_ITERATIONS, SLOW_CONTRACTION, ROUND_OFF, SMALL_INCREMENT])
     counters = np.array([k, prob.nfev, 0], dtype=np.int64)
-    work = np.zeros(n * n + 3 * n + 1)      # this run's factors of S (and the failing point)
+    work = np.zeros(n * n + 3 * n + 1)      # this run's S⁻¹ (and the failing point)
     report = max(1, steps // 200)
     i = 0
     while i < steps:
         last = min(steps, (i // report + 1) * report)
-        status = module.generalized_alpha_steps(t0, t1, i, last, steps, coef, p, u, S, rtol,
+        status = module.generalized_alpha_steps(t0, t1, i, last, steps, coef, p, u, Si, rtol,
                                                 atol, state, flags, work, times, out,
                                                 counters)
-        S, i = None, int(counters[2])
+        Si, i = None, int(counters[2])
         tn = t0 + (i + 1) * c.h if i + 1 < steps else t1
         y, v, ydd_i, a = state.reshape(4, n)
         if status == 1:                  # rebuild the matrix at the predictor, retry
             y_hat, v_hat = c.predict(y, v, a, ydd_i)
-            S, _m = prob.iteration_matrix(tn, y_hat + c.c_y * ydd_i, v_hat + c.c_v * ydd_i,
-                                          ydd_i, c)
+            Si = _inverse(prob.iteration_matrix(tn, y_hat + c.c_y * ydd_i,
+                                               v_hat + c.c_v * ydd_i, ydd_i, c)[0])
             flags[:] = (0.5, 1.0, 1.0)
             continue
         if status == 2:
@@ -261,8 +270,6 @@ def _compiled_steps(module: GeneratedModel, t_span: tuple[float, float], steps: 
                 f"generalized-alpha: Newton's method does not converge at t = {tn:g} "
                 f"(h = {c.h:g}); use a smaller step", last_iterate=state[:2 * n].copy(),
                 names=names)
-        if status == 3:
-            raise np.linalg.LinAlgError("Singular matrix")
         if status:                       # the model's own error where it failed
             prob.acceleration(tn, work[n * n + n:n * n + 3 * n].copy())
             raise SolverError(f"generalized-alpha: the model failed at t = {tn:g} "

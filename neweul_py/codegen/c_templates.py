@@ -10,7 +10,7 @@ one shared library, no linking against anything but ``libm``).
 * ``nw_integrate_galpha``: steps of the generalized-α method of
   :mod:`neweul_py.analysis.generalized_alpha` (the driver there rebuilds the iteration
   matrix ``S`` when the loop asks for it), Newton's method on the residual
-  ``M(y₊) ÿ₊ − (q − k)(t₊, y₊, ẏ₊)`` with the kept factors of ``S`` (:data:`C_GALPHA`).
+  ``M(y₊) ÿ₊ − (q − k)(t₊, y₊, ẏ₊)`` with the kept inverse of ``S`` (:data:`C_GALPHA`).
 * ``nw_integrate_dopri5``: the explicit Runge–Kutta pair of Dormand & Prince, 5(4), with
   exactly the step-size control, initial step (Hairer, Nørsett & Wanner, *Solving ODEs I*,
   §II.4) and 4th-order dense output of ``scipy.integrate.RK45`` (SciPy 1.x, ``rk.py``), so that
@@ -30,7 +30,7 @@ int nw_integrate_dopri5(double t0, double t_end, const double *x0, const double 
                         int n_eval, const double *t_eval, double *x_eval,
                         long *nfev, double *t_reached);
 int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
-                        const double *cf, const double *p, const double *u, const double *S,
+                        const double *cf, const double *p, const double *u, const double *Si,
                         double rtol, const double *atol, double *state, double *flags,
                         double *work, int n_eval, const double *t_eval, double *x_eval,
                         long *k_eval, long *nfev, long *done);
@@ -356,8 +356,10 @@ __attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double
 #: module docstring gives the method, the stopping rule and the outputs) in C: the same
 #: predictor, Newton iteration, contraction test, rebuild protocol and cubic Hermite outputs,
 #: with Newton's method on the residual ``r = M(y₊) ÿ₊ − (q − k)(t₊, y₊, ẏ₊)`` and the kept
-#: LU factors of the iteration matrix ``S = M + c_v C_t + c_y K_t`` (Arnold & Brüls, Multibody
-#: Syst. Dyn. 18 (2007) 185–202, Eq. (14)): ``Δ = S⁻¹ r``, one evaluation of the residual
+#: inverse of the iteration matrix ``S = M + c_v C_t + c_y K_t`` (Arnold & Brüls, Multibody
+#: Syst. Dyn. 18 (2007) 185–202, Eq. (14)): ``Δ = S⁻¹ r`` as ``n`` independent row products
+#: (``nw_dotn``; the two substitutions of a factorization ran row after row, 1.5× slower for
+#: the middle ear's 389 unknowns), one evaluation of the residual
 #: (``nw_ga_residual``, placed before: :data:`C_GALPHA_RESIDUAL`, or that of :mod:`.c_splice`)
 #: and no solve with ``M`` per iteration. The Python loop
 #: iterates on ``ÿ₊ − M⁻¹ (q − k)`` with ``S⁻¹ M`` of the rebuild; both are Newton's method
@@ -365,14 +367,16 @@ __attribute__((optimize("O3"))) static int nw_ga_residual(double t, const double
 #: ``cf``: ``h, c_y, c_v, ya, yy, va, vy, α_m, α_f`` (``GeneralizedAlpha``) and the stopping
 #: rule's iterations, contraction, round-off and small increment (the Python loop's
 #: constants, passed by its driver); ``state``:
-#: ``y, ẏ, ÿ, a`` (4n, in and out); ``flags``: ``θ``, fresh, retry (in and out); ``S``
-#: (n × n) factored on entry into ``work`` (the caller's, ``n² + 3n + 1``: the factors, the
-#: pivots, the point where the model failed, whether ``S`` was finite — a matrix with a NaN
-#: makes the iterations fail, as in the Python loop), or ``NULL`` to keep the factors of
-#: ``work``. Returns 0 (steps ``first …
+#: ``y, ẏ, ÿ, a`` (4n, in and out); ``flags``: ``θ``, fresh, retry (in and out); ``Si``
+#: (n × n), the inverse of ``S`` (the driver's ``numpy.linalg.inv``, LAPACK), copied on entry
+#: into ``work`` (the caller's, ``n² + 3n + 1``: ``S⁻¹``, unused, the point where the model
+#: failed, whether ``Si`` was finite — a matrix with a NaN, passed as it is, makes the
+#: iterations fail, as in the Python loop), or ``NULL`` to keep the inverse in ``work``.
+#: Returns 0 (steps ``first …
 #: last − 1`` done), 1 (Newton's method failed with an old matrix at step ``*done``: rebuild
 #: ``S`` at the predictor and call again with fresh and retry set), 2 (failed with a rebuilt
-#: matrix), 3 (``S`` singular) or 4 + the model's error code.
+#: matrix) or 4 + the model's error code (3 is no longer returned: a singular ``S`` is the
+#: driver's ``LinAlgError``).
 C_GALPHA = r"""
 /* ---- generalized-alpha steps (codegen/c_templates.py, C_GALPHA; nw_ga_residual before) */
 
@@ -381,8 +385,7 @@ static int nw_ga_newton(double tn, const double *yh, const double *vh, const dou
                         const double *scale, const double *p, const double *u, double *x,
                         double *theta, int fresh, double *work, long *nfev, int *code)
 {
-    const double *lu = work;
-    const int *piv = (const int *)(work + NW_N * NW_N);
+    const double *Si = work;
     double *zfail = work + NW_N * NW_N + NW_N;
     const double cy = cf[1], cv = cf[2], slow = cf[10], round_off = cf[11], small = cf[12];
     double z[2 * NW_N], r[NW_N], previous = INFINITY;
@@ -397,14 +400,14 @@ static int nw_ga_newton(double tn, const double *yh, const double *vh, const dou
             return 1;
         }
         if (work[NW_N * NW_N + 3 * NW_N] == 0.0) return 1;   /* S not finite: as NaN steps */
-        nw_lu_solve(NW_N, lu, piv, 1, r);
         double err = 0.0, dmax = 0.0, xmax = 0.0;
         int finite = 1;                  /* fmax drops a NaN: the increments checked apart */
         for (int i = 0; i < NW_N; ++i) {
-            x[i] -= r[i];
-            finite &= isfinite(r[i]) != 0;
-            err = fmax(err, fabs(r[i]) * scale[i]);
-            dmax = fmax(dmax, fabs(r[i]));
+            const double d = nw_dotn(NW_N, Si + (long)i * NW_N, r);     /* (S^-1 r)_i */
+            x[i] -= d;
+            finite &= isfinite(d) != 0;
+            err = fmax(err, fabs(d) * scale[i]);
+            dmax = fmax(dmax, fabs(d));
             xmax = fmax(xmax, fabs(x[i]));
         }
         if (!finite || !isfinite(err)) return 1;
@@ -431,7 +434,7 @@ static void nw_ga_hermite(double t0, double t1, const double *p0, const double *
 }
 
 int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
-                        const double *cf, const double *p, const double *u, const double *S,
+                        const double *cf, const double *p, const double *u, const double *Si,
                         double rtol, const double *atol, double *state, double *flags,
                         double *work, int n_eval, const double *t_eval, double *x_eval,
                         long *k_eval, long *nfev, long *done)
@@ -444,12 +447,11 @@ int nw_integrate_galpha(double t0, double t1, long first, long last, long steps,
     int fresh = flags[1] != 0.0, retry = flags[2] != 0.0, code = 0;
     long k = *k_eval;
     *done = first;
-    if (S) {                  /* the caller's work: the factors of S, a flag, the failing point */
+    if (Si) {                 /* the caller's work: S^-1, a flag, the failing point */
         int finite = 1;
-        for (long j = 0; j < (long)NW_N * NW_N; ++j) finite &= isfinite(S[j]) != 0;
+        for (long j = 0; j < (long)NW_N * NW_N; ++j) finite &= isfinite(Si[j]) != 0;
         work[NW_N * NW_N + 3 * NW_N] = finite;
-        memcpy(work, S, NW_N * NW_N * sizeof(double));
-        if (finite && nw_lu(NW_N, work, (int *)(work + NW_N * NW_N))) return 3;
+        memcpy(work, Si, NW_N * NW_N * sizeof(double));
     }
     for (long i = first; i < last; ++i) {
         const double t = t0 + i * h, tn = i + 1 < steps ? t0 + (i + 1) * h : t1;

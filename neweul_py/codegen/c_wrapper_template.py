@@ -406,20 +406,20 @@ else:
                 _fb("double[]", te), _fb("double[]", x_eval), nfev, reached)
         return x_eval, int(nfev[0]), int(status), float(reached[0])
 
-    def generalized_alpha_steps(t0, t1, first, last, steps, coefficients, p, u, S, rtol, atol,
+    def generalized_alpha_steps(t0, t1, first, last, steps, coefficients, p, u, Si, rtol, atol,
                                 state, flags, work, t_eval, x_eval, counters):
         """Steps ``first … last − 1`` of the generalized-α method in C (``nw_integrate_galpha``,
         driven by ``neweul_py.analysis.generalized_alpha``): ``state`` (y, ẏ, ÿ, a),
-        ``flags`` (θ, fresh, retry), ``work`` (the run's: the factors of ``S``, n² + 3n + 1),
-        ``x_eval`` and ``counters`` (the next output, rhs-like evaluations, the steps done)
-        are updated in place; ``S`` the new iteration matrix or ``None`` (keep its factors);
+        ``flags`` (θ, fresh, retry), ``work`` (the run's: ``S⁻¹``, n² + 3n + 1), ``x_eval`` and
+        ``counters`` (the next output, rhs-like evaluations, the steps done) are updated in
+        place; ``Si`` the inverse of the new iteration matrix ``S`` or ``None`` (keep it);
         ``u``: ``None`` or constant inputs.
 
         Returns
         -------
         int
             0 done, 1 rebuild the matrix, 2 Newton's method failed with a rebuilt matrix,
-            3 singular matrix, 4 + the library's code of a failed evaluation.
+            4 + the library's code of a failed evaluation.
         """
         k, nfev, done = (_ffi.new("long *", int(v)) for v in counters)
         for arr, size in ((state, 4 * _N), (flags, 3), (work, _N * _N + 3 * _N + 1),
@@ -434,7 +434,7 @@ else:
             status = _lib.nw_integrate_galpha(
                 float(t0), float(t1), int(first), int(last), int(steps),
                 _arr(coefficients, 13, "coefficients"), _arr(p, _NP, "p"), _inputs(u),
-                _NULL if S is None else _arr(_np.reshape(S, -1), _N * _N, "S"), float(rtol),
+                _NULL if Si is None else _arr(_np.reshape(Si, -1), _N * _N, "Si"), float(rtol),
                 _arr(atol, _S, "atol"), _fb("double[]", state), _fb("double[]", flags),
                 _fb("double[]", work), te.size, _fb("double[]", te), _fb("double[]", x_eval),
                 k, nfev, done)
