@@ -30,7 +30,7 @@ static long nw_binds;      /* counts the bindings (the compact mixing's constant
 
 #: ``y_s = S_V x`` and ``y_s(0) = S_V(0) x`` by the rows' nonzero spans (part of
 #: :data:`SPLICE_C`; uses ``nw_gemv``, ``nw_dot8`` and ``NW_CLONES`` of
-#: :data:`.c_kernel_text.C_DOT`, ``nw_binds`` and
+#: :data:`.c_kernel_text.C_DOT`, ``nw_spans`` of :data:`WMAP_C`, ``nw_binds`` and
 #: ``nw_wversion`` of :data:`GLOBALS_C` and the macros ``NW_NS``, ``NW_N``, ``NW_SV``,
 #: ``NW_SV0``, ``NW_SV_SIGMA``).
 SMAP_C = r"""
@@ -54,14 +54,7 @@ __attribute__((optimize("O3"))) NW_CLONES static void nw_smap(int which,
         return;
     }
     if (nw_sp_at[which] != at) {
-        for (int i = 0; i < NW_NS; ++i) {
-            const double *a = A + (long)i * NW_N;
-            int l = 0, h = NW_N;
-            while (l < NW_N && a[l] == 0.0) ++l;
-            while (h > l && a[h - 1] == 0.0) --h;
-            lo[i] = l;
-            hi[i] = h;
-        }
+        nw_spans(A, lo, hi);
         nw_sp_at[which] = at;
     }
     for (int i = 0; i < NW_NS; ++i)
@@ -70,8 +63,9 @@ __attribute__((optimize("O3"))) NW_CLONES static void nw_smap(int which,
 """
 
 #: ``y = x S_W`` for the first ``k`` rows of ``S_W`` along the nonzero span of each row, as
-#: :data:`SMAP_C` multiplies by ``S_V`` (placed before the traced kernels, which call it for
-#: their products ``x @ S_W``; uses ``nw_vecmat`` and ``NW_CLONES`` of
+#: :data:`SMAP_C` multiplies by ``S_V``, and ``nw_spans``, the spans of a map's rows (placed
+#: before the traced kernels, which call it for their products ``x @ S_W``, and before
+#: :data:`SMAP_C`; uses ``nw_vecmat`` and ``NW_CLONES`` of
 #: :data:`.c_kernel_text.C_DOT`, ``nw_binds`` and ``nw_wversion`` of :data:`GLOBALS_C` and
 #: the macros ``NW_NS``, ``NW_N``, ``NW_SW``, ``NW_SW_SIGMA``).
 WMAP_C = r"""
@@ -83,6 +77,19 @@ WMAP_C = r"""
    dense product, so that NaN and inf reach every column as in the NumPy module's x @ S_W. */
 static int nw_wp_lo[NW_NS + 1], nw_wp_hi[NW_NS + 1];
 static long nw_wp_at = -1;
+
+/* the nonzero span lo[i] ... hi[i] - 1 of each row i of a map A (NW_NS x NW_N) */
+static void nw_spans(const double *A, int *lo, int *hi)
+{
+    for (int i = 0; i < NW_NS; ++i) {
+        const double *a = A + (long)i * NW_N;
+        int l = 0, h = NW_N;
+        while (l < NW_N && a[l] == 0.0) ++l;
+        while (h > l && a[h - 1] == 0.0) --h;
+        lo[i] = l;
+        hi[i] = h;
+    }
+}
 __attribute__((optimize("O3"))) NW_CLONES static void nw_wmap(int k, const double *restrict x,
     long sx, double *restrict y)
 {
@@ -94,14 +101,7 @@ __attribute__((optimize("O3"))) NW_CLONES static void nw_wmap(int k, const doubl
         return;
     }
     if (nw_wp_at != at) {
-        for (int i = 0; i < NW_NS; ++i) {
-            const double *a = NW_SW + (long)i * NW_N;
-            int l = 0, h = NW_N;
-            while (l < NW_N && a[l] == 0.0) ++l;
-            while (h > l && a[h - 1] == 0.0) --h;
-            nw_wp_lo[i] = l;
-            nw_wp_hi[i] = h;
-        }
+        nw_spans(NW_SW, nw_wp_lo, nw_wp_hi);
         nw_wp_at = at;
     }
     for (int j = 0; j < NW_N; ++j) y[j] = 0.0;

@@ -33,7 +33,7 @@ def _library(tmp_path, sigma: int):
         "#include <math.h>", "#include <string.h>", f"#define NW_NS {NS}", f"#define NW_N {N}",
         "static double A0[NW_NS * NW_N], A1[NW_NS * NW_N];", "#define NW_SV A0",
         "#define NW_SV0 A1", f"#define NW_SV_SIGMA {sigma}", "static long nw_binds, nw_wversion;",
-        C_DOT, SMAP_C,
+        "#define NW_SW A0", "#define NW_SW_SIGMA 0", C_DOT, WMAP_C, SMAP_C,
         "void set(int which, const double *a) { memcpy(which ? A1 : A0, a, sizeof A0); }",
         "void bump(int binds, int weights) { nw_binds += binds; nw_wversion += weights; }",
         "void smap(int which, const double *x, double *y) { nw_smap(which, x, y); }", ""])
