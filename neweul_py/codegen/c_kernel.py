@@ -123,7 +123,7 @@ class KernelPrinter:
         self.polynomial_weights: dict[int, tuple[int, int]] = {}
         self.polynomials: dict[tuple[int, str], tuple[str, int]] = {}
         # matrices whose products x @ B call a helper along the rows' nonzero spans: storage
-        # id → (offset, row length, the helper's name), e.g. S_W and nw_wmap (c_splice)
+        # id → (offset, row length, the C function), e.g. S_W and nw_wmap (c_splice)
         self.row_spans: dict[int, tuple[int, int, str]] = {}
 
     # ------------------------------------------------------------------ names

@@ -4,7 +4,7 @@ chosen at load time.
 
 References: the dot product computed in exact rational arithmetic (``fractions.Fraction``),
 with the bound of a sum in floating point, ``|fl(a·b) − a·b| ≤ γ_n Σ|a_i b_i|`` (Higham,
-*Accuracy and Stability of Numerical Algorithms*, §3.1); and the helper's own text built
+*Accuracy and Stability of Numerical Algorithms*, §3.1); and the same text built
 without the clone, whose results the clone must reproduce bit for bit (the same operations
 in the same order), so that a model gives the same numbers on every x86-64 machine.
 """
