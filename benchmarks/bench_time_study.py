@@ -92,6 +92,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3,
                     help="runs of the compiled ramp; its median is compared (default 3)")
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error("--repeat must be at least 1")
     mnp, mc, npath, wrapper, g_np, g_c = _modules(args.dir, args.out or args.dir / "bench_c")
     n = mnp.STATE_SIZE // 2
     print(f"middle-ear ramp module: {n} coordinates; generation NumPy {g_np:.1f} s, "

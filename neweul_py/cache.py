@@ -30,7 +30,7 @@ from types import ModuleType
 
 from .atomic import atomic_write
 from .errors import DataError, NeweulError
-from .files import not_own, read_checked
+from .files import generated_module_name, not_own, read_checked
 
 __all__ = [
     "SIDECAR_SUFFIX",
@@ -223,7 +223,7 @@ class _BytesLoader(importlib.abc.SourceLoader):
 def import_verified(path: str | os.PathLike[str], source: bytes, name: str | None = None
                     ) -> ModuleType:
     """Import the module whose verified source is ``source`` (the bytes of ``path``), under
-    ``name`` (default ``neweul_generated_<stem>_<sha256[:16]>``, the naming of
+    ``name`` (default :func:`~neweul_py.files.generated_module_name`, the naming of
     :func:`neweul_py.analysis.load_generated`, so both share :data:`sys.modules`).
 
     Raises
@@ -233,8 +233,7 @@ def import_verified(path: str | os.PathLike[str], source: bytes, name: str | Non
     """
     file = os.fspath(path)
     if name is None:
-        stem = "".join(c if c.isalnum() else "_" for c in Path(file).stem)
-        name = f"neweul_generated_{stem}_{sha256_hex(source)[:16]}"
+        name = generated_module_name(file, source)
     if name in sys.modules:
         return sys.modules[name]
     loader = _BytesLoader(file, source)

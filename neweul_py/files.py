@@ -22,6 +22,7 @@ that do all of it on one open descriptor.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 import zipfile
@@ -38,6 +39,7 @@ __all__ = [
     "NPZ_RATIO_FLOOR",
     "check_npz",
     "check_regular_file",
+    "generated_module_name",
     "load_npz",
     "not_own",
     "read_checked",
@@ -334,3 +336,17 @@ def read_text(path: str | os.PathLike[str], what: str = "file",
         raise _error(error, f"the {what} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at "
                      f"offset {exc.start}, line {line}); save it as UTF-8", os.fspath(path)
                      ) from None
+
+
+def generated_module_name(path: str | os.PathLike[str], source: bytes) -> str:
+    """The name of a generated module in :data:`sys.modules`:
+    ``neweul_generated_<stem>_<digest>``, the digest of its source and of its resolved path.
+
+    The path counts because a compiled module is the same text wherever it is: it finds its
+    twin and its data next to itself, so two builds of one description that differ in their
+    default parameters have byte-identical wrappers and must not share one import.
+    """
+    file = Path(path)
+    stem = "".join(c if c.isalnum() else "_" for c in file.stem)
+    digest = hashlib.sha256(source + b"\0" + str(file.resolve()).encode()).hexdigest()[:16]
+    return f"neweul_generated_{stem}_{digest}"

@@ -9,7 +9,6 @@ and only through :class:`GeneratedModel`: the protocol's constants and functions
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import os
 import sys
@@ -19,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import NeweulError
-from ..files import read_checked
+from ..files import generated_module_name, read_checked
 
 __all__ = [
     "MAX_MODULE_BYTES",
@@ -370,9 +369,7 @@ def load_generated(path: str | os.PathLike[str]) -> GeneratedModel:
     """
     path = Path(path)
     raw = read_checked(path, "generated module", MAX_MODULE_BYTES, NeweulError)
-    digest = hashlib.sha256(raw).hexdigest()[:16]
-    stem = "".join(c if c.isalnum() else "_" for c in path.stem)
-    name = f"neweul_generated_{stem}_{digest}"
+    name = generated_module_name(path, raw)
     if name in sys.modules:
         module = sys.modules[name]
     else:

@@ -15,7 +15,7 @@ values. :class:`KernelPrinter` turns chosen outputs of it into C functions:
   generation); no view is copied. An assignment into a part of an array writes into the
   array's buffer when nothing else reads the array afterwards, else into a copy.
 * **Operations.** Elementwise operations with NumPy's broadcasting; ``numpy.dot`` of
-  matrices and vectors through the fixed helpers of :data:`.c_kernel_text.C_DOT` (four
+  matrices and vectors through the fixed helpers of :data:`.c_kernel_text.C_DOT` (eight
   partial sums, the zero entries of a vector of weights skipped: mixing a parametric body's
   samples reads only the rows of the samples next to ``σ``), other products as loops;
   concatenations, fancy indexing (index tables are structure and printed), assignments; the

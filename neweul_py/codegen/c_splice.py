@@ -263,8 +263,9 @@ def _library(t: SpliceTrace, kernels: dict[str, tuple[list, list]], which: tuple
             leaf = t.graph.leaves[f"{name}{i}"]
             pr.params[leaf.id] = f"(nw_{name} + {off})" if off else f"nw_{name}"
             off += p["cols"]
-    sw_storage, sw_offset, _strides = t.graph.storage_view(t.real["SW"].node)
-    pr.row_spans[sw_storage.id] = (sw_offset, t.n, "nw_wmap")      # x @ S_W by rows' spans
+    sw_storage, sw_offset, sw_strides = t.graph.storage_view(t.real["SW"].node)
+    if sw_strides == (t.n, 1) and tuple(t.real["SW"].shape) == (t.ns, t.n):
+        pr.row_spans[sw_storage.id] = (sw_offset, t.n, "nw_wmap")  # x @ S_W by rows' spans
     body: list[str] = []
     sig_outputs = [t.real["SV"], t.real["SW"], *t.dsv]
     need = [out for name in which for _n, out in kernels[name][1]]

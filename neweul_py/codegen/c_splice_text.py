@@ -217,12 +217,12 @@ static void nw_mixed(void)
             && !memcmp(nw_dwmix, nw_dw, NW_NW * sizeof(double)))
         return;                                          /* back at the mixed weights */
     const double *sigma = nw_sigma;
+    ++nw_wversion;             /* first: what the mix reads by spans keyed on it is new */
 NW_POLY_ROWS
     nw_k_sigma();
     memcpy(nw_wmix, nw_w, NW_NW * sizeof(double));
     memcpy(nw_dwmix, nw_dw, NW_NW * sizeof(double));
     nw_have_mix = 1;
-    ++nw_wversion;
     (void)sigma;
 #endif
 }

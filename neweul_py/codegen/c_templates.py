@@ -131,7 +131,7 @@ __attribute__((always_inline)) static inline int nw_lu(int n, double *a, int *pi
 
 /* solve A X = B for m right-hand sides; b is row-major n x m, overwritten by X (one
    right-hand side: dot products along the rows of the factors, two partial sums; nw_dotn's
-   four from 64 unknowns on) */
+   eight from 64 unknowns on) */
 __attribute__((always_inline)) static inline void nw_lu_solve(int n, const double *lu,
                                                               const int *piv, int m, double *b)
 {

@@ -259,7 +259,7 @@ def _compiled(text: str, tmp_path: Path):
 
 def test_compiled_loop_takes_the_python_loops_steps_on_the_oscillator(tmp_path) -> None:
     """The C loop of a compiled module (Newton's method on the residual ``M ÿ − (q − k)``
-    with the factors of ``S``) against the Python loop on the same module (on
+    with ``S⁻¹``) against the Python loop on the same module (on
     ``ÿ − M⁻¹(q − k)`` with ``S⁻¹ M``): for a constant mass matrix both are the same
     iteration, so the states agree to round-off, with the same number of evaluations; and
     ``simulate`` uses the C loop (its result is the loop's). Reference for both: the closed

@@ -343,7 +343,7 @@ outputs:
 
 def test_parametric_body_in_the_compiled_generalized_alpha_loop(bodies) -> None:
     """Generalized-α steps of a compiled parametric body in the module's C loop (residual
-    form, the factors of the iteration matrix kept in C) against the NumPy module's Python
+    form, the inverse of the iteration matrix kept in C) against the NumPy module's Python
     loop: a constant force moves the carrier, so the schedule ``cs + 2000 z + 5 F`` and the
     mixed samples change at every step. Reference: the NumPy
     module, to the Newton tolerance (rtol 1e-8) — the two loops iterate in different forms
