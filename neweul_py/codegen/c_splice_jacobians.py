@@ -103,6 +103,15 @@ static void nw_sigma_terms(double t, const double *y, const double *yd, const do
     }
     (void)dk; (void)v;
 }
+
+/* out (n x nc) += F S: the terms of nw_sigma_terms F (n x NPB) along dsigma/dx S (NPB x nc),
+   the chain rule through the schedules */
+static void nw_sigma_chain(const double *F, const double *S, int nc, double *out)
+{
+    for (int i = 0; i < NW_N; ++i)
+        for (int k = 0; k < NW_NPB; ++k)
+            for (int j = 0; j < nc; ++j) out[i * nc + j] += F[i * NW_NPB + k] * S[k * nc + j];
+}
 #endif
 
 int nw_force_jacobians(double t, const double *y, const double *yd, const double *p,
@@ -149,12 +158,8 @@ NW_FIXED_JACOBIANS
         static double Sy[NW_NPB * NW_N + 1], Su[NW_NPB * NW_NU + 1], Fs[NW_N * NW_NPB + 1];
         if (nw_sens(t, y, p, u, Sy, Su)) {
             nw_sigma_terms(t, y, yd, p, u, 0, Fs);
-            for (int i = 0; i < NW_N; ++i)
-                for (int k = 0; k < NW_NPB; ++k) {
-                    const double s = Fs[i * NW_NPB + k];
-                    for (int j = 0; j < NW_N; ++j) fy[i * NW_N + j] += s * Sy[k * NW_N + j];
-                    for (int j = 0; j < NW_NU; ++j) fu[i * NW_NU + j] += s * Su[k * NW_NU + j];
-                }
+            nw_sigma_chain(Fs, Sy, NW_N, fy);
+            nw_sigma_chain(Fs, Su, NW_NU, fu);
         }
     }
 #endif
@@ -198,10 +203,7 @@ int nw_mass_matrix_times_derivative(double t, const double *y, const double *p,
         static double Sy[NW_NPB * NW_N + 1], Su[NW_NPB * NW_NU + 1], Fa[NW_N * NW_NPB + 1];
         if (nw_sens(t, y, p, u, Sy, Su)) {
             nw_sigma_terms(t, y, zero, p, u, a, Fa);
-            for (int i = 0; i < NW_N; ++i)
-                for (int k = 0; k < NW_NPB; ++k)
-                    for (int j = 0; j < NW_N; ++j)
-                        out[i * NW_N + j] += Fa[i * NW_NPB + k] * Sy[k * NW_N + j];
+            nw_sigma_chain(Fa, Sy, NW_N, out);
         }
     }
 #endif

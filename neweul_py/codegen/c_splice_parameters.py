@@ -68,10 +68,7 @@ int nw_force_parameter_jacobian(double t, const double *y, const double *yd, con
         static double Sp[NW_NPB * NW_NP + 1], Fs[NW_N * NW_NPB + 1];
         if (nw_psens(t, y, p, u, Sp)) {
             nw_sigma_terms(t, y, yd, p, u, 0, Fs);
-            for (int i = 0; i < NW_N; ++i)
-                for (int k = 0; k < NW_NPB; ++k)
-                    for (int j = 0; j < NW_NP; ++j)
-                        out[i * NW_NP + j] += Fs[i * NW_NPB + k] * Sp[k * NW_NP + j];
+            nw_sigma_chain(Fs, Sp, NW_NP, out);
         }
     }
 #endif
@@ -118,10 +115,7 @@ int nw_mass_matrix_parameter_derivative(double t, const double *y, const double 
         static double Sp[NW_NPB * NW_NP + 1], Fa[NW_N * NW_NPB + 1];
         if (nw_psens(t, y, p, u, Sp)) {
             nw_sigma_terms(t, y, zero, p, u, a, Fa);
-            for (int i = 0; i < NW_N; ++i)
-                for (int k = 0; k < NW_NPB; ++k)
-                    for (int j = 0; j < NW_NP; ++j)
-                        out[i * NW_NP + j] += Fa[i * NW_NPB + k] * Sp[k * NW_NP + j];
+            nw_sigma_chain(Fa, Sp, NW_NP, out);
         }
     }
 #endif
